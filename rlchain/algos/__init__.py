@@ -1,0 +1,1 @@
+"""Algorithms: pure return/loss math, rollout storage, schedules and the PPO agent."""

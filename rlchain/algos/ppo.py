@@ -1,0 +1,112 @@
+"""The on-policy PPO agent (``a2c_continuous`` and ``a2c_discrete`` are presets of it).
+
+It owns the optimizer and learning-rate schedule and turns a filled rollout into parameter
+updates. There is no action-space branch here: the model's distribution handles that.
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+
+import torch
+
+from rlchain.algos.losses import normalize_advantages, policy_loss, value_loss
+from rlchain.algos.schedules import LinearSchedule, make_schedule
+from rlchain.algos.storage import Batch, RolloutStorage
+from rlchain.config.schema import TrainConfig
+from rlchain.models.actor_critic import ActorCritic
+
+
+class PPOAgent:
+    """Clipped-surrogate PPO with value clipping, entropy and bounds losses, adaptive/linear lr."""
+
+    def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device) -> None:
+        self.model = model
+        self.cfg = cfg
+        self.device = device
+        self.lr = cfg.learning_rate
+        self.optimizer = torch.optim.Adam(model.parameters(), lr=self.lr, eps=1e-8,
+                                          weight_decay=cfg.weight_decay)
+        self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
+                                      cfg.min_lr, cfg.max_lr)
+        self.amp = cfg.mixed_precision and device.type == "cuda"
+        self.scaler = torch.amp.GradScaler("cuda", enabled=self.amp) if self.amp else None
+
+    def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
+        """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr."""
+        cfg = self.cfg
+        advantages = storage.advantages.sum(-1)  # several value heads add up, as in rl_games
+        sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0}
+        count = 0
+        for _ in range(cfg.mini_epochs):
+            epoch_kl, epoch_n = 0.0, 0
+            for batch in storage.minibatches(cfg.minibatch_size, advantages):
+                stats = self._step(batch)
+                for key, value in stats.items():
+                    sums[key] += value
+                count += 1
+                epoch_kl += stats["kl"]
+                epoch_n += 1
+                if cfg.schedule_type == "legacy":
+                    self._set_lr(self.schedule.update(self.lr, kl=stats["kl"]))
+            if cfg.schedule_type == "standard":
+                self._set_lr(self.schedule.update(self.lr, kl=epoch_kl / max(epoch_n, 1)))
+        if isinstance(self.schedule, LinearSchedule):
+            self._set_lr(self.schedule.update(self.lr, progress=progress))
+        out = {key: value / max(count, 1) for key, value in sums.items()}
+        out["lr"] = self.lr
+        return out
+
+    def _step(self, batch: Batch) -> dict[str, float]:
+        cfg, model, dist = self.cfg, self.model, self.model.dist
+        autocast = torch.autocast("cuda", dtype=torch.float16) if self.amp else nullcontext()
+        with autocast:
+            params, values = model(batch.obs)
+            log_probs = dist.log_prob(params, batch.actions)
+            entropy = dist.entropy(params).mean()
+            adv = normalize_advantages(batch.advantages) if cfg.normalize_advantage else batch.advantages
+            a_loss = policy_loss(batch.log_probs, log_probs, adv, cfg.e_clip, cfg.use_smooth_clamp).mean()
+            c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
+                                cfg.e_clip, cfg.clip_value).mean()
+            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - cfg.entropy_coef * entropy
+            b_loss = torch.zeros((), device=params.device)
+            if cfg.bounds_loss_coef:
+                b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
+                loss = loss + cfg.bounds_loss_coef * b_loss
+        self.optimizer.zero_grad(set_to_none=True)
+        if self.scaler is not None:
+            self.scaler.scale(loss).backward()
+            self.scaler.unscale_(self.optimizer)
+        else:
+            loss.backward()
+        if cfg.truncate_grads:
+            torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_norm)
+        if self.scaler is not None:
+            self.scaler.step(self.optimizer)
+            self.scaler.update()
+        else:
+            self.optimizer.step()
+        with torch.no_grad():
+            kl = dist.kl(batch.params, params.detach().float()).mean()
+            ratio = torch.exp(log_probs.detach() - batch.log_probs)
+            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+        values_stats = torch.stack([a_loss.detach(), c_loss.detach(), entropy.detach(), b_loss.detach(),
+                                    kl, clip_frac]).tolist()
+        return dict(zip(("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac"), values_stats))
+
+    def _set_lr(self, lr: float) -> None:
+        self.lr = lr
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+
+    def state_dict(self) -> dict:
+        state = {"optimizer": self.optimizer.state_dict(), "lr": self.lr}
+        if self.scaler is not None:
+            state["scaler"] = self.scaler.state_dict()
+        return state
+
+    def load_state_dict(self, state: dict) -> None:
+        self.optimizer.load_state_dict(state["optimizer"])
+        self._set_lr(float(state["lr"]))
+        if self.scaler is not None and "scaler" in state:
+            self.scaler.load_state_dict(state["scaler"])

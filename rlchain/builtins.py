@@ -1,0 +1,28 @@
+"""Registration of every built-in algo, model and network: the one place it happens."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.distributions import make_distribution
+from rlchain.networks.actor_critic import ActorCriticBuilder
+from rlchain.registry import ALGOS, MODELS, NETWORKS
+
+
+def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_size: int, config: Any,
+                       model_name: str) -> ActorCritic:
+    """The model presets discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
+    dist = make_distribution(model_name, action_space, config.clip_actions)
+    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value)
+
+
+def register_builtins() -> None:
+    from rlchain.training.on_policy import OnPolicyTrainer
+
+    for name in ("discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
+        MODELS.register(name, actor_critic_model, overwrite=True)
+    NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
+    for name in ("a2c_continuous", "a2c_discrete"):
+        ALGOS.register(name, OnPolicyTrainer, overwrite=True)
+    import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)

@@ -1,0 +1,76 @@
+"""Command line with rl_games' flags: ``runner.py --train|--play --file cfg.yaml [key.path=value ...]``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from rlchain.config.errors import ConfigError
+from rlchain.training.checkpoint import CheckpointError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="runner.py", description="Train or play an rl_games-style config.")
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("-t", "--train", action="store_true", help="train (resume with --checkpoint)")
+    mode.add_argument("-p", "--play", action="store_true", help="play a checkpoint")
+    p.add_argument("-f", "--file", help="YAML or JSON config (optional for --play: the checkpoint has one)")
+    p.add_argument("-c", "--checkpoint", help="checkpoint to resume from (--train) or play (--play)")
+    p.add_argument("-na", "--num_actors", type=int, help="override the number of envs")
+    p.add_argument("--seed", type=int, help="override params.seed")
+    p.add_argument("--sigma", type=float, help="fixed sigma (std) for a continuous fixed_sigma policy")
+    p.add_argument("--games", type=int, help="--play: episodes to play (player.games_num)")
+    p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
+    p.add_argument("--track", action="store_true", help="log to Weights & Biases (planned, issue 6)")
+    p.add_argument("--wandb-project-name", default="rlchain")
+    p.add_argument("--wandb-entity", default=None)
+    p.add_argument("overrides", nargs="*", help="key.path=value, e.g. params.config.learning_rate=1e-3")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; expected errors print one line and exit with status 2."""
+    args = build_parser().parse_args(argv)
+    warnings.filterwarnings("ignore", message=".*Box .*precision lowered.*")
+    try:
+        return _run(args)
+    except (ConfigError, CheckpointError) as exc:
+        kind = "config error" if isinstance(exc, ConfigError) else "checkpoint error"
+        print(f"{kind}: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+def _run(args: argparse.Namespace) -> int:
+    from rlchain.runner import Runner
+
+    if args.track:
+        raise ConfigError("", "--track", "Weights & Biases tracking is not implemented yet (issue 6); "
+                          "use the TensorBoard logs in runs/<name>/summaries")
+    overrides = list(args.overrides)
+    if args.num_actors is not None:
+        if args.play:
+            overrides += ["params.config.player.use_vecenv=true",
+                          f"params.config.player.num_actors={args.num_actors}"]
+        else:
+            overrides.append(f"params.config.num_actors={args.num_actors}")
+    if args.games is not None:
+        overrides.append(f"params.config.player.games_num={args.games}")
+    runner = Runner()
+    if args.file:
+        runner.load(args.file, overrides)
+    elif args.play and args.checkpoint:
+        runner.load_from_checkpoint(args.checkpoint, overrides)
+    else:
+        raise ConfigError("", "--file", "a config file is required (or --play with --checkpoint)")
+    if args.train:
+        runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma)
+    else:
+        runner.play(args.checkpoint, deterministic=False if args.stochastic else None, sigma=args.sigma)
+    return 0

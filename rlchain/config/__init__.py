@@ -1,0 +1,7 @@
+"""Configuration: YAML/JSON files parsed once into typed dataclasses (see schema.py)."""
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.load import load_config, load_raw, parse_params
+from rlchain.config.schema import Params
+
+__all__ = ["ConfigError", "Params", "load_config", "load_raw", "parse_params"]

@@ -1,0 +1,94 @@
+"""The only place that knows legacy rl_games keys: aliases, no-op keys and unsupported features."""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+from rlchain.config.errors import ConfigError
+
+
+class RlchainDeprecationWarning(UserWarning):
+    """An rl_games key that is accepted but has no effect."""
+
+
+# Keys rl_games reads (or used to) that have no effect in rlchain either: warn once and drop.
+NO_EFFECT_CONFIG_KEYS = {
+    "ppo": "rlchain always trains with the PPO objective",
+    "load_checkpoint": "pass --checkpoint on the command line instead",
+    "load_path": "pass --checkpoint on the command line instead",
+    "device_name": "use `device`",
+    "features": "observers are Python callbacks in rlchain",
+    "use_experimental_cv": "no effect",
+    "num_minibatches": "derived from minibatch_size",
+    "log_interval": "rlchain logs every epoch",
+    "save_frequence": "misspelt in old rl_games; use save_frequency",
+}
+NO_EFFECT_NETWORK_KEYS = {
+    "regularizer": "rl_games never applied it",
+}
+# Old spellings that mean exactly a current key.
+ALIASES = {
+    "seq_len": "seq_length",
+    "lr_threshold": "kl_threshold",
+}
+# rl_games features with an effect that rlchain does not implement: an error, never silence.
+UNSUPPORTED_CONFIG_KEYS = {
+    "phasic_policy_gradients": "phasic policy gradients",
+    "population_based_training": "population based training",
+    "pbt": "population based training",
+    "ewma_ppo": "EWMA PPO",
+    "dapg": "DAPG",
+    "rnd_config": "random network distillation",
+    "schedule_entropy": "entropy schedules",
+    "expl_type": "exploration bonuses",
+    "has_central_value": "central value via env attribute",
+    "use_ppg": "phasic policy gradients",
+}
+
+
+def translate_config(config: dict[str, Any], source: str, path: str = "params.config") -> dict[str, Any]:
+    """Return a copy of ``params.config`` with aliases renamed and no-op keys dropped (with a warning).
+
+    Unsupported rl_games features raise a ConfigError naming the key.
+    """
+    out = dict(config)
+    for key, reason in UNSUPPORTED_CONFIG_KEYS.items():
+        if key in out and out[key] not in (None, False, {}):
+            raise ConfigError(source, f"{path}.{key}",
+                              f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
+        out.pop(key, None)
+    for old, new in ALIASES.items():
+        if old in out:
+            if new in out:
+                raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
+            _warn(source, f"{path}.{old}", f"deprecated name, use '{new}'")
+            out[new] = out.pop(old)
+    for key, reason in NO_EFFECT_CONFIG_KEYS.items():
+        if key in out:
+            _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            out.pop(key)
+    return out
+
+
+def translate_network(network: dict[str, Any], source: str, path: str = "params.network") -> dict[str, Any]:
+    """Drop no-op keys anywhere in the network block (rl_games allows ``regularizer`` in several places)."""
+    out = dict(network)
+    for key, reason in NO_EFFECT_NETWORK_KEYS.items():
+        if key in out:
+            _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            out.pop(key)
+    for key, value in list(out.items()):
+        if isinstance(value, dict):
+            out[key] = translate_network(value, source, f"{path}.{key}")
+    return out
+
+
+_warned: set[str] = set()
+
+
+def _warn(source: str, path: str, message: str) -> None:
+    line = f"{source}: {path}: {message}"
+    if line not in _warned:
+        _warned.add(line)
+        warnings.warn(line, RlchainDeprecationWarning, stacklevel=3)

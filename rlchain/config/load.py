@@ -1,0 +1,189 @@
+"""YAML or JSON file -> dict -> ``key.path=value`` overrides -> typed :class:`Params`.
+
+Every error is a :class:`ConfigError` naming the file, the key path and what was expected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import json
+import os
+from typing import Any
+
+import yaml
+
+from rlchain.config import compat
+from rlchain.config.errors import ConfigError
+from rlchain.config.fields import parse_dataclass, parse_value
+from rlchain.config.schema import NamedBlock, NetworkConfig, Params, TrainConfig
+
+
+def load_raw(path: str) -> dict[str, Any]:
+    """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML)."""
+    if not os.path.isfile(path):
+        raise ConfigError(path, "", "config file not found")
+    with open(path, encoding="utf-8") as fh:
+        text = fh.read()
+    try:
+        data = json.loads(text) if path.endswith(".json") else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+        detail = " ".join(str(exc).split())
+        raise ConfigError(path, "", f"cannot parse file: {detail}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(path, "", "expected a mapping with a top-level 'params' key")
+    return data
+
+
+def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
+    """Apply ``a.b.c=value`` overrides (value parsed as YAML); a leading ``params.`` is optional."""
+    import copy
+
+    out = copy.deepcopy(raw)
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(source, item, "override must look like key.path=value")
+        key, text = item.split("=", 1)
+        parts = key.strip().split(".")
+        if parts[0] != "params":
+            parts = ["params", *parts]
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        node = out
+        for i, part in enumerate(parts[:-1]):
+            child = node.get(part)
+            if child is None:
+                child = node[part] = {}
+            if not isinstance(child, dict):
+                raise ConfigError(source, ".".join(parts[: i + 1]), "override goes through a non-mapping key")
+            node = child
+        node[parts[-1]] = value
+    return out
+
+
+def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
+    """Validate a whole config dict and return typed :class:`Params`."""
+    from rlchain.registry import ALGOS, MODELS, NETWORKS
+
+    if "params" not in raw:
+        raise ConfigError(source, "params", "required top-level key is missing")
+    extra = [k for k in raw if k != "params"]
+    if extra:
+        raise ConfigError(source, extra[0], "unknown top-level key; everything goes under 'params'")
+    params = raw["params"]
+    if not isinstance(params, dict):
+        raise ConfigError(source, "params", f"expected a mapping, got {params!r}")
+    known = {"seed", "algo", "model", "network", "config", "import_modules"}
+    for key in params:
+        if key not in known:
+            import difflib
+            close = difflib.get_close_matches(key, sorted(known), n=1)
+            hint = f"; did you mean '{close[0]}'?" if close else f"; known keys: {', '.join(sorted(known))}"
+            raise ConfigError(source, f"params.{key}", f"unknown key{hint}")
+    for key in ("algo", "model", "config"):
+        if key not in params:
+            raise ConfigError(source, f"params.{key}", "required key is missing")
+
+    modules = parse_value(list[str], params.get("import_modules") or [], "params.import_modules", source)
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            raise ConfigError(source, "params.import_modules", f"cannot import '{name}': {exc}") from None
+
+    seed = parse_value(int | None, params.get("seed"), "params.seed", source)
+    algo = parse_dataclass(NamedBlock, params["algo"], "params.algo", source)
+    model = parse_dataclass(NamedBlock, params["model"], "params.model", source)
+    _check_registered(ALGOS, algo.name, "params.algo.name", source)
+    _check_registered(MODELS, model.name, "params.model.name", source)
+
+    config_raw = params["config"]
+    if not isinstance(config_raw, dict):
+        raise ConfigError(source, "params.config", f"expected a mapping, got {config_raw!r}")
+    config = parse_dataclass(TrainConfig, compat.translate_config(config_raw, source), "params.config", source)
+    _check_planned(config, "params.config", source)
+    _check_training(config, source)
+
+    network = _parse_network(params.get("network"), source)
+    _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
+    return Params(algo=algo, model=model, config=config, network=network, seed=seed,
+                  import_modules=modules, source=source)
+
+
+def load_config(path: str, overrides: list[str] | None = None) -> Params:
+    """Read, override and validate a config file in one call."""
+    raw = apply_overrides(load_raw(path), overrides or [], path)
+    return parse_params(raw, path)
+
+
+def _parse_network(network: Any, source: str) -> Any:
+    """Built-in builders get a typed NetworkConfig; user builders may declare ``config_class``."""
+    from rlchain.registry import NETWORKS
+
+    if network is None:
+        network = {}
+    if not isinstance(network, dict):
+        raise ConfigError(source, "params.network", f"expected a mapping, got {network!r}")
+    network = compat.translate_network(network, source)
+    name = network.get("name", "actor_critic")
+    builder = NETWORKS.get(name) if name in NETWORKS else None
+    config_class = getattr(builder, "config_class", None)
+    if config_class is None:
+        return network
+    parsed = parse_dataclass(config_class, network, "params.network", source)
+    _check_planned(parsed, "params.network", source)
+    if isinstance(parsed, NetworkConfig):
+        chosen = [k for k in ("discrete", "multi_discrete", "continuous")
+                  if getattr(parsed.space, k) is not None]
+        if len(chosen) > 1:
+            raise ConfigError(source, "params.network.space", f"choose one action head, got {', '.join(chosen)}")
+    return parsed
+
+
+def _network_name(network: Any) -> str:
+    return network.name if hasattr(network, "name") else network.get("name", "actor_critic")
+
+
+def _check_registered(registry: Any, name: str, path: str, source: str) -> None:
+    if name not in registry:
+        raise ConfigError(source, path, registry.unknown_message(name))
+
+
+def _check_planned(obj: Any, path: str, source: str) -> None:
+    """A key whose feature is not implemented yet may only hold its default value."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        status = f.metadata.get("status", "yes")
+        if status.startswith("planned"):
+            default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+            if value != default and value not in (None, False, {}):
+                raise ConfigError(source, f"{path}.{f.name}",
+                                  f"not implemented in rlchain yet ({status}); remove the key or set it "
+                                  f"to {default!r}")
+        elif dataclasses.is_dataclass(value):
+            _check_planned(value, f"{path}.{f.name}", source)
+
+
+def _check_training(config: TrainConfig, source: str) -> None:
+    """Cross-key checks that no single field can make."""
+    batch = config.num_actors * config.horizon_length
+    if config.minibatch_size_per_env is not None:
+        if config.minibatch_size is not None:
+            raise ConfigError(source, "params.config.minibatch_size_per_env",
+                              "give minibatch_size or minibatch_size_per_env, not both")
+        config.minibatch_size = config.num_actors * config.minibatch_size_per_env
+    if config.minibatch_size is None:
+        config.minibatch_size = batch
+    if config.minibatch_size > batch:
+        raise ConfigError(source, "params.config.minibatch_size",
+                          f"minibatch_size {config.minibatch_size} is larger than the batch {batch}")
+    if batch % config.minibatch_size != 0:
+        raise ConfigError(source, "params.config.minibatch_size",
+                          f"batch num_actors*horizon_length = {batch} is not divisible by minibatch_size "
+                          f"{config.minibatch_size}")
+    if not config.env_name:
+        raise ConfigError(source, "params.config.env_name", "required key is missing")
+    if config.lr_schedule == "constant":
+        config.lr_schedule = None

@@ -1,0 +1,219 @@
+"""Typed configuration: every key of an rl_games ``params`` block, its default and its meaning.
+
+Defaults live here once. ``docs/config.md`` is generated from these docstrings
+(``python -m rlchain.config.docs``) and a test keeps it in sync.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from rlchain.config.fields import non_negative, option, positive, unit_interval
+
+ACTIVATIONS = ("relu", "tanh", "sigmoid", "elu", "selu", "swish", "silu", "gelu", "softplus",
+               "leaky_relu", "mish", "identity", "None")
+INITIALIZERS = ("default", "const_initializer", "orthogonal_initializer", "glorot_normal_initializer",
+                "glorot_uniform_initializer", "variance_scaling_initializer",
+                "random_uniform_initializer", "kaiming_normal", "kaiming_uniform", "xavier_uniform",
+                "xavier_normal", "None")
+
+
+@dataclass
+class InitializerConfig:
+    """A weight initializer as rl_games names it: ``{name: const_initializer, val: 0}``."""
+
+    name: str = option("default", "initializer name", choices=INITIALIZERS)
+    val: float = option(0.0, "constant for const_initializer")
+    gain: float = option(1.0, "gain for orthogonal and glorot initializers")
+    scale: float = option(1.0, "scale for variance_scaling_initializer")
+    mode: str = option("fan_in", "fan mode for variance_scaling / kaiming", choices=("fan_in", "fan_out", "fan_avg"))
+    distribution: str = option("truncated_normal", "variance_scaling distribution",
+                               choices=("truncated_normal", "normal", "uniform", "untruncated_normal"))
+    a: float = option(-0.1, "lower bound for random_uniform_initializer")
+    b: float = option(0.1, "upper bound for random_uniform_initializer")
+    nonlinearity: str = option("relu", "kaiming nonlinearity")
+
+
+@dataclass
+class MlpConfig:
+    """The fully connected trunk."""
+
+    units: list[int] = option([256, 128, 64], "hidden layer sizes",
+                              check=lambda u: None if all(x > 0 for x in u) else "every unit count must be > 0")
+    activation: str = option("elu", "hidden activation", choices=ACTIVATIONS)
+    initializer: InitializerConfig = option(InitializerConfig(), "hidden layer weight initializer")
+    d2rl: bool = option(False, "D2RL: concatenate the input to every hidden layer")
+    norm_only_first_layer: bool = option(False, "with normalization: only after the first layer")
+    normalization: str | None = option(None, "layer_norm or batch_norm after hidden layers",
+                                       choices=("layer_norm", "batch_norm"))
+
+
+@dataclass
+class DiscreteSpaceConfig:
+    """``space.discrete``: a categorical head over ``Discrete(n)``."""
+
+
+@dataclass
+class ContinuousSpaceConfig:
+    """``space.continuous``: a diagonal Gaussian head."""
+
+    mu_activation: str = option("None", "activation on the mean", choices=ACTIVATIONS)
+    sigma_activation: str = option("None", "activation on sigma (log-std for the logstd model)",
+                                   choices=ACTIVATIONS)
+    mu_init: InitializerConfig = option(InitializerConfig(), "mean head initializer")
+    sigma_init: InitializerConfig = option(InitializerConfig(name="const_initializer", val=0.0),
+                                           "sigma initializer ({name: const_initializer, val: 0})")
+    fixed_sigma: bool = option(True, "sigma is a learned vector that does not depend on the input")
+
+
+@dataclass
+class SpaceConfig:
+    """Which action head: exactly one of discrete / multi_discrete / continuous."""
+
+    discrete: DiscreteSpaceConfig | None = option(None, "categorical head")
+    multi_discrete: dict | None = option(None, "multi-categorical head", status="planned (issue 3)")
+    continuous: ContinuousSpaceConfig | None = option(None, "diagonal Gaussian head")
+
+
+@dataclass
+class NetworkConfig:
+    """``params.network`` for the built-in ``actor_critic`` builder."""
+
+    name: str = option("actor_critic", "registered network builder")
+    separate: bool = option(False, "separate critic network with the same architecture")
+    space: SpaceConfig = option(SpaceConfig(), "action head")
+    mlp: MlpConfig = option(MlpConfig(), "fully connected layers")
+    cnn: dict | None = option(None, "convolutional encoder", status="planned (issue 3)")
+    rnn: dict | None = option(None, "recurrent layer (lstm/gru)", status="planned (issue 3)")
+    central_value: bool = option(False, "this network is a value-only critic", status="planned (issue 3)")
+    value_activation: str = option("None", "activation on the value output", choices=ACTIVATIONS)
+    value_shape: int = option(1, "value outputs (overridden by the env's value_size)", check=positive)
+
+
+@dataclass
+class RewardShaperConfig:
+    """``reward_shaper``: r' = clip((r + shift_value) * scale_value, min_val, max_val)."""
+
+    scale_value: float = option(1.0, "multiply rewards")
+    shift_value: float = option(0.0, "add to rewards before scaling")
+    min_val: float = option(float("-inf"), "clip shaped rewards below")
+    max_val: float = option(float("inf"), "clip shaped rewards above")
+    log_val: bool = option(False, "log(1 + r) before scaling", status="planned")
+
+
+@dataclass
+class PlayerConfig:
+    """``config.player``: inference settings for ``--play``."""
+
+    render: bool = option(False, "render the env while playing")
+    render_sleep: float = option(0.002, "seconds to sleep between rendered frames", check=non_negative)
+    deterministic: bool = option(True, "act with the distribution's mode instead of sampling")
+    games_num: int = option(2000, "episodes to play", check=positive)
+    n_game_life: int = option(1, "lives per game (Atari)", check=positive)
+    print_stats: bool = option(True, "print each finished game")
+    use_vecenv: bool = option(False, "play with several envs at once (num_actors of the player)")
+    num_actors: int = option(1, "envs stepped together while playing", check=positive)
+    evaluation: bool = option(False, "watch dir_to_monitor and evaluate new checkpoints",
+                              status="planned (issue 6)")
+    update_checkpoint_freq: int = option(100, "with evaluation: games between checkpoint reloads",
+                                         status="planned (issue 6)")
+    dir_to_monitor: str | None = option(None, "with evaluation: folder to watch", status="planned (issue 6)")
+    env_config: dict = option({}, "env_config overrides used only by the player")
+    games_to_track: int = option(100, "unused, accepted for rl_games configs", status="deprecated")
+
+
+def _check_lr(x: float) -> str | None:
+    return None if x > 0 else "must be > 0"
+
+
+@dataclass
+class TrainConfig:
+    """``params.config``: the training keys of an rl_games config."""
+
+    name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
+    env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
+                               "(env_config.env_name) or a registered env")
+    env_config: dict = option({}, "keyword arguments for the environment")
+    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
+                                           "envpool; RAY is planned (issue 5)")
+    num_actors: int = option(8, "parallel environments", check=positive)
+    horizon_length: int = option(32, "steps per env per epoch; batch = num_actors * horizon_length",
+                                 check=positive)
+    minibatch_size: int | None = option(None, "minibatch size; the batch must divide by it", check=positive)
+    minibatch_size_per_env: int | None = option(None, "minibatch = num_actors * this", check=positive)
+    mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
+    gamma: float = option(0.99, "discount", check=unit_interval)
+    tau: float = option(0.95, "GAE lambda", check=unit_interval)
+    learning_rate: float = option(3e-4, "Adam learning rate", check=_check_lr)
+    lr_schedule: str | None = option(None, "None (constant), linear or adaptive (KL-based)",
+                                     choices=("linear", "adaptive", "constant"))
+    kl_threshold: float = option(0.008, "adaptive schedule target KL", check=positive)
+    schedule_type: str = option("legacy", "adaptive: legacy = after every minibatch, standard = "
+                                          "after every mini-epoch", choices=("legacy", "standard"))
+    min_lr: float = option(1e-6, "adaptive / linear schedule floor", check=non_negative)
+    max_lr: float = option(1e-2, "adaptive schedule ceiling", check=positive)
+    e_clip: float = option(0.2, "PPO clip range", check=positive)
+    clip_value: bool = option(False, "clip the value update to e_clip around the old value")
+    critic_coef: float = option(1.0, "critic loss weight: loss += critic_coef * 0.5 * value loss",
+                                check=non_negative)
+    entropy_coef: float = option(0.0, "entropy bonus weight")
+    normalize_advantage: bool = option(True, "normalize advantages per minibatch")
+    normalize_input: bool = option(False, "running mean/std normalization of observations")
+    normalize_value: bool = option(False, "running mean/std normalization of value targets")
+    normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
+                                           status="planned")
+    value_bootstrap: bool = option(False, "on time-out bootstrap V(true next obs) instead of a terminal")
+    reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
+    grad_norm: float = option(1.0, "max gradient norm when truncate_grads", check=positive)
+    truncate_grads: bool = option(False, "clip gradients to grad_norm")
+    weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
+    bounds_loss_coef: float | None = option(None, "continuous: weight of the bounds loss (None = off)",
+                                            check=non_negative)
+    bound_loss_type: str = option("bound", "bound (mean beyond +-1.1) or regularisation (sum mu^2)",
+                                  choices=("bound", "regularisation"))
+    use_smooth_clamp: bool = option(False, "smooth clamp instead of clamp in the clipped objective")
+    clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale to the space")
+    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
+    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
+    score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
+    save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
+    save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)",
+                                 check=non_negative)
+    games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
+    print_stats: bool = option(True, "print the progress line every epoch")
+    seq_length: int = option(4, "RNN training sequence length", check=positive,
+                            status="accepted; used once rnn lands (issue 3)")
+    zero_rnn_on_done: bool = option(True, "reset RNN state on done",
+                                    status="accepted; used once rnn lands (issue 3)")
+    central_value_config: dict | None = option(None, "asymmetric critic", status="planned (issue 3)")
+    use_action_masks: bool = option(False, "invalid-action masks from the env", status="planned (issue 3)")
+    self_play_config: dict | None = option(None, "self-play opponents", status="planned (issue 3)")
+    multi_gpu: bool = option(False, "torch.distributed training under torchrun", status="planned (issue 5)")
+    mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
+    use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
+    device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
+    train_dir: str = option("runs", "folder that holds the run folders")
+    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
+    player: PlayerConfig = option(PlayerConfig(), "settings for --play")
+    value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
+
+
+@dataclass
+class NamedBlock:
+    """``params.algo`` / ``params.model``: a registered name."""
+
+    name: str = option(doc="registered name")
+
+
+@dataclass
+class Params:
+    """The whole ``params`` block after parsing."""
+
+    algo: NamedBlock
+    model: NamedBlock
+    config: TrainConfig
+    network: Any = None  # NetworkConfig for built-in builders, the raw dict for user builders
+    seed: int | None = None
+    import_modules: list[str] | None = None
+    source: str = ""

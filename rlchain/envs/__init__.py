@@ -1,0 +1,1 @@
+"""Environments: the VecEnv contract, backends (gymnasium, envpool) and the env registry."""

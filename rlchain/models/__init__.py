@@ -1,0 +1,1 @@
+"""Policy models: distributions, normalizers and the actor-critic wrapper around a network."""

@@ -1,0 +1,75 @@
+"""Activations and initializers by their rl_games names."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import torch
+import torch.nn as nn
+
+from rlchain.config.schema import InitializerConfig
+
+_ACTIVATIONS: dict[str, Callable[[], nn.Module]] = {
+    "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid, "elu": nn.ELU, "selu": nn.SELU,
+    "swish": nn.SiLU, "silu": nn.SiLU, "gelu": nn.GELU, "softplus": nn.Softplus,
+    "leaky_relu": nn.LeakyReLU, "mish": nn.Mish, "identity": nn.Identity, "None": nn.Identity,
+}
+
+
+def activation(name: str | None) -> nn.Module:
+    """A fresh activation module for ``name`` (``None``/'None' is the identity)."""
+    return _ACTIVATIONS[name if name is not None else "None"]()
+
+
+def initialize(weight: torch.Tensor, cfg: InitializerConfig) -> None:
+    """Initialize ``weight`` in place as rl_games' initializer of the same name would."""
+    name = cfg.name
+    with torch.no_grad():
+        if name in ("default", "None"):
+            return
+        if name == "const_initializer":
+            weight.fill_(cfg.val)
+        elif name == "orthogonal_initializer":
+            nn.init.orthogonal_(weight, gain=cfg.gain)
+        elif name in ("glorot_normal_initializer", "xavier_normal"):
+            nn.init.xavier_normal_(weight, gain=cfg.gain)
+        elif name in ("glorot_uniform_initializer", "xavier_uniform"):
+            nn.init.xavier_uniform_(weight, gain=cfg.gain)
+        elif name == "random_uniform_initializer":
+            nn.init.uniform_(weight, a=cfg.a, b=cfg.b)
+        elif name == "kaiming_normal":
+            nn.init.kaiming_normal_(weight, mode=_fan(cfg.mode), nonlinearity=cfg.nonlinearity)
+        elif name == "kaiming_uniform":
+            nn.init.kaiming_uniform_(weight, mode=_fan(cfg.mode), nonlinearity=cfg.nonlinearity)
+        elif name == "variance_scaling_initializer":
+            _variance_scaling(weight, cfg)
+        else:  # pragma: no cover - the schema's choices forbid it
+            raise ValueError(f"unknown initializer {name}")
+
+
+def _fan(mode: str) -> str:
+    return "fan_out" if mode == "fan_out" else "fan_in"
+
+
+def _variance_scaling(weight: torch.Tensor, cfg: InitializerConfig) -> None:
+    fan_in, fan_out = nn.init._calculate_fan_in_and_fan_out(weight)
+    fan = {"fan_in": fan_in, "fan_out": fan_out, "fan_avg": (fan_in + fan_out) / 2}[cfg.mode]
+    variance = cfg.scale / max(1.0, fan)
+    if cfg.distribution == "uniform":
+        bound = math.sqrt(3.0 * variance)
+        nn.init.uniform_(weight, -bound, bound)
+    elif cfg.distribution == "truncated_normal":
+        std = math.sqrt(variance) / 0.87962566103423978
+        nn.init.trunc_normal_(weight, std=std, a=-2 * std, b=2 * std)
+    else:
+        nn.init.normal_(weight, std=math.sqrt(variance))
+
+
+def linear(in_features: int, out_features: int, init: InitializerConfig) -> nn.Linear:
+    """A Linear layer with the named weight initializer and zero bias (torch default when 'default')."""
+    layer = nn.Linear(in_features, out_features)
+    if init.name not in ("default", "None"):
+        initialize(layer.weight, init)
+        nn.init.zeros_(layer.bias)
+    return layer

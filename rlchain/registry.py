@@ -1,0 +1,70 @@
+"""One registry mechanism for algorithms, models, networks, environments and vecenv backends."""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable, Iterator
+from typing import Any
+
+
+class RegistryError(KeyError):
+    """Raised when a name is looked up that nobody registered."""
+
+    def __str__(self) -> str:  # KeyError quotes its message; we want it plain
+        return str(self.args[0])
+
+
+class Registry:
+    """A named table of builders: ``register(name, obj)`` then ``get(name)``.
+
+    Every extension point of rlchain (algos, models, networks, envs, vecenv backends) is an
+    instance of this class, so user code extends all of them the same way.
+    """
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind
+        self._items: dict[str, Any] = {}
+
+    def register(self, name: str, obj: Any = None, *, overwrite: bool = False) -> Any:
+        """Register ``obj`` under ``name``; usable as a decorator when ``obj`` is omitted."""
+        if obj is None:
+            def decorator(target: Any) -> Any:
+                self.register(name, target, overwrite=overwrite)
+                return target
+            return decorator
+        if name in self._items and not overwrite and self._items[name] is not obj:
+            raise ValueError(f"{self.kind} '{name}' is already registered; pass overwrite=True to replace it")
+        self._items[name] = obj
+        return obj
+
+    def get(self, name: str) -> Any:
+        """Return what was registered under ``name`` or raise with a did-you-mean."""
+        try:
+            return self._items[name]
+        except KeyError:
+            raise RegistryError(self.unknown_message(name)) from None
+
+    def unknown_message(self, name: str) -> str:
+        """A one-line explanation of a failed lookup, with the closest registered names."""
+        close = difflib.get_close_matches(str(name), list(self._items), n=3)
+        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        known = ", ".join(sorted(self._items))
+        return f"unknown {self.kind} '{name}'{hint} (registered: {known})"
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._items
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(sorted(self._items))
+
+    def names(self) -> list[str]:
+        return sorted(self._items)
+
+
+ALGOS = Registry("algo")
+MODELS = Registry("model")
+NETWORKS = Registry("network")
+ENVS = Registry("env")
+VECENVS = Registry("vecenv backend")
+
+Builder = Callable[..., Any]

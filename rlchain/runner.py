@@ -1,0 +1,111 @@
+"""The Python API behind runner.py: load a config, then train or play.
+
+    from rlchain import Runner
+    result = Runner().load("cfg.yaml", overrides=["params.config.max_epochs=10"]).train()
+    Runner().load("cfg.yaml").play(checkpoint="nn/cartpole.pth")
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import secrets
+from typing import Any
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.load import apply_overrides, load_raw, parse_params
+from rlchain.config.schema import Params
+from rlchain.registry import ALGOS
+from rlchain.training import checkpoint as ckpt
+
+
+class Runner:
+    """Holds one validated config and runs training or playing with it."""
+
+    def __init__(self) -> None:
+        self.raw: dict[str, Any] | None = None
+        self.params: Params | None = None
+
+    def load(self, config: str | dict[str, Any], overrides: list[str] | None = None) -> Runner:
+        """Load a YAML/JSON path or an already-read dict (``{'params': ...}``) and validate it."""
+        if isinstance(config, str):
+            source, raw = config, load_raw(config)
+        else:
+            source, raw = "<dict>", copy.deepcopy(config)
+        raw = apply_overrides(raw, overrides or [], source)
+        self.params = parse_params(raw, source)
+        self.raw = raw
+        return self
+
+    def load_from_checkpoint(self, path: str, overrides: list[str] | None = None) -> Runner:
+        """Use the config stored inside a checkpoint (for --play without --file)."""
+        state = ckpt.load(path)
+        return self.load(state["config"], overrides)
+
+    def train(self, checkpoint: str | None = None, seed: int | None = None, sigma: float | None = None,
+              callbacks: list[Any] | None = None) -> Any:
+        """Train (resuming from ``checkpoint`` when given); returns a TrainResult."""
+        from rlchain.training.build import build_env, build_model, resolve_device
+        from rlchain.training.checkpoint import seed_everything
+        from rlchain.training.logging import TrainLogger
+        from rlchain.training.run_dir import create_run_dir
+
+        params = self._require()
+        cfg = params.config
+        seed = seed if seed is not None else params.seed
+        if seed is None:
+            seed = secrets.randbelow(2**31)
+        seed_everything(seed)
+        state = ckpt.load(checkpoint) if checkpoint else None
+        device = resolve_device(cfg.device)
+        env = build_env(params, cfg.num_actors, seed)
+        try:
+            model = build_model(params, env, device)
+            run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw)
+            logger = TrainLogger(run.summaries, cfg.print_stats)
+            trainer_cls = ALGOS.get(params.algo.name)
+            trainer = trainer_cls(params, env, model, device, run, logger, seed, self.raw)
+            if state is not None:
+                trainer.restore(state, checkpoint)
+            if sigma is not None:
+                model.override_sigma(sigma)
+            trainer.callbacks.extend(callbacks or [])
+            if cfg.print_stats:
+                what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"
+                print(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "
+                      f"device {device}, seed {seed}) -> {run.root}", flush=True)
+            try:
+                return trainer.train()
+            finally:
+                logger.close()
+        finally:
+            env.close()
+
+    def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
+             sigma: float | None = None, quiet: bool = False) -> Any:
+        """Play with the Player; returns a PlayResult."""
+        from rlchain.player import Player
+
+        player = Player(self._require(), checkpoint, sigma=sigma)
+        try:
+            return player.play(games=games, deterministic=deterministic, quiet=quiet)
+        finally:
+            player.close()
+
+    def _require(self) -> Params:
+        if self.params is None:
+            raise RuntimeError("call Runner.load(config) first")
+        return self.params
+
+
+def config_error_line(exc: Exception) -> str:
+    """The one line shown to a CLI user for an expected error."""
+    if isinstance(exc, ConfigError):
+        return f"config error: {exc}"
+    if isinstance(exc, ckpt.CheckpointError):
+        return f"checkpoint error: {exc}"
+    return f"error: {exc}"
+
+
+def default_checkpoint_dir() -> str:
+    return os.path.join(os.getcwd(), "nn")

@@ -1,0 +1,214 @@
+"""The on-policy loop: rollout -> returns -> update -> log -> checkpoint, until a stop condition."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+
+from rlchain.algos.ppo import PPOAgent
+from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
+from rlchain.algos.storage import RolloutStorage
+from rlchain.config.schema import Params
+from rlchain.models.actor_critic import ActorCritic
+from rlchain.training import checkpoint as ckpt
+from rlchain.training.episodes import EpisodeTracker
+from rlchain.training.logging import TrainLogger
+from rlchain.training.run_dir import RunDir
+
+
+@dataclass
+class TrainResult:
+    """What a finished run reports."""
+
+    epoch: int
+    frames: int
+    mean_reward: float
+    best_reward: float
+    stop_reason: str
+    run_dir: str
+    seconds: float
+
+
+class OnPolicyTrainer:
+    """Coordinates env, model, PPO agent, storage, logger and checkpoints."""
+
+    def __init__(self, params: Params, env: Any, model: ActorCritic, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
+        cfg = params.config
+        self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
+        self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
+        self.agent = PPOAgent(model, cfg, device)
+        self.num_envs = env.num_envs
+        obs_space = env.observation_space
+        self.storage = RolloutStorage(
+            cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
+            torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+            model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
+            model.value_norm.mean.shape[0] if model.value_norm is not None else _value_size(env), device)
+        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
+        self.epoch = 0
+        self.frames = 0
+        self.best_reward = -math.inf
+        self.obs: torch.Tensor | None = None
+        self.callbacks: list[Any] = []
+
+    # ----- the loop -------------------------------------------------------------------------
+    def train(self) -> TrainResult:
+        """Train until max_epochs, max_frames or score_to_win; returns the final statistics."""
+        start = time.time()
+        self.obs = self._to_tensor(self.env.reset(seed=self.seed + self.epoch))
+        stop = None
+        while stop is None:
+            t0 = time.time()
+            self._rollout()
+            t1 = time.time()
+            stats = self._learn()
+            t2 = time.time()
+            self.epoch += 1
+            self.frames += self.cfg.horizon_length * self.num_envs
+            episodes = self._episode_stats()
+            self._log(stats, episodes, t1 - t0, t2 - t1)
+            self._checkpoints(episodes)
+            for callback in self.callbacks:
+                callback(self, stats, episodes)
+            stop = self._stop_reason(episodes)
+        self.save("last")
+        self.logger.flush()
+        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
+        if self.cfg.print_stats:
+            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
+                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
+        return TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
+                           self.run.root if self.run else "", time.time() - start)
+
+    def _rollout(self) -> None:
+        """Step the envs for horizon_length steps, filling the storage."""
+        cfg, model, storage, dist = self.cfg, self.model, self.storage, self.model.dist
+        model.eval()
+        obs = self.obs
+        rs = cfg.reward_shaper
+        for t in range(cfg.horizon_length):
+            out = model.act(obs)
+            storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"])
+            result = self.env.step(dist.to_env(out["actions"]).cpu().numpy())
+            rewards = self._to_tensor(result.reward).float()
+            terminated = self._to_tensor(result.terminated).bool()
+            truncated = self._to_tensor(result.truncated).bool()
+            dones = terminated | truncated
+            self.tracker.step(rewards, dones)
+            if rewards.dim() == 1:
+                rewards = rewards.unsqueeze(-1)
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val)
+            if cfg.value_bootstrap and bool(truncated.any()):
+                rows = (truncated & ~terminated).nonzero().squeeze(-1)
+                if rows.numel():
+                    final_obs = self._to_tensor(result.final_obs)[rows]
+                    storage.final_values[t, rows] = model.value(final_obs)
+            storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
+            obs = self._to_tensor(result.obs)
+        self.obs = obs
+        self.last_values = model.value(obs)
+
+    def _learn(self) -> dict[str, float]:
+        """GAE on the rollout, normalizer updates, then the PPO update."""
+        cfg, storage, model = self.cfg, self.storage, self.model
+        with torch.no_grad():
+            next_values = next_values_from_rollout(storage.values, self.last_values,
+                                                   storage.final_values, storage.dones)
+            adv, returns = gae(storage.rewards, storage.values, next_values, storage.terminated,
+                               storage.dones, cfg.gamma, cfg.tau)
+            storage.advantages.copy_(adv)
+            storage.returns.copy_(returns)
+            storage.final_values.zero_()
+            model.update_normalizers(returns=returns.reshape(-1, returns.shape[-1]))
+        model.train()
+        stats = self.agent.update(storage, self._progress())
+        stats["lr0"] = cfg.learning_rate
+        with torch.no_grad():
+            model.update_normalizers(obs=storage.obs.reshape(-1, *storage.obs.shape[2:]))
+        return stats
+
+    # ----- bookkeeping ----------------------------------------------------------------------
+    def _episode_stats(self) -> dict[str, float] | None:
+        if not self.tracker.has_data:
+            return None
+        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
+
+    def _log(self, stats: dict, episodes: dict | None, rollout_s: float, update_s: float) -> None:
+        timing = {"batch": self.cfg.horizon_length * self.num_envs, "rollout": rollout_s, "update": update_s}
+        self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, stats, episodes,
+                          self.best_reward, timing)
+
+    def _checkpoints(self, episodes: dict | None) -> None:
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] > self.best_reward:
+            self.best_reward = episodes["reward"]
+            if self.epoch >= cfg.save_best_after:
+                self.save("best")
+        if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
+            self.save(f"ep_{self.epoch}")
+            self.save("last")
+
+    def _stop_reason(self, episodes: dict | None) -> str | None:
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] >= cfg.score_to_win:
+            return f"score_to_win {cfg.score_to_win} reached"
+        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached"
+        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached"
+        return None
+
+    def _progress(self) -> float:
+        cfg = self.cfg
+        if cfg.max_epochs > 0:
+            return (self.epoch + 1) / cfg.max_epochs
+        if cfg.max_frames > 0:
+            return (self.frames + cfg.horizon_length * self.num_envs) / cfg.max_frames
+        return 0.0
+
+    def _to_tensor(self, x: Any) -> torch.Tensor:
+        return torch.as_tensor(x, device=self.device)
+
+    # ----- checkpoints ----------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        """Everything exact resume needs."""
+        return {
+            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
+            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
+            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
+            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
+            "version": _version(),
+        }
+
+    def save(self, kind: str) -> str | None:
+        if self.run is None:
+            return None
+        path = self.run.checkpoint(kind)
+        ckpt.save_atomic(self.state_dict(), path)
+        return path
+
+    def restore(self, state: dict[str, Any], path: str) -> None:
+        """Continue from a checkpoint: weights, optimizer, lr, normalizers, counters, RNG."""
+        if state.get("algo") not in (None, self.params.algo.name):
+            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
+                                       f"the config says '{self.params.algo.name}'")
+        ckpt.load_model_state(self.model, state, path)
+        self.agent.load_state_dict(state["agent"])
+        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
+        self.best_reward = float(state["best_reward"])
+        self.tracker.load_state_dict(state["episodes"])
+        ckpt.set_rng_state(state["rng"])
+
+
+def _value_size(env: Any) -> int:
+    return int(getattr(env, "value_size", 1))
+
+
+def _version() -> str:
+    from rlchain import __version__
+    return __version__

@@ -1,0 +1,33 @@
+"""Package metadata for rlchain: a PyTorch RL trainer that runs rl_games configs."""
+
+from setuptools import find_packages, setup
+
+EXTRAS = {
+    "envpool": ["envpool>=0.8"],
+    "mujoco": ["gymnasium[mujoco]>=1.0"],
+    "onnx": ["onnx", "onnxruntime"],
+    "wandb": ["wandb"],
+    "ray": ["ray"],
+    "test": ["pytest>=7", "pytest-timeout", "ruff"],
+}
+EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
+
+setup(
+    name="rlchain",
+    version="0.1.0",
+    description="PyTorch reinforcement learning with an rl_games-compatible config and runner",
+    packages=find_packages(include=["rlchain", "rlchain.*"]),
+    package_data={"rlchain": ["configs/*.yaml"]},
+    python_requires=">=3.10",
+    # torch is deliberately a range that the CPU wheel (2.13.0) satisfies: install it first
+    # (see README) so pip does not pull a multi-GB CUDA build.
+    install_requires=[
+        "torch>=2.1",
+        "gymnasium>=1.0",
+        "numpy>=1.24",
+        "pyyaml>=6",
+        "tensorboard>=2.10",
+    ],
+    extras_require=EXTRAS,
+    py_modules=[],
+)

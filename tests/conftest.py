@@ -1,0 +1,29 @@
+"""Shared test helpers: repository paths and a tiny config factory."""
+
+import copy
+import os
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CONFIGS = os.path.join(ROOT, "rlchain", "configs")
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+BASE = {
+    "params": {
+        "seed": 1,
+        "algo": {"name": "a2c_discrete"},
+        "model": {"name": "discrete_a2c"},
+        "network": {"name": "actor_critic", "space": {"discrete": None}, "mlp": {"units": [16]}},
+        "config": {"name": "t", "env_name": "CartPole-v1", "device": "cpu", "num_actors": 4,
+                   "horizon_length": 8, "minibatch_size": 16, "mini_epochs": 1},
+    }
+}
+
+
+@pytest.fixture
+def base_config():
+    """A fresh small valid CartPole config dict."""
+    return copy.deepcopy(BASE)

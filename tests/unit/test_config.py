@@ -1,0 +1,153 @@
+"""Config parsing: defaults, rl_games quirks and one-line errors for bad input."""
+
+import json
+import warnings
+
+import pytest
+
+from rlchain.config import ConfigError, load_config, parse_params
+from rlchain.config.compat import RlchainDeprecationWarning
+from rlchain.config.load import apply_overrides
+from rlchain.config.schema import NetworkConfig
+
+
+def parse(cfg):
+    return parse_params(cfg, "cfg.yaml")
+
+
+def test_defaults_and_types(base_config):
+    params = parse(base_config)
+    assert params.config.gamma == 0.99
+    assert params.config.minibatch_size == 16
+    assert isinstance(params.network, NetworkConfig)
+    assert params.network.space.discrete is not None and params.network.space.continuous is None
+
+
+def test_yaml11_float_strings_and_none_strings(base_config):
+    base_config["params"]["config"]["learning_rate"] = "2e-4"
+    base_config["params"]["config"]["lr_schedule"] = "None"
+    params = parse(base_config)
+    assert params.config.learning_rate == pytest.approx(2e-4)
+    assert params.config.lr_schedule is None
+
+
+def test_unknown_key_suggests(base_config):
+    base_config["params"]["config"]["learning_rat"] = 1e-3
+    with pytest.raises(ConfigError) as err:
+        parse(base_config)
+    msg = str(err.value)
+    assert msg.startswith("cfg.yaml: params.config.learning_rat: unknown key")
+    assert "did you mean 'learning_rate'" in msg
+    assert "\n" not in msg
+
+
+@pytest.mark.parametrize("key,value,expect", [
+    ("learning_rate", -1.0, "must be > 0"),
+    ("learning_rate", "fast", "expected a number"),
+    ("num_actors", 2.5, "expected an integer"),
+    ("normalize_input", "maybe", "expected true or false"),
+    ("lr_schedule", "adaptve", "did you mean 'adaptive'"),
+    ("gamma", 1.5, "between 0 and 1"),
+    ("minibatch_size", 10, "not divisible by minibatch_size"),
+    ("minibatch_size", 64, "larger than the batch"),
+])
+def test_bad_values(base_config, key, value, expect):
+    base_config["params"]["config"][key] = value
+    with pytest.raises(ConfigError) as err:
+        parse(base_config)
+    assert f"params.config.{key}" in str(err.value)
+    assert expect in str(err.value)
+
+
+def test_unknown_activation(base_config):
+    base_config["params"]["network"]["mlp"]["activation"] = "rleu"
+    with pytest.raises(ConfigError, match=r"params.network.mlp.activation: 'rleu' is not one of.*'relu'"):
+        parse(base_config)
+
+
+def test_unknown_algo_and_network(base_config):
+    base_config["params"]["algo"]["name"] = "a2c_discrte"
+    with pytest.raises(ConfigError, match=r"params.algo.name: unknown algo 'a2c_discrte'; did you mean"):
+        parse(base_config)
+    base_config["params"]["algo"]["name"] = "a2c_discrete"
+    base_config["params"]["network"]["name"] = "nope"
+    with pytest.raises(ConfigError, match=r"params.network.name: unknown network"):
+        parse(base_config)
+
+
+def test_minibatch_size_per_env(base_config):
+    del base_config["params"]["config"]["minibatch_size"]
+    base_config["params"]["config"]["minibatch_size_per_env"] = 2
+    assert parse(base_config).config.minibatch_size == 8
+
+
+def test_deprecated_keys_warn_once(base_config):
+    base_config["params"]["config"]["ppo"] = True
+    base_config["params"]["config"]["load_checkpoint"] = False
+    base_config["params"]["network"]["mlp"]["regularizer"] = {"name": "None"}
+    base_config["params"]["config"]["seq_len"] = 8
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        params = parse(base_config)
+    texts = [str(w.message) for w in caught if issubclass(w.category, RlchainDeprecationWarning)]
+    assert any("params.config.ppo" in t for t in texts)
+    assert any("params.network.mlp.regularizer" in t for t in texts)
+    assert params.config.seq_length == 8
+
+
+def test_unimplemented_feature_is_an_error(base_config):
+    base_config["params"]["network"]["rnn"] = {"name": "lstm", "units": 64}
+    with pytest.raises(ConfigError, match=r"params.network.rnn: not implemented in rlchain yet"):
+        parse(base_config)
+    base_config["params"]["network"].pop("rnn")
+    base_config["params"]["config"]["multi_gpu"] = True
+    with pytest.raises(ConfigError, match=r"params.config.multi_gpu: not implemented"):
+        parse(base_config)
+    base_config["params"]["config"]["multi_gpu"] = False
+    base_config["params"]["config"]["phasic_policy_gradients"] = {"a": 1}
+    with pytest.raises(ConfigError, match=r"phasic policy gradients"):
+        parse(base_config)
+
+
+def test_two_action_heads_rejected(base_config):
+    base_config["params"]["network"]["space"]["continuous"] = {}
+    with pytest.raises(ConfigError, match="choose one action head"):
+        parse(base_config)
+
+
+def test_missing_blocks(base_config):
+    del base_config["params"]["algo"]
+    with pytest.raises(ConfigError, match="params.algo: required key is missing"):
+        parse(base_config)
+    with pytest.raises(ConfigError, match="params: required top-level key"):
+        parse({"config": {}})
+
+
+def test_overrides_and_json(tmp_path, base_config):
+    path = tmp_path / "cfg.json"
+    path.write_text(json.dumps(base_config))
+    params = load_config(str(path), ["params.config.learning_rate=1e-3", "config.gamma=0.9"])
+    assert params.config.learning_rate == pytest.approx(1e-3)
+    assert params.config.gamma == pytest.approx(0.9)
+    with pytest.raises(ConfigError, match="key.path=value"):
+        apply_overrides(base_config, ["nonsense"], "x")
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(ConfigError, match="config file not found"):
+        load_config(str(tmp_path / "missing.yaml"))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("params: [unclosed\n")
+    with pytest.raises(ConfigError, match=r"bad.yaml: cannot parse file"):
+        load_config(str(bad))
+
+
+def test_shipped_configs_parse():
+    import glob
+    import os
+
+    from tests.conftest import CONFIGS
+    paths = glob.glob(os.path.join(CONFIGS, "*.yaml"))
+    assert len(paths) >= 3
+    for path in paths:
+        load_config(path)

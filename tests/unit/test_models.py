@@ -1,0 +1,73 @@
+"""Normalizers, storage, registry and the built-in network."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+from rlchain.algos.storage import RolloutStorage
+from rlchain.config.schema import MlpConfig, NetworkConfig
+from rlchain.models.normalization import RunningMeanStd
+from rlchain.networks.actor_critic import ActorCriticBuilder
+from rlchain.networks.mlp import MLP
+from rlchain.registry import Registry, RegistryError
+
+
+def test_running_mean_std_matches_numpy():
+    rms = RunningMeanStd((3,), clip=0.0)
+    data = np.random.default_rng(0).normal(2.0, 3.0, size=(1000, 3))
+    for chunk in np.split(data, 10):
+        rms.update(torch.as_tensor(chunk))
+    assert np.allclose(rms.mean.numpy(), data.mean(0), atol=1e-6)
+    assert np.allclose(rms.var.numpy(), data.var(0), atol=1e-4)
+    x = torch.as_tensor(data[:5], dtype=torch.float32)
+    assert torch.allclose(rms.denormalize(rms.normalize(x)), x, atol=1e-4)
+
+
+def test_running_mean_std_clips():
+    rms = RunningMeanStd((1,), clip=5.0)
+    rms.update(torch.zeros(100, 1))
+    assert rms.normalize(torch.tensor([[1e6]])).item() == pytest.approx(5.0)
+
+
+def test_storage_shapes_and_misuse():
+    s = RolloutStorage(4, 3, (2,), torch.float32, (), torch.long, 2, 1, torch.device("cpu"))
+    with pytest.raises(RuntimeError, match="holds 0 of 4"):
+        next(s.minibatches(4, torch.zeros(4, 3)))
+    for t in range(4):
+        s.add(t, torch.ones(3, 2) * t, torch.zeros(3, dtype=torch.long), torch.zeros(3), torch.zeros(3, 1),
+              torch.zeros(3, 2))
+    with pytest.raises(IndexError):
+        s.add(4, torch.ones(3, 2), torch.zeros(3, dtype=torch.long), torch.zeros(3), torch.zeros(3, 1),
+              torch.zeros(3, 2))
+    batches = list(s.minibatches(4, torch.zeros(4, 3)))
+    assert len(batches) == 3 and batches[0].obs.shape == (4, 2)
+    seen = torch.cat([b.obs[:, 0] for b in batches]).sort().values
+    assert seen.tolist() == sorted([float(t) for t in range(4) for _ in range(3)])
+
+
+def test_registry_did_you_mean():
+    r = Registry("thing")
+    r.register("alpha", 1)
+    with pytest.raises(RegistryError, match="did you mean 'alpha'"):
+        r.get("alpah")
+    with pytest.raises(ValueError, match="already registered"):
+        r.register("alpha", 2)
+
+
+def test_mlp_d2rl_shapes():
+    net = MLP(5, MlpConfig(units=[8, 4], d2rl=True))
+    assert net(torch.zeros(2, 5)).shape == (2, 4)
+
+
+def test_actor_critic_network_outputs():
+    builder = ActorCriticBuilder()
+    cfg = NetworkConfig()
+    from rlchain.config.schema import ContinuousSpaceConfig
+    cfg.space.continuous = ContinuousSpaceConfig()
+    builder.load(cfg)
+    net = builder.build("n", action_space=gym.spaces.Box(-1, 1, (3,)), input_shape=(4,), actions_num=3,
+                        value_size=1)
+    mu, sigma, value, states = net({"obs": torch.zeros(2, 4)})
+    assert mu.shape == (2, 3) and sigma.shape == (2, 3) and value.shape == (2, 1) and states is None
+    assert torch.allclose(sigma, torch.zeros(2, 3))  # const_initializer val 0 -> log-std 0

@@ -1,0 +1,51 @@
+"""GAE and reward shaping against hand-computed values."""
+
+import pytest
+import torch
+
+from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
+
+
+def test_gae_single_env_hand_computed():
+    gamma, lam = 0.9, 0.5
+    rewards = torch.tensor([[1.0], [2.0], [3.0]])
+    values = torch.tensor([[0.5], [1.0], [1.5]]).unsqueeze(-1)
+    next_values = torch.tensor([[1.0], [1.5], [2.0]]).unsqueeze(-1)
+    zeros = torch.zeros(3, 1, dtype=torch.bool)
+    adv, ret = gae(rewards, values, next_values, zeros, zeros, gamma, lam)
+    d = [1 + 0.9 * 1.0 - 0.5, 2 + 0.9 * 1.5 - 1.0, 3 + 0.9 * 2.0 - 1.5]
+    a2 = d[2]
+    a1 = d[1] + gamma * lam * a2
+    a0 = d[0] + gamma * lam * a1
+    assert adv.squeeze().tolist() == pytest.approx([a0, a1, a2])
+    assert ret.squeeze().tolist() == pytest.approx([a0 + 0.5, a1 + 1.0, a2 + 1.5])
+
+
+def test_gae_termination_vs_truncation():
+    gamma, lam = 0.9, 1.0
+    rewards = torch.tensor([[1.0], [1.0]])
+    values = torch.zeros(2, 1, 1)
+    next_values = torch.full((2, 1, 1), 10.0)
+    done = torch.tensor([[True], [False]])
+    # terminated at t=0: no bootstrap, and nothing flows back from t=1
+    adv, _ = gae(rewards, values, next_values, done, done, gamma, lam)
+    assert adv[0].item() == pytest.approx(1.0)
+    # truncated at t=0: bootstrap V(final obs)=10, still nothing flows back
+    adv, _ = gae(rewards, values, next_values, torch.zeros_like(done), done, gamma, lam)
+    assert adv[0].item() == pytest.approx(1.0 + 0.9 * 10.0)
+    assert adv[1].item() == pytest.approx(1.0 + 0.9 * 10.0)
+
+
+def test_next_values_use_final_obs_at_episode_end():
+    values = torch.arange(6, dtype=torch.float32).reshape(3, 2, 1)
+    last = torch.tensor([[100.0], [200.0]])
+    final = torch.full((3, 2, 1), -1.0)
+    dones = torch.tensor([[False, True], [False, False], [False, False]])
+    nv = next_values_from_rollout(values, last, final, dones)
+    assert nv[:, 0, 0].tolist() == [2.0, 4.0, 100.0]
+    assert nv[:, 1, 0].tolist() == [-1.0, 5.0, 200.0]
+
+
+def test_reward_shaper():
+    r = torch.tensor([-10.0, 0.0, 10.0])
+    assert shape_rewards(r, 0.1, 1.0, -0.5, 0.5).tolist() == pytest.approx([-0.5, 0.1, 0.5])
