@@ -151,3 +151,12 @@ def test_shipped_configs_parse():
     assert len(paths) >= 3
     for path in paths:
         load_config(path)
+
+
+def test_docs_config_md_in_sync():
+    import os
+
+    from rlchain.config.docs import render
+    from tests.conftest import ROOT
+    with open(os.path.join(ROOT, "docs", "config.md"), encoding="utf-8") as fh:
+        assert fh.read() == render(), "regenerate: python -m rlchain.config.docs > docs/config.md"

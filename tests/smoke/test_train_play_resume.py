@@ -1,0 +1,127 @@
+"""Shipped configs for a couple of epochs: train -> save -> play -> resume, via the CLI and the API."""
+
+import glob
+import os
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from rlchain import Runner
+from rlchain.training import checkpoint as ckpt
+from tests.conftest import CONFIGS, ROOT
+
+pytestmark = pytest.mark.smoke
+
+
+def run_cli(args, cwd, timeout=240):
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, os.path.join(ROOT, "runner.py"), *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def small(tmp_path, epochs=2, extra=()):
+    return [f"params.config.max_epochs={epochs}", f"params.config.train_dir={tmp_path}/runs",
+            "params.config.save_best_after=0", "params.config.score_to_win=100000", *extra]
+
+
+def test_cli_train_play_resume_cartpole(tmp_path):
+    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+    out = run_cli(["--train", "--file", cfg, *small(tmp_path)], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "epoch 2/2" in out.stdout and "frames 1024" in out.stdout
+    runs = glob.glob(str(tmp_path / "runs" / "cartpole_*"))
+    assert len(runs) == 1
+    last = os.path.join(runs[0], "nn", "last_cartpole.pth")
+    assert os.path.isfile(last)
+    assert glob.glob(os.path.join(runs[0], "summaries", "events.out.tfevents.*"))
+
+    play = run_cli(["--play", "--file", cfg, "--checkpoint", last, "--games", "2"], tmp_path)
+    assert play.returncode == 0, play.stderr
+    assert "av reward:" in play.stdout and "over 2 games" in play.stdout
+    # the checkpoint carries its config: --play works without --file
+    play2 = run_cli(["--play", "--checkpoint", last, "--games", "1"], tmp_path)
+    assert play2.returncode == 0, play2.stderr
+
+    resumed = run_cli(["--train", "--file", cfg, "--checkpoint", last, *small(tmp_path, epochs=4)], tmp_path)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "at epoch 2" in resumed.stdout
+    assert "epoch 3/4" in resumed.stdout and "epoch 4/4" in resumed.stdout and "epoch 1/4" not in resumed.stdout
+
+
+def test_resume_restores_state_exactly(tmp_path):
+    runner = Runner().load(os.path.join(CONFIGS, "ppo_pendulum.yaml"), small(tmp_path, epochs=2))
+    result = runner.train()
+    path = os.path.join(result.run_dir, "nn", "last_pendulum.pth")
+    saved = ckpt.load(path)
+    assert saved["epoch"] == 2 and saved["frames"] == 2 * 16 * 64
+
+    captured = {}
+
+    def grab(trainer, stats, episodes):
+        if "state" not in captured:
+            captured["state"] = trainer.state_dict()
+
+    class Stop(Exception):
+        pass
+
+    runner2 = Runner().load(os.path.join(CONFIGS, "ppo_pendulum.yaml"), small(tmp_path, epochs=2))
+    # with max_epochs 2 already reached, the resumed run restores then stops after one more check
+    from rlchain.training.build import build_env, build_model, resolve_device
+    params = runner2.params
+    env = build_env(params, params.config.num_actors, 0)
+    model = build_model(params, env, resolve_device("cpu"))
+    from rlchain.training.logging import TrainLogger
+    from rlchain.training.on_policy import OnPolicyTrainer
+    trainer = OnPolicyTrainer(params, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
+                              runner2.raw)
+    trainer.restore(saved, path)
+    env.close()
+    state = trainer.state_dict()
+    for key, value in saved["model"].items():
+        assert torch.equal(state["model"][key], value), key
+    assert state["agent"]["lr"] == saved["agent"]["lr"]
+    assert state["epoch"] == 2 and state["frames"] == saved["frames"]
+    assert state["best_reward"] == saved["best_reward"]
+    assert torch.equal(state["rng"]["torch"], saved["rng"]["torch"])
+    opt_saved = saved["agent"]["optimizer"]["state"]
+    opt_now = state["agent"]["optimizer"]["state"]
+    assert all(torch.equal(opt_saved[k]["exp_avg"], opt_now[k]["exp_avg"]) for k in opt_saved)
+    assert model.obs_norm is not None and torch.equal(state["model"]["obs_norm.mean"],
+                                                      saved["model"]["obs_norm.mean"])
+
+
+def test_same_seed_same_run(tmp_path):
+    results = []
+    for i in range(2):
+        r = Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml"),
+                          small(tmp_path / str(i), epochs=3, extra=["params.config.print_stats=false"]))
+        r.train(seed=3)
+        run = glob.glob(str(tmp_path / str(i) / "runs" / "cartpole_*"))[0]
+        results.append(ckpt.load(os.path.join(run, "nn", "last_cartpole.pth"))["model"])
+    for key in results[0]:
+        assert torch.equal(results[0][key], results[1][key]), key
+
+
+def test_user_network_via_import_modules(tmp_path):
+    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+    out = run_cli(["--train", "--file", cfg, *small(tmp_path, epochs=1),
+                   "params.import_modules=[tests.smoke.user_pkg]",
+                   "params.network={name: testnet, hidden: 8}"], ROOT)
+    assert out.returncode == 0, out.stderr
+    assert "epoch 1/1" in out.stdout
+
+
+@pytest.mark.parametrize("config", ["ppo_pendulum.yaml", "ppo_halfcheetah.yaml"])
+def test_shipped_continuous_configs_run(tmp_path, config):
+    if "halfcheetah" in config:
+        pytest.importorskip("envpool")
+    extra = ["params.config.num_actors=8", "params.config.minibatch_size=256"]
+    result = Runner().load(os.path.join(CONFIGS, config), small(tmp_path, epochs=2, extra=extra)).train()
+    assert result.epoch == 2
+    run_dir = result.run_dir
+    name = os.path.basename(config).replace("ppo_", "").replace(".yaml", "")
+    play = Runner().load(os.path.join(CONFIGS, config)).play(
+        os.path.join(run_dir, "nn", f"last_{name}.pth"), games=1, quiet=True)
+    assert play.games == 1
