@@ -1,19 +1,28 @@
 """rl_games-style env registration: ``env_configurations.register(name, {'env_creator': ...})``.
 
-``env_creator(**env_config)`` returns a single gymnasium env; rlchain vectorizes it with
-gymnasium's sync vector env (``vecenv_type: async`` for subprocesses). A ``vecenv_creator``
-``(num_envs, seed, **env_config) -> VecEnv`` may be given instead for natively batched envs.
+``env_creator(**env_config)`` returns one gymnasium env; it is registered with gymnasium under
+``name`` so every gymnasium backend (sync, async) vectorizes it. A ``vecenv_creator``
+``(num_envs, seed, **env_config) -> VecEnv`` registers a natively batched env instead.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
+
 from rlchain.registry import ENVS
 
 
 def register(name: str, config: dict[str, Any], overwrite: bool = False) -> None:
     """Register an env under ``name`` for ``params.config.env_name``."""
-    if "env_creator" not in config and "vecenv_creator" not in config:
+    if "vecenv_creator" in config:
+        ENVS.register(name, config["vecenv_creator"], overwrite=overwrite)
+        return
+    if "env_creator" not in config:
         raise ValueError(f"env '{name}': config needs 'env_creator' or 'vecenv_creator'")
-    ENVS.register(name, config, overwrite=overwrite)
+    if name in gym.registry and not overwrite:
+        raise ValueError(f"env '{name}' is already registered; pass overwrite=True to replace it")
+    creator = config["env_creator"]
+    gym.register(id=name, entry_point=lambda **kwargs: creator(**kwargs),
+                 max_episode_steps=config.get("max_episode_steps"))

@@ -1,6 +1,5 @@
 """A user package that registers its own network, as an rl_games user would."""
 
-import torch
 import torch.nn as nn
 
 from rlchain import model_builder

@@ -1,0 +1,134 @@
+"""The envpool backend: ``envpool.make(task_id, env_type="gymnasium")`` in sync mode.
+
+envpool auto-resets on the NEXT step (the step after ``done`` ignores the action and returns
+the reset obs). We turn that into the same-step contract of :mod:`rlchain.envs.vecenv`: after
+a step, the rows that ended keep their last obs in ``final_obs`` and are reset right away with
+``env.reset(env_id=ids)``, whose obs are spliced into ``obs``. envpool's ``truncated`` is its
+time limit (``max_episode_steps``), ``terminated`` the task's own end, as in gymnasium.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+
+from rlchain.envs.vecenv import StepResult
+from rlchain.envs.wrappers import (
+    cast_actions,
+    cast_obs,
+    flatten_dict_obs,
+    float32_action_space,
+    float32_obs_space,
+    step_arrays,
+)
+
+INSTALL_HINT = "envpool is not installed: pip install rlchain[envpool] (or pip install envpool)"
+
+RESERVED_KEYS = frozenset({"num_envs", "batch_size", "seed", "env_seed", "max_num_players",
+                           "gym_reset_return_info", "base_path"})
+"""envpool config keys this backend sets itself; env_config may not pass them to envpool.make."""
+
+
+def import_envpool() -> Any:
+    """Import envpool or raise an ImportError that says how to install it."""
+    try:
+        import envpool
+    except ImportError as exc:
+        raise ImportError(INSTALL_HINT) from exc
+    return envpool
+
+
+@functools.lru_cache(maxsize=1)
+def envpool_tasks() -> frozenset[str]:
+    """Every task id envpool knows (``envpool.list_all_envs()``)."""
+    return frozenset(import_envpool().list_all_envs())
+
+
+def envpool_config_keys(task_id: str) -> set[str]:
+    """The ``envpool.make`` keyword arguments ``task_id`` accepts from an env_config."""
+    return set(import_envpool().make_spec(task_id).config._fields) - RESERVED_KEYS
+
+
+def random_seed(num_envs: int) -> int:
+    """A random seed such that envpool's per-env seeds ``seed + i`` stay in int32."""
+    return int(np.random.default_rng().integers(0, 2**31 - 1 - num_envs))
+
+
+class EnvpoolVecEnv:
+    """``num_envs`` envpool envs of ``task_id`` with same-step auto-reset.
+
+    Env i is seeded with ``seed + i`` (envpool's own rule). ``env_kwargs`` go to
+    ``envpool.make`` (e.g. ``max_episode_steps``, ``episodic_life``, ``reward_clip``).
+    Dict observations (DeepMind Control) are flattened to one float32 vector.
+    ``render=True`` creates it with ``render_mode='human'`` (envpool needs opencv-python).
+    """
+
+    def __init__(self, task_id: str, num_envs: int, seed: int | None = None,
+                 env_kwargs: dict | None = None, render: bool = False) -> None:
+        self._envpool = import_envpool()
+        if task_id not in envpool_tasks():
+            raise ValueError(f"envpool has no task '{task_id}'")
+        self.task_id = task_id
+        self.num_envs = num_envs
+        self._kwargs = dict(env_kwargs or {})
+        if render:
+            self._kwargs["render_mode"] = "human"
+        self.env: Any = None
+        self._build(random_seed(num_envs) if seed is None else int(seed))
+        self._env_obs_space = self.env.observation_space
+        self._env_action_space = self.env.action_space
+        self.observation_space = float32_obs_space(self._env_obs_space)
+        self.action_space = float32_action_space(self._env_action_space)
+
+    def _build(self, seed: int) -> None:
+        """(Re)create the envpool env with ``seed``; envpool can only be seeded at creation."""
+        if self.env is not None:
+            self.env.close()
+        self.env = self._envpool.make(self.task_id, env_type="gymnasium", num_envs=self.num_envs,
+                                      batch_size=self.num_envs, seed=seed, **self._kwargs)
+        self._seed = seed
+        self._fresh = True  # created with self._seed and not reset yet
+
+    def _obs(self, obs: Any) -> np.ndarray:
+        """Batched obs from envpool as a writable float32 (or uint8) array (N, *obs_shape)."""
+        if isinstance(obs, dict):
+            return flatten_dict_obs(obs, self._env_obs_space).astype(np.float32)
+        obs = cast_obs(obs)
+        return obs if obs.flags.writeable else obs.copy()
+
+    def reset(self, seed: int | None = None) -> np.ndarray:
+        """Reset all envs; with a seed, env i restarts from ``seed + i`` (rebuilds the pool).
+
+        Returns obs (N, *observation_space.shape).
+        """
+        if seed is not None and not (self._fresh and int(seed) == self._seed):
+            self._build(int(seed))
+        self._fresh = False
+        obs, _ = self.env.reset()
+        return self._obs(obs)
+
+    def step(self, actions: np.ndarray) -> StepResult:
+        """Step with actions (N, *action_space.shape); finished envs are reset in the same call."""
+        actions = cast_actions(actions, self._env_action_space, self.num_envs)
+        obs, reward, terminated, truncated, infos = self.env.step(actions)
+        reward, terminated, truncated = step_arrays(reward, terminated, truncated)
+        obs = self._obs(obs)
+        final_obs = obs.copy()
+        done = terminated | truncated
+        if done.any():
+            ids = np.flatnonzero(done).astype(np.int32)
+            new_obs, reset_info = self.env.reset(ids)
+            obs[np.asarray(reset_info["env_id"])] = self._obs(new_obs)
+        return StepResult(obs, reward, terminated, truncated, final_obs, infos)
+
+    def render(self) -> Any:
+        """Pass-through to envpool's ``render()`` (env 0; needs ``render=True`` at creation)."""
+        return self.env.render()
+
+    def close(self) -> None:
+        """Close the pool."""
+        if self.env is not None:
+            self.env.close()
+            self.env = None

@@ -1,0 +1,42 @@
+"""Learning tier (slow): shipped configs reach their score on CPU; shipped checkpoints still play well."""
+
+import os
+
+import pytest
+
+from rlchain import Runner
+from tests.conftest import CONFIGS, ROOT
+
+pytestmark = pytest.mark.slow
+
+
+def train(tmp_path, config, *extra):
+    overrides = [f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false", *extra]
+    return Runner().load(os.path.join(CONFIGS, config), overrides).train()
+
+
+def test_ppo_cartpole_reaches_475(tmp_path):
+    result = train(tmp_path, "ppo_cartpole.yaml")
+    assert result.mean_reward >= 475, result
+
+
+def test_ppo_pendulum_reaches_minus_250(tmp_path):
+    result = train(tmp_path, "ppo_pendulum.yaml")
+    assert result.mean_reward >= -250, result
+
+
+def test_ppo_halfcheetah_improves(tmp_path):
+    pytest.importorskip("envpool")
+    first = train(tmp_path / "a", "ppo_halfcheetah.yaml", "params.config.max_epochs=1")
+    result = train(tmp_path / "b", "ppo_halfcheetah.yaml", "params.config.max_epochs=60")
+    assert result.mean_reward > first.mean_reward + 300, (first, result)
+
+
+@pytest.mark.parametrize("config,checkpoint,score", [
+    ("ppo_cartpole.yaml", "cartpole.pth", 475),
+    ("ppo_pendulum.yaml", "pendulum.pth", -250),
+])
+def test_shipped_checkpoints_play_to_score(config, checkpoint, score):
+    result = Runner().load(os.path.join(CONFIGS, config)).play(
+        os.path.join(ROOT, "nn", checkpoint), games=20, quiet=True)
+    assert result.mean_reward >= score, result
