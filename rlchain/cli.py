@@ -33,6 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; expected errors print one line and exit with status 2."""
     args = build_parser().parse_args(argv)
     warnings.filterwarnings("ignore", message=".*Box .*precision lowered.*")
+    warnings.formatwarning = _one_line_warning
     try:
         return _run(args)
     except (ConfigError, CheckpointError) as exc:
@@ -45,6 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+
+
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    """Warnings as one line each, without the source line Python prints by default."""
+    return f"warning: {message}\n"
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -56,6 +56,9 @@ class Runner:
         if seed is None:
             seed = secrets.randbelow(2**31)
         seed_everything(seed)
+        if params.torch_threads:
+            import torch
+            torch.set_num_threads(params.torch_threads)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
         env = build_env(params, cfg.num_actors, seed)

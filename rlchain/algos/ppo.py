@@ -25,8 +25,9 @@ class PPOAgent:
         self.cfg = cfg
         self.device = device
         self.lr = cfg.learning_rate
-        self.optimizer = torch.optim.Adam(model.parameters(), lr=self.lr, eps=1e-8,
-                                          weight_decay=cfg.weight_decay)
+        self.params = [p for p in model.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay,
+                                          **_fast_adam_kwargs(device))
         self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
                                       cfg.min_lr, cfg.max_lr)
         self.amp = cfg.mixed_precision and device.type == "cuda"
@@ -80,7 +81,7 @@ class PPOAgent:
         else:
             loss.backward()
         if cfg.truncate_grads:
-            torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_norm)
+            torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_norm, foreach=True)
         if self.scaler is not None:
             self.scaler.step(self.optimizer)
             self.scaler.update()
@@ -110,3 +111,8 @@ class PPOAgent:
         self._set_lr(float(state["lr"]))
         if self.scaler is not None and "scaler" in state:
             self.scaler.load_state_dict(state["scaler"])
+
+
+def _fast_adam_kwargs(device: torch.device) -> dict:
+    """The fused Adam kernel: one call per step instead of a Python loop over parameters."""
+    return {"fused": True} if device.type in ("cpu", "cuda") else {}

@@ -24,6 +24,10 @@ NO_EFFECT_CONFIG_KEYS = {
     "log_interval": "rlchain logs every epoch",
     "save_frequence": "misspelt in old rl_games; use save_frequency",
 }
+NO_EFFECT_PARAMS_KEYS = {
+    "load_checkpoint": "pass --checkpoint on the command line instead",
+    "load_path": "pass --checkpoint on the command line instead",
+}
 NO_EFFECT_NETWORK_KEYS = {
     "regularizer": "rl_games never applied it",
 }
@@ -67,6 +71,16 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
     for key, reason in NO_EFFECT_CONFIG_KEYS.items():
         if key in out:
             _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            out.pop(key)
+    return out
+
+
+def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
+    """Drop rl_games' top-level no-op keys (``params.load_checkpoint`` ...) with a warning."""
+    out = dict(params)
+    for key, reason in NO_EFFECT_PARAMS_KEYS.items():
+        if key in out:
+            _warn(source, f"params.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     return out
 

@@ -41,6 +41,8 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | `params.model.name` | `discrete_a2c`, `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std) |
 | `params.network` | network block; `name: actor_critic` is built in, user builders via `register_network` |
 | `params.config` | training keys below |
+| `params.torch_threads` | `torch.set_num_threads` for the training process (default: torch's choice) |
+| `params.load_checkpoint`, `params.load_path` | deprecated, no effect: pass `--checkpoint` |
 | `params.import_modules` | list of Python modules imported before building (register your own networks/envs there) |
 
 Status: **yes** = implemented with rl_games' meaning; **deprecated** = accepted with a one-line

@@ -75,7 +75,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     params = raw["params"]
     if not isinstance(params, dict):
         raise ConfigError(source, "params", f"expected a mapping, got {params!r}")
-    known = {"seed", "algo", "model", "network", "config", "import_modules"}
+    params = compat.translate_params(params, source)
+    known = {"seed", "algo", "model", "network", "config", "import_modules", "torch_threads"}
     for key in params:
         if key not in known:
             import difflib
@@ -94,6 +95,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
             raise ConfigError(source, "params.import_modules", f"cannot import '{name}': {exc}") from None
 
     seed = parse_value(int | None, params.get("seed"), "params.seed", source)
+    threads = parse_value(int | None, params.get("torch_threads"), "params.torch_threads", source,
+                          {"check": lambda x: None if x > 0 else "must be > 0"})
     algo = parse_dataclass(NamedBlock, params["algo"], "params.algo", source)
     model = parse_dataclass(NamedBlock, params["model"], "params.model", source)
     _check_registered(ALGOS, algo.name, "params.algo.name", source)
@@ -109,7 +112,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
     return Params(algo=algo, model=model, config=config, network=network, seed=seed,
-                  import_modules=modules, source=source)
+                  import_modules=modules, torch_threads=threads, source=source)
 
 
 def load_config(path: str, overrides: list[str] | None = None) -> Params:

@@ -216,4 +216,5 @@ class Params:
     network: Any = None  # NetworkConfig for built-in builders, the raw dict for user builders
     seed: int | None = None
     import_modules: list[str] | None = None
+    torch_threads: int | None = None  # torch.set_num_threads for this process (rl_games key)
     source: str = ""

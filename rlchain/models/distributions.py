@@ -62,7 +62,7 @@ class Categorical(Distribution):
 
     @staticmethod
     def _log_softmax(params: torch.Tensor) -> torch.Tensor:
-        return params - params.logsumexp(-1, keepdim=True)
+        return torch.log_softmax(params, -1)
 
     def sample(self, params: torch.Tensor) -> torch.Tensor:
         # Gumbel-max: one argmax, cheaper than multinomial for small batches on CPU
