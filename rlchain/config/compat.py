@@ -23,6 +23,10 @@ NO_EFFECT_CONFIG_KEYS = {
     "num_minibatches": "derived from minibatch_size",
     "log_interval": "rlchain logs every epoch",
     "save_frequence": "misspelt in old rl_games; use save_frequency",
+    "max_steps": "rl_games never applied it (np.max(max_frames, max_steps)); use max_frames",
+    "network_path": "checkpoints go to <train_dir>/<run>/nn",
+    "log_path": "logs go to <train_dir>/<run>/summaries",
+    "is_train": "use --train / --play",
 }
 NO_EFFECT_PARAMS_KEYS = {
     "load_checkpoint": "pass --checkpoint on the command line instead",

@@ -178,7 +178,8 @@ def _check_training(config: TrainConfig, source: str) -> None:
                               "give minibatch_size or minibatch_size_per_env, not both")
         config.minibatch_size = config.num_actors * config.minibatch_size_per_env
     if config.minibatch_size is None:
-        config.minibatch_size = batch
+        raise ConfigError(source, "params.config.minibatch_size",
+                          "required key is missing (or give minibatch_size_per_env)")
     if config.minibatch_size > batch:
         raise ConfigError(source, "params.config.minibatch_size",
                           f"minibatch_size {config.minibatch_size} is larger than the batch {batch}")

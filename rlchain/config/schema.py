@@ -140,7 +140,8 @@ class TrainConfig:
     num_actors: int = option(8, "parallel environments", check=positive)
     horizon_length: int = option(32, "steps per env per epoch; batch = num_actors * horizon_length",
                                  check=positive)
-    minibatch_size: int | None = option(None, "minibatch size; the batch must divide by it", check=positive)
+    minibatch_size: int | None = option(None, "minibatch size; the batch must divide by it (this or "
+                                              "minibatch_size_per_env is required)", check=positive)
     minibatch_size_per_env: int | None = option(None, "minibatch = num_actors * this", check=positive)
     mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
     gamma: float = option(0.99, "discount", check=unit_interval)
@@ -163,7 +164,10 @@ class TrainConfig:
     normalize_value: bool = option(False, "running mean/std normalization of value targets")
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
-    value_bootstrap: bool = option(False, "on time-out bootstrap V(true next obs) instead of a terminal")
+    adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")
+    freeze_critic: bool = option(False, "train the actor only", status="planned")
+    epochs_between_resets: int = option(0, "reset all envs every N epochs", status="planned")
+    value_bootstrap: bool = option(True, "on time-out bootstrap V(true final obs) instead of a terminal")
     reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
     grad_norm: float = option(1.0, "max gradient norm when truncate_grads", check=positive)
     truncate_grads: bool = option(False, "clip gradients to grad_norm")
@@ -184,6 +188,8 @@ class TrainConfig:
     print_stats: bool = option(True, "print the progress line every epoch")
     seq_length: int = option(4, "RNN training sequence length", check=positive,
                             status="accepted; used once rnn lands (issue 3)")
+    bptt_length: int | None = option(None, "RNN truncated-BPTT length (default seq_length)",
+                                     status="planned (issue 3)")
     zero_rnn_on_done: bool = option(True, "reset RNN state on done",
                                     status="accepted; used once rnn lands (issue 3)")
     central_value_config: dict | None = option(None, "asymmetric critic", status="planned (issue 3)")

@@ -15,7 +15,7 @@ class TrainLogger:
         self.writer = None
         if summaries_dir is not None:
             from torch.utils.tensorboard import SummaryWriter
-            self.writer = SummaryWriter(summaries_dir)
+            self.writer = SummaryWriter(summaries_dir, flush_secs=10)
         self.print_stats = print_stats
         self.stream = stream or sys.stdout
         self.start = time.time()
