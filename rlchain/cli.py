@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import warnings
 
 from rlchain.config.errors import ConfigError
+from rlchain.errors import DivergenceError, EnvError
 from rlchain.training.checkpoint import CheckpointError
 
 
@@ -32,6 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point; expected errors print one line and exit with status 2."""
     args = build_parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _terminate)
     warnings.filterwarnings("ignore", message=".*Box .*precision lowered.*")
     warnings.formatwarning = _one_line_warning
     try:
@@ -40,12 +43,21 @@ def main(argv: list[str] | None = None) -> int:
         kind = "config error" if isinstance(exc, ConfigError) else "checkpoint error"
         print(f"{kind}: {exc}", file=sys.stderr)
         return 2
+    except (EnvError, DivergenceError) as exc:
+        kind = "env error" if isinstance(exc, EnvError) else "divergence"
+        print(f"{kind}: {exc}", file=sys.stderr)
+        return 1
     except OSError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+
+
+def _terminate(signum, frame) -> None:
+    """SIGTERM unwinds like Ctrl-C, so logs are flushed and envs closed on the way out."""
+    raise KeyboardInterrupt
 
 
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:
@@ -76,7 +88,9 @@ def _run(args: argparse.Namespace) -> int:
     else:
         raise ConfigError("", "--file", "a config file is required (or --play with --checkpoint)")
     if args.train:
-        runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma)
+        result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma)
+        if result.stop_reason.startswith("interrupted"):
+            return 130
     else:
         runner.play(args.checkpoint, deterministic=False if args.stochastic else None, sigma=args.sigma)
     return 0

@@ -60,11 +60,13 @@ class Player:
         rewards, episode_lengths = [], []
         while len(rewards) < games:
             actions = self.model.act(obs, deterministic=deterministic)["actions"]
-            result = self.env.step(dist.to_env(actions).cpu().numpy())
-            reward = torch.as_tensor(result.reward, dtype=torch.float64)
+            env_actions = dist.to_env(actions)
+            result = self.env.step(env_actions if getattr(self.env, "is_tensor_env", False)
+                                   else env_actions.cpu().numpy())
+            reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
             returns += reward.sum(-1) if reward.dim() > 1 else reward
             lengths += 1
-            done = torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)
+            done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
             for i in done.nonzero().flatten().tolist():
                 if len(rewards) < games:
                     rewards.append(float(returns[i]))

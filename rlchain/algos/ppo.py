@@ -14,6 +14,7 @@ from rlchain.algos.losses import normalize_advantages, policy_loss, value_loss
 from rlchain.algos.schedules import LinearSchedule, make_schedule
 from rlchain.algos.storage import Batch, RolloutStorage
 from rlchain.config.schema import TrainConfig
+from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.models.actor_critic import ActorCritic
 
 
@@ -37,7 +38,10 @@ class PPOAgent:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr."""
         cfg = self.cfg
         advantages = storage.advantages.sum(-1)  # several value heads add up, as in rl_games
-        sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0}
+        if cfg.normalize_advantage:  # over the whole batch once, as rl_games does
+            advantages = normalize_advantages(advantages)
+        sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
+                "grad_norm": 0.0}
         count = 0
         for _ in range(cfg.mini_epochs):
             epoch_kl, epoch_n = 0.0, 0
@@ -65,8 +69,8 @@ class PPOAgent:
             params, values = model(batch.obs)
             log_probs = dist.log_prob(params, batch.actions)
             entropy = dist.entropy(params).mean()
-            adv = normalize_advantages(batch.advantages) if cfg.normalize_advantage else batch.advantages
-            a_loss = policy_loss(batch.log_probs, log_probs, adv, cfg.e_clip, cfg.use_smooth_clamp).mean()
+            a_loss = policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip,
+                                 cfg.use_smooth_clamp).mean()
             c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
                                 cfg.e_clip, cfg.clip_value).mean()
             loss = a_loss + 0.5 * cfg.critic_coef * c_loss - cfg.entropy_coef * entropy
@@ -80,20 +84,30 @@ class PPOAgent:
             self.scaler.unscale_(self.optimizer)
         else:
             loss.backward()
-        if cfg.truncate_grads:
-            torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_norm, foreach=True)
+        max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
+        grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
+        with torch.no_grad():
+            kl = dist.kl(batch.params, params.detach().float()).mean()
+            ratio = torch.exp(log_probs.detach() - batch.log_probs)
+            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+        names = ("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac", "loss", "grad_norm")
+        values = torch.stack([a_loss.detach(), c_loss.detach(), entropy.detach(), b_loss.detach(), kl,
+                              clip_frac, loss.detach(), grad_norm.detach().float()]).tolist()
+        stats = dict(zip(names, values))
+        bad = first_non_finite(stats)
+        if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself
+            raise DivergenceError(f"{bad} in the PPO update")
         if self.scaler is not None:
             self.scaler.step(self.optimizer)
             self.scaler.update()
         else:
             self.optimizer.step()
-        with torch.no_grad():
-            kl = dist.kl(batch.params, params.detach().float()).mean()
-            ratio = torch.exp(log_probs.detach() - batch.log_probs)
-            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
-        values_stats = torch.stack([a_loss.detach(), c_loss.detach(), entropy.detach(), b_loss.detach(),
-                                    kl, clip_frac]).tolist()
-        return dict(zip(("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac"), values_stats))
+        del stats["loss"]
+        return stats
+
+    def scale_lr(self, factor: float) -> None:
+        """Multiply the learning rate (divergence rollback)."""
+        self._set_lr(self.lr * factor)
 
     def _set_lr(self, lr: float) -> None:
         self.lr = lr

@@ -9,6 +9,7 @@ import typing
 from rlchain.config import compat
 from rlchain.config.schema import (
     ContinuousSpaceConfig,
+    DivergenceConfig,
     InitializerConfig,
     MlpConfig,
     NetworkConfig,
@@ -21,6 +22,7 @@ SECTIONS = [
     ("params.config", TrainConfig),
     ("params.config.reward_shaper", RewardShaperConfig),
     ("params.config.player", PlayerConfig),
+    ("params.config.divergence", DivergenceConfig),
     ("params.network (builder actor_critic)", NetworkConfig),
     ("params.network.mlp", MlpConfig),
     ("params.network.space.continuous", ContinuousSpaceConfig),

@@ -123,6 +123,17 @@ class PlayerConfig:
     games_to_track: int = option(100, "unused, accepted for rl_games configs", status="deprecated")
 
 
+@dataclass
+class DivergenceConfig:
+    """``config.divergence`` (rlchain): what to do when a loss, gradient or parameter turns NaN/inf."""
+
+    action: str = option("stop", "stop: end the run with a message; rollback: restore the last good "
+                                 "epoch and scale the learning rate", choices=("stop", "rollback"))
+    max_rollbacks: int = option(3, "rollbacks allowed before the run stops", check=non_negative)
+    lr_factor: float = option(0.5, "learning-rate multiplier applied at each rollback",
+                              check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
+
+
 def _check_lr(x: float) -> str | None:
     return None if x > 0 else "must be > 0"
 
@@ -159,7 +170,7 @@ class TrainConfig:
     critic_coef: float = option(1.0, "critic loss weight: loss += critic_coef * 0.5 * value loss",
                                 check=non_negative)
     entropy_coef: float = option(0.0, "entropy bonus weight")
-    normalize_advantage: bool = option(True, "normalize advantages per minibatch")
+    normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
     normalize_input: bool = option(False, "running mean/std normalization of observations")
     normalize_value: bool = option(False, "running mean/std normalization of value targets")
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
@@ -202,6 +213,7 @@ class TrainConfig:
     train_dir: str = option("runs", "folder that holds the run folders")
     full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
+    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain)")
     value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
 
 

@@ -13,6 +13,7 @@ Modes:
 
 from __future__ import annotations
 
+import functools
 import inspect
 from collections.abc import Callable
 from typing import Any
@@ -28,6 +29,7 @@ from rlchain.envs.wrappers import (
     cast_obs,
     float32_action_space,
     float32_obs_space,
+    make_indexed,
     step_arrays,
 )
 
@@ -107,8 +109,9 @@ class GymnasiumVecEnv:
             if self.env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
                 self._reset_rows = _resetters()[type(self.env.unwrapped)]
         else:
-            self.env = gym.make_vec(env_id, num_envs, vectorization_mode=mode,
-                                    vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}, **kwargs)
+            fns = [functools.partial(make_indexed, env_id, i, kwargs) for i in range(num_envs)]
+            vector_cls = gym.vector.SyncVectorEnv if mode == "sync" else gym.vector.AsyncVectorEnv
+            self.env = vector_cls(fns, autoreset_mode=AutoresetMode.SAME_STEP)
         self._env_action_space = self.env.single_action_space
         self.observation_space = float32_obs_space(self.env.single_observation_space)
         self.action_space = float32_action_space(self.env.single_action_space)

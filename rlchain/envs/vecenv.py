@@ -10,6 +10,8 @@ Shapes for ``num_envs = N``:
   anything). ``reward`` (N,) float32, ``terminated`` and ``truncated`` (N,) bool, kept apart:
   truncation is a time-out, not a terminal state.
 - ``observation_space`` / ``action_space``: the single-env gymnasium spaces.
+- tensor envs set ``is_tensor_env = True`` and ``device``: ``step`` then takes a torch tensor of
+  actions on that device and every StepResult field is a tensor on it (no numpy round trip).
 - optional rl_games attributes: ``value_size`` (default 1), ``get_number_of_agents()`` (1),
   ``use_central_value`` (False), ``has_action_mask()`` (False).
 """

@@ -8,6 +8,7 @@ underlying env expects (integers for discrete spaces, the Box dtype for continuo
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -75,3 +76,33 @@ def step_arrays(reward: np.ndarray, terminated: np.ndarray,
     return (np.asarray(reward, dtype=np.float32).reshape(-1),
             np.asarray(terminated, dtype=bool).reshape(-1),
             np.asarray(truncated, dtype=bool).reshape(-1))
+
+
+class EnvIndexError(RuntimeError):
+    """An exception raised inside sub-env ``index``, re-raised with the index in its message."""
+
+
+class IndexedErrors(gym.Wrapper):
+    """Tags any exception from ``reset``/``step`` with the sub-env's index (survives async workers,
+    which re-raise in the main process with the exception type and message only)."""
+
+    def __init__(self, env: gym.Env, index: int) -> None:
+        super().__init__(env)
+        self.index = index
+
+    def reset(self, **kwargs: Any) -> Any:
+        try:
+            return self.env.reset(**kwargs)
+        except Exception as exc:
+            raise EnvIndexError(f"env {self.index} reset raised {type(exc).__name__}: {exc}") from exc
+
+    def step(self, action: Any) -> Any:
+        try:
+            return self.env.step(action)
+        except Exception as exc:
+            raise EnvIndexError(f"env {self.index} step raised {type(exc).__name__}: {exc}") from exc
+
+
+def make_indexed(env_id: str, index: int, kwargs: dict) -> gym.Env:
+    """``gym.make(env_id, **kwargs)`` wrapped so its errors name ``index`` (picklable for async)."""
+    return IndexedErrors(gym.make(env_id, **kwargs), index)

@@ -35,7 +35,8 @@ class ActorCriticNetwork(nn.Module):
         self.continuous = continuous
         if continuous:
             space = cfg.space.continuous
-            self.mu = nn.Linear(out, actions_num)
+            # rl_games: every Linear gets the mlp initializer (zero bias), then mu_init on top
+            self.mu = linear(out, actions_num, cfg.mlp.initializer)
             initialize(self.mu.weight, space.mu_init)
             self.mu_act = activation(space.mu_activation)
             self.sigma_act = activation(space.sigma_activation)
@@ -44,7 +45,7 @@ class ActorCriticNetwork(nn.Module):
                 self.sigma = nn.Parameter(torch.zeros(actions_num))
                 initialize(self.sigma.data.view(1, -1), space.sigma_init)
             else:
-                self.sigma = nn.Linear(out, actions_num)
+                self.sigma = linear(out, actions_num, cfg.mlp.initializer)
                 initialize(self.sigma.weight, space.sigma_init)
         else:
             self.logits = linear(out, actions_num, cfg.mlp.initializer)

@@ -45,6 +45,7 @@ class TrainLogger:
         s("info/kl", stats["kl"], frames)
         s("info/epochs", epoch, frames)
         s("info/clip_frac", stats["clip_frac"], frames)
+        s("info/grad_norm", stats["grad_norm"], frames)
         if episodes is not None:
             for name, value in (("rewards", episodes["reward"]), ("episode_lengths", episodes["length"])):
                 s(f"{name}/step", value, frames)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass
@@ -13,11 +14,13 @@ from rlchain.algos.ppo import PPOAgent
 from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
 from rlchain.algos.storage import RolloutStorage
 from rlchain.config.schema import Params
+from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.episodes import EpisodeTracker
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
+from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters, check_rollout
 
 
 @dataclass
@@ -55,46 +58,131 @@ class OnPolicyTrainer:
         self.best_reward = -math.inf
         self.obs: torch.Tensor | None = None
         self.callbacks: list[Any] = []
+        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
+        self.signals: StopSignals | None = None
+        self.rollbacks = 0
+        self._good: dict[str, Any] | None = None
 
     # ----- the loop -------------------------------------------------------------------------
     def train(self) -> TrainResult:
-        """Train until max_epochs, max_frames or score_to_win; returns the final statistics."""
+        """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics.
+
+        SIGINT/SIGTERM stop after the current env step with a checkpoint of the last completed
+        epoch; an env failure does the same, then raises EnvError; a NaN/inf stops (or rolls back,
+        with ``divergence.action: rollback``) without ever saving non-finite parameters.
+        """
         start = time.time()
-        self.obs = self._to_tensor(self.env.reset(seed=self.seed + self.epoch))
         stop = None
-        while stop is None:
-            t0 = time.time()
-            self._rollout()
-            t1 = time.time()
-            stats = self._learn()
-            t2 = time.time()
-            self.epoch += 1
-            self.frames += self.cfg.horizon_length * self.num_envs
-            episodes = self._episode_stats()
-            self._log(stats, episodes, t1 - t0, t2 - t1)
-            self._checkpoints(episodes)
-            for callback in self.callbacks:
-                callback(self, stats, episodes)
-            stop = self._stop_reason(episodes)
-        self.save("last")
+        with StopSignals() as signals:
+            self.signals = signals
+            self.obs = self._reset_envs()
+            self._snapshot()
+            while stop is None:
+                t0 = time.time()
+                if not self._guarded_rollout():
+                    stop = f"interrupted by {signals.requested}"
+                    break
+                t1 = time.time()
+                stats = self._guarded_learn()
+                if stats is None:
+                    continue  # rolled back: collect a fresh rollout with the restored policy
+                t2 = time.time()
+                self.epoch += 1
+                self.frames += self.cfg.horizon_length * self.num_envs
+                episodes = self._episode_stats()
+                self._log(stats, episodes, t1 - t0, t2 - t1)
+                self._checkpoints(episodes)
+                self._snapshot()
+                for callback in self.callbacks:
+                    callback(self, stats, episodes)
+                stop = self._stop_reason(episodes) or (
+                    f"interrupted by {signals.requested}" if signals.requested else None)
+            last = self.save("last")
         self.logger.flush()
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
-        if self.cfg.print_stats:
+        if self.cfg.print_stats or stop.startswith("interrupted"):
             print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
                   f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
+        if stop.startswith("interrupted") and last:
+            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
         return TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                            self.run.root if self.run else "", time.time() - start)
 
-    def _rollout(self) -> None:
-        """Step the envs for horizon_length steps, filling the storage."""
+    def _reset_envs(self) -> torch.Tensor:
+        try:
+            obs = self.env.reset(seed=self.seed + self.epoch)
+        except Exception as exc:
+            raise EnvError(f"env reset failed: {_describe(exc)}") from exc
+        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
+        return self._to_tensor(obs)
+
+    def _guarded_rollout(self) -> bool:
+        """A rollout; False when a stop signal arrived. An env failure saves, then raises EnvError."""
+        try:
+            return self._rollout()
+        except (EnvError, DivergenceError):
+            self.save("last")
+            raise
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:
+            path = self.save("last")
+            saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
+            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {_describe(exc)}{saved}") from exc
+
+    def _guarded_learn(self) -> dict[str, float] | None:
+        """The update; on NaN/inf either roll back (returns None) or raise with the epoch named."""
+        try:
+            bad = check_rollout(self.storage.rewards, self.storage.obs)
+            if bad is not None:
+                raise DivergenceError(bad)
+            stats = self._learn()
+            bad = check_parameters(self.model)
+            if bad is not None:
+                raise DivergenceError(f"{bad} became non-finite in the update")
+            return stats
+        except DivergenceError as exc:
+            div = self.cfg.divergence
+            where = f"epoch {self.epoch + 1}: {exc}"
+            if div.action == "rollback" and self.rollbacks < div.max_rollbacks and self._good is not None:
+                self.rollbacks += 1
+                self.model.load_state_dict(self._good["model"])
+                self.agent.load_state_dict(self._good["agent"])
+                self.agent.scale_lr(div.lr_factor ** self.rollbacks)
+                print(f"divergence at {where}; rolled back to epoch {self.epoch} "
+                      f"({self.rollbacks}/{div.max_rollbacks}), learning rate now {self.agent.lr:.2e}", flush=True)
+                self.tracker.reset_running()
+                self.obs = self._reset_envs()
+                return None
+            self._restore_good()
+            raise DivergenceError(f"training diverged at {where}; parameters of epoch {self.epoch} "
+                                  f"kept (checkpoints hold no NaN)") from None
+
+    def _snapshot(self) -> None:
+        """Keep the last good learner state in memory when rollback is on (costs one copy)."""
+        if self.cfg.divergence.action == "rollback":
+            self._good = {"model": copy.deepcopy(self.model.state_dict()),
+                          "agent": copy.deepcopy(self.agent.state_dict())}
+
+    def _restore_good(self) -> None:
+        if self._good is not None:
+            self.model.load_state_dict(self._good["model"])
+            self.agent.load_state_dict(self._good["agent"])
+
+    def _rollout(self) -> bool:
+        """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""
         cfg, model, storage, dist = self.cfg, self.model, self.storage, self.model.dist
         model.eval()
         obs = self.obs
         rs = cfg.reward_shaper
         for t in range(cfg.horizon_length):
+            if self.signals is not None and self.signals.requested:
+                return False
             out = model.act(obs)
             storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"])
-            result = self.env.step(dist.to_env(out["actions"]).cpu().numpy())
+            result = self.env.step(self._env_actions(dist.to_env(out["actions"])))
+            if self.epoch == 0 and t == 0:
+                check_obs_shape(result.obs, self.num_envs, self.env.observation_space, "env step")
             rewards = self._to_tensor(result.reward).float()
             terminated = self._to_tensor(result.terminated).bool()
             truncated = self._to_tensor(result.truncated).bool()
@@ -112,6 +200,7 @@ class OnPolicyTrainer:
             obs = self._to_tensor(result.obs)
         self.obs = obs
         self.last_values = model.value(obs)
+        return True
 
     def _learn(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, then the PPO update."""
@@ -174,6 +263,10 @@ class OnPolicyTrainer:
     def _to_tensor(self, x: Any) -> torch.Tensor:
         return torch.as_tensor(x, device=self.device)
 
+    def _env_actions(self, actions: torch.Tensor) -> Any:
+        """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""
+        return actions if self.tensor_env else actions.cpu().numpy()
+
     # ----- checkpoints ----------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:
         """Everything exact resume needs."""
@@ -186,10 +279,20 @@ class OnPolicyTrainer:
         }
 
     def save(self, kind: str) -> str | None:
+        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
         if self.run is None:
             return None
+        bad = check_parameters(self.model)
+        if bad is not None:
+            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
+            return None
         path = self.run.checkpoint(kind)
-        ckpt.save_atomic(self.state_dict(), path)
+        try:
+            ckpt.save_atomic(self.state_dict(), path)
+        except OSError as exc:
+            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                  f"checkpoint is kept and training goes on", flush=True)
+            return None
         return path
 
     def restore(self, state: dict[str, Any], path: str) -> None:
@@ -212,3 +315,9 @@ def _value_size(env: Any) -> int:
 def _version() -> str:
     from rlchain import __version__
     return __version__
+
+
+def _describe(exc: BaseException) -> str:
+    """``Type: message`` on one line."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

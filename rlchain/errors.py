@@ -1,0 +1,17 @@
+"""Run-time errors shared across layers (config errors live in rlchain.config.errors)."""
+
+
+class DivergenceError(RuntimeError):
+    """A NaN or inf in a loss, the gradients, the parameters or the env's data."""
+
+
+class EnvError(RuntimeError):
+    """The environment raised, or returned data that does not fit its declared space."""
+
+
+def first_non_finite(named: dict[str, float]) -> str | None:
+    """The first ``name = value`` whose value is NaN or inf, else None."""
+    for name, value in named.items():
+        if value != value or value in (float("inf"), float("-inf")):
+            return f"{name} = {value}"
+    return None

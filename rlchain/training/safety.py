@@ -1,0 +1,75 @@
+"""What keeps a run recoverable: stop signals, divergence checks and env failure reports."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from typing import Any
+
+import torch
+
+from rlchain.errors import EnvError
+
+
+class StopSignals:
+    """SIGINT / SIGTERM ask the loop to stop after the current step; a second one exits at once.
+
+    Use as a context manager around training; ``requested`` holds the signal name once one came.
+    Outside the main thread (where Python cannot install handlers) it does nothing.
+    """
+
+    def __init__(self) -> None:
+        self.requested: str | None = None
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> StopSignals:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._previous[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        self._previous.clear()
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        name = signal.Signals(signum).name
+        if self.requested is not None:  # second signal: leave now
+            raise KeyboardInterrupt(f"second {name}")
+        self.requested = name
+        print(f"\n{name} received: finishing the current step, then saving a checkpoint "
+              f"(send it again to exit at once)", flush=True)
+
+
+def check_parameters(module: torch.nn.Module) -> str | None:
+    """The first parameter or buffer holding a NaN or inf, e.g. 'parameter network.mu.weight', else None."""
+    for kind, items in (("parameter", module.named_parameters()), ("buffer", module.named_buffers())):
+        for name, tensor in items:
+            if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
+                return f"{kind} {name}"
+    return None
+
+
+def check_rollout(rewards: torch.Tensor, obs: torch.Tensor) -> str | None:
+    """Report the first non-finite reward or observation of a rollout (T, N, ...) with env and step."""
+    for name, data in (("reward", rewards), ("observation", obs)):
+        if not data.is_floating_point():
+            continue
+        bad = ~torch.isfinite(data.reshape(data.shape[0], data.shape[1], -1)).all(-1)
+        if bool(bad.any()):
+            step, env = (int(i) for i in bad.nonzero()[0])
+            return f"the env returned a non-finite {name} (env {env}, step {step} of the rollout)"
+    return None
+
+
+def check_obs_shape(obs: Any, num_envs: int, space: Any, where: str) -> None:
+    """Observations must be (num_envs, *space.shape); anything else is an EnvError at once."""
+    shape = tuple(getattr(obs, "shape", ()))
+    expected = (num_envs, *space.shape)
+    if shape != expected:
+        raise EnvError(f"{where}: observations have shape {shape}, expected {expected} "
+                       f"(num_envs x observation_space.shape)")
+    dtype = str(getattr(obs, "dtype", ""))
+    if "float" not in dtype and "uint8" not in dtype and "int" not in dtype:
+        raise EnvError(f"{where}: observations have dtype {dtype}, expected a numeric array")

@@ -1,0 +1,172 @@
+"""Runs that survive: signals, crash-safe checkpoints, divergence, broken envs, disk errors."""
+
+import glob
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+import torch
+
+import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
+from rlchain import Runner
+from rlchain.errors import DivergenceError, EnvError
+from rlchain.training import checkpoint as ckpt
+from rlchain.training.safety import StopSignals
+from tests.conftest import CONFIGS, ROOT
+from tests.smoke.test_train_play_resume import run_cli, small
+
+pytestmark = pytest.mark.smoke
+CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+
+
+def cartpole(tmp_path, *extra, epochs=3):
+    return Runner().load(CARTPOLE, small(tmp_path, epochs=epochs, extra=["params.config.print_stats=false",
+                                                                          *extra]))
+
+
+def test_sigterm_saves_and_resume_continues(tmp_path):
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    proc = subprocess.Popen([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file", CARTPOLE,
+                             *small(tmp_path, epochs=100000)], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+    try:
+        deadline = time.time() + 120
+        for line in proc.stdout:
+            lines.append(line)
+            if line.startswith("epoch 5/") or time.time() > deadline:
+                break
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    text = "".join(lines) + out
+    assert proc.returncode == 130, text
+    assert "interrupted by SIGTERM" in text and "resume with:" in text
+    last = glob.glob(str(tmp_path / "runs" / "cartpole_*" / "nn" / "last_cartpole.pth"))[0]
+    epoch = ckpt.load(last)["epoch"]
+    assert epoch >= 5
+    resumed = run_cli(["--train", "--file", CARTPOLE, "--checkpoint", last, *small(tmp_path, epochs=epoch + 2)],
+                      tmp_path)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"at epoch {epoch}" in resumed.stdout and f"epoch {epoch + 1}/{epoch + 2}" in resumed.stdout
+
+
+def test_second_signal_exits_at_once():
+    with StopSignals() as signals:
+        os.kill(os.getpid(), signal.SIGINT)
+        assert signals.requested == "SIGINT"
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigkill_during_checkpoint_write_keeps_previous(tmp_path):
+    path = tmp_path / "x.pth"
+    script = textwrap.dedent(f"""
+        import sys, time, torch
+        sys.path.insert(0, {ROOT!r})
+        from rlchain.training import checkpoint as ckpt
+        ckpt.save_atomic({{"format": ckpt.FORMAT, "value": 1}}, {str(path)!r})
+        real_save = torch.save
+        def slow_save(obj, fh):
+            fh.write(b"half a checkpoint")
+            fh.flush()
+            print("writing", flush=True)
+            time.sleep(60)
+        torch.save = slow_save
+        ckpt.save_atomic({{"format": ckpt.FORMAT, "value": 2}}, {str(path)!r})
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "writing"
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    assert ckpt.load(str(path))["value"] == 1
+    assert os.listdir(tmp_path) != ["x.pth"]  # the temp file is left aside, never in place of x.pth
+
+
+def test_checkpoint_records_version_and_config(tmp_path):
+    result = cartpole(tmp_path, epochs=1).train()
+    state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
+    from rlchain import __version__
+    assert state["version"] == __version__
+    assert state["config"]["params"]["config"]["env_name"] == "CartPole-v1"
+
+
+def test_nan_reward_stops_with_env_and_epoch(tmp_path):
+    runner = cartpole(tmp_path, "params.config.env_name=NanRewardCartPole-test")
+    with pytest.raises(DivergenceError, match=r"epoch 1: the env returned a non-finite reward \(env \d+, step 9"):
+        runner.train()
+    for path in glob.glob(str(tmp_path / "runs" / "*" / "nn" / "*.pth")):
+        assert all(torch.isfinite(v).all() for v in ckpt.load(path)["model"].values() if v.is_floating_point())
+
+
+def test_absurd_learning_rate_stops(tmp_path):
+    runner = cartpole(tmp_path, "params.config.learning_rate=1e30", "params.config.lr_schedule=None",
+                      "params.config.truncate_grads=false", epochs=20)
+    with pytest.raises(DivergenceError, match=r"training diverged at epoch \d+: .*(loss|norm|parameter)"):
+        runner.train()
+
+
+def test_absurd_learning_rate_rolls_back(tmp_path, capsys):
+    runner = cartpole(tmp_path, "params.config.learning_rate=1e30", "params.config.lr_schedule=None",
+                      "params.config.truncate_grads=false", "params.config.divergence.action=rollback",
+                      "params.config.divergence.max_rollbacks=3", "params.config.divergence.lr_factor=1e-33",
+                      epochs=4)
+    result = runner.train()
+    assert result.epoch == 4
+    assert "rolled back to epoch" in capsys.readouterr().out
+
+
+def test_env_that_raises_names_env_and_saves(tmp_path):
+    runner = cartpole(tmp_path, "params.config.env_name=RaisingCartPole-test", "params.config.num_actors=4",
+                      "params.config.minibatch_size=64")
+    with pytest.raises(EnvError, match=r"env step failed at epoch 1: EnvIndexError: env 0 step raised "
+                                       r"ValueError: simulator exploded"):
+        runner.train()
+
+
+@pytest.mark.timeout(120)
+def test_async_env_that_raises_does_not_hang(tmp_path):
+    runner = cartpole(tmp_path, "params.config.env_name=RaisingCartPole-test", "params.config.num_actors=2",
+                      "params.config.minibatch_size=32", "params.config.vecenv_type=async")
+    with pytest.raises(EnvError, match=r"env \d step raised ValueError: simulator exploded"):
+        runner.train()
+
+
+def test_wrong_observation_shape_is_clear(tmp_path):
+    runner = cartpole(tmp_path, "params.config.env_name=WrongShapeCartPole-test")
+    with pytest.raises(EnvError, match=r"env reset failed"):
+        runner.train()
+
+
+def test_unwritable_run_folder_fails_before_training(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    out = run_cli(["--train", "--file", CARTPOLE, f"params.config.train_dir={blocker}/runs"], tmp_path)
+    assert out.returncode == 2
+    assert "cannot create run folder" in out.stderr and "epoch" not in out.stdout
+
+
+def test_failed_checkpoint_write_is_reported_and_training_goes_on(tmp_path, monkeypatch, capsys):
+    real = ckpt.save_atomic
+    calls = []
+
+    def flaky(state, path):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        real(state, path)
+
+    monkeypatch.setattr(ckpt, "save_atomic", flaky)
+    result = cartpole(tmp_path, epochs=3).train()
+    assert result.epoch == 3
+    assert "No space left on device" in capsys.readouterr().out
+    assert ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))["epoch"] == 3
