@@ -108,6 +108,11 @@ class OnPolicyTrainer:
         return TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                            self.run.root if self.run else "", time.time() - start)
 
+    def request_stop(self, reason: str) -> None:
+        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
+        if self.signals is not None and self.signals.requested is None:
+            self.signals.requested = reason
+
     def _reset_envs(self) -> torch.Tensor:
         try:
             obs = self.env.reset(seed=self.seed + self.epoch)
