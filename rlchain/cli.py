@@ -10,6 +10,7 @@ import warnings
 from rlchain.config.errors import ConfigError
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.training.checkpoint import CheckpointError
+from rlchain.training.wandb_logger import TrackingError
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -17,6 +18,7 @@ def build_parser() -> argparse.ArgumentParser:
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("-t", "--train", action="store_true", help="train (resume with --checkpoint)")
     mode.add_argument("-p", "--play", action="store_true", help="play a checkpoint")
+    mode.add_argument("--export", choices=["onnx"], help="export a checkpoint's deterministic policy")
     p.add_argument("-f", "--file", help="YAML or JSON config (optional for --play: the checkpoint has one)")
     p.add_argument("-c", "--checkpoint", help="checkpoint to resume from (--train) or play (--play)")
     p.add_argument("-na", "--num_actors", type=int, help="override the number of envs")
@@ -24,7 +26,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sigma", type=float, help="fixed sigma (std) for a continuous fixed_sigma policy")
     p.add_argument("--games", type=int, help="--play: episodes to play (player.games_num)")
     p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
-    p.add_argument("--track", action="store_true", help="log to Weights & Biases (planned, issue 6)")
+    p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx)")
+    p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
     p.add_argument("--wandb-entity", default=None)
     p.add_argument("overrides", nargs="*", help="key.path=value, e.g. params.config.learning_rate=1e-3")
@@ -42,6 +45,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, CheckpointError) as exc:
         kind = "config error" if isinstance(exc, ConfigError) else "checkpoint error"
         print(f"{kind}: {exc}", file=sys.stderr)
+        return 2
+    except (ImportError, TrackingError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     except (EnvError, DivergenceError) as exc:
         kind = "env error" if isinstance(exc, EnvError) else "divergence"
@@ -68,9 +74,6 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
 def _run(args: argparse.Namespace) -> int:
     from rlchain.runner import Runner
 
-    if args.track:
-        raise ConfigError("", "--track", "Weights & Biases tracking is not implemented yet (issue 6); "
-                          "use the TensorBoard logs in runs/<name>/summaries")
     overrides = list(args.overrides)
     if args.num_actors is not None:
         if args.play:
@@ -83,12 +86,18 @@ def _run(args: argparse.Namespace) -> int:
     runner = Runner()
     if args.file:
         runner.load(args.file, overrides)
-    elif args.play and args.checkpoint:
+    elif (args.play or args.export) and args.checkpoint:
         runner.load_from_checkpoint(args.checkpoint, overrides)
     else:
-        raise ConfigError("", "--file", "a config file is required (or --play with --checkpoint)")
+        raise ConfigError("", "--file", "a config file is required (or --play/--export with --checkpoint)")
+    if args.export:
+        if not args.checkpoint:
+            raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
+        runner.export(args.checkpoint, args.output)
+        return 0
     if args.train:
-        result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma)
+        result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,
+                              wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
             return 130
     else:

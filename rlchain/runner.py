@@ -43,12 +43,14 @@ class Runner:
         return self.load(state["config"], overrides)
 
     def train(self, checkpoint: str | None = None, seed: int | None = None, sigma: float | None = None,
-              callbacks: list[Any] | None = None) -> Any:
-        """Train (resuming from ``checkpoint`` when given); returns a TrainResult."""
+              callbacks: list[Any] | None = None, track: bool = False, wandb_project: str = "rlchain",
+              wandb_entity: str | None = None) -> Any:
+        """Train (resuming from ``checkpoint`` when given); returns a TrainResult.
+
+        ``track`` mirrors the TensorBoard scalars and the config to Weights & Biases.
+        """
         from rlchain.training.build import build_env, build_model, resolve_device
         from rlchain.training.checkpoint import seed_everything
-        from rlchain.training.logging import TrainLogger
-        from rlchain.training.run_dir import create_run_dir
 
         params = self._require()
         cfg = params.config
@@ -62,25 +64,52 @@ class Runner:
         env = build_env(params, cfg.num_actors, seed)
         try:
             model = build_model(params, env, device)
-            run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw)
-            logger = TrainLogger(run.summaries, cfg.print_stats)
-            trainer_cls = ALGOS.get(params.algo.name)
-            trainer = trainer_cls(params, env, model, device, run, logger, seed, self.raw)
+            if state is not None:  # a mismatched checkpoint fails before any run folder exists
+                ckpt.load_model_state(model, state, checkpoint)
+            return self._train_in_run_dir(params, env, model, device, seed, state, checkpoint, sigma,
+                                          callbacks or [], track, wandb_project, wandb_entity)
+        finally:
+            env.close()
+
+    def _train_in_run_dir(self, params: Params, env: Any, model: Any, device: Any, seed: int, state: Any,
+                          checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
+                          wandb_project: str, wandb_entity: str | None) -> Any:
+        from rlchain.training.logging import TrainLogger
+        from rlchain.training.run_dir import create_run_dir
+
+        cfg = params.config
+        run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw)
+        tracker = None
+        if track:  # before the SummaryWriter exists: wandb mirrors it by patching the writer
+            from rlchain.training.wandb_logger import start_wandb
+            tracker = start_wandb(wandb_project, wandb_entity, {**self.raw, "run": {"seed": seed}},
+                                  os.path.basename(run.root), run.summaries)
+        ok = False
+        logger = TrainLogger(run.summaries, cfg.print_stats)
+        try:
+            trainer = ALGOS.get(params.algo.name)(params, env, model, device, run, logger, seed, self.raw)
             if state is not None:
                 trainer.restore(state, checkpoint)
             if sigma is not None:
                 model.override_sigma(sigma)
-            trainer.callbacks.extend(callbacks or [])
+            trainer.callbacks.extend(callbacks)
             if cfg.print_stats:
                 what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"
                 print(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "
                       f"device {device}, seed {seed}) -> {run.root}", flush=True)
-            try:
-                return trainer.train()
-            finally:
-                logger.close()
+            result = trainer.train()
+            ok = True
+            return result
         finally:
-            env.close()
+            logger.close()
+            if tracker is not None:
+                tracker.finish(exit_code=0 if ok else 1)
+
+    def export(self, checkpoint: str, output: str | None = None) -> str:
+        """Export the checkpoint's deterministic policy to ONNX (with a parity check); returns the path."""
+        from rlchain.export import export_from_cli
+
+        return export_from_cli(self, checkpoint, output)
 
     def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
              sigma: float | None = None, quiet: bool = False) -> Any:

@@ -125,3 +125,23 @@ def test_shipped_continuous_configs_run(tmp_path, config):
     play = Runner().load(os.path.join(CONFIGS, config)).play(
         os.path.join(run_dir, "nn", f"last_{name}.pth"), games=1, quiet=True)
     assert play.games == 1
+
+
+def test_cli_export_onnx(tmp_path):
+    pytest.importorskip("onnxruntime")
+    out = run_cli(["--export", "onnx", "--checkpoint", os.path.join(ROOT, "nn", "cartpole.pth"),
+                   "--output", str(tmp_path / "cartpole.onnx")], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "cartpole.onnx").is_file() and "onnxruntime parity: max abs diff" in out.stdout
+    missing = run_cli(["--export", "onnx", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml")], tmp_path)
+    assert missing.returncode == 2 and "--export needs the checkpoint" in missing.stderr
+
+
+def test_cli_track_offline(tmp_path):
+    pytest.importorskip("wandb")
+    env = dict(os.environ, WANDB_MODE="offline", WANDB_SILENT="true")
+    cmd = [sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--track", "--wandb-project-name", "p",
+           "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"), *small(tmp_path, epochs=1)]
+    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=240)
+    assert out.returncode == 0, out.stderr
+    assert glob.glob(str(tmp_path / "runs" / "cartpole_*" / "wandb" / "offline-run-*" / "run-*.wandb"))

@@ -1,0 +1,250 @@
+"""ONNX export of a trained policy: ``runner.py --export onnx --file cfg.yaml --checkpoint X.pth``.
+
+The exported graph is the deterministic policy as the Player runs it::
+
+    obs (batch, *obs_shape) float32 | uint8  ->  action (batch, *action_shape), value (batch, value_size)
+
+- ``obs``: float32, or uint8 when the observation space is uint8 (scaled to [0, 1] inside the graph,
+  as :meth:`ActorCritic.preprocess` does). Input normalization (the model's RunningMeanStd, frozen
+  statistics) is part of the graph: feed raw env observations.
+- ``action``: the distribution's mode, post-processed for the env (``Distribution.to_env``):
+  int64 argmax of the logits for Discrete; for Box the mean, clipped to [-1, 1] and rescaled to the
+  space's bounds when ``clip_actions`` is on (float32).
+- ``value``: the critic's value on the return scale (value normalization undone).
+
+The batch axis is dynamic. Requires ``pip install rlchain[onnx]`` (onnx + onnxruntime).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import os
+import warnings
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+import torch.nn as nn
+
+from rlchain.models.actor_critic import ActorCritic
+
+INSTALL_HINT = "pip install rlchain[onnx]"
+RANDOM_OBS_BOUND = 10.0
+"""Random parity observations: an unbounded side of a Box dim (inf, or beyond +-1e6 like CartPole's
+float32-max velocity bounds) is replaced so the dim spans 2 * RANDOM_OBS_BOUND (-10..10 when both
+sides are unbounded)."""
+HUGE_BOUND = 1e6
+
+
+def _require(module: str) -> Any:
+    """Import ``onnx`` / ``onnxruntime`` or fail with the install hint."""
+    try:
+        return __import__(module)
+    except ImportError:
+        raise ImportError(f"ONNX export needs onnx and onnxruntime ('{module}' is not installed): "
+                          f"{INSTALL_HINT}") from None
+
+
+class OnnxPolicy(nn.Module):
+    """Export wrapper: ``forward(obs) -> (action, value)``, the deterministic policy.
+
+    Names are class attributes so callers (export, verification, deployments) agree on them.
+    Recurrent policies will extend ``state_names``: each state ``s`` then becomes an input ``s``
+    and an output ``s + '_out'``, appended after obs / after (action, value), so the positional
+    order of the stateless graph does not change.
+    """
+
+    state_names: tuple[str, ...] = ()
+
+    def __init__(self, model: ActorCritic) -> None:
+        super().__init__()
+        network = model.network
+        if getattr(network, "is_rnn", lambda: False)():
+            raise NotImplementedError("ONNX export of recurrent (RNN) policies is not supported yet")
+        self.model = model
+
+    @property
+    def input_names(self) -> list[str]:
+        return ["obs", *self.state_names]
+
+    @property
+    def output_names(self) -> list[str]:
+        return ["action", "value", *(f"{s}_out" for s in self.state_names)]
+
+    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        params, value = self.model(obs)
+        dist = self.model.dist
+        action = dist.to_env(dist.mode(params))
+        return action, self.model.denorm_value(value)
+
+
+def obs_dtype(space: gym.Space) -> torch.dtype:
+    """The exported graph's input dtype: uint8 for uint8 Box observations, else float32."""
+    dtype = getattr(space, "dtype", None)
+    return torch.uint8 if dtype is not None and np.dtype(dtype) == np.uint8 else torch.float32
+
+
+def export_model_onnx(model: ActorCritic, obs_shape: tuple[int, ...], output_path: str, opset: int = 17,
+                      input_dtype: torch.dtype = torch.float32) -> str:
+    """Export ``model``'s deterministic policy (see the module docstring) to ``output_path``.
+
+    ``input_dtype``: torch.uint8 for image observations (the graph scales them), else float32.
+    The model is copied to the CPU in eval mode; the caller's model is not changed. Returns the path.
+    """
+    _require("onnx")
+    policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
+    dummy = torch.zeros((2, *obs_shape), dtype=input_dtype)
+    folder = os.path.dirname(os.path.abspath(output_path))
+    os.makedirs(folder, exist_ok=True)
+    names = policy.input_names + policy.output_names
+    with warnings.catch_warnings(), torch.no_grad():
+        # torch >= 2.9 marks the TorchScript-based exporter deprecated; it needs no onnxscript and
+        # handles this feed-forward graph exactly
+        warnings.simplefilter("ignore", DeprecationWarning)
+        warnings.filterwarnings("ignore", message=".*legacy TorchScript-based ONNX export.*")
+        torch.onnx.export(policy, (dummy,), output_path, dynamo=False, opset_version=opset,
+                          input_names=policy.input_names, output_names=policy.output_names,
+                          dynamic_axes={name: {0: "batch"} for name in names}, do_constant_folding=True)
+    onnx = _require("onnx")
+    onnx.checker.check_model(onnx.load(output_path))
+    return output_path
+
+
+def onnx_session(onnx_path: str) -> Any:
+    """An onnxruntime CPU inference session for ``onnx_path``."""
+    ort = _require("onnxruntime")
+    return ort.InferenceSession(onnx_path, providers=["CPUExecutionProvider"])
+
+
+def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any = None) -> float:
+    """Max abs difference between onnxruntime and PyTorch (action and value) on ``obs_batch``.
+
+    ``obs_batch``: (B, *obs_shape) numpy array or tensor, cast to the graph's input dtype. Discrete
+    actions count as a difference of at least 1 when the argmax differs.
+    """
+    session = session or onnx_session(onnx_path)
+    graph_input = session.get_inputs()[0]
+    np_dtype = np.uint8 if graph_input.type == "tensor(uint8)" else np.float32
+    obs = np.ascontiguousarray(torch.as_tensor(obs_batch).cpu().numpy()).astype(np_dtype)
+    onnx_out = session.run(["action", "value"], {graph_input.name: obs})
+    policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
+    with torch.no_grad():
+        torch_out = policy(torch.from_numpy(obs))
+    diff = 0.0
+    for got, want in zip(onnx_out, torch_out):
+        want = want.numpy()
+        if got.shape != want.shape:
+            raise RuntimeError(f"ONNX output shape {got.shape} differs from PyTorch's {want.shape}")
+        if got.size:
+            diff = max(diff, float(np.max(np.abs(got.astype(np.float64) - want.astype(np.float64)))))
+    return diff
+
+
+def random_observations(space: gym.Space, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` observations drawn uniformly inside ``space``'s bounds, unbounded sides made finite."""
+    rng = np.random.default_rng(seed)
+    if isinstance(space, gym.spaces.Box):
+        shape = (n, *space.shape)
+        if np.dtype(space.dtype) == np.uint8:
+            return rng.integers(space.low, space.high.astype(np.int64) + 1, size=shape).astype(np.uint8)
+        low, high = space.low.astype(np.float64), space.high.astype(np.float64)
+        low_ok = np.isfinite(low) & (np.abs(low) <= HUGE_BOUND)
+        high_ok = np.isfinite(high) & (np.abs(high) <= HUGE_BOUND)
+        span = 2 * RANDOM_OBS_BOUND
+        low = np.where(low_ok, low, np.where(high_ok, high - span, -RANDOM_OBS_BOUND))
+        high = np.where(high_ok, high, low + span)
+        return rng.uniform(low, high, size=shape).astype(np.float32)
+    space.seed(seed)
+    return np.stack([np.asarray(space.sample(), dtype=np.float32) for _ in range(n)])
+
+
+def env_observations(model: ActorCritic, env: Any, steps: int, seed: int = 0) -> np.ndarray:
+    """Observations from ``steps`` deterministic policy steps in ``env`` (all envs), stacked."""
+    device = next(model.parameters()).device
+    obs = torch.as_tensor(env.reset(seed=seed), device=device)
+    seen = [obs.cpu()]
+    for _ in range(steps):
+        actions = model.dist.to_env(model.act(obs, deterministic=True)["actions"])
+        if getattr(env, "is_tensor_env", False):  # a torch env may live on another device than the model
+            result = env.step(actions.to(getattr(env, "device", actions.device)))
+        else:
+            result = env.step(actions.cpu().numpy())
+        obs = torch.as_tensor(result.obs, device=device)
+        seen.append(obs.cpu())
+    return torch.cat(seen).numpy()
+
+
+def _load(params: Any, checkpoint_path: str, num_envs: int = 1) -> tuple[ActorCritic, Any]:
+    """Checkpoint + env + model on the CPU, as the Player builds them. Returns (model, env)."""
+    from rlchain.training import checkpoint as ckpt
+    from rlchain.training.build import build_env, build_model
+
+    state = ckpt.load(checkpoint_path, map_location="cpu")  # CheckpointError before building anything
+    seed = params.seed if params.seed is not None else 0
+    env = build_env(params, num_envs, seed, env_config=params.config.player.env_config)
+    try:
+        model = build_model(params, env, torch.device("cpu"))
+        ckpt.load_model_state(model, state, checkpoint_path)
+    except BaseException:
+        env.close()
+        raise
+    return model.eval(), env
+
+
+def default_output_path(checkpoint_path: str) -> str:
+    """``nn/cartpole.pth`` -> ``nn/cartpole.onnx``."""
+    return os.path.splitext(checkpoint_path)[0] + ".onnx"
+
+
+def export_onnx(params: Any, checkpoint_path: str, output_path: str | None = None, opset: int = 17) -> str:
+    """Build the config's model, load ``checkpoint_path`` into it and export it; returns the path.
+
+    ``params``: validated :class:`rlchain.config.schema.Params` (``Runner.load(...).params``). A bad
+    checkpoint raises the same CheckpointError as play; missing onnx packages an ImportError.
+    """
+    _require("onnx")
+    _require("onnxruntime")
+    output_path = output_path or default_output_path(checkpoint_path)
+    model, env = _load(params, checkpoint_path)
+    try:
+        space = env.observation_space
+        return export_model_onnx(model, tuple(space.shape), output_path, opset, obs_dtype(space))
+    finally:
+        env.close()
+
+
+def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = None, opset: int = 17,
+                    num_random: int = 64, num_envs: int = 4, env_steps: int = 16) -> str:
+    """``runner.py --export onnx``: export, then print the path and the onnxruntime parity.
+
+    Parity is measured on ``num_random`` observations drawn from the observation space and on the
+    observations of ``env_steps`` policy steps in ``num_envs`` envs. Returns the output path.
+    """
+    from rlchain.config.errors import ConfigError
+
+    if not checkpoint:
+        raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
+    _require("onnx")
+    _require("onnxruntime")
+    params = runner._require()
+    output = output or default_output_path(checkpoint)
+    model, env = _load(params, checkpoint, num_envs)
+    try:
+        space = env.observation_space
+        export_model_onnx(model, tuple(space.shape), output, opset, obs_dtype(space))
+        session = onnx_session(output)
+        seed = params.seed if params.seed is not None else 0
+        random_diff = verify_onnx(model, output, random_observations(space, num_random, seed), session)
+        real = env_observations(model, env, env_steps, seed)
+        real_diff = verify_onnx(model, output, real, session)
+    finally:
+        with contextlib.suppress(Exception):
+            env.close()
+    print(f"exported ONNX policy to {output}", flush=True)
+    print(f"onnxruntime parity: max abs diff {random_diff:.2e} on {num_random} random observations, "
+          f"{real_diff:.2e} on {len(real)} env observations", flush=True)
+    if max(random_diff, real_diff) > 1e-4:
+        warnings.warn(f"ONNX output differs from PyTorch by {max(random_diff, real_diff):.2e}", stacklevel=2)
+    return output
