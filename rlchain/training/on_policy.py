@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass
@@ -20,7 +19,13 @@ from rlchain.training import checkpoint as ckpt
 from rlchain.training.episodes import EpisodeTracker
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
-from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters, check_rollout
+from rlchain.training.safety import (
+    DivergenceGuard,
+    StopSignals,
+    check_obs_shape,
+    check_parameters,
+    check_rollout,
+)
 
 
 @dataclass
@@ -60,8 +65,7 @@ class OnPolicyTrainer:
         self.callbacks: list[Any] = []
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
-        self.rollbacks = 0
-        self._good: dict[str, Any] | None = None
+        self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
 
     # ----- the loop -------------------------------------------------------------------------
     def train(self) -> TrainResult:
@@ -76,7 +80,7 @@ class OnPolicyTrainer:
         with StopSignals() as signals:
             self.signals = signals
             self.obs = self._reset_envs()
-            self._snapshot()
+            self.divergence.snapshot()
             while stop is None:
                 t0 = time.time()
                 if not self._guarded_rollout():
@@ -92,7 +96,7 @@ class OnPolicyTrainer:
                 episodes = self._episode_stats()
                 self._log(stats, episodes, t1 - t0, t2 - t1)
                 self._checkpoints(episodes)
-                self._snapshot()
+                self.divergence.snapshot()
                 for callback in self.callbacks:
                     callback(self, stats, episodes)
                 stop = self._stop_reason(episodes) or (
@@ -147,32 +151,10 @@ class OnPolicyTrainer:
                 raise DivergenceError(f"{bad} became non-finite in the update")
             return stats
         except DivergenceError as exc:
-            div = self.cfg.divergence
-            where = f"epoch {self.epoch + 1}: {exc}"
-            if div.action == "rollback" and self.rollbacks < div.max_rollbacks and self._good is not None:
-                self.rollbacks += 1
-                self.model.load_state_dict(self._good["model"])
-                self.agent.load_state_dict(self._good["agent"])
-                self.agent.scale_lr(div.lr_factor ** self.rollbacks)
-                print(f"divergence at {where}; rolled back to epoch {self.epoch} "
-                      f"({self.rollbacks}/{div.max_rollbacks}), learning rate now {self.agent.lr:.2e}", flush=True)
-                self.tracker.reset_running()
-                self.obs = self._reset_envs()
-                return None
-            self._restore_good()
-            raise DivergenceError(f"training diverged at {where}; parameters of epoch {self.epoch} "
-                                  f"kept (checkpoints hold no NaN)") from None
-
-    def _snapshot(self) -> None:
-        """Keep the last good learner state in memory when rollback is on (costs one copy)."""
-        if self.cfg.divergence.action == "rollback":
-            self._good = {"model": copy.deepcopy(self.model.state_dict()),
-                          "agent": copy.deepcopy(self.agent.state_dict())}
-
-    def _restore_good(self) -> None:
-        if self._good is not None:
-            self.model.load_state_dict(self._good["model"])
-            self.agent.load_state_dict(self._good["agent"])
+            self.divergence.handle(exc, self.epoch)  # raises unless it rolled back
+            self.tracker.reset_running()
+            self.obs = self._reset_envs()
+            return None
 
     def _rollout(self) -> bool:
         """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import copy
 import signal
 import threading
 from typing import Any
 
 import torch
 
-from rlchain.errors import EnvError
+from rlchain.errors import DivergenceError, EnvError
 
 
 class StopSignals:
@@ -73,3 +74,44 @@ def check_obs_shape(obs: Any, num_envs: int, space: Any, where: str) -> None:
     dtype = str(getattr(obs, "dtype", ""))
     if "float" not in dtype and "uint8" not in dtype and "int" not in dtype:
         raise EnvError(f"{where}: observations have dtype {dtype}, expected a numeric array")
+
+
+class DivergenceGuard:
+    """Keeps the last good learner state (when rollback is on) and decides what a NaN/inf means.
+
+    ``cfg`` is the ``divergence`` block; ``model`` and ``agent`` expose state_dict/load_state_dict,
+    the agent also ``scale_lr``.
+    """
+
+    def __init__(self, cfg: Any, model: Any, agent: Any) -> None:
+        self.cfg, self.model, self.agent = cfg, model, agent
+        self.rollbacks = 0
+        self._good: dict[str, Any] | None = None
+
+    def snapshot(self) -> None:
+        """Remember the current state as good (one in-memory copy; only with rollback on)."""
+        if self.cfg.action == "rollback":
+            self._good = {"model": copy.deepcopy(self.model.state_dict()),
+                          "agent": copy.deepcopy(self.agent.state_dict())}
+
+    def handle(self, exc: DivergenceError, epoch: int) -> None:
+        """Roll back to the last good epoch and lower the lr, or raise a DivergenceError naming ``epoch``.
+
+        ``epoch`` is the last completed one; the failed update belonged to epoch + 1.
+        """
+        where = f"epoch {epoch + 1}: {exc}"
+        if self.cfg.action == "rollback" and self.rollbacks < self.cfg.max_rollbacks and self._good is not None:
+            self.rollbacks += 1
+            self._restore()
+            self.agent.scale_lr(self.cfg.lr_factor ** self.rollbacks)
+            print(f"divergence at {where}; rolled back to epoch {epoch} ({self.rollbacks}/"
+                  f"{self.cfg.max_rollbacks}), learning rate now {self.agent.lr:.2e}", flush=True)
+            return
+        self._restore()
+        raise DivergenceError(f"training diverged at {where}; parameters of epoch {epoch} kept "
+                              f"(checkpoints hold no NaN)") from None
+
+    def _restore(self) -> None:
+        if self._good is not None:
+            self.model.load_state_dict(self._good["model"])
+            self.agent.load_state_dict(self._good["agent"])
