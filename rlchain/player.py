@@ -2,24 +2,10 @@
 
 from __future__ import annotations
 
-import time
-from dataclasses import dataclass
-
-import torch
-
 from rlchain.config.schema import Params
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.build import build_env, build_model, resolve_device
-
-
-@dataclass
-class PlayResult:
-    """Mean episode reward and length over the games played."""
-
-    games: int
-    mean_reward: float
-    mean_length: float
-    rewards: list[float]
+from rlchain.training.evaluation import PlayResult, run_episodes
 
 
 class Player:
@@ -53,36 +39,17 @@ class Player:
         pc = self.player_cfg
         games = games or pc.games_num
         deterministic = pc.deterministic if deterministic is None else deterministic
-        dist = self.model.dist
-        obs = torch.as_tensor(self.env.reset(seed=self.seed), device=self.device)
-        returns = torch.zeros(self.num_envs, dtype=torch.float64)
-        lengths = torch.zeros(self.num_envs, dtype=torch.long)
-        rewards, episode_lengths = [], []
-        while len(rewards) < games:
-            actions = self.model.act(obs, deterministic=deterministic)["actions"]
-            env_actions = dist.to_env(actions)
-            result = self.env.step(env_actions if getattr(self.env, "is_tensor_env", False)
-                                   else env_actions.cpu().numpy())
-            reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
-            returns += reward.sum(-1) if reward.dim() > 1 else reward
-            lengths += 1
-            done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
-            for i in done.nonzero().flatten().tolist():
-                if len(rewards) < games:
-                    rewards.append(float(returns[i]))
-                    episode_lengths.append(int(lengths[i]))
-                    if pc.print_stats and not quiet:
-                        print(f"game {len(rewards)}: reward {returns[i]:.2f} steps {int(lengths[i])}", flush=True)
-                returns[i], lengths[i] = 0.0, 0
-            if pc.render:
-                self.env.render()
-                time.sleep(pc.render_sleep)
-            obs = torch.as_tensor(result.obs, device=self.device)
-        mean_r = sum(rewards) / len(rewards)
-        mean_l = sum(episode_lengths) / len(episode_lengths)
+
+        def report(index: int, reward: float, length: int) -> None:
+            if pc.print_stats and not quiet:
+                print(f"game {index}: reward {reward:.2f} steps {length}", flush=True)
+
+        result = run_episodes(self.model, self.env, games, deterministic, self.device, seed=self.seed,
+                              on_game=report, render_sleep=pc.render_sleep if pc.render else None)
         if not quiet:
-            print(f"av reward: {mean_r:.2f} av steps: {mean_l:.1f} over {len(rewards)} games", flush=True)
-        return PlayResult(len(rewards), mean_r, mean_l, rewards)
+            print(f"av reward: {result.mean_reward:.2f} av steps: {result.mean_length:.1f} over "
+                  f"{result.games} games", flush=True)
+        return result
 
     def close(self) -> None:
         self.env.close()

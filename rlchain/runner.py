@@ -92,7 +92,7 @@ class Runner:
                 trainer.restore(state, checkpoint)
             if sigma is not None:
                 model.override_sigma(sigma)
-            trainer.callbacks.extend(callbacks)
+            trainer.events.extend(callbacks)
             if cfg.print_stats:
                 what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"
                 print(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "

@@ -10,6 +10,7 @@ from rlchain.config import compat
 from rlchain.config.schema import (
     ContinuousSpaceConfig,
     DivergenceConfig,
+    EvaluationConfig,
     InitializerConfig,
     MlpConfig,
     NetworkConfig,
@@ -23,6 +24,7 @@ SECTIONS = [
     ("params.config.reward_shaper", RewardShaperConfig),
     ("params.config.player", PlayerConfig),
     ("params.config.divergence", DivergenceConfig),
+    ("params.config.evaluation", EvaluationConfig),
     ("params.network (builder actor_critic)", NetworkConfig),
     ("params.network.mlp", MlpConfig),
     ("params.network.space.continuous", ContinuousSpaceConfig),

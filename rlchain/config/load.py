@@ -108,6 +108,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     config = parse_dataclass(TrainConfig, compat.translate_config(config_raw, source), "params.config", source)
     _check_planned(config, "params.config", source)
     _check_training(config, source)
+    _check_callbacks(config.callbacks, source)
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
@@ -167,6 +168,21 @@ def _check_planned(obj: Any, path: str, source: str) -> None:
                                   f"to {default!r}")
         elif dataclasses.is_dataclass(value):
             _check_planned(value, f"{path}.{f.name}", source)
+
+
+def _check_callbacks(specs: list[str], source: str) -> None:
+    """Each ``package.module:Name`` in config.callbacks must import."""
+    for i, spec in enumerate(specs):
+        module_name, _, attr = spec.partition(":")
+        path = f"params.config.callbacks[{i}]"
+        if not attr:
+            raise ConfigError(source, path, f"'{spec}' must look like 'package.module:Name'")
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as exc:
+            raise ConfigError(source, path, f"cannot import '{module_name}': {exc}") from None
+        if not hasattr(module, attr):
+            raise ConfigError(source, path, f"module '{module_name}' has no '{attr}'")
 
 
 def _check_training(config: TrainConfig, source: str) -> None:

@@ -124,6 +124,19 @@ class PlayerConfig:
 
 
 @dataclass
+class EvaluationConfig:
+    """``config.evaluation`` (rlchain): play games with the current policy during training."""
+
+    interval: int = option(0, "evaluate every N epochs (0 = off)", check=non_negative)
+    games: int = option(10, "episodes per evaluation", check=positive)
+    deterministic: bool = option(True, "act with the distribution's mode")
+    num_envs: int = option(4, "evaluation envs, separate from the training envs", check=positive)
+    seed: int = option(10_000, "evaluation env seed (the same every evaluation, so scores compare)")
+    select_best: str = option("training", "which mean reward picks the best checkpoint nn/<name>.pth",
+                              choices=("training", "evaluation"))
+
+
+@dataclass
 class DivergenceConfig:
     """``config.divergence`` (rlchain): what to do when a loss, gradient or parameter turns NaN/inf."""
 
@@ -214,6 +227,8 @@ class TrainConfig:
     full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain)")
+    evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
+    callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
     value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
 
 

@@ -16,7 +16,10 @@ from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.training import checkpoint as ckpt
+from rlchain.training.build import build_env
 from rlchain.training.episodes import EpisodeTracker
+from rlchain.training.evaluation import EvaluationCallback
+from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import (
@@ -62,7 +65,9 @@ class OnPolicyTrainer:
         self.frames = 0
         self.best_reward = -math.inf
         self.obs: torch.Tensor | None = None
-        self.callbacks: list[Any] = []
+        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        if cfg.evaluation.interval > 0:
+            self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
@@ -81,6 +86,7 @@ class OnPolicyTrainer:
             self.signals = signals
             self.obs = self._reset_envs()
             self.divergence.snapshot()
+            self.events.emit("on_train_start", self)
             while stop is None:
                 t0 = time.time()
                 if not self._guarded_rollout():
@@ -97,8 +103,7 @@ class OnPolicyTrainer:
                 self._log(stats, episodes, t1 - t0, t2 - t1)
                 self._checkpoints(episodes)
                 self.divergence.snapshot()
-                for callback in self.callbacks:
-                    callback(self, stats, episodes)
+                self.events.emit("on_epoch_end", self, stats, episodes)
                 stop = self._stop_reason(episodes) or (
                     f"interrupted by {signals.requested}" if signals.requested else None)
             last = self.save("last")
@@ -109,8 +114,10 @@ class OnPolicyTrainer:
                   f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
         if stop.startswith("interrupted") and last:
             print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
-        return TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
-                           self.run.root if self.run else "", time.time() - start)
+        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
+                             self.run.root if self.run else "", time.time() - start)
+        self.events.emit("on_train_end", self, result)
+        return result
 
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
@@ -223,7 +230,7 @@ class OnPolicyTrainer:
         cfg = self.cfg
         if episodes is not None and episodes["reward"] > self.best_reward:
             self.best_reward = episodes["reward"]
-            if self.epoch >= cfg.save_best_after:
+            if self.epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
                 self.save("best")
         if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
             self.save(f"ep_{self.epoch}")
@@ -280,6 +287,7 @@ class OnPolicyTrainer:
             print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
                   f"checkpoint is kept and training goes on", flush=True)
             return None
+        self.events.emit("on_checkpoint", self, path, kind)
         return path
 
     def restore(self, state: dict[str, Any], path: str) -> None:

@@ -1,0 +1,97 @@
+"""Playing episodes with a fixed policy: the Player's loop and in-training evaluation."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+
+from rlchain.training.events import Callback
+
+
+@dataclass
+class PlayResult:
+    """Mean episode reward and length over the games played."""
+
+    games: int
+    mean_reward: float
+    mean_length: float
+    rewards: list[float]
+
+
+def run_episodes(model: Any, env: Any, games: int, deterministic: bool, device: torch.device,
+                 seed: int | None = None, on_game: Callable[[int, float, int], None] | None = None,
+                 render_sleep: float | None = None) -> PlayResult:
+    """Play ``games`` finished episodes on ``env`` (any VecEnv) with ``model`` and report them.
+
+    ``on_game(index, reward, length)`` is called per finished game; ``render_sleep`` renders each step.
+    The model's mode is used when ``deterministic``; no gradient is tracked.
+    """
+    dist = model.dist
+    tensor_env = bool(getattr(env, "is_tensor_env", False))
+    obs = torch.as_tensor(env.reset(seed=seed), device=device)
+    returns = torch.zeros(env.num_envs, dtype=torch.float64)
+    lengths = torch.zeros(env.num_envs, dtype=torch.long)
+    rewards: list[float] = []
+    episode_lengths: list[int] = []
+    was_training = model.training
+    model.eval()
+    try:
+        while len(rewards) < games:
+            actions = dist.to_env(model.act(obs, deterministic=deterministic)["actions"])
+            result = env.step(actions if tensor_env else actions.cpu().numpy())
+            reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
+            returns += reward.sum(-1) if reward.dim() > 1 else reward
+            lengths += 1
+            done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
+            for i in done.nonzero().flatten().tolist():
+                if len(rewards) < games:
+                    rewards.append(float(returns[i]))
+                    episode_lengths.append(int(lengths[i]))
+                    if on_game is not None:
+                        on_game(len(rewards), rewards[-1], episode_lengths[-1])
+                returns[i], lengths[i] = 0.0, 0
+            if render_sleep is not None:
+                env.render()
+                time.sleep(render_sleep)
+            obs = torch.as_tensor(result.obs, device=device)
+    finally:
+        model.train(was_training)
+    return PlayResult(len(rewards), sum(rewards) / len(rewards), sum(episode_lengths) / len(episode_lengths),
+                      rewards)
+
+
+class EvaluationCallback(Callback):
+    """Evaluates the policy every ``interval`` epochs on its own envs and logs ``evaluation/*``.
+
+    With ``select_best: evaluation`` the best checkpoint follows the evaluation score.
+    """
+
+    def __init__(self, cfg: Any, make_env: Callable[[int, int], Any]) -> None:
+        self.cfg = cfg
+        self.env = make_env(cfg.num_envs, cfg.seed)
+        self.best = float("-inf")
+
+    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
+        if trainer.epoch % self.cfg.interval != 0:
+            return
+        result = run_episodes(trainer.model, self.env, self.cfg.games, self.cfg.deterministic,
+                              trainer.device, seed=self.cfg.seed)
+        log = trainer.logger.scalar
+        log("evaluation/rewards", result.mean_reward, trainer.frames)
+        log("evaluation/rewards_iter", result.mean_reward, trainer.epoch)
+        log("evaluation/episode_lengths", result.mean_length, trainer.frames)
+        if trainer.cfg.print_stats:
+            print(f"evaluation at epoch {trainer.epoch}: reward {result.mean_reward:.2f} length "
+                  f"{result.mean_length:.1f} over {result.games} games", flush=True)
+        trainer.events.emit("on_evaluation", trainer, result)
+        if self.cfg.select_best == "evaluation" and result.mean_reward > self.best:
+            self.best = result.mean_reward
+            if trainer.epoch >= trainer.cfg.save_best_after:
+                trainer.save("best")
+
+    def on_train_end(self, trainer: Any, result: Any) -> None:
+        self.env.close()
