@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -71,6 +72,8 @@ class OnPolicyTrainer:
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        self._params_lock = threading.Lock()
+        self._pending_params: dict[str, float] = {}
 
     # ----- the loop -------------------------------------------------------------------------
     def train(self) -> TrainResult:
@@ -88,6 +91,7 @@ class OnPolicyTrainer:
             self.divergence.snapshot()
             self.events.emit("on_train_start", self)
             while stop is None:
+                self._apply_pending_params()
                 t0 = time.time()
                 if not self._guarded_rollout():
                     stop = f"interrupted by {signals.requested}"
@@ -118,6 +122,36 @@ class OnPolicyTrainer:
                              self.run.root if self.run else "", time.time() - start)
         self.events.emit("on_train_end", self, result)
         return result
+
+    TUNABLE = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
+               "kl_threshold", "mini_epochs", "gamma", "tau")
+
+    def get_params(self) -> dict[str, float]:
+        """The training parameters population-based training may change (see :meth:`set_params`)."""
+        values = {name: getattr(self.cfg, name) for name in self.TUNABLE}
+        values["learning_rate"] = self.agent.lr
+        return values
+
+    def set_params(self, **changes: float) -> None:
+        """Change training parameters; they apply from the next epoch (thread-safe) and are logged."""
+        unknown = [k for k in changes if k not in self.TUNABLE]
+        if unknown:
+            raise KeyError(f"cannot set {unknown[0]}; settable: {', '.join(self.TUNABLE)}")
+        with self._params_lock:
+            self._pending_params.update(changes)
+
+    def _apply_pending_params(self) -> None:
+        with self._params_lock:
+            changes, self._pending_params = self._pending_params, {}
+        for name, value in changes.items():
+            if name == "learning_rate":
+                self.agent._set_lr(float(value))
+            else:
+                setattr(self.cfg, name, type(getattr(self.cfg, name) or 0.0)(value))
+            self.logger.scalar(f"params/{name}", float(value), self.frames)
+            print(f"set {name} = {value} at epoch {self.epoch}", flush=True)
+        if "kl_threshold" in changes and hasattr(self.agent.schedule, "kl_threshold"):
+            self.agent.schedule.kl_threshold = float(changes["kl_threshold"])
 
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""

@@ -83,3 +83,22 @@ def test_bad_callback_name_is_a_config_error(tmp_path):
         Runner().load(CARTPOLE, ["params.config.callbacks=['tests.smoke.test_events:Nope']"])
     with pytest.raises(ConfigError, match=r"must look like"):
         Runner().load(CARTPOLE, ["params.config.callbacks=['justaname']"])
+
+
+def test_get_set_params_during_training(tmp_path, capsys):
+    seen = []
+
+    def tweak(trainer, stats, episodes):
+        if trainer.epoch == 1:
+            assert trainer.get_params()["entropy_coef"] == 0.0
+            trainer.set_params(learning_rate=1e-4, entropy_coef=0.01, mini_epochs=2)
+        seen.append((trainer.epoch, trainer.get_params()["learning_rate"], trainer.cfg.entropy_coef))
+
+    Runner().load(CARTPOLE, small(tmp_path, epochs=3, extra=["params.config.print_stats=false",
+                                                             "params.config.lr_schedule=None"])).train(
+        callbacks=[tweak])
+    assert seen[1:] == [(2, pytest.approx(1e-4), 0.01), (3, pytest.approx(1e-4), 0.01)]
+    assert "set entropy_coef = 0.01 at epoch 1" in capsys.readouterr().out
+    with pytest.raises(KeyError, match="cannot set gamma_typo"):
+        from rlchain.training.on_policy import OnPolicyTrainer
+        OnPolicyTrainer.set_params(type("T", (), {"TUNABLE": OnPolicyTrainer.TUNABLE})(), gamma_typo=1)
