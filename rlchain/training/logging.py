@@ -22,7 +22,16 @@ class TrainLogger:
 
     def scalar(self, tag: str, value: float, step: int) -> None:
         if self.writer is not None:
-            self.writer.add_scalar(tag, value, step)
+            try:
+                self.writer.add_scalar(tag, value, step)
+            except OSError as exc:
+                self._writer_failed(exc)
+
+    def _writer_failed(self, exc: OSError) -> None:
+        """A failed log write is reported once; training goes on without TensorBoard logs."""
+        print(f"warning: TensorBoard log write failed ({exc.strerror or exc}); training goes on without "
+              f"logs, checkpoints are unaffected", file=self.stream, flush=True)
+        self.writer = None
 
     def epoch(self, epoch: int, max_epochs: int, frames: int, stats: dict[str, float],
               episodes: dict[str, float] | None, best: float, timing: dict[str, float]) -> None:
@@ -62,8 +71,14 @@ class TrainLogger:
 
     def flush(self) -> None:
         if self.writer is not None:
-            self.writer.flush()
+            try:
+                self.writer.flush()
+            except OSError as exc:
+                self._writer_failed(exc)
 
     def close(self) -> None:
         if self.writer is not None:
-            self.writer.close()
+            try:
+                self.writer.close()
+            except OSError as exc:
+                self._writer_failed(exc)

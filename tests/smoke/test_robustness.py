@@ -170,3 +170,17 @@ def test_failed_checkpoint_write_is_reported_and_training_goes_on(tmp_path, monk
     assert result.epoch == 3
     assert "No space left on device" in capsys.readouterr().out
     assert ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))["epoch"] == 3
+
+
+def test_failed_log_write_is_reported_and_training_goes_on(tmp_path, monkeypatch, capsys):
+    from torch.utils.tensorboard import SummaryWriter
+
+    def broken(self, *args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(SummaryWriter, "add_scalar", broken)
+    result = cartpole(tmp_path, epochs=2).train()
+    assert result.epoch == 2
+    out = capsys.readouterr().out
+    assert out.count("TensorBoard log write failed") == 1
+    assert ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))["epoch"] == 2

@@ -145,3 +145,19 @@ def test_cli_track_offline(tmp_path):
     out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=240)
     assert out.returncode == 0, out.stderr
     assert glob.glob(str(tmp_path / "runs" / "cartpole_*" / "wandb" / "offline-run-*" / "run-*.wandb"))
+
+
+def test_train_py_with_json_config(tmp_path):
+    import json
+
+    import yaml
+    with open(os.path.join(CONFIGS, "ppo_cartpole.yaml")) as fh:
+        cfg = yaml.safe_load(fh)
+    path = tmp_path / "train_config.json"
+    path.write_text(json.dumps(cfg))
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    out = subprocess.run([sys.executable, os.path.join(ROOT, "train.py"), "--config", str(path),
+                          *small(tmp_path, epochs=1)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                         timeout=240)
+    assert out.returncode == 0, out.stderr
+    assert "epoch 1/1" in out.stdout
