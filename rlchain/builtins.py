@@ -26,3 +26,4 @@ def register_builtins() -> None:
     for name in ("a2c_continuous", "a2c_discrete"):
         ALGOS.register(name, OnPolicyTrainer, overwrite=True)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
+    import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)

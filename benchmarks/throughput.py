@@ -1,0 +1,242 @@
+"""Steps per second of env backends, alone and inside rlchain's PPO loop, in one table.
+
+    python benchmarks/throughput.py                       # the default cases below
+    python benchmarks/throughput.py --cases torch:TorchReacher8-v0:4096 gymnasium:Pendulum-v1:64
+    python benchmarks/throughput.py --seconds 5 --threads 1 --json out.json
+
+A case is ``BACKEND:ENV:NUM_ENVS[:CONFIG]``: BACKEND is ``torch`` (a registered tensor env),
+``gymnasium`` (a gymnasium id with vecenv_type auto: the native vector env when there is one)
+or ``envpool``; CONFIG is a yaml (default: the shipped config for ENV, see ``CONFIGS``) whose
+network and PPO settings are used, with ``num_actors`` set to NUM_ENVS and ``minibatch_size``
+scaled to keep the same number of minibatches per epoch. For each case it measures
+
+- env-only: ``env.step`` with pre-drawn random actions (tensors on the env's device for tensor
+  envs, numpy arrays otherwise) -- the ceiling;
+- rollout: ``OnPolicyTrainer._rollout`` (policy inference, env step, storage), no update;
+- train: ``_rollout`` + ``_learn`` (GAE and the PPO update), i.e. what a training run does
+  minus logging and checkpoints;
+
+and prints steps/s for each plus rollout/env and train/env. Torch threads are set as the Runner
+sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``.
+The load average is printed too: other processes on the machine skew every number.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+from rlchain import Runner  # noqa: E402
+from rlchain.training.build import build_env, build_model, resolve_device  # noqa: E402
+from rlchain.training.logging import TrainLogger  # noqa: E402
+from rlchain.training.on_policy import OnPolicyTrainer  # noqa: E402
+
+CONFIG_DIR = os.path.join(ROOT, "rlchain", "configs")
+CONFIGS = {
+    "TorchCartPole-v0": "ppo_torch_cartpole.yaml",
+    "TorchPendulum-v0": "ppo_torch_pendulum.yaml",
+    "TorchReacher8-v0": "ppo_torch_reacher8.yaml",
+    "CartPole-v1": "ppo_cartpole.yaml",
+    "Pendulum-v1": "ppo_pendulum.yaml",
+    "HalfCheetah-v4": "ppo_halfcheetah.yaml",
+}
+DEFAULT_CASES = ["torch:TorchCartPole-v0:1024", "torch:TorchCartPole-v0:4096", "gymnasium:CartPole-v1:64",
+                 "envpool:HalfCheetah-v4:64"]
+
+
+@dataclass
+class Row:
+    backend: str
+    env: str
+    num_envs: int
+    env_sps: float
+    rollout_sps: float
+    train_sps: float
+    threads: int
+    config: str
+
+    @property
+    def rollout_ratio(self) -> float:
+        return self.rollout_sps / self.env_sps
+
+    @property
+    def train_ratio(self) -> float:
+        return self.train_sps / self.env_sps
+
+
+def parse_case(spec: str) -> tuple[str, str, int, str]:
+    parts = spec.split(":")
+    if len(parts) not in (3, 4) or parts[0] not in ("torch", "gymnasium", "envpool"):
+        raise SystemExit(f"bad case '{spec}': expected BACKEND:ENV:NUM_ENVS[:CONFIG], BACKEND torch, "
+                         f"gymnasium or envpool")
+    backend, env, num = parts[0], parts[1], int(parts[2])
+    if len(parts) == 4:
+        config = parts[3]
+    elif env in CONFIGS:
+        config = os.path.join(CONFIG_DIR, CONFIGS[env])
+    else:
+        raise SystemExit(f"no default config for '{env}'; give one: {spec}:path/to/config.yaml")
+    return backend, env, num, config
+
+
+def overrides(backend: str, env: str, num_envs: int, raw_config: dict, device: str) -> list[str]:
+    """num_actors, minibatch_size (same minibatch count), env selection and device."""
+    cfg = raw_config["params"]["config"]
+    horizon = int(cfg.get("horizon_length", 32))
+    batch_cfg = horizon * int(cfg.get("num_actors", 8))
+    minibatch_cfg = cfg.get("minibatch_size") or int(cfg["minibatch_size_per_env"]) * int(cfg["num_actors"])
+    count = max(1, batch_cfg // int(minibatch_cfg))
+    batch = horizon * num_envs
+    minibatch = batch // count if batch % count == 0 else batch
+    out = ["params.config.print_stats=false", f"params.config.num_actors={num_envs}",
+           f"params.config.minibatch_size={minibatch}", "params.config.minibatch_size_per_env=null",
+           f"params.config.device={device}"]
+    if backend == "torch":
+        out += [f"params.config.env_name={env}", f"params.config.env_config.device={device}"]
+    elif backend == "gymnasium":
+        out += [f"params.config.env_name={env}", "params.config.vecenv_type=auto"]
+    else:
+        out += ["params.config.env_name=envpool", f"params.config.env_config.env_name={env}"]
+    return out
+
+
+def random_actions(env: Any, count: int, rng: np.random.Generator) -> list[Any]:
+    """``count`` batches of uniformly random actions in the form ``env.step`` takes."""
+    space, n = env.action_space, env.num_envs
+    if hasattr(space, "n"):
+        batches = [rng.integers(0, int(space.n), n) for _ in range(count)]
+    else:
+        batches = [rng.uniform(space.low, space.high, (n, *space.shape)).astype(np.float32) for _ in range(count)]
+    if getattr(env, "is_tensor_env", False):
+        return [torch.as_tensor(b, device=env.device) for b in batches]
+    return batches
+
+
+def sync(device: torch.device) -> None:
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+
+
+def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, min_calls: int = 3) -> float:
+    """Call ``fn`` for at least ``seconds`` (and ``min_calls`` times); return steps per second."""
+    calls = 0
+    sync(device)
+    start = time.perf_counter()
+    while True:
+        fn()
+        calls += 1
+        if calls >= min_calls and time.perf_counter() - start >= seconds:
+            break
+    sync(device)
+    return calls * steps_per_call / (time.perf_counter() - start)
+
+
+def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
+            device_name: str) -> Row:
+    runner = Runner().load(config)
+    runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name))
+    params = runner.params
+    torch.set_num_threads(threads or _runner_threads(params.torch_threads, params.config.device))
+    torch.manual_seed(0)
+    device = resolve_device(params.config.device)
+    env = build_env(params, num_envs, 0)
+    try:
+        env_device = getattr(env, "device", torch.device("cpu"))
+        env.reset(seed=0)
+        actions = random_actions(env, 16, np.random.default_rng(0))
+        state = {"i": 0}
+
+        def env_steps() -> None:
+            for _ in range(10):
+                env.step(actions[state["i"] % len(actions)])
+                state["i"] += 1
+
+        env_steps()  # warm-up
+        env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
+
+        model = build_model(params, env, device)
+        trainer = OnPolicyTrainer(params, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
+        trainer.obs = torch.as_tensor(env.reset(seed=0), device=device)
+        trainer._rollout()
+        trainer._learn()  # warm-up
+        batch = params.config.horizon_length * num_envs
+        rollout_sps = timed(trainer._rollout, batch, seconds, device)
+
+        def train_epoch() -> None:
+            trainer._rollout()
+            trainer._learn()
+
+        train_sps = timed(train_epoch, batch, seconds, device)
+    finally:
+        env.close()
+    return Row(backend, env_name, num_envs, env_sps, rollout_sps, train_sps, torch.get_num_threads(),
+               os.path.relpath(config, ROOT))
+
+
+def _runner_threads(requested: int | None, device: str) -> int:
+    """What Runner.train would set (see rlchain.runner._set_threads)."""
+    cores = os.cpu_count() or 1
+    if requested:
+        return min(requested, cores)
+    return torch.get_num_threads() if device.startswith("cuda") else max(1, min(4, cores // 2))
+
+
+def table(rows: list[Row]) -> str:
+    head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'env-only sps':>13} {'rollout sps':>12} {'train sps':>11} "
+            f"{'rollout/env':>11} {'train/env':>9} {'thr':>3}")
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.env_sps:>13,.0f} {r.rollout_sps:>12,.0f} "
+                     f"{r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} {r.train_ratio:>9.3f} {r.threads:>3}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cases", nargs="+", default=None, help=f"BACKEND:ENV:NUM_ENVS[:CONFIG] (default: "
+                                                              f"{' '.join(DEFAULT_CASES)})")
+    ap.add_argument("--seconds", type=float, default=3.0, help="time per measurement (default 3)")
+    ap.add_argument("--threads", type=int, default=None, help="torch threads (default: as the Runner sets them)")
+    ap.add_argument("--device", default="cpu", help="training device, and the device of tensor envs")
+    ap.add_argument("--json", default=None, help="also write the rows to this file")
+    args = ap.parse_args(argv)
+
+    cases = args.cases or DEFAULT_CASES
+    rows = []
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    for spec in cases:
+        backend, env, num, config = parse_case(spec)
+        if backend == "envpool":
+            try:
+                import envpool  # noqa: F401
+            except ImportError:
+                print(f"skipping {spec}: envpool is not installed", flush=True)
+                continue
+        print(f"measuring {spec} ...", flush=True)
+        rows.append(measure(backend, env, num, config, args.seconds, args.threads, args.device))
+    load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print()
+    print(table(rows))
+    print(f"\n{os.cpu_count()} cores, torch {torch.__version__}, device {args.device}, load average "
+          f"{load:.2f} before / {load_after:.2f} after (anything else running skews the numbers)")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump([asdict(r) | {"rollout_over_env": r.rollout_ratio, "train_over_env": r.train_ratio}
+                       for r in rows], fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
