@@ -105,10 +105,19 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     config_raw = params["config"]
     if not isinstance(config_raw, dict):
         raise ConfigError(source, "params.config", f"expected a mapping, got {config_raw!r}")
-    config = parse_dataclass(TrainConfig, compat.translate_config(config_raw, source), "params.config", source)
+    # an algorithm may declare its own config dataclass (e.g. off-policy keys); PPO uses TrainConfig
+    config_class = getattr(ALGOS.get(algo.name), "config_class", TrainConfig)
+    config = parse_dataclass(config_class, compat.translate_config(config_raw, source), "params.config", source)
     _check_planned(config, "params.config", source)
-    _check_training(config, source)
-    _check_callbacks(config.callbacks, source)
+    if isinstance(config, TrainConfig):
+        _check_training(config, source)
+    validate = getattr(config, "validate", None)
+    if validate is not None:
+        problem = validate()
+        if problem:
+            key, message = problem
+            raise ConfigError(source, f"params.config.{key}", message)
+    _check_callbacks(getattr(config, "callbacks", []), source)
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
