@@ -67,8 +67,8 @@ class PPOAgent:
         autocast = torch.autocast("cuda", dtype=torch.float16) if self.amp else nullcontext()
         with autocast:
             params, values = model(batch.obs)
-            log_probs = dist.log_prob(params, batch.actions)
-            entropy = dist.entropy(params).mean()
+            log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
+            entropy = entropy.mean()
             a_loss = policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip,
                                  cfg.use_smooth_clamp).mean()
             c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),

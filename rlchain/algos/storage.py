@@ -82,4 +82,4 @@ class RolloutStorage:
         order = torch.randperm(size, device=self.obs.device)
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
-            yield Batch(**{k: v[idx] for k, v in flat.items()})
+            yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()})

@@ -40,6 +40,11 @@ class Distribution:
         """KL(old || new) per sample."""
         raise NotImplementedError
 
+    def log_prob_and_entropy(self, params: torch.Tensor, actions: torch.Tensor
+                             ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Both at once (the PPO loss needs both; subclasses share the work)."""
+        return self.log_prob(params, actions), self.entropy(params)
+
     def bounds_loss(self, params: torch.Tensor, kind: str) -> torch.Tensor:
         """Auxiliary loss keeping continuous means in range; zero for discrete actions."""
         return torch.zeros(params.shape[0], device=params.device)
@@ -78,6 +83,11 @@ class Categorical(Distribution):
     def entropy(self, params: torch.Tensor) -> torch.Tensor:
         logp = self._log_softmax(params)
         return -(logp.exp() * logp).sum(-1)
+
+    def log_prob_and_entropy(self, params: torch.Tensor, actions: torch.Tensor
+                             ) -> tuple[torch.Tensor, torch.Tensor]:
+        logp = self._log_softmax(params)
+        return logp.gather(-1, actions.long().unsqueeze(-1)).squeeze(-1), -(logp.exp() * logp).sum(-1)
 
     def kl(self, old: torch.Tensor, new: torch.Tensor) -> torch.Tensor:
         old_logp, new_logp = self._log_softmax(old), self._log_softmax(new)

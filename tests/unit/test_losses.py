@@ -107,3 +107,11 @@ def test_linear_schedule():
     assert s.update(1e-3, progress=0.5) == pytest.approx(5e-4)
     assert s.update(1e-3, progress=2.0) == pytest.approx(0.0)
     assert not math.isnan(s.update(1e-3, progress=0.0))
+
+
+def test_log_prob_and_entropy_agree_with_separate_calls():
+    logits = torch.randn(6, 4)
+    actions = torch.randint(0, 4, (6,))
+    d = Categorical(4)
+    lp, ent = d.log_prob_and_entropy(logits, actions)
+    assert torch.allclose(lp, d.log_prob(logits, actions)) and torch.allclose(ent, d.entropy(logits))
