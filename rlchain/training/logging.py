@@ -21,9 +21,13 @@ class TrainLogger:
         self.start = time.time()
 
     def scalar(self, tag: str, value: float, step: int) -> None:
+        self._write("add_scalar", tag, value, step)
+
+    def _write(self, method: str, *args: object) -> None:
+        """Call a SummaryWriter method; a failed write disables logging with one warning."""
         if self.writer is not None:
             try:
-                self.writer.add_scalar(tag, value, step)
+                getattr(self.writer, method)(*args)
             except OSError as exc:
                 self._writer_failed(exc)
 
@@ -70,15 +74,7 @@ class TrainLogger:
                   f"lr {stats['lr']:.2e} | {elapsed}s", file=self.stream, flush=True)
 
     def flush(self) -> None:
-        if self.writer is not None:
-            try:
-                self.writer.flush()
-            except OSError as exc:
-                self._writer_failed(exc)
+        self._write("flush")
 
     def close(self) -> None:
-        if self.writer is not None:
-            try:
-                self.writer.close()
-            except OSError as exc:
-                self._writer_failed(exc)
+        self._write("close")
