@@ -8,6 +8,8 @@ EXTRAS = {
     "onnx": ["onnx", "onnxruntime"],
     "wandb": ["wandb"],
     "ray": ["ray"],
+    "tune": ["optuna>=3"],
+    "video": ["moviepy>=1.0", "pygame>=2.1"],
     "test": ["pytest>=7", "pytest-timeout", "ruff"],
 }
 EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
@@ -17,7 +19,7 @@ setup(
     version="0.1.0",
     description="PyTorch reinforcement learning with an rl_games-compatible config and runner",
     packages=find_packages(include=["rlchain", "rlchain.*"]),
-    package_data={"rlchain": ["configs/*.yaml"]},
+    package_data={"rlchain": ["configs/*.yaml", "configs/tune/*.yaml"]},
     python_requires=">=3.10",
     # torch is deliberately a range that the CPU wheel (2.13.0) satisfies: install it first
     # (see README) so pip does not pull a multi-GB CUDA build.

@@ -19,6 +19,7 @@ def build_parser() -> argparse.ArgumentParser:
     mode.add_argument("-t", "--train", action="store_true", help="train (resume with --checkpoint)")
     mode.add_argument("-p", "--play", action="store_true", help="play a checkpoint")
     mode.add_argument("--export", choices=["onnx"], help="export a checkpoint's deterministic policy")
+    mode.add_argument("--tune", metavar="SEARCH", help="Optuna search from a search YAML (pip install rlchain[tune])")
     p.add_argument("-f", "--file", help="YAML or JSON config (optional for --play: the checkpoint has one)")
     p.add_argument("-c", "--checkpoint", help="checkpoint to resume from (--train) or play (--play)")
     p.add_argument("-na", "--num_actors", type=int, help="override the number of envs")
@@ -26,7 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sigma", type=float, help="fixed sigma (std) for a continuous fixed_sigma policy")
     p.add_argument("--games", type=int, help="--play: episodes to play (player.games_num)")
     p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
-    p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx)")
+    p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx); "
+                   "--tune: best config (default <base name>_best.yaml)")
+    p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
     p.add_argument("--wandb-entity", default=None)
@@ -74,6 +77,10 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
 def _run(args: argparse.Namespace) -> int:
     from rlchain.runner import Runner
 
+    if args.tune:
+        from rlchain.tune import run_search
+        run_search(args.tune, args.output)
+        return 0
     overrides = list(args.overrides)
     if args.num_actors is not None:
         if args.play:
@@ -100,6 +107,14 @@ def _run(args: argparse.Namespace) -> int:
                               wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
             return 130
+    elif args.video:
+        from rlchain.video import record_episodes
+        files = record_episodes(runner.params, args.checkpoint, args.video, games=args.games or 1,
+                                deterministic=not args.stochastic)
+        print("\n".join(files))
+    elif runner.params.config.player.evaluation:  # rl_games: watch dir_to_monitor, evaluate new checkpoints
+        from rlchain.watch import watch_and_evaluate
+        watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)
     else:
         runner.play(args.checkpoint, deterministic=False if args.stochastic else None, sigma=args.sigma)
     return 0

@@ -115,10 +115,10 @@ class PlayerConfig:
     use_vecenv: bool = option(False, "play with several envs at once (num_actors of the player)")
     num_actors: int = option(1, "envs stepped together while playing", check=positive)
     evaluation: bool = option(False, "watch dir_to_monitor and evaluate new checkpoints",
-                              status="planned (issue 6)")
+                              status="yes")
     update_checkpoint_freq: int = option(100, "with evaluation: games between checkpoint reloads",
-                                         status="planned (issue 6)")
-    dir_to_monitor: str | None = option(None, "with evaluation: folder to watch", status="planned (issue 6)")
+                                         status="yes")
+    dir_to_monitor: str | None = option(None, "with evaluation: folder to watch", status="yes")
     env_config: dict = option({}, "env_config overrides used only by the player")
     games_to_track: int = option(100, "unused, accepted for rl_games configs", status="deprecated")
 

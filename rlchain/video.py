@@ -1,0 +1,146 @@
+"""Record played episodes to mp4 with gymnasium's RecordVideo (``pip install rlchain[video]``).
+
+    from rlchain.video import record_episodes
+    files = record_episodes(Runner().load("cfg.yaml").params, "nn/cartpole.pth", "videos", games=2)
+
+or ``python runner.py --play --file cfg.yaml --checkpoint nn/cartpole.pth --video videos``.
+During training, ``VideoCallback(every_n_evaluations=5)`` records one episode every 5th
+in-training evaluation (``config.evaluation.interval`` > 0) into ``<run>/videos``.
+
+Only gymnasium ids are supported (``env_name: CartPole-v1`` or ``env_name: openai_gym`` with
+``env_config.name``): the env is made once with ``render_mode='rgb_array'``.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.schema import Params
+from rlchain.training.events import Callback
+
+INSTALL_HINT = "video recording needs moviepy and pygame: pip install rlchain[video]"
+_NOT_ENV_KWARGS = ("seed", "name")
+
+
+def _require_moviepy() -> None:
+    try:
+        import moviepy  # noqa: F401
+    except ImportError:
+        raise ImportError(INSTALL_HINT) from None
+
+
+def gym_id_of(params: Params) -> tuple[str, dict]:
+    """The gymnasium id and ``gym.make`` kwargs of the config (player.env_config applied)."""
+    import gymnasium as gym
+
+    cfg = params.config
+    kwargs = dict(cfg.env_config)
+    kwargs.update(cfg.player.env_config or {})
+    env_id = kwargs.get("name") if cfg.env_name == "openai_gym" else cfg.env_name
+    try:
+        gym.spec(env_id)
+    except (gym.error.Error, ImportError, TypeError):
+        raise ConfigError(params.source, "params.config.env_name",
+                          f"video recording needs a gymnasium id env, not '{cfg.env_name}'") from None
+    for key in _NOT_ENV_KWARGS:
+        kwargs.pop(key, None)
+    return env_id, kwargs
+
+
+def make_recording_env(params: Params, video_dir: str, name_prefix: str = "rl-video") -> Any:
+    """One gymnasium env with ``render_mode='rgb_array'`` wrapped in RecordVideo (every episode)."""
+    import gymnasium as gym
+    from gymnasium.wrappers import RecordVideo
+
+    _require_moviepy()
+    env_id, kwargs = gym_id_of(params)
+    try:
+        env = gym.make(env_id, render_mode="rgb_array", **kwargs)
+        return RecordVideo(env, video_dir, episode_trigger=lambda _: True, name_prefix=name_prefix,
+                           disable_logger=True)
+    except gym.error.DependencyNotInstalled as exc:
+        raise ImportError(f"{INSTALL_HINT} ({exc})") from None
+
+
+def record_model_episodes(model: Any, params: Params, video_dir: str, games: int = 1,
+                          deterministic: bool = True, device: torch.device | str = "cpu",
+                          seed: int | None = None, name_prefix: str = "rl-video") -> list[str]:
+    """Play ``games`` episodes with ``model`` on a recording env; returns the new mp4 paths."""
+    from rlchain.envs.wrappers import cast_actions, cast_obs
+
+    before = set(glob.glob(os.path.join(video_dir, "*.mp4")))
+    env = make_recording_env(params, video_dir, name_prefix)
+    device = torch.device(device)
+    was_training = model.training
+    model.eval()
+    try:
+        for game in range(games):
+            obs, _ = env.reset(seed=None if seed is None else seed + game)
+            done = False
+            while not done:
+                with torch.no_grad():
+                    batch = torch.as_tensor(cast_obs(np.asarray(obs)[None]), device=device)
+                    actions = model.dist.to_env(model.act(batch, deterministic=deterministic)["actions"])
+                action = cast_actions(actions, env.action_space, 1)[0]
+                obs, _, terminated, truncated, _ = env.step(action)
+                done = bool(terminated or truncated)
+    except Exception as exc:
+        import gymnasium as gym
+
+        if isinstance(exc, gym.error.DependencyNotInstalled):
+            raise ImportError(f"{INSTALL_HINT} ({exc})") from None
+        raise
+    finally:
+        model.train(was_training)
+        env.close()  # writes the last video
+    return sorted(set(glob.glob(os.path.join(video_dir, "*.mp4"))) - before)
+
+
+def record_episodes(params: Params, checkpoint: str | None, video_dir: str, games: int = 1,
+                    deterministic: bool = True) -> list[str]:
+    """Load ``checkpoint`` like the Player does and record ``games`` episodes to mp4 in ``video_dir``."""
+    from rlchain.player import Player
+
+    _require_moviepy()
+    gym_id_of(params)  # fail on a non-gymnasium env before loading anything
+    player = Player(params, checkpoint)
+    try:
+        return record_model_episodes(player.model, params, video_dir, games, deterministic,
+                                     player.device, seed=player.seed)
+    finally:
+        player.close()
+
+
+class VideoCallback(Callback):
+    """Records one episode every ``every_n_evaluations``-th in-training evaluation.
+
+    Videos go to ``video_dir`` (default ``<run folder>/videos``), named ``epoch_<N>-episode-0.mp4``.
+    """
+
+    def __init__(self, every_n_evaluations: int = 1, video_dir: str | None = None,
+                 deterministic: bool = True) -> None:
+        if every_n_evaluations < 1:
+            raise ValueError("every_n_evaluations must be >= 1")
+        _require_moviepy()
+        self.every = every_n_evaluations
+        self.video_dir = video_dir
+        self.deterministic = deterministic
+        self.count = 0
+        self.files: list[str] = []
+
+    def on_evaluation(self, trainer: Any, result: Any) -> None:
+        self.count += 1
+        if self.count % self.every != 0:
+            return
+        folder = self.video_dir or os.path.join(trainer.run.root if trainer.run else ".", "videos")
+        files = record_model_episodes(trainer.model, trainer.params, folder, 1, self.deterministic,
+                                      trainer.device, seed=trainer.seed, name_prefix=f"epoch_{trainer.epoch}")
+        self.files.extend(files)
+        if trainer.cfg.print_stats:
+            print(f"video at epoch {trainer.epoch}: {', '.join(files)}", flush=True)
