@@ -25,5 +25,16 @@ def register_builtins() -> None:
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
         ALGOS.register(name, OnPolicyTrainer, overwrite=True)
+    from rlchain.algos.dqn import dqn_model
+    from rlchain.algos.sac import soft_actor_critic_model
+    from rlchain.networks.sac_network import QNetworkBuilder, SACNetworkBuilder
+    from rlchain.training.off_policy import DQNTrainer, SACTrainer
+
+    MODELS.register("soft_actor_critic", soft_actor_critic_model, overwrite=True)
+    MODELS.register("dqn", dqn_model, overwrite=True)
+    NETWORKS.register("soft_actor_critic", SACNetworkBuilder, overwrite=True)
+    NETWORKS.register("dqn", QNetworkBuilder, overwrite=True)
+    ALGOS.register("sac", SACTrainer, overwrite=True)
+    ALGOS.register("dqn", DQNTrainer, overwrite=True)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
     import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)

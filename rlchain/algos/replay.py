@@ -1,0 +1,209 @@
+"""Replay buffer for off-policy algorithms: preallocated on the device, uniform or prioritized, n-step.
+
+A stored transition is ``(obs, action, reward, next_obs, terminated, truncated)`` where ``next_obs``
+is the true next observation (the env's ``final_obs`` where an episode ended) and only
+``terminated`` stops bootstrapping: a time-out (``truncated``) still bootstraps from ``next_obs``.
+
+With ``n_step > 1`` the buffer keeps the last n vectorized steps per env and stores
+``reward = sum_k gamma^k r_{t+k}`` up to the first step that ended the episode, with
+``next_obs``/``terminated`` of that step and ``discount = gamma^(steps used)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+
+class SumTree:
+    """A binary sum tree over ``capacity`` leaf priorities (numpy, float64).
+
+    ``find(values)`` maps values in [0, total) to leaves so that leaf i is hit with probability
+    ``priority_i / total``; updates and lookups are O(log capacity), vectorized over a batch.
+    """
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = capacity
+        size = 2
+        while size < capacity:
+            size *= 2
+        self.size = size
+        self.tree = np.zeros(2 * size, dtype=np.float64)
+
+    @property
+    def total(self) -> float:
+        return float(self.tree[1])
+
+    def leaves(self, n: int | None = None) -> np.ndarray:
+        return self.tree[self.size: self.size + (self.capacity if n is None else n)]
+
+    def update(self, indices: np.ndarray, priorities: np.ndarray) -> None:
+        indices = np.asarray(indices, dtype=np.int64)
+        priorities = np.asarray(priorities, dtype=np.float64)
+        # the last write wins for duplicated indices, then parents are recomputed level by level
+        nodes = indices + self.size
+        self.tree[nodes] = priorities
+        while nodes.size and nodes[0] > 1:  # every node sits on the same level
+            nodes = np.unique(nodes // 2)
+            self.tree[nodes] = self.tree[2 * nodes] + self.tree[2 * nodes + 1]
+
+    def find(self, values: np.ndarray) -> np.ndarray:
+        """Leaf index for each value (prefix-sum search)."""
+        values = np.asarray(values, dtype=np.float64).copy()
+        nodes = np.ones(values.shape, dtype=np.int64)
+        while nodes.size and nodes[0] < self.size:  # every node sits on the same level
+            left = 2 * nodes
+            left_sum = self.tree[left]
+            go_right = values >= left_sum
+            values = np.where(go_right, values - left_sum, values)
+            nodes = np.where(go_right, left + 1, left)
+        return np.minimum(nodes - self.size, self.capacity - 1)
+
+
+class ReplayBuffer:
+    """Circular buffer of transitions from ``num_envs`` envs, all tensors on ``device``."""
+
+    def __init__(self, capacity: int, obs_shape: tuple[int, ...], action_shape: tuple[int, ...],
+                 device: torch.device | str = "cpu", num_envs: int = 1, obs_dtype: torch.dtype = torch.float32,
+                 action_dtype: torch.dtype = torch.float32, n_step: int = 1, gamma: float = 0.99,
+                 prioritized: bool = False, alpha: float = 0.6, beta: float = 0.4, eps: float = 1e-6) -> None:
+        self.capacity, self.device, self.num_envs = int(capacity), torch.device(device), int(num_envs)
+        self.n_step, self.gamma = int(n_step), float(gamma)
+        self.prioritized, self.alpha, self.beta, self.eps = prioritized, float(alpha), float(beta), float(eps)
+        c, dev = self.capacity, self.device
+        self.obs = torch.zeros((c, *obs_shape), dtype=obs_dtype, device=dev)
+        self.next_obs = torch.zeros((c, *obs_shape), dtype=obs_dtype, device=dev)
+        self.actions = torch.zeros((c, *action_shape), dtype=action_dtype, device=dev)
+        self.rewards = torch.zeros(c, dtype=torch.float32, device=dev)
+        self.terminated = torch.zeros(c, dtype=torch.bool, device=dev)
+        self.truncated = torch.zeros(c, dtype=torch.bool, device=dev)
+        self.discounts = torch.zeros(c, dtype=torch.float32, device=dev)
+        self.pos = 0
+        self.size = 0
+        self.tree = SumTree(c) if prioritized else None
+        self.max_priority = 1.0
+        self._pending: list[dict[str, torch.Tensor]] = []  # the last n-1 steps awaiting their n-step return
+
+    def __len__(self) -> int:
+        return self.size
+
+    # ----- writing ------------------------------------------------------------------------
+    def add(self, obs: torch.Tensor, actions: torch.Tensor, rewards: torch.Tensor, next_obs: torch.Tensor,
+            terminated: torch.Tensor, truncated: torch.Tensor) -> None:
+        """One vectorized step: every argument has a leading ``num_envs`` dimension."""
+        step = {"obs": obs, "actions": actions, "rewards": rewards.reshape(-1).float(), "next_obs": next_obs,
+                "terminated": terminated.reshape(-1).bool(), "truncated": truncated.reshape(-1).bool()}
+        step = {k: v.to(self.device) for k, v in step.items()}
+        if self.n_step == 1:
+            self._write(step["obs"], step["actions"], step["rewards"], step["next_obs"], step["terminated"],
+                        step["truncated"], torch.full_like(step["rewards"], self.gamma))
+            return
+        self._pending.append(step)
+        if len(self._pending) == self.n_step:
+            self._write(*self._nstep(self._pending))
+            self._pending.pop(0)
+
+    def _nstep(self, window: list[dict[str, torch.Tensor]]) -> tuple[torch.Tensor, ...]:
+        """The n-step transition starting at ``window[0]`` for every env."""
+        first = window[0]
+        reward = torch.zeros_like(first["rewards"])
+        alive = torch.ones_like(first["terminated"])
+        next_obs = first["next_obs"].clone()
+        terminated = first["terminated"].clone()
+        truncated = first["truncated"].clone()
+        discount = torch.full_like(reward, self.gamma)
+        for k, step in enumerate(window):
+            reward += alive.float() * (self.gamma ** k) * step["rewards"]
+            if k > 0:
+                rows = alive
+                next_obs[rows] = step["next_obs"][rows]
+                terminated[rows] = step["terminated"][rows]
+                truncated[rows] = step["truncated"][rows]
+                discount[rows] = self.gamma ** (k + 1)
+            alive = alive & ~(step["terminated"] | step["truncated"])
+        return first["obs"], first["actions"], reward, next_obs, terminated, truncated, discount
+
+    def _write(self, obs: torch.Tensor, actions: torch.Tensor, rewards: torch.Tensor, next_obs: torch.Tensor,
+               terminated: torch.Tensor, truncated: torch.Tensor, discounts: torch.Tensor) -> None:
+        n = obs.shape[0]
+        idx = (torch.arange(n, device=self.device) + self.pos) % self.capacity
+        self.obs[idx] = obs.to(self.obs.dtype)
+        self.next_obs[idx] = next_obs.to(self.next_obs.dtype)
+        self.actions[idx] = actions.to(self.actions.dtype)
+        self.rewards[idx] = rewards
+        self.terminated[idx] = terminated
+        self.truncated[idx] = truncated
+        self.discounts[idx] = discounts
+        if self.tree is not None:
+            self.tree.update(idx.cpu().numpy(), np.full(n, self.max_priority ** self.alpha))
+        self.pos = (self.pos + n) % self.capacity
+        self.size = min(self.size + n, self.capacity)
+
+    # ----- reading ------------------------------------------------------------------------
+    def sample(self, batch_size: int, beta: float | None = None,
+               generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+        """A minibatch: obs, actions, rewards, next_obs, terminated, truncated, discounts (gamma^n),
+        weights (importance sampling, ones when uniform) and indices (for :meth:`update_priorities`)."""
+        if self.size == 0:
+            raise RuntimeError("cannot sample from an empty replay buffer")
+        if self.tree is None:
+            idx = torch.randint(0, self.size, (batch_size,), device=self.device, generator=generator)
+            weights = torch.ones(batch_size, device=self.device)
+        else:
+            idx_np, weights_np = self._sample_prioritized(batch_size, self.beta if beta is None else beta, generator)
+            idx = torch.as_tensor(idx_np, device=self.device)
+            weights = torch.as_tensor(weights_np, dtype=torch.float32, device=self.device)
+        return {"obs": self.obs[idx], "actions": self.actions[idx], "rewards": self.rewards[idx],
+                "next_obs": self.next_obs[idx], "terminated": self.terminated[idx],
+                "truncated": self.truncated[idx], "discounts": self.discounts[idx], "weights": weights,
+                "indices": idx}
+
+    def _sample_prioritized(self, batch_size: int, beta: float,
+                            generator: torch.Generator | None) -> tuple[np.ndarray, np.ndarray]:
+        """Stratified proportional sampling: one uniform draw in each of ``batch_size`` equal segments."""
+        total = self.tree.total
+        u = torch.rand(batch_size, generator=generator, dtype=torch.float64).numpy()
+        values = (np.arange(batch_size) + u) * (total / batch_size)
+        idx = self.tree.find(np.minimum(values, np.nextafter(total, 0)))
+        idx = np.minimum(idx, self.size - 1)
+        leaves = self.tree.leaves(self.size)
+        probs = leaves[idx] / total
+        min_prob = leaves[leaves > 0].min() / total
+        weights = (self.size * probs) ** (-beta) / (self.size * min_prob) ** (-beta)
+        return idx, weights
+
+    def update_priorities(self, indices: torch.Tensor, td_errors: torch.Tensor) -> None:
+        """New priorities ``(|td| + eps)`` for the sampled ``indices`` (stored as priority^alpha)."""
+        if self.tree is None:
+            return
+        priorities = td_errors.detach().abs().double().cpu().numpy() + self.eps
+        self.max_priority = max(self.max_priority, float(priorities.max()))
+        self.tree.update(indices.cpu().numpy(), priorities ** self.alpha)
+
+    # ----- checkpoints --------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        n = self.size
+        state = {"pos": self.pos, "size": n, "max_priority": self.max_priority, "capacity": self.capacity,
+                 "pending": [{k: v.cpu() for k, v in s.items()} for s in self._pending]}
+        for name in ("obs", "next_obs", "actions", "rewards", "terminated", "truncated", "discounts"):
+            state[name] = getattr(self, name)[:n].cpu()
+        if self.tree is not None:
+            state["priorities"] = self.tree.leaves(n).copy()
+        return state
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        if int(state["capacity"]) != self.capacity:
+            raise ValueError(f"replay buffer capacity {state['capacity']} in the checkpoint, {self.capacity} now")
+        n = int(state["size"])
+        for name in ("obs", "next_obs", "actions", "rewards", "terminated", "truncated", "discounts"):
+            getattr(self, name)[:n] = state[name].to(self.device)
+        self.pos, self.size, self.max_priority = int(state["pos"]), n, float(state["max_priority"])
+        self._pending = [{k: v.to(self.device) for k, v in s.items()} for s in state["pending"]]
+        if self.tree is not None:
+            self.tree.tree[:] = 0
+            if "priorities" in state:
+                self.tree.update(np.arange(n), state["priorities"])
+            else:
+                self.tree.update(np.arange(n), np.full(n, self.max_priority ** self.alpha))

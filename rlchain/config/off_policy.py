@@ -1,0 +1,144 @@
+"""Typed ``params.config`` for the off-policy algorithms (``sac``, ``dqn``).
+
+The algorithm registered in ALGOS names its dataclass as ``config_class``; ``parse_params`` then
+parses ``params.config`` with it instead of :class:`~rlchain.config.schema.TrainConfig`.
+The generic rl_games keys (run name, env, stop conditions, checkpoints, player) mean the same
+as for PPO.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rlchain.config.fields import non_negative, option, positive, unit_interval
+from rlchain.config.schema import (
+    DivergenceConfig,
+    EvaluationConfig,
+    MlpConfig,
+    PlayerConfig,
+    RewardShaperConfig,
+    SpaceConfig,
+)
+
+
+def _check_lr(x: float) -> str | None:
+    return None if x > 0 else "must be > 0"
+
+
+def _check_bounds(b: list[float]) -> str | None:
+    if len(b) != 2 or not b[0] < b[1]:
+        return "must be [low, high] with low < high"
+    return None
+
+
+@dataclass
+class OffPolicyConfig:
+    """Keys shared by every off-policy algorithm (generic rl_games keys + the replay buffer)."""
+
+    name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
+    env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
+                               "(env_config.env_name) or a registered env")
+    env_config: dict = option({}, "keyword arguments for the environment")
+    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, envpool")
+    num_actors: int = option(1, "parallel environments", check=positive)
+    num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
+                                           "num_actors * num_steps_per_episode)", check=positive)
+    num_updates_per_step: int = option(1, "gradient updates after every vectorized env step", check=positive)
+    num_warmup_frames: int = option(1000, "frames of uniformly random actions before learning starts",
+                                    check=non_negative)
+    batch_size: int = option(256, "replay minibatch size", check=positive)
+    replay_buffer_size: int = option(100_000, "replay buffer capacity in transitions", check=positive)
+    n_step: int = option(1, "n-step returns (1 = one-step TD)", check=positive)
+    prioritized_replay: bool = option(False, "proportional prioritized replay (sum-tree)")
+    priority_alpha: float = option(0.6, "prioritized replay: priority exponent", check=non_negative)
+    priority_beta: float = option(0.4, "prioritized replay: initial importance-sampling exponent, annealed "
+                                       "to 1 over max_frames (or max_epochs)", check=unit_interval)
+    save_replay_buffer: bool = option(False, "store the replay buffer in the last checkpoint (exact resume, "
+                                             "large files)")
+    gamma: float = option(0.99, "discount", check=unit_interval)
+    normalize_input: bool = option(False, "running mean/std normalization of observations")
+    reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
+    clip_actions: bool = option(True, "continuous: rescale [-1, 1] actions to the action space bounds")
+    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
+    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
+    score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
+    save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
+    save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)", check=non_negative)
+    games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
+    print_stats: bool = option(True, "print the progress line every epoch")
+    device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
+    train_dir: str = option("runs", "folder that holds the run folders")
+    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
+    seq_length: int = option(4, "RNN sequence length", check=positive, status="accepted; no effect off-policy")
+    player: PlayerConfig = option(PlayerConfig(), "settings for --play")
+    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (only action: stop)")
+    evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
+    callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+
+    def validate(self) -> tuple[str, str] | None:
+        """Cross-key checks; returns (key, message) for the first problem."""
+        if not self.env_name:
+            return "env_name", "required key is missing"
+        if self.batch_size > self.replay_buffer_size:
+            return "batch_size", (f"batch_size {self.batch_size} is larger than replay_buffer_size "
+                                  f"{self.replay_buffer_size}")
+        if self.divergence.action != "stop":
+            return "divergence.action", "off-policy algorithms support only 'stop'"
+        return None
+
+
+@dataclass
+class SACConfig(OffPolicyConfig):
+    """``params.config`` for algo ``sac`` (soft actor-critic, twin critics, tanh-squashed Gaussian)."""
+
+    init_alpha: float = option(1.0, "initial entropy temperature", check=positive)
+    alpha_lr: float = option(3e-4, "temperature learning rate", check=_check_lr)
+    actor_lr: float = option(3e-4, "actor learning rate", check=_check_lr)
+    critic_lr: float = option(3e-4, "critic learning rate", check=_check_lr)
+    critic_tau: float = option(0.005, "Polyak factor of the target critics (1 = hard copy)",
+                               check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
+    learnable_temperature: bool = option(True, "learn alpha towards target_entropy")
+    target_entropy: float | None = option(None, "entropy target for alpha (default -action_dim)")
+    policy_frequency: int = option(1, "actor (and alpha) update every N critic updates", check=positive)
+    log_std_bounds: list[float] | None = option(None, "[min, max] of the policy log-std (overrides the "
+                                                      "network block's log_std_bounds)", check=_check_bounds)
+    grad_norm: float | None = option(None, "clip gradient norms to this (None = off)", check=positive)
+
+
+@dataclass
+class DQNConfig(OffPolicyConfig):
+    """``params.config`` for algo ``dqn`` (double DQN with a target network, epsilon-greedy)."""
+
+    learning_rate: float = option(1e-3, "Adam learning rate", check=_check_lr)
+    double_dqn: bool = option(True, "double DQN: the online net picks the next action, the target rates it")
+    target_update_frequency: int = option(500, "gradient updates between target network updates",
+                                          check=positive)
+    target_tau: float = option(1.0, "target update factor (1 = hard copy)",
+                               check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
+    epsilon_start: float = option(1.0, "initial exploration epsilon", check=unit_interval)
+    epsilon_end: float = option(0.05, "final exploration epsilon", check=unit_interval)
+    epsilon_decay_frames: int = option(10_000, "frames (after warmup) of linear epsilon decay", check=positive)
+    play_epsilon: float = option(0.0, "epsilon of stochastic (deterministic: False) play", check=unit_interval)
+    loss: str = option("huber", "TD loss", choices=("huber", "mse"))
+    grad_norm: float | None = option(10.0, "clip gradient norms to this (None = off)", check=positive)
+
+
+@dataclass
+class SACNetworkConfig:
+    """``params.network`` for the ``soft_actor_critic`` builder (rl_games' keys)."""
+
+    name: str = option("soft_actor_critic", "registered network builder")
+    separate: bool = option(True, "actor and critics never share layers (always True)")
+    space: SpaceConfig = option(SpaceConfig(), "action head (continuous)")
+    mlp: MlpConfig = option(MlpConfig(units=[256, 256], activation="relu"), "actor and critic hidden layers")
+    log_std_bounds: list[float] = option([-5.0, 2.0], "[min, max] of the policy log-std", check=_check_bounds)
+
+
+@dataclass
+class DQNNetworkConfig:
+    """``params.network`` for the ``dqn`` builder."""
+
+    name: str = option("dqn", "registered network builder")
+    space: SpaceConfig = option(SpaceConfig(), "action head (discrete)")
+    mlp: MlpConfig = option(MlpConfig(units=[128, 128], activation="relu"), "hidden layers")
+    dueling: bool = option(True, "dueling head: Q = V + A - mean(A)")

@@ -1,0 +1,365 @@
+"""The off-policy loop (SAC, DQN): act -> replay buffer -> updates -> log -> checkpoint, until a stop.
+
+One epoch is ``num_steps_per_episode`` vectorized env steps (``num_actors * num_steps_per_episode``
+frames). The first ``num_warmup_frames`` frames act uniformly at random and do not learn; after
+that every env step is followed by ``num_updates_per_step`` gradient updates on replay minibatches.
+Episode bookkeeping, logging tags, checkpoints, stop signals, callbacks and evaluation are the
+on-policy trainer's pieces.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import torch
+
+from rlchain.algos.dqn import DQNAgent, epsilon_at
+from rlchain.algos.replay import ReplayBuffer
+from rlchain.algos.returns import shape_rewards
+from rlchain.algos.sac import SACAgent
+from rlchain.config.off_policy import DQNConfig, SACConfig
+from rlchain.config.schema import Params
+from rlchain.errors import DivergenceError, EnvError
+from rlchain.training import checkpoint as ckpt
+from rlchain.training.build import build_env
+from rlchain.training.episodes import EpisodeTracker
+from rlchain.training.evaluation import EvaluationCallback
+from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.logging import TrainLogger
+from rlchain.training.on_policy import TrainResult
+from rlchain.training.run_dir import RunDir
+from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters
+
+
+class OffPolicyTrainer:
+    """Coordinates env, model, agent (SAC/DQN update), replay buffer, logger and checkpoints."""
+
+    config_class: type = SACConfig
+    loss_tags: dict[str, str] = {}
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
+        cfg = params.config
+        self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
+        self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
+        self.agent = self.make_agent()
+        self.num_envs = env.num_envs
+        obs_space = env.observation_space
+        self.buffer = ReplayBuffer(
+            cfg.replay_buffer_size, tuple(obs_space.shape), tuple(model.dist.action_shape), device,
+            num_envs=self.num_envs, obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+            action_dtype=model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
+            prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
+        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
+        self.epoch = 0
+        self.frames = 0
+        self.best_reward = -math.inf
+        self.obs: torch.Tensor | None = None
+        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        if cfg.evaluation.interval > 0:
+            self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
+        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
+        self.signals: StopSignals | None = None
+
+    def make_agent(self) -> Any:  # pragma: no cover - subclasses
+        raise NotImplementedError
+
+    # ----- the loop -------------------------------------------------------------------------
+    def train(self) -> TrainResult:
+        """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics."""
+        start = time.time()
+        stop = None
+        with StopSignals() as signals:
+            self.signals = signals
+            self.obs = self._reset_envs()
+            self.events.emit("on_train_start", self)
+            while stop is None:
+                t0 = time.time()
+                stats, update_s, completed = self._guarded_epoch()
+                if not completed:
+                    stop = f"interrupted by {signals.requested}"
+                    break
+                bad = check_parameters(self.model)
+                if bad is not None:
+                    self.save("last")
+                    raise DivergenceError(f"training diverged at epoch {self.epoch + 1}: {bad} became "
+                                          f"non-finite in the update")
+                self.epoch += 1
+                episodes = self._episode_stats()
+                self._log(stats, episodes, time.time() - t0 - update_s, update_s)
+                self._checkpoints(episodes)
+                self.events.emit("on_epoch_end", self, stats, episodes)
+                stop = self._stop_reason(episodes) or (
+                    f"interrupted by {signals.requested}" if signals.requested else None)
+            last = self.save("last")
+        self.logger.flush()
+        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
+        if self.cfg.print_stats or stop.startswith("interrupted"):
+            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
+                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
+        if stop.startswith("interrupted") and last:
+            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
+        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
+                             self.run.root if self.run else "", time.time() - start)
+        self.events.emit("on_train_end", self, result)
+        return result
+
+    def request_stop(self, reason: str) -> None:
+        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
+        if self.signals is not None and self.signals.requested is None:
+            self.signals.requested = reason
+
+    def _reset_envs(self) -> torch.Tensor:
+        try:
+            obs = self.env.reset(seed=self.seed + self.epoch)
+        except Exception as exc:
+            raise EnvError(f"env reset failed: {_describe(exc)}") from exc
+        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
+        obs = self._to_tensor(obs)
+        self.model.update_normalizers(obs=obs)
+        return obs
+
+    def _guarded_epoch(self) -> tuple[dict[str, float], float, bool]:
+        try:
+            return self._epoch()
+        except (EnvError, DivergenceError, KeyboardInterrupt):
+            raise
+        except Exception as exc:
+            path = self.save("last")
+            saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
+            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {_describe(exc)}{saved}") from exc
+
+    def _epoch(self) -> tuple[dict[str, float], float, bool]:
+        """num_steps_per_episode env steps, each followed by updates once warmup is over."""
+        cfg, model, dist = self.cfg, self.model, self.model.dist
+        rs = cfg.reward_shaper
+        sums: dict[str, torch.Tensor] = {}
+        count = 0
+        update_s = 0.0
+        obs = self.obs
+        for _ in range(cfg.num_steps_per_episode):
+            if self.signals is not None and self.signals.requested:
+                return {}, update_s, False
+            model.eval()
+            if self.frames < cfg.num_warmup_frames:
+                actions = dist.random(self.num_envs, self.device)
+            else:
+                actions = self.explore(obs)
+            result = self.env.step(self._env_actions(dist.to_env(actions)))
+            rewards = self._to_tensor(result.reward).float()
+            terminated = self._to_tensor(result.terminated).bool()
+            truncated = self._to_tensor(result.truncated).bool()
+            dones = terminated | truncated
+            self.tracker.step(rewards, dones)
+            if rewards.dim() > 1:
+                rewards = rewards.sum(-1)
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val)
+            next_obs = self._to_tensor(result.obs)
+            if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
+                                                          and not bool(torch.isfinite(next_obs).all())):
+                raise DivergenceError(f"the env returned a non-finite reward or observation at epoch "
+                                      f"{self.epoch + 1}")
+            real_next = next_obs
+            if bool(dones.any()):
+                real_next = next_obs.clone()
+                rows = dones.nonzero().squeeze(-1)
+                real_next[rows] = self._to_tensor(result.final_obs)[rows].to(next_obs.dtype)
+            self.buffer.add(obs, actions, shaped, real_next, terminated, truncated)
+            model.update_normalizers(obs=next_obs)
+            obs = next_obs
+            self.frames += self.num_envs
+            if self.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
+                t0 = time.time()
+                model.train()
+                for _ in range(cfg.num_updates_per_step):
+                    batch = self.buffer.sample(cfg.batch_size, beta=self._beta())
+                    stats, td = self.agent.update(batch)
+                    self.buffer.update_priorities(batch["indices"], td)
+                    for k, v in stats.items():
+                        sums[k] = sums.get(k, 0.0) + v
+                    count += 1
+                update_s += time.time() - t0
+        self.obs = obs
+        out = {k: float(v) / count for k, v in sums.items()} if count else {}
+        out["updates"] = count
+        return out, update_s, True
+
+    def explore(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.model.act(obs)["actions"]
+
+    def _beta(self) -> float:
+        """Importance-sampling exponent, annealed from priority_beta to 1 over the run."""
+        cfg = self.cfg
+        progress = 0.0
+        if cfg.max_frames > 0:
+            progress = self.frames / cfg.max_frames
+        elif cfg.max_epochs > 0:
+            progress = self.epoch / cfg.max_epochs
+        return cfg.priority_beta + min(progress, 1.0) * (1.0 - cfg.priority_beta)
+
+    # ----- bookkeeping ----------------------------------------------------------------------
+    def _episode_stats(self) -> dict[str, float] | None:
+        if not self.tracker.has_data:
+            return None
+        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
+
+    def extra_stats(self) -> dict[str, float]:
+        return {}
+
+    def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
+        """rl_games' tag names where the quantity is the same as PPO's, plus losses/* of this algorithm."""
+        s, frames, epoch = self.logger.scalar, self.frames, self.epoch
+        batch = self.cfg.num_steps_per_episode * self.num_envs
+        elapsed = int(time.time() - self.logger.start)
+        step_fps = batch / max(rollout_s, 1e-9)
+        total_fps = batch / max(rollout_s + update_s, 1e-9)
+        s("performance/step_fps", step_fps, frames)
+        s("performance/step_inference_rl_update_fps", total_fps, frames)
+        s("performance/rl_update_time", update_s, frames)
+        s("performance/step_time", rollout_s, frames)
+        s("info/last_lr", self.agent.lr, frames)
+        s("info/epochs", epoch, frames)
+        s("info/updates", self.agent.updates, frames)
+        s("info/replay_size", len(self.buffer), frames)
+        extra = self.extra_stats()
+        for key, value in extra.items():
+            s(f"info/{key}", value, frames)
+        for key, tag in self.loss_tags.items():
+            if key in stats:
+                s(tag, stats[key], frames)
+        if episodes is not None:
+            for name, value in (("rewards", episodes["reward"]), ("episode_lengths", episodes["length"])):
+                s(f"{name}/step", value, frames)
+                s(f"{name}/iter", value, epoch)
+                s(f"{name}/time", value, elapsed)
+        if self.cfg.print_stats:
+            limit = f"/{self.cfg.max_epochs}" if self.cfg.max_epochs > 0 else ""
+            reward = f"{episodes['reward']:.2f}" if episodes is not None else "-"
+            length = f"{episodes['length']:.1f}" if episodes is not None else "-"
+            best_text = f"{self.best_reward:.2f}" if math.isfinite(self.best_reward) else "-"
+            shown = {k: stats[k] for k in self.loss_tags if k in stats}
+            shown.update(extra)
+            losses = " | ".join(f"{k} {v:.3g}" for k, v in shown.items())
+            print(f"epoch {epoch}{limit} | frames {frames} | fps {total_fps:.0f} (step {step_fps:.0f}) | "
+                  f"reward {reward} | best {best_text} | len {length}{' | ' + losses if losses else ''} | "
+                  f"{elapsed}s", file=self.logger.stream, flush=True)
+
+    def _checkpoints(self, episodes: dict | None) -> None:
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] > self.best_reward:
+            self.best_reward = episodes["reward"]
+            if self.epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                self.save("best")
+        if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
+            self.save(f"ep_{self.epoch}")
+            self.save("last")
+
+    def _stop_reason(self, episodes: dict | None) -> str | None:
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] >= cfg.score_to_win:
+            return f"score_to_win {cfg.score_to_win} reached"
+        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached"
+        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached"
+        return None
+
+    def _to_tensor(self, x: Any) -> torch.Tensor:
+        return torch.as_tensor(x, device=self.device)
+
+    def _env_actions(self, actions: torch.Tensor) -> Any:
+        return actions if self.tensor_env else actions.cpu().numpy()
+
+    # ----- checkpoints ----------------------------------------------------------------------
+    def state_dict(self, kind: str = "last") -> dict[str, Any]:
+        """Everything resume needs; the replay buffer only with save_replay_buffer (last checkpoints)."""
+        state = {
+            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
+            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
+            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
+            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
+            "version": _version(),
+        }
+        if self.cfg.save_replay_buffer and kind == "last":
+            state["replay_buffer"] = self.buffer.state_dict()
+        return state
+
+    def save(self, kind: str) -> str | None:
+        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
+        if self.run is None:
+            return None
+        bad = check_parameters(self.model)
+        if bad is not None:
+            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
+            return None
+        path = self.run.checkpoint(kind)
+        try:
+            ckpt.save_atomic(self.state_dict(kind), path)
+        except OSError as exc:
+            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                  f"checkpoint is kept and training goes on", flush=True)
+            return None
+        self.events.emit("on_checkpoint", self, path, kind)
+        return path
+
+    def restore(self, state: dict[str, Any], path: str) -> None:
+        """Continue from a checkpoint: weights, targets, optimizers, normalizers, counters, RNG
+        (and the replay buffer when the checkpoint holds one; otherwise warmup runs again)."""
+        if state.get("algo") not in (None, self.params.algo.name):
+            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
+                                       f"the config says '{self.params.algo.name}'")
+        ckpt.load_model_state(self.model, state, path)
+        self.agent.load_state_dict(state["agent"])
+        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
+        self.best_reward = float(state["best_reward"])
+        self.tracker.load_state_dict(state["episodes"])
+        ckpt.set_rng_state(state["rng"])
+        if "replay_buffer" in state:  # else the empty buffer refills to batch_size before learning resumes
+            self.buffer.load_state_dict(state["replay_buffer"])
+
+
+class SACTrainer(OffPolicyTrainer):
+    """Algo ``sac``."""
+
+    config_class = SACConfig
+    loss_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
+                 "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q"}
+
+    def make_agent(self) -> SACAgent:
+        return SACAgent(self.model, self.cfg)
+
+    def extra_stats(self) -> dict[str, float]:
+        return {"alpha": float(self.model.alpha.detach())}
+
+
+class DQNTrainer(OffPolicyTrainer):
+    """Algo ``dqn``."""
+
+    config_class = DQNConfig
+    loss_tags = {"td_loss": "losses/td_loss", "q": "info/q"}
+
+    def make_agent(self) -> DQNAgent:
+        return DQNAgent(self.model, self.cfg)
+
+    def epsilon(self) -> float:
+        cfg = self.cfg
+        return epsilon_at(self.frames - cfg.num_warmup_frames, cfg.epsilon_start, cfg.epsilon_end,
+                          cfg.epsilon_decay_frames)
+
+    def explore(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.model.act(obs, epsilon=self.epsilon())["actions"]
+
+    def extra_stats(self) -> dict[str, float]:
+        return {"epsilon": self.epsilon()}
+
+
+def _version() -> str:
+    from rlchain import __version__
+    return __version__
+
+
+def _describe(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

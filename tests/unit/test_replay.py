@@ -1,0 +1,139 @@
+"""Replay buffer against hand-computed values: terminal vs truncated, n-step returns, sum-tree sampling."""
+
+import numpy as np
+import pytest
+import torch
+
+from rlchain.algos.replay import ReplayBuffer, SumTree
+
+
+def make(n_step=1, num_envs=1, gamma=0.5, capacity=16, **kw):
+    return ReplayBuffer(capacity, (1,), (), "cpu", num_envs=num_envs, action_dtype=torch.long,
+                        n_step=n_step, gamma=gamma, **kw)
+
+
+def add(buf, obs, reward, next_obs, term=False, trunc=False, action=0):
+    n = buf.num_envs
+    buf.add(torch.full((n, 1), float(obs)), torch.full((n,), action), torch.full((n,), float(reward)),
+            torch.full((n, 1), float(next_obs)), torch.full((n,), term), torch.full((n,), trunc))
+
+
+def test_one_step_keeps_terminated_and_truncated_apart():
+    buf = make()
+    add(buf, 0, 1.0, 1)
+    add(buf, 1, 2.0, 99, trunc=True)   # time-out: next_obs is the true final obs, still bootstrapped
+    add(buf, 5, 3.0, 98, term=True)    # terminal
+    assert len(buf) == 3
+    assert buf.terminated[:3].tolist() == [False, False, True]
+    assert buf.truncated[:3].tolist() == [False, True, False]
+    assert buf.next_obs[:3, 0].tolist() == [1.0, 99.0, 98.0]
+    assert buf.discounts[:3].tolist() == [0.5, 0.5, 0.5]
+
+
+def test_n_step_return_hand_computed():
+    # gamma 0.5, n 3: rewards 1, 2, 4, 8 -> first transition R = 1 + 0.5*2 + 0.25*4 = 3, discount 0.125
+    buf = make(n_step=3)
+    for t, r in enumerate([1.0, 2.0, 4.0, 8.0]):
+        add(buf, t, r, t + 1)
+    assert len(buf) == 2
+    assert buf.rewards[:2].tolist() == [3.0, 2.0 + 0.5 * 4.0 + 0.25 * 8.0]
+    assert buf.next_obs[:2, 0].tolist() == [3.0, 4.0]
+    assert buf.discounts[:2].tolist() == [0.125, 0.125]
+    assert not buf.terminated[:2].any()
+
+
+def test_n_step_stops_at_episode_end():
+    buf = make(n_step=3)
+    add(buf, 0, 1.0, 1)
+    add(buf, 1, 2.0, 50, term=True)   # episode ends here
+    add(buf, 10, 4.0, 11)            # next episode: must not leak into the first transitions
+    add(buf, 11, 8.0, 12, trunc=True)
+    add(buf, 20, 16.0, 21)
+    # t0: 1 + 0.5*2, terminal at obs 50, discount gamma^2 (unused since terminal)
+    assert buf.rewards[0].item() == 2.0 and buf.terminated[0] and buf.next_obs[0, 0] == 50 and buf.discounts[0] == 0.25
+    # t1: 2 only, terminal
+    assert buf.rewards[1].item() == 2.0 and buf.terminated[1] and buf.discounts[1] == 0.5
+    # t2: 4 + 0.5*8, truncated (not terminal) at obs 12, bootstrap with gamma^2
+    assert buf.rewards[2].item() == 8.0 and not buf.terminated[2] and buf.truncated[2]
+    assert buf.next_obs[2, 0] == 12 and buf.discounts[2] == 0.25
+
+
+def test_n_step_per_env_independent():
+    buf = make(n_step=2, num_envs=2)
+    buf.add(torch.tensor([[0.0], [0.0]]), torch.zeros(2, dtype=torch.long), torch.tensor([1.0, 1.0]),
+            torch.tensor([[1.0], [7.0]]), torch.tensor([False, True]), torch.tensor([False, False]))
+    buf.add(torch.tensor([[1.0], [0.0]]), torch.zeros(2, dtype=torch.long), torch.tensor([2.0, 5.0]),
+            torch.tensor([[2.0], [1.0]]), torch.tensor([False, False]), torch.tensor([False, False]))
+    assert buf.rewards[:2].tolist() == [2.0, 1.0]
+    assert buf.terminated[:2].tolist() == [False, True]
+    assert buf.next_obs[:2, 0].tolist() == [2.0, 7.0]
+
+
+def test_wraps_around_capacity():
+    buf = make(capacity=4)
+    for t in range(6):
+        add(buf, t, float(t), t + 1)
+    assert len(buf) == 4 and buf.pos == 2
+    assert sorted(buf.obs[:, 0].tolist()) == [2.0, 3.0, 4.0, 5.0]
+
+
+def test_uniform_sample_shapes():
+    buf = make()
+    for t in range(5):
+        add(buf, t, 1.0, t + 1)
+    batch = buf.sample(8, generator=torch.Generator().manual_seed(0))
+    assert batch["obs"].shape == (8, 1) and batch["actions"].shape == (8,)
+    assert torch.equal(batch["weights"], torch.ones(8))
+    assert (batch["indices"] < 5).all()
+
+
+def test_sum_tree_total_and_find():
+    tree = SumTree(5)
+    tree.update(np.arange(5), np.array([1.0, 2.0, 3.0, 4.0, 0.0]))
+    assert tree.total == 10.0
+    # prefix sums: [0,1) -> 0, [1,3) -> 1, [3,6) -> 2, [6,10) -> 3
+    assert tree.find(np.array([0.0, 0.99, 1.0, 2.99, 3.0, 5.99, 6.0, 9.99])).tolist() == [0, 0, 1, 1, 2, 2, 3, 3]
+    tree.update(np.array([3]), np.array([0.5]))
+    assert tree.total == 6.5
+
+
+def test_prioritized_sampling_proportions_and_weights():
+    buf = make(capacity=4, prioritized=True, alpha=1.0, beta=1.0)
+    for t in range(4):
+        add(buf, t, 0.0, t + 1)
+    buf.update_priorities(torch.arange(4), torch.tensor([1.0, 2.0, 3.0, 4.0]) - buf.eps)
+    gen = torch.Generator().manual_seed(0)
+    counts = np.zeros(4)
+    for _ in range(200):
+        batch = buf.sample(100, generator=gen)
+        counts += np.bincount(batch["indices"].numpy(), minlength=4)
+    freq = counts / counts.sum()
+    np.testing.assert_allclose(freq, [0.1, 0.2, 0.3, 0.4], atol=0.01)
+    # weights (N P_i)^-beta / max_j: with beta 1 they are P_min / P_i
+    batch = buf.sample(100, generator=gen)
+    expected = {0: 1.0, 1: 0.5, 2: 1 / 3, 3: 0.25}
+    for i, w in zip(batch["indices"].tolist(), batch["weights"].tolist()):
+        assert w == pytest.approx(expected[i], rel=1e-5)
+
+
+def test_new_transitions_get_max_priority():
+    buf = make(capacity=8, prioritized=True, alpha=1.0)
+    add(buf, 0, 0.0, 1)
+    buf.update_priorities(torch.tensor([0]), torch.tensor([5.0]))
+    add(buf, 1, 0.0, 2)
+    leaves = buf.tree.leaves(2)
+    assert leaves[1] == pytest.approx(leaves[0])
+
+
+def test_state_dict_round_trip():
+    buf = make(n_step=2, capacity=8, prioritized=True)
+    for t in range(5):
+        add(buf, t, float(t), t + 1)
+    other = make(n_step=2, capacity=8, prioritized=True)
+    other.load_state_dict(buf.state_dict())
+    assert len(other) == len(buf) and other.pos == buf.pos
+    assert torch.equal(other.rewards, buf.rewards) and torch.equal(other.obs, buf.obs)
+    np.testing.assert_allclose(other.tree.leaves(), buf.tree.leaves())
+    add(buf, 5, 5.0, 6)
+    add(other, 5, 5.0, 6)   # the pending n-step window came along too
+    assert torch.equal(other.rewards, buf.rewards)
