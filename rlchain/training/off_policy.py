@@ -22,18 +22,13 @@ from rlchain.algos.sac import SACAgent
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError, EnvError
-from rlchain.training import checkpoint as ckpt
-from rlchain.training.build import build_env
-from rlchain.training.episodes import EpisodeTracker
-from rlchain.training.evaluation import EvaluationCallback
-from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.base import TrainerBase, TrainResult, describe
 from rlchain.training.logging import TrainLogger
-from rlchain.training.on_policy import TrainResult
 from rlchain.training.run_dir import RunDir
-from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters
+from rlchain.training.safety import StopSignals, check_parameters
 
 
-class OffPolicyTrainer:
+class OffPolicyTrainer(TrainerBase):
     """Coordinates env, model, agent (SAC/DQN update), replay buffer, logger and checkpoints."""
 
     config_class: type = SACConfig
@@ -41,27 +36,15 @@ class OffPolicyTrainer:
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
-        cfg = params.config
-        self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
-        self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
+        super().__init__(params, env, model, device, run, logger, seed, raw_config)
+        cfg = self.cfg
         self.agent = self.make_agent()
-        self.num_envs = env.num_envs
         obs_space = env.observation_space
         self.buffer = ReplayBuffer(
             cfg.replay_buffer_size, tuple(obs_space.shape), tuple(model.dist.action_shape), device,
             num_envs=self.num_envs, obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             action_dtype=model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
             prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
-        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
-        self.epoch = 0
-        self.frames = 0
-        self.best_reward = -math.inf
-        self.obs: torch.Tensor | None = None
-        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
-        if cfg.evaluation.interval > 0:
-            self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
-        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
-        self.signals: StopSignals | None = None
 
     def make_agent(self) -> Any:  # pragma: no cover - subclasses
         raise NotImplementedError
@@ -91,33 +74,12 @@ class OffPolicyTrainer:
                 self._log(stats, episodes, time.time() - t0 - update_s, update_s)
                 self._checkpoints(episodes)
                 self.events.emit("on_epoch_end", self, stats, episodes)
-                stop = self._stop_reason(episodes) or (
-                    f"interrupted by {signals.requested}" if signals.requested else None)
+                stop = self._stop_reason(episodes)
             last = self.save("last")
-        self.logger.flush()
-        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
-        if self.cfg.print_stats or stop.startswith("interrupted"):
-            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
-                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
-        if stop.startswith("interrupted") and last:
-            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
-        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
-                             self.run.root if self.run else "", time.time() - start)
-        self.events.emit("on_train_end", self, result)
-        return result
-
-    def request_stop(self, reason: str) -> None:
-        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
-        if self.signals is not None and self.signals.requested is None:
-            self.signals.requested = reason
+        return self._finish(stop, start, last)
 
     def _reset_envs(self) -> torch.Tensor:
-        try:
-            obs = self.env.reset(seed=self.seed + self.epoch)
-        except Exception as exc:
-            raise EnvError(f"env reset failed: {_describe(exc)}") from exc
-        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
-        obs = self._to_tensor(obs)
+        obs = super()._reset_envs()
         self.model.update_normalizers(obs=obs)
         return obs
 
@@ -129,7 +91,7 @@ class OffPolicyTrainer:
         except Exception as exc:
             path = self.save("last")
             saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
-            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {_describe(exc)}{saved}") from exc
+            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
 
     def _epoch(self) -> tuple[dict[str, float], float, bool]:
         """num_steps_per_episode env steps, each followed by updates once warmup is over."""
@@ -200,11 +162,6 @@ class OffPolicyTrainer:
         return cfg.priority_beta + min(progress, 1.0) * (1.0 - cfg.priority_beta)
 
     # ----- bookkeeping ----------------------------------------------------------------------
-    def _episode_stats(self) -> dict[str, float] | None:
-        if not self.tracker.has_data:
-            return None
-        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
-
     def extra_stats(self) -> dict[str, float]:
         return {}
 
@@ -246,76 +203,14 @@ class OffPolicyTrainer:
                   f"reward {reward} | best {best_text} | len {length}{' | ' + losses if losses else ''} | "
                   f"{elapsed}s", file=self.logger.stream, flush=True)
 
-    def _checkpoints(self, episodes: dict | None) -> None:
-        cfg = self.cfg
-        if episodes is not None and episodes["reward"] > self.best_reward:
-            self.best_reward = episodes["reward"]
-            if self.epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
-                self.save("best")
-        if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
-            self.save(f"ep_{self.epoch}")
-            self.save("last")
-
-    def _stop_reason(self, episodes: dict | None) -> str | None:
-        cfg = self.cfg
-        if episodes is not None and episodes["reward"] >= cfg.score_to_win:
-            return f"score_to_win {cfg.score_to_win} reached"
-        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
-            return f"max_epochs {cfg.max_epochs} reached"
-        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
-            return f"max_frames {cfg.max_frames} reached"
-        return None
-
-    def _to_tensor(self, x: Any) -> torch.Tensor:
-        return torch.as_tensor(x, device=self.device)
-
-    def _env_actions(self, actions: torch.Tensor) -> Any:
-        return actions if self.tensor_env else actions.cpu().numpy()
-
     # ----- checkpoints ----------------------------------------------------------------------
-    def state_dict(self, kind: str = "last") -> dict[str, Any]:
-        """Everything resume needs; the replay buffer only with save_replay_buffer (last checkpoints)."""
-        state = {
-            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
-            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
-            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
-            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
-            "version": _version(),
-        }
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """The replay buffer, only with save_replay_buffer and only in last checkpoints."""
         if self.cfg.save_replay_buffer and kind == "last":
-            state["replay_buffer"] = self.buffer.state_dict()
-        return state
+            return {"replay_buffer": self.buffer.state_dict()}
+        return {}
 
-    def save(self, kind: str) -> str | None:
-        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
-        if self.run is None:
-            return None
-        bad = check_parameters(self.model)
-        if bad is not None:
-            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
-            return None
-        path = self.run.checkpoint(kind)
-        try:
-            ckpt.save_atomic(self.state_dict(kind), path)
-        except OSError as exc:
-            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
-                  f"checkpoint is kept and training goes on", flush=True)
-            return None
-        self.events.emit("on_checkpoint", self, path, kind)
-        return path
-
-    def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, targets, optimizers, normalizers, counters, RNG
-        (and the replay buffer when the checkpoint holds one; otherwise warmup runs again)."""
-        if state.get("algo") not in (None, self.params.algo.name):
-            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
-                                       f"the config says '{self.params.algo.name}'")
-        ckpt.load_model_state(self.model, state, path)
-        self.agent.load_state_dict(state["agent"])
-        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
-        self.best_reward = float(state["best_reward"])
-        self.tracker.load_state_dict(state["episodes"])
-        ckpt.set_rng_state(state["rng"])
+    def restore_extra(self, state: dict[str, Any]) -> None:
         if "replay_buffer" in state:  # else the empty buffer refills to batch_size before learning resumes
             self.buffer.load_state_dict(state["replay_buffer"])
 
@@ -353,13 +248,3 @@ class DQNTrainer(OffPolicyTrainer):
 
     def extra_stats(self) -> dict[str, float]:
         return {"epsilon": self.epsilon()}
-
-
-def _version() -> str:
-    from rlchain import __version__
-    return __version__
-
-
-def _describe(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import math
 import threading
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import torch
@@ -16,11 +14,7 @@ from rlchain.algos.storage import RolloutStorage
 from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.training import checkpoint as ckpt
-from rlchain.training.build import build_env
-from rlchain.training.episodes import EpisodeTracker
-from rlchain.training.evaluation import EvaluationCallback
-from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.base import TrainerBase, TrainResult, describe
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import (
@@ -32,45 +26,20 @@ from rlchain.training.safety import (
 )
 
 
-@dataclass
-class TrainResult:
-    """What a finished run reports."""
-
-    epoch: int
-    frames: int
-    mean_reward: float
-    best_reward: float
-    stop_reason: str
-    run_dir: str
-    seconds: float
-
-
-class OnPolicyTrainer:
+class OnPolicyTrainer(TrainerBase):
     """Coordinates env, model, PPO agent, storage, logger and checkpoints."""
 
     def __init__(self, params: Params, env: Any, model: ActorCritic, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
-        cfg = params.config
-        self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
-        self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
+        super().__init__(params, env, model, device, run, logger, seed, raw_config)
+        cfg = self.cfg
         self.agent = PPOAgent(model, cfg, device)
-        self.num_envs = env.num_envs
         obs_space = env.observation_space
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
             model.value_norm.mean.shape[0] if model.value_norm is not None else _value_size(env), device)
-        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
-        self.epoch = 0
-        self.frames = 0
-        self.best_reward = -math.inf
-        self.obs: torch.Tensor | None = None
-        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
-        if cfg.evaluation.interval > 0:
-            self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
-        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
-        self.signals: StopSignals | None = None
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._params_lock = threading.Lock()
         self._pending_params: dict[str, float] = {}
@@ -108,20 +77,9 @@ class OnPolicyTrainer:
                 self._checkpoints(episodes)
                 self.divergence.snapshot()
                 self.events.emit("on_epoch_end", self, stats, episodes)
-                stop = self._stop_reason(episodes) or (
-                    f"interrupted by {signals.requested}" if signals.requested else None)
+                stop = self._stop_reason(episodes)
             last = self.save("last")
-        self.logger.flush()
-        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
-        if self.cfg.print_stats or stop.startswith("interrupted"):
-            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
-                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
-        if stop.startswith("interrupted") and last:
-            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
-        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
-                             self.run.root if self.run else "", time.time() - start)
-        self.events.emit("on_train_end", self, result)
-        return result
+        return self._finish(stop, start, last)
 
     TUNABLE = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
@@ -153,19 +111,6 @@ class OnPolicyTrainer:
         if "kl_threshold" in changes and hasattr(self.agent.schedule, "kl_threshold"):
             self.agent.schedule.kl_threshold = float(changes["kl_threshold"])
 
-    def request_stop(self, reason: str) -> None:
-        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
-        if self.signals is not None and self.signals.requested is None:
-            self.signals.requested = reason
-
-    def _reset_envs(self) -> torch.Tensor:
-        try:
-            obs = self.env.reset(seed=self.seed + self.epoch)
-        except Exception as exc:
-            raise EnvError(f"env reset failed: {_describe(exc)}") from exc
-        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
-        return self._to_tensor(obs)
-
     def _guarded_rollout(self) -> bool:
         """A rollout; False when a stop signal arrived. An env failure saves, then raises EnvError."""
         try:
@@ -178,7 +123,7 @@ class OnPolicyTrainer:
         except Exception as exc:
             path = self.save("last")
             saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
-            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {_describe(exc)}{saved}") from exc
+            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
 
     def _guarded_learn(self) -> dict[str, float] | None:
         """The update; on NaN/inf either roll back (returns None) or raise with the epoch named."""
@@ -250,35 +195,10 @@ class OnPolicyTrainer:
         return stats
 
     # ----- bookkeeping ----------------------------------------------------------------------
-    def _episode_stats(self) -> dict[str, float] | None:
-        if not self.tracker.has_data:
-            return None
-        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
-
     def _log(self, stats: dict, episodes: dict | None, rollout_s: float, update_s: float) -> None:
         timing = {"batch": self.cfg.horizon_length * self.num_envs, "rollout": rollout_s, "update": update_s}
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, stats, episodes,
                           self.best_reward, timing)
-
-    def _checkpoints(self, episodes: dict | None) -> None:
-        cfg = self.cfg
-        if episodes is not None and episodes["reward"] > self.best_reward:
-            self.best_reward = episodes["reward"]
-            if self.epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
-                self.save("best")
-        if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
-            self.save(f"ep_{self.epoch}")
-            self.save("last")
-
-    def _stop_reason(self, episodes: dict | None) -> str | None:
-        cfg = self.cfg
-        if episodes is not None and episodes["reward"] >= cfg.score_to_win:
-            return f"score_to_win {cfg.score_to_win} reached"
-        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
-            return f"max_epochs {cfg.max_epochs} reached"
-        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
-            return f"max_frames {cfg.max_frames} reached"
-        return None
 
     def _progress(self) -> float:
         cfg = self.cfg
@@ -288,65 +208,5 @@ class OnPolicyTrainer:
             return (self.frames + cfg.horizon_length * self.num_envs) / cfg.max_frames
         return 0.0
 
-    def _to_tensor(self, x: Any) -> torch.Tensor:
-        return torch.as_tensor(x, device=self.device)
-
-    def _env_actions(self, actions: torch.Tensor) -> Any:
-        """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""
-        return actions if self.tensor_env else actions.cpu().numpy()
-
-    # ----- checkpoints ----------------------------------------------------------------------
-    def state_dict(self) -> dict[str, Any]:
-        """Everything exact resume needs."""
-        return {
-            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
-            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
-            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
-            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
-            "version": _version(),
-        }
-
-    def save(self, kind: str) -> str | None:
-        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
-        if self.run is None:
-            return None
-        bad = check_parameters(self.model)
-        if bad is not None:
-            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
-            return None
-        path = self.run.checkpoint(kind)
-        try:
-            ckpt.save_atomic(self.state_dict(), path)
-        except OSError as exc:
-            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
-                  f"checkpoint is kept and training goes on", flush=True)
-            return None
-        self.events.emit("on_checkpoint", self, path, kind)
-        return path
-
-    def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer, lr, normalizers, counters, RNG."""
-        if state.get("algo") not in (None, self.params.algo.name):
-            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
-                                       f"the config says '{self.params.algo.name}'")
-        ckpt.load_model_state(self.model, state, path)
-        self.agent.load_state_dict(state["agent"])
-        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
-        self.best_reward = float(state["best_reward"])
-        self.tracker.load_state_dict(state["episodes"])
-        ckpt.set_rng_state(state["rng"])
-
-
 def _value_size(env: Any) -> int:
     return int(getattr(env, "value_size", 1))
-
-
-def _version() -> str:
-    from rlchain import __version__
-    return __version__
-
-
-def _describe(exc: BaseException) -> str:
-    """``Type: message`` on one line."""
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

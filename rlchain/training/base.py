@@ -1,0 +1,185 @@
+"""What every trainer shares: counters, episode stats, events, stop conditions and checkpoints.
+
+On-policy (PPO) and off-policy (SAC, DQN) trainers subclass :class:`TrainerBase` and write only
+their loop; ``extra_state`` / ``restore_extra`` add what their checkpoints carry beyond this.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+
+from rlchain.config.schema import Params
+from rlchain.errors import EnvError
+from rlchain.training import checkpoint as ckpt
+from rlchain.training.build import build_env
+from rlchain.training.episodes import EpisodeTracker
+from rlchain.training.evaluation import EvaluationCallback
+from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.logging import TrainLogger
+from rlchain.training.run_dir import RunDir
+from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters
+
+
+@dataclass
+class TrainResult:
+    """What a finished run reports."""
+
+    epoch: int
+    frames: int
+    mean_reward: float
+    best_reward: float
+    stop_reason: str
+    run_dir: str
+    seconds: float
+
+
+class TrainerBase:
+    """Shared state and bookkeeping of a trainer; subclasses set ``self.agent`` and implement train()."""
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
+        cfg = params.config
+        self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
+        self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
+        self.num_envs = env.num_envs
+        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
+        self.epoch = 0
+        self.frames = 0
+        self.best_reward = -math.inf
+        self.obs: torch.Tensor | None = None
+        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        if cfg.evaluation.interval > 0:
+            self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
+        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
+        self.signals: StopSignals | None = None
+        self.agent: Any = None
+
+    # ----- loop helpers ---------------------------------------------------------------------
+    def request_stop(self, reason: str) -> None:
+        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
+        if self.signals is not None and self.signals.requested is None:
+            self.signals.requested = reason
+
+    def _reset_envs(self) -> torch.Tensor:
+        try:
+            obs = self.env.reset(seed=self.seed + self.epoch)
+        except Exception as exc:
+            raise EnvError(f"env reset failed: {describe(exc)}") from exc
+        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
+        return self._to_tensor(obs)
+
+    def _episode_stats(self) -> dict[str, float] | None:
+        if not self.tracker.has_data:
+            return None
+        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
+
+    def _checkpoints(self, episodes: dict | None) -> None:
+        """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] > self.best_reward:
+            self.best_reward = episodes["reward"]
+            if self.epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                self.save("best")
+        if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
+            self.save(f"ep_{self.epoch}")
+            self.save("last")
+
+    def _stop_reason(self, episodes: dict | None) -> str | None:
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] >= cfg.score_to_win:
+            return f"score_to_win {cfg.score_to_win} reached"
+        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached"
+        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached"
+        if self.signals is not None and self.signals.requested:
+            return f"interrupted by {self.signals.requested}"
+        return None
+
+    def _finish(self, stop: str, start: float, last: str | None) -> TrainResult:
+        """Report the stop, emit on_train_end and build the result."""
+        self.logger.flush()
+        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
+        if self.cfg.print_stats or stop.startswith("interrupted"):
+            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
+                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
+        if stop.startswith("interrupted") and last:
+            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
+        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
+                             self.run.root if self.run else "", time.time() - start)
+        self.events.emit("on_train_end", self, result)
+        return result
+
+    def _to_tensor(self, x: Any) -> torch.Tensor:
+        return torch.as_tensor(x, device=self.device)
+
+    def _env_actions(self, actions: torch.Tensor) -> Any:
+        """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""
+        return actions if self.tensor_env else actions.cpu().numpy()
+
+    # ----- checkpoints ----------------------------------------------------------------------
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """What a subclass adds to a checkpoint of ``kind`` (best, last, ep_N)."""
+        return {}
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`extra_state` added."""
+
+    def state_dict(self, kind: str = "last") -> dict[str, Any]:
+        """Everything exact resume needs."""
+        state = {
+            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
+            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
+            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
+            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
+            "version": _version(),
+        }
+        state.update(self.extra_state(kind))
+        return state
+
+    def save(self, kind: str) -> str | None:
+        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
+        if self.run is None:
+            return None
+        bad = check_parameters(self.model)
+        if bad is not None:
+            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
+            return None
+        path = self.run.checkpoint(kind)
+        try:
+            ckpt.save_atomic(self.state_dict(kind), path)
+        except OSError as exc:
+            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                  f"checkpoint is kept and training goes on", flush=True)
+            return None
+        self.events.emit("on_checkpoint", self, path, kind)
+        return path
+
+    def restore(self, state: dict[str, Any], path: str) -> None:
+        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
+        if state.get("algo") not in (None, self.params.algo.name):
+            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
+                                       f"the config says '{self.params.algo.name}'")
+        ckpt.load_model_state(self.model, state, path)
+        self.agent.load_state_dict(state["agent"])
+        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
+        self.best_reward = float(state["best_reward"])
+        self.tracker.load_state_dict(state["episodes"])
+        ckpt.set_rng_state(state["rng"])
+        self.restore_extra(state)
+
+
+def describe(exc: BaseException) -> str:
+    """``Type: message`` on one line."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _version() -> str:
+    from rlchain import __version__
+    return __version__
