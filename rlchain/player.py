@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rlchain.config.schema import Params
 from rlchain.training import checkpoint as ckpt
-from rlchain.training.build import build_env, build_model, resolve_device
+from rlchain.training.build import apply_sigma, build_env, build_model, resolve_device
 from rlchain.training.evaluation import PlayResult, run_episodes
 
 
@@ -29,7 +29,7 @@ class Player:
             state = ckpt.load(checkpoint_path, map_location=self.device)
             ckpt.load_model_state(self.model, state, checkpoint_path)
         if sigma is not None:
-            self.model.override_sigma(sigma)
+            apply_sigma(self.model, sigma)
         self.model.eval()
         self.seed = seed
 

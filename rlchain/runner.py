@@ -74,6 +74,7 @@ class Runner:
     def _train_in_run_dir(self, params: Params, env: Any, model: Any, device: Any, seed: int, state: Any,
                           checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
                           wandb_project: str, wandb_entity: str | None) -> Any:
+        from rlchain.training.build import apply_sigma
         from rlchain.training.logging import TrainLogger
         from rlchain.training.run_dir import create_run_dir
 
@@ -91,7 +92,7 @@ class Runner:
             if state is not None:
                 trainer.restore(state, checkpoint)
             if sigma is not None:
-                model.override_sigma(sigma)
+                apply_sigma(model, sigma)
             trainer.events.extend(callbacks)
             if cfg.print_stats:
                 what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"

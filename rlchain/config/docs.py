@@ -7,6 +7,7 @@ import math
 import typing
 
 from rlchain.config import compat
+from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
 from rlchain.config.schema import (
     ContinuousSpaceConfig,
     DivergenceConfig,
@@ -29,6 +30,10 @@ SECTIONS = [
     ("params.network.mlp", MlpConfig),
     ("params.network.space.continuous", ContinuousSpaceConfig),
     ("initializer blocks (mlp.initializer, mu_init, sigma_init)", InitializerConfig),
+    ("params.config for algo sac (keys shared with PPO have the same meaning)", SACConfig),
+    ("params.network (builder soft_actor_critic)", SACNetworkConfig),
+    ("params.config for algo dqn", DQNConfig),
+    ("params.network (builder dqn)", DQNNetworkConfig),
 ]
 
 HEADER = """# Configuration reference
@@ -41,8 +46,8 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | key | meaning |
 |---|---|
 | `params.seed` | seed for python, numpy, torch and the envs (`--seed` overrides) |
-| `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), or a registered algo |
-| `params.model.name` | `discrete_a2c`, `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std) |
+| `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), `sac`, `dqn`, or a registered algo |
+| `params.model.name` | `discrete_a2c`, `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn` |
 | `params.network` | network block; `name: actor_critic` is built in, user builders via `register_network` |
 | `params.config` | training keys below |
 | `params.torch_threads` | `torch.set_num_threads` for the training process (default: torch's choice) |

@@ -65,3 +65,11 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
 
 def _network_name(network: Any) -> str:
     return network.name if hasattr(network, "name") else network.get("name", "actor_critic")
+
+
+def apply_sigma(model: Any, sigma: float) -> None:
+    """``--sigma``: a one-line ConfigError when the policy has no fixed sigma to set."""
+    try:
+        model.override_sigma(sigma)
+    except ValueError as exc:
+        raise ConfigError("", "--sigma", str(exc)) from None

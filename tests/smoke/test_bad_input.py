@@ -5,7 +5,7 @@ import os
 import pytest
 import torch
 
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, ROOT
 from tests.smoke.test_train_play_resume import run_cli, small
 
 pytestmark = pytest.mark.smoke
@@ -72,3 +72,9 @@ def test_wrong_model_for_action_space(tmp_path):
 def test_unimplemented_feature(tmp_path):
     out = run_cli(["--train", "--file", CARTPOLE, "params.network.rnn={name: lstm, units: 32}"], tmp_path)
     assert_one_line_error(out, "params.network.rnn", "not implemented")
+
+
+def test_sigma_without_fixed_sigma(tmp_path):
+    out = run_cli(["--play", "--file", CARTPOLE, "--checkpoint", os.path.join(ROOT, "nn", "cartpole.pth"),
+                   "--sigma", "0.5"], tmp_path)
+    assert_one_line_error(out, "--sigma", "fixed_sigma")
