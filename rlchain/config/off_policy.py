@@ -57,6 +57,7 @@ class OffPolicyConfig:
                                              "large files)")
     gamma: float = option(0.99, "discount", check=unit_interval)
     normalize_input: bool = option(False, "running mean/std normalization of observations")
+    mixed_precision: bool = option(False, "autocast on CUDA", status="planned (off-policy AMP)")
     reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
     clip_actions: bool = option(True, "continuous: rescale [-1, 1] actions to the action space bounds")
     max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")

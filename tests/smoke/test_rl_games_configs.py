@@ -28,3 +28,16 @@ def test_rl_games_config_runs_unchanged(tmp_path, name):
     assert result.epoch == 2
     run_name = Runner().load(os.path.join(RL_GAMES, name)).params.config.name
     assert os.path.isfile(os.path.join(result.run_dir, "nn", f"last_{run_name}.pth"))
+
+
+def test_rl_games_sac_halfcheetah_config_runs_unchanged(tmp_path):
+    pytest.importorskip("envpool")
+    overrides = [f"params.config.train_dir={tmp_path}", "params.config.print_stats=false",
+                 "params.config.max_frames=192", "params.config.num_warmup_frames=64",
+                 "params.config.num_actors=4", "params.config.num_updates_per_step=2",
+                 "params.config.replay_buffer_size=1000"]  # same config, a tiny budget for the smoke tier
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        result = Runner().load(os.path.join(RL_GAMES, "sac_halfcheetah_envpool.yaml"), overrides).train()
+    assert result.frames == 192
+    assert os.path.isfile(os.path.join(result.run_dir, "nn", "last_HalfCheetah-v4.pth"))
