@@ -10,6 +10,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import RunningMeanStd
 
 
@@ -32,12 +33,14 @@ class DiscreteActions:
         return torch.randint(0, self.n, (num,), device=device)
 
 
-class QModel(nn.Module):
+class QModel(ObservationModel):
     """``network`` (obs -> Q (B, n)), ``target`` network, obs normalizer and the acting epsilon.
 
     ``act(obs, deterministic=True)`` is greedy; otherwise epsilon-greedy with the ``epsilon`` buffer
     (the trainer sets it from its schedule; play uses ``play_epsilon``).
     """
+
+    flatten_obs = True
 
     def __init__(self, network: nn.Module, n: int, obs_shape: tuple[int, ...], normalize_input: bool,
                  play_epsilon: float = 0.0) -> None:
@@ -49,14 +52,6 @@ class QModel(nn.Module):
         self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
         self.epsilon = float(play_epsilon)  # not saved: a checkpoint plays with the config's play_epsilon
 
-    def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
-        if obs.dtype == torch.uint8:
-            obs = obs.float() / 255.0
-        elif obs.dtype != torch.float32:
-            obs = obs.float()
-        obs = obs.flatten(1)
-        return self.obs_norm.normalize(obs) if self.obs_norm is not None else obs
-
     def q_values(self, obs: torch.Tensor) -> torch.Tensor:
         """obs -> Q (B, n)."""
         return self.network(self.preprocess(obs))
@@ -65,9 +60,6 @@ class QModel(nn.Module):
         """obs -> (Q (B, n), max Q (B, 1)) in the ActorCritic protocol that export uses."""
         q = self.q_values(obs)
         return q, q.max(-1, keepdim=True).values
-
-    def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
-        return value
 
     @torch.inference_mode()
     def act(self, obs: torch.Tensor, deterministic: bool = False,
@@ -80,10 +72,6 @@ class QModel(nn.Module):
                 explore = torch.rand(actions.shape[0], device=q.device) < eps
                 actions = torch.where(explore, self.dist.random(actions.shape[0], q.device), actions)
         return {"actions": actions, "q": q}
-
-    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
-        if obs is not None and self.obs_norm is not None:
-            self.obs_norm.update(obs.float().flatten(1))
 
     def override_sigma(self, sigma: float) -> None:
         raise ValueError("--sigma is not supported by DQN (discrete actions)")

@@ -13,6 +13,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import RunningMeanStd
 
 
@@ -45,8 +46,10 @@ class SquashedActions:
         return torch.rand((n, *self.action_shape), device=device) * 2.0 - 1.0
 
 
-class SoftActorCritic(nn.Module):
+class SoftActorCritic(ObservationModel):
     """network (``actor`` + ``critic``), ``critic_target``, ``log_alpha`` and the obs normalizer."""
+
+    flatten_obs = True
 
     def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...],
                  normalize_input: bool, init_alpha: float, clip_actions: bool = True,
@@ -67,14 +70,6 @@ class SoftActorCritic(nn.Module):
     @property
     def alpha(self) -> torch.Tensor:
         return self.log_alpha.exp()
-
-    def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
-        if obs.dtype == torch.uint8:
-            obs = obs.float() / 255.0
-        elif obs.dtype != torch.float32:
-            obs = obs.float()
-        obs = obs.flatten(1)
-        return self.obs_norm.normalize(obs) if self.obs_norm is not None else obs
 
     def policy(self, obs: torch.Tensor, deterministic: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
         """Preprocessed obs -> (actions in [-1, 1], log-prob (B,)); deterministic = tanh(mean)."""
@@ -97,17 +92,10 @@ class SoftActorCritic(nn.Module):
         q1, q2 = self.network.critic(x, torch.tanh(mu))
         return mu, torch.min(q1, q2).unsqueeze(-1)
 
-    def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
-        return value
-
     @torch.inference_mode()
     def act(self, obs: torch.Tensor, deterministic: bool = False) -> dict[str, torch.Tensor]:
         actions, log_prob = self.policy(self.preprocess(obs), deterministic)
         return {"actions": actions, "log_probs": log_prob}
-
-    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
-        if obs is not None and self.obs_norm is not None:
-            self.obs_norm.update(obs.float().flatten(1))
 
     def override_sigma(self, sigma: float) -> None:
         raise ValueError("--sigma is not supported by soft_actor_critic (its std depends on the state)")

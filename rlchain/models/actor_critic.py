@@ -9,11 +9,12 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
+from rlchain.models.base import ObservationModel
 from rlchain.models.distributions import Distribution
 from rlchain.models.normalization import RunningMeanStd
 
 
-class ActorCritic(nn.Module):
+class ActorCritic(ObservationModel):
     """Wraps a network (rl_games output tuple) into act / evaluate calls.
 
     Values are in the normalized space when ``normalize_value`` is on; ``denorm_value`` maps
@@ -28,14 +29,6 @@ class ActorCritic(nn.Module):
         self.dist = dist
         self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
         self.value_norm = RunningMeanStd((value_size,), clip=0.0) if normalize_value else None
-
-    def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
-        """uint8 images -> float in [0, 1]; then input normalization when on."""
-        if obs.dtype == torch.uint8:
-            obs = obs.float() / 255.0
-        elif obs.dtype != torch.float32:
-            obs = obs.float()
-        return self.obs_norm.normalize(obs) if self.obs_norm is not None else obs
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """obs (B, *obs_shape) -> (dist params (B, P), value (B, value_size))."""
@@ -63,8 +56,7 @@ class ActorCritic(nn.Module):
 
     def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
         """Fold a batch of observations / raw returns into the running statistics."""
-        if obs is not None and self.obs_norm is not None:
-            self.obs_norm.update(obs.float())
+        super().update_normalizers(obs=obs)
         if returns is not None and self.value_norm is not None:
             self.value_norm.update(returns)
 

@@ -160,3 +160,17 @@ def test_docs_config_md_in_sync():
     from tests.conftest import ROOT
     with open(os.path.join(ROOT, "docs", "config.md"), encoding="utf-8") as fh:
         assert fh.read() == render(), "regenerate: python -m rlchain.config.docs > docs/config.md"
+
+
+@pytest.mark.parametrize("key,value,expect", [
+    ("evaluation", {"select_best": "eval"}, "params.config.evaluation.select_best: 'eval' is not one of"),
+    ("evaluation", {"interval": -1}, "params.config.evaluation.interval: must be >= 0"),
+    ("divergence", {"action": "rolback"}, "did you mean 'rollback'"),
+    ("divergence", {"lr_factor": 0}, "params.config.divergence.lr_factor: must be in (0, 1]"),
+    ("torch_compile", True, "params.config.torch_compile: unknown key"),
+])
+def test_rlchain_blocks_bad_values(base_config, key, value, expect):
+    base_config["params"]["config"][key] = value
+    with pytest.raises(ConfigError) as err:
+        parse(base_config)
+    assert expect in str(err.value)
