@@ -13,10 +13,8 @@ from dataclasses import dataclass
 from rlchain.config.fields import non_negative, option, positive, unit_interval
 from rlchain.config.schema import (
     DivergenceConfig,
-    EvaluationConfig,
     MlpConfig,
-    PlayerConfig,
-    RewardShaperConfig,
+    RunConfig,
     SpaceConfig,
 )
 
@@ -32,13 +30,9 @@ def _check_bounds(b: list[float]) -> str | None:
 
 
 @dataclass
-class OffPolicyConfig:
+class OffPolicyConfig(RunConfig):
     """Keys shared by every off-policy algorithm (generic rl_games keys + the replay buffer)."""
 
-    name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
-    env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
-                               "(env_config.env_name) or a registered env")
-    env_config: dict = option({}, "keyword arguments for the environment")
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, envpool")
     num_actors: int = option(1, "parallel environments", check=positive)
     num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
@@ -55,26 +49,10 @@ class OffPolicyConfig:
                                        "to 1 over max_frames (or max_epochs)", check=unit_interval)
     save_replay_buffer: bool = option(False, "store the replay buffer in the last checkpoint (exact resume, "
                                              "large files)")
-    gamma: float = option(0.99, "discount", check=unit_interval)
-    normalize_input: bool = option(False, "running mean/std normalization of observations")
     mixed_precision: bool = option(False, "autocast on CUDA", status="planned (off-policy AMP)")
-    reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
     clip_actions: bool = option(True, "continuous: rescale [-1, 1] actions to the action space bounds")
-    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
-    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
-    score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
-    save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
-    save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)", check=non_negative)
-    games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
-    print_stats: bool = option(True, "print the progress line every epoch")
-    device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
-    train_dir: str = option("runs", "folder that holds the run folders")
-    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
     seq_length: int = option(4, "RNN sequence length", check=positive, status="accepted; no effect off-policy")
-    player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (only action: stop)")
-    evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
-    callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
 
     def validate(self) -> tuple[str, str] | None:
         """Cross-key checks; returns (key, message) for the first problem."""

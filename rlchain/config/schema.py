@@ -152,13 +152,36 @@ def _check_lr(x: float) -> str | None:
 
 
 @dataclass
-class TrainConfig:
-    """``params.config``: the training keys of an rl_games config."""
+class RunConfig:
+    """Keys every algorithm shares: the run, its env, stop conditions, checkpoints and logging."""
 
     name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
     env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
                                "(env_config.env_name) or a registered env")
     env_config: dict = option({}, "keyword arguments for the environment")
+    gamma: float = option(0.99, "discount", check=unit_interval)
+    normalize_input: bool = option(False, "running mean/std normalization of observations")
+    reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
+    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
+    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
+    score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
+    save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
+    save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)",
+                                 check=non_negative)
+    games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
+    print_stats: bool = option(True, "print the progress line every epoch")
+    device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
+    train_dir: str = option("runs", "folder that holds the run folders")
+    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
+    player: PlayerConfig = option(PlayerConfig(), "settings for --play")
+    evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
+    callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+
+
+@dataclass
+class TrainConfig(RunConfig):
+    """``params.config``: the training keys of an rl_games config."""
+
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
                                            "envpool; RAY is planned (issue 5)")
     num_actors: int = option(8, "parallel environments", check=positive)
@@ -168,7 +191,6 @@ class TrainConfig:
                                               "minibatch_size_per_env is required)", check=positive)
     minibatch_size_per_env: int | None = option(None, "minibatch = num_actors * this", check=positive)
     mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
-    gamma: float = option(0.99, "discount", check=unit_interval)
     tau: float = option(0.95, "GAE lambda", check=unit_interval)
     learning_rate: float = option(3e-4, "Adam learning rate", check=_check_lr)
     lr_schedule: str | None = option(None, "None (constant), linear or adaptive (KL-based)",
@@ -184,7 +206,6 @@ class TrainConfig:
                                 check=non_negative)
     entropy_coef: float = option(0.0, "entropy bonus weight")
     normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
-    normalize_input: bool = option(False, "running mean/std normalization of observations")
     normalize_value: bool = option(False, "running mean/std normalization of value targets")
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
@@ -192,7 +213,6 @@ class TrainConfig:
     freeze_critic: bool = option(False, "train the actor only", status="planned")
     epochs_between_resets: int = option(0, "reset all envs every N epochs", status="planned")
     value_bootstrap: bool = option(True, "on time-out bootstrap V(true final obs) instead of a terminal")
-    reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
     grad_norm: float = option(1.0, "max gradient norm when truncate_grads", check=positive)
     truncate_grads: bool = option(False, "clip gradients to grad_norm")
     weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
@@ -202,14 +222,6 @@ class TrainConfig:
                                   choices=("bound", "regularisation"))
     use_smooth_clamp: bool = option(False, "smooth clamp instead of clamp in the clipped objective")
     clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale to the space")
-    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
-    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
-    score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
-    save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
-    save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)",
-                                 check=non_negative)
-    games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
-    print_stats: bool = option(True, "print the progress line every epoch")
     seq_length: int = option(4, "RNN training sequence length", check=positive,
                             status="accepted; used once rnn lands (issue 3)")
     bptt_length: int | None = option(None, "RNN truncated-BPTT length (default seq_length)",
@@ -222,13 +234,7 @@ class TrainConfig:
     multi_gpu: bool = option(False, "torch.distributed training under torchrun", status="planned (issue 5)")
     mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
     use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
-    device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
-    train_dir: str = option("runs", "folder that holds the run folders")
-    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
-    player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain)")
-    evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
-    callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
     value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
 
 
