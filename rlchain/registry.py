@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import difflib
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Any
 
 
@@ -66,5 +66,3 @@ MODELS = Registry("model")
 NETWORKS = Registry("network")
 ENVS = Registry("env")
 VECENVS = Registry("vecenv backend")
-
-Builder = Callable[..., Any]

@@ -12,7 +12,6 @@ import os
 import secrets
 from typing import Any
 
-from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw, parse_params
 from rlchain.config.schema import Params
 from rlchain.registry import ALGOS
@@ -140,15 +139,3 @@ def _set_threads(requested: int | None, device: str) -> None:
     elif not device.startswith("cuda"):
         torch.set_num_threads(max(1, min(4, cores // 2)))
 
-
-def config_error_line(exc: Exception) -> str:
-    """The one line shown to a CLI user for an expected error."""
-    if isinstance(exc, ConfigError):
-        return f"config error: {exc}"
-    if isinstance(exc, ckpt.CheckpointError):
-        return f"checkpoint error: {exc}"
-    return f"error: {exc}"
-
-
-def default_checkpoint_dir() -> str:
-    return os.path.join(os.getcwd(), "nn")
