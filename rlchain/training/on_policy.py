@@ -39,7 +39,7 @@ class OnPolicyTrainer(TrainerBase):
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
-            model.value_norm.mean.shape[0] if model.value_norm is not None else _value_size(env), device)
+            _value_size(env), device)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._params_lock = threading.Lock()
         self._pending_params: dict[str, float] = {}
