@@ -50,6 +50,42 @@ class MlpConfig:
 
 
 @dataclass
+class ConvSpec:
+    """One convolution of ``cnn.convs``."""
+
+    filters: int = option(doc="output channels", check=positive)
+    kernel_size: int = option(doc="kernel size (square for conv2d)", check=positive)
+    strides: int = option(1, "stride", check=positive)
+    padding: int = option(0, "zero padding on each side", check=non_negative)
+
+
+@dataclass
+class CnnConfig:
+    """``network.cnn``: a convolutional encoder in front of the MLP (images or 1-d signals)."""
+
+    type: str = option("conv2d", "conv2d over (C, H, W) or conv1d over (C, L) observations",
+                       choices=("conv2d", "conv1d"))
+    permute_input: bool = option(True, "observations are channels-last (H, W, C): permute to (C, H, W)")
+    activation: str = option("relu", "activation after every convolution", choices=ACTIVATIONS)
+    initializer: InitializerConfig = option(InitializerConfig(), "convolution weight initializer")
+    convs: list[ConvSpec] = option([], "the convolutions, in order: {filters, kernel_size, strides, padding}",
+                                   check=lambda c: None if c else "needs at least one convolution")
+
+
+@dataclass
+class RnnConfig:
+    """``network.rnn``: a recurrent layer; training uses sequences of ``config.seq_length``."""
+
+    name: str = option("lstm", "lstm or gru", choices=("lstm", "gru"))
+    units: int = option(128, "hidden units", check=positive)
+    layers: int = option(1, "stacked recurrent layers", check=positive)
+    before_mlp: bool = option(False, "recurrent layer before the MLP (after it when False)")
+    layer_norm: bool = option(False, "LayerNorm on the recurrent output")
+    concat_input: bool = option(False, "feed the network input to the recurrent layer alongside the trunk output")
+    concat_output: bool = option(False, "concatenate the recurrent layer's input to its output")
+
+
+@dataclass
 class DiscreteSpaceConfig:
     """``space.discrete``: a categorical head over ``Discrete(n)``."""
 
@@ -84,8 +120,10 @@ class NetworkConfig:
     separate: bool = option(False, "separate critic network with the same architecture")
     space: SpaceConfig = option(SpaceConfig(), "action head")
     mlp: MlpConfig = option(MlpConfig(), "fully connected layers")
-    cnn: dict | None = option(None, "convolutional encoder", status="planned (issue 3)")
-    rnn: dict | None = option(None, "recurrent layer (lstm/gru)", status="planned (issue 3)")
+    cnn: CnnConfig | None = option(None, "convolutional encoder before the MLP")
+    rnn: RnnConfig | None = option(None, "recurrent layer (lstm/gru)")
+    normalization: str | None = option(None, "rl_games spelling at network level: layer_norm or batch_norm "
+                                             "after MLP hidden layers", choices=("layer_norm", "batch_norm"))
     central_value: bool = option(False, "this network is a value-only critic", status="planned (issue 3)")
     value_activation: str = option("None", "activation on the value output", choices=ACTIVATIONS)
     value_shape: int = option(1, "value outputs (overridden by the env's value_size)", check=positive)

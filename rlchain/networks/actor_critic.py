@@ -1,7 +1,8 @@
-"""The built-in ``actor_critic`` network: MLP trunk (shared or separate) + action head + value head."""
+"""The built-in ``actor_critic`` network: trunk (cnn -> mlp/rnn, shared or separate) + heads."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium as gym
@@ -11,32 +12,86 @@ import torch.nn as nn
 
 from rlchain.config.schema import NetworkConfig
 from rlchain.networks.base import NetworkBuilder
+from rlchain.networks.cnn import ConvEncoder
 from rlchain.networks.layers import activation, initialize, linear
 from rlchain.networks.mlp import MLP
+from rlchain.networks.rnn import RecurrentLayer, States
+
+
+class Trunk(nn.Module):
+    """Observation -> features: optional conv encoder, then MLP and optional RNN in either order.
+
+    ``forward(obs, states, resets, seq_length)`` returns ``(features (B, out_size), new states)``;
+    without an RNN the states pass through as an empty tuple.
+    """
+
+    def __init__(self, cfg: NetworkConfig, input_shape: tuple[int, ...]) -> None:
+        super().__init__()
+        self.cnn = ConvEncoder(cfg.cnn, input_shape) if cfg.cnn is not None else None
+        in_size = self.cnn.out_size if self.cnn is not None else int(np.prod(input_shape))
+        mlp_cfg = cfg.mlp
+        if cfg.normalization is not None and mlp_cfg.normalization is None:
+            mlp_cfg = dataclasses.replace(mlp_cfg, normalization=cfg.normalization)
+        rnn = cfg.rnn
+        self.before_mlp = rnn is not None and rnn.before_mlp
+        self.concat_input = rnn is not None and rnn.concat_input and not rnn.before_mlp
+        self.rnn: RecurrentLayer | None = None
+        if rnn is None:
+            self.mlp = MLP(in_size, mlp_cfg)
+            self.out_size = self.mlp.out_size
+        elif self.before_mlp:
+            self.rnn = RecurrentLayer(in_size, rnn)
+            self.mlp = MLP(self.rnn.out_size, mlp_cfg)
+            self.out_size = self.mlp.out_size
+        else:
+            self.mlp = MLP(in_size, mlp_cfg)
+            self.rnn = RecurrentLayer(self.mlp.out_size + (in_size if self.concat_input else 0), rnn)
+            self.out_size = self.rnn.out_size
+
+    @property
+    def num_states(self) -> int:
+        return self.rnn.num_states if self.rnn is not None else 0
+
+    def initial_state(self, batch: int, device: torch.device) -> States:
+        return self.rnn.initial_state(batch, device) if self.rnn is not None else ()
+
+    def forward(self, obs: torch.Tensor, states: States, resets: torch.Tensor | None,
+                seq_length: int) -> tuple[torch.Tensor, States]:
+        x = self.cnn(obs) if self.cnn is not None else obs.flatten(1)
+        if self.rnn is None:
+            return self.mlp(x), states
+        if self.before_mlp:
+            out, states = self.rnn(x, states, resets, seq_length)
+            return self.mlp(out), states
+        out = self.mlp(x)
+        if self.concat_input:
+            out = torch.cat([out, x], -1)
+        return self.rnn(out, states, resets, seq_length)
 
 
 class ActorCriticNetwork(nn.Module):
-    """Returns rl_games' tuple: ``(logits, value, None)`` or ``(mu, sigma, value, None)``.
+    """Returns rl_games' tuple: ``(logits, value, states)`` or ``(mu, sigma, value, states)``.
 
     Shapes: obs (B, *input_shape) -> logits (B, actions_num) | mu, sigma (B, actions_num);
-    value (B, value_size).
+    value (B, value_size). ``input_dict`` may carry ``rnn_states`` (a tuple, actor states then
+    critic states when separate), ``dones`` (B,) episode starts and ``seq_length``.
     """
 
     def __init__(self, cfg: NetworkConfig, input_shape: tuple[int, ...], actions_num: int,
                  value_size: int, continuous: bool) -> None:
         super().__init__()
-        in_size = int(np.prod(input_shape))
         self.separate = cfg.separate
-        self.actor_mlp = MLP(in_size, cfg.mlp)
-        self.critic_mlp = MLP(in_size, cfg.mlp) if cfg.separate else None
-        out = self.actor_mlp.out_size
-        self.value = linear(out, value_size, cfg.mlp.initializer)
+        self.actor_trunk = Trunk(cfg, input_shape)
+        self.critic_trunk = Trunk(cfg, input_shape) if cfg.separate else None
+        out = self.actor_trunk.out_size
+        init = cfg.mlp.initializer
+        self.value = linear(out, value_size, init)
         self.value_act = activation(cfg.value_activation)
         self.continuous = continuous
         if continuous:
             space = cfg.space.continuous
             # rl_games: every Linear gets the mlp initializer (zero bias), then mu_init on top
-            self.mu = linear(out, actions_num, cfg.mlp.initializer)
+            self.mu = linear(out, actions_num, init)
             initialize(self.mu.weight, space.mu_init)
             self.mu_act = activation(space.mu_activation)
             self.sigma_act = activation(space.sigma_activation)
@@ -45,27 +100,43 @@ class ActorCriticNetwork(nn.Module):
                 self.sigma = nn.Parameter(torch.zeros(actions_num))
                 initialize(self.sigma.data.view(1, -1), space.sigma_init)
             else:
-                self.sigma = linear(out, actions_num, cfg.mlp.initializer)
+                self.sigma = linear(out, actions_num, init)
                 initialize(self.sigma.weight, space.sigma_init)
         else:
-            self.logits = linear(out, actions_num, cfg.mlp.initializer)
+            self.logits = linear(out, actions_num, init)
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:
-        obs = input_dict["obs"].flatten(1)
-        a_out = self.actor_mlp(obs)
-        c_out = self.critic_mlp(obs) if self.separate else a_out
+        obs = input_dict["obs"]
+        states = tuple(input_dict.get("rnn_states") or ())
+        resets = input_dict.get("dones")
+        seq_length = int(input_dict.get("seq_length", 1) or 1)
+        n_actor = self.actor_trunk.num_states
+        a_out, a_states = self.actor_trunk(obs, states[:n_actor], resets, seq_length)
+        if self.critic_trunk is not None:
+            c_out, c_states = self.critic_trunk(obs, states[n_actor:], resets, seq_length)
+        else:
+            c_out, c_states = a_out, ()
+        new_states = (*a_states, *c_states) if self.is_rnn() else None
         value = self.value_act(self.value(c_out))
         if not self.continuous:
-            return self.logits(a_out), value, None
+            return self.logits(a_out), value, new_states
         mu = self.mu_act(self.mu(a_out))
         if self.fixed_sigma:
             sigma = self.sigma_act(self.sigma).expand_as(mu)
         else:
             sigma = self.sigma_act(self.sigma(a_out))
-        return mu, sigma, value, None
+        return mu, sigma, value, new_states
 
     def is_rnn(self) -> bool:
-        return False
+        return self.actor_trunk.rnn is not None
+
+    def get_default_rnn_state(self, batch: int = 1, device: torch.device | None = None) -> States:
+        """Zero recurrent states for ``batch`` envs (empty without an RNN); rl_games' name."""
+        device = device or self.value.weight.device
+        states = self.actor_trunk.initial_state(batch, device)
+        if self.critic_trunk is not None:
+            states = (*states, *self.critic_trunk.initial_state(batch, device))
+        return states
 
 
 class ActorCriticBuilder(NetworkBuilder):
