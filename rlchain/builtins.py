@@ -38,3 +38,4 @@ def register_builtins() -> None:
     ALGOS.register("dqn", DQNTrainer, overwrite=True)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
     import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
+    import rlchain.envs.test  # noqa: F401  (registers the test envs)

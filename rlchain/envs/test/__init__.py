@@ -1,0 +1,5 @@
+"""Small test environments (rl_games' test envs and more) so every feature can be tried in seconds.
+
+Each module registers its envs with gymnasium or :data:`rlchain.registry.ENVS` when imported;
+:mod:`rlchain.builtins` imports this package.
+"""
