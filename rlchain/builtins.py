@@ -12,15 +12,16 @@ from rlchain.registry import ALGOS, MODELS, NETWORKS
 
 def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_size: int, config: Any,
                        model_name: str) -> ActorCritic:
-    """The model presets discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
+    """The model presets discrete_a2c / multi_discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
     dist = make_distribution(model_name, action_space, config.clip_actions)
-    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value)
+    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
+                       use_action_masks=config.use_action_masks)
 
 
 def register_builtins() -> None:
     from rlchain.training.on_policy import OnPolicyTrainer
 
-    for name in ("discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
+    for name in ("discrete_a2c", "multi_discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
         MODELS.register(name, actor_critic_model, overwrite=True)
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
@@ -37,5 +38,5 @@ def register_builtins() -> None:
     ALGOS.register("sac", SACTrainer, overwrite=True)
     ALGOS.register("dqn", DQNTrainer, overwrite=True)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
-    import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
     import rlchain.envs.test  # noqa: F401  (registers the test envs)
+    import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)

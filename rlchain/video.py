@@ -22,6 +22,7 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
+from rlchain.models.stepper import PolicyStepper
 from rlchain.training.events import Callback
 
 INSTALL_HINT = "video recording needs moviepy and pygame: pip install rlchain[video]"
@@ -68,6 +69,19 @@ def make_recording_env(params: Params, video_dir: str, name_prefix: str = "rl-vi
         raise ImportError(f"{INSTALL_HINT} ({exc})") from None
 
 
+class _MaskSource:
+    """Batch-of-one action masks from a single env that offers ``get_action_mask()``."""
+
+    def __init__(self, env: Any) -> None:
+        self.env = env
+
+    def get_action_mask(self) -> np.ndarray:
+        getter = getattr(self.env.unwrapped, "get_action_mask", None)
+        if getter is None:
+            raise ValueError("use_action_masks is on but the recording env has no get_action_mask()")
+        return np.asarray(getter(), dtype=bool)[None]
+
+
 def record_model_episodes(model: Any, params: Params, video_dir: str, games: int = 1,
                           deterministic: bool = True, device: torch.device | str = "cpu",
                           seed: int | None = None, name_prefix: str = "rl-video") -> list[str]:
@@ -82,11 +96,12 @@ def record_model_episodes(model: Any, params: Params, video_dir: str, games: int
     try:
         for game in range(games):
             obs, _ = env.reset(seed=None if seed is None else seed + game)
+            policy = PolicyStepper(model, 1, device)
             done = False
             while not done:
                 with torch.no_grad():
                     batch = torch.as_tensor(cast_obs(np.asarray(obs)[None]), device=device)
-                    actions = model.dist.to_env(model.act(batch, deterministic=deterministic)["actions"])
+                    actions = model.dist.to_env(policy.act(batch, _MaskSource(env), deterministic))
                 action = cast_actions(actions, env.action_space, 1)[0]
                 obs, _, terminated, truncated, _ = env.step(action)
                 done = bool(terminated or truncated)

@@ -6,6 +6,7 @@ updates. There is no action-space branch here: the model's distribution handles 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from contextlib import nullcontext
 
 import torch
@@ -45,7 +46,7 @@ class PPOAgent:
         count = 0
         for _ in range(cfg.mini_epochs):
             epoch_kl, epoch_n = 0.0, 0
-            for batch in storage.minibatches(cfg.minibatch_size, advantages):
+            for batch in self._minibatches(storage, advantages):
                 stats = self._step(batch)
                 for key, value in stats.items():
                     sums[key] += value
@@ -66,7 +67,8 @@ class PPOAgent:
         cfg, model, dist = self.cfg, self.model, self.model.dist
         autocast = torch.autocast("cuda", dtype=torch.float16) if self.amp else nullcontext()
         with autocast:
-            params, values = model(batch.obs)
+            params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
+                                               batch.action_masks)
             log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
             entropy = entropy.mean()
             a_loss = policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip,
@@ -104,6 +106,14 @@ class PPOAgent:
             self.optimizer.step()
         del stats["loss"]
         return stats
+
+    def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
+        """Flat shuffled minibatches, or whole sequences of seq_length steps for an RNN policy."""
+        cfg = self.cfg
+        if self.model.is_rnn:
+            return storage.sequence_minibatches(cfg.minibatch_size, cfg.seq_length, advantages,
+                                                use_resets=cfg.zero_rnn_on_done)
+        return storage.minibatches(cfg.minibatch_size, advantages)
 
     def scale_lr(self, factor: float) -> None:
         """Multiply the learning rate (divergence rollback)."""

@@ -1,4 +1,4 @@
-"""Preallocated on-device rollout storage and its flat minibatch iterator."""
+"""Preallocated on-device rollout storage with flat and sequence (RNN) minibatch iterators."""
 
 from __future__ import annotations
 
@@ -10,7 +10,12 @@ import torch
 
 @dataclass
 class Batch:
-    """One minibatch, flat over (time, env): every tensor has leading dim B."""
+    """One minibatch, flat over (time, env): every per-step tensor has leading dim B.
+
+    For an RNN the rows are ``B / seq_length`` sequences of ``seq_length`` consecutive steps,
+    ``states`` are the RNN states entering each sequence (each (layers, B / seq_length, units))
+    and ``resets`` (B,) marks steps whose observation starts a new episode.
+    """
 
     obs: torch.Tensor
     actions: torch.Tensor
@@ -19,17 +24,24 @@ class Batch:
     returns: torch.Tensor
     advantages: torch.Tensor
     params: torch.Tensor
+    action_masks: torch.Tensor | None = None
+    states: tuple[torch.Tensor, ...] | None = None
+    resets: torch.Tensor | None = None
+    seq_length: int = 1
 
 
 class RolloutStorage:
     """Fixed-size (T, N) buffers allocated once on the training device.
 
     ``add(t, ...)`` writes step t; writing past the horizon or reading an unfilled rollout raises.
+    ``mask_size`` > 0 keeps action masks; ``state_shapes`` (each (layers, N, units)) keeps the RNN
+    states entering every step, for sequence minibatches.
     """
 
     def __init__(self, horizon: int, num_envs: int, obs_shape: tuple[int, ...], obs_dtype: torch.dtype,
                  action_shape: tuple[int, ...], action_dtype: torch.dtype, param_size: int,
-                 value_size: int, device: torch.device) -> None:
+                 value_size: int, device: torch.device, mask_size: int = 0,
+                 state_shapes: tuple[tuple[int, ...], ...] = ()) -> None:
         t, n = horizon, num_envs
         self.horizon, self.num_envs = horizon, num_envs
         kw = {"device": device}
@@ -44,10 +56,14 @@ class RolloutStorage:
         self.dones = torch.zeros((t, n), dtype=torch.bool, **kw)
         self.advantages = torch.zeros((t, n, value_size), **kw)
         self.returns = torch.zeros((t, n, value_size), **kw)
+        self.action_masks = torch.zeros((t, n, mask_size), dtype=torch.bool, **kw) if mask_size else None
+        self.states = tuple(torch.zeros((t, *shape), **kw) for shape in state_shapes)
+        self.resets = torch.zeros((t, n), dtype=torch.bool, **kw) if state_shapes else None
         self.filled = 0
 
     def add(self, t: int, obs: torch.Tensor, actions: torch.Tensor, log_probs: torch.Tensor,
-            values: torch.Tensor, params: torch.Tensor) -> None:
+            values: torch.Tensor, params: torch.Tensor, action_masks: torch.Tensor | None = None,
+            states: tuple[torch.Tensor, ...] = (), resets: torch.Tensor | None = None) -> None:
         """Record what the policy saw and did at step t (rewards/dones come with :meth:`add_outcome`)."""
         if not 0 <= t < self.horizon:
             raise IndexError(f"step {t} outside horizon {self.horizon}")
@@ -56,6 +72,12 @@ class RolloutStorage:
         self.log_probs[t] = log_probs
         self.values[t] = values
         self.params[t] = params
+        if self.action_masks is not None:
+            self.action_masks[t] = action_masks
+        for buffer, state in zip(self.states, states):
+            buffer[t] = state
+        if self.resets is not None:
+            self.resets[t] = resets
         self.filled = t + 1
 
     def add_outcome(self, t: int, rewards: torch.Tensor, terminated: torch.Tensor,
@@ -65,21 +87,56 @@ class RolloutStorage:
         self.terminated[t] = terminated
         self.dones[t] = dones
 
-    def minibatches(self, minibatch_size: int, advantages: torch.Tensor) -> Iterator[Batch]:
-        """Shuffle the whole rollout and yield flat minibatches; ``advantages`` is (T, N) or (T*N,)."""
+    def _per_step(self, advantages: torch.Tensor) -> dict[str, torch.Tensor]:
+        out = {"obs": self.obs, "actions": self.actions, "log_probs": self.log_probs, "values": self.values,
+               "returns": self.returns, "advantages": advantages.reshape(self.horizon, self.num_envs),
+               "params": self.params}
+        if self.action_masks is not None:
+            out["action_masks"] = self.action_masks
+        return out
+
+    def _check_filled(self) -> None:
         if self.filled != self.horizon:
             raise RuntimeError(f"rollout holds {self.filled} of {self.horizon} steps")
+
+    def minibatches(self, minibatch_size: int, advantages: torch.Tensor) -> Iterator[Batch]:
+        """Shuffle the whole rollout and yield flat minibatches; ``advantages`` is (T, N) or (T*N,)."""
+        self._check_filled()
         size = self.horizon * self.num_envs
-        flat = {
-            "obs": self.obs.reshape(size, *self.obs.shape[2:]),
-            "actions": self.actions.reshape(size, *self.actions.shape[2:]),
-            "log_probs": self.log_probs.reshape(size),
-            "values": self.values.reshape(size, -1),
-            "returns": self.returns.reshape(size, -1),
-            "advantages": advantages.reshape(size),
-            "params": self.params.reshape(size, -1),
-        }
+        flat = {k: v.reshape(size, *v.shape[2:]) for k, v in self._per_step(advantages).items()}
         order = torch.randperm(size, device=self.obs.device)
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
             yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()})
+
+    def sequence_minibatches(self, minibatch_size: int, seq_length: int, advantages: torch.Tensor,
+                             use_resets: bool = True) -> Iterator[Batch]:
+        """Yield minibatches of whole sequences: ``seq_length`` consecutive steps of one env each.
+
+        The horizon is cut into T / seq_length chunks per env; sequences are shuffled, never their
+        steps. Each batch carries the stored RNN states entering its sequences and, with
+        ``use_resets``, the episode starts inside them.
+        """
+        self._check_filled()
+        t, n, length = self.horizon, self.num_envs, seq_length
+        if t % length or minibatch_size % length:
+            raise ValueError(f"horizon {t} and minibatch {minibatch_size} must divide by seq_length {length}")
+        chunks = t // length
+        count = chunks * n  # sequences
+
+        def by_sequence(x: torch.Tensor) -> torch.Tensor:  # (T, N, ...) -> (S * L, ...), sequence-major
+            return x.reshape(chunks, length, n, *x.shape[2:]).transpose(1, 2).reshape(count * length, *x.shape[2:])
+
+        flat = {k: by_sequence(v) for k, v in self._per_step(advantages).items()}
+        if use_resets and self.resets is not None:
+            flat["resets"] = by_sequence(self.resets)
+        # states entering each sequence: (chunks, layers, N, units) -> (layers, S, units)
+        starts = [s[::length].permute(1, 0, 2, 3).reshape(s.shape[1], count, s.shape[-1]) for s in self.states]
+        per_batch = minibatch_size // length
+        order = torch.randperm(count, device=self.obs.device)
+        steps = torch.arange(length, device=self.obs.device)
+        for start in range(0, count, per_batch):
+            seqs = order[start:start + per_batch]
+            rows = (seqs.unsqueeze(1) * length + steps).reshape(-1)
+            batch = {k: v.index_select(0, rows) for k, v in flat.items()}
+            yield Batch(**batch, states=tuple(s.index_select(1, seqs) for s in starts), seq_length=length)

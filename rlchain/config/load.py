@@ -121,6 +121,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
+    if isinstance(config, TrainConfig) and isinstance(network, NetworkConfig) and network.rnn is not None:
+        _check_sequences(config, source)
     return Params(algo=algo, model=model, config=config, network=network, seed=seed,
                   import_modules=modules, torch_threads=threads, source=source)
 
@@ -192,6 +194,17 @@ def _check_callbacks(specs: list[str], source: str) -> None:
             raise ConfigError(source, path, f"cannot import '{module_name}': {exc}") from None
         if not hasattr(module, attr):
             raise ConfigError(source, path, f"module '{module_name}' has no '{attr}'")
+
+
+def _check_sequences(config: TrainConfig, source: str) -> None:
+    """An RNN trains on whole sequences: horizon and minibatch must hold whole seq_length blocks."""
+    length = config.seq_length
+    if config.horizon_length % length:
+        raise ConfigError(source, "params.config.seq_length",
+                          f"horizon_length {config.horizon_length} is not divisible by seq_length {length}")
+    if config.minibatch_size % length:
+        raise ConfigError(source, "params.config.seq_length",
+                          f"minibatch_size {config.minibatch_size} is not divisible by seq_length {length}")
 
 
 def _check_training(config: TrainConfig, source: str) -> None:

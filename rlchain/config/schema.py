@@ -91,6 +91,12 @@ class DiscreteSpaceConfig:
 
 
 @dataclass
+class MultiDiscreteSpaceConfig:
+    """``space.multi_discrete``: one categorical per action dimension (MultiDiscrete, Tuple of Discrete,
+    MultiBinary); the head outputs sum(nvec) logits. Use with model ``multi_discrete_a2c``."""
+
+
+@dataclass
 class ContinuousSpaceConfig:
     """``space.continuous``: a diagonal Gaussian head."""
 
@@ -108,7 +114,7 @@ class SpaceConfig:
     """Which action head: exactly one of discrete / multi_discrete / continuous."""
 
     discrete: DiscreteSpaceConfig | None = option(None, "categorical head")
-    multi_discrete: dict | None = option(None, "multi-categorical head", status="planned (issue 3)")
+    multi_discrete: MultiDiscreteSpaceConfig | None = option(None, "multi-categorical head")
     continuous: ContinuousSpaceConfig | None = option(None, "diagonal Gaussian head")
 
 
@@ -260,12 +266,13 @@ class TrainConfig(RunConfig):
                                   choices=("bound", "regularisation"))
     use_smooth_clamp: bool = option(False, "smooth clamp instead of clamp in the clipped objective")
     clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale to the space")
-    seq_length: int = option(4, "RNN training sequence length", check=positive,
-                            status="accepted; used once rnn lands (issue 3)")
+    seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
+                                "divide by it (the deprecated `seq_len` is read as this, with a warning)",
+                             check=positive)
     bptt_length: int | None = option(None, "RNN truncated-BPTT length (default seq_length)",
                                      status="planned (issue 3)")
-    zero_rnn_on_done: bool = option(True, "reset RNN state on done",
-                                    status="accepted; used once rnn lands (issue 3)")
+    zero_rnn_on_done: bool = option(True, "RNN: zero the hidden state when an episode ends, in the rollout "
+                                          "and inside training sequences")
     central_value_config: dict | None = option(None, "asymmetric critic", status="planned (issue 3)")
     use_action_masks: bool = option(False, "invalid-action masks from the env", status="planned (issue 3)")
     self_play_config: dict | None = option(None, "self-play opponents", status="planned (issue 3)")

@@ -23,30 +23,63 @@ class ActorCritic(ObservationModel):
     """
 
     def __init__(self, network: nn.Module, dist: Distribution, obs_shape: tuple[int, ...],
-                 value_size: int, normalize_input: bool, normalize_value: bool) -> None:
+                 value_size: int, normalize_input: bool, normalize_value: bool,
+                 use_action_masks: bool = False) -> None:
         super().__init__()
         self.network = network
         self.dist = dist
         self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
         self.value_norm = RunningMeanStd((value_size,), clip=0.0) if normalize_value else None
+        self.use_action_masks = use_action_masks
+        is_rnn = getattr(network, "is_rnn", None)
+        self.is_rnn = bool(is_rnn()) if callable(is_rnn) else False
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """obs (B, *obs_shape) -> (dist params (B, P), value (B, value_size))."""
-        out = self.network({"obs": self.preprocess(obs)})
-        return self.dist.params_from_network(out)
+        """obs (B, *obs_shape) -> (dist params (B, P), value (B, value_size)); stateless, no masks."""
+        params, value, _ = self.evaluate(obs)
+        return params, value
+
+    def evaluate(self, obs: torch.Tensor, states: tuple[torch.Tensor, ...] | None = None,
+                 resets: torch.Tensor | None = None, seq_length: int = 1,
+                 action_masks: torch.Tensor | None = None
+                 ) -> tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, ...] | None]:
+        """The full forward pass: (dist params (B, P), value (B, value_size), new RNN states).
+
+        For an RNN, obs rows come in ``seq_length`` blocks per sequence (see RecurrentLayer),
+        ``states`` are the states entering each sequence and ``resets`` (B,) marks episode starts.
+        ``action_masks`` (B, mask_size) bool restricts the distribution to valid actions.
+        """
+        inputs: dict = {"obs": self.preprocess(obs)}
+        if self.is_rnn:
+            inputs.update(rnn_states=states if states else self.initial_state(obs.shape[0], obs.device),
+                          dones=resets, seq_length=seq_length)
+        out = self.network(inputs)
+        params, value = self.dist.params_from_network(out)
+        if action_masks is not None:
+            params = self.dist.mask(params, action_masks)
+        new_states = tuple(out[-1]) if self.is_rnn and out[-1] is not None else None
+        return params, value, new_states
+
+    def initial_state(self, batch: int, device: torch.device | None = None) -> tuple[torch.Tensor, ...]:
+        """Zero RNN states for ``batch`` envs, each (layers, batch, units); empty without an RNN."""
+        if not self.is_rnn:
+            return ()
+        return tuple(self.network.get_default_rnn_state(batch, device))
 
     @torch.inference_mode()
-    def act(self, obs: torch.Tensor, deterministic: bool = False) -> dict[str, torch.Tensor]:
-        """Rollout step: actions, their log-probs, raw-scale values and the distribution params."""
-        params, value = self(obs)
+    def act(self, obs: torch.Tensor, deterministic: bool = False, states: tuple | None = None,
+            action_masks: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
+        """Rollout step: actions, their log-probs, raw-scale values, the distribution params and
+        (for an RNN) the states after this step under ``"states"``."""
+        params, value, new_states = self.evaluate(obs, states, action_masks=action_masks)
         actions = self.dist.mode(params) if deterministic else self.dist.sample(params)
         return {"actions": actions, "log_probs": self.dist.log_prob(params, actions),
-                "values": self.denorm_value(value), "params": params}
+                "values": self.denorm_value(value), "params": params, "states": new_states}
 
     @torch.inference_mode()
-    def value(self, obs: torch.Tensor) -> torch.Tensor:
-        """Raw-scale state values (B, value_size)."""
-        return self.denorm_value(self(obs)[1])
+    def value(self, obs: torch.Tensor, states: tuple | None = None) -> torch.Tensor:
+        """Raw-scale state values (B, value_size), given the RNN states entering this step."""
+        return self.denorm_value(self.evaluate(obs, states)[1])
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         return self.value_norm.denormalize(value) if self.value_norm is not None else value

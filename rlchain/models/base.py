@@ -8,6 +8,13 @@ import torch.nn as nn
 from rlchain.models.normalization import RunningMeanStd
 
 
+def as_float(obs: torch.Tensor) -> torch.Tensor:
+    """uint8 images -> float32 in [0, 1]; any other dtype -> float32 (no copy when already)."""
+    if obs.dtype == torch.uint8:
+        return obs.float() / 255.0
+    return obs if obs.dtype == torch.float32 else obs.float()
+
+
 class ObservationModel(nn.Module):
     """uint8 images -> float in [0, 1], optional flattening, then input normalization when on.
 
@@ -18,10 +25,7 @@ class ObservationModel(nn.Module):
     obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
 
     def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
-        if obs.dtype == torch.uint8:
-            obs = obs.float() / 255.0
-        elif obs.dtype != torch.float32:
-            obs = obs.float()
+        obs = as_float(obs)
         if self.flatten_obs:
             obs = obs.flatten(1)
         return self.obs_norm.normalize(obs) if self.obs_norm is not None else obs
@@ -29,7 +33,7 @@ class ObservationModel(nn.Module):
     def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
         """Fold a batch of observations into the input statistics (models with values add returns)."""
         if obs is not None and self.obs_norm is not None:
-            obs = obs.float()
+            obs = as_float(obs)  # the same [0, 1] scale preprocess() normalizes
             self.obs_norm.update(obs.flatten(1) if self.flatten_obs else obs)
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:

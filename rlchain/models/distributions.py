@@ -1,24 +1,43 @@
 """Action distributions. Every action-space difference lives here, none in the algorithm.
 
 A distribution works on a flat parameter tensor ``params`` (B, param_size) that the rollout
-storage keeps for the KL term: logits for Categorical, ``cat(mu, sigma)`` for DiagGaussian.
+storage keeps for the KL term: logits for Categorical, the concatenated logits of every
+dimension for MultiCategorical, ``cat(mu, sigma)`` for DiagGaussian.
+
+Action masks (``config.use_action_masks``): ``mask(params, masks)`` takes a bool tensor
+(B, mask_size), True where an action is allowed, and returns params whose invalid logits are
+:data:`MASKED_LOGIT` (a large finite negative number, so entropy and KL stay finite and the
+masked actions get probability 0). The model applies it right after ``params_from_network``;
+the masked params are what the storage keeps, so the PPO ratio and KL use the same masks.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import gymnasium as gym
 import numpy as np
 import torch
 
+MASKED_LOGIT = -1e8
+"""Logit of a masked action (rl_games uses the same value); clamped to the dtype's range."""
+
+
+class ActionMaskError(ValueError):
+    """An action mask of the wrong shape, or a row (or a dimension of it) with no valid action."""
+
 
 class Distribution:
-    """Interface used by the PPO loss, the rollout and the Player."""
+    """Interface used by the PPO loss, the rollout and the Player.
+
+    ``mask_size`` is the width of the action masks :meth:`mask` takes (0: masks not supported).
+    """
 
     param_size: int
     action_shape: tuple[int, ...]
     action_dtype: torch.dtype
+    mask_size: int = 0
 
     def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
         """Split a network's output tuple into (params, value)."""
@@ -49,18 +68,50 @@ class Distribution:
         """Auxiliary loss keeping continuous means in range; zero for discrete actions."""
         return torch.zeros(params.shape[0], device=params.device)
 
+    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+        """params (B, param_size) restricted to the actions ``masks`` (B, mask_size) bool allows."""
+        raise ActionMaskError(f"{type(self).__name__} does not support action masks "
+                              "(params.config.use_action_masks needs discrete or multi-discrete actions)")
+
     def to_env(self, actions: torch.Tensor) -> torch.Tensor:
         """Map sampled actions to what the env accepts (clip/rescale for Box)."""
         return actions
 
 
-class Categorical(Distribution):
-    """Discrete(n): params are logits (B, n); actions are int64 (B,)."""
+def _masked_logit(dtype: torch.dtype) -> float:
+    return max(MASKED_LOGIT, torch.finfo(dtype).min)
 
-    def __init__(self, n: int) -> None:
+
+def _apply_mask(params: torch.Tensor, masks: torch.Tensor, mask_size: int
+                ) -> tuple[torch.Tensor, torch.Tensor]:
+    """(logits with ``~masks`` set to MASKED_LOGIT, masks as a bool tensor); checks the shape."""
+    masks = torch.as_tensor(masks, device=params.device)
+    if masks.dtype != torch.bool:
+        masks = masks.bool()
+    if masks.shape != params.shape:
+        raise ActionMaskError(f"action mask has shape {tuple(masks.shape)}, expected "
+                              f"({params.shape[0]}, {mask_size}) (batch, mask_size) bool")
+    return params.masked_fill(~masks, _masked_logit(params.dtype)), masks
+
+
+def _no_valid_rows(valid: torch.Tensor) -> None:
+    """Raise when ``valid`` (B,) or (B, K) has a False entry: a row/dimension with no valid action."""
+    if not bool(valid.all()):
+        bad = (~valid).nonzero()[0].tolist()
+        where = f"row {bad[0]}" + (f", action dimension {bad[1]}" if len(bad) > 1 else "")
+        raise ActionMaskError(f"action mask {where} allows no action: every sub-action needs at least "
+                              "one True entry (check the env's get_action_mask())")
+
+
+class Categorical(Distribution):
+    """Discrete(n): params are logits (B, n); actions are int64 (B,); masks (B, n)."""
+
+    def __init__(self, n: int, start: int = 0) -> None:
         self.param_size = n
+        self.mask_size = n
         self.action_shape = ()
         self.action_dtype = torch.long
+        self.start = int(start)
 
     def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
         return out[0], out[1]
@@ -70,9 +121,7 @@ class Categorical(Distribution):
         return torch.log_softmax(params, -1)
 
     def sample(self, params: torch.Tensor) -> torch.Tensor:
-        # Gumbel-max: one argmax, cheaper than multinomial for small batches on CPU
-        u = torch.rand_like(params).clamp_(1e-20, 1.0)
-        return (params - (-u.log()).log()).argmax(-1)
+        return _gumbel_argmax(params)
 
     def mode(self, params: torch.Tensor) -> torch.Tensor:
         return params.argmax(-1)
@@ -92,6 +141,113 @@ class Categorical(Distribution):
     def kl(self, old: torch.Tensor, new: torch.Tensor) -> torch.Tensor:
         old_logp, new_logp = self._log_softmax(old), self._log_softmax(new)
         return (old_logp.exp() * (old_logp - new_logp)).sum(-1)
+
+    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+        """Invalid logits become MASKED_LOGIT; a row with no True entry raises ActionMaskError."""
+        out, masks = _apply_mask(params, masks, self.mask_size)
+        _no_valid_rows(masks.any(-1))
+        return out
+
+    def to_env(self, actions: torch.Tensor) -> torch.Tensor:
+        """Indices 0..n-1 shifted by the space's ``start`` (gymnasium Discrete(n, start))."""
+        return actions + self.start if self.start else actions
+
+
+def _gumbel_argmax(logits: torch.Tensor) -> torch.Tensor:
+    """One categorical sample per row of the last dim (Gumbel-max: cheaper than multinomial on CPU).
+
+    The Gumbel noise is bounded (u in [1e-20, 1)), so a MASKED_LOGIT entry is never chosen."""
+    u = torch.rand_like(logits).clamp_(1e-20, 1.0)
+    return (logits - (-u.log()).log()).argmax(-1)
+
+
+class MultiCategorical(Distribution):
+    """Independent categoricals, one per action dimension: MultiDiscrete(nvec), Tuple(Discrete, ...),
+    MultiBinary(n) (nvec = [2] * n).
+
+    Shapes: params are the concatenated logits (B, sum(nvec)); actions int64 (B, K) with
+    K = len(nvec); masks (B, sum(nvec)) bool, laid out like the logits. log_prob and entropy are
+    sums over the K dimensions; KL likewise (the dimensions are independent).
+
+    Internally the logits are laid out as (B, K, max(nvec)), the padding set to MASKED_LOGIT, so
+    every operation is one batched op whatever the nvec.
+    """
+
+    def __init__(self, nvec: Sequence[int], start: Sequence[int] | None = None) -> None:
+        nvec = [int(n) for n in nvec]
+        if not nvec or min(nvec) < 1:
+            raise ValueError(f"MultiCategorical needs at least one dimension and every n >= 1, got {nvec}")
+        self.nvec = nvec
+        self.param_size = self.mask_size = sum(nvec)
+        self.action_shape = (len(nvec),)
+        self.action_dtype = torch.long
+        self.width = max(nvec)
+        self.uniform = all(n == self.width for n in nvec)
+        # position of logit j of dimension k in the padded (K * width) layout
+        self._slots = torch.tensor([k * self.width + j for k, n in enumerate(nvec) for j in range(n)])
+        start = [0] * len(nvec) if start is None else [int(s) for s in start]
+        self._start = torch.tensor(start, dtype=torch.long) if any(start) else None
+
+    def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
+        return out[0], out[1]
+
+    def _padded(self, flat: torch.Tensor, fill: float | bool) -> torch.Tensor:
+        """(B, sum(nvec)) -> (B, K, width), padding entries = ``fill``."""
+        b, k = flat.shape[0], len(self.nvec)
+        if self.uniform:
+            return flat.reshape(b, k, self.width)
+        slots = self._slots.to(flat.device)
+        out = flat.new_full((b, k * self.width), fill).index_copy(1, slots, flat)
+        return out.view(b, k, self.width)
+
+    def _log_softmax(self, params: torch.Tensor) -> torch.Tensor:
+        """(B, K, width) per-dimension log-probabilities; padding has probability 0."""
+        return torch.log_softmax(self._padded(params, _masked_logit(params.dtype)), -1)
+
+    def sample(self, params: torch.Tensor) -> torch.Tensor:
+        return _gumbel_argmax(self._padded(params, _masked_logit(params.dtype)))
+
+    def mode(self, params: torch.Tensor) -> torch.Tensor:
+        return self._padded(params, _masked_logit(params.dtype)).argmax(-1)
+
+    @staticmethod
+    def _gather(logp: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        return logp.gather(-1, actions.long().reshape(logp.shape[0], -1, 1)).squeeze(-1).sum(-1)
+
+    @staticmethod
+    def _entropy(logp: torch.Tensor) -> torch.Tensor:
+        return -(logp.exp() * logp).sum((-2, -1))
+
+    def log_prob(self, params: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        return self._gather(self._log_softmax(params), actions)
+
+    def entropy(self, params: torch.Tensor) -> torch.Tensor:
+        return self._entropy(self._log_softmax(params))
+
+    def log_prob_and_entropy(self, params: torch.Tensor, actions: torch.Tensor
+                             ) -> tuple[torch.Tensor, torch.Tensor]:
+        logp = self._log_softmax(params)
+        return self._gather(logp, actions), self._entropy(logp)
+
+    def kl(self, old: torch.Tensor, new: torch.Tensor) -> torch.Tensor:
+        old_logp, new_logp = self._log_softmax(old), self._log_softmax(new)
+        return (old_logp.exp() * (old_logp - new_logp)).sum((-2, -1))
+
+    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+        """Invalid logits become MASKED_LOGIT; masks (B, sum(nvec)) are laid out like the logits.
+
+        Each dimension of each row needs at least one True entry, else ActionMaskError.
+        """
+        out, masks = _apply_mask(params, masks, self.mask_size)
+        _no_valid_rows(self._padded(masks, False).any(-1))
+        return out
+
+    def to_env(self, actions: torch.Tensor) -> torch.Tensor:
+        """(B, K) int64 indices shifted by the spaces' ``start``. The vecenv layer turns them into
+        what the env takes (a tuple of per-dimension arrays for Tuple spaces)."""
+        if self._start is None:
+            return actions
+        return actions + self._start.to(actions.device)
 
 
 class DiagGaussian(Distribution):
@@ -148,6 +304,10 @@ class DiagGaussian(Distribution):
         soft = 1.1
         return ((mu - soft).clamp_min(0).square() + (mu + soft).clamp_max(0).square()).sum(-1)
 
+    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+        raise ActionMaskError("params.config.use_action_masks: action masks need discrete or multi-discrete "
+                              "actions; this env has continuous (Box) actions")
+
     def to_env(self, actions: torch.Tensor) -> torch.Tensor:
         """With clip_actions: clip to [-1, 1] and rescale linearly to [low, high]."""
         if not self.rescale:
@@ -157,17 +317,51 @@ class DiagGaussian(Distribution):
         return low + (clipped + 1.0) * 0.5 * (high - low)
 
 
+def multi_discrete_dims(space: gym.Space) -> tuple[list[int], list[int]] | None:
+    """(nvec, start) of a MultiDiscrete, MultiBinary or Tuple-of-Discrete space, else None."""
+    if isinstance(space, gym.spaces.MultiDiscrete):
+        start = getattr(space, "start", np.zeros_like(space.nvec))
+        return [int(n) for n in np.ravel(space.nvec)], [int(s) for s in np.ravel(start)]
+    if isinstance(space, gym.spaces.MultiBinary):
+        n = int(np.prod(space.shape))
+        return [2] * n, [0] * n
+    if isinstance(space, gym.spaces.Tuple) and space.spaces and \
+            all(isinstance(s, gym.spaces.Discrete) for s in space.spaces):
+        return [int(s.n) for s in space.spaces], [int(s.start) for s in space.spaces]
+    return None
+
+
+def actions_num(space: gym.Space) -> int:
+    """Width of the network's action head for ``space``: n, sum(nvec) or prod(Box shape)."""
+    if isinstance(space, gym.spaces.Discrete):
+        return int(space.n)
+    dims = multi_discrete_dims(space)
+    if dims is not None:
+        return sum(dims[0])
+    return int(np.prod(space.shape))
+
+
+MULTI_DISCRETE_MODELS = ("multi_discrete_a2c",)
+
+
 def make_distribution(model_name: str, space: gym.Space, clip_actions: bool) -> Distribution:
     """The distribution a model preset uses for ``space``; a clear error on a mismatch."""
+    multi = multi_discrete_dims(space)
     if isinstance(space, gym.spaces.Discrete):
         if model_name not in ("discrete_a2c",):
-            raise ValueError(f"params.model.name: '{model_name}' needs continuous actions, the env has "
-                             f"Discrete({space.n}); use discrete_a2c")
-        return Categorical(int(space.n))
+            raise ValueError(f"params.model.name: '{model_name}' does not fit the env's Discrete({space.n}) "
+                             f"actions; use discrete_a2c")
+        return Categorical(int(space.n), int(space.start))
+    if multi is not None:
+        if model_name not in MULTI_DISCRETE_MODELS:
+            raise ValueError(f"params.model.name: '{model_name}' does not fit the env's {space} actions; "
+                             f"use multi_discrete_a2c")
+        return MultiCategorical(*multi)
     if isinstance(space, gym.spaces.Box):
         if model_name not in ("continuous_a2c_logstd", "continuous_a2c"):
             raise ValueError(f"params.model.name: '{model_name}' needs discrete actions, the env has "
                              f"Box{space.shape}; use continuous_a2c_logstd")
         return DiagGaussian(space, sigma_is_logstd=model_name == "continuous_a2c_logstd",
                             clip_actions=clip_actions)
-    raise ValueError(f"action space {space} is not supported yet (MultiDiscrete/Tuple: issue 3)")
+    raise ValueError(f"action space {space} is not supported (Discrete, MultiDiscrete, MultiBinary, "
+                     f"Tuple of Discrete, Box)")

@@ -152,5 +152,8 @@ class ActorCriticBuilder(NetworkBuilder):
             raise ValueError("params.network.space: the env has continuous actions (Box); add `continuous:`")
         if isinstance(space, gym.spaces.Discrete) and cfg.space.discrete is None:
             raise ValueError("params.network.space: the env has Discrete actions; add `discrete:`")
+        multi = (gym.spaces.MultiDiscrete, gym.spaces.MultiBinary, gym.spaces.Tuple)
+        if isinstance(space, multi) and cfg.space.multi_discrete is None:
+            raise ValueError(f"params.network.space: the env has {space} actions; add `multi_discrete:`")
         return ActorCriticNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"],
                                   kwargs.get("value_size", 1), continuous)

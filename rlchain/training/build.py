@@ -5,12 +5,12 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
 from rlchain.registry import MODELS, NETWORKS
 
@@ -50,7 +50,7 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
     obs_space, act_space = env.observation_space, env.action_space
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
-    actions_num = int(act_space.n) if hasattr(act_space, "n") else int(np.prod(act_space.shape))
+    actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
     try:
         network = instantiate(NETWORKS.get(_network_name(params.network)), params.network,
                               actions_num=actions_num, input_shape=tuple(obs_space.shape),

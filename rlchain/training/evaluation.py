@@ -9,6 +9,7 @@ from typing import Any
 
 import torch
 
+from rlchain.models.stepper import PolicyStepper
 from rlchain.training.events import Callback
 
 
@@ -39,14 +40,16 @@ def run_episodes(model: Any, env: Any, games: int, deterministic: bool, device: 
     episode_lengths: list[int] = []
     was_training = model.training
     model.eval()
+    policy = PolicyStepper(model, env.num_envs, device)
     try:
         while len(rewards) < games:
-            actions = dist.to_env(model.act(obs, deterministic=deterministic)["actions"])
+            actions = dist.to_env(policy.act(obs, env, deterministic))
             result = env.step(actions if tensor_env else actions.cpu().numpy())
             reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
             returns += reward.sum(-1) if reward.dim() > 1 else reward
             lengths += 1
             done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
+            policy.done(done)
             for i in done.nonzero().flatten().tolist():
                 if len(rewards) < games:
                     rewards.append(float(returns[i]))

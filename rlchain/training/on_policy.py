@@ -11,6 +11,7 @@ import torch
 from rlchain.algos.ppo import PPOAgent
 from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
 from rlchain.algos.storage import RolloutStorage
+from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
@@ -35,11 +36,15 @@ class OnPolicyTrainer(TrainerBase):
         cfg = self.cfg
         self.agent = PPOAgent(model, cfg, device)
         obs_space = env.observation_space
+        self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
+        self.rnn_states = model.initial_state(self.num_envs, device)
+        self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=device)
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
-            _value_size(env), device)
+            _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
+            state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._params_lock = threading.Lock()
         self._pending_params: dict[str, float] = {}
@@ -140,19 +145,34 @@ class OnPolicyTrainer(TrainerBase):
             self.divergence.handle(exc, self.epoch)  # raises unless it rolled back
             self.tracker.reset_running()
             self.obs = self._reset_envs()
+            self._reset_states()
             return None
+
+    def _reset_states(self) -> None:
+        """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
+        self.rnn_states = self.model.initial_state(self.num_envs, self.device)
+        self.resets.fill_(True)
+
+    def _action_masks(self) -> torch.Tensor | None:
+        """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""
+        if not self.use_masks:
+            return None
+        return self._to_tensor(self.env.get_action_mask()).bool()
 
     def _rollout(self) -> bool:
         """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""
         cfg, model, storage, dist = self.cfg, self.model, self.storage, self.model.dist
         model.eval()
-        obs = self.obs
+        obs, states, resets = self.obs, self.rnn_states, self.resets
         rs = cfg.reward_shaper
         for t in range(cfg.horizon_length):
             if self.signals is not None and self.signals.requested:
+                self.obs, self.rnn_states, self.resets = obs, states, resets
                 return False
-            out = model.act(obs)
-            storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"])
+            masks = self._action_masks()
+            out = model.act(obs, states=states, action_masks=masks)
+            storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks,
+                        states, resets)
             result = self.env.step(self._env_actions(dist.to_env(out["actions"])))
             if self.epoch == 0 and t == 0:
                 check_obs_shape(result.obs, self.num_envs, self.env.observation_space, "env step")
@@ -168,11 +188,18 @@ class OnPolicyTrainer(TrainerBase):
                 rows = (truncated & ~terminated).nonzero().squeeze(-1)
                 if rows.numel():
                     final_obs = self._to_tensor(result.final_obs)[rows]
-                    storage.final_values[t, rows] = model.value(final_obs)
+                    row_states = tuple(s[:, rows] for s in out["states"]) if model.is_rnn else None
+                    storage.final_values[t, rows] = model.value(final_obs, row_states)
             storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
             obs = self._to_tensor(result.obs)
-        self.obs = obs
-        self.last_values = model.value(obs)
+            if model.is_rnn:
+                states = out["states"]
+                if cfg.zero_rnn_on_done:
+                    keep = (~dones).to(states[0].dtype).view(1, -1, 1)
+                    states = tuple(s * keep for s in states)
+                resets = dones
+        self.obs, self.rnn_states, self.resets = obs, states, resets
+        self.last_values = model.value(obs, states)
         return True
 
     def _learn(self) -> dict[str, float]:
@@ -207,6 +234,17 @@ class OnPolicyTrainer(TrainerBase):
         if cfg.max_frames > 0:
             return (self.frames + cfg.horizon_length * self.num_envs) / cfg.max_frames
         return 0.0
+
+def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
+    """With use_action_masks the env must provide masks; a one-line ConfigError otherwise."""
+    if not use_action_masks:
+        return False
+    has = getattr(env, "has_action_mask", None)
+    if not callable(has) or not has():
+        raise ConfigError(source, "params.config.use_action_masks",
+                          "True, but the env has no action masks (has_action_mask() / get_action_mask())")
+    return True
+
 
 def _value_size(env: Any) -> int:
     return int(getattr(env, "value_size", 1))

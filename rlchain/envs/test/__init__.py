@@ -3,3 +3,5 @@
 Each module registers its envs with gymnasium or :data:`rlchain.registry.ENVS` when imported;
 :mod:`rlchain.builtins` imports this package.
 """
+
+from rlchain.envs.test import masked_velocity  # noqa: F401,E402

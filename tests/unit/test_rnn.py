@@ -1,0 +1,145 @@
+"""RNN support: the recurrent layer, sequence minibatches and rollout/training consistency."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import pytest
+import torch
+
+from rlchain.algos.storage import RolloutStorage
+from rlchain.config.fields import parse_dataclass
+from rlchain.config.schema import NetworkConfig, RnnConfig
+from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.distributions import Categorical
+from rlchain.networks.actor_critic import ActorCriticNetwork
+from rlchain.networks.rnn import RecurrentLayer
+
+
+def _network(rnn: dict, separate: bool = False, obs_dim: int = 3) -> ActorCriticNetwork:
+    cfg = parse_dataclass(NetworkConfig, {"separate": separate, "space": {"discrete": None},
+                                          "mlp": {"units": [8]}, "rnn": rnn}, "params.network", "t")
+    return ActorCriticNetwork(cfg, (obs_dim,), 2, 1, continuous=False)
+
+
+@pytest.mark.parametrize("name", ["lstm", "gru"])
+def test_sequence_forward_equals_step_by_step(name):
+    torch.manual_seed(0)
+    layer = RecurrentLayer(4, RnnConfig(name=name, units=5, layers=2))
+    batch, length = 3, 4
+    x = torch.randn(batch * length, 4)
+    resets = torch.zeros(batch * length, dtype=torch.bool)
+    resets[1 * length + 2] = True  # sequence 1 starts an episode at its third step
+    states = tuple(torch.randn_like(s) for s in layer.initial_state(batch, torch.device("cpu")))
+    out, final = layer(x, states, resets, length)
+    # the same computation one step at a time, zeroing the state where an episode starts
+    seq_x = x.reshape(batch, length, 4)
+    seq_r = resets.reshape(batch, length)
+    hidden = states
+    expected = []
+    for t in range(length):
+        keep = (~seq_r[:, t]).float().view(1, -1, 1)
+        hidden = tuple(h * keep for h in hidden)
+        step, hidden = layer(seq_x[:, t], hidden, None, 1)
+        expected.append(step)
+    expected = torch.stack(expected, 1).reshape(batch * length, -1)
+    assert torch.allclose(out, expected, atol=1e-6)
+    for a, b in zip(final, hidden):
+        assert torch.allclose(a, b, atol=1e-6)
+
+
+def test_reset_cuts_memory():
+    torch.manual_seed(0)
+    layer = RecurrentLayer(2, RnnConfig(name="gru", units=4))
+    x = torch.randn(4, 2)
+    zero = layer.initial_state(1, torch.device("cpu"))
+    other = (torch.ones_like(zero[0]),)
+    resets = torch.tensor([False, False, True, False])
+    out_a, _ = layer(x, zero, resets, 4)
+    out_b, _ = layer(x, other, resets, 4)
+    assert not torch.allclose(out_a[:2], out_b[:2])  # before the reset the initial state matters
+    assert torch.allclose(out_a[2:], out_b[2:])      # after it, it does not
+
+
+def test_sequence_minibatches_keep_steps_in_order():
+    horizon, envs, length = 8, 3, 4
+    storage = RolloutStorage(horizon, envs, (1,), torch.float32, (), torch.long, 2, 1, torch.device("cpu"),
+                             state_shapes=((1, envs, 2),))
+    for t in range(horizon):
+        obs = torch.tensor([[t * 10.0 + e] for e in range(envs)])
+        state = torch.tensor([[[t * 10.0 + e, -1.0] for e in range(envs)]])
+        storage.add(t, obs, torch.zeros(envs, dtype=torch.long), torch.zeros(envs), torch.zeros(envs, 1),
+                    torch.zeros(envs, 2), None, (state,), torch.tensor([t == 5] * envs))
+    seen = 0
+    for batch in storage.sequence_minibatches(8, length, torch.zeros(horizon, envs)):
+        assert batch.seq_length == length and batch.states[0].shape == (1, 2, 2)
+        seqs = batch.obs.reshape(-1, length)
+        for i, seq in enumerate(seqs):
+            start = seq[0].item()
+            t0, env = divmod(int(start), 10)
+            assert t0 % length == 0
+            assert seq.tolist() == [start + 10 * k for k in range(length)]  # consecutive steps, one env
+            assert batch.states[0][0, i, 0].item() == start                 # the state entering it
+            assert batch.resets.reshape(-1, length)[i].tolist() == [t0 + k == 5 for k in range(length)]
+            seen += 1
+    assert seen == horizon // length * envs
+
+
+def test_sequence_minibatches_reject_bad_lengths():
+    storage = RolloutStorage(6, 2, (1,), torch.float32, (), torch.long, 2, 1, torch.device("cpu"),
+                             state_shapes=((1, 2, 2),))
+    storage.filled = 6
+    with pytest.raises(ValueError, match="seq_length"):
+        next(storage.sequence_minibatches(4, 4, torch.zeros(6, 2)))
+
+
+@pytest.mark.parametrize("separate", [False, True])
+def test_rollout_log_probs_match_training_evaluation(separate):
+    """What the rollout recorded must be what the update recomputes before any step (ratio 1)."""
+    torch.manual_seed(0)
+    net = _network({"name": "lstm", "units": 6, "layers": 1}, separate=separate)
+    model = ActorCritic(net, Categorical(2), (3,), 1, normalize_input=False, normalize_value=False)
+    horizon, envs, length = 8, 4, 4
+    states = model.initial_state(envs)
+    storage = RolloutStorage(horizon, envs, (3,), torch.float32, (), torch.long, 2, 1, torch.device("cpu"),
+                             state_shapes=tuple(tuple(s.shape) for s in states))
+    resets = torch.ones(envs, dtype=torch.bool)
+    for t in range(horizon):
+        obs = torch.randn(envs, 3)
+        out = model.act(obs, states=states)
+        storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], None, states, resets)
+        dones = torch.rand(envs) < 0.3
+        keep = (~dones).float().view(1, -1, 1)
+        states = tuple(s * keep for s in out["states"])
+        resets = dones
+    for batch in storage.sequence_minibatches(8, length, torch.zeros(horizon, envs)):
+        params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length)
+        log_probs = model.dist.log_prob(params, batch.actions)
+        assert torch.allclose(log_probs, batch.log_probs, atol=1e-5)
+        assert torch.allclose(values, batch.values, atol=1e-5)
+
+
+def test_rnn_config_errors(tmp_path):
+    from rlchain.config.errors import ConfigError
+    from rlchain.config.load import parse_params
+
+    raw = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
+                      "network": {"name": "actor_critic", "space": {"discrete": None}, "mlp": {"units": [8]},
+                                  "rnn": {"name": "lstm", "units": 8}},
+                      "config": {"env_name": "CartPole-v1", "num_actors": 2, "horizon_length": 6,
+                                 "minibatch_size": 6, "seq_length": 4}}}
+    with pytest.raises(ConfigError, match="params.config.seq_length: horizon_length 6 is not divisible"):
+        parse_params(raw, "cfg.yaml")
+    raw["params"]["network"]["rnn"]["name"] = "lstmm"
+    with pytest.raises(ConfigError, match=r"params.network.rnn.name: 'lstmm' is not one of: lstm, gru"):
+        parse_params(raw, "cfg.yaml")
+
+
+def test_masked_velocity_env_hides_velocities():
+    import rlchain.envs.test  # noqa: F401
+
+    env = gym.make("CartPoleMaskedVelocity-v1")
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (2,) and env.observation_space.shape == (2,)
+    full = gym.make("CartPole-v1")
+    full_obs, _ = full.reset(seed=0)
+    assert obs.tolist() == pytest.approx(full_obs[[0, 2]].tolist())
