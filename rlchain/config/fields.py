@@ -19,14 +19,18 @@ NONE_STRINGS = {"none", "null", "~"}
 
 
 def option(default: Any = dataclasses.MISSING, doc: str = "", *, choices: tuple | None = None,
-           status: str = "yes", check: typing.Callable[[Any], str | None] | None = None) -> Any:
+           status: str = "yes", check: typing.Callable[[Any], str | None] | None = None,
+           empty_is_present: bool = False) -> Any:
     """Declare a config field: default, one-line meaning, allowed choices and status.
 
     ``status`` is ``yes`` (implemented), ``deprecated`` (accepted, no effect) or a note for
     keys that are accepted only at their default (e.g. ``planned``).
     ``check`` returns an error string for an impossible value, or None.
+    ``empty_is_present``: for an optional block, an empty value (``discrete:``) means the block with
+    its defaults; otherwise an empty or ``None`` value means no block (``rnn: None``).
     """
-    meta = {"doc": doc, "choices": choices, "status": status, "check": check}
+    meta = {"doc": doc, "choices": choices, "status": status, "check": check,
+            "empty_is_present": empty_is_present}
     if isinstance(default, (list, dict)) or dataclasses.is_dataclass(default):
         value = default
         return dataclasses.field(default_factory=lambda: _copy(value), metadata=meta)
@@ -70,7 +74,7 @@ def parse_value(tp: Any, value: Any, path: str, source: str, meta: typing.Mappin
     if origin in (Union, types.UnionType):
         non_none = [a for a in args if a is not type(None)]
         if _is_none(value):
-            if dataclasses.is_dataclass(non_none[0]):
+            if dataclasses.is_dataclass(non_none[0]) and meta.get("empty_is_present"):
                 return parse_dataclass(non_none[0], {}, path, source)  # `discrete:` with no body
             return None
         out = parse_value(non_none[0], value, path, source, meta)
