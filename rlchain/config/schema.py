@@ -113,9 +113,10 @@ class ContinuousSpaceConfig:
 class SpaceConfig:
     """Which action head: exactly one of discrete / multi_discrete / continuous."""
 
-    discrete: DiscreteSpaceConfig | None = option(None, "categorical head")
-    multi_discrete: MultiDiscreteSpaceConfig | None = option(None, "multi-categorical head")
-    continuous: ContinuousSpaceConfig | None = option(None, "diagonal Gaussian head")
+    discrete: DiscreteSpaceConfig | None = option(None, "categorical head", empty_is_present=True)
+    multi_discrete: MultiDiscreteSpaceConfig | None = option(None, "multi-categorical head",
+                                                             empty_is_present=True)
+    continuous: ContinuousSpaceConfig | None = option(None, "diagonal Gaussian head", empty_is_present=True)
 
 
 @dataclass
@@ -191,6 +192,53 @@ class DivergenceConfig:
                               check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
 
 
+@dataclass
+class EnvRunnersConfig:
+    """``config.env_runners`` (rlchain): step the training envs on Ray actors (``pip install rlchain[ray]``).
+
+    This block, or ``vecenv_type: RAY`` (rl_games' name; the block's defaults), turns it on. The
+    ``num_actors`` envs are split over the workers; each worker builds its slice with the backend
+    ``vecenv_type`` names (RAY: auto). Details: rlchain/envs/ray_env.py.
+    """
+
+    num_workers: int | None = option(None, "Ray actors stepping the envs (default: num_actors / envs_per_worker "
+                                           "when that is set, else 2, at most num_actors)", check=positive)
+    envs_per_worker: int | None = option(None, "envs per worker; num_workers * envs_per_worker must equal "
+                                               "num_actors (default: num_actors split evenly)", check=positive)
+    address: str | None = option(None, "None: start a local Ray (or use the one this process started); "
+                                       "'auto', 'host:port' or 'ray://host:10001': an existing cluster")
+    num_cpus_per_worker: float = option(1.0, "CPUs each worker reserves from Ray", check=non_negative)
+    max_restarts: int = option(3, "restarts of a dead worker allowed (each worker) before the run stops",
+                               check=non_negative)
+    step_timeout_s: float = option(60.0, "a worker that does not answer a step or reset within this is "
+                                         "treated as dead", check=positive)
+    start_timeout_s: float = option(120.0, "seconds a (re)started worker may take to build its envs",
+                                    check=positive)
+    runtime_env: dict = option({}, "Ray runtime_env for ray.init (e.g. {pip: [rlchain]} on a cluster)")
+
+
+@dataclass
+class SelfPlayConfig:
+    """``config.self_play_config``: train against frozen copies of the policy loaded into the env.
+
+    The env provides ``set_opponent(policy, env_ids)`` (see rlchain/training/self_play.py). After
+    every epoch the mean score of the games finished since the last opponent update is checked;
+    once ``games_to_check`` games are in and it is above ``update_score``, a frozen copy of the
+    current policy becomes the opponent of ``env_update_num`` envs.
+    """
+
+    update_score: float = option(doc="replace the opponent once the mean score is above this (e.g. a win "
+                                     "rate with check_scores, a mean episode reward without)")
+    games_to_check: int = option(doc="games (since the last update) the mean score is taken over",
+                                 check=positive)
+    check_scores: bool = option(False, "score = the env's per-game scores (pop_scores(): win 1, draw 0.5, "
+                                       "loss 0) instead of the episode rewards")
+    env_update_num: int = option(1, "envs that get the new opponent per update: a window of envs that moves "
+                                    "on by one env per update, as in rl_games", check=positive)
+    deterministic: bool = option(False, "the frozen opponent acts with its distribution's mode instead of "
+                                        "sampling (rlchain)")
+
+
 def _check_lr(x: float) -> str | None:
     return None if x > 0 else "must be > 0"
 
@@ -203,6 +251,8 @@ class RunConfig:
     env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
                                "(env_config.env_name) or a registered env")
     env_config: dict = option({}, "keyword arguments for the environment")
+    env_runners: EnvRunnersConfig | None = option(None, "step the envs on Ray workers (rlchain; see the "
+                                                            "env_runners section)")
     gamma: float = option(0.99, "discount", check=unit_interval)
     normalize_input: bool = option(False, "running mean/std normalization of observations")
     reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
@@ -227,10 +277,10 @@ class TrainConfig(RunConfig):
     """``params.config``: the training keys of an rl_games config."""
 
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
-                                           "envpool; RAY is planned (issue 5)")
+                                           "envpool, RAY (Ray workers, see env_runners)")
     num_actors: int = option(8, "parallel environments", check=positive)
-    horizon_length: int = option(32, "steps per env per epoch; batch = num_actors * horizon_length",
-                                 check=positive)
+    horizon_length: int = option(32, "steps per env per epoch; batch = num_actors * horizon_length * "
+                                     "agents per env", check=positive)
     minibatch_size: int | None = option(None, "minibatch size; the batch must divide by it (this or "
                                               "minibatch_size_per_env is required)", check=positive)
     minibatch_size_per_env: int | None = option(None, "minibatch = num_actors * this", check=positive)
@@ -274,9 +324,13 @@ class TrainConfig(RunConfig):
     zero_rnn_on_done: bool = option(True, "RNN: zero the hidden state when an episode ends, in the rollout "
                                           "and inside training sequences")
     central_value_config: dict | None = option(None, "asymmetric critic", status="planned (issue 3)")
-    use_action_masks: bool = option(False, "invalid-action masks from the env", status="planned (issue 3)")
-    self_play_config: dict | None = option(None, "self-play opponents", status="planned (issue 3)")
-    multi_gpu: bool = option(False, "torch.distributed training under torchrun", status="planned (issue 5)")
+    use_action_masks: bool = option(False, "invalid-action masks from the env's has_action_mask() / "
+                                           "get_action_mask() (discrete and multi-discrete actions)")
+    self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "
+                                                           "env's opponent (needs env set_opponent)")
+    multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
+                                    "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
+                                    "minibatch_size are per process, gradients are averaged, rank 0 saves")
     mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
     use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain)")
