@@ -50,6 +50,7 @@ class OffPolicyConfig(RunConfig):
     save_replay_buffer: bool = option(False, "store the replay buffer in the last checkpoint (exact resume, "
                                              "large files)")
     mixed_precision: bool = option(False, "autocast on CUDA", status="planned (off-policy AMP)")
+    multi_gpu: bool = option(False, "torch.distributed training", status="planned (torchrun is PPO-only for now)")
     clip_actions: bool = option(True, "continuous: rescale [-1, 1] actions to the action space bounds")
     seq_length: int = option(4, "RNN sequence length", check=positive, status="accepted; no effect off-policy")
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (only action: stop)")
@@ -61,6 +62,8 @@ class OffPolicyConfig(RunConfig):
         if self.batch_size > self.replay_buffer_size:
             return "batch_size", (f"batch_size {self.batch_size} is larger than replay_buffer_size "
                                   f"{self.replay_buffer_size}")
+        if self.torch_compile not in (False, None, "false", "False"):
+            return "torch_compile", "supported for PPO only so far; remove it or set false"
         if self.divergence.action != "stop":
             return "divergence.action", "off-policy algorithms support only 'stop'"
         return None

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from rlchain.config.compile import check_compile
 from rlchain.config.fields import non_negative, option, positive, unit_interval
 
 ACTIVATIONS = ("relu", "tanh", "sigmoid", "elu", "selu", "swish", "silu", "gelu", "softplus",
@@ -269,6 +270,10 @@ class RunConfig:
     full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
+    torch_compile: Any = option(False, "PPO: torch.compile the network: false, true (mode default), a mode "
+                                       "(default, reduce-overhead, max-autotune) or {mode, critic_mode, "
+                                       "backend}. rl_games defaults to true; rlchain to false (compiling "
+                                       "costs ~30 s on a CPU)", check=check_compile)
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
 
 

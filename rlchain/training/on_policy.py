@@ -13,9 +13,12 @@ from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
 from rlchain.algos.storage import RolloutStorage
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
+from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.training.compile import compile_model
 from rlchain.training.base import TrainerBase, TrainResult, describe
+from rlchain.training.episodes import game_outcome
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import (
@@ -34,6 +37,7 @@ class OnPolicyTrainer(TrainerBase):
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
         super().__init__(params, env, model, device, run, logger, seed, raw_config)
         cfg = self.cfg
+        compile_model(model, cfg.torch_compile)
         self.agent = PPOAgent(model, cfg, device)
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
@@ -76,7 +80,7 @@ class OnPolicyTrainer(TrainerBase):
                     continue  # rolled back: collect a fresh rollout with the restored policy
                 t2 = time.time()
                 self.epoch += 1
-                self.frames += self.cfg.horizon_length * self.num_envs
+                self.frames += self.cfg.horizon_length * self.num_envs * self.world_size  # all ranks' frames
                 episodes = self._episode_stats()
                 self._log(stats, episodes, t1 - t0, t2 - t1)
                 self._checkpoints(episodes)
@@ -180,7 +184,8 @@ class OnPolicyTrainer(TrainerBase):
             terminated = self._to_tensor(result.terminated).bool()
             truncated = self._to_tensor(result.truncated).bool()
             dones = terminated | truncated
-            self.tracker.step(rewards, dones)
+            self.tracker.step(*game_outcome(result, rewards, dones),  # whole games (Atari lives)
+                              dropped=dropped_rows(result))  # episodes cut by a dead Ray worker
             if rewards.dim() == 1:
                 rewards = rewards.unsqueeze(-1)
             shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val)
@@ -223,7 +228,8 @@ class OnPolicyTrainer(TrainerBase):
 
     # ----- bookkeeping ----------------------------------------------------------------------
     def _log(self, stats: dict, episodes: dict | None, rollout_s: float, update_s: float) -> None:
-        timing = {"batch": self.cfg.horizon_length * self.num_envs, "rollout": rollout_s, "update": update_s}
+        timing = {"batch": self.cfg.horizon_length * self.num_envs * self.world_size, "rollout": rollout_s,
+                  "update": update_s}
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, stats, episodes,
                           self.best_reward, timing)
 
@@ -232,7 +238,7 @@ class OnPolicyTrainer(TrainerBase):
         if cfg.max_epochs > 0:
             return (self.epoch + 1) / cfg.max_epochs
         if cfg.max_frames > 0:
-            return (self.frames + cfg.horizon_length * self.num_envs) / cfg.max_frames
+            return (self.frames + cfg.horizon_length * self.num_envs * self.world_size) / cfg.max_frames
         return 0.0
 
 def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:

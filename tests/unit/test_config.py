@@ -49,7 +49,7 @@ def test_unknown_key_suggests(base_config):
     ("lr_schedule", "adaptve", "did you mean 'adaptive'"),
     ("gamma", 1.5, "between 0 and 1"),
     ("minibatch_size", 10, "not divisible by minibatch_size"),
-    ("minibatch_size", 64, "larger than the batch"),
+    # a minibatch larger than num_actors*horizon_length is checked with the env (tests/unit/test_multi_agent.py)
 ])
 def test_bad_values(base_config, key, value, expect):
     base_config["params"]["config"][key] = value
@@ -100,10 +100,10 @@ def test_unimplemented_feature_is_an_error(base_config):
     with pytest.raises(ConfigError, match=r"params.config.bptt_length: not implemented in rlchain yet"):
         parse(base_config)
     base_config["params"]["config"].pop("bptt_length")
-    base_config["params"]["config"]["multi_gpu"] = True
-    with pytest.raises(ConfigError, match=r"params.config.multi_gpu: not implemented"):
+    base_config["params"]["config"]["normalize_rms_advantage"] = True
+    with pytest.raises(ConfigError, match=r"params.config.normalize_rms_advantage: not implemented"):
         parse(base_config)
-    base_config["params"]["config"]["multi_gpu"] = False
+    base_config["params"]["config"]["normalize_rms_advantage"] = False
     base_config["params"]["config"]["phasic_policy_gradients"] = {"a": 1}
     with pytest.raises(ConfigError, match=r"phasic policy gradients"):
         parse(base_config)
@@ -167,7 +167,9 @@ def test_docs_config_md_in_sync():
     ("evaluation", {"interval": -1}, "params.config.evaluation.interval: must be >= 0"),
     ("divergence", {"action": "rolback"}, "did you mean 'rollback'"),
     ("divergence", {"lr_factor": 0}, "params.config.divergence.lr_factor: must be in (0, 1]"),
-    ("torch_compile", True, "params.config.torch_compile: unknown key"),
+    ("torch_compile", "fast", "params.config.torch_compile: mode 'fast' is not one of: default, reduce-overhead"),
+    ("torch_compile", {"mode": "default", "modee": 1}, "params.config.torch_compile: unknown key 'modee'"),
+    ("torch_compile", 3, "params.config.torch_compile: expected false, true, a mode"),
 ])
 def test_rlchain_blocks_bad_values(base_config, key, value, expect):
     base_config["params"]["config"][key] = value
