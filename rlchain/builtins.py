@@ -14,6 +14,9 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
                        model_name: str) -> ActorCritic:
     """The model presets discrete_a2c / multi_discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
     dist = make_distribution(model_name, action_space, config.clip_actions)
+    if config.use_action_masks and not dist.mask_size:
+        raise ValueError(f"params.config.use_action_masks: needs discrete or multi-discrete actions, the env has "
+                         f"{action_space}")
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
                        use_action_masks=config.use_action_masks)
 
@@ -37,6 +40,7 @@ def register_builtins() -> None:
     NETWORKS.register("dqn", QNetworkBuilder, overwrite=True)
     ALGOS.register("sac", SACTrainer, overwrite=True)
     ALGOS.register("dqn", DQNTrainer, overwrite=True)
+    import rlchain.envs.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
     import rlchain.envs.test  # noqa: F401  (registers the test envs)
     import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)

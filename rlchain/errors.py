@@ -9,6 +9,10 @@ class EnvError(RuntimeError):
     """The environment raised, or returned data that does not fit its declared space."""
 
 
+class DistributedError(RuntimeError):
+    """Under torchrun, a collective failed: another rank died, was killed or hung (multi_gpu)."""
+
+
 def first_non_finite(named: dict[str, float]) -> str | None:
     """The first ``name = value`` whose value is NaN or inf, else None."""
     for name, value in named.items():

@@ -8,8 +8,10 @@ The exported graph is the deterministic policy as the Player runs it::
   as :meth:`ActorCritic.preprocess` does). Input normalization (the model's RunningMeanStd, frozen
   statistics) is part of the graph: feed raw env observations.
 - ``action``: the distribution's mode, post-processed for the env (``Distribution.to_env``):
-  int64 argmax of the logits for Discrete; for Box the mean, clipped to [-1, 1] and rescaled to the
-  space's bounds when ``clip_actions`` is on (float32).
+  int64 argmax of the logits for Discrete, (batch, K) int64 argmax per dimension for MultiDiscrete /
+  Tuple of Discrete; for Box the mean, clipped to [-1, 1] and rescaled to the space's bounds when
+  ``clip_actions`` is on (float32). Action masks are not part of the graph yet: the
+  exported action of a ``use_action_masks`` policy ignores masks.
 - ``value``: the critic's value on the return scale (value normalization undone).
 
 The batch axis is dynamic. Requires ``pip install rlchain[onnx]`` (onnx + onnxruntime).

@@ -46,52 +46,77 @@ class Runner:
               wandb_entity: str | None = None) -> Any:
         """Train (resuming from ``checkpoint`` when given); returns a TrainResult.
 
-        ``track`` mirrors the TensorBoard scalars and the config to Weights & Biases.
+        ``track`` mirrors the TensorBoard scalars and the config to Weights & Biases. Under torchrun
+        with ``multi_gpu: True`` every rank calls this; rank 0 alone writes the run folder.
         """
+        from rlchain.training import distributed
+
+        params = self._require()
+        seed = seed if seed is not None else params.seed
+        group = distributed.setup(params, self.raw, seed)  # None unless launched by torchrun (multi_gpu)
+        try:
+            result = self._train(params, group, checkpoint, seed, sigma, callbacks or [], track, wandb_project,
+                                 wandb_entity)
+        except BaseException as exc:
+            distributed.shutdown(group, clean=False)
+            lost = distributed.collective_failure(group, exc)  # a dead peer: one line, not a gloo traceback
+            if lost is not None:
+                raise lost from exc
+            raise
+        distributed.shutdown(group, clean=not result.stop_reason.startswith("interrupted"))
+        return result
+
+    def _train(self, params: Params, group: Any, checkpoint: str | None, seed: int | None, sigma: float | None,
+               callbacks: list[Any], track: bool, wandb_project: str, wandb_entity: str | None) -> Any:
         from rlchain.training.build import build_env, build_model, resolve_device
         from rlchain.training.checkpoint import seed_everything
 
-        params = self._require()
         cfg = params.config
-        seed = seed if seed is not None else params.seed
-        if seed is None:
+        if group is not None:
+            seed = group.rank_seed  # distinct envs and RNG per rank; rank 0 keeps the run's seed
+        elif seed is None:
             seed = secrets.randbelow(2**31)
         seed_everything(seed)
         _set_threads(params.torch_threads, cfg.device)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
-        env = build_env(params, cfg.num_actors, seed)
+        env = build_env(params, cfg.num_actors, seed, runners=True)
         try:
             model = build_model(params, env, device)
             if state is not None:  # a mismatched checkpoint fails before any run folder exists
                 ckpt.load_model_state(model, state, checkpoint)
+            if group is not None:  # so do ranks with different envs or resume points (torchrun)
+                group.check_consistent(env, model, state)
             return self._train_in_run_dir(params, env, model, device, seed, state, checkpoint, sigma,
-                                          callbacks or [], track, wandb_project, wandb_entity)
+                                          callbacks, track, wandb_project, wandb_entity, group)
         finally:
             env.close()
 
     def _train_in_run_dir(self, params: Params, env: Any, model: Any, device: Any, seed: int, state: Any,
                           checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
-                          wandb_project: str, wandb_entity: str | None) -> Any:
+                          wandb_project: str, wandb_entity: str | None, group: Any = None) -> Any:
         from rlchain.training.build import apply_sigma
         from rlchain.training.logging import TrainLogger
         from rlchain.training.run_dir import create_run_dir
 
         cfg = params.config
-        run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw)
+        main = group is None or group.is_main  # under torchrun only rank 0 writes folders, logs and checkpoints
+        run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw) if main else None
         tracker = None
-        if track:  # before the SummaryWriter exists: wandb mirrors it by patching the writer
+        if track and run is not None:  # before the SummaryWriter exists: wandb mirrors it by patching the writer
             from rlchain.training.wandb_logger import start_wandb
             tracker = start_wandb(wandb_project, wandb_entity, {**self.raw, "run": {"seed": seed}},
                                   os.path.basename(run.root), run.summaries)
         ok = False
-        logger = TrainLogger(run.summaries, cfg.print_stats)
+        logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats)
         try:
             trainer = ALGOS.get(params.algo.name)(params, env, model, device, run, logger, seed, self.raw)
             if state is not None:
                 trainer.restore(state, checkpoint)
             if sigma is not None:
                 apply_sigma(model, sigma)
+            if group is not None:  # same state on every rank, then the gradient/statistics syncs
+                group.attach(trainer)
             trainer.events.extend(callbacks)
             if cfg.print_stats:
                 what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"

@@ -6,7 +6,7 @@ updates. There is no action-space branch here: the model's distribution handles 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import nullcontext
 
 import torch
@@ -32,8 +32,10 @@ class PPOAgent:
                                           **_fast_adam_kwargs(device))
         self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
                                       cfg.min_lr, cfg.max_lr)
+        self.train_critic = True  # False with a central value network (it trains the values itself)
         self.amp = cfg.mixed_precision and device.type == "cuda"
         self.scaler = torch.amp.GradScaler("cuda", enabled=self.amp) if self.amp else None
+        self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks
 
     def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr."""
@@ -73,19 +75,22 @@ class PPOAgent:
             entropy = entropy.mean()
             a_loss = policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip,
                                  cfg.use_smooth_clamp).mean()
-            c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
-                                cfg.e_clip, cfg.clip_value).mean()
+            if self.train_critic:
+                c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
+                                    cfg.e_clip, cfg.clip_value).mean()
+            else:
+                c_loss = torch.zeros((), device=values.device)
             loss = a_loss + 0.5 * cfg.critic_coef * c_loss - cfg.entropy_coef * entropy
             b_loss = torch.zeros((), device=params.device)
             if cfg.bounds_loss_coef:
                 b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
                 loss = loss + cfg.bounds_loss_coef * b_loss
         self.optimizer.zero_grad(set_to_none=True)
+        (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
+        if self.gradient_sync is not None:  # before unscaling and clipping, so every rank sees the same grads
+            self.gradient_sync(self.params)
         if self.scaler is not None:
-            self.scaler.scale(loss).backward()
             self.scaler.unscale_(self.optimizer)
-        else:
-            loss.backward()
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
         grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
         with torch.no_grad():

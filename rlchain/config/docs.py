@@ -17,6 +17,7 @@ from rlchain.config.schema import (
     NetworkConfig,
     PlayerConfig,
     RewardShaperConfig,
+    SpaceConfig,
     TrainConfig,
 )
 
@@ -28,6 +29,7 @@ SECTIONS = [
     ("params.config.evaluation", EvaluationConfig),
     ("params.network (builder actor_critic)", NetworkConfig),
     ("params.network.mlp", MlpConfig),
+    ("params.network.space (exactly one; an empty value like `discrete:` selects it)", SpaceConfig),
     ("params.network.space.continuous", ContinuousSpaceConfig),
     ("initializer blocks (mlp.initializer, mu_init, sigma_init)", InitializerConfig),
     ("params.config for algo sac (keys shared with PPO have the same meaning)", SACConfig),
@@ -47,7 +49,7 @@ A config file is YAML (or JSON) with one top-level `params` block:
 |---|---|
 | `params.seed` | seed for python, numpy, torch and the envs (`--seed` overrides) |
 | `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), `sac`, `dqn`, or a registered algo |
-| `params.model.name` | `discrete_a2c`, `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn` |
+| `params.model.name` | `discrete_a2c`, `multi_discrete_a2c` (MultiDiscrete / Tuple of Discrete / MultiBinary actions), `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn` |
 | `params.network` | network block; `name: actor_critic` is built in, user builders via `register_network` |
 | `params.config` | training keys below |
 | `params.torch_threads` | `torch.set_num_threads` for the training process (default: torch's choice) |

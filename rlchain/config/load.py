@@ -123,6 +123,11 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
     if isinstance(config, TrainConfig) and isinstance(network, NetworkConfig) and network.rnn is not None:
         _check_sequences(config, source)
+    if isinstance(network, NetworkConfig) and network.central_value:
+        raise ConfigError(source, "params.network.central_value", "True makes a value-only critic, but "
+                          "params.network is the actor; put the critic under config.central_value_config.network")
+    if isinstance(config, TrainConfig) and config.central_value_config is not None:
+        _check_central_value(config, source)
     return Params(algo=algo, model=model, config=config, network=network, seed=seed,
                   import_modules=modules, torch_threads=threads, source=source)
 
@@ -207,6 +212,41 @@ def _check_sequences(config: TrainConfig, source: str) -> None:
                           f"minibatch_size {config.minibatch_size} is not divisible by seq_length {length}")
 
 
+def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
+    """minibatch_size must divide the batch num_actors * horizon_length * ``agents`` (agents per env).
+
+    At load time the env is unknown, so a minibatch larger than num_actors * horizon_length is
+    checked once the env is built (``Runner.train``), with its agent count.
+    """
+    batch = config.num_actors * config.horizon_length * agents
+    what = "num_actors*horizon_length" + (f"*agents ({agents} per env)" if agents > 1 else "")
+    if config.minibatch_size > batch:
+        raise ConfigError(source, "params.config.minibatch_size",
+                          f"minibatch_size {config.minibatch_size} is larger than the batch {what} = {batch}")
+    if batch % config.minibatch_size != 0:
+        raise ConfigError(source, "params.config.minibatch_size",
+                          f"batch {what} = {batch} is not divisible by minibatch_size {config.minibatch_size}")
+
+
+def _check_central_value(config: TrainConfig, source: str) -> None:
+    """The asymmetric critic: value-only network, a minibatch that divides the batch."""
+    cv, path = config.central_value_config, "params.config.central_value_config"
+    heads = [k for k in ("discrete", "multi_discrete", "continuous") if getattr(cv.network.space, k) is not None]
+    if heads:
+        raise ConfigError(source, f"{path}.network.space", f"the central value network is a critic (value "
+                          f"only); remove the '{heads[0]}' action head")
+    if cv.network.rnn is not None:
+        raise ConfigError(source, f"{path}.network.rnn", "a recurrent central value network is not implemented "
+                          "yet; use an MLP critic (the actor may still have an rnn)")
+    if cv.minibatch_size_per_env is not None:
+        cv.minibatch_size = config.num_actors * cv.minibatch_size_per_env
+    cv.minibatch_size = cv.minibatch_size or config.minibatch_size
+    batch = config.num_actors * config.horizon_length
+    if batch % cv.minibatch_size:
+        raise ConfigError(source, f"{path}.minibatch_size", f"batch num_actors*horizon_length = {batch} is not "
+                          f"divisible by {cv.minibatch_size}")
+
+
 def _check_training(config: TrainConfig, source: str) -> None:
     """Cross-key checks that no single field can make."""
     batch = config.num_actors * config.horizon_length
@@ -218,13 +258,8 @@ def _check_training(config: TrainConfig, source: str) -> None:
     if config.minibatch_size is None:
         raise ConfigError(source, "params.config.minibatch_size",
                           "required key is missing (or give minibatch_size_per_env)")
-    if config.minibatch_size > batch:
-        raise ConfigError(source, "params.config.minibatch_size",
-                          f"minibatch_size {config.minibatch_size} is larger than the batch {batch}")
-    if batch % config.minibatch_size != 0:
-        raise ConfigError(source, "params.config.minibatch_size",
-                          f"batch num_actors*horizon_length = {batch} is not divisible by minibatch_size "
-                          f"{config.minibatch_size}")
+    if config.minibatch_size <= batch:  # a larger one may fit a multi-agent env: checked with the env
+        check_batch(config, source, agents=1)
     if not config.env_name:
         raise ConfigError(source, "params.config.env_name", "required key is missing")
     if config.lr_schedule == "constant":

@@ -115,8 +115,9 @@ class SpaceConfig:
     """Which action head: exactly one of discrete / multi_discrete / continuous."""
 
     discrete: DiscreteSpaceConfig | None = option(None, "categorical head", empty_is_present=True)
-    multi_discrete: MultiDiscreteSpaceConfig | None = option(None, "multi-categorical head",
-                                                             empty_is_present=True)
+    multi_discrete: MultiDiscreteSpaceConfig | None = option(
+        None, "one categorical per action dimension: MultiDiscrete, Tuple of Discrete, MultiBinary "
+              "(model multi_discrete_a2c)", empty_is_present=True)
     continuous: ContinuousSpaceConfig | None = option(None, "diagonal Gaussian head", empty_is_present=True)
 
 
@@ -132,7 +133,8 @@ class NetworkConfig:
     rnn: RnnConfig | None = option(None, "recurrent layer (lstm/gru)")
     normalization: str | None = option(None, "rl_games spelling at network level: layer_norm or batch_norm "
                                              "after MLP hidden layers", choices=("layer_norm", "batch_norm"))
-    central_value: bool = option(False, "this network is a value-only critic", status="planned (issue 3)")
+    central_value: bool = option(False, "this network is a value-only critic (only inside "
+                                        "config.central_value_config.network)")
     value_activation: str = option("None", "activation on the value output", choices=ACTIVATIONS)
     value_shape: int = option(1, "value outputs (overridden by the env's value_size)", check=positive)
 
@@ -328,7 +330,8 @@ class TrainConfig(RunConfig):
                                      status="planned (issue 3)")
     zero_rnn_on_done: bool = option(True, "RNN: zero the hidden state when an episode ends, in the rollout "
                                           "and inside training sequences")
-    central_value_config: dict | None = option(None, "asymmetric critic", status="planned (issue 3)")
+    central_value_config: CentralValueConfig | None = option(
+        None, "asymmetric actor-critic: a value network on the env's `state` (env use_central_value)")
     use_action_masks: bool = option(False, "invalid-action masks from the env's has_action_mask() / "
                                            "get_action_mask() (discrete and multi-discrete actions)")
     self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "
@@ -340,6 +343,29 @@ class TrainConfig(RunConfig):
     use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain)")
     value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
+
+
+@dataclass
+class CentralValueConfig:
+    """``config.central_value_config``: a critic that sees the env's full ``state`` while the actor
+    sees ``obs`` (asymmetric actor-critic). It has its own network, optimizer and minibatches; the
+    actor's own value head is then not trained. Needs an env with ``use_central_value = True``.
+    """
+
+    network: NetworkConfig = option(doc="the critic's network block (mlp, cnn; `central_value: True`; "
+                                        "no action head)")
+    learning_rate: float = option(5e-4, "critic Adam learning rate", check=_check_lr)
+    lr_schedule: str | None = option(None, "None (constant) or linear (to 0 over max_epochs/max_frames)",
+                                     choices=("linear", "constant"))
+    minibatch_size: int | None = option(None, "critic minibatch size (default: the actor's)", check=positive)
+    minibatch_size_per_env: int | None = option(None, "critic minibatch = num_actors * this", check=positive)
+    mini_epochs: int = option(4, "critic passes over the batch per epoch", check=positive)
+    normalize_input: bool = option(True, "running mean/std normalization of states")
+    clip_value: bool = option(False, "clip the value update to e_clip around the old value")
+    e_clip: float = option(0.2, "value clip range", check=positive)
+    truncate_grads: bool = option(False, "clip gradients to grad_norm")
+    grad_norm: float = option(1.0, "max gradient norm", check=positive)
+    weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
 
 
 @dataclass

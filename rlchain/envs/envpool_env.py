@@ -2,9 +2,15 @@
 
 envpool auto-resets on the NEXT step (the step after ``done`` ignores the action and returns
 the reset obs). We turn that into the same-step contract of :mod:`rlchain.envs.vecenv`: after
-a step, the rows that ended keep their last obs in ``final_obs`` and are reset right away with
-``env.reset(env_id=ids)``, whose obs are spliced into ``obs``. envpool's ``truncated`` is its
-time limit (``max_episode_steps``), ``terminated`` the task's own end, as in gymnasium.
+a step, the rows that ended keep their last obs in ``final_obs`` and take that auto-reset step
+right away (``env.step(noop, env_id=ids)``), whose obs are spliced into ``obs``. It is envpool's
+own reset, so Atari's ``episodic_life`` goes on with the next life (``env.reset(ids)`` would
+restart the whole game). envpool's ``truncated`` is its time limit (``max_episode_steps``),
+``terminated`` the task's own end (with ``episodic_life``: a lost life), as in gymnasium.
+
+Atari tasks also report the game's unclipped reward and the end of the whole game
+(``StepResult.game_reward`` / ``game_over``, from envpool's ``info['reward']`` and
+``info['terminated']``), so scores are whole games even with ``episodic_life`` / ``reward_clip``.
 """
 
 from __future__ import annotations
@@ -54,6 +60,18 @@ def envpool_config_keys(task_id: str) -> set[str]:
 def random_seed(num_envs: int) -> int:
     """A random seed such that envpool's per-env seeds ``seed + i`` stay in int32."""
     return int(np.random.default_rng().integers(0, 2**31 - 1 - num_envs))
+
+
+def game_signals(infos: dict, truncated: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(game_reward (N,) float32, game_over (N,) bool) of an Atari step, (None, None) for other tasks.
+
+    envpool's Atari info holds the unclipped ``reward``, ``lives`` and ``terminated`` (the game
+    itself is over, not just a life); a time-out (``truncated``) also ends the game.
+    """
+    if "lives" not in infos or "reward" not in infos or "terminated" not in infos:
+        return None, None
+    game_over = np.asarray(infos["terminated"]).astype(bool).reshape(-1) | truncated
+    return np.asarray(infos["reward"], dtype=np.float32).reshape(-1), game_over
 
 
 class EnvpoolVecEnv:
@@ -117,11 +135,13 @@ class EnvpoolVecEnv:
         obs = self._obs(obs)
         final_obs = obs.copy()
         done = terminated | truncated
+        game = game_signals(infos, truncated)
         if done.any():
             ids = np.flatnonzero(done).astype(np.int32)
-            new_obs, reset_info = self.env.reset(ids)
+            noop = np.zeros((len(ids), *self._env_action_space.shape), self._env_action_space.dtype)
+            new_obs, _, _, _, reset_info = self.env.step(noop, ids)  # envpool's auto-reset step
             obs[np.asarray(reset_info["env_id"])] = self._obs(new_obs)
-        return StepResult(obs, reward, terminated, truncated, final_obs, infos)
+        return StepResult(obs, reward, terminated, truncated, final_obs, infos, *game)
 
     def render(self) -> Any:
         """Pass-through to envpool's ``render()`` (env 0; needs ``render=True`` at creation)."""

@@ -9,6 +9,8 @@
 2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments.
 
 Backends are registered in :data:`rlchain.registry.VECENVS` as ``gymnasium`` and ``envpool``.
+``vecenv_type: RAY`` or an ``env_runners`` block puts the envs on Ray workers
+(:mod:`rlchain.envs.ray_env`), each building its slice through this same function.
 Config mistakes raise :class:`ConfigError` (a ValueError) naming the key path; the caller adds
 the file name.
 """
@@ -25,13 +27,15 @@ import gymnasium as gym
 from rlchain.config.errors import ConfigError
 from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
+from rlchain.envs.multi_agent import make_multi_agent_env
 from rlchain.envs.vecenv import VecEnv
 from rlchain.registry import ENVS, VECENVS
 
-VECENV_TYPES = ("auto", "sync", "async", "native", "envpool")
+VECENV_TYPES = ("auto", "sync", "async", "native", "envpool", "ray")
 RL_GAMES_ENVPOOL_KEYS = {"has_lives", "flatten_obs", "env_type"}
 """rl_games envpool env_config keys that are not envpool.make arguments; accepted and not used
-(scores come from rewards; Dict obs are always flattened; the gymnasium API is always used)."""
+(has_lives: Atari scores are always whole games, from envpool's own game-over signal, see
+envpool_env.game_signals; Dict obs are always flattened; the gymnasium API is always used)."""
 
 NAME, CONFIG, VECENV = "params.config.env_name", "params.config.env_config", "params.config.vecenv_type"
 
@@ -41,23 +45,25 @@ def _error(path: str, message: str) -> ConfigError:
 
 
 def normalize_vecenv_type(vecenv_type: str | None) -> str:
-    """``None`` -> ``auto``; case-insensitive; ValueError for unknown or planned (RAY) types."""
+    """``None`` -> ``auto``; case-insensitive; ValueError for unknown types."""
     kind = "auto" if vecenv_type is None else str(vecenv_type).lower()
-    if kind == "ray":
-        raise _error(VECENV, "RAY is planned (issue 5); use auto, sync, async, native or envpool")
     if kind not in VECENV_TYPES:
         raise _error(VECENV, f"unknown vecenv_type '{vecenv_type}' (choices: {', '.join(VECENV_TYPES)})")
     return kind
 
 
 def make_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: int | None,
-                 vecenv_type: str | None, render: bool = False) -> VecEnv:
+                 vecenv_type: str | None, render: bool = False, env_runners: Any = None) -> VecEnv:
     """Build ``num_envs`` envs named ``env_name`` (see the module docstring), seeded from ``seed``.
 
     ``env_config.seed``, when present, replaces ``seed`` (rl_games envpool configs). ``render=True``
     asks for ``render_mode='human'`` (the Player). The VecEnv's first ``reset()`` uses ``seed``.
+    ``vecenv_type: RAY`` or ``env_runners`` (an EnvRunnersConfig) steps them on Ray workers.
     """
     kind = normalize_vecenv_type(vecenv_type)
+    if kind == "ray" or env_runners is not None:
+        from rlchain.envs.ray_env import make_ray_vec_env
+        return make_ray_vec_env(env_name, env_config, num_envs, seed, kind, env_runners, render)
     config = dict(env_config or {})
     seed = config.pop("seed", seed)  # rl_games configs seed envpool through env_config.seed
     for key in ("num_envs", "vecenv_type", "render"):
@@ -133,6 +139,9 @@ def _gym_id_env(name: str, path: str, kwargs: dict, num_envs: int, seed: int | N
         why = "rendering needs sync" if render else "it has no native vector env taking these env_config keys"
         raise _error(VECENV, f"native is not available for '{name}': {why}; use auto, sync or async")
     try:
+        multi = make_multi_agent_env(name, num_envs, kwargs, seed, kind, render)  # None: one agent per env
+        if multi is not None:
+            return multi
         backend = VECENVS.get("gymnasium")
         return backend(name, num_envs, mode=kind, env_kwargs=kwargs, render=render, seed=seed)
     except TypeError as exc:  # an env_config key the env constructor does not take

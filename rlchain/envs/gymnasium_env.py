@@ -9,6 +9,10 @@ Modes:
 - ``sync``: ``SyncVectorEnv`` with ``AutoresetMode.SAME_STEP``, one process.
 - ``async``: ``AsyncVectorEnv`` with ``AutoresetMode.SAME_STEP``, one subprocess per env.
 - ``auto``: ``native`` when available for this id and kwargs (and not rendering), else ``sync``.
+
+Action masks: sub-envs' ``has_action_mask()`` / ``get_action_mask()`` are queried with the vector
+env's ``call`` (native: the vector env's own methods); Dict observations are flattened per sub-env
+(see :mod:`rlchain.envs.action_masks`, :mod:`rlchain.envs.dict_obs`).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import numpy as np
 from gymnasium.envs.registration import load_env_creator
 from gymnasium.vector import AutoresetMode
 
+from rlchain.envs.action_masks import vector_action_mask, vector_has_action_mask
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers import (
     cast_actions,
@@ -104,6 +109,7 @@ class GymnasiumVecEnv:
         self.num_envs = num_envs
         self._seed = seed
         self._reset_rows = None
+        self._has_mask: bool | None = None
         if mode == "native":
             self.env = gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point", **kwargs)
             if self.env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
@@ -143,6 +149,16 @@ class GymnasiumVecEnv:
                 mask = infos.pop("_final_obs")
                 final_obs[mask] = cast_obs(np.stack(infos.pop("final_obs")[mask]))
         return StepResult(obs, reward, terminated, truncated, final_obs, infos)
+
+    def has_action_mask(self) -> bool:
+        """Whether the envs define ``has_action_mask()`` returning True (rl_games' name)."""
+        if self._has_mask is None:
+            self._has_mask = vector_has_action_mask(self.env, self.mode == "native")
+        return self._has_mask
+
+    def get_action_mask(self) -> np.ndarray:
+        """(N, mask_size) bool masks of the envs' current states (see :mod:`rlchain.envs.action_masks`)."""
+        return vector_action_mask(self.env, self.mode == "native", self.num_envs)
 
     def render(self) -> Any:
         """Pass-through to the vector env's ``render()`` (frames for ``human`` mode are drawn)."""

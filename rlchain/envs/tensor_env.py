@@ -120,6 +120,14 @@ class TensorVecEnv:
             self.episode_steps[env_ids] = 0
         return StepResult(obs, reward, terminated, truncated, final_obs, {})
 
+    def has_action_mask(self) -> bool:
+        """Whether :meth:`get_action_mask` is implemented: a subclass with masks overrides both."""
+        return False
+
+    def get_action_mask(self) -> torch.Tensor:
+        """(N, mask_size) bool masks of valid actions in the current states, on ``device``."""
+        raise NotImplementedError(f"{type(self).__name__} has no action masks")
+
     def close(self) -> None:
         """Nothing to release: the batch is a few tensors."""
 
@@ -129,7 +137,8 @@ class TensorVecEnv:
 
     # ----- helpers --------------------------------------------------------------------------------
     def _prepare_actions(self, actions: Any) -> torch.Tensor:
-        """Actions as a tensor on ``device``: int64 (N,) for Discrete, float32 (N, *shape) for Box."""
+        """Actions as a tensor on ``device``: int64 (N,) for Discrete, int64 (N, K) for MultiDiscrete /
+        MultiBinary / Tuple of Discrete, float32 (N, *shape) for Box."""
         if not isinstance(actions, torch.Tensor):
             actions = torch.as_tensor(np.asarray(actions))
         if actions.device != self.device:
@@ -139,6 +148,11 @@ class TensorVecEnv:
             if actions.dim() == 2 and actions.shape[1] == 1:
                 actions = actions.squeeze(1)
             expected: tuple[int, ...] = (self.num_envs,)
+            if actions.dtype != torch.int64:
+                actions = actions.long()
+        elif isinstance(space, (gym.spaces.MultiDiscrete, gym.spaces.MultiBinary, gym.spaces.Tuple)):
+            width = len(space.spaces) if isinstance(space, gym.spaces.Tuple) else None
+            expected = (self.num_envs, width) if width is not None else (self.num_envs, *space.shape)
             if actions.dtype != torch.int64:
                 actions = actions.long()
         else:

@@ -9,11 +9,28 @@ Shapes for ``num_envs = N``:
   the ended episode is in ``final_obs`` at that row (rows of envs that did not end hold
   anything). ``reward`` (N,) float32, ``terminated`` and ``truncated`` (N,) bool, kept apart:
   truncation is a time-out, not a terminal state.
+- ``game_reward`` / ``game_over`` (optional, (N,) float32 / bool, None when absent): for envs whose
+  training episode is not the whole game (Atari with episodic life: ``terminated`` at each lost
+  life) or whose ``reward`` is clipped, the game's own reward and the end of the whole game. Episode
+  statistics, ``score_to_win`` and the Player count games with them (see training/episodes.py).
 - ``observation_space`` / ``action_space``: the single-env gymnasium spaces.
 - tensor envs set ``is_tensor_env = True`` and ``device``: ``step`` then takes a torch tensor of
   actions on that device and every StepResult field is a tensor on it (no numpy round trip).
 - optional rl_games attributes: ``value_size`` (default 1), ``get_number_of_agents()`` (1),
   ``use_central_value`` (False), ``has_action_mask()`` (False).
+- action masks (``params.config.use_action_masks``): ``has_action_mask() -> bool`` and
+  ``get_action_mask()`` -> (N, mask_size) bool, numpy array or (tensor envs) a tensor on
+  ``device``, True where an action is allowed in the env's current state (after ``reset`` and
+  after every ``step``, auto-reset rows included). ``mask_size`` is n for Discrete(n) and
+  sum(nvec) for MultiDiscrete / Tuple of Discrete (per-dimension masks concatenated).
+- a Dict observation space (other than the central-value ``{'obs', 'state'}``) is flattened into
+  one vector by the backend; ``observation_space`` is then the flat Box (see ``dict_obs.py``).
+- a Tuple-of-Discrete action space takes actions (N, K) int64 like MultiDiscrete; the backend
+  converts them to what the env takes.
+- ``infos[DROPPED]`` (optional, (N,) bool): rows whose episode the backend cut without an ending (a
+  Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
+  recording it (see ``rlchain/envs/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``
+  counters the trainer writes to TensorBoard every epoch (e.g. ``env/dropped_episodes``).
 """
 
 from __future__ import annotations
@@ -23,6 +40,8 @@ from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
+
+DROPPED = "dropped"
 
 
 @dataclass
@@ -35,6 +54,13 @@ class StepResult:
     truncated: Any
     final_obs: Any
     infos: dict = field(default_factory=dict)
+    game_reward: Any = None
+    game_over: Any = None
+
+
+def dropped_rows(result: StepResult) -> Any:
+    """The (N,) bool ``infos[DROPPED]`` mask of a step, or None when the backend sets none."""
+    return result.infos.get(DROPPED) if isinstance(result.infos, dict) else None
 
 
 class VecEnv(Protocol):
@@ -49,3 +75,7 @@ class VecEnv(Protocol):
     def step(self, actions: np.ndarray) -> StepResult: ...
 
     def close(self) -> None: ...
+
+    def has_action_mask(self) -> bool: ...  # optional: absent means False
+
+    def get_action_mask(self) -> Any: ...  # optional with has_action_mask(): (N, mask_size) bool

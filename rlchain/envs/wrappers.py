@@ -13,6 +13,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from rlchain.envs.action_masks import ActionMaskProxy
+from rlchain.envs.central_value import concat_obs_state_env
+from rlchain.envs.dict_obs import flatten_dict_env
+
 KEPT_OBS_DTYPES = (np.dtype(np.float32), np.dtype(np.uint8))
 
 
@@ -58,7 +62,7 @@ def cast_actions(actions: np.ndarray, space: gym.Space, num_envs: int) -> np.nda
     """Actions (N, *action_shape) in the dtype ``space`` (the single-env space) wants.
 
     Accepts torch tensors and (N, 1) columns for discrete spaces; integer dtypes for Discrete
-    and MultiDiscrete, the Box dtype for Box.
+    and MultiDiscrete, the Box dtype for Box; a Tuple of Discrete gets a tuple of K (N,) arrays.
     """
     if hasattr(actions, "detach"):  # a torch tensor
         actions = actions.detach().cpu().numpy()
@@ -67,6 +71,9 @@ def cast_actions(actions: np.ndarray, space: gym.Space, num_envs: int) -> np.nda
         return actions.reshape(num_envs).astype(np.int64, copy=False)
     if isinstance(space, (gym.spaces.Box, gym.spaces.MultiDiscrete, gym.spaces.MultiBinary)):
         return actions.reshape((num_envs, *space.shape)).astype(space.dtype, copy=False)
+    if isinstance(space, gym.spaces.Tuple):  # Tuple of Discrete: (N, K) -> K arrays (N,), as gymnasium batches it
+        columns = actions.reshape(num_envs, len(space.spaces)).astype(np.int64, copy=False)
+        return tuple(columns[:, i] for i in range(len(space.spaces)))
     return actions
 
 
@@ -104,5 +111,7 @@ class IndexedErrors(gym.Wrapper):
 
 
 def make_indexed(env_id: str, index: int, kwargs: dict) -> gym.Env:
-    """``gym.make(env_id, **kwargs)`` wrapped so its errors name ``index`` (picklable for async)."""
-    return IndexedErrors(gym.make(env_id, **kwargs), index)
+    """``gym.make(env_id, **kwargs)`` wrapped so its errors name ``index`` (picklable for async),
+    Dict observations flattened and action-mask methods always present (see action_masks.py)."""
+    env = concat_obs_state_env(flatten_dict_env(gym.make(env_id, **kwargs)))
+    return IndexedErrors(ActionMaskProxy(env), index)

@@ -19,12 +19,17 @@ class ObservationModel(nn.Module):
     """uint8 images -> float in [0, 1], optional flattening, then input normalization when on.
 
     Subclasses set ``self.obs_norm`` (a RunningMeanStd or None) and may set ``flatten_obs``.
+    ``obs_slice`` picks this model's part of ``[obs | state]`` observations (asymmetric critic:
+    the actor reads ``[:obs_size]``, the central value ``[obs_size:]``; see envs/central_value.py).
     """
 
     flatten_obs = False
+    obs_slice: slice | None = None
     obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
 
     def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
+        if self.obs_slice is not None:
+            obs = obs[:, self.obs_slice]
         obs = as_float(obs)
         if self.flatten_obs:
             obs = obs.flatten(1)
@@ -33,7 +38,8 @@ class ObservationModel(nn.Module):
     def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
         """Fold a batch of observations into the input statistics (models with values add returns)."""
         if obs is not None and self.obs_norm is not None:
-            obs = as_float(obs)  # the same [0, 1] scale preprocess() normalizes
+            # the same part and [0, 1] scale that preprocess() normalizes
+            obs = as_float(obs if self.obs_slice is None else obs[:, self.obs_slice])
             self.obs_norm.update(obs.flatten(1) if self.flatten_obs else obs)
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:

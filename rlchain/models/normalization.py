@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import torch
 import torch.nn as nn
 
@@ -20,6 +22,8 @@ class RunningMeanStd(nn.Module):
         self.register_buffer("mean", torch.zeros(shape, dtype=torch.float64))
         self.register_buffer("var", torch.ones(shape, dtype=torch.float64))
         self.register_buffer("count", torch.ones((), dtype=torch.float64) * epsilon)
+        # (mean, var, n) -> the same over all processes; set under torch.distributed (training/distributed.py)
+        self.moment_sync: Callable | None = None
 
     @torch.no_grad()
     def update(self, x: torch.Tensor) -> None:
@@ -28,6 +32,8 @@ class RunningMeanStd(nn.Module):
         batch_mean = x.mean(0)
         batch_var = x.var(0, unbiased=False)
         n = x.shape[0]
+        if self.moment_sync is not None:  # multi_gpu: every rank folds the moments of all ranks' batches
+            batch_mean, batch_var, n = self.moment_sync(batch_mean, batch_var, n)
         delta = batch_mean - self.mean
         total = self.count + n
         self.mean += delta * n / total

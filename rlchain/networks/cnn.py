@@ -37,12 +37,14 @@ class ConvEncoder(nn.Module):
             layers += [layer, activation(cfg.activation)]
             channels = spec.filters
         self.net = nn.Sequential(*layers)
+        size = shape[1:]  # spatial size after each conv: (size + 2 * padding - kernel) // stride + 1
+        for i, spec in enumerate(cfg.convs):
+            size = tuple((s + 2 * spec.padding - spec.kernel_size) // spec.strides + 1 for s in size)
+            if min(size) < 1:
+                raise ValueError(f"params.network.cnn.convs[{i}]: the convolutions shrink the input "
+                                 f"{tuple(input_shape)} to nothing; use smaller kernels or strides")
         with torch.no_grad():
-            out = self.net(torch.zeros(1, *shape))
-        if out.numel() == 0:
-            raise ValueError(f"params.network.cnn.convs: the convolutions shrink the input {tuple(input_shape)} "
-                             "to nothing; use smaller kernels or strides")
-        self.out_size = int(out.numel())
+            self.out_size = int(self.net(torch.zeros(1, *shape)).numel())
         self._order = (0, dims, *range(1, dims)) if self.permute else None
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:

@@ -13,6 +13,7 @@ from typing import Any
 
 import torch
 
+from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
 from rlchain.errors import EnvError
 from rlchain.training import checkpoint as ckpt
@@ -20,9 +21,10 @@ from rlchain.training.build import build_env
 from rlchain.training.episodes import EpisodeTracker
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
-from rlchain.training.logging import TrainLogger
+from rlchain.training.logging import EnvStatsCallback, TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters
+from rlchain.training.self_play import SelfPlayCallback
 
 
 @dataclass
@@ -47,17 +49,25 @@ class TrainerBase:
         self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
         self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
         self.num_envs = env.num_envs
+        if hasattr(cfg, "minibatch_size"):  # the batch counts the env's agents (multi-agent envs)
+            check_batch(cfg, params.source, int(getattr(env, "num_agents", 1)))
         self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
         self.epoch = 0
         self.frames = 0
         self.best_reward = -math.inf
         self.obs: torch.Tensor | None = None
         self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        if callable(getattr(env, "log_stats", None)):  # backend counters (Ray: env/dropped_episodes)
+            self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
+        if getattr(cfg, "self_play_config", None) is not None:
+            self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.agent: Any = None
+        self.distributed: Any = None  # multi_gpu: a training.distributed.Distributed, set by its attach()
+        self.world_size = 1  # processes training together; frame counters count all of them
 
     # ----- loop helpers ---------------------------------------------------------------------
     def request_stop(self, reason: str) -> None:
@@ -74,6 +84,8 @@ class TrainerBase:
         return self._to_tensor(obs)
 
     def _episode_stats(self) -> dict[str, float] | None:
+        if self.distributed is not None:  # over every rank's games: all ranks log, save and stop alike
+            return self.distributed.episode_stats(self.tracker)
         if not self.tracker.has_data:
             return None
         return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}

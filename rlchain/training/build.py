@@ -5,10 +5,13 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
+import gymnasium as gym
+import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
+from rlchain.envs.central_value import obs_state_split
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
@@ -28,15 +31,23 @@ def resolve_device(name: str) -> torch.device:
 
 
 def build_env(params: Params, num_envs: int, seed: int | None, render: bool = False,
-              env_config: dict | None = None) -> Any:
-    """Make the vectorized env the config names; env errors come back naming the file."""
+              env_config: dict | None = None, runners: bool = False) -> Any:
+    """Make the vectorized env the config names; env errors come back naming the file.
+
+    ``runners=True`` (the training envs) honours ``vecenv_type: RAY`` / ``env_runners`` (Ray workers);
+    play, evaluation and export build the same envs in this process (RAY -> auto).
+    """
     from rlchain.envs.factory import make_vec_env
 
     cfg = params.config
     merged = dict(cfg.env_config)
     merged.update(env_config or {})
+    vecenv_type, env_runners = cfg.vecenv_type, getattr(cfg, "env_runners", None) if runners else None
+    if not runners and str(vecenv_type).lower() == "ray":
+        vecenv_type = None
     try:
-        return make_vec_env(cfg.env_name, merged, num_envs, seed, cfg.vecenv_type, render=render)
+        return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
+                            env_runners=env_runners)
     except ValueError as exc:
         raise ConfigError(params.source, "", str(exc)) from None
 
@@ -48,6 +59,9 @@ def value_size_of(env: Any) -> int:
 def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
     """Network from the network registry, wrapped by the model preset from the model registry."""
     obs_space, act_space = env.observation_space, env.action_space
+    split = obs_state_split(obs_space)  # [obs | state] from a central-value env: the actor reads obs
+    if split is not None:
+        obs_space = gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
     actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
@@ -60,6 +74,30 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
                         value_size=value_size, config=params.config, model_name=params.model.name)
     except ValueError as exc:
         raise ConfigError(params.source, "", str(exc)) from None
+    if split is not None:
+        model.obs_slice = slice(0, split)
+    return model.to(device)
+
+
+def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
+    """The asymmetric critic of ``central_value_config`` on the env's state part, or None without one."""
+    from rlchain.models.central_value import CentralValue
+
+    cv = params.config.central_value_config
+    if cv is None:
+        return None
+    space = env.observation_space
+    split = obs_state_split(space)
+    if split is None:
+        raise ConfigError(params.source, "params.config.central_value_config", "the env has no central-value "
+                          "state: it must return {'obs': ..., 'state': ...} observations (use_central_value)")
+    state_shape = (space.shape[0] - split,)
+    try:
+        model = CentralValue(cv.network, state_shape, value_size_of(env), cv.normalize_input,
+                             params.config.normalize_value)
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
+    model.obs_slice = slice(split, None)
     return model.to(device)
 
 

@@ -1,10 +1,29 @@
-"""Episode returns and lengths across auto-resets, averaged over the last ``games_to_track`` games."""
+"""Episode returns and lengths across auto-resets, averaged over the last ``games_to_track`` games.
+
+What counts as one game: normally an episode (``terminated | truncated``) and its raw reward. An
+env that reports ``StepResult.game_reward`` / ``game_over`` (Atari with episodic life or clipped
+rewards) is counted by whole games and their unclipped score instead: :func:`game_outcome`.
+"""
 
 from __future__ import annotations
 
 from collections import deque
+from typing import Any
 
 import torch
+
+
+def game_outcome(result: Any, rewards: torch.Tensor, dones: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(game rewards (N,), game ends (N,) bool) of a StepResult, on the device of ``rewards``.
+
+    ``rewards`` / ``dones`` are the training reward and episode end of the step; they are returned
+    unchanged unless the env sets ``result.game_reward`` / ``result.game_over``.
+    """
+    if getattr(result, "game_reward", None) is not None:
+        rewards = torch.as_tensor(result.game_reward, device=rewards.device).to(rewards.dtype).reshape(-1)
+    if getattr(result, "game_over", None) is not None:
+        dones = torch.as_tensor(result.game_over, device=dones.device).bool().reshape(-1)
+    return rewards, dones
 
 
 class EpisodeTracker:
@@ -17,10 +36,17 @@ class EpisodeTracker:
         self.finished_lengths: deque[int] = deque(maxlen=games_to_track)
         self.games = 0
 
-    def step(self, rewards: torch.Tensor, dones: torch.Tensor) -> None:
-        """rewards (N,) or (N, V) raw; dones (N,) bool. Summed over value heads."""
+    def step(self, rewards: torch.Tensor, dones: torch.Tensor, dropped: Any = None) -> None:
+        """rewards (N,) or (N, V) raw; dones (N,) bool. Summed over value heads.
+
+        ``dropped`` (N,) bool (optional, ``vecenv.dropped_rows``): episodes cut by the backend (a dead
+        Ray worker) are forgotten, not recorded as finished games.
+        """
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
+        lost = None if dropped is None else torch.as_tensor(dropped, device=dones.device).bool().reshape(-1)
+        if lost is not None:
+            dones = dones & ~lost
         self.returns += rewards
         self.lengths += 1
         if dones.any():
@@ -30,6 +56,9 @@ class EpisodeTracker:
             self.games += int(idx.numel())
             self.returns[idx] = 0.0
             self.lengths[idx] = 0
+        if lost is not None:
+            self.returns[lost] = 0.0
+            self.lengths[lost] = 0
 
     def reset_running(self) -> None:
         """Forget episodes in progress (after an env reset)."""

@@ -10,6 +10,7 @@ from typing import Any
 import torch
 
 from rlchain.models.stepper import PolicyStepper
+from rlchain.training.episodes import game_outcome
 from rlchain.training.events import Callback
 
 
@@ -46,11 +47,13 @@ def run_episodes(model: Any, env: Any, games: int, deterministic: bool, device: 
             actions = dist.to_env(policy.act(obs, env, deterministic))
             result = env.step(actions if tensor_env else actions.cpu().numpy())
             reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
-            returns += reward.sum(-1) if reward.dim() > 1 else reward
+            reward = reward.sum(-1) if reward.dim() > 1 else reward
             lengths += 1
             done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
             policy.done(done)
-            for i in done.nonzero().flatten().tolist():
+            reward, game_over = game_outcome(result, reward, done)  # whole games (Atari lives)
+            returns += reward
+            for i in game_over.nonzero().flatten().tolist():
                 if len(rewards) < games:
                     rewards.append(float(returns[i]))
                     episode_lengths.append(int(lengths[i]))

@@ -7,6 +7,16 @@ import sys
 import time
 from typing import Any
 
+from rlchain.training.events import Callback
+
+
+class EnvStatsCallback(Callback):
+    """Writes an env backend's counters, ``env.log_stats()`` (e.g. ``env/dropped_episodes``), every epoch."""
+
+    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        for tag, value in trainer.env.log_stats().items():
+            trainer.logger.scalar(tag, float(value), trainer.frames)
+
 
 class TrainLogger:
     """Writes rl_games' TensorBoard tags (rewards/step|iter|time, losses/*, info/*, performance/*)."""

@@ -8,6 +8,7 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.central_value import CentralValueAgent
 from rlchain.algos.ppo import PPOAgent
 from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
 from rlchain.algos.storage import RolloutStorage
@@ -16,8 +17,10 @@ from rlchain.config.schema import Params
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.training.compile import compile_model
+from rlchain.training import checkpoint as ckpt
 from rlchain.training.base import TrainerBase, TrainResult, describe
+from rlchain.training.build import build_central_value
+from rlchain.training.compile import compile_model
 from rlchain.training.episodes import game_outcome
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
@@ -39,6 +42,11 @@ class OnPolicyTrainer(TrainerBase):
         cfg = self.cfg
         compile_model(model, cfg.torch_compile)
         self.agent = PPOAgent(model, cfg, device)
+        self.central_value = build_central_value(params, env, device)
+        self.cv_agent = None
+        if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
+            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device)
+            self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
         self.rnn_states = model.initial_state(self.num_envs, device)
@@ -175,7 +183,8 @@ class OnPolicyTrainer(TrainerBase):
                 return False
             masks = self._action_masks()
             out = model.act(obs, states=states, action_masks=masks)
-            storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks,
+            values = out["values"] if self.central_value is None else self.central_value.value(obs)
+            storage.add(t, obs, out["actions"], out["log_probs"], values, out["params"], masks,
                         states, resets)
             result = self.env.step(self._env_actions(dist.to_env(out["actions"])))
             if self.epoch == 0 and t == 0:
@@ -194,7 +203,7 @@ class OnPolicyTrainer(TrainerBase):
                 if rows.numel():
                     final_obs = self._to_tensor(result.final_obs)[rows]
                     row_states = tuple(s[:, rows] for s in out["states"]) if model.is_rnn else None
-                    storage.final_values[t, rows] = model.value(final_obs, row_states)
+                    storage.final_values[t, rows] = self._value(final_obs, row_states)
             storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
             obs = self._to_tensor(result.obs)
             if model.is_rnn:
@@ -204,8 +213,14 @@ class OnPolicyTrainer(TrainerBase):
                     states = tuple(s * keep for s in states)
                 resets = dones
         self.obs, self.rnn_states, self.resets = obs, states, resets
-        self.last_values = model.value(obs, states)
+        self.last_values = self._value(obs, states)
         return True
+
+    def _value(self, obs: torch.Tensor, states: tuple | None) -> torch.Tensor:
+        """Raw-scale values of ``obs``: the central value's when there is one, else the model's."""
+        if self.central_value is not None:
+            return self.central_value.value(obs)
+        return self.model.value(obs, states)
 
     def _learn(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, then the PPO update."""
@@ -219,12 +234,36 @@ class OnPolicyTrainer(TrainerBase):
             storage.returns.copy_(returns)
             storage.final_values.zero_()
             model.update_normalizers(returns=returns.reshape(-1, returns.shape[-1]))
+            if self.central_value is not None:
+                self.central_value.update_normalizers(returns=returns.reshape(-1, returns.shape[-1]))
         model.train()
         stats = self.agent.update(storage, self._progress())
         stats["lr0"] = cfg.learning_rate
+        flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
+        if self.cv_agent is not None:
+            size = flat_obs.shape[0]
+            stats.update(self.cv_agent.update(flat_obs, storage.values.reshape(size, -1),
+                                              storage.returns.reshape(size, -1), self._progress()))
         with torch.no_grad():
-            model.update_normalizers(obs=storage.obs.reshape(-1, *storage.obs.shape[2:]))
+            model.update_normalizers(obs=flat_obs)
+            if self.central_value is not None:
+                self.central_value.update_normalizers(obs=flat_obs)
         return stats
+
+    def extra_state(self, kind: str) -> dict:
+        """The central value's weights and optimizer, when there is one."""
+        if self.central_value is None:
+            return {}
+        return {"central_value": self.central_value.state_dict(), "central_value_agent": self.cv_agent.state_dict()}
+
+    def restore_extra(self, state: dict) -> None:
+        if self.central_value is None:
+            return
+        if "central_value" not in state:
+            raise ckpt.CheckpointError("checkpoint has no central value network; it was trained without "
+                                       "central_value_config")
+        self.central_value.load_state_dict(state["central_value"])
+        self.cv_agent.load_state_dict(state["central_value_agent"])
 
     # ----- bookkeeping ----------------------------------------------------------------------
     def _log(self, stats: dict, episodes: dict | None, rollout_s: float, update_s: float) -> None:

@@ -175,7 +175,6 @@ def test_registered_env_builder(monkeypatch):
                              r"did you mean 'CartPole-v1'"),
     ("openai_gym", {"name": "Pendulm-v1"}, None, r"^params\.config\.env_config\.name: .*'Pendulum-v1'"),
     ("openai_gym", {}, None, r"^params\.config\.env_config\.name: is required"),
-    ("CartPole-v1", {}, "RAY", r"^params\.config\.vecenv_type: RAY is planned \(issue 5\)"),
     ("CartPole-v1", {}, "subproc", r"^params\.config\.vecenv_type: .*auto, sync, async, native, envpool"),
     ("Pendulum-v1", {}, "native", r"^params\.config\.vecenv_type: native is not available"),
     ("CartPole-v1", {"foo": 1}, "sync", r"^params\.config\.env_config\.foo: "),

@@ -4,4 +4,12 @@ Each module registers its envs with gymnasium or :data:`rlchain.registry.ENVS` w
 :mod:`rlchain.builtins` imports this package.
 """
 
-from rlchain.envs.test import masked_velocity  # noqa: F401,E402
+from rlchain.envs.test import (  # noqa: F401  (each module registers its envs)
+    asymmetric,
+    cooperative,
+    duel,
+    masked,
+    masked_velocity,
+    multidiscrete,
+    rnn_env,
+)

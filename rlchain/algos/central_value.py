@@ -1,0 +1,61 @@
+"""Training the asymmetric critic (``central_value_config``) on a filled rollout, apart from the actor."""
+
+from __future__ import annotations
+
+import torch
+
+from rlchain.algos.losses import value_loss
+from rlchain.config.schema import CentralValueConfig
+from rlchain.errors import DivergenceError
+from rlchain.models.central_value import CentralValue
+
+
+class CentralValueAgent:
+    """Its own Adam optimizer, minibatches and mini-epochs; clipped value loss as the PPO critic's."""
+
+    def __init__(self, model: CentralValue, cfg: CentralValueConfig, device: torch.device) -> None:
+        self.model, self.cfg, self.device = model, cfg, device
+        self.lr = cfg.learning_rate
+        self.params = [p for p in model.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
+
+    def update(self, states: torch.Tensor, values: torch.Tensor, returns: torch.Tensor,
+               progress: float) -> dict[str, float]:
+        """states (B, *state_shape), old raw values and raw returns (B, value_size) -> mean loss and lr."""
+        cfg, model = self.cfg, self.model
+        if cfg.lr_schedule == "linear":
+            self._set_lr(cfg.learning_rate * max(0.0, 1.0 - progress))
+        old = model.norm_value(values)
+        targets = model.norm_value(returns)
+        total, count = torch.zeros((), device=states.device), 0
+        model.train()
+        for _ in range(cfg.mini_epochs):
+            order = torch.randperm(states.shape[0], device=states.device)
+            for start in range(0, states.shape[0], cfg.minibatch_size):
+                idx = order[start:start + cfg.minibatch_size]
+                predicted = model(states.index_select(0, idx))
+                loss = value_loss(predicted, old.index_select(0, idx), targets.index_select(0, idx),
+                                  cfg.e_clip, cfg.clip_value).mean()
+                self.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                if cfg.truncate_grads:
+                    torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_norm)
+                self.optimizer.step()
+                total += loss.detach()
+                count += 1
+        mean = float(total) / max(count, 1)
+        if mean != mean or mean in (float("inf"), float("-inf")):
+            raise DivergenceError("central value loss is not finite")
+        return {"cval_loss": mean, "cval_lr": self.lr}
+
+    def _set_lr(self, lr: float) -> None:
+        self.lr = lr
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+
+    def state_dict(self) -> dict:
+        return {"optimizer": self.optimizer.state_dict(), "lr": self.lr}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.optimizer.load_state_dict(state["optimizer"])
+        self._set_lr(float(state["lr"]))

@@ -1,0 +1,53 @@
+"""Dict observation spaces: flattened into one vector in the vecenv layer, split back by key on demand.
+
+Every backend hands the trainer one flat observation per env: a gymnasium ``Dict`` observation
+space is flattened with gymnasium's own rule (``gym.spaces.flatten``: keys in the space's order,
+which gymnasium sorts; Box entries raveled, Discrete entries one-hot). Storage, input
+normalization and the built-in networks then work unchanged.
+
+Routing by key: a network that wants the entries apart (e.g. an image through a CNN, a vector
+through an MLP) receives the flat vector and splits it back with :func:`split_flat_obs` and the
+env's Dict space (which the user knows: it is their env's ``observation_space``)::
+
+    parts = split_flat_obs(input_dict["obs"], dict_space)   # {'image': (B, 3, 8, 8), 'pos': (B, 2)}
+
+With ``normalize_input`` the running mean/std is per flat dimension, i.e. per entry of every key.
+The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not flattened here.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import torch
+
+CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
+
+
+def should_flatten(space: gym.Space) -> bool:
+    """True for a Dict observation space other than the central-value ``{'obs', 'state'}`` one."""
+    return isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS
+
+
+def flatten_dict_env(env: gym.Env) -> gym.Env:
+    """``env`` with Dict observations flattened (gymnasium's FlattenObservation); others unchanged."""
+    return gym.wrappers.FlattenObservation(env) if should_flatten(env.observation_space) else env
+
+
+def split_flat_obs(obs: torch.Tensor, space: gym.spaces.Dict) -> dict[str, torch.Tensor]:
+    """Flat observations (B, flatdim(space)) -> {key: (B, *shape)} views, in the order of ``space``.
+
+    Box entries get their shape back; other entries (e.g. one-hot Discrete) stay flat (B, flatdim).
+    """
+    total = int(gym.spaces.flatdim(space))
+    if obs.shape[-1] != total:
+        raise ValueError(f"flat observations have {obs.shape[-1]} values, the Dict space flattens to {total}")
+    out, start = {}, 0
+    for key, sub in space.spaces.items():
+        size = int(gym.spaces.flatdim(sub))
+        part = obs[:, start:start + size]
+        if isinstance(sub, gym.spaces.Box):
+            part = part.reshape(obs.shape[0], *sub.shape)
+        out[key] = part
+        start += size
+    return out
+

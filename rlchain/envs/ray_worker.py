@@ -1,0 +1,115 @@
+"""The worker side of the Ray env runners (:mod:`rlchain.envs.ray_env`): what runs inside an actor.
+
+:class:`EnvRecipe` travels to the actor and builds its slice of envs there; :class:`EnvWorker` is
+the actor's body (made a Ray actor by ``ray.remote`` in ray_env.py, so this module needs no ray).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from rlchain.registry import ENVS
+
+
+@dataclass
+class EnvRecipe:
+    """How a worker builds its envs: the config's env plus the registrations this process made.
+
+    Ray workers are fresh processes: envs registered in the learner at run time
+    (``params.import_modules``, ``env_configurations.register``, ``gym.register``) travel along: every
+    :data:`ENVS` builder and every gymnasium spec whose entry point is a Python object (plus the
+    specs of the named env), each one that cloudpickle can serialize.
+    """
+
+    env_name: str
+    env_config: dict
+    vecenv_type: str
+    builders: dict = field(default_factory=dict)
+    gym_specs: dict = field(default_factory=dict)
+
+    @classmethod
+    def capture(cls, env_name: str, env_config: dict | None, vecenv_type: str) -> EnvRecipe:
+        config = dict(env_config or {})
+        named = {env_name, config.get("name")}
+        specs = {k: s for k, s in gym.registry.items() if k in named or callable(s.entry_point)}
+        builders = {name: ENVS.get(name) for name in ENVS.names()}
+        return cls(env_name, config, vecenv_type, _picklable(builders), _picklable(specs))
+
+    def build(self, num_envs: int, seed: int | None) -> Any:
+        """The VecEnv of ``num_envs`` envs (runs inside the worker)."""
+        from rlchain.envs.factory import make_vec_env
+
+        for name, spec in self.gym_specs.items():
+            gym.registry.setdefault(name, spec)
+        for name, builder in self.builders.items():
+            ENVS.register(name, builder, overwrite=True)
+        env = make_vec_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type)
+        if getattr(env, "is_tensor_env", False):
+            env.close()
+            raise ValueError(f"params.config.env_name: '{self.env_name}' is a tensor env (it lives on the training "
+                             f"device); Ray env workers step numpy envs: remove vecenv_type RAY / env_runners")
+        return env
+
+
+def _picklable(items: dict) -> dict:
+    """The entries cloudpickle (what Ray uses) can serialize; the others stay behind."""
+    import cloudpickle
+
+    out = {}
+    for key, value in items.items():
+        try:
+            cloudpickle.dumps(value)
+        except Exception:
+            continue
+        out[key] = value
+    return out
+
+
+class EnvWorker:
+    """The body of one Ray actor: envs ``[start, start + num_envs)`` of the batch, arrays in and out."""
+
+    def __init__(self, recipe: EnvRecipe, start: int, num_envs: int) -> None:
+        self.recipe, self.start, self.num_envs, self.env = recipe, start, num_envs, None
+
+    def build(self, seed: int | None) -> dict:
+        """Make the envs; returns what the learner needs to know about them (spaces, value_size)."""
+        try:
+            self.env = self.recipe.build(self.num_envs, seed)
+        except ValueError as exc:  # config errors travel as plain ValueErrors (picklable, one line)
+            raise ValueError(str(exc)) from None
+        return {"observation_space": self.env.observation_space, "action_space": self.env.action_space,
+                "value_size": int(getattr(self.env, "value_size", 1))}
+
+    def pid(self) -> int:
+        return os.getpid()
+
+    def reset(self, seed: int | None) -> np.ndarray:
+        return self._global(lambda: np.asarray(self.env.reset(seed=seed)))
+
+    def step(self, actions: np.ndarray) -> tuple:
+        """(obs, reward, terminated, truncated, ended rows, their final obs, game_reward, game_over)."""
+        r = self._global(lambda: self.env.step(actions))
+        rows = np.flatnonzero(np.asarray(r.terminated) | np.asarray(r.truncated))
+        final = np.asarray(r.final_obs)[rows]
+        extra = [None if x is None else np.asarray(x) for x in (r.game_reward, r.game_over)]
+        return (np.asarray(r.obs), np.asarray(r.reward), np.asarray(r.terminated), np.asarray(r.truncated),
+                rows, final, *extra)
+
+    def close(self) -> None:
+        if self.env is not None:
+            self.env.close()
+
+    def _global(self, fn: Any) -> Any:
+        """Run ``fn``; an env error is re-raised with the env's index in the whole batch."""
+        try:
+            return fn()
+        except Exception as exc:
+            text = " ".join(str(exc).split())
+            text = re.sub(r"^env (\d+)", lambda m: f"env {self.start + int(m.group(1))}", text)
+            raise RuntimeError(text if text.startswith("env ") else f"{type(exc).__name__}: {text}") from None

@@ -1,0 +1,152 @@
+"""Asymmetric actor-critic: central_value_config trains a critic on the env's state; bad setups fail early."""
+
+import os
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+from rlchain import Runner
+from rlchain.config.errors import ConfigError
+from rlchain.training import checkpoint as ckpt
+from tests.conftest import CONFIGS
+
+pytestmark = pytest.mark.smoke
+CONFIG = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+
+
+class ObsStateCartPole(gym.Wrapper):
+    """CartPole whose actor sees position and angle, and whose critic sees the full state."""
+
+    def __init__(self, env):
+        super().__init__(env)
+        box = env.observation_space
+        self.observation_space = gym.spaces.Dict({
+            "obs": gym.spaces.Box(box.low[[0, 2]], box.high[[0, 2]], dtype=np.float32), "state": box})
+
+    def _split(self, obs):
+        return {"obs": obs[[0, 2]].astype(np.float32), "state": obs.astype(np.float32)}
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        return self._split(obs), info
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self._split(obs), reward, terminated, truncated, info
+
+
+if "ObsStateCartPoleTest-v0" not in gym.registry:
+    gym.register("ObsStateCartPoleTest-v0", entry_point=lambda **kw: ObsStateCartPole(gym.make("CartPole-v1", **kw)))
+
+CV = "{network: {name: actor_critic, central_value: True, mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"
+
+
+def overrides(tmp_path, epochs, *extra):
+    return [f"params.config.train_dir={tmp_path}", f"params.config.max_epochs={epochs}",
+            "params.config.print_stats=false", "params.config.env_name=ObsStateCartPoleTest-v0",
+            "params.config.save_best_after=0", "params.config.normalize_value=True", *extra]
+
+
+def test_central_value_trains_saves_resumes_and_plays(tmp_path):
+    runner = Runner().load(CONFIG, overrides(tmp_path, 2, f"params.config.central_value_config={CV}"))
+    result = runner.train()
+    assert result.epoch == 2
+    last = os.path.join(result.run_dir, "nn", "last_cartpole.pth")
+    state = ckpt.load(last)
+    assert "central_value" in state and "central_value_agent" in state
+    # the actor reads 2 numbers (obs), the critic 4 (state)
+    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
+    assert state["central_value"]["network.trunk.mlp.net.0.0.weight"].shape[1] == 4
+    resumed = Runner().load(CONFIG, overrides(tmp_path, 3, f"params.config.central_value_config={CV}")).train(
+        checkpoint=last)
+    assert resumed.epoch == 3
+    played = Runner().load(CONFIG, overrides(tmp_path, 1, f"params.config.central_value_config={CV}")).play(
+        last, games=2, quiet=True)
+    assert played.games == 2
+
+
+class HiddenRewardEnv(gym.Env):
+    """The actor sees nothing; the state holds the per-step reward r and the steps left.
+
+    The return is r times the (discounted) steps left: a critic on the state can fit it exactly,
+    a critic on the (empty) observation cannot.
+    """
+
+    observation_space = gym.spaces.Dict({"obs": gym.spaces.Box(0, 0, (1,), np.float32),
+                                         "state": gym.spaces.Box(-1, 1, (2,), np.float32)})
+    action_space = gym.spaces.Discrete(2)
+    LENGTH = 8
+
+    def _obs(self):
+        return {"obs": np.zeros(1, np.float32),
+                "state": np.array([self.r, self.left / self.LENGTH], np.float32)}
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.r, self.left = float(self.np_random.uniform(-1, 1)), self.LENGTH
+        return self._obs(), {}
+
+    def step(self, action):
+        self.left -= 1
+        return self._obs(), self.r, self.left == 0, False, {}
+
+
+if "HiddenRewardTest-v0" not in gym.registry:
+    gym.register("HiddenRewardTest-v0", entry_point=HiddenRewardEnv)
+
+
+def _value_fit(tmp_path, *extra):
+    """R^2 of the trained critic against the true values 0.1 * r * (1 - gamma^left) / (1 - gamma)."""
+    seen = {}
+
+    def record(trainer, stats, episodes):
+        seen["trainer"] = trainer
+
+    runner = Runner().load(CONFIG, overrides(tmp_path, 25, "params.config.env_name=HiddenRewardTest-v0", *extra))
+    runner.train(callbacks=[record])
+    trainer = seen["trainer"]
+    r, left = torch.meshgrid(torch.linspace(-1, 1, 21), torch.arange(1, HiddenRewardEnv.LENGTH + 1).float(),
+                             indexing="ij")
+    obs = torch.stack([torch.zeros_like(r), r, left / HiddenRewardEnv.LENGTH], -1).reshape(-1, 3)
+    gamma = trainer.cfg.gamma
+    true = (0.1 * r * (1 - gamma ** left) / (1 - gamma)).reshape(-1)
+    critic = trainer.central_value if trainer.central_value is not None else trainer.model
+    predicted = critic.value(obs).reshape(-1)
+    return float(1 - (predicted - true).square().mean() / true.var())
+
+
+def test_central_value_learns_values_from_the_state(tmp_path):
+    """The critic trains on the state and fits the true values; the actor's own critic cannot."""
+    assert _value_fit(tmp_path, f"params.config.central_value_config={CV}") > 0.7
+    assert _value_fit(tmp_path) < 0.2
+
+
+def test_central_value_needs_a_state(tmp_path):
+    runner = Runner().load(CONFIG, [f"params.config.train_dir={tmp_path}", "params.config.max_epochs=1",
+                                    f"params.config.central_value_config={CV}"])
+    with pytest.raises(ConfigError, match="central_value_config: the env has no central-value state"):
+        runner.train()
+
+
+@pytest.mark.parametrize("override,expect", [
+    ("params.network.central_value=True", "params.network.central_value: True makes a value-only critic"),
+    ("params.config.central_value_config={network: {space: {discrete: }}}",
+     "central_value_config.network.space: the central value network is a critic"),
+    ("params.config.central_value_config={network: {mlp: {units: [8]}}, minibatch_size: 300}",
+     "central_value_config.minibatch_size: batch num_actors*horizon_length = 512 is not divisible by 300"),
+    ("params.config.central_value_config={network: {mlp: {units: [8]}}, learning_rat: 1}", "did you mean"),
+])
+def test_central_value_config_errors(override, expect):
+    with pytest.raises(ConfigError) as err:
+        Runner().load(CONFIG, [override])
+    assert expect in str(err.value)
+
+
+def test_actor_without_central_value_ignores_the_state(tmp_path):
+    """A {'obs','state'} env without central_value_config: the actor still reads only 'obs'."""
+    result = Runner().load(CONFIG, overrides(tmp_path, 1)).train()
+    state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
+    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
+    assert torch.isfinite(state["model"]["network.value.weight"]).all()

@@ -1,0 +1,272 @@
+"""torchrun with 2 CPU processes (gloo): training, identical ranks, one run folder, resume, bad launches.
+
+Every test runs torchrun (``python -m torch.distributed.run``) as a subprocess with a timeout, so a
+hang fails the test instead of the CI job. ``DumpState`` (named in the config's ``callbacks``) has
+each rank save its final parameters, buffers and optimizer state for the comparisons.
+"""
+
+import glob
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import torch
+
+from rlchain.training.events import Callback
+from tests.conftest import CONFIGS, ROOT
+
+pytestmark = pytest.mark.smoke
+
+DUMP_ENV = "RLCHAIN_TEST_DIST_DUMP"
+CALLBACK = 'params.config.callbacks=["tests.smoke.test_distributed:DumpState"]'
+
+
+class DumpState(Callback):
+    """Test-only: each rank writes its final model, optimizer and counters to $RLCHAIN_TEST_DIST_DUMP."""
+
+    def on_train_end(self, trainer, result):
+        folder = os.environ.get(DUMP_ENV)
+        if not folder:
+            return
+        rank = trainer.distributed.rank if trainer.distributed is not None else 0
+        torch.save({"model": trainer.model.state_dict(), "optimizer": trainer.agent.optimizer.state_dict(),
+                    "lr": trainer.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
+                    "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir},
+                   os.path.join(folder, f"rank{rank}.pt"))
+
+
+class KillRank1(Callback):
+    """Test-only: rank 1 dies (SIGKILL) at the end of epoch 3, as a crashed or OOM-killed worker would."""
+
+    def on_epoch_end(self, trainer, stats, episodes):
+        if trainer.distributed is not None and trainer.distributed.rank == 1 and trainer.epoch == 3:
+            os.kill(os.getpid(), signal.SIGKILL)
+
+
+def torchrun(args, tmp_path, nproc=2, timeout=180, script=None, module=None):
+    """Run ``torchrun --standalone --nproc_per_node=nproc`` on runner.py (or a script / -m module)."""
+    dumps = tmp_path / "dumps"
+    dumps.mkdir(exist_ok=True)
+    for old in dumps.glob("rank*.pt"):
+        old.unlink()
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               OMP_NUM_THREADS="1", **{DUMP_ENV: str(dumps)})
+    target = ["-m", module] if module else [script or os.path.join(ROOT, "runner.py")]
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nnodes=1",
+           f"--nproc_per_node={nproc}", *target, *args]
+    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout)
+    return out, dumps
+
+
+def overrides(tmp_path, *extra):
+    return ["params.config.multi_gpu=True", f"params.config.train_dir={tmp_path}/runs", CALLBACK, *extra]
+
+
+def load_dumps(dumps, nproc=2):
+    files = sorted(glob.glob(str(dumps / "rank*.pt")))
+    assert len(files) == nproc, files
+    return [torch.load(f, weights_only=False) for f in files]
+
+
+def assert_ranks_identical(states):
+    """Bit-identical parameters, buffers (normalizers), optimizer state, lr and counters on every rank."""
+    first = states[0]
+    for other in states[1:]:
+        assert first["model"].keys() == other["model"].keys()
+        for key, tensor in first["model"].items():
+            assert torch.equal(tensor, other["model"][key]), f"{key} differs between ranks"
+        for pid, slots in first["optimizer"]["state"].items():
+            for name, value in slots.items():
+                assert torch.equal(value, other["optimizer"]["state"][pid][name]), f"optimizer {pid}.{name}"
+        for key in ("lr", "epoch", "frames", "best_reward"):
+            assert first[key] == other[key], key
+    assert len({s["seed"] for s in states}) == len(states), "ranks must step differently seeded envs"
+
+
+@pytest.mark.timeout(300)
+def test_two_ranks_reach_cartpole_score_identically_then_resume(tmp_path):
+    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path)], tmp_path)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    assert "score_to_win 475.0 reached" in out.stdout
+    assert out.stdout.count("rlchain: training") == 1  # rank 0 alone prints progress
+    states = load_dumps(dumps)
+    assert_ranks_identical(states)
+    epoch = states[0]["epoch"]
+    assert states[0]["frames"] == epoch * 32 * 16 * 2  # frames count both ranks
+    assert states[0]["best_reward"] >= 475
+
+    runs = glob.glob(str(tmp_path / "runs" / "*"))
+    assert len(runs) == 1  # one run folder, one set of checkpoints, one TensorBoard log
+    assert sorted(os.listdir(os.path.join(runs[0], "nn"))) == ["cartpole.pth", "last_cartpole.pth"]
+    assert len(glob.glob(os.path.join(runs[0], "summaries", "events.out.tfevents.*"))) == 1
+    last = os.path.join(runs[0], "nn", "last_cartpole.pth")
+    saved = torch.load(last, weights_only=False)
+    assert saved["epoch"] == epoch
+    assert all(torch.equal(value, states[0]["model"][key]) for key, value in saved["model"].items())
+
+    resumed, dumps = torchrun(["--train", "--file", cfg, "--checkpoint", last,
+                               *overrides(tmp_path, f"params.config.max_epochs={epoch + 2}",
+                                          "params.config.score_to_win=100000")], tmp_path)
+    assert resumed.returncode == 0, resumed.stdout[-3000:] + resumed.stderr[-3000:]
+    assert f"resuming {last} at epoch {epoch}" in resumed.stdout
+    assert f"epoch {epoch + 2}/{epoch + 2}" in resumed.stdout and f"epoch {epoch}/" not in resumed.stdout
+    states = load_dumps(dumps)
+    assert_ranks_identical(states)
+    assert states[0]["epoch"] == epoch + 2 and states[0]["frames"] == (epoch + 2) * 1024
+    assert len(glob.glob(str(tmp_path / "runs" / "*"))) == 2  # the resume's folder, written by rank 0 only
+
+
+@pytest.mark.timeout(180)
+def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
+    """Pendulum: normalize_input, normalize_value and the adaptive-KL schedule, 3 epochs on 2 ranks."""
+    cfg = os.path.join(CONFIGS, "ppo_pendulum.yaml")
+    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, "params.config.max_epochs=3")], tmp_path)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    states = load_dumps(dumps)
+    assert_ranks_identical(states)
+    model = states[0]["model"]
+    # each normalizer folded both ranks' batches (16 envs x 64 steps per rank and epoch)
+    assert model["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+    assert model["value_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+
+
+# ----- bad launches fail at once, with one line -------------------------------------------------
+@pytest.mark.timeout(60)
+def test_multi_gpu_without_torchrun_fails_fast(tmp_path):
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    for name in ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT"):
+        env.pop(name, None)
+    out = subprocess.run([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file",
+                          os.path.join(CONFIGS, "ppo_cartpole.yaml"), *overrides(tmp_path)],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=50)
+    assert out.returncode == 2
+    assert "config error:" in out.stderr and "params.config.multi_gpu: True needs the torchrun launcher" in out.stderr
+    assert "torchrun --standalone --nproc_per_node=N runner.py" in out.stderr
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.timeout(90)
+def test_torchrun_without_multi_gpu_fails_fast(tmp_path):
+    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"), f"params.config.train_dir={tmp_path}/runs"]
+    out, _ = torchrun(args, tmp_path, timeout=80)
+    assert out.returncode != 0
+    assert "launched by torchrun with WORLD_SIZE=2 but multi_gpu is False" in out.stderr
+    assert not (tmp_path / "runs").exists()
+
+
+WRAPPER = """import os, sys
+from rlchain.cli import main
+rank = int(os.environ["RANK"])
+extra = {extra}
+sys.exit(main(sys.argv[1:] + (extra if rank == 1 else [])))
+"""
+
+
+@pytest.mark.timeout(90)
+def test_ranks_with_different_configs_fail_fast(tmp_path):
+    script = tmp_path / "launch.py"
+    script.write_text(WRAPPER.format(extra=["params.config.num_actors=16"]))
+    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"), *overrides(tmp_path)]
+    out, _ = torchrun(args, tmp_path, timeout=80, script=str(script))
+    assert out.returncode != 0
+    assert "params.config.multi_gpu: rank 1 parsed a different config or seed than rank 0" in out.stderr
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.timeout(120)
+def test_ranks_resuming_different_checkpoints_fail_before_a_run_folder(tmp_path):
+    from rlchain import Runner
+    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+    result = Runner().load(cfg, [f"params.config.train_dir={tmp_path}/first", "params.config.max_epochs=1",
+                                 "params.config.print_stats=false"]).train()
+    last = os.path.join(result.run_dir, "nn", "last_cartpole.pth")
+    script = tmp_path / "launch.py"  # rank 0 resumes, rank 1 starts fresh
+    script.write_text(WRAPPER.format(extra=[]).replace("main(sys.argv[1:]", "main(sys.argv[1:] + "
+                                                       f"([] if rank else ['--checkpoint', {last!r}])"))
+    out, _ = torchrun(["--train", "--file", cfg, *overrides(tmp_path)], tmp_path, timeout=100, script=str(script))
+    assert out.returncode != 0
+    assert "params.config.multi_gpu: rank 1 differs from rank 0" in out.stderr
+    assert "'resume_epoch': None" in out.stderr and "'resume_epoch': 1" in out.stderr
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.timeout(120)
+def test_a_dead_rank_ends_the_run_with_a_clear_message(tmp_path):
+    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
+            *overrides(tmp_path, "params.config.score_to_win=100000", "params.config.max_epochs=200"),
+            'params.config.callbacks=["tests.smoke.test_distributed:KillRank1"]']
+    start = time.monotonic()
+    out, _ = torchrun(args, tmp_path, timeout=100)
+    assert out.returncode != 0
+    assert time.monotonic() - start < 60  # torchrun and gloo end rank 0 at once, no collective timeout
+    assert "rank      : 1 (local_rank: 1)\n  exitcode  : -9" in out.stderr  # torchrun names the dead rank
+    # rank 0 either lost its peer inside a collective or got torchrun's SIGTERM between collectives
+    lost = "distributed error: rank 0: a collective with the other ranks failed" in out.stderr
+    stopped = "SIGTERM received" in out.stdout or "interrupted" in out.stderr
+    assert lost or stopped, out.stdout[-2000:] + out.stderr[-3000:]
+
+
+# ----- the collectives with two real processes ---------------------------------------------------
+@pytest.mark.timeout(90)
+def test_collectives_with_two_processes(tmp_path):
+    out, dumps = torchrun([str(tmp_path)], tmp_path, timeout=80, module="tests.smoke.test_distributed")
+    assert out.returncode == 0, out.stderr[-3000:]
+    results = [json.loads((tmp_path / f"collectives{r}.json").read_text()) for r in range(2)]
+    for r in results:
+        assert r["all_reduce_calls"] == 1
+        assert r["grad_a"] == [1.5 * i for i in range(6)]  # (1 + 2) / 2 * arange
+        assert r["grad_b"] == [0.5] * 4  # rank 0 had no gradient: it counts as zeros
+        assert r["moment_error"] < 1e-12 and r["count"] == 5 + 15
+        assert r["kl_mean"] == 0.05 and r["lr"] == pytest.approx(1e-3 / 1.5)
+        assert r["episodes"] == {"reward": 2.0, "length": 20.0} and r["no_episodes"] is None
+    assert results[0]["mean"] == results[1]["mean"] and results[0]["var"] == results[1]["var"]
+
+
+def _collectives_worker(folder: str) -> None:
+    """Run under torchrun by the test above: each rank checks the syncs against hand-computed values."""
+    import collections
+
+    import torch.distributed as dist
+
+    from rlchain.algos.schedules import AdaptiveKLSchedule
+    from rlchain.training import distributed as D
+
+    dist.init_process_group("gloo")
+    rank = dist.get_rank()
+    a, b = torch.nn.Parameter(torch.zeros(2, 3)), torch.nn.Parameter(torch.zeros(4))
+    a.grad = (rank + 1.0) * torch.arange(6.0).reshape(2, 3)
+    b.grad = torch.ones(4) if rank == 1 else None
+    calls = []
+    real = dist.all_reduce
+    dist.all_reduce = lambda t, **kw: calls.append(1) or real(t, **kw)
+    D.average_gradients([a, b])
+    dist.all_reduce = real
+
+    batches = [torch.randn(5 + 10 * r, 3, generator=torch.Generator().manual_seed(r), dtype=torch.float64) * (r + 1)
+               for r in range(2)]
+    mine = batches[rank]
+    mean, var, count = D.combine_moments(mine.mean(0), mine.var(0, unbiased=False), mine.shape[0])
+    union = torch.cat(batches)
+    error = max(float((mean - union.mean(0)).abs().max()), float((var - union.var(0, unbiased=False)).abs().max()))
+
+    schedule = D.RankMeanKLSchedule(AdaptiveKLSchedule(0.01))
+    tracker = collections.namedtuple("T", "finished_returns finished_lengths")
+    pg = D.Distributed(rank, 2, rank, "gloo", seed=0)
+    episodes = pg.episode_stats(tracker([1.0, 3.0], [10, 30]) if rank == 0 else tracker([2.0], [20]))
+    result = {"all_reduce_calls": len(calls), "grad_a": a.grad.flatten().tolist(), "grad_b": b.grad.tolist(),
+              "moment_error": error, "count": count, "mean": mean.tolist(), "var": var.tolist(),
+              "kl_mean": D.mean_over_ranks(0.1 if rank == 0 else 0.0),
+              "lr": schedule.update(1e-3, kl=0.1 if rank == 0 else 0.0),
+              "episodes": episodes, "no_episodes": pg.episode_stats(tracker([], []))}
+    with open(os.path.join(folder, f"collectives{rank}.json"), "w") as fh:
+        json.dump(result, fh)
+    dist.destroy_process_group()
+
+
+if __name__ == "__main__":
+    _collectives_worker(sys.argv[1])

@@ -1,0 +1,199 @@
+"""Ray env runners on a local Ray (2 workers): the VecEnv contract, killed and hung workers, PPO runs.
+
+One Ray instance for the module (its start takes several seconds); every test has a timeout and
+closes its envs, so no actor outlives its test.
+"""
+
+import os
+import signal
+import time
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from rlchain import Runner, env_configurations
+from rlchain.config.schema import EnvRunnersConfig
+from rlchain.envs.factory import make_vec_env
+from rlchain.envs.ray_env import WorkerLost
+from rlchain.training.events import Callback
+
+ray = pytest.importorskip("ray")
+pytestmark = pytest.mark.smoke
+CPUS = 4  # logical CPUs of the test cluster: 2 workers x 1 CPU, plus room while a dead one is replaced
+
+
+@pytest.fixture(scope="module", autouse=True)
+def ray_cluster():
+    started = not ray.is_initialized()
+    if started:
+        ray.init(num_cpus=CPUS, include_dashboard=False)
+    yield
+    if started:
+        ray.shutdown()
+
+
+def wait_for_free_cpus(expected, seconds=20.0):
+    deadline = time.monotonic() + seconds
+    while ray.available_resources().get("CPU", 0) < expected and time.monotonic() < deadline:
+        time.sleep(0.2)
+    return ray.available_resources().get("CPU", 0)
+
+
+def runners(**kw):
+    return EnvRunnersConfig(**{"num_workers": 2, "step_timeout_s": 20.0, "start_timeout_s": 60.0, **kw})
+
+
+@pytest.mark.timeout(180)
+def test_contract_matches_local_backend_and_survives_killed_workers():
+    env = make_vec_env("CartPole-v1", {"max_episode_steps": 12}, 4, 3, "sync", env_runners=runners(max_restarts=2))
+    local = make_vec_env("CartPole-v1", {"max_episode_steps": 12}, 4, 3, "sync")
+    try:
+        assert env.num_envs == 4 and env.observation_space == local.observation_space
+        assert [(s.start, s.stop) for s in env.slices] == [(0, 2), (2, 4)]
+        obs = env.reset()
+        np.testing.assert_array_equal(obs, local.reset())  # env i seeded 3 + i on whichever worker
+        rng = np.random.default_rng(0)
+        ended = 0
+        for _ in range(30):  # terminations and the time-out at 12 steps: same-step autoreset, final_obs
+            actions = rng.integers(0, 2, 4)
+            got, ref = env.step(actions), local.step(actions)
+            for name in ("obs", "reward", "terminated", "truncated", "final_obs"):
+                a, b = getattr(got, name), getattr(ref, name)
+                assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b), name
+            assert got.obs.shape == (4, 4) and got.reward.dtype == np.float32 and got.terminated.dtype == bool
+            assert "dropped" not in got.infos
+            ended += int((got.terminated | got.truncated).sum())
+        assert ended >= 8
+
+        before = got.obs
+        ray.kill(env.workers[1])  # worker 1 holds envs 2 and 3
+        cut = env.step(np.zeros(4, dtype=np.int64))
+        assert cut.infos["dropped"].tolist() == [False, False, True, True]
+        assert cut.truncated[2:].all() and not cut.terminated[2:].any() and (cut.reward[2:] == 0).all()
+        np.testing.assert_array_equal(cut.final_obs[2:], before[2:])  # the obs the policy acted on
+        assert (np.abs(cut.obs[2:]) <= 0.05).all()  # a fresh CartPole episode
+        assert env.dropped_episodes == 2 and env.restarts == [0, 1]
+        assert env.log_stats() == {"env/dropped_episodes": 2.0, "env/worker_restarts": 1.0}
+
+        os.kill(env.worker_pids()[0], signal.SIGKILL)  # a crash, not a polite kill
+        cut = env.step(np.zeros(4, dtype=np.int64))
+        assert cut.infos["dropped"].tolist() == [True, True, False, False] and env.dropped_episodes == 4
+        assert "dropped" not in env.step(np.zeros(4, dtype=np.int64)).infos  # and it goes on normally
+
+        for _ in range(2):  # worker 0 keeps dying: its third restart is one too many
+            ray.kill(env.workers[0])
+            try:
+                env.step(np.zeros(4, dtype=np.int64))
+            except WorkerLost as exc:
+                message = str(exc)
+                break
+        assert "ray env worker 0 (envs 0-1) failed (ActorDiedError" in message
+        assert "more than env_runners.max_restarts = 2 restarts" in message and "\n" not in message
+    finally:
+        env.close()
+        local.close()
+    assert env.workers == [] and wait_for_free_cpus(CPUS) == CPUS  # the actors are gone
+
+
+class SleepyCartPole(gym.Wrapper):
+    """CartPole whose step hangs for a minute the first time a flag file appears (one env takes it)."""
+
+    def __init__(self, flag, **kw):
+        super().__init__(gym.make("CartPole-v1", **kw))
+        self.flag = flag
+
+    def step(self, action):
+        try:
+            os.remove(self.flag)
+        except FileNotFoundError:
+            return self.env.step(action)
+        time.sleep(60)
+        return self.env.step(action)
+
+
+@pytest.mark.timeout(120)
+def test_hung_worker_is_replaced_after_the_step_timeout(tmp_path):
+    """A user-registered env (shipped to the workers) that stops answering: no hang, the run goes on."""
+    gym.register("SleepyCartPole-test", entry_point=SleepyCartPole)
+    env_configurations.register("SleepyCartPole-ray", {"env_creator": lambda **kw: gym.make(
+        "SleepyCartPole-test", **kw)}, overwrite=True)
+    flag = str(tmp_path / "hang")
+    env = make_vec_env("SleepyCartPole-ray", {"flag": flag}, 4, 0, "sync", env_runners=runners(step_timeout_s=3.0))
+    try:
+        env.reset()
+        env.step(np.zeros(4, dtype=np.int64))
+        open(flag, "w").close()
+        start = time.monotonic()
+        cut = env.step(np.zeros(4, dtype=np.int64))
+        waited = time.monotonic() - start
+        assert 3.0 <= waited < 40.0
+        assert not os.path.exists(flag) and sum(env.restarts) == 1 and env.dropped_episodes == 2
+        assert cut.infos["dropped"].sum() == 2 and cut.truncated[cut.infos["dropped"]].all()
+        assert "dropped" not in env.step(np.zeros(4, dtype=np.int64)).infos
+    finally:
+        env.close()
+        del gym.registry["SleepyCartPole-test"], gym.registry["SleepyCartPole-ray"]
+
+
+@pytest.mark.timeout(120)
+def test_bad_env_name_is_a_one_line_config_error_from_the_worker():
+    with pytest.raises(ValueError) as err:
+        make_vec_env("CartPol-v1", {}, 2, 0, "RAY")
+    assert str(err.value).startswith("params.config.env_name: unknown environment 'CartPol-v1'; did you mean "
+                                     "'CartPole-v1'")
+    assert "\n" not in str(err.value)
+    assert wait_for_free_cpus(CPUS) == CPUS  # the workers of the failed start were stopped
+
+
+def ray_ppo_config(tmp_path, epochs, **runner_keys):
+    return {"params": {
+        "seed": 3,
+        "algo": {"name": "a2c_discrete"},
+        "model": {"name": "discrete_a2c"},
+        "network": {"name": "actor_critic", "space": {"discrete": None}, "mlp": {"units": [32, 32]}},
+        "config": {"name": "ray_cartpole", "env_name": "CartPole-v1", "device": "cpu", "vecenv_type": "RAY",
+                   "env_runners": {"num_workers": 2, "step_timeout_s": 20, "start_timeout_s": 60, **runner_keys},
+                   "num_actors": 8, "horizon_length": 32, "minibatch_size": 128, "mini_epochs": 2,
+                   "learning_rate": 1e-3, "max_epochs": epochs, "save_best_after": 0, "print_stats": False,
+                   "train_dir": str(tmp_path / "runs")},
+    }}
+
+
+class KillWorker(Callback):
+    """Kills worker 1's process at the end of the given epochs; remembers the env for the checks."""
+
+    def __init__(self, epochs):
+        self.epochs, self.env, self.killed = epochs, None, 0
+
+    def on_epoch_end(self, trainer, stats, episodes):
+        self.env = trainer.env
+        if trainer.epoch in self.epochs:
+            os.kill(trainer.env.worker_pids()[1], signal.SIGKILL)
+            self.killed += 1
+
+
+@pytest.mark.timeout(180)
+def test_ppo_run_on_ray_workers_finishes_despite_a_killed_worker(tmp_path):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    killer = KillWorker(epochs={2})
+    result = Runner().load(ray_ppo_config(tmp_path, epochs=8)).train(callbacks=[killer])
+    assert result.epoch == 8 and result.frames == 8 * 8 * 32 and killer.killed == 1
+    assert type(killer.env).__name__ == "RayVecEnv" and killer.env.dropped_episodes == 4  # worker 1's 4 envs
+    assert result.mean_reward > 0 and result.stop_reason == "max_epochs 8 reached"
+    events = EventAccumulator(os.path.join(result.run_dir, "summaries"))
+    events.Reload()
+    dropped = [e.value for e in events.Scalars("env/dropped_episodes")]
+    assert dropped[0] == 0 and dropped[-1] == 4 and len(dropped) == 8
+
+
+@pytest.mark.timeout(180)
+def test_worker_that_keeps_dying_ends_the_run_with_one_line(tmp_path):
+    killer = KillWorker(epochs={1, 2})
+    with pytest.raises(Exception) as err:
+        Runner().load(ray_ppo_config(tmp_path, epochs=50, max_restarts=1)).train(callbacks=[killer])
+    message = str(err.value)
+    assert "env step failed at epoch 3" in message and "WorkerLost: ray env worker 1 (envs 4-7)" in message
+    assert "more than env_runners.max_restarts = 1 restarts" in message and "\n" not in message
+    assert wait_for_free_cpus(CPUS) == CPUS
