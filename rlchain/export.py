@@ -14,7 +14,12 @@ The exported graph is the deterministic policy as the Player runs it::
   exported action of a ``use_action_masks`` policy ignores masks.
 - ``value``: the critic's value on the return scale (value normalization undone).
 
-The batch axis is dynamic. Requires ``pip install rlchain[onnx]`` (onnx + onnxruntime).
+- Recurrent policies (``network.rnn``): the graph also takes the RNN states ``rnn_state_0``,
+  ``rnn_state_1`` (LSTM h and c; GRU has one), each (layers, batch, units), zeros at an episode
+  start, and returns the next ones as ``rnn_state_0_out`` ... after action and value. Feed them
+  back every step and zero an env's rows when its episode ends.
+
+The batch axis is dynamic (axis 1 of the states). Requires ``pip install rlchain[onnx]`` (onnx + onnxruntime).
 """
 
 from __future__ import annotations
@@ -62,10 +67,9 @@ class OnnxPolicy(nn.Module):
 
     def __init__(self, model: ActorCritic) -> None:
         super().__init__()
-        network = model.network
-        if getattr(network, "is_rnn", lambda: False)():
-            raise NotImplementedError("ONNX export of recurrent (RNN) policies is not supported yet")
         self.model = model
+        initial = model.initial_state(1, torch.device("cpu")) if getattr(model, "is_rnn", False) else ()
+        self.state_names = tuple(f"rnn_state_{i}" for i in range(len(initial)))
 
     @property
     def input_names(self) -> list[str]:
@@ -75,11 +79,15 @@ class OnnxPolicy(nn.Module):
     def output_names(self) -> list[str]:
         return ["action", "value", *(f"{s}_out" for s in self.state_names)]
 
-    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        params, value = self.model(obs)
+    def forward(self, obs: torch.Tensor, *states: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        params, value, new_states = self.model.evaluate(obs, states or None)
         dist = self.model.dist
         action = dist.to_env(dist.mode(params))
-        return action, self.model.denorm_value(value)
+        return (action, self.model.denorm_value(value), *(new_states or ()))
+
+    def initial_state(self, batch: int) -> tuple[torch.Tensor, ...]:
+        """Zero RNN states (each (layers, batch, units)) to feed the first step; empty without an RNN."""
+        return tuple(self.model.initial_state(batch, torch.device("cpu"))) if self.state_names else ()
 
 
 def obs_dtype(space: gym.Space) -> torch.dtype:
@@ -97,18 +105,22 @@ def export_model_onnx(model: ActorCritic, obs_shape: tuple[int, ...], output_pat
     """
     _require("onnx")
     policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
-    dummy = torch.zeros((2, *obs_shape), dtype=input_dtype)
+    dummy = (torch.zeros((2, *obs_shape), dtype=input_dtype), *policy.initial_state(2))
     folder = os.path.dirname(os.path.abspath(output_path))
     os.makedirs(folder, exist_ok=True)
-    names = policy.input_names + policy.output_names
+    states = set(policy.state_names) | {f"{s}_out" for s in policy.state_names}
+    dynamic = {name: {1 if name in states else 0: "batch"} for name in policy.input_names + policy.output_names}
     with warnings.catch_warnings(), torch.no_grad():
         # torch >= 2.9 marks the TorchScript-based exporter deprecated; it needs no onnxscript and
         # handles this feed-forward graph exactly
         warnings.simplefilter("ignore", DeprecationWarning)
         warnings.filterwarnings("ignore", message=".*legacy TorchScript-based ONNX export.*")
-        torch.onnx.export(policy, (dummy,), output_path, dynamo=False, opset_version=opset,
+        # nn.LSTM/GRU's own shape checks trace as constants; the states are graph inputs (tested)
+        warnings.filterwarnings("ignore", category=torch.jit.TracerWarning)
+        warnings.filterwarnings("ignore", message=".*batch_size other than 1.*")
+        torch.onnx.export(policy, dummy, output_path, dynamo=False, opset_version=opset,
                           input_names=policy.input_names, output_names=policy.output_names,
-                          dynamic_axes={name: {0: "batch"} for name in names}, do_constant_folding=True)
+                          dynamic_axes=dynamic, do_constant_folding=True)
     onnx = _require("onnx")
     onnx.checker.check_model(onnx.load(output_path))
     return output_path
@@ -120,27 +132,36 @@ def onnx_session(onnx_path: str) -> Any:
     return ort.InferenceSession(onnx_path, providers=["CPUExecutionProvider"])
 
 
-def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any = None) -> float:
-    """Max abs difference between onnxruntime and PyTorch (action and value) on ``obs_batch``.
+def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any = None,
+                steps: int = 3) -> float:
+    """Max abs difference between onnxruntime and PyTorch (every output) on ``obs_batch``.
 
     ``obs_batch``: (B, *obs_shape) numpy array or tensor, cast to the graph's input dtype. Discrete
-    actions count as a difference of at least 1 when the argmax differs.
+    actions count as a difference of at least 1 when the argmax differs. A recurrent policy runs
+    ``steps`` steps from zero states, each graph fed its own returned states, so the state path is
+    compared too.
     """
     session = session or onnx_session(onnx_path)
     graph_input = session.get_inputs()[0]
     np_dtype = np.uint8 if graph_input.type == "tensor(uint8)" else np.float32
     obs = np.ascontiguousarray(torch.as_tensor(obs_batch).cpu().numpy()).astype(np_dtype)
-    onnx_out = session.run(["action", "value"], {graph_input.name: obs})
     policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
-    with torch.no_grad():
-        torch_out = policy(torch.from_numpy(obs))
+    torch_states = policy.initial_state(obs.shape[0])
+    onnx_states = [s.numpy() for s in torch_states]
     diff = 0.0
-    for got, want in zip(onnx_out, torch_out):
-        want = want.numpy()
-        if got.shape != want.shape:
-            raise RuntimeError(f"ONNX output shape {got.shape} differs from PyTorch's {want.shape}")
-        if got.size:
-            diff = max(diff, float(np.max(np.abs(got.astype(np.float64) - want.astype(np.float64)))))
+    for _ in range(steps if policy.state_names else 1):
+        feed = {graph_input.name: obs, **dict(zip(policy.state_names, onnx_states))}
+        onnx_out = session.run(policy.output_names, feed)
+        with torch.no_grad():
+            torch_out = policy(torch.from_numpy(obs), *torch_states)
+        for got, want in zip(onnx_out, torch_out):
+            want = want.numpy()
+            if got.shape != want.shape:
+                raise RuntimeError(f"ONNX output shape {got.shape} differs from PyTorch's {want.shape}")
+            if got.size:
+                diff = max(diff, float(np.max(np.abs(got.astype(np.float64) - want.astype(np.float64)))))
+        onnx_states = onnx_out[2:]
+        torch_states = tuple(torch_out[2:])
     return diff
 
 
@@ -164,11 +185,14 @@ def random_observations(space: gym.Space, n: int, seed: int = 0) -> np.ndarray:
 
 def env_observations(model: ActorCritic, env: Any, steps: int, seed: int = 0) -> np.ndarray:
     """Observations from ``steps`` deterministic policy steps in ``env`` (all envs), stacked."""
+    from rlchain.models.stepper import PolicyStepper
+
     device = next(model.parameters()).device
     obs = torch.as_tensor(env.reset(seed=seed), device=device)
+    policy = PolicyStepper(model, env.num_envs, device)
     seen = [obs.cpu()]
     for _ in range(steps):
-        actions = model.dist.to_env(model.act(obs, deterministic=True)["actions"])
+        actions = model.dist.to_env(policy.act(obs, env, deterministic=True))
         if getattr(env, "is_tensor_env", False):  # a torch env may live on another device than the model
             result = env.step(actions.to(getattr(env, "device", actions.device)))
         else:

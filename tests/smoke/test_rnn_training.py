@@ -38,3 +38,14 @@ def test_rnn_with_continuous_actions(tmp_path):
     extra = ["params.network.rnn={name: gru, units: 16}", "params.config.seq_length=8"]
     result = Runner().load(cfg, small(tmp_path, 2, *extra)).train()
     assert result.epoch == 2 and result.frames == 2 * 8 * 32
+
+
+def test_rnn_checkpoint_exports_to_onnx(tmp_path, capsys):
+    pytest.importorskip("onnxruntime")
+    result = Runner().load(CONFIG, small(tmp_path, 1)).train()
+    last = os.path.join(result.run_dir, "nn", "last_cartpole_masked_velocity_rnn.pth")
+    out = Runner().load(CONFIG).export(last, os.path.join(tmp_path, "rnn.onnx"))
+    assert os.path.isfile(out)
+    line = [x for x in capsys.readouterr().out.splitlines() if "parity" in x][0]
+    diffs = [float(x) for x in line.replace(",", " ").split() if "e-" in x or "e+" in x]
+    assert diffs and max(diffs) < 1e-4, line

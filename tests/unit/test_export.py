@@ -15,7 +15,6 @@ ort = pytest.importorskip("onnxruntime")
 from rlchain import Runner  # noqa: E402
 from rlchain.config.schema import MlpConfig, NetworkConfig  # noqa: E402
 from rlchain.export import (  # noqa: E402
-    OnnxPolicy,
     env_observations,
     export_from_cli,
     export_model_onnx,
@@ -181,11 +180,3 @@ def test_missing_onnxruntime_names_the_extra(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "onnxruntime", None)  # import raises ImportError
     with pytest.raises(ImportError, match=r"pip install rlchain\[onnx\]"):
         export_onnx(params, CARTPOLE_CKPT, str(tmp_path / "x.onnx"))
-
-
-def test_recurrent_networks_are_refused():
-    _, env, model = built("ppo_cartpole.yaml", num_envs=1)
-    env.close()
-    model.network.is_rnn = lambda: True
-    with pytest.raises(NotImplementedError, match="RNN"):
-        OnnxPolicy(model)
