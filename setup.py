@@ -4,6 +4,7 @@ from setuptools import find_packages, setup
 
 EXTRAS = {
     "envpool": ["envpool>=0.8"],
+    "atari": ["ale-py>=0.9", "opencv-python-headless"],  # ale-py ships the ROMs; opencv: AtariPreprocessing
     "mujoco": ["gymnasium[mujoco]>=1.0"],
     "onnx": ["onnx", "onnxruntime"],
     "wandb": ["wandb"],

@@ -4,8 +4,8 @@
     python benchmarks/distributed_scaling.py --configs ppo_pendulum.yaml --epochs 10 --repeats 3
     python benchmarks/distributed_scaling.py --nprocs 2 4 --json out.json
 
-Each run is a real ``runner.py --train`` subprocess: ``python runner.py`` for 1 process (once with
-the Runner's default torch threads, once with ``torch_threads`` = all cores), ``torchrun
+Each run is a real ``runner.py --train`` subprocess: ``python runner.py`` for 1 process (with the
+Runner's default torch threads; ``--threads-row`` adds one with ``torch_threads`` = all cores), ``torchrun
 --standalone --nproc_per_node=N runner.py ... multi_gpu=True`` for N processes. The config is used
 as written, so (as in rl_games) every process steps ``num_actors`` envs: N processes collect N
 times the frames per epoch. fps = frames of all ranks between the end of epoch ``--warmup`` and
@@ -88,10 +88,12 @@ def main() -> None:
     p.add_argument("--warmup", type=int, default=2, help="epochs not measured (>= 1)")
     p.add_argument("--repeats", type=int, default=1, help="interleaved repeats; the median is reported")
     p.add_argument("--timeout", type=float, default=900, help="seconds per run")
+    p.add_argument("--threads-row", action="store_true",
+                   help="also 1 process with torch_threads = all cores (slow when other jobs share the cores)")
     p.add_argument("--json", help="write the rows here")
     args = p.parse_args()
     cores = os.cpu_count() or 1
-    variants = [(1, None), (1, cores)] + [(n, None) for n in args.nprocs]
+    variants = [(1, None)] + ([(1, cores)] if args.threads_row else []) + [(n, None) for n in args.nprocs]
     names = {(1, None): "1 proc", (1, cores): f"1 proc, {cores} threads"}
     rows = []
     print(f"{cores} cores, load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}", flush=True)

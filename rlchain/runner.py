@@ -77,7 +77,7 @@ class Runner:
         elif seed is None:
             seed = secrets.randbelow(2**31)
         seed_everything(seed)
-        _set_threads(params.torch_threads, cfg.device)
+        _set_threads(params.torch_threads, cfg.device, group.local_world_size if group is not None else 1)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
         env = build_env(params, cfg.num_actors, seed, runners=True)
@@ -141,7 +141,9 @@ class Runner:
         """Play with the Player; returns a PlayResult."""
         from rlchain.player import Player
 
-        player = Player(self._require(), checkpoint, sigma=sigma)
+        params = self._require()
+        _set_threads(params.torch_threads, params.config.device)  # as training: 2 threads on 2 busy cores cost 30x
+        player = Player(params, checkpoint, sigma=sigma)
         try:
             return player.play(games=games, deterministic=deterministic, quiet=quiet)
         finally:
@@ -153,12 +155,13 @@ class Runner:
         return self.params
 
 
-def _set_threads(requested: int | None, device: str) -> None:
+def _set_threads(requested: int | None, device: str, processes: int = 1) -> None:
     """torch intra-op threads: the config's torch_threads capped at the core count; by default
-    half the cores (at most 4) for CPU training, which measured fastest for rl-sized networks."""
+    half the cores (at most 4) for CPU training, which measured fastest for rl-sized networks.
+    ``processes`` torchrun ranks on one node share its cores."""
     import torch
 
-    cores = os.cpu_count() or 1
+    cores = max(1, (os.cpu_count() or 1) // processes)
     if requested:
         torch.set_num_threads(min(requested, cores))
     elif not device.startswith("cuda"):

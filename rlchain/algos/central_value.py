@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import torch
 
 from rlchain.algos.losses import value_loss
@@ -18,6 +20,7 @@ class CentralValueAgent:
         self.lr = cfg.learning_rate
         self.params = [p for p in model.parameters() if p.requires_grad]
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
+        self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks
 
     def update(self, states: torch.Tensor, values: torch.Tensor, returns: torch.Tensor,
                progress: float) -> dict[str, float]:
@@ -38,6 +41,8 @@ class CentralValueAgent:
                                   cfg.e_clip, cfg.clip_value).mean()
                 self.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
+                if self.gradient_sync is not None:
+                    self.gradient_sync(self.params)
                 if cfg.truncate_grads:
                     torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_norm)
                 self.optimizer.step()

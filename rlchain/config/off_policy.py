@@ -33,7 +33,8 @@ def _check_bounds(b: list[float]) -> str | None:
 class OffPolicyConfig(RunConfig):
     """Keys shared by every off-policy algorithm (generic rl_games keys + the replay buffer)."""
 
-    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, envpool")
+    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, envpool, "
+                                           "RAY (Ray workers, see env_runners)")
     num_actors: int = option(1, "parallel environments", check=positive)
     num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
                                            "num_actors * num_steps_per_episode)", check=positive)

@@ -158,7 +158,8 @@ class PlayerConfig:
     render_sleep: float = option(0.002, "seconds to sleep between rendered frames", check=non_negative)
     deterministic: bool = option(True, "act with the distribution's mode instead of sampling")
     games_num: int = option(2000, "episodes to play", check=positive)
-    n_game_life: int = option(1, "lives per game (Atari)", check=positive)
+    n_game_life: int = option(1, "lives per game (rl_games scales per-life averages by it); accepted, not needed: "
+                                 "Atari games are always counted whole, see README 'Atari'", check=positive)
     print_stats: bool = option(True, "print each finished game")
     use_vecenv: bool = option(False, "play with several envs at once (num_actors of the player)")
     num_actors: int = option(1, "envs stepped together while playing", check=positive)
@@ -252,7 +253,8 @@ class RunConfig:
 
     name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
     env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
-                               "(env_config.env_name) or a registered env")
+                               "(env_config.env_name), `atari_gym` (env_config.name, an ale-py id) or a "
+                               "registered env")
     env_config: dict = option({}, "keyword arguments for the environment")
     env_runners: EnvRunnersConfig | None = option(None, "step the envs on Ray workers (rlchain; see the "
                                                             "env_runners section)")

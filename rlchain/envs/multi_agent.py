@@ -11,9 +11,9 @@ The contract of a multi-agent env (one env, gymnasium-like, rl_games' names)::
 Dones are per env: the agents of one env end together. ``terminated`` / ``truncated`` are one
 bool each, or (A,) arrays whose entries agree (anything else is an error naming the env), and
 the env is reset (with every agent) when it ends. A Dict observation space is flattened per agent
-(gymnasium's rule) except the central-value layout ``{'obs', 'state'}``, which comes back as
-``{'obs': (N, ...), 'state': (N, ...)}``. The spec's ``max_episode_steps`` (or
-``env_config.max_episode_steps``) truncates episodes.
+(gymnasium's rule); the central-value layout ``{'obs', 'state'}`` becomes ``[obs | state]`` per
+agent with an :class:`~rlchain.envs.central_value.ObsStateBox` space, as for single-agent envs.
+The spec's ``max_episode_steps`` (or ``env_config.max_episode_steps``) truncates episodes.
 
 :class:`MultiAgentVecEnv` turns ``num_actors`` such envs into the VecEnv contract of
 :mod:`rlchain.envs.vecenv` with ``num_envs = num_actors * A`` rows, env-major: row ``i * A + j``
@@ -35,10 +35,9 @@ import numpy as np
 from gymnasium.envs.registration import load_env_creator
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.central_value import ObsStateBox, is_obs_state_space
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers import cast_actions, cast_obs, float32_action_space, float32_obs_space
-
-CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
 
 
 def agents_of(env: Any) -> int:
@@ -72,15 +71,18 @@ def make_multi_agent_env(env_id: str, num_envs: int, kwargs: dict, seed: int | N
     target = load_env_creator(entry) if isinstance(entry, str) else entry
     if isinstance(target, type) and not hasattr(target, "get_number_of_agents"):
         return None
-    first, limit = create_env(env_id, kwargs, render)
-    if agents_of(first) <= 1:
+    first, limit = create_env(env_id, kwargs)
+    agents = agents_of(first)
+    if agents <= 1 or vecenv_type not in ("auto", "sync") or render:
         _close(first)
+    if agents <= 1:
         return None
     if vecenv_type not in ("auto", "sync"):
-        _close(first)
         raise ConfigError("", "params.config.vecenv_type", f"must be auto or sync, not {vecenv_type}: "
-                          f"'{env_id}' is a multi-agent env ({agents_of(first)} agents), stepped in-process")
-    envs = [first] + [create_env(env_id, kwargs, render)[0] for _ in range(num_envs - 1)]
+                          f"'{env_id}' is a multi-agent env ({agents} agents), stepped in-process")
+    if render:  # only env 0 is drawn; the probe was built without a window
+        first = create_env(env_id, kwargs, render=True)[0]
+    envs = [first] + [create_env(env_id, kwargs)[0] for _ in range(num_envs - 1)]
     return MultiAgentVecEnv(envs, max_episode_steps=limit, seed=seed)
 
 
@@ -105,10 +107,10 @@ class MultiAgentVecEnv:
         first = self.envs[0]
         self._env_obs_space = first.observation_space
         self._env_action_space = first.action_space
-        self._keep_dict = isinstance(first.observation_space, gym.spaces.Dict) and \
-            set(first.observation_space.spaces) == CENTRAL_VALUE_KEYS
-        self.observation_space = first.observation_space if self._keep_dict else \
-            float32_obs_space(first.observation_space)
+        space = first.observation_space
+        self._obs_state = is_obs_state_space(space)
+        self.observation_space = ObsStateBox(gym.spaces.flatdim(space["obs"]), gym.spaces.flatdim(space["state"])) \
+            if self._obs_state else float32_obs_space(space)
         self.action_space = float32_action_space(first.action_space)
         for attr in ("value_size", "use_central_value", "concat_infos"):
             value = getattr(first, attr, None)
@@ -163,13 +165,16 @@ class MultiAgentVecEnv:
 
     def _stack(self, per_env: list[Any]) -> Any:
         """Per-env observations (A, ...) -> the batch (N * A, ...) as the trainer sees it."""
-        if self._keep_dict:
-            return {k: cast_obs(np.concatenate([np.asarray(o[k]) for o in per_env])) for k in CENTRAL_VALUE_KEYS}
+        a = self.num_agents
+        if self._obs_state:  # [obs | state] per agent
+            return np.concatenate([np.concatenate([np.asarray(o["obs"], dtype=np.float32).reshape(a, -1),
+                                                   np.asarray(o["state"], dtype=np.float32).reshape(a, -1)], axis=1)
+                                   for o in per_env])
         if isinstance(self._env_obs_space, gym.spaces.Dict):
-            space, a = self._env_obs_space, self.num_agents
+            space = self._env_obs_space
             return cast_obs(np.stack([gym.spaces.flatten(space, {k: np.asarray(o[k])[j] for k in space.spaces})
                                       for o in per_env for j in range(a)]))
-        return cast_obs(np.concatenate([np.asarray(o).reshape(self.num_agents, *self._env_obs_space.shape)
+        return cast_obs(np.concatenate([np.asarray(o).reshape(a, *self._env_obs_space.shape)
                                         for o in per_env]))
 
     # ----- optional rl_games / self-play methods --------------------------------------------

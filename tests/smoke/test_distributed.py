@@ -33,10 +33,13 @@ class DumpState(Callback):
         if not folder:
             return
         rank = trainer.distributed.rank if trainer.distributed is not None else 0
-        torch.save({"model": trainer.model.state_dict(), "optimizer": trainer.agent.optimizer.state_dict(),
-                    "lr": trainer.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
-                    "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir},
-                   os.path.join(folder, f"rank{rank}.pt"))
+        state = {"model": trainer.model.state_dict(), "optimizer": trainer.agent.optimizer.state_dict(),
+                 "lr": trainer.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
+                 "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
+        if getattr(trainer, "central_value", None) is not None:
+            state["central_value"] = trainer.central_value.state_dict()
+            state["cv_optimizer"] = trainer.cv_agent.optimizer.state_dict()
+        torch.save(state, os.path.join(folder, f"rank{rank}.pt"))
 
 
 class KillRank1(Callback):
@@ -76,12 +79,17 @@ def assert_ranks_identical(states):
     """Bit-identical parameters, buffers (normalizers), optimizer state, lr and counters on every rank."""
     first = states[0]
     for other in states[1:]:
-        assert first["model"].keys() == other["model"].keys()
-        for key, tensor in first["model"].items():
-            assert torch.equal(tensor, other["model"][key]), f"{key} differs between ranks"
-        for pid, slots in first["optimizer"]["state"].items():
-            for name, value in slots.items():
-                assert torch.equal(value, other["optimizer"]["state"][pid][name]), f"optimizer {pid}.{name}"
+        for model, optimizer in (("model", "optimizer"), ("central_value", "cv_optimizer")):
+            assert (model in first) == (model in other)
+            if model not in first:
+                continue
+            assert first[model].keys() == other[model].keys()
+            for key, tensor in first[model].items():
+                assert torch.equal(tensor, other[model][key]), f"{model} {key} differs between ranks"
+            assert first[optimizer]["state"], "the optimizer never stepped"
+            for pid, slots in first[optimizer]["state"].items():
+                for name, value in slots.items():
+                    assert torch.equal(value, other[optimizer]["state"][pid][name]), f"{optimizer} {pid}.{name}"
         for key in ("lr", "epoch", "frames", "best_reward"):
             assert first[key] == other[key], key
     assert len({s["seed"] for s in states}) == len(states), "ranks must step differently seeded envs"
@@ -133,6 +141,32 @@ def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
     # each normalizer folded both ranks' batches (16 envs x 64 steps per rank and epoch)
     assert model["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
     assert model["value_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+
+
+@pytest.mark.timeout(180)
+def test_rnn_policy_stays_identical(tmp_path):
+    """LSTM policy trained on sequence minibatches: the same gradient sync keeps the ranks equal."""
+    cfg = os.path.join(CONFIGS, "ppo_cartpole_masked_velocity_rnn.yaml")
+    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, "params.config.max_epochs=2")], tmp_path)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    states = load_dumps(dumps)
+    assert any(".rnn." in key for key in states[0]["model"])
+    assert_ranks_identical(states)
+
+
+@pytest.mark.timeout(180)
+def test_central_value_critic_stays_identical(tmp_path):
+    """The asymmetric critic (own optimizer, minibatches, value normalizer) is synced like the actor."""
+    cv = "{network: {name: actor_critic, central_value: True, mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"
+    out, dumps = torchrun(["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
+                           *overrides(tmp_path, "params.config.max_epochs=3", "params.config.normalize_value=True",
+                                      "params.import_modules=[tests.smoke.test_central_value]",
+                                      "params.config.env_name=ObsStateCartPoleTest-v0",
+                                      f"params.config.central_value_config={cv}")], tmp_path)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    states = load_dumps(dumps)
+    assert "central_value" in states[0]
+    assert_ranks_identical(states)
 
 
 # ----- bad launches fail at once, with one line -------------------------------------------------

@@ -139,7 +139,7 @@ def test_hung_worker_is_replaced_after_the_step_timeout(tmp_path):
 @pytest.mark.timeout(120)
 def test_bad_env_name_is_a_one_line_config_error_from_the_worker():
     with pytest.raises(ValueError) as err:
-        make_vec_env("CartPol-v1", {}, 2, 0, "RAY")
+        make_vec_env("CartPol-v1", {}, 2, 0, "RAY", env_runners=runners(num_workers=1))
     assert str(err.value).startswith("params.config.env_name: unknown environment 'CartPol-v1'; did you mean "
                                      "'CartPole-v1'")
     assert "\n" not in str(err.value)

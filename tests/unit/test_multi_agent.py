@@ -72,7 +72,7 @@ def test_dones_broadcast_final_obs_and_per_agent_episode_stats():
     vec = MultiAgentVecEnv([Counting(tag=i, length=3 + i) for i in range(2)])
     tracker = EpisodeTracker(vec.num_envs, 100, torch.device("cpu"))
     vec.reset(seed=0)
-    for t in range(3):
+    for _ in range(3):
         result = vec.step(np.zeros(6, dtype=np.int64))
         assert result.reward.tolist() == [1, 2, 3, 1, 2, 3]
         tracker.step(torch.as_tensor(result.reward), torch.as_tensor(result.terminated | result.truncated))
@@ -108,6 +108,55 @@ def test_max_episode_steps_truncates():
     result = vec.step(np.zeros(3))
     assert result.truncated.all() and not result.terminated.any()
     assert result.obs[:, 1].tolist() == [0, 0, 0]
+
+
+class DictObs(Counting):
+    """2 agents with Dict observations: rl_games' central-value layout or any other keys."""
+
+    def __init__(self, keys=("obs", "state"), **kwargs):
+        super().__init__(**kwargs)
+        self.keys = keys
+        self.observation_space = gym.spaces.Dict({keys[0]: gym.spaces.Box(-9, 9, (2,), np.float32),
+                                                  keys[1]: gym.spaces.Box(-9, 9, (3,), np.float32)})
+        self.opponents, self.scores = [], [1.0, 0.0]
+
+    def get_number_of_agents(self):
+        return 2
+
+    def _obs(self):
+        return {self.keys[0]: np.array([[1, 2], [3, 4]], np.float32) + self.tag,
+                self.keys[1]: np.array([[5, 6, 7], [8, 9, 0]], np.float32)}
+
+    def step(self, actions):
+        obs, *_ = super().step(actions)
+        return self._obs(), np.zeros(2, np.float32), False, False, {}
+
+    def set_opponent(self, policy):
+        self.opponents.append(policy)
+
+    def pop_scores(self):
+        out, self.scores = self.scores, []
+        return out
+
+
+def test_dict_observations_per_agent():
+    vec = MultiAgentVecEnv([DictObs(tag=0), DictObs(tag=10)])
+    assert vec.observation_space.obs_size == 2 and vec.observation_space.state_size == 3  # an ObsStateBox
+    obs = vec.reset()
+    assert obs.shape == (4, 5)
+    assert obs[1].tolist() == [3, 4, 8, 9, 0] and obs[2].tolist() == [11, 12, 5, 6, 7]  # [obs | state]
+    flat = MultiAgentVecEnv([DictObs(keys=("a", "b"))])
+    assert flat.observation_space.shape == (5,)
+    assert flat.step(np.zeros(2)).obs.tolist() == [[1, 2, 5, 6, 7], [3, 4, 8, 9, 0]]
+
+
+def test_self_play_methods_reach_the_envs():
+    envs = [DictObs(), DictObs(), DictObs()]
+    vec = MultiAgentVecEnv(envs)
+    vec.set_opponent("p1", [0, 2])
+    vec.set_opponent("p2")
+    assert [e.opponents for e in envs] == [["p1", "p2"], ["p2"], ["p1", "p2"]]
+    assert vec.pop_scores().tolist() == [1, 0, 1, 0, 1, 0] and vec.pop_scores().size == 0
 
 
 def test_factory_builds_the_adapter_for_multi_agent_ids_only():

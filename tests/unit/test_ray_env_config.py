@@ -1,5 +1,6 @@
 """Ray env runners without starting Ray: config parsing, the worker split, errors, the worker body."""
 
+import pickle
 import sys
 
 import numpy as np
@@ -98,22 +99,22 @@ def test_worker_body_steps_its_slice_with_global_seeds_and_indices():
     local = make_vec_env("CartPole-v1", {"max_episode_steps": 3}, 4, 5, "sync")
     np.testing.assert_array_equal(worker.reset(7), local.reset(5)[2:])
     for _ in range(3):
-        out = worker.step(np.ones(2, dtype=np.int64))
+        out = worker.step(pickle.dumps(np.ones(2, dtype=np.int64)))
         ref = local.step(np.ones(4, dtype=np.int64))
-    obs, reward, terminated, truncated, rows, final, game_reward, game_over = out
+    obs, reward, terminated, truncated, rows, final, game_reward, game_over = pickle.loads(out)
     np.testing.assert_array_equal(obs, ref.obs[2:])
     assert truncated.all() and rows.tolist() == [0, 1]  # time-out after 3 steps
     np.testing.assert_array_equal(final, ref.final_obs[2:])
     assert reward.dtype == np.float32 and obs.dtype == np.float32 and game_reward is None and game_over is None
     worker.env.env.envs[1].env.step = lambda a: 1 / 0  # env 1 of this worker = env 3 of the batch
     with pytest.raises(RuntimeError, match=r"^env 3 step raised ZeroDivisionError"):
-        worker.step(np.ones(2, dtype=np.int64))
+        worker.step(pickle.dumps(np.ones(2, dtype=np.int64)))
     worker.close()
     local.close()
 
 
 def test_tensor_envs_are_refused_on_workers():
-    with pytest.raises(ValueError, match="'TorchCartPole-v0' is a tensor env"):
+    with pytest.raises(ValueError, match="'TorchCartPole-v0' is a tensor env .*; Ray env workers do not support it"):
         EnvRecipe.capture("TorchCartPole-v0", {"device": "cpu"}, "auto").build(2, 0)
 
 
@@ -141,3 +142,32 @@ def test_episode_tracker_forgets_dropped_rows():
     tracker.step(torch.ones(3), torch.tensor([True, True, False]), dropped=np.array([False, True, False]))
     assert list(tracker.finished_returns) == [2.0] and tracker.games == 1  # row 1 was cut, not finished
     assert tracker.returns.tolist() == [0.0, 0.0, 2.0] and tracker.lengths.tolist() == [0, 0, 2]
+
+
+def test_unreachable_cluster_address_fails_fast_instead_of_hanging():
+    """ray.init(address=...) retries for minutes when nothing answers; the address is checked first."""
+    import socket
+    import time
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        pytest.skip("this process is connected to Ray already")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # free once closed: nothing listens there
+    start = time.monotonic()
+    with pytest.raises(ConfigError) as err:
+        make_vec_env("CartPole-v1", {}, 2, 0, "RAY", env_runners=EnvRunnersConfig(address=f"127.0.0.1:{port}"))
+    assert time.monotonic() - start < 5 and not ray.is_initialized()
+    assert str(err.value).startswith(f"params.config.env_runners.address: cannot reach Ray at '127.0.0.1:{port}'")
+
+
+def test_envs_the_workers_cannot_carry_are_named():
+    from types import SimpleNamespace
+
+    from rlchain.envs.ray_worker import _unsupported
+
+    assert _unsupported(SimpleNamespace()) is None
+    assert _unsupported(SimpleNamespace(get_number_of_agents=lambda: 2)) == "has several agents per env"
+    assert _unsupported(SimpleNamespace(has_action_mask=lambda: True)) == "has action masks"
+    assert _unsupported(SimpleNamespace(use_central_value=True)) == "has central-value (dict) observations"

@@ -51,11 +51,12 @@ class TestAsymmetricCritic(gym.Env):
     def __init__(self, wrapped_env_name: str = "CartPole-v1", apply_mask: bool = True,
                  use_central_value: bool = True, render_mode: str | None = None, **env_kwargs: Any) -> None:
         name, extra = OLD_IDS.get(wrapped_env_name, (wrapped_env_name, {}))
+        mask = velocity_mask(name) if apply_mask else None
         self.env = gym.make(name, render_mode=render_mode, **extra, **env_kwargs)
         self.render_mode = render_mode
         self.use_central_value = bool(use_central_value)
         inner = self.env.observation_space
-        self.mask = velocity_mask(name) if apply_mask else np.ones(inner.shape, dtype=np.float32)
+        self.mask = mask if mask is not None else np.ones(inner.shape, dtype=np.float32)
         self.state_space = gym.spaces.Box(inner.low.astype(np.float32), inner.high.astype(np.float32),
                                           inner.shape, np.float32)
         obs_space = gym.spaces.Box(self.state_space.low, self.state_space.high, inner.shape, np.float32)
