@@ -10,6 +10,9 @@ temporary ``train_dir`` and ``device: cpu`` added. The outcome is one of:
 - ``env not available``: the config is accepted, but its environment (Isaac Gym, Brax, SMAC, ...)
   is not installable here or not registered;
 - ``not supported``: rlchain stops with a config error naming a key it does not implement;
+- ``typo or unknown key caught``: a key rl_games silently ignores (e.g. a misspelt ``rnn1``);
+- ``needs torchrun`` (``multi_gpu: True``) / ``needs the user's network`` (a network the user
+  registers in their own package, like rl_games' ``testnet``);
 - ``error``: anything else (the first line of the message is shown).
 """
 
@@ -35,8 +38,14 @@ def classify(returncode: int, output: str) -> tuple[str, str]:
     if returncode == 0:
         return "runs", ""
     low = detail.lower()
+    if "torchrun" in low:
+        return "needs torchrun", detail
+    if "unknown network" in low or "unknown model" in low:
+        return "needs the user's network", detail
     if "config error" in low and "not implemented" in low:
         return "not supported", detail
+    if "config error" in low and "unknown key" in low:
+        return "typo or unknown key caught", detail
     if any(marker in low for marker in ENV_MISSING):
         return "env not available", detail
     return "error", detail

@@ -7,6 +7,7 @@ from collections.abc import Callable
 import torch
 
 from rlchain.algos.losses import value_loss
+from rlchain.algos.storage import RolloutStorage
 from rlchain.config.schema import CentralValueConfig
 from rlchain.errors import DivergenceError
 from rlchain.models.central_value import CentralValue
@@ -22,22 +23,28 @@ class CentralValueAgent:
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
         self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks
 
-    def update(self, states: torch.Tensor, values: torch.Tensor, returns: torch.Tensor,
-               progress: float) -> dict[str, float]:
-        """states (B, *state_shape), old raw values and raw returns (B, value_size) -> mean loss and lr."""
+    def update(self, storage: RolloutStorage, progress: float, state_offset: int = 0, seq_length: int = 1,
+               use_resets: bool = True) -> dict[str, float]:
+        """``mini_epochs`` passes over the rollout's (obs, old values, returns); -> mean loss and lr.
+
+        A recurrent critic trains on whole sequences of ``seq_length`` steps; its RNN states are the
+        storage's states from index ``state_offset`` on (the actor's come first).
+        """
         cfg, model = self.cfg, self.model
         if cfg.lr_schedule == "linear":
             self._set_lr(cfg.learning_rate * max(0.0, 1.0 - progress))
-        old = model.norm_value(values)
-        targets = model.norm_value(returns)
-        total, count = torch.zeros((), device=states.device), 0
+        zeros = torch.zeros(storage.horizon, storage.num_envs, device=storage.obs.device)
+        total, count = torch.zeros((), device=storage.obs.device), 0
         model.train()
         for _ in range(cfg.mini_epochs):
-            order = torch.randperm(states.shape[0], device=states.device)
-            for start in range(0, states.shape[0], cfg.minibatch_size):
-                idx = order[start:start + cfg.minibatch_size]
-                predicted = model(states.index_select(0, idx))
-                loss = value_loss(predicted, old.index_select(0, idx), targets.index_select(0, idx),
+            if model.is_rnn:
+                batches = storage.sequence_minibatches(cfg.minibatch_size, seq_length, zeros, use_resets)
+            else:
+                batches = storage.minibatches(cfg.minibatch_size, zeros)
+            for batch in batches:
+                states = batch.states[state_offset:] if batch.states else ()
+                predicted, _ = model(batch.obs, states, batch.resets, batch.seq_length)
+                loss = value_loss(predicted, model.norm_value(batch.values), model.norm_value(batch.returns),
                                   cfg.e_clip, cfg.clip_value).mean()
                 self.optimizer.zero_grad(set_to_none=True)
                 loss.backward()

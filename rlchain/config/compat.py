@@ -76,6 +76,17 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
         if key in out:
             _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
+    player = out.get("player")
+    if isinstance(player, dict) and "device_name" in player:
+        player = dict(player)
+        player.pop("device_name")
+        _warn(source, f"{path}.player.device_name", "accepted for rl_games compatibility, no effect: "
+              "play uses config.device")
+        out["player"] = player
+    cv = out.get("central_value_config")
+    if isinstance(cv, dict) and isinstance(cv.get("network"), dict):
+        out["central_value_config"] = {**cv, "network": translate_network(
+            cv["network"], source, f"{path}.central_value_config.network")}
     return out
 
 

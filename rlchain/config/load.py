@@ -235,9 +235,6 @@ def _check_central_value(config: TrainConfig, source: str) -> None:
     if heads:
         raise ConfigError(source, f"{path}.network.space", f"the central value network is a critic (value "
                           f"only); remove the '{heads[0]}' action head")
-    if cv.network.rnn is not None:
-        raise ConfigError(source, f"{path}.network.rnn", "a recurrent central value network is not implemented "
-                          "yet; use an MLP critic (the actor may still have an rnn)")
     if cv.minibatch_size_per_env is not None:
         cv.minibatch_size = config.num_actors * cv.minibatch_size_per_env
     cv.minibatch_size = cv.minibatch_size or config.minibatch_size
@@ -245,6 +242,11 @@ def _check_central_value(config: TrainConfig, source: str) -> None:
     if batch % cv.minibatch_size:
         raise ConfigError(source, f"{path}.minibatch_size", f"batch num_actors*horizon_length = {batch} is not "
                           f"divisible by {cv.minibatch_size}")
+    if cv.network.rnn is not None:
+        if cv.minibatch_size % config.seq_length or config.horizon_length % config.seq_length:
+            raise ConfigError(source, f"{path}.minibatch_size", f"a recurrent critic trains on sequences: "
+                              f"minibatch_size {cv.minibatch_size} and horizon_length {config.horizon_length} "
+                              f"must divide by seq_length {config.seq_length}")
 
 
 def _check_training(config: TrainConfig, source: str) -> None:

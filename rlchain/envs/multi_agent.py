@@ -73,13 +73,16 @@ def make_multi_agent_env(env_id: str, num_envs: int, kwargs: dict, seed: int | N
         return None
     first, limit = create_env(env_id, kwargs)
     agents = agents_of(first)
-    if agents <= 1 or vecenv_type not in ("auto", "sync") or render:
+    # gymnasium's vector envs hold one float reward per env: vector rewards (value_size > 1) step here
+    in_process = agents > 1 or int(getattr(first, "value_size", 1)) > 1
+    if not in_process or vecenv_type not in ("auto", "sync") or render:
         _close(first)
-    if agents <= 1:
+    if not in_process:
         return None
     if vecenv_type not in ("auto", "sync"):
         raise ConfigError("", "params.config.vecenv_type", f"must be auto or sync, not {vecenv_type}: "
-                          f"'{env_id}' is a multi-agent env ({agents} agents), stepped in-process")
+                          f"'{env_id}' is a multi-agent or multi-reward env ({agents} agents), stepped "
+                          "in-process")
     if render:  # only env 0 is drawn; the probe was built without a window
         first = create_env(env_id, kwargs, render=True)[0]
     envs = [first] + [create_env(env_id, kwargs)[0] for _ in range(num_envs - 1)]
@@ -112,6 +115,7 @@ class MultiAgentVecEnv:
         self.observation_space = ObsStateBox(gym.spaces.flatdim(space["obs"]), gym.spaces.flatdim(space["state"])) \
             if self._obs_state else float32_obs_space(space)
         self.action_space = float32_action_space(first.action_space)
+        self.value_size = 1
         for attr in ("value_size", "use_central_value", "concat_infos"):
             value = getattr(first, attr, None)
             if value is not None:
@@ -136,14 +140,15 @@ class MultiAgentVecEnv:
         a = self.num_agents
         actions = cast_actions(actions, self._env_action_space, self.num_envs)
         obs_list, final_list, infos = [], [], []
-        rewards = np.zeros(self.num_envs, dtype=np.float32)
+        rewards = np.zeros((self.num_envs, self.value_size) if self.value_size > 1 else self.num_envs,
+                           dtype=np.float32)
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
         self._steps += 1
         for i, env in enumerate(self.envs):
             rows = slice(i * a, (i + 1) * a)
             obs, reward, term, trunc, info = _split_step(env.step(_rows(actions, rows)))
-            rewards[rows] = _per_agent_reward(reward, a, i)
+            rewards[rows] = _per_agent_reward(reward, a, i, self.value_size)
             term, trunc = _per_env_done(term, trunc, a, i)
             if self.max_episode_steps is not None and self._steps[i] >= self.max_episode_steps:
                 trunc = trunc | ~term
@@ -220,7 +225,14 @@ def _rows(actions: Any, rows: slice) -> Any:
     return tuple(col[rows] for col in actions) if isinstance(actions, tuple) else actions[rows]
 
 
-def _per_agent_reward(reward: Any, agents: int, index: int) -> np.ndarray:
+def _per_agent_reward(reward: Any, agents: int, index: int, value_size: int = 1) -> np.ndarray:
+    """(A,) rewards, or (A, value_size) for multi-head values; one reward (vector) is shared."""
+    if value_size > 1:
+        reward = np.asarray(reward, dtype=np.float32).reshape(-1, value_size)
+        if reward.shape[0] not in (1, agents):
+            raise ValueError(f"env {index} returned rewards of shape {reward.shape}; expected "
+                             f"({value_size},) or ({agents}, {value_size}) for value_size {value_size}")
+        return np.broadcast_to(reward, (agents, value_size))
     reward = np.asarray(reward, dtype=np.float32).reshape(-1)
     if reward.size == 1:
         return np.repeat(reward, agents)

@@ -33,6 +33,7 @@ class ActorCritic(ObservationModel):
         self.use_action_masks = use_action_masks
         is_rnn = getattr(network, "is_rnn", None)
         self.is_rnn = bool(is_rnn()) if callable(is_rnn) else False
+        self.num_states = len(self.initial_state(1)) if self.is_rnn else 0
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """obs (B, *obs_shape) -> (dist params (B, P), value (B, value_size)); stateless, no masks."""
@@ -50,8 +51,10 @@ class ActorCritic(ObservationModel):
         ``action_masks`` (B, mask_size) bool restricts the distribution to valid actions.
         """
         inputs: dict = {"obs": self.preprocess(obs)}
-        if self.is_rnn:
-            inputs.update(rnn_states=states if states else self.initial_state(obs.shape[0], obs.device),
+        if self.is_rnn:  # states may carry a central value's after the model's own: take ours
+            states = tuple(states[:self.num_states]) if states else self.initial_state(obs.shape[0] // seq_length,
+                                                                                       obs.device)
+            inputs.update(rnn_states=states,
                           dones=resets, seq_length=seq_length)
         out = self.network(inputs)
         params, value = self.dist.params_from_network(out)

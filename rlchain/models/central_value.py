@@ -21,9 +21,11 @@ class CentralValueNetwork(nn.Module):
         self.value = linear(self.trunk.out_size, value_size, cfg.mlp.initializer)
         self.value_act = activation(cfg.value_activation)
 
-    def forward(self, state: torch.Tensor) -> torch.Tensor:
-        features, _ = self.trunk(state, (), None, 1)
-        return self.value_act(self.value(features))
+    def forward(self, state: torch.Tensor, states: tuple = (), resets: torch.Tensor | None = None,
+                seq_length: int = 1) -> tuple[torch.Tensor, tuple]:
+        """-> (values, new RNN states); with an RNN, rows come in seq_length blocks (RecurrentLayer)."""
+        features, new_states = self.trunk(state, states, resets, seq_length)
+        return self.value_act(self.value(features)), new_states
 
 
 class CentralValue(ObservationModel):
@@ -36,14 +38,31 @@ class CentralValue(ObservationModel):
         self.obs_norm = RunningMeanStd(state_shape) if normalize_input else None
         self.value_norm = RunningMeanStd((value_size,), clip=0.0) if normalize_value else None
 
-    def forward(self, state: torch.Tensor) -> torch.Tensor:
-        """Values in the normalized space (B, value_size)."""
-        return self.network(self.preprocess(state))
+    @property
+    def is_rnn(self) -> bool:
+        return self.network.trunk.rnn is not None
+
+    def initial_state(self, batch: int, device: torch.device | None = None) -> tuple[torch.Tensor, ...]:
+        """Zero RNN states for ``batch`` envs (empty without an RNN)."""
+        device = device or self.network.value.weight.device
+        return tuple(self.network.trunk.initial_state(batch, device))
+
+    def forward(self, state: torch.Tensor, states: tuple = (), resets: torch.Tensor | None = None,
+                seq_length: int = 1) -> tuple[torch.Tensor, tuple]:
+        """Values in the normalized space (B, value_size) and the new RNN states."""
+        if self.is_rnn and not states:
+            states = self.initial_state(state.shape[0] // seq_length, state.device)
+        return self.network(self.preprocess(state), tuple(states), resets, seq_length)
 
     @torch.inference_mode()
-    def value(self, state: torch.Tensor) -> torch.Tensor:
+    def step(self, state: torch.Tensor, states: tuple = ()) -> tuple[torch.Tensor, tuple]:
+        """One rollout step: raw-scale values (B, value_size) and the RNN states after it."""
+        values, new_states = self(state, states)
+        return self.denorm_value(values), new_states
+
+    def value(self, state: torch.Tensor, states: tuple = ()) -> torch.Tensor:
         """Raw-scale values (B, value_size) for the rollout and GAE."""
-        return self.denorm_value(self(state))
+        return self.step(state, states)[0]
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         return self.value_norm.denormalize(value) if self.value_norm is not None else value

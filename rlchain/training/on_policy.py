@@ -6,6 +6,7 @@ import threading
 import time
 from typing import Any
 
+import numpy as np
 import torch
 
 from rlchain.algos.central_value import CentralValueAgent
@@ -49,7 +50,8 @@ class OnPolicyTrainer(TrainerBase):
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
-        self.rnn_states = model.initial_state(self.num_envs, device)
+        # RNN states carried through the rollout: the model's, then the central value's
+        self.rnn_states = self._initial_states()
         self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=device)
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
@@ -160,9 +162,15 @@ class OnPolicyTrainer(TrainerBase):
             self._reset_states()
             return None
 
+    def _initial_states(self) -> tuple[torch.Tensor, ...]:
+        states = tuple(self.model.initial_state(self.num_envs, self.device))
+        if self.central_value is not None:
+            states += self.central_value.initial_state(self.num_envs, self.device)
+        return states
+
     def _reset_states(self) -> None:
         """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
-        self.rnn_states = self.model.initial_state(self.num_envs, self.device)
+        self.rnn_states = self._initial_states()
         self.resets.fill_(True)
 
     def _action_masks(self) -> torch.Tensor | None:
@@ -183,7 +191,11 @@ class OnPolicyTrainer(TrainerBase):
                 return False
             masks = self._action_masks()
             out = model.act(obs, states=states, action_masks=masks)
-            values = out["values"] if self.central_value is None else self.central_value.value(obs)
+            next_states = tuple(out["states"] or ())
+            values = out["values"]
+            if self.central_value is not None:
+                values, cv_states = self.central_value.step(obs, states[model.num_states:])
+                next_states += cv_states
             storage.add(t, obs, out["actions"], out["log_probs"], values, out["params"], masks,
                         states, resets)
             result = self.env.step(self._env_actions(dist.to_env(out["actions"])))
@@ -198,16 +210,20 @@ class OnPolicyTrainer(TrainerBase):
             if rewards.dim() == 1:
                 rewards = rewards.unsqueeze(-1)
             shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val)
+            dropped = dropped_rows(result)
+            if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
+                rows = self._to_tensor(np.asarray(dropped)).bool()
+                shaped[rows] = values[rows] * ((1 - cfg.gamma) if cfg.value_bootstrap else 1.0)
             if cfg.value_bootstrap and bool(truncated.any()):
                 rows = (truncated & ~terminated).nonzero().squeeze(-1)
                 if rows.numel():
                     final_obs = self._to_tensor(result.final_obs)[rows]
-                    row_states = tuple(s[:, rows] for s in out["states"]) if model.is_rnn else None
+                    row_states = tuple(s[:, rows] for s in next_states)
                     storage.final_values[t, rows] = self._value(final_obs, row_states)
             storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
             obs = self._to_tensor(result.obs)
-            if model.is_rnn:
-                states = out["states"]
+            if next_states:
+                states = next_states
                 if cfg.zero_rnn_on_done:
                     keep = (~dones).to(states[0].dtype).view(1, -1, 1)
                     states = tuple(s * keep for s in states)
@@ -216,10 +232,10 @@ class OnPolicyTrainer(TrainerBase):
         self.last_values = self._value(obs, states)
         return True
 
-    def _value(self, obs: torch.Tensor, states: tuple | None) -> torch.Tensor:
+    def _value(self, obs: torch.Tensor, states: tuple) -> torch.Tensor:
         """Raw-scale values of ``obs``: the central value's when there is one, else the model's."""
         if self.central_value is not None:
-            return self.central_value.value(obs)
+            return self.central_value.value(obs, states[self.model.num_states:])
         return self.model.value(obs, states)
 
     def _learn(self) -> dict[str, float]:
@@ -241,9 +257,8 @@ class OnPolicyTrainer(TrainerBase):
         stats["lr0"] = cfg.learning_rate
         flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
         if self.cv_agent is not None:
-            size = flat_obs.shape[0]
-            stats.update(self.cv_agent.update(flat_obs, storage.values.reshape(size, -1),
-                                              storage.returns.reshape(size, -1), self._progress()))
+            stats.update(self.cv_agent.update(storage, self._progress(), model.num_states, cfg.seq_length,
+                                              cfg.zero_rnn_on_done))
         with torch.no_grad():
             model.update_normalizers(obs=flat_obs)
             if self.central_value is not None:

@@ -150,3 +150,44 @@ def test_actor_without_central_value_ignores_the_state(tmp_path):
     state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
     assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
     assert torch.isfinite(state["model"]["network.value.weight"]).all()
+
+
+@pytest.mark.parametrize("actor_rnn", [False, True])
+def test_recurrent_central_value(tmp_path, actor_rnn):
+    """An LSTM critic (rl_games' test_asymmetric configs) with or without an RNN actor: train, resume."""
+    cv = ("{network: {central_value: True, mlp: {units: [16]}, rnn: {name: lstm, units: 8}}, "
+          "learning_rate: 1e-3, mini_epochs: 2, minibatch_size: 128}")
+    extra = [f"params.config.central_value_config={cv}", "params.config.seq_length=4"]
+    if actor_rnn:
+        extra.append("params.network.rnn={name: gru, units: 8}")
+    seen = {}
+
+    def record(trainer, stats, episodes):
+        seen["states"] = [tuple(s.shape) for s in trainer.storage.states]
+        seen["loss"] = stats["cval_loss"]
+
+    result = Runner().load(CONFIG, overrides(tmp_path, 2, *extra)).train(callbacks=[record])
+    # storage keeps the actor's states first (GRU: 1), then the critic's (LSTM: h, c)
+    assert len(seen["states"]) == (3 if actor_rnn else 2) and np.isfinite(seen["loss"])
+    last = os.path.join(result.run_dir, "nn", "last_cartpole.pth")
+    resumed = Runner().load(CONFIG, overrides(tmp_path, 3, *extra)).train(checkpoint=last)
+    assert resumed.epoch == 3
+
+
+def test_multi_head_values(tmp_path):
+    """An env with value_size 2 (vector rewards): two value heads, GAE per head, advantages summed."""
+    seen = {}
+
+    def record(trainer, stats, episodes):
+        seen["values"] = tuple(trainer.storage.values.shape)
+        seen["rewards"] = trainer.storage.rewards.clone()
+
+    extra = ["params.config.env_name=test_env", "params.config.env_config={name: TestRnnEnv-v0, "
+             "multi_head_value: True, apply_dist_reward: True}", "params.config.num_actors=4",
+             "params.config.horizon_length=32", "params.config.minibatch_size=64"]
+    result = Runner().load(CONFIG, overrides(tmp_path, 2, *extra)).train(callbacks=[record])
+    assert result.epoch == 2
+    assert seen["values"] == (32, 4, 2)
+    assert bool((seen["rewards"][..., 1] != 0).any())  # the distance head gets its own rewards
+    state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
+    assert state["model"]["network.value.weight"].shape[0] == 2
