@@ -175,7 +175,7 @@ def test_factory_builds_the_adapter_for_multi_agent_ids_only():
     cartpole = make_vec_env("CartPole-v1", {}, 2, 0, None)
     assert isinstance(cartpole, GymnasiumVecEnv)
     cartpole.close()
-    with pytest.raises(ConfigError, match="vecenv_type: must be auto or sync, not async: .* multi-agent or multi-reward env"):
+    with pytest.raises(ConfigError, match="must be auto or sync, not async: .* multi-agent or multi-reward env"):
         make_vec_env("TestCooperativeEnv-v0", {}, 2, 0, "async")
 
 
