@@ -90,7 +90,7 @@ class OnPolicyTrainer(TrainerBase):
                     continue  # rolled back: collect a fresh rollout with the restored policy
                 t2 = time.time()
                 self.epoch += 1
-                self.frames += self.cfg.horizon_length * self.num_envs * self.world_size  # all ranks' frames
+                self.frames += self._frames_per_epoch()
                 episodes = self._episode_stats()
                 self._log(stats, episodes, t1 - t0, t2 - t1)
                 self._checkpoints(episodes)
@@ -282,17 +282,22 @@ class OnPolicyTrainer(TrainerBase):
 
     # ----- bookkeeping ----------------------------------------------------------------------
     def _log(self, stats: dict, episodes: dict | None, rollout_s: float, update_s: float) -> None:
-        timing = {"batch": self.cfg.horizon_length * self.num_envs * self.world_size, "rollout": rollout_s,
+        timing = {"batch": self._frames_per_epoch(), "rollout": rollout_s,
                   "update": update_s}
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, stats, episodes,
                           self.best_reward, timing)
+
+    def _frames_per_epoch(self) -> int:
+        """Env steps per epoch over all ranks, as rl_games counts them: agents of one env share a step."""
+        agents = int(getattr(self.env, "num_agents", 1) or 1)
+        return self.cfg.horizon_length * (self.num_envs // agents) * self.world_size
 
     def _progress(self) -> float:
         cfg = self.cfg
         if cfg.max_epochs > 0:
             return (self.epoch + 1) / cfg.max_epochs
         if cfg.max_frames > 0:
-            return (self.frames + cfg.horizon_length * self.num_envs * self.world_size) / cfg.max_frames
+            return (self.frames + self._frames_per_epoch()) / cfg.max_frames
         return 0.0
 
 def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:

@@ -235,3 +235,18 @@ def test_cooperative_config_trains_and_plays(tmp_path):
     assert result.epoch == 2 and np.isfinite(result.mean_reward)
     played = runner.play(os.path.join(result.run_dir, "nn", "last_cooperative.pth"), games=6, quiet=True)
     assert played.games == 6  # per-agent games, from one env of two agents
+
+
+def test_frames_count_env_steps_not_agent_rows(tmp_path):
+    """rl_games counts env steps: 2 agents per env do not double max_frames or fps."""
+    import os
+
+    from rlchain import Runner
+    from tests.conftest import CONFIGS
+
+    cfg = os.path.join(CONFIGS, "ppo_test_cooperative.yaml")
+    runner = Runner().load(cfg, [f"params.config.train_dir={tmp_path}", "params.config.max_epochs=1",
+                                 "params.config.print_stats=false"])
+    result = runner.train()
+    config = runner.params.config
+    assert result.frames == config.horizon_length * config.num_actors
