@@ -80,7 +80,10 @@ class OnnxPolicy(nn.Module):
         return ["action", "value", *(f"{s}_out" for s in self.state_names)]
 
     def forward(self, obs: torch.Tensor, *states: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        params, value, new_states = self.model.evaluate(obs, states or None)
+        if self.state_names:
+            params, value, new_states = self.model.evaluate(obs, states)
+        else:  # every model (PPO, SAC, DQN) maps obs -> (dist params, value)
+            (params, value), new_states = self.model(obs), ()
         dist = self.model.dist
         action = dist.to_env(dist.mode(params))
         return (action, self.model.denorm_value(value), *(new_states or ()))
