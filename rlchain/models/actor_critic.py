@@ -9,12 +9,12 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.models.base import ObservationModel
+from rlchain.models.base import ValueModel
 from rlchain.models.distributions import Distribution
 from rlchain.models.normalization import RunningMeanStd
 
 
-class ActorCritic(ObservationModel):
+class ActorCritic(ValueModel):
     """Wraps a network (rl_games output tuple) into act / evaluate calls.
 
     Values are in the normalized space when ``normalize_value`` is on; ``denorm_value`` maps
@@ -83,18 +83,6 @@ class ActorCritic(ObservationModel):
     def value(self, obs: torch.Tensor, states: tuple | None = None) -> torch.Tensor:
         """Raw-scale state values (B, value_size), given the RNN states entering this step."""
         return self.denorm_value(self.evaluate(obs, states)[1])
-
-    def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
-        return self.value_norm.denormalize(value) if self.value_norm is not None else value
-
-    def norm_value(self, value: torch.Tensor) -> torch.Tensor:
-        return self.value_norm.normalize(value) if self.value_norm is not None else value
-
-    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
-        """Fold a batch of observations / raw returns into the running statistics."""
-        super().update_normalizers(obs=obs)
-        if returns is not None and self.value_norm is not None:
-            self.value_norm.update(returns)
 
     def override_sigma(self, sigma: float) -> None:
         """``--sigma``: set a fixed (input-independent) sigma to a constant standard deviation."""

@@ -45,3 +45,24 @@ class ObservationModel(nn.Module):
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Values in raw return scale (identity unless a value normalizer exists)."""
         return value
+
+
+class ValueModel(ObservationModel):
+    """A model with a value output: ``self.value_norm`` (a RunningMeanStd or None) maps between the
+    return scale and the normalized scale the value head learns in."""
+
+    value_norm: RunningMeanStd | None  # set by the subclass
+
+    def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
+        """Normalized values -> return scale."""
+        return self.value_norm.denormalize(value) if self.value_norm is not None else value
+
+    def norm_value(self, value: torch.Tensor) -> torch.Tensor:
+        """Return-scale values -> the normalized scale."""
+        return self.value_norm.normalize(value) if self.value_norm is not None else value
+
+    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
+        """Fold a batch of observations / raw returns into the running statistics."""
+        super().update_normalizers(obs=obs)
+        if returns is not None and self.value_norm is not None:
+            self.value_norm.update(returns)

@@ -6,7 +6,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.schema import NetworkConfig
-from rlchain.models.base import ObservationModel
+from rlchain.models.base import ValueModel
 from rlchain.models.normalization import RunningMeanStd
 from rlchain.networks.actor_critic import Trunk
 from rlchain.networks.layers import activation, linear
@@ -28,7 +28,7 @@ class CentralValueNetwork(nn.Module):
         return self.value_act(self.value(features)), new_states
 
 
-class CentralValue(ObservationModel):
+class CentralValue(ValueModel):
     """Critic model: state normalization, the network, and value normalization (raw <-> normalized)."""
 
     def __init__(self, cfg: NetworkConfig, state_shape: tuple[int, ...], value_size: int,
@@ -63,15 +63,3 @@ class CentralValue(ObservationModel):
     def value(self, state: torch.Tensor, states: tuple = ()) -> torch.Tensor:
         """Raw-scale values (B, value_size) for the rollout and GAE."""
         return self.step(state, states)[0]
-
-    def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
-        return self.value_norm.denormalize(value) if self.value_norm is not None else value
-
-    def norm_value(self, value: torch.Tensor) -> torch.Tensor:
-        return self.value_norm.normalize(value) if self.value_norm is not None else value
-
-    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
-        """Fold states / raw returns into the running statistics."""
-        super().update_normalizers(obs=obs)
-        if returns is not None and self.value_norm is not None:
-            self.value_norm.update(returns)
