@@ -11,8 +11,9 @@ temporary ``train_dir`` and ``device: cpu`` added. The outcome is one of:
   is not installable here or not registered;
 - ``not supported``: rlchain stops with a config error naming a key it does not implement;
 - ``typo or unknown key caught``: a key rl_games silently ignores (e.g. a misspelt ``rnn1``);
-- ``needs torchrun`` (``multi_gpu: True``) / ``needs the user's network`` (a network the user
-  registers in their own package, like rl_games' ``testnet``);
+- ``needs torchrun`` (``multi_gpu: True``);
+- ``network not in rlchain``: rl_games' ``resnet_actor``, or a network rl_games' own test package
+  registers (``testnet``);
 - ``error``: anything else (the first line of the message is shown).
 """
 
@@ -41,7 +42,7 @@ def classify(returncode: int, output: str) -> tuple[str, str]:
     if "torchrun" in low:
         return "needs torchrun", detail
     if "unknown network" in low or "unknown model" in low:
-        return "needs the user's network", detail
+        return "network not in rlchain", detail
     if "config error" in low and "not implemented" in low:
         return "not supported", detail
     if "config error" in low and "unknown key" in low:

@@ -43,9 +43,11 @@ def next_values_from_rollout(values: torch.Tensor, last_values: torch.Tensor,
 
 
 def shape_rewards(rewards: torch.Tensor, scale: float, shift: float, min_val: float,
-                  max_val: float) -> torch.Tensor:
-    """rl_games' reward_shaper: clip((r + shift) * scale, min_val, max_val)."""
+                  max_val: float, log_val: bool = False) -> torch.Tensor:
+    """rl_games' reward_shaper: clip((r + shift) * scale, min_val, max_val), then log of it with
+    ``log_val`` (the shaped reward must then be > 0: a non-positive one turns non-finite and the
+    run's divergence check names it)."""
     out = (rewards + shift) * scale
     if min_val != float("-inf") or max_val != float("inf"):
         out = out.clamp(min_val, max_val)
-    return out
+    return out.log() if log_val else out

@@ -147,7 +147,8 @@ class RewardShaperConfig:
     shift_value: float = option(0.0, "add to rewards before scaling")
     min_val: float = option(float("-inf"), "clip shaped rewards below")
     max_val: float = option(float("inf"), "clip shaped rewards above")
-    log_val: bool = option(False, "log(1 + r) before scaling", status="planned")
+    log_val: bool = option(False, "log of the shaped (scaled, shifted, clipped) reward, as rl_games; it must "
+                                  "be > 0, e.g. with shift_value")
 
 
 @dataclass

@@ -120,7 +120,7 @@ class OffPolicyTrainer(TrainerBase):
                               dropped=dropped_rows(result))  # episodes cut by a dead Ray worker
             if rewards.dim() > 1:
                 rewards = rewards.sum(-1)
-            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val)
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
             next_obs = self._to_tensor(result.obs)
             if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
                                                           and not bool(torch.isfinite(next_obs).all())):

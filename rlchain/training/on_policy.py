@@ -209,7 +209,7 @@ class OnPolicyTrainer(TrainerBase):
                               dropped=dropped_rows(result))  # episodes cut by a dead Ray worker
             if rewards.dim() == 1:
                 rewards = rewards.unsqueeze(-1)
-            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val)
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
             dropped = dropped_rows(result)
             if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
                 rows = self._to_tensor(np.asarray(dropped)).bool()

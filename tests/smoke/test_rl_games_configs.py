@@ -13,7 +13,8 @@ RL_GAMES = os.path.join(ROOT, "benchmarks", "rl_games_configs")
 
 
 @pytest.mark.parametrize("name", ["ppo_cartpole.yaml", "ppo_pendulum_torch.yaml", "halfcheetah_envpool.yaml",
-                                  "ant_envpool.yaml", "ppo_cartpole_masked_velocity_rnn.yaml"])
+                                  "ant_envpool.yaml", "ppo_cartpole_masked_velocity_rnn.yaml",
+                                  "hopper_hop_envpool.yaml"])
 def test_rl_games_config_runs_unchanged(tmp_path, name):
     if "envpool" in name:
         pytest.importorskip("envpool")

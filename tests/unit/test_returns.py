@@ -1,5 +1,7 @@
 """GAE and reward shaping against hand-computed values."""
 
+import math
+
 import pytest
 import torch
 
@@ -49,3 +51,6 @@ def test_next_values_use_final_obs_at_episode_end():
 def test_reward_shaper():
     r = torch.tensor([-10.0, 0.0, 10.0])
     assert shape_rewards(r, 0.1, 1.0, -0.5, 0.5).tolist() == pytest.approx([-0.5, 0.1, 0.5])
+    # log_val: log of the shaped reward, as rl_games' DefaultRewardsShaper
+    assert shape_rewards(torch.tensor([0.0, 1.0]), 2.0, 1.0, 0.1, 100.0, log_val=True).tolist() == pytest.approx(
+        [math.log(2.0), math.log(4.0)])
