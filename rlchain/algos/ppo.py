@@ -33,6 +33,7 @@ class PPOAgent:
         self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
                                       cfg.min_lr, cfg.max_lr)
         self.train_critic = True  # False with a central value network (it trains the values itself)
+        model.bptt_length = cfg.bptt_length
         self.amp = cfg.mixed_precision and device.type == "cuda"
         self.scaler = torch.amp.GradScaler("cuda", enabled=self.amp) if self.amp else None
         self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks

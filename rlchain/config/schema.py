@@ -329,8 +329,9 @@ class TrainConfig(RunConfig):
     seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
                                 "divide by it (the deprecated `seq_len` is read as this, with a warning)",
                              check=positive)
-    bptt_length: int | None = option(None, "RNN truncated-BPTT length (default seq_length)",
-                                     status="planned (issue 3)")
+    bptt_length: int | None = option(None, "RNN: backpropagate through at most this many steps of a "
+                                           "sequence (truncated BPTT; default: the whole seq_length)",
+                                     check=positive)
     zero_rnn_on_done: bool = option(True, "RNN: zero the hidden state when an episode ends, in the rollout "
                                           "and inside training sequences")
     central_value_config: CentralValueConfig | None = option(

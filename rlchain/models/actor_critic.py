@@ -34,6 +34,7 @@ class ActorCritic(ValueModel):
         is_rnn = getattr(network, "is_rnn", None)
         self.is_rnn = bool(is_rnn()) if callable(is_rnn) else False
         self.num_states = len(self.initial_state(1)) if self.is_rnn else 0
+        self.bptt_length: int | None = None  # truncated BPTT inside training sequences (config.bptt_length)
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """obs (B, *obs_shape) -> (dist params (B, P), value (B, value_size)); stateless, no masks."""
@@ -54,8 +55,8 @@ class ActorCritic(ValueModel):
         if self.is_rnn:  # states may carry a central value's after the model's own: take ours
             states = tuple(states[:self.num_states]) if states else self.initial_state(obs.shape[0] // seq_length,
                                                                                        obs.device)
-            inputs.update(rnn_states=states,
-                          dones=resets, seq_length=seq_length)
+            inputs.update(rnn_states=states, dones=resets, seq_length=seq_length,
+                          bptt_len=self.bptt_length if seq_length > 1 else None)
         out = self.network(inputs)
         params, value = self.dist.params_from_network(out)
         if action_masks is not None:

@@ -56,17 +56,17 @@ class Trunk(nn.Module):
         return self.rnn.initial_state(batch, device) if self.rnn is not None else ()
 
     def forward(self, obs: torch.Tensor, states: States, resets: torch.Tensor | None,
-                seq_length: int) -> tuple[torch.Tensor, States]:
+                seq_length: int, bptt_length: int | None = None) -> tuple[torch.Tensor, States]:
         x = self.cnn(obs) if self.cnn is not None else obs.flatten(1)
         if self.rnn is None:
             return self.mlp(x), states
         if self.before_mlp:
-            out, states = self.rnn(x, states, resets, seq_length)
+            out, states = self.rnn(x, states, resets, seq_length, bptt_length)
             return self.mlp(out), states
         out = self.mlp(x)
         if self.concat_input:
             out = torch.cat([out, x], -1)
-        return self.rnn(out, states, resets, seq_length)
+        return self.rnn(out, states, resets, seq_length, bptt_length)
 
 
 class ActorCriticNetwork(nn.Module):
@@ -110,10 +110,11 @@ class ActorCriticNetwork(nn.Module):
         states = tuple(input_dict.get("rnn_states") or ())
         resets = input_dict.get("dones")
         seq_length = int(input_dict.get("seq_length", 1) or 1)
+        bptt = input_dict.get("bptt_len")
         n_actor = self.actor_trunk.num_states
-        a_out, a_states = self.actor_trunk(obs, states[:n_actor], resets, seq_length)
+        a_out, a_states = self.actor_trunk(obs, states[:n_actor], resets, seq_length, bptt)
         if self.critic_trunk is not None:
-            c_out, c_states = self.critic_trunk(obs, states[n_actor:], resets, seq_length)
+            c_out, c_states = self.critic_trunk(obs, states[n_actor:], resets, seq_length, bptt)
         else:
             c_out, c_states = a_out, ()
         new_states = (*a_states, *c_states) if self.is_rnn() else None

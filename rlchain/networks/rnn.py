@@ -33,18 +33,26 @@ class RecurrentLayer(nn.Module):
         return tuple(torch.zeros(self.layers, batch, self.units, device=device) for _ in range(self.num_states))
 
     def forward(self, x: torch.Tensor, states: States, resets: torch.Tensor | None,
-                seq_length: int) -> tuple[torch.Tensor, States]:
+                seq_length: int, bptt_length: int | None = None) -> tuple[torch.Tensor, States]:
+        """``bptt_length`` < seq_length truncates backpropagation: the state is detached every
+        ``bptt_length`` steps (its value still flows forward)."""
         rows, features = x.shape
         batch = rows // seq_length
         seq = x.reshape(batch, seq_length, features).transpose(0, 1)  # (L, B, F)
         hidden = states if self.num_states == 2 else states[0]
-        if resets is None or not bool(resets.any()):
+        truncate = bptt_length is not None and bptt_length < seq_length
+        if not truncate and (resets is None or not bool(resets.any())):
             out, hidden = self.rnn(seq, hidden)
         else:
-            keep = (~resets.reshape(batch, seq_length).transpose(0, 1)).to(x.dtype).unsqueeze(-1)  # (L, B, 1)
+            keep = None
+            if resets is not None:
+                keep = (~resets.reshape(batch, seq_length).transpose(0, 1)).to(x.dtype).unsqueeze(-1)  # (L, B, 1)
             outs = []
             for t in range(seq_length):
-                hidden = _mask(hidden, keep[t])
+                if truncate and t and t % bptt_length == 0:
+                    hidden = _detach(hidden)
+                if keep is not None:
+                    hidden = _mask(hidden, keep[t])
                 step, hidden = self.rnn(seq[t:t + 1], hidden)
                 outs.append(step)
             out = torch.cat(outs, 0)
@@ -61,3 +69,10 @@ def _mask(hidden: torch.Tensor | tuple, keep: torch.Tensor) -> torch.Tensor | tu
     if isinstance(hidden, tuple):
         return tuple(h * keep for h in hidden)
     return hidden * keep
+
+
+def _detach(hidden: torch.Tensor | tuple) -> torch.Tensor | tuple:
+    """Cut the gradient path through the state (truncated BPTT)."""
+    if isinstance(hidden, tuple):
+        return tuple(h.detach() for h in hidden)
+    return hidden.detach()

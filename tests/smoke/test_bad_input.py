@@ -70,8 +70,8 @@ def test_wrong_model_for_action_space(tmp_path):
 
 
 def test_unimplemented_feature(tmp_path):
-    out = run_cli(["--train", "--file", CARTPOLE, "params.config.bptt_length=8"], tmp_path)
-    assert_one_line_error(out, "params.config.bptt_length", "not implemented")
+    out = run_cli(["--train", "--file", CARTPOLE, "params.config.freeze_critic=True"], tmp_path)
+    assert_one_line_error(out, "params.config.freeze_critic", "not implemented")
 
 
 def test_sigma_without_fixed_sigma(tmp_path):

@@ -49,3 +49,9 @@ def test_rnn_checkpoint_exports_to_onnx(tmp_path, capsys):
     line = [x for x in capsys.readouterr().out.splitlines() if "parity" in x][0]
     diffs = [float(x) for x in line.replace(",", " ").split() if "e-" in x or "e+" in x]
     assert diffs and max(diffs) < 1e-4, line
+
+
+def test_rnn_with_truncated_bptt(tmp_path):
+    extra = ("params.config.seq_length=8", "params.config.bptt_length=4")
+    result = Runner().load(CONFIG, small(tmp_path, 2, *extra)).train()
+    assert result.epoch == 2 and result.mean_reward > 0

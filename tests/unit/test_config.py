@@ -96,10 +96,10 @@ def test_deprecated_keys_warn_once(base_config):
 
 
 def test_unimplemented_feature_is_an_error(base_config):
-    base_config["params"]["config"]["bptt_length"] = 4
-    with pytest.raises(ConfigError, match=r"params.config.bptt_length: not implemented in rlchain yet"):
+    base_config["params"]["config"]["epochs_between_resets"] = 5
+    with pytest.raises(ConfigError, match=r"params.config.epochs_between_resets: not implemented in rlchain yet"):
         parse(base_config)
-    base_config["params"]["config"].pop("bptt_length")
+    base_config["params"]["config"].pop("epochs_between_resets")
     base_config["params"]["config"]["normalize_rms_advantage"] = True
     with pytest.raises(ConfigError, match=r"params.config.normalize_rms_advantage: not implemented"):
         parse(base_config)

@@ -143,3 +143,19 @@ def test_masked_velocity_env_hides_velocities():
     full = gym.make("CartPole-v1")
     full_obs, _ = full.reset(seed=0)
     assert obs.tolist() == pytest.approx(full_obs[[0, 2]].tolist())
+
+
+@pytest.mark.parametrize("name", ["lstm", "gru"])
+def test_truncated_bptt_cuts_gradients_but_not_values(name):
+    torch.manual_seed(0)
+    layer = RecurrentLayer(3, RnnConfig(name=name, units=4))
+    x = torch.randn(4, 3, requires_grad=True)  # one sequence of 4 steps
+    states = layer.initial_state(1, torch.device("cpu"))
+    full, _ = layer(x, states, None, 4)
+    cut, _ = layer(x, states, None, 4, bptt_length=2)
+    assert torch.allclose(full, cut)  # forward values are the same
+    grad_full = torch.autograd.grad(full[3].sum(), x)[0]
+    grad_cut = torch.autograd.grad(cut[3].sum(), x)[0]
+    assert grad_full[0].abs().sum() > 0 and grad_full[1].abs().sum() > 0
+    assert grad_cut[0].abs().sum() == 0 and grad_cut[1].abs().sum() == 0  # steps before the cut
+    assert grad_cut[2].abs().sum() > 0 and grad_cut[3].abs().sum() > 0
