@@ -27,6 +27,7 @@ NO_EFFECT_CONFIG_KEYS = {
     "network_path": "checkpoints go to <train_dir>/<run>/nn",
     "log_path": "logs go to <train_dir>/<run>/summaries",
     "is_train": "use --train / --play",
+    "ignore_dead_batches": "rl_games 1.6.5 does not read it either",
 }
 NO_EFFECT_PARAMS_KEYS = {
     "load_checkpoint": "pass --checkpoint on the command line instead",

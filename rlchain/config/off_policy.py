@@ -39,8 +39,11 @@ class OffPolicyConfig(RunConfig):
     num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
                                            "num_actors * num_steps_per_episode)", check=positive)
     num_updates_per_step: int = option(1, "gradient updates after every vectorized env step", check=positive)
-    num_warmup_frames: int = option(1000, "frames of uniformly random actions before learning starts",
-                                    check=non_negative)
+    num_warmup_frames: int | None = option(None, "frames of uniformly random actions before learning starts "
+                                                 "(default 1000, or from num_warmup_steps)", check=non_negative)
+    num_warmup_steps: int | None = option(None, "rl_games' older warmup in epochs: num_warmup_frames = this * "
+                                                "num_actors * num_steps_per_episode when that is not given",
+                                          check=non_negative)
     batch_size: int = option(256, "replay minibatch size", check=positive)
     replay_buffer_size: int = option(100_000, "replay buffer capacity in transitions", check=positive)
     n_step: int = option(1, "n-step returns (1 = one-step TD)", check=positive)
@@ -60,6 +63,9 @@ class OffPolicyConfig(RunConfig):
         """Cross-key checks; returns (key, message) for the first problem."""
         if not self.env_name:
             return "env_name", "required key is missing"
+        if self.num_warmup_frames is None:  # rl_games: frames take priority over steps (epochs)
+            steps = self.num_warmup_steps
+            self.num_warmup_frames = 1000 if steps is None else steps * self.num_actors * self.num_steps_per_episode
         if self.batch_size > self.replay_buffer_size:
             return "batch_size", (f"batch_size {self.batch_size} is larger than replay_buffer_size "
                                   f"{self.replay_buffer_size}")

@@ -173,3 +173,11 @@ def test_epsilon_schedule():
     assert epsilon_at(50, 1.0, 0.1, 100) == pytest.approx(0.55)
     assert epsilon_at(1000, 1.0, 0.1, 100) == pytest.approx(0.1)
     assert math.isfinite(epsilon_at(0, 1.0, 0.1, 1))
+
+
+@pytest.mark.parametrize("frames,steps,expect", [(None, None, 1000), (None, 5, 5 * 4 * 2), (300, 5, 300)])
+def test_warmup_frames_from_rl_games_num_warmup_steps(frames, steps, expect):
+    cfg = SACConfig(env_name="Pendulum-v1", num_actors=4, num_steps_per_episode=2, num_warmup_frames=frames,
+                    num_warmup_steps=steps)
+    assert cfg.validate() is None
+    assert cfg.num_warmup_frames == expect
