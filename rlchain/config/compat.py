@@ -33,6 +33,11 @@ NO_EFFECT_PARAMS_KEYS = {
     "load_checkpoint": "pass --checkpoint on the command line instead",
     "load_path": "pass --checkpoint on the command line instead",
 }
+UNSUPPORTED_NETWORK_KEYS = {
+    "joint_obs_actions": "joint observations/actions for the central value (SMAC)",
+    "require_rewards": "the previous reward as a network input (resnet_actor)",
+    "require_last_actions": "the previous action as a network input (resnet_actor)",
+}
 NO_EFFECT_NETWORK_KEYS = {
     "regularizer": "rl_games never applied it",
 }
@@ -104,6 +109,11 @@ def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
 def translate_network(network: dict[str, Any], source: str, path: str = "params.network") -> dict[str, Any]:
     """Drop no-op keys anywhere in the network block (rl_games allows ``regularizer`` in several places)."""
     out = dict(network)
+    for key, reason in UNSUPPORTED_NETWORK_KEYS.items():
+        if key in out and out[key] not in (None, False, {}):
+            raise ConfigError(source, f"{path}.{key}",
+                              f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
+        out.pop(key, None)
     for key, reason in NO_EFFECT_NETWORK_KEYS.items():
         if key in out:
             _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
