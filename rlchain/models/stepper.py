@@ -6,6 +6,8 @@ from typing import Any
 
 import torch
 
+from rlchain.config.errors import ConfigError
+
 
 class PolicyStepper:
     """Acts on ``num_envs`` envs one step at a time with an ActorCritic-like model.
@@ -32,6 +34,10 @@ class PolicyStepper:
         """Raw actions (B, ...) for ``obs``; masks come from ``env.get_action_mask()`` when used."""
         kwargs: dict = {"deterministic": deterministic}
         if getattr(self.model, "use_action_masks", False) and env is not None:
+            has = getattr(env, "has_action_mask", None)
+            if not callable(getattr(env, "get_action_mask", None)) or (callable(has) and not has()):
+                raise ConfigError("", "params.config.use_action_masks", "True, but the env played has no action "
+                                  "masks (has_action_mask() / get_action_mask())")
             kwargs["action_masks"] = torch.as_tensor(env.get_action_mask(), device=self.device).bool()
         if self.states:
             kwargs["states"] = self.states

@@ -159,3 +159,17 @@ def test_truncated_bptt_cuts_gradients_but_not_values(name):
     assert grad_full[0].abs().sum() > 0 and grad_full[1].abs().sum() > 0
     assert grad_cut[0].abs().sum() == 0 and grad_cut[1].abs().sum() == 0  # steps before the cut
     assert grad_cut[2].abs().sum() > 0 and grad_cut[3].abs().sum() > 0
+
+
+def test_stepper_names_the_key_when_a_masked_policy_meets_an_env_without_masks():
+    from rlchain.config.errors import ConfigError
+    from rlchain.models.stepper import PolicyStepper
+
+    class NoMasks:
+        def has_action_mask(self):
+            return False
+
+    model = ActorCritic(_network({"name": "gru", "units": 4}), Categorical(2), (3,), 1, False, False,
+                        use_action_masks=True)
+    with pytest.raises(ConfigError, match="params.config.use_action_masks"):
+        PolicyStepper(model, 2, torch.device("cpu")).act(torch.zeros(2, 3), NoMasks())
