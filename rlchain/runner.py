@@ -12,8 +12,8 @@ import os
 import secrets
 from typing import Any
 
-from rlchain.config.load import apply_overrides, load_raw, parse_params
-from rlchain.config.schema import Params
+from rlchain.config.load import apply_overrides, check_batch, load_raw, parse_params
+from rlchain.config.schema import Params, TrainConfig
 from rlchain.registry import ALGOS
 from rlchain.training import checkpoint as ckpt
 
@@ -82,6 +82,8 @@ class Runner:
         device = resolve_device(cfg.device)
         env = build_env(params, cfg.num_actors, seed, runners=True)
         try:
+            if isinstance(cfg, TrainConfig):  # the minibatch must divide the batch of all agents' rows
+                check_batch(cfg, params.source, int(getattr(env, "num_agents", 1) or 1))
             model = build_model(params, env, device)
             if state is not None:  # a mismatched checkpoint fails before any run folder exists
                 ckpt.load_model_state(model, state, checkpoint)

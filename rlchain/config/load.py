@@ -215,8 +215,8 @@ def _check_sequences(config: TrainConfig, source: str) -> None:
 def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
     """minibatch_size must divide the batch num_actors * horizon_length * ``agents`` (agents per env).
 
-    At load time the env is unknown, so a minibatch larger than num_actors * horizon_length is
-    checked once the env is built (``Runner.train``), with its agent count.
+    At load time the env is unknown, so this runs once the env is built (``Runner.train``), with
+    its agent count, before a run folder is created.
     """
     batch = config.num_actors * config.horizon_length * agents
     what = "num_actors*horizon_length" + (f"*agents ({agents} per env)" if agents > 1 else "")
@@ -251,7 +251,6 @@ def _check_central_value(config: TrainConfig, source: str) -> None:
 
 def _check_training(config: TrainConfig, source: str) -> None:
     """Cross-key checks that no single field can make."""
-    batch = config.num_actors * config.horizon_length
     if config.minibatch_size_per_env is not None:
         if config.minibatch_size is not None:
             raise ConfigError(source, "params.config.minibatch_size_per_env",
@@ -260,8 +259,8 @@ def _check_training(config: TrainConfig, source: str) -> None:
     if config.minibatch_size is None:
         raise ConfigError(source, "params.config.minibatch_size",
                           "required key is missing (or give minibatch_size_per_env)")
-    if config.minibatch_size <= batch:  # a larger one may fit a multi-agent env: checked with the env
-        check_batch(config, source, agents=1)
+    # minibatch_size must divide num_actors * horizon_length * agents per env; the agent count is known
+    # once the env is built, so the check runs then (Runner.train, before any run folder exists)
     if not config.env_name:
         raise ConfigError(source, "params.config.env_name", "required key is missing")
     if config.lr_schedule == "constant":

@@ -48,8 +48,7 @@ def test_unknown_key_suggests(base_config):
     ("normalize_input", "maybe", "expected true or false"),
     ("lr_schedule", "adaptve", "did you mean 'adaptive'"),
     ("gamma", 1.5, "between 0 and 1"),
-    ("minibatch_size", 10, "not divisible by minibatch_size"),
-    # a minibatch larger than num_actors*horizon_length is checked with the env (tests/unit/test_multi_agent.py)
+    # minibatch_size against the batch is checked with the env (its agent count): test_minibatch_checked_with_env
 ])
 def test_bad_values(base_config, key, value, expect):
     base_config["params"]["config"][key] = value
@@ -185,3 +184,17 @@ def test_unimplemented_rl_games_network_features_are_named(base_config, where, k
         parse(base_config)
     base_config["params"][where][key] = False  # off: accepted
     parse(base_config)
+
+
+def test_minibatch_checked_with_env_before_a_run_folder(base_config, tmp_path):
+    """minibatch_size must divide num_actors*horizon_length*agents: checked once the env is built."""
+    import os
+
+    from rlchain import Runner
+
+    base_config["params"]["config"].update(minibatch_size=10, train_dir=str(tmp_path / "runs"))
+    parse(base_config)  # accepted at load: a multi-agent env could make it divide
+    with pytest.raises(ConfigError, match=r"params.config.minibatch_size: batch num_actors\*horizon_length = \d+ "
+                                          r"is not divisible by minibatch_size 10"):
+        Runner().load(base_config).train()
+    assert not os.path.exists(tmp_path / "runs")
