@@ -13,6 +13,12 @@ before that checkpoint, side by side, with the difference and the ratio
 Without ``--frames`` the checkpoints are the frames at which either run's
 mean changed (capped at the frames both runs reached). Wall-clock numbers
 are printed too but are only comparable when both runs had the same CPU.
+
+``--episodes-per-change E`` (fixed-length episodes where all envs finish
+together, e.g. MuJoCo with ``num_actors`` = E) also prints the mean reward of
+just the E episodes that finished at each change of the running mean,
+recovered from the running means: with n_k = min(k * E, games_to_track),
+new_k = (n_k * m_k - (n_k - E) * m_{k-1}) / E while k * E <= games_to_track.
 """
 
 import argparse
@@ -81,6 +87,24 @@ def default_frames(a, b):
     return sorted(frames)
 
 
+def new_episode_means(events, per_change, games_to_track):
+    """[(step, running mean, mean of the newly finished episodes)] at each change of the running mean."""
+    out, prev, k = [], None, 0
+    for step, value, _ in events:
+        if prev is not None and value == prev:
+            continue
+        k += 1
+        if k * per_change > games_to_track:
+            new = None  # older episodes dropped out of the window: not recoverable
+        elif prev is None:
+            new = value
+        else:
+            new = (k * per_change * value - (k - 1) * per_change * prev) / per_change
+        out.append((step, value, new))
+        prev = value
+    return out
+
+
 def fmt(v, digits=1):
     return "-" if v is None else f"{v:,.{digits}f}"
 
@@ -92,6 +116,10 @@ def main(argv=None):
     p.add_argument("--frames", type=int, nargs="+", help="frame checkpoints (default: where a mean changed)")
     p.add_argument("--tag", default=None, help=f"scalar tag (default: first of {', '.join(TAGS)} present)")
     p.add_argument("--names", nargs=2, default=("rlchain", "rl_games"), metavar=("A", "B"))
+    p.add_argument("--episodes-per-change", type=int, default=None,
+                   help="episodes finishing at each change of the mean (fixed-length episodes): adds a table of "
+                        "the newly finished episodes' mean reward")
+    p.add_argument("--games-to-track", type=int, default=100, help="length of both running means (default 100)")
     p.add_argument("--json", default=None, help="also write the table here")
     args = p.parse_args(argv)
 
@@ -126,6 +154,19 @@ def main(argv=None):
               f"| {fmt(r[nb])} ({fmt(r[f'{nb}_step'], 0)}) | {fmt(r['diff'])} | {fmt(r['ratio'], 2)} |")
     if any(r["beyond"] for r in rows):
         print("* past the last frame one run reached: its value is the last it logged")
+    rounds = {}
+    if args.episodes_per_change:
+        print(f"\nmean reward of the {args.episodes_per_change} episodes finished at each change of the running mean:")
+        print(f"| change | {na} (at step) | {nb} (at step) | {na} - {nb} |")
+        print("|" + " --- |" * 4)
+        ra = new_episode_means(a["events"], args.episodes_per_change, args.games_to_track)
+        rb = new_episode_means(b["events"], args.episodes_per_change, args.games_to_track)
+        rounds = {na: ra, nb: rb}
+        for i in range(max(len(ra), len(rb))):
+            xa = ra[i] if i < len(ra) else (None, None, None)
+            xb = rb[i] if i < len(rb) else (None, None, None)
+            d = None if xa[2] is None or xb[2] is None else xa[2] - xb[2]
+            print(f"| {i + 1} | {fmt(xa[2])} ({fmt(xa[0], 0)}) | {fmt(xb[2])} ({fmt(xb[0], 0)}) | {fmt(d)} |")
     summary = {}
     for name, run in ((na, a), (nb, b)):
         wall = run["wall"][1] - run["wall"][0]
@@ -139,7 +180,7 @@ def main(argv=None):
               "(wall clock: not comparable unless both ran on the same idle CPU)")
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"rows": rows, "runs": summary}, fh, indent=2)
+            json.dump({"rows": rows, "runs": summary, "new_episode_means": rounds}, fh, indent=2)
 
 
 if __name__ == "__main__":
