@@ -68,6 +68,7 @@ def test_contract_matches_local_backend_and_survives_killed_workers():
 
         before = got.obs
         ray.kill(env.workers[1])  # worker 1 holds envs 2 and 3
+        _wait_dead(ray, env.workers[1])  # ray.kill is asynchronous: a loaded machine may run one more step
         cut = env.step(np.zeros(4, dtype=np.int64))
         assert cut.infos["dropped"].tolist() == [False, False, True, True]
         assert cut.truncated[2:].all() and not cut.terminated[2:].any() and (cut.reward[2:] == 0).all()
@@ -77,6 +78,7 @@ def test_contract_matches_local_backend_and_survives_killed_workers():
         assert env.log_stats() == {"env/dropped_episodes": 2.0, "env/worker_restarts": 1.0}
 
         os.kill(env.worker_pids()[0], signal.SIGKILL)  # a crash, not a polite kill
+        _wait_dead(ray, env.workers[0])
         cut = env.step(np.zeros(4, dtype=np.int64))
         assert cut.infos["dropped"].tolist() == [True, True, False, False] and env.dropped_episodes == 4
         assert "dropped" not in env.step(np.zeros(4, dtype=np.int64)).infos  # and it goes on normally
@@ -197,3 +199,15 @@ def test_worker_that_keeps_dying_ends_the_run_with_one_line(tmp_path):
     assert "env step failed at epoch 3" in message and "WorkerLost: ray env worker 1 (envs 4-7)" in message
     assert "more than env_runners.max_restarts = 1 restarts" in message and "\n" not in message
     assert wait_for_free_cpus(CPUS) == CPUS
+
+
+def _wait_dead(ray, worker, seconds=30.0):
+    """Block until ``worker`` no longer answers (ray.kill only requests the kill)."""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        try:
+            ray.get(worker.pid.remote(), timeout=2)
+        except Exception:
+            return
+        time.sleep(0.05)
+    raise AssertionError("the killed Ray worker still answers")
