@@ -15,10 +15,11 @@ import torch
 
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
+from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import EnvError
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.build import build_env
-from rlchain.training.episodes import EpisodeTracker
+from rlchain.training.episodes import EpisodeTracker, game_outcome
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.logging import EnvStatsCallback, TrainLogger
@@ -129,6 +130,16 @@ class TrainerBase:
 
     def _to_tensor(self, x: Any) -> torch.Tensor:
         return torch.as_tensor(x, device=self.device)
+
+    def _env_outcome(self, result: Any) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """A step's (rewards, terminated, truncated, dones) as device tensors; finished episodes are
+        recorded as whole games (Atari lives), episodes cut by a dead Ray worker are dropped."""
+        rewards = self._to_tensor(result.reward).float()
+        terminated = self._to_tensor(result.terminated).bool()
+        truncated = self._to_tensor(result.truncated).bool()
+        dones = terminated | truncated
+        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result))
+        return rewards, terminated, truncated, dones
 
     def _env_actions(self, actions: torch.Tensor) -> Any:
         """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""

@@ -21,10 +21,8 @@ from rlchain.algos.returns import shape_rewards
 from rlchain.algos.sac import SACAgent
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
-from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.training.base import TrainerBase, TrainResult, describe
-from rlchain.training.episodes import game_outcome
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import StopSignals, check_parameters
@@ -112,12 +110,7 @@ class OffPolicyTrainer(TrainerBase):
             else:
                 actions = self.explore(obs)
             result = self.env.step(self._env_actions(dist.to_env(actions)))
-            rewards = self._to_tensor(result.reward).float()
-            terminated = self._to_tensor(result.terminated).bool()
-            truncated = self._to_tensor(result.truncated).bool()
-            dones = terminated | truncated
-            self.tracker.step(*game_outcome(result, rewards, dones),  # whole games (Atari lives)
-                              dropped=dropped_rows(result))  # episodes cut by a dead Ray worker
+            rewards, terminated, truncated, dones = self._env_outcome(result)
             if rewards.dim() > 1:
                 rewards = rewards.sum(-1)
             shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)

@@ -22,7 +22,6 @@ from rlchain.training import checkpoint as ckpt
 from rlchain.training.base import TrainerBase, TrainResult, describe
 from rlchain.training.build import build_central_value
 from rlchain.training.compile import compile_model
-from rlchain.training.episodes import game_outcome
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import (
@@ -201,12 +200,7 @@ class OnPolicyTrainer(TrainerBase):
             result = self.env.step(self._env_actions(dist.to_env(out["actions"])))
             if self.epoch == 0 and t == 0:
                 check_obs_shape(result.obs, self.num_envs, self.env.observation_space, "env step")
-            rewards = self._to_tensor(result.reward).float()
-            terminated = self._to_tensor(result.terminated).bool()
-            truncated = self._to_tensor(result.truncated).bool()
-            dones = terminated | truncated
-            self.tracker.step(*game_outcome(result, rewards, dones),  # whole games (Atari lives)
-                              dropped=dropped_rows(result))  # episodes cut by a dead Ray worker
+            rewards, terminated, truncated, dones = self._env_outcome(result)
             if rewards.dim() == 1:
                 rewards = rewards.unsqueeze(-1)
             shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
