@@ -7,6 +7,7 @@ from typing import Any
 import torch
 
 from rlchain.config.errors import ConfigError
+from rlchain.networks.rnn import zero_finished
 
 
 class PolicyStepper:
@@ -48,6 +49,4 @@ class PolicyStepper:
 
     def done(self, dones: torch.Tensor) -> None:
         """Zero the RNN states of rows whose episode just ended; ``dones`` is (B,) bool."""
-        if self.states:
-            keep = (~dones.to(self.device).bool()).to(self.states[0].dtype).view(1, -1, 1)
-            self.states = tuple(s * keep for s in self.states)
+        self.states = zero_finished(self.states, dones.to(self.device))

@@ -76,3 +76,10 @@ def _detach(hidden: torch.Tensor | tuple) -> torch.Tensor | tuple:
     if isinstance(hidden, tuple):
         return tuple(h.detach() for h in hidden)
     return hidden.detach()
+
+
+def zero_finished(states: States, dones: torch.Tensor) -> States:
+    """RNN states (each (layers, B, units)) with the rows of finished episodes (``dones`` (B,)) zeroed."""
+    if not states:
+        return states
+    return _mask(tuple(states), (~dones.bool()).to(states[0].dtype).view(-1, 1))

@@ -18,6 +18,7 @@ from rlchain.config.schema import Params
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.networks.rnn import zero_finished
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.base import TrainerBase, TrainResult, describe
 from rlchain.training.build import build_central_value
@@ -219,8 +220,7 @@ class OnPolicyTrainer(TrainerBase):
             if next_states:
                 states = next_states
                 if cfg.zero_rnn_on_done:
-                    keep = (~dones).to(states[0].dtype).view(1, -1, 1)
-                    states = tuple(s * keep for s in states)
+                    states = zero_finished(states, dones)
                 resets = dones
         self.obs, self.rnn_states, self.resets = obs, states, resets
         self.last_values = self._value(obs, states)
