@@ -169,6 +169,10 @@ def test_docs_config_md_in_sync():
     ("torch_compile", "fast", "params.config.torch_compile: mode 'fast' is not one of: default, reduce-overhead"),
     ("torch_compile", {"mode": "default", "modee": 1}, "params.config.torch_compile: unknown key 'modee'"),
     ("torch_compile", 3, "params.config.torch_compile: expected false, true, a mode"),
+    ("bptt_length", 0, "params.config.bptt_length: must be > 0"),
+    ("reward_shaper", {"log_val": "maybe"}, "params.config.reward_shaper.log_val: expected true or false"),
+    ("central_value_config", {"network": {}, "mini_epochs": 0},
+     "params.config.central_value_config.mini_epochs: must be > 0"),
 ])
 def test_rlchain_blocks_bad_values(base_config, key, value, expect):
     base_config["params"]["config"][key] = value

@@ -181,3 +181,15 @@ def test_warmup_frames_from_rl_games_num_warmup_steps(frames, steps, expect):
                     num_warmup_steps=steps)
     assert cfg.validate() is None
     assert cfg.num_warmup_frames == expect
+
+
+def test_bad_num_warmup_steps_is_a_one_line_error():
+    import os
+
+    from rlchain import Runner
+    from rlchain.config.errors import ConfigError
+    from tests.conftest import CONFIGS
+
+    with pytest.raises(ConfigError, match=r"sac_pendulum.yaml: params.config.num_warmup_steps: must be >= 0") as err:
+        Runner().load(os.path.join(CONFIGS, "sac_pendulum.yaml"), ["params.config.num_warmup_steps=-1"])
+    assert "\n" not in str(err.value)
