@@ -7,6 +7,9 @@ from dataclasses import dataclass
 
 import torch
 
+ALL = slice(None)
+"""Every env row: the default ``rows`` of :meth:`RolloutStorage.add` / ``add_outcome``."""
+
 
 @dataclass
 class Batch:
@@ -63,29 +66,34 @@ class RolloutStorage:
 
     def add(self, t: int, obs: torch.Tensor, actions: torch.Tensor, log_probs: torch.Tensor,
             values: torch.Tensor, params: torch.Tensor, action_masks: torch.Tensor | None = None,
-            states: tuple[torch.Tensor, ...] = (), resets: torch.Tensor | None = None) -> None:
-        """Record what the policy saw and did at step t (rewards/dones come with :meth:`add_outcome`)."""
+            states: tuple[torch.Tensor, ...] = (), resets: torch.Tensor | None = None,
+            rows: slice = ALL) -> None:
+        """Record what the policy saw and did at step t (rewards/dones come with :meth:`add_outcome`).
+
+        ``rows`` selects the envs the tensors are for (all of them by default; a pipelined rollout
+        writes one env group at a time, see ``rlchain/envs/pipeline.py``); states are (layers, rows, H).
+        """
         if not 0 <= t < self.horizon:
             raise IndexError(f"step {t} outside horizon {self.horizon}")
-        self.obs[t] = obs
-        self.actions[t] = actions
-        self.log_probs[t] = log_probs
-        self.values[t] = values
-        self.params[t] = params
+        self.obs[t, rows] = obs
+        self.actions[t, rows] = actions
+        self.log_probs[t, rows] = log_probs
+        self.values[t, rows] = values
+        self.params[t, rows] = params
         if self.action_masks is not None:
-            self.action_masks[t] = action_masks
+            self.action_masks[t, rows] = action_masks
         for buffer, state in zip(self.states, states):
-            buffer[t] = state
+            buffer[t, :, rows] = state
         if self.resets is not None:
-            self.resets[t] = resets
+            self.resets[t, rows] = resets
         self.filled = t + 1
 
     def add_outcome(self, t: int, rewards: torch.Tensor, terminated: torch.Tensor,
-                    dones: torch.Tensor) -> None:
-        """Record the env's answer to step t: shaped rewards (N, V) and done flags (N,)."""
-        self.rewards[t] = rewards
-        self.terminated[t] = terminated
-        self.dones[t] = dones
+                    dones: torch.Tensor, rows: slice = ALL) -> None:
+        """Record the env's answer to step t: shaped rewards (rows, V) and done flags (rows,)."""
+        self.rewards[t, rows] = rewards
+        self.terminated[t, rows] = terminated
+        self.dones[t, rows] = dones
 
     def _per_step(self, advantages: torch.Tensor) -> dict[str, torch.Tensor]:
         out = {"obs": self.obs, "actions": self.actions, "log_probs": self.log_probs, "values": self.values,

@@ -171,5 +171,12 @@ def non_negative(x: Any) -> str | None:
     return None if x >= 0 else "must be >= 0"
 
 
+def check_env_groups(x: Any) -> str | None:
+    """``env_groups``: ``auto`` or an int >= 1."""
+    if x == "auto" or (isinstance(x, int) and not isinstance(x, bool) and x >= 1):
+        return None
+    return "must be auto or an integer >= 1"
+
+
 def unit_interval(x: Any) -> str | None:
     return None if 0 <= x <= 1 else "must be between 0 and 1"

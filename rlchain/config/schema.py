@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rlchain.config.compile import check_compile
-from rlchain.config.fields import non_negative, option, positive, unit_interval
+from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 
 ACTIVATIONS = ("relu", "tanh", "sigmoid", "elu", "selu", "swish", "silu", "gelu", "softplus",
                "leaky_relu", "mish", "identity", "None")
@@ -289,6 +289,10 @@ class TrainConfig(RunConfig):
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
                                            "envpool, RAY (Ray workers, see env_runners)")
     num_actors: int = option(8, "parallel environments", check=positive)
+    env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
+                                     "the background while the policy acts for the other (overlaps env "
+                                     "stepping with inference); auto = 2 when num_actors is even and >= "
+                                     "16, else 1. Must divide num_actors", check=check_env_groups)
     horizon_length: int = option(32, "steps per env per epoch; batch = num_actors * horizon_length * "
                                      "agents per env", check=positive)
     minibatch_size: int | None = option(None, "minibatch size; the batch must divide by it (this or "

@@ -81,31 +81,47 @@ class EnvpoolVecEnv:
     ``envpool.make`` (e.g. ``max_episode_steps``, ``episodic_life``, ``reward_clip``).
     Dict observations (DeepMind Control) are flattened to one float32 vector.
     ``render=True`` creates it with ``render_mode='human'`` (envpool needs opencv-python).
+
+    ``groups`` > 1 splits the envs into that many envpool pools of equal size (rows
+    ``env_groups[g]``, env i still seeded ``seed + i``) that step in the background:
+    :meth:`send` starts group g's step and returns at once, :meth:`recv` waits for it. A pipelined
+    rollout (``training/on_policy.py``) computes one group's actions while envpool's threads step
+    the other, so env stepping overlaps policy inference. :meth:`step` still steps all of them.
     """
 
     def __init__(self, task_id: str, num_envs: int, seed: int | None = None,
-                 env_kwargs: dict | None = None, render: bool = False) -> None:
+                 env_kwargs: dict | None = None, render: bool = False, groups: int = 1) -> None:
         self._envpool = import_envpool()
         if task_id not in envpool_tasks():
             raise ValueError(f"envpool has no task '{task_id}'")
+        if groups < 1 or num_envs % groups:
+            raise ValueError(f"env_groups {groups} must be >= 1 and divide the number of envs {num_envs}")
         self.task_id = task_id
         self.num_envs = num_envs
+        size = num_envs // groups
+        self.env_groups = [slice(g * size, (g + 1) * size) for g in range(groups)]
         self._kwargs = dict(env_kwargs or {})
         if render:
             self._kwargs["render_mode"] = "human"
-        self.env: Any = None
+        self.pools: list[Any] = []
         self._build(random_seed(num_envs) if seed is None else int(seed))
         self._env_obs_space = self.env.observation_space
         self._env_action_space = self.env.action_space
         self.observation_space = float32_obs_space(self._env_obs_space)
         self.action_space = float32_action_space(self._env_action_space)
 
+    @property
+    def env(self) -> Any:
+        """The (first) envpool pool."""
+        return self.pools[0]
+
     def _build(self, seed: int) -> None:
-        """(Re)create the envpool env with ``seed``; envpool can only be seeded at creation."""
-        if self.env is not None:
-            self.env.close()
-        self.env = self._envpool.make(self.task_id, env_type="gymnasium", num_envs=self.num_envs,
-                                      batch_size=self.num_envs, seed=seed, **self._kwargs)
+        """(Re)create the envpool pools with ``seed``; envpool can only be seeded at creation."""
+        self._close_pools()
+        for rows in self.env_groups:
+            size = rows.stop - rows.start
+            self.pools.append(self._envpool.make(self.task_id, env_type="gymnasium", num_envs=size,
+                                                 batch_size=size, seed=seed + rows.start, **self._kwargs))
         self._seed = seed
         self._fresh = True  # created with self._seed and not reset yet
 
@@ -117,20 +133,40 @@ class EnvpoolVecEnv:
         return obs if obs.flags.writeable else obs.copy()
 
     def reset(self, seed: int | None = None) -> np.ndarray:
-        """Reset all envs; with a seed, env i restarts from ``seed + i`` (rebuilds the pool).
+        """Reset all envs; with a seed, env i restarts from ``seed + i`` (rebuilds the pools).
 
         Returns obs (N, *observation_space.shape).
         """
         if seed is not None and not (self._fresh and int(seed) == self._seed):
             self._build(int(seed))
         self._fresh = False
-        obs, _ = self.env.reset()
-        return self._obs(obs)
+        obs = [self._obs(pool.reset()[0]) for pool in self.pools]
+        return obs[0] if len(obs) == 1 else np.concatenate(obs)
 
     def step(self, actions: np.ndarray) -> StepResult:
         """Step with actions (N, *action_space.shape); finished envs are reset in the same call."""
-        actions = cast_actions(actions, self._env_action_space, self.num_envs)
-        obs, reward, terminated, truncated, infos = self.env.step(actions)
+        if len(self.pools) == 1:
+            actions = cast_actions(actions, self._env_action_space, self.num_envs)
+            return self._finish(self.pools[0], *self.pools[0].step(actions))
+        for g, rows in enumerate(self.env_groups):
+            self.send(g, actions[rows])
+        return concat_results([self.recv(g) for g in range(len(self.pools))])
+
+    def send(self, group: int, actions: np.ndarray) -> None:
+        """Start stepping env group ``group`` (rows ``env_groups[group]``) with its actions; returns at once."""
+        rows = self.env_groups[group]
+        self.pools[group].send(cast_actions(actions, self._env_action_space, rows.stop - rows.start))
+
+    def recv(self, group: int) -> StepResult:
+        """Wait for the step :meth:`send` started on ``group``; its rows' StepResult (same-step reset)."""
+        result = self._finish(self.pools[group], *self.pools[group].recv())
+        if "env_id" in result.infos:  # envpool numbers the envs of each pool from 0
+            result.infos = {**result.infos, "env_id": np.asarray(result.infos["env_id"]) + self.env_groups[group].start}
+        return result
+
+    def _finish(self, pool: Any, obs: Any, reward: Any, terminated: Any, truncated: Any,
+                infos: dict) -> StepResult:
+        """A pool's raw step as a StepResult; its finished envs take envpool's auto-reset step now."""
         reward, terminated, truncated = step_arrays(reward, terminated, truncated)
         obs = self._obs(obs)
         final_obs = obs.copy()
@@ -139,7 +175,7 @@ class EnvpoolVecEnv:
         if done.any():
             ids = np.flatnonzero(done).astype(np.int32)
             noop = np.zeros((len(ids), *self._env_action_space.shape), self._env_action_space.dtype)
-            new_obs, _, _, _, reset_info = self.env.step(noop, ids)  # envpool's auto-reset step
+            new_obs, _, _, _, reset_info = pool.step(noop, ids)  # envpool's auto-reset step
             obs[np.asarray(reset_info["env_id"])] = self._obs(new_obs)
         return StepResult(obs, reward, terminated, truncated, final_obs, infos, *game)
 
@@ -147,8 +183,26 @@ class EnvpoolVecEnv:
         """Pass-through to envpool's ``render()`` (env 0; needs ``render=True`` at creation)."""
         return self.env.render()
 
+    def _close_pools(self) -> None:
+        for pool in self.pools:
+            pool.close()
+        self.pools = []
+
     def close(self) -> None:
-        """Close the pool."""
-        if self.env is not None:
-            self.env.close()
-            self.env = None
+        """Close the pools."""
+        self._close_pools()
+
+
+def concat_results(results: list[StepResult]) -> StepResult:
+    """One StepResult for all envs from the StepResults of consecutive env groups (numpy fields)."""
+    def cat(values: list) -> Any:
+        return None if values[0] is None else np.concatenate(values)
+
+    infos: dict = {}
+    for key in results[0].infos:
+        try:
+            infos[key] = np.concatenate([np.asarray(r.infos[key]) for r in results])
+        except ValueError:  # a scalar or ragged entry: keep the first group's
+            infos[key] = results[0].infos[key]
+    fields = ("obs", "reward", "terminated", "truncated", "final_obs", "game_reward", "game_over")
+    return StepResult(**{f: cat([getattr(r, f) for r in results]) for f in fields}, infos=infos)

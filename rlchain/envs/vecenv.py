@@ -30,6 +30,11 @@ Shapes for ``num_envs = N``:
   one vector by the backend; ``observation_space`` is then the flat Box (see ``dict_obs.py``).
 - a Tuple-of-Discrete action space takes actions (N, K) int64 like MultiDiscrete; the backend
   converts them to what the env takes.
+- pipelined stepping (optional; envpool with ``env_groups`` > 1): ``env_groups`` is a list of row
+  slices that partition the N envs; ``send(g, actions)`` (actions for rows ``env_groups[g]``) starts
+  group g's step and returns at once, ``recv(g)`` waits for it and returns that group's StepResult
+  (same contract, rows of the group only). ``step`` still steps every env. The PPO rollout then
+  computes one group's actions while the other group steps (``training/on_policy.py``).
 - ``infos[DROPPED]`` (optional, (N,) bool): rows whose episode the backend cut without an ending (a
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``

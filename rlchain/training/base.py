@@ -131,14 +131,16 @@ class TrainerBase:
     def _to_tensor(self, x: Any) -> torch.Tensor:
         return torch.as_tensor(x, device=self.device)
 
-    def _env_outcome(self, result: Any) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _env_outcome(self, result: Any, rows: slice = slice(None)
+                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """A step's (rewards, terminated, truncated, dones) as device tensors; finished episodes are
-        recorded as whole games (Atari lives), episodes cut by a dead Ray worker are dropped."""
+        recorded as whole games (Atari lives), episodes cut by a dead Ray worker are dropped.
+        ``rows``: the envs ``result`` is for (a pipelined rollout's env group; all by default)."""
         rewards = self._to_tensor(result.reward).float()
         terminated = self._to_tensor(result.terminated).bool()
         truncated = self._to_tensor(result.truncated).bool()
         dones = terminated | truncated
-        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result))
+        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows)
         return rewards, terminated, truncated, dones
 
     def _env_actions(self, actions: torch.Tensor) -> Any:

@@ -45,9 +45,10 @@ def build_env(params: Params, num_envs: int, seed: int | None, render: bool = Fa
     vecenv_type, env_runners = cfg.vecenv_type, getattr(cfg, "env_runners", None) if runners else None
     if not runners and str(vecenv_type).lower() == "ray":
         vecenv_type = None
+    groups = getattr(cfg, "env_groups", 1) if runners else 1  # PPO training envs only
     try:
         return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
-                            env_runners=env_runners)
+                            env_runners=env_runners, groups=groups)
     except ValueError as exc:
         raise ConfigError(params.source, "", str(exc)) from None
 

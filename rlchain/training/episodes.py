@@ -36,29 +36,32 @@ class EpisodeTracker:
         self.finished_lengths: deque[int] = deque(maxlen=games_to_track)
         self.games = 0
 
-    def step(self, rewards: torch.Tensor, dones: torch.Tensor, dropped: Any = None) -> None:
-        """rewards (N,) or (N, V) raw; dones (N,) bool. Summed over value heads.
+    def step(self, rewards: torch.Tensor, dones: torch.Tensor, dropped: Any = None,
+             rows: slice = slice(None)) -> None:
+        """rewards (n,) or (n, V) raw; dones (n,) bool, for the envs ``rows`` (all N by default; a
+        pipelined rollout steps one env group at a time). Summed over value heads.
 
-        ``dropped`` (N,) bool (optional, ``vecenv.dropped_rows``): episodes cut by the backend (a dead
+        ``dropped`` (n,) bool (optional, ``vecenv.dropped_rows``): episodes cut by the backend (a dead
         Ray worker) are forgotten, not recorded as finished games.
         """
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
+        returns, lengths = self.returns[rows], self.lengths[rows]  # views: updated in place
         lost = None if dropped is None else torch.as_tensor(dropped, device=dones.device).bool().reshape(-1)
         if lost is not None:
             dones = dones & ~lost
-        self.returns += rewards
-        self.lengths += 1
+        returns += rewards
+        lengths += 1
         if dones.any():
             idx = dones.nonzero().squeeze(-1)
-            self.finished_returns.extend(self.returns[idx].tolist())
-            self.finished_lengths.extend(self.lengths[idx].tolist())
+            self.finished_returns.extend(returns[idx].tolist())
+            self.finished_lengths.extend(lengths[idx].tolist())
             self.games += int(idx.numel())
-            self.returns[idx] = 0.0
-            self.lengths[idx] = 0
+            returns[idx] = 0.0
+            lengths[idx] = 0
         if lost is not None:
-            self.returns[lost] = 0.0
-            self.lengths[lost] = 0
+            returns[lost] = 0.0
+            lengths[lost] = 0
 
     def reset_running(self) -> None:
         """Forget episodes in progress (after an env reset)."""

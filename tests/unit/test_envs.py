@@ -218,3 +218,38 @@ def test_env_configurations_register_creator():
     env.close()
     with pytest.raises(ValueError, match="already registered"):
         env_configurations.register("UserCartPole-test", {"env_creator": lambda **kw: None})
+
+
+def test_envpool_groups_match_one_pool():
+    """Two background-stepped pools give the rows of one pool, resets and final obs included."""
+    pytest.importorskip("envpool")
+    from rlchain.envs.envpool_env import concat_results
+    kwargs = {"max_episode_steps": 7}
+    one = EnvpoolVecEnv("HalfCheetah-v4", 6, seed=3, env_kwargs=kwargs)
+    two = EnvpoolVecEnv("HalfCheetah-v4", 6, seed=3, env_kwargs=kwargs, groups=2)
+    assert two.env_groups == [slice(0, 3), slice(3, 6)]
+    np.testing.assert_array_equal(one.reset(), two.reset())
+    rng = np.random.default_rng(0)
+    ended = 0
+    for t in range(16):
+        actions = rng.uniform(-1, 1, (6, 6)).astype(np.float32)
+        a = one.step(actions)
+        if t % 2:
+            b = two.step(actions)
+        else:  # send both groups, then collect them
+            two.send(0, actions[:3])
+            two.send(1, actions[3:])
+            b = concat_results([two.recv(0), two.recv(1)])
+        for field in ("obs", "reward", "terminated", "truncated", "final_obs"):
+            np.testing.assert_allclose(getattr(a, field), getattr(b, field), atol=1e-6, err_msg=field)
+        np.testing.assert_array_equal(b.infos["env_id"], np.arange(6))
+        ended += int(b.truncated.sum())
+    assert ended == 12  # every env ended twice (7-step episodes), reset in the same step
+    one.close()
+    two.close()
+
+
+def test_envpool_groups_must_divide_envs():
+    pytest.importorskip("envpool")
+    with pytest.raises(ValueError, match="env_groups 4 must be >= 1 and divide the number of envs 6"):
+        EnvpoolVecEnv("CartPole-v1", 6, seed=0, groups=4)
