@@ -91,6 +91,11 @@ class DQNAgent:
     def lr(self) -> float:
         return self.opt.param_groups[0]["lr"]
 
+    def scale_lr(self, factor: float) -> None:
+        """Multiply the learning rate (divergence rollback)."""
+        for group in self.opt.param_groups:
+            group["lr"] *= factor
+
     def update(self, batch: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
         model, cfg = self.model, self.cfg
         obs = model.preprocess(batch["obs"])

@@ -122,6 +122,12 @@ class SACAgent:
     def lr(self) -> float:
         return self.actor_opt.param_groups[0]["lr"]
 
+    def scale_lr(self, factor: float) -> None:
+        """Multiply the actor, critic and temperature learning rates (divergence rollback)."""
+        for opt in (self.actor_opt, self.critic_opt, self.alpha_opt):
+            for group in opt.param_groups:
+                group["lr"] *= factor
+
     def update(self, batch: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
         """One step on a replay minibatch; returns (stats as 0-d tensors, |TD error| per sample)."""
         model, cfg = self.model, self.cfg

@@ -57,7 +57,12 @@ class OffPolicyConfig(RunConfig):
     multi_gpu: bool = option(False, "torch.distributed training", status="planned (torchrun is PPO-only for now)")
     clip_actions: bool = option(True, "continuous: rescale [-1, 1] actions to the action space bounds")
     seq_length: int = option(4, "RNN sequence length", check=positive, status="accepted; no effect off-policy")
-    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (only action: stop)")
+    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain); rollback restores "
+                                                             "the learner of the last snapshot, taken every "
+                                                             "snapshot_epochs epochs")
+    snapshot_epochs: int = option(100, "divergence rollback: epochs between in-memory learner snapshots "
+                                       "(rlchain; an off-policy epoch is num_steps_per_episode env steps)",
+                                  check=positive)
 
     def validate(self) -> tuple[str, str] | None:
         """Cross-key checks; returns (key, message) for the first problem."""
@@ -71,8 +76,6 @@ class OffPolicyConfig(RunConfig):
                                   f"{self.replay_buffer_size}")
         if self.torch_compile not in (False, None, "false", "False"):
             return "torch_compile", "supported for PPO only so far; remove it or set false"
-        if self.divergence.action != "stop":
-            return "divergence.action", "off-policy algorithms support only 'stop'"
         return None
 
 

@@ -25,7 +25,7 @@ from rlchain.errors import DivergenceError, EnvError
 from rlchain.training.base import TrainerBase, TrainResult, describe
 from rlchain.training.logging import TrainLogger
 from rlchain.training.run_dir import RunDir
-from rlchain.training.safety import StopSignals, check_parameters
+from rlchain.training.safety import DivergenceGuard, StopSignals, check_parameters
 
 
 class OffPolicyTrainer(TrainerBase):
@@ -45,6 +45,7 @@ class OffPolicyTrainer(TrainerBase):
             num_envs=self.num_envs, obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             action_dtype=model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
             prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
+        self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
 
     def make_agent(self) -> Any:  # pragma: no cover - subclasses
         raise NotImplementedError
@@ -57,19 +58,24 @@ class OffPolicyTrainer(TrainerBase):
         with StopSignals() as signals:
             self.signals = signals
             self.obs = self._reset_envs()
+            self.divergence.snapshot(self.epoch)
             self.events.emit("on_train_start", self)
             while stop is None:
                 t0 = time.time()
-                stats, update_s, completed = self._guarded_epoch()
+                try:
+                    stats, update_s, completed = self._guarded_epoch()
+                    bad = check_parameters(self.model)
+                    if bad is not None:
+                        raise DivergenceError(f"{bad} became non-finite in the update")
+                except DivergenceError as exc:
+                    self._diverged(exc)
+                    continue  # rolled back: go on from the snapshot with a lower learning rate
                 if not completed:
                     stop = f"interrupted by {signals.requested}"
                     break
-                bad = check_parameters(self.model)
-                if bad is not None:
-                    self.save("last")
-                    raise DivergenceError(f"training diverged at epoch {self.epoch + 1}: {bad} became "
-                                          f"non-finite in the update")
                 self.epoch += 1
+                if self.epoch % self.cfg.snapshot_epochs == 0:
+                    self.divergence.snapshot(self.epoch)
                 episodes = self._episode_stats()
                 self._log(stats, episodes, time.time() - t0 - update_s, update_s)
                 self._checkpoints(episodes)
@@ -77,6 +83,17 @@ class OffPolicyTrainer(TrainerBase):
                 stop = self._stop_reason(episodes)
             last = self.save("last")
         return self._finish(stop, start, last)
+
+    def _diverged(self, exc: DivergenceError) -> None:
+        """A NaN/inf: roll back to the last snapshot and restart the envs' episodes (``divergence.action:
+        rollback``, within max_rollbacks), else save what is finite and raise naming the epoch."""
+        try:
+            self.divergence.handle(exc, self.epoch)
+        except DivergenceError:
+            self.save("last")  # refused while the parameters are non-finite
+            raise
+        self.tracker.reset_running()
+        self.obs = self._reset_envs()
 
     def _reset_envs(self) -> torch.Tensor:
         obs = super()._reset_envs()
@@ -117,8 +134,7 @@ class OffPolicyTrainer(TrainerBase):
             next_obs = self._to_tensor(result.obs)
             if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
                                                           and not bool(torch.isfinite(next_obs).all())):
-                raise DivergenceError(f"the env returned a non-finite reward or observation at epoch "
-                                      f"{self.epoch + 1}")
+                raise DivergenceError("the env returned a non-finite reward or observation")
             real_next = next_obs
             if bool(dones.any()):
                 real_next = next_obs.clone()

@@ -87,29 +87,34 @@ class DivergenceGuard:
         self.cfg, self.model, self.agent = cfg, model, agent
         self.rollbacks = 0
         self._good: dict[str, Any] | None = None
+        self.good_epoch: int | None = None
 
-    def snapshot(self) -> None:
-        """Remember the current state as good (one in-memory copy; only with rollback on)."""
+    def snapshot(self, epoch: int | None = None) -> None:
+        """Remember the current state (of ``epoch``, when given) as good: one in-memory copy, only with
+        rollback on."""
         if self.cfg.action == "rollback":
             self._good = {"model": copy.deepcopy(self.model.state_dict()),
                           "agent": copy.deepcopy(self.agent.state_dict())}
+            self.good_epoch = epoch
 
     def handle(self, exc: DivergenceError, epoch: int) -> None:
-        """Roll back to the last good epoch and lower the lr, or raise a DivergenceError naming ``epoch``.
+        """Roll back to the last good state and lower the lr, or raise a DivergenceError naming ``epoch``.
 
-        ``epoch`` is the last completed one; the failed update belonged to epoch + 1.
+        ``epoch`` is the last completed one; the failed update belonged to epoch + 1. The good state
+        is that epoch's unless :meth:`snapshot` named an earlier one (off-policy snapshots less often).
         """
         where = f"epoch {epoch + 1}: {exc}"
+        good = epoch if self.good_epoch is None else self.good_epoch
         if self.cfg.action == "rollback" and self.rollbacks < self.cfg.max_rollbacks and self._good is not None:
             self.rollbacks += 1
             self._restore()
             self.agent.scale_lr(self.cfg.lr_factor ** self.rollbacks)
-            print(f"divergence at {where}; rolled back to epoch {epoch} ({self.rollbacks}/"
+            print(f"divergence at {where}; rolled back to epoch {good} ({self.rollbacks}/"
                   f"{self.cfg.max_rollbacks}), learning rate now {self.agent.lr:.2e}", flush=True)
             return
         self._restore()
-        raise DivergenceError(f"training diverged at {where}; parameters of epoch {epoch} kept "
-                              f"(checkpoints hold no NaN)") from None
+        kept = f"parameters of epoch {good} kept" if self._good is not None else "last good checkpoint kept"
+        raise DivergenceError(f"training diverged at {where}; {kept} (checkpoints hold no NaN)") from None
 
     def _restore(self) -> None:
         if self._good is not None:

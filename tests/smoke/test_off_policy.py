@@ -139,3 +139,30 @@ def test_torch_seeded_runs_repeat(tmp_path):
         weights.append(torch.load(os.path.join(res.run_dir, "nn", "last_cartpole_dqn.pth"),
                                   weights_only=False)["model"]["network.advantage.weight"])
     assert torch.equal(weights[0], weights[1])
+
+
+DIVERGE = {"sac_pendulum.yaml": ("params.config.actor_lr=1e30", "params.config.critic_lr=1e30"),
+           "dqn_cartpole.yaml": ("params.config.learning_rate=1e30",)}
+
+
+@pytest.mark.parametrize("config,name,frames_per_epoch", CASES)
+def test_absurd_learning_rate_stops_without_nan_checkpoints(tmp_path, config, name, frames_per_epoch):
+    from rlchain.errors import DivergenceError
+    cfg = os.path.join(CONFIGS, config)
+    with pytest.raises(DivergenceError, match=r"training diverged at epoch \d+: .*non-finite"):
+        Runner().load(cfg, small(tmp_path, 6, DIVERGE[config])).train()
+    for path in glob.glob(str(tmp_path / "runs" / "*" / "nn" / "*.pth")):
+        assert all(torch.isfinite(v).all() for v in ckpt.load(path)["model"].values() if v.is_floating_point())
+
+
+@pytest.mark.parametrize("config,name,frames_per_epoch", CASES)
+def test_absurd_learning_rate_rolls_back_to_the_snapshot(tmp_path, capsys, config, name, frames_per_epoch):
+    cfg = os.path.join(CONFIGS, config)
+    extra = (*DIVERGE[config], "params.config.divergence.action=rollback", "params.config.snapshot_epochs=2",
+             "params.config.divergence.max_rollbacks=3", "params.config.divergence.lr_factor=1e-33")
+    result = Runner().load(cfg, small(tmp_path, 6, extra)).train()
+    assert result.epoch == 6
+    out = capsys.readouterr().out
+    assert "rolled back to epoch 0 (1/3)" in out  # the snapshot before learning started
+    last = ckpt.load(os.path.join(result.run_dir, "nn", f"last_{name}.pth"))
+    assert all(torch.isfinite(v).all() for v in last["model"].values() if v.is_floating_point())
