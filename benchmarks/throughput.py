@@ -3,6 +3,8 @@
     python benchmarks/throughput.py                       # the default cases below
     python benchmarks/throughput.py --cases torch:TorchReacher8-v0:4096 gymnasium:Pendulum-v1:64
     python benchmarks/throughput.py --seconds 5 --threads 1 --json out.json
+    python benchmarks/throughput.py --cases envpool:Ant-v4:64:benchmarks/rl_games_configs/ant_envpool.yaml \
+        --env-groups 1 2 --rl-games-python /work/rlg-venv/bin/python
 
 A case is ``BACKEND:ENV:NUM_ENVS[:CONFIG]``: BACKEND is ``torch`` (a registered tensor env),
 ``gymnasium`` (a gymnasium id with vecenv_type auto: the native vector env when there is one)
@@ -16,7 +18,13 @@ scaled to keep the same number of minibatches per epoch. For each case it measur
 - train: ``_rollout`` + ``_learn`` (GAE and the PPO update), i.e. what a training run does
   minus logging and checkpoints;
 
-and prints steps/s for each plus rollout/env and train/env. Torch threads are set as the Runner
+and prints steps/s for each plus rollout/env and train/env. ``--env-groups 1 2`` measures envpool
+cases once per ``env_groups`` value (1: synchronous rollout; 2: two env groups stepping in the
+background while the policy acts for the other, see ``EnvpoolVecEnv``); env-only is always the
+synchronous step of all envs. ``--rl-games-python PY`` adds rl_games' training fps on the same
+YAML (``rl_games_driver.py`` for ``--rl-games-epochs`` epochs, median "fps total" of the epochs after
+the first, torch.compile off), for cases whose NUM_ENVS is the config's num_actors (rl_games reads
+num_actors from the YAML only). Torch threads are set as the Runner
 sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``.
 The load average is printed too: other processes on the machine skew every number.
 """
@@ -66,6 +74,8 @@ class Row:
     train_sps: float
     threads: int
     config: str
+    groups: int = 1
+    rl_games_sps: float | None = None
 
     @property
     def rollout_ratio(self) -> float:
@@ -144,9 +154,10 @@ def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, mi
 
 
 def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
-            device_name: str) -> Row:
+            device_name: str, groups: int = 1) -> Row:
     runner = Runner().load(config)
-    runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name))
+    extra = [f"params.config.env_groups={groups}"] if backend == "envpool" else []
+    runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name) + extra)
     params = runner.params
     torch.set_num_threads(threads or _runner_threads(params.torch_threads, params.config.device))
     torch.manual_seed(0)
@@ -165,6 +176,9 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
 
         env_steps()  # warm-up
         env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
+        if backend == "envpool" and groups > 1:  # the training envs, in env groups
+            env.close()
+            env = build_env(params, num_envs, 0, runners=True)
 
         model = build_model(params, env, device)
         trainer = OnPolicyTrainer(params, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
@@ -182,7 +196,32 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
     finally:
         env.close()
     return Row(backend, env_name, num_envs, env_sps, rollout_sps, train_sps, torch.get_num_threads(),
-               os.path.relpath(config, ROOT))
+               os.path.relpath(config, ROOT), groups if backend == "envpool" else 1)
+
+
+def rl_games_fps(python: str, config: str, num_envs: int, epochs: int) -> float | None:
+    """rl_games' median training fps ("fps total") over epochs 2..``epochs`` on ``config``, or None
+    when ``num_envs`` is not the config's num_actors or the run fails."""
+    import re
+    import statistics
+    import subprocess
+    import tempfile
+
+    import yaml
+
+    with open(config) as fh:
+        raw = yaml.safe_load(fh)
+    if int(raw["params"]["config"].get("num_actors", -1)) != num_envs:
+        return None
+    driver = os.path.join(ROOT, "benchmarks", "rl_games_driver.py")
+    with tempfile.TemporaryDirectory() as cwd:
+        proc = subprocess.run([python, driver, "--file", os.path.abspath(config), "--max-epochs", str(epochs),
+                               "--torch-compile", "off"], cwd=cwd, capture_output=True, text=True)
+    values = [float(v) for v in re.findall(r"fps total: ([0-9.]+)", proc.stdout)]
+    if proc.returncode != 0 or len(values) < 2:
+        print(f"rl_games run on {config} failed (exit {proc.returncode}): {proc.stderr.strip()[-300:]}", flush=True)
+        return None
+    return statistics.median(values[1:])
 
 
 def _runner_threads(requested: int | None, device: str) -> int:
@@ -194,12 +233,16 @@ def _runner_threads(requested: int | None, device: str) -> int:
 
 
 def table(rows: list[Row]) -> str:
-    head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'env-only sps':>13} {'rollout sps':>12} {'train sps':>11} "
-            f"{'rollout/env':>11} {'train/env':>9} {'thr':>3}")
+    head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>3} {'env-only sps':>13} {'rollout sps':>12} "
+            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>3} {'rl_games sps':>12} "
+            f"{'rl_games/env':>12} {'train/rl_games':>14}")
     lines = [head, "-" * len(head)]
     for r in rows:
-        lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.env_sps:>13,.0f} {r.rollout_sps:>12,.0f} "
-                     f"{r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} {r.train_ratio:>9.3f} {r.threads:>3}")
+        peer = "" if r.rl_games_sps is None else (f"{r.rl_games_sps:>12,.0f} {r.rl_games_sps / r.env_sps:>12.3f} "
+                                                  f"{r.train_sps / r.rl_games_sps:>14.2f}")
+        lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.groups:>3} {r.env_sps:>13,.0f} "
+                     f"{r.rollout_sps:>12,.0f} {r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} "
+                     f"{r.train_ratio:>9.3f} {r.threads:>3} {peer}")
     return "\n".join(lines)
 
 
@@ -211,6 +254,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--threads", type=int, default=None, help="torch threads (default: as the Runner sets them)")
     ap.add_argument("--device", default="cpu", help="training device, and the device of tensor envs")
     ap.add_argument("--json", default=None, help="also write the rows to this file")
+    ap.add_argument("--env-groups", type=int, nargs="+", default=[1],
+                    help="envpool cases: measure once per env_groups value (default: 1)")
+    ap.add_argument("--rl-games-python", default=None,
+                    help="python of a venv with rl_games: add its training fps on the same YAML")
+    ap.add_argument("--rl-games-epochs", type=int, default=12, help="rl_games epochs per case (default 12)")
     args = ap.parse_args(argv)
 
     cases = args.cases or DEFAULT_CASES
@@ -224,8 +272,15 @@ def main(argv: list[str] | None = None) -> int:
             except ImportError:
                 print(f"skipping {spec}: envpool is not installed", flush=True)
                 continue
-        print(f"measuring {spec} ...", flush=True)
-        rows.append(measure(backend, env, num, config, args.seconds, args.threads, args.device))
+        peer = None
+        if args.rl_games_python:
+            print(f"rl_games on {spec} ...", flush=True)
+            peer = rl_games_fps(args.rl_games_python, config, num, args.rl_games_epochs)
+        for groups in (args.env_groups if backend == "envpool" else [1]):
+            print(f"measuring {spec} env_groups={groups} ...", flush=True)
+            row = measure(backend, env, num, config, args.seconds, args.threads, args.device, groups)
+            row.rl_games_sps = peer
+            rows.append(row)
     load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print()
     print(table(rows))

@@ -11,6 +11,7 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import torch
 
 from rlchain.config.load import check_batch
@@ -129,7 +130,7 @@ class TrainerBase:
         return result
 
     def _to_tensor(self, x: Any) -> torch.Tensor:
-        return torch.as_tensor(x, device=self.device)
+        return to_device(x, self.device)
 
     def _env_outcome(self, result: Any, rows: slice = slice(None)
                      ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -197,6 +198,20 @@ class TrainerBase:
         self.tracker.load_state_dict(state["episodes"])
         ckpt.set_rng_state(state["rng"])
         self.restore_extra(state)
+
+
+def to_device(x: Any, device: torch.device) -> torch.Tensor:
+    """``x`` (numpy array, tensor, ...) as a tensor on ``device``: the one conversion per env step.
+
+    A numpy array bound for CUDA goes through page-locked (pinned) host memory and an asynchronous
+    copy, so the transfer does not stage through pageable memory; torch's caching host allocator
+    reuses the pinned blocks once their copy is done. On CPU the array is shared, not copied.
+    """
+    if device.type == "cuda" and isinstance(x, np.ndarray) and x.dtype != np.object_:
+        x = np.ascontiguousarray(x) if x.flags.writeable else np.array(x)  # from_numpy wants writable
+        host = torch.from_numpy(x)
+        return host.pin_memory().to(device, non_blocking=True)
+    return torch.as_tensor(x, device=device)
 
 
 def describe(exc: BaseException) -> str:
