@@ -4,6 +4,7 @@ from setuptools import find_packages, setup
 
 EXTRAS = {
     "envpool": ["envpool>=0.8"],
+    "brax": ["brax>=0.12"],  # JAX on the CPU by default; tensors reach torch through DLPack
     "atari": ["ale-py>=0.9", "opencv-python-headless"],  # ale-py ships the ROMs; opencv: AtariPreprocessing
     "mujoco": ["gymnasium[mujoco]>=1.0"],
     "onnx": ["onnx", "onnxruntime"],

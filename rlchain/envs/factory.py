@@ -4,8 +4,8 @@
 
 1. a name in :data:`rlchain.registry.ENVS` -- a builder ``(num_envs, seed, **env_config) -> VecEnv``
    (it also gets ``vecenv_type=`` / ``render=`` when its signature names them). Built in:
-   ``openai_gym`` (gymnasium id in ``env_config.name``) and ``envpool`` (task id in
-   ``env_config.env_name``);
+   ``openai_gym`` (gymnasium id in ``env_config.name``), ``envpool`` (task id in
+   ``env_config.env_name``) and ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env);
 2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments.
 
 Backends are registered in :data:`rlchain.registry.VECENVS` as ``gymnasium`` and ``envpool``.
@@ -25,6 +25,7 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.brax_env import brax_env
 from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
 from rlchain.envs.multi_agent import make_multi_agent_env
@@ -195,6 +196,7 @@ def _did_you_mean(name: str, candidates: Any) -> str:
 
 ENVS.register("openai_gym", openai_gym_env)
 ENVS.register("envpool", envpool_env)
+ENVS.register("brax", brax_env)  # imports jax/brax only when built
 VECENVS.register("gymnasium", GymnasiumVecEnv)
 VECENVS.register("envpool", EnvpoolVecEnv)
 

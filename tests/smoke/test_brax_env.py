@@ -1,0 +1,67 @@
+"""Brax through the tensor-env contract (``env_name: brax``); skipped without the brax extra."""
+
+import os
+
+import numpy as np
+import pytest
+import torch
+
+from rlchain import Runner
+from rlchain.config.errors import ConfigError
+from rlchain.training import checkpoint as ckpt
+from tests.conftest import CONFIGS
+
+pytestmark = pytest.mark.smoke
+pytest.importorskip("brax")
+CONFIG = os.path.join(CONFIGS, "ppo_brax_inverted_pendulum.yaml")
+
+
+def test_contract_auto_reset_final_obs_and_time_limit():
+    from rlchain.envs.brax_env import BraxVecEnv
+    env = BraxVecEnv("inverted_pendulum", 16, seed=3, episode_length=20, backend="spring")
+    assert env.is_tensor_env and env.observation_space.shape == (4,) and env.action_space.shape == (1,)
+    obs = env.reset(seed=3)
+    assert obs.shape == (16, 4) and obs.dtype == torch.float32
+    again = env.reset(seed=3)
+    assert torch.equal(obs, again)  # seeded resets are reproducible
+    terminated = truncated = 0
+    steps = torch.zeros(16, dtype=torch.long)
+    gen = torch.Generator().manual_seed(0)
+    for _ in range(45):
+        result = env.step(torch.rand(16, 1, generator=gen) * 2 - 1)
+        for field in (result.obs, result.final_obs):
+            assert field.shape == (16, 4) and field.dtype == torch.float32
+        assert result.reward.shape == (16,) and result.terminated.dtype == torch.bool
+        assert not bool((result.terminated & result.truncated).any())
+        steps += 1
+        done = result.terminated | result.truncated
+        assert bool((result.truncated == (steps == 20) & ~result.terminated).all())  # time limit: 20 steps
+        if bool(done.any()):  # ended rows start over: new obs differ from their final obs
+            assert not torch.equal(result.obs[done], result.final_obs[done])
+        steps[done] = 0
+        terminated += int(result.terminated.sum())
+        truncated += int(result.truncated.sum())
+    assert terminated > 0 and truncated > 0
+
+
+def test_shipped_config_train_play_resume(tmp_path):
+    small = [f"params.config.train_dir={tmp_path}", "params.config.max_epochs=2", "params.config.num_actors=16",
+             "params.config.minibatch_size=256", "params.config.save_best_after=0", "params.config.print_stats=false"]
+    result = Runner().load(CONFIG, small).train()
+    assert result.epoch == 2 and result.frames == 2 * 16 * 32 and np.isfinite(result.mean_reward)
+    last = os.path.join(result.run_dir, "nn", "last_brax_inverted_pendulum.pth")
+    played = Runner().load(CONFIG, ["params.config.env_config.episode_length=50"]).play(last, games=2, quiet=True)
+    assert played.games == 2
+    resumed = Runner().load(CONFIG, [*small, "params.config.max_epochs=3"]).train(checkpoint=last)
+    assert resumed.epoch == 3 and ckpt.load(os.path.join(resumed.run_dir, "nn", os.path.basename(last)))["epoch"] == 3
+
+
+@pytest.mark.parametrize("override,message", [
+    ("params.config.env_config.env_name=antt", "params.config.env_config.env_name: brax has no env 'antt'"),
+    ("params.config.env_config.episode_lenght=5", "params.config.env_config.episode_lenght: not a brax option"),
+])
+def test_bad_brax_config_is_one_line(tmp_path, override, message):
+    with pytest.raises(ConfigError) as err:
+        Runner().load(CONFIG, [override, f"params.config.train_dir={tmp_path}"]).train()
+    text = str(err.value)
+    assert message in text and "\n" not in text and "ppo_brax_inverted_pendulum.yaml" in text
