@@ -47,3 +47,9 @@ def test_shipped_checkpoints_play_to_score(config, checkpoint, score):
     result = Runner().load(os.path.join(CONFIGS, config)).play(
         os.path.join(ROOT, "nn", checkpoint), games=20, quiet=True)
     assert result.mean_reward >= score, result
+
+
+def test_ppo_brax_inverted_pendulum_reaches_900(tmp_path):
+    pytest.importorskip("brax")
+    result = train(tmp_path, "ppo_brax_inverted_pendulum.yaml")
+    assert result.mean_reward >= 900, result

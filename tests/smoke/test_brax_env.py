@@ -48,7 +48,7 @@ def test_shipped_config_train_play_resume(tmp_path):
     small = [f"params.config.train_dir={tmp_path}", "params.config.max_epochs=2", "params.config.num_actors=16",
              "params.config.minibatch_size=256", "params.config.save_best_after=0", "params.config.print_stats=false"]
     result = Runner().load(CONFIG, small).train()
-    assert result.epoch == 2 and result.frames == 2 * 16 * 32 and np.isfinite(result.mean_reward)
+    assert result.epoch == 2 and result.frames == 2 * 16 * 64 and np.isfinite(result.mean_reward)
     last = os.path.join(result.run_dir, "nn", "last_brax_inverted_pendulum.pth")
     played = Runner().load(CONFIG, ["params.config.env_config.episode_length=50"]).play(last, games=2, quiet=True)
     assert played.games == 2
