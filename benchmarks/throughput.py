@@ -25,7 +25,9 @@ synchronous step of all envs. ``--rl-games-python PY`` adds rl_games' training f
 YAML (``rl_games_driver.py`` for ``--rl-games-epochs`` epochs, median "fps total" of the epochs after
 the first, torch.compile off), for cases whose NUM_ENVS is the config's num_actors (rl_games reads
 num_actors from the YAML only). Torch threads are set as the Runner
-sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``.
+sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``;
+``--update-threads 1 2`` measures once per thread count of the PPO update (``params.update_threads``);
+the ``thr`` column is rollout/update threads. env-only is measured once per case.
 The load average is printed too: other processes on the machine skew every number.
 """
 
@@ -50,6 +52,7 @@ from rlchain import Runner  # noqa: E402
 from rlchain.training.build import build_env, build_model, resolve_device  # noqa: E402
 from rlchain.training.logging import TrainLogger  # noqa: E402
 from rlchain.training.on_policy import OnPolicyTrainer  # noqa: E402
+from rlchain.training.threads import plan_threads  # noqa: E402
 
 CONFIG_DIR = os.path.join(ROOT, "rlchain", "configs")
 CONFIGS = {
@@ -76,6 +79,7 @@ class Row:
     config: str
     groups: int = 1
     rl_games_sps: float | None = None
+    update_threads: int = 1
 
     @property
     def rollout_ratio(self) -> float:
@@ -154,12 +158,17 @@ def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, mi
 
 
 def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
-            device_name: str, groups: int = 1) -> Row:
+            device_name: str, groups: int = 1, update_threads: int | None = None,
+            env_sps: float | None = None) -> Row:
+    """One row: env-only (unless ``env_sps`` is given), rollout and train steps/s of one case."""
     runner = Runner().load(config)
     extra = [f"params.config.env_groups={groups}"] if backend == "envpool" else []
     runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name) + extra)
     params = runner.params
-    torch.set_num_threads(threads or _runner_threads(params.torch_threads, params.config.device))
+    plan = plan_threads(threads or params.torch_threads, update_threads or params.update_threads,
+                        params.config.device)
+    if plan is not None:
+        plan.apply()
     torch.manual_seed(0)
     device = resolve_device(params.config.device)
     env = build_env(params, num_envs, 0)
@@ -174,29 +183,34 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
                 env.step(actions[state["i"] % len(actions)])
                 state["i"] += 1
 
-        env_steps()  # warm-up
-        env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
+        if env_sps is None:
+            env_steps()  # warm-up
+            env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
         if backend == "envpool" and groups > 1:  # the training envs, in env groups
             env.close()
             env = build_env(params, num_envs, 0, runners=True)
 
         model = build_model(params, env, device)
         trainer = OnPolicyTrainer(params, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
+        trainer.threads = plan
         trainer.obs = torch.as_tensor(env.reset(seed=0), device=device)
         trainer._rollout()
-        trainer._learn()  # warm-up
+        with trainer.update_phase():
+            trainer._learn()  # warm-up
         batch = params.config.horizon_length * num_envs
         rollout_sps = timed(trainer._rollout, batch, seconds, device)
 
         def train_epoch() -> None:
             trainer._rollout()
-            trainer._learn()
+            with trainer.update_phase():
+                trainer._learn()
 
         train_sps = timed(train_epoch, batch, seconds, device)
     finally:
         env.close()
     return Row(backend, env_name, num_envs, env_sps, rollout_sps, train_sps, torch.get_num_threads(),
-               os.path.relpath(config, ROOT), groups if backend == "envpool" else 1)
+               os.path.relpath(config, ROOT), groups if backend == "envpool" else 1,
+               update_threads=plan.update if plan is not None else torch.get_num_threads())
 
 
 def rl_games_fps(python: str, config: str, num_envs: int, epochs: int) -> float | None:
@@ -224,17 +238,9 @@ def rl_games_fps(python: str, config: str, num_envs: int, epochs: int) -> float 
     return statistics.median(values[1:])
 
 
-def _runner_threads(requested: int | None, device: str) -> int:
-    """What Runner.train would set (see rlchain.runner._set_threads)."""
-    cores = os.cpu_count() or 1
-    if requested:
-        return min(requested, cores)
-    return torch.get_num_threads() if device.startswith("cuda") else max(1, min(4, cores // 2))
-
-
 def table(rows: list[Row]) -> str:
     head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>3} {'env-only sps':>13} {'rollout sps':>12} "
-            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>3} {'rl_games sps':>12} "
+            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'rl_games sps':>12} "
             f"{'rl_games/env':>12} {'train/rl_games':>14}")
     lines = [head, "-" * len(head)]
     for r in rows:
@@ -242,7 +248,7 @@ def table(rows: list[Row]) -> str:
                                                   f"{r.train_sps / r.rl_games_sps:>14.2f}")
         lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.groups:>3} {r.env_sps:>13,.0f} "
                      f"{r.rollout_sps:>12,.0f} {r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} "
-                     f"{r.train_ratio:>9.3f} {r.threads:>3} {peer}")
+                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {peer}")
     return "\n".join(lines)
 
 
@@ -252,6 +258,9 @@ def main(argv: list[str] | None = None) -> int:
                                                               f"{' '.join(DEFAULT_CASES)})")
     ap.add_argument("--seconds", type=float, default=3.0, help="time per measurement (default 3)")
     ap.add_argument("--threads", type=int, default=None, help="torch threads (default: as the Runner sets them)")
+    ap.add_argument("--update-threads", type=int, nargs="+", default=[None],
+                    help="measure once per update_threads value (threads during the PPO update; default: "
+                         "the config's, else the same as --threads)")
     ap.add_argument("--device", default="cpu", help="training device, and the device of tensor envs")
     ap.add_argument("--json", default=None, help="also write the rows to this file")
     ap.add_argument("--env-groups", type=int, nargs="+", default=[1],
@@ -276,11 +285,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.rl_games_python:
             print(f"rl_games on {spec} ...", flush=True)
             peer = rl_games_fps(args.rl_games_python, config, num, args.rl_games_epochs)
+        env_sps = None  # env-only is measured once per case: every row's ratios share one ceiling
         for groups in (args.env_groups if backend == "envpool" else [1]):
-            print(f"measuring {spec} env_groups={groups} ...", flush=True)
-            row = measure(backend, env, num, config, args.seconds, args.threads, args.device, groups)
-            row.rl_games_sps = peer
-            rows.append(row)
+            for update_threads in args.update_threads:
+                print(f"measuring {spec} env_groups={groups} update_threads={update_threads} ...", flush=True)
+                row = measure(backend, env, num, config, args.seconds, args.threads, args.device, groups,
+                              update_threads, env_sps)
+                row.rl_games_sps = peer
+                env_sps = row.env_sps
+                rows.append(row)
     load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print()
     print(table(rows))

@@ -16,6 +16,7 @@ from rlchain.config.load import apply_overrides, check_batch, load_raw, parse_pa
 from rlchain.config.schema import Params, TrainConfig
 from rlchain.registry import ALGOS
 from rlchain.training import checkpoint as ckpt
+from rlchain.training.threads import ThreadPlan, plan_threads
 
 
 class Runner:
@@ -77,7 +78,10 @@ class Runner:
         elif seed is None:
             seed = secrets.randbelow(2**31)
         seed_everything(seed)
-        _set_threads(params.torch_threads, cfg.device, group.local_world_size if group is not None else 1)
+        threads = plan_threads(params.torch_threads, params.update_threads, cfg.device,
+                               group.local_world_size if group is not None else 1)
+        if threads is not None:
+            threads.apply()
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
         env = build_env(params, cfg.num_actors, seed, runners=True)
@@ -90,13 +94,14 @@ class Runner:
             if group is not None:  # so do ranks with different envs or resume points (torchrun)
                 group.check_consistent(env, model, state)
             return self._train_in_run_dir(params, env, model, device, seed, state, checkpoint, sigma,
-                                          callbacks, track, wandb_project, wandb_entity, group)
+                                          callbacks, track, wandb_project, wandb_entity, group, threads)
         finally:
             env.close()
 
     def _train_in_run_dir(self, params: Params, env: Any, model: Any, device: Any, seed: int, state: Any,
                           checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
-                          wandb_project: str, wandb_entity: str | None, group: Any = None) -> Any:
+                          wandb_project: str, wandb_entity: str | None, group: Any = None,
+                          threads: ThreadPlan | None = None) -> Any:
         from rlchain.training.build import apply_sigma
         from rlchain.training.logging import TrainLogger
         from rlchain.training.run_dir import create_run_dir
@@ -113,6 +118,7 @@ class Runner:
         logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats)
         try:
             trainer = ALGOS.get(params.algo.name)(params, env, model, device, run, logger, seed, self.raw)
+            trainer.threads = threads
             if state is not None:
                 trainer.restore(state, checkpoint)
             if sigma is not None:
@@ -144,7 +150,9 @@ class Runner:
         from rlchain.player import Player
 
         params = self._require()
-        _set_threads(params.torch_threads, params.config.device)  # as training: 2 threads on 2 busy cores cost 30x
+        threads = plan_threads(params.torch_threads, None, params.config.device)  # 2 threads on 2 busy cores cost 30x
+        if threads is not None:
+            threads.apply()
         player = Player(params, checkpoint, sigma=sigma)
         try:
             return player.play(games=games, deterministic=deterministic, quiet=quiet)
@@ -155,17 +163,3 @@ class Runner:
         if self.params is None:
             raise RuntimeError("call Runner.load(config) first")
         return self.params
-
-
-def _set_threads(requested: int | None, device: str, processes: int = 1) -> None:
-    """torch intra-op threads: the config's torch_threads capped at the core count; by default
-    half the cores (at most 4) for CPU training, which measured fastest for rl-sized networks.
-    ``processes`` torchrun ranks on one node share its cores."""
-    import torch
-
-    cores = max(1, (os.cpu_count() or 1) // processes)
-    if requested:
-        torch.set_num_threads(min(requested, cores))
-    elif not device.startswith("cuda"):
-        torch.set_num_threads(max(1, min(4, cores // 2)))
-

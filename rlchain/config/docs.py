@@ -58,7 +58,8 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | `params.model.name` | `discrete_a2c`, `multi_discrete_a2c` (MultiDiscrete / Tuple of Discrete / MultiBinary actions), `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn` |
 | `params.network` | network block; `name: actor_critic` is built in, user builders via `register_network` |
 | `params.config` | training keys below |
-| `params.torch_threads` | `torch.set_num_threads` for the training process (default: torch's choice) |
+| `params.torch_threads` | `torch.set_num_threads` for the training process (default on CPU: half the cores, at most 4; on CUDA: torch's choice) |
+| `params.update_threads` | CPU threads for the gradient updates only, when the envs are idle (rlchain key; default: the same as `torch_threads`) |
 | `params.load_checkpoint`, `params.load_path` | deprecated, no effect: pass `--checkpoint` |
 | `params.import_modules` | list of Python modules imported before building (register your own networks/envs there) |
 

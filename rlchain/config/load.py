@@ -76,7 +76,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     if not isinstance(params, dict):
         raise ConfigError(source, "params", f"expected a mapping, got {params!r}")
     params = compat.translate_params(params, source)
-    known = {"seed", "algo", "model", "network", "config", "import_modules", "torch_threads"}
+    known = {"seed", "algo", "model", "network", "config", "import_modules", "torch_threads", "update_threads"}
     for key in params:
         if key not in known:
             import difflib
@@ -97,6 +97,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     seed = parse_value(int | None, params.get("seed"), "params.seed", source)
     threads = parse_value(int | None, params.get("torch_threads"), "params.torch_threads", source,
                           {"check": lambda x: None if x > 0 else "must be > 0"})
+    update_threads = parse_value(int | None, params.get("update_threads"), "params.update_threads", source,
+                                 {"check": lambda x: None if x > 0 else "must be > 0"})
     algo = parse_dataclass(NamedBlock, params["algo"], "params.algo", source)
     model = parse_dataclass(NamedBlock, params["model"], "params.model", source)
     _check_registered(ALGOS, algo.name, "params.algo.name", source)
@@ -129,7 +131,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     if isinstance(config, TrainConfig) and config.central_value_config is not None:
         _check_central_value(config, source)
     return Params(algo=algo, model=model, config=config, network=network, seed=seed,
-                  import_modules=modules, torch_threads=threads, source=source)
+                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
+                  source=source)
 
 
 def load_config(path: str, overrides: list[str] | None = None) -> Params:

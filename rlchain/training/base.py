@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +28,7 @@ from rlchain.training.logging import EnvStatsCallback, TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import StopSignals, check_obs_shape, check_parameters
 from rlchain.training.self_play import SelfPlayCallback
+from rlchain.training.threads import ThreadPlan
 
 
 @dataclass
@@ -70,8 +72,13 @@ class TrainerBase:
         self.agent: Any = None
         self.distributed: Any = None  # multi_gpu: a training.distributed.Distributed, set by its attach()
         self.world_size = 1  # processes training together; frame counters count all of them
+        self.threads: ThreadPlan | None = None  # CPU threads per phase, set by the Runner
 
     # ----- loop helpers ---------------------------------------------------------------------
+    def update_phase(self) -> AbstractContextManager:
+        """Context for the gradient updates: ``update_threads`` CPU threads while the envs are idle."""
+        return self.threads.update_phase() if self.threads is not None else nullcontext()
+
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
         if self.signals is not None and self.signals.requested is None:

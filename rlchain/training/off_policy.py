@@ -147,13 +147,14 @@ class OffPolicyTrainer(TrainerBase):
             if self.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
                 t0 = time.time()
                 model.train()
-                for _ in range(cfg.num_updates_per_step):
-                    batch = self.buffer.sample(cfg.batch_size, beta=self._beta())
-                    stats, td = self.agent.update(batch)
-                    self.buffer.update_priorities(batch["indices"], td)
-                    for k, v in stats.items():
-                        sums[k] = sums.get(k, 0.0) + v
-                    count += 1
+                with self.update_phase():
+                    for _ in range(cfg.num_updates_per_step):
+                        batch = self.buffer.sample(cfg.batch_size, beta=self._beta())
+                        stats, td = self.agent.update(batch)
+                        self.buffer.update_priorities(batch["indices"], td)
+                        for k, v in stats.items():
+                            sums[k] = sums.get(k, 0.0) + v
+                        count += 1
                 update_s += time.time() - t0
         self.obs = obs
         out = {k: float(v) / count for k, v in sums.items()} if count else {}

@@ -147,7 +147,8 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
             bad = check_rollout(self.storage.rewards, self.storage.obs)
             if bad is not None:
                 raise DivergenceError(bad)
-            stats = self._learn()
+            with self.update_phase():
+                stats = self._learn()
             bad = check_parameters(self.model)
             if bad is not None:
                 raise DivergenceError(f"{bad} became non-finite in the update")

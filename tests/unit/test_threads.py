@@ -1,0 +1,54 @@
+"""rlchain.training.threads: thread counts per training phase, and the params.update_threads key."""
+
+import pytest
+import torch
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.load import parse_params
+from rlchain.training.threads import ThreadPlan, plan_threads
+
+BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
+                   "network": {"name": "actor_critic", "mlp": {"units": [8]}},
+                   "config": {"env_name": "CartPole-v1", "num_actors": 2, "horizon_length": 4,
+                              "minibatch_size": 8}}}
+
+
+def test_default_is_half_the_cores_for_both_phases():
+    assert plan_threads(None, None, "cpu", cores=8) == ThreadPlan(4, 4)
+    assert plan_threads(None, None, "cpu", cores=2) == ThreadPlan(1, 1)
+    assert plan_threads(None, None, "cpu", cores=32) == ThreadPlan(4, 4)
+
+
+def test_requests_are_capped_at_the_process_share_of_cores():
+    assert plan_threads(3, 8, "cpu", cores=4) == ThreadPlan(3, 4)
+    assert plan_threads(None, 2, "cpu", cores=2) == ThreadPlan(1, 2)
+    assert plan_threads(4, 4, "cpu", processes=2, cores=4) == ThreadPlan(2, 2)
+
+
+def test_cuda_keeps_torch_choice_unless_asked():
+    assert plan_threads(None, None, "cuda:0", cores=8) is None
+    assert plan_threads(2, None, "cuda:0", cores=8) == ThreadPlan(2, 2)
+
+
+def test_update_phase_switches_and_restores():
+    before = torch.get_num_threads()
+    try:
+        plan = ThreadPlan(1, 2)
+        plan.apply()
+        with plan.update_phase():
+            assert torch.get_num_threads() == 2
+        assert torch.get_num_threads() == 1
+        with pytest.raises(RuntimeError), plan.update_phase():
+            raise RuntimeError("update failed")
+        assert torch.get_num_threads() == 1
+    finally:
+        torch.set_num_threads(before)
+
+
+def test_update_threads_key_parses_and_rejects_bad_values():
+    raw = {"params": {**BASE["params"], "update_threads": 2}}
+    assert parse_params(raw, "cfg.yaml").update_threads == 2
+    for bad in (0, "two"):
+        with pytest.raises(ConfigError, match=r"cfg\.yaml.*params\.update_threads"):
+            parse_params({"params": {**BASE["params"], "update_threads": bad}}, "cfg.yaml")
+
