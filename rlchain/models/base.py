@@ -28,19 +28,28 @@ class ObservationModel(nn.Module):
     obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
 
     def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
+        """The network input: this model's part of obs, as float, [0, 1] for uint8, normalized when on.
+
+        With a normalizer the uint8 scaling folds into it (one pass over the frames, not five).
+        """
         if self.obs_slice is not None:
             obs = obs[:, self.obs_slice]
+        if self.obs_norm is None:
+            return self._features(obs)
+        scale = 1.0 / 255.0 if obs.dtype == torch.uint8 else 1.0
+        x = obs if obs.dtype == torch.float32 else obs.float()
+        return self.obs_norm.normalize(x.flatten(1) if self.flatten_obs else x, scale)
+
+    def _features(self, obs: torch.Tensor) -> torch.Tensor:
+        """float32 obs ([0, 1] for uint8), flattened when the model flattens: what the normalizer sees."""
         obs = as_float(obs)
-        if self.flatten_obs:
-            obs = obs.flatten(1)
-        return self.obs_norm.normalize(obs) if self.obs_norm is not None else obs
+        return obs.flatten(1) if self.flatten_obs else obs
 
     def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
-        """Fold a batch of observations into the input statistics (models with values add returns)."""
+        """Fold a batch of observations (rows) into the input statistics (models with values add returns)."""
         if obs is not None and self.obs_norm is not None:
-            # the same part and [0, 1] scale that preprocess() normalizes
-            obs = as_float(obs if self.obs_slice is None else obs[:, self.obs_slice])
-            self.obs_norm.update(obs.flatten(1) if self.flatten_obs else obs)
+            # the same part and [0, 1] scale that preprocess() normalizes, converted chunk by chunk
+            self.obs_norm.update(obs if self.obs_slice is None else obs[:, self.obs_slice], self._features)
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Values in raw return scale (identity unless a value normalizer exists)."""

@@ -39,7 +39,7 @@ import torch.distributed as dist
 from rlchain.algos.schedules import AdaptiveKLSchedule
 from rlchain.config.errors import ConfigError
 from rlchain.errors import DistributedError
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.models.normalization import RunningMeanStd, merge_moments
 
 KEY = "params.config.multi_gpu"
 LAUNCH_VARS = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
@@ -121,20 +121,6 @@ def first_mismatch(values: list[Any]) -> int | None:
         if value != values[0]:
             return rank
     return None
-
-
-def merge_moments(means: torch.Tensor, variances: torch.Tensor, counts: torch.Tensor
-                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Mean, (population) variance and count of the union of R batches.
-
-    means, variances: (R, *shape); counts: (R,). Exact (parallel-variance formula), in the input dtype.
-    """
-    shape = (-1,) + (1,) * (means.dim() - 1)
-    weights = counts.reshape(shape)
-    total = counts.sum()
-    mean = (weights * means).sum(0) / total
-    var = (weights * (variances + (means - mean).square())).sum(0) / total
-    return mean, var, total
 
 
 # ----- collectives on the default group (plain functions, so models stay deep-copyable) ----------
