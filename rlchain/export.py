@@ -10,15 +10,24 @@ The exported graph is the deterministic policy as the Player runs it::
 - ``action``: the distribution's mode, post-processed for the env (``Distribution.to_env``):
   int64 argmax of the logits for Discrete, (batch, K) int64 argmax per dimension for MultiDiscrete /
   Tuple of Discrete; for Box the mean, clipped to [-1, 1] and rescaled to the space's bounds when
-  ``clip_actions`` is on (float32). Action masks are not part of the graph yet: the
-  exported action of a ``use_action_masks`` policy ignores masks.
+  ``clip_actions`` is on (float32).
 - ``value``: the critic's value on the return scale (value normalization undone).
 
 - Recurrent policies (``network.rnn``): the graph also takes the RNN states ``rnn_state_0``,
   ``rnn_state_1`` (LSTM h and c; GRU has one), each (layers, batch, units), zeros at an episode
   start, and returns the next ones as ``rnn_state_0_out`` ... after action and value. Feed them
   back every step and zero an env's rows when its episode ends.
+- Masked policies (``use_action_masks: True``): the graph also takes ``action_mask``
+  (batch, mask_size) **bool**, True where an action is allowed: the env's ``get_action_mask()`` as
+  the Player passes it (mask_size = n for Discrete(n), sum(nvec) for multi-discrete, the
+  per-dimension masks concatenated). Masked-out logits are set to ``MASKED_LOGIT`` before the argmax,
+  as in training, so the action is always an allowed one; a row (or dimension) with no allowed action
+  is not checked in the graph and gets its first action. bool, not uint8: it is what the env returns
+  and onnxruntime takes numpy bool arrays as they are (cast a 0/1 array with ``.astype(bool)``).
+  Policies without masks have no such input.
 
+Input order: ``obs``, then the RNN states (if any), then ``action_mask`` (if any); outputs:
+``action``, ``value``, then the next RNN states. Feed by name (:class:`OnnxPolicy` holds the names).
 The batch axis is dynamic (axis 1 of the states). Requires ``pip install rlchain[onnx]`` (onnx + onnxruntime).
 """
 
@@ -35,14 +44,17 @@ import numpy as np
 import torch
 import torch.nn as nn
 
+from rlchain.export_inputs import (  # noqa: F401  (re-exported: the parity inputs)
+    HUGE_BOUND,
+    RANDOM_OBS_BOUND,
+    env_observations,
+    env_rollout,
+    random_masks,
+    random_observations,
+)
 from rlchain.models.actor_critic import ActorCritic
 
 INSTALL_HINT = "pip install rlchain[onnx]"
-RANDOM_OBS_BOUND = 10.0
-"""Random parity observations: an unbounded side of a Box dim (inf, or beyond +-1e6 like CartPole's
-float32-max velocity bounds) is replaced so the dim spans 2 * RANDOM_OBS_BOUND (-10..10 when both
-sides are unbounded)."""
-HUGE_BOUND = 1e6
 
 
 def _require(module: str) -> Any:
@@ -55,42 +67,58 @@ def _require(module: str) -> Any:
 
 
 class OnnxPolicy(nn.Module):
-    """Export wrapper: ``forward(obs) -> (action, value)``, the deterministic policy.
+    """Export wrapper: ``forward(obs, *states, [action_mask]) -> (action, value, *new_states)``.
 
     Names are class attributes so callers (export, verification, deployments) agree on them.
-    Recurrent policies will extend ``state_names``: each state ``s`` then becomes an input ``s``
-    and an output ``s + '_out'``, appended after obs / after (action, value), so the positional
-    order of the stateless graph does not change.
+    Recurrent policies extend ``state_names``: each state ``s`` becomes an input ``s`` and an output
+    ``s + '_out'``, appended after obs / after (action, value). A ``use_action_masks`` policy takes
+    ``mask_name`` (``mask_dtype``, (batch, mask_size)) last, so the positional order of the graph
+    without masks does not change.
     """
 
     state_names: tuple[str, ...] = ()
+    mask_name: str = "action_mask"
+    mask_dtype: torch.dtype = torch.bool
+    """bool: what ``get_action_mask()`` returns; onnxruntime takes numpy bool arrays as they are."""
 
     def __init__(self, model: ActorCritic) -> None:
         super().__init__()
         self.model = model
         initial = model.initial_state(1, torch.device("cpu")) if getattr(model, "is_rnn", False) else ()
         self.state_names = tuple(f"rnn_state_{i}" for i in range(len(initial)))
+        self.uses_masks = bool(getattr(model, "use_action_masks", False))
+        self.mask_size = int(model.dist.mask_size) if self.uses_masks else 0
 
     @property
     def input_names(self) -> list[str]:
-        return ["obs", *self.state_names]
+        return ["obs", *self.state_names, *([self.mask_name] if self.uses_masks else [])]
 
     @property
     def output_names(self) -> list[str]:
         return ["action", "value", *(f"{s}_out" for s in self.state_names)]
 
-    def forward(self, obs: torch.Tensor, *states: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    def forward(self, obs: torch.Tensor, *inputs: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """``inputs``: the RNN states in ``state_names`` order, then the action mask when used."""
+        states = inputs[:len(self.state_names)]
         if self.state_names:
             params, value, new_states = self.model.evaluate(obs, states)
         else:  # every model (PPO, SAC, DQN) maps obs -> (dist params, value)
             (params, value), new_states = self.model(obs), ()
         dist = self.model.dist
+        if self.uses_masks:  # the training-time masking, without the data-dependent validity check
+            params = dist.mask(params, inputs[len(self.state_names)], check=False)
         action = dist.to_env(dist.mode(params))
         return (action, self.model.denorm_value(value), *(new_states or ()))
 
     def initial_state(self, batch: int) -> tuple[torch.Tensor, ...]:
         """Zero RNN states (each (layers, batch, units)) to feed the first step; empty without an RNN."""
         return tuple(self.model.initial_state(batch, torch.device("cpu"))) if self.state_names else ()
+
+    def dummy_inputs(self, obs: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """(obs, zero states, all-True mask): example inputs for tracing, in ``input_names`` order."""
+        batch = obs.shape[0]
+        mask = (torch.ones(batch, self.mask_size, dtype=self.mask_dtype),) if self.uses_masks else ()
+        return (obs, *self.initial_state(batch), *mask)
 
 
 def obs_dtype(space: gym.Space) -> torch.dtype:
@@ -108,7 +136,7 @@ def export_model_onnx(model: ActorCritic, obs_shape: tuple[int, ...], output_pat
     """
     _require("onnx")
     policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
-    dummy = (torch.zeros((2, *obs_shape), dtype=input_dtype), *policy.initial_state(2))
+    dummy = policy.dummy_inputs(torch.zeros((2, *obs_shape), dtype=input_dtype))
     folder = os.path.dirname(os.path.abspath(output_path))
     os.makedirs(folder, exist_ok=True)
     states = set(policy.state_names) | {f"{s}_out" for s in policy.state_names}
@@ -136,27 +164,33 @@ def onnx_session(onnx_path: str) -> Any:
 
 
 def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any = None,
-                steps: int = 3) -> float:
+                steps: int = 3, masks: Any = None, seed: int = 0) -> float:
     """Max abs difference between onnxruntime and PyTorch (every output) on ``obs_batch``.
 
     ``obs_batch``: (B, *obs_shape) numpy array or tensor, cast to the graph's input dtype. Discrete
     actions count as a difference of at least 1 when the argmax differs. A recurrent policy runs
     ``steps`` steps from zero states, each graph fed its own returned states, so the state path is
-    compared too.
+    compared too. A masked policy gets ``masks`` (B, mask_size) bool, by default
+    :func:`random_masks` (``seed``), on both sides.
     """
     session = session or onnx_session(onnx_path)
     graph_input = session.get_inputs()[0]
     np_dtype = np.uint8 if graph_input.type == "tensor(uint8)" else np.float32
     obs = np.ascontiguousarray(torch.as_tensor(obs_batch).cpu().numpy()).astype(np_dtype)
     policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
+    mask_feed: dict = {}
+    if policy.uses_masks:
+        masks = random_masks(model.dist, obs.shape[0], seed) if masks is None else masks
+        mask_feed = {policy.mask_name: np.ascontiguousarray(torch.as_tensor(masks).cpu().bool().numpy())}
+    torch_mask = tuple(torch.from_numpy(m) for m in mask_feed.values())
     torch_states = policy.initial_state(obs.shape[0])
     onnx_states = [s.numpy() for s in torch_states]
     diff = 0.0
     for _ in range(steps if policy.state_names else 1):
-        feed = {graph_input.name: obs, **dict(zip(policy.state_names, onnx_states))}
+        feed = {graph_input.name: obs, **dict(zip(policy.state_names, onnx_states)), **mask_feed}
         onnx_out = session.run(policy.output_names, feed)
         with torch.no_grad():
-            torch_out = policy(torch.from_numpy(obs), *torch_states)
+            torch_out = policy(torch.from_numpy(obs), *torch_states, *torch_mask)
         for got, want in zip(onnx_out, torch_out):
             want = want.numpy()
             if got.shape != want.shape:
@@ -166,43 +200,6 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
         onnx_states = onnx_out[2:]
         torch_states = tuple(torch_out[2:])
     return diff
-
-
-def random_observations(space: gym.Space, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` observations drawn uniformly inside ``space``'s bounds, unbounded sides made finite."""
-    rng = np.random.default_rng(seed)
-    if isinstance(space, gym.spaces.Box):
-        shape = (n, *space.shape)
-        if np.dtype(space.dtype) == np.uint8:
-            return rng.integers(space.low, space.high.astype(np.int64) + 1, size=shape).astype(np.uint8)
-        low, high = space.low.astype(np.float64), space.high.astype(np.float64)
-        low_ok = np.isfinite(low) & (np.abs(low) <= HUGE_BOUND)
-        high_ok = np.isfinite(high) & (np.abs(high) <= HUGE_BOUND)
-        span = 2 * RANDOM_OBS_BOUND
-        low = np.where(low_ok, low, np.where(high_ok, high - span, -RANDOM_OBS_BOUND))
-        high = np.where(high_ok, high, low + span)
-        return rng.uniform(low, high, size=shape).astype(np.float32)
-    space.seed(seed)
-    return np.stack([np.asarray(space.sample(), dtype=np.float32) for _ in range(n)])
-
-
-def env_observations(model: ActorCritic, env: Any, steps: int, seed: int = 0) -> np.ndarray:
-    """Observations from ``steps`` deterministic policy steps in ``env`` (all envs), stacked."""
-    from rlchain.models.stepper import PolicyStepper
-
-    device = next(model.parameters()).device
-    obs = torch.as_tensor(env.reset(seed=seed), device=device)
-    policy = PolicyStepper(model, env.num_envs, device)
-    seen = [obs.cpu()]
-    for _ in range(steps):
-        actions = model.dist.to_env(policy.act(obs, env, deterministic=True))
-        if getattr(env, "is_tensor_env", False):  # a torch env may live on another device than the model
-            result = env.step(actions.to(getattr(env, "device", actions.device)))
-        else:
-            result = env.step(actions.cpu().numpy())
-        obs = torch.as_tensor(result.obs, device=device)
-        seen.append(obs.cpu())
-    return torch.cat(seen).numpy()
 
 
 def _load(params: Any, checkpoint_path: str, num_envs: int = 1) -> tuple[ActorCritic, Any]:
@@ -249,7 +246,8 @@ def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = No
     """``runner.py --export onnx``: export, then print the path and the onnxruntime parity.
 
     Parity is measured on ``num_random`` observations drawn from the observation space and on the
-    observations of ``env_steps`` policy steps in ``num_envs`` envs. Returns the output path.
+    observations of ``env_steps`` policy steps in ``num_envs`` envs; a masked policy gets random
+    masks with the former and the env's own masks with the latter. Returns the output path.
     """
     from rlchain.config.errors import ConfigError
 
@@ -265,14 +263,15 @@ def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = No
         export_model_onnx(model, tuple(space.shape), output, opset, obs_dtype(space))
         session = onnx_session(output)
         seed = params.seed if params.seed is not None else 0
-        random_diff = verify_onnx(model, output, random_observations(space, num_random, seed), session)
-        real = env_observations(model, env, env_steps, seed)
-        real_diff = verify_onnx(model, output, real, session)
+        random_diff = verify_onnx(model, output, random_observations(space, num_random, seed), session, seed=seed)
+        real, real_masks = env_rollout(model, env, env_steps, seed)
+        real_diff = verify_onnx(model, output, real, session, masks=real_masks)
     finally:
         with contextlib.suppress(Exception):
             env.close()
     print(f"exported ONNX policy to {output}", flush=True)
-    print(f"onnxruntime parity: max abs diff {random_diff:.2e} on {num_random} random observations, "
+    masked = " (with action masks)" if getattr(model, "use_action_masks", False) else ""
+    print(f"onnxruntime parity{masked}: max abs diff {random_diff:.2e} on {num_random} random observations, "
           f"{real_diff:.2e} on {len(real)} env observations", flush=True)
     if max(random_diff, real_diff) > 1e-4:
         warnings.warn(f"ONNX output differs from PyTorch by {max(random_diff, real_diff):.2e}", stacklevel=2)

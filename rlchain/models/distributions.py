@@ -68,8 +68,11 @@ class Distribution:
         """Auxiliary loss keeping continuous means in range; zero for discrete actions."""
         return torch.zeros(params.shape[0], device=params.device)
 
-    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
-        """params (B, param_size) restricted to the actions ``masks`` (B, mask_size) bool allows."""
+    def mask(self, params: torch.Tensor, masks: torch.Tensor, check: bool = True) -> torch.Tensor:
+        """params (B, param_size) restricted to the actions ``masks`` (B, mask_size) bool allows.
+
+        ``check=False`` skips the "no valid action" check, a data-dependent branch that an exported
+        (traced) graph cannot hold; the result is otherwise the same."""
         raise ActionMaskError(f"{type(self).__name__} does not support action masks "
                               "(params.config.use_action_masks needs discrete or multi-discrete actions)")
 
@@ -85,9 +88,10 @@ def _masked_logit(dtype: torch.dtype) -> float:
 def _apply_mask(params: torch.Tensor, masks: torch.Tensor, mask_size: int
                 ) -> tuple[torch.Tensor, torch.Tensor]:
     """(logits with ``~masks`` set to MASKED_LOGIT, masks as a bool tensor); checks the shape."""
-    masks = torch.as_tensor(masks, device=params.device)
-    if masks.dtype != torch.bool:
-        masks = masks.bool()
+    if isinstance(masks, torch.Tensor):  # .to, not as_tensor, which tracing (ONNX export) may record as a constant
+        masks = masks.to(device=params.device, dtype=torch.bool)
+    else:
+        masks = torch.as_tensor(masks, dtype=torch.bool, device=params.device)
     if masks.shape != params.shape:
         raise ActionMaskError(f"action mask has shape {tuple(masks.shape)}, expected "
                               f"({params.shape[0]}, {mask_size}) (batch, mask_size) bool")
@@ -142,10 +146,11 @@ class Categorical(Distribution):
         old_logp, new_logp = self._log_softmax(old), self._log_softmax(new)
         return (old_logp.exp() * (old_logp - new_logp)).sum(-1)
 
-    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+    def mask(self, params: torch.Tensor, masks: torch.Tensor, check: bool = True) -> torch.Tensor:
         """Invalid logits become MASKED_LOGIT; a row with no True entry raises ActionMaskError."""
         out, masks = _apply_mask(params, masks, self.mask_size)
-        _no_valid_rows(masks.any(-1))
+        if check:
+            _no_valid_rows(masks.any(-1))
         return out
 
     def to_env(self, actions: torch.Tensor) -> torch.Tensor:
@@ -233,13 +238,14 @@ class MultiCategorical(Distribution):
         old_logp, new_logp = self._log_softmax(old), self._log_softmax(new)
         return (old_logp.exp() * (old_logp - new_logp)).sum((-2, -1))
 
-    def mask(self, params: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+    def mask(self, params: torch.Tensor, masks: torch.Tensor, check: bool = True) -> torch.Tensor:
         """Invalid logits become MASKED_LOGIT; masks (B, sum(nvec)) are laid out like the logits.
 
         Each dimension of each row needs at least one True entry, else ActionMaskError.
         """
         out, masks = _apply_mask(params, masks, self.mask_size)
-        _no_valid_rows(self._padded(masks, False).any(-1))
+        if check:
+            _no_valid_rows(self._padded(masks, False).any(-1))
         return out
 
     def to_env(self, actions: torch.Tensor) -> torch.Tensor:
