@@ -12,8 +12,8 @@ temporary ``train_dir`` and ``device: cpu`` added. The outcome is one of:
 - ``not supported``: rlchain stops with a config error naming a key it does not implement;
 - ``typo or unknown key caught``: a key rl_games silently ignores (e.g. a misspelt ``rnn1``);
 - ``needs torchrun`` (``multi_gpu: True``);
-- ``network not in rlchain``: rl_games' ``resnet_actor``, or a network rl_games' own test package
-  registers (``testnet``);
+- ``network not in rlchain``: e.g. rl_games' ``resnet_actor`` or ``tcnnnet`` (its test networks
+  ``testnet`` / ``testnet_aux_loss`` are built into rlchain);
 - ``error``: anything else (the first line of the message is shown).
 """
 

@@ -27,6 +27,11 @@ def register_builtins() -> None:
     for name in ("discrete_a2c", "multi_discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
         MODELS.register(name, actor_critic_model, overwrite=True)
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
+    from rlchain.networks.test_networks import TestNetAuxLossBuilder, TestNetBuilder
+
+    # rl_games' test networks; a user package may register its own under these names (as in rl_games)
+    NETWORKS.register("testnet", TestNetBuilder, overwrite=True, replaceable=True)
+    NETWORKS.register("testnet_aux_loss", TestNetAuxLossBuilder, overwrite=True, replaceable=True)
     for name in ("a2c_continuous", "a2c_discrete"):
         ALGOS.register(name, OnPolicyTrainer, overwrite=True)
     from rlchain.algos.dqn import dqn_model

@@ -8,7 +8,7 @@ import sys
 import warnings
 
 from rlchain.config.errors import ConfigError
-from rlchain.errors import DistributedError, DivergenceError, EnvError
+from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
 from rlchain.training.checkpoint import CheckpointError
 from rlchain.training.wandb_logger import TrackingError
 
@@ -52,9 +52,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ImportError, TrackingError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except (EnvError, DivergenceError, DistributedError) as exc:
+    except (EnvError, DivergenceError, DistributedError, NetworkError) as exc:
         kind = ("env error" if isinstance(exc, EnvError) else "divergence" if isinstance(exc, DivergenceError)
-                else "distributed error")
+                else "network error" if isinstance(exc, NetworkError) else "distributed error")
         print(f"{kind}: {exc}", file=sys.stderr)
         return 1
     except OSError as exc:

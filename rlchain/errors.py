@@ -9,6 +9,10 @@ class EnvError(RuntimeError):
     """The environment raised, or returned data that does not fit its declared space."""
 
 
+class NetworkError(RuntimeError):
+    """A network broke its contract at run time, e.g. ``get_aux_loss()`` returned a non-scalar loss."""
+
+
 class DistributedError(RuntimeError):
     """Under torchrun, a collective failed: another rank died, was killed or hung (multi_gpu)."""
 

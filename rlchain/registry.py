@@ -24,17 +24,27 @@ class Registry:
     def __init__(self, kind: str) -> None:
         self.kind = kind
         self._items: dict[str, Any] = {}
+        self._replaceable: set[str] = set()
 
-    def register(self, name: str, obj: Any = None, *, overwrite: bool = False) -> Any:
-        """Register ``obj`` under ``name``; usable as a decorator when ``obj`` is omitted."""
+    def register(self, name: str, obj: Any = None, *, overwrite: bool = False, replaceable: bool = False) -> Any:
+        """Register ``obj`` under ``name``; usable as a decorator when ``obj`` is omitted.
+
+        ``replaceable`` marks a built-in example (e.g. the ``testnet`` networks) that user code may
+        register its own ``name`` over without ``overwrite=True``, as rl_games users do.
+        """
         if obj is None:
             def decorator(target: Any) -> Any:
-                self.register(name, target, overwrite=overwrite)
+                self.register(name, target, overwrite=overwrite, replaceable=replaceable)
                 return target
             return decorator
-        if name in self._items and not overwrite and self._items[name] is not obj:
+        taken = name in self._items and self._items[name] is not obj and name not in self._replaceable
+        if taken and not overwrite:
             raise ValueError(f"{self.kind} '{name}' is already registered; pass overwrite=True to replace it")
         self._items[name] = obj
+        if replaceable:
+            self._replaceable.add(name)
+        else:
+            self._replaceable.discard(name)
         return obj
 
     def get(self, name: str) -> Any:

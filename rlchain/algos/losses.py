@@ -1,8 +1,17 @@
-"""Pure PPO loss terms, each returning a per-sample tensor (B,) to be averaged by the caller."""
+"""Pure PPO loss terms, each returning a per-sample tensor (B,) to be averaged by the caller,
+and the check of a network's auxiliary losses (``get_aux_loss()``, already reduced to scalars)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import torch
+
+from rlchain.errors import NetworkError
+
+BUILTIN_LOSS_TAGS = frozenset({"a_loss", "c_loss", "entropy", "bounds_loss"})
+"""``losses/<name>`` tags PPO writes itself; an auxiliary loss may not take one of these names."""
 
 
 def smooth_clamp(x: torch.Tensor, low: float, high: float) -> torch.Tensor:
@@ -35,3 +44,35 @@ def value_loss(values: torch.Tensor, old_values: torch.Tensor, returns: torch.Te
 def normalize_advantages(advantages: torch.Tensor, eps: float = 1e-8) -> torch.Tensor:
     """Zero mean, unit std over the batch."""
     return (advantages - advantages.mean()) / (advantages.std() + eps)
+
+
+def aux_loss_terms(raw: Any) -> dict[str, torch.Tensor]:
+    """A network's ``get_aux_loss()`` result, checked: ``{name: 0-d float tensor}``.
+
+    rl_games' contract: ``None`` (no auxiliary loss) or a dict of scalar losses, each added to the
+    PPO loss with weight 1 (the network scales its own) and logged as ``losses/<name>``. A ``None``
+    entry means no loss this step. Anything else raises a one-line NetworkError naming the key.
+    """
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        raise NetworkError(f"get_aux_loss() must return a dict of scalar tensors or None, got "
+                           f"{type(raw).__name__}")
+    out: dict[str, torch.Tensor] = {}
+    for name, value in raw.items():
+        where = f"get_aux_loss()[{name!r}]"
+        if value is None:
+            continue
+        if not isinstance(name, str) or not name:
+            raise NetworkError(f"{where}: loss names must be non-empty strings (logged as losses/<name>)")
+        if name in BUILTIN_LOSS_TAGS:
+            raise NetworkError(f"{where}: the name collides with PPO's own losses/{name} tag; rename the loss")
+        if not isinstance(value, torch.Tensor):
+            raise NetworkError(f"{where} must be a scalar tensor, got {type(value).__name__} {value!r}")
+        if value.numel() != 1:
+            raise NetworkError(f"{where} must be a scalar tensor, got shape {tuple(value.shape)} "
+                               f"(reduce it, e.g. with .mean())")
+        if not value.is_floating_point():
+            raise NetworkError(f"{where} must be a floating-point tensor, got {value.dtype}")
+        out[name] = value.reshape(())
+    return out

@@ -11,7 +11,7 @@ from contextlib import nullcontext
 
 import torch
 
-from rlchain.algos.losses import normalize_advantages, policy_loss, value_loss
+from rlchain.algos.losses import aux_loss_terms, normalize_advantages, policy_loss, value_loss
 from rlchain.algos.schedules import LinearSchedule, make_schedule
 from rlchain.algos.storage import Batch, RolloutStorage
 from rlchain.config.schema import TrainConfig
@@ -20,7 +20,11 @@ from rlchain.models.actor_critic import ActorCritic
 
 
 class PPOAgent:
-    """Clipped-surrogate PPO with value clipping, entropy and bounds losses, adaptive/linear lr."""
+    """Clipped-surrogate PPO with value clipping, entropy and bounds losses, adaptive/linear lr.
+
+    A network with ``get_aux_loss()`` (rl_games' contract) has its auxiliary losses added to the
+    loss after each forward pass; they come back from :meth:`update` as ``losses/<name>``.
+    """
 
     def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device) -> None:
         self.model = model
@@ -39,20 +43,26 @@ class PPOAgent:
         self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks
 
     def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
-        """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr."""
+        """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
+
+        Auxiliary losses of the network appear as ``losses/<name>``, averaged over the minibatches
+        that returned them.
+        """
         cfg = self.cfg
         advantages = storage.advantages.sum(-1)  # several value heads add up, as in rl_games
         if cfg.normalize_advantage:  # over the whole batch once, as rl_games does
             advantages = normalize_advantages(advantages)
         sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
                 "grad_norm": 0.0}
-        count = 0
+        count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
         for _ in range(cfg.mini_epochs):
             epoch_kl, epoch_n = 0.0, 0
             for batch in self._minibatches(storage, advantages):
                 stats = self._step(batch)
                 for key, value in stats.items():
-                    sums[key] += value
+                    sums[key] = sums.get(key, 0.0) + value
+                    if key.startswith("losses/"):  # auxiliary: averaged over the minibatches that had it
+                        aux_counts[key] = aux_counts.get(key, 0) + 1
                 count += 1
                 epoch_kl += stats["kl"]
                 epoch_n += 1
@@ -62,7 +72,7 @@ class PPOAgent:
                 self._set_lr(self.schedule.update(self.lr, kl=epoch_kl / max(epoch_n, 1)))
         if isinstance(self.schedule, LinearSchedule):
             self._set_lr(self.schedule.update(self.lr, progress=progress))
-        out = {key: value / max(count, 1) for key, value in sums.items()}
+        out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
         return out
 
@@ -86,6 +96,9 @@ class PPOAgent:
             if cfg.bounds_loss_coef:
                 b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
                 loss = loss + cfg.bounds_loss_coef * b_loss
+            aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
+            for aux_loss in aux.values():
+                loss = loss + aux_loss
         self.optimizer.zero_grad(set_to_none=True)
         (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
         if self.gradient_sync is not None:  # before unscaling and clipping, so every rank sees the same grads
@@ -98,9 +111,11 @@ class PPOAgent:
             kl = dist.kl(batch.params, params.detach().float()).mean()
             ratio = torch.exp(log_probs.detach() - batch.log_probs)
             clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
-        names = ("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac", "loss", "grad_norm")
+        names = ("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac", "loss", "grad_norm",
+                 *(f"losses/{name}" for name in aux))
         values = torch.stack([a_loss.detach(), c_loss.detach(), entropy.detach(), b_loss.detach(), kl,
-                              clip_frac, loss.detach(), grad_norm.detach().float()]).tolist()
+                              clip_frac, loss.detach(), grad_norm.detach().float(),
+                              *(value.detach().float() for value in aux.values())]).tolist()
         stats = dict(zip(names, values))
         bad = first_non_finite(stats)
         if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself

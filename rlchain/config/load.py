@@ -141,27 +141,27 @@ def load_config(path: str, overrides: list[str] | None = None) -> Params:
     return parse_params(raw, path)
 
 
-def _parse_network(network: Any, source: str) -> Any:
+def _parse_network(network: Any, source: str, path: str = "params.network") -> Any:
     """Built-in builders get a typed NetworkConfig; user builders may declare ``config_class``."""
     from rlchain.registry import NETWORKS
 
     if network is None:
         network = {}
     if not isinstance(network, dict):
-        raise ConfigError(source, "params.network", f"expected a mapping, got {network!r}")
-    network = compat.translate_network(network, source)
+        raise ConfigError(source, path, f"expected a mapping, got {network!r}")
+    network = compat.translate_network(network, source, path)
     name = network.get("name", "actor_critic")
     builder = NETWORKS.get(name) if name in NETWORKS else None
     config_class = getattr(builder, "config_class", None)
     if config_class is None:
         return network
-    parsed = parse_dataclass(config_class, network, "params.network", source)
-    _check_planned(parsed, "params.network", source)
+    parsed = parse_dataclass(config_class, network, path, source)
+    _check_planned(parsed, path, source)
     if isinstance(parsed, NetworkConfig):
         chosen = [k for k in ("discrete", "multi_discrete", "continuous")
                   if getattr(parsed.space, k) is not None]
         if len(chosen) > 1:
-            raise ConfigError(source, "params.network.space", f"choose one action head, got {', '.join(chosen)}")
+            raise ConfigError(source, f"{path}.space", f"choose one action head, got {', '.join(chosen)}")
     return parsed
 
 
@@ -233,8 +233,14 @@ def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
 
 def _check_central_value(config: TrainConfig, source: str) -> None:
     """The asymmetric critic: value-only network, a minibatch that divides the batch."""
+    from rlchain.registry import NETWORKS
+
     cv, path = config.central_value_config, "params.config.central_value_config"
-    heads = [k for k in ("discrete", "multi_discrete", "continuous") if getattr(cv.network.space, k) is not None]
+    cv.network = _parse_network(cv.network, source, f"{path}.network")
+    _check_registered(NETWORKS, _network_name(cv.network), f"{path}.network.name", source)
+    typed = isinstance(cv.network, NetworkConfig)  # actor_critic; a user network's block is its own
+    heads = [k for k in ("discrete", "multi_discrete", "continuous")
+             if typed and getattr(cv.network.space, k) is not None]
     if heads:
         raise ConfigError(source, f"{path}.network.space", f"the central value network is a critic (value "
                           f"only); remove the '{heads[0]}' action head")
@@ -245,7 +251,7 @@ def _check_central_value(config: TrainConfig, source: str) -> None:
     if batch % cv.minibatch_size:
         raise ConfigError(source, f"{path}.minibatch_size", f"batch num_actors*horizon_length = {batch} is not "
                           f"divisible by {cv.minibatch_size}")
-    if cv.network.rnn is not None:
+    if typed and cv.network.rnn is not None:
         if cv.minibatch_size % config.seq_length or config.horizon_length % config.seq_length:
             raise ConfigError(source, f"{path}.minibatch_size", f"a recurrent critic trains on sequences: "
                               f"minibatch_size {cv.minibatch_size} and horizon_length {config.horizon_length} "

@@ -360,8 +360,10 @@ class CentralValueConfig:
     actor's own value head is then not trained. Needs an env with ``use_central_value = True``.
     """
 
-    network: NetworkConfig = option(doc="the critic's network block (mlp, cnn; `central_value: True`; "
-                                        "no action head)")
+    # parsed in load.py like params.network: a NetworkConfig for actor_critic, the raw dict for a user builder
+    network: Any = option(doc="the critic's network block: actor_critic (mlp, cnn, rnn; `central_value: True`; "
+                              "no action head) or a registered network, built with `central_value: True` and "
+                              "returning (value, states)")
     learning_rate: float = option(5e-4, "critic Adam learning rate", check=_check_lr)
     lr_schedule: str | None = option(None, "None (constant) or linear (to 0 over max_epochs/max_frames)",
                                      choices=("linear", "constant"))

@@ -4,7 +4,10 @@ rl_games envs with ``use_central_value = True`` return ``{'obs': actor view, 'st
 rlchain concatenates the two per env (``[obs | state]``, float32) so every vecenv backend, the
 rollout storage and time-out bootstrapping work unchanged; the space is an :class:`ObsStateBox`
 that remembers where ``obs`` ends. The actor model reads ``[..., :obs_size]``, the central value
-model ``[..., obs_size:]`` (``ObservationModel.obs_slice``). Both parts are flattened to 1-d.
+model ``[..., obs_size:]`` (``ObservationModel.obs_slice``). Both parts are flattened to 1-d with
+gymnasium's rule (``gym.spaces.flatten``), so a part may itself be a Dict (rl_games' TestRnnEnv
+with ``multi_obs_space``); the box keeps both parts' spaces as the env declared them
+(``obs_space`` / ``state_space``) for networks that split a flat part back by key.
 """
 
 from __future__ import annotations
@@ -16,11 +19,14 @@ KEYS = frozenset({"obs", "state"})
 
 
 class ObsStateBox(gym.spaces.Box):
-    """A flat float32 Box ``[obs | state]`` that knows the split: ``obs_size`` and ``state_size``."""
+    """A flat float32 Box ``[obs | state]`` that knows the split: ``obs_size`` and ``state_size``,
+    and (when known) each part's space before flattening: ``obs_space`` and ``state_space``."""
 
-    def __init__(self, obs_size: int, state_size: int, seed: int | None = None) -> None:
+    def __init__(self, obs_size: int, state_size: int, seed: int | None = None,
+                 obs_space: gym.Space | None = None, state_space: gym.Space | None = None) -> None:
         super().__init__(-np.inf, np.inf, (obs_size + state_size,), np.float32, seed=seed)
         self.obs_size, self.state_size = obs_size, state_size
+        self.obs_space, self.state_space = obs_space, state_space
 
 
 def is_obs_state_space(space: gym.Space) -> bool:
@@ -29,21 +35,35 @@ def is_obs_state_space(space: gym.Space) -> bool:
 
 
 class ConcatObsState(gym.ObservationWrapper):
-    """``{'obs': (...), 'state': (...)}`` -> ``[obs.ravel() | state.ravel()]`` as float32."""
+    """``{'obs': (...), 'state': (...)}`` -> ``[flatten(obs) | flatten(state)]`` as float32."""
 
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
         spaces = env.observation_space.spaces
-        self.observation_space = ObsStateBox(gym.spaces.flatdim(spaces["obs"]), gym.spaces.flatdim(spaces["state"]))
+        self._obs_space, self._state_space = spaces["obs"], spaces["state"]
+        self.observation_space = ObsStateBox(gym.spaces.flatdim(self._obs_space), gym.spaces.flatdim(self._state_space),
+                                             obs_space=self._obs_space, state_space=self._state_space)
 
     def observation(self, observation: dict) -> np.ndarray:
-        return np.concatenate([np.asarray(observation["obs"], dtype=np.float32).ravel(),
-                               np.asarray(observation["state"], dtype=np.float32).ravel()])
+        return np.concatenate([_flat(self._obs_space, observation["obs"]),
+                               _flat(self._state_space, observation["state"])])
+
+
+def _flat(space: gym.Space, value: object) -> np.ndarray:
+    """One part as a float32 vector: a Box raveled as is, a Dict (or other space) by gymnasium's rule."""
+    if isinstance(space, gym.spaces.Box):
+        return np.asarray(value, dtype=np.float32).ravel()
+    return np.asarray(gym.spaces.flatten(space, value), dtype=np.float32)
 
 
 def concat_obs_state_env(env: gym.Env) -> gym.Env:
     """``env`` with ``{'obs', 'state'}`` observations concatenated; other envs unchanged."""
     return ConcatObsState(env) if is_obs_state_space(env.observation_space) else env
+
+
+def obs_state_parts(space: gym.Space) -> tuple[gym.Space | None, gym.Space | None]:
+    """The (obs, state) spaces as the env declared them, for an ObsStateBox; (None, None) otherwise."""
+    return (space.obs_space, space.state_space) if isinstance(space, ObsStateBox) else (None, None)
 
 
 def obs_state_split(space: gym.Space) -> int | None:

@@ -7,9 +7,10 @@ normalization and the built-in networks then work unchanged.
 
 Routing by key: a network that wants the entries apart (e.g. an image through a CNN, a vector
 through an MLP) receives the flat vector and splits it back with :func:`split_flat_obs` and the
-env's Dict space (which the user knows: it is their env's ``observation_space``)::
+env's Dict space, which its builder gets as the ``observation_space`` keyword (the flat space is a
+:class:`FlatDictBox` that keeps it)::
 
-    parts = split_flat_obs(input_dict["obs"], dict_space)   # {'image': (B, 3, 8, 8), 'pos': (B, 2)}
+    parts = split_flat_obs(input_dict["obs"], observation_space)   # {'image': (B, 3, 8, 8), 'pos': (B, 2)}
 
 With ``normalize_input`` the running mean/std is per flat dimension, i.e. per entry of every key.
 The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not flattened here.
@@ -18,6 +19,7 @@ The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not
 from __future__ import annotations
 
 import gymnasium as gym
+import numpy as np
 import torch
 
 CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
@@ -28,9 +30,24 @@ def should_flatten(space: gym.Space) -> bool:
     return isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS
 
 
+class FlatDictBox(gym.spaces.Box):
+    """The flat Box of a flattened Dict observation space; ``dict_space`` is the Dict it came from."""
+
+    def __init__(self, dict_space: gym.spaces.Dict, dtype: type | np.dtype | None = None) -> None:
+        flat = gym.spaces.flatten_space(dict_space)
+        dtype = np.dtype(dtype or flat.dtype)
+        super().__init__(flat.low.astype(dtype), flat.high.astype(dtype), flat.shape, dtype)
+        self.dict_space = dict_space
+
+
 def flatten_dict_env(env: gym.Env) -> gym.Env:
-    """``env`` with Dict observations flattened (gymnasium's FlattenObservation); others unchanged."""
-    return gym.wrappers.FlattenObservation(env) if should_flatten(env.observation_space) else env
+    """``env`` with Dict observations flattened (gymnasium's FlattenObservation, its space a
+    :class:`FlatDictBox`); others unchanged."""
+    if not should_flatten(env.observation_space):
+        return env
+    flat = gym.wrappers.FlattenObservation(env)
+    flat.observation_space = FlatDictBox(env.observation_space)
+    return flat
 
 
 def split_flat_obs(obs: torch.Tensor, space: gym.spaces.Dict) -> dict[str, torch.Tensor]:

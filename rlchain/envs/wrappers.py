@@ -15,7 +15,7 @@ import numpy as np
 
 from rlchain.envs.action_masks import ActionMaskProxy
 from rlchain.envs.central_value import concat_obs_state_env
-from rlchain.envs.dict_obs import flatten_dict_env
+from rlchain.envs.dict_obs import FlatDictBox, flatten_dict_env
 
 KEPT_OBS_DTYPES = (np.dtype(np.float32), np.dtype(np.uint8))
 
@@ -29,6 +29,8 @@ def float32_obs_space(space: gym.Space) -> gym.Space:
     if isinstance(space, gym.spaces.Dict):
         size = sum(int(np.prod(s.shape)) for s in space.spaces.values())
         return gym.spaces.Box(-np.inf, np.inf, (size,), np.float32)
+    if isinstance(space, FlatDictBox) and space.dtype not in KEPT_OBS_DTYPES:
+        return FlatDictBox(space.dict_space, np.float32)  # keeps the Dict for the network
     if isinstance(space, gym.spaces.Box) and space.dtype not in KEPT_OBS_DTYPES:
         with warnings.catch_warnings():  # "precision lowered by casting to float32": intended
             warnings.simplefilter("ignore")

@@ -6,6 +6,8 @@ that choose the distribution (see :func:`rlchain.models.distributions.make_distr
 
 from __future__ import annotations
 
+from typing import Any
+
 import torch
 import torch.nn as nn
 
@@ -63,6 +65,13 @@ class ActorCritic(ValueModel):
             params = self.dist.mask(params, action_masks)
         new_states = tuple(out[-1]) if self.is_rnn and out[-1] is not None else None
         return params, value, new_states
+
+    def aux_losses(self) -> Any:
+        """The network's auxiliary losses from its last forward pass (rl_games' ``get_aux_loss()``:
+        a dict of scalar tensors, or None); None when the network has no such method. Unchecked:
+        :func:`rlchain.algos.losses.aux_loss_terms` validates them."""
+        get_aux_loss = getattr(self.network, "get_aux_loss", None)
+        return get_aux_loss() if callable(get_aux_loss) else None
 
     def initial_state(self, batch: int, device: torch.device | None = None) -> tuple[torch.Tensor, ...]:
         """Zero RNN states for ``batch`` envs, each (layers, batch, units); empty without an RNN."""

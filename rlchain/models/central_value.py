@@ -1,4 +1,5 @@
-"""The asymmetric critic: a value-only network on the env's full ``state`` (``central_value_config``)."""
+"""The asymmetric critic: a value-only network on the env's full ``state`` (``central_value_config``):
+the built-in ``actor_critic`` trunk with a value head, or a registered network (rl_games' contract)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.schema import NetworkConfig
+from rlchain.errors import NetworkError
 from rlchain.models.base import ValueModel
 from rlchain.models.normalization import RunningMeanStd
 from rlchain.networks.actor_critic import Trunk
@@ -27,25 +29,68 @@ class CentralValueNetwork(nn.Module):
         features, new_states = self.trunk(state, states, resets, seq_length)
         return self.value_act(self.value(features)), new_states
 
+    @property
+    def is_rnn(self) -> bool:
+        return self.trunk.rnn is not None
+
+    def initial_state(self, batch: int, device: torch.device) -> tuple[torch.Tensor, ...]:
+        return tuple(self.trunk.initial_state(batch, device))
+
+
+class RegisteredCriticNetwork(nn.Module):
+    """A registered network as the critic, rl_games' contract: built from a block with
+    ``central_value: True``, its ``forward({'obs': state})`` returns ``(value (B, value_size), states)``.
+    Feedforward only (a recurrent critic: ``actor_critic`` with an ``rnn`` block)."""
+
+    is_rnn = False
+
+    def __init__(self, network: nn.Module, value_size: int) -> None:
+        super().__init__()
+        if callable(getattr(network, "is_rnn", None)) and network.is_rnn():
+            raise ValueError("a registered recurrent critic network is not supported; use actor_critic with "
+                             "an rnn block")
+        self.net = network
+        self.value_size = value_size
+
+    def initial_state(self, batch: int, device: torch.device) -> tuple[torch.Tensor, ...]:
+        return ()
+
+    def forward(self, state: torch.Tensor, states: tuple = (), resets: torch.Tensor | None = None,
+                seq_length: int = 1) -> tuple[torch.Tensor, tuple]:
+        out = self.net({"obs": state})
+        if not isinstance(out, (tuple, list)) or len(out) != 2:
+            got = f"{len(out)} outputs" if isinstance(out, (tuple, list)) else type(out).__name__
+            raise NetworkError(f"central value network {type(self.net).__name__} returned {got}; a critic returns "
+                               f"(value, states): build it with central_value: True")
+        value = out[0]
+        if not isinstance(value, torch.Tensor) or tuple(value.shape) != (state.shape[0], self.value_size):
+            shape = tuple(value.shape) if isinstance(value, torch.Tensor) else type(value).__name__
+            raise NetworkError(f"central value network {type(self.net).__name__} returned values of shape {shape}, "
+                               f"expected ({state.shape[0]}, {self.value_size})")
+        return value, ()
+
 
 class CentralValue(ValueModel):
     """Critic model: state normalization, the network, and value normalization (raw <-> normalized)."""
 
-    def __init__(self, cfg: NetworkConfig, state_shape: tuple[int, ...], value_size: int,
-                 normalize_input: bool, normalize_value: bool) -> None:
+    def __init__(self, cfg: NetworkConfig | None, state_shape: tuple[int, ...], value_size: int,
+                 normalize_input: bool, normalize_value: bool, network: nn.Module | None = None) -> None:
+        """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None)."""
         super().__init__()
-        self.network = CentralValueNetwork(cfg, state_shape, value_size)
+        self.network = CentralValueNetwork(cfg, state_shape, value_size) if network is None \
+            else RegisteredCriticNetwork(network, value_size)
         self.obs_norm = RunningMeanStd(state_shape) if normalize_input else None
         self.value_norm = RunningMeanStd((value_size,), clip=0.0) if normalize_value else None
 
     @property
     def is_rnn(self) -> bool:
-        return self.network.trunk.rnn is not None
+        return self.network.is_rnn
 
     def initial_state(self, batch: int, device: torch.device | None = None) -> tuple[torch.Tensor, ...]:
         """Zero RNN states for ``batch`` envs (empty without an RNN)."""
-        device = device or self.network.value.weight.device
-        return tuple(self.network.trunk.initial_state(batch, device))
+        if not self.is_rnn:
+            return ()
+        return self.network.initial_state(batch, device or self.network.value.weight.device)
 
     def forward(self, state: torch.Tensor, states: tuple = (), resets: torch.Tensor | None = None,
                 seq_length: int = 1) -> tuple[torch.Tensor, tuple]:

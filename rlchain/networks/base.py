@@ -2,10 +2,18 @@
 
 A builder is registered with ``rlchain.model_builder.register_network(name, BuilderClass)``.
 rlchain calls ``builder = BuilderClass(); builder.load(params_network); builder.build(name, **kwargs)``
-with kwargs ``actions_num``, ``input_shape``, ``value_size``, ``num_seqs`` and ``action_space``.
+with kwargs ``actions_num``, ``input_shape``, ``value_size``, ``num_seqs``, ``action_space`` and
+``observation_space`` (the env's own space: for Dict observations, which arrive flattened, the Dict,
+so the network can split them by key with ``rlchain.envs.dict_obs.split_flat_obs``).
 The module's ``forward(input_dict)`` receives ``{'obs': (B, *obs_shape) tensor, ...}`` and returns
 ``(logits, value, states)`` for discrete actions or ``(mu, sigma, value, states)`` for continuous
-ones; ``value`` has shape (B, value_size).
+ones; ``value`` has shape (B, value_size). As the critic of ``central_value_config.network`` it is
+built from a block with ``central_value: True`` (``actions_num = value_size``, ``input_shape`` the
+state's) and returns ``(value, states)``.
+
+Optional, as in rl_games: ``get_aux_loss()`` returning ``{name: scalar tensor}`` (or None) from the
+last ``forward``; PPO adds each loss to its loss (weight 1) and logs it as ``losses/<name>``
+(example: :mod:`rlchain.networks.test_networks`).
 """
 
 from __future__ import annotations

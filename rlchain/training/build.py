@@ -10,8 +10,8 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
-from rlchain.envs.central_value import obs_state_split
+from rlchain.config.schema import NetworkConfig, Params
+from rlchain.envs.central_value import obs_state_parts, obs_state_split
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
@@ -60,8 +60,10 @@ def value_size_of(env: Any) -> int:
 def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
     """Network from the network registry, wrapped by the model preset from the model registry."""
     obs_space, act_space = env.observation_space, env.action_space
+    declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
     split = obs_state_split(obs_space)  # [obs | state] from a central-value env: the actor reads obs
     if split is not None:
+        declared = obs_state_parts(obs_space)[0] or gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
         obs_space = gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
@@ -70,7 +72,7 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
         network = instantiate(NETWORKS.get(_network_name(params.network)), params.network,
                               actions_num=actions_num, input_shape=tuple(obs_space.shape),
                               value_size=value_size, num_seqs=params.config.num_actors,
-                              action_space=act_space, observation_space=obs_space)
+                              action_space=act_space, observation_space=declared)
         model = factory(network=network, action_space=act_space, obs_shape=tuple(obs_space.shape),
                         value_size=value_size, config=params.config, model_name=params.model.name)
     except ValueError as exc:
@@ -93,13 +95,29 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
         raise ConfigError(params.source, "params.config.central_value_config", "the env has no central-value "
                           "state: it must return {'obs': ..., 'state': ...} observations (use_central_value)")
     state_shape = (space.shape[0] - split,)
+    value_size = value_size_of(env)
     try:
-        model = CentralValue(cv.network, state_shape, value_size_of(env), cv.normalize_input,
-                             params.config.normalize_value)
+        if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
+            model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
+                                 params.config.normalize_value)
+        else:  # a registered network, given its block and rl_games' critic kwargs
+            block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
+            network = instantiate(NETWORKS.get(_network_name(cv.network)), block, actions_num=value_size,
+                                  input_shape=state_shape, value_size=value_size,
+                                  num_seqs=params.config.num_actors,
+                                  observation_space=obs_state_parts(space)[1] or gym.spaces.Box(
+                                      -np.inf, np.inf, state_shape, np.float32))
+            model = CentralValue(None, state_shape, value_size, cv.normalize_input,
+                                 params.config.normalize_value, network=network)
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     model.obs_slice = slice(split, None)
     return model.to(device)
+
+
+def declared_space(space: gym.Space) -> gym.Space:
+    """The observation space as the env declared it: the Dict behind a flattened one, else ``space``."""
+    return getattr(space, "dict_space", None) or space
 
 
 def _network_name(network: Any) -> str:

@@ -63,6 +63,9 @@ class TrainLogger:
         s("losses/c_loss", stats["c_loss"], frames)
         s("losses/entropy", stats["entropy"], frames)
         s("losses/bounds_loss", stats["b_loss"], frames)
+        for tag, value in stats.items():
+            if tag.startswith("losses/"):  # the network's auxiliary losses (get_aux_loss), rl_games' tags
+                s(tag, value, frames)
         s("info/last_lr", stats["lr"], frames)
         s("info/lr_mul", stats["lr"] / max(stats.get("lr0", stats["lr"]), 1e-12), frames)
         s("info/kl", stats["kl"], frames)

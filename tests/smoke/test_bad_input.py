@@ -1,4 +1,5 @@
-"""Bad input through the CLI: one clear line on stderr, exit status 2, no traceback, no run folder."""
+"""Bad input through the CLI: one clear line on stderr, exit status 2, no traceback, no run folder
+(a user network that breaks its contract at run time: one line, exit status 1)."""
 
 import os
 
@@ -78,3 +79,13 @@ def test_sigma_without_fixed_sigma(tmp_path):
     out = run_cli(["--play", "--file", CARTPOLE, "--checkpoint", os.path.join(ROOT, "nn", "cartpole.pth"),
                    "--sigma", "0.5"], tmp_path)
     assert_one_line_error(out, "--sigma", "fixed_sigma")
+
+
+def test_non_scalar_aux_loss_names_the_key(tmp_path):
+    out = run_cli(["--train", "--file", CARTPOLE, *small(tmp_path, epochs=1),
+                   "params.import_modules=[tests.smoke.user_pkg]", "params.network={name: bad_aux_net}"], ROOT)
+    assert out.returncode == 1, out.stdout + out.stderr
+    lines = [line for line in out.stderr.strip().splitlines() if "Warning" not in line and line.strip()]
+    assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    assert lines[0].startswith("network error: get_aux_loss()['value_l2'] must be a scalar tensor, got shape ("), \
+        lines[0]

@@ -169,6 +169,19 @@ def test_central_value_critic_stays_identical(tmp_path):
     assert_ranks_identical(states)
 
 
+@pytest.mark.timeout(240)
+def test_aux_loss_network_stays_identical(tmp_path):
+    """testnet_aux_loss: its auxiliary loss is part of the loss whose gradients the ranks average."""
+    cfg = os.path.join(ROOT, "benchmarks", "rl_games_configs", "test_discrite_testnet_aux_loss.yaml")
+    out, dumps = torchrun(["--train", "--file", cfg, *overrides(
+        tmp_path, "params.config.max_epochs=2", "params.config.num_actors=4", "params.config.horizon_length=32",
+        "params.config.minibatch_size=64")], tmp_path)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    states = load_dumps(dumps)
+    assert "network.aux_loss_linear.weight" in states[0]["model"]
+    assert_ranks_identical(states)
+
+
 # ----- bad launches fail at once, with one line -------------------------------------------------
 @pytest.mark.timeout(60)
 def test_multi_gpu_without_torchrun_fails_fast(tmp_path):

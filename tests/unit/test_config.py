@@ -152,6 +152,16 @@ def test_shipped_configs_parse():
         load_config(path)
 
 
+def test_central_value_network_block_typed_or_a_registered_networks_own(base_config):
+    from rlchain.config.schema import NetworkConfig
+
+    base_config["params"]["config"]["central_value_config"] = {"network": {"mlp": {"units": [8]}}}
+    assert isinstance(parse(base_config).config.central_value_config.network, NetworkConfig)
+    block = {"name": "testnet", "central_value": True, "mlp": {"units": [64, 32]}}  # rl_games' mhv_mops
+    base_config["params"]["config"]["central_value_config"] = {"network": dict(block)}
+    assert parse(base_config).config.central_value_config.network == block  # handed to the builder as is
+
+
 def test_docs_config_md_in_sync():
     import os
 
@@ -173,6 +183,10 @@ def test_docs_config_md_in_sync():
     ("reward_shaper", {"log_val": "maybe"}, "params.config.reward_shaper.log_val: expected true or false"),
     ("central_value_config", {"network": {}, "mini_epochs": 0},
      "params.config.central_value_config.mini_epochs: must be > 0"),
+    ("central_value_config", {"network": {"name": "testnett"}},
+     "params.config.central_value_config.network.name: unknown network 'testnett'; did you mean 'testnet'"),
+    ("central_value_config", {"network": {"mlp": {"unitss": [8]}}},
+     "params.config.central_value_config.network.mlp.unitss: unknown key; did you mean 'units'?"),
 ])
 def test_rlchain_blocks_bad_values(base_config, key, value, expect):
     base_config["params"]["config"][key] = value

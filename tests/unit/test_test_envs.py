@@ -119,3 +119,27 @@ def test_asymmetric_env_through_the_vecenv():
         assert obs.shape == (2, 8) and (obs[:, [1, 3]] == 0).all() and obs[:, [5, 7]].any()
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("central", [True, False])
+def test_dict_observations_reach_the_trainer_flat_with_their_dict_space(central):
+    """multi_obs_space (+ use_central_value): flattened by gymnasium's rule, the Dict kept for networks."""
+    from rlchain.envs.central_value import ObsStateBox
+
+    env = make_vec_env("test_env", {"name": "TestRnnEnv-v0", "multi_obs_space": True, "aux_loss": True,
+                                    "use_central_value": central}, 2, 0, None)
+    obs = np.asarray(env.reset(0))
+    single = TestRNNEnv(multi_obs_space=True, aux_loss=True, use_central_value=central)
+    first, _ = single.reset(seed=0)
+    space = env.observation_space
+    if central:
+        assert isinstance(space, ObsStateBox) and space.obs_size == space.state_size == 7
+        assert set(space.obs_space.spaces) == {"aux_target", "info", "pos"} and space.state_space is not None
+        expected = np.concatenate([gym.spaces.flatten(space.obs_space, first["obs"]),
+                                   gym.spaces.flatten(space.state_space, first["state"])])
+    else:
+        assert space.shape == (7,) and set(space.dict_space.spaces) == {"aux_target", "info", "pos"}
+        expected = gym.spaces.flatten(space.dict_space, first)
+    assert obs.shape == (2, expected.shape[0]) and obs.dtype == np.float32
+    assert np.allclose(obs[0], expected)
+    env.close()

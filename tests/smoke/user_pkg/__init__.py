@@ -30,3 +30,23 @@ class TestNetBuilder(NetworkBuilder):
 
 
 model_builder.register_network("testnet", TestNetBuilder)
+
+
+class BadAuxNet(TestNet):
+    """An auxiliary loss left unreduced: one value per sample instead of a scalar."""
+
+    def forward(self, input_dict):
+        logits, value, states = super().forward(input_dict)
+        self.per_sample = value.squeeze(-1).square()
+        return logits, value, states
+
+    def get_aux_loss(self):
+        return {"value_l2": self.per_sample}
+
+
+class BadAuxNetBuilder(NetworkBuilder):
+    def build(self, name, **kwargs):
+        return BadAuxNet(self.params, **kwargs)
+
+
+model_builder.register_network("bad_aux_net", BadAuxNetBuilder)
