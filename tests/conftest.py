@@ -5,6 +5,11 @@ import os
 import sys
 
 import pytest
+import torch
+
+# One intra-op thread, as the Runner sets on a 2-core machine: tests that build models directly
+# (not through the Runner) would otherwise spin 2 OpenMP threads beside envpool / Ray workers.
+torch.set_num_threads(1)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CONFIGS = os.path.join(ROOT, "rlchain", "configs")
