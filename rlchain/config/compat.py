@@ -54,7 +54,6 @@ UNSUPPORTED_CONFIG_KEYS = {
     "ewma_ppo": "EWMA PPO",
     "dapg": "DAPG",
     "rnd_config": "random network distillation",
-    "schedule_entropy": "entropy schedules",
     "expl_type": "exploration bonuses",
     "has_central_value": "central value via env attribute",
     "use_ppg": "phasic policy gradients",
@@ -76,18 +75,18 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
         if old in out:
             if new in out:
                 raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
-            _warn(source, f"{path}.{old}", f"deprecated name, use '{new}'")
+            warn_once(source, f"{path}.{old}", f"deprecated name, use '{new}'")
             out[new] = out.pop(old)
     for key, reason in NO_EFFECT_CONFIG_KEYS.items():
         if key in out:
-            _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     player = out.get("player")
     if isinstance(player, dict) and "device_name" in player:
         player = dict(player)
         player.pop("device_name")
-        _warn(source, f"{path}.player.device_name", "accepted for rl_games compatibility, no effect: "
-              "play uses config.device")
+        warn_once(source, f"{path}.player.device_name", "accepted for rl_games compatibility, no effect: "
+                  "play uses config.device")
         out["player"] = player
     cv = out.get("central_value_config")
     if isinstance(cv, dict) and isinstance(cv.get("network"), dict):
@@ -101,7 +100,7 @@ def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
     out = dict(params)
     for key, reason in NO_EFFECT_PARAMS_KEYS.items():
         if key in out:
-            _warn(source, f"params.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            warn_once(source, f"params.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     return out
 
@@ -116,7 +115,7 @@ def translate_network(network: dict[str, Any], source: str, path: str = "params.
         out.pop(key, None)
     for key, reason in NO_EFFECT_NETWORK_KEYS.items():
         if key in out:
-            _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     for key, value in list(out.items()):
         if isinstance(value, dict):
@@ -127,7 +126,8 @@ def translate_network(network: dict[str, Any], source: str, path: str = "params.
 _warned: set[str] = set()
 
 
-def _warn(source: str, path: str, message: str) -> None:
+def warn_once(source: str, path: str, message: str) -> None:
+    """A one-line ``RlchainDeprecationWarning`` naming file and key, given once per process."""
     line = f"{source}: {path}: {message}"
     if line not in _warned:
         _warned.add(line)

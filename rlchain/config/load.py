@@ -265,3 +265,18 @@ def _check_training(config: TrainConfig, source: str) -> None:
         raise ConfigError(source, "params.config.env_name", "required key is missing")
     if config.lr_schedule == "constant":
         config.lr_schedule = None
+    _check_schedules(config, source)
+
+
+def _check_schedules(config: TrainConfig, source: str) -> None:
+    """polynom_decay needs a horizon to decay over; keys that only act with another schedule warn."""
+    if config.lr_schedule == "polynom_decay" and config.max_epochs <= 0 and config.max_frames <= 0:
+        raise ConfigError(source, "params.config.lr_schedule", "polynom_decay decays over the run: set "
+                          "max_epochs or max_frames")
+    if config.schedule_entropy and config.lr_schedule != "linear":
+        compat.warn_once(source, "params.config.schedule_entropy", f"True has no effect with lr_schedule "
+                         f"{config.lr_schedule or 'None'}: as in rl_games the entropy schedule runs with "
+                         f"lr_schedule linear only; entropy_coef stays {config.entropy_coef}")
+    if config.decay_power != 1.0 and config.lr_schedule != "polynom_decay":
+        compat.warn_once(source, "params.config.decay_power", f"no effect with lr_schedule "
+                         f"{config.lr_schedule or 'None'}; it is the exponent of polynom_decay")
