@@ -98,7 +98,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     threads = parse_value(int | None, params.get("torch_threads"), "params.torch_threads", source,
                           {"check": lambda x: None if x > 0 else "must be > 0"})
     algo = parse_dataclass(NamedBlock, params["algo"], "params.algo", source)
-    model = parse_dataclass(NamedBlock, params["model"], "params.model", source)
+    old_model_name = params["model"].get("name") if isinstance(params["model"], dict) else None
+    model = parse_dataclass(NamedBlock, compat.translate_model(params["model"], source), "params.model", source)
     _check_registered(ALGOS, algo.name, "params.algo.name", source)
     _check_registered(MODELS, model.name, "params.model.name", source)
 
@@ -121,6 +122,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
+    if isinstance(network, NetworkConfig):
+        compat.check_model_alias(old_model_name, network.rnn is not None, source)
     if isinstance(config, TrainConfig) and isinstance(network, NetworkConfig) and network.rnn is not None:
         _check_sequences(config, source)
     if isinstance(network, NetworkConfig) and network.central_value:
