@@ -12,7 +12,7 @@ from contextlib import nullcontext
 import torch
 
 from rlchain.algos.losses import aux_loss_terms, normalize_advantages, policy_loss, value_loss
-from rlchain.algos.schedules import LinearSchedule, make_schedule
+from rlchain.algos.schedules import PROGRESS_SCHEDULES, make_schedule, scheduled_entropy_coef
 from rlchain.algos.storage import Batch, RolloutStorage
 from rlchain.config.schema import TrainConfig
 from rlchain.errors import DivergenceError, first_non_finite
@@ -20,7 +20,11 @@ from rlchain.models.actor_critic import ActorCritic
 
 
 class PPOAgent:
-    """Clipped-surrogate PPO with value clipping, entropy and bounds losses, adaptive/linear lr.
+    """Clipped-surrogate PPO with value clipping, entropy and bounds losses, adaptive/linear/polynomial lr.
+
+    ``lr`` and ``entropy_coef`` are the live values (they change with the schedules, population-based
+    training and divergence rollbacks) and travel in :meth:`state_dict`, so a resumed run goes on
+    with the values the interrupted one had; ``cfg`` keeps the configured start values.
 
     A network with ``get_aux_loss()`` (rl_games' contract) has its auxiliary losses added to the
     loss after each forward pass; they come back from :meth:`update` as ``losses/<name>``.
@@ -35,7 +39,10 @@ class PPOAgent:
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay,
                                           **_fast_adam_kwargs(device))
         self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
-                                      cfg.min_lr, cfg.max_lr)
+                                      cfg.min_lr, cfg.max_lr, cfg.decay_power)
+        self.entropy_coef = cfg.entropy_coef
+        # schedule_entropy applies with the linear lr only, as in rl_games (config load warns otherwise)
+        self.schedule_entropy = cfg.schedule_entropy and cfg.lr_schedule == "linear"
         self.train_critic = True  # False with a central value network (it trains the values itself)
         model.bptt_length = cfg.bptt_length
         self.amp = cfg.mixed_precision and device.type == "cuda"
@@ -70,11 +77,19 @@ class PPOAgent:
                     self._set_lr(self.schedule.update(self.lr, kl=stats["kl"]))
             if cfg.schedule_type == "standard":
                 self._set_lr(self.schedule.update(self.lr, kl=epoch_kl / max(epoch_n, 1)))
-        if isinstance(self.schedule, LinearSchedule):
-            self._set_lr(self.schedule.update(self.lr, progress=progress))
+        self.apply_progress(progress)
         out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
+        out["entropy_coef"] = self.entropy_coef
         return out
+
+    def apply_progress(self, progress: float) -> None:
+        """After an epoch's update: the schedules that follow the run's progress (linear or polynomial
+        lr, ``schedule_entropy``) set the values the next epoch trains with."""
+        if isinstance(self.schedule, PROGRESS_SCHEDULES):
+            self._set_lr(self.schedule.update(self.lr, progress=progress))
+        if self.schedule_entropy:
+            self.entropy_coef = scheduled_entropy_coef(self.cfg.entropy_coef, progress)
 
     def _step(self, batch: Batch) -> dict[str, float]:
         cfg, model, dist = self.cfg, self.model, self.model.dist
@@ -91,7 +106,7 @@ class PPOAgent:
                                     cfg.e_clip, cfg.clip_value).mean()
             else:
                 c_loss = torch.zeros((), device=values.device)
-            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - cfg.entropy_coef * entropy
+            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - self.entropy_coef * entropy
             b_loss = torch.zeros((), device=params.device)
             if cfg.bounds_loss_coef:
                 b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
@@ -146,7 +161,7 @@ class PPOAgent:
             group["lr"] = lr
 
     def state_dict(self) -> dict:
-        state = {"optimizer": self.optimizer.state_dict(), "lr": self.lr}
+        state = {"optimizer": self.optimizer.state_dict(), "lr": self.lr, "entropy_coef": self.entropy_coef}
         if self.scaler is not None:
             state["scaler"] = self.scaler.state_dict()
         return state
@@ -154,6 +169,7 @@ class PPOAgent:
     def load_state_dict(self, state: dict) -> None:
         self.optimizer.load_state_dict(state["optimizer"])
         self._set_lr(float(state["lr"]))
+        self.entropy_coef = float(state.get("entropy_coef", self.cfg.entropy_coef))  # older checkpoints: none
         if self.scaler is not None and "scaler" in state:
             self.scaler.load_state_dict(state["scaler"])
 

@@ -46,6 +46,13 @@ ALIASES = {
     "seq_len": "seq_length",
     "lr_threshold": "kl_threshold",
 }
+# rl_games' TensorFlow-era model names: the name brought the LSTM. In rlchain (as in rl_games' torch
+# agent) the RNN is the network's `rnn` block, so each is the plain preset, read with a warning.
+MODEL_ALIASES = {
+    "discrete_a2c_lstm": "discrete_a2c",
+    "continuous_a2c_lstm": "continuous_a2c",
+    "continuous_a2c_lstm_logstd": "continuous_a2c_logstd",
+}
 # rl_games features with an effect that rlchain does not implement: an error, never silence.
 UNSUPPORTED_CONFIG_KEYS = {
     "phasic_policy_gradients": "phasic policy gradients",
@@ -54,7 +61,6 @@ UNSUPPORTED_CONFIG_KEYS = {
     "ewma_ppo": "EWMA PPO",
     "dapg": "DAPG",
     "rnd_config": "random network distillation",
-    "schedule_entropy": "entropy schedules",
     "expl_type": "exploration bonuses",
     "has_central_value": "central value via env attribute",
     "use_ppg": "phasic policy gradients",
@@ -76,18 +82,18 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
         if old in out:
             if new in out:
                 raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
-            _warn(source, f"{path}.{old}", f"deprecated name, use '{new}'")
+            warn_once(source, f"{path}.{old}", f"deprecated name, use '{new}'")
             out[new] = out.pop(old)
     for key, reason in NO_EFFECT_CONFIG_KEYS.items():
         if key in out:
-            _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     player = out.get("player")
     if isinstance(player, dict) and "device_name" in player:
         player = dict(player)
         player.pop("device_name")
-        _warn(source, f"{path}.player.device_name", "accepted for rl_games compatibility, no effect: "
-              "play uses config.device")
+        warn_once(source, f"{path}.player.device_name", "accepted for rl_games compatibility, no effect: "
+                  "play uses config.device")
         out["player"] = player
     cv = out.get("central_value_config")
     if isinstance(cv, dict) and isinstance(cv.get("network"), dict):
@@ -101,12 +107,66 @@ def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
     out = dict(params)
     for key, reason in NO_EFFECT_PARAMS_KEYS.items():
         if key in out:
-            _warn(source, f"params.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            warn_once(source, f"params.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     return out
 
 
+def translate_model(model: Any, source: str) -> Any:
+    """``params.model`` with an old rl_games model name (``discrete_a2c_lstm`` ...) replaced by its preset.
+
+    The load checks afterwards that the network has an ``rnn`` block (:func:`check_model_alias`).
+    """
+    if not isinstance(model, dict) or not isinstance(model.get("name"), str) or model["name"] not in MODEL_ALIASES:
+        return model
+    old, new = model["name"], MODEL_ALIASES[model["name"]]
+    warn_once(source, "params.model.name", f"'{old}' is an old rl_games name, read as '{new}' (the LSTM is "
+              f"network.rnn)")
+    return {**model, "name": new}
+
+
+def check_model_alias(old_name: Any, has_rnn: bool, source: str) -> None:
+    """An old ``*_lstm`` model name promises an LSTM: the network must have one."""
+    if isinstance(old_name, str) and old_name in MODEL_ALIASES and not has_rnn:
+        raise ConfigError(source, "params.model.name", f"'{old_name}' is rl_games' old LSTM model, but "
+                          f"params.network has no rnn block; add network.rnn: {{name: lstm, units: 128}} or "
+                          f"use '{MODEL_ALIASES[old_name]}'")
+
+
 def translate_network(network: dict[str, Any], source: str, path: str = "params.network") -> dict[str, Any]:
+    """A network block (``params.network`` or the central value's) with rl_games' old spellings read:
+    the TensorFlow-era ``lstm:`` block becomes ``rnn:``; no-op keys are dropped anywhere inside."""
+    return _translate_block(_translate_tf_lstm(dict(network), source, path), source, path)
+
+
+def _translate_tf_lstm(out: dict[str, Any], source: str, path: str) -> dict[str, Any]:
+    """``lstm: {units: N, concated: False}`` (rl_games' TensorFlow agent) -> ``rnn: {name: lstm, units: N}``.
+
+    There it was one LSTM layer after the MLP, one per trunk with ``separate``; ``concated: True``
+    with ``separate`` ran a single LSTM over both trunks' outputs, which rlchain does not have.
+    """
+    if "lstm" not in out:
+        return out
+    where, lstm = f"{path}.lstm", out.pop("lstm")
+    if "rnn" in out:
+        raise ConfigError(source, where, "both 'lstm' (old rl_games spelling) and 'rnn' given; keep only 'rnn'")
+    if not isinstance(lstm, dict) or "units" not in lstm:
+        raise ConfigError(source, where, f"expected {{units: N, concated: False}} (old rl_games spelling of "
+                          f"rnn: {{name: lstm, units: N}}), got {lstm!r}")
+    unknown = sorted(set(lstm) - {"units", "concated"})
+    if unknown:
+        raise ConfigError(source, f"{where}.{unknown[0]}", "unknown key; the old lstm block has units and "
+                          "concated (use an rnn block for more)")
+    if lstm.get("concated") and str(out.get("separate")).lower() == "true":
+        raise ConfigError(source, f"{where}.concated", "rl_games feature 'one LSTM over both separate trunks' "
+                          "is not implemented in rlchain; remove the key or set it to False")
+    warn_once(source, where, f"old rl_games (TensorFlow) spelling, read as rnn: {{name: lstm, units: "
+              f"{lstm['units']}}}")
+    out["rnn"] = {"name": "lstm", "units": lstm["units"]}
+    return out
+
+
+def _translate_block(network: dict[str, Any], source: str, path: str) -> dict[str, Any]:
     """Drop no-op keys anywhere in the network block (rl_games allows ``regularizer`` in several places)."""
     out = dict(network)
     for key, reason in UNSUPPORTED_NETWORK_KEYS.items():
@@ -116,18 +176,19 @@ def translate_network(network: dict[str, Any], source: str, path: str = "params.
         out.pop(key, None)
     for key, reason in NO_EFFECT_NETWORK_KEYS.items():
         if key in out:
-            _warn(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
             out.pop(key)
     for key, value in list(out.items()):
         if isinstance(value, dict):
-            out[key] = translate_network(value, source, f"{path}.{key}")
+            out[key] = _translate_block(value, source, f"{path}.{key}")
     return out
 
 
 _warned: set[str] = set()
 
 
-def _warn(source: str, path: str, message: str) -> None:
+def warn_once(source: str, path: str, message: str) -> None:
+    """A one-line ``RlchainDeprecationWarning`` naming file and key, given once per process."""
     line = f"{source}: {path}: {message}"
     if line not in _warned:
         _warned.add(line)

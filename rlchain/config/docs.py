@@ -55,7 +55,7 @@ A config file is YAML (or JSON) with one top-level `params` block:
 |---|---|
 | `params.seed` | seed for python, numpy, torch and the envs (`--seed` overrides) |
 | `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), `sac`, `dqn`, or a registered algo |
-| `params.model.name` | `discrete_a2c`, `multi_discrete_a2c` (MultiDiscrete / Tuple of Discrete / MultiBinary actions), `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn` |
+| `params.model.name` | `discrete_a2c`, `multi_discrete_a2c` (MultiDiscrete / Tuple of Discrete / MultiBinary actions), `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn`; rl_games' old `*_lstm` names are read as these (see Renamed keys) |
 | `params.network` | network block; `name: actor_critic` is built in, user builders via `register_network` |
 | `params.config` | training keys below |
 | `params.torch_threads` | `torch.set_num_threads` for the training process (default on CPU: half the cores, at most 4; on CUDA: torch's choice) |
@@ -112,6 +112,9 @@ def render() -> str:
         lines.append(f"| `{key}` | {why} |")
     lines += ["", "## Renamed keys", "", "| old | new |", "|---|---|"]
     lines += [f"| `{old}` | `{new}` |" for old, new in compat.ALIASES.items()]
+    lines += [f"| `params.model.name: {old}` | `{new}` (needs a `network.rnn` block) |"
+              for old, new in compat.MODEL_ALIASES.items()]
+    lines += ["| `params.network.lstm: {units: N, concated: False}` | `rnn: {name: lstm, units: N}` |"]
     lines += ["", "## rl_games features not implemented (an error when set)", "", "| key | feature |", "|---|---|"]
     lines += [f"| `{k}` | {v} |" for k, v in compat.UNSUPPORTED_CONFIG_KEYS.items()]
     return "\n".join(lines) + "\n"

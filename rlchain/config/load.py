@@ -100,7 +100,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     update_threads = parse_value(int | None, params.get("update_threads"), "params.update_threads", source,
                                  {"check": lambda x: None if x > 0 else "must be > 0"})
     algo = parse_dataclass(NamedBlock, params["algo"], "params.algo", source)
-    model = parse_dataclass(NamedBlock, params["model"], "params.model", source)
+    old_model_name = params["model"].get("name") if isinstance(params["model"], dict) else None
+    model = parse_dataclass(NamedBlock, compat.translate_model(params["model"], source), "params.model", source)
     _check_registered(ALGOS, algo.name, "params.algo.name", source)
     _check_registered(MODELS, model.name, "params.model.name", source)
 
@@ -123,6 +124,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
+    if isinstance(network, NetworkConfig):
+        compat.check_model_alias(old_model_name, network.rnn is not None, source)
     if isinstance(config, TrainConfig) and isinstance(network, NetworkConfig) and network.rnn is not None:
         _check_sequences(config, source)
     if isinstance(network, NetworkConfig) and network.central_value:
@@ -274,3 +277,18 @@ def _check_training(config: TrainConfig, source: str) -> None:
         raise ConfigError(source, "params.config.env_name", "required key is missing")
     if config.lr_schedule == "constant":
         config.lr_schedule = None
+    _check_schedules(config, source)
+
+
+def _check_schedules(config: TrainConfig, source: str) -> None:
+    """polynom_decay needs a horizon to decay over; keys that only act with another schedule warn."""
+    if config.lr_schedule == "polynom_decay" and config.max_epochs <= 0 and config.max_frames <= 0:
+        raise ConfigError(source, "params.config.lr_schedule", "polynom_decay decays over the run: set "
+                          "max_epochs or max_frames")
+    if config.schedule_entropy and config.lr_schedule != "linear":
+        compat.warn_once(source, "params.config.schedule_entropy", f"True has no effect with lr_schedule "
+                         f"{config.lr_schedule or 'None'}: as in rl_games the entropy schedule runs with "
+                         f"lr_schedule linear only; entropy_coef stays {config.entropy_coef}")
+    if config.decay_power != 1.0 and config.lr_schedule != "polynom_decay":
+        compat.warn_once(source, "params.config.decay_power", f"no effect with lr_schedule "
+                         f"{config.lr_schedule or 'None'}; it is the exponent of polynom_decay")

@@ -301,18 +301,25 @@ class TrainConfig(RunConfig):
     mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
     tau: float = option(0.95, "GAE lambda", check=unit_interval)
     learning_rate: float = option(3e-4, "Adam learning rate", check=_check_lr)
-    lr_schedule: str | None = option(None, "None (constant), linear or adaptive (KL-based)",
-                                     choices=("linear", "adaptive", "constant"))
+    lr_schedule: str | None = option(None, "None (constant), linear, adaptive (KL-based) or polynom_decay "
+                                           "(min_lr + (learning_rate - min_lr) * (1 - progress) ** decay_power; "
+                                           "progress = epochs/max_epochs, else frames/max_frames)",
+                                     choices=("linear", "adaptive", "constant", "polynom_decay"))
     kl_threshold: float = option(0.008, "adaptive schedule target KL", check=positive)
     schedule_type: str = option("legacy", "adaptive: legacy = after every minibatch, standard = "
                                           "after every mini-epoch", choices=("legacy", "standard"))
-    min_lr: float = option(1e-6, "adaptive / linear schedule floor", check=non_negative)
+    min_lr: float = option(1e-6, "adaptive / linear / polynom_decay schedule floor", check=non_negative)
     max_lr: float = option(1e-2, "adaptive schedule ceiling", check=positive)
+    decay_power: float = option(1.0, "polynom_decay: the exponent (1 = linear; rl_games' TensorFlow agent's key; "
+                                     "its torch agent keeps a polynom_decay lr constant)", check=positive)
     e_clip: float = option(0.2, "PPO clip range", check=positive)
     clip_value: bool = option(False, "clip the value update to e_clip around the old value")
     critic_coef: float = option(1.0, "critic loss weight: loss += critic_coef * 0.5 * value loss",
                                 check=non_negative)
     entropy_coef: float = option(0.0, "entropy bonus weight")
+    schedule_entropy: bool = option(False, "with lr_schedule linear: the entropy bonus weight moves linearly from "
+                                           "entropy_coef to 1e-4 alongside the lr (logged as info/entropy_coef); "
+                                           "no effect with another lr_schedule (a warning), as in rl_games")
     normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
     normalize_value: bool = option(False, "running mean/std normalization of value targets")
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",

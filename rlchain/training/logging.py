@@ -69,6 +69,8 @@ class TrainLogger:
         s("info/last_lr", stats["lr"], frames)
         s("info/lr_mul", stats["lr"] / max(stats.get("lr0", stats["lr"]), 1e-12), frames)
         s("info/kl", stats["kl"], frames)
+        if "entropy_coef" in stats:  # rlchain: rl_games writes no tag for it
+            s("info/entropy_coef", stats["entropy_coef"], frames)
         s("info/epochs", epoch, frames)
         s("info/clip_frac", stats["clip_frac"], frames)
         s("info/grad_norm", stats["grad_norm"], frames)

@@ -104,6 +104,7 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
         """The training parameters population-based training may change (see :meth:`set_params`)."""
         values = {name: getattr(self.cfg, name) for name in self.TUNABLE}
         values["learning_rate"] = self.agent.lr
+        values["entropy_coef"] = self.agent.entropy_coef
         return values
 
     def set_params(self, **changes: float) -> None:
@@ -120,6 +121,8 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
         for name, value in changes.items():
             if name == "learning_rate":
                 self.agent._set_lr(float(value))
+            elif name == "entropy_coef":  # the live value; schedule_entropy sets it again after the epoch
+                self.agent.entropy_coef = float(value)
             else:
                 setattr(self.cfg, name, type(getattr(self.cfg, name) or 0.0)(value))
             self.logger.scalar(f"params/{name}", float(value), self.frames)

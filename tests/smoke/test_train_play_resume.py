@@ -161,3 +161,43 @@ def test_train_py_with_json_config(tmp_path):
                          timeout=240)
     assert out.returncode == 0, out.stderr
     assert "epoch 1/1" in out.stdout
+
+
+def test_resume_keeps_the_entropy_schedule(tmp_path):
+    """schedule_entropy: a run stopped at epoch 2 of 4 and resumed trains with the same entropy coefficient
+    and lr, epoch for epoch, as one that ran straight through."""
+    import copy
+
+    from rlchain.training.events import Callback
+    from tests.conftest import BASE
+
+    class Record(Callback):
+        def __init__(self, stop_at=None):
+            self.seen, self.stop_at, self.start = [], stop_at, None
+
+        def on_train_start(self, trainer):
+            self.start = trainer.agent.entropy_coef
+
+        def on_epoch_end(self, trainer, stats, episodes):
+            self.seen.append((trainer.epoch, trainer.agent.entropy_coef, trainer.agent.lr, stats["entropy_coef"]))
+            if trainer.epoch == self.stop_at:
+                trainer.request_stop("test")
+
+    def run(folder, record, checkpoint=None):
+        cfg = copy.deepcopy(BASE)
+        cfg["params"]["config"].update(lr_schedule="linear", schedule_entropy=True, entropy_coef=0.01,
+                                       learning_rate=1e-3, max_epochs=4, train_dir=str(tmp_path / folder),
+                                       print_stats=False)
+        return Runner().load(cfg).train(checkpoint=checkpoint, callbacks=[record])
+
+    straight = Record()
+    run("straight", straight)
+    assert [s[1] for s in straight.seen] == pytest.approx([1e-4 + 0.0099 * (1 - e / 4) for e in (1, 2, 3, 4)])
+    assert all(s[1] == s[3] for s in straight.seen)  # the value logged as info/entropy_coef
+
+    first, second = Record(stop_at=2), Record()
+    result = run("stopped", first)
+    assert result.epoch == 2
+    run("resumed", second, checkpoint=os.path.join(result.run_dir, "nn", "last_t.pth"))
+    assert second.start == straight.seen[1][1]  # restored, not entropy_coef from the config
+    assert first.seen + second.seen == straight.seen

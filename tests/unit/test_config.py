@@ -5,7 +5,7 @@ import warnings
 
 import pytest
 
-from rlchain.config import ConfigError, load_config, parse_params
+from rlchain.config import ConfigError, compat, load_config, parse_params
 from rlchain.config.compat import RlchainDeprecationWarning
 from rlchain.config.load import apply_overrides
 from rlchain.config.schema import NetworkConfig
@@ -216,3 +216,59 @@ def test_minibatch_checked_with_env_before_a_run_folder(base_config, tmp_path):
                                           r"is not divisible by minibatch_size 10"):
         Runner().load(base_config).train()
     assert not os.path.exists(tmp_path / "runs")
+
+
+@pytest.mark.parametrize("old,new,space", [
+    ("discrete_a2c_lstm", "discrete_a2c", {"discrete": None}),
+    ("continuous_a2c_lstm", "continuous_a2c", {"continuous": {}}),
+    ("continuous_a2c_lstm_logstd", "continuous_a2c_logstd", {"continuous": {}}),
+])
+def test_old_lstm_model_names_are_presets(base_config, old, new, space, monkeypatch):
+    monkeypatch.setattr(compat, "_warned", set())  # compat warns once per process
+    base_config["params"]["model"]["name"] = old
+    base_config["params"]["network"].update(space=space, rnn={"name": "lstm", "units": 8})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        params = parse(base_config)
+    assert params.model.name == new and params.network.rnn.units == 8
+    assert any(f"params.model.name: '{old}' is an old rl_games name, read as '{new}'" in str(w.message)
+               for w in caught)
+
+
+def test_old_lstm_model_name_needs_an_rnn(base_config):
+    base_config["params"]["model"]["name"] = "discrete_a2c_lstm"
+    with pytest.raises(ConfigError) as err:
+        parse(base_config)
+    msg = str(err.value)
+    assert msg.startswith("cfg.yaml: params.model.name: 'discrete_a2c_lstm' is rl_games' old LSTM model, but "
+                          "params.network has no rnn block") and "use 'discrete_a2c'" in msg and "\n" not in msg
+
+
+def test_tf_lstm_block_is_read_as_rnn(base_config, monkeypatch):
+    """rl_games' TensorFlow-era network.lstm (smac/v1 configs): one LSTM after the MLP, per trunk."""
+    monkeypatch.setattr(compat, "_warned", set())
+    base_config["params"]["model"]["name"] = "discrete_a2c_lstm"
+    base_config["params"]["network"].update(separate=True, lstm={"units": 32, "concated": False})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        params = parse(base_config)
+    rnn = params.network.rnn
+    assert (rnn.name, rnn.units, rnn.layers, rnn.before_mlp) == ("lstm", 32, 1, False)
+    assert params.network.separate is True
+    assert any("params.network.lstm: old rl_games (TensorFlow) spelling, read as rnn: {name: lstm, units: 32}"
+               in str(w.message) for w in caught)
+
+
+@pytest.mark.parametrize("network,expect", [
+    ({"separate": True, "lstm": {"units": 32, "concated": True}},
+     "params.network.lstm.concated: rl_games feature 'one LSTM over both separate trunks' is not implemented"),
+    ({"lstm": {"units": 32}, "rnn": {"units": 8}}, "params.network.lstm: both 'lstm' (old rl_games spelling) and "
+                                                   "'rnn' given"),
+    ({"lstm": {"units": 32, "layers": 2}}, "params.network.lstm.layers: unknown key"),
+    ({"lstm": 64}, "params.network.lstm: expected {units: N, concated: False}"),
+])
+def test_tf_lstm_block_bad_input(base_config, network, expect):
+    base_config["params"]["network"].update(network)
+    with pytest.raises(ConfigError) as err:
+        parse(base_config)
+    assert expect in str(err.value) and "\n" not in str(err.value)
