@@ -143,6 +143,30 @@ def test_rollout_log_probs_match_training_evaluation(separate, kind):
         assert torch.allclose(values, batch.values, atol=1e-5)
 
 
+@pytest.mark.parametrize("before_mlp", [False, True])
+def test_concat_output_appends_the_encoder_features(before_mlp):
+    """rl_games' concat_output appends the cnn output (not the RNN's input, which after the MLP is
+    the MLP output) to the RNN output after its LayerNorm, in both orders."""
+    torch.manual_seed(0)
+    net = _cnn_network({"name": "gru", "units": 5, "layer_norm": True, "concat_output": True,
+                        "before_mlp": before_mlp})
+    trunk = net.actor_trunk
+    cnn_size = trunk.cnn.out_size  # 4 filters * 4 * 4
+    obs = torch.rand(6, *FRAME)
+    states = trunk.initial_state(2, torch.device("cpu"))
+    out, _ = trunk(obs, states, None, 3)
+    encoded = trunk.cnn(obs)
+    if before_mlp:
+        assert trunk.mlp.in_size == 5 + cnn_size
+        rnn_out, _ = trunk.rnn(encoded, states, None, 3)
+        expected = trunk.mlp(torch.cat([rnn_out, encoded], -1))
+    else:
+        assert trunk.out_size == 5 + cnn_size and net.logits.in_features == 5 + cnn_size
+        rnn_out, _ = trunk.rnn(trunk.mlp(encoded), states, None, 3)
+        expected = torch.cat([rnn_out, encoded], -1)
+    assert torch.allclose(out, expected, atol=1e-6)
+
+
 def test_rnn_config_errors(tmp_path):
     from rlchain.config.errors import ConfigError
     from rlchain.config.load import parse_params
