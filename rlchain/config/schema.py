@@ -83,7 +83,8 @@ class RnnConfig:
     before_mlp: bool = option(False, "recurrent layer before the MLP (after it when False)")
     layer_norm: bool = option(False, "LayerNorm on the recurrent output")
     concat_input: bool = option(False, "feed the network input to the recurrent layer alongside the trunk output")
-    concat_output: bool = option(False, "concatenate the recurrent layer's input to its output")
+    concat_output: bool = option(False, "append the network input (cnn output, or the flat obs) to the recurrent "
+                                        "output")
 
 
 @dataclass

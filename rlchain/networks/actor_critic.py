@@ -22,7 +22,10 @@ class Trunk(nn.Module):
     """Observation -> features: optional conv encoder, then MLP and optional RNN in either order.
 
     ``forward(obs, states, resets, seq_length)`` returns ``(features (B, out_size), new states)``;
-    without an RNN the states pass through as an empty tuple.
+    without an RNN the states pass through as an empty tuple. ``rnn.concat_input`` feeds the
+    encoder features (conv output, or the flat obs without a ``cnn``) to an RNN after the MLP
+    alongside the MLP output; ``rnn.concat_output`` appends those same encoder features to the
+    RNN output (after its LayerNorm), in both orders, as rl_games does.
     """
 
     def __init__(self, cfg: NetworkConfig, input_shape: tuple[int, ...]) -> None:
@@ -35,18 +38,21 @@ class Trunk(nn.Module):
         rnn = cfg.rnn
         self.before_mlp = rnn is not None and rnn.before_mlp
         self.concat_input = rnn is not None and rnn.concat_input and not rnn.before_mlp
+        self.concat_output = rnn is not None and rnn.concat_output
         self.rnn: RecurrentLayer | None = None
         if rnn is None:
             self.mlp = MLP(in_size, mlp_cfg)
             self.out_size = self.mlp.out_size
-        elif self.before_mlp:
+            return
+        rnn_out = rnn.units + (in_size if self.concat_output else 0)
+        if self.before_mlp:
             self.rnn = RecurrentLayer(in_size, rnn)
-            self.mlp = MLP(self.rnn.out_size, mlp_cfg)
+            self.mlp = MLP(rnn_out, mlp_cfg)
             self.out_size = self.mlp.out_size
         else:
             self.mlp = MLP(in_size, mlp_cfg)
             self.rnn = RecurrentLayer(self.mlp.out_size + (in_size if self.concat_input else 0), rnn)
-            self.out_size = self.rnn.out_size
+            self.out_size = rnn_out
 
     @property
     def num_states(self) -> int:
@@ -62,11 +68,14 @@ class Trunk(nn.Module):
             return self.mlp(x), states
         if self.before_mlp:
             out, states = self.rnn(x, states, resets, seq_length, bptt_length)
-            return self.mlp(out), states
-        out = self.mlp(x)
-        if self.concat_input:
+        else:
+            out = self.mlp(x)
+            if self.concat_input:
+                out = torch.cat([out, x], -1)
+            out, states = self.rnn(out, states, resets, seq_length, bptt_length)
+        if self.concat_output:
             out = torch.cat([out, x], -1)
-        return self.rnn(out, states, resets, seq_length, bptt_length)
+        return (self.mlp(out) if self.before_mlp else out), states
 
 
 class ActorCriticNetwork(nn.Module):

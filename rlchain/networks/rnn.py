@@ -11,7 +11,7 @@ States = tuple[torch.Tensor, ...]  # (h,) for GRU, (h, c) for LSTM; each (layers
 
 
 class RecurrentLayer(nn.Module):
-    """(B*L, in_size) features in sequence-major blocks -> (B*L, out_size), new states.
+    """(B*L, in_size) features in sequence-major blocks -> (B*L, units), new states.
 
     Rows are ordered sequence by sequence: rows ``i*L .. i*L+L-1`` are the L steps of sequence i.
     ``resets`` (B*L,) marks rows whose observation starts a new episode: the state entering that
@@ -25,8 +25,7 @@ class RecurrentLayer(nn.Module):
         self.num_states = 2 if cfg.name == "lstm" else 1
         self.layers, self.units = cfg.layers, cfg.units
         self.norm = nn.LayerNorm(cfg.units) if cfg.layer_norm else None
-        self.concat_output = cfg.concat_output
-        self.out_size = cfg.units + (in_size if cfg.concat_output else 0)
+        self.out_size = cfg.units
 
     def initial_state(self, batch: int, device: torch.device) -> States:
         """Zero states for ``batch`` sequences."""
@@ -59,8 +58,6 @@ class RecurrentLayer(nn.Module):
         out = out.transpose(0, 1).reshape(rows, self.units)
         if self.norm is not None:
             out = self.norm(out)
-        if self.concat_output:
-            out = torch.cat([out, x], -1)
         return out, (tuple(hidden) if self.num_states == 2 else (hidden,))
 
 

@@ -21,6 +21,20 @@ def _network(rnn: dict, separate: bool = False, obs_dim: int = 3) -> ActorCritic
     return ActorCriticNetwork(cfg, (obs_dim,), 2, 1, continuous=False)
 
 
+FRAME = (10, 10, 2)  # a tiny channels-last uint8 "Atari" frame stack
+
+
+def _cnn_network(rnn: dict, separate: bool = False) -> ActorCriticNetwork:
+    """rl_games' ppo_pacman_torch_rnn.yaml in miniature: conv2d (permute_input) -> mlp -> lstm."""
+    init = {"name": "glorot_normal_initializer", "gain": 1.4142}
+    cfg = parse_dataclass(NetworkConfig, {
+        "separate": separate, "space": {"discrete": None},
+        "cnn": {"type": "conv2d", "activation": "relu", "initializer": init,
+                "convs": [{"filters": 4, "kernel_size": 3, "strides": 2, "padding": 0}]},
+        "mlp": {"units": [8], "activation": "relu", "initializer": init}, "rnn": rnn}, "params.network", "t")
+    return ActorCriticNetwork(cfg, FRAME, 3, 1, continuous=False)
+
+
 @pytest.mark.parametrize("name", ["lstm", "gru"])
 def test_sequence_forward_equals_step_by_step(name):
     torch.manual_seed(0)
@@ -93,18 +107,29 @@ def test_sequence_minibatches_reject_bad_lengths():
 
 
 @pytest.mark.parametrize("separate", [False, True])
-def test_rollout_log_probs_match_training_evaluation(separate):
-    """What the rollout recorded must be what the update recomputes before any step (ratio 1)."""
+@pytest.mark.parametrize("kind", ["mlp", "cnn"])
+def test_rollout_log_probs_match_training_evaluation(separate, kind):
+    """What the rollout recorded must be what the update recomputes before any step (ratio 1).
+
+    ``cnn``: the Atari RNN path (uint8 channels-last frames scaled and normalized, conv -> mlp ->
+    LSTM with LayerNorm), whose large first-epoch KL turned out to be the optimisation, not this."""
     torch.manual_seed(0)
-    net = _network({"name": "lstm", "units": 6, "layers": 1}, separate=separate)
-    model = ActorCritic(net, Categorical(2), (3,), 1, normalize_input=False, normalize_value=False)
+    if kind == "cnn":
+        net = _cnn_network({"name": "lstm", "units": 6, "layer_norm": True}, separate=separate)
+        shape, dtype, n = FRAME, torch.uint8, 3
+    else:
+        net = _network({"name": "lstm", "units": 6, "layers": 1}, separate=separate)
+        shape, dtype, n = (3,), torch.float32, 2
+    model = ActorCritic(net, Categorical(n), shape, 1, normalize_input=kind == "cnn", normalize_value=False)
+    if model.obs_norm is not None:  # statistics away from the identity, frozen between rollout and update
+        model.update_normalizers(obs=torch.randint(0, 256, (16, *shape), dtype=torch.uint8))
     horizon, envs, length = 8, 4, 4
     states = model.initial_state(envs)
-    storage = RolloutStorage(horizon, envs, (3,), torch.float32, (), torch.long, 2, 1, torch.device("cpu"),
+    storage = RolloutStorage(horizon, envs, shape, dtype, (), torch.long, n, 1, torch.device("cpu"),
                              state_shapes=tuple(tuple(s.shape) for s in states))
     resets = torch.ones(envs, dtype=torch.bool)
     for t in range(horizon):
-        obs = torch.randn(envs, 3)
+        obs = torch.randint(0, 256, (envs, *shape), dtype=dtype) if kind == "cnn" else torch.randn(envs, 3)
         out = model.act(obs, states=states)
         storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], None, states, resets)
         dones = torch.rand(envs) < 0.3
@@ -116,6 +141,30 @@ def test_rollout_log_probs_match_training_evaluation(separate):
         log_probs = model.dist.log_prob(params, batch.actions)
         assert torch.allclose(log_probs, batch.log_probs, atol=1e-5)
         assert torch.allclose(values, batch.values, atol=1e-5)
+
+
+@pytest.mark.parametrize("before_mlp", [False, True])
+def test_concat_output_appends_the_encoder_features(before_mlp):
+    """rl_games' concat_output appends the cnn output (not the RNN's input, which after the MLP is
+    the MLP output) to the RNN output after its LayerNorm, in both orders."""
+    torch.manual_seed(0)
+    net = _cnn_network({"name": "gru", "units": 5, "layer_norm": True, "concat_output": True,
+                        "before_mlp": before_mlp})
+    trunk = net.actor_trunk
+    cnn_size = trunk.cnn.out_size  # 4 filters * 4 * 4
+    obs = torch.rand(6, *FRAME)
+    states = trunk.initial_state(2, torch.device("cpu"))
+    out, _ = trunk(obs, states, None, 3)
+    encoded = trunk.cnn(obs)
+    if before_mlp:
+        assert trunk.mlp.in_size == 5 + cnn_size
+        rnn_out, _ = trunk.rnn(encoded, states, None, 3)
+        expected = trunk.mlp(torch.cat([rnn_out, encoded], -1))
+    else:
+        assert trunk.out_size == 5 + cnn_size and net.logits.in_features == 5 + cnn_size
+        rnn_out, _ = trunk.rnn(trunk.mlp(encoded), states, None, 3)
+        expected = torch.cat([rnn_out, encoded], -1)
+    assert torch.allclose(out, expected, atol=1e-6)
 
 
 def test_rnn_config_errors(tmp_path):
