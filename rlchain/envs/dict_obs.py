@@ -11,6 +11,10 @@ env's Dict space (which the user knows: it is their env's ``observation_space``)
 
     parts = split_flat_obs(input_dict["obs"], dict_space)   # {'image': (B, 3, 8, 8), 'pos': (B, 2)}
 
+A backend that knows its Dict layout may declare the flat space as a :class:`FlatDictBox`, which
+carries the Dict (``dict_space``) for the network (e.g. rl_games' ``use_dict_obs_space``, see
+:mod:`rlchain.envs.reward_action_obs`).
+
 With ``normalize_input`` the running mean/std is per flat dimension, i.e. per entry of every key.
 The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not flattened here.
 """
@@ -18,9 +22,21 @@ The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not
 from __future__ import annotations
 
 import gymnasium as gym
+import numpy as np
 import torch
 
 CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
+
+
+class FlatDictBox(gym.spaces.Box):
+    """A flat float32 Box of a flattened Dict space that remembers it: ``dict_space`` (key order =
+    layout order), so a network can split the observations by key (:func:`split_flat_obs`)."""
+
+    def __init__(self, dict_space: gym.spaces.Dict, seed: int | None = None) -> None:
+        flat = gym.spaces.flatten_space(dict_space)
+        super().__init__(flat.low.astype(np.float32), flat.high.astype(np.float32), flat.shape, np.float32,
+                         seed=seed)
+        self.dict_space = dict_space
 
 
 def should_flatten(space: gym.Space) -> bool:

@@ -1,8 +1,9 @@
 """Atari: envpool (the shipped ppo_pong_envpool.yaml) and gymnasium + ale-py (rlchain/envs/atari.py).
 
 Covers train -> save -> play -> resume -> ONNX export of the shipped config, episodic life (a lost
-life ends a training episode, the game goes on), and scores counted over whole games with the
-unclipped reward in training statistics and in the Player.
+life ends a training episode, the game goes on), scores counted over whole games with the
+unclipped reward in training statistics and in the Player, and rl_games' observations with the
+previous reward and action (use_dict_obs_space / wrap_impala).
 """
 
 import glob
@@ -243,7 +244,6 @@ def test_atari_gym_seeding_is_reproducible():
     ({}, None, r"env_config\.name: is required"),
     ({"name": "PongNoFrameskip-v4", "episodic_life": True}, None, r"env_config\.episodic_life: .*did you mean "
                                                                    r"'episode_life'"),
-    ({"name": "PongNoFrameskip-v4", "wrap_impala": True}, None, r"wrap_impala: is not supported"),
     ({"name": "PongNoFrameskip-v4"}, "native", r"vecenv_type: 'native' does not apply"),
 ])
 def test_atari_gym_config_errors(config, vecenv_type, pattern):
@@ -289,3 +289,25 @@ def test_cnn_policy_on_uint8_images_trains_one_epoch(tmp_path, base_config):
     state = torch.load(os.path.join(result.run_dir, "nn", "last_t.pth"), weights_only=False)
     mean = state["model"]["obs_norm.mean"]
     assert mean.shape == (4, 84, 84) and 0.0 <= float(mean.min()) and float(mean.max()) <= 1.0
+
+
+# ----- rl_games' previous reward / action observations (use_dict_obs_space, wrap_impala) ------------
+
+def test_atari_gym_wrap_impala_observations():
+    env = atari_env(wrap_impala=True)
+    try:
+        layout = env.observation_space.dict_space
+        assert list(layout.spaces) == ["last_action", "observation", "reward"]
+        assert layout["observation"].shape == (84, 84, 4) and layout["last_action"].n == 4
+        obs = env.reset()
+        assert obs.shape == (2, 4 + 84 * 84 * 4 + 1) and obs.dtype == np.float32 and 0 <= obs.min() <= obs.max() <= 1
+        result = env.step(np.array([1, 3]))
+        assert list(result.obs[:, :4].argmax(1)) == [1, 3]
+    finally:
+        env.close()
+
+
+def test_use_dict_obs_space_needs_discrete_actions():
+    pytest.importorskip("envpool")
+    with pytest.raises(ConfigError, match=r"env_config\.use_dict_obs_space: needs Discrete actions"):
+        make_vec_env("envpool", {"env_name": "Pendulum-v1", "use_dict_obs_space": True}, 2, 0, None)
