@@ -7,6 +7,7 @@ from typing import Any
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
+from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
 from rlchain.registry import ALGOS, MODELS, NETWORKS
 
 
@@ -27,6 +28,7 @@ def register_builtins() -> None:
     for name in ("discrete_a2c", "multi_discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
         MODELS.register(name, actor_critic_model, overwrite=True)
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
+    NETWORKS.register("resnet_actor_critic", ResnetActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
         ALGOS.register(name, OnPolicyTrainer, overwrite=True)
     from rlchain.algos.dqn import dqn_model
