@@ -148,8 +148,9 @@ class ResnetCnnConfig:
     conv_depths: list[int] = option([16, 32, 32], "output channels of each IMPALA stage",
                                     check=lambda d: None if d and all(x > 0 for x in d)
                                     else "needs at least one depth, each > 0")
-    activation: str = option("relu", "activation inside the residual blocks and on the flattened features "
-                                     "(rl_games always uses relu)", choices=ACTIVATIONS)
+    activation: str = option("relu", "activation inside the residual blocks (rl_games ignores the key and uses "
+                                     "relu there); the flattened features get mlp.activation, as in rl_games",
+                             choices=ACTIVATIONS)
     initializer: InitializerConfig = option(InitializerConfig(), "convolution weight initializer; default: "
                                                                  "kaiming_normal (fan_out, relu) as rl_games")
 

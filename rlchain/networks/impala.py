@@ -2,7 +2,8 @@
 
 Each stage of ``cnn.conv_depths``: conv 3x3 (stride 1, same padding) -> max-pool 3x3 stride 2
 (padding 1, so H -> ceil(H / 2)) -> two residual blocks ``x + conv(act(conv(act(x))))``. After the
-last stage the features are flattened and go through the activation once more.
+last stage the features are flattened and go through an activation once more (rl_games takes the
+mlp's there, see :class:`ImpalaEncoder`).
 """
 
 from __future__ import annotations
@@ -43,10 +44,11 @@ class ImpalaEncoder(nn.Module):
 
     ``input_shape`` is (C, H, W), or (H, W, C) with ``permute_input`` (gymnasium image envs).
     Convolution weights: ``cnn.initializer``, or with ``default`` kaiming-normal (fan_out, relu),
-    rl_games' choice for this network.
+    rl_games' choice for this network. ``cnn.activation`` acts inside the residual blocks,
+    ``out_activation`` (default: the same) on the flattened features.
     """
 
-    def __init__(self, cfg: ResnetCnnConfig, input_shape: tuple[int, ...]) -> None:
+    def __init__(self, cfg: ResnetCnnConfig, input_shape: tuple[int, ...], out_activation: str | None = None) -> None:
         super().__init__()
         shape = tuple(input_shape)
         if len(shape) != 3:
@@ -60,7 +62,7 @@ class ImpalaEncoder(nn.Module):
             stages.append(ImpalaStage(channels, depth, cfg.activation))
             channels = depth
         self.stages = nn.Sequential(*stages)
-        self.out_act = activation(cfg.activation)
+        self.out_act = activation(out_activation or cfg.activation)
         for module in self.modules():
             if isinstance(module, nn.Conv2d):
                 if cfg.initializer.name in ("default", "None"):

@@ -65,7 +65,8 @@ class ResnetActorCriticNetwork(ActorCriticNetwork):
         extra_size = sum(layout[key][0].stop - layout[key][0].start for key in wanted) if wanted else 0
 
         def make_trunk() -> Trunk:
-            return Trunk(cfg, image_shape, ImpalaEncoder(cfg.cnn, image_shape), extra_size)
+            # rl_games: mlp.activation on the flattened features, whatever cnn.activation says
+            return Trunk(cfg, image_shape, ImpalaEncoder(cfg.cnn, image_shape, cfg.mlp.activation), extra_size)
 
         super().__init__(cfg, image_shape, actions_num, value_size, continuous, make_trunk=make_trunk)
         self.image_columns = layout["observation"][0] if layout is not None else None

@@ -65,6 +65,15 @@ def test_impala_encoder_matches_rl_games_sizes_and_permutes():
     assert (enc(x) >= 0).all()  # the activation after flattening
 
 
+def test_activations_as_rl_games_places_them():
+    """cnn.activation inside the residual blocks, mlp.activation on the flattened features."""
+    net = build(config(cnn={"permute_input": False, "conv_depths": [4], "activation": "tanh"},
+                       mlp={"units": [8], "activation": "elu"}), gym.spaces.Box(0, 1, (2, 8, 8), np.float32))
+    encoder = net.actor_trunk.cnn
+    assert isinstance(encoder.out_act, torch.nn.ELU)
+    assert isinstance(encoder.stages[0][2].net[0], torch.nn.Tanh)
+
+
 def test_impala_encoder_rejects_non_images():
     with pytest.raises(ValueError, match=r"params\.network\.cnn: resnet_actor_critic needs image observations"):
         ImpalaEncoder(ResnetCnnConfig(), (28231,))
