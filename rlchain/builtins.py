@@ -7,6 +7,7 @@ from typing import Any
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
+from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
 from rlchain.registry import ALGOS, MODELS, NETWORKS
 
 
@@ -32,6 +33,7 @@ def register_builtins() -> None:
     # rl_games' test networks; a user package may register its own under these names (as in rl_games)
     NETWORKS.register("testnet", TestNetBuilder, overwrite=True, replaceable=True)
     NETWORKS.register("testnet_aux_loss", TestNetAuxLossBuilder, overwrite=True, replaceable=True)
+    NETWORKS.register("resnet_actor_critic", ResnetActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
         ALGOS.register(name, OnPolicyTrainer, overwrite=True)
     from rlchain.algos.dqn import dqn_model

@@ -12,6 +12,9 @@ The exported graph is the deterministic policy as the Player runs it::
   Tuple of Discrete; for Box the mean, clipped to [-1, 1] and rescaled to the space's bounds when
   ``clip_actions`` is on (float32).
 - ``value``: the critic's value on the return scale (value normalization undone).
+- Observations with the previous reward and action (``use_dict_obs_space`` / ``wrap_impala``, see
+  rlchain/envs/reward_action_obs.py): ``obs`` is the env's flat float32 vector
+  ``[last action one-hot | frames scaled to [0, 1] | reward clipped to [-1, 1]]``; build it the same way.
 
 - Recurrent policies (``network.rnn``): the graph also takes the RNN states ``rnn_state_0``,
   ``rnn_state_1`` (LSTM h and c; GRU has one), each (layers, batch, units), zeros at an episode

@@ -35,8 +35,11 @@ NO_EFFECT_PARAMS_KEYS = {
 }
 UNSUPPORTED_NETWORK_KEYS = {
     "joint_obs_actions": "joint observations/actions for the central value (SMAC)",
-    "require_rewards": "the previous reward as a network input (resnet_actor)",
-    "require_last_actions": "the previous action as a network input (resnet_actor)",
+}
+# Keys only one built-in network reads (rl_games' other builders ignore them): set elsewhere -> an error.
+NETWORK_ONLY_KEYS = {
+    "require_rewards": "resnet_actor_critic",
+    "require_last_actions": "resnet_actor_critic",
 }
 NO_EFFECT_NETWORK_KEYS = {
     "regularizer": "rl_games never applied it",
@@ -174,6 +177,13 @@ def _translate_block(network: dict[str, Any], source: str, path: str) -> dict[st
             raise ConfigError(source, f"{path}.{key}",
                               f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
         out.pop(key, None)
+    for key, owner in NETWORK_ONLY_KEYS.items():
+        if key in out and out.get("name", "actor_critic") != owner:
+            if out[key] not in (None, False, {}):
+                raise ConfigError(source, f"{path}.{key}", f"only network {owner} reads it (the previous reward "
+                                                           f"/ action as an input); this network is "
+                                                           f"'{out.get('name', 'actor_critic')}'")
+            out.pop(key)
     for key, reason in NO_EFFECT_NETWORK_KEYS.items():
         if key in out:
             warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")

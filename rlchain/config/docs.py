@@ -17,6 +17,8 @@ from rlchain.config.schema import (
     MlpConfig,
     NetworkConfig,
     PlayerConfig,
+    ResnetCnnConfig,
+    ResnetNetworkConfig,
     RewardShaperConfig,
     SelfPlayConfig,
     SpaceConfig,
@@ -37,6 +39,9 @@ SECTIONS = [
     ("params.network.mlp", MlpConfig),
     ("params.network.space (exactly one; an empty value like `discrete:` selects it)", SpaceConfig),
     ("params.network.space.continuous", ContinuousSpaceConfig),
+    ("params.network (builder resnet_actor_critic: rl_games' IMPALA network; mlp, rnn, space as actor_critic)",
+     ResnetNetworkConfig),
+    ("params.network.cnn (builder resnet_actor_critic)", ResnetCnnConfig),
     ("initializer blocks (mlp.initializer, mu_init, sigma_init)", InitializerConfig),
     ("params.config for algo sac (keys shared with PPO have the same meaning)", SACConfig),
     ("params.network (builder soft_actor_critic)", SACNetworkConfig),
@@ -56,7 +61,7 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | `params.seed` | seed for python, numpy, torch and the envs (`--seed` overrides) |
 | `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), `sac`, `dqn`, or a registered algo |
 | `params.model.name` | `discrete_a2c`, `multi_discrete_a2c` (MultiDiscrete / Tuple of Discrete / MultiBinary actions), `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn`; rl_games' old `*_lstm` names are read as these (see Renamed keys) |
-| `params.network` | network block; `name: actor_critic` is built in, user builders via `register_network` |
+| `params.network` | network block; `name: actor_critic` and `resnet_actor_critic` are built in, user builders via `register_network` |
 | `params.config` | training keys below |
 | `params.torch_threads` | `torch.set_num_threads` for the training process (default on CPU: half the cores, at most 4; on CUDA: torch's choice) |
 | `params.update_threads` | CPU threads for the gradient updates only, while the envs are idle (rlchain key; default: the same as `torch_threads`). Measured on 2 cores: 2 speed up a CNN update (envpool Pong 1.33x) but slow an MLP run beside envpool 4x (OpenMP and envpool threads spin against each other) |

@@ -16,7 +16,7 @@ import yaml
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
-from rlchain.config.schema import NamedBlock, NetworkConfig, Params, TrainConfig
+from rlchain.config.schema import NamedBlock, NetworkConfig, Params, ResnetNetworkConfig, TrainConfig
 
 
 def load_raw(path: str) -> dict[str, Any]:
@@ -124,9 +124,10 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
-    if isinstance(network, NetworkConfig):
+    if isinstance(network, (NetworkConfig, ResnetNetworkConfig)):
         compat.check_model_alias(old_model_name, network.rnn is not None, source)
-    if isinstance(config, TrainConfig) and isinstance(network, NetworkConfig) and network.rnn is not None:
+    if isinstance(config, TrainConfig) and isinstance(network, (NetworkConfig, ResnetNetworkConfig)) \
+            and network.rnn is not None:
         _check_sequences(config, source)
     if isinstance(network, NetworkConfig) and network.central_value:
         raise ConfigError(source, "params.network.central_value", "True makes a value-only critic, but "
@@ -160,7 +161,7 @@ def _parse_network(network: Any, source: str, path: str = "params.network") -> A
         return network
     parsed = parse_dataclass(config_class, network, path, source)
     _check_planned(parsed, path, source)
-    if isinstance(parsed, NetworkConfig):
+    if isinstance(parsed, (NetworkConfig, ResnetNetworkConfig)):
         chosen = [k for k in ("discrete", "multi_discrete", "continuous")
                   if getattr(parsed.space, k) is not None]
         if len(chosen) > 1:

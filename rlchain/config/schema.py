@@ -141,6 +141,50 @@ class NetworkConfig:
 
 
 @dataclass
+class ResnetCnnConfig:
+    """``network.cnn`` of ``resnet_actor_critic``: IMPALA stages (conv 3x3, max-pool 3x3 / 2, two
+    residual blocks) over (C, H, W) images."""
+
+    permute_input: bool = option(True, "observations are channels-last (H, W, C): permute to (C, H, W)")
+    conv_depths: list[int] = option([16, 32, 32], "output channels of each IMPALA stage",
+                                    check=lambda d: None if d and all(x > 0 for x in d)
+                                    else "needs at least one depth, each > 0")
+    activation: str = option("relu", "activation inside the residual blocks (rl_games ignores the key and uses "
+                                     "relu there); the flattened features get mlp.activation, as in rl_games",
+                             choices=ACTIVATIONS)
+    initializer: InitializerConfig = option(InitializerConfig(), "convolution weight initializer; default: "
+                                                                 "kaiming_normal (fan_out, relu) as rl_games")
+
+
+@dataclass
+class ResnetNetworkConfig:
+    """``params.network`` for the ``resnet_actor_critic`` builder (rl_games' IMPALA network): the
+    ``cnn`` stages, then ``mlp`` and ``rnn`` as in ``actor_critic``, and the heads.
+
+    ``require_rewards`` / ``require_last_actions`` feed the previous (clipped) reward and the
+    one-hot previous action to the recurrent layer, beside the image features (to the MLP when there
+    is no ``rnn``). The env supplies them: ``env_config.use_dict_obs_space: True`` (envpool) or
+    ``wrap_impala: True`` (atari_gym), see rlchain/envs/reward_action_obs.py.
+    """
+
+    name: str = option("resnet_actor_critic", "registered network builder")
+    separate: bool = option(False, "separate critic network with the same architecture")
+    space: SpaceConfig = option(SpaceConfig(), "action head")
+    cnn: ResnetCnnConfig = option(ResnetCnnConfig(), "IMPALA residual encoder")
+    mlp: MlpConfig = option(MlpConfig(), "fully connected layers after the encoder")
+    rnn: RnnConfig | None = option(None, "recurrent layer (lstm/gru)")
+    normalization: str | None = option(None, "layer_norm or batch_norm after MLP hidden layers",
+                                       choices=("layer_norm", "batch_norm"))
+    value_activation: str = option("None", "activation on the value output", choices=ACTIVATIONS)
+    value_shape: int = option(1, "value outputs (overridden by the env's value_size)", check=positive)
+    require_rewards: bool = option(False, "the previous reward (clipped to [-1, 1]) as an input of the "
+                                          "recurrent layer; needs env_config.use_dict_obs_space (envpool) "
+                                          "or wrap_impala (atari_gym)")
+    require_last_actions: bool = option(False, "the previous action (one-hot) as an input of the recurrent "
+                                               "layer; same env keys as require_rewards")
+
+
+@dataclass
 class RewardShaperConfig:
     """``reward_shaper``: r' = clip((r + shift_value) * scale_value, min_val, max_val)."""
 

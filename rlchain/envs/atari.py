@@ -15,6 +15,10 @@ rl_games, whose configs clip with ``reward_shaper``) -> ``FrameStackObservation`
 observations (84, 84, 4), channels-last like rl_games (its configs leave ``cnn.permute_input`` at
 True), or (4, 84, 84) with ``channels_first: True`` (the envpool layout, ``permute_input: False``).
 
+rl_games' ``wrap_impala: True`` adds the previous reward and action to every observation (for the
+``resnet_actor_critic`` network's ``require_rewards`` / ``require_last_actions``; see
+:mod:`rlchain.envs.reward_action_obs`).
+
 Scores: with ``episode_life`` each lost life ends a training episode, but the game goes on; the
 VecEnv reports the unclipped game reward and the end of the whole game
 (``StepResult.game_reward`` / ``game_over``), so episode statistics, ``score_to_win`` and the
@@ -32,6 +36,7 @@ import numpy as np
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv
+from rlchain.envs.reward_action_obs import RewardActionObs
 from rlchain.envs.vecenv import StepResult
 from rlchain.registry import ENVS
 
@@ -172,16 +177,14 @@ class AtariVecEnv(GymnasiumVecEnv):
 def atari_options(env_config: dict) -> dict:
     """Check an ``atari_gym`` env_config and return :func:`make_atari_env`'s keyword arguments.
 
-    rl_games keys: ``wrap_impala: True`` is refused (Dict observations for its resnet network);
+    rl_games keys: ``wrap_impala`` (handled by :func:`atari_gym_env`) is left out of the result;
     ``sticky: True`` becomes ale-py's ``repeat_action_probability: 0.25``.
     """
     options = dict(env_config)
     if "name" not in options:
         raise ConfigError("", f"{CONFIG}.name", "is required with env_name atari_gym (an ale-py id, "
                                                 "e.g. BreakoutNoFrameskip-v4 or ALE/Pong-v5)")
-    if options.pop("wrap_impala", False):
-        raise ConfigError("", f"{CONFIG}.wrap_impala", "is not supported (Dict observations for rl_games' "
-                                                       "resnet_actor_critic network, which rlchain lacks)")
+    options.pop("wrap_impala", None)  # read by atari_gym_env
     if options.pop("sticky", False):
         options.setdefault("repeat_action_probability", 0.25)
     valid = {"name", *WRAPPER_OPTIONS, *ALE_OPTIONS}
@@ -204,9 +207,14 @@ def _mode(vecenv_type: str | None) -> str:
 
 
 def atari_gym_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None, render: bool = False,
-                  **env_config: Any) -> AtariVecEnv:
-    """``env_name: atari_gym`` (rl_games' name): an ale-py id in ``env_config.name`` plus wrapper options."""
-    return AtariVecEnv(num_envs, atari_options(env_config), _mode(vecenv_type), render, seed)
+                  **env_config: Any) -> AtariVecEnv | RewardActionObs:
+    """``env_name: atari_gym`` (rl_games' name): an ale-py id in ``env_config.name`` plus wrapper options.
+
+    ``wrap_impala: True`` (rl_games' ImpalaEnvWrapper) adds the previous reward and action to the
+    observations, for ``resnet_actor_critic`` with ``require_rewards`` / ``require_last_actions``.
+    """
+    env = AtariVecEnv(num_envs, atari_options(env_config), _mode(vecenv_type), render, seed)
+    return RewardActionObs(env, f"{CONFIG}.wrap_impala") if env_config.get("wrap_impala") else env
 
 
 def preset_env(name: str) -> Any:

@@ -12,6 +12,10 @@ env's Dict space, which its builder gets as the ``observation_space`` keyword (t
 
     parts = split_flat_obs(input_dict["obs"], observation_space)   # {'image': (B, 3, 8, 8), 'pos': (B, 2)}
 
+A backend that knows its Dict layout may declare the flat space as a :class:`FlatDictBox`, which
+carries the Dict (``dict_space``) for the network (e.g. rl_games' ``use_dict_obs_space``, see
+:mod:`rlchain.envs.reward_action_obs`).
+
 With ``normalize_input`` the running mean/std is per flat dimension, i.e. per entry of every key.
 The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not flattened here.
 """
@@ -31,12 +35,15 @@ def should_flatten(space: gym.Space) -> bool:
 
 
 class FlatDictBox(gym.spaces.Box):
-    """The flat Box of a flattened Dict observation space; ``dict_space`` is the Dict it came from."""
+    """The flat Box of a flattened Dict observation space that remembers it: ``dict_space`` (key
+    order = layout order), so a network can split the observations by key (:func:`split_flat_obs`).
+    ``dtype`` defaults to the flattened space's."""
 
-    def __init__(self, dict_space: gym.spaces.Dict, dtype: type | np.dtype | None = None) -> None:
+    def __init__(self, dict_space: gym.spaces.Dict, dtype: type | np.dtype | None = None,
+                 seed: int | None = None) -> None:
         flat = gym.spaces.flatten_space(dict_space)
         dtype = np.dtype(dtype or flat.dtype)
-        super().__init__(flat.low.astype(dtype), flat.high.astype(dtype), flat.shape, dtype)
+        super().__init__(flat.low.astype(dtype), flat.high.astype(dtype), flat.shape, dtype, seed=seed)
         self.dict_space = dict_space
 
 

@@ -29,6 +29,7 @@ from rlchain.envs.brax_env import brax_env
 from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
 from rlchain.envs.multi_agent import make_multi_agent_env
+from rlchain.envs.reward_action_obs import RewardActionObs
 from rlchain.envs.vecenv import VecEnv
 from rlchain.registry import ENVS, VECENVS
 
@@ -36,7 +37,8 @@ VECENV_TYPES = ("auto", "sync", "async", "native", "envpool", "ray")
 RL_GAMES_ENVPOOL_KEYS = {"has_lives", "flatten_obs", "env_type"}
 """rl_games envpool env_config keys that are not envpool.make arguments; accepted and not used
 (has_lives: Atari scores are always whole games, from envpool's own game-over signal, see
-envpool_env.game_signals; Dict obs are always flattened; the gymnasium API is always used)."""
+envpool_env.game_signals; Dict obs are always flattened; the gymnasium API is always used).
+``use_dict_obs_space: True`` adds the previous reward and action to the obs (envs/reward_action_obs.py)."""
 
 NAME, CONFIG, VECENV = "params.config.env_name", "params.config.env_config", "params.config.vecenv_type"
 GROUPS = "params.config.env_groups"
@@ -132,8 +134,7 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
     tasks = envpool_tasks()
     if task not in tasks:
         raise _error(path, f"envpool has no task '{task}'{_did_you_mean(task, tasks)}")
-    if kwargs.pop("use_dict_obs_space", False):
-        raise _error(f"{CONFIG}.use_dict_obs_space", "is not supported by rlchain's envpool backend")
+    dict_obs = kwargs.pop("use_dict_obs_space", False)  # rl_games: previous reward and action in the obs
     for key in RL_GAMES_ENVPOOL_KEYS:
         kwargs.pop(key, None)
     valid = envpool_config_keys(task)
@@ -143,7 +144,14 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
                          f"{_did_you_mean(key, valid)} (valid: {', '.join(sorted(valid))})")
     groups = resolve_env_groups(groups, num_envs)
     extra = {"groups": groups} if groups > 1 else {}  # a user-registered backend may not take groups
-    return VECENVS.get("envpool")(task, num_envs, seed=seed, env_kwargs=kwargs, render=render, **extra)
+    env = VECENVS.get("envpool")(task, num_envs, seed=seed, env_kwargs=kwargs, render=render, **extra)
+    if dict_obs:
+        try:
+            env = RewardActionObs(env, f"{CONFIG}.use_dict_obs_space")
+        except ConfigError:
+            env.close()
+            raise
+    return env
 
 
 def _gym_id_env(name: str, path: str, kwargs: dict, num_envs: int, seed: int | None, kind: str,

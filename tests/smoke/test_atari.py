@@ -1,8 +1,9 @@
 """Atari: envpool (the shipped ppo_pong_envpool.yaml) and gymnasium + ale-py (rlchain/envs/atari.py).
 
 Covers train -> save -> play -> resume -> ONNX export of the shipped config, episodic life (a lost
-life ends a training episode, the game goes on), and scores counted over whole games with the
-unclipped reward in training statistics and in the Player.
+life ends a training episode, the game goes on), scores counted over whole games with the
+unclipped reward in training statistics and in the Player, and rl_games' resnet_actor_critic configs
+with the previous reward and action as inputs (use_dict_obs_space / wrap_impala).
 """
 
 import glob
@@ -243,7 +244,6 @@ def test_atari_gym_seeding_is_reproducible():
     ({}, None, r"env_config\.name: is required"),
     ({"name": "PongNoFrameskip-v4", "episodic_life": True}, None, r"env_config\.episodic_life: .*did you mean "
                                                                    r"'episode_life'"),
-    ({"name": "PongNoFrameskip-v4", "wrap_impala": True}, None, r"wrap_impala: is not supported"),
     ({"name": "PongNoFrameskip-v4"}, "native", r"vecenv_type: 'native' does not apply"),
 ])
 def test_atari_gym_config_errors(config, vecenv_type, pattern):
@@ -289,3 +289,66 @@ def test_cnn_policy_on_uint8_images_trains_one_epoch(tmp_path, base_config):
     state = torch.load(os.path.join(result.run_dir, "nn", "last_t.pth"), weights_only=False)
     mean = state["model"]["obs_norm.mean"]
     assert mean.shape == (4, 84, 84) and 0.0 <= float(mean.min()) and float(mean.max()) <= 1.0
+
+
+# ----- rl_games' previous reward / action observations (use_dict_obs_space, wrap_impala) ------------
+
+def test_atari_gym_wrap_impala_observations():
+    env = atari_env(wrap_impala=True)
+    try:
+        layout = env.observation_space.dict_space
+        assert list(layout.spaces) == ["last_action", "observation", "reward"]
+        assert layout["observation"].shape == (84, 84, 4) and layout["last_action"].n == 4
+        obs = env.reset()
+        assert obs.shape == (2, 4 + 84 * 84 * 4 + 1) and obs.dtype == np.float32 and 0 <= obs.min() <= obs.max() <= 1
+        result = env.step(np.array([1, 3]))
+        assert list(result.obs[:, :4].argmax(1)) == [1, 3]
+    finally:
+        env.close()
+
+
+def test_use_dict_obs_space_needs_discrete_actions():
+    pytest.importorskip("envpool")
+    with pytest.raises(ConfigError, match=r"env_config\.use_dict_obs_space: needs Discrete actions"):
+        make_vec_env("envpool", {"env_name": "Pendulum-v1", "use_dict_obs_space": True}, 2, 0, None)
+
+
+# ----- resnet_actor_critic with the previous reward and action (rl_games' resnet configs) ----------
+
+RESNET_SMALL = ["params.config.num_actors=4", "params.config.horizon_length=16", "params.config.minibatch_size=32",
+                "params.config.print_stats=false", "params.torch_threads=1", "params.config.player.render=false"]
+
+
+@pytest.mark.timeout(600)
+def test_rl_games_pong_envpool_resnet_trains_plays_and_resumes(tmp_path):
+    """rl_games' atari/ppo_pong_envpool_resnet.yaml (IMPALA + LSTM, require_rewards / require_last_actions,
+    use_dict_obs_space) with 4 envs in 2 pipelined groups: 2 epochs, one game from the checkpoint, a resume."""
+    pytest.importorskip("envpool")
+    path = os.path.join(RL_GAMES, "ppo_pong_envpool_resnet.yaml")
+    small = [*RESNET_SMALL, f"params.config.train_dir={tmp_path}", "params.config.env_groups=2"]
+    result = Runner().load(path, ["params.config.max_epochs=2", *small]).train()
+    assert result.epoch == 2 and result.frames == 2 * 4 * 16
+    last = os.path.join(result.run_dir, "nn", "last_Pong-v5_envpool_resnet.pth")
+    saved = torch.load(last, weights_only=False)
+    lstm = saved["model"]["network.actor_trunk.rnn.rnn.weight_ih_l0"]
+    assert lstm.shape == (4 * 256, 512 + 1 + 6)  # mlp features + reward + one-hot of Pong's 6 actions
+
+    played = Runner().load(path, small).play(last, games=1, quiet=True)
+    assert played.games == 1 and -21 <= played.mean_reward <= 21 and played.mean_length > 100
+
+    resumed = Runner().load(path, ["params.config.max_epochs=3", *small]).train(checkpoint=last)
+    assert resumed.epoch == 3 and resumed.frames == 3 * 4 * 16
+
+
+@pytest.mark.timeout(600)
+def test_rl_games_breakout_torch_impala_trains_and_plays(tmp_path):
+    """rl_games' atari/ppo_breakout_torch_impala.yaml: atari_gym with wrap_impala, channels-last frames."""
+    pytest.importorskip("ale_py")
+    pytest.importorskip("cv2")
+    path = os.path.join(RL_GAMES, "ppo_breakout_torch_impala.yaml")
+    small = [*RESNET_SMALL, f"params.config.train_dir={tmp_path}", "params.config.num_actors=2"]
+    result = Runner().load(path, ["params.config.max_epochs=1", *small]).train()
+    assert result.epoch == 1 and result.frames == 2 * 16
+    last = os.path.join(result.run_dir, "nn", "last_breakout_impala_lstm.pth")
+    played = Runner().load(path, small).play(last, games=1, quiet=True)
+    assert played.games == 1 and played.mean_length > 5 * 10  # 5 lives lost: a whole game

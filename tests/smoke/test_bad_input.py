@@ -89,3 +89,22 @@ def test_non_scalar_aux_loss_names_the_key(tmp_path):
     assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
     assert lines[0].startswith("network error: get_aux_loss()['value_l2'] must be a scalar tensor, got shape ("), \
         lines[0]
+
+
+def test_resnet_previous_reward_without_a_dict_obs_env(tmp_path):
+    """rl_games' ppo_pong_envpool_resnet.yaml without use_dict_obs_space: the network has no reward input."""
+    pytest.importorskip("envpool")
+    import yaml
+
+    raw = yaml.safe_load(open(os.path.join(ROOT, "benchmarks", "rl_games_configs", "ppo_pong_envpool_resnet.yaml")))
+    network = raw["params"]["network"]
+    for block in ("cnn", "mlp"):
+        network[block].pop("regularizer")  # its no-effect warnings would be extra lines
+    del raw["params"]["config"]["env_config"]["use_dict_obs_space"]
+    bad = tmp_path / "resnet.yaml"
+    bad.write_text(yaml.safe_dump(raw))
+    out = run_cli(["--train", "--file", str(bad), "params.config.num_actors=2", "params.config.minibatch_size=256",
+                   *small(tmp_path)], tmp_path)
+    assert_one_line_error(out, "resnet.yaml", "params.network.require_rewards: needs the previous reward",
+                          "use_dict_obs_space: True")
+    assert not (tmp_path / "runs").exists()

@@ -195,7 +195,7 @@ def test_rlchain_blocks_bad_values(base_config, key, value, expect):
     assert expect in str(err.value)
 
 
-@pytest.mark.parametrize("where,key", [("network", "require_rewards"), ("network", "joint_obs_actions")])
+@pytest.mark.parametrize("where,key", [("network", "joint_obs_actions")])
 def test_unimplemented_rl_games_network_features_are_named(base_config, where, key):
     base_config["params"][where][key] = True
     with pytest.raises(ConfigError, match=rf"params.network.{key}: rl_games feature .* is not implemented"):
