@@ -31,8 +31,10 @@ DICT_OBS_HINT = ("set params.config.env_config.use_dict_obs_space: True (env_nam
 
 
 def flat_layout(space: Any) -> dict[str, tuple[slice, tuple[int, ...]]] | None:
-    """{key: (columns, shape)} of a flattened Dict observation space (one with ``dict_space``), else None."""
-    dict_space = getattr(space, "dict_space", None)
+    """{key: (columns, shape)} of a flattened Dict observation space, else None. ``space`` is the
+    env's Dict itself (what the network builders get, see ``training.build.declared_space``) or a
+    flat space that carries it as ``dict_space``."""
+    dict_space = space if isinstance(space, gym.spaces.Dict) else getattr(space, "dict_space", None)
     if not isinstance(dict_space, gym.spaces.Dict):
         return None
     layout, start = {}, 0
