@@ -104,6 +104,7 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
         """The training parameters population-based training may change (see :meth:`set_params`)."""
         values = {name: getattr(self.cfg, name) for name in self.TUNABLE}
         values["learning_rate"] = self.agent.lr
+        values["entropy_coef"] = self.agent.entropy_coef  # live: set_params and schedule_entropy change it
         values["entropy_coef"] = self.agent.entropy_coef
         return values
 

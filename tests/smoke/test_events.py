@@ -92,7 +92,7 @@ def test_get_set_params_during_training(tmp_path, capsys):
         if trainer.epoch == 1:
             assert trainer.get_params()["entropy_coef"] == 0.0
             trainer.set_params(learning_rate=1e-4, entropy_coef=0.01, mini_epochs=2)
-        seen.append((trainer.epoch, trainer.get_params()["learning_rate"], trainer.agent.entropy_coef))
+        seen.append((trainer.epoch, trainer.get_params()["learning_rate"], trainer.get_params()["entropy_coef"]))
 
     Runner().load(CARTPOLE, small(tmp_path, epochs=3, extra=["params.config.print_stats=false",
                                                              "params.config.lr_schedule=None"])).train(
