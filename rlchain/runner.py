@@ -16,7 +16,7 @@ from rlchain.config.load import apply_overrides, check_batch, load_raw, parse_pa
 from rlchain.config.schema import Params, TrainConfig
 from rlchain.registry import ALGOS
 from rlchain.training import checkpoint as ckpt
-from rlchain.training.threads import ThreadPlan, plan_threads
+from rlchain.training.threads import ThreadPlan, set_threads
 
 
 class Runner:
@@ -78,10 +78,8 @@ class Runner:
         elif seed is None:
             seed = secrets.randbelow(2**31)
         seed_everything(seed)
-        threads = plan_threads(params.torch_threads, params.update_threads, cfg.device,
-                               group.local_world_size if group is not None else 1)
-        if threads is not None:
-            threads.apply()
+        threads = set_threads(params.torch_threads, params.update_threads, cfg.device,
+                              group.local_world_size if group is not None else 1)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
         env = build_env(params, cfg.num_actors, seed, runners=True)
@@ -150,9 +148,7 @@ class Runner:
         from rlchain.player import Player
 
         params = self._require()
-        threads = plan_threads(params.torch_threads, None, params.config.device)  # 2 threads on 2 busy cores cost 30x
-        if threads is not None:
-            threads.apply()
+        set_threads(params.torch_threads, None, params.config.device)  # as training: 2 threads on 2 busy cores cost 30x
         player = Player(params, checkpoint, sigma=sigma)
         try:
             return player.play(games=games, deterministic=deterministic, quiet=quiet)

@@ -55,3 +55,12 @@ def plan_threads(torch_threads: int | None, update_threads: int | None, device: 
     rollout = min(torch_threads, share) if torch_threads else max(1, min(4, share // 2))
     update = min(update_threads, share) if update_threads else rollout
     return ThreadPlan(rollout, update)
+
+
+def set_threads(torch_threads: int | None, update_threads: int | None, device: str,
+                processes: int = 1) -> ThreadPlan | None:
+    """:func:`plan_threads`, then set its rollout count now; the plan (or None) for the trainer."""
+    plan = plan_threads(torch_threads, update_threads, device, processes)
+    if plan is not None:
+        plan.apply()
+    return plan
