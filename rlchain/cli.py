@@ -40,9 +40,22 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point; expected errors print one line and exit with status 2."""
     args = build_parser().parse_args(argv)
-    signal.signal(signal.SIGTERM, _terminate)
-    warnings.filterwarnings("ignore", message=".*Box .*precision lowered.*")
+    # SIGTERM and the warning format are the process's: changed for this call only, so an in-process
+    # caller (a test, a notebook, a sweep) gets its own handlers back.
+    previous_sigterm = signal.signal(signal.SIGTERM, _terminate)
+    previous_format = warnings.formatwarning
     warnings.formatwarning = _one_line_warning
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*Box .*precision lowered.*")
+            return _report(args)
+    finally:
+        signal.signal(signal.SIGTERM, previous_sigterm)
+        warnings.formatwarning = previous_format
+
+
+def _report(args: argparse.Namespace) -> int:
+    """Run the command; an expected error is one line on stderr and an exit status."""
     try:
         return _run(args)
     except (ConfigError, CheckpointError) as exc:

@@ -32,3 +32,25 @@ BASE = {
 def base_config():
     """A fresh small valid CartPole config dict."""
     return copy.deepcopy(BASE)
+
+
+def _signal_state() -> tuple:
+    """SIGINT/SIGTERM handlers and the main thread's blocked signals: what a run may change only for its duration."""
+    import signal
+
+    handlers = tuple(signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM))
+    return handlers, frozenset(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+
+@pytest.fixture(autouse=True)
+def signal_state_is_restored():
+    """Every test leaves the process's signal handling as it found it.
+
+    A run, a library or a test that installs a handler or blocks a signal in the main thread and
+    keeps it makes later signal tests depend on the order the suite runs in (issue 23): this
+    fixture names the test that leaked instead.
+    """
+    before = _signal_state()
+    yield
+    after = _signal_state()
+    assert after == before, f"this test left the signal state changed: {before} -> {after}"

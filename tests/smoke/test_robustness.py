@@ -56,13 +56,59 @@ def test_sigterm_saves_and_resume_continues(tmp_path):
     assert f"at epoch {epoch}" in resumed.stdout and f"epoch {epoch + 1}/{epoch + 2}" in resumed.stdout
 
 
+def _wait_for(condition, seconds=10.0):
+    """Let the main thread reach its next signal check: a signal sent to the process may be received
+    by another thread (Ray, envpool, OpenMP, TensorBoard writers), and Python runs the handler in the
+    main thread at its next check, not necessarily before the line after os.kill."""
+    deadline = time.monotonic() + seconds
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.001)
+    return condition()
+
+
 def test_second_signal_exits_at_once():
+    previous = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     with StopSignals() as signals:
         os.kill(os.getpid(), signal.SIGINT)
+        assert _wait_for(lambda: signals.requested is not None)
         assert signals.requested == "SIGINT"
-        with pytest.raises(KeyboardInterrupt):
-            os.kill(os.getpid(), signal.SIGINT)
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        with pytest.raises(KeyboardInterrupt, match="second SIGTERM"):
+            os.kill(os.getpid(), signal.SIGTERM)
+            _wait_for(lambda: False)
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == previous
+
+
+def test_signals_in_a_fresh_process_with_threads():
+    """The same two-signal contract in a process of its own, with busy non-main threads that could
+    receive the signal (as Ray's or envpool's do): independent of what ran before in this suite."""
+    script = textwrap.dedent(f"""
+        import os, signal, sys, threading, time
+        sys.path.insert(0, {ROOT!r})
+        from rlchain.training.safety import StopSignals
+        stop = threading.Event()
+        for _ in range(4):
+            threading.Thread(target=lambda: [time.sleep(0.0005) for _ in iter(stop.is_set, True)],
+                             daemon=True).start()
+        with StopSignals() as signals:
+            os.kill(os.getpid(), signal.SIGTERM)
+            deadline = time.monotonic() + 10
+            while signals.requested is None and time.monotonic() < deadline:
+                time.sleep(0.001)
+            print("first", signals.requested, flush=True)
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(10)
+                print("second ignored")
+            except KeyboardInterrupt as exc:
+                print("second", exc)
+        stop.set()
+        print("restored", signal.getsignal(signal.SIGINT) is signal.default_int_handler,
+              signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    lines = [line for line in out.stdout.splitlines() if line and not line.endswith("(send it again to exit at once)")]
+    assert lines == ["first SIGTERM", "second second SIGINT", "restored True True"], out.stdout
 
 
 def test_sigkill_during_checkpoint_write_keeps_previous(tmp_path):
