@@ -62,10 +62,11 @@ class PPOAgent:
         sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
                 "grad_norm": 0.0}
         count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
+        reference = self._kl_reference(storage)
         for _ in range(cfg.mini_epochs):
             epoch_kl, epoch_n = 0.0, 0
             for batch in self._minibatches(storage, advantages):
-                stats = self._step(batch)
+                stats = self._step(batch, reference)
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value
                     if key.startswith("losses/"):  # auxiliary: averaged over the minibatches that had it
@@ -91,7 +92,19 @@ class PPOAgent:
         if self.schedule_entropy:
             self.entropy_coef = scheduled_entropy_coef(self.cfg.entropy_coef, progress)
 
-    def _step(self, batch: Batch) -> dict[str, float]:
+    def _kl_reference(self, storage: RolloutStorage) -> torch.Tensor | None:
+        """With ``kl_reference: previous``, a (T * N, param_size) copy of the rollout's distribution
+        parameters that :meth:`_step` measures the KL against and then overwrites with the policy it
+        saw, so from the second pass on the KL is how far the policy moved since that sample's
+        previous minibatch (rl_games' continuous agent). None: the KL is against the rollout policy."""
+        mode = self.cfg.kl_reference
+        if mode == "auto":
+            mode = "previous" if self.model.dist.continuous else "rollout"
+        if mode == "rollout":
+            return None
+        return storage.params.reshape(-1, storage.params.shape[-1]).clone()
+
+    def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
         cfg, model, dist = self.cfg, self.model, self.model.dist
         autocast = torch.autocast("cuda", dtype=torch.float16) if self.amp else nullcontext()
         with autocast:
@@ -123,7 +136,12 @@ class PPOAgent:
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
         grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
         with torch.no_grad():
-            kl = dist.kl(batch.params, params.detach().float()).mean()
+            current = params.detach().float()
+            if reference is None:
+                kl = dist.kl(batch.params, current).mean()
+            else:
+                kl = dist.kl(reference.index_select(0, batch.index), current).mean()
+                reference.index_copy_(0, batch.index, current)
             ratio = torch.exp(log_probs.detach() - batch.log_probs)
             clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
         names = ("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac", "loss", "grad_norm",

@@ -31,6 +31,8 @@ class Batch:
     states: tuple[torch.Tensor, ...] | None = None
     resets: torch.Tensor | None = None
     seq_length: int = 1
+    index: torch.Tensor | None = None
+    """(B,) int64: each row's place in the rollout flattened time-major (t * num_envs + env)."""
 
 
 class RolloutStorage:
@@ -115,7 +117,7 @@ class RolloutStorage:
         order = torch.randperm(size, device=self.obs.device)
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
-            yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()})
+            yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()}, index=idx)
 
     def sequence_minibatches(self, minibatch_size: int, seq_length: int, advantages: torch.Tensor,
                              use_resets: bool = True) -> Iterator[Batch]:
@@ -136,6 +138,7 @@ class RolloutStorage:
             return x.reshape(chunks, length, n, *x.shape[2:]).transpose(1, 2).reshape(count * length, *x.shape[2:])
 
         flat = {k: by_sequence(v) for k, v in self._per_step(advantages).items()}
+        flat["index"] = by_sequence(torch.arange(t * n, device=self.obs.device).reshape(t, n))
         if use_resets and self.resets is not None:
             flat["resets"] = by_sequence(self.resets)
         # states entering each sequence: (chunks, layers, N, units) -> (layers, S, units)

@@ -353,6 +353,12 @@ class TrainConfig(RunConfig):
     kl_threshold: float = option(0.008, "adaptive schedule target KL", check=positive)
     schedule_type: str = option("legacy", "adaptive: legacy = after every minibatch, standard = "
                                           "after every mini-epoch", choices=("legacy", "standard"))
+    kl_reference: str = option("auto", "adaptive: the policy the KL compares the current one with. previous = each "
+                                       "sample's policy at its previous minibatch (the rollout's on the first "
+                                       "pass), as rl_games' continuous agent; rollout = the policy that collected "
+                                       "the batch, as rl_games' discrete agent; auto = previous for continuous "
+                                       "actions, rollout otherwise. The logged kl is this one",
+                               choices=("auto", "previous", "rollout"))
     min_lr: float = option(1e-6, "adaptive / linear / polynom_decay schedule floor", check=non_negative)
     max_lr: float = option(1e-2, "adaptive schedule ceiling", check=positive)
     decay_power: float = option(1.0, "polynom_decay: the exponent (1 = linear; rl_games' TensorFlow agent's key; "

@@ -38,6 +38,8 @@ class Distribution:
     action_shape: tuple[int, ...]
     action_dtype: torch.dtype
     mask_size: int = 0
+    continuous: bool = False
+    """True for real-valued actions (the adaptive lr's ``kl_reference: auto`` follows it)."""
 
     def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
         """Split a network's output tuple into (params, value)."""
@@ -258,6 +260,8 @@ class MultiCategorical(Distribution):
 
 class DiagGaussian(Distribution):
     """Box(A): params are cat(mu, std) (B, 2A); the network's sigma is log-std or std by model."""
+
+    continuous = True
 
     def __init__(self, space: gym.spaces.Box, sigma_is_logstd: bool, clip_actions: bool) -> None:
         self.action_shape = space.shape
