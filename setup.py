@@ -3,16 +3,17 @@
 from setuptools import find_packages, setup
 
 EXTRAS = {
-    "envpool": ["envpool>=0.8"],
+    "envpool": ["envpool>=0.8,<2"],
     "brax": ["brax>=0.12"],  # JAX on the CPU by default; tensors reach torch through DLPack
     "atari": ["ale-py>=0.9", "opencv-python-headless"],  # ale-py ships the ROMs; opencv: AtariPreprocessing
-    "mujoco": ["gymnasium[mujoco]>=1.0"],
+    "mujoco": ["gymnasium[mujoco]>=1.0,<2"],
     "onnx": ["onnx", "onnxruntime"],
     "wandb": ["wandb"],
-    "ray": ["ray"],
+    "ray": ["ray>=2.9,<3"],
     "tune": ["optuna>=3"],
     "video": ["moviepy>=1.0", "pygame>=2.1"],
     "test": ["pytest>=7", "pytest-timeout", "ruff"],
+    "bench": ["matplotlib"],  # benchmarks/curves.py plots
 }
 EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
 
@@ -25,10 +26,12 @@ setup(
     python_requires=">=3.10",
     # torch is deliberately a range that the CPU wheel (2.13.0) satisfies: install it first
     # (see README) so pip does not pull a multi-GB CUDA build.
+    # Upper bounds: the next major version of these is untested. The exact versions CI and the README's
+    # test command install are in constraints.txt; .ci/run-latest checks the newest within these bounds.
     install_requires=[
-        "torch>=2.1",
-        "gymnasium>=1.0",
-        "numpy>=1.24",
+        "torch>=2.1,<3",
+        "gymnasium>=1.0,<2",
+        "numpy>=1.24,<3",
         "pyyaml>=6",
         "tensorboard>=2.10",
     ],
