@@ -1,0 +1,314 @@
+"""Learning curves, rlchain against rl_games: reward against frames and against wall-clock seconds.
+
+For each rl_games YAML, each seed and each library, one training run for the same wall-clock
+budget, one process at a time (so neither library shares the CPU with the other). Each run gets a
+copy of the YAML with ``params.seed`` and ``params.config.env_config.seed`` set to the seed and
+nothing else changed. The TensorBoard ``rewards/step`` events of every run (wall time, frames,
+mean reward over the last ``games_to_track`` episodes) are saved as JSON under ``--out``, and from
+them the script writes, per config:
+
+* a table of mean +- standard deviation over seeds of the reward at fixed frame counts and at fixed
+  times, frames/s, and the ratio rlchain / rl_games (``results.md``, also printed);
+* a PNG with reward vs frames and reward vs seconds, both libraries, the seed band shaded.
+
+Runs already saved with the same budget are reused (``--rerun`` trains them again), so the
+table and plots regenerate from the saved runs with ``--plot-only``. Every results file records the
+CPU model and the load average before and after each run.
+
+Example (all defaults: the six configs, 3 seeds, 300 s each; about 3 hours on 2 cores)::
+
+    python benchmarks/curves.py --rl-games-python /work/rlg-venv/bin/python
+
+Needs matplotlib in the interpreter that runs this script (``pip install -e ".[bench]"``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import shlex
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from compare import read_rewards, stop  # noqa: E402  (benchmarks/ is not a package)
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.join(REPO, "benchmarks")
+CONFIGS = {  # short name -> rl_games' own YAML (device: cpu added, nothing else changed)
+    "ant": "rl_games_configs/ant_envpool.yaml",
+    "halfcheetah": "rl_games_configs/halfcheetah_envpool.yaml",
+    "hopper": "rl_games_configs/hopper_envpool.yaml",
+    "walker2d": "rl_games_configs/walker2d_envpool.yaml",
+    "humanoid": "rl_games_configs/humanoid_envpool.yaml",
+    "pendulum": "rl_games_configs/ppo_pendulum_torch.yaml",
+}
+DEFAULT_SEEDS = (11, 12, 13)
+COLORS = {"rlchain": "tab:blue", "rl_games": "tab:orange"}
+
+
+# ----- running -------------------------------------------------------------------------------
+def seeded_config(path: str, seed: int, workdir: str) -> str:
+    """A copy of the YAML in ``workdir`` with params.seed and env_config.seed (if any) set to ``seed``."""
+    with open(path) as f:
+        cfg = yaml.safe_load(f)
+    cfg["params"]["seed"] = seed
+    env_config = cfg["params"]["config"].get("env_config")
+    if isinstance(env_config, dict):
+        env_config["seed"] = seed
+    out = os.path.join(workdir, os.path.basename(path))
+    with open(out, "w") as f:
+        yaml.safe_dump(cfg, f, sort_keys=False)
+    return out
+
+
+def command(lib: str, cfg_path: str, args: argparse.Namespace) -> list[str]:
+    """The training command of one library, as a user of it would type it."""
+    if lib == "rlchain":
+        return [args.rlchain_python, os.path.join(REPO, "runner.py"), "--train", "--file", cfg_path,
+                *shlex.split(args.rlchain_args)]
+    return [args.rl_games_python, os.path.join(HERE, "rl_games_driver.py"), "--file", cfg_path,
+            *shlex.split(args.rl_games_args)]
+
+
+def load_average() -> float:
+    """The 1-minute load average (what else was running)."""
+    return os.getloadavg()[0]
+
+
+def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.Namespace) -> dict:
+    """One run for ``seconds`` of wall time from process start; its reward events and conditions."""
+    workdir = tempfile.mkdtemp(prefix=f"curve_{config}_{lib}_{seed}_")
+    cfg_path = seeded_config(os.path.join(HERE, CONFIGS[config]), seed, workdir)
+    cmd = command(lib, cfg_path, args)
+    print(f"[{config} {lib} seed {seed}] $ {shlex.join(cmd)}", flush=True)
+    load_before, accs = load_average(), {}
+    with open(os.path.join(workdir, "train.log"), "wb") as log:
+        t0 = time.time()
+        proc = subprocess.Popen(cmd, cwd=workdir, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                start_new_session=True)
+        try:
+            while proc.poll() is None and time.time() - t0 < seconds:
+                time.sleep(1.0)
+        finally:
+            stop(proc)
+    wall = time.time() - t0
+    events = [(w - t0, step, value) for w, step, value in read_rewards(workdir, accs) if w - t0 <= seconds]
+    if not events:
+        with open(os.path.join(workdir, "train.log"), "rb") as f:
+            tail = f.read()[-2000:].decode(errors="replace")
+        raise RuntimeError(f"[{config} {lib} seed {seed}] no rewards/step events (rc {proc.returncode}); "
+                           f"log in {workdir}:\n{tail}")
+    last = events[-1]
+    print(f"[{config} {lib} seed {seed}] {last[1]} frames, reward {last[2]:.1f} at {last[0]:.0f} s", flush=True)
+    return {"config": config, "lib": lib, "seed": seed, "budget_s": seconds, "wall_s": wall,
+            "events": events, "load_before": load_before, "load_after": load_average(), "cmd": cmd,
+            "returncode": proc.returncode, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+
+
+def run_path(out: str, config: str, lib: str, seed: int) -> str:
+    return os.path.join(out, "runs", config, f"{lib}_seed{seed}.json")
+
+
+def load_runs(out: str, config: str, libs: list[str], seeds: list[int], budget: float) -> dict[str, list[dict]]:
+    """The saved runs of ``config`` with this budget, by library."""
+    runs: dict[str, list[dict]] = {lib: [] for lib in libs}
+    for lib in libs:
+        for seed in seeds:
+            path = run_path(out, config, lib, seed)
+            if os.path.exists(path):
+                with open(path) as f:
+                    run = json.load(f)
+                if run["budget_s"] == budget:
+                    runs[lib].append(run)
+    return runs
+
+
+# ----- summarising (pure functions) -------------------------------------------------------------
+def value_at(events: list, x: float, axis: int) -> float | None:
+    """The last reported reward at or before ``x`` on ``axis`` (0 = seconds, 1 = frames); None if none yet."""
+    best = None
+    for event in events:
+        if event[axis] <= x:
+            best = event[2]
+        else:
+            break
+    return best
+
+
+def mean_std(values: list[float | None]) -> tuple[float, float] | None:
+    """Mean and sample standard deviation over seeds; None unless every seed has a value."""
+    if not values or any(v is None for v in values):
+        return None
+    return statistics.fmean(values), (statistics.stdev(values) if len(values) > 1 else 0.0)
+
+
+def frame_grid(runs: dict[str, list[dict]], points: int = 4) -> list[int]:
+    """Frame counts every run of every library reached: ``points`` even steps up to the smallest last frame."""
+    reach = min(run["events"][-1][1] for lib_runs in runs.values() for run in lib_runs)
+    step = 10 ** max(0, int(math.log10(max(reach, 1))) - 1)  # round to two significant digits
+    return [int(reach * k / points) // step * step for k in range(1, points + 1)]
+
+
+def time_grid(budget: float, points: int = 4) -> list[float]:
+    """Times from process start at which to compare: even steps up to the budget."""
+    return [round(budget * k / points) for k in range(1, points + 1)]
+
+
+def fps(run: dict) -> float:
+    """Frames per second from process start to the last reward event (startup included)."""
+    t, frames, _ = run["events"][-1]
+    return frames / max(t, 1e-9)
+
+
+def judge(ours: tuple[float, float] | None, peer: tuple[float, float] | None) -> str:
+    """'ahead' / 'level' / 'behind': behind or ahead only where the gap exceeds both seed spreads added."""
+    if ours is None or peer is None:
+        return "-"
+    gap, noise = ours[0] - peer[0], ours[1] + peer[1]
+    return "ahead" if gap > noise else "behind" if -gap > noise else "level"
+
+
+def summarise(config: str, runs: dict[str, list[dict]], budget: float) -> list[str]:
+    """Markdown lines: one table row per grid point, both libraries, the ratio and the verdict."""
+    libs = [lib for lib in ("rlchain", "rl_games") if runs.get(lib)]
+    lines = [f"### {config} ({len(runs[libs[0]])} seeds, {budget:g} s each)", "",
+             "| at | " + " | ".join(libs) + " | ratio | verdict |", "|---|" + "---|" * (len(libs) + 2)]
+
+    def row(label: str, stats: dict, verdict: bool = True) -> str:
+        cells = [f"{s[0]:.0f} +- {s[1]:.0f}" if s else "-" for s in (stats[lib] for lib in libs)]
+        ours, peer = stats.get("rlchain"), stats.get("rl_games")
+        ratio = f"{ours[0] / peer[0]:.2f}x" if ours and peer and peer[0] > 0 else "-"
+        return f"| {label} | " + " | ".join(cells) + f" | {ratio} | {judge(ours, peer) if verdict else ''} |"
+
+    if len(libs) == 2:
+        for frames in frame_grid(runs):
+            stats = {lib: mean_std([value_at(r["events"], frames, 1) for r in runs[lib]]) for lib in libs}
+            lines.append(row(f"{frames / 1e6:.2f}M frames", stats))
+    for seconds in time_grid(budget):
+        stats = {lib: mean_std([value_at(r["events"], seconds, 0) for r in runs[lib]]) for lib in libs}
+        lines.append(row(f"{seconds:.0f} s", stats))
+    rates = {lib: mean_std([fps(r) for r in runs[lib]]) for lib in libs}
+    lines.append(row("frames/s", rates, verdict=False))
+    return lines
+
+
+# ----- plotting ------------------------------------------------------------------------------------
+def band(runs: list[dict], axis: int, xs: list[float]) -> tuple[list[float], list[float], list[float], list[float]]:
+    """Mean, min and max over seeds at each x where every seed has a value."""
+    out = ([], [], [], [])
+    for x in xs:
+        values = [value_at(r["events"], x, axis) for r in runs]
+        if all(v is not None for v in values):
+            for series, v in zip(out, (x, statistics.fmean(values), min(values), max(values))):
+                series.append(v)
+    return out
+
+
+def plot(config: str, runs: dict[str, list[dict]], budget: float, path: str) -> None:
+    """reward vs frames and reward vs seconds, mean line and min-max seed band per library."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for lib, lib_runs in runs.items():
+        if not lib_runs:
+            continue
+        max_frames = max(r["events"][-1][1] for r in lib_runs)
+        for ax, axis, xs in ((axes[0], 1, [max_frames * k / 200 for k in range(201)]),
+                             (axes[1], 0, [budget * k / 200 for k in range(201)])):
+            x, mean, low, high = band(lib_runs, axis, xs)
+            ax.plot(x, mean, color=COLORS.get(lib), label=f"{lib} ({len(lib_runs)} seeds)")
+            ax.fill_between(x, low, high, color=COLORS.get(lib), alpha=0.2)
+    axes[0].set_xlabel("frames")
+    axes[1].set_xlabel("seconds from process start")
+    for ax in axes:
+        ax.set_ylabel("mean episode reward")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="lower right")
+    fig.suptitle(f"{os.path.basename(CONFIGS[config])}: mean and min-max over seeds")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+# ----- command line --------------------------------------------------------------------------------
+def cpu_model() -> str:
+    """lscpu's model name (machines here differ by up to 1.5x, so every figure names it)."""
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+        for line in out.splitlines():
+            if line.startswith("Model name:"):
+                return line.split(":", 1)[1].strip()
+    except (OSError, subprocess.CalledProcessError):
+        pass
+    return platform.processor() or "unknown"
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--configs", nargs="+", choices=sorted(CONFIGS), default=list(CONFIGS))
+    p.add_argument("--seeds", nargs="+", type=int, default=list(DEFAULT_SEEDS))
+    p.add_argument("--seconds", type=float, default=300.0, help="wall-clock budget of each run")
+    p.add_argument("--pendulum-seconds", type=float, default=150.0,
+                   help="budget of ppo_pendulum_torch runs (rl_games starts 16 Ray actors for it: ~60 s on 2 cores)")
+    p.add_argument("--libs", nargs="+", choices=("rlchain", "rl_games"), default=["rlchain", "rl_games"])
+    p.add_argument("--rl-games-python", default="/work/rlg-venv/bin/python")
+    p.add_argument("--rlchain-python", default=sys.executable)
+    p.add_argument("--rlchain-args", default="", help="extra runner.py arguments, e.g. key=value overrides")
+    p.add_argument("--rl-games-args", default="", help="extra rl_games_driver.py arguments")
+    p.add_argument("--out", default=os.path.join(HERE, "curves"), help="runs/, results.md and the PNGs go here")
+    p.add_argument("--rerun", action="store_true", help="train again even where a saved run exists")
+    p.add_argument("--plot-only", action="store_true", help="no training: table and plots from the saved runs")
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    cpu = cpu_model()
+    for seed in args.seeds:  # seed-major (a cut-short run still has whole seeds), libraries alternating
+        for config in args.configs:
+            budget = args.pendulum_seconds if config == "pendulum" else args.seconds
+            for lib in args.libs:
+                path = run_path(args.out, config, lib, seed)
+                if args.plot_only or (not args.rerun and load_runs(args.out, config, [lib], [seed], budget)[lib]):
+                    continue
+                try:
+                    run = train_for(lib, config, seed, budget, args)
+                except RuntimeError as exc:  # no reward reported in the budget: said, not saved
+                    print(exc, file=sys.stderr, flush=True)
+                    continue
+                run["cpu"] = cpu
+                os.makedirs(os.path.dirname(path), exist_ok=True)
+                with open(path, "w") as f:
+                    json.dump(run, f)
+    lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
+    for config in args.configs:
+        budget = args.pendulum_seconds if config == "pendulum" else args.seconds
+        runs = load_runs(args.out, config, args.libs, args.seeds, budget)
+        if not any(runs.values()):
+            continue
+        loads = [r[k] for lib_runs in runs.values() for r in lib_runs for k in ("load_before", "load_after")]
+        lines += summarise(config, runs, budget)
+        lines += ["", f"load average (1 min) before/after the runs: {min(loads):.2f}-{max(loads):.2f}; "
+                      f"![{config}]({config}.png)", ""]
+        plot(config, runs, budget, os.path.join(args.out, f"{config}.png"))
+    text = "\n".join(lines)
+    print(text)
+    with open(os.path.join(args.out, "results.md"), "w") as f:
+        f.write(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
