@@ -18,6 +18,7 @@ last ``forward``; PPO adds each loss to its loss (weight 1) and logs it as ``los
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import torch.nn as nn
@@ -42,10 +43,96 @@ class NetworkBuilder:
         return self.build(name, **kwargs)
 
 
-def instantiate(builder: Any, params: Any, **kwargs: Any) -> nn.Module:
-    """Build a module from a registered builder: a NetworkBuilder-like class or a plain function."""
+class ReadKeys(dict):
+    """A network block (a plain dict) that records which of its keys, and its nested blocks' keys,
+    the builder read, so keys it never looked at can be reported as likely typos.
+
+    Reading a key (``[]``, ``get``, ``in``, ``pop``, ``setdefault``) marks it; iterating, copying or
+    unpacking the block marks all its keys, so a builder that forwards the whole block is never blamed.
+    """
+
+    def __init__(self, block: dict) -> None:
+        super().__init__({k: ReadKeys(v) if isinstance(v, dict) else v for k, v in block.items()})
+        self.read: set = set()
+
+    def __getitem__(self, key: Any) -> Any:
+        self.read.add(key)
+        return super().__getitem__(key)
+
+    def get(self, key: Any, default: Any = None) -> Any:
+        self.read.add(key)
+        return super().get(key, default)
+
+    def __contains__(self, key: Any) -> bool:
+        self.read.add(key)
+        return super().__contains__(key)
+
+    def pop(self, key: Any, *default: Any) -> Any:
+        self.read.add(key)
+        return super().pop(key, *default)
+
+    def setdefault(self, key: Any, default: Any = None) -> Any:
+        self.read.add(key)
+        return super().setdefault(key, default)
+
+    def _all(self) -> None:
+        """Bulk access hands the nested blocks out too: everything under this block counts as read."""
+        self.read.update(super().keys())
+        for value in super().values():
+            if isinstance(value, ReadKeys):
+                value._all()
+
+    def __iter__(self):
+        self._all()
+        return super().__iter__()
+
+    def keys(self):
+        self._all()
+        return super().keys()
+
+    def items(self):
+        self._all()
+        return super().items()
+
+    def values(self):
+        self._all()
+        return super().values()
+
+    def copy(self) -> dict:
+        self._all()
+        return dict(super().items())
+
+    def unread(self, prefix: str = "") -> list[str]:
+        """Dotted paths of the keys never read, nested blocks included."""
+        out = []
+        for key, value in super().items():
+            if key not in self.read:
+                out.append(f"{prefix}{key}")
+            elif isinstance(value, ReadKeys):
+                out += value.unread(f"{prefix}{key}.")
+        return out
+
+
+IGNORED_KEYS = ("name", "central_value")  # read by rlchain itself / added by rlchain for a critic
+
+
+def instantiate(builder: Any, params: Any, path: str = "params.network", **kwargs: Any) -> nn.Module:
+    """Build a module from a registered builder: a NetworkBuilder-like class or a plain function.
+
+    A plain-dict block (a builder without ``config_class``) is checked after the build: keys the
+    builder never read are a warning that names them (``path`` is the block's place in the config).
+    """
+    tracked = ReadKeys(params) if type(params) is dict else None
+    block = tracked if tracked is not None else params
     if isinstance(builder, type):
         obj = builder()
-        obj.load(params)
-        return obj.build("network", **kwargs)
-    return builder(params, **kwargs)
+        obj.load(block)
+        module = obj.build("network", **kwargs)
+    else:
+        module = builder(block, **kwargs)
+    unread = [key for key in tracked.unread() if key not in IGNORED_KEYS] if tracked is not None else []
+    if unread:
+        warnings.warn(f"{path}: {', '.join(unread)} not read by network builder "
+                      f"'{params.get('name', '?')}' (a typo? a builder's config_class makes unknown keys an "
+                      f"error)", stacklevel=2)
+    return module

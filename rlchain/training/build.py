@@ -102,7 +102,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
                                  params.config.normalize_value)
         else:  # a registered network, given its block and rl_games' critic kwargs
             block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
-            network = instantiate(NETWORKS.get(_network_name(cv.network)), block, actions_num=value_size,
+            network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
+                                  "params.config.central_value_config.network", actions_num=value_size,
                                   input_shape=state_shape, value_size=value_size,
                                   num_seqs=params.config.num_actors,
                                   observation_space=obs_state_parts(space)[1] or gym.spaces.Box(
