@@ -4,50 +4,48 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import types
 import typing
 
 from rlchain.config import compat
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
-from rlchain.config.schema import (
-    ContinuousSpaceConfig,
-    DivergenceConfig,
-    EnvRunnersConfig,
-    EvaluationConfig,
-    InitializerConfig,
-    MlpConfig,
-    NetworkConfig,
-    PlayerConfig,
-    ResnetCnnConfig,
-    ResnetNetworkConfig,
-    RewardShaperConfig,
-    SelfPlayConfig,
-    SpaceConfig,
-    TrainConfig,
-)
+from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
 
-SECTIONS = [
-    ("params.config", TrainConfig),
-    ("params.config.reward_shaper", RewardShaperConfig),
-    ("params.config.player", PlayerConfig),
-    ("params.config.divergence", DivergenceConfig),
-    ("params.config.evaluation", EvaluationConfig),
-    ("params.config.self_play_config (an env with set_opponent, see rlchain/training/self_play.py)",
-     SelfPlayConfig),
-    ("params.config.env_runners (Ray env workers: `env_runners: {}` or `vecenv_type: RAY` for the defaults)",
-     EnvRunnersConfig),
-    ("params.network (builder actor_critic)", NetworkConfig),
-    ("params.network.mlp", MlpConfig),
-    ("params.network.space (exactly one; an empty value like `discrete:` selects it)", SpaceConfig),
-    ("params.network.space.continuous", ContinuousSpaceConfig),
+# The top-level blocks: (heading, key path, dataclass, qualifier). Every field whose type is a dataclass
+# (or Optional of one, or a list of one) becomes a section of its own, recursively (see ``sections``),
+# so no nested block can be left out. The qualifier tells apart blocks of different types that share a
+# key path (``params.network.cnn`` of actor_critic and of resnet_actor_critic).
+ROOTS = [
+    ("params.config", "params.config", TrainConfig, "algo a2c_discrete / a2c_continuous"),
+    ("params.network (builder actor_critic)", "params.network", NetworkConfig, "builder actor_critic"),
     ("params.network (builder resnet_actor_critic: rl_games' IMPALA network; mlp, rnn, space as actor_critic)",
-     ResnetNetworkConfig),
-    ("params.network.cnn (builder resnet_actor_critic)", ResnetCnnConfig),
-    ("initializer blocks (mlp.initializer, mu_init, sigma_init)", InitializerConfig),
-    ("params.config for algo sac (keys shared with PPO have the same meaning)", SACConfig),
-    ("params.network (builder soft_actor_critic)", SACNetworkConfig),
-    ("params.config for algo dqn", DQNConfig),
-    ("params.network (builder dqn)", DQNNetworkConfig),
+     "params.network", ResnetNetworkConfig, "builder resnet_actor_critic"),
+    ("params.config for algo sac (keys shared with PPO have the same meaning)", "params.config", SACConfig,
+     "algo sac"),
+    ("params.network (builder soft_actor_critic)", "params.network", SACNetworkConfig, "builder soft_actor_critic"),
+    ("params.config for algo dqn", "params.config", DQNConfig, "algo dqn"),
+    ("params.network (builder dqn)", "params.network", DQNNetworkConfig, "builder dqn"),
 ]
+
+# Extra words for a nested section's heading, by key path.
+NOTES = {
+    "params.config.self_play_config": "an env with set_opponent, see rlchain/training/self_play.py",
+    "params.config.env_runners": "Ray env workers: `env_runners: {}` or `vecenv_type: RAY` for the defaults",
+    "params.config.central_value_config": "asymmetric actor-critic; the env sets use_central_value",
+    "params.network.space": "exactly one; an empty value like `discrete:` selects it",
+    "params.network.rnn": "training uses sequences of config.seq_length",
+}
+
+# A block type met at several key paths gets one section that names them all.
+BLOCK_NAMES = {InitializerConfig: "initializer blocks"}
+
+# Extra words for one key's row, by full key path: blocks that are plain dicts handed on as they are.
+ROW_NOTES = {
+    "params.config.central_value_config.network": (
+        "; parsed like params.network: a built-in builder's block has the keys of its params.network "
+        "sections, a registered builder without config_class gets the dict as it is"),
+}
+
 
 HEADER = """# Configuration reference
 
@@ -84,8 +82,11 @@ def _default(f: dataclasses.Field) -> str:
         value = f.default_factory()
     else:
         return "required"
-    if dataclasses.is_dataclass(value):
-        return "(block)"
+    if dataclasses.is_dataclass(value):  # name the keys where it differs from its own section's defaults
+        plain = type(value)()
+        changed = [f"{k.name}={getattr(value, k.name)!r}" for k in dataclasses.fields(value)
+                   if getattr(value, k.name) != getattr(plain, k.name)]
+        return "(block" + (": " + ", ".join(changed) if changed else "") + ")"
     if isinstance(value, float) and math.isinf(value):
         return "inf" if value > 0 else "-inf"
     return "None" if value is None else repr(value) if isinstance(value, str) else str(value)
@@ -96,11 +97,90 @@ def _status(f: dataclasses.Field) -> str:
     return status
 
 
+@dataclasses.dataclass
+class Section:
+    """One table of the reference: a block type and every key path it is met at."""
+
+    cls: type
+    paths: list[str]
+    qualifiers: list[str]  # the ROOTS it is reached from
+    heading: str = ""  # set for the ROOTS; built from the paths for nested blocks
+    list_item: bool = False  # the paths hold a list of these blocks
+
+
+def _block_type(tp: typing.Any) -> tuple[type | None, bool]:
+    """The dataclass a field holds (itself, Optional of it, or a list of it) and whether it is a list."""
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        non_none = [a for a in args if a is not type(None)]
+        return _block_type(non_none[0]) if len(non_none) == 1 else (None, False)
+    if origin is list and len(args) == 1:
+        inner, _ = _block_type(args[0])
+        return inner, inner is not None
+    return (tp, False) if dataclasses.is_dataclass(tp) else (None, False)
+
+
+def sections() -> list[Section]:
+    """Every block reachable from ROOTS, in depth-first order; one section per block type."""
+    out: list[Section] = []
+    by_cls: dict[type, Section] = {}
+    seen: set[tuple[type, str, str]] = set()
+
+    def visit(cls: type, path: str, qualifier: str) -> None:
+        if (cls, path, qualifier) in seen:
+            return
+        seen.add((cls, path, qualifier))
+        hints = typing.get_type_hints(cls)
+        for f in dataclasses.fields(cls):
+            child, is_list = _block_type(hints[f.name])
+            if child is None:
+                continue
+            child_path = f"{path}.{f.name}"
+            section = by_cls.get(child)
+            if section is None:
+                section = by_cls[child] = Section(child, [], [], list_item=is_list)
+                out.append(section)
+            if child_path not in section.paths:
+                section.paths.append(child_path)
+            if qualifier not in section.qualifiers:
+                section.qualifiers.append(qualifier)
+            visit(child, child_path, qualifier)
+
+    for heading, path, cls, qualifier in ROOTS:
+        by_cls[cls] = Section(cls, [path], [qualifier], heading)
+        out.append(by_cls[cls])
+        visit(cls, path, qualifier)
+    types_at: dict[str, set[type]] = {}
+    for section in out:
+        for path in section.paths:
+            types_at.setdefault(path, set()).add(section.cls)
+    for section in out:
+        if section.heading:
+            continue
+        heading = ", ".join(section.paths)
+        if section.cls in BLOCK_NAMES:
+            heading = f"{BLOCK_NAMES[section.cls]}: {heading}"
+        extras = []
+        if any(len(types_at[p]) > 1 for p in section.paths):  # another block type shares the key path
+            extras.append(" / ".join(section.qualifiers))
+        if section.list_item:
+            extras.append("each item of the list")
+        extras += [NOTES[p] for p in section.paths if p in NOTES]
+        section.heading = heading + (f" ({'; '.join(extras)})" if extras else "")
+    return out
+
+
 def render() -> str:
     """The whole markdown document."""
     lines = [HEADER]
-    for title, cls in SECTIONS:
-        lines += [f"## {title}", "", "| key | type | default | status | meaning |", "|---|---|---|---|---|"]
+    for section in sections():
+        cls = section.cls
+        lines += [f"## {section.heading}", ""]
+        if not dataclasses.fields(cls):
+            name = section.paths[0].rsplit(".", 1)[-1]
+            lines += [f"No keys; an empty value (`{name}:`) selects it.", ""]
+            continue
+        lines += ["| key | type | default | status | meaning |", "|---|---|---|---|---|"]
         hints = typing.get_type_hints(cls)
         for f in dataclasses.fields(cls):
             tp = str(hints[f.name]).replace("typing.", "").replace("<class '", "").replace("'>", "")
@@ -109,6 +189,8 @@ def render() -> str:
             choices = f.metadata.get("choices")
             if choices:
                 doc += " (choices: " + ", ".join("None" if c is None else str(c) for c in choices) + ")"
+            for path in section.paths:
+                doc += ROW_NOTES.get(f"{path}.{f.name}", "")
             lines.append(f"| `{f.name}` | {tp} | `{_default(f)}` | {_status(f)} | {doc.replace('|', '/')} |")
         lines.append("")
     lines += ["## rl_games keys accepted without effect", "", "| key | note |", "|---|---|"]
