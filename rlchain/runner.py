@@ -114,8 +114,11 @@ class Runner:
                                   os.path.basename(run.root), run.summaries)
         ok = False
         logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats)
+        trainer = None
         try:
-            trainer = ALGOS.get(params.algo.name)(params, env, model, device, run, logger, seed, self.raw)
+            trainer_class = ALGOS.get(params.algo.name)
+            make = getattr(trainer_class, "create", trainer_class)  # TrainerBase.create: no leak if __init__ fails
+            trainer = make(params, env, model, device, run, logger, seed, self.raw)
             trainer.threads = threads
             if state is not None:
                 trainer.restore(state, checkpoint)
@@ -131,7 +134,9 @@ class Runner:
             result = trainer.train()
             ok = True
             return result
-        finally:
+        finally:  # on every exit path (an env error, a divergence, KeyboardInterrupt): the eval env too
+            if trainer is not None and callable(getattr(trainer, "close", None)):
+                trainer.close()
             logger.close()
             if tracker is not None:
                 tracker.finish(exit_code=0 if ok else 1)

@@ -53,6 +53,7 @@ class TrainerBase:
         self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
         self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
         self.num_envs = env.num_envs
+        self.num_agents = int(getattr(env, "num_agents", 1) or 1)  # rows per env (rl_games' algo.num_agents)
         if hasattr(cfg, "minibatch_size"):  # the batch counts the env's agents (multi-agent envs)
             check_batch(cfg, params.source, int(getattr(env, "num_agents", 1)))
         self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
@@ -61,6 +62,7 @@ class TrainerBase:
         self.best_reward = -math.inf
         self.obs: torch.Tensor | None = None
         self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        self._closed = False
         if callable(getattr(env, "log_stats", None)):  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
@@ -78,6 +80,27 @@ class TrainerBase:
     def update_phase(self) -> AbstractContextManager:
         """Context for the gradient updates: ``update_threads`` CPU threads while the envs are idle."""
         return self.threads.update_phase() if self.threads is not None else nullcontext()
+
+    def close(self) -> None:
+        """Close what the run opened besides the training env (the evaluation env, callbacks'
+        resources): once, on every exit path. The training env belongs to whoever built it."""
+        if self._closed:
+            return
+        self._closed = True
+        self.events.close()
+
+    @classmethod
+    def create(cls, *args: Any, **kwargs: Any) -> TrainerBase:
+        """``cls(*args, **kwargs)``, but a constructor that fails half-way (a config error, a replay
+        buffer too big for memory) first closes what it had opened (the evaluation env)."""
+        trainer = cls.__new__(cls)
+        try:
+            trainer.__init__(*args, **kwargs)
+        except BaseException:
+            if isinstance(getattr(trainer, "events", None), CallbackList):
+                trainer.events.close()
+            raise
+        return trainer
 
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
@@ -149,7 +172,20 @@ class TrainerBase:
         truncated = self._to_tensor(result.truncated).bool()
         dones = terminated | truncated
         self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows)
+        if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
+            self._emit_env_step(result, dones, rows)
         return rewards, terminated, truncated, dones
+
+    def _emit_env_step(self, result: Any, dones: torch.Tensor, rows: slice) -> None:
+        """``on_env_step`` with the rows of ``result`` whose episode ended (one per env: its first
+        agent's row); episodes a dead Ray worker cut did not end."""
+        lost = dropped_rows(result)
+        if lost is not None:
+            dones = dones & ~torch.as_tensor(lost, device=dones.device).bool().reshape(-1)
+        done_indices = dones.nonzero().squeeze(-1)
+        if self.num_agents > 1:
+            done_indices = done_indices[done_indices % self.num_agents == 0]
+        self.events.emit_env_step(self, result, done_indices, rows)
 
     def _env_actions(self, actions: torch.Tensor) -> Any:
         """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""

@@ -73,7 +73,8 @@ def run_episodes(model: Any, env: Any, games: int, deterministic: bool, device: 
 class EvaluationCallback(Callback):
     """Evaluates the policy every ``interval`` epochs on its own envs and logs ``evaluation/*``.
 
-    With ``select_best: evaluation`` the best checkpoint follows the evaluation score.
+    With ``select_best: evaluation`` the best checkpoint follows the evaluation score. The envs are
+    closed at the end of training, or by :meth:`close` when the run fails (``TrainerBase.close``).
     """
 
     def __init__(self, cfg: Any, make_env: Callable[[int, int], Any]) -> None:
@@ -100,4 +101,10 @@ class EvaluationCallback(Callback):
                 trainer.save("best")
 
     def on_train_end(self, trainer: Any, result: Any) -> None:
-        self.env.close()
+        self.close()
+
+    def close(self) -> None:
+        """Close the evaluation env (once; the trainer also calls this when a run fails)."""
+        env, self.env = self.env, None
+        if env is not None:
+            env.close()

@@ -7,8 +7,12 @@
     config: {callbacks: ["mypkg.callbacks:MyCallback"]}
 
 A plain function ``fn(trainer, stats, episodes)`` is an ``on_epoch_end`` callback. An rl_games
-``AlgoObserver`` (before_init / after_init / after_print_stats / after_clear_stats) is adapted.
-Built-in in-training evaluation is one of these callbacks.
+``AlgoObserver`` (before_init / after_init / process_infos / after_steps / after_print_stats /
+after_clear_stats) is adapted: :class:`AlgoObserverCallback`. Built-in in-training evaluation is one
+of these callbacks.
+
+``on_env_step`` runs after every env step, so only the callbacks that override it get it: a run
+without one pays nothing per step. ``close`` runs once when the run ends, however it ends.
 """
 
 from __future__ import annotations
@@ -17,7 +21,8 @@ import importlib
 import time
 from typing import Any
 
-EVENTS = ("on_train_start", "on_epoch_end", "on_evaluation", "on_checkpoint", "on_train_end")
+EVENTS = ("on_train_start", "on_env_step", "on_rollout_end", "on_epoch_end", "on_stats_cleared", "on_evaluation",
+          "on_checkpoint", "on_train_end")
 
 
 class Callback:
@@ -25,6 +30,23 @@ class Callback:
 
     def on_train_start(self, trainer: Any) -> None:
         """Before the first rollout (after a resume restored its state)."""
+
+    def on_env_step(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+        """After each training env step, once the episode statistics counted it.
+
+        ``result`` is the StepResult of the envs ``rows`` (all of them, or one env group of a
+        pipelined rollout; ``result.infos`` is the backend's info dict). ``done_indices``: (k,) long
+        tensor on the trainer's device, the rows of ``result`` whose episode ended at this step
+        (add ``rows.start`` for the env index); for multi-agent envs one row per finished env, its
+        first agent's. Rows a dead Ray worker cut are not episode ends. Only callbacks that
+        override this method are called.
+        """
+
+    def on_rollout_end(self, trainer: Any) -> None:
+        """After an epoch's env steps (the PPO rollout, an off-policy epoch's steps), before logging."""
+
+    def on_stats_cleared(self, trainer: Any) -> None:
+        """Statistics gathered so far are stale: self-play replaced the opponent and restarted its count."""
 
     def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
         """After an epoch's update and logging: ``stats`` are losses/kl/lr, ``episodes`` mean reward/length."""
@@ -38,6 +60,11 @@ class Callback:
     def on_train_end(self, trainer: Any, result: Any) -> None:
         """After training stopped; ``result`` is the TrainResult."""
 
+    def close(self) -> None:
+        """Release what the callback holds (envs, files). Called once when the run ends on any path
+        (finished, interrupted, an env error, a divergence, a failed start), after ``on_train_end``
+        when there was one."""
+
 
 class FunctionCallback(Callback):
     """A plain function used as ``on_epoch_end``."""
@@ -50,11 +77,30 @@ class FunctionCallback(Callback):
 
 
 class AlgoObserverCallback(Callback):
-    """Drives an rl_games AlgoObserver from rlchain's events."""
+    """Drives an rl_games AlgoObserver from rlchain's events, when rl_games calls them:
+
+    - ``before_init(name, config, experiment dir)`` and ``after_init(trainer)`` at the start;
+    - ``process_infos(infos, done_indices)`` after every env step: the step's infos and a (k, 1)
+      long tensor of the rows whose episode ended (``nonzero()`` of the dones, one row per finished
+      env for multi-agent envs), on the training device; multi-agent envs' ``{'env_infos': [...]}``
+      comes as the list of per-env info dicts an rl_games vec env returns. A pipelined rollout
+      (``env_groups``) calls it per env group, with that group's infos and rows;
+    - ``after_steps()`` after each rollout (an off-policy epoch's env steps), before the update;
+    - ``after_print_stats(frames, epoch, seconds)`` after each epoch's logging;
+    - ``after_clear_stats()`` where rl_games clears its game statistics: when self-play replaces
+      the opponent, after that epoch's ``after_print_stats`` (rlchain's own episode statistics
+      are never cleared; without self-play it is not called, as in rl_games).
+
+    Methods the observer lacks are skipped; without ``process_infos`` the env loop is not touched.
+    """
 
     def __init__(self, observer: Any) -> None:
         self.observer = observer
         self.start = time.time()
+        self._printed_epoch: int | None = None
+        self._clear_pending = False
+        if callable(getattr(observer, "process_infos", None)):
+            self.on_env_step = self._process_infos  # type: ignore[method-assign]
 
     def _call(self, name: str, *args: Any) -> None:
         method = getattr(self.observer, name, None)
@@ -66,16 +112,40 @@ class AlgoObserverCallback(Callback):
         self._call("before_init", trainer.cfg.name, trainer.raw_config, trainer.run.root if trainer.run else "")
         self._call("after_init", trainer)
 
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+    def _process_infos(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+        infos = result.infos
+        if isinstance(infos, dict) and len(infos) == 1 and isinstance(infos.get("env_infos"), list):
+            infos = infos["env_infos"]  # multi_agent.py's per-env info dicts
+        self.observer.process_infos(infos, done_indices.unsqueeze(-1))
+
+    def on_rollout_end(self, trainer: Any) -> None:
         self._call("after_steps")
+
+    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
         self._call("after_print_stats", trainer.frames, trainer.epoch, time.time() - self.start)
+        self._printed_epoch = trainer.epoch
+        if self._clear_pending:
+            self._clear_pending = False
+            self._call("after_clear_stats")
+
+    def on_stats_cleared(self, trainer: Any) -> None:
+        # rl_games prints an epoch's statistics before self-play clears them: a clear that comes
+        # before this epoch's after_print_stats (a callback earlier in the list) waits for it
+        if self._printed_epoch == trainer.epoch:
+            self._call("after_clear_stats")
+        else:
+            self._clear_pending = True
+
+
+OBSERVER_METHODS = ("before_init", "after_init", "process_infos", "after_steps", "after_clear_stats",
+                    "after_print_stats")
 
 
 def as_callback(obj: Any) -> Callback:
     """Wrap whatever the user gave: a Callback, an AlgoObserver-like object or a function."""
     if isinstance(obj, Callback):
         return obj
-    if any(hasattr(obj, name) for name in ("after_print_stats", "after_init", "before_init")):
+    if any(hasattr(obj, name) for name in OBSERVER_METHODS):
         return AlgoObserverCallback(obj)
     if callable(obj):
         return FunctionCallback(obj)
@@ -91,14 +161,29 @@ def load_callback(spec: str) -> Callback:
     return as_callback(obj() if isinstance(obj, type) else obj)
 
 
+def handles_env_steps(callback: Callback) -> bool:
+    """Whether ``callback`` overrides ``on_env_step`` (on its class or, for adapters, the instance)."""
+    return "on_env_step" in vars(callback) or type(callback).on_env_step is not Callback.on_env_step
+
+
 class CallbackList:
-    """Dispatches each event to every callback in order."""
+    """Dispatches each event to every callback in order.
+
+    ``step_callbacks`` are the callbacks that handle ``on_env_step``: the trainers test it (an
+    empty list) before doing any per-step work for them.
+    """
 
     def __init__(self, callbacks: list[Any] | None = None) -> None:
-        self.callbacks = [as_callback(c) for c in callbacks or []]
+        self.callbacks: list[Callback] = []
+        self.step_callbacks: list[Callback] = []
+        for callback in callbacks or []:
+            self.add(callback)
 
     def add(self, callback: Any) -> None:
-        self.callbacks.append(as_callback(callback))
+        callback = as_callback(callback)
+        self.callbacks.append(callback)
+        if handles_env_steps(callback):
+            self.step_callbacks.append(callback)
 
     def extend(self, callbacks: list[Any]) -> None:
         for callback in callbacks:
@@ -110,3 +195,20 @@ class CallbackList:
     def emit(self, event: str, *args: Any) -> None:
         for callback in self.callbacks:
             getattr(callback, event)(*args)
+
+    def emit_env_step(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+        for callback in self.step_callbacks:
+            callback.on_env_step(trainer, result, done_indices, rows)
+
+    def close(self) -> None:
+        """``close()`` every callback, even when one fails (reported, not raised: the run's
+        own outcome or error is what the caller sees)."""
+        for callback in self.callbacks:
+            close = getattr(callback, "close", None)
+            if not callable(close):
+                continue
+            try:
+                close()
+            except Exception as exc:  # one failed close must not keep the others open
+                print(f"warning: closing callback {type(callback).__name__} failed: "
+                      f"{type(exc).__name__}: {exc}", flush=True)

@@ -73,6 +73,7 @@ class OffPolicyTrainer(TrainerBase):
                 if not completed:
                     stop = f"interrupted by {signals.requested}"
                     break
+                self.events.emit("on_rollout_end", self)
                 self.epoch += 1
                 if self.epoch % self.cfg.snapshot_epochs == 0:
                     self.divergence.snapshot(self.epoch)

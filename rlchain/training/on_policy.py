@@ -81,6 +81,7 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
                 if not self._guarded_rollout():
                     stop = f"interrupted by {signals.requested}"
                     break
+                self.events.emit("on_rollout_end", self)
                 t1 = time.time()
                 stats = self._guarded_learn()
                 if stats is None:

@@ -106,6 +106,9 @@ class SelfPlayCallback(Callback):
         self.scores.clear()
         self.epochs_since_update = 0
         self._drain()
+        events = getattr(trainer, "events", None)
+        if events is not None:  # rl_games clears its game statistics here (AlgoObserver.after_clear_stats)
+            events.emit("on_stats_cleared", trainer)
         return env_ids
 
     def _new_scores(self, trainer: Any) -> list[float]:

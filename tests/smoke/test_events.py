@@ -1,18 +1,90 @@
 """Events, config-named callbacks, rl_games AlgoObserver adapter and in-training evaluation."""
 
 import os
+import types
 
+import gymnasium as gym
+import numpy as np
 import pytest
+import torch
 
-from rlchain import Runner
+from rlchain import Runner, env_configurations
 from rlchain.config import ConfigError
-from rlchain.training.events import Callback
+from rlchain.envs.vecenv import DROPPED, StepResult
+from rlchain.training.base import TrainerBase
+from rlchain.training.events import AlgoObserverCallback, Callback, CallbackList
+from rlchain.training.self_play import SelfPlayCallback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
 
 pytestmark = pytest.mark.smoke
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 SEEN = []
+
+
+class Countdown(gym.Env):
+    """Episodes of ``2 + seed % 3`` steps, the seed of its first seeded reset (env i of a vector
+    env reset with seed s gets s + i), so the test knows which envs end at which step."""
+
+    observation_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
+    action_space = gym.spaces.Discrete(2)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self.length = 2 + seed % 3
+        self.t = 0
+        return np.zeros(2, np.float32), {}
+
+    def step(self, action):
+        self.t += 1
+        return np.zeros(2, np.float32), 1.0, self.t >= self.length, False, {"t": self.t}
+
+
+if "Countdown-test" not in gym.registry:
+    env_configurations.register("Countdown-test", {"env_creator": lambda **kw: Countdown()})
+
+
+def countdown_done(seed, num_envs, step):
+    """Envs whose episode ends at env step ``step`` (1, 2, ...) of a run seeded ``seed``."""
+    return [i for i in range(num_envs) if step % (2 + (seed + i) % 3) == 0]
+
+
+class StepObserver:
+    """An rl_games AlgoObserver with every method, recording the calls."""
+
+    def __init__(self):
+        self.calls = []
+
+    def before_init(self, base_name, config, experiment_name):
+        self.calls.append("before_init")
+
+    def after_init(self, algo):
+        self.calls.append("after_init")
+
+    def process_infos(self, infos, done_indices):
+        assert isinstance(infos, dict) and isinstance(done_indices, torch.Tensor)
+        assert done_indices.dim() == 2 and done_indices.shape[1] == 1  # as rl_games: dones.nonzero()
+        self.calls.append(("process_infos", done_indices.flatten().tolist()))
+
+    def after_steps(self):
+        self.calls.append("after_steps")
+
+    def after_clear_stats(self):
+        self.calls.append("after_clear_stats")
+
+    def after_print_stats(self, frame, epoch_num, total_time):
+        self.calls.append(("after_print_stats", epoch_num))
+
+
+def expected_calls(seed, num_envs, steps_per_epoch, epochs):
+    calls, step = ["before_init", "after_init"], 0
+    for epoch in range(1, epochs + 1):
+        for _ in range(steps_per_epoch):
+            step += 1
+            calls.append(("process_infos", countdown_done(seed, num_envs, step)))
+        calls += ["after_steps", ("after_print_stats", epoch)]
+    return calls
 
 
 class Recorder(Callback):
@@ -76,6 +148,108 @@ def test_algo_observer_and_function_callbacks(tmp_path):
     assert observer.calls[:2] == ["before_init", "after_init"]
     assert observer.calls[2:] == [("after_print_stats", 512, 1), ("after_print_stats", 1024, 2)]
     assert epochs == [1, 2]
+
+
+def test_algo_observer_gets_every_step_with_its_finished_envs(tmp_path):
+    """PPO: process_infos after each env step with the envs whose episode ended there, after_steps
+    after each rollout, after_print_stats after each epoch; no after_clear_stats without self-play."""
+    observer = StepObserver()
+    Runner().load(CARTPOLE, small(tmp_path, epochs=2, extra=[
+        "params.config.env_name=Countdown-test", "params.config.num_actors=4", "params.config.horizon_length=8",
+        "params.config.minibatch_size=32", "params.config.print_stats=false"])).train(seed=3, callbacks=[observer])
+    assert observer.calls == expected_calls(seed=3, num_envs=4, steps_per_epoch=8, epochs=2)
+    assert ("process_infos", [0, 1, 2, 3]) in observer.calls  # step 12: every length (2, 3, 4) divides it
+
+
+def test_algo_observer_in_off_policy_training(tmp_path):
+    observer = StepObserver()
+    Runner().load(os.path.join(CONFIGS, "dqn_cartpole.yaml"), small(tmp_path, epochs=2, extra=[
+        "params.config.env_name=Countdown-test", "params.config.num_steps_per_episode=7",
+        "params.config.num_warmup_frames=1000000", "params.config.print_stats=false"])).train(
+        seed=8, callbacks=[observer])
+    assert observer.calls == expected_calls(seed=8, num_envs=4, steps_per_epoch=7, epochs=2)
+
+
+def test_after_clear_stats_follows_self_play_updates(tmp_path):
+    observer = StepObserver()
+
+    class KeepSelfPlay(Callback):
+        def on_train_end(self, trainer, result):
+            self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))
+
+    keep = KeepSelfPlay()
+    Runner().load(os.path.join(CONFIGS, "ppo_duel_self_play.yaml"), [
+        f"params.config.train_dir={tmp_path}", "params.config.max_epochs=3", "params.config.print_stats=false",
+        "params.config.num_actors=4", "params.config.minibatch_size=64",
+        "params.config.self_play_config.games_to_check=1", "params.config.self_play_config.update_score=-1",
+        "params.config.self_play_config.env_update_num=1"]).train(callbacks=[observer, keep])
+    assert keep.self_play.updates >= 1
+    assert observer.calls.count("after_clear_stats") == keep.self_play.updates
+    # as in rl_games, an epoch's statistics are printed before self-play clears them
+    for i, call in enumerate(observer.calls):
+        if call == "after_clear_stats":
+            assert observer.calls[i - 1][0] == "after_print_stats"
+
+
+class StepRecorder(Callback):
+    def __init__(self):
+        self.steps = []
+
+    def on_env_step(self, trainer, result, done_indices, rows):
+        self.steps.append((done_indices.tolist(), rows))
+
+
+def test_env_step_done_indices_multi_agent_and_dropped_rows():
+    recorder = StepRecorder()
+    events = CallbackList([recorder, Callback(), lambda trainer, stats, episodes: None])
+    assert events.step_callbacks == [recorder]  # only the callbacks that want steps are called per step
+    trainer = types.SimpleNamespace(num_agents=2, events=events)
+    dones = torch.tensor([True, True, False, False, True, True, True, True])  # envs 0, 2, 3 ended (2 agents)
+    result = StepResult(None, None, None, None, None, {DROPPED: np.array([0, 0, 0, 0, 0, 0, 1, 1], bool)})
+    TrainerBase._emit_env_step(trainer, result, dones, slice(None))
+    assert recorder.steps == [([0, 4], slice(None))]  # env 3 was cut by a dead worker, not finished
+
+
+def test_env_steps_of_a_pipelined_rollout_come_per_group(tmp_path):
+    """env_groups: one on_env_step per group and step, rows local to the group; together the same
+    episode ends as the synchronous rollout's."""
+    pytest.importorskip("envpool")
+    from tests.smoke.test_env_groups import envpool_cartpole
+
+    def finished(groups):
+        recorder = StepRecorder()
+        envpool_cartpole(tmp_path, groups, "params.config.max_epochs=2").train(callbacks=[recorder])
+        per_step = {}
+        for n, (done, rows) in enumerate(recorder.steps):
+            start = rows.start or 0
+            per_step.setdefault(n // groups, []).extend(start + i for i in done)
+        return recorder.steps, [sorted(v) for _, v in sorted(per_step.items())]
+
+    one_steps, one = finished(1)
+    two_steps, two = finished(2)
+    assert len(one_steps) == 2 * 32 and len(two_steps) == 2 * 2 * 32
+    assert {(rows.start, rows.stop) for _, rows in two_steps} == {(0, 8), (8, 16)}
+    assert all(i < 8 for done, _ in two_steps for i in done)
+    assert one == two and sum(map(len, one)) > 0
+
+
+def test_observer_without_process_infos_costs_no_step_hook():
+    class PrintOnly:
+        def after_print_stats(self, frame, epoch_num, total_time):
+            pass
+
+    assert CallbackList([PrintOnly()]).step_callbacks == []
+    assert len(CallbackList([StepObserver()]).step_callbacks) == 1
+    infos = []
+
+    class ListObserver:
+        def process_infos(self, infos_, done_indices):
+            infos.append((infos_, done_indices.tolist()))
+
+    adapter = AlgoObserverCallback(ListObserver())
+    result = StepResult(None, None, None, None, None, {"env_infos": [{"battle_won": 1}, {}]})
+    adapter.on_env_step(None, result, torch.tensor([2]), slice(None))
+    assert infos == [([{"battle_won": 1}, {}], [[2]])]  # multi-agent infos as rl_games' list of dicts
 
 
 def test_bad_callback_name_is_a_config_error(tmp_path):
