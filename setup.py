@@ -12,7 +12,8 @@ EXTRAS = {
     "ray": ["ray>=2.9,<3"],
     "tune": ["optuna>=3"],
     "video": ["moviepy>=1.0", "pygame>=2.1"],
-    "test": ["pytest>=7", "pytest-timeout", "ruff"],
+    # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom
+    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots
 }
 EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
