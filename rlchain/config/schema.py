@@ -305,7 +305,8 @@ class RunConfig:
     env_runners: EnvRunnersConfig | None = option(None, "step the envs on Ray workers (rlchain; see the "
                                                             "env_runners section)")
     gamma: float = option(0.99, "discount", check=unit_interval)
-    normalize_input: bool = option(False, "running mean/std normalization of observations")
+    normalize_input: bool = option(False, "running mean/std normalization of observations (clipped to +-5); "
+                                          "each PPO update trains with statistics that include its rollout")
     reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
     max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
     max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
@@ -372,7 +373,9 @@ class TrainConfig(RunConfig):
                                            "entropy_coef to 1e-4 alongside the lr (logged as info/entropy_coef); "
                                            "no effect with another lr_schedule (a warning), as in rl_games")
     normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
-    normalize_value: bool = option(False, "running mean/std normalization of value targets")
+    normalize_value: bool = option(False, "running mean/std normalization of value targets (statistics of the "
+                                          "returns, not clipped; rl_games also folds the rollout's values in and "
+                                          "clips at +-5: measured worse, see docs/ppo_parity.md)")
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
     adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")
