@@ -67,11 +67,9 @@ def _variance_scaling(weight: torch.Tensor, cfg: InitializerConfig) -> None:
 
 
 def linear(in_features: int, out_features: int, init: InitializerConfig) -> nn.Linear:
-    """A Linear layer with the named weight initializer (torch's default weights for 'default') and a zero
-    bias whatever the initializer, as rl_games' network builder leaves every Linear layer: with torch's
-    default bias the initial mean action and value start off zero by up to 1/sqrt(fan_in)."""
+    """A Linear layer with the named weight initializer and zero bias (torch default when 'default')."""
     layer = nn.Linear(in_features, out_features)
     if init.name not in ("default", "None"):
         initialize(layer.weight, init)
-    nn.init.zeros_(layer.bias)
+        nn.init.zeros_(layer.bias)
     return layer

@@ -71,23 +71,3 @@ def test_actor_critic_network_outputs():
     mu, sigma, value, states = net({"obs": torch.zeros(2, 4)})
     assert mu.shape == (2, 3) and sigma.shape == (2, 3) and value.shape == (2, 1) and states is None
     assert torch.allclose(sigma, torch.zeros(2, 3))  # const_initializer val 0 -> log-std 0
-
-
-@pytest.mark.parametrize("initializer", ["default", "variance_scaling_initializer", "orthogonal_initializer"])
-def test_every_linear_bias_starts_at_zero(initializer):
-    """rl_games zeroes every Linear bias whatever the initializer: with torch's default bias (up to
-    1/sqrt(fan_in)) an Ant policy's initial mean action and value start away from 0."""
-    from rlchain.config.schema import ContinuousSpaceConfig, InitializerConfig
-    cfg = NetworkConfig(mlp=MlpConfig(units=[32, 16], initializer=InitializerConfig(name=initializer)))
-    cfg.space.continuous = ContinuousSpaceConfig()
-    builder = ActorCriticBuilder()
-    builder.load(cfg)
-    torch.manual_seed(0)
-    net = builder.build("n", action_space=gym.spaces.Box(-1, 1, (3,)), input_shape=(4,), actions_num=3,
-                        value_size=1)
-    linears = [m for m in net.modules() if isinstance(m, torch.nn.Linear)]
-    assert len(linears) == 4  # two hidden layers, value, mu
-    assert all(torch.count_nonzero(m.bias) == 0 for m in linears)
-    assert all(m.weight.std() > 0 for m in linears)  # the weights are initialised, not zeroed
-    mu, _, value, _ = net({"obs": torch.zeros(5, 4)})
-    assert torch.count_nonzero(mu) == 0 and torch.count_nonzero(value) == 0  # zero obs -> zero mean and value
