@@ -242,6 +242,15 @@ def plot(config: str, runs: dict[str, list[dict]], budget: float, path: str) -> 
     plt.close(fig)
 
 
+def splice(document: str, text: str, begin: str = "<!-- curves:begin -->", end: str = "<!-- curves:end -->") -> str:
+    """``document`` with everything between the ``begin`` and ``end`` markers replaced by ``text``."""
+    head, found, rest = document.partition(begin)
+    _, found_end, tail = rest.partition(end)
+    if not found or not found_end:
+        raise ValueError(f"markers {begin} ... {end} not found")
+    return f"{head}{begin}\n{text}\n{end}{tail}"
+
+
 # ----- command line --------------------------------------------------------------------------------
 def cpu_model() -> str:
     """lscpu's model name (machines here differ by up to 1.5x, so every figure names it)."""
@@ -307,6 +316,12 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     with open(os.path.join(args.out, "results.md"), "w") as f:
         f.write(text + "\n")
+    if os.path.abspath(args.out) == os.path.join(HERE, "curves"):  # the shipped results: into the README too
+        readme = os.path.join(HERE, "README.md")
+        with open(readme) as f:
+            document = f.read()
+        with open(readme, "w") as f:
+            f.write(splice(document, text.replace("](", "](curves/")))
     return 0
 
 

@@ -57,3 +57,11 @@ def test_seeded_config_sets_both_seeds_and_nothing_else(tmp_path):
 def test_every_config_of_the_benchmark_is_shipped():
     for path in curves.CONFIGS.values():
         assert os.path.exists(os.path.join(ROOT, "benchmarks", path)), path
+
+
+def test_splice_replaces_only_the_marked_block():
+    doc = "intro\n<!-- curves:begin -->\nold\n<!-- curves:end -->\nrest\n"
+    assert curves.splice(doc, "new ![a](curves/a.png)") == ("intro\n<!-- curves:begin -->\nnew ![a](curves/a.png)\n"
+                                                             "<!-- curves:end -->\nrest\n")
+    with pytest.raises(ValueError, match="markers"):
+        curves.splice("no markers", "x")
