@@ -55,7 +55,7 @@ class TrainerBase:
         self.num_envs = env.num_envs
         self.num_agents = int(getattr(env, "num_agents", 1) or 1)  # rows per env (rl_games' algo.num_agents)
         if hasattr(cfg, "minibatch_size"):  # the batch counts the env's agents (multi-agent envs)
-            check_batch(cfg, params.source, int(getattr(env, "num_agents", 1)))
+            check_batch(cfg, params.source, self.num_agents)
         self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
         self.epoch = 0
         self.frames = 0

@@ -230,8 +230,7 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
 
     def _frames_per_epoch(self) -> int:
         """Env steps per epoch over all ranks, as rl_games counts them: agents of one env share a step."""
-        agents = int(getattr(self.env, "num_agents", 1) or 1)
-        return self.cfg.horizon_length * (self.num_envs // agents) * self.world_size
+        return self.cfg.horizon_length * (self.num_envs // self.num_agents) * self.world_size
 
     def _progress(self) -> float:
         cfg = self.cfg
