@@ -457,5 +457,5 @@ class Params:
     seed: int | None = None
     import_modules: list[str] | None = None
     torch_threads: int | None = None  # torch.set_num_threads for this process (rl_games key)
-    update_threads: int | None = None  # CPU threads for the gradient updates (default: torch_threads)
+    update_threads: int | None = None  # CPU threads for the gradient updates (default: all cores, at most 4)
     source: str = ""

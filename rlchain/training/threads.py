@@ -3,7 +3,8 @@ update has them to itself.
 
 envpool (and async/Ray env workers) step on the same cores while the policy acts, so the rollout
 keeps torch to a share of them (``torch_threads``, default half the cores); during the update the
-envs are idle and the update may use ``update_threads`` (default: the same as the rollout).
+envs are idle and the update uses ``update_threads`` (default: every core of the process's share, at
+most 4, when ``torch_threads`` is unset too; else the rollout's count).
 """
 
 from __future__ import annotations
@@ -47,13 +48,18 @@ def plan_threads(torch_threads: int | None, update_threads: int | None, device: 
     ``torch_threads`` (rl_games' key) sets the rollout's count, capped at this process's share of
     the cores (``processes`` torchrun ranks share a node); unset, half the share, at most 4, which
     measured fastest for rl-sized networks beside envpool's threads. ``update_threads`` sets the
-    update's count (same cap); unset, the update keeps the rollout's count.
+    update's count (same cap); unset, the update gets the whole share, at most 4 (the envs are idle
+    then: 2 threads on 2 cores measured 1.10-1.17x PPO train steps/s on envpool HalfCheetah, Ant and
+    Hopper and 1.26x SAC fps), unless ``torch_threads`` was set, whose count it then keeps.
     """
     share = max(1, (cores or os.cpu_count() or 1) // processes)
     if torch_threads is None and update_threads is None and device.startswith("cuda"):
         return None
     rollout = min(torch_threads, share) if torch_threads else max(1, min(4, share // 2))
-    update = min(update_threads, share) if update_threads else rollout
+    if update_threads:
+        update = min(update_threads, share)
+    else:
+        update = rollout if torch_threads else max(rollout, min(4, share))
     return ThreadPlan(rollout, update)
 
 

@@ -13,10 +13,19 @@ BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete
                               "minibatch_size": 8}}}
 
 
-def test_default_is_half_the_cores_for_both_phases():
+def test_default_is_half_the_cores_for_the_rollout_and_all_of_them_for_the_update():
     assert plan_threads(None, None, "cpu", cores=8) == ThreadPlan(4, 4)
-    assert plan_threads(None, None, "cpu", cores=2) == ThreadPlan(1, 1)
+    assert plan_threads(None, None, "cpu", cores=4) == ThreadPlan(2, 4)
+    assert plan_threads(None, None, "cpu", cores=2) == ThreadPlan(1, 2)
+    assert plan_threads(None, None, "cpu", cores=1) == ThreadPlan(1, 1)
     assert plan_threads(None, None, "cpu", cores=32) == ThreadPlan(4, 4)
+    assert plan_threads(None, None, "cpu", processes=2, cores=4) == ThreadPlan(1, 2)
+
+
+def test_an_explicit_torch_threads_also_caps_the_update_unless_update_threads_is_set():
+    assert plan_threads(1, None, "cpu", cores=2) == ThreadPlan(1, 1)
+    assert plan_threads(2, None, "cpu", cores=8) == ThreadPlan(2, 2)
+    assert plan_threads(1, 2, "cpu", cores=2) == ThreadPlan(1, 2)
 
 
 def test_requests_are_capped_at_the_process_share_of_cores():
