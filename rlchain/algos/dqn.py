@@ -91,6 +91,10 @@ class DQNAgent:
     def lr(self) -> float:
         return self.opt.param_groups[0]["lr"]
 
+    def optimizers(self) -> dict[str, torch.optim.Optimizer]:
+        """The optimizer under the config key of its learning rate (get/set_params)."""
+        return {"learning_rate": self.opt}
+
     def scale_lr(self, factor: float) -> None:
         """Multiply the learning rate (divergence rollback)."""
         for group in self.opt.param_groups:

@@ -122,6 +122,10 @@ class SACAgent:
     def lr(self) -> float:
         return self.actor_opt.param_groups[0]["lr"]
 
+    def optimizers(self) -> dict[str, torch.optim.Optimizer]:
+        """Each optimizer under the config key of its learning rate (get/set_params)."""
+        return {"actor_lr": self.actor_opt, "critic_lr": self.critic_opt, "alpha_lr": self.alpha_opt}
+
     def scale_lr(self, factor: float) -> None:
         """Multiply the actor, critic and temperature learning rates (divergence rollback)."""
         for opt in (self.actor_opt, self.critic_opt, self.alpha_opt):

@@ -273,11 +273,10 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
     import secrets
 
     from rlchain.registry import ALGOS
-    from rlchain.training.on_policy import OnPolicyTrainer
 
     cfg = params.config
     trainer_class = ALGOS.get(params.algo.name)
-    supports = isinstance(trainer_class, type) and issubclass(trainer_class, OnPolicyTrainer)
+    supports = bool(getattr(trainer_class, "supports_distributed", False))  # the Algorithm protocol's flag
     launch = read_launch(os.environ, bool(getattr(cfg, "multi_gpu", False)), params.source, supports,
                          params.algo.name)
     if launch is None:

@@ -1,4 +1,4 @@
-"""TensorBoard tags as rl_games writes them, plus the console progress line."""
+"""TensorBoard tags as rl_games writes them, plus the console progress line, for any algorithm."""
 
 from __future__ import annotations
 
@@ -19,7 +19,8 @@ class EnvStatsCallback(Callback):
 
 
 class TrainLogger:
-    """Writes rl_games' TensorBoard tags (rewards/step|iter|time, losses/*, info/*, performance/*)."""
+    """Writes rl_games' TensorBoard tags (rewards/step|iter|time, performance/*, info/epochs) and the
+    algorithm's own (losses/*, info/*: the tags its ``metric_tags`` name)."""
 
     def __init__(self, summaries_dir: str | None, print_stats: bool = True, stream: Any = None) -> None:
         self.writer = None
@@ -47,9 +48,11 @@ class TrainLogger:
               f"logs, checkpoints are unaffected", file=self.stream, flush=True)
         self.writer = None
 
-    def epoch(self, epoch: int, max_epochs: int, frames: int, stats: dict[str, float],
-              episodes: dict[str, float] | None, best: float, timing: dict[str, float]) -> None:
-        """Log one epoch: losses and lr, timing and fps, and episode means when games finished."""
+    def epoch(self, epoch: int, max_epochs: int, frames: int, metrics: dict[str, float],
+              episodes: dict[str, float] | None, best: float, timing: dict[str, float],
+              console: list[str] | tuple[str, ...] = ()) -> None:
+        """Log one epoch: timing and fps, the algorithm's ``{tag: value}`` metrics, ``info/epochs`` and
+        the episode means when games finished; ``console``: the algorithm's fields of the epoch line."""
         elapsed = int(time.time() - self.start)
         batch = timing["batch"]
         step_fps = batch / max(timing["rollout"], 1e-9)
@@ -59,21 +62,9 @@ class TrainLogger:
         s("performance/step_inference_rl_update_fps", total_fps, frames)
         s("performance/rl_update_time", timing["update"], frames)
         s("performance/step_time", timing["rollout"], frames)
-        s("losses/a_loss", stats["a_loss"], frames)
-        s("losses/c_loss", stats["c_loss"], frames)
-        s("losses/entropy", stats["entropy"], frames)
-        s("losses/bounds_loss", stats["b_loss"], frames)
-        for tag, value in stats.items():
-            if tag.startswith("losses/"):  # the network's auxiliary losses (get_aux_loss), rl_games' tags
-                s(tag, value, frames)
-        s("info/last_lr", stats["lr"], frames)
-        s("info/lr_mul", stats["lr"] / max(stats.get("lr0", stats["lr"]), 1e-12), frames)
-        s("info/kl", stats["kl"], frames)
-        if "entropy_coef" in stats:  # rlchain: rl_games writes no tag for it
-            s("info/entropy_coef", stats["entropy_coef"], frames)
+        for tag, value in metrics.items():
+            s(tag, value, frames)
         s("info/epochs", epoch, frames)
-        s("info/clip_frac", stats["clip_frac"], frames)
-        s("info/grad_norm", stats["grad_norm"], frames)
         if episodes is not None:
             for name, value in (("rewards", episodes["reward"]), ("episode_lengths", episodes["length"])):
                 s(f"{name}/step", value, frames)
@@ -84,9 +75,10 @@ class TrainLogger:
             reward = f"{episodes['reward']:.2f}" if episodes is not None else "-"
             length = f"{episodes['length']:.1f}" if episodes is not None else "-"
             best_text = f"{best:.2f}" if math.isfinite(best) else "-"
+            fields = "".join(f" | {field}" for field in console)
             print(f"epoch {epoch}{limit} | frames {frames} | fps {total_fps:.0f} (step {step_fps:.0f}) | "
-                  f"reward {reward} | best {best_text} | len {length} | kl {stats['kl']:.4f} | "
-                  f"lr {stats['lr']:.2e} | {elapsed}s", file=self.stream, flush=True)
+                  f"reward {reward} | best {best_text} | len {length}{fields} | {elapsed}s",
+                  file=self.stream, flush=True)
 
     def flush(self) -> None:
         self._write("flush")

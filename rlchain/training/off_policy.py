@@ -1,15 +1,14 @@
-"""The off-policy loop (SAC, DQN): act -> replay buffer -> updates -> log -> checkpoint, until a stop.
+"""Off-policy algorithms (SAC, DQN) on the Loop: act -> replay buffer -> updates, every env step.
 
 One epoch is ``num_steps_per_episode`` vectorized env steps (``num_actors * num_steps_per_episode``
 frames). The first ``num_warmup_frames`` frames act uniformly at random and do not learn; after
 that every env step is followed by ``num_updates_per_step`` gradient updates on replay minibatches.
-Episode bookkeeping, logging tags, checkpoints, stop signals, callbacks and evaluation are the
-on-policy trainer's pieces.
+Episode bookkeeping, logging, checkpoints, stop signals, divergence handling, callbacks and
+evaluation are the Loop's (rlchain.training.loop), as for PPO.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Any
 
@@ -21,18 +20,18 @@ from rlchain.algos.returns import shape_rewards
 from rlchain.algos.sac import SACAgent
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
-from rlchain.errors import DivergenceError, EnvError
-from rlchain.training.base import TrainerBase, TrainResult, describe
+from rlchain.errors import DivergenceError
 from rlchain.training.logging import TrainLogger
+from rlchain.training.loop import Loop
 from rlchain.training.run_dir import RunDir
-from rlchain.training.safety import DivergenceGuard, StopSignals, check_parameters
+from rlchain.training.safety import DivergenceGuard
 
 
-class OffPolicyTrainer(TrainerBase):
-    """Coordinates env, model, agent (SAC/DQN update), replay buffer, logger and checkpoints."""
+class OffPolicyTrainer(Loop):
+    """An off-policy algorithm on the Loop: env steps into a replay buffer, updates from it."""
 
     config_class: type = SACConfig
-    loss_tags: dict[str, str] = {}
+    SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
@@ -46,70 +45,59 @@ class OffPolicyTrainer(TrainerBase):
             action_dtype=model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
             prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        self._epoch_stats: dict[str, float] = {}
+        self._update_s = 0.0  # seconds of gradient updates inside the last collect()
 
     def make_agent(self) -> Any:  # pragma: no cover - subclasses
         raise NotImplementedError
 
-    # ----- the loop -------------------------------------------------------------------------
-    def train(self) -> TrainResult:
-        """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics."""
-        start = time.time()
-        stop = None
-        with StopSignals() as signals:
-            self.signals = signals
-            self.obs = self._reset_envs()
-            self.divergence.snapshot(self.epoch)
-            self.events.emit("on_train_start", self)
-            while stop is None:
-                t0 = time.time()
-                try:
-                    stats, update_s, completed = self._guarded_epoch()
-                    bad = check_parameters(self.model)
-                    if bad is not None:
-                        raise DivergenceError(f"{bad} became non-finite in the update")
-                except DivergenceError as exc:
-                    self._diverged(exc)
-                    continue  # rolled back: go on from the snapshot with a lower learning rate
-                if not completed:
-                    stop = f"interrupted by {signals.requested}"
-                    break
-                self.events.emit("on_rollout_end", self)
-                self.epoch += 1
-                if self.epoch % self.cfg.snapshot_epochs == 0:
-                    self.divergence.snapshot(self.epoch)
-                episodes = self._episode_stats()
-                self._log(stats, episodes, time.time() - t0 - update_s, update_s)
-                self._checkpoints(episodes)
-                self.events.emit("on_epoch_end", self, stats, episodes)
-                stop = self._stop_reason(episodes)
-            last = self.save("last")
-        return self._finish(stop, start, last)
+    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    def collect(self) -> bool:
+        """num_steps_per_episode env steps, each followed by updates once warmup is over (the
+        updates run here, between the steps; :meth:`update` reports them)."""
+        self._epoch_stats, self._update_s, completed = self._epoch()
+        return completed
 
-    def _diverged(self, exc: DivergenceError) -> None:
-        """A NaN/inf: roll back to the last snapshot and restart the envs' episodes (``divergence.action:
-        rollback``, within max_rollbacks), else save what is finite and raise naming the epoch."""
-        try:
-            self.divergence.handle(exc, self.epoch)
-        except DivergenceError:
-            self.save("last")  # refused while the parameters are non-finite
-            raise
-        self.tracker.reset_running()
-        self.obs = self._reset_envs()
+    def update(self) -> dict[str, float]:
+        """The epoch's mean losses (its updates ran during :meth:`collect`), lr and buffer size."""
+        stats = dict(self._epoch_stats)
+        stats.update(lr=self.agent.lr, total_updates=self.agent.updates, replay_size=len(self.buffer))
+        stats.update(self.extra_stats())
+        return stats
+
+    def frames_per_epoch(self) -> int:
+        return self.cfg.num_steps_per_episode * self.num_envs
+
+    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """The gradient updates ran inside collect: their time moves to the update column."""
+        return collect_s - self._update_s, self._update_s + update_s
+
+    def snapshot_due(self) -> bool:
+        """An in-memory learner copy every ``snapshot_epochs`` epochs (epochs are short off-policy)."""
+        return self.epoch % self.cfg.snapshot_epochs == 0
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        """Learning rates go to their optimizer; gamma to the replay buffer's n-step returns too."""
+        optimizers = self.agent.optimizers()
+        if name in optimizers:
+            for group in optimizers[name].param_groups:
+                group["lr"] = float(value)
+            return
+        super().apply_hyperparam(name, value)
+        if name == "gamma":
+            self.buffer.gamma = float(value)
+
+    def hyperparams(self) -> dict[str, float]:
+        """The tunable values; learning rates are the optimizers' live ones (rollbacks lower them)."""
+        values = super().hyperparams()
+        for name, opt in self.agent.optimizers().items():
+            values[name] = opt.param_groups[0]["lr"]
+        return values
 
     def _reset_envs(self) -> torch.Tensor:
         obs = super()._reset_envs()
         self.model.update_normalizers(obs=obs)
         return obs
-
-    def _guarded_epoch(self) -> tuple[dict[str, float], float, bool]:
-        try:
-            return self._epoch()
-        except (EnvError, DivergenceError, KeyboardInterrupt):
-            raise
-        except Exception as exc:
-            path = self.save("last")
-            saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
-            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
 
     def _epoch(self) -> tuple[dict[str, float], float, bool]:
         """num_steps_per_episode env steps, each followed by updates once warmup is over."""
@@ -177,45 +165,8 @@ class OffPolicyTrainer(TrainerBase):
 
     # ----- bookkeeping ----------------------------------------------------------------------
     def extra_stats(self) -> dict[str, float]:
+        """Per-epoch values of the algorithm beyond its losses (SAC: alpha, DQN: epsilon)."""
         return {}
-
-    def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
-        """rl_games' tag names where the quantity is the same as PPO's, plus losses/* of this algorithm."""
-        s, frames, epoch = self.logger.scalar, self.frames, self.epoch
-        batch = self.cfg.num_steps_per_episode * self.num_envs
-        elapsed = int(time.time() - self.logger.start)
-        step_fps = batch / max(rollout_s, 1e-9)
-        total_fps = batch / max(rollout_s + update_s, 1e-9)
-        s("performance/step_fps", step_fps, frames)
-        s("performance/step_inference_rl_update_fps", total_fps, frames)
-        s("performance/rl_update_time", update_s, frames)
-        s("performance/step_time", rollout_s, frames)
-        s("info/last_lr", self.agent.lr, frames)
-        s("info/epochs", epoch, frames)
-        s("info/updates", self.agent.updates, frames)
-        s("info/replay_size", len(self.buffer), frames)
-        extra = self.extra_stats()
-        for key, value in extra.items():
-            s(f"info/{key}", value, frames)
-        for key, tag in self.loss_tags.items():
-            if key in stats:
-                s(tag, stats[key], frames)
-        if episodes is not None:
-            for name, value in (("rewards", episodes["reward"]), ("episode_lengths", episodes["length"])):
-                s(f"{name}/step", value, frames)
-                s(f"{name}/iter", value, epoch)
-                s(f"{name}/time", value, elapsed)
-        if self.cfg.print_stats:
-            limit = f"/{self.cfg.max_epochs}" if self.cfg.max_epochs > 0 else ""
-            reward = f"{episodes['reward']:.2f}" if episodes is not None else "-"
-            length = f"{episodes['length']:.1f}" if episodes is not None else "-"
-            best_text = f"{self.best_reward:.2f}" if math.isfinite(self.best_reward) else "-"
-            shown = {k: stats[k] for k in self.loss_tags if k in stats}
-            shown.update(extra)
-            losses = " | ".join(f"{k} {v:.3g}" for k, v in shown.items())
-            print(f"epoch {epoch}{limit} | frames {frames} | fps {total_fps:.0f} (step {step_fps:.0f}) | "
-                  f"reward {reward} | best {best_text} | len {length}{' | ' + losses if losses else ''} | "
-                  f"{elapsed}s", file=self.logger.stream, flush=True)
 
     # ----- checkpoints ----------------------------------------------------------------------
     def extra_state(self, kind: str) -> dict[str, Any]:
@@ -233,8 +184,13 @@ class SACTrainer(OffPolicyTrainer):
     """Algo ``sac``."""
 
     config_class = SACConfig
-    loss_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
-                 "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q"}
+    metric_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
+                   "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q",
+                   "alpha": "info/alpha", **OffPolicyTrainer.SHARED_TAGS}
+    console_fields = tuple((name, name + " {:.3g}") for name in
+                           ("actor_loss", "critic_loss", "alpha_loss", "entropy", "q", "alpha"))
+    tunable = ("actor_lr", "critic_lr", "alpha_lr", "gamma", "critic_tau", "batch_size", "num_updates_per_step",
+               "policy_frequency")
 
     def make_agent(self) -> SACAgent:
         return SACAgent(self.model, self.cfg)
@@ -247,7 +203,11 @@ class DQNTrainer(OffPolicyTrainer):
     """Algo ``dqn``."""
 
     config_class = DQNConfig
-    loss_tags = {"td_loss": "losses/td_loss", "q": "info/q"}
+    metric_tags = {"td_loss": "losses/td_loss", "q": "info/q", "epsilon": "info/epsilon",
+                   **OffPolicyTrainer.SHARED_TAGS}
+    console_fields = tuple((name, name + " {:.3g}") for name in ("td_loss", "q", "epsilon"))
+    tunable = ("learning_rate", "gamma", "target_tau", "target_update_frequency", "batch_size",
+               "num_updates_per_step", "epsilon_end")
 
     def make_agent(self) -> DQNAgent:
         return DQNAgent(self.model, self.cfg)

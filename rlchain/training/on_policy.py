@@ -1,9 +1,7 @@
-"""The on-policy loop: rollout -> returns -> update -> log -> checkpoint, until a stop condition."""
+"""PPO on the Loop: rollout -> returns -> update, the on-policy Algorithm (rlchain.training.algorithm)."""
 
 from __future__ import annotations
 
-import threading
-import time
 from typing import Any
 
 import torch
@@ -14,25 +12,30 @@ from rlchain.algos.returns import gae, next_values_from_rollout
 from rlchain.algos.storage import RolloutStorage
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
-from rlchain.errors import DivergenceError, EnvError
+from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.training import checkpoint as ckpt
-from rlchain.training.base import TrainerBase, TrainResult, describe
 from rlchain.training.build import build_central_value
 from rlchain.training.compile import compile_model
 from rlchain.training.logging import TrainLogger
+from rlchain.training.loop import Loop
 from rlchain.training.rollout import RolloutMixin
 from rlchain.training.run_dir import RunDir
-from rlchain.training.safety import (
-    DivergenceGuard,
-    StopSignals,
-    check_parameters,
-    check_rollout,
-)
+from rlchain.training.safety import DivergenceGuard, check_rollout
 
 
-class OnPolicyTrainer(RolloutMixin, TrainerBase):
-    """Coordinates env, model, PPO agent, storage, logger and checkpoints."""
+class OnPolicyTrainer(RolloutMixin, Loop):
+    """PPO (algos ``a2c_continuous`` and ``a2c_discrete``) on the Loop: rollout into a storage, then
+    the PPO update (and the central value's, with an asymmetric critic)."""
+
+    metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
+                   "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
+                   "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
+                   "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr"}
+    console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"))
+    tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
+               "kl_threshold", "mini_epochs", "gamma", "tau")
+    supports_distributed = True
 
     def __init__(self, params: Params, env: Any, model: ActorCritic, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
@@ -57,113 +60,42 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
-        self._params_lock = threading.Lock()
-        self._pending_params: dict[str, float] = {}
 
-    # ----- the loop -------------------------------------------------------------------------
-    def train(self) -> TrainResult:
-        """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics.
+    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    def collect(self) -> bool:
+        """A rollout of horizon_length steps into the storage; False when a stop signal came."""
+        return self._rollout()
 
-        SIGINT/SIGTERM stop after the current env step with a checkpoint of the last completed
-        epoch; an env failure does the same, then raises EnvError; a NaN/inf stops (or rolls back,
-        with ``divergence.action: rollback``) without ever saving non-finite parameters.
-        """
-        start = time.time()
-        stop = None
-        with StopSignals() as signals:
-            self.signals = signals
-            self.obs = self._reset_envs()
-            self.divergence.snapshot()
-            self.events.emit("on_train_start", self)
-            while stop is None:
-                self._apply_pending_params()
-                t0 = time.time()
-                if not self._guarded_rollout():
-                    stop = f"interrupted by {signals.requested}"
-                    break
-                self.events.emit("on_rollout_end", self)
-                t1 = time.time()
-                stats = self._guarded_learn()
-                if stats is None:
-                    continue  # rolled back: collect a fresh rollout with the restored policy
-                t2 = time.time()
-                self.epoch += 1
-                self.frames += self._frames_per_epoch()
-                episodes = self._episode_stats()
-                self._log(stats, episodes, t1 - t0, t2 - t1)
-                self._checkpoints(episodes)
-                self.divergence.snapshot()
-                self.events.emit("on_epoch_end", self, stats, episodes)
-                stop = self._stop_reason(episodes)
-            last = self.save("last")
-        return self._finish(stop, start, last)
+    def update(self) -> dict[str, float]:
+        """GAE, normalizers and the PPO update on the rollout, which then counts as frames."""
+        bad = check_rollout(self.storage.rewards, self.storage.obs)
+        if bad is not None:
+            raise DivergenceError(bad)
+        stats = self._learn()
+        self.frames += self.frames_per_epoch()
+        return stats
 
-    TUNABLE = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
-               "kl_threshold", "mini_epochs", "gamma", "tau")
+    def restart_episodes(self) -> None:
+        """After a rollback: fresh episodes, zero RNN states."""
+        super().restart_episodes()
+        self._reset_states()
 
-    def get_params(self) -> dict[str, float]:
-        """The training parameters population-based training may change (see :meth:`set_params`)."""
-        values = {name: getattr(self.cfg, name) for name in self.TUNABLE}
+    def hyperparams(self) -> dict[str, float]:
+        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
+        values = super().hyperparams()
         values["learning_rate"] = self.agent.lr
-        values["entropy_coef"] = self.agent.entropy_coef  # live: set_params and schedule_entropy change it
         values["entropy_coef"] = self.agent.entropy_coef
         return values
 
-    def set_params(self, **changes: float) -> None:
-        """Change training parameters; they apply from the next epoch (thread-safe) and are logged."""
-        unknown = [k for k in changes if k not in self.TUNABLE]
-        if unknown:
-            raise KeyError(f"cannot set {unknown[0]}; settable: {', '.join(self.TUNABLE)}")
-        with self._params_lock:
-            self._pending_params.update(changes)
-
-    def _apply_pending_params(self) -> None:
-        with self._params_lock:
-            changes, self._pending_params = self._pending_params, {}
-        for name, value in changes.items():
-            if name == "learning_rate":
-                self.agent._set_lr(float(value))
-            elif name == "entropy_coef":  # the live value; schedule_entropy sets it again after the epoch
-                self.agent.entropy_coef = float(value)
-            else:
-                setattr(self.cfg, name, type(getattr(self.cfg, name) or 0.0)(value))
-            self.logger.scalar(f"params/{name}", float(value), self.frames)
-            print(f"set {name} = {value} at epoch {self.epoch}", flush=True)
-        if "kl_threshold" in changes and hasattr(self.agent.schedule, "kl_threshold"):
-            self.agent.schedule.kl_threshold = float(changes["kl_threshold"])
-
-    def _guarded_rollout(self) -> bool:
-        """A rollout; False when a stop signal arrived. An env failure saves, then raises EnvError."""
-        try:
-            return self._rollout()
-        except (EnvError, DivergenceError):
-            self.save("last")
-            raise
-        except KeyboardInterrupt:
-            raise
-        except Exception as exc:
-            path = self.save("last")
-            saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
-            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
-
-    def _guarded_learn(self) -> dict[str, float] | None:
-        """The update; on NaN/inf either roll back (returns None) or raise with the epoch named."""
-        try:
-            bad = check_rollout(self.storage.rewards, self.storage.obs)
-            if bad is not None:
-                raise DivergenceError(bad)
-            with self.update_phase():
-                stats = self._learn()
-            bad = check_parameters(self.model)
-            if bad is not None:
-                raise DivergenceError(f"{bad} became non-finite in the update")
-            return stats
-        except DivergenceError as exc:
-            self.divergence.handle(exc, self.epoch)  # raises unless it rolled back
-            self.tracker.reset_running()
-            self.obs = self._reset_envs()
-            self._reset_states()
-            return None
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        if name == "learning_rate":
+            self.agent._set_lr(float(value))
+        elif name == "entropy_coef":  # the live value; schedule_entropy sets it again after the epoch
+            self.agent.entropy_coef = float(value)
+        else:
+            super().apply_hyperparam(name, value)
+        if name == "kl_threshold" and hasattr(self.agent.schedule, "kl_threshold"):
+            self.agent.schedule.kl_threshold = float(value)
 
     def _initial_states(self) -> tuple[torch.Tensor, ...]:
         states = tuple(self.model.initial_state(self.num_envs, self.device))
@@ -201,6 +133,7 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
         model.train()
         stats = self.agent.update(storage, self._progress())
         stats["lr0"] = cfg.learning_rate
+        stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self._progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done))
@@ -222,22 +155,18 @@ class OnPolicyTrainer(RolloutMixin, TrainerBase):
         self.cv_agent.load_state_dict(state["central_value_agent"])
 
     # ----- bookkeeping ----------------------------------------------------------------------
-    def _log(self, stats: dict, episodes: dict | None, rollout_s: float, update_s: float) -> None:
-        timing = {"batch": self._frames_per_epoch(), "rollout": rollout_s,
-                  "update": update_s}
-        self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, stats, episodes,
-                          self.best_reward, timing)
-
-    def _frames_per_epoch(self) -> int:
+    def frames_per_epoch(self) -> int:
         """Env steps per epoch over all ranks, as rl_games counts them: agents of one env share a step."""
         return self.cfg.horizon_length * (self.num_envs // self.num_agents) * self.world_size
+
+    _frames_per_epoch = frames_per_epoch  # the name before the Algorithm protocol
 
     def _progress(self) -> float:
         cfg = self.cfg
         if cfg.max_epochs > 0:
             return (self.epoch + 1) / cfg.max_epochs
         if cfg.max_frames > 0:
-            return (self.frames + self._frames_per_epoch()) / cfg.max_frames
+            return (self.frames + self.frames_per_epoch()) / cfg.max_frames
         return 0.0
 
 def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:

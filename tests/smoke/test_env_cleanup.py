@@ -9,7 +9,7 @@ import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.config import ConfigError
 from rlchain.errors import DivergenceError, EnvError
-from rlchain.training import base, build
+from rlchain.training import build, loop
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
@@ -23,7 +23,7 @@ EVALUATION = ["params.config.evaluation.interval=1", "params.config.evaluation.g
 
 @pytest.fixture
 def opened(monkeypatch):
-    """Every env the run builds (training env: build.build_env, evaluation env: base.build_env),
+    """Every env the run builds (training env: build.build_env, evaluation env: loop.build_env),
     as [kind, env, closed?]."""
     envs = []
 
@@ -43,7 +43,7 @@ def opened(monkeypatch):
         return build_env
 
     monkeypatch.setattr(build, "build_env", recording("train", build.build_env))
-    monkeypatch.setattr(base, "build_env", recording("evaluation", base.build_env))
+    monkeypatch.setattr(loop, "build_env", recording("evaluation", loop.build_env))
     return envs
 
 

@@ -275,4 +275,4 @@ def test_get_set_params_during_training(tmp_path, capsys):
     assert "set entropy_coef = 0.01 at epoch 1" in capsys.readouterr().out
     with pytest.raises(KeyError, match="cannot set gamma_typo"):
         from rlchain.training.on_policy import OnPolicyTrainer
-        OnPolicyTrainer.set_params(type("T", (), {"TUNABLE": OnPolicyTrainer.TUNABLE})(), gamma_typo=1)
+        OnPolicyTrainer.set_params(type("T", (), {"tunable": OnPolicyTrainer.tunable})(), gamma_typo=1)

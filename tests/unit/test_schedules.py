@@ -127,6 +127,9 @@ def test_agent_state_carries_entropy_coef(base_config):
 
 
 def test_logger_writes_entropy_coef():
+    from rlchain.training.loop import tag_metrics
+    from rlchain.training.on_policy import OnPolicyTrainer
+
     class Writer:
         def __init__(self):
             self.tags = {}
@@ -138,7 +141,8 @@ def test_logger_writes_entropy_coef():
     logger.writer = Writer()
     stats = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "lr": 1e-3, "kl": 0.0,
              "clip_frac": 0.0, "grad_norm": 0.0, "entropy_coef": 0.005}
-    logger.epoch(1, 10, 64, stats, None, float("-inf"), {"batch": 64, "rollout": 0.1, "update": 0.1})
+    metrics = tag_metrics(stats, OnPolicyTrainer.metric_tags)
+    logger.epoch(1, 10, 64, metrics, None, float("-inf"), {"batch": 64, "rollout": 0.1, "update": 0.1})
     assert logger.writer.tags["info/entropy_coef"] == 0.005
 
 

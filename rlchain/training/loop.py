@@ -1,0 +1,434 @@
+"""The one training loop: counters, episode stats, events, stop rules, signals, divergence, checkpoints.
+
+:class:`Loop` runs ``collect -> update -> count -> log -> checkpoint -> stop?`` for any algorithm
+that fills in the hooks of :class:`rlchain.training.algorithm.Algorithm` (PPO, SAC and DQN do);
+``extra_state`` / ``restore_extra`` add what an algorithm's checkpoints carry beyond the Loop's.
+The Loop logs whatever metrics ``update`` returns, under the algorithm's ``metric_tags``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+
+from rlchain.config.load import check_batch
+from rlchain.config.schema import Params
+from rlchain.envs.vecenv import dropped_rows
+from rlchain.errors import DivergenceError, EnvError
+from rlchain.training import checkpoint as ckpt
+from rlchain.training.build import build_env
+from rlchain.training.episodes import EpisodeTracker, game_outcome
+from rlchain.training.evaluation import EvaluationCallback
+from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.logging import EnvStatsCallback, TrainLogger
+from rlchain.training.run_dir import RunDir
+from rlchain.training.safety import DivergenceGuard, StopSignals, check_obs_shape, check_parameters
+from rlchain.training.self_play import SelfPlayCallback
+from rlchain.training.threads import ThreadPlan
+
+
+@dataclass
+class TrainResult:
+    """What a finished run reports."""
+
+    epoch: int
+    frames: int
+    mean_reward: float
+    best_reward: float
+    stop_reason: str
+    run_dir: str
+    seconds: float
+
+
+class Loop:
+    """The training loop and its bookkeeping; an algorithm subclasses it, sets ``self.agent`` (and
+    ``self.divergence``) and implements the hooks of :class:`rlchain.training.algorithm.Algorithm`."""
+
+    metric_tags: ClassVar[dict[str, str]] = {}
+    console_fields: ClassVar[tuple[tuple[str, str], ...]] = ()
+    tunable: ClassVar[tuple[str, ...]] = ()
+    supports_distributed: ClassVar[bool] = False
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
+        cfg = params.config
+        self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
+        self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
+        self.num_envs = env.num_envs
+        self.num_agents = int(getattr(env, "num_agents", 1) or 1)  # rows per env (rl_games' algo.num_agents)
+        if hasattr(cfg, "minibatch_size"):  # the batch counts the env's agents (multi-agent envs)
+            check_batch(cfg, params.source, self.num_agents)
+        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
+        self.epoch = 0
+        self.frames = 0
+        self.best_reward = -math.inf
+        self.obs: torch.Tensor | None = None
+        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        self._closed = False
+        if callable(getattr(env, "log_stats", None)):  # backend counters (Ray: env/dropped_episodes)
+            self.events.add(EnvStatsCallback())
+        if cfg.evaluation.interval > 0:
+            self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
+        if getattr(cfg, "self_play_config", None) is not None:
+            self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))
+        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
+        self.signals: StopSignals | None = None
+        self.agent: Any = None
+        self.distributed: Any = None  # multi_gpu: a training.distributed.Distributed, set by its attach()
+        self.world_size = 1  # processes training together; frame counters count all of them
+        self.threads: ThreadPlan | None = None  # CPU threads per phase, set by the Runner
+        self.divergence: DivergenceGuard | None = None  # the algorithm's, once it built its agent
+        self._params_lock = threading.Lock()
+        self._pending_params: dict[str, float] = {}
+
+    # ----- the loop -------------------------------------------------------------------------
+    def train(self) -> TrainResult:
+        """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics.
+
+        SIGINT/SIGTERM stop after the current env step with a checkpoint of the last completed
+        epoch; an env failure does the same, then raises EnvError; a NaN/inf stops (or rolls back,
+        with ``divergence.action: rollback``) without ever saving non-finite parameters.
+        """
+        start = time.time()
+        stop = None
+        with StopSignals() as signals:
+            self.signals = signals
+            self.obs = self._reset_envs()
+            self._snapshot()
+            self.events.emit("on_train_start", self)
+            while stop is None:
+                self._apply_pending_params()
+                t0 = time.time()
+                try:
+                    if not self._guarded_collect():
+                        stop = f"interrupted by {signals.requested}"
+                        break
+                    self.events.emit("on_rollout_end", self)
+                    t1 = time.time()
+                    stats = self._guarded_update()
+                except DivergenceError as exc:
+                    self._diverged(exc)
+                    continue  # rolled back: collect afresh with the restored learner
+                if stats is None:
+                    continue
+                self.epoch += 1
+                rollout_s, update_s = self.epoch_seconds(t1 - t0, time.time() - t1)
+                episodes = self._episode_stats()
+                self._log(stats, episodes, rollout_s, update_s)
+                self._checkpoints(episodes)
+                if self.snapshot_due():
+                    self._snapshot()
+                self.events.emit("on_epoch_end", self, stats, episodes)
+                stop = self._stop_reason(episodes)
+            last = self.save("last")
+        return self._finish(stop, start, last)
+
+    def _guarded_collect(self) -> bool:
+        """:meth:`collect`; an env failure saves the last completed epoch, then raises EnvError."""
+        try:
+            return self.collect()
+        except (EnvError, DivergenceError, KeyboardInterrupt):
+            raise
+        except Exception as exc:
+            path = self.save("last")
+            saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
+            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
+
+    def _guarded_update(self) -> dict[str, float] | None:
+        """:meth:`update` under the update's thread count; non-finite parameters after it diverge."""
+        with self.update_phase():
+            stats = self.update()
+        if stats is None:
+            return None
+        bad = check_parameters(self.model)
+        if bad is not None:
+            raise DivergenceError(f"{bad} became non-finite in the update")
+        return stats
+
+    def _diverged(self, exc: DivergenceError) -> None:
+        """A NaN/inf: roll back to the last snapshot and restart the envs' episodes (``divergence.action:
+        rollback``, within max_rollbacks), else save what is finite and raise naming the epoch."""
+        if self.divergence is None:
+            raise exc
+        try:
+            self.divergence.handle(exc, self.epoch)
+        except DivergenceError:
+            self.save("last")  # the restored, finite parameters (a non-finite model is never saved)
+            raise
+        self.restart_episodes()
+
+    def _snapshot(self) -> None:
+        if self.divergence is not None:
+            self.divergence.snapshot(self.epoch)
+
+    # ----- the algorithm's hooks (rlchain.training.algorithm.Algorithm) -------------------------
+    def collect(self) -> bool:  # pragma: no cover - every algorithm implements it
+        """One epoch of env steps; False when a stop signal came."""
+        raise NotImplementedError
+
+    def update(self) -> dict[str, float] | None:  # pragma: no cover - every algorithm implements it
+        """Learn from the collected epoch, count its frames; metrics, or None after a rollback."""
+        raise NotImplementedError
+
+    def frames_per_epoch(self) -> int:  # pragma: no cover - every algorithm implements it
+        """Env frames one epoch adds."""
+        raise NotImplementedError
+
+    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """(rollout, update) seconds of the epoch from the time spent in collect and in update."""
+        return collect_s, update_s
+
+    def snapshot_due(self) -> bool:
+        """Whether the divergence guard snapshots the learner after this epoch (default: every epoch)."""
+        return True
+
+    def restart_episodes(self) -> None:
+        """After a rollback: every env starts a fresh episode."""
+        self.tracker.reset_running()
+        self.obs = self._reset_envs()
+
+    # ----- hyperparameters (get/set, population-based training) -----------------------------
+    def hyperparams(self) -> dict[str, float]:
+        """The live values of :attr:`tunable` (default: the config's)."""
+        return {name: getattr(self.cfg, name) for name in self.tunable}
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        """Change one tunable value (default: the config field, keeping its type)."""
+        current = getattr(self.cfg, name)
+        setattr(self.cfg, name, type(current)(value) if current is not None else value)
+
+    def get_params(self) -> dict[str, float]:
+        """The training parameters population-based training may change (see :meth:`set_params`)."""
+        return self.hyperparams()
+
+    def set_params(self, **changes: float) -> None:
+        """Change training parameters; they apply from the next epoch (thread-safe) and are logged."""
+        unknown = [k for k in changes if k not in self.tunable]
+        if unknown:
+            raise KeyError(f"cannot set {unknown[0]}; settable: {', '.join(self.tunable)}")
+        with self._params_lock:
+            self._pending_params.update(changes)
+
+    def _apply_pending_params(self) -> None:
+        with self._params_lock:
+            changes, self._pending_params = self._pending_params, {}
+        for name, value in changes.items():
+            self.apply_hyperparam(name, value)
+            self.logger.scalar(f"params/{name}", float(value), self.frames)
+            print(f"set {name} = {value} at epoch {self.epoch}", flush=True)
+
+    # ----- loop helpers ---------------------------------------------------------------------
+    def update_phase(self) -> AbstractContextManager:
+        """Context for the gradient updates: ``update_threads`` CPU threads while the envs are idle."""
+        return self.threads.update_phase() if self.threads is not None else nullcontext()
+
+    def close(self) -> None:
+        """Close what the run opened besides the training env (the evaluation env, callbacks'
+        resources): once, on every exit path. The training env belongs to whoever built it."""
+        if self._closed:
+            return
+        self._closed = True
+        self.events.close()
+
+    @classmethod
+    def create(cls, *args: Any, **kwargs: Any) -> Loop:
+        """``cls(*args, **kwargs)``, but a constructor that fails half-way (a config error, a replay
+        buffer too big for memory) first closes what it had opened (the evaluation env)."""
+        trainer = cls.__new__(cls)
+        try:
+            trainer.__init__(*args, **kwargs)
+        except BaseException:
+            if isinstance(getattr(trainer, "events", None), CallbackList):
+                trainer.events.close()
+            raise
+        return trainer
+
+    def request_stop(self, reason: str) -> None:
+        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
+        if self.signals is not None and self.signals.requested is None:
+            self.signals.requested = reason
+
+    def _reset_envs(self) -> torch.Tensor:
+        try:
+            obs = self.env.reset(seed=self.seed + self.epoch)
+        except Exception as exc:
+            raise EnvError(f"env reset failed: {describe(exc)}") from exc
+        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
+        return self._to_tensor(obs)
+
+    def _episode_stats(self) -> dict[str, float] | None:
+        if self.distributed is not None:  # over every rank's games: all ranks log, save and stop alike
+            return self.distributed.episode_stats(self.tracker)
+        if not self.tracker.has_data:
+            return None
+        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
+
+    def _checkpoints(self, episodes: dict | None) -> None:
+        """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] > self.best_reward:
+            self.best_reward = episodes["reward"]
+            if self.epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                self.save("best")
+        if cfg.save_frequency > 0 and self.epoch % cfg.save_frequency == 0:
+            self.save(f"ep_{self.epoch}")
+            self.save("last")
+
+    def _stop_reason(self, episodes: dict | None) -> str | None:
+        cfg = self.cfg
+        if episodes is not None and episodes["reward"] >= cfg.score_to_win:
+            return f"score_to_win {cfg.score_to_win} reached"
+        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached"
+        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached"
+        if self.signals is not None and self.signals.requested:
+            return f"interrupted by {self.signals.requested}"
+        return None
+
+    def _finish(self, stop: str, start: float, last: str | None) -> TrainResult:
+        """Report the stop, emit on_train_end and build the result."""
+        self.logger.flush()
+        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
+        if self.cfg.print_stats or stop.startswith("interrupted"):
+            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
+                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
+        if stop.startswith("interrupted") and last:
+            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
+        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
+                             self.run.root if self.run else "", time.time() - start)
+        self.events.emit("on_train_end", self, result)
+        return result
+
+    def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
+        """The epoch's TensorBoard scalars and console line: the metrics under :attr:`metric_tags`."""
+        timing = {"batch": self.frames_per_epoch(), "rollout": rollout_s, "update": update_s}
+        console = [fmt.format(stats[name]) for name, fmt in self.console_fields if name in stats]
+        self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, tag_metrics(stats, self.metric_tags),
+                          episodes, self.best_reward, timing, console)
+
+    def _to_tensor(self, x: Any) -> torch.Tensor:
+        return to_device(x, self.device)
+
+    def _env_outcome(self, result: Any, rows: slice = slice(None)
+                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """A step's (rewards, terminated, truncated, dones) as device tensors; finished episodes are
+        recorded as whole games (Atari lives), episodes cut by a dead Ray worker are dropped.
+        ``rows``: the envs ``result`` is for (a pipelined rollout's env group; all by default)."""
+        rewards = self._to_tensor(result.reward).float()
+        terminated = self._to_tensor(result.terminated).bool()
+        truncated = self._to_tensor(result.truncated).bool()
+        dones = terminated | truncated
+        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows)
+        if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
+            self._emit_env_step(result, dones, rows)
+        return rewards, terminated, truncated, dones
+
+    def _emit_env_step(self, result: Any, dones: torch.Tensor, rows: slice) -> None:
+        """``on_env_step`` with the rows of ``result`` whose episode ended (one per env: its first
+        agent's row); episodes a dead Ray worker cut did not end."""
+        lost = dropped_rows(result)
+        if lost is not None:
+            dones = dones & ~torch.as_tensor(lost, device=dones.device).bool().reshape(-1)
+        done_indices = dones.nonzero().squeeze(-1)
+        if self.num_agents > 1:
+            done_indices = done_indices[done_indices % self.num_agents == 0]
+        self.events.emit_env_step(self, result, done_indices, rows)
+
+    def _env_actions(self, actions: torch.Tensor) -> Any:
+        """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""
+        return actions if self.tensor_env else actions.cpu().numpy()
+
+    # ----- checkpoints ----------------------------------------------------------------------
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """What a subclass adds to a checkpoint of ``kind`` (best, last, ep_N)."""
+        return {}
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`extra_state` added."""
+
+    def state_dict(self, kind: str = "last") -> dict[str, Any]:
+        """Everything exact resume needs."""
+        state = {
+            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
+            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
+            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
+            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
+            "version": _version(),
+        }
+        state.update(self.extra_state(kind))
+        return state
+
+    def save(self, kind: str) -> str | None:
+        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
+        if self.run is None:
+            return None
+        bad = check_parameters(self.model)
+        if bad is not None:
+            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
+            return None
+        path = self.run.checkpoint(kind)
+        try:
+            ckpt.save_atomic(self.state_dict(kind), path)
+        except OSError as exc:
+            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                  f"checkpoint is kept and training goes on", flush=True)
+            return None
+        self.events.emit("on_checkpoint", self, path, kind)
+        return path
+
+    def restore(self, state: dict[str, Any], path: str) -> None:
+        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
+        if state.get("algo") not in (None, self.params.algo.name):
+            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
+                                       f"the config says '{self.params.algo.name}'")
+        ckpt.load_model_state(self.model, state, path)
+        self.agent.load_state_dict(state["agent"])
+        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
+        self.best_reward = float(state["best_reward"])
+        self.tracker.load_state_dict(state["episodes"])
+        ckpt.set_rng_state(state["rng"])
+        self.restore_extra(state)
+
+
+def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:
+    """``{tag: value}`` of the metrics ``tags`` names, plus those whose name already is a tag
+    (``losses/aux_l2``); other metrics (counts, internal values) are for callbacks only."""
+    out = {}
+    for name, value in stats.items():
+        tag = tags.get(name, name if "/" in name else None)
+        if tag is not None:
+            out[tag] = float(value)
+    return out
+
+
+def to_device(x: Any, device: torch.device) -> torch.Tensor:
+    """``x`` (numpy array, tensor, ...) as a tensor on ``device``: the one conversion per env step.
+
+    A numpy array bound for CUDA goes through page-locked (pinned) host memory and an asynchronous
+    copy, so the transfer does not stage through pageable memory; torch's caching host allocator
+    reuses the pinned blocks once their copy is done. On CPU the array is shared, not copied.
+    """
+    if device.type == "cuda" and isinstance(x, np.ndarray) and x.dtype != np.object_:
+        x = np.ascontiguousarray(x) if x.flags.writeable else np.array(x)  # from_numpy wants writable
+        host = torch.from_numpy(x)
+        return host.pin_memory().to(device, non_blocking=True)
+    return torch.as_tensor(x, device=device)
+
+
+def describe(exc: BaseException) -> str:
+    """``Type: message`` on one line."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _version() -> str:
+    from rlchain import __version__
+    return __version__
