@@ -14,9 +14,13 @@ from typing import Any
 
 from rlchain.config.load import apply_overrides, check_batch, load_raw, parse_params
 from rlchain.config.schema import Params, TrainConfig
+from rlchain.log import get_logger
 from rlchain.registry import ALGOS
 from rlchain.training import checkpoint as ckpt
+from rlchain.training import communicator
 from rlchain.training.threads import ThreadPlan, set_threads
+
+log = get_logger(__name__)
 
 
 class Runner:
@@ -60,8 +64,8 @@ class Runner:
                                  wandb_entity)
         except BaseException as exc:
             distributed.shutdown(group, clean=False)
-            lost = distributed.collective_failure(group, exc)  # a dead peer: one line, not a gloo traceback
-            if lost is not None:
+            lost = distributed.collective_failure(group, exc)  # a dead peer: one line (by type), not a traceback
+            if lost is not None and lost is not exc:
                 raise lost from exc
             raise
         distributed.shutdown(group, clean=not result.stop_reason.startswith("interrupted"))
@@ -86,7 +90,8 @@ class Runner:
         try:
             if isinstance(cfg, TrainConfig):  # the minibatch must divide the batch of all agents' rows
                 check_batch(cfg, params.source, int(getattr(env, "num_agents", 1) or 1))
-            model = build_model(params, env, device)
+            with communicator.building_with(group or communicator.SINGLE):  # normalizers sync over ranks
+                model = build_model(params, env, device)
             if state is not None:  # a mismatched checkpoint fails before any run folder exists
                 ckpt.load_model_state(model, state, checkpoint)
             if group is not None:  # so do ranks with different envs or resume points (torchrun)
@@ -117,20 +122,22 @@ class Runner:
         trainer = None
         try:
             trainer_class = ALGOS.get(params.algo.name)
-            make = getattr(trainer_class, "create", trainer_class)  # TrainerBase.create: no leak if __init__ fails
-            trainer = make(params, env, model, device, run, logger, seed, self.raw)
+            make = getattr(trainer_class, "create", trainer_class)  # Loop.create: no leak if __init__ fails
+            extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
+            with communicator.building_with(group or communicator.SINGLE):
+                trainer = make(params, env, model, device, run, logger, seed, self.raw, **extra)
             trainer.threads = threads
             if state is not None:
                 trainer.restore(state, checkpoint)
             if sigma is not None:
                 apply_sigma(model, sigma)
-            if group is not None:  # same state on every rank, then the gradient/statistics syncs
-                group.attach(trainer)
+            if group is not None:  # every rank starts from rank 0's state
+                trainer.join_ranks()
             trainer.events.extend(callbacks)
             if cfg.print_stats:
                 what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"
-                print(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "
-                      f"device {device}, seed {seed}) -> {run.root}", flush=True)
+                log.info(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "
+                         f"device {device}, seed {seed}) -> {run.root}")
             result = trainer.train()
             ok = True
             return result

@@ -22,8 +22,11 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
+from rlchain.log import get_logger
 from rlchain.models.stepper import PolicyStepper
 from rlchain.training.events import Callback
+
+log = get_logger(__name__)
 
 INSTALL_HINT = "video recording needs moviepy and pygame: pip install rlchain[video]"
 _NOT_ENV_KWARGS = ("seed", "name")
@@ -158,4 +161,4 @@ class VideoCallback(Callback):
                                       trainer.device, seed=trainer.seed, name_prefix=f"epoch_{trainer.epoch}")
         self.files.extend(files)
         if trainer.cfg.print_stats:
-            print(f"video at epoch {trainer.epoch}: {', '.join(files)}", flush=True)
+            log.info(f"video at epoch {trainer.epoch}: {', '.join(files)}")

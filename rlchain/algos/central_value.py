@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import torch
 
 from rlchain.algos.losses import value_loss
@@ -11,17 +9,18 @@ from rlchain.algos.storage import RolloutStorage
 from rlchain.config.schema import CentralValueConfig
 from rlchain.errors import DivergenceError
 from rlchain.models.central_value import CentralValue
+from rlchain.training.communicator import SINGLE, Communicator
 
 
 class CentralValueAgent:
     """Its own Adam optimizer, minibatches and mini-epochs; clipped value loss as the PPO critic's."""
 
-    def __init__(self, model: CentralValue, cfg: CentralValueConfig, device: torch.device) -> None:
-        self.model, self.cfg, self.device = model, cfg, device
+    def __init__(self, model: CentralValue, cfg: CentralValueConfig, device: torch.device,
+                 comm: Communicator = SINGLE) -> None:
+        self.model, self.cfg, self.device, self.comm = model, cfg, device, comm
         self.lr = cfg.learning_rate
         self.params = [p for p in model.parameters() if p.requires_grad]
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
-        self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks
 
     def update(self, storage: RolloutStorage, progress: float, state_offset: int = 0, seq_length: int = 1,
                use_resets: bool = True) -> dict[str, float]:
@@ -48,8 +47,8 @@ class CentralValueAgent:
                                   cfg.e_clip, cfg.clip_value).mean()
                 self.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
-                if self.gradient_sync is not None:
-                    self.gradient_sync(self.params)
+                if self.comm.active:  # multi_gpu: every rank steps with the gradients averaged over ranks
+                    self.comm.average_gradients(self.params)
                 if cfg.truncate_grads:
                     torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_norm)
                 self.optimizer.step()

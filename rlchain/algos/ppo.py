@@ -6,17 +6,23 @@ updates. There is no action-space branch here: the model's distribution handles 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import nullcontext
 
 import torch
 
 from rlchain.algos.losses import aux_loss_terms, normalize_advantages, policy_loss, value_loss
-from rlchain.algos.schedules import PROGRESS_SCHEDULES, make_schedule, scheduled_entropy_coef
+from rlchain.algos.schedules import (
+    PROGRESS_SCHEDULES,
+    AdaptiveKLSchedule,
+    make_schedule,
+    scheduled_entropy_coef,
+)
 from rlchain.algos.storage import Batch, RolloutStorage
 from rlchain.config.schema import TrainConfig
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.training.communicator import SINGLE, Communicator
 
 
 class PPOAgent:
@@ -30,8 +36,10 @@ class PPOAgent:
     loss after each forward pass; they come back from :meth:`update` as ``losses/<name>``.
     """
 
-    def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device) -> None:
+    def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device,
+                 comm: Communicator = SINGLE) -> None:
         self.model = model
+        self.comm = comm  # multi_gpu: gradients and the KL behind the adaptive lr are averaged over ranks
         self.cfg = cfg
         self.device = device
         self.lr = cfg.learning_rate
@@ -47,7 +55,6 @@ class PPOAgent:
         model.bptt_length = cfg.bptt_length
         self.amp = cfg.mixed_precision and device.type == "cuda"
         self.scaler = torch.amp.GradScaler("cuda", enabled=self.amp) if self.amp else None
-        self.gradient_sync: Callable[[list[torch.Tensor]], None] | None = None  # multi_gpu: average over ranks
 
     def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
@@ -75,14 +82,20 @@ class PPOAgent:
                 epoch_kl += stats["kl"]
                 epoch_n += 1
                 if cfg.schedule_type == "legacy":
-                    self._set_lr(self.schedule.update(self.lr, kl=stats["kl"]))
+                    self._set_lr(self.schedule.update(self.lr, kl=self._rank_mean(stats["kl"])))
             if cfg.schedule_type == "standard":
-                self._set_lr(self.schedule.update(self.lr, kl=epoch_kl / max(epoch_n, 1)))
+                self._set_lr(self.schedule.update(self.lr, kl=self._rank_mean(epoch_kl / max(epoch_n, 1))))
         self.apply_progress(progress)
         out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
         return out
+
+    def _rank_mean(self, kl: float) -> float:
+        """The KL the adaptive lr follows: averaged over ranks, so every rank sets the same lr."""
+        if self.comm.active and isinstance(self.schedule, AdaptiveKLSchedule):
+            return self.comm.mean(kl)
+        return kl
 
     def apply_progress(self, progress: float) -> None:
         """After an epoch's update: the schedules that follow the run's progress (linear or polynomial
@@ -129,8 +142,8 @@ class PPOAgent:
                 loss = loss + aux_loss
         self.optimizer.zero_grad(set_to_none=True)
         (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
-        if self.gradient_sync is not None:  # before unscaling and clipping, so every rank sees the same grads
-            self.gradient_sync(self.params)
+        if self.comm.active:  # before unscaling and clipping, so every rank sees the same grads
+            self.comm.average_gradients(self.params)
         if self.scaler is not None:
             self.scaler.unscale_(self.optimizer)
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")

@@ -38,7 +38,6 @@ is a rare event, so this bias is negligible; exact removal would need the traine
 from __future__ import annotations
 
 import pickle
-import sys
 import time
 from typing import Any
 
@@ -49,6 +48,9 @@ from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.ray_cluster import connect, one_line
 from rlchain.envs.ray_worker import EnvRecipe, EnvWorker
 from rlchain.envs.vecenv import DROPPED, StepResult
+from rlchain.log import get_logger
+
+log = get_logger(__name__)
 
 VECENV, RUNNERS = "params.config.vecenv_type", "params.config.env_runners"
 DEFAULT_WORKERS = 2
@@ -233,8 +235,8 @@ class RayVecEnv:
             if self.restarts[i] > limit:
                 raise WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, "
                                  f"stopping{self._resources_hint(cause)}")
-            print(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit}), {lost} partial episodes dropped",
-                  file=sys.stderr, flush=True)
+            log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit}), {lost} partial episodes "
+                        f"dropped")
             try:
                 ray.kill(self.workers[i], no_restart=True)
             except Exception:

@@ -7,6 +7,8 @@ from collections.abc import Callable
 import torch
 import torch.nn as nn
 
+from rlchain.training import communicator
+
 CHUNK_ELEMENTS = 1 << 22  # rows per chunk of batch_moments: about this many values (16 MiB of float32)
 
 
@@ -66,8 +68,8 @@ class RunningMeanStd(nn.Module):
         self.register_buffer("mean", torch.zeros(shape, dtype=torch.float64))
         self.register_buffer("var", torch.ones(shape, dtype=torch.float64))
         self.register_buffer("count", torch.ones((), dtype=torch.float64) * epsilon)
-        # (mean, var, n) -> the same over all processes; set under torch.distributed (training/distributed.py)
-        self.moment_sync: Callable | None = None
+        # the ranks whose batches it folds in: the communicator in force when it is built (torchrun)
+        self.comm = communicator.current()
 
     @torch.no_grad()
     def update(self, x: torch.Tensor, transform: Callable[[torch.Tensor], torch.Tensor] | None = None) -> None:
@@ -76,8 +78,8 @@ class RunningMeanStd(nn.Module):
         if transform is None:
             x = x.reshape(-1, *self.mean.shape)
         batch_mean, batch_var, n = batch_moments(x, transform)
-        if self.moment_sync is not None:  # multi_gpu: every rank folds the moments of all ranks' batches
-            batch_mean, batch_var, n = self.moment_sync(batch_mean, batch_var, n)
+        if self.comm.active:  # multi_gpu: every rank folds the moments of all ranks' batches
+            batch_mean, batch_var, n = self.comm.combine_moments(batch_mean, batch_var, n)
         delta = batch_mean - self.mean
         total = self.count + n
         self.mean += delta * n / total

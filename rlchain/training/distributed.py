@@ -28,7 +28,6 @@ import json
 import os
 import signal
 import threading
-import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -36,10 +35,10 @@ from typing import Any
 import torch
 import torch.distributed as dist
 
-from rlchain.algos.schedules import AdaptiveKLSchedule
 from rlchain.config.errors import ConfigError
 from rlchain.errors import DistributedError
-from rlchain.models.normalization import RunningMeanStd, merge_moments
+from rlchain.models.normalization import merge_moments
+from rlchain.training.communicator import Communicator
 
 KEY = "params.config.multi_gpu"
 LAUNCH_VARS = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
@@ -172,20 +171,16 @@ def _gather_rows(row: torch.Tensor) -> torch.Tensor:
     return torch.stack(out).cpu()
 
 
-class RankMeanKLSchedule(AdaptiveKLSchedule):
-    """The adaptive-KL schedule fed the KL averaged over ranks, so every rank sets the same lr."""
-
-    def __init__(self, schedule: AdaptiveKLSchedule) -> None:
-        super().__init__(schedule.kl_threshold, schedule.min_lr, schedule.max_lr)
-
-    def update(self, lr: float, kl: float | None = None, progress: float | None = None) -> float:
-        return super().update(lr, None if kl is None else mean_over_ranks(kl), progress)
-
-
 # ----- the process group --------------------------------------------------------------------
+class CollectiveError(DistributedError):
+    """A torch.distributed collective failed: a peer died, was killed or timed out."""
+
+
 @dataclass
-class Distributed:
-    """This process's place in the group; created by :func:`setup`, ended by :func:`shutdown`."""
+class Distributed(Communicator):
+    """This process's place in the torchrun group, and the :class:`Communicator` that syncs through
+    it; created by :func:`setup`, ended by :func:`shutdown`. Every collective it runs that fails
+    raises :class:`CollectiveError` (one line naming this rank)."""
 
     rank: int
     world_size: int
@@ -195,23 +190,47 @@ class Distributed:
     local_world_size: int = 1  # processes on this node (they share its cores)
 
     @property
-    def is_main(self) -> bool:
-        """Rank 0 writes the run folder, logs and checkpoints."""
-        return self.rank == 0
-
-    @property
     def rank_seed(self) -> int:
         """Seed of this rank's envs and RNGs: distinct per rank, equal to ``seed`` on rank 0."""
         return (self.seed + self.rank * RANK_SEED_STRIDE) % 2**32
+
+    # ----- the Communicator ---------------------------------------------------------------------
+    def average_gradients(self, params: list[torch.Tensor]) -> None:
+        self._collective("gradient all-reduce", average_gradients, params)
+
+    def combine_moments(self, mean: torch.Tensor, var: torch.Tensor, count: float
+                        ) -> tuple[torch.Tensor, torch.Tensor, float]:
+        return self._collective("normalizer moments", combine_moments, mean, var, count)
+
+    def mean(self, value: float) -> float:
+        return self._collective("mean over ranks", mean_over_ranks, value)
 
     def episode_stats(self, tracker: Any) -> dict[str, float] | None:
         """Mean reward and length over every rank's tracked games (None when no rank finished one)."""
         returns, lengths = list(tracker.finished_returns), list(tracker.finished_lengths)
         row = torch.tensor([sum(returns), float(sum(lengths)), float(len(returns))], dtype=torch.float64)
-        total = _gather_rows(row).sum(0)
+        total = self._collective("episode statistics", _gather_rows, row).sum(0)
         if total[2] == 0:
             return None
         return {"reward": float(total[0] / total[2]), "length": float(total[1] / total[2])}
+
+    def broadcast_learner(self, model: torch.nn.Module, agent: Any) -> None:
+        """Rank 0's parameters and buffers (tensor broadcasts) and its agent state (optimizer, lr)."""
+        self._collective("state broadcast", self._broadcast_state, model, agent)
+
+    def _collective(self, what: str, fn: Any, *args: Any) -> Any:
+        """``fn(*args)``; a RuntimeError from it (the collective) becomes a one-line CollectiveError."""
+        try:
+            return fn(*args)
+        except RuntimeError as exc:
+            raise self.failure(what, exc) from exc
+
+    def failure(self, what: str, exc: BaseException) -> CollectiveError:
+        """The one-line error of a failed collective ``what``."""
+        detail = " ".join(str(exc).split())
+        detail = "".join(ch for ch in detail if ch.isprintable())[:200]
+        return CollectiveError(f"rank {self.rank}: a collective with the other ranks failed ({what}: {detail}); "
+                               f"another rank probably died or was killed: its own error above names the cause")
 
     def check_consistent(self, env: Any, model: torch.nn.Module, state: dict[str, Any] | None) -> None:
         """Before any run folder exists: every rank has the same env count, parameters and resume point.
@@ -222,37 +241,13 @@ class Distributed:
                  "resume_epoch": None if state is None else int(state["epoch"]),
                  "resume_frames": None if state is None else int(state["frames"])}
         gathered: list[Any] = [None] * self.world_size
-        dist.all_gather_object(gathered, facts)
+        self._collective("consistency check", dist.all_gather_object, gathered, facts)
         bad = first_mismatch(gathered)
         if bad is not None:
             raise ConfigError("", KEY, f"rank {bad} differs from rank 0 ({gathered[bad]} vs {gathered[0]}); "
                                        f"every rank needs the same env, config and --checkpoint")
 
-    def attach(self, trainer: Any) -> None:
-        """Hook a built (and possibly resumed) on-policy trainer into the group.
-
-        Broadcasts rank 0's parameters, buffers and optimizer state, then installs the gradient,
-        normalizer, KL and episode-statistics syncs.
-        """
-        pairs = [(trainer.model, trainer.agent)]
-        if getattr(trainer, "central_value", None) is not None:  # the asymmetric critic trains apart
-            pairs.append((trainer.central_value, trainer.cv_agent))
-        for model, agent in pairs:
-            self._broadcast_state(model, agent)
-            agent.gradient_sync = average_gradients
-            for module in model.modules():
-                if isinstance(module, RunningMeanStd):
-                    module.moment_sync = combine_moments
-        trainer.distributed, trainer.world_size = self, self.world_size
-        agent = trainer.agent
-        if isinstance(agent.schedule, AdaptiveKLSchedule):
-            agent.schedule = RankMeanKLSchedule(agent.schedule)
-        if trainer.epoch > 0 and not self.is_main:  # a resume restored rank 0's RNG state everywhere
-            from rlchain.training.checkpoint import seed_everything
-            seed_everything(self.rank_seed + trainer.epoch)
-
     def _broadcast_state(self, model: torch.nn.Module, agent: Any) -> None:
-        """Rank 0's parameters and buffers (tensor broadcasts) and its agent state (optimizer, lr)."""
         with torch.no_grad():
             for tensor in model.state_dict().values():
                 dist.broadcast(tensor, src=0)
@@ -334,17 +329,16 @@ def shutdown(group: Distributed | None, clean: bool) -> None:
 
 
 def collective_failure(group: Distributed | None, exc: BaseException) -> DistributedError | None:
-    """A RuntimeError raised inside a torch.distributed collective (a peer died, was killed or timed
-    out) as one line naming this rank; None for any other exception."""
-    if group is None or not isinstance(exc, RuntimeError) or isinstance(exc, DistributedError):
+    """The one-line error a run under torchrun ends with when ``exc`` came from a collective (a
+    :class:`CollectiveError`, raised by :class:`Distributed`'s own collectives, or torch's
+    ``DistError`` family from anywhere else); None for any other exception or a single process."""
+    if group is None:
         return None
-    frames = traceback.extract_tb(exc.__traceback__)
-    if not any(f"torch{os.sep}distributed{os.sep}" in frame.filename for frame in frames):
-        return None
-    detail = " ".join(str(exc).split())
-    detail = "".join(ch for ch in detail if ch.isprintable())[:200]
-    return DistributedError(f"rank {group.rank}: a collective with the other ranks failed ({detail}); another "
-                            f"rank probably died or was killed: its own error above names the cause")
+    if isinstance(exc, CollectiveError):
+        return exc
+    if isinstance(exc, dist.DistError):
+        return group.failure(type(exc).__name__, exc)
+    return None
 
 
 def _count(model: torch.nn.Module) -> int:

@@ -9,9 +9,12 @@ from typing import Any
 
 import torch
 
+from rlchain.log import get_logger
 from rlchain.models.stepper import PolicyStepper
 from rlchain.training.episodes import game_outcome
 from rlchain.training.events import Callback
+
+log = get_logger(__name__)
 
 
 @dataclass
@@ -92,8 +95,8 @@ class EvaluationCallback(Callback):
         log("evaluation/rewards_iter", result.mean_reward, trainer.epoch)
         log("evaluation/episode_lengths", result.mean_length, trainer.frames)
         if trainer.cfg.print_stats:
-            print(f"evaluation at epoch {trainer.epoch}: reward {result.mean_reward:.2f} length "
-                  f"{result.mean_length:.1f} over {result.games} games", flush=True)
+            log.info(f"evaluation at epoch {trainer.epoch}: reward {result.mean_reward:.2f} length "
+                     f"{result.mean_length:.1f} over {result.games} games")
         trainer.events.emit("on_evaluation", trainer, result)
         if self.cfg.select_best == "evaluation" and result.mean_reward > self.best:
             self.best = result.mean_reward

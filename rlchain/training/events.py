@@ -21,6 +21,10 @@ import importlib
 import time
 from typing import Any
 
+from rlchain.log import get_logger
+
+log = get_logger(__name__)
+
 EVENTS = ("on_train_start", "on_env_step", "on_rollout_end", "on_epoch_end", "on_stats_cleared", "on_evaluation",
           "on_checkpoint", "on_train_end")
 
@@ -210,5 +214,5 @@ class CallbackList:
             try:
                 close()
             except Exception as exc:  # one failed close must not keep the others open
-                print(f"warning: closing callback {type(callback).__name__} failed: "
-                      f"{type(exc).__name__}: {exc}", flush=True)
+                log.warning(f"warning: closing callback {type(callback).__name__} failed: "
+                            f"{type(exc).__name__}: {exc}")

@@ -7,7 +7,10 @@ import sys
 import time
 from typing import Any
 
+from rlchain.log import get_logger
 from rlchain.training.events import Callback
+
+log = get_logger(__name__)
 
 
 class EnvStatsCallback(Callback):
@@ -44,8 +47,8 @@ class TrainLogger:
 
     def _writer_failed(self, exc: OSError) -> None:
         """A failed log write is reported once; training goes on without TensorBoard logs."""
-        print(f"warning: TensorBoard log write failed ({exc.strerror or exc}); training goes on without "
-              f"logs, checkpoints are unaffected", file=self.stream, flush=True)
+        log.warning(f"warning: TensorBoard log write failed ({exc.strerror or exc}); training goes on without "
+                    f"logs, checkpoints are unaffected")
         self.writer = None
 
     def epoch(self, epoch: int, max_epochs: int, frames: int, metrics: dict[str, float],

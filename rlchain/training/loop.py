@@ -22,8 +22,11 @@ from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
+from rlchain.log import get_logger
 from rlchain.training import checkpoint as ckpt
+from rlchain.training import communicator
 from rlchain.training.build import build_env
+from rlchain.training.communicator import Communicator
 from rlchain.training.episodes import EpisodeTracker, game_outcome
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
@@ -32,6 +35,8 @@ from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import DivergenceGuard, StopSignals, check_obs_shape, check_parameters
 from rlchain.training.self_play import SelfPlayCallback
 from rlchain.training.threads import ThreadPlan
+
+log = get_logger(__name__)
 
 
 @dataclass
@@ -57,8 +62,11 @@ class Loop:
     supports_distributed: ClassVar[bool] = False
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
+                 comm: Communicator | None = None) -> None:
         cfg = params.config
+        # the other ranks (torchrun): the algorithm's agents and the episode statistics sync through it
+        self.comm = comm if comm is not None else communicator.current()
         self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
         self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
         self.num_envs = env.num_envs
@@ -81,8 +89,8 @@ class Loop:
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.agent: Any = None
-        self.distributed: Any = None  # multi_gpu: a training.distributed.Distributed, set by its attach()
-        self.world_size = 1  # processes training together; frame counters count all of them
+        self.distributed: Any = self.comm if self.comm.active else None  # multi_gpu: training.distributed.Distributed
+        self.world_size = self.comm.world_size  # processes training together; frame counters count all of them
         self.threads: ThreadPlan | None = None  # CPU threads per phase, set by the Runner
         self.divergence: DivergenceGuard | None = None  # the algorithm's, once it built its agent
         self._params_lock = threading.Lock()
@@ -222,7 +230,7 @@ class Loop:
         for name, value in changes.items():
             self.apply_hyperparam(name, value)
             self.logger.scalar(f"params/{name}", float(value), self.frames)
-            print(f"set {name} = {value} at epoch {self.epoch}", flush=True)
+            log.info(f"set {name} = {value} at epoch {self.epoch}")
 
     # ----- loop helpers ---------------------------------------------------------------------
     def update_phase(self) -> AbstractContextManager:
@@ -263,9 +271,25 @@ class Loop:
         check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
         return self._to_tensor(obs)
 
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """(model, agent) pairs that train: every rank starts from rank 0's (:meth:`join_ranks`)."""
+        return [(self.model, self.agent)]
+
+    def join_ranks(self) -> None:
+        """Under torchrun, once the run is built (and resumed): every rank takes rank 0's parameters,
+        buffers and optimizer state; after a resume, which restored rank 0's RNG state everywhere,
+        the other ranks reseed their own streams."""
+        if not self.comm.active:
+            return
+        for model, agent in self.learners():
+            self.comm.broadcast_learner(model, agent)
+        if self.epoch > 0 and not self.comm.is_main:
+            from rlchain.training.checkpoint import seed_everything
+            seed_everything(self.comm.rank_seed + self.epoch)
+
     def _episode_stats(self) -> dict[str, float] | None:
-        if self.distributed is not None:  # over every rank's games: all ranks log, save and stop alike
-            return self.distributed.episode_stats(self.tracker)
+        if self.comm.active:  # over every rank's games: all ranks log, save and stop alike
+            return self.comm.episode_stats(self.tracker)
         if not self.tracker.has_data:
             return None
         return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
@@ -298,10 +322,10 @@ class Loop:
         self.logger.flush()
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
         if self.cfg.print_stats or stop.startswith("interrupted"):
-            print(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
-                  f"{mean:.2f}, best {self.best_reward:.2f}", flush=True)
+            log.info(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
+                     f"{mean:.2f}, best {self.best_reward:.2f}")
         if stop.startswith("interrupted") and last:
-            print(f"resume with: python runner.py --train --file <config> --checkpoint {last}", flush=True)
+            log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")
         result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                              self.run.root if self.run else "", time.time() - start)
         self.events.emit("on_train_end", self, result)
@@ -372,14 +396,14 @@ class Loop:
             return None
         bad = check_parameters(self.model)
         if bad is not None:
-            print(f"warning: not saving the {kind} checkpoint: {bad} is not finite", flush=True)
+            log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
             return None
         path = self.run.checkpoint(kind)
         try:
             ckpt.save_atomic(self.state_dict(kind), path)
         except OSError as exc:
-            print(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
-                  f"checkpoint is kept and training goes on", flush=True)
+            log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                        f"checkpoint is kept and training goes on")
             return None
         self.events.emit("on_checkpoint", self, path, kind)
         return path

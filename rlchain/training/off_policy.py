@@ -34,8 +34,8 @@ class OffPolicyTrainer(Loop):
     SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
-        super().__init__(params, env, model, device, run, logger, seed, raw_config)
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict, comm: Any = None) -> None:
+        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
         cfg = self.cfg
         self.agent = self.make_agent()
         obs_space = env.observation_space

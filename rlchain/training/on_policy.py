@@ -15,7 +15,9 @@ from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.training import checkpoint as ckpt
+from rlchain.training import communicator
 from rlchain.training.build import build_central_value
+from rlchain.training.communicator import Communicator
 from rlchain.training.compile import compile_model
 from rlchain.training.logging import TrainLogger
 from rlchain.training.loop import Loop
@@ -38,15 +40,17 @@ class OnPolicyTrainer(RolloutMixin, Loop):
     supports_distributed = True
 
     def __init__(self, params: Params, env: Any, model: ActorCritic, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict) -> None:
-        super().__init__(params, env, model, device, run, logger, seed, raw_config)
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
+                 comm: Communicator | None = None) -> None:
+        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
         cfg = self.cfg
         compile_model(model, cfg.torch_compile)
-        self.agent = PPOAgent(model, cfg, device)
-        self.central_value = build_central_value(params, env, device)
+        self.agent = PPOAgent(model, cfg, device, self.comm)
+        with communicator.building_with(self.comm):  # its normalizers fold every rank's batches
+            self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
-            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device)
+            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, self.comm)
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
@@ -74,6 +78,13 @@ class OnPolicyTrainer(RolloutMixin, Loop):
         stats = self._learn()
         self.frames += self.frames_per_epoch()
         return stats
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """The actor-critic and PPO agent, and the central value with its own agent when there is one."""
+        pairs = [(self.model, self.agent)]
+        if self.central_value is not None:
+            pairs.append((self.central_value, self.cv_agent))
+        return pairs
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""

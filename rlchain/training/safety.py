@@ -10,6 +10,9 @@ from typing import Any
 import torch
 
 from rlchain.errors import DivergenceError, EnvError
+from rlchain.log import get_logger
+
+log = get_logger(__name__)
 
 
 class StopSignals:
@@ -39,6 +42,7 @@ class StopSignals:
         if self.requested is not None:  # second signal: leave now
             raise KeyboardInterrupt(f"second {name}")
         self.requested = name
+        # print, not logging: this runs in a signal handler, where logging's locks could deadlock
         print(f"\n{name} received: finishing the current step, then saving a checkpoint "
               f"(send it again to exit at once)", flush=True)
 
@@ -109,8 +113,8 @@ class DivergenceGuard:
             self.rollbacks += 1
             self._restore()
             self.agent.scale_lr(self.cfg.lr_factor ** self.rollbacks)
-            print(f"divergence at {where}; rolled back to epoch {good} ({self.rollbacks}/"
-                  f"{self.cfg.max_rollbacks}), learning rate now {self.agent.lr:.2e}", flush=True)
+            log.warning(f"divergence at {where}; rolled back to epoch {good} ({self.rollbacks}/"
+                        f"{self.cfg.max_rollbacks}), learning rate now {self.agent.lr:.2e}")
             return
         self._restore()
         kept = f"parameters of epoch {good} kept" if self._good is not None else "last good checkpoint kept"

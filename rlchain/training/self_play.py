@@ -27,7 +27,10 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import SelfPlayConfig
+from rlchain.log import get_logger
 from rlchain.training.events import Callback
+
+log = get_logger(__name__)
 
 KEY = "params.config.self_play_config"
 
@@ -100,9 +103,8 @@ class SelfPlayCallback(Callback):
         trainer.logger.scalar("selfplay/updates", self.updates, trainer.frames)
         if trainer.cfg.print_stats:
             where = f"env(s) {env_ids}" if len(env_ids) <= 4 else f"{len(env_ids)} envs"
-            print(f"self-play: mean score {score:.3f} > {self.cfg.update_score} over {len(self.scores)} games: "
-                  f"the opponent of {where} is now the policy of epoch {trainer.epoch} (update {self.updates})",
-                  flush=True)
+            log.info(f"self-play: mean score {score:.3f} > {self.cfg.update_score} over {len(self.scores)} games: "
+                     f"the opponent of {where} is now the policy of epoch {trainer.epoch} (update {self.updates})")
         self.scores.clear()
         self.epochs_since_update = 0
         self._drain()

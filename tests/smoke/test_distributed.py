@@ -285,30 +285,30 @@ def _collectives_worker(folder: str) -> None:
 
     dist.init_process_group("gloo")
     rank = dist.get_rank()
+    pg = D.Distributed(rank, 2, rank, "gloo", seed=0)  # the Communicator the agents and normalizers use
     a, b = torch.nn.Parameter(torch.zeros(2, 3)), torch.nn.Parameter(torch.zeros(4))
     a.grad = (rank + 1.0) * torch.arange(6.0).reshape(2, 3)
     b.grad = torch.ones(4) if rank == 1 else None
     calls = []
     real = dist.all_reduce
     dist.all_reduce = lambda t, **kw: calls.append(1) or real(t, **kw)
-    D.average_gradients([a, b])
+    pg.average_gradients([a, b])
     dist.all_reduce = real
 
     batches = [torch.randn(5 + 10 * r, 3, generator=torch.Generator().manual_seed(r), dtype=torch.float64) * (r + 1)
                for r in range(2)]
     mine = batches[rank]
-    mean, var, count = D.combine_moments(mine.mean(0), mine.var(0, unbiased=False), mine.shape[0])
+    mean, var, count = pg.combine_moments(mine.mean(0), mine.var(0, unbiased=False), mine.shape[0])
     union = torch.cat(batches)
     error = max(float((mean - union.mean(0)).abs().max()), float((var - union.var(0, unbiased=False)).abs().max()))
 
-    schedule = D.RankMeanKLSchedule(AdaptiveKLSchedule(0.01))
+    schedule = AdaptiveKLSchedule(0.01)
     tracker = collections.namedtuple("T", "finished_returns finished_lengths")
-    pg = D.Distributed(rank, 2, rank, "gloo", seed=0)
     episodes = pg.episode_stats(tracker([1.0, 3.0], [10, 30]) if rank == 0 else tracker([2.0], [20]))
     result = {"all_reduce_calls": len(calls), "grad_a": a.grad.flatten().tolist(), "grad_b": b.grad.tolist(),
               "moment_error": error, "count": count, "mean": mean.tolist(), "var": var.tolist(),
-              "kl_mean": D.mean_over_ranks(0.1 if rank == 0 else 0.0),
-              "lr": schedule.update(1e-3, kl=0.1 if rank == 0 else 0.0),
+              "kl_mean": pg.mean(0.1 if rank == 0 else 0.0),
+              "lr": schedule.update(1e-3, kl=pg.mean(0.1 if rank == 0 else 0.0)),
               "episodes": episodes, "no_episodes": pg.episode_stats(tracker([], []))}
     with open(os.path.join(folder, f"collectives{rank}.json"), "w") as fh:
         json.dump(result, fh)

@@ -1,0 +1,47 @@
+"""rlchain's messages go through :mod:`logging`, under the ``rlchain`` logger and its children.
+
+By default they are shown as plain lines on the current ``sys.stdout`` (as ``print`` would, so a
+notebook, a captured test or a redirected run sees them). To route them elsewhere, or silence them,
+configure the ``rlchain`` logger: ``logging.getLogger("rlchain").setLevel(logging.WARNING)``, or
+replace its handlers. The console epoch line of a training run is output, not a log message.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from typing import TextIO
+
+
+class _CurrentStdout(logging.StreamHandler):
+    """A StreamHandler that always writes to the ``sys.stdout`` of the moment it emits."""
+
+    def __init__(self) -> None:
+        super().__init__()
+
+    @property
+    def stream(self) -> TextIO:  # type: ignore[override]
+        return sys.stdout
+
+    @stream.setter
+    def stream(self, value: TextIO) -> None:  # StreamHandler.__init__ assigns it; the property wins
+        pass
+
+
+def _install() -> logging.Logger:
+    root = logging.getLogger("rlchain")
+    if not any(isinstance(h, _CurrentStdout) for h in root.handlers):
+        handler = _CurrentStdout()
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        root.addHandler(handler)
+        root.setLevel(logging.INFO)
+        root.propagate = False  # shown once, by this handler, not again by an application's root handler
+    return root
+
+
+_install()
+
+
+def get_logger(name: str) -> logging.Logger:
+    """The logger of module ``name`` (``rlchain.training.loop`` and so on)."""
+    return logging.getLogger(name)
