@@ -94,10 +94,12 @@ class OnnxPolicy(nn.Module):
 
     @property
     def input_names(self) -> list[str]:
+        """The graph's inputs in order: ``obs``, the RNN states (if any), ``action_mask`` (if used)."""
         return ["obs", *self.state_names, *([self.mask_name] if self.uses_masks else [])]
 
     @property
     def output_names(self) -> list[str]:
+        """The graph's outputs in order: ``action``, ``value``, then ``<state>_out`` per RNN state."""
         return ["action", "value", *(f"{s}_out" for s in self.state_names)]
 
     def forward(self, obs: torch.Tensor, *inputs: torch.Tensor) -> tuple[torch.Tensor, ...]:

@@ -68,6 +68,7 @@ class Registry:
         return iter(sorted(self._items))
 
     def names(self) -> list[str]:
+        """Every registered name, sorted."""
         return sorted(self._items)
 
 

@@ -78,12 +78,24 @@ class VecEnv(Protocol):
     observation_space: gym.Space
     action_space: gym.Space
 
-    def reset(self, seed: int | None = None) -> Any: ...
+    def reset(self, seed: int | None = None) -> Any:
+        """Reset every env (``seed``: reseed them; None: go on with their streams); returns the
+        first observations, (N, *observation_space.shape)."""
+        ...
 
-    def step(self, actions: np.ndarray) -> StepResult: ...
+    def step(self, actions: np.ndarray) -> StepResult:
+        """Step every env with ``actions`` (N, *action_space.shape); envs whose episode ended are
+        reset in the same step (see the module docstring)."""
+        ...
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Release the envs (processes, threads, devices)."""
+        ...
 
-    def has_action_mask(self) -> bool: ...  # optional: absent means False
+    def has_action_mask(self) -> bool:  # optional: absent means False
+        """Whether :meth:`get_action_mask` gives masks (with ``use_action_masks: True``)."""
+        ...
 
-    def get_action_mask(self) -> Any: ...  # optional with has_action_mask(): (N, mask_size) bool
+    def get_action_mask(self) -> Any:  # optional with has_action_mask(): (N, mask_size) bool
+        """(N, mask_size) bool, True where an action is allowed in each env's current state."""
+        ...

@@ -37,6 +37,9 @@ class NetworkBuilder:
         self.params = params
 
     def build(self, name: str, **kwargs: Any) -> nn.Module:  # pragma: no cover - interface
+        """Make the module from ``self.params``; ``kwargs`` as the module docstring lists them
+        (``actions_num``, ``input_shape``, ``value_size``, ``num_seqs``, ``action_space``,
+        ``observation_space``). ``name`` is rl_games' argument (rlchain passes ``'network'``)."""
         raise NotImplementedError
 
     def __call__(self, name: str, **kwargs: Any) -> nn.Module:
