@@ -12,8 +12,12 @@ EXTRAS = {
     "ray": ["ray>=2.9,<3"],
     "tune": ["optuna>=3"],
     "video": ["moviepy>=1.0", "pygame>=2.1"],
-    # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom
-    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel"],
+    # the documentation site: mkdocs build --strict (mkdocs.yml; tests/unit/test_docs_site.py builds it)
+    "docs": ["mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
+    # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom;
+    # the docs packages: tests/unit/test_docs_site.py builds the site
+    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel",
+             "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots
 }
 EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})

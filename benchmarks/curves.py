@@ -30,6 +30,7 @@ import math
 import os
 import platform
 import shlex
+import shutil
 import statistics
 import subprocess
 import sys
@@ -322,6 +323,11 @@ def main(argv: list[str] | None = None) -> int:
             document = f.read()
         with open(readme, "w") as f:
             f.write(splice(document, text.replace("](", "](curves/")))
+        site = os.path.join(REPO, "docs", "img", "curves")  # MkDocs serves only docs/: the Benchmarks page's copies
+        os.makedirs(site, exist_ok=True)
+        for name in sorted(os.listdir(args.out)):
+            if name.endswith(".png"):
+                shutil.copyfile(os.path.join(args.out, name), os.path.join(site, name))
     return 0
 
 

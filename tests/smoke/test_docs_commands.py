@@ -1,0 +1,275 @@
+"""Every command the docs show runs (issue 18): README.md and docs/*.md, block by block.
+
+Each ``bash`` / ``python`` fenced block carries a marker, an HTML comment on the line before it
+(docs/layout.md, "The docs are tested", has the table)::
+
+    <!-- test: run -->                 run it (bash: line by line; python: as a script)
+    <!-- test: run status=2 -->        every command must exit with this status (error examples)
+    <!-- test: run timeout=10 -->      runs until stopped (a server): must still run after 10 s
+    <!-- test: output -->              (a plain block) its lines must appear in the last run's output
+    <!-- test: file mypkg/x.py -->     write the block there, for the blocks after it
+    <!-- test: skip REASON -->         not run (hours of training, a cluster, a fresh install)
+
+A page runs in a fresh working directory (runner.py, train.py and nn/ copied; rlchain/,
+benchmarks/, tests/ linked), its blocks in page order. Commands are shortened the same way
+everywhere: training gets ``params.config.max_epochs=1`` appended (after the page's own
+overrides, so it wins), ``--play`` gets ``params.config.player.games_num=2`` (a ``--games N``
+flag still wins), ``--tune SEARCH`` runs a copy of the search with 2 trials of 2 epochs, and
+``<run>`` is the newest run folder under ``runs/``. A bash command that an earlier page already
+ran successfully in this session is not run again on a page where no later block can depend on
+it (no python or file blocks, no ``<run>``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+from dataclasses import dataclass, field
+
+import pytest
+import yaml
+
+from tests.conftest import ROOT
+
+pytestmark = pytest.mark.smoke
+
+DOCS = os.path.join(ROOT, "docs")
+GENERATED = {"docs/config.md"}  # python -m rlchain.config.docs writes it; it shows no commands
+PAGES = ["README.md"] + sorted(f"docs/{name}" for name in os.listdir(DOCS)
+                               if name.endswith(".md") and f"docs/{name}" not in GENERATED)
+COMMAND_LANGS = {"bash", "sh", "shell", "console", "python", "py"}
+KINDS = {"run", "skip", "file", "output"}
+MARKER = re.compile(r"^<!--\s*test:\s*(\w+)\s*(.*?)\s*-->$")
+FENCE = re.compile(r"^(```+|~~~+)\s*([\w+-]*)")
+COMMAND_TIMEOUT = 300  # seconds for one command; the page's test has pytest's own limit
+COPIED = ("runner.py", "train.py", "nn")  # a command may write next to them: copies, not links
+LINKED = ("rlchain", "benchmarks", "tests", "notebooks")
+
+_ran_ok: set[str] = set()  # bash commands (shortened) that succeeded on an earlier page
+
+
+@dataclass
+class Block:
+    page: str
+    line: int  # of the opening fence, 1-based
+    lang: str
+    text: str
+    kind: str | None  # the marker's kind; None: no marker
+    args: str = ""
+    options: dict = field(default_factory=dict)
+
+    @property
+    def where(self) -> str:
+        return f"{self.page}:{self.line}"
+
+
+def read_blocks(page: str) -> list[Block]:
+    """The page's fenced blocks with the marker on the line before each (if any)."""
+    with open(os.path.join(ROOT, page), encoding="utf-8") as fh:
+        lines = fh.read().splitlines()
+    blocks, i = [], 0
+    while i < len(lines):
+        m = FENCE.match(lines[i])
+        if not m:
+            i += 1
+            continue
+        fence, lang = m.group(1), m.group(2).lower()
+        end = i + 1
+        while end < len(lines) and lines[end].strip() != fence:
+            end += 1
+        marker = MARKER.match(lines[i - 1].strip()) if i > 0 else None
+        kind, args = (marker.group(1), marker.group(2)) if marker else (None, "")
+        options = {}
+        if kind == "run":
+            options = dict(item.partition("=")[::2] for item in shlex.split(args))
+        blocks.append(Block(page, i + 1, lang, "\n".join(lines[i + 1:end]), kind, args, options))
+        i = end + 1
+    return blocks
+
+
+def marker_problems(blocks: list[Block]) -> list[str]:
+    problems = []
+    previous_run = False
+    for block in blocks:
+        if block.kind is not None and block.kind not in KINDS:
+            problems.append(f"{block.where}: unknown marker 'test: {block.kind}' (one of {sorted(KINDS)})")
+        elif block.lang in COMMAND_LANGS and block.kind not in ("run", "skip", "file"):
+            problems.append(f"{block.where}: a {block.lang} block needs <!-- test: run -->, <!-- test: file PATH --> "
+                            f"or <!-- test: skip REASON --> on the line before it")
+        elif block.kind == "skip" and not block.args:
+            problems.append(f"{block.where}: 'test: skip' needs a reason")
+        elif block.kind == "file" and not block.args:
+            problems.append(f"{block.where}: 'test: file' needs a path")
+        elif block.kind == "run" and set(block.options) - {"status", "timeout"}:
+            problems.append(f"{block.where}: unknown run options {sorted(set(block.options) - {'status', 'timeout'})}")
+        elif block.kind == "run" and block.lang not in COMMAND_LANGS:
+            problems.append(f"{block.where}: 'test: run' on a '{block.lang}' block (bash or python only)")
+        elif block.kind == "output" and not previous_run:
+            problems.append(f"{block.where}: 'test: output' must follow a 'test: run' block")
+        if block.kind in ("run", "output"):
+            previous_run = block.kind == "run" or previous_run
+        elif block.lang in COMMAND_LANGS or block.kind is not None:
+            previous_run = False
+    return problems
+
+
+def test_every_command_block_is_marked():
+    problems = [p for page in PAGES for p in marker_problems(read_blocks(page))]
+    assert not problems, "\n".join(problems)
+
+
+def test_the_marker_check_sees_an_unmarked_block():
+    blocks = [Block("x.md", 1, "bash", "ls", None), Block("x.md", 5, "python", "1", "skip"),
+              Block("x.md", 9, "text", "out", "output")]
+    problems = marker_problems(blocks)
+    assert len(problems) == 3 and "x.md:1" in problems[0] and "reason" in problems[1] and "follow" in problems[2]
+
+
+# ----- running a page -------------------------------------------------------------------------
+def commands(text: str) -> list[str]:
+    """Logical command lines of a bash block: continuations joined, blank and comment lines dropped."""
+    joined = re.sub(r"\\\n\s*", " ", text)
+    return [line for line in joined.splitlines() if line.strip() and not line.strip().startswith("#")]
+
+
+def newest_run(ws: str) -> str:
+    runs = os.path.join(ws, "runs")
+    found = [d for d in os.listdir(runs) if os.path.isdir(os.path.join(runs, d))] if os.path.isdir(runs) else []
+    if not found:
+        raise AssertionError("<run> in a command, but no run folder under runs/ yet")
+    return max(found, key=lambda d: os.path.getmtime(os.path.join(runs, d)))
+
+
+def short_search(path: str, ws: str) -> str:
+    """A copy of the search file with 2 trials of 2 epochs, its base made absolute."""
+    source = os.path.join(ws, path)
+    with open(source, encoding="utf-8") as fh:
+        spec = yaml.safe_load(fh)
+    spec["base"] = os.path.normpath(os.path.join(os.path.dirname(os.path.realpath(source)), spec["base"]))
+    spec.update(trials=2, max_epochs_per_trial=2)
+    out = os.path.join(ws, "_short_" + os.path.basename(path))
+    with open(out, "w", encoding="utf-8") as fh:
+        yaml.safe_dump(spec, fh)
+    return out
+
+
+def shorten(command: str, ws: str) -> str:
+    """The command as the test runs it (see the module docstring)."""
+    tokens = shlex.split(command, comments=True)
+    if any(t.endswith(("runner.py", "train.py")) for t in tokens):
+        if "--tune" in tokens:
+            i = tokens.index("--tune") + 1
+            tokens[i] = short_search(tokens[i], ws)
+        elif "--train" in tokens or "-t" in tokens or any(t.endswith("train.py") for t in tokens):
+            tokens.append("params.config.max_epochs=1")
+        elif "--play" in tokens or "-p" in tokens:
+            tokens.append("params.config.player.games_num=2")
+    if any("<run>" in t for t in tokens):
+        run = newest_run(ws)
+        tokens = [t.replace("<run>", run) for t in tokens]
+    return shlex.join(tokens)
+
+
+def workspace(path: str) -> str:
+    os.makedirs(path, exist_ok=True)
+    for name in COPIED:
+        src = os.path.join(ROOT, name)
+        if os.path.isdir(src):
+            shutil.copytree(src, os.path.join(path, name))
+        else:
+            shutil.copy(src, path)
+    for name in LINKED:
+        os.symlink(os.path.join(ROOT, name), os.path.join(path, name))
+    return path
+
+
+def environment(ws: str) -> dict[str, str]:
+    env = dict(os.environ)
+    env.update(WANDB_MODE="offline", WANDB_DIR=ws, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
+    # `python`, `torchrun`, `tensorboard` of this interpreter's environment, activated or not
+    env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
+    env.pop("PYTHONPATH", None)  # as a user's shell: the working directory's packages, the installed ones
+    return env
+
+
+def run_until_stopped(argv: list[str], ws: str, env: dict, seconds: float) -> tuple[int | None, str]:
+    """Start ``argv``; None when it was still running after ``seconds`` (then stopped), else its status."""
+    proc = subprocess.Popen(argv, cwd=ws, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    try:
+        out, _ = proc.communicate(timeout=seconds)
+        return proc.returncode, out
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGINT)  # the session this test started: the command and its children
+        try:
+            out, _ = proc.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            out, _ = proc.communicate()
+        return None, out
+
+
+def run(argv: list[str], ws: str, env: dict, block: Block, shown: str) -> str:
+    """Run one command of ``block``; check its status; returns its output."""
+    timeout = block.options.get("timeout")
+    if timeout is not None:
+        status, out = run_until_stopped(argv, ws, env, float(timeout))
+        assert status is None and "Traceback" not in out, (
+            f"{block.where}: `{shown}` should still run after {timeout} s, but it ended with status {status}:\n"
+            f"{out[-3000:]}")
+        return out
+    proc = subprocess.run(argv, cwd=ws, env=env, capture_output=True, text=True, timeout=COMMAND_TIMEOUT,
+                          start_new_session=True)
+    out = proc.stdout + proc.stderr
+    expected = int(block.options.get("status", 0))
+    assert proc.returncode == expected, (
+        f"{block.where}: `{shown}` exited with {proc.returncode}, expected {expected}:\n"
+        f"{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    return out
+
+
+def check_output(block: Block, out: str) -> None:
+    for line in block.text.splitlines():
+        for part in (p.strip() for p in line.split("...")):
+            assert part in out, f"{block.where}: '{part}' is not in the output of the command before it:\n{out[-3000:]}"
+
+
+def runnable_pages() -> list[str]:
+    return [page for page in PAGES if any(b.kind in ("run", "file") for b in read_blocks(page))]
+
+
+@pytest.mark.timeout(900)
+@pytest.mark.parametrize("page", runnable_pages())
+def test_page_commands_run(page, tmp_path):
+    ws = workspace(str(tmp_path / "ws"))
+    env = environment(ws)
+    blocks = read_blocks(page)
+    reusable = not any(b.kind == "file" or (b.kind == "run" and b.lang in ("python", "py")) for b in blocks)
+    out = ""
+    for block in blocks:
+        if block.kind == "file":
+            path = os.path.join(ws, block.args)
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(block.text + "\n")
+        elif block.kind == "output":
+            check_output(block, out)
+        elif block.kind == "run" and block.lang in ("python", "py"):
+            script = os.path.join(ws, f"_docs_block_{block.line}.py")
+            with open(script, "w", encoding="utf-8") as fh:
+                fh.write(block.text + "\n")
+            out = run([sys.executable, script], ws, env, block, f"python block at line {block.line}")
+        elif block.kind == "run":
+            plain = reusable and not block.options and "<run>" not in block.text
+            for command in commands(block.text):
+                shown = shorten(command, ws)
+                if plain and shown in _ran_ok:
+                    continue
+                out = run(["bash", "-c", shown], ws, env, block, shown)
+                if not block.options:
+                    _ran_ok.add(shown)
