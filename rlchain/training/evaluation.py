@@ -90,10 +90,10 @@ class EvaluationCallback(Callback):
             return
         result = run_episodes(trainer.model, self.env, self.cfg.games, self.cfg.deterministic,
                               trainer.device, seed=self.cfg.seed)
-        log = trainer.logger.scalar
-        log("evaluation/rewards", result.mean_reward, trainer.frames)
-        log("evaluation/rewards_iter", result.mean_reward, trainer.epoch)
-        log("evaluation/episode_lengths", result.mean_length, trainer.frames)
+        scalar = trainer.logger.scalar
+        scalar("evaluation/rewards", result.mean_reward, trainer.frames)
+        scalar("evaluation/rewards_iter", result.mean_reward, trainer.epoch)
+        scalar("evaluation/episode_lengths", result.mean_length, trainer.frames)
         if trainer.cfg.print_stats:
             log.info(f"evaluation at epoch {trainer.epoch}: reward {result.mean_reward:.2f} length "
                      f"{result.mean_length:.1f} over {result.games} games")

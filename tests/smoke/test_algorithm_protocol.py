@@ -1,6 +1,6 @@
 """The Algorithm protocol: a user's algorithm is one module, one config class and one registration.
 
-``tests/smoke/user_pkg/reinforce.py`` is such an algorithm (REINFORCE); here it trains through the
+``tests/smoke/user_algo/reinforce.py`` is such an algorithm (REINFORCE); here it trains through the
 Runner from a YAML, as a shipped algorithm would, and gets every Loop feature without code of its
 own: metric logging under its tags, the console line, checkpoints and resume, get/set params, its
 config keys checked, and a clear multi_gpu refusal. SAC and DQN's get/set params are tested too.
@@ -21,7 +21,7 @@ from tests.smoke.test_train_play_resume import small
 
 pytestmark = pytest.mark.smoke
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
-REINFORCE = ["params.import_modules=[tests.smoke.user_pkg]", "params.algo.name=reinforce",
+REINFORCE = ["params.import_modules=[tests.smoke.user_algo]", "params.algo.name=reinforce",
              "params.config.num_actors=4", "params.config.horizon_length=32", "params.config.minibatch_size=128"]
 
 

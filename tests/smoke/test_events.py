@@ -141,6 +141,17 @@ def test_events_from_config_and_evaluation(tmp_path):
     assert len(acc.Scalars("evaluation/rewards")) == 2
 
 
+def test_evaluation_and_stop_messages_are_logged_to_stdout(tmp_path, capsys):
+    """With print_stats (the default) the evaluation line and the stop line go through the 'rlchain'
+    logger to the current stdout (a regression: a local name once hid the logger after evaluation)."""
+    result = Runner().load(CARTPOLE, small(tmp_path, epochs=2, extra=[
+        "params.config.evaluation.interval=1", "params.config.evaluation.games=2"])).train()
+    out = capsys.readouterr().out
+    assert result.epoch == 2
+    assert "evaluation at epoch 1: reward" in out and "evaluation at epoch 2: reward" in out
+    assert "stopped: max_epochs 2 reached at epoch 2" in out
+
+
 def test_algo_observer_and_function_callbacks(tmp_path):
     observer, epochs = Observer(), []
     Runner().load(CARTPOLE, small(tmp_path, epochs=2, extra=["params.config.print_stats=false"])).train(

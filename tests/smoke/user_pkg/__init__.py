@@ -51,8 +51,3 @@ class BadAuxNetBuilder(NetworkBuilder):
 
 model_builder.register_network("bad_aux_net", BadAuxNetBuilder)
 
-
-# a user's own algorithm: one module, one config class, this one registration
-from tests.smoke.user_pkg.reinforce import ReinforceTrainer  # noqa: E402
-
-model_builder.register_algo("reinforce", ReinforceTrainer, overwrite=True)
