@@ -205,7 +205,8 @@ class PlayerConfig:
     deterministic: bool = option(True, "act with the distribution's mode instead of sampling")
     games_num: int = option(2000, "episodes to play", check=positive)
     n_game_life: int = option(1, "lives per game (rl_games scales per-life averages by it); accepted, not needed: "
-                                 "Atari games are always counted whole, see docs/environments.md, Atari", check=positive)
+                                 "Atari games are always counted whole, see docs/environments.md (Atari)",
+                                 check=positive)
     print_stats: bool = option(True, "print each finished game")
     use_vecenv: bool = option(False, "play with several envs at once (num_actors of the player)")
     num_actors: int = option(1, "envs stepped together while playing", check=positive)
