@@ -51,10 +51,9 @@ class Communicator:
 
     def episode_stats(self, tracker: Any) -> dict[str, float] | None:
         """Mean reward and length of the tracked finished games (None when there are none)."""
-        if not tracker.finished_returns:
+        if not tracker.has_data:
             return None
-        returns, lengths = list(tracker.finished_returns), list(tracker.finished_lengths)
-        return {"reward": sum(returns) / len(returns), "length": float(sum(lengths)) / len(lengths)}
+        return {"reward": tracker.mean_return(), "length": tracker.mean_length()}
 
     def broadcast_learner(self, model: torch.nn.Module, agent: Any) -> None:
         """Give every rank rank 0's parameters, buffers and agent state (optimizer, lr)."""

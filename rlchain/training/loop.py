@@ -288,11 +288,9 @@ class Loop:
             seed_everything(self.comm.rank_seed + self.epoch)
 
     def _episode_stats(self) -> dict[str, float] | None:
-        if self.comm.active:  # over every rank's games: all ranks log, save and stop alike
-            return self.comm.episode_stats(self.tracker)
-        if not self.tracker.has_data:
-            return None
-        return {"reward": self.tracker.mean_return(), "length": self.tracker.mean_length()}
+        """Mean reward and length of the tracked games; under torchrun over every rank's games, so
+        all ranks log, save and stop alike."""
+        return self.comm.episode_stats(self.tracker)
 
     def _checkpoints(self, episodes: dict | None) -> None:
         """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""

@@ -21,6 +21,7 @@ from rlchain.algos.sac import SACAgent
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError
+from rlchain.training.communicator import Communicator
 from rlchain.training.logging import TrainLogger
 from rlchain.training.loop import Loop
 from rlchain.training.run_dir import RunDir
@@ -34,7 +35,8 @@ class OffPolicyTrainer(Loop):
     SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict, comm: Any = None) -> None:
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
+                 comm: Communicator | None = None) -> None:
         super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
         cfg = self.cfg
         self.agent = self.make_agent()
