@@ -55,26 +55,38 @@ def run_ray_search(spec: Any, output: str | None = None, train_dir: str | None =
     return outcome.best_value, outcome.config_path
 
 
-def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> SearchOutcome:
-    """Validate, connect to Ray, run the Tuner and write the best config (and schedule)."""
-    tune = import_ray_tune()
-    import ray
-
+def validate(spec: Any) -> tuple[Any, tuple[str, ...]]:
+    """Every check that needs no Ray: the searched and mutated keys against the base config and the
+    algorithm's live ``tunable``, and (for a local Ray) the CPUs. Returns (base Runner, tunable)."""
     from rlchain.runner import Runner
-    from rlchain.tuning.trainable import RlchainTrainable, TrialSetup
 
     rs: RaySpec = spec.ray
     base = Runner().load(spec.base, spec.overrides)
     tunable = _tunable(base.params.algo.name)
     _check_keys(spec, tunable, base.params.algo.name)
+    if rs.searcher == "grid":
+        for key, dist in spec.params.items():
+            grid_values(dist, key, spec.source)
+    if rs.address is None:  # a local Ray: the CPUs are known before starting it
+        check_capacity(rs, float(rs.num_cpus or os.cpu_count() or 1), math.inf, spec.source, "this machine")
+    return base, tunable
+
+
+def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> SearchOutcome:
+    """Validate, connect to Ray, run the Tuner and write the best config (and schedule)."""
+    base, tunable = validate(spec)
+    tune = import_ray_tune()
+    import ray
+
+    from rlchain.tuning.trainable import RlchainTrainable, TrialSetup
+
+    rs: RaySpec = spec.ray
     stem = os.path.splitext(os.path.basename(spec.base))[0]
     output = output or f"{stem}_best.yaml"
     study_dir = os.path.abspath(os.path.join(train_dir or base.params.config.train_dir,
                                              f"tune_{stem}_{time.strftime('%d-%H-%M-%S')}"))
     if os.path.exists(study_dir):
         study_dir = f"{study_dir}_{os.getpid()}"
-    if rs.address is None:  # a local Ray: the CPUs are known before starting it
-        check_capacity(rs, float(rs.num_cpus or os.cpu_count() or 1), math.inf, spec.source, "this machine")
     if spec.seed is not None:  # PBT's perturbations and the random searcher draw from these
         random.seed(spec.seed)
         np.random.seed(spec.seed)
