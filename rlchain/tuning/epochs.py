@@ -143,6 +143,7 @@ class EpochStepper(Callback):
 
     def on_train_start(self, trainer: Any) -> None:
         self.trainer = trainer
+        self._resumed_at = time.time()  # the first epoch's time leaves out building the run
         if self.live:
             trainer.set_params(**self.live)
 

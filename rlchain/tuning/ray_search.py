@@ -9,6 +9,7 @@ a CSV of the trials) and, for PBT, the winner's schedule as a replayable config
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
@@ -103,11 +104,12 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
             overrides.append(f"params.config.max_epochs={spec.max_epochs_per_trial}")
         if not spec.verbose:
             overrides.append("params.config.print_stats=false")
-        setup = TrialSetup(base=os.path.abspath(spec.base), overrides=overrides, keys=keys,
+        setup = TrialSetup(base=load_raw(spec.base), overrides=overrides, keys=keys,
                            live={k: k.removeprefix("params.config.") for k in keys
                                  if k.removeprefix("params.config.") in tunable and k.startswith("params.config.")},
                            seed=int(base.params.seed if base.params.seed is not None else (spec.seed or 0)),
-                           envpool=cfg.env_name == "envpool" or cfg.vecenv_type == "envpool")
+                           envpool=cfg.env_name == "envpool" or cfg.vecenv_type == "envpool",
+                           worst=-math.inf if spec.direction == "maximize" else math.inf)
         trainable = tune.with_resources(tune.with_parameters(RlchainTrainable, setup=setup),
                                         {"cpu": rs.cpus, "gpu": rs.gpus})
         mode = "max" if spec.direction == "maximize" else "min"
@@ -128,15 +130,38 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
                 failure_config=tune.FailureConfig(max_failures=rs.max_failures),
                 checkpoint_config=tune.CheckpointConfig(checkpoint_frequency=rs.checkpoint_epochs,
                                                         checkpoint_at_end=True),
-                verbose=1 if spec.verbose else 0))
+                verbose=1 if spec.verbose else 0, callbacks=_loggers()))
         print(f"rlchain tune: {spec.trials} trials of {spec.base} on Ray Tune ({rs.scheduler}, {rs.searcher}, "
               f"{rs.concurrent} at once), {spec.direction} {spec.metric} -> {study_dir}", flush=True)
-        results = tuner.fit()
+        with _no_tune_tensorboard():
+            results = tuner.fit()
         return _write_outputs(spec, results, output, mode)
     finally:
         if started:
             ray.shutdown()
         _restore_signal_handlers(handlers)
+
+
+def _loggers() -> list:
+    """Tune's CSV and JSON results (the trials' metric history); no Tune TensorBoard: each trial's
+    rlchain run writes rlchain's TensorBoard tags itself."""
+    from ray.tune.logger import CSVLoggerCallback, JsonLoggerCallback
+
+    return [CSVLoggerCallback(), JsonLoggerCallback()]
+
+
+@contextlib.contextmanager
+def _no_tune_tensorboard() -> Any:
+    key = "TUNE_DISABLE_AUTO_CALLBACK_LOGGERS"
+    previous = os.environ.get(key)
+    os.environ[key] = "1"
+    try:
+        yield
+    finally:
+        if previous is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = previous
 
 
 def _signal_handlers() -> dict[int, Any]:

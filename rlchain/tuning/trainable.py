@@ -28,12 +28,13 @@ TRIAL_JSON = "trial.json"
 class TrialSetup:
     """What every trial of a search shares (sent to the workers once)."""
 
-    base: str  # the config file (absolute)
+    base: dict  # the base config as read by the driver: trials on other nodes need no copy of the file
     overrides: list[str]  # the search's overrides, train_dir and stop keys
     keys: list[str]  # the searched / mutated config keys
     live: dict[str, str] = field(default_factory=dict)  # config key -> tunable name (set_params)
     seed: int = 0  # trial seed = seed + the trial's index
     envpool: bool = False  # give envpool the trial's CPUs as threads
+    worst: float = -math.inf  # the metric until the first episode ends (-inf when maximizing)
 
 
 def override_strings(values: dict[str, Any]) -> list[str]:
@@ -91,11 +92,11 @@ class RlchainTrainable(tune.Trainable):
             "exploited_from": self.note.get("exploited_from", ""),
             "restored_epoch": self.note.get("restored_epoch", -1),
         }
-        if report.mean_reward is not None and math.isfinite(report.mean_reward):
-            result["mean_reward"] = report.mean_reward
-            result["mean_length"] = report.mean_length
-        if math.isfinite(report.best_reward):
-            result["best_reward"] = report.best_reward
+        # until an episode ends there is no reward: the worst value, so schedulers rank the trial last
+        finished = report.mean_reward is not None and math.isfinite(report.mean_reward)
+        result["mean_reward"] = report.mean_reward if finished else self.info.worst
+        result["mean_length"] = report.mean_length if finished else 0.0
+        result["best_reward"] = report.best_reward if math.isfinite(report.best_reward) else self.info.worst
         for name, value in report.stats.items():
             result[f"losses/{name}" if "/" not in name else name] = value
         for name, value in report.params.items():
@@ -179,7 +180,7 @@ class RlchainTrainable(tune.Trainable):
 
         overrides = list(self.info.overrides) + override_strings(self.values) + [
             f"params.config.full_experiment_name=trial_{self.trial_id}"]
-        runner = Runner().load(self.info.base, overrides)
+        runner = Runner().load(self.info.base, overrides)  # a dict: the Runner copies it
         runner.params.config.score_to_win = math.inf  # Tune's stop rule; restored counters keep the others
         cpus = int(ray.get_runtime_context().get_assigned_resources().get("CPU", 1) or 1)
         thread_overrides(runner.params, max(1, cpus), self.info.envpool)

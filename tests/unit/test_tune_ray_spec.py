@@ -177,3 +177,10 @@ def test_stepper_exploit_and_explore_for_every_algorithm(tmp_path, config, overr
     finally:
         stepper.shutdown()
     assert stepper.result is None or stepper.result.epoch >= 2
+
+
+def test_shipped_pbt_search_is_valid():
+    spec = load_search(os.path.join(CONFIGS, "tune", "pbt_cartpole.yaml"))
+    assert spec.backend == "ray" and spec.ray.scheduler == "pbt" and spec.ray.concurrent == 2
+    assert set(spec.ray.pbt.mutations) == {"params.config.learning_rate", "params.config.entropy_coef"}
+    ray_search.validate(spec)
