@@ -180,7 +180,9 @@ def main(argv: list[str] | None = None) -> int:
 
     raw = yaml.safe_load(open(args.config, encoding="utf-8"))["params"]["config"]
     start = {"params.config.kl_threshold": float(raw["kl_threshold"]), "params.config.e_clip": float(raw["e_clip"])}
-    result: dict = {"config": args.config, "cpu": cpu_model(), "cores": os.cpu_count(), "args": vars(args),
+    result: dict = {"config": os.path.relpath(args.config, ROOT), "cpu": cpu_model(), "cores": os.cpu_count(),
+                    "args": {**vars(args), "config": os.path.relpath(args.config, ROOT),
+                             "out": os.path.relpath(args.out, ROOT)},
                     "load_before": os.getloadavg()}
     started = ray_search._connect(ray, RaySpec(num_cpus=args.concurrent * args.cpus))
     try:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import functools
 import json
 import math
 import os
@@ -131,6 +132,9 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
                 checkpoint_config=tune.CheckpointConfig(checkpoint_frequency=rs.checkpoint_epochs,
                                                         checkpoint_at_end=True),
                 verbose=1 if spec.verbose else 0, callbacks=_loggers()))
+        if spec.pruner and rs.scheduler != "asha":
+            print("rlchain tune: note: pruner is the in-process Optuna search's early stopping; on Ray Tune "
+                  "scheduler: asha stops trials early", flush=True)
         print(f"rlchain tune: {spec.trials} trials of {spec.base} on Ray Tune ({rs.scheduler}, {rs.searcher}, "
               f"{rs.concurrent} at once), {spec.direction} {spec.metric} -> {study_dir}", flush=True)
         with _no_tune_tensorboard():
@@ -278,8 +282,19 @@ def make_scheduler(tune: Any, rs: RaySpec, metric: str, mode: str) -> Any:
             time_attr="training_iteration", perturbation_interval=rs.pbt.interval_epochs,
             quantile_fraction=rs.pbt.quantile, resample_probability=rs.pbt.resample_probability,
             perturbation_factors=rs.pbt.perturbation_factors, require_attrs=False, log_config=False,
+            custom_explore_fn=functools.partial(clip_to_ranges, mutations=rs.pbt.mutations),
             hyperparam_mutations={key: domain(tune, dist) for key, dist in rs.pbt.mutations.items()})
     return FIFOScheduler()
+
+
+def clip_to_ranges(config: dict, mutations: dict[str, dict]) -> dict:
+    """PBT's explore step multiplies values by its perturbation factors: keep each mutated value in its
+    distribution's [low, high] (a gamma of 0.99 * 1.2 would be invalid)."""
+    for key, dist in mutations.items():
+        if key in config and dist["type"] != "categorical":
+            value = min(max(config[key], dist["low"]), dist["high"])
+            config[key] = int(round(value)) if dist["type"] == "int" else float(value)
+    return config
 
 
 def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOutcome:

@@ -17,6 +17,7 @@ from rlchain.tuning.epochs import EpochStepper
 from tests.conftest import CONFIGS
 
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+SMALL = ["params.config.num_actors=8", "params.config.minibatch_size=64"]
 PBT = {"interval_epochs": 4,
        "mutations": {"params.config.learning_rate": {"type": "loguniform", "low": 1e-5, "high": 1e-2}}}
 
@@ -133,7 +134,7 @@ class _Record(Callback):
 def test_hyperparam_schedule_replays_through_set_params(tmp_path):
     record = _Record()
     schedule = "params.config.hyperparam_schedule={0: {learning_rate: 0.002}, 2: {learning_rate: 0.0005}}"
-    Runner().load(CARTPOLE, ["params.config.max_epochs=3", "params.config.lr_schedule=None",
+    Runner().load(CARTPOLE, ["params.config.max_epochs=3", "params.config.lr_schedule=None", *SMALL,
                              "params.config.print_stats=false", f"params.config.train_dir={tmp_path}", schedule]
                   ).train(callbacks=[record])
     assert record.lr == pytest.approx([0.002, 0.002, 0.0005])
@@ -184,3 +185,11 @@ def test_shipped_pbt_search_is_valid():
     assert spec.backend == "ray" and spec.ray.scheduler == "pbt" and spec.ray.concurrent == 2
     assert set(spec.ray.pbt.mutations) == {"params.config.learning_rate", "params.config.entropy_coef"}
     ray_search.validate(spec)
+
+
+def test_pbt_perturbations_stay_in_their_range():
+    mutations = {"params.config.gamma": {"type": "uniform", "low": 0.9, "high": 0.999, "log": False},
+                 "params.config.mini_epochs": {"type": "int", "low": 1, "high": 8, "log": False}}
+    clipped = ray_search.clip_to_ranges({"params.config.gamma": 0.99 * 1.2, "params.config.mini_epochs": 0,
+                                         "params.config.e_clip": 5.0}, mutations)
+    assert clipped == {"params.config.gamma": 0.999, "params.config.mini_epochs": 1, "params.config.e_clip": 5.0}
