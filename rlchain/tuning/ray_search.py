@@ -311,8 +311,13 @@ def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOut
                      *[result.config.get(k, "") for k in _keys(spec)]])
     scored = [r for r in rows if isinstance(r[2], (int, float)) and math.isfinite(r[2])]
     if not scored:
+        errors = list(results.errors)
+        if errors:
+            last = " ".join(str(errors[0]).strip().splitlines()[-1:]).strip()[:300]
+            raise ConfigError(spec.source, "trials", f"{len(errors)} of {len(rows)} trials failed, none finished "
+                              f"an episode; the first: {last}")
         raise ConfigError(spec.source, "trials", "no trial reported a finished episode; raise "
-                          "max_epochs_per_trial or check the trials' errors")
+                          "max_epochs_per_trial")
     best = (max if mode == "max" else min)(scored, key=lambda r: r[2])
     best_result = next(r for r in results if (r.metrics or {}).get("trial_id") == best[0])
     values = {k: best_result.config[k] for k in _keys(spec) if k in best_result.config}
