@@ -15,6 +15,7 @@ from tests.conftest import CONFIGS
 pytest.importorskip("ray.tune", reason="pip install rlchain[ray]")
 
 from rlchain.config import load_config  # noqa: E402
+from rlchain.runner import Runner  # noqa: E402
 from rlchain.tune import load_search  # noqa: E402
 from rlchain.tuning import ray_search  # noqa: E402
 from rlchain.tuning.spec import RaySpec  # noqa: E402
@@ -110,6 +111,9 @@ def test_pbt_exploits_live_and_beats_its_starting_config(ray_session, start_runs
     params = load_config(outcome.schedule_path)
     schedule = params.config.hyperparam_schedule
     assert 0 in schedule and schedule[0]["learning_rate"] == pytest.approx(START_LR)
+    replay = Runner().load(outcome.schedule_path, ["params.config.max_epochs=2", "params.config.print_stats=false",
+                                                   f"params.config.train_dir={tmp_path / 'replay'}"]).train()
+    assert replay.epoch == 2
     assert math.isfinite(outcome.best_value)
 
 
