@@ -28,6 +28,7 @@ import json
 import math
 import os
 import platform
+import shutil
 import statistics
 import subprocess
 import sys
@@ -214,6 +215,10 @@ def report(result: dict, args: argparse.Namespace) -> int:
     with open(args.out + ".json", "w", encoding="utf-8") as fh:
         json.dump(result, fh)
     plot(result, args.out + ".png")
+    curves_dir = os.path.join(ROOT, "benchmarks", "curves")
+    if os.path.dirname(os.path.abspath(args.out)) == curves_dir:  # the docs show the same PNG
+        shown = os.path.join(ROOT, "docs", "img", "curves", os.path.basename(args.out) + ".png")
+        shutil.copyfile(args.out + ".png", shown)
     frames = args.epochs * args.num_actors * args.horizon
     print(f"\n{os.path.basename(args.config)}: {args.members} members x {args.epochs} epochs x "
           f"{args.num_actors * args.horizon} frames ({frames} per member); CPU {result['cpu']}, "
