@@ -9,7 +9,7 @@ EXTRAS = {
     "mujoco": ["gymnasium[mujoco]>=1.0,<2"],
     "onnx": ["onnx", "onnxruntime"],
     "wandb": ["wandb"],
-    "ray": ["ray>=2.9,<3"],
+    "ray": ["ray[tune]>=2.9,<3"],  # [tune]: pandas, pyarrow for --tune with backend: ray
     "tune": ["optuna>=3"],
     "video": ["moviepy>=1.0", "pygame>=2.1"],
     # the documentation site: mkdocs build --strict (mkdocs.yml; tests/unit/test_docs_site.py builds it)

@@ -11,6 +11,7 @@ from typing import Any
 
 from rlchain.config.compile import check_compile
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
+from rlchain.config.hyperparam_schedule import check_hyperparam_schedule
 
 ACTIVATIONS = ("relu", "tanh", "sigmoid", "elu", "selu", "swish", "silu", "gelu", "softplus",
                "leaky_relu", "mish", "identity", "None")
@@ -327,6 +328,10 @@ class RunConfig:
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "
                                        "costs ~30 s on a CPU)", check=check_compile)
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    hyperparam_schedule: dict = option({}, "rlchain: {epoch: {name: value}}, live values set after that many "
+                                           "epochs through set_params (0 = from the start), e.g. the schedule "
+                                           "a PBT winner followed (--tune, docs/tuning.md); names from the "
+                                           "algorithm's tunable", check=check_hyperparam_schedule)
 
 
 @dataclass

@@ -30,6 +30,7 @@ from rlchain.training.communicator import Communicator
 from rlchain.training.episodes import EpisodeTracker, game_outcome
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
 from rlchain.training.logging import EnvStatsCallback, TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import DivergenceGuard, StopSignals, check_obs_shape, check_parameters
@@ -86,6 +87,9 @@ class Loop:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
         if getattr(cfg, "self_play_config", None) is not None:
             self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))
+        if getattr(cfg, "hyperparam_schedule", None):  # a replayed PBT schedule, through set_params
+            check_names(cfg.hyperparam_schedule, self.tunable, params.algo.name, params.source)
+            self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.agent: Any = None
