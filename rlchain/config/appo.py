@@ -65,6 +65,11 @@ class APPOConfig(TrainConfig):
 
     def validate(self) -> tuple[str, str] | None:
         """Every runner holds the same number of envs, so every fragment has the same shape."""
+        appo = self.appo
+        if appo.max_policy_lag < appo.broadcast_interval - 1:  # every fragment would be too old: no progress
+            return "appo.max_policy_lag", (f"{appo.max_policy_lag} is below broadcast_interval - 1 = "
+                                           f"{appo.broadcast_interval - 1}: runners hold weights that many versions "
+                                           f"old between broadcasts, so every fragment would be dropped")
         runners = self.env_runners
         if runners is not None and runners.num_workers is not None and self.num_actors % runners.num_workers:
             return "env_runners.num_workers", (f"num_actors {self.num_actors} does not divide by {runners.num_workers} "

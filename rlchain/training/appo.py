@@ -75,12 +75,17 @@ class APPOTrainer(Loop):
         recipe = EnvRecipe.capture(cfg.env_name, cfg.env_config, vecenv or "auto")
         args = (recipe, slices, seed, cfg.horizon_length, cfg.appo.learner_queue_size, runners.max_restarts,
                 cfg.appo.fragment_timeout_s, cls.step_delays)
-        if runner_mode(cfg) == "ray":
-            from rlchain.training.ray_runners import RayRunners
-            return RayRunners(*args, runners=runners)
-        from rlchain.training.local_runners import LocalRunners
         try:
+            if runner_mode(cfg) == "ray":
+                from rlchain.training.ray_runners import RayRunners
+                return RayRunners(*args, runners=runners)
+            from rlchain.training.local_runners import LocalRunners
             return LocalRunners(*args)
+        except ImportError:
+            raise ConfigError(params.source, "params.config.appo.runners", "ray runners need ray, which is not "
+                              "installed: pip install rlchain[ray] (or appo.runners: local)") from None
+        except ConfigError:
+            raise
         except ValueError as exc:
             raise ConfigError(params.source, "", str(exc)) from None
 

@@ -69,6 +69,7 @@ class FragmentRunner:
         self.obs: torch.Tensor | None = None
         self._seed: int | None = None
         self._killed = False
+        self.fragments_sampled = 0
         self._returns = np.zeros(num_envs)
         self._lengths = np.zeros(num_envs, dtype=np.int64)
 
@@ -97,6 +98,10 @@ class FragmentRunner:
 
     def kill(self) -> None:
         self._killed = True
+
+    @property
+    def killed(self) -> bool:
+        return self._killed
 
     def pid(self) -> int:
         import os
@@ -140,6 +145,7 @@ class FragmentRunner:
                 final_obs.append(torch.as_tensor(final))
             self.obs = torch.as_tensor(np.asarray(result.obs))
         obs_rows.append(self.obs)
+        self.fragments_sampled += 1
         empty_final = torch.zeros((0, *self.obs.shape[1:]), dtype=self.obs.dtype)
         return Fragment(
             obs=torch.stack(obs_rows), actions=torch.stack(actions), log_probs=torch.stack(log_probs),

@@ -85,7 +85,9 @@ class LocalRunners(RunnerPool):
                 if self.generation[i] != generation:
                     return  # replaced while it sampled (hung): its fragment is not wanted
                 self.last_fragment[i] = time.monotonic()
-                if not self.put(fragment):
+                if not self.put(fragment, cancelled=lambda: runner.killed):
+                    if runner.killed:
+                        raise RunnerKilled(f"runner {i} killed")
                     return
         except BaseException as exc:
             if self.generation[i] == generation:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import queue
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import torch
@@ -93,9 +94,10 @@ class RunnerPool:
         raise NotImplementedError
 
     # ----- helpers for the subclasses -------------------------------------------------------
-    def put(self, fragment: Fragment) -> bool:
-        """Queue a fragment, waiting while the queue is full; False if the pool stops meanwhile."""
-        while not self.stopping.is_set():
+    def put(self, fragment: Fragment, cancelled: Callable[[], bool] = lambda: False) -> bool:
+        """Queue a fragment, waiting while the queue is full; False if the pool stops (or ``cancelled()``
+        turns true) meanwhile."""
+        while not self.stopping.is_set() and not cancelled():
             try:
                 self.fragments.put(fragment, timeout=0.1)
                 return True
