@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import time
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any, ClassVar
 
 import torch
@@ -228,6 +229,11 @@ class APPOTrainer(Loop):
     def _weights(self) -> dict[str, torch.Tensor]:
         """The model's parameters and normalizer statistics as CPU tensors, for the runners."""
         return {k: v.detach().to("cpu", copy=True) for k, v in self.model.state_dict().items()}
+
+    def update_phase(self) -> AbstractContextManager:
+        """The update keeps the process's torch threads: runners sample meanwhile (PPO's update takes
+        ``update_threads`` because its envs are idle then)."""
+        return nullcontext()
 
     # ----- the Loop's env handling ----------------------------------------------------------
     def _reset_envs(self) -> None:

@@ -74,9 +74,11 @@ class FragmentRunner:
         self._lengths = np.zeros(num_envs, dtype=np.int64)
 
     # ----- setup ----------------------------------------------------------------------------
-    def build(self, seed: int | None) -> dict:
-        """Make the envs; returns their spaces and value size."""
-        torch.set_num_threads(1)  # many runners share the cores
+    def build(self, seed: int | None, own_process: bool = False) -> dict:
+        """Make the envs; returns their spaces and value size. ``own_process`` (a Ray actor): one torch
+        thread, as many runners share the cores (a thread runner leaves the process's setting alone)."""
+        if own_process:
+            torch.set_num_threads(1)
         try:
             self.env = self.recipe.build(self.num_envs, seed)
         except ValueError as exc:  # config errors travel as plain ValueErrors (picklable, one line)

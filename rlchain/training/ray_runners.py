@@ -51,7 +51,7 @@ class RayRunners(RunnerPool):
                                                          max_task_retries=0)
         try:
             self.workers = [self._spawn(i) for i in range(self.num_workers)]
-            infos = [self._wait(w.build.remote(self.slice_seed(i)), i, "start", runners.start_timeout_s)
+            infos = [self._wait(w.build.remote(self.slice_seed(i), True), i, "start", runners.start_timeout_s)
                      for i, w in enumerate(self.workers)]
             for i, info in enumerate(infos):
                 if isinstance(info, BaseException):
@@ -164,7 +164,7 @@ class RayRunners(RunnerPool):
             except Exception:
                 pass
             self.workers[i] = self._spawn(i)
-            out = self._wait(self.workers[i].build.remote(self.slice_seed(i, sum(self.restarts))), i, "start",
+            out = self._wait(self.workers[i].build.remote(self.slice_seed(i, sum(self.restarts)), True), i, "start",
                              self.runners.start_timeout_s)
             if not isinstance(out, BaseException):
                 ref, version = self._latest
