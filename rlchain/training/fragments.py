@@ -10,6 +10,7 @@ version they were sampled with. Its envs run on between fragments (episodes span
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -68,7 +69,7 @@ class FragmentRunner:
         self.version = -1
         self.obs: torch.Tensor | None = None
         self._seed: int | None = None
-        self._killed = False
+        self._killed = threading.Event()
         self.fragments_sampled = 0
         self._returns = np.zeros(num_envs)
         self._lengths = np.zeros(num_envs, dtype=np.int64)
@@ -99,11 +100,11 @@ class FragmentRunner:
         self.version = version
 
     def kill(self) -> None:
-        self._killed = True
+        self._killed.set()
 
     @property
     def killed(self) -> bool:
-        return self._killed
+        return self._killed.is_set()
 
     def pid(self) -> int:
         import os
@@ -123,13 +124,13 @@ class FragmentRunner:
         ep_returns, ep_lengths = [], []
         version = self.version
         for t in range(t_len):
-            if self._killed:
+            if self._killed.is_set():
                 raise RunnerKilled(f"runner {self.worker} killed")
             out = model.act(self.obs)
             obs_rows.append(self.obs)
             result = self.env.step(model.dist.to_env(out["actions"]).numpy())
-            if self.step_delay_s:
-                time.sleep(self.step_delay_s)
+            if self.step_delay_s and self._killed.wait(self.step_delay_s):
+                raise RunnerKilled(f"runner {self.worker} killed")
             reward = np.asarray(result.reward, dtype=np.float32)
             term, trunc = np.asarray(result.terminated, dtype=bool), np.asarray(result.truncated, dtype=bool)
             done = term | trunc

@@ -39,7 +39,7 @@ class LocalRunners(RunnerPool):
         self.runners: list[FragmentRunner] = []
         self.threads: list[threading.Thread | None] = [None] * self.num_workers
         self.generation = [0] * self.num_workers  # a replaced runner's thread sees its generation move on
-        self.last_fragment = [0.0] * self.num_workers
+        self.last_fragment: list[float | None] = [0.0] * self.num_workers  # None: waiting on the queue
         self.failures: list[BaseException | None] = [None] * self.num_workers
         self._model: torch.nn.Module | None = None
         try:
@@ -84,11 +84,12 @@ class LocalRunners(RunnerPool):
                 fragment = runner.sample()
                 if self.generation[i] != generation:
                     return  # replaced while it sampled (hung): its fragment is not wanted
-                self.last_fragment[i] = time.monotonic()
+                self.last_fragment[i] = None  # waiting for room in the queue is not hanging
                 if not self.put(fragment, cancelled=lambda: runner.killed):
                     if runner.killed:
                         raise RunnerKilled(f"runner {i} killed")
                     return
+                self.last_fragment[i] = time.monotonic()
         except BaseException as exc:
             if self.generation[i] == generation:
                 self.failures[i] = exc
@@ -105,7 +106,8 @@ class LocalRunners(RunnerPool):
                 self.error = RuntimeError(f"appo runner {i} (envs {s.start}-{s.stop - 1}): {one_line(cause)}")
                 raise self.error
             if cause is None and thread is not None and thread.is_alive():
-                if now - self.last_fragment[i] <= self.fragment_timeout_s:
+                since = self.last_fragment[i]
+                if since is None or now - since <= self.fragment_timeout_s:
                     continue
                 cause = TimeoutError(f"no fragment within {self.fragment_timeout_s:g} s")
                 self.runners[i].kill()  # a hung thread stops at its next step, if it ever steps again
@@ -138,6 +140,8 @@ class LocalRunners(RunnerPool):
 
     def close(self) -> None:
         self.stopping.set()
+        for runner in self.runners:
+            runner.kill()  # a runner in a step delay wakes up
         for thread in self.threads:
             if thread is not None:
                 thread.join(timeout=5.0)

@@ -154,3 +154,25 @@ def test_a_straggler_does_not_set_the_pace(tmp_path, monkeypatch):
     Runner().load(config(tmp_path, max_epochs=epochs, **{"appo.max_policy_lag": 8})).train(callbacks=[grab])
     seconds = time.monotonic() - start
     assert seconds < 0.5 * epochs * 0.4 + 2.0, seconds  # at least twice the straggler's pace (+ run setup)
+
+
+@pytest.mark.timeout(60)
+def test_hung_runner_is_replaced_while_the_others_deliver(tmp_path):
+    runners = EnvRunnersConfig(num_workers=2)
+    recipe = EnvRecipe.capture("CartPole-v1", {}, "auto")
+    # runner 0 takes 10 s a step: hung for a 1 s fragment timeout; each replacement hangs as well
+    pool = LocalRunners(recipe, worker_slices(4, runners), 0, 4, 4, 10, 1.0, [10.0, 0.0])
+    try:
+        model = build_model(parse_params(config(tmp_path)), pool, torch.device("cpu"))
+        pool.start(model, {k: v.clone() for k, v in model.state_dict().items()}, 0)
+        got, deadline = [], time.monotonic() + 3.5
+        while time.monotonic() < deadline:
+            fragment = pool.get(0.1)
+            if fragment is not None:
+                got.append(fragment.worker)
+        assert pool.restarts[0] >= 2 and pool.restarts[1] == 0 and pool.lost_fragments == pool.restarts[0]
+        assert len(got) >= 4 and set(got) == {1}
+    finally:
+        start = time.monotonic()
+        pool.close()
+        assert time.monotonic() - start < 3.0  # a runner in its step delay wakes up to stop
