@@ -57,8 +57,12 @@ def main() -> None:
     p.add_argument("--tasks", nargs="+", default=["cartpole", "pendulum"], choices=["cartpole", "pendulum"])
     p.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     p.add_argument("--budget", type=float, default=60.0, help="seconds per run at most")
+    p.add_argument("--overrides", nargs="*", default=["params.torch_threads=1"],
+                   help="for both algos; default one torch thread: PPO's default 2-thread update is many times "
+                        "slower on 2 cores that other jobs load (appo's update keeps torch_threads anyway)")
     args = p.parse_args()
-    print(f"CPU: {cpu_model()}, {os.cpu_count()} cores; load average {os.getloadavg()[0]:.2f} (start)")
+    print(f"CPU: {cpu_model()}, {os.cpu_count()} cores; load average {os.getloadavg()[0]:.2f} (start); "
+          f"overrides {' '.join(args.overrides) or 'none'}")
     marks = {"cartpole": [2, 4, 6, 8, 10, 15], "pendulum": [5, 10, 15, 20, 30, 45]}
     for task in args.tasks:
         rows = {}
@@ -69,7 +73,7 @@ def main() -> None:
                 with tempfile.TemporaryDirectory() as tmp:
                     result = Runner().load(os.path.join(ROOT, "rlchain", "configs", f"{algo}_{task}.yaml"),
                                            [f"params.config.train_dir={tmp}", "params.config.print_stats=false",
-                                            f"params.seed={seed}"]).train(callbacks=[curve])
+                                            f"params.seed={seed}", *args.overrides]).train(callbacks=[curve])
                 won = result.stop_reason.startswith("score_to_win")
                 runs.append((curve.points, won, result))
                 print(f"{task} {algo} seed {seed}: {result.stop_reason} at {curve.points[-1][0]:.1f} s, "
