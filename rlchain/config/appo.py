@@ -58,7 +58,6 @@ class APPOConfig(TrainConfig):
         "central_value_config": "no asymmetric critic for the asynchronous learner yet",
         "self_play_config": "no self-play for the asynchronous learner yet",
         "use_action_masks": "the runners carry no action masks yet",
-        "multi_gpu": "no data-parallel learner for appo/impala yet (one learner process)",
         "seq_length": RNN_NOTE, "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
         "torch_compile": "supported for PPO only so far",
     }

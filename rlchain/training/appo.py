@@ -56,7 +56,7 @@ class APPOTrainer(Loop):
                       ("queue_size", "queue {:.0f}"))
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma")
-    supports_distributed = False
+    supports_distributed = True  # multi_gpu: one learner and runner pool per rank, gradients averaged
     step_delays: ClassVar[list[float] | None] = None
     """Tests and benchmarks: a sleep per env step for each runner (stragglers); None: none."""
 
@@ -147,8 +147,11 @@ class APPOTrainer(Loop):
         self.version += 1
         if self.version % self.cfg.appo.broadcast_interval == 0:
             self.pool.publish(self._weights(), self.version)
-        self.frames += self._received
-        self._epoch_frames = self._received
+        received = self._received
+        if self.comm.active:  # every rank counts every rank's frames, so all stop at the same max_frames
+            received = round(self.comm.mean(float(received)) * self.world_size)
+        self.frames += received
+        self._epoch_frames = received
         now = time.monotonic()
         stats.update(policy_lag=sum(self._lags) / max(len(self._lags), 1), queue_size=self.pool.queue_size(),
                      sample_throughput=self._received / max(now - self._mark, 1e-9),

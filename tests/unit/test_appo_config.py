@@ -40,7 +40,6 @@ def test_the_issue_block_parses_typed():
     ("appo", "tau", 0.95, "GAE's lambda"),
     ("appo", "env_groups", 2, "runners step their envs"),
     ("appo", "seq_length", 4, "RNN"),
-    ("appo", "multi_gpu", True, "data-parallel"),
     ("impala", "e_clip", 0.2, "no clipped surrogate"),
     ("impala", "mini_epochs", 4, "one pass"),
     ("a2c_discrete", "appo", {"max_policy_lag": 2}, "algos appo and impala"),
