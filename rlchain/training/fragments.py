@@ -88,6 +88,13 @@ class FragmentRunner:
         return {"observation_space": self.env.observation_space, "action_space": self.env.action_space,
                 "value_size": int(getattr(self.env, "value_size", 1))}
 
+    def start(self, seed: int | None, own_process: bool, model: torch.nn.Module, weights: dict,
+              version: int) -> int:
+        """:meth:`build` then :meth:`set_policy` in one call (a replacement Ray actor); returns ``version``."""
+        self.build(seed, own_process)
+        self.set_policy(model, weights, version)
+        return version
+
     def set_policy(self, model: torch.nn.Module, weights: dict | None = None, version: int = 0) -> None:
         """The model this runner acts with (a CPU copy, evaluation mode), and its weights."""
         self.model = model.to("cpu").eval()

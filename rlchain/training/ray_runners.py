@@ -101,14 +101,14 @@ class RayRunners(RunnerPool):
         out = self._wait(self.workers[i].set_policy.remote(self._model_ref, ref, version), i, "start",
                          self.runners.start_timeout_s)
         if isinstance(out, BaseException):
-            self._restart(i, out)
-            return
+            raise WorkerLost(f"appo ray runner {i} did not take the policy: {one_line(out)}")
         self._sent[i] = version
 
     def _feed(self) -> None:
-        """One sample call in flight per actor; fragments into the queue (the feeder thread)."""
+        """The feeder thread: one call in flight per actor (a fragment, or a replacement's start), fragments
+        into the queue. A replacement starts in the background: the other actors' fragments keep flowing."""
         ray = self._ray
-        in_flight: dict[Any, tuple[int, float]] = {}
+        in_flight: dict[Any, tuple[int, str, float]] = {}  # call -> (actor, "sample" or "start", when sent)
         try:
             for i in range(self.num_workers):
                 self._submit(i, in_flight)
@@ -116,30 +116,34 @@ class RayRunners(RunnerPool):
             while not self.stopping.is_set():
                 ready, _ = ray.wait(list(in_flight), num_returns=len(in_flight), timeout=0.1)
                 for ref in ready:
-                    i, _ = in_flight.pop(ref)
-                    out = self._wait(ref, i, "sample", self.fragment_timeout_s)
+                    i, kind, _ = in_flight.pop(ref)
+                    out = self._wait(ref, i, kind, self.runners.start_timeout_s)  # ready: no waiting
                     if isinstance(out, BaseException):
-                        self._restart(i, out)
-                        self._submit(i, in_flight)
+                        self._replace(i, out, in_flight, lost=kind == "sample")
                         continue
+                    if kind == "start":
+                        self._sent[i] = out
                     self._submit(i, in_flight)
-                    if self.fragments.full():
+                    if kind == "sample":
+                        was_full = self.fragments.full()
                         if not self.put(out):
                             return
-                        resumed = time.monotonic()
-                    elif not self.put(out):
-                        return
+                        if was_full:
+                            resumed = time.monotonic()
                 now = time.monotonic()
-                for ref, (i, since) in list(in_flight.items()):
-                    if now - max(since, resumed) > self.fragment_timeout_s:
+                for ref, (i, kind, since) in list(in_flight.items()):
+                    limit = self.fragment_timeout_s if kind == "sample" else self.runners.start_timeout_s
+                    if now - (max(since, resumed) if kind == "sample" else since) > limit:
                         del in_flight[ref]
-                        self._restart(i, TimeoutError(f"no fragment within {self.fragment_timeout_s:g} s"))
-                        self._submit(i, in_flight)
+                        what = "fragment" if kind == "sample" else "start"
+                        self._replace(i, TimeoutError(f"no {what} within {limit:g} s"), in_flight,
+                                      lost=kind == "sample")
         except BaseException as exc:  # seen by the learner at its next get()
             if not self.stopping.is_set():
                 self.error = exc
 
     def _submit(self, i: int, in_flight: dict) -> None:
+        """The next fragment of actor ``i``; new weights ride along when the version moved on."""
         ref, version = self._latest
         worker = self.workers[i]
         if self._sent[i] != version:
@@ -147,33 +151,29 @@ class RayRunners(RunnerPool):
             self._sent[i] = version
         else:
             call = worker.sample.remote()
-        in_flight[call] = (i, time.monotonic())
+        in_flight[call] = (i, "sample", time.monotonic())
 
-    def _restart(self, i: int, cause: BaseException) -> None:
-        """Replace actor ``i`` (fresh envs, the latest weights); WorkerLost past max_restarts."""
+    def _replace(self, i: int, cause: BaseException, in_flight: dict, lost: bool) -> None:
+        """Kill actor ``i`` and start a fresh one (fresh envs, the latest weights) in the background;
+        WorkerLost past max_restarts."""
         ray, s, limit = self._ray, self.slices[i], self.max_restarts
-        while True:
-            self.restarts[i] += 1
-            self.lost_fragments += 1
-            what = f"appo ray runner {i} (envs {s.start}-{s.stop - 1}) failed ({one_line(cause)})"
-            if self.restarts[i] > limit:
-                raise WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, stopping")
-            log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit}), its fragment dropped")
-            try:
-                ray.kill(self.workers[i], no_restart=True)
-            except Exception:
-                pass
-            self.workers[i] = self._spawn(i)
-            out = self._wait(self.workers[i].build.remote(self.slice_seed(i, sum(self.restarts)), True), i, "start",
-                             self.runners.start_timeout_s)
-            if not isinstance(out, BaseException):
-                ref, version = self._latest
-                out = self._wait(self.workers[i].set_policy.remote(self._model_ref, ref, version), i, "start",
-                                 self.runners.start_timeout_s)
-                if not isinstance(out, BaseException):
-                    self._sent[i] = version
-                    return
-            cause = out
+        self.restarts[i] += 1
+        self.lost_fragments += int(lost)
+        what = f"appo ray runner {i} (envs {s.start}-{s.stop - 1}) failed ({one_line(cause)})"
+        if self.restarts[i] > limit:
+            raise WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, stopping")
+        log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit})"
+                    + (", its fragment dropped" if lost else ""))
+        try:
+            ray.kill(self.workers[i], no_restart=True)
+        except Exception:
+            pass
+        self.workers[i] = self._spawn(i)
+        ref, version = self._latest
+        self._sent[i] = -1
+        call = self.workers[i].start.remote(self.slice_seed(i, sum(self.restarts)), True, self._model_ref, ref,
+                                            version)
+        in_flight[call] = (i, "start", time.monotonic())
 
     def worker_pids(self) -> list[int]:
         return self._ray.get([w.pid.remote() for w in self.workers], timeout=self.runners.step_timeout_s)
