@@ -85,8 +85,10 @@ class APPOTrainer(Loop):
         except ImportError:
             raise ConfigError(params.source, "params.config.appo.runners", "ray runners need ray, which is not "
                               "installed: pip install rlchain[ray] (or appo.runners: local)") from None
-        except ConfigError:
-            raise
+        except ConfigError as exc:  # the Ray plumbing's errors name the key, not the file
+            if exc.source:
+                raise
+            raise ConfigError(params.source, exc.path, exc.message) from None
         except ValueError as exc:
             raise ConfigError(params.source, "", str(exc)) from None
 
