@@ -86,7 +86,9 @@ class Runner:
                               group.local_world_size if group is not None else 1)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
-        env = build_env(params, cfg.num_actors, seed, runners=True)
+        build_own = getattr(ALGOS.get(params.algo.name), "build_training_env", None)  # appo: its runners
+        env = build_own(params, seed) if build_own is not None else build_env(params, cfg.num_actors, seed,
+                                                                              runners=True)
         try:
             if isinstance(cfg, TrainConfig):  # the minibatch must divide the batch of all agents' rows
                 check_batch(cfg, params.source, int(getattr(env, "num_agents", 1) or 1))

@@ -125,8 +125,7 @@ class PPOAgent:
                                                batch.action_masks)
             log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
             entropy = entropy.mean()
-            a_loss = policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip,
-                                 cfg.use_smooth_clamp).mean()
+            a_loss = self.surrogate(batch.log_probs, log_probs, batch.advantages).mean()
             if self.train_critic:
                 c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
                                     cfg.e_clip, cfg.clip_value).mean()
@@ -173,6 +172,11 @@ class PPOAgent:
             self.optimizer.step()
         del stats["loss"]
         return stats
+
+    def surrogate(self, old_log_probs: torch.Tensor, log_probs: torch.Tensor,
+                  advantages: torch.Tensor) -> torch.Tensor:
+        """Per-sample policy loss (B,): PPO's clipped surrogate (IMPALA replaces it)."""
+        return policy_loss(old_log_probs, log_probs, advantages, self.cfg.e_clip, self.cfg.use_smooth_clamp)
 
     def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
         """Flat shuffled minibatches, or whole sequences of seq_length steps for an RNN policy."""

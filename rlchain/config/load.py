@@ -110,7 +110,11 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         raise ConfigError(source, "params.config", f"expected a mapping, got {config_raw!r}")
     # an algorithm may declare its own config dataclass (e.g. off-policy keys); PPO uses TrainConfig
     config_class = getattr(ALGOS.get(algo.name), "config_class", TrainConfig)
-    config = parse_dataclass(config_class, compat.translate_config(config_raw, source), "params.config", source)
+    config_raw = compat.translate_config(config_raw, source)
+    for key, why in getattr(config_class, "not_for_this_algo", {}).items():  # TrainConfig keys an algo cannot use
+        if key in config_raw:
+            raise ConfigError(source, f"params.config.{key}", f"not used by algo {algo.name}: {why}; remove it")
+    config = parse_dataclass(config_class, config_raw, "params.config", source)
     _check_planned(config, "params.config", source)
     if isinstance(config, TrainConfig):
         _check_training(config, source)

@@ -7,7 +7,7 @@ Defaults live here once. ``docs/config.md`` is generated from these docstrings
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.config.compile import check_compile
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
@@ -337,6 +337,8 @@ class RunConfig:
 @dataclass
 class TrainConfig(RunConfig):
     """``params.config``: the training keys of an rl_games config."""
+
+    not_for_this_algo: ClassVar[dict[str, str]] = {"appo": "it configures algos appo and impala"}
 
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
                                            "envpool, RAY (Ray workers, see env_runners)")

@@ -63,6 +63,12 @@ class EpisodeTracker:
             returns[lost] = 0.0
             lengths[lost] = 0
 
+    def record(self, returns: list[float], lengths: list[int]) -> None:
+        """Games finished elsewhere (an asynchronous runner tracked them): add them as they are."""
+        self.finished_returns.extend(returns)
+        self.finished_lengths.extend(lengths)
+        self.games += len(returns)
+
     def reset_running(self) -> None:
         """Forget episodes in progress (after an env reset)."""
         self.returns.zero_()
