@@ -176,7 +176,7 @@ class APPOTrainer(Loop):
         def cat(name: str) -> torch.Tensor:
             return torch.cat([getattr(f, name) for f in frags], dim=1).to(dev)
 
-        obs, actions, mu_log_probs, mu_params = cat("obs"), cat("actions"), cat("log_probs"), cat("params")
+        obs, actions, mu_log_probs = cat("obs"), cat("actions"), cat("log_probs")
         rewards = cat("rewards").float()
         terminated, truncated = cat("terminated").bool(), cat("truncated").bool()
         bad = check_rollout(rewards, obs[:t_len])
@@ -206,7 +206,9 @@ class APPOTrainer(Loop):
             storage.obs.copy_(obs[:t_len])
             storage.actions.copy_(actions)
             storage.log_probs.copy_(mu_log_probs)
-            storage.params.copy_(mu_params)
+            # the adaptive lr's KL compares with the learner's policy before this update, not the
+            # behaviour policy: the lag between them is not a step the lr should shrink for
+            storage.params.copy_(params[:t_len * n].reshape(storage.params.shape))
             storage.values.copy_(values[:t_len])
             storage.returns.copy_(out.vs)
             storage.advantages.copy_(self.advantages(out))

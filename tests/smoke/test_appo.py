@@ -176,3 +176,25 @@ def test_hung_runner_is_replaced_while_the_others_deliver(tmp_path):
         start = time.monotonic()
         pool.close()
         assert time.monotonic() - start < 3.0  # a runner in its step delay wakes up to stop
+
+
+@pytest.mark.timeout(120)
+def test_adaptive_lr_kl_measures_the_update_not_the_policy_lag(tmp_path, monkeypatch):
+    """The KL behind the adaptive lr starts from the learner's policy at the start of the update: were it
+    the behaviour policy, the runners' lag alone would read as a large step and drive the lr to min_lr."""
+    from rlchain.algos.ppo import PPOAgent
+
+    gaps, lags, original = [], [], PPOAgent.update
+
+    def spy(self, storage, progress):
+        with torch.no_grad():
+            params, _, _ = self.model.evaluate(storage.obs.reshape(-1, *storage.obs.shape[2:]))
+        gaps.append(float((params - storage.params.reshape(params.shape)).abs().max()))
+        return original(self, storage, progress)
+
+    monkeypatch.setattr(PPOAgent, "update", spy)
+    grab = Grab()
+    Runner().load(config(tmp_path, normalize_input=False, max_epochs=5)).train(callbacks=[grab])
+    lags = [s["policy_lag"] for s in grab.stats]
+    assert len(gaps) == 5 and max(gaps) < 1e-5, gaps
+    assert max(lags) > 0  # the batches did come from older policies
