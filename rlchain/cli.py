@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
     p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx); "
                    "--tune: best config (default <base name>_best.yaml)")
+    p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
@@ -114,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
-        runner.export(args.checkpoint, args.output)
+        runner.export(args.checkpoint, args.output, args.policy)
         return 0
     if args.train:
         result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,

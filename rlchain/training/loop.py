@@ -60,6 +60,7 @@ class Loop:
     console_fields: ClassVar[tuple[tuple[str, str], ...]] = ()
     tunable: ClassVar[tuple[str, ...]] = ()
     supports_distributed: ClassVar[bool] = False
+    env_self_play: ClassVar[bool] = True  # self_play_config loads opponents into the env (set_opponent)
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
@@ -84,7 +85,7 @@ class Loop:
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
-        if getattr(cfg, "self_play_config", None) is not None:
+        if getattr(cfg, "self_play_config", None) is not None and self.env_self_play:
             self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
