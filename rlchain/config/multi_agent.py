@@ -55,8 +55,8 @@ class MultiAgentConfig:
                                                        "frozen (their weights come from the checkpoint or "
                                                        "a snapshot)")
     snapshots: dict = option({}, "self-play: frozen policy -> the trained policy it is a snapshot of, "
-                                 "e.g. {opponent: learner}; the snapshot is refreshed on the self_play_config "
-                                 "rule (the trained policy's game scores)")
+                                 "e.g. {opponent: learner}; refreshed on the self_play_config rule (the trained "
+                                 "policy's game scores), env_update_num envs at a time")
 
 
 class PolicyMapping:

@@ -83,12 +83,17 @@ class MultiPolicyTrainer(Loop):
             actions, acted = {}, []
             for lr in self.learners:
                 obs, active, masks = lr.gather(self.obs)
+                acted.append(active)
+                if lr.pool is not None:  # a self-play snapshot: each env's own
+                    with torch.no_grad():
+                        env_actions = lr.pool.act(obs, len(lr.agents), masks)
+                    actions.update(lr.split(lr.model.dist.to_env(env_actions).cpu().numpy()))
+                    continue
                 with torch.no_grad():
                     out = lr.model.act(obs, action_masks=masks)
                 if lr.agent is not None:
                     lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks)
                     lr.active[t] = active
-                acted.append(active)
                 actions.update(lr.split(lr.model.dist.to_env(out["actions"]).cpu().numpy()))
             result = self.env.step(actions)
             self._observe(t, result, acted)

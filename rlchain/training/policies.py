@@ -107,6 +107,7 @@ class PolicyLearner:
         self.tracker = AgentEpisodes(self.rows, games_to_track, device)
         self.storage = self.active = None
         self.last_values: torch.Tensor | None = None
+        self.pool: Any = None  # a frozen self-play snapshot: past snapshots env by env (training/snapshots.py)
         if train:
             dist = model.dist
             self.storage = RolloutStorage(cfg.horizon_length, self.rows, tuple(obs_shape), torch.float32,

@@ -240,3 +240,28 @@ def test_frozen_policies_keep_their_weights(tmp_path):
     assert late and all(torch.equal(states[0]["model"][k], states[1]["model"][k]) for k in late)
     runners = [k for k in states[0]["model"] if k.startswith("runners.network")]
     assert any(not torch.equal(states[0]["model"][k], states[1]["model"][k]) for k in runners)
+
+
+class Const(torch.nn.Module):
+    """A policy that always plays ``value``."""
+
+    def __init__(self, value):
+        super().__init__()
+        self.value = torch.nn.Parameter(torch.tensor(float(value)))
+
+    def act(self, obs, action_masks=None):
+        return {"actions": self.value.detach().round().long().expand(obs.shape[0])}
+
+
+def test_snapshot_refreshes_go_to_a_moving_window_of_envs_the_others_keep_theirs():
+    from rlchain.training.snapshots import SnapshotPool
+
+    pool = SnapshotPool(Const(0), num_envs=4)
+    obs = torch.zeros(8, 1)  # 2 agents x 4 envs, agent-major
+    pool.refresh(Const(1), [0, 1, 2, 3])
+    assert pool.act(obs, 2, None).tolist() == [1] * 8 and not pool.older
+    pool.refresh(Const(2), [0, 1])
+    assert pool.act(obs, 2, None).tolist() == [2, 2, 1, 1, 2, 2, 1, 1]
+    pool.refresh(Const(3), [2, 3])
+    assert pool.act(obs, 2, None).tolist() == [2, 2, 3, 3, 2, 2, 3, 3]
+    assert len(pool.older) == 1  # the snapshot no env plays any more is dropped
