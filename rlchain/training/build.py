@@ -130,7 +130,12 @@ def _network_name(network: Any) -> str:
 
 
 def apply_sigma(model: Any, sigma: float) -> None:
-    """``--sigma``: a one-line ConfigError when the policy has no fixed sigma to set."""
+    """``--sigma``: a one-line ConfigError when the policy has no fixed sigma to set (every policy's,
+    with config.multi_agent)."""
+    if isinstance(model, torch.nn.ModuleDict):
+        for policy in model.values():
+            apply_sigma(policy, sigma)
+        return
     try:
         model.override_sigma(sigma)
     except ValueError as exc:

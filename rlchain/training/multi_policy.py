@@ -41,6 +41,7 @@ class MultiPolicyTrainer(Loop):
     def __init__(self, params: Params, env: Any, model: torch.nn.ModuleDict, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
                  comm: Communicator | None = None) -> None:
+        _check_supported(params)
         super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
         if self.comm.active:
             raise ConfigError(params.source, "params.config.multi_gpu", "is not supported with multi_agent yet")
@@ -221,3 +222,16 @@ class MultiPolicyTrainer(Loop):
         for lr in self.learners:
             if lr.name in saved:
                 lr.tracker.load_state_dict(saved[lr.name])
+
+
+def _check_supported(params: Params) -> None:
+    """Features of the single-policy trainer multi_agent does not have yet: a one-line ConfigError."""
+    cfg = params.config
+    unsupported = [("central_value_config", cfg.central_value_config is not None),
+                   ("evaluation.interval", cfg.evaluation.interval > 0),
+                   ("torch_compile", bool(cfg.torch_compile)),
+                   ("env_runners", cfg.env_runners is not None or str(cfg.vecenv_type).lower() == "ray")]
+    for key, used in unsupported:
+        if used:
+            raise ConfigError(params.source, f"params.config.{key}", "is not supported with multi_agent yet; "
+                                                                     "remove it (docs/multi_agent.md)")

@@ -139,6 +139,7 @@ def test_policy_mapping_first_matching_glob_wins_and_unmapped_agents_are_an_erro
     ({"policies": {"runners": {"config": {"learning_rat": 1e-3}}, "late": {}}},
      r"policies.runners.config.learning_rat: unknown key; did you mean 'learning_rate'\?"),
     ({"policy_mapping": {}}, r"policy_mapping: required with several policies"),
+    ({"snapshots": {"late": "runners"}}, r"snapshots.late: the snapshot 'late' must be frozen"),
 ])
 def test_bad_multi_agent_blocks_are_one_line_errors(change, match):
     raw = dying()
@@ -154,6 +155,13 @@ def test_a_policy_whose_network_does_not_fit_its_agents_spaces_is_named(tmp_path
         "network": {"name": "actor_critic", "space": {"continuous": None}, "mlp": {"units": [8]}}}
     with pytest.raises(ConfigError, match=r"multi_agent.policies.late: network 'actor_critic' / model "
                                           r"'continuous_a2c_logstd' do not fit agents \['late_0'\] .*Discrete\(3\)"):
+        Runner().load(raw).train()
+
+
+def test_single_policy_features_not_there_yet_are_errors(tmp_path):
+    raw = dying(tmp_path)
+    raw["params"]["config"]["evaluation"] = {"interval": 2}
+    with pytest.raises(ConfigError, match=r"params.config.evaluation.interval: is not supported with multi_agent"):
         Runner().load(raw).train()
 
 
