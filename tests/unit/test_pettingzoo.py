@@ -273,3 +273,48 @@ def test_snapshot_refreshes_go_to_a_moving_window_of_envs_the_others_keep_theirs
     pool.refresh(Const(3), [2, 3])
     assert pool.act(obs, 2, None).tolist() == [2, 2, 3, 3, 2, 2, 3, 3]
     assert len(pool.older) == 1  # the snapshot no env plays any more is dropped
+
+
+def test_an_aec_env_that_says_it_is_parallelizable_goes_through_aec_to_parallel(monkeypatch):
+    import sys
+    import types
+
+    mpe = pytest.importorskip("mpe2.simple_spread_v3")
+    module = types.ModuleType("aec_only_spread")
+    module.env = mpe.env  # the AEC env alone (no parallel_env): is_parallelizable in its metadata
+    monkeypatch.setitem(sys.modules, "aec_only_spread", module)
+    from rlchain.envs.pettingzoo_env import env_maker
+
+    make, turn_based = env_maker("aec_only_spread", {"N": 2, "max_cycles": 3})
+    assert not turn_based and type(make()).__name__ == "aec_to_parallel_wrapper"
+    env = pettingzoo_env(2, 0, env="aec_only_spread", kwargs={"N": 2, "max_cycles": 3})
+    views = env.reset(seed=0)
+    assert all(v.active.all() for v in views.values())  # every agent acts every step
+    for _ in range(3):
+        result = env.step({a: np.zeros(2, dtype=np.int64) for a in env.agent_ids})
+    assert all(result.truncated[a].all() for a in env.agent_ids) and env.pop_games() == 2
+
+
+def test_turn_based_games_give_the_mover_its_legal_moves_and_the_waiting_player_nothing_to_do():
+    pytest.importorskip("pettingzoo.classic")
+    env = pettingzoo_env(3, 0, env="classic.connect_four_v3")
+    rng = np.random.default_rng(0)
+    views = env.reset(seed=0)
+    games = 0
+    for _ in range(120):
+        mover, waiting = views["player_0"], views["player_1"]
+        assert (mover.active ^ waiting.active).all()  # exactly one player moves in each env
+        for view in views.values():
+            assert view.mask[~view.active].all()  # a waiting player's mask is all True (never empty)
+            for i in np.flatnonzero(view.active):
+                board = view.obs[i].reshape(6, 7, 2)
+                assert view.mask[i].tolist() == (board[0].sum(-1) == 0).tolist()  # a column with room
+        actions = {a: np.array([rng.choice(np.flatnonzero(m)) for m in v.mask]) for a, v in views.items()}
+        result = env.step(actions)
+        # a game ends for both players at once, one wins (+1) and the other loses (-1), or a draw
+        assert (result.terminated["player_0"] == result.terminated["player_1"]).all()
+        ended = result.terminated["player_0"]
+        assert (result.reward["player_0"][ended] + result.reward["player_1"][ended] == 0).all()
+        games += int(ended.sum())
+        views = result.obs
+    assert games >= 5
