@@ -122,6 +122,8 @@ def _run(args: argparse.Namespace) -> int:
                               wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
             return 130
+    elif args.video and runner.params.policies is not None:
+        raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
     elif args.video:
         from rlchain.video import record_episodes
         files = record_episodes(runner.params, args.checkpoint, args.video, games=args.games or 1,

@@ -184,6 +184,13 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
     assert set(state["agent"]) == {"runners", "late"}  # and optimizer, lr
     assert state["agent"]["late"]["lr"] == pytest.approx(1e-3) and state["agent"]["runners"]["lr"] == 3e-4
     assert set(state["policy_episodes"]) == {"runners", "late"}
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+    events = EventAccumulator(os.path.join(result.run_dir, "summaries"))
+    events.Reload()
+    tags = set(events.Tags()["scalars"])
+    assert {"rewards/runners/step", "rewards/late/iter", "episode_lengths/late/time", "losses/late/a_loss",
+            "losses/runners/c_loss", "info/runners/last_lr", "rewards/step"} <= tags
+    assert "losses/a_loss" not in tags  # two policies: no unprefixed loss to mix them up in
     # resume: the learner state is exactly the checkpoint's
     from rlchain.training.build import build_env, build_model
     from rlchain.training.logging import TrainLogger
