@@ -12,6 +12,9 @@ EXTRAS = {
     "ray": ["ray[tune]>=2.9,<3"],  # [tune]: pandas, pyarrow for --tune with backend: ray
     "tune": ["optuna>=3"],
     "video": ["moviepy>=1.0", "pygame>=2.1"],
+    # PettingZoo envs (env_name: pettingzoo); the MPE envs live in mpe2 since PettingZoo 1.25. mpe2
+    # brings pygame-ce, which provides the same `pygame` module as the video extra's pygame
+    "pettingzoo": ["pettingzoo>=1.25,<2", "mpe2>=1.0,<2"],
     # the documentation site: mkdocs build --strict (mkdocs.yml; tests/unit/test_docs_site.py builds it)
     "docs": ["mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom;

@@ -63,9 +63,7 @@ class PPOAgent:
         that returned them.
         """
         cfg = self.cfg
-        advantages = storage.advantages.sum(-1)  # several value heads add up, as in rl_games
-        if cfg.normalize_advantage:  # over the whole batch once, as rl_games does
-            advantages = normalize_advantages(advantages)
+        advantages = self._batch_advantages(storage)
         sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
                 "grad_norm": 0.0}
         count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
@@ -90,6 +88,14 @@ class PPOAgent:
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
         return out
+
+    def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
+        """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
+        normalized over the whole batch once when ``normalize_advantage``."""
+        advantages = storage.advantages.sum(-1)
+        if self.cfg.normalize_advantage:
+            advantages = normalize_advantages(advantages)
+        return advantages
 
     def _rank_mean(self, kl: float) -> float:
         """The KL the adaptive lr follows: averaged over ranks, so every rank sets the same lr."""

@@ -9,6 +9,7 @@ import typing
 
 from rlchain.config import compat
 from rlchain.config.appo import APPOConfig, ImpalaConfig
+from rlchain.config.multi_agent import PolicySpec
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
 from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
 
@@ -21,6 +22,8 @@ ROOTS = [
     ("params.network (builder actor_critic)", "params.network", NetworkConfig, "builder actor_critic"),
     ("params.network (builder resnet_actor_critic: rl_games' IMPALA network; mlp, rnn, space as actor_critic)",
      "params.network", ResnetNetworkConfig, "builder resnet_actor_critic"),
+    ("params.config.multi_agent.policies.<name> (one policy of config.multi_agent; docs/multi_agent.md)",
+     "params.config.multi_agent.policies.<name>", PolicySpec, "multi_agent"),
     ("params.config for algo sac (keys shared with PPO have the same meaning)", "params.config", SACConfig,
      "algo sac"),
     ("params.network (builder soft_actor_critic)", "params.network", SACNetworkConfig, "builder soft_actor_critic"),
@@ -194,7 +197,8 @@ def render() -> str:
         hints = typing.get_type_hints(cls)
         for f in dataclasses.fields(cls):
             tp = str(hints[f.name]).replace("typing.", "").replace("<class '", "").replace("'>", "")
-            tp = tp.replace("rlchain.config.schema.", "").replace(" | ", " or ")
+            tp = tp.replace("rlchain.config.schema.", "").replace("rlchain.config.multi_agent.", "")
+            tp = tp.replace(" | ", " or ")
             doc = f.metadata.get("doc", "")
             choices = f.metadata.get("choices")
             if choices:

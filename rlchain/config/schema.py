@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 from rlchain.config.compile import check_compile
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 from rlchain.config.hyperparam_schedule import check_hyperparam_schedule
+from rlchain.config.multi_agent import MultiAgentConfig
 
 ACTIVATIONS = ("relu", "tanh", "sigmoid", "elu", "selu", "swish", "silu", "gelu", "softplus",
                "leaky_relu", "mish", "identity", "None")
@@ -413,6 +414,9 @@ class TrainConfig(RunConfig):
                                            "get_action_mask() (discrete and multi-discrete actions)")
     self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "
                                                            "env's opponent (needs env set_opponent)")
+    multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each "
+                                                        "with its own model and optimizer (env_name: "
+                                                        "pettingzoo; docs/multi_agent.md)")
     multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
                                     "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
                                     "minibatch_size are per process, gradients are averaged, rank 0 saves")
@@ -467,3 +471,4 @@ class Params:
     torch_threads: int | None = None  # torch.set_num_threads for this process (rl_games key)
     update_threads: int | None = None  # CPU threads for the gradient updates (default: all cores, at most 4)
     source: str = ""
+    policies: dict[str, Params] | None = None  # config.multi_agent: each policy's own Params (load.py)

@@ -61,6 +61,7 @@ class Loop:
     console_fields: ClassVar[tuple[tuple[str, str], ...]] = ()
     tunable: ClassVar[tuple[str, ...]] = ()
     supports_distributed: ClassVar[bool] = False
+    env_self_play: ClassVar[bool] = True  # self_play_config loads opponents into the env (set_opponent)
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
@@ -85,7 +86,7 @@ class Loop:
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
-        if getattr(cfg, "self_play_config", None) is not None:
+        if getattr(cfg, "self_play_config", None) is not None and self.env_self_play:
             self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))
         if getattr(cfg, "hyperparam_schedule", None):  # a replayed PBT schedule, through set_params
             check_names(cfg.hyperparam_schedule, self.tunable, params.algo.name, params.source)
