@@ -24,7 +24,10 @@ BASE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 EPOCHS = 30
 START_LR = 2e-5  # barely learns in 30 epochs: the starting config every trial of both runs begins with
 # games_to_track 32: the mean reward follows the policy of the last ~2 epochs (PBT compares trials by it)
-FIXED = ["params.config.lr_schedule=None", "params.config.save_best_after=1000", "params.config.games_to_track=32"]
+# tune_pace.Pace: epochs of at least 0.15 s, so that the 2 concurrent trials overlap (PBT and ASHA compare them)
+PACE = "tests.smoke.tune_pace:Pace"
+FIXED = ["params.config.lr_schedule=None", "params.config.save_best_after=1000", "params.config.games_to_track=32",
+         f"params.config.callbacks=[{PACE}]"]
 
 
 @pytest.fixture(scope="module")
@@ -57,8 +60,8 @@ def start_runs(ray_session, tmp_path_factory):
     """FIFO: the starting config, 4 seeds (the fifo smoke test and PBT's yardstick); the first trial to
     reach epoch 5 crashes once (tests/smoke/tune_crash.py) and must resume from its epoch-3 checkpoint."""
     tmp = tmp_path_factory.mktemp("fifo")
-    return tmp, _fit(tmp, "fifo", scheduler="fifo", searcher="grid", checkpoint_epochs=3, max_failures=1,
-                     overrides=FIXED + ["params.config.callbacks=[tests.smoke.tune_crash:CrashOnce]"],
+    return tmp, _fit(tmp, "fifo", scheduler="fifo", searcher="optuna", checkpoint_epochs=3, max_failures=1,
+                     overrides=FIXED + [f"params.config.callbacks=[tests.smoke.tune_crash:CrashOnce,{PACE}]"],
                      params={"params.config.learning_rate": {"type": "categorical", "choices": [START_LR]}})
 
 
@@ -85,10 +88,11 @@ def test_crashed_trial_restarts_from_its_checkpoint(start_runs):
 def test_pbt_exploits_live_and_beats_its_starting_config(ray_session, start_runs, tmp_path):
     outcome = _fit(tmp_path, "pbt", scheduler="pbt",
                    params={"params.config.learning_rate": {"type": "categorical", "choices": [START_LR]}},
-                   pbt={"interval_epochs": 3, "quantile": 0.25, "resample_probability": 0.5,
+                   # every exploit resamples the lr from a range that learns within the trial's 30 epochs
+                   pbt={"interval_epochs": 3, "quantile": 0.5, "resample_probability": 1.0,
                         "perturbation_factors": [2.0, 0.5],
                         "mutations": {"params.config.learning_rate":
-                                      {"type": "loguniform", "low": 1e-4, "high": 1e-2},
+                                      {"type": "loguniform", "low": 1e-3, "high": 1e-2},
                                       "params.config.entropy_coef": {"type": "uniform", "low": 0.0, "high": 0.01}}})
     assert not outcome.results.errors
     # an exploit: a trial resumed from another's checkpoint with perturbed values ...
@@ -118,10 +122,12 @@ def test_pbt_exploits_live_and_beats_its_starting_config(ray_session, start_runs
 
 
 def test_asha_stops_bad_trials_early(ray_session, tmp_path):
-    outcome = _fit(tmp_path, "asha", scheduler="asha", searcher="optuna", trials=3, max_epochs_per_trial=6,
-                   asha={"grace_epochs": 2, "reduction_factor": 3},
-                   params={"params.config.learning_rate": {"type": "loguniform", "low": 1e-5, "high": 1e-2}})
+    # grid order: lr 1e-2 (mean reward ~37 at epoch 10) and 1e-5 (~21) run first, side by side; the third
+    # (1e-5) starts when one of them ends, so it meets both at the epoch-10 rung and falls below the cut
+    outcome = _fit(tmp_path, "asha", scheduler="asha", searcher="grid", trials=1, max_epochs_per_trial=14,
+                   asha={"grace_epochs": 10, "reduction_factor": 3},
+                   params={"params.config.learning_rate": {"type": "categorical", "choices": [1e-2, 1e-5, 1e-5]}})
     iterations = sorted(r.metrics["training_iteration"] for r in outcome.results)
-    assert not outcome.results.errors and iterations[-1] == 6
-    assert iterations[0] < 6  # ASHA stopped at least one trial at a rung
+    assert len(iterations) == 3 and not outcome.results.errors and iterations[-1] == 14
+    assert iterations[0] == 10  # ASHA stopped a trial at the rung
     assert os.path.isfile(outcome.config_path) and os.path.isfile(outcome.table_path)
