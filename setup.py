@@ -9,9 +9,13 @@ EXTRAS = {
     "mujoco": ["gymnasium[mujoco]>=1.0,<2"],
     "onnx": ["onnx", "onnxruntime"],
     "wandb": ["wandb"],
-    "ray": ["ray>=2.9,<3"],
+    "ray": ["ray[tune]>=2.9,<3"],  # [tune]: pandas, pyarrow for --tune with backend: ray
     "tune": ["optuna>=3"],
-    "video": ["moviepy>=1.0", "pygame>=2.1"],
+    # pygame-ce (the maintained pygame fork, same `pygame` module): gymnasium's classic-control rendering.
+    # Not pygame itself: mpe2 (the pettingzoo extra) needs pygame-ce, and the two overwrite each other's files
+    "video": ["moviepy>=1.0", "pygame-ce>=2.5"],
+    # PettingZoo envs (env_name: pettingzoo); the MPE envs live in mpe2 since PettingZoo 1.25
+    "pettingzoo": ["pettingzoo>=1.25,<2", "mpe2>=1.0,<2"],
     # the documentation site: mkdocs build --strict (mkdocs.yml; tests/unit/test_docs_site.py builds it)
     "docs": ["mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom;

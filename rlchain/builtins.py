@@ -47,6 +47,10 @@ def register_builtins() -> None:
     NETWORKS.register("dqn", QNetworkBuilder, overwrite=True)
     ALGOS.register("sac", SACTrainer, overwrite=True)
     ALGOS.register("dqn", DQNTrainer, overwrite=True)
+    from rlchain.training.appo import APPOTrainer, ImpalaTrainer
+
+    ALGOS.register("appo", APPOTrainer, overwrite=True)
+    ALGOS.register("impala", ImpalaTrainer, overwrite=True)
     import rlchain.envs.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
     import rlchain.envs.test  # noqa: F401  (registers the test envs)

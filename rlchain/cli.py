@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
     p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx); "
                    "--tune: best config (default <base name>_best.yaml)")
+    p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
@@ -114,13 +115,15 @@ def _run(args: argparse.Namespace) -> int:
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
-        runner.export(args.checkpoint, args.output)
+        runner.export(args.checkpoint, args.output, args.policy)
         return 0
     if args.train:
         result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,
                               wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
             return 130
+    elif args.video and runner.params.policies is not None:
+        raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
     elif args.video:
         from rlchain.video import record_episodes
         files = record_episodes(runner.params, args.checkpoint, args.video, games=args.games or 1,

@@ -86,7 +86,9 @@ class Runner:
                               group.local_world_size if group is not None else 1)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
-        env = build_env(params, cfg.num_actors, seed, runners=True)
+        build_own = getattr(ALGOS.get(params.algo.name), "build_training_env", None)  # appo: its runners
+        env = build_own(params, seed) if build_own is not None else build_env(params, cfg.num_actors, seed,
+                                                                              runners=True)
         try:
             if isinstance(cfg, TrainConfig):  # the minibatch must divide the batch of all agents' rows
                 check_batch(cfg, params.source, int(getattr(env, "num_agents", 1) or 1))
@@ -122,6 +124,9 @@ class Runner:
         trainer = None
         try:
             trainer_class = ALGOS.get(params.algo.name)
+            if params.policies is not None:  # config.multi_agent: one PPO learner per policy
+                from rlchain.training.multi_policy import MultiPolicyTrainer
+                trainer_class = MultiPolicyTrainer
             make = getattr(trainer_class, "create", trainer_class)  # Loop.create: no leak if __init__ fails
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
             with communicator.building_with(group or communicator.SINGLE):
@@ -148,10 +153,18 @@ class Runner:
             if tracker is not None:
                 tracker.finish(exit_code=0 if ok else 1)
 
-    def export(self, checkpoint: str, output: str | None = None) -> str:
-        """Export the checkpoint's deterministic policy to ONNX (with a parity check); returns the path."""
+    def export(self, checkpoint: str, output: str | None = None, policy: str | None = None) -> str | list[str]:
+        """Export the checkpoint's deterministic policy to ONNX (with a parity check); returns the path.
+        With ``config.multi_agent``: one graph per policy (only ``policy`` when given); returns the paths."""
         from rlchain.export import export_from_cli
 
+        params = self._require()
+        if params.policies is not None:
+            from rlchain.export_policies import export_policies
+            return export_policies(params, checkpoint, output, policy)
+        if policy is not None:
+            from rlchain.config.errors import ConfigError
+            raise ConfigError(params.source, "--policy", "applies to configs with config.multi_agent only")
         return export_from_cli(self, checkpoint, output)
 
     def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
@@ -161,6 +174,9 @@ class Runner:
 
         params = self._require()
         set_threads(params.torch_threads, None, params.config.device)  # as training: 2 threads on 2 busy cores cost 30x
+        if params.policies is not None:  # config.multi_agent: every policy plays its agents
+            from rlchain.policy_player import play_policies
+            return play_policies(params, checkpoint, games, deterministic, quiet)
         player = Player(params, checkpoint, sigma=sigma)
         try:
             return player.play(games=games, deterministic=deterministic, quiet=quiet)

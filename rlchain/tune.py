@@ -15,6 +15,9 @@ A search file (YAML)::
       params.config.mini_epochs: {type: int, low: 1, high: 8}
       params.config.gamma: {type: categorical, choices: [0.98, 0.99, 0.995]}
 
+With ``backend: ray`` the same file runs on Ray Tune (FIFO, ASHA or population-based training,
+trials in parallel, on one machine or a cluster): see :mod:`rlchain.tuning` and docs/tuning.md.
+
 Each trial trains in-process with ``Runner().load(base, overrides).train()``; the epoch's mean
 reward is reported to Optuna and bad trials stop early (MedianPruner). The best trial's values
 are applied to the base config and written as a runnable YAML (default ``<base name>_best.yaml``),
@@ -39,6 +42,7 @@ import yaml
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw
 from rlchain.training.events import Callback
+from rlchain.tuning.spec import RAY_KEYS, RaySpec, backend_of, load_ray_spec
 
 INSTALL_HINT = "optuna is not installed: pip install rlchain[tune]"
 METRICS = ("mean_reward", "best_reward")
@@ -46,7 +50,7 @@ DIRECTIONS = ("maximize", "minimize")
 TYPES = {"loguniform": ("low", "high"), "uniform": ("low", "high"), "float": ("low", "high"),
          "int": ("low", "high"), "categorical": ("choices",)}
 KEYS = {"base", "metric", "direction", "trials", "max_epochs_per_trial", "overrides", "seed", "pruner",
-        "params", "timeout", "verbose"}
+        "params", "timeout", "verbose"} | RAY_KEYS
 
 
 def _import_optuna() -> Any:
@@ -73,6 +77,8 @@ class SearchSpec:
     params: dict[str, dict] = field(default_factory=dict)
     timeout: float | None = None
     verbose: bool = False
+    backend: str = "optuna"
+    ray: RaySpec | None = None  # the Ray Tune keys (backend: ray)
 
 
 def load_search(path: str) -> SearchSpec:
@@ -93,6 +99,9 @@ def load_search(path: str) -> SearchSpec:
     if not os.path.isfile(base):
         raise err("base", f"config file '{raw['base']}' not found")
     spec = SearchSpec(source=path, base=os.path.normpath(base))
+    spec.backend = backend_of(raw, path)
+    if spec.backend == "ray":
+        spec.ray = load_ray_spec(raw, path, _check_dist)
     spec.metric = raw.get("metric", spec.metric)
     if spec.metric not in METRICS:
         raise err("metric", f"'{spec.metric}' is not one of {', '.join(METRICS)}")
@@ -117,7 +126,9 @@ def load_search(path: str) -> SearchSpec:
     spec.verbose = bool(raw.get("verbose", False))
     spec.pruner = _pruner_spec(raw.get("pruner", {}), err)
     params = raw.get("params")
-    if not isinstance(params, dict) or not params:
+    if params is None and spec.ray is not None and spec.ray.pbt is not None:
+        params = {}  # pbt: the first values are drawn from the mutations
+    if not isinstance(params, dict) or (not params and spec.ray is None):
         raise err("params", "required: a mapping of key.path -> {type: ..., ...}")
     for key, dist in params.items():
         spec.params[_full_key(str(key))] = _check_dist(dist, err, f"params.{key}")
@@ -252,10 +263,14 @@ def _check_space(spec: SearchSpec) -> None:
 def run_search(search_path: str, output: str | None = None,
                train_dir: str | None = None) -> tuple[float, str]:
     """Run the search; returns (best value, path of the written best config)."""
+    spec = load_search(search_path)
+    if spec.backend == "ray":
+        from rlchain.tuning.ray_search import run_ray_search
+
+        return run_ray_search(spec, output, train_dir)
     optuna = _import_optuna()
     from rlchain.runner import Runner
 
-    spec = load_search(search_path)
     _check_space(spec)
     stem = os.path.splitext(os.path.basename(spec.base))[0]
     output = output or f"{stem}_best.yaml"

@@ -76,3 +76,9 @@ def aux_loss_terms(raw: Any) -> dict[str, torch.Tensor]:
             raise NetworkError(f"{where} must be a floating-point tensor, got {value.dtype}")
         out[name] = value.reshape(())
     return out
+
+
+def vtrace_policy_loss(log_probs: torch.Tensor, pg_advantages: torch.Tensor) -> torch.Tensor:
+    """IMPALA's policy-gradient loss per sample: -log pi(a|s) * min(rho-bar, pi/mu) * (q - V), the
+    advantage being V-trace's ``pg_advantages`` (a constant here)."""
+    return -log_probs * pg_advantages.detach()

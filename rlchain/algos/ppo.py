@@ -63,9 +63,7 @@ class PPOAgent:
         that returned them.
         """
         cfg = self.cfg
-        advantages = storage.advantages.sum(-1)  # several value heads add up, as in rl_games
-        if cfg.normalize_advantage:  # over the whole batch once, as rl_games does
-            advantages = normalize_advantages(advantages)
+        advantages = self._batch_advantages(storage)
         sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
                 "grad_norm": 0.0}
         count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
@@ -90,6 +88,14 @@ class PPOAgent:
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
         return out
+
+    def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
+        """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
+        normalized over the whole batch once when ``normalize_advantage``."""
+        advantages = storage.advantages.sum(-1)
+        if self.cfg.normalize_advantage:
+            advantages = normalize_advantages(advantages)
+        return advantages
 
     def _rank_mean(self, kl: float) -> float:
         """The KL the adaptive lr follows: averaged over ranks, so every rank sets the same lr."""
@@ -125,8 +131,7 @@ class PPOAgent:
                                                batch.action_masks)
             log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
             entropy = entropy.mean()
-            a_loss = policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip,
-                                 cfg.use_smooth_clamp).mean()
+            a_loss = self.surrogate(batch.log_probs, log_probs, batch.advantages).mean()
             if self.train_critic:
                 c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
                                     cfg.e_clip, cfg.clip_value).mean()
@@ -173,6 +178,11 @@ class PPOAgent:
             self.optimizer.step()
         del stats["loss"]
         return stats
+
+    def surrogate(self, old_log_probs: torch.Tensor, log_probs: torch.Tensor,
+                  advantages: torch.Tensor) -> torch.Tensor:
+        """Per-sample policy loss (B,): PPO's clipped surrogate (IMPALA replaces it)."""
+        return policy_loss(old_log_probs, log_probs, advantages, self.cfg.e_clip, self.cfg.use_smooth_clamp)
 
     def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
         """Flat shuffled minibatches, or whole sequences of seq_length steps for an RNN policy."""

@@ -8,6 +8,8 @@ import types
 import typing
 
 from rlchain.config import compat
+from rlchain.config.appo import APPOConfig, ImpalaConfig
+from rlchain.config.multi_agent import PolicySpec
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
 from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
 
@@ -20,17 +22,25 @@ ROOTS = [
     ("params.network (builder actor_critic)", "params.network", NetworkConfig, "builder actor_critic"),
     ("params.network (builder resnet_actor_critic: rl_games' IMPALA network; mlp, rnn, space as actor_critic)",
      "params.network", ResnetNetworkConfig, "builder resnet_actor_critic"),
+    ("params.config.multi_agent.policies.<name> (one policy of config.multi_agent; docs/multi_agent.md)",
+     "params.config.multi_agent.policies.<name>", PolicySpec, "multi_agent"),
     ("params.config for algo sac (keys shared with PPO have the same meaning)", "params.config", SACConfig,
      "algo sac"),
     ("params.network (builder soft_actor_critic)", "params.network", SACNetworkConfig, "builder soft_actor_critic"),
     ("params.config for algo dqn", "params.config", DQNConfig, "algo dqn"),
+    ("params.config for algo appo (asynchronous PPO on V-trace, docs/appo.md; keys shared with PPO have the same "
+     "meaning, horizon_length is the fragment length; status error: the key is an error for this algo)",
+     "params.config", APPOConfig, "algo appo"),
+    ("params.config for algo impala (the V-trace actor-critic, docs/appo.md; as algo appo otherwise)",
+     "params.config", ImpalaConfig, "algo impala"),
     ("params.network (builder dqn)", "params.network", DQNNetworkConfig, "builder dqn"),
 ]
 
 # Extra words for a nested section's heading, by key path.
 NOTES = {
     "params.config.self_play_config": "an env with set_opponent, see rlchain/training/self_play.py",
-    "params.config.env_runners": "Ray env workers: `env_runners: {}` or `vecenv_type: RAY` for the defaults",
+    "params.config.env_runners": "Ray env workers: `env_runners: {}` or `vecenv_type: RAY` for the defaults; "
+                                 "algos appo / impala: their runners, threads or Ray actors (docs/appo.md)",
     "params.config.central_value_config": "asymmetric actor-critic; the env sets use_central_value",
     "params.network.space": "exactly one; an empty value like `discrete:` selects it",
     "params.network.rnn": "training uses sequences of config.seq_length",
@@ -57,12 +67,12 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | key | meaning |
 |---|---|
 | `params.seed` | seed for python, numpy, torch and the envs (`--seed` overrides) |
-| `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), `sac`, `dqn`, or a registered algo |
+| `params.algo.name` | `a2c_discrete` or `a2c_continuous` (PPO), `sac`, `dqn`, `appo` or `impala` (asynchronous, V-trace), or a registered algo |
 | `params.model.name` | `discrete_a2c`, `multi_discrete_a2c` (MultiDiscrete / Tuple of Discrete / MultiBinary actions), `continuous_a2c_logstd` (sigma is log-std), `continuous_a2c` (sigma is std), `soft_actor_critic`, `dqn`; rl_games' old `*_lstm` names are read as these (see Renamed keys) |
 | `params.network` | network block; `name: actor_critic` and `resnet_actor_critic` are built in, user builders via `register_network` |
 | `params.config` | training keys below |
 | `params.torch_threads` | `torch.set_num_threads` for the training process (default on CPU: half the cores, at most 4; on CUDA: torch's choice) |
-| `params.update_threads` | CPU threads for the gradient updates only, while the envs are idle (rlchain key). Default: every core of the process's share, at most 4, when `torch_threads` is unset too (2 on 2 cores: PPO train steps/s 1.10-1.17x on envpool HalfCheetah, Ant and Hopper, SAC 1.26x); with `torch_threads` set, the same count |
+| `params.update_threads` | CPU threads for the gradient updates only, while the envs are idle (rlchain key). Default: every core of the process's share that other processes leave idle (cores less the 1-minute load average's whole part), at most 4, never fewer than the rollout's, when `torch_threads` is unset too (2 on an idle 2-core machine: PPO train steps/s 1.10-1.17x on envpool HalfCheetah, Ant and Hopper, SAC 1.26x; on a busy one a shared core stalls every op, several times slower); with `torch_threads` set, the same count |
 | `params.load_checkpoint`, `params.load_path` | deprecated, no effect: pass `--checkpoint` |
 | `params.import_modules` | list of Python modules imported before building (register your own networks/envs there) |
 
@@ -92,9 +102,12 @@ def _default(f: dataclasses.Field) -> str:
     return "None" if value is None else repr(value) if isinstance(value, str) else str(value)
 
 
-def _status(f: dataclasses.Field) -> str:
-    status = f.metadata.get("status", "yes")
-    return status
+def _status(f: dataclasses.Field, cls: type) -> str:
+    """The key's status; a key the algo's config class rejects (``not_for_this_algo``) is an error there."""
+    why = getattr(cls, "not_for_this_algo", {}).get(f.name)
+    if why is not None and f.name in {g.name for g in dataclasses.fields(cls)}:
+        return f"error: {why}"
+    return f.metadata.get("status", "yes")
 
 
 @dataclasses.dataclass
@@ -184,14 +197,15 @@ def render() -> str:
         hints = typing.get_type_hints(cls)
         for f in dataclasses.fields(cls):
             tp = str(hints[f.name]).replace("typing.", "").replace("<class '", "").replace("'>", "")
-            tp = tp.replace("rlchain.config.schema.", "").replace(" | ", " or ")
+            tp = tp.replace("rlchain.config.schema.", "").replace("rlchain.config.multi_agent.", "")
+            tp = tp.replace(" | ", " or ")
             doc = f.metadata.get("doc", "")
             choices = f.metadata.get("choices")
             if choices:
                 doc += " (choices: " + ", ".join("None" if c is None else str(c) for c in choices) + ")"
             for path in section.paths:
                 doc += ROW_NOTES.get(f"{path}.{f.name}", "")
-            lines.append(f"| `{f.name}` | {tp} | `{_default(f)}` | {_status(f)} | {doc.replace('|', '/')} |")
+            lines.append(f"| `{f.name}` | {tp} | `{_default(f)}` | {_status(f, cls)} | {doc.replace('|', '/')} |")
         lines.append("")
     lines += ["## rl_games keys accepted without effect", "", "| key | note |", "|---|---|"]
     for key, why in {**compat.NO_EFFECT_CONFIG_KEYS, **{f"network ... {k}": v for k, v in

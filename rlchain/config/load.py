@@ -110,7 +110,11 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         raise ConfigError(source, "params.config", f"expected a mapping, got {config_raw!r}")
     # an algorithm may declare its own config dataclass (e.g. off-policy keys); PPO uses TrainConfig
     config_class = getattr(ALGOS.get(algo.name), "config_class", TrainConfig)
-    config = parse_dataclass(config_class, compat.translate_config(config_raw, source), "params.config", source)
+    config_raw = compat.translate_config(config_raw, source)
+    for key, why in getattr(config_class, "not_for_this_algo", {}).items():  # TrainConfig keys an algo cannot use
+        if key in config_raw:
+            raise ConfigError(source, f"params.config.{key}", f"not used by algo {algo.name}: {why}; remove it")
+    config = parse_dataclass(config_class, config_raw, "params.config", source)
     _check_planned(config, "params.config", source)
     if isinstance(config, TrainConfig):
         _check_training(config, source)
@@ -134,9 +138,49 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
                           "params.network is the actor; put the critic under config.central_value_config.network")
     if isinstance(config, TrainConfig) and config.central_value_config is not None:
         _check_central_value(config, source)
-    return Params(algo=algo, model=model, config=config, network=network, seed=seed,
-                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
-                  source=source)
+    out = Params(algo=algo, model=model, config=config, network=network, seed=seed,
+                 import_modules=modules, torch_threads=threads, update_threads=update_threads,
+                 source=source)
+    if getattr(config, "multi_agent", None) is not None:
+        out.policies = _policy_params(out, params, source)
+    return out
+
+
+def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Params]:
+    """``config.multi_agent``: each policy's own Params -- the top-level network, model and config with
+    the policy's ``network`` / ``model`` / ``config`` in their place (see rlchain/config/multi_agent.py)."""
+    from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
+    from rlchain.registry import MODELS, NETWORKS
+
+    ma = top.config.multi_agent
+    if top.network is not None and isinstance(top.network, (NetworkConfig, ResnetNetworkConfig)) \
+            and top.network.rnn is not None:
+        raise ConfigError(source, "params.network.rnn", "multi_agent policies are feedforward for now "
+                                                        "(recurrent policies: not implemented)")
+    names = check_multi_agent(ma, source)
+    base = {k: v for k, v in compat.translate_config(raw_params["config"], source).items() if k != "multi_agent"}
+    out = {}
+    for name in names:
+        path = f"{KEY}.policies.{name}"
+        spec = parse_dataclass(PolicySpec, ma.policies.get(name) or {}, path, source)
+        for key in spec.config:
+            if key in RUN_LEVEL_KEYS:
+                raise ConfigError(source, f"{path}.config.{key}", "is a run-level key: set it at params.config")
+        merged = {**base, **compat.translate_config(spec.config, source)}
+        if "minibatch_size" in spec.config:
+            merged.pop("minibatch_size_per_env", None)
+        config = parse_dataclass(TrainConfig, merged, f"{path}.config", source)
+        _check_training(config, source)
+        network = top.network if spec.network is None else _parse_network(spec.network, source, f"{path}.network")
+        _check_registered(NETWORKS, _network_name(network), f"{path}.network.name", source)
+        if isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and network.rnn is not None:
+            raise ConfigError(source, f"{path}.network.rnn", "multi_agent policies are feedforward for now")
+        model = top.model if spec.model is None else parse_dataclass(
+            NamedBlock, compat.translate_model(spec.model, source), f"{path}.model", source)
+        _check_registered(MODELS, model.name, f"{path}.model.name", source)
+        out[name] = Params(algo=top.algo, model=model, config=config, network=network, seed=top.seed,
+                           torch_threads=top.torch_threads, update_threads=top.update_threads, source=source)
+    return out
 
 
 def load_config(path: str, overrides: list[str] | None = None) -> Params:

@@ -7,10 +7,12 @@ Defaults live here once. ``docs/config.md`` is generated from these docstrings
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.config.compile import check_compile
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
+from rlchain.config.hyperparam_schedule import check_hyperparam_schedule
+from rlchain.config.multi_agent import MultiAgentConfig
 
 ACTIVATIONS = ("relu", "tanh", "sigmoid", "elu", "selu", "swish", "silu", "gelu", "softplus",
                "leaky_relu", "mish", "identity", "None")
@@ -335,11 +337,17 @@ class RunConfig:
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "
                                        "costs ~30 s on a CPU)", check=check_compile)
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    hyperparam_schedule: dict = option({}, "rlchain: {epoch: {name: value}}, live values set after that many "
+                                           "epochs through set_params (0 = from the start), e.g. the schedule "
+                                           "a PBT winner followed (--tune, docs/tuning.md); names from the "
+                                           "algorithm's tunable", check=check_hyperparam_schedule)
 
 
 @dataclass
 class TrainConfig(RunConfig):
     """``params.config``: the training keys of an rl_games config."""
+
+    not_for_this_algo: ClassVar[dict[str, str]] = {"appo": "it configures algos appo and impala"}
 
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
                                            "envpool, RAY (Ray workers, see env_runners)")
@@ -414,6 +422,9 @@ class TrainConfig(RunConfig):
                                            "get_action_mask() (discrete and multi-discrete actions)")
     self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "
                                                            "env's opponent (needs env set_opponent)")
+    multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each "
+                                                        "with its own model and optimizer (env_name: "
+                                                        "pettingzoo; docs/multi_agent.md)")
     multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
                                     "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
                                     "minibatch_size are per process, gradients are averaged, rank 0 saves")
@@ -468,3 +479,4 @@ class Params:
     torch_threads: int | None = None  # torch.set_num_threads for this process (rl_games key)
     update_threads: int | None = None  # CPU threads for the gradient updates (default: all cores, at most 4)
     source: str = ""
+    policies: dict[str, Params] | None = None  # config.multi_agent: each policy's own Params (load.py)

@@ -29,6 +29,7 @@ from rlchain.envs.brax_env import brax_env
 from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
 from rlchain.envs.multi_agent import make_multi_agent_env
+from rlchain.envs.pettingzoo_env import pettingzoo_env
 from rlchain.envs.reward_action_obs import RewardActionObs
 from rlchain.envs.vecenv import VecEnv
 from rlchain.registry import ENVS, VECENVS
@@ -205,6 +206,7 @@ def _did_you_mean(name: str, candidates: Any) -> str:
 ENVS.register("openai_gym", openai_gym_env)
 ENVS.register("envpool", envpool_env)
 ENVS.register("brax", brax_env)  # imports jax/brax only when built
+ENVS.register("pettingzoo", pettingzoo_env)  # imports pettingzoo (and the env's package) only when built
 VECENVS.register("gymnasium", GymnasiumVecEnv)
 VECENVS.register("envpool", EnvpoolVecEnv)
 

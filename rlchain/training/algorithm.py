@@ -16,8 +16,10 @@ registration::
 
     ALGOS.register("my_algo", MyTrainer)               # in the package's __init__.py
 
-PPO (:mod:`rlchain.training.on_policy`), SAC and DQN (:mod:`rlchain.training.off_policy`) are
-built this way; the Loop never names a loss.
+PPO (:mod:`rlchain.training.on_policy`), SAC and DQN (:mod:`rlchain.training.off_policy`), APPO and
+IMPALA (:mod:`rlchain.training.appo`) are built this way; the Loop never names a loss. An algorithm
+that brings its own env runners names them with a classmethod ``build_training_env(params, seed)``,
+which the Runner calls instead of building the vectorized env.
 """
 
 from __future__ import annotations

@@ -58,7 +58,11 @@ def value_size_of(env: Any) -> int:
 
 
 def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
-    """Network from the network registry, wrapped by the model preset from the model registry."""
+    """Network from the network registry, wrapped by the model preset from the model registry; with
+    ``config.multi_agent``, a ModuleDict of one such model per policy (training/policies.py)."""
+    if getattr(params, "policies", None) is not None:
+        from rlchain.training.policies import build_policy_models
+        return build_policy_models(params, env, device)
     obs_space, act_space = env.observation_space, env.action_space
     declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
     split = obs_state_split(obs_space)  # [obs | state] from a central-value env: the actor reads obs
@@ -126,7 +130,12 @@ def _network_name(network: Any) -> str:
 
 
 def apply_sigma(model: Any, sigma: float) -> None:
-    """``--sigma``: a one-line ConfigError when the policy has no fixed sigma to set."""
+    """``--sigma``: a one-line ConfigError when the policy has no fixed sigma to set (every policy's,
+    with config.multi_agent)."""
+    if isinstance(model, torch.nn.ModuleDict):
+        for policy in model.values():
+            apply_sigma(policy, sigma)
+        return
     try:
         model.override_sigma(sigma)
     except ValueError as exc:

@@ -97,6 +97,12 @@ class EpisodeTracker:
         for flags in (self.success_seen, self.success_any, self.success_last):
             flags[rows][idx] = False
 
+    def record(self, returns: list[float], lengths: list[int]) -> None:
+        """Games finished elsewhere (an asynchronous runner tracked them): add them as they are."""
+        self.finished_returns.extend(returns)
+        self.finished_lengths.extend(lengths)
+        self.games += len(returns)
+
     def reset_running(self) -> None:
         """Forget episodes in progress (after an env reset)."""
         self.returns.zero_()

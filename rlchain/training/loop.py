@@ -31,6 +31,7 @@ from rlchain.training.communicator import Communicator
 from rlchain.training.episodes import EpisodeTracker, game_outcome
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
 from rlchain.training.logging import EnvStatsCallback, TrainLogger
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import DivergenceGuard, StopSignals, check_obs_shape, check_parameters
@@ -61,6 +62,7 @@ class Loop:
     console_fields: ClassVar[tuple[tuple[str, str], ...]] = ()
     tunable: ClassVar[tuple[str, ...]] = ()
     supports_distributed: ClassVar[bool] = False
+    env_self_play: ClassVar[bool] = True  # self_play_config loads opponents into the env (set_opponent)
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
                  run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
@@ -86,8 +88,11 @@ class Loop:
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
-        if getattr(cfg, "self_play_config", None) is not None:
+        if getattr(cfg, "self_play_config", None) is not None and self.env_self_play:
             self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))
+        if getattr(cfg, "hyperparam_schedule", None):  # a replayed PBT schedule, through set_params
+            check_names(cfg.hyperparam_schedule, self.tunable, params.algo.name, params.source)
+            self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.agent: Any = None

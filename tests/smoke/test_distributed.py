@@ -144,6 +144,19 @@ def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
 
 
 @pytest.mark.timeout(180)
+def test_appo_learner_is_data_parallel(tmp_path):
+    """appo under torchrun: each rank has its runners and learner; gradients, normalizers (each folds both
+    ranks' batches), the adaptive lr and the frame counter stay identical."""
+    cfg = os.path.join(CONFIGS, "appo_pendulum.yaml")
+    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, "params.config.max_epochs=3")], tmp_path)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    states = load_dumps(dumps)
+    assert_ranks_identical(states)
+    assert states[0]["model"]["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+    assert states[0]["frames"] >= 3 * 2 * 16 * 64
+
+
+@pytest.mark.timeout(180)
 def test_rnn_policy_stays_identical(tmp_path):
     """LSTM policy trained on sequence minibatches: the same gradient sync keeps the ranks equal."""
     cfg = os.path.join(CONFIGS, "ppo_cartpole_masked_velocity_rnn.yaml")

@@ -215,3 +215,31 @@ def _wait_dead(ray, worker, seconds=30.0):
             return
         time.sleep(0.05)
     raise AssertionError("the killed Ray worker still answers")
+
+
+class KillAppoRunner(Callback):
+    """SIGKILLs appo Ray runner 1's process at the end of the given epochs; remembers the restarts."""
+
+    def __init__(self, epochs):
+        self.epochs, self.restarts, self.lost = epochs, None, None
+
+    def on_epoch_end(self, trainer, stats, episodes):
+        if trainer.epoch in self.epochs:
+            os.kill(trainer.pool.worker_pids()[1], signal.SIGKILL)
+
+    def on_train_end(self, trainer, result):
+        self.restarts, self.lost = list(trainer.pool.restarts), trainer.pool.lost_fragments
+
+
+@pytest.mark.timeout(180)
+def test_appo_on_ray_actors_finishes_despite_a_killed_runner(tmp_path):
+    raw = ray_ppo_config(tmp_path, epochs=8)
+    raw["params"]["algo"]["name"] = "appo"
+    config = raw["params"]["config"]
+    del config["vecenv_type"]
+    config.update(horizon_length=8, minibatch_size=32, appo={"runners": "ray", "learner_queue_size": 4})
+    killer = KillAppoRunner(epochs={2})
+    result = Runner().load(raw).train(callbacks=[killer])
+    assert result.epoch == 8 and result.stop_reason == "max_epochs 8 reached"
+    assert killer.restarts == [0, 1] and killer.lost == 1
+    assert wait_for_free_cpus(CPUS) == CPUS  # the pool's actors were stopped

@@ -5,7 +5,7 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
-from rlchain.training.threads import ThreadPlan, plan_threads
+from rlchain.training.threads import ThreadPlan, idle_cores, plan_threads
 
 BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
                    "network": {"name": "actor_critic", "mlp": {"units": [8]}},
@@ -14,12 +14,22 @@ BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete
 
 
 def test_default_is_half_the_cores_for_the_rollout_and_all_of_them_for_the_update():
-    assert plan_threads(None, None, "cpu", cores=8) == ThreadPlan(4, 4)
-    assert plan_threads(None, None, "cpu", cores=4) == ThreadPlan(2, 4)
-    assert plan_threads(None, None, "cpu", cores=2) == ThreadPlan(1, 2)
-    assert plan_threads(None, None, "cpu", cores=1) == ThreadPlan(1, 1)
-    assert plan_threads(None, None, "cpu", cores=32) == ThreadPlan(4, 4)
-    assert plan_threads(None, None, "cpu", processes=2, cores=4) == ThreadPlan(1, 2)
+    assert plan_threads(None, None, "cpu", cores=8, load=0.0) == ThreadPlan(4, 4)
+    assert plan_threads(None, None, "cpu", cores=4, load=0.0) == ThreadPlan(2, 4)
+    assert plan_threads(None, None, "cpu", cores=2, load=0.9) == ThreadPlan(1, 2)
+    assert plan_threads(None, None, "cpu", cores=1, load=0.0) == ThreadPlan(1, 1)
+    assert plan_threads(None, None, "cpu", cores=32, load=0.0) == ThreadPlan(4, 4)
+    assert plan_threads(None, None, "cpu", processes=2, cores=4, load=0.0) == ThreadPlan(1, 2)
+
+
+def test_default_update_leaves_out_the_cores_other_processes_keep_busy():
+    assert plan_threads(None, None, "cpu", cores=2, load=1.2) == ThreadPlan(1, 1)
+    assert plan_threads(None, None, "cpu", cores=2, load=7.0) == ThreadPlan(1, 1)
+    assert plan_threads(None, None, "cpu", cores=8, load=5.5) == ThreadPlan(4, 4)  # never below the rollout's
+    assert plan_threads(None, None, "cpu", cores=16, load=13.0) == ThreadPlan(4, 4)
+    assert plan_threads(None, None, "cpu", cores=4, load=3.0) == ThreadPlan(2, 2)
+    assert plan_threads(None, 2, "cpu", cores=2, load=7.0) == ThreadPlan(1, 2)  # asked for: kept
+    assert idle_cores(4, 2.7) == 2 and idle_cores(2, 9.0) == 1 and idle_cores(2, 0.0) == 2
 
 
 def test_an_explicit_torch_threads_also_caps_the_update_unless_update_threads_is_set():

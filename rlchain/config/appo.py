@@ -1,0 +1,93 @@
+"""Typed ``params.config`` for the asynchronous algorithms ``appo`` and ``impala`` (V-trace).
+
+They train the PPO model with the PPO agent's optimizer, normalizers and lr schedules, so they
+share :class:`~rlchain.config.schema.TrainConfig`'s keys with the same meaning; ``horizon_length``
+is the length of a runner's trajectory fragment and one epoch is one learner batch of
+``num_actors * horizon_length`` frames. The keys that make no sense for them are listed in
+``not_for_this_algo`` and are an error (``rlchain.config.load`` checks them before parsing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from rlchain.config.fields import option, positive
+from rlchain.config.schema import TrainConfig
+
+
+def _clip(x: float | None) -> str | None:
+    return None if x is None or x > 0 else "must be > 0 (or None: no clipping)"
+
+
+@dataclass
+class AppoBlock:
+    """``config.appo``: the asynchronous actor-learner (runners never wait for the learner)."""
+
+    vtrace_clip_rho: float | None = option(1.0, "V-trace rho-bar: clip of the importance ratio pi/mu in the TD "
+                                                "errors (None: no clipping)", check=_clip)
+    vtrace_clip_c: float | None = option(1.0, "V-trace c-bar: clip of the trace ratios (None: no clipping)",
+                                         check=_clip)
+    max_policy_lag: int = option(4, "fragments sampled by a policy more than this many versions behind the "
+                                    "learner's are dropped and counted (appo/dropped_fragments)",
+                                 check=lambda x: None if x >= 0 else "must be >= 0")
+    learner_queue_size: int = option(16, "fragments waiting for the learner at most; full, runners wait "
+                                         "(backpressure, bounded memory)", check=positive)
+    broadcast_interval: int = option(1, "send the runners new weights every this many learner updates",
+                                     check=positive)
+    runners: str = option("auto", "local: runner threads in this process; ray: Ray actors (env_runners.address "
+                                  "names a cluster); auto: ray when env_runners.address or RAY_ADDRESS is set, "
+                                  "else local", choices=("auto", "local", "ray"))
+    fragment_timeout_s: float = option(60.0, "a runner that delivers no fragment within this is treated as "
+                                             "hung and replaced (env_runners.max_restarts)", check=positive)
+
+
+RNN_NOTE = "the asynchronous runners carry no RNN state yet: use a feed-forward network"
+
+
+@dataclass
+class APPOConfig(TrainConfig):
+    """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
+    (``mini_epochs``) per learner batch."""
+
+    appo: AppoBlock = option(AppoBlock(), "the asynchronous learner (rlchain)")
+
+    not_for_this_algo: ClassVar[dict[str, str]] = {
+        "tau": "it is GAE's lambda; V-trace's trace is cut by appo.vtrace_clip_c",
+        "env_groups": "runners step their envs on their own",
+        "central_value_config": "no asymmetric critic for the asynchronous learner yet",
+        "self_play_config": "no self-play for the asynchronous learner yet",
+        "use_action_masks": "the runners carry no action masks yet",
+        "seq_length": RNN_NOTE, "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
+        "torch_compile": "supported for PPO only so far",
+    }
+
+    def validate(self) -> tuple[str, str] | None:
+        """Every runner holds the same number of envs, so every fragment has the same shape."""
+        appo = self.appo
+        if appo.max_policy_lag < appo.broadcast_interval - 1:  # every fragment would be too old: no progress
+            return "appo.max_policy_lag", (f"{appo.max_policy_lag} is below broadcast_interval - 1 = "
+                                           f"{appo.broadcast_interval - 1}: runners hold weights that many versions "
+                                           f"old between broadcasts, so every fragment would be dropped")
+        runners = self.env_runners
+        if runners is not None and runners.num_workers is not None and self.num_actors % runners.num_workers:
+            return "env_runners.num_workers", (f"num_actors {self.num_actors} does not divide by {runners.num_workers} "
+                                               f"workers: appo/impala runners need equal env slices")
+        return None
+
+
+@dataclass
+class ImpalaConfig(APPOConfig):
+    """``params.config`` for algo ``impala``: the V-trace actor-critic (policy gradient weighted by the clipped
+    ratio, no surrogate clipping), one pass over each learner batch."""
+
+    not_for_this_algo: ClassVar[dict[str, str]] = {
+        **APPOConfig.not_for_this_algo,
+        "e_clip": "impala has no clipped surrogate (use algo appo)",
+        "clip_value": "impala has no value clipping (use algo appo)",
+        "mini_epochs": "impala makes one pass over each batch (use algo appo for several)",
+    }
+
+    def validate(self) -> tuple[str, str] | None:
+        self.mini_epochs = 1
+        return super().validate()

@@ -1,0 +1,127 @@
+"""Ray Tune search (``backend: ray``): PBT exploits through live set_params and beats its starting
+config, a crashed trial restarts from its checkpoint, ASHA and FIFO run. One Ray session for all."""
+
+import glob
+import json
+import math
+import os
+import statistics
+
+import pytest
+import yaml
+
+from tests.conftest import CONFIGS
+
+pytest.importorskip("ray.tune", reason="pip install rlchain[ray]")
+
+from rlchain.config import load_config  # noqa: E402
+from rlchain.runner import Runner  # noqa: E402
+from rlchain.tune import load_search  # noqa: E402
+from rlchain.tuning import ray_search  # noqa: E402
+from rlchain.tuning.spec import RaySpec  # noqa: E402
+
+BASE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+EPOCHS = 30
+START_LR = 2e-5  # barely learns in 30 epochs: the starting config every trial of both runs begins with
+# games_to_track 32: the mean reward follows the policy of the last ~2 epochs (PBT compares trials by it)
+FIXED = ["params.config.lr_schedule=None", "params.config.save_best_after=1000", "params.config.games_to_track=32"]
+
+
+@pytest.fixture(scope="module")
+def ray_session():
+    import ray
+
+    handlers = ray_search._signal_handlers()
+    started = ray_search._connect(ray, RaySpec(num_cpus=2))
+    yield
+    if started:
+        ray.shutdown()
+    ray_search._restore_signal_handlers(handlers)
+
+
+def _fit(tmp_path, name, **keys):
+    search = {"base": BASE, "backend": "ray", "metric": "mean_reward", "trials": 4, "concurrent": 2,
+              "max_epochs_per_trial": EPOCHS, "overrides": FIXED, "seed": 0, **keys}
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(search))
+    return ray_search.fit(load_search(str(path)), output=str(tmp_path / name / "best.yaml"),
+                          train_dir=str(tmp_path / name / "runs"))
+
+
+def _final(outcome):
+    return [r.metrics["mean_reward"] for r in outcome.results if "mean_reward" in (r.metrics or {})]
+
+
+@pytest.fixture(scope="module")
+def start_runs(ray_session, tmp_path_factory):
+    """FIFO: the starting config, 4 seeds (the fifo smoke test and PBT's yardstick); the first trial to
+    reach epoch 5 crashes once (tests/smoke/tune_crash.py) and must resume from its epoch-3 checkpoint."""
+    tmp = tmp_path_factory.mktemp("fifo")
+    return tmp, _fit(tmp, "fifo", scheduler="fifo", searcher="grid", checkpoint_epochs=3, max_failures=1,
+                     overrides=FIXED + ["params.config.callbacks=[tests.smoke.tune_crash:CrashOnce]"],
+                     params={"params.config.learning_rate": {"type": "categorical", "choices": [START_LR]}})
+
+
+def test_fifo_runs_every_trial_to_the_end(start_runs):
+    _, outcome = start_runs
+    assert len(outcome.results) == 4 and not outcome.results.errors
+    assert all(r.metrics["training_iteration"] == EPOCHS for r in outcome.results)
+    assert len(set(_final(outcome))) > 1  # distinct seeds per trial
+    assert load_config(outcome.config_path).config.learning_rate == pytest.approx(START_LR)
+
+
+def test_crashed_trial_restarts_from_its_checkpoint(start_runs):
+    from tests.smoke.tune_crash import CRASH_AT
+
+    tmp, outcome = start_runs
+    assert len(glob.glob(str(tmp / "fifo" / "runs" / "*" / "crashed_once"))) == 1  # one trial crashed ...
+    restored = []
+    for result in outcome.results:
+        frame = result.metrics_dataframe
+        restored += frame[frame["restored_epoch"] >= 0]["restored_epoch"].tolist()
+    assert restored == [3] and 3 < CRASH_AT  # ... and resumed from its epoch-3 checkpoint, not from scratch
+
+
+def test_pbt_exploits_live_and_beats_its_starting_config(ray_session, start_runs, tmp_path):
+    outcome = _fit(tmp_path, "pbt", scheduler="pbt",
+                   params={"params.config.learning_rate": {"type": "categorical", "choices": [START_LR]}},
+                   pbt={"interval_epochs": 3, "quantile": 0.25, "resample_probability": 0.5,
+                        "perturbation_factors": [2.0, 0.5],
+                        "mutations": {"params.config.learning_rate":
+                                      {"type": "loguniform", "low": 1e-4, "high": 1e-2},
+                                      "params.config.entropy_coef": {"type": "uniform", "low": 0.0, "high": 0.01}}})
+    assert not outcome.results.errors
+    # an exploit: a trial resumed from another's checkpoint with perturbed values ...
+    assert outcome.exploits, "no PBT exploit happened"
+    exploit = outcome.exploits[0]
+    assert exploit["from"] != exploit["trial"] and exploit["before"] != exploit["after"]
+    # ... and the perturbed values went live through set_params (get_params reports them)
+    for result in outcome.results:
+        frame = result.metrics_dataframe
+        rows = frame[frame["exploited_from"].fillna("").astype(str) != ""]
+        for _, row in rows.iterrows():
+            after = json.loads(row["exploit"])["after"]
+            assert row["hp/learning_rate"] == pytest.approx(after["params.config.learning_rate"], rel=1e-5)
+            assert row["hp/entropy_coef"] == pytest.approx(after["params.config.entropy_coef"], rel=1e-5)
+    best = max(_final(outcome))
+    median = statistics.median(_final(start_runs[1]))
+    lrs = {r.metrics["trial_id"]: r.metrics_dataframe["hp/learning_rate"].round(6).tolist() for r in outcome.results}
+    assert best > median + 20, (best, median, _final(outcome), lrs)
+    # the winner's schedule: a config that replays it
+    params = load_config(outcome.schedule_path)
+    schedule = params.config.hyperparam_schedule
+    assert 0 in schedule and schedule[0]["learning_rate"] == pytest.approx(START_LR)
+    replay = Runner().load(outcome.schedule_path, ["params.config.max_epochs=2", "params.config.print_stats=false",
+                                                   f"params.config.train_dir={tmp_path / 'replay'}"]).train()
+    assert replay.epoch == 2
+    assert math.isfinite(outcome.best_value)
+
+
+def test_asha_stops_bad_trials_early(ray_session, tmp_path):
+    outcome = _fit(tmp_path, "asha", scheduler="asha", searcher="optuna", trials=3, max_epochs_per_trial=6,
+                   asha={"grace_epochs": 2, "reduction_factor": 3},
+                   params={"params.config.learning_rate": {"type": "loguniform", "low": 1e-5, "high": 1e-2}})
+    iterations = sorted(r.metrics["training_iteration"] for r in outcome.results)
+    assert not outcome.results.errors and iterations[-1] == 6
+    assert iterations[0] < 6  # ASHA stopped at least one trial at a rung
+    assert os.path.isfile(outcome.config_path) and os.path.isfile(outcome.table_path)

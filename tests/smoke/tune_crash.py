@@ -1,0 +1,18 @@
+"""A callback that crashes a Ray Tune trial once (tests/smoke/test_tune_ray.py): Tune must restart the
+trial from its last checkpoint (FailureConfig). The marker file in the search's train_dir makes it
+crash only the first time, across the restarted actor."""
+
+import os
+
+from rlchain.training.events import Callback
+
+CRASH_AT = 5
+
+
+class CrashOnce(Callback):
+    def on_epoch_end(self, trainer, stats, episodes):
+        marker = os.path.join(trainer.cfg.train_dir, "crashed_once")
+        if trainer.epoch == CRASH_AT and not os.path.exists(marker):
+            with open(marker, "w", encoding="utf-8") as fh:
+                fh.write(f"crashed at epoch {trainer.epoch}\n")
+            raise RuntimeError("deliberate crash (test)")
