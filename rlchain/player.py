@@ -40,15 +40,20 @@ class Player:
         games = games or pc.games_num
         deterministic = pc.deterministic if deterministic is None else deterministic
 
-        def report(index: int, reward: float, length: int) -> None:
+        def report(index: int, reward: float, length: int, success: float | None) -> None:
             if pc.print_stats and not quiet:
-                print(f"game {index}: reward {reward:.2f} steps {length}", flush=True)
+                won = "" if success is None else f" success {'yes' if success else 'no'}"
+                print(f"game {index}: reward {reward:.2f} steps {length}{won}", flush=True)
 
+        cfg = self.params.config
         result = run_episodes(self.model, self.env, games, deterministic, self.device, seed=self.seed,
-                              on_game=report, render_sleep=pc.render_sleep if pc.render else None)
+                              on_game=report, render_sleep=pc.render_sleep if pc.render else None,
+                              success_key=cfg.success_key, success_mode=cfg.success_mode)
         if not quiet:
+            rate = result.success_rate
+            won = "" if rate is None else f" success rate: {rate:.2f} ({len(result.successes)} games)"
             print(f"av reward: {result.mean_reward:.2f} av steps: {result.mean_length:.1f} over "
-                  f"{result.games} games", flush=True)
+                  f"{result.games} games{won}", flush=True)
         return result
 
     def close(self) -> None:

@@ -30,6 +30,25 @@ def _check_bounds(b: list[float]) -> str | None:
 
 
 @dataclass
+class HERConfig:
+    """``config.replay.her`` (rlchain): hindsight experience replay for goal envs (Dict observations with
+    achieved_goal / desired_goal and a compute_reward; see rlchain/algos/her.py)."""
+
+    strategy: str = option("future", "where hindsight goals come from: future = the goal achieved at a random "
+                                     "later step of the same episode, final = at its last step",
+                           choices=("future", "final"))
+    k: int = option(4, "hindsight goals per real goal: k / (k + 1) of each minibatch is relabelled", check=positive)
+
+
+@dataclass
+class ReplayConfig:
+    """``config.replay`` (rlchain): replay buffer extensions."""
+
+    her: HERConfig | None = option(None, "hindsight experience replay, e.g. {strategy: future, k: 4}",
+                                   empty_is_present=True)
+
+
+@dataclass
 class OffPolicyConfig(RunConfig):
     """Keys shared by every off-policy algorithm (generic rl_games keys + the replay buffer)."""
 
@@ -51,6 +70,7 @@ class OffPolicyConfig(RunConfig):
     priority_alpha: float = option(0.6, "prioritized replay: priority exponent", check=non_negative)
     priority_beta: float = option(0.4, "prioritized replay: initial importance-sampling exponent, annealed "
                                        "to 1 over max_frames (or max_epochs)", check=unit_interval)
+    replay: ReplayConfig = option(ReplayConfig(), "replay buffer extensions (rlchain): her")
     save_replay_buffer: bool = option(False, "store the replay buffer in the last checkpoint (exact resume, "
                                              "large files)")
     mixed_precision: bool = option(False, "autocast on CUDA", status="planned (off-policy AMP)")
@@ -74,6 +94,8 @@ class OffPolicyConfig(RunConfig):
         if self.batch_size > self.replay_buffer_size:
             return "batch_size", (f"batch_size {self.batch_size} is larger than replay_buffer_size "
                                   f"{self.replay_buffer_size}")
+        if self.replay.her is not None and (self.n_step != 1 or self.prioritized_replay):
+            return "replay.her", "hindsight replay works with n_step 1 and prioritized_replay False"
         if self.torch_compile not in (False, None, "false", "False"):
             return "torch_compile", "supported for PPO only so far; remove it or set false"
         return None

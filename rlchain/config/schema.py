@@ -314,6 +314,14 @@ class RunConfig:
     max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
     max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
     score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
+    success_to_win: float = option(float("inf"), "stop once the success rate of the tracked episodes reaches "
+                                                  "this (0..1; envs that report success, see success_key)")
+    success_key: str = option("auto", "info key holding task success (rlchain): auto = `success` (MetaWorld, "
+                                      "MuJoCo Playground), else `is_success` (gymnasium-robotics); none = off. "
+                                      "Logged as episodes/success_rate")
+    success_mode: str = option("any", "an episode succeeded when the success value was true at any of its "
+                                      "steps (MetaWorld's rule) or at its last step (gymnasium-robotics')",
+                               choices=("any", "last"))
     save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
     save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)",
                                  check=non_negative)

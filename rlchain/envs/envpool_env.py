@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from rlchain.envs.goal_env import fetch_compute_reward
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers import (
     cast_actions,
@@ -178,6 +179,18 @@ class EnvpoolVecEnv:
             new_obs, _, _, _, reset_info = pool.step(noop, ids)  # envpool's auto-reset step
             obs[np.asarray(reset_info["env_id"])] = self._obs(new_obs)
         return StepResult(obs, reward, terminated, truncated, final_obs, infos, *game)
+
+    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None) -> np.ndarray:
+        """Goals (B, G) -> rewards (B,) for envpool's Fetch tasks, which expose no ``compute_reward``:
+        gymnasium-robotics' documented Fetch reward (``envs/goal_env.fetch_compute_reward``) with the
+        task's ``distance_threshold`` and ``reward_type``. ValueError for other tasks."""
+        if not self.task_id.startswith("Fetch"):
+            raise ValueError(f"envpool task '{self.task_id}' has no compute_reward: hindsight replay needs a "
+                             f"goal env (envpool's Fetch tasks)")
+        config = self._envpool.make_spec(self.task_id).config._asdict()
+        config.update(self._kwargs)
+        return fetch_compute_reward(achieved_goal, desired_goal, info, float(config["distance_threshold"]),
+                                    str(config["reward_type"]))
 
     def render(self) -> Any:
         """Pass-through to envpool's ``render()`` (env 0; needs ``render=True`` at creation)."""

@@ -107,6 +107,9 @@ class GymnasiumVecEnv:
             kwargs["render_mode"] = "human"
         self.mode = mode
         self.num_envs = num_envs
+        self.env_id = env_id
+        self._goal_env: Any = None  # a copy of one env for compute_reward (hindsight replay)
+        self._goal_kwargs = {k: v for k, v in kwargs.items() if k != "render_mode"}
         self._seed = seed
         self._reset_rows = None
         self._has_mask: bool | None = None
@@ -164,6 +167,20 @@ class GymnasiumVecEnv:
         """Pass-through to the vector env's ``render()`` (frames for ``human`` mode are drawn)."""
         return self.env.render()
 
+    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None) -> np.ndarray:
+        """The env's own ``compute_reward`` (gymnasium-robotics goal envs), batched: goals (B, G) -> (B,)
+        float32. Evaluated on one extra copy of the env, so it works in every vectorization mode."""
+        if self._goal_env is None:
+            env = gym.make(self.env_id, **self._goal_kwargs).unwrapped
+            if not callable(getattr(env, "compute_reward", None)):
+                env.close()
+                raise ValueError(f"'{self.env_id}' has no compute_reward: hindsight replay needs a goal env")
+            self._goal_env = env
+        return np.asarray(self._goal_env.compute_reward(achieved_goal, desired_goal, info), dtype=np.float32)
+
     def close(self) -> None:
         """Close the envs (and the worker processes in async mode)."""
         self.env.close()
+        if self._goal_env is not None:
+            self._goal_env.close()
+            self._goal_env = None

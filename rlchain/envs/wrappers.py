@@ -26,7 +26,9 @@ def float32_obs_space(space: gym.Space) -> gym.Space:
     A Dict space (DeepMind Control through envpool) becomes the flat float32 Box that
     :func:`flatten_dict_obs` produces. Other spaces are returned unchanged.
     """
-    if isinstance(space, gym.spaces.Dict):
+    if isinstance(space, gym.spaces.Dict):  # flattened in key order; the parts stay named (dict_space)
+        if all(isinstance(s, gym.spaces.Box) for s in space.spaces.values()):
+            return FlatDictBox(space, np.float32)
         size = sum(int(np.prod(s.shape)) for s in space.spaces.values())
         return gym.spaces.Box(-np.inf, np.inf, (size,), np.float32)
     if isinstance(space, FlatDictBox) and space.dtype not in KEPT_OBS_DTYPES:

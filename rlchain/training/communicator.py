@@ -50,10 +50,14 @@ class Communicator:
         return value
 
     def episode_stats(self, tracker: Any) -> dict[str, float] | None:
-        """Mean reward and length of the tracked finished games (None when there are none)."""
+        """Mean reward and length of the tracked finished games, and their ``success`` rate when the env
+        reports success (None when no game finished)."""
         if not tracker.has_data:
             return None
-        return {"reward": tracker.mean_return(), "length": tracker.mean_length()}
+        stats = {"reward": tracker.mean_return(), "length": tracker.mean_length()}
+        if tracker.has_success:
+            stats["success"] = tracker.success_rate()
+        return stats
 
     def broadcast_learner(self, model: torch.nn.Module, agent: Any) -> None:
         """Give every rank rank 0's parameters, buffers and agent state (optimizer, lr)."""

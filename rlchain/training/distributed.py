@@ -206,13 +206,19 @@ class Distributed(Communicator):
         return self._collective("mean over ranks", mean_over_ranks, value)
 
     def episode_stats(self, tracker: Any) -> dict[str, float] | None:
-        """Mean reward and length over every rank's tracked games (None when no rank finished one)."""
+        """Mean reward and length (and success rate) over every rank's tracked games (None when no rank
+        finished one)."""
         returns, lengths = list(tracker.finished_returns), list(tracker.finished_lengths)
-        row = torch.tensor([sum(returns), float(sum(lengths)), float(len(returns))], dtype=torch.float64)
+        successes = list(tracker.finished_successes)
+        row = torch.tensor([sum(returns), float(sum(lengths)), float(len(returns)), float(sum(successes)),
+                            float(len(successes))], dtype=torch.float64)
         total = self._collective("episode statistics", _gather_rows, row).sum(0)
         if total[2] == 0:
             return None
-        return {"reward": float(total[0] / total[2]), "length": float(total[1] / total[2])}
+        stats = {"reward": float(total[0] / total[2]), "length": float(total[1] / total[2])}
+        if total[4] > 0:
+            stats["success"] = float(total[3] / total[4])
+        return stats
 
     def broadcast_learner(self, model: torch.nn.Module, agent: Any) -> None:
         """Rank 0's parameters and buffers (tensor broadcasts) and its agent state (optimizer, lr)."""

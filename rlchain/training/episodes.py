@@ -29,20 +29,28 @@ def game_outcome(result: Any, rewards: torch.Tensor, dones: torch.Tensor) -> tup
 class EpisodeTracker:
     """Accumulates raw (unshaped) rewards per env and records finished episodes."""
 
-    def __init__(self, num_envs: int, games_to_track: int, device: torch.device) -> None:
+    def __init__(self, num_envs: int, games_to_track: int, device: torch.device,
+                 success_mode: str = "any") -> None:
         self.returns = torch.zeros(num_envs, dtype=torch.float64, device=device)
         self.lengths = torch.zeros(num_envs, dtype=torch.long, device=device)
         self.finished_returns: deque[float] = deque(maxlen=games_to_track)
         self.finished_lengths: deque[int] = deque(maxlen=games_to_track)
         self.games = 0
+        # task success of the episodes in progress: reported at some step, succeeded at any / the last one
+        self.success_mode = success_mode
+        self.success_seen = torch.zeros(num_envs, dtype=torch.bool, device=device)
+        self.success_any = torch.zeros(num_envs, dtype=torch.bool, device=device)
+        self.success_last = torch.zeros(num_envs, dtype=torch.bool, device=device)
+        self.finished_successes: deque[float] = deque(maxlen=games_to_track)
 
     def step(self, rewards: torch.Tensor, dones: torch.Tensor, dropped: Any = None,
-             rows: slice = slice(None)) -> None:
+             rows: slice = slice(None), success: Any = None) -> None:
         """rewards (n,) or (n, V) raw; dones (n,) bool, for the envs ``rows`` (all N by default; a
         pipelined rollout steps one env group at a time). Summed over value heads.
 
         ``dropped`` (n,) bool (optional, ``vecenv.dropped_rows``): episodes cut by the backend (a dead
-        Ray worker) are forgotten, not recorded as finished games.
+        Ray worker) are forgotten, not recorded as finished games. ``success`` (n,) float (optional,
+        ``envs.success.step_success``): the env's success value this step, NaN where it gave none.
         """
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
@@ -52,6 +60,8 @@ class EpisodeTracker:
             dones = dones & ~lost
         returns += rewards
         lengths += 1
+        if success is not None:
+            self._step_success(torch.as_tensor(success, device=dones.device).reshape(-1), rows)
         if dones.any():
             idx = dones.nonzero().squeeze(-1)
             self.finished_returns.extend(returns[idx].tolist())
@@ -59,9 +69,33 @@ class EpisodeTracker:
             self.games += int(idx.numel())
             returns[idx] = 0.0
             lengths[idx] = 0
+            self._finish_success(idx, rows)
         if lost is not None:
             returns[lost] = 0.0
             lengths[lost] = 0
+            self._forget_success(lost, rows)
+
+    def _step_success(self, success: torch.Tensor, rows: slice) -> None:
+        """Fold one step's success values (n,) float, NaN = none, into the episodes in progress."""
+        seen = ~torch.isnan(success)
+        hit = seen & (success > 0.5)
+        self.success_seen[rows] |= seen
+        self.success_any[rows] |= hit
+        last = self.success_last[rows]  # a view
+        last[seen] = hit[seen]
+
+    def _finish_success(self, idx: torch.Tensor, rows: slice) -> None:
+        """Record the success of the episodes that just ended (rows ``idx`` of ``rows``) and clear them."""
+        seen, hit_any, hit_last = self.success_seen[rows], self.success_any[rows], self.success_last[rows]
+        hit = hit_any if self.success_mode == "any" else hit_last
+        reported = idx[seen[idx]]
+        if reported.numel():
+            self.finished_successes.extend(hit[reported].float().tolist())
+        self._forget_success(idx, rows)
+
+    def _forget_success(self, idx: torch.Tensor, rows: slice) -> None:
+        for flags in (self.success_seen, self.success_any, self.success_last):
+            flags[rows][idx] = False
 
     def record(self, returns: list[float], lengths: list[int]) -> None:
         """Games finished elsewhere (an asynchronous runner tracked them): add them as they are."""
@@ -73,6 +107,8 @@ class EpisodeTracker:
         """Forget episodes in progress (after an env reset)."""
         self.returns.zero_()
         self.lengths.zero_()
+        for flags in (self.success_seen, self.success_any, self.success_last):
+            flags.zero_()
 
     @property
     def has_data(self) -> bool:
@@ -84,9 +120,18 @@ class EpisodeTracker:
     def mean_length(self) -> float:
         return sum(self.finished_lengths) / max(len(self.finished_lengths), 1)
 
+    @property
+    def has_success(self) -> bool:
+        """Whether any tracked finished episode had a success value from the env."""
+        return len(self.finished_successes) > 0
+
+    def success_rate(self) -> float:
+        """Fraction of the tracked episodes with a success value that succeeded."""
+        return sum(self.finished_successes) / max(len(self.finished_successes), 1)
+
     def state_dict(self) -> dict:
         return {"returns": list(self.finished_returns), "lengths": list(self.finished_lengths),
-                "games": self.games}
+                "games": self.games, "successes": list(self.finished_successes)}
 
     def load_state_dict(self, state: dict) -> None:
         self.finished_returns.clear()
@@ -94,3 +139,5 @@ class EpisodeTracker:
         self.finished_returns.extend(state["returns"])
         self.finished_lengths.extend(state["lengths"])
         self.games = int(state["games"])
+        self.finished_successes.clear()
+        self.finished_successes.extend(state.get("successes", []))  # absent in older checkpoints

@@ -22,8 +22,9 @@ class EnvStatsCallback(Callback):
 
 
 class TrainLogger:
-    """Writes rl_games' TensorBoard tags (rewards/step|iter|time, performance/*, info/epochs) and the
-    algorithm's own (losses/*, info/*: the tags its ``metric_tags`` name)."""
+    """Writes rl_games' TensorBoard tags (rewards/step|iter|time, performance/*, info/epochs), the
+    algorithm's own (losses/*, info/*: the tags its ``metric_tags`` name) and, for envs that report
+    task success, ``episodes/success_rate``."""
 
     def __init__(self, summaries_dir: str | None, print_stats: bool = True, stream: Any = None) -> None:
         self.writer = None
@@ -73,11 +74,15 @@ class TrainLogger:
                 s(f"{name}/step", value, frames)
                 s(f"{name}/iter", value, epoch)
                 s(f"{name}/time", value, elapsed)
+            if "success" in episodes:  # envs that report task success (rlchain/envs/success.py)
+                s("episodes/success_rate", episodes["success"], frames)
         if self.print_stats:
             limit = f"/{max_epochs}" if max_epochs > 0 else ""
             reward = f"{episodes['reward']:.2f}" if episodes is not None else "-"
             length = f"{episodes['length']:.1f}" if episodes is not None else "-"
             best_text = f"{best:.2f}" if math.isfinite(best) else "-"
+            if episodes is not None and "success" in episodes:
+                console = [f"success {episodes['success']:.2f}", *console]
             fields = "".join(f" | {field}" for field in console)
             print(f"epoch {epoch}{limit} | frames {frames} | fps {total_fps:.0f} (step {step_fps:.0f}) | "
                   f"reward {reward} | best {best_text} | len {length}{fields} | {elapsed}s",

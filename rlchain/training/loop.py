@@ -20,6 +20,7 @@ import torch
 
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
+from rlchain.envs.success import SuccessReader
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger
@@ -75,7 +76,8 @@ class Loop:
         self.num_agents = int(getattr(env, "num_agents", 1) or 1)  # rows per env (rl_games' algo.num_agents)
         if hasattr(cfg, "minibatch_size"):  # the batch counts the env's agents (multi-agent envs)
             check_batch(cfg, params.source, self.num_agents)
-        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device)
+        self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device, cfg.success_mode)
+        self.success = SuccessReader(cfg.success_key)
         self.epoch = 0
         self.frames = 0
         self.best_reward = -math.inf
@@ -312,6 +314,8 @@ class Loop:
         cfg = self.cfg
         if episodes is not None and episodes["reward"] >= cfg.score_to_win:
             return f"score_to_win {cfg.score_to_win} reached"
+        if episodes is not None and episodes.get("success", -1.0) >= cfg.success_to_win:
+            return f"success_to_win {cfg.success_to_win} reached"
         if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
             return f"max_epochs {cfg.max_epochs} reached"
         if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
@@ -325,8 +329,9 @@ class Loop:
         self.logger.flush()
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
         if self.cfg.print_stats or stop.startswith("interrupted"):
+            success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
             log.info(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
-                     f"{mean:.2f}, best {self.best_reward:.2f}")
+                     f"{mean:.2f}, best {self.best_reward:.2f}{success}")
         if stop.startswith("interrupted") and last:
             log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")
         result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
@@ -353,7 +358,9 @@ class Loop:
         terminated = self._to_tensor(result.terminated).bool()
         truncated = self._to_tensor(result.truncated).bool()
         dones = terminated | truncated
-        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows)
+        success = self.success.read(result.infos, dones)
+        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows,
+                          success=success)
         if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
             self._emit_env_step(result, dones, rows)
         return rewards, terminated, truncated, dones

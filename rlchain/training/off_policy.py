@@ -15,11 +15,14 @@ from typing import Any
 import torch
 
 from rlchain.algos.dqn import DQNAgent, epsilon_at
+from rlchain.algos.her import HERReplayBuffer, goal_layout
 from rlchain.algos.replay import ReplayBuffer
 from rlchain.algos.returns import shape_rewards
 from rlchain.algos.sac import SACAgent
+from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
+from rlchain.envs.goal_env import env_compute_reward
 from rlchain.errors import DivergenceError
 from rlchain.training.communicator import Communicator
 from rlchain.training.logging import TrainLogger
@@ -40,18 +43,31 @@ class OffPolicyTrainer(Loop):
         super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
         cfg = self.cfg
         self.agent = self.make_agent()
-        obs_space = env.observation_space
-        self.buffer = ReplayBuffer(
-            cfg.replay_buffer_size, tuple(obs_space.shape), tuple(model.dist.action_shape), device,
-            num_envs=self.num_envs, obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
-            action_dtype=model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
-            prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
+        self.buffer = self.make_buffer()
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0  # seconds of gradient updates inside the last collect()
 
     def make_agent(self) -> Any:  # pragma: no cover - subclasses
         raise NotImplementedError
+
+    def make_buffer(self) -> ReplayBuffer:
+        """The replay buffer the config asks for: uniform / prioritized / n-step, or with hindsight goals."""
+        cfg, obs_space = self.cfg, self.env.observation_space
+        args = (cfg.replay_buffer_size, tuple(obs_space.shape), tuple(self.model.dist.action_shape))
+        kwargs = dict(device=self.device, num_envs=self.num_envs,
+                      obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+                      action_dtype=self.model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
+                      prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
+        her = cfg.replay.her
+        if her is None:
+            return ReplayBuffer(*args, **kwargs)
+        try:
+            layout = goal_layout(obs_space)
+            reward_fn = goal_reward_fn(env_compute_reward(self.env), cfg.reward_shaper, self.device)
+        except ValueError as exc:
+            raise ConfigError(self.params.source, "params.config.replay.her", str(exc)) from None
+        return HERReplayBuffer(*args, layout, reward_fn, strategy=her.strategy, k=her.k, **kwargs)
 
     # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -224,3 +240,13 @@ class DQNTrainer(OffPolicyTrainer):
 
     def extra_stats(self) -> dict[str, float]:
         return {"epsilon": self.epsilon()}
+
+
+def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:
+    """Tensor goals (B, G) -> shaped rewards (B,) on ``device``: the env's ``compute_reward`` (numpy)
+    followed by the run's reward_shaper, as every stored reward is shaped."""
+    def reward(achieved: torch.Tensor, desired: torch.Tensor) -> torch.Tensor:
+        raw = compute_reward(achieved.detach().cpu().numpy(), desired.detach().cpu().numpy(), None)
+        raw = torch.as_tensor(raw, dtype=torch.float32, device=device).reshape(-1)
+        return shape_rewards(raw, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+    return reward

@@ -165,9 +165,13 @@ def test_rank_mean_and_episode_stats_on_one_rank(group):
     pg = D.Distributed(0, 1, 0, "gloo", seed=0)
     for kl in (0.1, 0.001, 0.01):
         assert pg.mean(kl) == kl
-    tracker = collections.namedtuple("T", "finished_returns finished_lengths")([1.0, 3.0], [10, 30])
+    tracker = collections.namedtuple("T", "finished_returns finished_lengths finished_successes")(
+        [1.0, 3.0], [10, 30], [])
     assert pg.episode_stats(tracker) == {"reward": 2.0, "length": 20.0}
     assert pg.episode_stats(tracker._replace(finished_returns=[], finished_lengths=[])) is None
+    # envs that report success: the rate over the games that had a success value
+    stats = pg.episode_stats(tracker._replace(finished_successes=[1.0, 0.0, 0.0, 1.0]))
+    assert stats == {"reward": 2.0, "length": 20.0, "success": 0.5}
 
 
 def test_a_failed_collective_becomes_one_line_naming_the_rank():
