@@ -283,7 +283,8 @@ def test_collectives_with_two_processes(tmp_path):
         assert r["grad_b"] == [0.5] * 4  # rank 0 had no gradient: it counts as zeros
         assert r["moment_error"] < 1e-12 and r["count"] == 5 + 15
         assert r["kl_mean"] == 0.05 and r["lr"] == pytest.approx(1e-3 / 1.5)
-        assert r["episodes"] == {"reward": 2.0, "length": 20.0} and r["no_episodes"] is None
+        assert r["episodes"] == {"reward": 2.0, "length": 20.0, "success": pytest.approx(2 / 3)}
+        assert r["no_episodes"] is None
     assert results[0]["mean"] == results[1]["mean"] and results[0]["var"] == results[1]["var"]
 
 
@@ -316,13 +317,13 @@ def _collectives_worker(folder: str) -> None:
     error = max(float((mean - union.mean(0)).abs().max()), float((var - union.var(0, unbiased=False)).abs().max()))
 
     schedule = AdaptiveKLSchedule(0.01)
-    tracker = collections.namedtuple("T", "finished_returns finished_lengths")
-    episodes = pg.episode_stats(tracker([1.0, 3.0], [10, 30]) if rank == 0 else tracker([2.0], [20]))
+    tracker = collections.namedtuple("T", "finished_returns finished_lengths finished_successes")
+    episodes = pg.episode_stats(tracker([1.0, 3.0], [10, 30], [1.0, 0.0]) if rank == 0 else tracker([2.0], [20], [1.0]))
     result = {"all_reduce_calls": len(calls), "grad_a": a.grad.flatten().tolist(), "grad_b": b.grad.tolist(),
               "moment_error": error, "count": count, "mean": mean.tolist(), "var": var.tolist(),
               "kl_mean": pg.mean(0.1 if rank == 0 else 0.0),
               "lr": schedule.update(1e-3, kl=pg.mean(0.1 if rank == 0 else 0.0)),
-              "episodes": episodes, "no_episodes": pg.episode_stats(tracker([], []))}
+              "episodes": episodes, "no_episodes": pg.episode_stats(tracker([], [], []))}
     with open(os.path.join(folder, f"collectives{rank}.json"), "w") as fh:
         json.dump(result, fh)
     dist.destroy_process_group()
