@@ -237,7 +237,8 @@ class Loop:
         for name, value in changes.items():
             self.apply_hyperparam(name, value)
             self.logger.scalar(f"params/{name}", float(value), self.frames)
-            log.info(f"set {name} = {value} at epoch {self.epoch}")
+            if self.cfg.print_stats:  # quiet runs (tune trials, tests) keep it in TensorBoard only
+                log.info(f"set {name} = {value} at epoch {self.epoch}")
 
     # ----- loop helpers ---------------------------------------------------------------------
     def update_phase(self) -> AbstractContextManager:

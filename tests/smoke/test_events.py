@@ -279,11 +279,18 @@ def test_get_set_params_during_training(tmp_path, capsys):
             trainer.set_params(learning_rate=1e-4, entropy_coef=0.01, mini_epochs=2)
         seen.append((trainer.epoch, trainer.get_params()["learning_rate"], trainer.get_params()["entropy_coef"]))
 
-    Runner().load(CARTPOLE, small(tmp_path, epochs=3, extra=["params.config.print_stats=false",
+    Runner().load(CARTPOLE, small(tmp_path, epochs=3, extra=["params.config.print_stats=true",
                                                              "params.config.lr_schedule=None"])).train(
         callbacks=[tweak])
     assert seen[1:] == [(2, pytest.approx(1e-4), 0.01), (3, pytest.approx(1e-4), 0.01)]
     assert "set entropy_coef = 0.01 at epoch 1" in capsys.readouterr().out
+    # a quiet run (print_stats false: tune trials, scripts) changes the values without the line
+    seen.clear()
+    Runner().load(CARTPOLE, small(tmp_path, epochs=2, extra=["params.config.print_stats=false",
+                                                             "params.config.lr_schedule=None"])).train(
+        callbacks=[tweak])
+    assert seen[1:] == [(2, pytest.approx(1e-4), 0.01)]
+    assert "set entropy_coef" not in capsys.readouterr().out
     with pytest.raises(KeyError, match="cannot set gamma_typo"):
         from rlchain.training.on_policy import OnPolicyTrainer
         OnPolicyTrainer.set_params(type("T", (), {"tunable": OnPolicyTrainer.tunable})(), gamma_typo=1)
