@@ -196,6 +196,23 @@ class PPOAgent:
         """Multiply the learning rate (divergence rollback)."""
         self._set_lr(self.lr * factor)
 
+    def live_hyperparams(self) -> dict[str, float]:
+        """The values the agent's schedules change during training (what get_params must report)."""
+        return {"learning_rate": self.lr, "entropy_coef": self.entropy_coef}
+
+    def set_hyperparam(self, name: str, value: float) -> bool:
+        """Change a live value the agent owns (True), else False: the trainer's config holds it. A new
+        ``kl_threshold`` reaches the adaptive schedule too, and returns False so the config keeps it."""
+        if name == "learning_rate":
+            self._set_lr(float(value))
+            return True
+        if name == "entropy_coef":  # the live value; schedule_entropy sets it again after the epoch
+            self.entropy_coef = float(value)
+            return True
+        if name == "kl_threshold" and hasattr(self.schedule, "kl_threshold"):
+            self.schedule.kl_threshold = float(value)
+        return False
+
     def _set_lr(self, lr: float) -> None:
         self.lr = lr
         for group in self.optimizer.param_groups:

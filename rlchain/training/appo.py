@@ -143,7 +143,7 @@ class APPOTrainer(Loop):
         began = time.monotonic()
         self._fill_storage()
         self.model.train()
-        stats = self.agent.update(self.storage, self._progress())
+        stats = self.agent.update(self.storage, self._progress(self._received))
         stats["lr_mul"] = stats["lr"] / max(self.cfg.learning_rate, 1e-12)
         stats["rho"] = self._rho
         self.version += 1
@@ -258,20 +258,12 @@ class APPOTrainer(Loop):
 
     # ----- hyperparameters, checkpoints -----------------------------------------------------
     def hyperparams(self) -> dict[str, float]:
-        values = super().hyperparams()
-        values["learning_rate"] = self.agent.lr
-        values["entropy_coef"] = self.agent.entropy_coef
-        return values
+        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
+        return {**super().hyperparams(), **self.agent.live_hyperparams()}
 
     def apply_hyperparam(self, name: str, value: float) -> None:
-        if name == "learning_rate":
-            self.agent._set_lr(float(value))
-        elif name == "entropy_coef":
-            self.agent.entropy_coef = float(value)
-        else:
+        if not self.agent.set_hyperparam(name, value):
             super().apply_hyperparam(name, value)
-        if name == "kl_threshold" and hasattr(self.agent.schedule, "kl_threshold"):
-            self.agent.schedule.kl_threshold = float(value)
 
     def extra_state(self, kind: str) -> dict[str, Any]:
         return {"policy_version": self.version, "dropped_fragments": self.dropped_fragments}
@@ -279,14 +271,6 @@ class APPOTrainer(Loop):
     def restore_extra(self, state: dict[str, Any]) -> None:
         self.version = int(state.get("policy_version", 0))
         self.dropped_fragments = int(state.get("dropped_fragments", 0))
-
-    def _progress(self) -> float:
-        cfg = self.cfg
-        if cfg.max_epochs > 0:
-            return (self.epoch + 1) / cfg.max_epochs
-        if cfg.max_frames > 0:
-            return (self.frames + self._received) / cfg.max_frames
-        return 0.0
 
 
 class ImpalaTrainer(APPOTrainer):

@@ -200,6 +200,17 @@ class Loop:
         """(rollout, update) seconds of the epoch from the time spent in collect and in update."""
         return collect_s, update_s
 
+    def _progress(self, epoch_frames: int | None = None) -> float:
+        """Training progress in [0, 1] at the end of this epoch, for the schedules: epochs/max_epochs,
+        else frames/max_frames (``epoch_frames``: this epoch's frames, default :meth:`frames_per_epoch`)."""
+        cfg = self.cfg
+        if cfg.max_epochs > 0:
+            return (self.epoch + 1) / cfg.max_epochs
+        if cfg.max_frames > 0:
+            added = self.frames_per_epoch() if epoch_frames is None else epoch_frames
+            return (self.frames + added) / cfg.max_frames
+        return 0.0
+
     def snapshot_due(self) -> bool:
         """Whether the divergence guard snapshots the learner after this epoch (default: every epoch)."""
         return True

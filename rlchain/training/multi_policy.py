@@ -173,14 +173,6 @@ class MultiPolicyTrainer(Loop):
         """Env steps per epoch (a turn-based env's step is one move)."""
         return self.cfg.horizon_length * self.num_envs
 
-    def _progress(self) -> float:
-        cfg = self.cfg
-        if cfg.max_epochs > 0:
-            return (self.epoch + 1) / cfg.max_epochs
-        if cfg.max_frames > 0:
-            return (self.frames + self.frames_per_epoch()) / cfg.max_frames
-        return 0.0
-
     # ----- the Loop's env handling for per-agent observations ---------------------------------
     def _reset_envs(self) -> Any:
         from rlchain.errors import EnvError

@@ -93,20 +93,11 @@ class OnPolicyTrainer(RolloutMixin, Loop):
 
     def hyperparams(self) -> dict[str, float]:
         """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
-        values = super().hyperparams()
-        values["learning_rate"] = self.agent.lr
-        values["entropy_coef"] = self.agent.entropy_coef
-        return values
+        return {**super().hyperparams(), **self.agent.live_hyperparams()}
 
     def apply_hyperparam(self, name: str, value: float) -> None:
-        if name == "learning_rate":
-            self.agent._set_lr(float(value))
-        elif name == "entropy_coef":  # the live value; schedule_entropy sets it again after the epoch
-            self.agent.entropy_coef = float(value)
-        else:
+        if not self.agent.set_hyperparam(name, value):
             super().apply_hyperparam(name, value)
-        if name == "kl_threshold" and hasattr(self.agent.schedule, "kl_threshold"):
-            self.agent.schedule.kl_threshold = float(value)
 
     def _initial_states(self) -> tuple[torch.Tensor, ...]:
         states = tuple(self.model.initial_state(self.num_envs, self.device))
@@ -171,14 +162,6 @@ class OnPolicyTrainer(RolloutMixin, Loop):
         return self.cfg.horizon_length * (self.num_envs // self.num_agents) * self.world_size
 
     _frames_per_epoch = frames_per_epoch  # the name before the Algorithm protocol
-
-    def _progress(self) -> float:
-        cfg = self.cfg
-        if cfg.max_epochs > 0:
-            return (self.epoch + 1) / cfg.max_epochs
-        if cfg.max_frames > 0:
-            return (self.frames + self.frames_per_epoch()) / cfg.max_frames
-        return 0.0
 
 def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
     """With use_action_masks the env must provide masks; a one-line ConfigError otherwise."""
