@@ -62,3 +62,11 @@ def test_bad_success_mode_is_one_line_error(tmp_path):
 
     with pytest.raises(ConfigError, match=r"params.config.success_mode: 'first' is not one of"):
         Runner().load(CONFIG, ["params.config.success_mode=first"])
+
+
+def test_bad_her_strategy_is_one_line_error():
+    from rlchain.config.errors import ConfigError
+
+    her = os.path.join(CONFIGS, "sac_her_fetch_reach.yaml")
+    with pytest.raises(ConfigError, match=r"params.config.replay.her.strategy: 'random' is not one of"):
+        Runner().load(her, ["params.config.replay.her.strategy=random"])
