@@ -45,7 +45,7 @@ class EpochClock(Callback):
         self.marks: list[list[float]] = []
 
     def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
-        if trainer.distributed is not None and not trainer.distributed.is_main:
+        if not trainer.comm.is_main:
             return
         self.marks.append([time.perf_counter(), trainer.frames])
         with open(os.environ[CLOCK_ENV], "w") as fh:

@@ -9,7 +9,6 @@ The Loop logs whatever metrics ``update`` returns, under the algorithm's ``metri
 from __future__ import annotations
 
 import math
-import threading
 import time
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
@@ -24,7 +23,6 @@ from rlchain.envs.success import SuccessReader
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger
-from rlchain.training import checkpoint as ckpt
 from rlchain.training import communicator
 from rlchain.training.build import build_env
 from rlchain.training.communicator import Communicator
@@ -32,7 +30,9 @@ from rlchain.training.episodes import EpisodeTracker, game_outcome
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
+from rlchain.training.live_params import LiveParamsMixin
 from rlchain.training.logging import EnvStatsCallback, TrainLogger
+from rlchain.training.loop_checkpoint import CheckpointMixin
 from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import DivergenceGuard, StopSignals, check_obs_shape, check_parameters
 from rlchain.training.self_play import SelfPlayCallback
@@ -54,7 +54,7 @@ class TrainResult:
     seconds: float
 
 
-class Loop:
+class Loop(LiveParamsMixin, CheckpointMixin):
     """The training loop and its bookkeeping; an algorithm subclasses it, sets ``self.agent`` (and
     ``self.divergence``) and implements the hooks of :class:`rlchain.training.algorithm.Algorithm`."""
 
@@ -96,12 +96,10 @@ class Loop:
         self.tensor_env = bool(getattr(env, "is_tensor_env", False))
         self.signals: StopSignals | None = None
         self.agent: Any = None
-        self.distributed: Any = self.comm if self.comm.active else None  # multi_gpu: training.distributed.Distributed
         self.world_size = self.comm.world_size  # processes training together; frame counters count all of them
         self.threads: ThreadPlan | None = None  # CPU threads per phase, set by the Runner
         self.divergence: DivergenceGuard | None = None  # the algorithm's, once it built its agent
-        self._params_lock = threading.Lock()
-        self._pending_params: dict[str, float] = {}
+        self._init_live_params()
 
     # ----- the loop -------------------------------------------------------------------------
     def train(self) -> TrainResult:
@@ -219,37 +217,6 @@ class Loop:
         """After a rollback: every env starts a fresh episode."""
         self.tracker.reset_running()
         self.obs = self._reset_envs()
-
-    # ----- hyperparameters (get/set, population-based training) -----------------------------
-    def hyperparams(self) -> dict[str, float]:
-        """The live values of :attr:`tunable` (default: the config's)."""
-        return {name: getattr(self.cfg, name) for name in self.tunable}
-
-    def apply_hyperparam(self, name: str, value: float) -> None:
-        """Change one tunable value (default: the config field, keeping its type)."""
-        current = getattr(self.cfg, name)
-        setattr(self.cfg, name, type(current)(value) if current is not None else value)
-
-    def get_params(self) -> dict[str, float]:
-        """The training parameters population-based training may change (see :meth:`set_params`)."""
-        return self.hyperparams()
-
-    def set_params(self, **changes: float) -> None:
-        """Change training parameters; they apply from the next epoch (thread-safe) and are logged."""
-        unknown = [k for k in changes if k not in self.tunable]
-        if unknown:
-            raise KeyError(f"cannot set {unknown[0]}; settable: {', '.join(self.tunable)}")
-        with self._params_lock:
-            self._pending_params.update(changes)
-
-    def _apply_pending_params(self) -> None:
-        with self._params_lock:
-            changes, self._pending_params = self._pending_params, {}
-        for name, value in changes.items():
-            self.apply_hyperparam(name, value)
-            self.logger.scalar(f"params/{name}", float(value), self.frames)
-            if self.cfg.print_stats:  # quiet runs (tune trials, tests) keep it in TensorBoard only
-                log.info(f"set {name} = {value} at epoch {self.epoch}")
 
     # ----- loop helpers ---------------------------------------------------------------------
     def update_phase(self) -> AbstractContextManager:
@@ -392,57 +359,6 @@ class Loop:
         """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""
         return actions if self.tensor_env else actions.cpu().numpy()
 
-    # ----- checkpoints ----------------------------------------------------------------------
-    def extra_state(self, kind: str) -> dict[str, Any]:
-        """What a subclass adds to a checkpoint of ``kind`` (best, last, ep_N)."""
-        return {}
-
-    def restore_extra(self, state: dict[str, Any]) -> None:
-        """Restore what :meth:`extra_state` added."""
-
-    def state_dict(self, kind: str = "last") -> dict[str, Any]:
-        """Everything exact resume needs."""
-        state = {
-            "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
-            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
-            "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
-            "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
-            "version": _version(),
-        }
-        state.update(self.extra_state(kind))
-        return state
-
-    def save(self, kind: str) -> str | None:
-        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
-        if self.run is None:
-            return None
-        bad = check_parameters(self.model)
-        if bad is not None:
-            log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
-            return None
-        path = self.run.checkpoint(kind)
-        try:
-            ckpt.save_atomic(self.state_dict(kind), path)
-        except OSError as exc:
-            log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
-                        f"checkpoint is kept and training goes on")
-            return None
-        self.events.emit("on_checkpoint", self, path, kind)
-        return path
-
-    def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
-        if state.get("algo") not in (None, self.params.algo.name):
-            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
-                                       f"the config says '{self.params.algo.name}'")
-        ckpt.load_model_state(self.model, state, path)
-        self.agent.load_state_dict(state["agent"])
-        self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
-        self.best_reward = float(state["best_reward"])
-        self.tracker.load_state_dict(state["episodes"])
-        ckpt.set_rng_state(state["rng"])
-        self.restore_extra(state)
-
 
 def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:
     """``{tag: value}`` of the metrics ``tags`` names, plus those whose name already is a tag
@@ -474,7 +390,3 @@ def describe(exc: BaseException) -> str:
     text = " ".join(str(exc).split())
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
-
-def _version() -> str:
-    from rlchain import __version__
-    return __version__

@@ -32,7 +32,7 @@ class DumpState(Callback):
         folder = os.environ.get(DUMP_ENV)
         if not folder:
             return
-        rank = trainer.distributed.rank if trainer.distributed is not None else 0
+        rank = trainer.comm.rank
         state = {"model": trainer.model.state_dict(), "optimizer": trainer.agent.optimizer.state_dict(),
                  "lr": trainer.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
                  "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
@@ -46,7 +46,7 @@ class KillRank1(Callback):
     """Test-only: rank 1 dies (SIGKILL) at the end of epoch 3, as a crashed or OOM-killed worker would."""
 
     def on_epoch_end(self, trainer, stats, episodes):
-        if trainer.distributed is not None and trainer.distributed.rank == 1 and trainer.epoch == 3:
+        if trainer.comm.rank == 1 and trainer.epoch == 3:
             os.kill(os.getpid(), signal.SIGKILL)
 
 
