@@ -37,14 +37,14 @@ class Curve(Callback):
     def __init__(self, budget: float) -> None:
         self.budget, self.points, self.start = budget, [], None
 
-    def on_train_start(self, trainer) -> None:
+    def on_train_start(self, ctx) -> None:
         self.start = time.monotonic()
 
-    def on_epoch_end(self, trainer, stats, episodes) -> None:
+    def on_epoch_end(self, ctx, stats, episodes) -> None:
         if episodes is not None:
-            self.points.append((time.monotonic() - self.start, trainer.frames, episodes["reward"]))
+            self.points.append((time.monotonic() - self.start, ctx.state.frames, episodes["reward"]))
         if time.monotonic() - self.start > self.budget:
-            trainer.request_stop("budget")
+            ctx.request_stop("budget")
 
 
 def reward_at(points: list, seconds: float) -> float | None:

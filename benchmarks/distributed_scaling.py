@@ -44,10 +44,11 @@ class EpochClock(Callback):
     def __init__(self) -> None:
         self.marks: list[list[float]] = []
 
-    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
-        if not trainer.comm.is_main:
+    def on_epoch_end(self, ctx: Any, stats: dict, episodes: dict | None) -> None:
+        state = ctx.state
+        if not state.is_main:
             return
-        self.marks.append([time.perf_counter(), trainer.frames])
+        self.marks.append([time.perf_counter(), state.frames])
         with open(os.environ[CLOCK_ENV], "w") as fh:
             json.dump(self.marks, fh)
 

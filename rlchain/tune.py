@@ -41,6 +41,7 @@ import yaml
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 from rlchain.tuning.spec import RAY_KEYS, RaySpec, backend_of, load_ray_spec
 
@@ -237,15 +238,15 @@ class PruningCallback(Callback):
         self.best = float("-inf")
         self.pruned = False
 
-    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict, episodes: dict | None) -> None:
         if episodes is None or self.pruned:
             return
         value = float(episodes["reward"])
         self.best = max(self.best, value)
-        self.trial.report(self.best if self.metric == "best_reward" else value, trainer.epoch)
+        self.trial.report(self.best if self.metric == "best_reward" else value, ctx.state.epoch)
         if self.trial.should_prune():
             self.pruned = True
-            trainer.request_stop("optuna pruner")
+            ctx.request_stop("optuna pruner")
 
 
 def _check_space(spec: SearchSpec) -> None:

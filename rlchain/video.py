@@ -24,6 +24,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.log import get_logger
 from rlchain.models.stepper import PolicyStepper
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
 log = get_logger(__name__)
@@ -152,13 +153,14 @@ class VideoCallback(Callback):
         self.count = 0
         self.files: list[str] = []
 
-    def on_evaluation(self, trainer: Any, result: Any) -> None:
+    def on_evaluation(self, ctx: CallbackContext, result: Any) -> None:
         self.count += 1
         if self.count % self.every != 0:
             return
-        folder = self.video_dir or os.path.join(trainer.run.root if trainer.run else ".", "videos")
-        files = record_model_episodes(trainer.model, trainer.params, folder, 1, self.deterministic,
-                                      trainer.device, seed=trainer.seed, name_prefix=f"epoch_{trainer.epoch}")
+        state = ctx.state
+        folder = self.video_dir or os.path.join(state.experiment_dir or ".", "videos")
+        files = record_model_episodes(ctx.model, ctx.params, folder, 1, self.deterministic,
+                                      state.device, seed=state.seed, name_prefix=f"epoch_{state.epoch}")
         self.files.extend(files)
-        if trainer.cfg.print_stats:
-            log.info(f"video at epoch {trainer.epoch}: {', '.join(files)}")
+        if ctx.params.config.print_stats:
+            log.info(f"video at epoch {state.epoch}: {', '.join(files)}")

@@ -13,6 +13,7 @@ import torch
 from rlchain.envs.success import SuccessReader
 from rlchain.log import get_logger
 from rlchain.models.stepper import PolicyStepper
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.episodes import game_outcome
 from rlchain.training.events import Callback
 
@@ -129,30 +130,31 @@ class EvaluationCallback(Callback):
         self.env = make_env(cfg.num_envs, cfg.seed)
         self.best = float("-inf")
 
-    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
-        if trainer.epoch % self.cfg.interval != 0:
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict, episodes: dict | None) -> None:
+        state, config = ctx.state, ctx.params.config
+        if state.epoch % self.cfg.interval != 0:
             return
-        result = run_episodes(trainer.model, self.env, self.cfg.games, self.cfg.deterministic,
-                              trainer.device, seed=self.cfg.seed, success_key=trainer.cfg.success_key,
-                              success_mode=trainer.cfg.success_mode)
-        scalar = trainer.logger.scalar
-        scalar("evaluation/rewards", result.mean_reward, trainer.frames)
-        scalar("evaluation/rewards_iter", result.mean_reward, trainer.epoch)
-        scalar("evaluation/episode_lengths", result.mean_length, trainer.frames)
+        result = run_episodes(ctx.model, self.env, self.cfg.games, self.cfg.deterministic,
+                              state.device, seed=self.cfg.seed, success_key=config.success_key,
+                              success_mode=config.success_mode)
+        scalar = ctx.writer.add_scalar
+        scalar("evaluation/rewards", result.mean_reward, state.frames)
+        scalar("evaluation/rewards_iter", result.mean_reward, state.epoch)
+        scalar("evaluation/episode_lengths", result.mean_length, state.frames)
         rate = result.success_rate
         if rate is not None:
-            scalar("evaluation/success_rate", rate, trainer.frames)
-        if trainer.cfg.print_stats:
+            scalar("evaluation/success_rate", rate, state.frames)
+        if config.print_stats:
             won = f" success {rate:.2f}" if rate is not None else ""
-            log.info(f"evaluation at epoch {trainer.epoch}: reward {result.mean_reward:.2f} length "
+            log.info(f"evaluation at epoch {state.epoch}: reward {result.mean_reward:.2f} length "
                      f"{result.mean_length:.1f}{won} over {result.games} games")
-        trainer.events.emit("on_evaluation", trainer, result)
+        ctx.emit("on_evaluation", result)
         if self.cfg.select_best == "evaluation" and result.mean_reward > self.best:
             self.best = result.mean_reward
-            if trainer.epoch >= trainer.cfg.save_best_after:
-                trainer.save("best")
+            if state.epoch >= config.save_best_after:
+                ctx.save("best")
 
-    def on_train_end(self, trainer: Any, result: Any) -> None:
+    def on_train_end(self, ctx: CallbackContext, result: Any) -> None:
         self.close()
 
     def close(self) -> None:

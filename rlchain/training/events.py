@@ -1,15 +1,20 @@
 """Training events: callbacks a user registers from Python or names in the config.
 
     class MyCallback(rlchain.training.events.Callback):
-        def on_epoch_end(self, trainer, stats, episodes): ...
+        def on_epoch_end(self, ctx, stats, episodes):
+            if ctx.state.epoch % 10 == 0: ctx.save(f"ep_{ctx.state.epoch}")
 
     Runner().load(cfg).train(callbacks=[MyCallback()])       # or in YAML:
     config: {callbacks: ["mypkg.callbacks:MyCallback"]}
 
-A plain function ``fn(trainer, stats, episodes)`` is an ``on_epoch_end`` callback. An rl_games
-``AlgoObserver`` (before_init / after_init / process_infos / after_steps / after_print_stats /
-after_clear_stats) is adapted: :class:`AlgoObserverCallback`. Built-in in-training evaluation is one
-of these callbacks.
+Every method gets the run's :class:`~rlchain.training.callback_context.CallbackContext` first: a typed
+:class:`~rlchain.training.callback_context.TrainingState` (``ctx.state``), ``request_stop``, ``save``,
+``get_params`` / ``set_params`` and read-only handles (model, writer, params, env_spec), not the
+trainer (older callbacks' reads of trainer attributes still work for one release, with a
+DeprecationWarning). A plain function ``fn(ctx, stats, episodes)`` is an ``on_epoch_end`` callback.
+An rl_games ``AlgoObserver`` (before_init / after_init / process_infos / after_steps /
+after_print_stats / after_clear_stats) is adapted: :class:`AlgoObserverCallback`. Built-in
+in-training evaluation is one of these callbacks.
 
 ``on_env_step`` runs after every env step, so only the callbacks that override it get it: a run
 without one pays nothing per step. ``close`` runs once when the run ends, however it ends.
@@ -19,9 +24,10 @@ from __future__ import annotations
 
 import importlib
 import time
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.log import get_logger
+from rlchain.training.callback_context import CallbackContext, ObserverAlgo
 
 log = get_logger(__name__)
 
@@ -30,12 +36,17 @@ EVENTS = ("on_train_start", "on_env_step", "on_rollout_end", "on_epoch_end", "on
 
 
 class Callback:
-    """Override the events you need; every method is a no-op by default."""
+    """Override the events you need; every method is a no-op by default. ``ctx`` is the run's
+    :class:`~rlchain.training.callback_context.CallbackContext`."""
 
-    def on_train_start(self, trainer: Any) -> None:
+    drives_trainer: ClassVar[bool] = False
+    """rlchain's own callbacks that steer the trainer itself (self-play opponents, the Ray Tune
+    stepper's checkpoint exchange, env backend counters) set it: they get the trainer, not a context."""
+
+    def on_train_start(self, ctx: CallbackContext) -> None:
         """Before the first rollout (after a resume restored its state)."""
 
-    def on_env_step(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+    def on_env_step(self, ctx: CallbackContext, result: Any, done_indices: Any, rows: slice) -> None:
         """After each training env step, once the episode statistics counted it.
 
         ``result`` is the StepResult of the envs ``rows`` (all of them, or one env group of a
@@ -46,22 +57,22 @@ class Callback:
         override this method are called.
         """
 
-    def on_rollout_end(self, trainer: Any) -> None:
+    def on_rollout_end(self, ctx: CallbackContext) -> None:
         """After an epoch's env steps (the PPO rollout, an off-policy epoch's steps), before logging."""
 
-    def on_stats_cleared(self, trainer: Any) -> None:
+    def on_stats_cleared(self, ctx: CallbackContext) -> None:
         """Statistics gathered so far are stale: self-play replaced the opponent and restarted its count."""
 
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
         """After an epoch's update and logging: ``stats`` are losses/kl/lr, ``episodes`` mean reward/length."""
 
-    def on_evaluation(self, trainer: Any, result: Any) -> None:
+    def on_evaluation(self, ctx: CallbackContext, result: Any) -> None:
         """After an in-training evaluation; ``result`` is a PlayResult."""
 
-    def on_checkpoint(self, trainer: Any, path: str, kind: str) -> None:
+    def on_checkpoint(self, ctx: CallbackContext, path: str, kind: str) -> None:
         """After a checkpoint was written (``kind``: best, last, ep_N)."""
 
-    def on_train_end(self, trainer: Any, result: Any) -> None:
+    def on_train_end(self, ctx: CallbackContext, result: Any) -> None:
         """After training stopped; ``result`` is the TrainResult."""
 
     def close(self) -> None:
@@ -76,14 +87,17 @@ class FunctionCallback(Callback):
     def __init__(self, fn: Any) -> None:
         self.fn = fn
 
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        self.fn(trainer, stats, episodes)
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        self.fn(ctx, stats, episodes)
 
 
 class AlgoObserverCallback(Callback):
     """Drives an rl_games AlgoObserver from rlchain's events, when rl_games calls them:
 
-    - ``before_init(name, config, experiment dir)`` and ``after_init(trainer)`` at the start;
+    - ``before_init(name, config, experiment dir)`` and ``after_init(algo)`` at the start, where
+      ``algo`` (:class:`~rlchain.training.callback_context.ObserverAlgo`) offers what observers read
+      of rl_games' algo: ``writer``, ``device`` / ``ppo_device``, ``games_to_track``, ``epoch_num``,
+      ``frame``, ``num_actors``, ``num_agents``, ``config``, ``experiment_dir``;
     - ``process_infos(infos, done_indices)`` after every env step: the step's infos and a (k, 1)
       long tensor of the rows whose episode ended (``nonzero()`` of the dones, one row per finished
       env for multi-agent envs), on the training device; multi-agent envs' ``{'env_infos': [...]}``
@@ -111,31 +125,34 @@ class AlgoObserverCallback(Callback):
         if method is not None:
             method(*args)
 
-    def on_train_start(self, trainer: Any) -> None:
+    def on_train_start(self, ctx: CallbackContext) -> None:
         self.start = time.time()
-        self._call("before_init", trainer.cfg.name, trainer.raw_config, trainer.run.root if trainer.run else "")
-        self._call("after_init", trainer)
+        algo = ObserverAlgo(ctx)
+        # as before the context: the whole config as loaded, and the run folder
+        self._call("before_init", ctx.params.config.name, ctx._trainer.raw_config, algo.experiment_dir)
+        self._call("after_init", algo)
 
-    def _process_infos(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+    def _process_infos(self, ctx: CallbackContext, result: Any, done_indices: Any, rows: slice) -> None:
         infos = result.infos
         if isinstance(infos, dict) and len(infos) == 1 and isinstance(infos.get("env_infos"), list):
             infos = infos["env_infos"]  # multi_agent.py's per-env info dicts
         self.observer.process_infos(infos, done_indices.unsqueeze(-1))
 
-    def on_rollout_end(self, trainer: Any) -> None:
+    def on_rollout_end(self, ctx: CallbackContext) -> None:
         self._call("after_steps")
 
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        self._call("after_print_stats", trainer.frames, trainer.epoch, time.time() - self.start)
-        self._printed_epoch = trainer.epoch
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        state = ctx.state
+        self._call("after_print_stats", state.frames, state.epoch, time.time() - self.start)
+        self._printed_epoch = state.epoch
         if self._clear_pending:
             self._clear_pending = False
             self._call("after_clear_stats")
 
-    def on_stats_cleared(self, trainer: Any) -> None:
+    def on_stats_cleared(self, ctx: CallbackContext) -> None:
         # rl_games prints an epoch's statistics before self-play clears them: a clear that comes
         # before this epoch's after_print_stats (a callback earlier in the list) waits for it
-        if self._printed_epoch == trainer.epoch:
+        if self._printed_epoch == ctx.state.epoch:
             self._call("after_clear_stats")
         else:
             self._clear_pending = True
@@ -171,7 +188,8 @@ def handles_env_steps(callback: Callback) -> bool:
 
 
 class CallbackList:
-    """Dispatches each event to every callback in order.
+    """Dispatches each event to every callback in order, with the run's context first (the trainer
+    for callbacks that :attr:`~Callback.drives_trainer`): :meth:`bind` sets them.
 
     ``step_callbacks`` are the callbacks that handle ``on_env_step``: the trainers test it (an
     empty list) before doing any per-step work for them.
@@ -180,8 +198,16 @@ class CallbackList:
     def __init__(self, callbacks: list[Any] | None = None) -> None:
         self.callbacks: list[Callback] = []
         self.step_callbacks: list[Callback] = []
+        self.trainer: Any = None
+        self.context: CallbackContext | None = None
         for callback in callbacks or []:
             self.add(callback)
+
+    def bind(self, trainer: Any) -> CallbackContext:
+        """The run whose events these are; returns the context callbacks get."""
+        self.trainer = trainer
+        self.context = CallbackContext(trainer)
+        return self.context
 
     def add(self, callback: Any) -> None:
         callback = as_callback(callback)
@@ -196,13 +222,18 @@ class CallbackList:
     def __iter__(self):
         return iter(self.callbacks)
 
-    def emit(self, event: str, *args: Any) -> None:
-        for callback in self.callbacks:
-            getattr(callback, event)(*args)
+    def _first(self, callback: Callback) -> Any:
+        """What ``callback`` gets as its first argument."""
+        return self.trainer if callback.drives_trainer else self.context
 
-    def emit_env_step(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+    def emit(self, event: str, *args: Any) -> None:
+        """``event(context, *args)`` on every callback."""
+        for callback in self.callbacks:
+            getattr(callback, event)(self._first(callback), *args)
+
+    def emit_env_step(self, result: Any, done_indices: Any, rows: slice) -> None:
         for callback in self.step_callbacks:
-            callback.on_env_step(trainer, result, done_indices, rows)
+            callback.on_env_step(self._first(callback), result, done_indices, rows)
 
     def close(self) -> None:
         """``close()`` every callback, even when one fails (reported, not raised: the run's

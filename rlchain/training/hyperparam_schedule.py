@@ -7,9 +7,8 @@ start), the point at which population-based training changed the winner's values
 
 from __future__ import annotations
 
-from typing import Any
-
 from rlchain.config.errors import ConfigError
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
 
@@ -39,12 +38,12 @@ class HyperparamSchedule(Callback):
     def __init__(self, schedule: dict[int, dict[str, float]]) -> None:
         self.schedule = {int(epoch): dict(values) for epoch, values in schedule.items()}
 
-    def on_train_start(self, trainer: Any) -> None:
-        values = values_at(self.schedule, trainer.epoch)
+    def on_train_start(self, ctx: CallbackContext) -> None:
+        values = values_at(self.schedule, ctx.state.epoch)
         if values:
-            trainer.set_params(**values)
+            ctx.set_params(**values)
 
-    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
-        values = self.schedule.get(trainer.epoch)
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict, episodes: dict | None) -> None:
+        values = self.schedule.get(ctx.state.epoch)
         if values:
-            trainer.set_params(**values)
+            ctx.set_params(**values)

@@ -16,6 +16,8 @@ log = get_logger(__name__)
 class EnvStatsCallback(Callback):
     """Writes an env backend's counters, ``env.log_stats()`` (e.g. ``env/dropped_episodes``), every epoch."""
 
+    drives_trainer = True  # reads the training env itself
+
     def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
         for tag, value in trainer.env.log_stats().items():
             trainer.logger.scalar(tag, float(value), trainer.frames)
@@ -36,13 +38,14 @@ class TrainLogger:
         self.start = time.time()
 
     def scalar(self, tag: str, value: float, step: int) -> None:
-        self._write("add_scalar", tag, value, step)
+        self.write("add_scalar", tag, value, step)
 
-    def _write(self, method: str, *args: object) -> None:
-        """Call a SummaryWriter method; a failed write disables logging with one warning."""
+    def write(self, method: str, *args: Any, **kwargs: Any) -> None:
+        """Call a SummaryWriter method (nothing without a writer); a failed write disables logging
+        with one warning."""
         if self.writer is not None:
             try:
-                getattr(self.writer, method)(*args)
+                getattr(self.writer, method)(*args, **kwargs)
             except OSError as exc:
                 self._writer_failed(exc)
 
@@ -89,7 +92,7 @@ class TrainLogger:
                   file=self.stream, flush=True)
 
     def flush(self) -> None:
-        self._write("flush")
+        self.write("flush")
 
     def close(self) -> None:
-        self._write("close")
+        self.write("close")

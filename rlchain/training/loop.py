@@ -83,6 +83,10 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         self.best_reward = -math.inf
         self.obs: torch.Tensor | None = None
         self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        self.events.bind(self)  # callbacks get a CallbackContext of this run
+        self.last_stats: dict[str, float] = {}  # the last epoch's metrics and episode means (TrainingState)
+        self.last_episodes: dict[str, float] | None = None
+        self.started = time.time()  # when train() started
         self._closed = False
         if callable(getattr(env, "log_stats", None)):  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
@@ -109,13 +113,13 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         epoch; an env failure does the same, then raises EnvError; a NaN/inf stops (or rolls back,
         with ``divergence.action: rollback``) without ever saving non-finite parameters.
         """
-        start = time.time()
+        start = self.started = time.time()
         stop = None
         with StopSignals() as signals:
             self.signals = signals
             self.obs = self._reset_envs()
             self._snapshot()
-            self.events.emit("on_train_start", self)
+            self.events.emit("on_train_start")
             while stop is None:
                 self._apply_pending_params()
                 t0 = time.time()
@@ -123,7 +127,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
                     if not self._guarded_collect():
                         stop = f"interrupted by {signals.requested}"
                         break
-                    self.events.emit("on_rollout_end", self)
+                    self.events.emit("on_rollout_end")
                     t1 = time.time()
                     stats = self._guarded_update()
                 except DivergenceError as exc:
@@ -138,7 +142,8 @@ class Loop(LiveParamsMixin, CheckpointMixin):
                 self._checkpoints(episodes)
                 if self.snapshot_due():
                     self._snapshot()
-                self.events.emit("on_epoch_end", self, stats, episodes)
+                self.last_stats, self.last_episodes = stats, episodes
+                self.events.emit("on_epoch_end", stats, episodes)
                 stop = self._stop_reason(episodes)
             last = self.save("last")
         return self._finish(stop, start, last)
@@ -315,7 +320,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
             log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")
         result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                              self.run.root if self.run else "", time.time() - start)
-        self.events.emit("on_train_end", self, result)
+        self.events.emit("on_train_end", result)
         return result
 
     def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
@@ -353,7 +358,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         done_indices = dones.nonzero().squeeze(-1)
         if self.num_agents > 1:
             done_indices = done_indices[done_indices % self.num_agents == 0]
-        self.events.emit_env_step(self, result, done_indices, rows)
+        self.events.emit_env_step(result, done_indices, rows)
 
     def _env_actions(self, actions: torch.Tensor) -> Any:
         """Tensor envs (``env.is_tensor_env``) take device tensors; numpy backends take arrays."""

@@ -65,7 +65,7 @@ class CheckpointMixin:
             log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
                         f"checkpoint is kept and training goes on")
             return None
-        self.events.emit("on_checkpoint", self, path, kind)
+        self.events.emit("on_checkpoint", path, kind)
         return path
 
     def restore(self, state: dict[str, Any], path: str) -> None:

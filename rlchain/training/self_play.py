@@ -59,6 +59,8 @@ class FrozenPolicy:
 class SelfPlayCallback(Callback):
     """Replaces the env's opponent by the current policy whenever it wins often enough."""
 
+    drives_trainer = True  # reads the episode tracker's finished games
+
     def __init__(self, cfg: SelfPlayConfig, env: Any, source: str = "") -> None:
         if not callable(getattr(env, "set_opponent", None)):
             raise ConfigError(source, KEY, "needs an env with set_opponent(policy, env_ids) (for example "
@@ -110,7 +112,7 @@ class SelfPlayCallback(Callback):
         self._drain()
         events = getattr(trainer, "events", None)
         if events is not None:  # rl_games clears its game statistics here (AlgoObserver.after_clear_stats)
-            events.emit("on_stats_cleared", trainer)
+            events.emit("on_stats_cleared")
         return env_ids
 
     def _new_scores(self, trainer: Any) -> list[float]:

@@ -29,6 +29,8 @@ log = get_logger(__name__)
 class SnapshotCallback(Callback):
     """Copies each trained policy into its frozen snapshot policy when it scores well enough."""
 
+    drives_trainer = True  # reads and refreshes the trainer's learners
+
     def __init__(self, cfg: SelfPlayConfig, snapshots: dict[str, str], source: str = "") -> None:
         if not snapshots:
             raise ConfigError(source, "params.config.self_play_config", "with multi_agent, self-play needs "

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rlchain.training import checkpoint as ckpt
+from rlchain.training.callback_context import training_state
 from rlchain.training.events import Callback
 
 
@@ -36,6 +37,8 @@ class EpochReport:
 
 class EpochStepper(Callback):
     """Drives ``runner.train(checkpoint)`` one epoch at a time (see the module docstring)."""
+
+    drives_trainer = True  # saves, loads and moves the parked run
 
     def __init__(self, runner: Any, checkpoint: str | None = None, live: dict[str, float] | None = None,
                  seed: int | None = None) -> None:
@@ -148,11 +151,12 @@ class EpochStepper(Callback):
             trainer.set_params(**self.live)
 
     def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        state = training_state(trainer)
         report = EpochReport(
-            epoch=trainer.epoch, frames=trainer.frames,
+            epoch=state.epoch, frames=state.frames,
             mean_reward=None if episodes is None else float(episodes["reward"]),
             mean_length=None if episodes is None else float(episodes.get("length", 0.0)),
-            best_reward=float(trainer.best_reward), stats={k: float(v) for k, v in stats.items()},
+            best_reward=state.best_reward, stats={k: float(v) for k, v in stats.items()},
             params={k: float(v) for k, v in trainer.get_params().items()
                     if isinstance(v, (int, float)) and not isinstance(v, bool)},
             seconds=time.time() - self._resumed_at)

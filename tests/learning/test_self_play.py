@@ -16,6 +16,8 @@ pytestmark = pytest.mark.slow
 class KeepPolicy(Callback):
     """Keeps the final policy (deterministic) and the self-play callback of the run."""
 
+    drives_trainer = True  # test instrument: finds the self-play callback among the trainer's
+
     def on_train_end(self, trainer, result):
         self.policy = FrozenPolicy(trainer.model, deterministic=True)
         self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))

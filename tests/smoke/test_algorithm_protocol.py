@@ -15,6 +15,7 @@ from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.algorithm import Algorithm
+from rlchain.training.events import Callback
 from rlchain.training.logging import TrainLogger
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
@@ -34,11 +35,18 @@ def test_a_user_algorithm_trains_logs_and_resumes_through_the_loop(tmp_path, mon
     real = TrainLogger.scalar
     monkeypatch.setattr(TrainLogger, "scalar", lambda self, tag, value, step: tags.setdefault(tag, []).append(value)
                         or real(self, tag, value, step))
-    seen = []
-    result = reinforce(tmp_path, epochs=3).train(callbacks=[lambda trainer, stats, episodes: seen.append(
-        (isinstance(trainer, Algorithm), trainer.epoch, trainer.frames, sorted(stats)))])
+    seen, loops = [], []
+
+    class IsAlgorithm(Callback):
+        drives_trainer = True  # test instrument: the trainer itself
+
+        def on_train_start(self, trainer):
+            loops.append(isinstance(trainer, Algorithm))
+
+    result = reinforce(tmp_path, epochs=3).train(callbacks=[IsAlgorithm(), lambda ctx, stats, episodes: seen.append(
+        (ctx.state.algo, ctx.state.epoch, ctx.state.frames, sorted(stats), dict(ctx.state.stats) == stats))])
     assert result.epoch == 3 and result.frames == 3 * 4 * 32
-    assert seen[0] == (True, 1, 128, ["lr", "mean_return", "pg_loss"])
+    assert loops == [True] and seen[0] == ("reinforce", 1, 128, ["lr", "mean_return", "pg_loss"], True)
     assert len(tags["losses/pg_loss"]) == 3 and len(tags["info/mean_return"]) == 3  # its own tags
     assert len(tags["performance/step_fps"]) == 3 and "rewards/step" in tags  # the Loop's
     out = capsys.readouterr().out
@@ -53,10 +61,10 @@ def test_a_user_algorithm_trains_logs_and_resumes_through_the_loop(tmp_path, mon
 def test_a_user_algorithm_gets_set_params_from_the_loop(tmp_path):
     seen = []
 
-    def tweak(trainer, stats, episodes):
-        if trainer.epoch == 1:
-            trainer.set_params(learning_rate=1e-4, gamma=0.9)
-        seen.append((trainer.get_params()["learning_rate"], trainer.get_params()["gamma"]))
+    def tweak(ctx, stats, episodes):
+        if ctx.state.epoch == 1:
+            ctx.set_params(learning_rate=1e-4, gamma=0.9)
+        seen.append((ctx.get_params()["learning_rate"], ctx.get_params()["gamma"]))
 
     reinforce(tmp_path, epochs=2).train(callbacks=[tweak])
     assert seen == [(pytest.approx(1e-3), pytest.approx(0.99)), (pytest.approx(1e-4), pytest.approx(0.9))]
@@ -87,13 +95,16 @@ def test_multi_gpu_for_an_algorithm_without_it_is_a_one_line_error(tmp_path, mon
 def test_sac_and_dqn_get_and_set_params(tmp_path, config, changes, check):
     seen = []
 
-    def tweak(trainer, stats, episodes):
-        if trainer.epoch == 1:
-            assert set(changes) <= set(trainer.get_params())
-            trainer.set_params(**changes)
-        else:
-            seen.append((check(trainer), {k: trainer.get_params()[k] for k in changes}))
+    class Tweak(Callback):
+        drives_trainer = True  # test instrument: checks the optimizers and buffer the change reached
+
+        def on_epoch_end(self, trainer, stats, episodes):
+            if trainer.epoch == 1:
+                assert set(changes) <= set(trainer.get_params())
+                trainer.set_params(**changes)
+            else:
+                seen.append((check(trainer), {k: trainer.get_params()[k] for k in changes}))
 
     Runner().load(os.path.join(CONFIGS, config), small(tmp_path, 2, ["params.config.num_warmup_frames=0"])).train(
-        callbacks=[tweak])
+        callbacks=[Tweak()])
     assert seen == [(True, changes)]

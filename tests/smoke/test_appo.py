@@ -54,10 +54,10 @@ class Grab(Callback):
     def __init__(self, at=None, action=None):
         self.stats, self.at, self.action = [], at, action
 
-    def on_epoch_end(self, trainer, stats, episodes):
+    def on_epoch_end(self, ctx, stats, episodes):
         self.stats.append(dict(stats))
-        if self.at is not None and trainer.epoch == self.at:
-            self.action(trainer)
+        if self.at is not None and ctx.state.epoch == self.at:
+            self.action(ctx)
 
 
 @pytest.mark.timeout(120)
@@ -111,6 +111,8 @@ def test_full_queue_stops_the_runners(tmp_path):
 
 class KillRunner(Callback):
     """Kill runner ``index`` at the given epochs (its thread dies mid-fragment); remember the restarts."""
+
+    drives_trainer = True  # test instrument: reaches the runners through the trainer's pool
 
     def __init__(self, index, epochs):
         self.index, self.epochs, self.restarts = index, epochs, None

@@ -28,6 +28,8 @@ CALLBACK = 'params.config.callbacks=["tests.smoke.test_distributed:DumpState"]'
 class DumpState(Callback):
     """Test-only: each rank writes its final model, optimizer and counters to $RLCHAIN_TEST_DIST_DUMP."""
 
+    drives_trainer = True  # test instrument: reads the optimizers
+
     def on_train_end(self, trainer, result):
         folder = os.environ.get(DUMP_ENV)
         if not folder:
@@ -45,8 +47,8 @@ class DumpState(Callback):
 class KillRank1(Callback):
     """Test-only: rank 1 dies (SIGKILL) at the end of epoch 3, as a crashed or OOM-killed worker would."""
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        if trainer.comm.rank == 1 and trainer.epoch == 3:
+    def on_epoch_end(self, ctx, stats, episodes):
+        if ctx.state.rank == 1 and ctx.state.epoch == 3:
             os.kill(os.getpid(), signal.SIGKILL)
 
 

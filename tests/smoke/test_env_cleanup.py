@@ -53,8 +53,8 @@ class RaiseAt(Callback):
     def __init__(self, error, epoch=1):
         self.error, self.epoch = error, epoch
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        if trainer.epoch == self.epoch:
+    def on_epoch_end(self, ctx, stats, episodes):
+        if ctx.state.epoch == self.epoch:
             raise self.error
 
 

@@ -58,6 +58,8 @@ def test_stop_request_mid_rollout_drains_groups_and_saves(tmp_path):
     class StopAfterRecvs(Callback):
         """Asks the trainer to stop after 5 group results, in the middle of the first rollout."""
 
+        drives_trainer = True  # test instrument: wraps the training env's recv
+
         def on_train_start(self, trainer):
             env, recv, count = trainer.env, trainer.env.recv, [0]
             assert len(env.env_groups) == 2

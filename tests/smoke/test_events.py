@@ -90,19 +90,19 @@ def expected_calls(seed, num_envs, steps_per_epoch, epochs):
 class Recorder(Callback):
     """Records every event it gets (named from YAML in a test below)."""
 
-    def on_train_start(self, trainer):
-        SEEN.append(("start", trainer.epoch))
+    def on_train_start(self, ctx):
+        SEEN.append(("start", ctx.state.epoch))
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        SEEN.append(("epoch", trainer.epoch, "kl" in stats))
+    def on_epoch_end(self, ctx, stats, episodes):
+        SEEN.append(("epoch", ctx.state.epoch, "kl" in stats))
 
-    def on_evaluation(self, trainer, result):
-        SEEN.append(("evaluation", trainer.epoch, result.games))
+    def on_evaluation(self, ctx, result):
+        SEEN.append(("evaluation", ctx.state.epoch, result.games))
 
-    def on_checkpoint(self, trainer, path, kind):
+    def on_checkpoint(self, ctx, path, kind):
         SEEN.append(("checkpoint", kind, os.path.isfile(path)))
 
-    def on_train_end(self, trainer, result):
+    def on_train_end(self, ctx, result):
         SEEN.append(("end", result.epoch))
 
 
@@ -155,7 +155,7 @@ def test_evaluation_and_stop_messages_are_logged_to_stdout(tmp_path, capsys):
 def test_algo_observer_and_function_callbacks(tmp_path):
     observer, epochs = Observer(), []
     Runner().load(CARTPOLE, small(tmp_path, epochs=2, extra=["params.config.print_stats=false"])).train(
-        callbacks=[observer, lambda trainer, stats, episodes: epochs.append(trainer.epoch)])
+        callbacks=[observer, lambda ctx, stats, episodes: epochs.append(ctx.state.epoch)])
     assert observer.calls[:2] == ["before_init", "after_init"]
     assert observer.calls[2:] == [("after_print_stats", 512, 1), ("after_print_stats", 1024, 2)]
     assert epochs == [1, 2]
@@ -185,6 +185,8 @@ def test_after_clear_stats_follows_self_play_updates(tmp_path):
     observer = StepObserver()
 
     class KeepSelfPlay(Callback):
+        drives_trainer = True  # test instrument: finds the self-play callback among the trainer's
+
         def on_train_end(self, trainer, result):
             self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))
 
@@ -206,13 +208,13 @@ class StepRecorder(Callback):
     def __init__(self):
         self.steps = []
 
-    def on_env_step(self, trainer, result, done_indices, rows):
+    def on_env_step(self, ctx, result, done_indices, rows):
         self.steps.append((done_indices.tolist(), rows))
 
 
 def test_env_step_done_indices_multi_agent_and_dropped_rows():
     recorder = StepRecorder()
-    events = CallbackList([recorder, Callback(), lambda trainer, stats, episodes: None])
+    events = CallbackList([recorder, Callback(), lambda ctx, stats, episodes: None])
     assert events.step_callbacks == [recorder]  # only the callbacks that want steps are called per step
     trainer = types.SimpleNamespace(num_agents=2, events=events)
     dones = torch.tensor([True, True, False, False, True, True, True, True])  # envs 0, 2, 3 ended (2 agents)
@@ -273,11 +275,11 @@ def test_bad_callback_name_is_a_config_error(tmp_path):
 def test_get_set_params_during_training(tmp_path, capsys):
     seen = []
 
-    def tweak(trainer, stats, episodes):
-        if trainer.epoch == 1:
-            assert trainer.get_params()["entropy_coef"] == 0.0
-            trainer.set_params(learning_rate=1e-4, entropy_coef=0.01, mini_epochs=2)
-        seen.append((trainer.epoch, trainer.get_params()["learning_rate"], trainer.get_params()["entropy_coef"]))
+    def tweak(ctx, stats, episodes):
+        if ctx.state.epoch == 1:
+            assert ctx.get_params()["entropy_coef"] == 0.0
+            ctx.set_params(learning_rate=1e-4, entropy_coef=0.01, mini_epochs=2)
+        seen.append((ctx.state.epoch, ctx.get_params()["learning_rate"], ctx.get_params()["entropy_coef"]))
 
     Runner().load(CARTPOLE, small(tmp_path, epochs=3, extra=["params.config.print_stats=true",
                                                              "params.config.lr_schedule=None"])).train(

@@ -10,6 +10,7 @@ import torch
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.training import checkpoint as ckpt
+from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.smoke
@@ -63,7 +64,14 @@ def test_sac_resume_with_replay_buffer(tmp_path):
     assert state["replay_buffer"]["size"] == 200
     runner = Runner().load(cfg, small(tmp_path, 2, extra))
     captured = {}
-    runner.train(checkpoint=last, callbacks=[lambda t, s, e: captured.setdefault("size", len(t.buffer))])
+
+    class BufferSize(Callback):
+        drives_trainer = True  # test instrument: reads the replay buffer
+
+        def on_epoch_end(self, trainer, stats, episodes):
+            captured.setdefault("size", len(trainer.buffer))
+
+    runner.train(checkpoint=last, callbacks=[BufferSize()])
     assert captured["size"] == 400
 
 

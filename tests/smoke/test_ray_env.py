@@ -169,6 +169,8 @@ def ray_ppo_config(tmp_path, epochs, **runner_keys):
 class KillWorker(Callback):
     """Kills worker 1's process at the end of the given epochs; remembers the env for the checks."""
 
+    drives_trainer = True  # test instrument: reaches the Ray workers through the training env
+
     def __init__(self, epochs):
         self.epochs, self.env, self.killed = epochs, None, 0
 
@@ -219,6 +221,8 @@ def _wait_dead(ray, worker, seconds=30.0):
 
 class KillAppoRunner(Callback):
     """SIGKILLs appo Ray runner 1's process at the end of the given epochs; remembers the restarts."""
+
+    drives_trainer = True  # test instrument: reaches the Ray runners through the trainer's pool
 
     def __init__(self, epochs):
         self.epochs, self.restarts, self.lost = epochs, None, None

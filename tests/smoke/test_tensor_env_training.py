@@ -8,6 +8,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.training import checkpoint as ckpt
+from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.smoke
@@ -32,8 +33,14 @@ def test_tensor_config_trains_saves_and_plays(tmp_path, config, env_name, num_en
     assert cfg.env_name == env_name and cfg.num_actors == num_envs
     assert cfg.env_config["device"] == cfg.device  # the env lives on the training device
     seen = []
-    result = runner.train(callbacks=[lambda trainer, stats, episodes: seen.append(
-        (trainer.tensor_env, trainer.env.device, trainer.storage.obs.device))])
+
+    class Devices(Callback):
+        drives_trainer = True  # test instrument: reads the env's and the rollout storage's devices
+
+        def on_epoch_end(self, trainer, stats, episodes):
+            seen.append((trainer.tensor_env, trainer.env.device, trainer.storage.obs.device))
+
+    result = runner.train(callbacks=[Devices()])
     assert result.epoch == 2 and result.frames == 2 * cfg.horizon_length * num_envs
     assert seen and all(is_tensor and env_dev == obs_dev for is_tensor, env_dev, obs_dev in seen)
     last = os.path.join(result.run_dir, "nn", f"last_{cfg.name}.pth")

@@ -172,6 +172,8 @@ def test_resume_keeps_the_entropy_schedule(tmp_path):
     from tests.conftest import BASE
 
     class Record(Callback):
+        drives_trainer = True  # test instrument: reads the agent's live entropy coefficient and lr
+
         def __init__(self, stop_at=None):
             self.seen, self.stop_at, self.start = [], stop_at, None
 

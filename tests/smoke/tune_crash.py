@@ -10,9 +10,9 @@ CRASH_AT = 5
 
 
 class CrashOnce(Callback):
-    def on_epoch_end(self, trainer, stats, episodes):
-        marker = os.path.join(trainer.cfg.train_dir, "crashed_once")
-        if trainer.epoch == CRASH_AT and not os.path.exists(marker):
+    def on_epoch_end(self, ctx, stats, episodes):
+        marker = os.path.join(ctx.params.config.train_dir, "crashed_once")
+        if ctx.state.epoch == CRASH_AT and not os.path.exists(marker):
             with open(marker, "w", encoding="utf-8") as fh:
-                fh.write(f"crashed at epoch {trainer.epoch}\n")
+                fh.write(f"crashed at epoch {ctx.state.epoch}\n")
             raise RuntimeError("deliberate crash (test)")

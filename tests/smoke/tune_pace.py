@@ -11,5 +11,5 @@ PACE_S = 0.15
 
 
 class Pace(Callback):
-    def on_epoch_end(self, trainer, stats, episodes):
+    def on_epoch_end(self, ctx, stats, episodes):
         time.sleep(PACE_S)

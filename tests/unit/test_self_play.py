@@ -216,6 +216,8 @@ def test_heuristic_and_perfect_play():
 @pytest.mark.smoke
 def test_duel_config_trains_with_updates_and_plays(tmp_path):
     class Keep(Callback):
+        drives_trainer = True  # test instrument: finds the self-play callback among the trainer's
+
         def on_train_end(self, trainer, result):
             self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))
 

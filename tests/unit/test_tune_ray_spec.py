@@ -127,8 +127,8 @@ class _Record(Callback):
     def __init__(self):
         self.lr = []
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        self.lr.append(trainer.get_params()["learning_rate"])
+    def on_epoch_end(self, ctx, stats, episodes):
+        self.lr.append(ctx.get_params()["learning_rate"])
 
 
 def test_hyperparam_schedule_replays_through_set_params(tmp_path):

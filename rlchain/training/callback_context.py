@@ -1,0 +1,240 @@
+"""What a callback sees of a training run: a :class:`CallbackContext`, not the trainer.
+
+Every :class:`~rlchain.training.events.Callback` method gets the run's context as its first
+argument. It offers a typed, read-only snapshot of the run (:attr:`CallbackContext.state`, a frozen
+:class:`TrainingState`), the actions a callback may take (:meth:`~CallbackContext.request_stop`,
+:meth:`~CallbackContext.save`, :meth:`~CallbackContext.set_params`) and the few handles callbacks
+need: the policy :attr:`~CallbackContext.model` (evaluation, video), a TensorBoard
+:attr:`~CallbackContext.writer`, the :attr:`~CallbackContext.env_spec` and the run's typed
+:attr:`~CallbackContext.params`.
+
+Callbacks written for the older API read the trainer's attributes (``trainer.epoch``,
+``trainer.logger``...); for one release the context forwards any other attribute to the trainer
+with a :class:`DeprecationWarning` naming it (once per attribute and run).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
+
+import torch
+
+EMITTABLE = ("on_evaluation", "on_stats_cleared")
+"""Events a callback may announce to the other callbacks through :meth:`CallbackContext.emit`."""
+
+
+@dataclass(frozen=True)
+class TrainingState:
+    """The run at the moment a callback reads :attr:`CallbackContext.state` (a copy: it does not change)."""
+
+    epoch: int  # epochs completed
+    frames: int  # env frames so far, every rank's under torchrun
+    seconds: float  # wall time since train() started
+    best_reward: float  # best mean reward of the tracked games so far (-inf before any)
+    episodes: Mapping[str, float] | None  # the last epoch's episode means: reward, length (success); None if none
+    stats: Mapping[str, float]  # the last epoch's metrics as update() returned them (losses, kl, lr ...)
+    algo: str  # params.algo.name
+    name: str  # params.config.name
+    experiment_dir: str  # the run folder ("" when the run writes none)
+    device: torch.device  # the training device
+    seed: int
+    rank: int  # this process under torchrun (0 otherwise)
+    world_size: int  # processes training together
+    max_epochs: int  # stop rules from the config (-1: none)
+    max_frames: int
+
+    @property
+    def is_main(self) -> bool:
+        """Rank 0: the process that writes logs and checkpoints."""
+        return self.rank == 0
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """The training envs as the trainer sees them."""
+
+    num_envs: int
+    num_agents: int  # rows per env (multi-agent envs); the batch has num_envs * num_agents rows
+    observation_space: Any
+    action_space: Any
+    tensor_env: bool  # steps take and return device tensors
+
+
+def training_state(trainer: Any) -> TrainingState:
+    """A :class:`TrainingState` of ``trainer`` (a Loop) now."""
+    cfg = trainer.cfg
+    episodes = getattr(trainer, "last_episodes", None)
+    started = getattr(trainer, "started", None)
+    return TrainingState(
+        epoch=int(trainer.epoch), frames=int(trainer.frames),
+        seconds=time.time() - started if started is not None else 0.0,
+        best_reward=float(trainer.best_reward),
+        episodes=MappingProxyType(dict(episodes)) if episodes is not None else None,
+        stats=MappingProxyType(dict(getattr(trainer, "last_stats", None) or {})),
+        algo=trainer.params.algo.name, name=cfg.name,
+        experiment_dir=trainer.run.root if trainer.run is not None else "",
+        device=trainer.device, seed=int(trainer.seed), rank=trainer.comm.rank, world_size=trainer.comm.world_size,
+        max_epochs=int(cfg.max_epochs), max_frames=int(cfg.max_frames))
+
+
+class ScalarWriter:
+    """TensorBoard for callbacks: ``add_scalar(tag, value, step)`` and the other SummaryWriter
+    methods on the run's writer. Without a run folder (or after a failed write) they do nothing."""
+
+    def __init__(self, trainer: Any) -> None:
+        self._trainer = trainer
+
+    def add_scalar(self, tag: str, scalar_value: float, global_step: int | None = None,
+                   walltime: float | None = None) -> None:
+        """Write one scalar; ``global_step`` defaults to the run's frames."""
+        step = self._trainer.frames if global_step is None else global_step
+        self._trainer.logger.write("add_scalar", tag, float(scalar_value), step, walltime)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return lambda *args, **kwargs: self._trainer.logger.write(name, *args, **kwargs)
+
+
+class CallbackContext:
+    """A training run as callbacks see it (see the module docstring). One per run."""
+
+    def __init__(self, trainer: Any) -> None:
+        object.__setattr__(self, "_trainer", trainer)
+        object.__setattr__(self, "_warned", set())
+        object.__setattr__(self, "_writer", ScalarWriter(trainer))
+
+    @property
+    def state(self) -> TrainingState:
+        """The run's counters, last statistics and identity, as of now."""
+        return training_state(self._trainer)
+
+    @property
+    def model(self) -> torch.nn.Module:
+        """The policy being trained (for evaluation and videos; put it back in train mode after use)."""
+        return self._trainer.model
+
+    @property
+    def writer(self) -> ScalarWriter:
+        """The run's TensorBoard writer (``add_scalar(tag, value, step)``)."""
+        return self._writer
+
+    @property
+    def params(self) -> Any:
+        """The run's typed configuration (``params.config``, ``params.algo``, ...): read it, do not change it."""
+        return self._trainer.params
+
+    @property
+    def env_spec(self) -> EnvSpec:
+        """Number, agents, spaces and kind of the training envs."""
+        trainer = self._trainer
+        return EnvSpec(trainer.num_envs, trainer.num_agents, trainer.env.observation_space,
+                       trainer.env.action_space, bool(trainer.tensor_env))
+
+    def request_stop(self, reason: str) -> None:
+        """Stop after the current epoch with a checkpoint, as a signal would."""
+        self._trainer.request_stop(reason)
+
+    def save(self, kind: str) -> str | None:
+        """Write a checkpoint of ``kind`` (best, last, ep_N) now; its path, or None when none was
+        written (no run folder, non-finite parameters, a failed write)."""
+        return self._trainer.save(kind)
+
+    def get_params(self) -> dict[str, float]:
+        """The live values of the training parameters :meth:`set_params` may change."""
+        return self._trainer.get_params()
+
+    def set_params(self, **changes: float) -> None:
+        """Change training parameters from the next epoch on (thread-safe; logged as ``params/*``)."""
+        self._trainer.set_params(**changes)
+
+    def emit(self, event: str, *args: Any) -> None:
+        """Announce an event this callback produced to every callback: ``on_evaluation(result)``
+        after an evaluation, ``on_stats_cleared()`` after statistics were reset."""
+        if event not in EMITTABLE:
+            raise ValueError(f"callbacks may emit {' or '.join(EMITTABLE)}, not '{event}'")
+        self._trainer.events.emit(event, *args)
+
+    def __getattr__(self, name: str) -> Any:
+        """The trainer's attribute, deprecated: callbacks read :attr:`state` and the handles above."""
+        if name.startswith("__"):
+            raise AttributeError(name)
+        trainer = self._trainer
+        if not hasattr(trainer, name):
+            raise AttributeError(f"a callback context has no attribute '{name}' (see "
+                                 f"rlchain.training.callback_context.CallbackContext)")
+        self._deprecated(name)
+        return getattr(trainer, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        self._deprecated(name)
+        setattr(self._trainer, name, value)
+
+    def _deprecated(self, name: str) -> None:
+        if name in self._warned:
+            return
+        self._warned.add(name)
+        warnings.warn(f"callbacks get a CallbackContext, not the trainer: 'trainer.{name}' is deprecated and "
+                      f"will be removed in the next release; read context.state (epoch, frames, best_reward, "
+                      f"stats ...) or its model / writer / params / env_spec / save / request_stop / set_params",
+                      DeprecationWarning, stacklevel=3)
+
+
+class ObserverAlgo:
+    """What an rl_games AlgoObserver's ``after_init(algo)`` gets: the attributes observers read of
+    rl_games' algo (``writer``, ``device`` / ``ppo_device``, ``games_to_track``, ``epoch_num``,
+    ``frame``, ``num_actors``, ``num_agents``, ``config``, ``experiment_dir``), live; anything
+    else goes to the :class:`CallbackContext` (the trainer's attributes, deprecated)."""
+
+    def __init__(self, context: CallbackContext) -> None:
+        self._context = context
+
+    @property
+    def writer(self) -> ScalarWriter:
+        return self._context.writer
+
+    @property
+    def device(self) -> torch.device:
+        return self._context._trainer.device
+
+    ppo_device = device
+
+    @property
+    def games_to_track(self) -> int:
+        return int(self._context.params.config.games_to_track)
+
+    @property
+    def epoch_num(self) -> int:
+        return int(self._context._trainer.epoch)
+
+    @property
+    def frame(self) -> int:
+        return int(self._context._trainer.frames)
+
+    @property
+    def num_actors(self) -> int:
+        return int(self._context._trainer.num_envs)
+
+    @property
+    def num_agents(self) -> int:
+        return int(self._context._trainer.num_agents)
+
+    @property
+    def config(self) -> dict:
+        """The run's ``params.config`` block as written (rl_games' ``algo.config`` dict)."""
+        raw = self._context._trainer.raw_config
+        return raw.get("params", raw).get("config", {}) if isinstance(raw, dict) else {}
+
+    @property
+    def experiment_dir(self) -> str:
+        return self._context.state.experiment_dir
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self._context, name)
