@@ -8,6 +8,7 @@ The Loop logs whatever metrics ``update`` returns, under the algorithm's ``metri
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -19,6 +20,7 @@ import numpy as np
 import torch
 
 from rlchain.config.load import check_batch
+from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.config.schema import Params
 from rlchain.envs.success import SuccessReader
 from rlchain.envs.vecenv import dropped_rows
@@ -101,6 +103,7 @@ class Loop:
         self.threads: ThreadPlan | None = None  # CPU threads per phase, set by the Runner
         self.divergence: DivergenceGuard | None = None  # the algorithm's, once it built its agent
         self._params_lock = threading.Lock()
+        self.live_config: dict[str, Any] = {}  # tunable config fields changed during the run (set_params)
         self._pending_params: dict[str, float] = {}
 
     # ----- the loop -------------------------------------------------------------------------
@@ -226,9 +229,15 @@ class Loop:
         return {name: getattr(self.cfg, name) for name in self.tunable}
 
     def apply_hyperparam(self, name: str, value: float) -> None:
-        """Change one tunable value (default: the config field, keeping its type)."""
+        """Change one tunable value (default: a config field, keeping its type). The parsed config is
+        frozen: the run goes on with a copy holding the new value (:attr:`live_config`, checkpointed)."""
         current = getattr(self.cfg, name)
-        setattr(self.cfg, name, type(current)(value) if current is not None else value)
+        value = type(current)(value) if current is not None else value
+        self.live_config[name] = value
+        old, self.cfg = self.cfg, dataclasses.replace(self.cfg, **{name: value})
+        for part in vars(self).values():  # the agents (and guards) that read the run's config
+            if part is not self and getattr(part, "cfg", None) is old:
+                part.cfg = self.cfg
 
     def get_params(self) -> dict[str, float]:
         """The training parameters population-based training may change (see :meth:`set_params`)."""
@@ -404,7 +413,10 @@ class Loop:
         """Everything exact resume needs."""
         state = {
             "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
-            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
+            "config": config_state(self.params, {"seed": self.seed, "device": str(self.device),
+                                                 "rank": int(getattr(self.comm, "rank", 0))}),
+            "config_format": CONFIG_FORMAT, "live_config": dict(self.live_config),
+            "model": self.model.state_dict(), "agent": self.agent.state_dict(),
             "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
             "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
             "version": _version(),
@@ -438,6 +450,9 @@ class Loop:
         ckpt.load_model_state(self.model, state, path)
         self.agent.load_state_dict(state["agent"])
         self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
+        for name, value in state.get("live_config", {}).items():  # values set_params gave the config fields
+            if name in self.tunable:
+                self.apply_hyperparam(name, value)
         self.best_reward = float(state["best_reward"])
         self.tracker.load_state_dict(state["episodes"])
         ckpt.set_rng_state(state["rng"])
