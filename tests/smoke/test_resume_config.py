@@ -95,3 +95,19 @@ def test_live_hyperparameters_belong_to_the_run_and_survive_a_resume(tmp_path):
 
     played = Runner().load_from_checkpoint(last)  # the resolved config reads back as the one trained
     assert played.params.config == runner.params.config and played.params.network == runner.params.network
+
+
+def test_off_policy_live_values_reach_the_agent_and_the_replay_buffer(tmp_path):
+    seen = []
+
+    class WatchSac(Callback):
+        def on_epoch_end(self, trainer, stats, episodes):
+            seen.append((trainer.agent.cfg.critic_tau, trainer.buffer.gamma, trainer.params.config.critic_tau))
+
+    overrides = ["params.network.mlp.units=[8]", "params.config.num_actors=2",
+                 "params.config.num_steps_per_episode=4", "params.config.num_warmup_frames=8",
+                 "params.config.batch_size=8", "params.config.max_epochs=2", "params.config.max_frames=-1",
+                 f"params.config.train_dir={tmp_path}", "params.config.print_stats=false",
+                 "params.config.hyperparam_schedule={1: {critic_tau: 0.5, gamma: 0.9}}"]
+    Runner().load(os.path.join(CONFIGS, "sac_pendulum.yaml"), overrides).train(callbacks=[WatchSac()])
+    assert seen == [(0.005, 0.99, 0.005), (0.5, 0.9, 0.005)]
