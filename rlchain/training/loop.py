@@ -235,8 +235,9 @@ class Loop:
         value = type(current)(value) if current is not None else value
         self.live_config[name] = value
         old, self.cfg = self.cfg, dataclasses.replace(self.cfg, **{name: value})
-        for part in vars(self).values():  # the agents (and guards) that read the run's config
-            if part is not self and getattr(part, "cfg", None) is old:
+        for part in list(vars(self).values()):  # the agents (and guards) that read the run's config
+            own = getattr(part, "__dict__", None)  # their own attribute only: no proxy's __getattr__ runs
+            if part is not self and isinstance(own, dict) and own.get("cfg") is old:
                 part.cfg = self.cfg
 
     def get_params(self) -> dict[str, float]:
