@@ -242,3 +242,23 @@ def test_search_file_scalars_parse_with_the_schema_fields(tmp_path):
     path.write_text(yaml.safe_dump({"base": base, "params": dist, "overrides": ["params.config.gamma"]}))
     with pytest.raises(ConfigError, match=r"search.yaml: overrides: expected a list of 'key.path=value' strings"):
         load_search(str(path))
+
+
+def test_ray_scheduler_blocks_parse_with_the_schema_fields(tmp_path):
+    import yaml
+
+    from rlchain.tune import load_search
+    base = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+    mutations = {"params.config.learning_rate": {"type": "loguniform", "low": 1e-5, "high": 1e-2}}
+    path = tmp_path / "search.yaml"
+    path.write_text(yaml.safe_dump({"base": base, "backend": "ray", "scheduler": "pbt",
+                                    "pbt": {"interval_epochs": "4", "mutations": mutations}}))
+    pbt = load_search(str(path)).ray.pbt
+    assert pbt.interval_epochs == 4 and pbt.perturbation_factors == (1.2, 0.8)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        pbt.quantile = 0.5
+    path.write_text(yaml.safe_dump({"base": base, "backend": "ray", "scheduler": "asha",
+                                    "params": {"params.config.gamma": {"type": "uniform", "low": 0.9, "high": 0.99}},
+                                    "asha": {"grace_epochs": 0}}))
+    with pytest.raises(ConfigError, match=r"search.yaml: asha.grace_epochs: expected an integer >= 1, got 0$"):
+        load_search(str(path))
