@@ -414,8 +414,9 @@ class Loop:
         """Everything exact resume needs."""
         state = {
             "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
-            "config": config_state(self.params, {"seed": self.seed, "device": str(self.device),
-                                                 "rank": int(getattr(self.comm, "rank", 0))}),
+            "config": config_state(self.params, {"seed": self.seed, "device": str(self.device),  # the run context
+                                                 "rank": int(getattr(self.comm, "rank", 0)),
+                                                 "world_size": self.world_size, "print_stats": self.cfg.print_stats}),
             "config_format": CONFIG_FORMAT, "live_config": dict(self.live_config),
             "model": self.model.state_dict(), "agent": self.agent.state_dict(),
             "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
