@@ -13,12 +13,23 @@ from __future__ import annotations
 
 from typing import Any
 
-from rlchain.registry import ALGOS, ENVS, MODELS, NETWORKS, VECENVS
+from rlchain.registry import ALGOS, ENVS, MODELS, NETWORK_CONFIGS, NETWORKS, VECENVS
 
 
-def register_network(name: str, builder: Any, overwrite: bool = False) -> Any:
-    """Make ``params.network.name: <name>`` build with ``builder``."""
-    return NETWORKS.register(name, builder, overwrite=overwrite)
+def register_network(name: str, builder: Any, overwrite: bool = False, config_class: type | None = None) -> Any:
+    """Make ``params.network.name: <name>`` build with ``builder``.
+
+    ``config_class`` (a frozen dataclass whose fields are declared with ``rlchain.config.fields.option``)
+    makes the network block parse into it, so an unknown key is a config error with a did-you-mean; the
+    builder then gets the dataclass. Without it (and without a ``config_class`` attribute on a builder
+    class) the block stays a dict and keys the builder never reads are a warning naming them.
+    """
+    NETWORKS.register(name, builder, overwrite=overwrite)
+    if config_class is not None:
+        NETWORK_CONFIGS[name] = config_class
+    else:
+        NETWORK_CONFIGS.pop(name, None)
+    return builder
 
 
 def register_model(name: str, factory: Any, overwrite: bool = False) -> Any:

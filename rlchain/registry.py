@@ -77,3 +77,14 @@ MODELS = Registry("model")
 NETWORKS = Registry("network")
 ENVS = Registry("env")
 VECENVS = Registry("vecenv backend")
+
+NETWORK_CONFIGS: dict[str, type] = {}
+"""network name -> the dataclass its block parses into, given to ``register_network(config_class=...)``."""
+
+
+def network_config_class(name: str) -> type | None:
+    """The dataclass a network block named ``name`` parses into: the one given at registration, else the
+    builder's ``config_class`` attribute; None: the block stays a dict."""
+    if name in NETWORK_CONFIGS:
+        return NETWORK_CONFIGS[name]
+    return getattr(NETWORKS.get(name), "config_class", None) if name in NETWORKS else None

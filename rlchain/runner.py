@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import copy
 import os
-import secrets
 from typing import Any
 
-from rlchain.config.load import apply_overrides, check_batch, load_raw, parse_params
+from rlchain.config.load import apply_overrides, check_batch, import_user_modules, load_raw, parse_params
+from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params, TrainConfig
 from rlchain.log import get_logger
 from rlchain.registry import ALGOS
@@ -37,14 +37,30 @@ class Runner:
         else:
             source, raw = "<dict>", copy.deepcopy(config)
         raw = apply_overrides(raw, overrides or [], source)
+        import_user_modules(raw, source)  # first: they register the networks / algos the parser looks up
         self.params = parse_params(raw, source)
         self.raw = raw
         return self
 
     def load_from_checkpoint(self, path: str, overrides: list[str] | None = None) -> Runner:
-        """Use the config stored inside a checkpoint (for --play without --file)."""
+        """Use the config stored inside a checkpoint (for --play without --file): the resolved config of
+        a current checkpoint, or the input config of one written before the config was frozen."""
         state = ckpt.load(path)
-        return self.load(state["config"], overrides)
+        config = state.get("config")
+        if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
+            raise ckpt.CheckpointError(f"{path}: the checkpoint holds no config (no 'config' with 'params'); "
+                                       f"pass the config it was trained with: --file cfg.yaml")
+        if "config_format" not in state:  # rlchain before the frozen config: the input file's dict
+            return self.load(config, overrides)
+        if state["config_format"] != CONFIG_FORMAT:
+            raise ckpt.CheckpointError(f"{path}: config format '{state['config_format']}' is not this "
+                                       f"rlchain's '{CONFIG_FORMAT}'; pass the config it was trained with: "
+                                       f"--file cfg.yaml")
+        raw = apply_overrides({"params": config["params"]}, overrides or [], path)
+        import_user_modules(raw, path)
+        self.params = params_from_state(raw["params"], path)
+        self.raw = raw
+        return self
 
     def train(self, checkpoint: str | None = None, seed: int | None = None, sigma: float | None = None,
               callbacks: list[Any] | None = None, track: bool = False, wandb_project: str = "rlchain",
@@ -76,11 +92,9 @@ class Runner:
         from rlchain.training.build import build_env, build_model, resolve_device
         from rlchain.training.checkpoint import seed_everything
 
+        run_ctx: RunContext = resolve(params, seed, group)  # this process's device, seed (per rank), printing
+        params, seed = run_ctx.params, run_ctx.seed
         cfg = params.config
-        if group is not None:
-            seed = group.rank_seed  # distinct envs and RNG per rank; rank 0 keeps the run's seed
-        elif seed is None:
-            seed = secrets.randbelow(2**31)
         seed_everything(seed)
         threads = set_threads(params.torch_threads, params.update_threads, cfg.device,
                               group.local_world_size if group is not None else 1)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import math
 import os
 import sys
@@ -40,6 +41,7 @@ from typing import Any
 import yaml
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.fields import option, parse_dataclass
 from rlchain.config.load import apply_overrides, load_raw
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
@@ -82,6 +84,33 @@ class SearchSpec:
     ray: RaySpec | None = None  # the Ray Tune keys (backend: ray)
 
 
+def _at_least_one(x: int) -> str | None:
+    return None if x >= 1 else "expected an integer >= 1"
+
+
+def _overrides(items: list[str]) -> str | None:
+    return None if all("=" in item for item in items) else "expected a list of 'key.path=value' strings"
+
+
+@dataclass(frozen=True)
+class SearchKeys:
+    """The scalar keys of a search file, parsed like a config block (rlchain.config.fields)."""
+
+    metric: str = option("mean_reward", "what a trial is ranked by", choices=METRICS)
+    direction: str = option("maximize", "maximize or minimize the metric", choices=DIRECTIONS)
+    trials: int = option(20, "trials to run", check=_at_least_one)
+    max_epochs_per_trial: int | None = option(None, "params.config.max_epochs of every trial", check=_at_least_one)
+    overrides: list[str] = option([], "key.path=value overrides of the base config for every trial",
+                                  check=_overrides)
+    seed: int | None = option(None, "seed of the sampler (and of the trials)")
+    timeout: float | None = option(None, "seconds for the whole search",
+                                   check=lambda x: None if x > 0 else "expected seconds > 0")
+    verbose: bool = option(False, "print every trial's training progress")
+
+
+SEARCH_KEYS = {f.name for f in dataclasses.fields(SearchKeys)}
+
+
 def load_search(path: str) -> SearchSpec:
     """Read and validate a search file; every problem is a one-line ConfigError naming file and key."""
     raw = load_raw(path)  # ConfigError for a missing/unparsable file or a non-mapping
@@ -103,28 +132,10 @@ def load_search(path: str) -> SearchSpec:
     spec.backend = backend_of(raw, path)
     if spec.backend == "ray":
         spec.ray = load_ray_spec(raw, path, _check_dist)
-    spec.metric = raw.get("metric", spec.metric)
-    if spec.metric not in METRICS:
-        raise err("metric", f"'{spec.metric}' is not one of {', '.join(METRICS)}")
-    spec.direction = raw.get("direction", spec.direction)
-    if spec.direction not in DIRECTIONS:
-        raise err("direction", f"'{spec.direction}' is not one of {', '.join(DIRECTIONS)}")
-    spec.trials = _positive_int(raw.get("trials", spec.trials), err, "trials")
-    if raw.get("max_epochs_per_trial") is not None:
-        spec.max_epochs_per_trial = _positive_int(raw["max_epochs_per_trial"], err, "max_epochs_per_trial")
-    overrides = raw.get("overrides") or []
-    if not isinstance(overrides, list) or not all(isinstance(o, str) and "=" in o for o in overrides):
-        raise err("overrides", "expected a list of 'key.path=value' strings")
-    spec.overrides = overrides
-    seed = raw.get("seed")
-    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
-        raise err("seed", f"expected an integer, got {seed!r}")
-    spec.seed = seed
-    timeout = raw.get("timeout")
-    if timeout is not None and (not isinstance(timeout, (int, float)) or timeout <= 0):
-        raise err("timeout", f"expected seconds > 0, got {timeout!r}")
-    spec.timeout = timeout
-    spec.verbose = bool(raw.get("verbose", False))
+    top = parse_dataclass(SearchKeys, {k: v for k, v in raw.items() if k in SEARCH_KEYS and v is not None}, "",
+                          path)
+    for f in dataclasses.fields(SearchKeys):
+        setattr(spec, f.name, getattr(top, f.name))
     spec.pruner = _pruner_spec(raw.get("pruner", {}), err)
     params = raw.get("params")
     if params is None and spec.ray is not None and spec.ray.pbt is not None:
@@ -134,12 +145,6 @@ def load_search(path: str) -> SearchSpec:
     for key, dist in params.items():
         spec.params[_full_key(str(key))] = _check_dist(dist, err, f"params.{key}")
     return spec
-
-
-def _positive_int(value: Any, err: Any, key: str) -> int:
-    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-        raise err(key, f"expected an integer >= 1, got {value!r}")
-    return value
 
 
 def _full_key(key: str) -> str:

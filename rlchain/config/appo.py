@@ -20,7 +20,7 @@ def _clip(x: float | None) -> str | None:
     return None if x is None or x > 0 else "must be > 0 (or None: no clipping)"
 
 
-@dataclass
+@dataclass(frozen=True)
 class AppoBlock:
     """``config.appo``: the asynchronous actor-learner (runners never wait for the learner)."""
 
@@ -45,7 +45,7 @@ class AppoBlock:
 RNN_NOTE = "the asynchronous runners carry no RNN state yet: use a feed-forward network"
 
 
-@dataclass
+@dataclass(frozen=True)
 class APPOConfig(TrainConfig):
     """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
     (``mini_epochs``) per learner batch."""
@@ -76,7 +76,7 @@ class APPOConfig(TrainConfig):
         return None
 
 
-@dataclass
+@dataclass(frozen=True)
 class ImpalaConfig(APPOConfig):
     """``params.config`` for algo ``impala``: the V-trace actor-critic (policy gradient weighted by the clipped
     ratio, no surrogate clipping), one pass over each learner batch."""
@@ -88,6 +88,6 @@ class ImpalaConfig(APPOConfig):
         "mini_epochs": "impala makes one pass over each batch (use algo appo for several)",
     }
 
-    def validate(self) -> tuple[str, str] | None:
-        self.mini_epochs = 1
-        return super().validate()
+    def __post_init__(self) -> None:
+        """One pass over each batch: mini_epochs is 1 (the key itself is not_for_this_algo)."""
+        object.__setattr__(self, "mini_epochs", 1)

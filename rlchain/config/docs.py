@@ -82,6 +82,14 @@ Any key not listed here is an error with a did-you-mean suggestion.
 
 `max_epochs` and `max_frames` count the whole run: a run resumed from a checkpoint at epoch 40 with
 `max_epochs: 100` trains 60 more epochs.
+
+Parsing returns a frozen value: the user modules of `params.import_modules` are imported first (by the
+Runner), derived keys are filled in once (`minibatch_size` from `minibatch_size_per_env`,
+`num_warmup_frames` from `num_warmup_steps`, ...), and nothing assigns to it afterwards. What differs
+per process (the seed; under torchrun the rank's device, `env_config.seed` and progress printing) is
+its run context, and values changed while training (`set_params`) belong to the run. A checkpoint
+stores this resolved config and the run context; `--play` / `--export` without `--file` read it back.
+Checkpoints written before rlchain froze the config hold the input file instead and still load.
 """
 
 

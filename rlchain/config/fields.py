@@ -37,6 +37,20 @@ def option(default: Any = dataclasses.MISSING, doc: str = "", *, choices: tuple 
     return dataclasses.field(default=default, metadata=meta)
 
 
+def variant(base: type, name: str, **changes: Any) -> Any:
+    """Field ``name`` of the dataclass ``base`` for a subclass that gives it another ``default`` or
+    ``doc``/``status`` (e.g. a key an algorithm accepts but does not implement): the type, choices and check
+    stay the ones declared once in ``base``."""
+    f = {g.name: g for g in dataclasses.fields(base)}[name]
+    meta = {**f.metadata, **{k: v for k, v in changes.items() if k != "default"}}
+    if "default" in changes:
+        default = changes["default"]
+    else:
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    return option(default, meta["doc"], choices=meta["choices"], status=meta["status"], check=meta["check"],
+                  empty_is_present=meta["empty_is_present"])
+
+
 def _copy(value: Any) -> Any:
     import copy
     return copy.deepcopy(value)

@@ -16,7 +16,14 @@ import yaml
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
-from rlchain.config.schema import NamedBlock, NetworkConfig, Params, ResnetNetworkConfig, TrainConfig
+from rlchain.config.schema import (
+    CentralValueConfig,
+    NamedBlock,
+    NetworkConfig,
+    Params,
+    ResnetNetworkConfig,
+    TrainConfig,
+)
 
 
 def load_raw(path: str) -> dict[str, Any]:
@@ -87,12 +94,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         if key not in params:
             raise ConfigError(source, f"params.{key}", "required key is missing")
 
+    # imported by the Runner before parsing (import_user_modules): they register what the checks below look up
     modules = parse_value(list[str], params.get("import_modules") or [], "params.import_modules", source)
-    for name in modules:
-        try:
-            importlib.import_module(name)
-        except ImportError as exc:
-            raise ConfigError(source, "params.import_modules", f"cannot import '{name}': {exc}") from None
 
     seed = parse_value(int | None, params.get("seed"), "params.seed", source)
     threads = parse_value(int | None, params.get("torch_threads"), "params.torch_threads", source,
@@ -117,7 +120,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     config = parse_dataclass(config_class, config_raw, "params.config", source)
     _check_planned(config, "params.config", source)
     if isinstance(config, TrainConfig):
-        _check_training(config, source)
+        config = _resolve_training(config, source)
     validate = getattr(config, "validate", None)
     if validate is not None:
         problem = validate()
@@ -137,13 +140,29 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         raise ConfigError(source, "params.network.central_value", "True makes a value-only critic, but "
                           "params.network is the actor; put the critic under config.central_value_config.network")
     if isinstance(config, TrainConfig) and config.central_value_config is not None:
-        _check_central_value(config, source)
+        config = dataclasses.replace(config, central_value_config=_resolve_central_value(config, source))
     out = Params(algo=algo, model=model, config=config, network=network, seed=seed,
                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
                  source=source)
     if getattr(config, "multi_agent", None) is not None:
-        out.policies = _policy_params(out, params, source)
+        out = dataclasses.replace(out, policies=_policy_params(out, params, source))
     return out
+
+
+def import_user_modules(raw: Any, source: str = "<config>") -> list[str]:
+    """Import the config's ``params.import_modules`` (user packages that register networks, models, algos
+    and envs) and return their names; a module that cannot be imported is a one-line ConfigError. Run it
+    before :func:`parse_params`, which looks those registrations up (``Runner.load`` does)."""
+    params = raw.get("params") if isinstance(raw, dict) else None
+    if not isinstance(params, dict) or params.get("import_modules") is None:
+        return []
+    modules = parse_value(list[str], params["import_modules"], "params.import_modules", source)
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            raise ConfigError(source, "params.import_modules", f"cannot import '{name}': {exc}") from None
+    return modules
 
 
 def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Params]:
@@ -169,8 +188,7 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
         merged = {**base, **compat.translate_config(spec.config, source)}
         if "minibatch_size" in spec.config:
             merged.pop("minibatch_size_per_env", None)
-        config = parse_dataclass(TrainConfig, merged, f"{path}.config", source)
-        _check_training(config, source)
+        config = _resolve_training(parse_dataclass(TrainConfig, merged, f"{path}.config", source), source)
         network = top.network if spec.network is None else _parse_network(spec.network, source, f"{path}.network")
         _check_registered(NETWORKS, _network_name(network), f"{path}.network.name", source)
         if isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and network.rnn is not None:
@@ -184,23 +202,24 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
 
 
 def load_config(path: str, overrides: list[str] | None = None) -> Params:
-    """Read, override and validate a config file in one call."""
+    """Read, override, import ``params.import_modules`` and validate a config file in one call (what
+    ``Runner.load`` does with a path)."""
     raw = apply_overrides(load_raw(path), overrides or [], path)
+    import_user_modules(raw, path)
     return parse_params(raw, path)
 
 
 def _parse_network(network: Any, source: str, path: str = "params.network") -> Any:
-    """Built-in builders get a typed NetworkConfig; user builders may declare ``config_class``."""
-    from rlchain.registry import NETWORKS
+    """Built-in builders get a typed NetworkConfig; user builders may declare ``config_class`` (a class
+    attribute, or ``register_network(..., config_class=...)``)."""
+    from rlchain.registry import network_config_class
 
     if network is None:
         network = {}
     if not isinstance(network, dict):
         raise ConfigError(source, path, f"expected a mapping, got {network!r}")
     network = compat.translate_network(network, source, path)
-    name = network.get("name", "actor_critic")
-    builder = NETWORKS.get(name) if name in NETWORKS else None
-    config_class = getattr(builder, "config_class", None)
+    config_class = network_config_class(network.get("name", "actor_critic"))
     if config_class is None:
         return network
     parsed = parse_dataclass(config_class, network, path, source)
@@ -279,12 +298,13 @@ def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
                           f"batch {what} = {batch} is not divisible by minibatch_size {config.minibatch_size}")
 
 
-def _check_central_value(config: TrainConfig, source: str) -> None:
-    """The asymmetric critic: value-only network, a minibatch that divides the batch."""
+def _resolve_central_value(config: TrainConfig, source: str) -> CentralValueConfig:
+    """The asymmetric critic: value-only network, a minibatch that divides the batch. Returns the block
+    with its network parsed and its minibatch_size resolved (default: the actor's)."""
     from rlchain.registry import NETWORKS
 
     cv, path = config.central_value_config, "params.config.central_value_config"
-    cv.network = _parse_network(cv.network, source, f"{path}.network")
+    cv = dataclasses.replace(cv, network=_parse_network(cv.network, source, f"{path}.network"))
     _check_registered(NETWORKS, _network_name(cv.network), f"{path}.network.name", source)
     typed = isinstance(cv.network, NetworkConfig)  # actor_critic; a user network's block is its own
     heads = [k for k in ("discrete", "multi_discrete", "continuous")
@@ -293,8 +313,8 @@ def _check_central_value(config: TrainConfig, source: str) -> None:
         raise ConfigError(source, f"{path}.network.space", f"the central value network is a critic (value "
                           f"only); remove the '{heads[0]}' action head")
     if cv.minibatch_size_per_env is not None:
-        cv.minibatch_size = config.num_actors * cv.minibatch_size_per_env
-    cv.minibatch_size = cv.minibatch_size or config.minibatch_size
+        cv = dataclasses.replace(cv, minibatch_size=config.num_actors * cv.minibatch_size_per_env)
+    cv = dataclasses.replace(cv, minibatch_size=cv.minibatch_size or config.minibatch_size)
     batch = config.num_actors * config.horizon_length
     if batch % cv.minibatch_size:
         raise ConfigError(source, f"{path}.minibatch_size", f"batch num_actors*horizon_length = {batch} is not "
@@ -304,15 +324,17 @@ def _check_central_value(config: TrainConfig, source: str) -> None:
             raise ConfigError(source, f"{path}.minibatch_size", f"a recurrent critic trains on sequences: "
                               f"minibatch_size {cv.minibatch_size} and horizon_length {config.horizon_length} "
                               f"must divide by seq_length {config.seq_length}")
+    return cv
 
 
-def _check_training(config: TrainConfig, source: str) -> None:
-    """Cross-key checks that no single field can make."""
+def _resolve_training(config: TrainConfig, source: str) -> TrainConfig:
+    """Cross-key checks that no single field can make; returns the config with the derived values
+    filled in (minibatch_size from minibatch_size_per_env, lr_schedule constant -> None)."""
     if config.minibatch_size_per_env is not None:
         if config.minibatch_size is not None:
             raise ConfigError(source, "params.config.minibatch_size_per_env",
                               "give minibatch_size or minibatch_size_per_env, not both")
-        config.minibatch_size = config.num_actors * config.minibatch_size_per_env
+        config = dataclasses.replace(config, minibatch_size=config.num_actors * config.minibatch_size_per_env)
     if config.minibatch_size is None:
         raise ConfigError(source, "params.config.minibatch_size",
                           "required key is missing (or give minibatch_size_per_env)")
@@ -321,8 +343,9 @@ def _check_training(config: TrainConfig, source: str) -> None:
     if not config.env_name:
         raise ConfigError(source, "params.config.env_name", "required key is missing")
     if config.lr_schedule == "constant":
-        config.lr_schedule = None
+        config = dataclasses.replace(config, lr_schedule=None)
     _check_schedules(config, source)
+    return config
 
 
 def _check_schedules(config: TrainConfig, source: str) -> None:

@@ -25,7 +25,7 @@ RUN_LEVEL_KEYS = ("env_name", "env_config", "env_runners", "vecenv_type", "num_a
 ``config`` may not set them."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class PolicySpec:
     """``multi_agent.policies.<name>``: one policy. ``{}`` = the top-level network, model and keys."""
 
@@ -38,7 +38,7 @@ class PolicySpec:
                               "keys (num_actors, horizon_length, max_epochs, ...) stay at params.config")
 
 
-@dataclass
+@dataclass(frozen=True)
 class MultiAgentConfig:
     """``config.multi_agent``: PettingZoo agents played by several policies (env_name: pettingzoo).
 

@@ -10,13 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rlchain.config.fields import non_negative, option, positive, unit_interval
-from rlchain.config.schema import (
-    DivergenceConfig,
-    MlpConfig,
-    RunConfig,
-    SpaceConfig,
-)
+from rlchain.config.fields import non_negative, option, positive, unit_interval, variant
+from rlchain.config.schema import MlpConfig, RunConfig, SpaceConfig
 
 
 def _check_lr(x: float) -> str | None:
@@ -29,7 +24,7 @@ def _check_bounds(b: list[float]) -> str | None:
     return None
 
 
-@dataclass
+@dataclass(frozen=True)
 class HERConfig:
     """``config.replay.her`` (rlchain): hindsight experience replay for goal envs (Dict observations with
     achieved_goal / desired_goal and a compute_reward; see rlchain/algos/her.py)."""
@@ -40,7 +35,7 @@ class HERConfig:
     k: int = option(4, "hindsight goals per real goal: k / (k + 1) of each minibatch is relabelled", check=positive)
 
 
-@dataclass
+@dataclass(frozen=True)
 class ReplayConfig:
     """``config.replay`` (rlchain): replay buffer extensions."""
 
@@ -48,13 +43,11 @@ class ReplayConfig:
                                    empty_is_present=True)
 
 
-@dataclass
+@dataclass(frozen=True)
 class OffPolicyConfig(RunConfig):
     """Keys shared by every off-policy algorithm (generic rl_games keys + the replay buffer)."""
 
-    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, envpool, "
-                                           "RAY (Ray workers, see env_runners)")
-    num_actors: int = option(1, "parallel environments", check=positive)
+    num_actors: int = variant(RunConfig, "num_actors", default=1)
     num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
                                            "num_actors * num_steps_per_episode)", check=positive)
     num_updates_per_step: int = option(1, "gradient updates after every vectorized env step", check=positive)
@@ -73,24 +66,28 @@ class OffPolicyConfig(RunConfig):
     replay: ReplayConfig = option(ReplayConfig(), "replay buffer extensions (rlchain): her")
     save_replay_buffer: bool = option(False, "store the replay buffer in the last checkpoint (exact resume, "
                                              "large files)")
-    mixed_precision: bool = option(False, "autocast on CUDA", status="planned (off-policy AMP)")
-    multi_gpu: bool = option(False, "torch.distributed training", status="planned (torchrun is PPO-only for now)")
-    clip_actions: bool = option(True, "continuous: rescale [-1, 1] actions to the action space bounds")
-    seq_length: int = option(4, "RNN sequence length", check=positive, status="accepted; no effect off-policy")
-    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain); rollback restores "
-                                                             "the learner of the last snapshot, taken every "
-                                                             "snapshot_epochs epochs")
+    mixed_precision: bool = variant(RunConfig, "mixed_precision", doc="autocast on CUDA",
+                                    status="planned (off-policy AMP)")
+    multi_gpu: bool = variant(RunConfig, "multi_gpu", doc="torch.distributed training",
+                              status="planned (torchrun is PPO-only for now)")
+    seq_length: int = variant(RunConfig, "seq_length", doc="RNN sequence length",
+                              status="accepted; no effect off-policy")
     snapshot_epochs: int = option(100, "divergence rollback: epochs between in-memory learner snapshots "
                                        "(rlchain; an off-policy epoch is num_steps_per_episode env steps)",
                                   check=positive)
+
+    def __post_init__(self) -> None:
+        """num_warmup_frames from num_warmup_steps when not given (rl_games: frames take priority over
+        steps, which are epochs); set once, while the frozen value is built."""
+        if self.num_warmup_frames is None:
+            steps = self.num_warmup_steps
+            frames = 1000 if steps is None else steps * self.num_actors * self.num_steps_per_episode
+            object.__setattr__(self, "num_warmup_frames", frames)
 
     def validate(self) -> tuple[str, str] | None:
         """Cross-key checks; returns (key, message) for the first problem."""
         if not self.env_name:
             return "env_name", "required key is missing"
-        if self.num_warmup_frames is None:  # rl_games: frames take priority over steps (epochs)
-            steps = self.num_warmup_steps
-            self.num_warmup_frames = 1000 if steps is None else steps * self.num_actors * self.num_steps_per_episode
         if self.batch_size > self.replay_buffer_size:
             return "batch_size", (f"batch_size {self.batch_size} is larger than replay_buffer_size "
                                   f"{self.replay_buffer_size}")
@@ -101,7 +98,7 @@ class OffPolicyConfig(RunConfig):
         return None
 
 
-@dataclass
+@dataclass(frozen=True)
 class SACConfig(OffPolicyConfig):
     """``params.config`` for algo ``sac`` (soft actor-critic, twin critics, tanh-squashed Gaussian)."""
 
@@ -119,7 +116,7 @@ class SACConfig(OffPolicyConfig):
     grad_norm: float | None = option(None, "clip gradient norms to this (None = off)", check=positive)
 
 
-@dataclass
+@dataclass(frozen=True)
 class DQNConfig(OffPolicyConfig):
     """``params.config`` for algo ``dqn`` (double DQN with a target network, epsilon-greedy)."""
 
@@ -137,7 +134,7 @@ class DQNConfig(OffPolicyConfig):
     grad_norm: float | None = option(10.0, "clip gradient norms to this (None = off)", check=positive)
 
 
-@dataclass
+@dataclass(frozen=True)
 class SACNetworkConfig:
     """``params.network`` for the ``soft_actor_critic`` builder (rl_games' keys)."""
 
@@ -148,7 +145,7 @@ class SACNetworkConfig:
     log_std_bounds: list[float] = option([-5.0, 2.0], "[min, max] of the policy log-std", check=_check_bounds)
 
 
-@dataclass
+@dataclass(frozen=True)
 class DQNNetworkConfig:
     """``params.network`` for the ``dqn`` builder."""
 

@@ -22,7 +22,7 @@ INITIALIZERS = ("default", "const_initializer", "orthogonal_initializer", "gloro
                 "xavier_normal", "None")
 
 
-@dataclass
+@dataclass(frozen=True)
 class InitializerConfig:
     """A weight initializer as rl_games names it: ``{name: const_initializer, val: 0}``."""
 
@@ -38,7 +38,7 @@ class InitializerConfig:
     nonlinearity: str = option("relu", "kaiming nonlinearity")
 
 
-@dataclass
+@dataclass(frozen=True)
 class MlpConfig:
     """The fully connected trunk."""
 
@@ -52,7 +52,7 @@ class MlpConfig:
                                        choices=("layer_norm", "batch_norm"))
 
 
-@dataclass
+@dataclass(frozen=True)
 class ConvSpec:
     """One convolution of ``cnn.convs``."""
 
@@ -62,7 +62,7 @@ class ConvSpec:
     padding: int = option(0, "zero padding on each side", check=non_negative)
 
 
-@dataclass
+@dataclass(frozen=True)
 class CnnConfig:
     """``network.cnn``: a convolutional encoder in front of the MLP (images or 1-d signals)."""
 
@@ -75,7 +75,7 @@ class CnnConfig:
                                    check=lambda c: None if c else "needs at least one convolution")
 
 
-@dataclass
+@dataclass(frozen=True)
 class RnnConfig:
     """``network.rnn``: a recurrent layer; training uses sequences of ``config.seq_length``."""
 
@@ -89,18 +89,18 @@ class RnnConfig:
                                         "output")
 
 
-@dataclass
+@dataclass(frozen=True)
 class DiscreteSpaceConfig:
     """``space.discrete``: a categorical head over ``Discrete(n)``."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class MultiDiscreteSpaceConfig:
     """``space.multi_discrete``: one categorical per action dimension (MultiDiscrete, Tuple of Discrete,
     MultiBinary); the head outputs sum(nvec) logits. Use with model ``multi_discrete_a2c``."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class ContinuousSpaceConfig:
     """``space.continuous``: a diagonal Gaussian head."""
 
@@ -113,7 +113,7 @@ class ContinuousSpaceConfig:
     fixed_sigma: bool = option(True, "sigma is a learned vector that does not depend on the input")
 
 
-@dataclass
+@dataclass(frozen=True)
 class SpaceConfig:
     """Which action head: exactly one of discrete / multi_discrete / continuous."""
 
@@ -124,7 +124,7 @@ class SpaceConfig:
     continuous: ContinuousSpaceConfig | None = option(None, "diagonal Gaussian head", empty_is_present=True)
 
 
-@dataclass
+@dataclass(frozen=True)
 class NetworkConfig:
     """``params.network`` for the built-in ``actor_critic`` builder."""
 
@@ -142,7 +142,7 @@ class NetworkConfig:
     value_shape: int = option(1, "value outputs (overridden by the env's value_size)", check=positive)
 
 
-@dataclass
+@dataclass(frozen=True)
 class ResnetCnnConfig:
     """``network.cnn`` of ``resnet_actor_critic``: IMPALA stages (conv 3x3, max-pool 3x3 / 2, two
     residual blocks) over (C, H, W) images."""
@@ -158,7 +158,7 @@ class ResnetCnnConfig:
                                                                  "kaiming_normal (fan_out, relu) as rl_games")
 
 
-@dataclass
+@dataclass(frozen=True)
 class ResnetNetworkConfig:
     """``params.network`` for the ``resnet_actor_critic`` builder (rl_games' IMPALA network): the
     ``cnn`` stages, then ``mlp`` and ``rnn`` as in ``actor_critic``, and the heads.
@@ -186,7 +186,7 @@ class ResnetNetworkConfig:
                                                "layer; same env keys as require_rewards")
 
 
-@dataclass
+@dataclass(frozen=True)
 class RewardShaperConfig:
     """``reward_shaper``: r' = clip((r + shift_value) * scale_value, min_val, max_val)."""
 
@@ -198,7 +198,7 @@ class RewardShaperConfig:
                                   "be > 0, e.g. with shift_value")
 
 
-@dataclass
+@dataclass(frozen=True)
 class PlayerConfig:
     """``config.player``: inference settings for ``--play``."""
 
@@ -221,7 +221,7 @@ class PlayerConfig:
     games_to_track: int = option(100, "unused, accepted for rl_games configs", status="deprecated")
 
 
-@dataclass
+@dataclass(frozen=True)
 class EvaluationConfig:
     """``config.evaluation`` (rlchain): play games with the current policy during training."""
 
@@ -234,7 +234,7 @@ class EvaluationConfig:
                               choices=("training", "evaluation"))
 
 
-@dataclass
+@dataclass(frozen=True)
 class DivergenceConfig:
     """``config.divergence`` (rlchain): what to do when a loss, gradient or parameter turns NaN/inf."""
 
@@ -245,7 +245,7 @@ class DivergenceConfig:
                               check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
 
 
-@dataclass
+@dataclass(frozen=True)
 class EnvRunnersConfig:
     """``config.env_runners`` (rlchain): step the training envs on Ray actors (``pip install rlchain[ray]``).
 
@@ -270,7 +270,7 @@ class EnvRunnersConfig:
     runtime_env: dict = option({}, "Ray runtime_env for ray.init (e.g. {pip: [rlchain]} on a cluster)")
 
 
-@dataclass
+@dataclass(frozen=True)
 class SelfPlayConfig:
     """``config.self_play_config``: train against frozen copies of the policy loaded into the env.
 
@@ -296,7 +296,7 @@ def _check_lr(x: float) -> str | None:
     return None if x > 0 else "must be > 0"
 
 
-@dataclass
+@dataclass(frozen=True)
 class RunConfig:
     """Keys every algorithm shares: the run, its env, stop conditions, checkpoints and logging."""
 
@@ -341,17 +341,30 @@ class RunConfig:
                                            "epochs through set_params (0 = from the start), e.g. the schedule "
                                            "a PBT winner followed (--tune, docs/tuning.md); names from the "
                                            "algorithm's tunable", check=check_hyperparam_schedule)
+    # declared here once for every algorithm; a subclass changes a default or status with fields.variant
+    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
+                                           "envpool, RAY (Ray workers, see env_runners)")
+    num_actors: int = option(8, "parallel environments", check=positive)
+    clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale them to the action "
+                                      "space bounds")
+    seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
+                                "divide by it (the deprecated `seq_len` is read as this, with a warning)",
+                             check=positive)
+    multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
+                                    "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
+                                    "minibatch_size are per process, gradients are averaged, rank 0 saves")
+    mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
+    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain); rollback restores "
+                                                             "the last good learner snapshot (off-policy: "
+                                                             "taken every snapshot_epochs epochs)")
 
 
-@dataclass
+@dataclass(frozen=True)
 class TrainConfig(RunConfig):
     """``params.config``: the training keys of an rl_games config."""
 
     not_for_this_algo: ClassVar[dict[str, str]] = {"appo": "it configures algos appo and impala"}
 
-    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
-                                           "envpool, RAY (Ray workers, see env_runners)")
-    num_actors: int = option(8, "parallel environments", check=positive)
     env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
                                      "the background while the policy acts for the other (overlaps env "
                                      "stepping with inference); auto = 2 when num_actors is even and >= "
@@ -407,10 +420,6 @@ class TrainConfig(RunConfig):
     bound_loss_type: str = option("bound", "bound (mean beyond +-1.1) or regularisation (sum mu^2)",
                                   choices=("bound", "regularisation"))
     use_smooth_clamp: bool = option(False, "smooth clamp instead of clamp in the clipped objective")
-    clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale to the space")
-    seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
-                                "divide by it (the deprecated `seq_len` is read as this, with a warning)",
-                             check=positive)
     bptt_length: int | None = option(None, "RNN: backpropagate through at most this many steps of a "
                                            "sequence (truncated BPTT; default: the whole seq_length)",
                                      check=positive)
@@ -425,16 +434,11 @@ class TrainConfig(RunConfig):
     multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each "
                                                         "with its own model and optimizer (env_name: "
                                                         "pettingzoo; docs/multi_agent.md)")
-    multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
-                                    "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
-                                    "minibatch_size are per process, gradients are averaged, rank 0 saves")
-    mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
     use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
-    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain)")
     value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
 
 
-@dataclass
+@dataclass(frozen=True)
 class CentralValueConfig:
     """``config.central_value_config``: a critic that sees the env's full ``state`` while the actor
     sees ``obs`` (asymmetric actor-critic). It has its own network, optimizer and minibatches; the
@@ -459,14 +463,14 @@ class CentralValueConfig:
     weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
 
 
-@dataclass
+@dataclass(frozen=True)
 class NamedBlock:
     """``params.algo`` / ``params.model``: a registered name."""
 
     name: str = option(doc="registered name")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Params:
     """The whole ``params`` block after parsing."""
 

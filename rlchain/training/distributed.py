@@ -36,13 +36,13 @@ import torch
 import torch.distributed as dist
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.resolve import RANK_SEED_STRIDE  # rank r seeds its envs and RNGs with seed + r * this
 from rlchain.errors import DistributedError
 from rlchain.models.normalization import merge_moments
 from rlchain.training.communicator import Communicator
 
 KEY = "params.config.multi_gpu"
 LAUNCH_VARS = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
-RANK_SEED_STRIDE = 100_003  # rank r seeds its envs and RNGs with seed + r * this (a prime > any num_actors)
 TIMEOUT = datetime.timedelta(minutes=30)  # collectives; torchrun ends the group first when a rank dies
 BARRIER_TIMEOUT = datetime.timedelta(minutes=2)  # the final barrier: every rank is at its last epoch
 HINT = "torchrun --standalone --nproc_per_node=N runner.py --train --file <cfg>"
@@ -188,6 +188,7 @@ class Distributed(Communicator):
     backend: str
     seed: int  # the run's seed, the same on every rank; each rank seeds with :attr:`rank_seed`
     local_world_size: int = 1  # processes on this node (they share its cores)
+    device: str | None = None  # nccl: this rank's cuda:LOCAL_RANK, which replaces config.device (resolve)
 
     @property
     def rank_seed(self) -> int:
@@ -267,9 +268,9 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
     """Validate the launch and join the process group; None for an ordinary single-process run.
 
     Under torchrun this also: draws the run's seed on rank 0 when none is given and shares it,
-    checks every rank parsed the same config and seed, moves a CUDA config (and a tensor env's
-    ``env_config.device``) to ``cuda:LOCAL_RANK``, offsets ``env_config.seed`` per rank and turns
-    progress printing off on ranks other than 0.
+    checks every rank parsed the same config and seed, and picks a CUDA run's ``cuda:LOCAL_RANK``.
+    The config itself is not changed: :func:`rlchain.config.resolve.resolve` makes the rank's run
+    context from the returned group (its device, ``env_config`` seed, printing off on ranks > 0).
     """
     import secrets
 
@@ -301,16 +302,9 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
     except BaseException:
         dist.destroy_process_group()
         raise
-    if backend == "nccl":
-        cfg.device = device
-        if str(cfg.env_config.get("device", "")).startswith("cuda"):
-            cfg.env_config["device"] = device
-    if cfg.env_config.get("seed") is not None:
-        cfg.env_config["seed"] = int(cfg.env_config["seed"]) + launch.rank * RANK_SEED_STRIDE
-    if launch.rank != 0:
-        cfg.print_stats = False
+    # the per-rank config (device, env_config seed, printing) is rlchain.config.resolve.resolve's, from this
     return Distributed(launch.rank, launch.world_size, launch.local_rank, backend, int(shared[0]),
-                       launch.local_world_size)
+                       launch.local_world_size, device if backend == "nccl" else None)
 
 
 def shutdown(group: Distributed | None, clean: bool) -> None:

@@ -9,6 +9,7 @@ trainable); the changes wait in a locked queue and apply at the start of the nex
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from typing import Any, ClassVar
 
@@ -30,15 +31,23 @@ class LiveParamsMixin:
         """The empty queue of pending changes and its lock (called by the Loop's constructor)."""
         self._params_lock = threading.Lock()
         self._pending_params: dict[str, float] = {}
+        self.live_config: dict[str, Any] = {}  # tunable config fields changed during the run (set_params)
 
     def hyperparams(self) -> dict[str, float]:
         """The live values of :attr:`tunable` (default: the config's)."""
         return {name: getattr(self.cfg, name) for name in self.tunable}
 
     def apply_hyperparam(self, name: str, value: float) -> None:
-        """Change one tunable value (default: the config field, keeping its type)."""
+        """Change one tunable value (default: a config field, keeping its type). The parsed config is
+        frozen: the run goes on with a copy holding the new value (:attr:`live_config`, checkpointed)."""
         current = getattr(self.cfg, name)
-        setattr(self.cfg, name, type(current)(value) if current is not None else value)
+        value = type(current)(value) if current is not None else value
+        self.live_config[name] = value
+        old, self.cfg = self.cfg, dataclasses.replace(self.cfg, **{name: value})
+        for part in list(vars(self).values()):  # the agents (and guards) that read the run's config
+            own = getattr(part, "__dict__", None)  # their own attribute only: no proxy's __getattr__ runs
+            if part is not self and isinstance(own, dict) and own.get("cfg") is old:
+                part.cfg = self.cfg
 
     def get_params(self) -> dict[str, float]:
         """The training parameters population-based training may change (see :meth:`set_params`)."""

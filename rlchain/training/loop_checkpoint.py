@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.safety import check_parameters
@@ -20,7 +21,6 @@ class CheckpointMixin:
     """Checkpoint save/restore for the Loop (which provides every attribute used here)."""
 
     params: Any
-    raw_config: dict
     model: Any
     agent: Any
     epoch: int
@@ -30,6 +30,12 @@ class CheckpointMixin:
     seed: int
     run: Any
     events: Any
+    device: Any
+    comm: Any
+    world_size: int
+    cfg: Any
+    live_config: dict
+    tunable: Any
 
     def extra_state(self, kind: str) -> dict[str, Any]:
         """What a subclass adds to a checkpoint of ``kind`` (best, last, ep_N)."""
@@ -42,7 +48,11 @@ class CheckpointMixin:
         """Everything exact resume needs."""
         state = {
             "format": ckpt.FORMAT, "algo": self.params.algo.name, "model_name": self.params.model.name,
-            "config": self.raw_config, "model": self.model.state_dict(), "agent": self.agent.state_dict(),
+            "config": config_state(self.params, {"seed": self.seed, "device": str(self.device),  # the run context
+                                                 "rank": int(getattr(self.comm, "rank", 0)),
+                                                 "world_size": self.world_size, "print_stats": self.cfg.print_stats}),
+            "config_format": CONFIG_FORMAT, "live_config": dict(self.live_config),
+            "model": self.model.state_dict(), "agent": self.agent.state_dict(),
             "epoch": self.epoch, "frames": self.frames, "best_reward": self.best_reward,
             "episodes": self.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": self.seed,
             "version": _version(),
@@ -76,6 +86,9 @@ class CheckpointMixin:
         ckpt.load_model_state(self.model, state, path)
         self.agent.load_state_dict(state["agent"])
         self.epoch, self.frames = int(state["epoch"]), int(state["frames"])
+        for name, value in state.get("live_config", {}).items():  # values set_params gave the config fields
+            if name in self.tunable:
+                self.apply_hyperparam(name, value)
         self.best_reward = float(state["best_reward"])
         self.tracker.load_state_dict(state["episodes"])
         ckpt.set_rng_state(state["rng"])

@@ -18,12 +18,14 @@ params) is read by :func:`rlchain.tune.load_search`, as for the in-process Optun
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.fields import option, parse_dataclass
 
 RAY_KEYS = frozenset({"backend", "scheduler", "searcher", "concurrent", "resources", "ray", "pbt", "asha",
                       "max_failures", "checkpoint_epochs"})
@@ -33,25 +35,38 @@ SEARCHERS = ("random", "grid", "optuna")
 RAY_INSTALL_HINT = "Ray Tune is not installed: pip install rlchain[ray]"
 
 
-@dataclass
+def _at_least(minimum: float, maximum: float = math.inf, integer: bool = False) -> Any:
+    """A field check with the search file's message: 'expected an integer >= 1' / 'a number >= x and <= y'."""
+    what = "an integer" if integer else "a number"
+    bound = f" and <= {maximum:g}" if math.isfinite(maximum) else ""
+    return lambda x: None if minimum <= x <= maximum else f"expected {what} >= {minimum:g}{bound}"
+
+
+def _factors(x: list[float]) -> str | None:
+    return None if len(x) == 2 and all(f > 0 for f in x) else "expected two numbers > 0 like [1.2, 0.8]"
+
+
+@dataclass(frozen=True)
 class PbtSpec:
     """Population-based training: every ``interval_epochs`` the bottom ``quantile`` of the trials
     load a top trial's checkpoint and perturb its ``mutations`` (live, through set_params)."""
 
-    interval_epochs: int = 20
-    quantile: float = 0.25
-    resample_probability: float = 0.25
-    perturbation_factors: tuple[float, float] = (1.2, 0.8)
-    mutations: dict[str, dict] = field(default_factory=dict)
+    interval_epochs: int = option(20, "epochs between exploit/explore steps", check=_at_least(1, integer=True))
+    quantile: float = option(0.25, "the bottom (and top) fraction of the trials", check=_at_least(1e-9, 0.5))
+    resample_probability: float = option(0.25, "chance a mutated value is drawn again instead of perturbed",
+                                         check=_at_least(0.0, 1.0))
+    perturbation_factors: list[float] = option([1.2, 0.8], "factors a continuous value is perturbed by",
+                                               check=_factors)
+    mutations: dict = option({}, "key.path -> distribution, perturbed live (required)")
 
 
-@dataclass
+@dataclass(frozen=True)
 class AshaSpec:
     """Asynchronous successive halving: trials are compared at ``grace_epochs * reduction_factor**k``."""
 
-    grace_epochs: int = 10
-    reduction_factor: float = 3.0
-    brackets: int = 1
+    grace_epochs: int = option(10, "epochs before a trial can be stopped", check=_at_least(1, integer=True))
+    reduction_factor: float = option(3.0, "halving rate", check=_at_least(1.0 + 1e-9))
+    brackets: int = option(1, "brackets", check=_at_least(1, integer=True))
 
 
 @dataclass
@@ -127,38 +142,30 @@ def load_ray_spec(raw: dict, path: str, check_dist: Any) -> RaySpec:
     if "pbt" in raw and spec.scheduler != "pbt":
         raise err("pbt", f"only with scheduler: pbt (the file says {spec.scheduler})")
     if spec.scheduler == "asha":
-        asha = _mapping(raw.get("asha", {}), err, "asha", ("grace_epochs", "reduction_factor", "brackets"))
-        spec.asha = AshaSpec(grace_epochs=_int(asha.get("grace_epochs", 10), err, "asha.grace_epochs", 1),
-                             reduction_factor=_float(asha.get("reduction_factor", 3), err,
-                                                     "asha.reduction_factor", minimum=1.0 + 1e-9),
-                             brackets=_int(asha.get("brackets", 1), err, "asha.brackets", 1))
+        spec.asha = parse_dataclass(AshaSpec, _mapping(raw.get("asha", {}), err, "asha", _names(AshaSpec)), "asha",
+                                    path)
     if spec.scheduler == "pbt":
-        spec.pbt = _pbt(raw.get("pbt"), err, check_dist)
+        spec.pbt = _pbt(raw.get("pbt"), err, check_dist, path)
     default_every = spec.pbt.interval_epochs if spec.pbt else 10
     spec.checkpoint_epochs = _int(raw.get("checkpoint_epochs", default_every), err, "checkpoint_epochs", 1)
     return spec
 
 
-def _pbt(value: Any, err: Any, check_dist: Any) -> PbtSpec:
-    keys = ("interval_epochs", "quantile", "resample_probability", "perturbation_factors", "mutations")
-    pbt = _mapping(value, err, "pbt", keys)
-    spec = PbtSpec()
-    spec.interval_epochs = _int(pbt.get("interval_epochs", spec.interval_epochs), err, "pbt.interval_epochs", 1)
-    spec.quantile = _float(pbt.get("quantile", spec.quantile), err, "pbt.quantile", minimum=1e-9, maximum=0.5)
-    spec.resample_probability = _float(pbt.get("resample_probability", spec.resample_probability), err,
-                                       "pbt.resample_probability", minimum=0.0, maximum=1.0)
-    factors = pbt.get("perturbation_factors", list(spec.perturbation_factors))
-    if (not isinstance(factors, (list, tuple)) or len(factors) != 2
-            or not all(isinstance(f, (int, float)) and not isinstance(f, bool) and f > 0 for f in factors)):
-        raise err("pbt.perturbation_factors", f"expected two numbers > 0 like [1.2, 0.8], got {factors!r}")
-    spec.perturbation_factors = (float(factors[0]), float(factors[1]))
-    mutations = pbt.get("mutations")
+def _pbt(value: Any, err: Any, check_dist: Any, path: str) -> PbtSpec:
+    pbt = dict(_mapping(value, err, "pbt", _names(PbtSpec)))
+    mutations = pbt.pop("mutations", None)
     if not isinstance(mutations, dict) or not mutations:
         raise err("pbt.mutations", "required: a mapping of key.path -> {type: ..., ...} that PBT perturbs live")
+    spec = parse_dataclass(PbtSpec, pbt, "pbt", path)
+    checked = {}
     for key, dist in mutations.items():
         full = str(key) if str(key).startswith("params.") else f"params.{key}"
-        spec.mutations[full] = check_dist(dist, err, f"pbt.mutations.{key}")
-    return spec
+        checked[full] = check_dist(dist, err, f"pbt.mutations.{key}")
+    return dataclasses.replace(spec, perturbation_factors=tuple(spec.perturbation_factors), mutations=checked)
+
+
+def _names(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls))
 
 
 def check_live_keys(keys: list[str], tunable: tuple[str, ...], algo: str, path: str, where: str) -> None:

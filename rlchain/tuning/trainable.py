@@ -11,6 +11,7 @@ better trial's checkpoint into the running envs and sets the perturbed values th
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -19,6 +20,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ray import tune
+
+from rlchain.config.resolve import with_config
 
 CHECKPOINT = "rlchain.pth"
 TRIAL_JSON = "trial.json"
@@ -50,16 +53,18 @@ def trial_seed(setup: TrialSetup, trial_id: str) -> int:
     return setup.seed + (int(tail) if tail.isdigit() else 0)
 
 
-def thread_overrides(params: Any, cpus: int, envpool: bool) -> None:
-    """torch (and envpool) threads from the CPUs Ray gave the trial, unless the config set fewer."""
+def thread_overrides(params: Any, cpus: int, envpool: bool) -> Any:
+    """The trial's Params: torch (and envpool) threads from the CPUs Ray gave the trial, unless the config
+    set fewer (a new value; ``params`` is frozen)."""
     if envpool:
-        env_config = params.config.env_config
+        env_config = dict(params.config.env_config)
         env_config["num_threads"] = min(int(env_config.get("num_threads") or cpus), cpus)
+        params = with_config(params, env_config=env_config)
         rollout = max(1, cpus // 2)  # envpool's threads share the cores while the policy acts
     else:
         rollout = cpus
-    params.torch_threads = min(params.torch_threads or rollout, cpus)
-    params.update_threads = min(params.update_threads or cpus, cpus)
+    return dataclasses.replace(params, torch_threads=min(params.torch_threads or rollout, cpus),
+                               update_threads=min(params.update_threads or cpus, cpus))
 
 
 class RlchainTrainable(tune.Trainable):
@@ -181,9 +186,10 @@ class RlchainTrainable(tune.Trainable):
         overrides = list(self.info.overrides) + override_strings(self.values) + [
             f"params.config.full_experiment_name=trial_{self.trial_id}"]
         runner = Runner().load(self.info.base, overrides)  # a dict: the Runner copies it
-        runner.params.config.score_to_win = math.inf  # Tune's stop rule; restored counters keep the others
         cpus = int(ray.get_runtime_context().get_assigned_resources().get("CPU", 1) or 1)
-        thread_overrides(runner.params, max(1, cpus), self.info.envpool)
+        # Tune's stop rule replaces score_to_win; restored counters keep the others
+        runner.params = thread_overrides(with_config(runner.params, score_to_win=math.inf), max(1, cpus),
+                                         self.info.envpool)
         live = self._live_values()
         if checkpoint is None:
             self.lineage = [[0, live]]

@@ -1,13 +1,14 @@
 """ConvEncoder (networks/cnn.py), the cnn block through the config, and uint8 image observations."""
 
 import copy
+import dataclasses
 
 import gymnasium as gym
 import pytest
 import torch
 
 from rlchain.config.load import parse_params
-from rlchain.config.schema import CnnConfig, ConvSpec, DiscreteSpaceConfig, NetworkConfig
+from rlchain.config.schema import CnnConfig, ConvSpec, DiscreteSpaceConfig, NetworkConfig, SpaceConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
@@ -21,7 +22,7 @@ NATURE = [ConvSpec(filters=32, kernel_size=8, strides=4), ConvSpec(filters=64, k
 def encoder(shape, permute=False, convs=NATURE, kind="conv2d", activation="elu", initializer=None):
     cfg = CnnConfig(type=kind, permute_input=permute, activation=activation, convs=convs)
     if initializer is not None:
-        cfg.initializer = initializer
+        cfg = dataclasses.replace(cfg, initializer=initializer)
     return ConvEncoder(cfg, shape)
 
 
@@ -81,8 +82,8 @@ def test_initializer_and_activation_are_applied():
 
 
 def _pong_like_model(normalize_input):
-    cfg = NetworkConfig(cnn=CnnConfig(permute_input=False, activation="elu", convs=NATURE))
-    cfg.space.discrete = DiscreteSpaceConfig()
+    cfg = NetworkConfig(cnn=CnnConfig(permute_input=False, activation="elu", convs=NATURE),
+                        space=SpaceConfig(discrete=DiscreteSpaceConfig()))
     builder = ActorCriticBuilder()
     builder.load(cfg)
     space = gym.spaces.Discrete(6)

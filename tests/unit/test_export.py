@@ -13,7 +13,7 @@ pytest.importorskip("onnx")
 ort = pytest.importorskip("onnxruntime")
 
 from rlchain import Runner  # noqa: E402
-from rlchain.config.schema import MlpConfig, NetworkConfig  # noqa: E402
+from rlchain.config.schema import DiscreteSpaceConfig, MlpConfig, NetworkConfig, SpaceConfig  # noqa: E402
 from rlchain.export import (  # noqa: E402
     env_observations,
     export_from_cli,
@@ -111,8 +111,7 @@ def test_continuous_pendulum_normalized_parity(tmp_path):
 def test_uint8_observations_are_scaled_in_graph(tmp_path):
     space = gym.spaces.Box(0, 255, (2, 3, 3), np.uint8)
     builder = ActorCriticBuilder()
-    cfg = NetworkConfig(mlp=MlpConfig(units=[8]))
-    cfg.space.discrete = {}
+    cfg = NetworkConfig(mlp=MlpConfig(units=[8]), space=SpaceConfig(discrete=DiscreteSpaceConfig()))
     builder.load(cfg)
     net = builder.build("n", action_space=gym.spaces.Discrete(3), input_shape=space.shape, actions_num=3,
                         value_size=1)

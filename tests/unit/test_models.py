@@ -62,9 +62,8 @@ def test_mlp_d2rl_shapes():
 
 def test_actor_critic_network_outputs():
     builder = ActorCriticBuilder()
-    cfg = NetworkConfig()
-    from rlchain.config.schema import ContinuousSpaceConfig
-    cfg.space.continuous = ContinuousSpaceConfig()
+    from rlchain.config.schema import ContinuousSpaceConfig, SpaceConfig
+    cfg = NetworkConfig(space=SpaceConfig(continuous=ContinuousSpaceConfig()))
     builder.load(cfg)
     net = builder.build("n", action_space=gym.spaces.Box(-1, 1, (3,)), input_shape=(4,), actions_num=3,
                         value_size=1)

@@ -20,7 +20,7 @@ from rlchain.training.loop import Loop
 from rlchain.training.safety import DivergenceGuard
 
 
-@dataclass
+@dataclass(frozen=True)
 class ReinforceConfig(TrainConfig):
     """PPO's keys (horizon_length, learning_rate, gamma, ...) plus this algorithm's own."""
 
