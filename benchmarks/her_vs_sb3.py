@@ -249,7 +249,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--sb3-args", default="--torch-threads 1",
                    help="extra sb3_her_driver.py arguments (default: one torch thread, what rlchain's own thread "
                         "rule picks on a 2-core machine; torch's default of one per core oversubscribes a busy one)")
-    p.add_argument("--out", default=os.path.join(HERE, "her_vs_sb3"), help="events/ (the saved runs), results and PNGs go here")
+    p.add_argument("--out", default=os.path.join(HERE, "her_vs_sb3"),
+                   help="events/ (the saved runs), results and PNGs go here")
     p.add_argument("--rerun", action="store_true", help="train again even where a saved run exists")
     p.add_argument("--plot-only", action="store_true", help="no training: table and plots from the saved runs")
     return p.parse_args(argv)
