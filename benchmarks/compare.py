@@ -45,8 +45,8 @@ TAG = "rewards/step"
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def read_rewards(workdir, accs):
-    """Return sorted (wall_time, step, value) of TAG from all event files.
+def read_rewards(workdir, accs, tag=TAG):
+    """Return sorted (wall_time, step, value) of ``tag`` (default TAG) from all event files.
 
     ``accs`` caches one EventAccumulator per summaries directory so repeated
     calls only read what was appended since the last call.
@@ -61,8 +61,8 @@ def read_rewards(workdir, accs):
     events = []
     for acc in accs.values():
         acc.Reload()
-        if TAG in acc.Tags().get("scalars", []):
-            events += [(e.wall_time, e.step, e.value) for e in acc.Scalars(TAG)]
+        if tag in acc.Tags().get("scalars", []):
+            events += [(e.wall_time, e.step, e.value) for e in acc.Scalars(tag)]
     return sorted(events)
 
 

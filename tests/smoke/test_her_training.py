@@ -15,6 +15,7 @@ from tests.conftest import CONFIGS
 pytestmark = pytest.mark.smoke
 
 FETCH = os.path.join(CONFIGS, "sac_her_fetch_reach.yaml")
+FETCH_PUSH = os.path.join(CONFIGS, "sac_her_fetch_push.yaml")
 
 
 def test_envpool_fetch_reward_is_the_documented_fetch_reward():
@@ -54,6 +55,24 @@ def test_gymnasium_goal_env_compute_reward_and_sac_her_trains(tmp_path):
         "params.config.num_warmup_frames=100", "params.config.batch_size=32"]).train(
         checkpoint=os.path.join(result.run_dir, "nn", "last_fetch_reach_her.pth"))
     assert resumed.frames == 600
+
+
+def test_fetch_push_benchmark_config_trains_one_epoch_with_her_updates(tmp_path):
+    """sac_her_fetch_push.yaml (the benchmark config of benchmarks/her_vs_sb3.py) parses and trains on
+    envpool FetchPush-v4: one epoch (200 frames) with the warmup cut to 100 frames and a 32-sample batch,
+    so the HER replay is sampled (relabelled with the Fetch reward) for the config's 2 updates after
+    each env step from the one that reaches 100 frames (26 of the 50)."""
+    pytest.importorskip("envpool")
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    result = Runner().load(FETCH_PUSH, [
+        f"params.config.train_dir={tmp_path}", "params.config.max_epochs=1", "params.config.max_frames=-1",
+        "params.config.num_warmup_frames=100", "params.config.batch_size=32",
+        "params.config.print_stats=false"]).train()
+    assert result.frames == 200 and result.epoch == 1
+    events = EventAccumulator(os.path.join(result.run_dir, "summaries"))
+    events.Reload()
+    assert [e.value for e in events.Scalars("info/updates")] == [52.0]  # 26 steps x 2
 
 
 @pytest.mark.parametrize("overrides,message", [
