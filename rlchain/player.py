@@ -5,7 +5,7 @@ from __future__ import annotations
 from rlchain.config.schema import Params
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.build import apply_sigma, build_env, build_model, resolve_device
-from rlchain.training.evaluation import PlayResult, run_episodes
+from rlchain.training.play import PlayResult, play
 
 
 class Player:
@@ -46,9 +46,9 @@ class Player:
                 print(f"game {index}: reward {reward:.2f} steps {length}{won}", flush=True)
 
         cfg = self.params.config
-        result = run_episodes(self.model, self.env, games, deterministic, self.device, seed=self.seed,
-                              on_game=report, render_sleep=pc.render_sleep if pc.render else None,
-                              success_key=cfg.success_key, success_mode=cfg.success_mode)
+        result = play(self.model, self.env, games, deterministic, device=self.device, seed=self.seed,
+                      on_game=report, render_sleep=pc.render_sleep if pc.render else None,
+                      success_key=cfg.success_key, success_mode=cfg.success_mode)
         if not quiet:
             rate = result.success_rate
             won = "" if rate is None else f" success rate: {rate:.2f} ({len(result.successes)} games)"
