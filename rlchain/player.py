@@ -24,12 +24,16 @@ class Player:
         seed = params.seed if params.seed is not None else 0
         self.env = build_env(params, self.num_envs, seed, render=self.player_cfg.render,
                              env_config=self.player_cfg.env_config)
-        self.model = build_model(params, self.env, self.device)
-        if checkpoint_path:
-            state = ckpt.load(checkpoint_path, map_location=self.device)
-            ckpt.load_model_state(self.model, state, checkpoint_path)
-        if sigma is not None:
-            apply_sigma(self.model, sigma)
+        try:  # a bad checkpoint or --sigma must not leave the env (its processes, its window) open
+            self.model = build_model(params, self.env, self.device)
+            if checkpoint_path:
+                state = ckpt.load(checkpoint_path, map_location=self.device)
+                ckpt.load_model_state(self.model, state, checkpoint_path)
+            if sigma is not None:
+                apply_sigma(self.model, sigma)
+        except BaseException:
+            self.env.close()
+            raise
         self.model.eval()
         self.seed = seed
 

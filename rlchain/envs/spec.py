@@ -41,7 +41,7 @@ class EnvSpec:
     tensor_native: bool = False
     device: torch.device | None = None
     groups: tuple[slice, ...] | None = None
-    central_value: bool = False
+    central_value: bool = False  # rl_games' use_central_value attribute ({'obs', 'state'} observations)
     pettingzoo: bool = False
     self_play: bool = False  # set_opponent(policy, env_ids)
     scores: bool = False  # pop_scores()
