@@ -52,6 +52,7 @@ class EpisodeSuccess:
         self.last = np.zeros(num_envs, bool)
 
     def step(self, infos: Any, dones: Any) -> None:
+        """Take in one step's ``infos`` and (N,) bool ``dones``."""
         values = self.reader.read(infos, dones)
         if values is None:
             return
