@@ -94,6 +94,7 @@ class OneEnv:
         self._mask = getattr(env.unwrapped, "get_action_mask", None)
 
     def reset(self, seed: int | None = None) -> np.ndarray:
+        """Start episode 0 (seeded ``seed``); returns its observation as a batch of one."""
         self._seed, self._episode = seed, 0
         return self._reset()
 
@@ -103,6 +104,7 @@ class OneEnv:
         return self._cast_obs(np.asarray(obs)[None])
 
     def step(self, actions: np.ndarray) -> StepResult:
+        """Step with actions (1, ...); an ended episode is followed by the next one's reset."""
         action = self._cast_actions(actions, self.action_space, 1)[0]
         obs, reward, terminated, truncated, _ = self.env.step(action)
         obs = self._cast_obs(np.asarray(obs)[None])
@@ -115,12 +117,15 @@ class OneEnv:
                           np.array([bool(truncated)]), final)
 
     def has_action_mask(self) -> bool:
+        """Whether the recorded env offers ``get_action_mask()``."""
         return callable(self._mask)
 
     def get_action_mask(self) -> np.ndarray:
+        """(1, mask_size) bool masks of the env's current state."""
         return np.asarray(self._mask(), dtype=bool)[None]
 
     def close(self) -> None:
+        """Close the recording env (RecordVideo writes its last video)."""
         self.env.close()
 
 
