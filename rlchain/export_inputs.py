@@ -54,27 +54,19 @@ def random_masks(dist: Any, n: int, seed: int = 0) -> np.ndarray:
 
 def env_rollout(model: Any, env: Any, steps: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray | None]:
     """Observations of ``steps`` deterministic policy steps in ``env`` (all envs), stacked, and the
-    env's action masks at each of them ((n, mask_size) bool), None when the model uses no masks."""
-    from rlchain.models.stepper import PolicyStepper
+    env's action masks at each of them ((n, mask_size) bool), None when the model uses no masks.
+    The steps are played by :func:`rlchain.training.play.play` (RNN state zeroed where episodes end)."""
+    from rlchain.training.play import play
 
-    device = next(model.parameters()).device
-    obs = torch.as_tensor(env.reset(seed=seed), device=device)
-    policy = PolicyStepper(model, env.num_envs, device)
-    use_masks = getattr(model, "use_action_masks", False)
     seen, masks = [], []
-    for step in range(steps + 1):
+
+    def record(obs: torch.Tensor, mask: torch.Tensor | None) -> None:
         seen.append(obs.cpu())
-        if use_masks:
-            masks.append(torch.as_tensor(env.get_action_mask()).cpu().bool())
-        if step == steps:
-            break
-        actions = model.dist.to_env(policy.act(obs, env, deterministic=True))
-        if getattr(env, "is_tensor_env", False):  # a torch env may live on another device than the model
-            result = env.step(actions.to(getattr(env, "device", actions.device)))
-        else:
-            result = env.step(actions.cpu().numpy())
-        obs = torch.as_tensor(result.obs, device=device)
-    return torch.cat(seen).numpy(), (torch.cat(masks).numpy() if use_masks else None)
+        if mask is not None:
+            masks.append(mask.cpu())
+
+    play(model, env, None, deterministic=True, seed=seed, steps=steps, on_obs=record)
+    return torch.cat(seen).numpy(), (torch.cat(masks).numpy() if masks else None)
 
 
 def env_observations(model: Any, env: Any, steps: int, seed: int = 0) -> np.ndarray:

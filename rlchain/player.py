@@ -5,7 +5,7 @@ from __future__ import annotations
 from rlchain.config.schema import Params
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.build import apply_sigma, build_env, build_model, resolve_device
-from rlchain.training.evaluation import PlayResult, run_episodes
+from rlchain.training.play import PlayResult, play
 
 
 class Player:
@@ -24,12 +24,16 @@ class Player:
         seed = params.seed if params.seed is not None else 0
         self.env = build_env(params, self.num_envs, seed, render=self.player_cfg.render,
                              env_config=self.player_cfg.env_config)
-        self.model = build_model(params, self.env, self.device)
-        if checkpoint_path:
-            state = ckpt.load(checkpoint_path, map_location=self.device)
-            ckpt.load_model_state(self.model, state, checkpoint_path)
-        if sigma is not None:
-            apply_sigma(self.model, sigma)
+        try:  # a bad checkpoint or --sigma must not leave the env (its processes, its window) open
+            self.model = build_model(params, self.env, self.device)
+            if checkpoint_path:
+                state = ckpt.load(checkpoint_path, map_location=self.device)
+                ckpt.load_model_state(self.model, state, checkpoint_path)
+            if sigma is not None:
+                apply_sigma(self.model, sigma)
+        except BaseException:
+            self.env.close()
+            raise
         self.model.eval()
         self.seed = seed
 
@@ -46,9 +50,9 @@ class Player:
                 print(f"game {index}: reward {reward:.2f} steps {length}{won}", flush=True)
 
         cfg = self.params.config
-        result = run_episodes(self.model, self.env, games, deterministic, self.device, seed=self.seed,
-                              on_game=report, render_sleep=pc.render_sleep if pc.render else None,
-                              success_key=cfg.success_key, success_mode=cfg.success_mode)
+        result = play(self.model, self.env, games, deterministic, device=self.device, seed=self.seed,
+                      on_game=report, render_sleep=pc.render_sleep if pc.render else None,
+                      success_key=cfg.success_key, success_mode=cfg.success_mode)
         if not quiet:
             rate = result.success_rate
             won = "" if rate is None else f" success rate: {rate:.2f} ({len(result.successes)} games)"

@@ -12,6 +12,7 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
+from rlchain.envs.spec import env_spec
 from rlchain.training import checkpoint as ckpt
 from rlchain.training.build import build_env, build_model, resolve_device
 from rlchain.training.policies import policy_agents
@@ -82,7 +83,7 @@ def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, 
                 done = result.terminated[a] | result.truncated[a]
                 finished[name].extend(returns[a][done].tolist())
                 returns[a][done] = 0.0
-        ended = env.pop_games() if hasattr(env, "pop_games") else 0
+        ended = env.pop_games() if env_spec(env).games_counter else 0
         played += ended
         views = result.obs
     means = {name: float(np.mean(r)) if r else float("nan") for name, r in finished.items()}

@@ -14,6 +14,7 @@ from typing import Any
 from rlchain.config.load import apply_overrides, check_batch, import_user_modules, load_raw, parse_params
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params, TrainConfig
+from rlchain.envs.spec import env_spec
 from rlchain.log import get_logger
 from rlchain.registry import ALGOS
 from rlchain.training import checkpoint as ckpt
@@ -105,7 +106,7 @@ class Runner:
                                                                               runners=True)
         try:
             if isinstance(cfg, TrainConfig):  # the minibatch must divide the batch of all agents' rows
-                check_batch(cfg, params.source, int(getattr(env, "num_agents", 1) or 1))
+                check_batch(cfg, params.source, env_spec(env).num_agents)
             with communicator.building_with(group or communicator.SINGLE):  # normalizers sync over ranks
                 model = build_model(params, env, device)
             if state is not None:  # a mismatched checkpoint fails before any run folder exists

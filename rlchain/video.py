@@ -22,10 +22,11 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
+from rlchain.envs.vecenv import StepResult
 from rlchain.log import get_logger
-from rlchain.models.stepper import PolicyStepper
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
+from rlchain.training.play import play
 
 log = get_logger(__name__)
 
@@ -73,42 +74,70 @@ def make_recording_env(params: Params, video_dir: str, name_prefix: str = "rl-vi
         raise ImportError(f"{INSTALL_HINT} ({exc})") from None
 
 
-class _MaskSource:
-    """Batch-of-one action masks from a single env that offers ``get_action_mask()``."""
+class OneEnv:
+    """One gymnasium env (the recording env) as a VecEnv of ``num_envs = 1`` for
+    :func:`rlchain.training.play.play`.
 
-    def __init__(self, env: Any) -> None:
-        self.env = env
+    An ended episode is reset in the same step (the VecEnv contract), episode ``k`` seeded
+    ``seed + k``, except after the ``games``-th: RecordVideo would start one more video.
+    """
+
+    num_envs = 1
+
+    def __init__(self, env: Any, games: int) -> None:
+        from rlchain.envs.wrappers import cast_actions, cast_obs
+
+        self.env, self.games = env, games
+        self.observation_space, self.action_space = env.observation_space, env.action_space
+        self._cast_actions, self._cast_obs = cast_actions, cast_obs
+        self._seed: int | None = None
+        self._episode = 0
+        self._mask = getattr(env.unwrapped, "get_action_mask", None)
+
+    def reset(self, seed: int | None = None) -> np.ndarray:
+        """Start episode 0 (seeded ``seed``); returns its observation as a batch of one."""
+        self._seed, self._episode = seed, 0
+        return self._reset()
+
+    def _reset(self) -> np.ndarray:
+        seed = None if self._seed is None else self._seed + self._episode
+        obs, _ = self.env.reset(seed=seed)
+        return self._cast_obs(np.asarray(obs)[None])
+
+    def step(self, actions: np.ndarray) -> StepResult:
+        """Step with actions (1, ...); an ended episode is followed by the next one's reset."""
+        action = self._cast_actions(actions, self.action_space, 1)[0]
+        obs, reward, terminated, truncated, _ = self.env.step(action)
+        obs = self._cast_obs(np.asarray(obs)[None])
+        final = obs
+        if terminated or truncated:
+            self._episode += 1
+            if self._episode < self.games:
+                obs = self._reset()
+        return StepResult(obs, np.array([reward], np.float32), np.array([bool(terminated)]),
+                          np.array([bool(truncated)]), final)
+
+    def has_action_mask(self) -> bool:
+        """Whether the recorded env offers ``get_action_mask()``."""
+        return callable(self._mask)
 
     def get_action_mask(self) -> np.ndarray:
-        getter = getattr(self.env.unwrapped, "get_action_mask", None)
-        if getter is None:
-            raise ValueError("use_action_masks is on but the recording env has no get_action_mask()")
-        return np.asarray(getter(), dtype=bool)[None]
+        """(1, mask_size) bool masks of the env's current state."""
+        return np.asarray(self._mask(), dtype=bool)[None]
+
+    def close(self) -> None:
+        """Close the recording env (RecordVideo writes its last video)."""
+        self.env.close()
 
 
 def record_model_episodes(model: Any, params: Params, video_dir: str, games: int = 1,
                           deterministic: bool = True, device: torch.device | str = "cpu",
                           seed: int | None = None, name_prefix: str = "rl-video") -> list[str]:
     """Play ``games`` episodes with ``model`` on a recording env; returns the new mp4 paths."""
-    from rlchain.envs.wrappers import cast_actions, cast_obs
-
     before = set(glob.glob(os.path.join(video_dir, "*.mp4")))
-    env = make_recording_env(params, video_dir, name_prefix)
-    device = torch.device(device)
-    was_training = model.training
-    model.eval()
+    env = OneEnv(make_recording_env(params, video_dir, name_prefix), games)
     try:
-        for game in range(games):
-            obs, _ = env.reset(seed=None if seed is None else seed + game)
-            policy = PolicyStepper(model, 1, device)
-            done = False
-            while not done:
-                with torch.no_grad():
-                    batch = torch.as_tensor(cast_obs(np.asarray(obs)[None]), device=device)
-                    actions = model.dist.to_env(policy.act(batch, _MaskSource(env), deterministic))
-                action = cast_actions(actions, env.action_space, 1)[0]
-                obs, _, terminated, truncated, _ = env.step(action)
-                done = bool(terminated or truncated)
+        play(model, env, games, deterministic, device=torch.device(device), seed=seed, success_key="none")
     except Exception as exc:
         import gymnasium as gym
 
@@ -116,7 +145,6 @@ def record_model_episodes(model: Any, params: Params, video_dir: str, games: int
             raise ImportError(f"{INSTALL_HINT} ({exc})") from None
         raise
     finally:
-        model.train(was_training)
         env.close()  # writes the last video
     return sorted(set(glob.glob(os.path.join(video_dir, "*.mp4"))) - before)
 

@@ -25,7 +25,7 @@ from typing import Any
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.training import checkpoint as ckpt
-from rlchain.training.evaluation import PlayResult, run_episodes
+from rlchain.training.play import PlayResult, play
 
 
 @dataclass
@@ -112,5 +112,5 @@ def _evaluate(player: Any, path: str, games: int, deterministic: bool) -> Checkp
     mtime = os.path.getmtime(path)
     state = ckpt.load(path, map_location=player.device)
     ckpt.load_model_state(player.model, state, path)
-    result = run_episodes(player.model, player.env, games, deterministic, player.device, seed=player.seed)
+    result = play(player.model, player.env, games, deterministic, device=player.device, seed=player.seed)
     return CheckpointScore(path, mtime, result)

@@ -1,83 +1,38 @@
 """Turn ``params.config.env_name`` / ``env_config`` / ``vecenv_type`` into a VecEnv, like rl_games.
 
-``env_name`` is resolved in this order:
-
-1. a name in :data:`rlchain.registry.ENVS` -- a builder ``(num_envs, seed, **env_config) -> VecEnv``
-   (it also gets ``vecenv_type=`` / ``render=`` when its signature names them). Built in:
-   ``openai_gym`` (gymnasium id in ``env_config.name``), ``envpool`` (task id in
-   ``env_config.env_name``) and ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env);
-2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments.
-
-Backends are registered in :data:`rlchain.registry.VECENVS` as ``gymnasium`` and ``envpool``.
-``vecenv_type: RAY`` or an ``env_runners`` block puts the envs on Ray workers
-(:mod:`rlchain.envs.ray_env`), each building its slice through this same function.
+The envs of this process are built by :mod:`rlchain.envs.building` (how ``env_name`` is resolved,
+the gymnasium / envpool / brax / pettingzoo backends); ``vecenv_type: RAY`` or an ``env_runners``
+block puts them on Ray workers (:mod:`rlchain.envs.ray_env`), each building its slice with that same
+module. Either way the VecEnv returned carries its :class:`~rlchain.envs.spec.EnvSpec` as
+``env.env_spec`` (agents, value size, mask size, tensor env, groups, ...), read once here.
 Config mistakes raise :class:`ConfigError` (a ValueError) naming the key path; the caller adds
 the file name.
 """
 
 from __future__ import annotations
 
-import difflib
-import inspect
-import re
 from typing import Any
 
-import gymnasium as gym
-
-from rlchain.config.errors import ConfigError
-from rlchain.envs.brax_env import brax_env
-from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
-from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
-from rlchain.envs.multi_agent import make_multi_agent_env
-from rlchain.envs.pettingzoo_env import pettingzoo_env
-from rlchain.envs.reward_action_obs import RewardActionObs
+from rlchain.envs.building import (
+    RL_GAMES_ENVPOOL_KEYS,
+    VECENV_TYPES,
+    _no_groups,
+    build_local_env,
+    envpool_env,
+    normalize_vecenv_type,
+    openai_gym_env,
+    resolve_env_groups,
+)
+from rlchain.envs.ray_env import make_ray_vec_env
+from rlchain.envs.spec import attach_spec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.registry import ENVS, VECENVS
-
-VECENV_TYPES = ("auto", "sync", "async", "native", "envpool", "ray")
-RL_GAMES_ENVPOOL_KEYS = {"has_lives", "flatten_obs", "env_type"}
-"""rl_games envpool env_config keys that are not envpool.make arguments; accepted and not used
-(has_lives: Atari scores are always whole games, from envpool's own game-over signal, see
-envpool_env.game_signals; Dict obs are always flattened; the gymnasium API is always used).
-``use_dict_obs_space: True`` adds the previous reward and action to the obs (envs/reward_action_obs.py)."""
-
-NAME, CONFIG, VECENV = "params.config.env_name", "params.config.env_config", "params.config.vecenv_type"
-GROUPS = "params.config.env_groups"
-
-
-def resolve_env_groups(groups: Any, num_envs: int) -> int:
-    """``env_groups`` for an envpool backend of ``num_envs`` envs: ``auto`` -> 2 when ``num_envs`` is
-    even and >= 16 (measured faster, see docs/benchmarks.md), else 1; an int must divide ``num_envs``."""
-    if groups == "auto":
-        return 2 if num_envs >= 16 and num_envs % 2 == 0 else 1
-    if num_envs % int(groups):
-        raise _error(GROUPS, f"{groups} does not divide num_actors {num_envs}")
-    return int(groups)
-
-
-def _no_groups(groups: Any, what: str) -> None:
-    """An explicit ``env_groups`` > 1 for a backend that steps synchronously: one-line error."""
-    if groups != "auto" and int(groups) > 1:
-        raise _error(GROUPS, f"{groups} needs an envpool env (env_name envpool or vecenv_type envpool); "
-                             f"{what} steps all envs together (use 1 or auto)")
-
-
-def _error(path: str, message: str) -> ConfigError:
-    return ConfigError("", path, message)
-
-
-def normalize_vecenv_type(vecenv_type: str | None) -> str:
-    """``None`` -> ``auto``; case-insensitive; ValueError for unknown types."""
-    kind = "auto" if vecenv_type is None else str(vecenv_type).lower()
-    if kind not in VECENV_TYPES:
-        raise _error(VECENV, f"unknown vecenv_type '{vecenv_type}' (choices: {', '.join(VECENV_TYPES)})")
-    return kind
 
 
 def make_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: int | None,
                  vecenv_type: str | None, render: bool = False, env_runners: Any = None,
                  groups: Any = 1) -> VecEnv:
-    """Build ``num_envs`` envs named ``env_name`` (see the module docstring), seeded from ``seed``.
+    """Build ``num_envs`` envs named ``env_name`` (see :mod:`rlchain.envs.building`), seeded from
+    ``seed``, with their :class:`~rlchain.envs.spec.EnvSpec` attached as ``env.env_spec``.
 
     ``env_config.seed``, when present, replaces ``seed`` (rl_games envpool configs). ``render=True``
     asks for ``render_mode='human'`` (the Player). The VecEnv's first ``reset()`` uses ``seed``.
@@ -88,126 +43,11 @@ def make_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: in
     kind = normalize_vecenv_type(vecenv_type)
     if kind == "ray" or env_runners is not None:
         _no_groups(groups, "Ray env runners")
-        from rlchain.envs.ray_env import make_ray_vec_env
-        return make_ray_vec_env(env_name, env_config, num_envs, seed, kind, env_runners, render)
-    config = dict(env_config or {})
-    seed = config.pop("seed", seed)  # rl_games configs seed envpool through env_config.seed
-    for key in ("num_envs", "vecenv_type", "render"):
-        if key in config:
-            raise _error(f"{CONFIG}.{key}", "is set by rlchain (num_actors, vecenv_type, player.render)")
-    if not env_name:
-        raise _error(NAME, "is empty; give a gymnasium id, openai_gym, envpool or a registered env")
-    if env_name in ENVS:
-        builder = ENVS.get(env_name)
-        params = inspect.signature(builder).parameters
-        extra = {k: v for k, v in (("vecenv_type", kind), ("render", render), ("groups", groups))
-                 if k in params}
-        if "groups" not in params:
-            _no_groups(groups, f"env '{env_name}'")
-        return builder(num_envs, seed, **extra, **config)
-    return _gym_id_env(env_name, NAME, config, num_envs, seed, kind, render, groups)
+        env = make_ray_vec_env(env_name, env_config, num_envs, seed, kind, env_runners, render)
+    else:
+        env = build_local_env(env_name, env_config, num_envs, seed, kind, render, groups)
+    return attach_spec(env)
 
 
-def openai_gym_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,
-                   render: bool = False, groups: Any = 1, **env_config: Any) -> VecEnv:
-    """``env_name: openai_gym``: the gymnasium id is ``env_config.name``, the rest gym.make kwargs."""
-    if "name" not in env_config:
-        raise _error(f"{CONFIG}.name", "is required with env_name openai_gym (a gymnasium id)")
-    name = env_config.pop("name")
-    return _gym_id_env(name, f"{CONFIG}.name", env_config, num_envs, seed,
-                       normalize_vecenv_type(vecenv_type), render, groups)
-
-
-def envpool_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,
-                render: bool = False, groups: Any = 1, **env_config: Any) -> VecEnv:
-    """``env_name: envpool``: task id ``env_config.env_name``, the other keys go to ``envpool.make``."""
-    if normalize_vecenv_type(vecenv_type) not in ("auto", "envpool"):
-        raise _error(VECENV, f"'{vecenv_type}' does not apply to env_name envpool; leave it unset")
-    if "env_name" not in env_config:
-        raise _error(f"{CONFIG}.env_name", "is required with env_name envpool (an envpool task id)")
-    task = env_config.pop("env_name")
-    return _envpool(task, f"{CONFIG}.env_name", env_config, num_envs, seed, render, groups)
-
-
-def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None,
-             render: bool, groups: Any = 1) -> VecEnv:
-    """Check ``task`` and ``kwargs`` against envpool, then build the envpool backend."""
-    tasks = envpool_tasks()
-    if task not in tasks:
-        raise _error(path, f"envpool has no task '{task}'{_did_you_mean(task, tasks)}")
-    dict_obs = kwargs.pop("use_dict_obs_space", False)  # rl_games: previous reward and action in the obs
-    for key in RL_GAMES_ENVPOOL_KEYS:
-        kwargs.pop(key, None)
-    valid = envpool_config_keys(task)
-    for key in kwargs:
-        if key not in valid:
-            raise _error(f"{CONFIG}.{key}", f"not an envpool option of '{task}'"
-                         f"{_did_you_mean(key, valid)} (valid: {', '.join(sorted(valid))})")
-    groups = resolve_env_groups(groups, num_envs)
-    extra = {"groups": groups} if groups > 1 else {}  # a user-registered backend may not take groups
-    env = VECENVS.get("envpool")(task, num_envs, seed=seed, env_kwargs=kwargs, render=render, **extra)
-    if dict_obs:
-        try:
-            env = RewardActionObs(env, f"{CONFIG}.use_dict_obs_space")
-        except ConfigError:
-            env.close()
-            raise
-    return env
-
-
-def _gym_id_env(name: str, path: str, kwargs: dict, num_envs: int, seed: int | None, kind: str,
-                render: bool, groups: Any = 1) -> VecEnv:
-    """Build a gymnasium id with backend ``kind`` (auto/sync/async/native/envpool)."""
-    if kind == "envpool":
-        if name not in envpool_tasks():  # ImportError with the install hint when it is missing
-            hint = _did_you_mean(name, envpool_tasks())
-            raise _error(VECENV, f"envpool has no task '{name}' (from {path}){hint}")
-        return _envpool(name, path, kwargs, num_envs, seed, render, groups)
-    _no_groups(groups, f"the gymnasium '{kind}' backend")
-    if not _gym_knows(name):
-        try:
-            in_envpool = name in envpool_tasks()
-        except ImportError:
-            in_envpool = False
-        hint = ("; envpool has it: set params.config.vecenv_type: envpool" if in_envpool
-                else _did_you_mean(name, list(gym.registry) + ENVS.names()))
-        raise _error(path, f"unknown environment '{name}'{hint} "
-                           f"(a gymnasium id, or a registered env: {', '.join(ENVS.names())})")
-    if kind == "native" and (render or native_vector_class(name, kwargs) is None):
-        why = "rendering needs sync" if render else "it has no native vector env taking these env_config keys"
-        raise _error(VECENV, f"native is not available for '{name}': {why}; use auto, sync or async")
-    try:
-        multi = make_multi_agent_env(name, num_envs, kwargs, seed, kind, render)  # None: one agent per env
-        if multi is not None:
-            return multi
-        backend = VECENVS.get("gymnasium")
-        return backend(name, num_envs, mode=kind, env_kwargs=kwargs, render=render, seed=seed)
-    except TypeError as exc:  # an env_config key the env constructor does not take
-        key = re.search(r"keyword argument '(\w+)'", str(exc))
-        raise _error(f"{CONFIG}.{key.group(1)}" if key else CONFIG, f"'{name}' rejects it: {exc}") from None
-
-
-def _gym_knows(name: str) -> bool:
-    """Whether gymnasium can make ``name`` (imports ``module:`` prefixes like gym.make does)."""
-    try:
-        gym.spec(name)
-    except (gym.error.Error, ImportError):
-        return False
-    return True
-
-
-def _did_you_mean(name: str, candidates: Any) -> str:
-    """'; did you mean 'X', 'Y'?' for the closest candidates (case-insensitive), or ''."""
-    by_lower = {str(c).lower(): str(c) for c in candidates}
-    close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=3, cutoff=0.6)
-    return f"; did you mean {', '.join(repr(by_lower[c]) for c in close)}?" if close else ""
-
-
-ENVS.register("openai_gym", openai_gym_env)
-ENVS.register("envpool", envpool_env)
-ENVS.register("brax", brax_env)  # imports jax/brax only when built
-ENVS.register("pettingzoo", pettingzoo_env)  # imports pettingzoo (and the env's package) only when built
-VECENVS.register("gymnasium", GymnasiumVecEnv)
-VECENVS.register("envpool", EnvpoolVecEnv)
-
-__all__ = ["make_vec_env", "normalize_vecenv_type", "openai_gym_env", "envpool_env", "VECENV_TYPES"]
+__all__ = ["make_vec_env", "normalize_vecenv_type", "openai_gym_env", "envpool_env", "resolve_env_groups",
+           "RL_GAMES_ENVPOOL_KEYS", "VECENV_TYPES"]

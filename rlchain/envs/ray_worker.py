@@ -15,6 +15,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from rlchain.envs.building import build_local_env
+from rlchain.envs.spec import attach_spec, env_spec
 from rlchain.registry import ENVS
 
 
@@ -44,13 +46,11 @@ class EnvRecipe:
 
     def build(self, num_envs: int, seed: int | None) -> Any:
         """The VecEnv of ``num_envs`` envs (runs inside the worker)."""
-        from rlchain.envs.factory import make_vec_env
-
         for name, spec in self.gym_specs.items():
             gym.registry.setdefault(name, spec)
         for name, builder in self.builders.items():
             ENVS.register(name, builder, overwrite=True)
-        env = make_vec_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type)
+        env = attach_spec(build_local_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type))
         problem = _unsupported(env)
         if problem:
             env.close()
@@ -61,13 +61,14 @@ class EnvRecipe:
 
 def _unsupported(env: Any) -> str | None:
     """What about ``env`` the Ray runners cannot carry (they move plain per-env numpy rows), or None."""
-    if getattr(env, "is_tensor_env", False):
+    spec = env_spec(env)
+    if spec.tensor_native:
         return "is a tensor env (it lives on the training device)"
-    if int(getattr(env, "get_number_of_agents", lambda: 1)()) > 1:
+    if spec.num_agents > 1:
         return "has several agents per env"
-    if getattr(env, "use_central_value", False):
+    if spec.central_value:
         return "has central-value (dict) observations"
-    if callable(getattr(env, "has_action_mask", None)) and env.has_action_mask():
+    if spec.action_masks:
         return "has action masks"
     return None
 
@@ -99,7 +100,7 @@ class EnvWorker:
         except ValueError as exc:  # config errors travel as plain ValueErrors (picklable, one line)
             raise ValueError(str(exc)) from None
         return {"observation_space": self.env.observation_space, "action_space": self.env.action_space,
-                "value_size": int(getattr(self.env, "value_size", 1))}
+                "value_size": env_spec(self.env).value_size}
 
     def pid(self) -> int:
         return os.getpid()

@@ -26,6 +26,7 @@ import numpy as np
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.dict_obs import FlatDictBox
+from rlchain.envs.spec import env_spec
 from rlchain.envs.vecenv import StepResult
 
 KEYS = ("last_action", "observation", "reward")
@@ -41,7 +42,7 @@ class RewardActionObs:
 
     def __init__(self, env: Any, path: str) -> None:
         space, actions = env.observation_space, env.action_space
-        if getattr(env, "is_tensor_env", False):
+        if env_spec(env).tensor_native:
             raise ConfigError("", path, "needs a numpy env (envpool, atari_gym), not a tensor env")
         if not isinstance(actions, gym.spaces.Discrete):
             raise ConfigError("", path, f"needs Discrete actions (the last action is one-hot), the env has {actions}")

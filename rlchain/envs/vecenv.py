@@ -17,7 +17,9 @@ Shapes for ``num_envs = N``:
 - tensor envs set ``is_tensor_env = True`` and ``device``: ``step`` then takes a torch tensor of
   actions on that device and every StepResult field is a tensor on it (no numpy round trip).
 - optional rl_games attributes: ``value_size`` (default 1), ``get_number_of_agents()`` (1),
-  ``use_central_value`` (False), ``has_action_mask()`` (False).
+  ``use_central_value`` (False), ``has_action_mask()`` (False). rlchain reads these (and the other
+  optional parts below) once, into the :class:`~rlchain.envs.spec.EnvSpec` the factory attaches as
+  ``env.env_spec``.
 - multi-agent envs (``get_number_of_agents() > 1``) come through ``multi_agent.py``: one row per
   agent, so ``num_envs`` already counts the agents (``num_agents`` rows per env, ``num_actors`` envs).
 - self-play envs: ``set_opponent(policy, env_ids)`` and optionally ``pop_scores()`` (training/self_play.py).

@@ -7,6 +7,7 @@ from typing import Any
 import torch
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.networks.rnn import zero_finished
 
 
@@ -31,15 +32,29 @@ class PolicyStepper:
         """Forget all memory (new episodes everywhere)."""
         self.states = self._initial(self.num_envs)
 
-    def act(self, obs: torch.Tensor, env: Any = None, deterministic: bool = True) -> torch.Tensor:
-        """Raw actions (B, ...) for ``obs``; masks come from ``env.get_action_mask()`` when used."""
+    def uses_masks(self, spec: EnvSpec) -> bool:
+        """Whether the model acts under action masks; a one-line ConfigError when it does and the env
+        (its :class:`~rlchain.envs.spec.EnvSpec`) has none."""
+        if not getattr(self.model, "use_action_masks", False):
+            return False
+        if not spec.action_masks:
+            raise ConfigError("", "params.config.use_action_masks", "True, but the env played has no action "
+                              "masks (has_action_mask() / get_action_mask())")
+        return True
+
+    def masks_from(self, env: Any) -> torch.Tensor:
+        """The env's current (B, mask_size) bool action masks on the model's device."""
+        return torch.as_tensor(env.get_action_mask(), device=self.device).bool()
+
+    def act(self, obs: torch.Tensor, env: Any = None, deterministic: bool = True,
+            masks: torch.Tensor | None = None) -> torch.Tensor:
+        """Raw actions (B, ...) for ``obs`` under ``masks``; without them, masks come from
+        ``env.get_action_mask()`` when the model uses masks and an env is given."""
         kwargs: dict = {"deterministic": deterministic}
-        if getattr(self.model, "use_action_masks", False) and env is not None:
-            has = getattr(env, "has_action_mask", None)
-            if not callable(getattr(env, "get_action_mask", None)) or (callable(has) and not has()):
-                raise ConfigError("", "params.config.use_action_masks", "True, but the env played has no action "
-                                  "masks (has_action_mask() / get_action_mask())")
-            kwargs["action_masks"] = torch.as_tensor(env.get_action_mask(), device=self.device).bool()
+        if masks is None and env is not None and self.uses_masks(env_spec(env)):
+            masks = self.masks_from(env)
+        if masks is not None:
+            kwargs["action_masks"] = masks
         if self.states:
             kwargs["states"] = self.states
         out = self.model.act(obs, **kwargs)

@@ -12,6 +12,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import NetworkConfig, Params
 from rlchain.envs.central_value import obs_state_parts, obs_state_split
+from rlchain.envs.spec import env_spec
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
@@ -54,7 +55,8 @@ def build_env(params: Params, num_envs: int, seed: int | None, render: bool = Fa
 
 
 def value_size_of(env: Any) -> int:
-    return int(getattr(env, "value_size", 1))
+    """The value head size of ``env`` (a VecEnv or a policy's view of one): its spec's ``value_size``."""
+    return env_spec(env).value_size
 
 
 def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:

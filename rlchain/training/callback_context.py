@@ -24,6 +24,8 @@ from typing import Any
 
 import torch
 
+from rlchain.envs.spec import EnvSpec
+
 EMITTABLE = ("on_evaluation", "on_stats_cleared")
 """Events a callback may announce to the other callbacks through :meth:`CallbackContext.emit`."""
 
@@ -52,17 +54,6 @@ class TrainingState:
     def is_main(self) -> bool:
         """Rank 0: the process that writes logs and checkpoints."""
         return self.rank == 0
-
-
-@dataclass(frozen=True)
-class EnvSpec:
-    """The training envs as the trainer sees them."""
-
-    num_envs: int
-    num_agents: int  # rows per env (multi-agent envs); the batch has num_envs * num_agents rows
-    observation_space: Any
-    action_space: Any
-    tensor_env: bool  # steps take and return device tensors
 
 
 def training_state(trainer: Any) -> TrainingState:
@@ -131,10 +122,9 @@ class CallbackContext:
 
     @property
     def env_spec(self) -> EnvSpec:
-        """Number, agents, spaces and kind of the training envs."""
-        trainer = self._trainer
-        return EnvSpec(trainer.num_envs, trainer.num_agents, trainer.env.observation_space,
-                       trainer.env.action_space, bool(trainer.tensor_env))
+        """The training envs' frozen :class:`rlchain.envs.spec.EnvSpec`: number, agents, spaces, value size,
+        mask size, tensor or numpy stepping, groups."""
+        return self._trainer.env_spec
 
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would."""

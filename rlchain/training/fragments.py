@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.envs.spec import env_spec
+
 
 class RunnerKilled(RuntimeError):
     """A runner was stopped in the middle of a fragment (its thread killed: tests, hung-runner cleanup)."""
@@ -86,7 +88,7 @@ class FragmentRunner:
             raise ValueError(str(exc)) from None
         self._seed = seed
         return {"observation_space": self.env.observation_space, "action_space": self.env.action_space,
-                "value_size": int(getattr(self.env, "value_size", 1))}
+                "value_size": env_spec(self.env).value_size}
 
     def start(self, seed: int | None, own_process: bool, model: torch.nn.Module, weights: dict,
               version: int) -> int:

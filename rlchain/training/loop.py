@@ -19,6 +19,7 @@ import torch
 
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
+from rlchain.envs.spec import env_spec
 from rlchain.envs.success import SuccessReader
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.errors import DivergenceError, EnvError
@@ -73,7 +74,8 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         self.params, self.cfg, self.env, self.model, self.device = params, cfg, env, model, device
         self.run, self.logger, self.seed, self.raw_config = run, logger, seed, raw_config
         self.num_envs = env.num_envs
-        self.num_agents = int(getattr(env, "num_agents", 1) or 1)  # rows per env (rl_games' algo.num_agents)
+        self.env_spec = env_spec(env)  # the env's agents, groups, tensor stepping ... (envs/spec.py)
+        self.num_agents = self.env_spec.num_agents  # rows per env (rl_games' algo.num_agents)
         if hasattr(cfg, "minibatch_size"):  # the batch counts the env's agents (multi-agent envs)
             check_batch(cfg, params.source, self.num_agents)
         self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device, cfg.success_mode)
@@ -88,7 +90,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         self.last_episodes: dict[str, float] | None = None
         self.started = time.time()  # when train() started
         self._closed = False
-        if callable(getattr(env, "log_stats", None)):  # backend counters (Ray: env/dropped_episodes)
+        if self.env_spec.stats:  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
@@ -97,7 +99,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         if getattr(cfg, "hyperparam_schedule", None):  # a replayed PBT schedule, through set_params
             check_names(cfg.hyperparam_schedule, self.tunable, params.algo.name, params.source)
             self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
-        self.tensor_env = bool(getattr(env, "is_tensor_env", False))
+        self.tensor_env = self.env_spec.tensor_native
         self.signals: StopSignals | None = None
         self.agent: Any = None
         self.world_size = self.comm.world_size  # processes training together; frame counters count all of them

@@ -12,6 +12,7 @@ from rlchain.algos.returns import gae, next_values_from_rollout
 from rlchain.algos.storage import RolloutStorage
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
+from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.training import checkpoint as ckpt
@@ -167,12 +168,11 @@ def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
     """With use_action_masks the env must provide masks; a one-line ConfigError otherwise."""
     if not use_action_masks:
         return False
-    has = getattr(env, "has_action_mask", None)
-    if not callable(has) or not has():
+    if not env_spec(env).action_masks:
         raise ConfigError(source, "params.config.use_action_masks",
                           "True, but the env has no action masks (has_action_mask() / get_action_mask())")
     return True
 
 
 def _value_size(env: Any) -> int:
-    return int(getattr(env, "value_size", 1))
+    return env_spec(env).value_size

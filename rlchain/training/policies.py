@@ -15,6 +15,7 @@ from rlchain.algos.storage import RolloutStorage
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import Params
+from rlchain.envs.spec import env_spec
 from rlchain.training.episodes import EpisodeTracker
 
 
@@ -53,7 +54,7 @@ def build_policy_models(params: Params, env: Any, device: torch.device) -> torch
     for its agents' spaces; a space the named network or model cannot take is a one-line ConfigError."""
     from rlchain.training.build import build_model
 
-    if not getattr(env, "is_pettingzoo", False):
+    if not env_spec(env).pettingzoo:
         raise ConfigError(params.source, KEY, "needs env_name: pettingzoo (a PettingZoo env in env_config.env); "
                                               "rl_games-style multi-agent envs share one policy without it")
     models = torch.nn.ModuleDict()

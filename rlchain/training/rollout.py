@@ -34,7 +34,7 @@ class RolloutMixin:
     def _rollout(self) -> bool:
         """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""
         self.model.eval()
-        groups = getattr(self.env, "env_groups", None)
+        groups = self.env_spec.groups
         if groups is not None and len(groups) > 1:
             return self._pipelined_rollout(groups)
         for t in range(self.cfg.horizon_length):

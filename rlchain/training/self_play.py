@@ -27,6 +27,7 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import SelfPlayConfig
+from rlchain.envs.spec import env_spec
 from rlchain.log import get_logger
 from rlchain.training.events import Callback
 
@@ -62,15 +63,16 @@ class SelfPlayCallback(Callback):
     drives_trainer = True  # reads the episode tracker's finished games
 
     def __init__(self, cfg: SelfPlayConfig, env: Any, source: str = "") -> None:
-        if not callable(getattr(env, "set_opponent", None)):
+        spec = env_spec(env)
+        if not spec.self_play:
             raise ConfigError(source, KEY, "needs an env with set_opponent(policy, env_ids) (for example "
                                            "env_name: duel); this env has none")
-        if cfg.check_scores and not callable(getattr(env, "pop_scores", None)):
+        if cfg.check_scores and not spec.scores:
             raise ConfigError(source, f"{KEY}.check_scores", "True needs an env with pop_scores(); "
                                                              "this env has none (use check_scores: False)")
         self.cfg = cfg
         self.env = env
-        self.num_actors = int(getattr(env, "num_actors", env.num_envs))
+        self.num_actors = spec.num_actors
         self.scores: deque[float] = deque(maxlen=cfg.games_to_check)
         self.first_env = 0  # start of the window of envs the next update goes to
         self.updates = 0
