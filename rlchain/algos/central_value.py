@@ -23,11 +23,12 @@ class CentralValueAgent:
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
 
     def update(self, storage: RolloutStorage, progress: float, state_offset: int = 0, seq_length: int = 1,
-               use_resets: bool = True) -> dict[str, float]:
+               use_resets: bool = True, shuffle: bool = True) -> dict[str, float]:
         """``mini_epochs`` passes over the rollout's (obs, old values, returns); -> mean loss and lr.
 
         A recurrent critic trains on whole sequences of ``seq_length`` steps; its RNN states are the
-        storage's states from index ``state_offset`` on (the actor's come first).
+        storage's states from index ``state_offset`` on (the actor's come first). ``shuffle``: the
+        actor's ``minibatch_order`` (shuffle, or rl_games' fixed env-major blocks).
         """
         cfg, model = self.cfg, self.model
         if cfg.lr_schedule == "linear":
@@ -37,9 +38,9 @@ class CentralValueAgent:
         model.train()
         for _ in range(cfg.mini_epochs):
             if model.is_rnn:
-                batches = storage.sequence_minibatches(cfg.minibatch_size, seq_length, zeros, use_resets)
+                batches = storage.sequence_minibatches(cfg.minibatch_size, seq_length, zeros, use_resets, shuffle)
             else:
-                batches = storage.minibatches(cfg.minibatch_size, zeros)
+                batches = storage.minibatches(cfg.minibatch_size, zeros, shuffle)
             for batch in batches:
                 states = batch.states[state_offset:] if batch.states else ()
                 predicted, _ = model(batch.obs, states, batch.resets, batch.seq_length)

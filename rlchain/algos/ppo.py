@@ -185,12 +185,13 @@ class PPOAgent:
         return policy_loss(old_log_probs, log_probs, advantages, self.cfg.e_clip, self.cfg.use_smooth_clamp)
 
     def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
-        """Flat shuffled minibatches, or whole sequences of seq_length steps for an RNN policy."""
+        """Flat minibatches, or whole sequences of seq_length steps for an RNN policy, in ``minibatch_order``."""
         cfg = self.cfg
+        shuffle = cfg.minibatch_order == "shuffle"
         if self.model.is_rnn:
             return storage.sequence_minibatches(cfg.minibatch_size, cfg.seq_length, advantages,
-                                                use_resets=cfg.zero_rnn_on_done)
-        return storage.minibatches(cfg.minibatch_size, advantages)
+                                                use_resets=cfg.zero_rnn_on_done, shuffle=shuffle)
+        return storage.minibatches(cfg.minibatch_size, advantages, shuffle=shuffle)
 
     def scale_lr(self, factor: float) -> None:
         """Multiply the learning rate (divergence rollback)."""

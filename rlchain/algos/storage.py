@@ -109,22 +109,31 @@ class RolloutStorage:
         if self.filled != self.horizon:
             raise RuntimeError(f"rollout holds {self.filled} of {self.horizon} steps")
 
-    def minibatches(self, minibatch_size: int, advantages: torch.Tensor) -> Iterator[Batch]:
-        """Shuffle the whole rollout and yield flat minibatches; ``advantages`` is (T, N) or (T*N,)."""
+    def minibatches(self, minibatch_size: int, advantages: torch.Tensor, shuffle: bool = True) -> Iterator[Batch]:
+        """Yield flat minibatches of the rollout; ``advantages`` is (T, N) or (T*N,).
+
+        ``shuffle``: a fresh permutation of all T * N steps. Otherwise the fixed env-major order
+        (:func:`env_major_order`): minibatch k is the same block of whole env trajectories every
+        time it is asked for. ``Batch.index`` is each row's time-major flat index ``t * N + n``.
+        """
         self._check_filled()
         size = self.horizon * self.num_envs
         flat = {k: v.reshape(size, *v.shape[2:]) for k, v in self._per_step(advantages).items()}
-        order = torch.randperm(size, device=self.obs.device)
+        if shuffle:
+            order = torch.randperm(size, device=self.obs.device)
+        else:
+            order = env_major_order(self.horizon, self.num_envs, self.obs.device)
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
             yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()}, index=idx)
 
     def sequence_minibatches(self, minibatch_size: int, seq_length: int, advantages: torch.Tensor,
-                             use_resets: bool = True) -> Iterator[Batch]:
+                             use_resets: bool = True, shuffle: bool = True) -> Iterator[Batch]:
         """Yield minibatches of whole sequences: ``seq_length`` consecutive steps of one env each.
 
-        The horizon is cut into T / seq_length chunks per env; sequences are shuffled, never their
-        steps. Each batch carries the stored RNN states entering its sequences and, with
+        The horizon is cut into T / seq_length chunks per env; sequences are shuffled (or, without
+        ``shuffle``, in the fixed env-major order: env 0's chunks in time order, then env 1's), never
+        their steps. Each batch carries the stored RNN states entering its sequences and, with
         ``use_resets``, the episode starts inside them.
         """
         self._check_filled()
@@ -144,10 +153,21 @@ class RolloutStorage:
         # states entering each sequence: (chunks, layers, N, units) -> (layers, S, units)
         starts = [s[::length].permute(1, 0, 2, 3).reshape(s.shape[1], count, s.shape[-1]) for s in self.states]
         per_batch = minibatch_size // length
-        order = torch.randperm(count, device=self.obs.device)
+        device = self.obs.device
+        order = torch.randperm(count, device=device) if shuffle else env_major_order(chunks, n, device)
         steps = torch.arange(length, device=self.obs.device)
         for start in range(0, count, per_batch):
             seqs = order[start:start + per_batch]
             rows = (seqs.unsqueeze(1) * length + steps).reshape(-1)
             batch = {k: v.index_select(0, rows) for k, v in flat.items()}
             yield Batch(**batch, states=tuple(s.index_select(1, seqs) for s in starts), seq_length=length)
+
+
+def env_major_order(horizon: int, num_envs: int, device: torch.device | str = "cpu") -> torch.Tensor:
+    """The (T * N,) time-major flat indices ``t * N + n`` listed env by env: env 0's T steps, then env 1's.
+
+    Cut into minibatches of size B, each holds B / T whole env trajectories (rl_games' order: it
+    flattens the rollout env-major and never shuffles). Example T=2, N=3: [0, 3, 1, 4, 2, 5].
+    """
+    return torch.arange(horizon * num_envs, device=device).reshape(horizon, num_envs).t().reshape(-1)
+

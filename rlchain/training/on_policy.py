@@ -139,7 +139,7 @@ class OnPolicyTrainer(RolloutMixin, Loop):
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self._progress(), model.num_states, cfg.seq_length,
-                                              cfg.zero_rnn_on_done))
+                                              cfg.zero_rnn_on_done, cfg.minibatch_order == "shuffle"))
         return stats
 
     def extra_state(self, kind: str) -> dict:
