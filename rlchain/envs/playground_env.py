@@ -115,7 +115,7 @@ class PlaygroundVecEnv(JaxBatchVecEnv):
         default = registry.get_default_config(name)
         overrides = dict(config_overrides or {})
         for key, value in (("episode_length", episode_length), ("action_repeat", action_repeat), ("impl", impl)):
-            if value is not None and has_key(default, key):
+            if value is not None and (has_key(default, key) or key == "impl"):  # no impl key: an error below
                 overrides[key] = value
         if impl is None and "impl" not in overrides and has_key(default, "impl"):
             overrides["impl"] = "jax"  # Playground's DM-control default is warp, which needs an NVIDIA GPU
