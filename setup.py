@@ -5,6 +5,8 @@ from setuptools import find_packages, setup
 EXTRAS = {
     "envpool": ["envpool>=0.8,<2"],
     "brax": ["brax>=0.12"],  # JAX on the CPU by default; tensors reach torch through DLPack
+    # MuJoCo Playground (env_name: playground): MJX envs through the brax adapter's jitted batch
+    "playground": ["playground>=0.2,<0.3"],
     "atari": ["ale-py>=0.9", "opencv-python-headless"],  # ale-py ships the ROMs; opencv: AtariPreprocessing
     "mujoco": ["gymnasium[mujoco]>=1.0,<2"],
     "onnx": ["onnx", "onnxruntime"],

@@ -9,7 +9,8 @@ runners and the :class:`~rlchain.envs.spec.EnvSpec`) and each Ray env worker
 1. a name in :data:`rlchain.registry.ENVS` -- a builder ``(num_envs, seed, **env_config) -> VecEnv``
    (it also gets ``vecenv_type=`` / ``render=`` / ``groups=`` when its signature names them). Built in:
    ``openai_gym`` (gymnasium id in ``env_config.name``), ``envpool`` (task id in
-   ``env_config.env_name``), ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env)
+   ``env_config.env_name``), ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env),
+   ``playground`` (a MuJoCo Playground registry name in ``env_config.env_name``, a tensor env)
    and ``pettingzoo``;
 2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments.
 
@@ -33,6 +34,7 @@ from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
 from rlchain.envs.multi_agent import make_multi_agent_env
 from rlchain.envs.pettingzoo_env import pettingzoo_env
+from rlchain.envs.playground_env import playground_env
 from rlchain.envs.reward_action_obs import RewardActionObs
 from rlchain.envs.vecenv import VecEnv
 from rlchain.registry import ENVS, VECENVS
@@ -207,6 +209,7 @@ def _did_you_mean(name: str, candidates: Any) -> str:
 ENVS.register("openai_gym", openai_gym_env)
 ENVS.register("envpool", envpool_env)
 ENVS.register("brax", brax_env)  # imports jax/brax only when built
+ENVS.register("playground", playground_env)  # imports mujoco_playground only when built
 ENVS.register("pettingzoo", pettingzoo_env)  # imports pettingzoo (and the env's package) only when built
 VECENVS.register("gymnasium", GymnasiumVecEnv)
 VECENVS.register("envpool", EnvpoolVecEnv)

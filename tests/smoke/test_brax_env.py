@@ -10,6 +10,7 @@ from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.training import checkpoint as ckpt
 from tests.conftest import CONFIGS
+from tests.jax_cache import jax_compile_cache  # noqa: F401 (module fixture: compile reset/step once)
 
 pytestmark = pytest.mark.smoke
 pytest.importorskip("brax")

@@ -1,0 +1,109 @@
+"""A batch of JAX envs as one tensor env: the jitted step, auto-reset and DLPack hand-off.
+
+Brax (``env_name: brax``) and MuJoCo Playground (``env_name: playground``) envs share one shape:
+``reset(keys) -> State`` and ``step(state, action) -> State`` where ``State`` is a flax struct with
+``obs``, ``reward``, ``done`` and an ``info`` dict, and brax's ``VmapWrapper(EpisodeWrapper(env))``
+batches them and adds the episode time limit (``info['truncation']``). ``JaxBatchVecEnv`` takes such
+a wrapped env and, per ``step``:
+
+- steps every env in one jitted call;
+- auto-resets the finished rows in the same call (``lax.cond``: the batched reset runs only on
+  steps where some row ended), keeping their last observation as ``final_obs``;
+- splits ``done`` into ``terminated`` (the task ended) and ``truncated`` (the time limit);
+- hands obs, rewards and flags to torch through DLPack, without a numpy round trip.
+
+The adapters (``brax_env.py``, ``playground_env.py``) only build and wrap their env.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from rlchain.envs.vecenv import StepResult
+
+
+class JaxBatchVecEnv:
+    """``num_envs`` copies of a wrapped JAX env, stepped together in one jitted call; torch tensors out.
+
+    ``env`` is ``VmapWrapper(EpisodeWrapper(base))`` (brax's training wrappers); ``obs_dim`` and
+    ``action_dim`` are the flat sizes; ``obs_of`` maps the env's observation (an array, or a dict
+    for some Playground envs) to the (N, obs_dim) array the trainer sees, inside the jitted step.
+    """
+
+    is_tensor_env = True
+
+    def __init__(self, env: Any, name: str, num_envs: int, obs_dim: int, action_dim: int,
+                 seed: int | None = None, device: str = "cpu",
+                 obs_of: Callable[[Any], Any] = lambda obs: obs) -> None:
+        import jax
+        import jax.numpy as jnp
+
+        self.name, self.num_envs, self.device = name, num_envs, torch.device(device)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (int(obs_dim),), np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (int(action_dim),), np.float32)
+        self._jax, self._jnp = jax, jnp
+        self._key = jax.random.PRNGKey(0 if seed is None else int(seed))
+
+        def reset(keys: Any) -> tuple:
+            state = env.reset(keys)
+            return state, obs_of(state.obs)
+
+        def step(state: Any, action: Any, key: Any) -> tuple:
+            """One step of every env; ended rows take a fresh state (same-step auto-reset)."""
+            nxt = env.step(state, action)
+            done = nxt.done.astype(bool)
+            trunc = nxt.info["truncation"].astype(bool) & done
+
+            def reset_done(_: Any) -> Any:
+                fresh = env.reset(jax.random.split(key, num_envs))
+                # keep the running episode's metrics/counters layout: fresh rows where done
+                fresh = fresh.replace(info={**nxt.info, **{k: v for k, v in fresh.info.items() if k in nxt.info}})
+
+                def pick(a: Any, b: Any) -> Any:
+                    if not hasattr(a, "shape") or a.shape[:1] != done.shape:
+                        return b
+                    return jnp.where(done.reshape(done.shape + (1,) * (a.ndim - 1)), a, b)
+                return jax.tree_util.tree_map(pick, fresh, nxt)
+
+            merged = jax.lax.cond(done.any(), reset_done, lambda _: nxt, None)
+            return merged, obs_of(merged.obs), obs_of(nxt.obs), nxt.reward, done & ~trunc, trunc
+
+        self._reset_fn = jax.jit(reset)
+        self._step_fn = jax.jit(step)
+        self._state: Any = None
+
+    def _torch(self, array: Any) -> torch.Tensor:
+        """A JAX array as a torch tensor on ``device`` (shared memory through DLPack where it can)."""
+        return torch.from_dlpack(array).to(self.device)
+
+    def reset(self, seed: int | None = None) -> torch.Tensor:
+        """Reset every env (from ``seed`` when given); obs (N, obs_dim) float32 on ``device``."""
+        jax = self._jax
+        if seed is not None:
+            self._key = jax.random.PRNGKey(int(seed))
+        self._key, sub = jax.random.split(self._key)
+        # committed keys give a committed state: the step's cache key then matches from the first
+        # step on (an uncommitted reset state made the second step compile the step function again)
+        keys = jax.device_put(jax.random.split(sub, self.num_envs), jax.devices()[0])
+        self._state, obs = self._reset_fn(keys)
+        return self._torch(obs).float()
+
+    def step(self, actions: torch.Tensor) -> StepResult:
+        """Step with actions (N, act_dim) in [-1, 1] (a torch tensor); every field a tensor on ``device``."""
+        jax, jnp = self._jax, self._jnp
+        self._key, sub = jax.random.split(self._key)
+        action = jnp.from_dlpack(actions.detach().float().contiguous().cpu()
+                                 if self.device.type == "cpu" else actions.detach().float().contiguous())
+        self._state, obs, final, reward, terminated, truncated = self._step_fn(self._state, action, sub)
+        return StepResult(self._torch(obs).float(), self._torch(reward).float(),
+                          self._torch(terminated).bool(), self._torch(truncated).bool(),
+                          self._torch(final).float(), {})
+
+    def close(self) -> None:
+        """Nothing to release (JAX frees the arrays)."""
+        self._state = None
