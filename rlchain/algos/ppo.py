@@ -187,7 +187,7 @@ class PPOAgent:
     def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
         """Flat minibatches, or whole sequences of seq_length steps for an RNN policy, in ``minibatch_order``."""
         cfg = self.cfg
-        shuffle = cfg.minibatch_order == "shuffle"
+        shuffle = shuffled_minibatches(cfg.minibatch_order, self.model.dist.continuous)
         if self.model.is_rnn:
             return storage.sequence_minibatches(cfg.minibatch_size, cfg.seq_length, advantages,
                                                 use_resets=cfg.zero_rnn_on_done, shuffle=shuffle)
@@ -236,3 +236,10 @@ class PPOAgent:
 def _fast_adam_kwargs(device: torch.device) -> dict:
     """The fused Adam kernel: one call per step instead of a Python loop over parameters."""
     return {"fused": True} if device.type in ("cpu", "cuda") else {}
+
+
+def shuffled_minibatches(order: str, continuous: bool) -> bool:
+    """``minibatch_order`` resolved: True for a new permutation every mini-epoch, False for rl_games'
+    fixed env-major blocks (``auto``: fixed for continuous actions, shuffled otherwise)."""
+    return order == "shuffle" or (order == "auto" and not continuous)
+

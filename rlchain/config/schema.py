@@ -375,11 +375,13 @@ class TrainConfig(RunConfig):
                                               "minibatch_size_per_env is required)", check=positive)
     minibatch_size_per_env: int | None = option(None, "minibatch = num_actors * this", check=positive)
     mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
-    minibatch_order: str = option("shuffle", "which steps each minibatch holds. fixed = rl_games' order: the "
-                                             "rollout flattened env by env and cut in turn, so minibatch k is the "
-                                             "same whole env trajectories (whole sequences for an RNN) in every "
-                                             "mini-epoch; shuffle = a new random permutation every mini-epoch",
-                                  choices=("fixed", "shuffle"))
+    minibatch_order: str = option("auto", "which steps each minibatch holds. fixed = rl_games' order: the "
+                                          "rollout flattened env by env and cut in turn, so minibatch k is the "
+                                          "same whole env trajectories (whole sequences for an RNN) in every "
+                                          "mini-epoch; shuffle = a new random permutation every mini-epoch; "
+                                          "auto = fixed for continuous actions (measured better on the MuJoCo "
+                                          "YAMLs, docs/ppo_parity.md), shuffle otherwise",
+                                  choices=("auto", "fixed", "shuffle"))
     tau: float = option(0.95, "GAE lambda", check=unit_interval)
     learning_rate: float = option(3e-4, "Adam learning rate", check=_check_lr)
     lr_schedule: str | None = option(None, "None (constant), linear, adaptive (KL-based) or polynom_decay "

@@ -7,7 +7,7 @@ from typing import Any
 import torch
 
 from rlchain.algos.central_value import CentralValueAgent
-from rlchain.algos.ppo import PPOAgent
+from rlchain.algos.ppo import PPOAgent, shuffled_minibatches
 from rlchain.algos.returns import gae, next_values_from_rollout
 from rlchain.algos.storage import RolloutStorage
 from rlchain.config.errors import ConfigError
@@ -139,7 +139,8 @@ class OnPolicyTrainer(RolloutMixin, Loop):
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self._progress(), model.num_states, cfg.seq_length,
-                                              cfg.zero_rnn_on_done, cfg.minibatch_order == "shuffle"))
+                                              cfg.zero_rnn_on_done,
+                                              shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
         return stats
 
     def extra_state(self, kind: str) -> dict:

@@ -59,7 +59,7 @@ def test_the_ppo_agent_reads_minibatch_order_and_a_bad_value_is_one_line():
     raw["params"]["config"]["minibatch_order"] = "fixed"
     assert parse_params(raw, "cfg.yaml").config.minibatch_order == "fixed"
     raw["params"]["config"]["minibatch_order"] = "random"
-    with pytest.raises(ConfigError, match=r"cfg.yaml.*params.config.minibatch_order.*fixed.*shuffle") as info:
+    with pytest.raises(ConfigError, match=r"cfg.yaml.*params.config.minibatch_order.*auto.*fixed.*shuffle") as info:
         parse_params(raw, "cfg.yaml")
     assert "\n" not in str(info.value)
 
@@ -71,3 +71,12 @@ def test_fixed_order_for_sequences_takes_each_envs_chunks_in_time_order():
     assert batches[0] == [0, 3, 6, 9]
     assert batches[1] == [1, 4, 7, 10]
     assert batches == [b.index.tolist() for b in storage.sequence_minibatches(4, 2, torch.zeros(T, N), shuffle=False)]
+
+
+def test_auto_order_is_fixed_for_continuous_actions_and_shuffled_otherwise():
+    from rlchain.algos.ppo import shuffled_minibatches
+
+    assert shuffled_minibatches("auto", continuous=True) is False
+    assert shuffled_minibatches("auto", continuous=False) is True
+    assert shuffled_minibatches("fixed", continuous=False) is False
+    assert shuffled_minibatches("shuffle", continuous=True) is True
