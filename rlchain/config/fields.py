@@ -194,3 +194,8 @@ def check_env_groups(x: Any) -> str | None:
 
 def unit_interval(x: Any) -> str | None:
     return None if 0 <= x <= 1 else "must be between 0 and 1"
+
+
+def rate_target(x: Any) -> str | None:
+    """A success-rate target: a fraction, or inf (off)."""
+    return None if 0 <= x <= 1 or x == float("inf") else "must be between 0 and 1 (a fraction of episodes), or inf"

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from rlchain.config.compile import check_compile
-from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
+from rlchain.config.fields import check_env_groups, non_negative, option, positive, rate_target, unit_interval
 from rlchain.config.hyperparam_schedule import check_hyperparam_schedule
 from rlchain.config.multi_agent import MultiAgentConfig
 
@@ -315,7 +315,8 @@ class RunConfig:
     max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
     score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
     success_to_win: float = option(float("inf"), "stop once the success rate of the tracked episodes reaches "
-                                                  "this (0..1; envs that report success, see success_key)")
+                                                  "this (0..1; envs that report success, see success_key)",
+                                  check=rate_target)
     success_key: str = option("auto", "info key holding task success (rlchain): auto = `success` (MetaWorld, "
                                       "MuJoCo Playground), else `is_success` (gymnasium-robotics); none = off. "
                                       "Logged as episodes/success_rate")

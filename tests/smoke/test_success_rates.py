@@ -22,7 +22,7 @@ def small(tmp_path, epochs, *extra):
 def test_success_rate_logged_evaluated_and_played(tmp_path, capsys):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    result = Runner().load(CONFIG, small(tmp_path, 3, "params.config.success_to_win=2",
+    result = Runner().load(CONFIG, small(tmp_path, 3, "params.config.success_to_win=inf",
                                          "params.config.evaluation={interval: 3, games: 4, num_envs: 2}")).train()
     assert result.epoch == 3
     out = capsys.readouterr()
