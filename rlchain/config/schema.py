@@ -420,6 +420,11 @@ class TrainConfig(RunConfig):
     freeze_critic: bool = option(False, "train the actor only", status="planned")
     epochs_between_resets: int = option(0, "reset all envs every N epochs", status="planned")
     value_bootstrap: bool = option(True, "on time-out bootstrap V(true final obs) instead of a terminal")
+    timeout_bootstrap: str = option("final_obs", "with value_bootstrap, the value a time-out bootstraps (rlchain): "
+                                                 "final_obs = V(the true final observation); previous_value = "
+                                                 "V(the state before the last step), as rl_games (reward += "
+                                                 "gamma * V(s_t)); see docs/ppo_parity.md",
+                                    choices=("final_obs", "previous_value"))
     grad_norm: float = option(1.0, "max gradient norm when truncate_grads", check=positive)
     truncate_grads: bool = option(False, "clip gradients to grad_norm")
     weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)

@@ -113,7 +113,9 @@ class RolloutMixin:
             shaped[lost] = values[lost] * ((1 - cfg.gamma) if cfg.value_bootstrap else 1.0)
         if cfg.value_bootstrap and bool(truncated.any()):
             idx = (truncated & ~terminated).nonzero().squeeze(-1)
-            if idx.numel():
+            if idx.numel() and cfg.timeout_bootstrap == "previous_value":  # rl_games: V(s_t), no extra pass
+                storage.final_values[t, rows][idx] = values[idx]
+            elif idx.numel():
                 final_obs = self._to_tensor(result.final_obs)[idx]
                 row_states = tuple(s[:, idx] for s in next_states)
                 storage.final_values[t, rows][idx] = self._value(final_obs, row_states)
