@@ -72,7 +72,7 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | `params.network` | network block; `name: actor_critic` and `resnet_actor_critic` are built in, user builders via `register_network` |
 | `params.config` | training keys below |
 | `params.torch_threads` | `torch.set_num_threads` for the training process (default on CPU: half the cores, at most 4; on CUDA: torch's choice) |
-| `params.update_threads` | CPU threads for the gradient updates only, while the envs are idle (rlchain key). Default: every core of the process's share that other processes leave idle (cores less the 1-minute load average's whole part), at most 4, never fewer than the rollout's, when `torch_threads` is unset too (2 on an idle 2-core machine: PPO train steps/s 1.10-1.17x on envpool HalfCheetah, Ant and Hopper, SAC 1.26x; on a busy one a shared core stalls every op, several times slower); with `torch_threads` set, the same count |
+| `params.update_threads` | CPU threads for the gradient updates only, while the envs are idle (rlchain key). Default: every core of the process's share that other processes leave idle (cores less the whole part of the cores busy in a 0.2 s sample of /proc/stat at start; the 1-minute load average where there is no /proc/stat), at most 4, never fewer than the rollout's, when `torch_threads` is unset too (2 on an idle 2-core machine: PPO train steps/s 1.10-1.17x on envpool HalfCheetah, Ant and Hopper, SAC 1.26x; on a busy one a shared core stalls every op, several times slower); with `torch_threads` set, the same count |
 | `params.load_checkpoint`, `params.load_path` | deprecated, no effect: pass `--checkpoint` |
 | `params.import_modules` | list of Python modules imported before building (register your own networks/envs there) |
 

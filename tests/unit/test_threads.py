@@ -71,3 +71,34 @@ def test_update_threads_key_parses_and_rejects_bad_values():
         with pytest.raises(ConfigError, match=r"cfg\.yaml.*params\.update_threads"):
             parse_params({"params": {**BASE["params"], "update_threads": bad}}, "cfg.yaml")
 
+
+
+def test_busy_cores_reads_the_cpu_time_other_processes_use_now(tmp_path, monkeypatch):
+    """Non-idle share of /proc/stat's cpu time over the window, times the cores: here 200 of 300
+    ticks busy on 2 cores -> 1.33 cores, so 1 idle core is left for the update."""
+    import rlchain.training.threads as threads
+
+    stat = tmp_path / "stat"
+    stat.write_text("cpu  100 0 100 800 0 0 0 0 0 0\ncpu0 ...\n")
+
+    def sleep(seconds):  # the window passes: 100 user, 100 system and 100 idle ticks later
+        stat.write_text("cpu  200 0 200 900 0 0 0 0 0 0\n")
+
+    monkeypatch.setattr(threads.time, "sleep", sleep)
+    monkeypatch.setattr(threads.os, "cpu_count", lambda: 2)
+    assert threads.busy_cores(stat=str(stat)) == pytest.approx(4 / 3)
+    assert threads.busy_cores(stat=str(tmp_path / "missing")) is None
+
+
+def test_idle_cores_uses_the_cpu_busy_now_not_the_one_minute_average(monkeypatch):
+    """Right after another run ended the 1-minute load average is still ~2.7 on an idle 2-core
+    machine; the update must still get both cores."""
+    import rlchain.training.threads as threads
+
+    monkeypatch.setattr(threads.os, "getloadavg", lambda: (2.7, 2.0, 1.0))
+    monkeypatch.setattr(threads, "busy_cores", lambda: 0.1)
+    assert idle_cores(2) == 2
+    monkeypatch.setattr(threads, "busy_cores", lambda: 1.6)  # another process holds a core
+    assert idle_cores(2) == 1
+    monkeypatch.setattr(threads, "busy_cores", lambda: None)  # no /proc/stat: the load average
+    assert idle_cores(2) == 1
