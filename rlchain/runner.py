@@ -188,7 +188,8 @@ class Runner:
         from rlchain.player import Player
 
         params = self._require()
-        set_threads(params.torch_threads, None, params.config.device)  # as training: 2 threads on 2 busy cores cost 30x
+        # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
+        set_threads(params.torch_threads, None, params.config.device, updates=False)
         if params.policies is not None:  # config.multi_agent: every policy plays its agents
             from rlchain.policy_player import play_policies
             return play_policies(params, checkpoint, games, deterministic, quiet)

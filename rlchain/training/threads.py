@@ -43,8 +43,10 @@ class ThreadPlan:
 
 
 def plan_threads(torch_threads: int | None, update_threads: int | None, device: str, processes: int = 1,
-                 cores: int | None = None, load: float | None = None) -> ThreadPlan | None:
+                 cores: int | None = None, load: float | None = None, updates: bool = True) -> ThreadPlan | None:
     """The thread plan for a process: None on CUDA when nothing was asked for (torch's own choice).
+    ``updates=False`` (playing): no gradient updates, so the update keeps the rollout's count and the
+    cores are not sampled.
 
     ``torch_threads`` (rl_games' key) sets the rollout's count, capped at this process's share of
     the cores (``processes`` torchrun ranks share a node); unset, half the share, at most 4, which
@@ -62,6 +64,8 @@ def plan_threads(torch_threads: int | None, update_threads: int | None, device: 
     if torch_threads is None and update_threads is None and device.startswith("cuda"):
         return None
     rollout = min(torch_threads, share) if torch_threads else max(1, min(4, share // 2))
+    if not updates:
+        return ThreadPlan(rollout, rollout)
     if update_threads:
         update = min(update_threads, share)
     else:
@@ -118,9 +122,9 @@ def _cpu_times(stat: str) -> list[int] | None:
 
 
 def set_threads(torch_threads: int | None, update_threads: int | None, device: str,
-                processes: int = 1) -> ThreadPlan | None:
+                processes: int = 1, updates: bool = True) -> ThreadPlan | None:
     """:func:`plan_threads`, then set its rollout count now; the plan (or None) for the trainer."""
-    plan = plan_threads(torch_threads, update_threads, device, processes)
+    plan = plan_threads(torch_threads, update_threads, device, processes, updates=updates)
     if plan is not None:
         plan.apply()
     return plan

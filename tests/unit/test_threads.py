@@ -102,3 +102,15 @@ def test_idle_cores_uses_the_cpu_busy_now_not_the_one_minute_average(monkeypatch
     assert idle_cores(2) == 1
     monkeypatch.setattr(threads, "busy_cores", lambda: None)  # no /proc/stat: the load average
     assert idle_cores(2) == 1
+
+
+def test_playing_plans_no_update_threads_and_samples_no_cores(monkeypatch):
+    """--play never runs a gradient update: the rollout's count, without the 0.2 s /proc/stat sample."""
+    import rlchain.training.threads as threads
+
+    def no_sample(*args, **kwargs):
+        raise AssertionError("busy_cores sampled for a play")
+
+    monkeypatch.setattr(threads, "busy_cores", no_sample)
+    assert plan_threads(None, None, "cpu", cores=2, updates=False) == ThreadPlan(1, 1)
+    assert plan_threads(2, None, "cpu", cores=8, updates=False) == ThreadPlan(2, 2)
