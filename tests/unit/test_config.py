@@ -49,6 +49,7 @@ def test_unknown_key_suggests(base_config):
     ("lr_schedule", "adaptve", "did you mean 'adaptive'"),
     ("gamma", 1.5, "between 0 and 1"),
     ("success_to_win", 90, "must be between 0 and 1 (a fraction of episodes), or inf"),
+    ("timeout_bootstrap", "last_value", "'last_value' is not one of: final_obs, previous_value"),
     # minibatch_size against the batch is checked with the env (its agent count): test_minibatch_checked_with_env
 ])
 def test_bad_values(base_config, key, value, expect):
