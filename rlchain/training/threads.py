@@ -78,13 +78,32 @@ def idle_cores(cores: int, load: float | None = None) -> int:
     of cores busy right now (:func:`busy_cores`; where ``/proc/stat`` is missing, the 1-minute load
     average; all of them where neither exists). At least 1."""
     if load is None:
-        load = busy_cores()
+        load = recent_busy_cores()
     if load is None:
         try:
             load = os.getloadavg()[0]
         except (AttributeError, OSError):
             return cores
     return max(1, cores - int(load))
+
+
+SAMPLE_MAX_AGE = 10.0  # seconds a core sample is reused for the next run started in the same process
+_last_sample: tuple[float, float | None] | None = None  # (time.monotonic() when taken, busy cores)
+
+
+def recent_busy_cores(max_age: float | None = None) -> float | None:
+    """:func:`busy_cores`, reusing a sample taken in this process less than ``max_age`` seconds ago
+    (default :data:`SAMPLE_MAX_AGE`): runs started one after another in one process (a test
+    session's ~300 short trainings, a Python-API sweep) pay the 0.2 s sample once every
+    ``max_age`` seconds, not once a run."""
+    global _last_sample
+    max_age = SAMPLE_MAX_AGE if max_age is None else max_age
+    now = time.monotonic()
+    if _last_sample is not None and now - _last_sample[0] < max_age:
+        return _last_sample[1]
+    load = busy_cores()
+    _last_sample = (time.monotonic(), load)
+    return load
 
 
 def busy_cores(window: float = 0.2, stat: str = "/proc/stat") -> float | None:

@@ -96,12 +96,29 @@ def test_idle_cores_uses_the_cpu_busy_now_not_the_one_minute_average(monkeypatch
     import rlchain.training.threads as threads
 
     monkeypatch.setattr(threads.os, "getloadavg", lambda: (2.7, 2.0, 1.0))
+    monkeypatch.setattr(threads, "SAMPLE_MAX_AGE", 0.0)  # sample afresh each call
     monkeypatch.setattr(threads, "busy_cores", lambda: 0.1)
     assert idle_cores(2) == 2
     monkeypatch.setattr(threads, "busy_cores", lambda: 1.6)  # another process holds a core
     assert idle_cores(2) == 1
     monkeypatch.setattr(threads, "busy_cores", lambda: None)  # no /proc/stat: the load average
     assert idle_cores(2) == 1
+
+
+def test_runs_started_back_to_back_in_one_process_share_one_core_sample(monkeypatch):
+    """The 0.2 s sample is taken once per SAMPLE_MAX_AGE seconds in a process, then taken afresh."""
+    import rlchain.training.threads as threads
+
+    samples = []
+    clock = [100.0]
+    monkeypatch.setattr(threads, "_last_sample", None)
+    monkeypatch.setattr(threads.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(threads, "busy_cores", lambda: samples.append(clock[0]) or 1.5)
+    assert idle_cores(2) == 1 and idle_cores(4) == 3
+    assert samples == [100.0]
+    clock[0] += threads.SAMPLE_MAX_AGE + 0.1
+    assert idle_cores(2) == 1
+    assert samples == [100.0, 100.0 + threads.SAMPLE_MAX_AGE + 0.1]
 
 
 def test_playing_plans_no_update_threads_and_samples_no_cores(monkeypatch):
