@@ -127,7 +127,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
                 t0 = time.time()
                 try:
                     if not self._guarded_collect():
-                        stop = f"interrupted by {signals.requested}"
+                        stop = signals.stop_reason()
                         break
                     self.events.emit("on_rollout_end")
                     t1 = time.time()
@@ -253,8 +253,8 @@ class Loop(LiveParamsMixin, CheckpointMixin):
 
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
-        if self.signals is not None and self.signals.requested is None:
-            self.signals.requested = reason
+        if self.signals is not None:
+            self.signals.request(reason)
 
     def _reset_envs(self) -> torch.Tensor:
         try:
@@ -307,7 +307,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
             return f"max_frames {cfg.max_frames} reached"
         if self.signals is not None and self.signals.requested:
-            return f"interrupted by {self.signals.requested}"
+            return self.signals.stop_reason()
         return None
 
     def _finish(self, stop: str, start: float, last: str | None) -> TrainResult:

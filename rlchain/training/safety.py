@@ -18,13 +18,27 @@ log = get_logger(__name__)
 class StopSignals:
     """SIGINT / SIGTERM ask the loop to stop after the current step; a second one exits at once.
 
-    Use as a context manager around training; ``requested`` holds the signal name once one came.
-    Outside the main thread (where Python cannot install handlers) it does nothing.
+    Use as a context manager around training; ``requested`` holds the signal name once one came, or
+    the reason a callback gave (:meth:`request`). Outside the main thread (where Python cannot
+    install handlers) the signals do nothing.
     """
 
     def __init__(self) -> None:
         self.requested: str | None = None
+        self.by_signal = False
         self._previous: dict[int, Any] = {}
+
+    def request(self, reason: str) -> None:
+        """A stop asked for in code (a callback, a tuner's pruner): kept unless a stop came already."""
+        if self.requested is None:
+            self.requested = reason
+
+    def stop_reason(self) -> str:
+        """'interrupted by SIGTERM' for a signal (the user's interruption, exit 130, resume line);
+        'stopped by request: <reason>' for a stop asked for in code (a finished run)."""
+        if self.by_signal:
+            return f"interrupted by {self.requested}"
+        return f"stopped by request: {self.requested}"
 
     def __enter__(self) -> StopSignals:
         if threading.current_thread() is threading.main_thread():
@@ -39,9 +53,10 @@ class StopSignals:
 
     def _handle(self, signum: int, frame: Any) -> None:
         name = signal.Signals(signum).name
-        if self.requested is not None:  # second signal: leave now
+        if self.by_signal:  # second signal: leave now
             raise KeyboardInterrupt(f"second {name}")
         self.requested = name
+        self.by_signal = True
         # print, not logging: this runs in a signal handler, where logging's locks could deadlock
         print(f"\n{name} received: finishing the current step, then saving a checkpoint "
               f"(send it again to exit at once)", flush=True)

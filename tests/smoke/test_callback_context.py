@@ -50,7 +50,7 @@ class Inspect(Callback):
 def test_callbacks_get_a_typed_state_and_their_actions(tmp_path):
     inspect = Inspect()
     result = Runner().load(CARTPOLE, small(tmp_path, epochs=50, extra=QUIET)).train(seed=5, callbacks=[inspect])
-    assert result.stop_reason == "interrupted by inspect" and result.epoch == 2  # the epoch it asked in
+    assert result.stop_reason == "stopped by request: inspect" and result.epoch == 2  # the epoch it asked in
     assert isinstance(inspect.ctx, CallbackContext)
     start, first, *_, last = inspect.states
     assert isinstance(start, TrainingState)

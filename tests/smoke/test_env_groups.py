@@ -72,7 +72,7 @@ def test_stop_request_mid_rollout_drains_groups_and_saves(tmp_path):
             env.recv = counting
 
     result = envpool_cartpole(tmp_path, 2).train(callbacks=[StopAfterRecvs()])
-    assert result.stop_reason == "interrupted by test" and result.epoch == 0
+    assert result.stop_reason == "stopped by request: test" and result.epoch == 0
     assert os.path.isfile(os.path.join(result.run_dir, "nn", "last_cp.pth"))
 
 

@@ -1,6 +1,7 @@
 """Runs that survive: signals, crash-safe checkpoints, divergence, broken envs, disk errors."""
 
 import glob
+import logging
 import os
 import signal
 import subprocess
@@ -15,6 +16,7 @@ import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.training import checkpoint as ckpt
+from rlchain.training.events import Callback
 from rlchain.training.safety import StopSignals
 from tests.conftest import CONFIGS, ROOT
 from tests.smoke.test_train_play_resume import run_cli, small
@@ -78,6 +80,33 @@ def test_second_signal_exits_at_once():
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == previous
 
 
+def test_a_stop_asked_for_in_code_is_not_an_interruption():
+    """A callback's (or a pruner's) request_stop ends the run as finished: no 'interrupted', no exit
+    130, no resume line; a user's Ctrl-C after it is still a first signal, not an exit at once."""
+    with StopSignals() as signals:
+        signals.request("optuna pruner")
+        signals.request("later")  # the first reason stays
+        assert signals.stop_reason() == "stopped by request: optuna pruner"
+        os.kill(os.getpid(), signal.SIGINT)  # must not raise KeyboardInterrupt
+        assert _wait_for(lambda: signals.by_signal)
+        assert signals.stop_reason() == "interrupted by SIGINT"
+
+
+def test_callback_stop_prints_no_resume_line(tmp_path, caplog):
+    class Stop(Callback):
+        def on_epoch_end(self, ctx, stats, episodes):
+            ctx.request_stop("enough")
+
+    with caplog.at_level(logging.INFO, logger="rlchain"):
+        result = cartpole(tmp_path, epochs=5).train(callbacks=[Stop()])
+    assert result.stop_reason == "stopped by request: enough" and result.epoch == 1
+    assert "resume with" not in caplog.text and "stopped:" not in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="rlchain"):
+        cartpole(tmp_path, "params.config.print_stats=true", epochs=5).train(callbacks=[Stop()])
+    assert "stopped: stopped by request: enough at epoch 1" in caplog.text and "resume with" not in caplog.text
+
+
 def test_signals_in_a_fresh_process_with_threads():
     """The same two-signal contract in a process of its own, with busy non-main threads that could
     receive the signal (as Ray's or envpool's do): independent of what ran before in this suite."""
@@ -117,6 +146,7 @@ def test_sigkill_during_checkpoint_write_keeps_previous(tmp_path):
         import sys, time, torch
         sys.path.insert(0, {ROOT!r})
         from rlchain.training import checkpoint as ckpt
+from rlchain.training.events import Callback
         ckpt.save_atomic({{"format": ckpt.FORMAT, "value": 1}}, {str(path)!r})
         real_save = torch.save
         def slow_save(obj, fh):
