@@ -115,16 +115,16 @@ def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.N
             "returncode": proc.returncode, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
-def run_path(out: str, config: str, lib: str, seed: int) -> str:
-    return os.path.join(out, "runs", config, f"{lib}_seed{seed}.json")
+def run_path(runs_dir: str, config: str, lib: str, seed: int) -> str:
+    return os.path.join(runs_dir, config, f"{lib}_seed{seed}.json")
 
 
-def load_runs(out: str, config: str, libs: list[str], seeds: list[int], budget: float) -> dict[str, list[dict]]:
+def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], budget: float) -> dict[str, list[dict]]:
     """The saved runs of ``config`` with this budget, by library."""
     runs: dict[str, list[dict]] = {lib: [] for lib in libs}
     for lib in libs:
         for seed in seeds:
-            path = run_path(out, config, lib, seed)
+            path = run_path(runs_dir, config, lib, seed)
             if os.path.exists(path):
                 with open(path) as f:
                     run = json.load(f)
@@ -278,6 +278,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--rlchain-args", default="", help="extra runner.py arguments, e.g. key=value overrides")
     p.add_argument("--rl-games-args", default="", help="extra rl_games_driver.py arguments")
     p.add_argument("--out", default=os.path.join(HERE, "curves"), help="runs/, results.md and the PNGs go here")
+    p.add_argument("--runs", default=None, help="folder of the saved runs (default OUT/runs): e.g. the shipped "
+                                               "curves/runs with --plot-only and more seeds into another --out")
     p.add_argument("--rerun", action="store_true", help="train again even where a saved run exists")
     p.add_argument("--plot-only", action="store_true", help="no training: table and plots from the saved runs")
     return p.parse_args(argv)
@@ -285,13 +287,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    runs_dir = args.runs or os.path.join(args.out, "runs")
     cpu = cpu_model()
     for seed in args.seeds:  # seed-major (a cut-short run still has whole seeds), libraries alternating
         for config in args.configs:
             budget = args.pendulum_seconds if config == "pendulum" else args.seconds
             for lib in args.libs:
-                path = run_path(args.out, config, lib, seed)
-                if args.plot_only or (not args.rerun and load_runs(args.out, config, [lib], [seed], budget)[lib]):
+                path = run_path(runs_dir, config, lib, seed)
+                if args.plot_only or (not args.rerun and load_runs(runs_dir, config, [lib], [seed], budget)[lib]):
                     continue
                 try:
                     run = train_for(lib, config, seed, budget, args)
@@ -302,10 +305,11 @@ def main(argv: list[str] | None = None) -> int:
                 os.makedirs(os.path.dirname(path), exist_ok=True)
                 with open(path, "w") as f:
                     json.dump(run, f)
+    os.makedirs(args.out, exist_ok=True)
     lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
     for config in args.configs:
         budget = args.pendulum_seconds if config == "pendulum" else args.seconds
-        runs = load_runs(args.out, config, args.libs, args.seeds, budget)
+        runs = load_runs(runs_dir, config, args.libs, args.seeds, budget)
         if not any(runs.values()):
             continue
         loads = [r[k] for lib_runs in runs.values() for r in lib_runs for k in ("load_before", "load_after")]
