@@ -304,7 +304,9 @@ class RunConfig:
     env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
                                "(env_config.env_name), `atari_gym` (env_config.name, an ale-py id) or a "
                                "registered env")
-    env_config: dict = option({}, "keyword arguments for the environment")
+    env_config: dict = option({}, "keyword arguments for the environment; with env_name envpool also "
+                                  "rlchain's `action_repeat` (env steps per action, default 1: rewards summed, "
+                                  "an ending episode stops there)")
     env_runners: EnvRunnersConfig | None = option(None, "step the envs on Ray workers (rlchain; see the "
                                                             "env_runners section)")
     gamma: float = option(0.99, "discount", check=unit_interval)

@@ -139,6 +139,9 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
     if task not in tasks:
         raise _error(path, f"envpool has no task '{task}'{_did_you_mean(task, tasks)}")
     dict_obs = kwargs.pop("use_dict_obs_space", False)  # rl_games: previous reward and action in the obs
+    repeat = kwargs.pop("action_repeat", 1)  # rlchain's own (envs/action_repeat.py), not an envpool option
+    if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+        raise _error(f"{CONFIG}.action_repeat", f"expected an integer >= 1 (env steps per action), got {repeat!r}")
     for key in RL_GAMES_ENVPOOL_KEYS:
         kwargs.pop(key, None)
     valid = envpool_config_keys(task)
@@ -148,6 +151,8 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
                          f"{_did_you_mean(key, valid)} (valid: {', '.join(sorted(valid))})")
     groups = resolve_env_groups(groups, num_envs)
     extra = {"groups": groups} if groups > 1 else {}  # a user-registered backend may not take groups
+    if repeat > 1:
+        extra["action_repeat"] = repeat
     env = VECENVS.get("envpool")(task, num_envs, seed=seed, env_kwargs=kwargs, render=render, **extra)
     if dict_obs:
         try:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from rlchain.envs.action_repeat import repeat_step
 from rlchain.envs.goal_env import fetch_compute_reward
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers import (
@@ -88,15 +89,22 @@ class EnvpoolVecEnv:
     :meth:`send` starts group g's step and returns at once, :meth:`recv` waits for it. A pipelined
     rollout (``training/on_policy.py``) computes one group's actions while envpool's threads step
     the other, so env stepping overlaps policy inference. :meth:`step` still steps all of them.
+
+    ``action_repeat`` > 1 applies each action for that many env steps (:mod:`rlchain.envs.action_repeat`).
     """
 
     def __init__(self, task_id: str, num_envs: int, seed: int | None = None,
-                 env_kwargs: dict | None = None, render: bool = False, groups: int = 1) -> None:
+                 env_kwargs: dict | None = None, render: bool = False, groups: int = 1,
+                 action_repeat: int = 1) -> None:
         self._envpool = import_envpool()
         if task_id not in envpool_tasks():
             raise ValueError(f"envpool has no task '{task_id}'")
         if groups < 1 or num_envs % groups:
             raise ValueError(f"env_groups {groups} must be >= 1 and divide the number of envs {num_envs}")
+        if int(action_repeat) != action_repeat or action_repeat < 1:
+            raise ValueError(f"action_repeat must be an integer >= 1, got {action_repeat!r}")
+        self.action_repeat = int(action_repeat)
+        self._sent: dict[int, np.ndarray] = {}
         self.task_id = task_id
         self.num_envs = num_envs
         size = num_envs // groups
@@ -148,7 +156,7 @@ class EnvpoolVecEnv:
         """Step with actions (N, *action_space.shape); finished envs are reset in the same call."""
         if len(self.pools) == 1:
             actions = cast_actions(actions, self._env_action_space, self.num_envs)
-            return self._finish(self.pools[0], *self.pools[0].step(actions))
+            return self._finish(self.pools[0], *self._repeat(self.pools[0], actions, self.pools[0].step(actions)))
         for g, rows in enumerate(self.env_groups):
             self.send(g, actions[rows])
         return concat_results([self.recv(g) for g in range(len(self.pools))])
@@ -156,14 +164,25 @@ class EnvpoolVecEnv:
     def send(self, group: int, actions: np.ndarray) -> None:
         """Start stepping env group ``group`` (rows ``env_groups[group]``) with its actions; returns at once."""
         rows = self.env_groups[group]
-        self.pools[group].send(cast_actions(actions, self._env_action_space, rows.stop - rows.start))
+        actions = cast_actions(actions, self._env_action_space, rows.stop - rows.start)
+        if self.action_repeat > 1:
+            self._sent[group] = actions
+        self.pools[group].send(actions)
 
     def recv(self, group: int) -> StepResult:
         """Wait for the step :meth:`send` started on ``group``; its rows' StepResult (same-step reset)."""
-        result = self._finish(self.pools[group], *self.pools[group].recv())
+        pool = self.pools[group]
+        result = self._finish(pool, *self._repeat(pool, self._sent.pop(group, None), pool.recv()))
         if "env_id" in result.infos:  # envpool numbers the envs of each pool from 0
             result.infos = {**result.infos, "env_id": np.asarray(result.infos["env_id"]) + self.env_groups[group].start}
         return result
+
+    def _repeat(self, pool: Any, actions: np.ndarray | None, first: tuple) -> tuple:
+        """``first`` (a pool's raw step) extended by the rest of the action repeat (its later steps
+        run here, synchronously, for the envs still in their episode)."""
+        if self.action_repeat == 1 or actions is None:
+            return first
+        return repeat_step(lambda act, ids: pool.step(act, ids), actions, first, self.action_repeat)
 
     def _finish(self, pool: Any, obs: Any, reward: Any, terminated: Any, truncated: Any,
                 infos: dict) -> StepResult:
