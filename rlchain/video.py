@@ -133,8 +133,9 @@ class OneEnv:
 def record_model_episodes(model: Any, params: Params, video_dir: str, games: int = 1,
                           deterministic: bool = True, device: torch.device | str = "cpu",
                           seed: int | None = None, name_prefix: str = "rl-video") -> list[str]:
-    """Play ``games`` episodes with ``model`` on a recording env; returns the new mp4 paths."""
-    before = set(glob.glob(os.path.join(video_dir, "*.mp4")))
+    """Play ``games`` episodes with ``model`` on a recording env; returns the mp4 paths it wrote
+    (new files, and files of the same name it overwrote: a second recording into one folder)."""
+    before = _mp4_times(video_dir)
     env = OneEnv(make_recording_env(params, video_dir, name_prefix), games)
     try:
         play(model, env, games, deterministic, device=torch.device(device), seed=seed, success_key="none")
@@ -146,7 +147,19 @@ def record_model_episodes(model: Any, params: Params, video_dir: str, games: int
         raise
     finally:
         env.close()  # writes the last video
-    return sorted(set(glob.glob(os.path.join(video_dir, "*.mp4"))) - before)
+    return sorted(path for path, stamp in _mp4_times(video_dir).items() if before.get(path) != stamp)
+
+
+def _mp4_times(video_dir: str) -> dict[str, tuple[int, int]]:
+    """{mp4 path: (modification time in ns, size)} of the folder's videos."""
+    times = {}
+    for path in glob.glob(os.path.join(video_dir, "*.mp4")):
+        try:
+            stat = os.stat(path)
+        except OSError:
+            continue
+        times[path] = (stat.st_mtime_ns, stat.st_size)
+    return times
 
 
 def record_episodes(params: Params, checkpoint: str | None, video_dir: str, games: int = 1,

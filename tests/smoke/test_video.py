@@ -22,6 +22,9 @@ def test_record_cartpole_checkpoint(tmp_path):
     assert len(files) == 2
     for path in files:
         assert path.endswith(".mp4") and os.path.getsize(path) > 0
+    # recorded again into the same folder: the same names, overwritten, are what it wrote
+    again = record_episodes(params, os.path.join(ROOT, "nn", "cartpole.pth"), str(tmp_path / "videos"), games=2)
+    assert again == files
 
 
 def test_video_callback_records_during_training(tmp_path):
