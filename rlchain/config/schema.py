@@ -322,6 +322,9 @@ class RunConfig:
     success_key: str = option("auto", "info key holding task success (rlchain): auto = `success` (MetaWorld, "
                                       "MuJoCo Playground), else `is_success` (gymnasium-robotics); none = off. "
                                       "Logged as episodes/success_rate")
+    log_info_keys: list[str] = option([], "numeric step-info keys to average over each epoch's env steps and log "
+                                          "as env_info/<key> (rlchain; e.g. a robot task's reward terms: "
+                                          "reward_box_target)")
     success_mode: str = option("any", "an episode succeeded when the success value was true at any of its "
                                       "steps (MetaWorld's rule) or at its last step (gymnasium-robotics')",
                                choices=("any", "last"))

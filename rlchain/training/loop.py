@@ -19,6 +19,7 @@ import torch
 
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
+from rlchain.envs.info_means import InfoMeans
 from rlchain.envs.spec import env_spec
 from rlchain.envs.success import SuccessReader
 from rlchain.envs.vecenv import dropped_rows
@@ -80,6 +81,7 @@ class Loop(LiveParamsMixin, CheckpointMixin):
             check_batch(cfg, params.source, self.num_agents)
         self.tracker = EpisodeTracker(self.num_envs, cfg.games_to_track, device, cfg.success_mode)
         self.success = SuccessReader(cfg.success_key)
+        self.info_means = InfoMeans(cfg.log_info_keys)
         self.epoch = 0
         self.frames = 0
         self.best_reward = -math.inf
@@ -139,6 +141,8 @@ class Loop(LiveParamsMixin, CheckpointMixin):
                     continue
                 self.epoch += 1
                 rollout_s, update_s = self.epoch_seconds(t1 - t0, time.time() - t1)
+                if self.info_means.keys:
+                    stats = {**stats, **self.info_means.pop()}
                 episodes = self._episode_stats()
                 self._log(stats, episodes, rollout_s, update_s)
                 self._checkpoints(episodes)
@@ -345,6 +349,8 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         truncated = self._to_tensor(result.truncated).bool()
         dones = terminated | truncated
         success = self.success.read(result.infos, dones)
+        if self.info_means.keys:
+            self.info_means.add(result.infos)
         self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows,
                           success=success)
         if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
