@@ -77,6 +77,28 @@ def test_envpool_action_repeat_matches_stepping_by_hand():
         plain.close()
 
 
+def test_envpool_action_repeat_with_env_groups_matches_one_pool():
+    """env_groups > 1 (send/recv per group, as the pipelined rollout steps them): the same results."""
+    pytest.importorskip("envpool")
+    from rlchain.envs.envpool_env import EnvpoolVecEnv
+
+    grouped = EnvpoolVecEnv("Pendulum-v1", 4, seed=3, action_repeat=2, groups=2)
+    single = EnvpoolVecEnv("Pendulum-v1", 4, seed=3, action_repeat=2)
+    try:
+        assert np.allclose(grouped.reset(), single.reset())
+        act = np.linspace(-2, 2, 4, dtype=np.float32).reshape(4, 1)
+        for _ in range(5):
+            grouped.send(0, act[:2])
+            grouped.send(1, act[2:])
+            got = [grouped.recv(0), grouped.recv(1)]
+            want = single.step(act)
+            assert np.allclose(np.concatenate([r.reward for r in got]), want.reward, atol=1e-5)
+            assert np.allclose(np.concatenate([r.obs for r in got]), want.obs, atol=1e-5)
+    finally:
+        grouped.close()
+        single.close()
+
+
 @pytest.mark.parametrize("bad", [0, -2, 2.5, "4", True])
 def test_bad_action_repeat_is_a_one_line_config_error(bad):
     pytest.importorskip("envpool")
