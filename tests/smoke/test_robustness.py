@@ -146,7 +146,6 @@ def test_sigkill_during_checkpoint_write_keeps_previous(tmp_path):
         import sys, time, torch
         sys.path.insert(0, {ROOT!r})
         from rlchain.training import checkpoint as ckpt
-from rlchain.training.events import Callback
         ckpt.save_atomic({{"format": ckpt.FORMAT, "value": 1}}, {str(path)!r})
         real_save = torch.save
         def slow_save(obj, fh):
