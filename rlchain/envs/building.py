@@ -21,14 +21,13 @@ the file name.
 
 from __future__ import annotations
 
-import difflib
 import inspect
 import re
 from typing import Any
 
 import gymnasium as gym
 
-from rlchain.config.errors import ConfigError
+from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.envs.brax_env import brax_env
 from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
@@ -137,7 +136,7 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
     """Check ``task`` and ``kwargs`` against envpool, then build the envpool backend."""
     tasks = envpool_tasks()
     if task not in tasks:
-        raise _error(path, f"envpool has no task '{task}'{_did_you_mean(task, tasks)}")
+        raise _error(path, f"envpool has no task '{task}'{did_you_mean(task, tasks)}")
     dict_obs = kwargs.pop("use_dict_obs_space", False)  # rl_games: previous reward and action in the obs
     repeat = kwargs.pop("action_repeat", 1)  # rlchain's own (envs/action_repeat.py), not an envpool option
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
@@ -148,7 +147,7 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
     for key in kwargs:
         if key not in valid:
             raise _error(f"{CONFIG}.{key}", f"not an envpool option of '{task}'"
-                         f"{_did_you_mean(key, valid)} (valid: {', '.join(sorted(valid))})")
+                         f"{did_you_mean(key, valid)} (valid: {', '.join(sorted(valid))})")
     groups = resolve_env_groups(groups, num_envs)
     extra = {"groups": groups} if groups > 1 else {}  # a user-registered backend may not take groups
     if repeat > 1:
@@ -168,7 +167,7 @@ def _gym_id_env(name: str, path: str, kwargs: dict, num_envs: int, seed: int | N
     """Build a gymnasium id with backend ``kind`` (auto/sync/async/native/envpool)."""
     if kind == "envpool":
         if name not in envpool_tasks():  # ImportError with the install hint when it is missing
-            hint = _did_you_mean(name, envpool_tasks())
+            hint = did_you_mean(name, envpool_tasks())
             raise _error(VECENV, f"envpool has no task '{name}' (from {path}){hint}")
         return _envpool(name, path, kwargs, num_envs, seed, render, groups)
     _no_groups(groups, f"the gymnasium '{kind}' backend")
@@ -178,7 +177,7 @@ def _gym_id_env(name: str, path: str, kwargs: dict, num_envs: int, seed: int | N
         except ImportError:
             in_envpool = False
         hint = ("; envpool has it: set params.config.vecenv_type: envpool" if in_envpool
-                else _did_you_mean(name, list(gym.registry) + ENVS.names()))
+                else did_you_mean(name, list(gym.registry) + ENVS.names()))
         raise _error(path, f"unknown environment '{name}'{hint} "
                            f"(a gymnasium id, or a registered env: {', '.join(ENVS.names())})")
     if kind == "native" and (render or native_vector_class(name, kwargs) is None):
@@ -202,13 +201,6 @@ def _gym_knows(name: str) -> bool:
     except (gym.error.Error, ImportError):
         return False
     return True
-
-
-def _did_you_mean(name: str, candidates: Any) -> str:
-    """'; did you mean 'X', 'Y'?' for the closest candidates (case-insensitive), or ''."""
-    by_lower = {str(c).lower(): str(c) for c in candidates}
-    close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=3, cutoff=0.6)
-    return f"; did you mean {', '.join(repr(by_lower[c]) for c in close)}?" if close else ""
 
 
 ENVS.register("openai_gym", openai_gym_env)

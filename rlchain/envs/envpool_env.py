@@ -182,7 +182,7 @@ class EnvpoolVecEnv:
         run here, synchronously, for the envs still in their episode)."""
         if self.action_repeat == 1 or actions is None:
             return first
-        return repeat_step(lambda act, ids: pool.step(act, ids), actions, first, self.action_repeat)
+        return repeat_step(pool.step, actions, first, self.action_repeat)
 
     def _finish(self, pool: Any, obs: Any, reward: Any, terminated: Any, truncated: Any,
                 infos: dict) -> StepResult:

@@ -8,11 +8,11 @@ an epoch and logged as ``env_info/<key>``. Non-numeric values and NaNs are skipp
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
 import numpy as np
 
+from rlchain.config.errors import did_you_mean
 from rlchain.log import get_logger
 
 log = get_logger(__name__)
@@ -58,8 +58,7 @@ class InfoMeans:
             self._checked = True
             for key in self.keys:
                 if not self._counts[key]:
-                    close = difflib.get_close_matches(key, sorted(self._reported), n=1)
-                    hint = f"; did you mean '{close[0]}'?" if close else ""
+                    hint = did_you_mean(key, self._reported)
                     log.warning(f"params.config.log_info_keys: '{key}' was not a numeric key of the env's step "
                                 f"infos in the first epoch{hint} (keys seen: {', '.join(sorted(self._reported))})")
         self._sums = dict.fromkeys(self.keys, 0.0)

@@ -21,11 +21,11 @@ randomisation is not applied. Install: ``pip install rlchain[playground]``.
 
 from __future__ import annotations
 
-import difflib
 import math
 import subprocess
 from typing import Any
 
+from rlchain.config.errors import did_you_mean
 from rlchain.envs.jax_batch import JaxBatchVecEnv
 
 INSTALL_HINT = "MuJoCo Playground is not installed: pip install rlchain[playground] (or pip install playground)"
@@ -39,13 +39,6 @@ def import_registry() -> Any:
     except ImportError as exc:
         raise ImportError(INSTALL_HINT) from exc
     return registry
-
-
-def did_you_mean(name: str, candidates: Any) -> str:
-    """'; did you mean 'X', 'Y'?' for the closest candidates (case-insensitive), or ''."""
-    by_lower = {str(c).lower(): str(c) for c in candidates}
-    close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=3, cutoff=0.6)
-    return f"; did you mean {', '.join(repr(by_lower[c]) for c in close)}?" if close else ""
 
 
 def check_name(registry: Any, name: str) -> None:
