@@ -144,10 +144,12 @@ class RayVecEnv:
         for s, o in zip(self.slices, outs):
             final_obs[s.start + o[4]] = o[5]
         game = [None if any(o[k] is None for o in outs) else np.concatenate([o[k] for o in outs]) for k in (6, 7)]
+        infos = merge_infos([o[8] for o in outs], self.slices, self.num_envs)
+        if dropped is not None:
+            infos[DROPPED] = dropped
         self._last_obs = obs
         return StepResult(obs, np.concatenate([o[1] for o in outs]), np.concatenate([o[2] for o in outs]),
-                          np.concatenate([o[3] for o in outs]), final_obs,
-                          {DROPPED: dropped} if dropped is not None else {}, *game)
+                          np.concatenate([o[3] for o in outs]), final_obs, infos, *game)
 
     def log_stats(self) -> dict[str, float]:
         """TensorBoard counters, written by the trainer every epoch."""
@@ -218,7 +220,7 @@ class RayVecEnv:
         zeros = np.zeros(n, dtype=np.float32)
         acted_on = self._last_obs[s] if self._last_obs is not None else obs
         return (obs, zeros, np.zeros(n, dtype=bool), np.ones(n, dtype=bool), np.arange(n), acted_on, zeros,
-                np.ones(n, dtype=bool))
+                np.ones(n, dtype=bool), {})
 
     def _restart(self, i: int, cause: BaseException, lost: int, seed: int | None = None) -> np.ndarray:
         """Replace worker ``i`` by a fresh actor with reset envs; returns their obs. WorkerLost past max_restarts.
@@ -259,6 +261,25 @@ class RayVecEnv:
             return ""
         return f" (Ray has {free:g} free CPUs; each worker asks env_runners.num_cpus_per_worker = " \
                f"{self.runners.num_cpus_per_worker:g})"
+
+
+def merge_infos(parts: list[dict], slices: list[slice], n: int) -> dict:
+    """The workers' per-env info numbers (:func:`~rlchain.envs.ray_worker.per_env_infos`) as one infos
+    dict over all ``n`` envs. A key some worker lacks (a cut worker, an env that reports it only on
+    some steps) is NaN in its rows, and a ``_key`` presence mask False there, so readers skip them."""
+    out: dict = {}
+    keys = {key for part in parts for key in part if key != "final_info"}
+    for key in keys:
+        mask = key.startswith("_")
+        column = np.zeros(n, bool) if mask else np.full(n, np.nan)
+        for part, s in zip(parts, slices):
+            if key in part:
+                column[s] = part[key]
+        out[key] = column
+    finals = [part.get("final_info", {}) for part in parts]
+    if any(finals):
+        out["final_info"] = merge_infos(finals, slices, n)
+    return out
 
 
 def make_ray_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: int | None, kind: str,

@@ -73,6 +73,26 @@ def _unsupported(env: Any) -> str | None:
     return None
 
 
+def per_env_infos(infos: Any, n: int) -> dict:
+    """The step infos' per-env numbers: every value that is one number (or bool) per env, and the same of
+    a gymnasium ``final_info`` dict. What the learner reads from infos (success, ``log_info_keys``) is
+    of this kind; per-env vectors (final observations, frames) and objects stay in the worker."""
+    if not isinstance(infos, dict):
+        return {}
+    out: dict = {}
+    for key, value in infos.items():
+        if key == "final_info" and isinstance(value, dict):
+            final = per_env_infos(value, n)
+            if final:
+                out[key] = final
+            continue
+        if hasattr(value, "detach"):
+            value = value.detach().cpu().numpy()
+        if isinstance(value, np.ndarray) and value.shape == (n,) and (value.dtype.kind in "biuf"):
+            out[str(key)] = value
+    return out
+
+
 def _picklable(items: dict) -> dict:
     """The entries cloudpickle (what Ray uses) can serialize; the others stay behind."""
     import cloudpickle
@@ -110,7 +130,7 @@ class EnvWorker:
 
     def step(self, actions: bytes) -> bytes:
         """Pickled actions (n, *action_shape) -> the pickled tuple (obs, reward, terminated, truncated,
-        ended rows, their final obs, game_reward, game_over).
+        ended rows, their final obs, game_reward, game_over, the infos' per-env numbers).
 
         One pickled bytes object each way: Ray serializes it faster than a tuple of numpy arrays
         (about 0.5 ms less per call, measured on a 2-core machine).
@@ -120,7 +140,8 @@ class EnvWorker:
         final = np.asarray(r.final_obs)[rows]
         extra = [None if x is None else np.asarray(x) for x in (r.game_reward, r.game_over)]
         return pickle.dumps((np.asarray(r.obs), np.asarray(r.reward), np.asarray(r.terminated),
-                             np.asarray(r.truncated), rows, final, *extra), protocol=pickle.HIGHEST_PROTOCOL)
+                             np.asarray(r.truncated), rows, final, *extra, per_env_infos(r.infos, self.num_envs)),
+                            protocol=pickle.HIGHEST_PROTOCOL)
 
     def close(self) -> None:
         if self.env is not None:

@@ -320,7 +320,8 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
         if self.cfg.print_stats or stop.startswith("interrupted"):
             success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
-            log.info(f"stopped: {stop} at epoch {self.epoch}, frames {self.frames}, mean reward "
+            head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
+            log.info(f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward "
                      f"{mean:.2f}, best {self.best_reward:.2f}{success}")
         if stop.startswith("interrupted") and last:
             log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")

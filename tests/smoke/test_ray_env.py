@@ -17,6 +17,7 @@ from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.ray_env import WorkerLost
 from rlchain.training.events import Callback
+from tests.conftest import ROOT
 
 ray = pytest.importorskip("ray")
 pytestmark = pytest.mark.smoke
@@ -247,3 +248,23 @@ def test_appo_on_ray_actors_finishes_despite_a_killed_runner(tmp_path):
     assert result.epoch == 8 and result.stop_reason == "max_epochs 8 reached"
     assert killer.restarts == [0, 1] and killer.lost == 1
     assert wait_for_free_cpus(CPUS) == CPUS  # the pool's actors were stopped
+
+
+@pytest.mark.timeout(180)
+def test_success_rate_and_info_keys_reach_the_learner_from_ray_workers(tmp_path):
+    """TestGoalReach-v0 reports info['success'] inside the workers (gymnasium same-step resets, so in
+    final_info too): the run on Ray workers logs episodes/success_rate and env_info/success."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    result = Runner().load(os.path.join(ROOT, "rlchain", "configs", "ppo_test_goal_reach.yaml"), [
+        "params.config.vecenv_type=RAY", "params.config.env_runners.num_workers=2",
+        "params.config.env_runners.start_timeout_s=60", "params.config.max_epochs=3",
+        "params.config.success_to_win=1.0", "params.config.log_info_keys=[success]",
+        f"params.config.train_dir={tmp_path}"]).train()
+    assert result.epoch == 3
+    events = EventAccumulator(os.path.join(result.run_dir, "summaries"))
+    events.Reload()
+    rates = [e.value for e in events.Scalars("episodes/success_rate")]
+    step_success = [e.value for e in events.Scalars("env_info/success")]
+    assert len(rates) == 3 and all(0.0 <= r <= 1.0 for r in rates) and max(rates) > 0  # episodes end on success
+    assert len(step_success) == 3 and 0.0 <= min(step_success) <= max(step_success) <= 1.0

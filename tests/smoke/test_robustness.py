@@ -104,7 +104,8 @@ def test_callback_stop_prints_no_resume_line(tmp_path, caplog):
     caplog.clear()
     with caplog.at_level(logging.INFO, logger="rlchain"):
         cartpole(tmp_path, "params.config.print_stats=true", epochs=5).train(callbacks=[Stop()])
-    assert "stopped: stopped by request: enough at epoch 1" in caplog.text and "resume with" not in caplog.text
+    assert "stopped by request: enough at epoch 1" in caplog.text and "stopped: stopped" not in caplog.text
+    assert "resume with" not in caplog.text
 
 
 def test_signals_in_a_fresh_process_with_threads():

@@ -10,8 +10,8 @@ import torch
 from rlchain.config import ConfigError, parse_params
 from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.ray_env import worker_slices
-from rlchain.envs.ray_worker import EnvRecipe, EnvWorker
+from rlchain.envs.ray_env import merge_infos, worker_slices
+from rlchain.envs.ray_worker import EnvRecipe, EnvWorker, per_env_infos
 from rlchain.training.build import build_env
 from rlchain.training.episodes import EpisodeTracker
 
@@ -101,7 +101,7 @@ def test_worker_body_steps_its_slice_with_global_seeds_and_indices():
     for _ in range(3):
         out = worker.step(pickle.dumps(np.ones(2, dtype=np.int64)))
         ref = local.step(np.ones(4, dtype=np.int64))
-    obs, reward, terminated, truncated, rows, final, game_reward, game_over = pickle.loads(out)
+    obs, reward, terminated, truncated, rows, final, game_reward, game_over, infos = pickle.loads(out)
     np.testing.assert_array_equal(obs, ref.obs[2:])
     assert truncated.all() and rows.tolist() == [0, 1]  # time-out after 3 steps
     np.testing.assert_array_equal(final, ref.final_obs[2:])
@@ -111,6 +111,26 @@ def test_worker_body_steps_its_slice_with_global_seeds_and_indices():
         worker.step(pickle.dumps(np.ones(2, dtype=np.int64)))
     worker.close()
     local.close()
+
+
+def test_worker_sends_the_infos_per_env_numbers_and_the_learner_merges_them():
+    """Success and log_info_keys read the step infos: the workers send each one-number-per-env value
+    (and gymnasium's final_info), not per-env vectors or objects; the learner rebuilds one dict."""
+    infos = {"success": np.array([0.0, 1.0]), "env_id": np.array([0, 1], np.int32), "_success": np.ones(2, bool),
+             "final_obs": np.zeros((2, 4)), "players": {"id": np.zeros(2)}, "label": "x",
+             "final_info": {"is_success": np.array([1.0, 0.0]), "_is_success": np.array([True, False])},
+             "reward_box_target": torch.tensor([0.5, 0.25])}
+    part = per_env_infos(infos, 2)
+    assert set(part) == {"success", "env_id", "_success", "final_info", "reward_box_target"}
+    assert set(part["final_info"]) == {"is_success", "_is_success"} and per_env_infos(None, 2) == {}
+    other = {"success": np.array([1.0]), "_success": np.array([True])}  # a worker without final_info / the term
+    merged = merge_infos([part, other, {}], [slice(0, 2), slice(2, 3), slice(3, 5)], 5)
+    np.testing.assert_array_equal(merged["success"], [0, 1, 1, np.nan, np.nan])
+    assert merged["_success"].tolist() == [True, True, True, False, False]  # a cut worker's rows: absent
+    np.testing.assert_array_equal(merged["reward_box_target"], [0.5, 0.25, np.nan, np.nan, np.nan])
+    np.testing.assert_array_equal(merged["final_info"]["is_success"], [1, 0, np.nan, np.nan, np.nan])
+    assert merged["final_info"]["_is_success"].tolist() == [True, False, False, False, False]
+    assert "final_info" not in merge_infos([other], [slice(0, 1)], 1)
 
 
 def test_tensor_envs_are_refused_on_workers():
