@@ -35,6 +35,8 @@ class EnvRecipe:
     vecenv_type: str
     builders: dict = field(default_factory=dict)
     gym_specs: dict = field(default_factory=dict)
+    success_key: str = "auto"
+    """The info key an APPO runner reads task success from (``params.config.success_key``)."""
 
     @classmethod
     def capture(cls, env_name: str, env_config: dict | None, vecenv_type: str) -> EnvRecipe:

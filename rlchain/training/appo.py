@@ -74,6 +74,7 @@ class APPOTrainer(Loop):
             raise ConfigError(params.source, exc.path, exc.message) from None
         vecenv = None if cfg.vecenv_type is None or str(cfg.vecenv_type).lower() == "ray" else cfg.vecenv_type
         recipe = EnvRecipe.capture(cfg.env_name, cfg.env_config, vecenv or "auto")
+        recipe.success_key = cfg.success_key
         args = (recipe, slices, seed, cfg.horizon_length, cfg.appo.learner_queue_size, runners.max_restarts,
                 cfg.appo.fragment_timeout_s, cls.step_delays)
         try:
@@ -129,7 +130,7 @@ class APPOTrainer(Loop):
             if fragment is None:
                 continue
             self._received += fragment.frames
-            self.tracker.record(fragment.episode_returns, fragment.episode_lengths)
+            self.tracker.record(fragment.episode_returns, fragment.episode_lengths, fragment.episode_successes)
             lag = self.version - fragment.version
             if lag > max_lag:
                 self.dropped_fragments += 1

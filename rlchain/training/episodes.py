@@ -97,11 +97,15 @@ class EpisodeTracker:
         for flags in (self.success_seen, self.success_any, self.success_last):
             flags[rows][idx] = False
 
-    def record(self, returns: list[float], lengths: list[int]) -> None:
-        """Games finished elsewhere (an asynchronous runner tracked them): add them as they are."""
+    def record(self, returns: list[float], lengths: list[int],
+               successes: list[tuple[bool, bool] | None] | None = None) -> None:
+        """Games finished elsewhere (an asynchronous runner tracked them): add them as they are.
+        ``successes``: per game None (no success reported) or (succeeded at any step, at the last)."""
         self.finished_returns.extend(returns)
         self.finished_lengths.extend(lengths)
         self.games += len(returns)
+        pick = 0 if self.success_mode == "any" else 1
+        self.finished_successes.extend(float(s[pick]) for s in successes or () if s is not None)
 
     def reset_running(self) -> None:
         """Forget episodes in progress (after an env reset)."""

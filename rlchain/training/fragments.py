@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from rlchain.envs.spec import env_spec
+from rlchain.envs.success import SuccessReader
 
 
 class RunnerKilled(RuntimeError):
@@ -32,7 +33,9 @@ class Fragment:
     ``obs`` holds T + 1 rows: the last is the observation after the fragment (V-trace's bootstrap).
     ``final_steps`` (K, 2) are the (t, env) where an episode ended, ``final_obs`` (K, ...) the true
     last observation of each (a time-out bootstraps from it). ``episode_returns`` / ``episode_lengths``
-    are the raw (unshaped) games finished in the fragment, for the episode statistics.
+    are the raw (unshaped) games finished in the fragment, for the episode statistics;
+    ``episode_successes`` their task success where the env reported one (else None): (succeeded at
+    any step, at the last step reported), the learner's ``success_mode`` picks one.
     """
 
     obs: torch.Tensor
@@ -48,6 +51,7 @@ class Fragment:
     worker: int
     episode_returns: list[float] = field(default_factory=list)
     episode_lengths: list[int] = field(default_factory=list)
+    episode_successes: list[tuple[bool, bool] | None] = field(default_factory=list)
     sample_seconds: float = 0.0
 
     @property
@@ -75,6 +79,8 @@ class FragmentRunner:
         self.fragments_sampled = 0
         self._returns = np.zeros(num_envs)
         self._lengths = np.zeros(num_envs, dtype=np.int64)
+        self._success = SuccessReader(getattr(recipe, "success_key", "auto"))
+        self._success_flags = np.zeros((3, num_envs), dtype=bool)  # reported, hit at any step, hit at the last
 
     # ----- setup ----------------------------------------------------------------------------
     def build(self, seed: int | None, own_process: bool = False) -> dict:
@@ -130,7 +136,7 @@ class FragmentRunner:
         t_len, model = self.horizon, self.model
         obs_rows, actions, log_probs, params, rewards, terminated, truncated = [], [], [], [], [], [], []
         final_steps, final_obs = [], []
-        ep_returns, ep_lengths = [], []
+        ep_returns, ep_lengths, ep_successes = [], [], []
         version = self.version
         for t in range(t_len):
             if self._killed.is_set():
@@ -149,7 +155,7 @@ class FragmentRunner:
             rewards.append(torch.as_tensor(reward))
             terminated.append(torch.as_tensor(term))
             truncated.append(torch.as_tensor(trunc))
-            self._track(result, reward, done, ep_returns, ep_lengths)
+            self._track(result, reward, done, ep_returns, ep_lengths, ep_successes)
             rows = np.flatnonzero(done)
             if rows.size:
                 final = np.asarray(result.final_obs)[rows]
@@ -166,10 +172,20 @@ class FragmentRunner:
             final_steps=torch.tensor(final_steps, dtype=torch.long).reshape(-1, 2),
             final_obs=torch.cat(final_obs).to(self.obs.dtype) if final_obs else empty_final,
             version=version, worker=self.worker, episode_returns=ep_returns, episode_lengths=ep_lengths,
-            sample_seconds=time.monotonic() - began)
+            episode_successes=ep_successes, sample_seconds=time.monotonic() - began)
 
-    def _track(self, result: Any, reward: np.ndarray, done: np.ndarray, returns: list, lengths: list) -> None:
-        """Raw episode returns and lengths (whole games when the env reports game_reward / game_over)."""
+    def _track(self, result: Any, reward: np.ndarray, done: np.ndarray, returns: list, lengths: list,
+               successes: list) -> None:
+        """Raw episode returns and lengths (whole games when the env reports game_reward / game_over),
+        and the episodes' task success from the step infos (:mod:`rlchain.envs.success`)."""
+        seen, hit_any, hit_last = self._success_flags
+        success = self._success.read(getattr(result, "infos", None), done)
+        if success is not None:
+            reported = ~np.isnan(success)
+            hit = reported & (success > 0.5)
+            seen |= reported
+            hit_any |= hit
+            hit_last[reported] = hit[reported]
         game_reward = getattr(result, "game_reward", None)
         game_over = getattr(result, "game_over", None)
         reward = np.asarray(game_reward, dtype=np.float64).reshape(-1) if game_reward is not None else reward
@@ -181,7 +197,9 @@ class FragmentRunner:
         for i in np.flatnonzero(over):
             returns.append(float(self._returns[i]))
             lengths.append(int(self._lengths[i]))
+            successes.append((bool(hit_any[i]), bool(hit_last[i])) if seen[i] else None)
             self._returns[i], self._lengths[i] = 0.0, 0
+            self._success_flags[:, i] = False
 
     def close(self) -> None:
         if self.env is not None:

@@ -200,3 +200,31 @@ def test_adaptive_lr_kl_measures_the_update_not_the_policy_lag(tmp_path, monkeyp
     lags = [s["policy_lag"] for s in grab.stats]
     assert len(gaps) == 5 and max(gaps) < 1e-5, gaps
     assert max(lags) > 0  # the batches did come from older policies
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("mode", ["any", "last"])
+def test_runners_report_task_success(tmp_path, mode):
+    """TestGoalReach-v0 reports info['success'] inside the runners: APPO's epoch stats and TensorBoard
+    get a success rate, counted with the config's success_mode."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    import rlchain.envs.test  # noqa: F401  (registers TestGoalReach-v0)
+
+    raw = config(tmp_path, env_name="TestGoalReach-v0", success_mode=mode, max_epochs=4,
+                 env_config={"goal_dict": False, "reward_type": "dense", "max_steps": 8})
+    raw["params"]["model"] = {"name": "continuous_a2c_logstd"}
+    raw["params"]["network"]["space"] = {"continuous": {"fixed_sigma": True}}
+    class Episodes(Callback):
+        rates: list = []
+
+        def on_epoch_end(self, ctx, stats, episodes):
+            if episodes is not None and "success" in episodes:
+                self.rates.append(episodes["success"])
+
+    result = Runner().load(raw).train(callbacks=[Episodes()])
+    assert result.epoch == 4
+    assert Episodes.rates and all(0.0 <= r <= 1.0 for r in Episodes.rates)
+    events = EventAccumulator(glob.glob(f"{result.run_dir}/summaries")[0])
+    events.Reload()
+    assert "episodes/success_rate" in events.Tags()["scalars"]

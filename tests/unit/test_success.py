@@ -98,3 +98,30 @@ def test_tracker_games_to_track_window():
     for value in (1.0, 0.0, 0.0):
         tracker.step(torch.ones(1), torch.tensor([True]), success=np.array([value]))
     assert tracker.success_rate() == 0.0
+
+
+class _Step:
+    def __init__(self, success, done):
+        self.infos = {"success": np.array(success, dtype=np.float64)}
+        self.done = np.array(done, dtype=bool)
+
+
+@pytest.mark.parametrize("mode,expected", [("any", [1.0, 0.0]), ("last", [0.0, 0.0])])
+def test_appo_runner_episode_success_any_vs_last(mode, expected):
+    """An APPO runner tracks success per episode by hand-made steps: env 0 succeeds at step 1 only, env 1
+    never; env 2 reports nothing. The learner's tracker picks any / last with its success_mode."""
+    from rlchain.envs.ray_worker import EnvRecipe
+    from rlchain.training.fragments import FragmentRunner
+
+    runner = FragmentRunner(EnvRecipe("x", {}, "sync"), worker=0, start=0, num_envs=3, horizon=3)
+    returns, lengths, successes = [], [], []
+    steps = [([1.0, 0.0, np.nan], [False, False, False]), ([0.0, 0.0, np.nan], [True, True, True])]
+    for success, done in steps:
+        step = _Step(success, done)
+        runner._track(step, np.zeros(3, np.float32), step.done, returns, lengths, successes)
+    assert successes == [(True, False), (False, False), None] and lengths == [2, 2, 2]
+    tracker = EpisodeTracker(3, 10, torch.device("cpu"), mode)
+    tracker.record(returns, lengths, successes)
+    assert list(tracker.finished_successes) == expected and tracker.games == 3
+    tracker.record([1.0], [4])  # games without success values (older fragments): no rate change
+    assert list(tracker.finished_successes) == expected
