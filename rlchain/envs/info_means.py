@@ -51,6 +51,23 @@ class InfoMeans:
             self._sums[key] += float(values.sum())
             self._counts[key] += int(values.size)
 
+    def totals(self) -> tuple[dict[str, float], dict[str, int], set[str]]:
+        """(sums, counts, keys the env reported) since the last :meth:`totals`, then starts afresh:
+        what an APPO runner hands the learner with a fragment."""
+        out = (dict(self._sums), dict(self._counts), set(self._reported))
+        self._sums = dict.fromkeys(self.keys, 0.0)
+        self._counts = dict.fromkeys(self.keys, 0)
+        self._reported.clear()
+        return out
+
+    def add_totals(self, sums: dict[str, float], counts: dict[str, int], reported: set[str]) -> None:
+        """Fold in another tracker's :meth:`totals` (a runner's fragment)."""
+        if not self._checked:
+            self._reported.update(reported)
+        for key in self.keys:
+            self._sums[key] += sums.get(key, 0.0)
+            self._counts[key] += counts.get(key, 0)
+
     def pop(self) -> dict[str, float]:
         """``{'env_info/<key>': mean}`` of the keys seen since the last pop."""
         out = {f"{PREFIX}{key}": self._sums[key] / self._counts[key] for key in self.keys if self._counts[key]}

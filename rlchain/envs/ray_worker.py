@@ -37,6 +37,8 @@ class EnvRecipe:
     gym_specs: dict = field(default_factory=dict)
     success_key: str = "auto"
     """The info key an APPO runner reads task success from (``params.config.success_key``)."""
+    log_info_keys: tuple = ()
+    """The info keys an APPO runner averages for TensorBoard (``params.config.log_info_keys``)."""
 
     @classmethod
     def capture(cls, env_name: str, env_config: dict | None, vecenv_type: str) -> EnvRecipe:

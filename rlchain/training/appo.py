@@ -74,7 +74,7 @@ class APPOTrainer(Loop):
             raise ConfigError(params.source, exc.path, exc.message) from None
         vecenv = None if cfg.vecenv_type is None or str(cfg.vecenv_type).lower() == "ray" else cfg.vecenv_type
         recipe = EnvRecipe.capture(cfg.env_name, cfg.env_config, vecenv or "auto")
-        recipe.success_key = cfg.success_key
+        recipe.success_key, recipe.log_info_keys = cfg.success_key, tuple(cfg.log_info_keys)
         args = (recipe, slices, seed, cfg.horizon_length, cfg.appo.learner_queue_size, runners.max_restarts,
                 cfg.appo.fragment_timeout_s, cls.step_delays)
         try:
@@ -131,6 +131,8 @@ class APPOTrainer(Loop):
                 continue
             self._received += fragment.frames
             self.tracker.record(fragment.episode_returns, fragment.episode_lengths, fragment.episode_successes)
+            if fragment.info_totals is not None:
+                self.info_means.add_totals(*fragment.info_totals)
             lag = self.version - fragment.version
             if lag > max_lag:
                 self.dropped_fragments += 1

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.envs.info_means import InfoMeans
 from rlchain.envs.spec import env_spec
 from rlchain.envs.success import SuccessReader
 
@@ -52,6 +53,8 @@ class Fragment:
     episode_returns: list[float] = field(default_factory=list)
     episode_lengths: list[int] = field(default_factory=list)
     episode_successes: list[tuple[bool, bool] | None] = field(default_factory=list)
+    info_totals: tuple | None = None
+    """``log_info_keys``: (sums, counts, keys reported) over the fragment's steps (InfoMeans.totals)."""
     sample_seconds: float = 0.0
 
     @property
@@ -81,6 +84,7 @@ class FragmentRunner:
         self._lengths = np.zeros(num_envs, dtype=np.int64)
         self._success = SuccessReader(getattr(recipe, "success_key", "auto"))
         self._success_flags = np.zeros((3, num_envs), dtype=bool)  # reported, hit at any step, hit at the last
+        self._info_means = InfoMeans(getattr(recipe, "log_info_keys", ()))
 
     # ----- setup ----------------------------------------------------------------------------
     def build(self, seed: int | None, own_process: bool = False) -> dict:
@@ -156,6 +160,8 @@ class FragmentRunner:
             terminated.append(torch.as_tensor(term))
             truncated.append(torch.as_tensor(trunc))
             self._track(result, reward, done, ep_returns, ep_lengths, ep_successes)
+            if self._info_means.keys:
+                self._info_means.add(getattr(result, "infos", None))
             rows = np.flatnonzero(done)
             if rows.size:
                 final = np.asarray(result.final_obs)[rows]
@@ -172,7 +178,8 @@ class FragmentRunner:
             final_steps=torch.tensor(final_steps, dtype=torch.long).reshape(-1, 2),
             final_obs=torch.cat(final_obs).to(self.obs.dtype) if final_obs else empty_final,
             version=version, worker=self.worker, episode_returns=ep_returns, episode_lengths=ep_lengths,
-            episode_successes=ep_successes, sample_seconds=time.monotonic() - began)
+            episode_successes=ep_successes, info_totals=self._info_means.totals() if self._info_means.keys else None,
+            sample_seconds=time.monotonic() - began)
 
     def _track(self, result: Any, reward: np.ndarray, done: np.ndarray, returns: list, lengths: list,
                successes: list) -> None:

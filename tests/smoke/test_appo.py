@@ -206,12 +206,12 @@ def test_adaptive_lr_kl_measures_the_update_not_the_policy_lag(tmp_path, monkeyp
 @pytest.mark.parametrize("mode", ["any", "last"])
 def test_runners_report_task_success(tmp_path, mode):
     """TestGoalReach-v0 reports info['success'] inside the runners: APPO's epoch stats and TensorBoard
-    get a success rate, counted with the config's success_mode."""
+    get a success rate, counted with the config's success_mode, and log_info_keys' env_info/success."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
     import rlchain.envs.test  # noqa: F401  (registers TestGoalReach-v0)
 
-    raw = config(tmp_path, env_name="TestGoalReach-v0", success_mode=mode, max_epochs=4,
+    raw = config(tmp_path, env_name="TestGoalReach-v0", success_mode=mode, max_epochs=4, log_info_keys=["success"],
                  env_config={"goal_dict": False, "reward_type": "dense", "max_steps": 8})
     raw["params"]["model"] = {"name": "continuous_a2c_logstd"}
     raw["params"]["network"]["space"] = {"continuous": {"fixed_sigma": True}}
@@ -228,3 +228,5 @@ def test_runners_report_task_success(tmp_path, mode):
     events = EventAccumulator(glob.glob(f"{result.run_dir}/summaries")[0])
     events.Reload()
     assert "episodes/success_rate" in events.Tags()["scalars"]
+    step_success = [e.value for e in events.Scalars("env_info/success")]  # log_info_keys, from the runners
+    assert len(step_success) == 4 and all(0.0 <= v <= 1.0 for v in step_success)

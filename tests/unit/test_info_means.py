@@ -35,3 +35,15 @@ def test_no_keys_costs_nothing():
     means = InfoMeans()
     means.add({"x": np.array([1.0])})
     assert means.pop() == {} and means.keys == ()
+
+
+def test_totals_of_a_runner_fold_into_the_learner():
+    """APPO: each runner's InfoMeans hands (sums, counts, reported keys) over; the learner's adds them."""
+    runner, learner = InfoMeans(["a", "missing"]), InfoMeans(["a", "missing"])
+    runner.add({"a": np.array([1.0, 3.0]), "b": np.array([0.0, 0.0])})
+    totals = runner.totals()
+    assert totals == ({"a": 4.0, "missing": 0.0}, {"a": 2, "missing": 0}, {"a", "b"})
+    assert runner.totals()[1] == {"a": 0, "missing": 0}  # started afresh
+    learner.add_totals(*totals)
+    learner.add_totals({"a": 2.0}, {"a": 1}, {"a"})
+    assert learner.pop() == {"env_info/a": 2.0}
