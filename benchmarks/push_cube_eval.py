@@ -31,8 +31,9 @@ def box_target_distance(term: np.ndarray, scale: float = 8.0) -> np.ndarray:
     return np.where(tol >= 1.0, 0.0, 0.005 + 0.4 * (1.0 / tol - 1.0) / 9.0)
 
 
-def play(env, act, episodes: int) -> dict[str, float]:
-    """Play ``episodes`` episodes with ``act(obs) -> actions``; the statistics of the module docstring."""
+def play(env, act, episodes: int, scale: float = 8.0) -> dict[str, float]:
+    """Play ``episodes`` episodes with ``act(obs) -> actions``; the statistics of the module docstring.
+    ``scale``: the env's ``box_target_scale`` (the config's ``env_config`` may change it from 8)."""
     n = env.num_envs
     obs = env.reset(seed=123)
     ret, length, hit = np.zeros(n), np.zeros(n), np.zeros(n, bool)
@@ -41,7 +42,7 @@ def play(env, act, episodes: int) -> dict[str, float]:
     while len(rows) < episodes:
         result = env.step(act(obs))
         infos = result.infos
-        d = box_target_distance(infos["reward_box_target"])
+        d = box_target_distance(infos["reward_box_target"], scale)
         ret += result.reward
         length += 1
         hit |= np.asarray(infos["success"]) > 0.5
@@ -73,8 +74,9 @@ def main() -> None:
     env = build_env(params, args.envs, 123)
     rng = np.random.default_rng(0)
     shape = env.action_space.shape
+    scale = float(params.config.env_config.get("box_target_scale", 8.0))
     results = {"random": play(env, lambda obs: rng.uniform(-1, 1, (args.envs, *shape)).astype(np.float32),
-                              args.episodes)}
+                              args.episodes, scale)}
     if os.path.isfile(args.checkpoint):
         model = build_model(params, env, torch.device("cpu"))
         ckpt.load_model_state(model, ckpt.load(args.checkpoint, map_location="cpu"), args.checkpoint)
@@ -84,7 +86,7 @@ def main() -> None:
         def act(obs: np.ndarray) -> np.ndarray:
             with torch.no_grad():
                 return model.dist.to_env(policy.act(torch.as_tensor(obs), env, True)).numpy()
-        results["checkpoint"] = play(env, act, args.episodes)
+        results["checkpoint"] = play(env, act, args.episodes, scale)
     env.close()
     for name, stats in results.items():
         print(f"{name:10s} " + " ".join(f"{k} {v:.3f}" if isinstance(v, float) else f"{k} {v}"
