@@ -1,4 +1,4 @@
-"""Push-cube (envpool ``PandaRobotiqPushCube-v1``): a checkpoint against a random policy.
+"""Push-cube (envpool ``PandaRobotiqPushCube-v1``): a checkpoint against a random policy and a still arm.
 
     python benchmarks/push_cube_eval.py [--checkpoint nn/push_cube.pth] [--episodes 64] [--envs 16]
 
@@ -9,6 +9,8 @@ box-to-target reward term ``reward_box_target = box_target_scale * tol(d)`` with
 ``tolerance(d, bounds=(0, 0.005), margin=0.4, sigmoid='reciprocal')`` (value 0.1 at the margin),
 i.e. ``tol = 1 / (1 + 9 (d - 0.005) / 0.4)``, which this inverts to the planar distance d in metres.
 Reported: d at each episode's last step and its minimum over the episode, averaged over episodes.
+The references: uniformly random actions, and zero actions (with gravity compensation the arm holds
+still, so the cube stays where it started: the distance a policy must beat to have pushed at all).
 """
 
 from __future__ import annotations
@@ -76,7 +78,8 @@ def main() -> None:
     shape = env.action_space.shape
     scale = float(params.config.env_config.get("box_target_scale", 8.0))
     results = {"random": play(env, lambda obs: rng.uniform(-1, 1, (args.envs, *shape)).astype(np.float32),
-                              args.episodes, scale)}
+                              args.episodes, scale),
+               "zero": play(env, lambda obs: np.zeros((args.envs, *shape), np.float32), args.episodes, scale)}
     if os.path.isfile(args.checkpoint):
         model = build_model(params, env, torch.device("cpu"))
         ckpt.load_model_state(model, ckpt.load(args.checkpoint, map_location="cpu"), args.checkpoint)
