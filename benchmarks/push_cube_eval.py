@@ -9,7 +9,8 @@ box-to-target reward term ``reward_box_target = box_target_scale * tol(d)`` with
 ``tolerance(d, bounds=(0, 0.005), margin=0.4, sigmoid='reciprocal')`` (value 0.1 at the margin),
 i.e. ``tol = 1 / (1 + 9 (d - 0.005) / 0.4)``, which this inverts to the planar distance d in metres.
 Reported: d at each episode's last step and its minimum over the episode, averaged over episodes.
-The references: uniformly random actions, and zero actions (with gravity compensation the arm holds
+The checkpoint plays its mean action (``checkpoint``) and, as in training, sampled actions
+(``sampled``). The references: uniformly random actions, and zero actions (with gravity compensation the arm holds
 still, so the cube stays where it started: the distance a policy must beat to have pushed at all).
 """
 
@@ -86,10 +87,13 @@ def main() -> None:
         model.eval()
         policy = PolicyStepper(model, args.envs, torch.device("cpu"))
 
-        def act(obs: np.ndarray) -> np.ndarray:
-            with torch.no_grad():
-                return model.dist.to_env(policy.act(torch.as_tensor(obs), env, True)).numpy()
-        results["checkpoint"] = play(env, act, args.episodes, scale)
+        def policy_actions(deterministic: bool):
+            def act(obs: np.ndarray) -> np.ndarray:
+                with torch.no_grad():
+                    return model.dist.to_env(policy.act(torch.as_tensor(obs), env, deterministic)).numpy()
+            return act
+        results["checkpoint"] = play(env, policy_actions(True), args.episodes, scale)  # the mean action
+        results["sampled"] = play(env, policy_actions(False), args.episodes, scale)  # as in training
     env.close()
     for name, stats in results.items():
         print(f"{name:10s} " + " ".join(f"{k} {v:.3f}" if isinstance(v, float) else f"{k} {v}"

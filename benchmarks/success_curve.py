@@ -61,7 +61,7 @@ def main() -> None:
 
     panels = [("episodes/success_rate", "success rate (tracked episodes)"), ("rewards/step", "mean episode reward")]
     if args.box_target_scale is not None:
-        panels.append(("env_info/reward_box_target", "cube-to-target distance (m) at the epoch's mean term"))
+        panels.append(("env_info/reward_box_target", "cube-to-target distance (m)"))
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4))
     curves: dict[str, dict[str, list]] = {}
     for i, run in enumerate(args.runs):
@@ -82,7 +82,8 @@ def main() -> None:
     if args.baseline is not None:
         axes[0].axhline(args.baseline, color="gray", linestyle="--", label="random policy")
     if args.distance_baseline is not None and len(panels) > 2:
-        axes[2].axhline(args.distance_baseline, color="gray", linestyle="--", label="random policy (final)")
+        axes[2].axhline(args.distance_baseline, color="gray", linestyle="--",
+                        label="random actions or a still arm (final)")
     for ax, (_, name) in zip(axes, panels):
         ax.set_ylabel(name)
     for ax in axes:
