@@ -36,6 +36,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 
 import yaml
 
@@ -53,7 +54,38 @@ CONFIGS = {  # short name -> rl_games' own YAML (device: cpu added, nothing else
     "pendulum": "rl_games_configs/ppo_pendulum_torch.yaml",
 }
 DEFAULT_SEEDS = (11, 12, 13)
-COLORS = {"rlchain": "tab:blue", "rl_games": "tab:orange"}
+
+
+@dataclass(frozen=True)
+class System:
+    """One trainer as the benchmark runs it: which interpreter and driver, which settings."""
+
+    lib: str  # "rlchain", "rl_games" (1.6.5, PyPI) or "rl_games2" (its main branch, 2.0)
+    setting: str  # what a reader is told: "as shipped", "1 thread, compile off", ...
+    driver_args: tuple[str, ...] = ()  # extra rl_games_driver.py arguments
+    env: tuple[tuple[str, str], ...] = ()  # extra environment variables (thread counts)
+    color: str = "tab:gray"
+
+
+ONE_THREAD = (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))
+# Each peer at its best on a 2-core CPU: compile off, one torch thread (benchmarks/peer_settings.py measures
+# every setting of both versions side by side; its table is in docs/benchmarks.md) and as shipped.
+SYSTEMS = {
+    "rlchain": System("rlchain", "as shipped", color="tab:blue"),
+    "rl_games": System("rl_games", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:orange"),
+    "rl_games_shipped": System("rl_games", "as shipped (compile on, default threads)", color="tab:brown"),
+    "rl_games2": System("rl_games2", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:green"),
+    "rl_games2_shipped": System("rl_games2", "as shipped (compile on, default threads)", color="tab:olive"),
+}
+PEERS = [name for name in SYSTEMS if name != "rlchain"]
+COLORS = {name: system.color for name, system in SYSTEMS.items()}
+
+
+def describe(name: str) -> str:
+    """A system's name as tables and legends say it: library, version and setting."""
+    system = SYSTEMS[name]
+    version = {"rlchain": "", "rl_games": " 1.6.5", "rl_games2": " 2.0 (main)"}[system.lib]
+    return f"{'rl_games' if system.lib != 'rlchain' else 'rlchain'}{version}, {system.setting}"
 
 
 # ----- running -------------------------------------------------------------------------------
@@ -71,13 +103,20 @@ def seeded_config(path: str, seed: int, workdir: str) -> str:
     return out
 
 
-def command(lib: str, cfg_path: str, args: argparse.Namespace) -> list[str]:
-    """The training command of one library, as a user of it would type it."""
-    if lib == "rlchain":
+def command(name: str, cfg_path: str, args: argparse.Namespace) -> list[str]:
+    """The training command of one system, as a user of it would type it."""
+    system = SYSTEMS[name]
+    if system.lib == "rlchain":
         return [args.rlchain_python, os.path.join(REPO, "runner.py"), "--train", "--file", cfg_path,
                 *shlex.split(args.rlchain_args)]
-    return [args.rl_games_python, os.path.join(HERE, "rl_games_driver.py"), "--file", cfg_path,
+    python = args.rl_games_python if system.lib == "rl_games" else args.rl_games2_python
+    return [python, os.path.join(HERE, "rl_games_driver.py"), "--file", cfg_path, *system.driver_args,
             *shlex.split(args.rl_games_args)]
+
+
+def environment(name: str) -> dict[str, str]:
+    """The process environment of one system's run: this one plus its settings (thread counts)."""
+    return {**os.environ, **dict(SYSTEMS[name].env)}
 
 
 def load_average() -> float:
@@ -90,12 +129,14 @@ def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.N
     workdir = tempfile.mkdtemp(prefix=f"curve_{config}_{lib}_{seed}_")
     cfg_path = seeded_config(os.path.join(HERE, CONFIGS[config]), seed, workdir)
     cmd = command(lib, cfg_path, args)
-    print(f"[{config} {lib} seed {seed}] $ {shlex.join(cmd)}", flush=True)
+    env = dict(SYSTEMS[lib].env)
+    print(f"[{config} {lib} seed {seed}] $ {' '.join(f'{k}={v}' for k, v in env.items())} {shlex.join(cmd)}",
+          flush=True)
     load_before, accs = load_average(), {}
     with open(os.path.join(workdir, "train.log"), "wb") as log:
         t0 = time.time()
         proc = subprocess.Popen(cmd, cwd=workdir, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                start_new_session=True)
+                                start_new_session=True, env=environment(lib))
         try:
             while proc.poll() is None and time.time() - t0 < seconds:
                 time.sleep(1.0)
@@ -112,7 +153,8 @@ def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.N
     print(f"[{config} {lib} seed {seed}] {last[1]} frames, reward {last[2]:.1f} at {last[0]:.0f} s", flush=True)
     return {"config": config, "lib": lib, "seed": seed, "budget_s": seconds, "wall_s": wall,
             "events": events, "load_before": load_before, "load_after": load_average(), "cmd": cmd,
-            "returncode": proc.returncode, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+            "returncode": proc.returncode, "env": env,
+            "setting": SYSTEMS[lib].setting, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
 def run_path(runs_dir: str, config: str, lib: str, seed: int) -> str:
@@ -128,8 +170,9 @@ def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], bud
             if os.path.exists(path):
                 with open(path) as f:
                     run = json.load(f)
-                if run["budget_s"] == budget:
-                    runs[lib].append(run)
+                if run["budget_s"] == budget and run.get("env", {}) == dict(SYSTEMS[lib].env) \
+                        and run.get("setting", SYSTEMS[lib].setting) == SYSTEMS[lib].setting:
+                    runs[lib].append(run)  # a run saved under other settings is not this system's
     return runs
 
 
@@ -178,27 +221,59 @@ def judge(ours: tuple[float, float] | None, peer: tuple[float, float] | None) ->
     return "ahead" if gap > noise else "behind" if -gap > noise else "level"
 
 
+def time_to(events: list, target: float) -> float | None:
+    """Seconds from process start until the reported reward first reaches ``target``; None if never."""
+    return next((t for t, _, value in events if value >= target), None)
+
+
+def reach_cell(times: list[float | None]) -> str:
+    """Median seconds to a target over seeds (a seed that never reached it counts as later than all), and
+    how many seeds reached it."""
+    reached = sorted(t for t in times if t is not None)
+    median = statistics.median(reached + [math.inf] * (len(times) - len(reached))) if times else math.inf
+    if math.isinf(median):
+        return f"not reached ({len(reached)}/{len(times)})"
+    return f"{median:.0f} s ({len(reached)}/{len(times)})"
+
+
 def summarise(config: str, runs: dict[str, list[dict]], budget: float) -> list[str]:
-    """Markdown lines: one table row per grid point, both libraries, the ratio and the verdict."""
-    libs = [lib for lib in ("rlchain", "rl_games") if runs.get(lib)]
-    lines = [f"### {config} ({len(runs[libs[0]])} seeds, {budget:g} s each)", "",
-             "| at | " + " | ".join(libs) + " | ratio | verdict |", "|---|" + "---|" * (len(libs) + 2)]
+    """Markdown lines: one table row per grid point, every system, rlchain's ratio and verdict against each
+    peer; then the seconds each system needs to reach each peer's mean reward at the end of its budget."""
+    names = [name for name in SYSTEMS if runs.get(name)]
+    peers = [name for name in names if name != "rlchain" and runs.get("rlchain")]
+    seeds = {name: len(runs[name]) for name in names}
+    lines = [f"### {config} ({budget:g} s each)", ""]
+    lines += [f"- `{name}`: {describe(name)}, {seeds[name]} seeds" for name in names] + [""]
+    lines += ["| at | " + " | ".join(names) + "".join(f" | rlchain / {p}" for p in peers) + " |",
+              "|---|" + "---|" * (len(names) + len(peers))]
 
     def row(label: str, stats: dict, verdict: bool = True) -> str:
-        cells = [f"{s[0]:.0f} +- {s[1]:.0f}" if s else "-" for s in (stats[lib] for lib in libs)]
-        ours, peer = stats.get("rlchain"), stats.get("rl_games")
-        ratio = f"{ours[0] / peer[0]:.2f}x" if ours and peer and peer[0] > 0 else "-"
-        return f"| {label} | " + " | ".join(cells) + f" | {ratio} | {judge(ours, peer) if verdict else ''} |"
+        cells = [f"{s[0]:.0f} +- {s[1]:.0f}" if s else "-" for s in (stats[name] for name in names)]
+        ours = stats.get("rlchain")
+        for peer in peers:
+            theirs = stats.get(peer)
+            ratio = f"{ours[0] / theirs[0]:.2f}x" if ours and theirs and theirs[0] > 0 else "-"
+            cells.append(f"{ratio} {judge(ours, theirs)}" if verdict else ratio)
+        return f"| {label} | " + " | ".join(cells) + " |"
 
-    if len(libs) == 2:
-        for frames in frame_grid(runs):
-            stats = {lib: mean_std([value_at(r["events"], frames, 1) for r in runs[lib]]) for lib in libs}
+    if len(names) > 1:
+        for frames in frame_grid({name: runs[name] for name in names}):
+            stats = {n: mean_std([value_at(r["events"], frames, 1) for r in runs[n]]) for n in names}
             lines.append(row(f"{frames / 1e6:.2f}M frames", stats))
     for seconds in time_grid(budget):
-        stats = {lib: mean_std([value_at(r["events"], seconds, 0) for r in runs[lib]]) for lib in libs}
+        stats = {n: mean_std([value_at(r["events"], seconds, 0) for r in runs[n]]) for n in names}
         lines.append(row(f"{seconds:.0f} s", stats))
-    rates = {lib: mean_std([fps(r) for r in runs[lib]]) for lib in libs}
-    lines.append(row("frames/s", rates, verdict=False))
+    lines.append(row("frames/s", {n: mean_std([fps(r) for r in runs[n]]) for n in names}, verdict=False))
+    if peers:
+        lines += ["", "Seconds to reach each peer's mean reward at the end of its budget (median over seeds, "
+                      "seeds that reached it):", "",
+                  "| target | reward | rlchain | the peer |", "|---|---|---|---|"]
+        for peer in peers:
+            final = mean_std([value_at(r["events"], budget, 0) for r in runs[peer]])
+            if final is None:
+                continue
+            cells = [reach_cell([time_to(r["events"], final[0]) for r in runs[n]]) for n in ("rlchain", peer)]
+            lines.append(f"| {peer} at {budget:g} s | {final[0]:.0f} | {cells[0]} | {cells[1]} |")
     return lines
 
 
@@ -229,14 +304,14 @@ def plot(config: str, runs: dict[str, list[dict]], budget: float, path: str) -> 
         for ax, axis, xs in ((axes[0], 1, [max_frames * k / 200 for k in range(201)]),
                              (axes[1], 0, [budget * k / 200 for k in range(201)])):
             x, mean, low, high = band(lib_runs, axis, xs)
-            ax.plot(x, mean, color=COLORS.get(lib), label=f"{lib} ({len(lib_runs)} seeds)")
+            ax.plot(x, mean, color=COLORS.get(lib), label=f"{describe(lib)} ({len(lib_runs)} seeds)")
             ax.fill_between(x, low, high, color=COLORS.get(lib), alpha=0.2)
     axes[0].set_xlabel("frames")
     axes[1].set_xlabel("seconds from process start")
     for ax in axes:
         ax.set_ylabel("mean episode reward")
         ax.grid(alpha=0.3)
-        ax.legend(loc="lower right")
+        ax.legend(loc="lower right", fontsize=7)
     fig.suptitle(f"{os.path.basename(CONFIGS[config])}: mean and min-max over seeds")
     fig.tight_layout()
     fig.savefig(path, dpi=80)
@@ -272,8 +347,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--seconds", type=float, default=300.0, help="wall-clock budget of each run")
     p.add_argument("--pendulum-seconds", type=float, default=150.0,
                    help="budget of ppo_pendulum_torch runs (rl_games starts 16 Ray actors for it: ~60 s on 2 cores)")
-    p.add_argument("--libs", nargs="+", choices=("rlchain", "rl_games"), default=["rlchain", "rl_games"])
-    p.add_argument("--rl-games-python", default="/work/rlg-venv/bin/python")
+    p.add_argument("--libs", nargs="+", choices=list(SYSTEMS), default=["rlchain", "rl_games", "rl_games2"],
+                   help="systems to run: " + "; ".join(f"{n}: {describe(n)}" for n in SYSTEMS))
+    p.add_argument("--rl-games-python", default="/work/rlg-venv/bin/python", help="rl_games 1.6.5's venv")
+    p.add_argument("--rl-games2-python", default="/work/rlg2-venv/bin/python",
+                   help="rl_games' main branch (2.0) built from source (benchmarks/README.md)")
     p.add_argument("--rlchain-python", default=sys.executable)
     p.add_argument("--rlchain-args", default="", help="extra runner.py arguments, e.g. key=value overrides")
     p.add_argument("--rl-games-args", default="", help="extra rl_games_driver.py arguments")

@@ -28,13 +28,22 @@ num_actors from the YAML only). Torch threads are set as the Runner
 sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``;
 ``--update-threads 1 2`` measures once per thread count of the PPO update (``params.update_threads``);
 the ``thr`` column is rollout/update threads. env-only is measured once per case.
+``--plans auto 1/1`` measures once per thread plan (``auto``: the Runner's plan, which reads the load;
+``R/U``: R rollout and U update threads), and ``--busy 0 1`` once per count of busy-looping background
+processes (a loaded machine, made on purpose), so "the thread plan never loses to one thread, loaded or
+idle" is one run::
+
+    python benchmarks/throughput.py --cases envpool:HalfCheetah-v4:64 --plans auto 1/1 --busy 0 1
+
 The load average is printed too: other processes on the machine skew every number.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import multiprocessing
 import os
 import sys
 import time
@@ -80,6 +89,8 @@ class Row:
     groups: int = 1
     rl_games_sps: float | None = None
     update_threads: int = 1
+    plan: str = "auto"
+    busy: int = 0
 
     @property
     def rollout_ratio(self) -> float:
@@ -238,9 +249,41 @@ def rl_games_fps(python: str, config: str, num_envs: int, epochs: int) -> float 
     return statistics.median(values[1:])
 
 
+def parse_plan(spec: str) -> tuple[str, int | None, int | None]:
+    """'auto' -> the Runner's plan; 'R/U' -> R rollout threads and U update threads."""
+    if spec == "auto":
+        return spec, None, None
+    try:
+        rollout, update = (int(v) for v in spec.split("/"))
+    except ValueError:
+        raise SystemExit(f"bad plan '{spec}': expected auto or R/U, e.g. 1/1 or 1/2") from None
+    return spec, rollout, update
+
+
+def _spin() -> None:
+    """A busy loop: one core's worth of load from another program."""
+    while True:
+        pass
+
+
+@contextlib.contextmanager
+def busy_processes(count: int) -> Any:
+    """``count`` busy-looping processes for the duration of the block (a loaded machine, on purpose)."""
+    procs = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(count)]
+    for proc in procs:
+        proc.start()
+    try:
+        yield
+    finally:
+        for proc in procs:
+            proc.terminate()
+            proc.join()
+
+
 def table(rows: list[Row]) -> str:
     head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>3} {'env-only sps':>13} {'rollout sps':>12} "
-            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'rl_games sps':>12} "
+            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'plan':>5} {'busy':>4} "
+            f"{'rl_games sps':>12} "
             f"{'rl_games/env':>12} {'train/rl_games':>14}")
     lines = [head, "-" * len(head)]
     for r in rows:
@@ -248,7 +291,7 @@ def table(rows: list[Row]) -> str:
                                                   f"{r.train_sps / r.rl_games_sps:>14.2f}")
         lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.groups:>3} {r.env_sps:>13,.0f} "
                      f"{r.rollout_sps:>12,.0f} {r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} "
-                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {peer}")
+                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {r.plan:>5} {r.busy:>4} {peer}")
     return "\n".join(lines)
 
 
@@ -268,7 +311,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rl-games-python", default=None,
                     help="python of a venv with rl_games: add its training fps on the same YAML")
     ap.add_argument("--rl-games-epochs", type=int, default=12, help="rl_games epochs per case (default 12)")
+    ap.add_argument("--plans", nargs="+", default=None,
+                    help="thread plans to measure, 'auto' (the Runner's) or R/U (rollout/update threads); "
+                         "replaces --threads / --update-threads")
+    ap.add_argument("--busy", type=int, nargs="+", default=[0],
+                    help="measure once per count of busy-looping background processes (default 0)")
     args = ap.parse_args(argv)
+    plans = [parse_plan(p) for p in args.plans] if args.plans else [
+        ("auto" if args.threads is None and u is None else f"{args.threads or '-'}/{u or '-'}", args.threads, u)
+        for u in args.update_threads]
 
     cases = args.cases or DEFAULT_CASES
     rows = []
@@ -285,15 +336,17 @@ def main(argv: list[str] | None = None) -> int:
         if args.rl_games_python:
             print(f"rl_games on {spec} ...", flush=True)
             peer = rl_games_fps(args.rl_games_python, config, num, args.rl_games_epochs)
-        env_sps = None  # env-only is measured once per case: every row's ratios share one ceiling
-        for groups in (args.env_groups if backend == "envpool" else [1]):
-            for update_threads in args.update_threads:
-                print(f"measuring {spec} env_groups={groups} update_threads={update_threads} ...", flush=True)
-                row = measure(backend, env, num, config, args.seconds, args.threads, args.device, groups,
-                              update_threads, env_sps)
-                row.rl_games_sps = peer
-                env_sps = row.env_sps
-                rows.append(row)
+        env_sps = None  # env-only is measured once per case (idle): every row's ratios share one ceiling
+        for busy in args.busy:
+            with busy_processes(busy):
+                for groups in (args.env_groups if backend == "envpool" else [1]):
+                    for name, threads, update_threads in plans:
+                        print(f"measuring {spec} env_groups={groups} plan={name} busy={busy} ...", flush=True)
+                        row = measure(backend, env, num, config, args.seconds, threads, args.device, groups,
+                                      update_threads, env_sps)
+                        row.rl_games_sps, row.plan, row.busy = peer, name, busy
+                        env_sps = row.env_sps
+                        rows.append(row)
     load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print()
     print(table(rows))

@@ -1,5 +1,6 @@
 """benchmarks/curves.py: the pure functions that turn saved reward events into the comparison table."""
 
+import json
 import os
 import sys
 
@@ -65,3 +66,43 @@ def test_splice_replaces_only_the_marked_block():
                                                              "<!-- curves:end -->\nrest\n")
     with pytest.raises(ValueError, match="markers"):
         curves.splice("no markers", "x")
+
+
+def test_time_to_is_the_first_report_at_or_above_the_target():
+    assert curves.time_to(EVENTS, 5.0) == 20.0 and curves.time_to(EVENTS, 9.5) is None
+
+
+def test_reach_cell_counts_a_seed_that_never_reached_as_later_than_all():
+    assert curves.reach_cell([10.0, 30.0, None]) == "30 s (2/3)"
+    assert curves.reach_cell([10.0, None, None]) == "not reached (1/3)"
+    assert curves.reach_cell([None]) == "not reached (0/1)"
+
+
+def test_every_peer_names_its_version_and_setting():
+    assert curves.describe("rl_games") == "rl_games 1.6.5, 1 thread, compile off"
+    assert curves.describe("rl_games2_shipped").startswith("rl_games 2.0 (main), as shipped")
+    best = curves.SYSTEMS["rl_games"]
+    assert dict(best.env)["OMP_NUM_THREADS"] == "1" and best.driver_args == ("--torch-compile", "off")
+
+
+def test_summary_compares_rlchain_with_each_peer_and_the_time_to_their_final_reward():
+    runs = {"rlchain": [{"events": EVENTS}, {"events": EVENTS}],
+            "rl_games": [{"events": [(15.0, 1000, 2.0), (30.0, 2000, 4.0)]}] * 2,
+            "rl_games2": [{"events": [(15.0, 1000, 3.0), (30.0, 2000, 6.0)]}] * 2}
+    text = "\n".join(curves.summarise("hopper", runs, 30.0))
+    assert "rlchain / rl_games | rlchain / rl_games2" in text
+    assert "| rl_games at 30 s | 4 | 20 s (2/2) | 30 s (2/2) |" in text  # rlchain reached 4 at 20 s
+    assert "| rl_games2 at 30 s | 6 | 30 s (2/2) | 30 s (2/2) |" in text
+
+
+def test_saved_runs_of_another_setting_are_not_loaded(tmp_path):
+    path = curves.run_path(str(tmp_path), "hopper", "rl_games", 11)
+    os.makedirs(os.path.dirname(path))
+    shipped = {"budget_s": 180.0, "events": EVENTS, "env": {}, "setting": "as shipped"}  # an old as-shipped run
+    with open(path, "w") as f:
+        json.dump(shipped, f)
+    assert curves.load_runs(str(tmp_path), "hopper", ["rl_games"], [11], 180.0)["rl_games"] == []
+    best = dict(shipped, env=dict(curves.SYSTEMS["rl_games"].env), setting=curves.SYSTEMS["rl_games"].setting)
+    with open(path, "w") as f:
+        json.dump(best, f)
+    assert len(curves.load_runs(str(tmp_path), "hopper", ["rl_games"], [11], 180.0)["rl_games"]) == 1
