@@ -349,7 +349,9 @@ class RunConfig:
                                            "algorithm's tunable", check=check_hyperparam_schedule)
     # declared here once for every algorithm; a subclass changes a default or status with fields.variant
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
-                                           "envpool, RAY (Ray workers, see env_runners)")
+                                           "envpool, RAY (Ray workers, see env_runners), or a name registered "
+                                           "with rlchain.envs.vecenv.register (rl_games' vecenv.register); "
+                                           "unset: the env_configurations entry's vecenv_type, else auto")
     num_actors: int = option(8, "parallel environments", check=positive)
     clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale them to the action "
                                       "space bounds")
