@@ -343,6 +343,10 @@ class RunConfig:
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "
                                        "costs ~30 s on a CPU)", check=check_compile)
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    log_writers: list[str] = option([], "rlchain: extra log writers by registered name, e.g. [csv] "
+                                        "(<run>/summaries/scalars.csv); each gets every scalar under its "
+                                        "TensorBoard tag. Console, TensorBoard and (--track) wandb are always on; "
+                                        "register yours with rlchain.runs.writers.register_writer")
     hyperparam_schedule: dict = option({}, "rlchain: {epoch: {name: value}}, live values set after that many "
                                            "epochs through set_params (0 = from the start), e.g. the schedule "
                                            "a PBT winner followed (--tune, docs/tuning.md); names from the "
