@@ -68,7 +68,7 @@ class Runner:
               wandb_entity: str | None = None) -> Any:
         """Train (resuming from ``checkpoint`` when given); returns a TrainResult.
 
-        ``track`` mirrors the TensorBoard scalars and the config to Weights & Biases. Under torchrun
+        ``track`` logs the scalars (TensorBoard tags) and the config to Weights & Biases. Under torchrun
         with ``multi_gpu: True`` every rank calls this; rank 0 alone writes the run folder.
         """
         from rlchain.training import distributed
