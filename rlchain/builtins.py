@@ -8,7 +8,7 @@ from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
 from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
-from rlchain.registry import ALGOS, MODELS, NETWORKS
+from rlchain.registry import ALGOS, ENVS, MODELS, NETWORKS, VECENVS, WRITERS
 
 
 def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_size: int, config: Any,
@@ -51,7 +51,17 @@ def register_builtins() -> None:
 
     ALGOS.register("appo", APPOTrainer, overwrite=True)
     ALGOS.register("impala", ImpalaTrainer, overwrite=True)
+    from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
+    from rlchain.envs.factory import BuiltinVecEnv
+
+    for name, builder in BUILTIN_ENVS.items():
+        ENVS.register(name, builder, overwrite=True)
+    # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively
+    for name, mode in [*((m, m) for m in VECENV_TYPES), *VECENV_ALIASES.items()]:
+        VECENVS.register(name, BuiltinVecEnv(mode), overwrite=True)
+    from rlchain.runs.writers import CSVWriter
+
+    WRITERS.register("csv", CSVWriter, overwrite=True, replaceable=True)  # a user package may register its own
     import rlchain.envs.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
-    import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
     import rlchain.envs.test  # noqa: F401  (registers the test envs)
     import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)

@@ -76,7 +76,13 @@ ALGOS = Registry("algo")
 MODELS = Registry("model")
 NETWORKS = Registry("network")
 ENVS = Registry("env")
-VECENVS = Registry("vecenv backend")
+VECENVS = Registry("vecenv_type")
+"""``params.config.vecenv_type`` name -> rl_games-style creator ``(config_name, num_actors, **env_config)``."""
+WRITERS = Registry("log writer")
+"""``params.config.log_writers`` name -> writer class ``(run_dir) -> Writer`` (rlchain/runs/writers.py)."""
+
+ENV_CONFIGURATIONS: dict[str, dict] = {}
+"""rl_games' ``env_configurations.configurations``: env name -> the dict given to ``register``."""
 
 NETWORK_CONFIGS: dict[str, type] = {}
 """network name -> the dataclass its block parses into, given to ``register_network(config_class=...)``."""

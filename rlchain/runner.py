@@ -68,7 +68,7 @@ class Runner:
               wandb_entity: str | None = None) -> Any:
         """Train (resuming from ``checkpoint`` when given); returns a TrainResult.
 
-        ``track`` mirrors the TensorBoard scalars and the config to Weights & Biases. Under torchrun
+        ``track`` logs the scalars (TensorBoard tags) and the config to Weights & Biases. Under torchrun
         with ``multi_gpu: True`` every rank calls this; rank 0 alone writes the run folder.
         """
         from rlchain.training import distributed
@@ -122,20 +122,23 @@ class Runner:
                           checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
                           wandb_project: str, wandb_entity: str | None, group: Any = None,
                           threads: ThreadPlan | None = None) -> Any:
+        from rlchain.runs.writers import WandbWriter, check_writer_names, make_writers
         from rlchain.training.build import apply_sigma
         from rlchain.training.logging import TrainLogger
         from rlchain.training.run_dir import create_run_dir
 
         cfg = params.config
         main = group is None or group.is_main  # under torchrun only rank 0 writes folders, logs and checkpoints
+        check_writer_names(cfg.log_writers, params.source)  # before a run folder exists
         run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw) if main else None
+        writers = make_writers(cfg.log_writers, run.root, params.source) if run is not None else []
         tracker = None
-        if track and run is not None:  # before the SummaryWriter exists: wandb mirrors it by patching the writer
-            from rlchain.training.wandb_logger import start_wandb
-            tracker = start_wandb(wandb_project, wandb_entity, {**self.raw, "run": {"seed": seed}},
+        if track and run is not None:  # a log writer like the others: wandb.log of the tagged scalars
+            tracker = WandbWriter(wandb_project, wandb_entity, {**self.raw, "run": {"seed": seed}},
                                   os.path.basename(run.root), run.summaries)
+            writers.append(tracker)
         ok = False
-        logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats)
+        logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers)
         trainer = None
         try:
             trainer_class = ALGOS.get(params.algo.name)
@@ -164,9 +167,9 @@ class Runner:
         finally:  # on every exit path (an env error, a divergence, KeyboardInterrupt): the eval env too
             if trainer is not None and callable(getattr(trainer, "close", None)):
                 trainer.close()
-            logger.close()
             if tracker is not None:
-                tracker.finish(exit_code=0 if ok else 1)
+                tracker.exit_code = 0 if ok else 1
+            logger.close()
 
     def export(self, checkpoint: str, output: str | None = None, policy: str | None = None) -> str | list[str]:
         """Export the checkpoint's deterministic policy to ONNX (with a parity check); returns the path.

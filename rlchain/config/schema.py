@@ -343,13 +343,19 @@ class RunConfig:
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "
                                        "costs ~30 s on a CPU)", check=check_compile)
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    log_writers: list[str] = option([], "rlchain: extra log writers by registered name, e.g. [csv] "
+                                        "(<run>/summaries/scalars.csv); each gets every scalar under its "
+                                        "TensorBoard tag. Console, TensorBoard and (--track) wandb are always on; "
+                                        "register yours with rlchain.runs.writers.register_writer")
     hyperparam_schedule: dict = option({}, "rlchain: {epoch: {name: value}}, live values set after that many "
                                            "epochs through set_params (0 = from the start), e.g. the schedule "
                                            "a PBT winner followed (--tune, docs/tuning.md); names from the "
                                            "algorithm's tunable", check=check_hyperparam_schedule)
     # declared here once for every algorithm; a subclass changes a default or status with fields.variant
     vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
-                                           "envpool, RAY (Ray workers, see env_runners)")
+                                           "envpool, RAY (Ray workers, see env_runners), or a name registered "
+                                           "with rlchain.envs.vecenv.register (rl_games' vecenv.register); "
+                                           "unset: the env_configurations entry's vecenv_type, else auto")
     num_actors: int = option(8, "parallel environments", check=positive)
     clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale them to the action "
                                       "space bounds")

@@ -14,7 +14,10 @@ runners and the :class:`~rlchain.envs.spec.EnvSpec`) and each Ray env worker
    and ``pettingzoo``;
 2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments.
 
-Backends are registered in :data:`rlchain.registry.VECENVS` as ``gymnasium`` and ``envpool``.
+``vecenv_type`` is looked up in :data:`rlchain.registry.VECENVS` (:func:`rlchain.envs.vecenv.register`):
+the built-in names (``rlchain.envs.factory.BuiltinVecEnv``, registered in :mod:`rlchain.builtins`) carry a
+``builtin_mode`` handled here; any other name is a user's rl_games-style creator
+(:mod:`rlchain.envs.backends.rl_games_vecenv`).
 Config mistakes raise :class:`ConfigError` (a ValueError) naming the key path; the caller adds
 the file name.
 """
@@ -28,6 +31,7 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.envs.backends.rl_games_vecenv import make_registered_vecenv
 from rlchain.envs.brax_env import brax_env
 from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
@@ -35,8 +39,8 @@ from rlchain.envs.multi_agent import make_multi_agent_env
 from rlchain.envs.pettingzoo_env import pettingzoo_env
 from rlchain.envs.playground_env import playground_env
 from rlchain.envs.reward_action_obs import RewardActionObs
-from rlchain.envs.vecenv import VecEnv
-from rlchain.registry import ENVS, VECENVS
+from rlchain.envs.vecenv import VecEnv, resolve_vecenv_type
+from rlchain.registry import ENVS
 
 VECENV_TYPES = ("auto", "sync", "async", "native", "envpool", "ray")
 RL_GAMES_ENVPOOL_KEYS = {"has_lives", "flatten_obs", "env_type"}
@@ -70,12 +74,11 @@ def _error(path: str, message: str) -> ConfigError:
     return ConfigError("", path, message)
 
 
-def normalize_vecenv_type(vecenv_type: str | None) -> str:
-    """``None`` -> ``auto``; case-insensitive; ValueError for unknown types."""
-    kind = "auto" if vecenv_type is None else str(vecenv_type).lower()
-    if kind not in VECENV_TYPES:
-        raise _error(VECENV, f"unknown vecenv_type '{vecenv_type}' (choices: {', '.join(VECENV_TYPES)})")
-    return kind
+def normalize_vecenv_type(vecenv_type: str | None, env_name: str | None = None) -> str:
+    """The built-in mode (one of :data:`VECENV_TYPES`) or the user-registered name ``vecenv_type``
+    selects (see :func:`rlchain.envs.vecenv.resolve_vecenv_type`); ConfigError for unknown names."""
+    name, creator = resolve_vecenv_type(vecenv_type, env_name)
+    return getattr(creator, "builtin_mode", name)
 
 
 def build_local_env(env_name: str, env_config: dict | None, num_envs: int, seed: int | None,
@@ -88,7 +91,7 @@ def build_local_env(env_name: str, env_config: dict | None, num_envs: int, seed:
     asks for ``render_mode='human'`` (the Player). ``groups`` (``env_groups``: auto or an int) splits
     envpool envs into groups that step in the background; other backends take only 1 or auto.
     """
-    kind = normalize_vecenv_type(vecenv_type)
+    kind = normalize_vecenv_type(vecenv_type, env_name)
     if kind == "ray":
         raise _error(VECENV, "RAY builds its envs on Ray workers (rlchain.envs.factory.make_vec_env), "
                              "not in this process")
@@ -99,6 +102,9 @@ def build_local_env(env_name: str, env_config: dict | None, num_envs: int, seed:
             raise _error(f"{CONFIG}.{key}", "is set by rlchain (num_actors, vecenv_type, player.render)")
     if not env_name:
         raise _error(NAME, "is empty; give a gymnasium id, openai_gym, envpool or a registered env")
+    if kind not in VECENV_TYPES:  # a user-registered vecenv_type
+        _no_groups(groups, f"vecenv_type '{kind}'")
+        return make_registered_vecenv(resolve_vecenv_type(kind)[1], env_name, num_envs, seed, render, config)
     if env_name in ENVS:
         builder = ENVS.get(env_name)
         params = inspect.signature(builder).parameters
@@ -152,7 +158,7 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
     extra = {"groups": groups} if groups > 1 else {}  # a user-registered backend may not take groups
     if repeat > 1:
         extra["action_repeat"] = repeat
-    env = VECENVS.get("envpool")(task, num_envs, seed=seed, env_kwargs=kwargs, render=render, **extra)
+    env = EnvpoolVecEnv(task, num_envs, seed=seed, env_kwargs=kwargs, render=render, **extra)
     if dict_obs:
         try:
             env = RewardActionObs(env, f"{CONFIG}.use_dict_obs_space")
@@ -187,8 +193,7 @@ def _gym_id_env(name: str, path: str, kwargs: dict, num_envs: int, seed: int | N
         multi = make_multi_agent_env(name, num_envs, kwargs, seed, kind, render)  # None: one agent per env
         if multi is not None:
             return multi
-        backend = VECENVS.get("gymnasium")
-        return backend(name, num_envs, mode=kind, env_kwargs=kwargs, render=render, seed=seed)
+        return GymnasiumVecEnv(name, num_envs, mode=kind, env_kwargs=kwargs, render=render, seed=seed)
     except TypeError as exc:  # an env_config key the env constructor does not take
         key = re.search(r"keyword argument '(\w+)'", str(exc))
         raise _error(f"{CONFIG}.{key.group(1)}" if key else CONFIG, f"'{name}' rejects it: {exc}") from None
@@ -203,13 +208,14 @@ def _gym_knows(name: str) -> bool:
     return True
 
 
-ENVS.register("openai_gym", openai_gym_env)
-ENVS.register("envpool", envpool_env)
-ENVS.register("brax", brax_env)  # imports jax/brax only when built
-ENVS.register("playground", playground_env)  # imports mujoco_playground only when built
-ENVS.register("pettingzoo", pettingzoo_env)  # imports pettingzoo (and the env's package) only when built
-VECENVS.register("gymnasium", GymnasiumVecEnv)
-VECENVS.register("envpool", EnvpoolVecEnv)
+BUILTIN_ENVS = {"openai_gym": openai_gym_env, "envpool": envpool_env,
+                "brax": brax_env,  # imports jax/brax only when built
+                "playground": playground_env,  # imports mujoco_playground only when built
+                "pettingzoo": pettingzoo_env}  # imports pettingzoo (and the env's package) only when built
+"""The env builders :mod:`rlchain.builtins` registers in :data:`rlchain.registry.ENVS`."""
+
+VECENV_ALIASES = {"gymnasium": "auto", "brax": "auto"}
+"""Other built-in ``vecenv_type`` names: rl_games' BRAX (the brax env is its own batch) and ``gymnasium``."""
 
 __all__ = ["build_local_env", "resolve_env_groups", "normalize_vecenv_type", "openai_gym_env", "envpool_env",
-           "VECENV_TYPES"]
+           "VECENV_TYPES", "BUILTIN_ENVS", "VECENV_ALIASES"]

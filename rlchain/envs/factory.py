@@ -40,7 +40,7 @@ def make_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: in
     ``groups`` (``env_groups``: auto or an int) splits envpool envs into groups that step in the
     background (see ``EnvpoolVecEnv``); other backends take only 1 or auto.
     """
-    kind = normalize_vecenv_type(vecenv_type)
+    kind = normalize_vecenv_type(vecenv_type, env_name)
     if kind == "ray" or env_runners is not None:
         _no_groups(groups, "Ray env runners")
         env = make_ray_vec_env(env_name, env_config, num_envs, seed, kind, env_runners, render)
@@ -49,5 +49,17 @@ def make_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: in
     return attach_spec(env)
 
 
+class BuiltinVecEnv:
+    """The creator registered for a built-in ``vecenv_type`` (rl_games' signature ``(config_name,
+    num_actors, **env_config)``): builds with its ``builtin_mode`` (auto, sync, async, native, envpool, ray)."""
+
+    def __init__(self, mode: str) -> None:
+        self.builtin_mode = mode
+
+    def __call__(self, config_name: str, num_actors: int, seed: int | None = None, render: bool = False,
+                 **env_config: Any) -> VecEnv:
+        return make_vec_env(config_name, env_config, num_actors, seed, self.builtin_mode, render=render)
+
+
 __all__ = ["make_vec_env", "normalize_vecenv_type", "openai_gym_env", "envpool_env", "resolve_env_groups",
-           "RL_GAMES_ENVPOOL_KEYS", "VECENV_TYPES"]
+           "RL_GAMES_ENVPOOL_KEYS", "VECENV_TYPES", "BuiltinVecEnv"]

@@ -41,15 +41,26 @@ Shapes for ``num_envs = N``:
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``
   counters the trainer writes to TensorBoard every epoch (e.g. ``env/dropped_episodes``).
+
+``vecenv_type`` is a registry lookup, as in rl_games: :func:`register` ``(name, creator)`` with
+rl_games' creator ``creator(config_name, num_actors, **env_config)``; ``vecenv_type: name`` in a
+YAML (or the ``vecenv_type`` of the ``env_configurations`` entry of ``env_name``) selects it. The
+creator returns an rl_games IVecEnv (``step`` / ``reset`` / ``get_env_info``, adapted by
+:mod:`rlchain.envs.backends.rl_games_vecenv`) or a VecEnv of this contract. The built-in names
+(auto, sync, async, native, envpool, RAY, ...) are registered in :mod:`rlchain.builtins`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
+
+from rlchain.config.errors import ConfigError
+from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
 
 DROPPED = "dropped"
 
@@ -101,3 +112,31 @@ class VecEnv(Protocol):
     def get_action_mask(self) -> Any:  # optional with has_action_mask(): (N, mask_size) bool
         """(N, mask_size) bool, True where an action is allowed in each env's current state."""
         ...
+
+
+VECENV_KEY = "params.config.vecenv_type"
+
+
+def register(name: str, creator: Callable[..., Any], overwrite: bool = False) -> None:
+    """rl_games' ``vecenv.register``: ``vecenv_type: name`` builds the envs with
+    ``creator(config_name, num_actors, **env_config)`` (``config_name`` is ``params.config.env_name``;
+    a creator whose signature names ``seed`` or ``render`` also gets them)."""
+    VECENVS.register(name, creator, overwrite=overwrite)
+
+
+def resolve_vecenv_type(vecenv_type: str | None, env_name: str | None = None) -> tuple[str, Callable[..., Any]]:
+    """The registered name and creator ``vecenv_type`` selects: the name as registered, else its lower case
+    (rl_games' ``RAY`` / ``ENVPOOL``); None -> the ``vecenv_type`` of ``env_name``'s ``env_configurations``
+    entry (its ``RAY`` reads as auto: Ray workers are the YAML's choice), else ``auto``. An unknown name is a
+    one-line ConfigError with the registered names and a did-you-mean."""
+    if vecenv_type is None:
+        entry = ENV_CONFIGURATIONS.get(env_name, {}) if env_name else {}
+        vecenv_type = entry.get("vecenv_type")
+        if vecenv_type is None or str(vecenv_type).lower() == "ray":
+            vecenv_type = "auto"
+    name = str(vecenv_type)
+    if name not in VECENVS and name.lower() in VECENVS:
+        name = name.lower()
+    if name not in VECENVS:
+        raise ConfigError("", VECENV_KEY, VECENVS.unknown_message(vecenv_type))
+    return name, VECENVS.get(name)

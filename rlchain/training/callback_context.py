@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
@@ -39,7 +39,7 @@ class TrainingState:
     seconds: float  # wall time since train() started
     best_reward: float  # best mean reward of the tracked games so far (-inf before any)
     episodes: Mapping[str, float] | None  # the last epoch's episode means: reward, length (success); None if none
-    stats: Mapping[str, float]  # the last epoch's metrics as update() returned them (losses, kl, lr ...)
+    stats: Mapping[str, float]  # the last epoch's metrics as update() returned them (raw names; tagged: scalars)
     algo: str  # params.algo.name
     name: str  # params.config.name
     experiment_dir: str  # the run folder ("" when the run writes none)
@@ -49,6 +49,9 @@ class TrainingState:
     world_size: int  # processes training together
     max_epochs: int  # stop rules from the config (-1: none)
     max_frames: int
+    scalars: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    """The last epoch's scalars under their TensorBoard tags (``rewards/step``, ``losses/a_loss``,
+    ``performance/step_fps`` ...), exactly as every log writer got them; empty before the first epoch."""
 
     @property
     def is_main(self) -> bool:
@@ -70,12 +73,14 @@ def training_state(trainer: Any) -> TrainingState:
         algo=trainer.params.algo.name, name=cfg.name,
         experiment_dir=trainer.run.root if trainer.run is not None else "",
         device=trainer.device, seed=int(trainer.seed), rank=trainer.comm.rank, world_size=trainer.comm.world_size,
-        max_epochs=int(cfg.max_epochs), max_frames=int(cfg.max_frames))
+        max_epochs=int(cfg.max_epochs), max_frames=int(cfg.max_frames),
+        scalars=MappingProxyType(dict(getattr(getattr(trainer, "logger", None), "last_scalars", None) or {})))
 
 
 class ScalarWriter:
-    """TensorBoard for callbacks: ``add_scalar(tag, value, step)`` and the other SummaryWriter
-    methods on the run's writer. Without a run folder (or after a failed write) they do nothing."""
+    """TensorBoard for callbacks: ``add_scalar(tag, value, step)`` (to every log writer: TensorBoard,
+    wandb, the config's ``log_writers``) and the other SummaryWriter methods on the run's TensorBoard
+    writer. Without a run folder (or after a failed write) they do nothing."""
 
     def __init__(self, trainer: Any) -> None:
         self._trainer = trainer

@@ -108,6 +108,7 @@ class EpochStepper(Callback):
     def move_run(self, experiment: str) -> None:
         """Log and checkpoint the parked run under another run folder of the same train_dir (an
         actor Ray reuses for another trial keeps its envs but writes that trial's TensorBoard)."""
+        from rlchain.runs.writers import make_writers
         from rlchain.training.logging import TrainLogger
         from rlchain.training.run_dir import create_run_dir
 
@@ -117,7 +118,7 @@ class EpochStepper(Callback):
         cfg = trainer.cfg
         run = create_run_dir(cfg.train_dir, cfg.name, experiment, trainer.raw_config)
         trainer.logger.close()
-        trainer.logger = TrainLogger(run.summaries, cfg.print_stats)
+        trainer.logger = TrainLogger(run.summaries, cfg.print_stats, writers=make_writers(cfg.log_writers, run.root))
         trainer.run = run
 
     def shutdown(self, timeout: float = 60.0) -> None:

@@ -1,4 +1,4 @@
-"""--track offline: TensorBoard scalars written as TrainLogger writes them end up in the wandb run.
+"""--track offline: the scalars the WandbWriter gets (as TrainLogger writes them) end up in the wandb run.
 
 The offline run file (``offline-run-*/run-<id>.wandb``) is read back record by record: it is a
 LevelDB-style log (7-byte ``:W&B`` header, 32 KiB blocks, chunks with a 7-byte crc/length/type
@@ -71,25 +71,23 @@ def offline_env(tmp_path, monkeypatch):
     wandb.teardown()  # the next wandb.setup reads the environment again
 
 
-def test_offline_run_mirrors_tensorboard_scalars_and_config(offline_env):
+def test_offline_run_logs_the_tagged_scalars_and_config(offline_env):
     import wandb
-    from torch.utils.tensorboard import SummaryWriter
+
+    from rlchain.runs.writers import Step, WandbWriter
 
     tmp_path = offline_env
     summaries = tmp_path / "runs" / "cartpole_01" / "summaries"
     config = {"params": {"seed": 7, "config": {"name": "cartpole", "learning_rate": 0.001}}}
-    tracker = start_wandb("rlchain-test", None, config, "cartpole_01", str(summaries))
+    writer = WandbWriter("rlchain-test", None, config, "cartpole_01", str(summaries))
     try:
-        assert wandb.patched["tensorboard"]  # sync_tensorboard is active before the writer exists
-        writer = SummaryWriter(str(summaries), flush_secs=10)  # as TrainLogger creates it
         for epoch in range(3):
-            writer.add_scalar("rewards/step", 10.0 * epoch + 0.5, 512 * (epoch + 1))
-            writer.add_scalar("losses/a_loss", 0.25 - epoch, 512 * (epoch + 1))
-        writer.close()
+            writer.write({"rewards/step": 10.0 * epoch + 0.5, "losses/a_loss": 0.25 - epoch},
+                         Step(512 * (epoch + 1), epoch + 1, 1.0))
     finally:
-        tracker.finish()
-    tracker.finish()  # idempotent
-    assert not wandb.patched["tensorboard"]  # later SummaryWriters are left alone
+        writer.exit_code = 0
+        writer.close()
+    writer.run.finish()  # idempotent
     # finish() returns once the run is closed, but wandb's service process may still hold the run file's
     # records in its write buffer (about 1 run in 10 read a 7-byte file here); shutting the service down
     # flushes it, as the end of a training process does.
@@ -133,7 +131,6 @@ def test_init_failure_is_one_line(offline_env, monkeypatch):
         start_wandb("rlchain-test", None, {}, "x", str(offline_env / "s"))
     assert str(err.value) == ("--track: wandb.init failed: No API key configured. Use `wandb login` to log in. "
                               "(run `wandb login`, or set WANDB_MODE=offline)")
-    assert not wandb.patched["tensorboard"]
 
 
 def test_missing_wandb_names_the_extra(tmp_path, monkeypatch):

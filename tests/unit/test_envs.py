@@ -175,7 +175,8 @@ def test_registered_env_builder(monkeypatch):
                              r"did you mean 'CartPole-v1'"),
     ("openai_gym", {"name": "Pendulm-v1"}, None, r"^params\.config\.env_config\.name: .*'Pendulum-v1'"),
     ("openai_gym", {}, None, r"^params\.config\.env_config\.name: is required"),
-    ("CartPole-v1", {}, "subproc", r"^params\.config\.vecenv_type: .*auto, sync, async, native, envpool"),
+    ("CartPole-v1", {}, "subproc", r"^params\.config\.vecenv_type: unknown vecenv_type .subproc. "
+                                         r"\(registered: async, auto, .*native, ray, sync"),
     ("Pendulum-v1", {}, "native", r"^params\.config\.vecenv_type: native is not available"),
     ("CartPole-v1", {"foo": 1}, "sync", r"^params\.config\.env_config\.foo: "),
     ("CartPole-v1", {"num_envs": 3}, None, r"^params\.config\.env_config\.num_envs: "),

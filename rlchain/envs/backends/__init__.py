@@ -1,0 +1,1 @@
+"""Env backends: one module per kind of vectorized env."""
