@@ -23,7 +23,7 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
 
 
 def register_builtins() -> None:
-    from rlchain.training.on_policy import OnPolicyTrainer
+    from rlchain.algos.ppo.trainer import OnPolicyTrainer
 
     for name in ("discrete_a2c", "multi_discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
         MODELS.register(name, actor_critic_model, overwrite=True)
@@ -36,10 +36,10 @@ def register_builtins() -> None:
     NETWORKS.register("resnet_actor_critic", ResnetActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
         ALGOS.register(name, OnPolicyTrainer, overwrite=True)
-    from rlchain.algos.dqn import dqn_model
-    from rlchain.algos.sac import soft_actor_critic_model
+    from rlchain.algos.off_policy.dqn import dqn_model
+    from rlchain.algos.off_policy.sac import soft_actor_critic_model
+    from rlchain.algos.off_policy.trainer import DQNTrainer, SACTrainer
     from rlchain.networks.sac_network import QNetworkBuilder, SACNetworkBuilder
-    from rlchain.training.off_policy import DQNTrainer, SACTrainer
 
     MODELS.register("soft_actor_critic", soft_actor_critic_model, overwrite=True)
     MODELS.register("dqn", dqn_model, overwrite=True)
@@ -47,11 +47,11 @@ def register_builtins() -> None:
     NETWORKS.register("dqn", QNetworkBuilder, overwrite=True)
     ALGOS.register("sac", SACTrainer, overwrite=True)
     ALGOS.register("dqn", DQNTrainer, overwrite=True)
-    from rlchain.training.appo import APPOTrainer, ImpalaTrainer
+    from rlchain.algos.appo.trainer import APPOTrainer, ImpalaTrainer
 
     ALGOS.register("appo", APPOTrainer, overwrite=True)
     ALGOS.register("impala", ImpalaTrainer, overwrite=True)
-    import rlchain.envs.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
+    import rlchain.envs.backends.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
+    import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
     import rlchain.envs.factory  # noqa: F401  (registers env and vecenv backends)
     import rlchain.envs.test  # noqa: F401  (registers the test envs)
-    import rlchain.envs.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)

@@ -50,7 +50,7 @@ class RunContext:
 
 
 def resolve(params: Params, seed: int | None, group: Any = None) -> RunContext:
-    """The run context of this process: ``group`` is the torchrun :class:`~rlchain.training.distributed.
+    """The run context of this process: ``group`` is the torchrun :class:`~rlchain.parallel.distributed.
     Distributed` (None for a single process). A missing seed is drawn here. Under torchrun a CUDA run moves
     to the rank's ``cuda:LOCAL_RANK`` (and a tensor env's ``env_config.device`` with it), ``env_config.seed``
     is offset per rank and ranks other than 0 do not print progress."""

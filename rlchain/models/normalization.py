@@ -7,7 +7,7 @@ from collections.abc import Callable
 import torch
 import torch.nn as nn
 
-from rlchain.training import communicator
+from rlchain.parallel import communicator
 
 CHUNK_ELEMENTS = 1 << 22  # rows per chunk of batch_moments: about this many values (16 MiB of float32)
 

@@ -193,7 +193,7 @@ def _tunable(algo: str) -> tuple[str, ...]:
 def _check_keys(spec: Any, tunable: tuple[str, ...], algo: str) -> None:
     """Searched and mutated keys must exist in the base config (and take their range); under pbt
     every one must change live (the algorithm's ``tunable``), since exploits copy running trials."""
-    from rlchain.tune import _check_space
+    from rlchain.tuning.optuna_search import _check_space
 
     rs: RaySpec = spec.ray
     _check_space(spec)
@@ -261,7 +261,7 @@ def make_searcher(rs: RaySpec, spec: Any, mode: str) -> Any:
     """Optuna's TPE through Tune's OptunaSearch; random and grid are Tune's own variant generator."""
     if rs.searcher != "optuna" or not spec.params:
         return None
-    from rlchain.tune import _import_optuna
+    from rlchain.tuning.optuna_search import _import_optuna
 
     _import_optuna()  # the one-line hint when optuna is missing
     from ray.tune.search.optuna import OptunaSearch
@@ -298,7 +298,7 @@ def clip_to_ranges(config: dict, mutations: dict[str, dict]) -> dict:
 
 
 def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOutcome:
-    from rlchain.tune import _fmt, write_best_config
+    from rlchain.tuning.optuna_search import _fmt, write_best_config
 
     rows, exploits = [], []
     for result in results:
@@ -382,7 +382,7 @@ def _lineage(result: Any) -> list[list[Any]] | None:
 def write_schedule_config(spec: Any, lineage: list[list[Any]], output: str, value: float, trial: str) -> str:
     """The base config with the search's overrides, the winner's first values and its whole schedule
     as ``params.config.hyperparam_schedule`` (epochs done -> values): training it replays the schedule."""
-    from rlchain.tune import _fmt, _override_strings
+    from rlchain.tuning.optuna_search import _fmt, _override_strings
 
     first = {f"params.config.{name}": item for name, item in lineage[0][1].items()}
     raw = apply_overrides(load_raw(spec.base), spec.overrides + _override_strings(first), spec.base)

@@ -42,7 +42,7 @@ class TrialSetup:
 
 def override_strings(values: dict[str, Any]) -> list[str]:
     """``key=value`` overrides for a trial's values (YAML scalars)."""
-    from rlchain.tune import _override_strings
+    from rlchain.tuning.optuna_search import _override_strings
 
     return _override_strings(values)
 

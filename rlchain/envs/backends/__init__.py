@@ -1,0 +1,1 @@
+"""Env backends: gymnasium, envpool, brax, playground, PettingZoo, tensor envs, jax batching, Atari."""

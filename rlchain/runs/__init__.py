@@ -1,0 +1,1 @@
+"""Run output: run folders, checkpoints and the training logs."""
