@@ -42,7 +42,7 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 from rlchain.tuning import ray_search  # noqa: E402
-from rlchain.tuning.optuna_search import load_search  # noqa: E402
+from rlchain.tuning.common import load_search  # noqa: E402
 from rlchain.tuning.spec import RaySpec  # noqa: E402
 
 CONFIG = os.path.join(ROOT, "benchmarks", "rl_games_configs", "halfcheetah_envpool.yaml")

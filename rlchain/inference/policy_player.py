@@ -11,10 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from rlchain.algos.multi_policy.policies import policy_agents
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
-from rlchain.models.build import build_env, build_model, resolve_device
+from rlchain.models.build import build_env, build_model, policy_agents, resolve_device
 from rlchain.runs import checkpoint as ckpt
 
 

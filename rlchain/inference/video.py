@@ -23,7 +23,9 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.envs.vecenv import StepResult
+from rlchain.envs.wrappers.spaces import cast_actions, cast_obs
 from rlchain.inference.play import play
+from rlchain.inference.player import Player
 from rlchain.log import get_logger
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
@@ -85,7 +87,6 @@ class OneEnv:
     num_envs = 1
 
     def __init__(self, env: Any, games: int) -> None:
-        from rlchain.envs.wrappers.spaces import cast_actions, cast_obs
 
         self.env, self.games = env, games
         self.observation_space, self.action_space = env.observation_space, env.action_space
@@ -165,7 +166,6 @@ def _mp4_times(video_dir: str) -> dict[str, tuple[int, int]]:
 def record_episodes(params: Params, checkpoint: str | None, video_dir: str, games: int = 1,
                     deterministic: bool = True) -> list[str]:
     """Load ``checkpoint`` like the Player does and record ``games`` episodes to mp4 in ``video_dir``."""
-    from rlchain.inference.player import Player
 
     _require_moviepy()
     gym_id_of(params)  # fail on a non-gymnasium env before loading anything

@@ -25,6 +25,7 @@ from typing import Any
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.inference.play import PlayResult, play
+from rlchain.inference.player import Player
 from rlchain.runs import checkpoint as ckpt
 
 
@@ -63,7 +64,6 @@ def watch_and_evaluate(params: Params, dir_to_monitor: str | None = None, games:
     never; Ctrl-C stops it). ``include_existing=False`` skips checkpoints already there at the start.
     Returns the scores in evaluation order.
     """
-    from rlchain.inference.player import Player
 
     pc = params.config.player
     folder = dir_to_monitor or pc.dir_to_monitor

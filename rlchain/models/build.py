@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -10,10 +11,13 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import NetworkConfig, Params
+from rlchain.envs.factory import make_vec_env
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.central_value import obs_state_parts, obs_state_split
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
 from rlchain.registry import MODELS, NETWORKS
@@ -38,8 +42,6 @@ def build_env(params: Params, num_envs: int, seed: int | None, render: bool = Fa
     ``runners=True`` (the training envs) honours ``vecenv_type: RAY`` / ``env_runners`` (Ray workers);
     play, evaluation and export build the same envs in this process (RAY -> auto).
     """
-    from rlchain.envs.factory import make_vec_env
-
     cfg = params.config
     merged = dict(cfg.env_config)
     merged.update(env_config or {})
@@ -63,7 +65,6 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
     """Network from the network registry, wrapped by the model preset from the model registry; with
     ``config.multi_agent``, a ModuleDict of one such model per policy (algos/multi_policy/policies.py)."""
     if getattr(params, "policies", None) is not None:
-        from rlchain.algos.multi_policy.policies import build_policy_models
         return build_policy_models(params, env, device)
     obs_space, act_space = env.observation_space, env.action_space
     declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
@@ -90,8 +91,6 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
 
 def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     """The asymmetric critic of ``central_value_config`` on the env's state part, or None without one."""
-    from rlchain.models.central_value import CentralValue
-
     cv = params.config.central_value_config
     if cv is None:
         return None
@@ -122,13 +121,66 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     return model.to(device)
 
 
+@dataclass
+class PolicyView:
+    """What one policy sees of the env: its agents' (equal) spaces; ``value_size`` as VecEnvs have."""
+
+    observation_space: gym.Space
+    action_space: gym.Space
+    mask_size: int
+    value_size: int = 1
+
+
+def policy_agents(params: Params, env: Any) -> dict[str, list[str]]:
+    """policy name -> the env's agent ids it plays (policy_mapping; an unmapped agent is an error)."""
+    ma = params.config.multi_agent
+    mapping = PolicyMapping(ma.policy_mapping, list(params.policies), params.source)
+    return mapping.assign(list(env.agent_ids))
+
+
+def policy_view(params: Params, env: Any, name: str, agents: list[str]) -> PolicyView:
+    """The spaces of the agents of ``name``; agents of one policy must share them."""
+    first = agents[0]
+    for other in agents[1:]:
+        for what, spaces in (("observation", env.observation_spaces), ("action", env.action_spaces)):
+            if spaces[other] != spaces[first]:
+                raise ConfigError(params.source, f"{KEY}.policy_mapping",
+                                  f"agents '{first}' and '{other}' both map to policy '{name}' but their "
+                                  f"{what} spaces differ ({spaces[first]} vs {spaces[other]}); give them "
+                                  f"separate policies")
+    return PolicyView(env.observation_spaces[first], env.action_spaces[first], env.mask_sizes[first])
+
+
+def build_policy_models(params: Params, env: Any, device: torch.device) -> torch.nn.ModuleDict:
+    """One model per policy (``params.policies``), each built from its own network and model preset
+    for its agents' spaces; a space the named network or model cannot take is a one-line ConfigError."""
+    if not env_spec(env).pettingzoo:
+        raise ConfigError(params.source, KEY, "needs env_name: pettingzoo (a PettingZoo env in env_config.env); "
+                                              "rl_games-style multi-agent envs share one policy without it")
+    models = torch.nn.ModuleDict()
+    for name, agents in policy_agents(params, env).items():
+        if not agents:
+            continue  # a policy no agent plays (e.g. the opponent of a seat not in this env) is not built
+        view = policy_view(params, env, name, agents)
+        policy = params.policies[name]
+        try:
+            models[name] = build_model(policy, view, device)
+        except (ConfigError, ValueError, TypeError, RuntimeError) as exc:
+            detail = getattr(exc, "message", None) or " ".join(str(exc).split())
+            raise ConfigError(params.source, f"{KEY}.policies.{name}",
+                              f"network '{_network_name(policy.network)}' / model '{policy.model.name}' do "
+                              f"not fit agents {agents} (observations {view.observation_space}, actions "
+                              f"{view.action_space}): {detail}") from None
+    return models
+
+
 def declared_space(space: gym.Space) -> gym.Space:
     """The observation space as the env declared it: the Dict behind a flattened one, else ``space``."""
     return getattr(space, "dict_space", None) or space
 
 
 def _network_name(network: Any) -> str:
-    return network.name if hasattr(network, "name") else network.get("name", "actor_critic")
+    return network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
 
 
 def apply_sigma(model: Any, sigma: float) -> None:

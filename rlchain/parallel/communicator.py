@@ -3,7 +3,7 @@
 A :class:`Communicator` is handed to whatever needs the other ranks when it is built: the Loop
 and its agents take it as an argument, the normalizers inside a model read the one in force while
 the model is built (:func:`building_with`), so user model builders need no new parameter. The base
-class is a single process, where every collective is the identity; ``training.distributed.Distributed``
+class is a single process, where every collective is the identity; ``parallel.distributed.Distributed``
 is the torch.distributed one (torchrun, ``multi_gpu: True``).
 """
 
@@ -15,6 +15,20 @@ from contextlib import contextmanager
 from typing import Any
 
 import torch
+
+
+def merge_moments(means: torch.Tensor, variances: torch.Tensor, counts: torch.Tensor
+                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Mean, (population) variance and count of the union of R batches.
+
+    means, variances: (R, *shape); counts: (R,). Exact (parallel-variance formula), in the input dtype.
+    """
+    shape = (-1,) + (1,) * (means.dim() - 1)
+    weights = counts.reshape(shape)
+    total = counts.sum()
+    mean = (weights * means).sum(0) / total
+    var = (weights * (variances + (means - mean).square())).sum(0) / total
+    return mean, var, total
 
 
 class Communicator:

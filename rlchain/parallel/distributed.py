@@ -38,8 +38,8 @@ import torch.distributed as dist
 from rlchain.config.errors import ConfigError
 from rlchain.config.resolve import RANK_SEED_STRIDE  # rank r seeds its envs and RNGs with seed + r * this
 from rlchain.errors import DistributedError
-from rlchain.models.normalization import merge_moments
-from rlchain.parallel.communicator import Communicator
+from rlchain.parallel.communicator import Communicator, merge_moments
+from rlchain.registry import ALGOS
 
 KEY = "params.config.multi_gpu"
 LAUNCH_VARS = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
@@ -274,7 +274,6 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
     """
     import secrets
 
-    from rlchain.registry import ALGOS
 
     cfg = params.config
     trainer_class = ALGOS.get(params.algo.name)

@@ -29,6 +29,7 @@ from rlchain.models.build import build_env
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
 from rlchain.parallel.threads import ThreadPlan
+from rlchain.runs.checkpoint import seed_everything
 from rlchain.runs.logging import EnvStatsCallback, TrainLogger
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.episodes import EpisodeTracker, game_outcome
@@ -281,7 +282,6 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         for model, agent in self.learners():
             self.comm.broadcast_learner(model, agent)
         if self.epoch > 0 and not self.comm.is_main:
-            from rlchain.runs.checkpoint import seed_everything
             seed_everything(self.comm.rank_seed + self.epoch)
 
     def _episode_stats(self) -> dict[str, float] | None:

@@ -13,6 +13,7 @@ from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.safety import check_parameters
+from rlchain.version import __version__
 
 log = get_logger(__name__)
 
@@ -96,5 +97,4 @@ class CheckpointMixin:
 
 
 def _version() -> str:
-    from rlchain import __version__
     return __version__

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from rlchain.runs import checkpoint as ckpt
+from rlchain.runs.logging import TrainLogger
+from rlchain.runs.run_dir import create_run_dir
 from rlchain.training.callback_context import training_state
 from rlchain.training.events import Callback
 
@@ -108,8 +110,6 @@ class EpochStepper(Callback):
     def move_run(self, experiment: str) -> None:
         """Log and checkpoint the parked run under another run folder of the same train_dir (an
         actor Ray reuses for another trial keeps its envs but writes that trial's TensorBoard)."""
-        from rlchain.runs.logging import TrainLogger
-        from rlchain.runs.run_dir import create_run_dir
 
         trainer = self.trainer
         if trainer is None or trainer.run is None:

@@ -24,6 +24,8 @@ import torch
 
 from rlchain.algos.appo.fragments import Fragment
 from rlchain.algos.appo.impala import ImpalaAgent
+from rlchain.algos.appo.local_runners import LocalRunners
+from rlchain.algos.appo.ray_runners import RayRunners
 from rlchain.algos.appo.runner_pool import RunnerPool
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import RolloutStorage
@@ -32,6 +34,8 @@ from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import EnvRunnersConfig, Params
+from rlchain.envs.ray.ray_env import worker_slices
+from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.errors import DivergenceError
 from rlchain.parallel.communicator import Communicator
 from rlchain.runs.logging import TrainLogger
@@ -63,8 +67,6 @@ class APPOTrainer(Loop):
     @classmethod
     def build_training_env(cls, params: Params, seed: int | None) -> RunnerPool:
         """The runners (local threads or Ray actors, ``appo.runners``) instead of a vectorized env."""
-        from rlchain.envs.ray.ray_env import worker_slices
-        from rlchain.envs.ray.ray_worker import EnvRecipe
 
         cfg = params.config
         runners = cfg.env_runners if cfg.env_runners is not None else EnvRunnersConfig()
@@ -79,9 +81,7 @@ class APPOTrainer(Loop):
                 cfg.appo.fragment_timeout_s, cls.step_delays)
         try:
             if runner_mode(cfg) == "ray":
-                from rlchain.algos.appo.ray_runners import RayRunners
                 return RayRunners(*args, runners=runners)
-            from rlchain.algos.appo.local_runners import LocalRunners
             return LocalRunners(*args)
         except ImportError:
             raise ConfigError(params.source, "params.config.appo.runners", "ray runners need ray, which is not "

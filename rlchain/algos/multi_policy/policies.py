@@ -3,79 +3,16 @@ PettingZoo env, its learner (agent, rollout storage, active mask) and its episod
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import torch
 
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.multi_policy.masked import MaskedPPOAgent
-from rlchain.config.errors import ConfigError
-from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import Params
-from rlchain.envs.spec import env_spec
+from rlchain.runs.checkpoint import CheckpointError
 from rlchain.training.episodes import EpisodeTracker
-
-
-@dataclass
-class PolicyView:
-    """What one policy sees of the env: its agents' (equal) spaces; ``value_size`` as VecEnvs have."""
-
-    observation_space: gym.Space
-    action_space: gym.Space
-    mask_size: int
-    value_size: int = 1
-
-
-def policy_agents(params: Params, env: Any) -> dict[str, list[str]]:
-    """policy name -> the env's agent ids it plays (policy_mapping; an unmapped agent is an error)."""
-    ma = params.config.multi_agent
-    mapping = PolicyMapping(ma.policy_mapping, list(params.policies), params.source)
-    return mapping.assign(list(env.agent_ids))
-
-
-def policy_view(params: Params, env: Any, name: str, agents: list[str]) -> PolicyView:
-    """The spaces of the agents of ``name``; agents of one policy must share them."""
-    first = agents[0]
-    for other in agents[1:]:
-        for what, spaces in (("observation", env.observation_spaces), ("action", env.action_spaces)):
-            if spaces[other] != spaces[first]:
-                raise ConfigError(params.source, f"{KEY}.policy_mapping",
-                                  f"agents '{first}' and '{other}' both map to policy '{name}' but their "
-                                  f"{what} spaces differ ({spaces[first]} vs {spaces[other]}); give them "
-                                  f"separate policies")
-    return PolicyView(env.observation_spaces[first], env.action_spaces[first], env.mask_sizes[first])
-
-
-def build_policy_models(params: Params, env: Any, device: torch.device) -> torch.nn.ModuleDict:
-    """One model per policy (``params.policies``), each built from its own network and model preset
-    for its agents' spaces; a space the named network or model cannot take is a one-line ConfigError."""
-    from rlchain.models.build import build_model
-
-    if not env_spec(env).pettingzoo:
-        raise ConfigError(params.source, KEY, "needs env_name: pettingzoo (a PettingZoo env in env_config.env); "
-                                              "rl_games-style multi-agent envs share one policy without it")
-    models = torch.nn.ModuleDict()
-    for name, agents in policy_agents(params, env).items():
-        if not agents:
-            continue  # a policy no agent plays (e.g. the opponent of a seat not in this env) is not built
-        view = policy_view(params, env, name, agents)
-        policy = params.policies[name]
-        try:
-            models[name] = build_model(policy, view, device)
-        except (ConfigError, ValueError, TypeError, RuntimeError) as exc:
-            detail = getattr(exc, "message", None) or " ".join(str(exc).split())
-            raise ConfigError(params.source, f"{KEY}.policies.{name}",
-                              f"network '{_network_name(policy.network)}' / model '{policy.model.name}' do "
-                              f"not fit agents {agents} (observations {view.observation_space}, actions "
-                              f"{view.action_space}): {detail}") from None
-    return models
-
-
-def _network_name(network: Any) -> str:
-    return network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
 
 
 class AgentEpisodes(EpisodeTracker):
@@ -155,8 +92,7 @@ class PolicyAgents:
     def load_state_dict(self, state: dict) -> None:
         missing = [name for name in self.agents if name not in state]
         if missing:
-            from rlchain.runs.checkpoint import CheckpointError
-            raise CheckpointError(f"checkpoint has no optimizer state for policy '{missing[0]}' "
+                raise CheckpointError(f"checkpoint has no optimizer state for policy '{missing[0]}' "
                                   f"(it has: {', '.join(state) or 'none'})")
         for name, agent in self.agents.items():
             agent.load_state_dict(state[name])

@@ -17,15 +17,17 @@ import torch
 
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
-from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner, policy_agents
+from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
+from rlchain.algos.multi_policy.snapshots import SnapshotCallback
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY
 from rlchain.config.schema import Params
-from rlchain.errors import DivergenceError
+from rlchain.errors import DivergenceError, EnvError
+from rlchain.models.build import policy_agents
 from rlchain.parallel.communicator import Communicator
 from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import RunDir
-from rlchain.training.loop import Loop
+from rlchain.training.loop import Loop, describe
 from rlchain.training.safety import DivergenceGuard, check_rollout
 
 STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entropy": "losses/{}/entropy",
@@ -63,7 +65,6 @@ class MultiPolicyTrainer(Loop):
         self.agent = PolicyAgents(self.learners)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         if self.cfg.self_play_config is not None:
-            from rlchain.algos.multi_policy.snapshots import SnapshotCallback
             self.events.add(SnapshotCallback(self.cfg.self_play_config, ma.snapshots, params.source))
 
     def learner(self, name: str) -> PolicyLearner:
@@ -175,8 +176,6 @@ class MultiPolicyTrainer(Loop):
 
     # ----- the Loop's env handling for per-agent observations ---------------------------------
     def _reset_envs(self) -> Any:
-        from rlchain.errors import EnvError
-        from rlchain.training.loop import describe
         try:
             return self.env.reset(seed=self.seed + self.epoch)
         except Exception as exc:

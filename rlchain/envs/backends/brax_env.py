@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.jax_batch import JaxBatchVecEnv
 
 INSTALL_HINT = "brax is not installed: pip install rlchain[brax] (or pip install brax)"
@@ -54,7 +55,6 @@ class BraxVecEnv(JaxBatchVecEnv):
 
 def brax_env(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> BraxVecEnv:
     """``env_name: brax``: the brax env ``env_config.env_name``; the other keys are BraxVecEnv's."""
-    from rlchain.config.errors import ConfigError
 
     if "env_name" not in env_config:
         raise ConfigError("", "params.config.env_config.env_name", "is required with env_name brax "

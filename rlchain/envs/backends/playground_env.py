@@ -25,7 +25,7 @@ import math
 import subprocess
 from typing import Any
 
-from rlchain.config.errors import did_you_mean
+from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.envs.backends.jax_batch import JaxBatchVecEnv
 
 INSTALL_HINT = "MuJoCo Playground is not installed: pip install rlchain[playground] (or pip install playground)"
@@ -130,7 +130,6 @@ class PlaygroundVecEnv(JaxBatchVecEnv):
 
 def playground_env(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> PlaygroundVecEnv:
     """``env_name: playground``: the Playground env ``env_config.env_name``; the other keys are PlaygroundVecEnv's."""
-    from rlchain.config.errors import ConfigError
 
     where = "params.config.env_config"
     if "env_name" not in env_config:

@@ -12,6 +12,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.inference.play import play
+
 RANDOM_OBS_BOUND = 10.0
 """Random parity observations: an unbounded side of a Box dim (inf, or beyond +-1e6 like CartPole's
 float32-max velocity bounds) is replaced so the dim spans 2 * RANDOM_OBS_BOUND (-10..10 when both
@@ -56,7 +58,6 @@ def env_rollout(model: Any, env: Any, steps: int, seed: int = 0) -> tuple[np.nda
     """Observations of ``steps`` deterministic policy steps in ``env`` (all envs), stacked, and the
     env's action masks at each of them ((n, mask_size) bool), None when the model uses no masks.
     The steps are played by :func:`rlchain.inference.play.play` (RNN state zeroed where episodes end)."""
-    from rlchain.inference.play import play
 
     seen, masks = [], []
 

@@ -47,6 +47,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 
+from rlchain.config.errors import ConfigError
 from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the parity inputs)
     HUGE_BOUND,
     RANDOM_OBS_BOUND,
@@ -56,6 +57,8 @@ from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the p
     random_observations,
 )
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.build import build_env, build_model
+from rlchain.runs import checkpoint as ckpt
 
 INSTALL_HINT = "pip install rlchain[onnx]"
 
@@ -209,8 +212,6 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
 
 def _load(params: Any, checkpoint_path: str, num_envs: int = 1) -> tuple[ActorCritic, Any]:
     """Checkpoint + env + model on the CPU, as the Player builds them. Returns (model, env)."""
-    from rlchain.models.build import build_env, build_model
-    from rlchain.runs import checkpoint as ckpt
 
     state = ckpt.load(checkpoint_path, map_location="cpu")  # CheckpointError before building anything
     seed = params.seed if params.seed is not None else 0
@@ -254,7 +255,6 @@ def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = No
     observations of ``env_steps`` policy steps in ``num_envs`` envs; a masked policy gets random
     masks with the former and the env's own masks with the latter. Returns the output path.
     """
-    from rlchain.config.errors import ConfigError
 
     if not checkpoint:
         raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")

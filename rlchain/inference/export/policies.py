@@ -19,6 +19,8 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.inference.export.inputs import random_observations
 from rlchain.inference.export.onnx import _require, default_output_path, export_model_onnx, onnx_session, verify_onnx
+from rlchain.models.build import build_env, build_model, policy_agents
+from rlchain.runs import checkpoint as ckpt
 
 
 def policy_output_path(output: str, policy: str) -> str:
@@ -30,9 +32,6 @@ def policy_output_path(output: str, policy: str) -> str:
 def export_policies(params: Any, checkpoint: str, output: str | None = None, policy: str | None = None,
                     opset: int = 17, num_random: int = 64, env_steps: int = 8) -> list[str]:
     """Export every policy of ``checkpoint`` (or only ``policy``) to ONNX; returns the paths."""
-    from rlchain.algos.multi_policy.policies import policy_agents
-    from rlchain.models.build import build_env, build_model
-    from rlchain.runs import checkpoint as ckpt
 
     _require("onnx")
     _require("onnxruntime")
