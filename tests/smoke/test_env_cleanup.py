@@ -9,7 +9,8 @@ import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.config import ConfigError
 from rlchain.errors import DivergenceError, EnvError
-from rlchain.models import build, loop
+from rlchain.models import build
+from rlchain.training import loop
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
