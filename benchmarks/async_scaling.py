@@ -12,7 +12,7 @@ The learner's update is simulated too: a sleep of ``--learner-us`` per frame of 
 - sync: rlchain's synchronous runner pattern (``vecenv_type: RAY``): every step waits for every
   worker (threads stepping in lockstep), batched inference in the learner, then the update;
   sampling and learning never overlap.
-- appo: rlchain's appo runner pool (``rlchain.training.local_runners.LocalRunners``, the code
+- appo: rlchain's appo runner pool (``rlchain.algos.appo.local_runners.LocalRunners``, the code
   ``appo.runners: local`` trains with): runner threads with their own policy copy sample
   ``--horizon``-step fragments into the bounded queue; the learner takes ``workers`` fragments per
   batch from whoever is ready, drops fragments more than ``--max-lag`` versions old, "updates",
@@ -42,13 +42,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
+from rlchain.algos.appo.local_runners import LocalRunners  # noqa: E402
 from rlchain.config.load import parse_params  # noqa: E402
 from rlchain.config.schema import EnvRunnersConfig  # noqa: E402
 from rlchain.envs.factory import make_vec_env  # noqa: E402
-from rlchain.envs.ray_env import worker_slices  # noqa: E402
-from rlchain.envs.ray_worker import EnvRecipe  # noqa: E402
-from rlchain.training.build import build_model  # noqa: E402
-from rlchain.training.local_runners import LocalRunners  # noqa: E402
+from rlchain.envs.ray.ray_env import worker_slices  # noqa: E402
+from rlchain.envs.ray.ray_worker import EnvRecipe  # noqa: E402
+from rlchain.models.build import build_model  # noqa: E402
 
 ENV_ID = "rlchain-bench/Sleep-v0"
 

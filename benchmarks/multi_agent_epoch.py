@@ -21,9 +21,9 @@ ROOT = os.getcwd()
 sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
-from rlchain.training.build import build_env, build_model  # noqa: E402
-from rlchain.training.logging import TrainLogger  # noqa: E402
-from rlchain.training.on_policy import OnPolicyTrainer  # noqa: E402
+from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
+from rlchain.models.build import build_env, build_model  # noqa: E402
+from rlchain.runs.logging import TrainLogger  # noqa: E402
 
 
 def main() -> None:

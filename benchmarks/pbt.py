@@ -41,8 +41,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from rlchain.tune import load_search  # noqa: E402
 from rlchain.tuning import ray_search  # noqa: E402
+from rlchain.tuning.common import load_search  # noqa: E402
 from rlchain.tuning.spec import RaySpec  # noqa: E402
 
 CONFIG = os.path.join(ROOT, "benchmarks", "rl_games_configs", "halfcheetah_envpool.yaml")

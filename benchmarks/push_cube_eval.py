@@ -68,9 +68,9 @@ def main() -> None:
     args = parser.parse_args()
 
     from rlchain.config.load import load_config
+    from rlchain.models.build import build_env, build_model
     from rlchain.models.stepper import PolicyStepper
-    from rlchain.training import checkpoint as ckpt
-    from rlchain.training.build import build_env, build_model
+    from rlchain.runs import checkpoint as ckpt
 
     torch.set_num_threads(1)
     params = load_config(args.config)

@@ -23,8 +23,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
-from rlchain.training import checkpoint as ckpt  # noqa: E402
-from rlchain.training.build import build_env, build_model  # noqa: E402
+from rlchain.models.build import build_env, build_model  # noqa: E402
+from rlchain.runs import checkpoint as ckpt  # noqa: E402
 
 CONFIG = os.path.join(ROOT, "rlchain", "configs", "ppo_pz_connect_four_self_play.yaml")
 

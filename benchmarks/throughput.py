@@ -58,10 +58,10 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
-from rlchain.training.build import build_env, build_model, resolve_device  # noqa: E402
-from rlchain.training.logging import TrainLogger  # noqa: E402
-from rlchain.training.on_policy import OnPolicyTrainer  # noqa: E402
-from rlchain.training.threads import plan_threads  # noqa: E402
+from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
+from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
+from rlchain.parallel.threads import plan_threads  # noqa: E402
+from rlchain.runs.logging import TrainLogger  # noqa: E402
 
 CONFIG_DIR = os.path.join(ROOT, "rlchain", "configs")
 CONFIGS = {

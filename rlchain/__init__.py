@@ -4,9 +4,8 @@
     result = rlchain.Runner().load("rlchain/configs/ppo_cartpole.yaml").train()
 """
 
-__version__ = "0.1.0"
-
 from rlchain.builtins import register_builtins  # noqa: E402
+from rlchain.version import __version__  # noqa: E402
 
 register_builtins()
 

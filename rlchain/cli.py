@@ -9,8 +9,12 @@ import warnings
 
 from rlchain.config.errors import ConfigError
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
-from rlchain.training.checkpoint import CheckpointError
-from rlchain.training.wandb_logger import TrackingError
+from rlchain.inference.video import record_episodes
+from rlchain.inference.watch import watch_and_evaluate
+from rlchain.runner import Runner
+from rlchain.runs.checkpoint import CheckpointError
+from rlchain.runs.wandb_logger import TrackingError
+from rlchain.tuning.search import run_search
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -90,10 +94,8 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from rlchain.runner import Runner
 
     if args.tune:
-        from rlchain.tune import run_search
         run_search(args.tune, args.output)
         return 0
     overrides = list(args.overrides)
@@ -125,12 +127,10 @@ def _run(args: argparse.Namespace) -> int:
     elif args.video and runner.params.policies is not None:
         raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
     elif args.video:
-        from rlchain.video import record_episodes
         files = record_episodes(runner.params, args.checkpoint, args.video, games=args.games or 1,
                                 deterministic=not args.stochastic)
         print("\n".join(files))
     elif runner.params.config.player.evaluation:  # rl_games: watch dir_to_monitor, evaluate new checkpoints
-        from rlchain.watch import watch_and_evaluate
         watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)
     else:
         runner.play(args.checkpoint, deterministic=False if args.stochastic else None, sigma=args.sigma)

@@ -11,15 +11,26 @@ import copy
 import os
 from typing import Any
 
+from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, check_batch, import_user_modules, load_raw, parse_params
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params, TrainConfig
 from rlchain.envs.spec import env_spec
+from rlchain.inference.export.onnx import export_from_cli
+from rlchain.inference.export.policies import export_policies
+from rlchain.inference.player import Player
+from rlchain.inference.policy_player import play_policies
 from rlchain.log import get_logger
+from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.parallel import communicator, distributed
+from rlchain.parallel.threads import ThreadPlan, set_threads
 from rlchain.registry import ALGOS
-from rlchain.training import checkpoint as ckpt
-from rlchain.training import communicator
-from rlchain.training.threads import ThreadPlan, set_threads
+from rlchain.runs import checkpoint as ckpt
+from rlchain.runs.checkpoint import seed_everything
+from rlchain.runs.logging import TrainLogger
+from rlchain.runs.run_dir import create_run_dir
+from rlchain.runs.writers import WandbWriter, check_writer_names, make_writers
 
 log = get_logger(__name__)
 
@@ -71,7 +82,6 @@ class Runner:
         ``track`` logs the scalars (TensorBoard tags) and the config to Weights & Biases. Under torchrun
         with ``multi_gpu: True`` every rank calls this; rank 0 alone writes the run folder.
         """
-        from rlchain.training import distributed
 
         params = self._require()
         seed = seed if seed is not None else params.seed
@@ -90,8 +100,6 @@ class Runner:
 
     def _train(self, params: Params, group: Any, checkpoint: str | None, seed: int | None, sigma: float | None,
                callbacks: list[Any], track: bool, wandb_project: str, wandb_entity: str | None) -> Any:
-        from rlchain.training.build import build_env, build_model, resolve_device
-        from rlchain.training.checkpoint import seed_everything
 
         run_ctx: RunContext = resolve(params, seed, group)  # this process's device, seed (per rank), printing
         params, seed = run_ctx.params, run_ctx.seed
@@ -122,11 +130,6 @@ class Runner:
                           checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
                           wandb_project: str, wandb_entity: str | None, group: Any = None,
                           threads: ThreadPlan | None = None) -> Any:
-        from rlchain.runs.writers import WandbWriter, check_writer_names, make_writers
-        from rlchain.training.build import apply_sigma
-        from rlchain.training.logging import TrainLogger
-        from rlchain.training.run_dir import create_run_dir
-
         cfg = params.config
         main = group is None or group.is_main  # under torchrun only rank 0 writes folders, logs and checkpoints
         check_writer_names(cfg.log_writers, params.source)  # before a run folder exists
@@ -143,7 +146,6 @@ class Runner:
         try:
             trainer_class = ALGOS.get(params.algo.name)
             if params.policies is not None:  # config.multi_agent: one PPO learner per policy
-                from rlchain.training.multi_policy import MultiPolicyTrainer
                 trainer_class = MultiPolicyTrainer
             make = getattr(trainer_class, "create", trainer_class)  # Loop.create: no leak if __init__ fails
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
@@ -174,27 +176,22 @@ class Runner:
     def export(self, checkpoint: str, output: str | None = None, policy: str | None = None) -> str | list[str]:
         """Export the checkpoint's deterministic policy to ONNX (with a parity check); returns the path.
         With ``config.multi_agent``: one graph per policy (only ``policy`` when given); returns the paths."""
-        from rlchain.export import export_from_cli
 
         params = self._require()
         if params.policies is not None:
-            from rlchain.export_policies import export_policies
             return export_policies(params, checkpoint, output, policy)
         if policy is not None:
-            from rlchain.config.errors import ConfigError
             raise ConfigError(params.source, "--policy", "applies to configs with config.multi_agent only")
         return export_from_cli(self, checkpoint, output)
 
     def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
              sigma: float | None = None, quiet: bool = False) -> Any:
         """Play with the Player; returns a PlayResult."""
-        from rlchain.player import Player
 
         params = self._require()
         # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
         set_threads(params.torch_threads, None, params.config.device, updates=False)
         if params.policies is not None:  # config.multi_agent: every policy plays its agents
-            from rlchain.policy_player import play_policies
             return play_policies(params, checkpoint, games, deterministic, quiet)
         player = Player(params, checkpoint, sigma=sigma)
         try:

@@ -16,6 +16,7 @@ import yaml
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
+from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
 from rlchain.config.schema import (
     CentralValueConfig,
     NamedBlock,
@@ -24,6 +25,7 @@ from rlchain.config.schema import (
     ResnetNetworkConfig,
     TrainConfig,
 )
+from rlchain.registry import ALGOS, MODELS, NETWORKS, network_config_class
 
 
 def load_raw(path: str) -> dict[str, Any]:
@@ -72,7 +74,6 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
 
 def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     """Validate a whole config dict and return typed :class:`Params`."""
-    from rlchain.registry import ALGOS, MODELS, NETWORKS
 
     if "params" not in raw:
         raise ConfigError(source, "params", "required top-level key is missing")
@@ -168,8 +169,6 @@ def import_user_modules(raw: Any, source: str = "<config>") -> list[str]:
 def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Params]:
     """``config.multi_agent``: each policy's own Params -- the top-level network, model and config with
     the policy's ``network`` / ``model`` / ``config`` in their place (see rlchain/config/multi_agent.py)."""
-    from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
-    from rlchain.registry import MODELS, NETWORKS
 
     ma = top.config.multi_agent
     if top.network is not None and isinstance(top.network, (NetworkConfig, ResnetNetworkConfig)) \
@@ -212,7 +211,6 @@ def load_config(path: str, overrides: list[str] | None = None) -> Params:
 def _parse_network(network: Any, source: str, path: str = "params.network") -> Any:
     """Built-in builders get a typed NetworkConfig; user builders may declare ``config_class`` (a class
     attribute, or ``register_network(..., config_class=...)``)."""
-    from rlchain.registry import network_config_class
 
     if network is None:
         network = {}
@@ -301,7 +299,6 @@ def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
 def _resolve_central_value(config: TrainConfig, source: str) -> CentralValueConfig:
     """The asymmetric critic: value-only network, a minibatch that divides the batch. Returns the block
     with its network parsed and its minibatch_size resolved (default: the actor's)."""
-    from rlchain.registry import NETWORKS
 
     cv, path = config.central_value_config, "params.config.central_value_config"
     cv = dataclasses.replace(cv, network=_parse_network(cv.network, source, f"{path}.network"))

@@ -27,7 +27,7 @@ def _check_bounds(b: list[float]) -> str | None:
 @dataclass(frozen=True)
 class HERConfig:
     """``config.replay.her`` (rlchain): hindsight experience replay for goal envs (Dict observations with
-    achieved_goal / desired_goal and a compute_reward; see rlchain/algos/her.py)."""
+    achieved_goal / desired_goal and a compute_reward; see rlchain/algos/off_policy/her.py)."""
 
     strategy: str = option("future", "where hindsight goals come from: future = the goal achieved at a random "
                                      "later step of the same episode, final = at its last step",

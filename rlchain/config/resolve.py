@@ -17,7 +17,9 @@ from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
+from rlchain.config.load import _parse_network
 from rlchain.config.schema import NamedBlock, Params, TrainConfig
+from rlchain.registry import ALGOS
 
 CONFIG_FORMAT = "rlchain-config-2"
 """``config_format`` of a checkpoint whose ``config`` is the resolved config (:func:`config_state`);
@@ -50,7 +52,7 @@ class RunContext:
 
 
 def resolve(params: Params, seed: int | None, group: Any = None) -> RunContext:
-    """The run context of this process: ``group`` is the torchrun :class:`~rlchain.training.distributed.
+    """The run context of this process: ``group`` is the torchrun :class:`~rlchain.parallel.distributed.
     Distributed` (None for a single process). A missing seed is drawn here. Under torchrun a CUDA run moves
     to the rank's ``cuda:LOCAL_RANK`` (and a tensor env's ``env_config.device`` with it), ``env_config.seed``
     is offset per rank and ranks other than 0 do not print progress."""
@@ -111,8 +113,6 @@ def _plain(value: Any) -> Any:
 def params_from_state(data: Any, source: str) -> Params:
     """Params from :func:`config_state`'s ``params`` (plain data), checked field by field like a config file.
     The cross-key checks and derivations ran when the config was first parsed; their results are stored."""
-    from rlchain.config.load import _parse_network
-    from rlchain.registry import ALGOS
 
     if not isinstance(data, dict) or not {"algo", "model", "config"} <= set(data):
         raise ConfigError(source, "config", "the checkpoint's config has no algo, model and config")

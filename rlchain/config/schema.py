@@ -166,7 +166,7 @@ class ResnetNetworkConfig:
     ``require_rewards`` / ``require_last_actions`` feed the previous (clipped) reward and the
     one-hot previous action to the recurrent layer, beside the image features (to the MLP when there
     is no ``rnn``). The env supplies them: ``env_config.use_dict_obs_space: True`` (envpool) or
-    ``wrap_impala: True`` (atari_gym), see rlchain/envs/reward_action_obs.py.
+    ``wrap_impala: True`` (atari_gym), see rlchain/envs/wrappers/reward_action_obs.py.
     """
 
     name: str = option("resnet_actor_critic", "registered network builder")
@@ -251,7 +251,7 @@ class EnvRunnersConfig:
 
     This block, or ``vecenv_type: RAY`` (rl_games' name; the block's defaults), turns it on. The
     ``num_actors`` envs are split over the workers; each worker builds its slice with the backend
-    ``vecenv_type`` names (RAY: auto). Details: rlchain/envs/ray_env.py.
+    ``vecenv_type`` names (RAY: auto). Details: rlchain/envs/ray/ray_env.py.
     """
 
     num_workers: int | None = option(None, "Ray actors stepping the envs (default: num_actors / envs_per_worker "

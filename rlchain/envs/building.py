@@ -2,7 +2,7 @@
 
 This is the env building that :mod:`rlchain.envs.factory` (the entry point, which adds Ray env
 runners and the :class:`~rlchain.envs.spec.EnvSpec`) and each Ray env worker
-(:mod:`rlchain.envs.ray_worker`) share, so neither imports the other.
+(:mod:`rlchain.envs.ray.ray_worker`) share, so neither imports the other.
 
 ``env_name`` is resolved in this order:
 
@@ -31,15 +31,15 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.envs.backends.brax_env import brax_env
+from rlchain.envs.backends.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
+from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv, native_vector_class
+from rlchain.envs.backends.pettingzoo_env import pettingzoo_env
+from rlchain.envs.backends.playground_env import playground_env
 from rlchain.envs.backends.rl_games_vecenv import make_registered_vecenv
-from rlchain.envs.brax_env import brax_env
-from rlchain.envs.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
-from rlchain.envs.gymnasium_env import GymnasiumVecEnv, native_vector_class
-from rlchain.envs.multi_agent import make_multi_agent_env
-from rlchain.envs.pettingzoo_env import pettingzoo_env
-from rlchain.envs.playground_env import playground_env
-from rlchain.envs.reward_action_obs import RewardActionObs
 from rlchain.envs.vecenv import VecEnv, resolve_vecenv_type
+from rlchain.envs.wrappers.multi_agent import make_multi_agent_env
+from rlchain.envs.wrappers.reward_action_obs import RewardActionObs
 from rlchain.registry import ENVS
 
 VECENV_TYPES = ("auto", "sync", "async", "native", "envpool", "ray")
@@ -47,7 +47,7 @@ RL_GAMES_ENVPOOL_KEYS = {"has_lives", "flatten_obs", "env_type"}
 """rl_games envpool env_config keys that are not envpool.make arguments; accepted and not used
 (has_lives: Atari scores are always whole games, from envpool's own game-over signal, see
 envpool_env.game_signals; Dict obs are always flattened; the gymnasium API is always used).
-``use_dict_obs_space: True`` adds the previous reward and action to the obs (envs/reward_action_obs.py)."""
+``use_dict_obs_space: True`` adds the previous reward and action to the obs (envs/wrappers/reward_action_obs.py)."""
 
 NAME, CONFIG, VECENV = "params.config.env_name", "params.config.env_config", "params.config.vecenv_type"
 GROUPS = "params.config.env_groups"
@@ -144,7 +144,7 @@ def _envpool(task: str, path: str, kwargs: dict, num_envs: int, seed: int | None
     if task not in tasks:
         raise _error(path, f"envpool has no task '{task}'{did_you_mean(task, tasks)}")
     dict_obs = kwargs.pop("use_dict_obs_space", False)  # rl_games: previous reward and action in the obs
-    repeat = kwargs.pop("action_repeat", 1)  # rlchain's own (envs/action_repeat.py), not an envpool option
+    repeat = kwargs.pop("action_repeat", 1)  # rlchain's own (envs/wrappers/action_repeat.py), not an envpool option
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise _error(f"{CONFIG}.action_repeat", f"expected an integer >= 1 (env steps per action), got {repeat!r}")
     for key in RL_GAMES_ENVPOOL_KEYS:

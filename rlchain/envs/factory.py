@@ -2,7 +2,7 @@
 
 The envs of this process are built by :mod:`rlchain.envs.building` (how ``env_name`` is resolved,
 the gymnasium / envpool / brax / pettingzoo backends); ``vecenv_type: RAY`` or an ``env_runners``
-block puts them on Ray workers (:mod:`rlchain.envs.ray_env`), each building its slice with that same
+block puts them on Ray workers (:mod:`rlchain.envs.ray.ray_env`), each building its slice with that same
 module. Either way the VecEnv returned carries its :class:`~rlchain.envs.spec.EnvSpec` as
 ``env.env_spec`` (agents, value size, mask size, tensor env, groups, ...), read once here.
 Config mistakes raise :class:`ConfigError` (a ValueError) naming the key path; the caller adds
@@ -23,7 +23,7 @@ from rlchain.envs.building import (
     openai_gym_env,
     resolve_env_groups,
 )
-from rlchain.envs.ray_env import make_ray_vec_env
+from rlchain.envs.ray.ray_env import make_ray_vec_env
 from rlchain.envs.spec import attach_spec
 from rlchain.envs.vecenv import VecEnv
 

@@ -69,7 +69,7 @@ class ActorCritic(ValueModel):
     def aux_losses(self) -> Any:
         """The network's auxiliary losses from its last forward pass (rl_games' ``get_aux_loss()``:
         a dict of scalar tensors, or None); None when the network has no such method. Unchecked:
-        :func:`rlchain.algos.losses.aux_loss_terms` validates them."""
+        :func:`rlchain.algos.core.losses.aux_loss_terms` validates them."""
         get_aux_loss = getattr(self.network, "get_aux_loss", None)
         return get_aux_loss() if callable(get_aux_loss) else None
 

@@ -20,7 +20,7 @@ class ObservationModel(nn.Module):
 
     Subclasses set ``self.obs_norm`` (a RunningMeanStd or None) and may set ``flatten_obs``.
     ``obs_slice`` picks this model's part of ``[obs | state]`` observations (asymmetric critic:
-    the actor reads ``[:obs_size]``, the central value ``[obs_size:]``; see envs/central_value.py).
+    the actor reads ``[:obs_size]``, the central value ``[obs_size:]``; see envs/wrappers/central_value.py).
     """
 
     flatten_obs = False

@@ -7,23 +7,10 @@ from collections.abc import Callable
 import torch
 import torch.nn as nn
 
-from rlchain.training import communicator
+from rlchain.parallel import communicator
+from rlchain.parallel.communicator import merge_moments
 
 CHUNK_ELEMENTS = 1 << 22  # rows per chunk of batch_moments: about this many values (16 MiB of float32)
-
-
-def merge_moments(means: torch.Tensor, variances: torch.Tensor, counts: torch.Tensor
-                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Mean, (population) variance and count of the union of R batches.
-
-    means, variances: (R, *shape); counts: (R,). Exact (parallel-variance formula), in the input dtype.
-    """
-    shape = (-1,) + (1,) * (means.dim() - 1)
-    weights = counts.reshape(shape)
-    total = counts.sum()
-    mean = (weights * means).sum(0) / total
-    var = (weights * (variances + (means - mean).square())).sum(0) / total
-    return mean, var, total
 
 
 def batch_moments(x: torch.Tensor, transform: Callable[[torch.Tensor], torch.Tensor] | None = None,

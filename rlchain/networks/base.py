@@ -4,7 +4,7 @@ A builder is registered with ``rlchain.model_builder.register_network(name, Buil
 rlchain calls ``builder = BuilderClass(); builder.load(params_network); builder.build(name, **kwargs)``
 with kwargs ``actions_num``, ``input_shape``, ``value_size``, ``num_seqs``, ``action_space`` and
 ``observation_space`` (the env's own space: for Dict observations, which arrive flattened, the Dict,
-so the network can split them by key with ``rlchain.envs.dict_obs.split_flat_obs``).
+so the network can split them by key with ``rlchain.envs.wrappers.dict_obs.split_flat_obs``).
 The module's ``forward(input_dict)`` receives ``{'obs': (B, *obs_shape) tensor, ...}`` and returns
 ``(logits, value, states)`` for discrete actions or ``(mu, sigma, value, states)`` for continuous
 ones; ``value`` has shape (B, value_size). As the critic of ``central_value_config.network`` it is

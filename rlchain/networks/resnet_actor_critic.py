@@ -2,7 +2,7 @@
 
 Observations are either an image, (B, C, H, W) or channels-last with ``cnn.permute_input`` (uint8
 images reach the network scaled to [0, 1] by the model), or the flat vector of rl_games' Dict
-``{'observation', 'reward', 'last_action'}`` that rlchain/envs/reward_action_obs.py makes
+``{'observation', 'reward', 'last_action'}`` that rlchain/envs/wrappers/reward_action_obs.py makes
 (``use_dict_obs_space`` / ``wrap_impala``). Its observation space then carries ``dict_space``, the
 layout, which this network reads from the builder's ``observation_space`` (duck-typed: networks do
 not import envs). The image part goes through the encoder; with ``require_rewards`` /

@@ -1,1 +1,1 @@
-"""Run output: run folders, checkpoints and the log writers."""
+"""Run output: run folders, checkpoints, the training logs and their writers."""

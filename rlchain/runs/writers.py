@@ -1,6 +1,6 @@
 """Log destinations behind one small interface: a :class:`Writer` gets every scalar of a run.
 
-The trainer's :class:`~rlchain.training.logging.TrainLogger` hands each batch of scalars, keyed by
+The trainer's :class:`~rlchain.runs.logging.TrainLogger` hands each batch of scalars, keyed by
 rl_games' TensorBoard tags (``rewards/step``, ``losses/a_loss``, ``performance/step_fps`` ...), to
 every writer with the run's counters (:class:`Step`: frames, epoch, seconds). rl_games writes one
 value against several x-axes (``rewards/step`` at frames, ``rewards/iter`` at epochs,
@@ -36,6 +36,7 @@ from typing import Any
 from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.log import get_logger
 from rlchain.registry import WRITERS
+from rlchain.runs.wandb_logger import start_wandb
 
 log = get_logger(__name__)
 KEY = "params.config.log_writers"
@@ -152,12 +153,10 @@ class TensorBoardWriter(Writer):
 class WandbWriter(Writer):
     """Weights & Biases (``--track``): ``wandb.log`` of the tagged scalars, ``global_step`` = frames.
 
-    ``start_wandb`` (rlchain.training.wandb_logger) starts the run (project, entity, config, folder,
+    ``start_wandb`` (rlchain.runs.wandb_logger) starts the run (project, entity, config, folder,
     offline mode, one-line errors); ``exit_code`` is what ``close`` finishes it with."""
 
     def __init__(self, project: str, entity: str | None, config: dict, run_name: str, summaries_dir: str) -> None:
-        from rlchain.training.wandb_logger import start_wandb  # imports wandb (optional dependency)
-
         self.run = start_wandb(project, entity, config, run_name, summaries_dir)
         self.exit_code: int | None = None
 
@@ -204,7 +203,8 @@ def check_writer_names(names: Sequence[str], source: str = "") -> None:
     """ConfigError (one line: file, key, registered names, did-you-mean) for a name nobody registered."""
     for i, name in enumerate(names):
         if name not in WRITERS:
-            raise ConfigError(source, f"{KEY}[{i}]", f"unknown log writer '{name}'{did_you_mean(name, WRITERS.names())} "
+            hint = did_you_mean(name, WRITERS.names())
+            raise ConfigError(source, f"{KEY}[{i}]", f"unknown log writer '{name}'{hint} "
                                                     f"(registered: {', '.join(WRITERS.names())})")
 
 

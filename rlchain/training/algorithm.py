@@ -16,8 +16,8 @@ registration::
 
     ALGOS.register("my_algo", MyTrainer)               # in the package's __init__.py
 
-PPO (:mod:`rlchain.training.on_policy`), SAC and DQN (:mod:`rlchain.training.off_policy`), APPO and
-IMPALA (:mod:`rlchain.training.appo`) are built this way; the Loop never names a loss. An algorithm
+PPO (:mod:`rlchain.algos.ppo.trainer`), SAC and DQN (:mod:`rlchain.algos.off_policy.trainer`), APPO and
+IMPALA (:mod:`rlchain.algos.appo.trainer`) are built this way; the Loop never names a loss. An algorithm
 that brings its own env runners names them with a classmethod ``build_training_env(params, seed)``,
 which the Runner calls instead of building the vectorized env.
 """

@@ -19,26 +19,27 @@ import torch
 
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
-from rlchain.envs.info_means import InfoMeans
 from rlchain.envs.spec import env_spec
-from rlchain.envs.success import SuccessReader
 from rlchain.envs.vecenv import dropped_rows
+from rlchain.envs.wrappers.info_means import InfoMeans
+from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger
-from rlchain.training import communicator
-from rlchain.training.build import build_env
-from rlchain.training.communicator import Communicator
+from rlchain.models.build import build_env
+from rlchain.parallel import communicator
+from rlchain.parallel.communicator import Communicator
+from rlchain.parallel.threads import ThreadPlan
+from rlchain.runs.checkpoint import seed_everything
+from rlchain.runs.logging import EnvStatsCallback, TrainLogger
+from rlchain.runs.run_dir import RunDir
 from rlchain.training.episodes import EpisodeTracker, game_outcome
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
 from rlchain.training.live_params import LiveParamsMixin
-from rlchain.training.logging import EnvStatsCallback, TrainLogger
 from rlchain.training.loop_checkpoint import CheckpointMixin
-from rlchain.training.run_dir import RunDir
 from rlchain.training.safety import DivergenceGuard, StopSignals, check_obs_shape, check_parameters
 from rlchain.training.self_play import SelfPlayCallback
-from rlchain.training.threads import ThreadPlan
 
 log = get_logger(__name__)
 
@@ -281,7 +282,6 @@ class Loop(LiveParamsMixin, CheckpointMixin):
         for model, agent in self.learners():
             self.comm.broadcast_learner(model, agent)
         if self.epoch > 0 and not self.comm.is_main:
-            from rlchain.training.checkpoint import seed_everything
             seed_everything(self.comm.rank_seed + self.epoch)
 
     def _episode_stats(self) -> dict[str, float] | None:

@@ -2,7 +2,7 @@
 (:meth:`~CheckpointMixin.save`) and resuming from it (:meth:`~CheckpointMixin.restore`).
 
 A mixin of :class:`rlchain.training.loop.Loop`: it reads the Loop's counters, model, agent, episode
-tracker, run directory and events; the file format itself lives in :mod:`rlchain.training.checkpoint`.
+tracker, run directory and events; the file format itself lives in :mod:`rlchain.runs.checkpoint`.
 """
 
 from __future__ import annotations
@@ -11,8 +11,9 @@ from typing import Any
 
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from rlchain.training.safety import check_parameters
+from rlchain.version import __version__
 
 log = get_logger(__name__)
 
@@ -96,5 +97,4 @@ class CheckpointMixin:
 
 
 def _version() -> str:
-    from rlchain import __version__
     return __version__

@@ -1,7 +1,8 @@
-"""``--tune`` on Ray Tune (``backend: ray`` in the search file): FIFO, ASHA and population-based
-training over rlchain runs, on one machine or a Ray cluster (docs/tuning.md).
+"""``--tune``: Optuna (in-process trials) and Ray Tune (FIFO, ASHA, population-based training, one machine or a
+cluster) as two backends over one shared module (docs/tuning.md).
 
-Importing this package never imports Ray: :mod:`rlchain.tuning.spec` validates the search file,
-:mod:`rlchain.tuning.epochs` paces a run one epoch at a time; :mod:`rlchain.tuning.ray_search` (the
-driver) imports Ray when a search starts, :mod:`rlchain.tuning.trainable` (a trial) at import.
+:mod:`rlchain.tuning.common` reads the search file; :mod:`rlchain.tuning.search` picks the backend;
+:mod:`rlchain.tuning.optuna_search` and :mod:`rlchain.tuning.ray_search` run it. Importing this package never
+imports Ray or Optuna: :mod:`rlchain.tuning.spec` validates the Ray keys, :mod:`rlchain.tuning.epochs` paces a run
+one epoch at a time; ray_search imports Ray when a search starts, :mod:`rlchain.tuning.trainable` (a trial) at import.
 """

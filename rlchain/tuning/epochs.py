@@ -16,7 +16,10 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
+from rlchain.runs.logging import TrainLogger
+from rlchain.runs.run_dir import create_run_dir
+from rlchain.runs.writers import make_writers
 from rlchain.training.callback_context import training_state
 from rlchain.training.events import Callback
 
@@ -108,10 +111,6 @@ class EpochStepper(Callback):
     def move_run(self, experiment: str) -> None:
         """Log and checkpoint the parked run under another run folder of the same train_dir (an
         actor Ray reuses for another trial keeps its envs but writes that trial's TensorBoard)."""
-        from rlchain.runs.writers import make_writers
-        from rlchain.training.logging import TrainLogger
-        from rlchain.training.run_dir import create_run_dir
-
         trainer = self.trainer
         if trainer is None or trainer.run is None:
             return

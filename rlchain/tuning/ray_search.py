@@ -25,6 +25,9 @@ import yaml
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.registry import ALGOS
+from rlchain.runner import Runner
+from rlchain.tuning.common import check_space, fmt, import_optuna, override_strings, write_best_config
 from rlchain.tuning.spec import RAY_INSTALL_HINT, RaySpec, check_capacity, check_live_keys
 
 
@@ -60,7 +63,6 @@ def run_ray_search(spec: Any, output: str | None = None, train_dir: str | None =
 def validate(spec: Any) -> tuple[Any, tuple[str, ...]]:
     """Every check that needs no Ray: the searched and mutated keys against the base config and the
     algorithm's live ``tunable``, and (for a local Ray) the CPUs. Returns (base Runner, tunable)."""
-    from rlchain.runner import Runner
 
     rs: RaySpec = spec.ray
     base = Runner().load(spec.base, spec.overrides)
@@ -80,7 +82,7 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
     tune = import_ray_tune()
     import ray
 
-    from rlchain.tuning.trainable import RlchainTrainable, TrialSetup
+    from rlchain.tuning.trainable import RlchainTrainable, TrialSetup  # optional: ray
 
     rs: RaySpec = spec.ray
     stem = os.path.splitext(os.path.basename(spec.base))[0]
@@ -185,7 +187,6 @@ def _restore_signal_handlers(handlers: dict[int, Any]) -> None:
 
 
 def _tunable(algo: str) -> tuple[str, ...]:
-    from rlchain.registry import ALGOS
 
     return tuple(getattr(ALGOS.get(algo), "tunable", ()))
 
@@ -193,16 +194,15 @@ def _tunable(algo: str) -> tuple[str, ...]:
 def _check_keys(spec: Any, tunable: tuple[str, ...], algo: str) -> None:
     """Searched and mutated keys must exist in the base config (and take their range); under pbt
     every one must change live (the algorithm's ``tunable``), since exploits copy running trials."""
-    from rlchain.tune import _check_space
 
     rs: RaySpec = spec.ray
-    _check_space(spec)
+    check_space(spec)
     if rs.pbt is None:
         return
     for key, dist in rs.pbt.mutations.items():
         probe = type(spec)(source=spec.source, base=spec.base, overrides=spec.overrides, params={key: dist})
         try:
-            _check_space(probe)
+            check_space(probe)
         except ConfigError as exc:
             raise ConfigError(spec.source, f"pbt.mutations.{key}", exc.message) from None
         check_live_keys([key], tunable, algo, spec.source, "pbt.mutations")
@@ -261,9 +261,8 @@ def make_searcher(rs: RaySpec, spec: Any, mode: str) -> Any:
     """Optuna's TPE through Tune's OptunaSearch; random and grid are Tune's own variant generator."""
     if rs.searcher != "optuna" or not spec.params:
         return None
-    from rlchain.tune import _import_optuna
 
-    _import_optuna()  # the one-line hint when optuna is missing
+    import_optuna()  # the one-line hint when optuna is missing
     from ray.tune.search.optuna import OptunaSearch
 
     return OptunaSearch(metric=spec.metric, mode=mode, seed=spec.seed)
@@ -298,7 +297,6 @@ def clip_to_ranges(config: dict, mutations: dict[str, dict]) -> dict:
 
 
 def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOutcome:
-    from rlchain.tune import _fmt, write_best_config
 
     rows, exploits = [], []
     for result in results:
@@ -325,7 +323,7 @@ def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOut
     table_path = os.path.splitext(output)[0] + "_trials.csv"
     header = ["trial", "state", spec.metric, "epochs", *_keys(spec)]
     with open(table_path, "w", encoding="utf-8", newline="") as fh:
-        csv.writer(fh).writerows([header] + [[_fmt(c) for c in r] for r in rows])
+        csv.writer(fh).writerows([header] + [[fmt(c) for c in r] for r in rows])
     schedule_path = None
     if spec.ray.scheduler == "pbt":
         lineage = _lineage(best_result)
@@ -333,11 +331,11 @@ def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOut
             schedule_path = os.path.splitext(output)[0] + "_schedule.yaml"
             write_schedule_config(spec, lineage, schedule_path, float(best[2]), best[0])
     text = [header[:4] + [k.removeprefix("params.config.") for k in header[4:]]]
-    text += [[_fmt(c) for c in r] for r in rows]
+    text += [[fmt(c) for c in r] for r in rows]
     widths = [max(len(str(r[i])) for r in text) for i in range(len(header))]
     print("\n".join("  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in text))
     print(f"best trial {best[0]}: {spec.metric} {best[2]:.2f} with "
-          + ", ".join(f"{k}={_fmt(v)}" for k, v in values.items())
+          + ", ".join(f"{k}={fmt(v)}" for k, v in values.items())
           + (f"; {len(exploits)} PBT exploits" if spec.ray.scheduler == "pbt" else ""), flush=True)
     print(f"best config: {path} (train with: python runner.py --train --file {path}); trials: {table_path}"
           + (f"; winner's schedule: {schedule_path}" if schedule_path else ""), flush=True)
@@ -367,7 +365,7 @@ def _exploits(frame: Any, result: Any) -> list[dict]:
 
 
 def _lineage(result: Any) -> list[list[Any]] | None:
-    from rlchain.tuning.trainable import TRIAL_JSON
+    from rlchain.tuning.trainable import TRIAL_JSON  # optional: ray (trainable imports it)
 
     if result.checkpoint is None:
         return None
@@ -382,15 +380,14 @@ def _lineage(result: Any) -> list[list[Any]] | None:
 def write_schedule_config(spec: Any, lineage: list[list[Any]], output: str, value: float, trial: str) -> str:
     """The base config with the search's overrides, the winner's first values and its whole schedule
     as ``params.config.hyperparam_schedule`` (epochs done -> values): training it replays the schedule."""
-    from rlchain.tune import _fmt, _override_strings
 
     first = {f"params.config.{name}": item for name, item in lineage[0][1].items()}
-    raw = apply_overrides(load_raw(spec.base), spec.overrides + _override_strings(first), spec.base)
+    raw = apply_overrides(load_raw(spec.base), spec.overrides + override_strings(first), spec.base)
     raw["params"]["config"]["hyperparam_schedule"] = {int(epoch): dict(values) for epoch, values in lineage}
     with open(output, "w", encoding="utf-8") as fh:
         fh.write(f"# rlchain tune: the PBT schedule of the winner of {spec.source} (trial {trial}, "
                  f"{spec.metric} {value:.2f})\n# replay: python runner.py --train --file {output}\n")
         for epoch, values in lineage:
-            fh.write(f"#   from epoch {epoch}: " + ", ".join(f"{k}={_fmt(v)}" for k, v in values.items()) + "\n")
+            fh.write(f"#   from epoch {epoch}: " + ", ".join(f"{k}={fmt(v)}" for k, v in values.items()) + "\n")
         yaml.safe_dump(raw, fh, sort_keys=False)
     return output

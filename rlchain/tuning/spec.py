@@ -1,7 +1,7 @@
 """The Ray Tune keys of a search file (``backend: ray``), validated without importing Ray.
 
 The rest of the file (base, metric, direction, trials, max_epochs_per_trial, overrides, seed,
-params) is read by :func:`rlchain.tune.load_search`, as for the in-process Optuna search::
+params) is read by :func:`rlchain.tuning.common.load_search`, as for the in-process Optuna search::
 
     backend: ray                  # optuna (default, in-process) or ray
     scheduler: pbt                # fifo | asha | pbt
@@ -101,7 +101,7 @@ def backend_of(raw: dict, path: str) -> str:
 
 
 def load_ray_spec(raw: dict, path: str, check_dist: Any) -> RaySpec:
-    """Validate the Ray keys of ``raw`` (a search file read by rlchain.tune.load_search);
+    """Validate the Ray keys of ``raw`` (a search file read by rlchain.tuning.common.load_search);
     ``check_dist`` validates one distribution (the Optuna path's own checker)."""
 
     def err(key: str, message: str) -> ConfigError:

@@ -22,6 +22,9 @@ from typing import Any
 from ray import tune
 
 from rlchain.config.resolve import with_config
+from rlchain.runner import Runner
+from rlchain.tuning.common import override_strings
+from rlchain.tuning.epochs import EpochStepper
 
 CHECKPOINT = "rlchain.pth"
 TRIAL_JSON = "trial.json"
@@ -38,13 +41,6 @@ class TrialSetup:
     seed: int = 0  # trial seed = seed + the trial's index
     envpool: bool = False  # give envpool the trial's CPUs as threads
     worst: float = -math.inf  # the metric until the first episode ends (-inf when maximizing)
-
-
-def override_strings(values: dict[str, Any]) -> list[str]:
-    """``key=value`` overrides for a trial's values (YAML scalars)."""
-    from rlchain.tune import _override_strings
-
-    return _override_strings(values)
 
 
 def trial_seed(setup: TrialSetup, trial_id: str) -> int:
@@ -180,8 +176,6 @@ class RlchainTrainable(tune.Trainable):
     def _build(self, checkpoint: str | None) -> None:
         import ray
 
-        from rlchain.runner import Runner
-        from rlchain.tuning.epochs import EpochStepper
 
         overrides = list(self.info.overrides) + override_strings(self.values) + [
             f"params.config.full_experiment_name=trial_{self.trial_id}"]

@@ -11,9 +11,9 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.policy_player import play_policies
-from rlchain.training.build import build_env, build_model
-from rlchain.training.checkpoint import seed_everything
+from rlchain.inference.policy_player import play_policies
+from rlchain.models.build import build_env, build_model
+from rlchain.runs.checkpoint import seed_everything
 from tests.conftest import CONFIGS, ROOT
 
 pytestmark = pytest.mark.slow
@@ -70,7 +70,7 @@ def test_simple_tag_predator_and_prey_each_beat_their_starting_selves(tmp_path):
     start = starting_models(params, params.seed)
     result = runner.train()
     trained = Runner().load(os.path.join(CONFIGS, "ppo_pz_simple_tag.yaml"))
-    from rlchain.training import checkpoint as ckpt
+    from rlchain.runs import checkpoint as ckpt
     last = os.path.join(result.run_dir, "nn", "last_pz_simple_tag.pth")
     env = build_env(params, 1, 0)
     end = build_model(params, env, torch.device("cpu"))
@@ -118,7 +118,7 @@ def test_connect_four_self_play_beats_a_random_player_90_percent(tmp_path):
     models = build_model(runner.params, env, torch.device("cpu"))
     env.close()
     # the trained weights are the runner's; load them from its last checkpoint
-    from rlchain.training import checkpoint as ckpt
+    from rlchain.runs import checkpoint as ckpt
 
     path = next(str(p) for p in tmp_path.rglob("last_pz_connect_four.pth"))
     ckpt.load_model_state(models, ckpt.load(path), path)

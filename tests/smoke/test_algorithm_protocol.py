@@ -13,10 +13,10 @@ import pytest
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
+from rlchain.runs.logging import TrainLogger
 from rlchain.training.algorithm import Algorithm
 from rlchain.training.events import Callback
-from rlchain.training.logging import TrainLogger
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
 

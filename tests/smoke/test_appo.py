@@ -9,15 +9,15 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.appo.local_runners import LocalRunners
+from rlchain.algos.appo.trainer import APPOTrainer
 from rlchain.config.load import parse_params
 from rlchain.config.schema import EnvRunnersConfig
-from rlchain.envs.ray_env import worker_slices
-from rlchain.envs.ray_worker import EnvRecipe
+from rlchain.envs.ray.ray_env import worker_slices
+from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.errors import EnvError
-from rlchain.training.appo import APPOTrainer
-from rlchain.training.build import build_model
+from rlchain.models.build import build_model
 from rlchain.training.events import Callback
-from rlchain.training.local_runners import LocalRunners
 
 pytestmark = pytest.mark.smoke
 
@@ -184,7 +184,7 @@ def test_hung_runner_is_replaced_while_the_others_deliver(tmp_path):
 def test_adaptive_lr_kl_measures_the_update_not_the_policy_lag(tmp_path, monkeypatch):
     """The KL behind the adaptive lr starts from the learner's policy at the start of the update: were it
     the behaviour policy, the runners' lag alone would read as a large step and drive the lr to min_lr."""
-    from rlchain.algos.ppo import PPOAgent
+    from rlchain.algos.ppo.agent import PPOAgent
 
     gaps, lags, original = [], [], PPOAgent.update
 

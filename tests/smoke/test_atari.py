@@ -1,4 +1,4 @@
-"""Atari: envpool (the shipped ppo_pong_envpool.yaml) and gymnasium + ale-py (rlchain/envs/atari.py).
+"""Atari: envpool (the shipped ppo_pong_envpool.yaml) and gymnasium + ale-py (rlchain/envs/backends/atari.py).
 
 Covers train -> save -> play -> resume -> ONNX export of the shipped config, episodic life (a lost
 life ends a training episode, the game goes on), scores counted over whole games with the

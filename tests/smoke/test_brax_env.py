@@ -8,7 +8,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS
 from tests.jax_cache import jax_compile_cache  # noqa: F401 (module fixture: compile reset/step once)
 
@@ -18,7 +18,7 @@ CONFIG = os.path.join(CONFIGS, "ppo_brax_inverted_pendulum.yaml")
 
 
 def test_contract_auto_reset_final_obs_and_time_limit():
-    from rlchain.envs.brax_env import BraxVecEnv
+    from rlchain.envs.backends.brax_env import BraxVecEnv
     env = BraxVecEnv("inverted_pendulum", 16, seed=3, episode_length=20, backend="spring")
     assert env.is_tensor_env and env.observation_space.shape == (4,) and env.action_space.shape == (1,)
     obs = env.reset(seed=3)

@@ -296,8 +296,8 @@ def _collectives_worker(folder: str) -> None:
 
     import torch.distributed as dist
 
-    from rlchain.algos.schedules import AdaptiveKLSchedule
-    from rlchain.training import distributed as D
+    from rlchain.algos.core.schedules import AdaptiveKLSchedule
+    from rlchain.parallel import distributed as D
 
     dist.init_process_group("gloo")
     rank = dist.get_rank()

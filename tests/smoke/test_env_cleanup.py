@@ -5,11 +5,12 @@ import os
 
 import pytest
 
+import rlchain.runner as runner_module
 import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.config import ConfigError
 from rlchain.errors import DivergenceError, EnvError
-from rlchain.training import build, loop
+from rlchain.training import loop
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
@@ -23,7 +24,7 @@ EVALUATION = ["params.config.evaluation.interval=1", "params.config.evaluation.g
 
 @pytest.fixture
 def opened(monkeypatch):
-    """Every env the run builds (training env: build.build_env, evaluation env: loop.build_env),
+    """Every env the run builds (training env: the Runner's build_env, evaluation env: the loop's),
     as [kind, env, closed?]."""
     envs = []
 
@@ -42,7 +43,7 @@ def opened(monkeypatch):
             return env
         return build_env
 
-    monkeypatch.setattr(build, "build_env", recording("train", build.build_env))
+    monkeypatch.setattr(runner_module, "build_env", recording("train", runner_module.build_env))
     monkeypatch.setattr(loop, "build_env", recording("evaluation", loop.build_env))
     return envs
 

@@ -11,8 +11,8 @@ import torch
 from rlchain import Runner, env_configurations
 from rlchain.config import ConfigError
 from rlchain.envs.vecenv import DROPPED, StepResult
-from rlchain.training.base import TrainerBase
 from rlchain.training.events import AlgoObserverCallback, Callback, CallbackList
+from rlchain.training.loop import Loop
 from rlchain.training.self_play import SelfPlayCallback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
@@ -219,7 +219,7 @@ def test_env_step_done_indices_multi_agent_and_dropped_rows():
     trainer = types.SimpleNamespace(num_agents=2, events=events)
     dones = torch.tensor([True, True, False, False, True, True, True, True])  # envs 0, 2, 3 ended (2 agents)
     result = StepResult(None, None, None, None, None, {DROPPED: np.array([0, 0, 0, 0, 0, 0, 1, 1], bool)})
-    TrainerBase._emit_env_step(trainer, result, dones, slice(None))
+    Loop._emit_env_step(trainer, result, dones, slice(None))
     assert recorder.steps == [([0, 4], slice(None))]  # env 3 was cut by a dead worker, not finished
 
 
@@ -294,5 +294,5 @@ def test_get_set_params_during_training(tmp_path, capsys):
     assert seen[1:] == [(2, pytest.approx(1e-4), 0.01)]
     assert "set entropy_coef" not in capsys.readouterr().out
     with pytest.raises(KeyError, match="cannot set gamma_typo"):
-        from rlchain.training.on_policy import OnPolicyTrainer
+        from rlchain.algos.ppo.trainer import OnPolicyTrainer
         OnPolicyTrainer.set_params(type("T", (), {"tunable": OnPolicyTrainer.tunable})(), gamma_typo=1)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rlchain import Runner
-from rlchain.algos.her import goal_layout
+from rlchain.algos.off_policy.her import goal_layout
 from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import make_vec_env
 from tests.conftest import CONFIGS

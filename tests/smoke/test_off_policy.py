@@ -9,7 +9,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 

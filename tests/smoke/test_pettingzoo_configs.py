@@ -6,7 +6,7 @@ import pytest
 
 from rlchain import Runner
 from rlchain.cli import main
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.smoke

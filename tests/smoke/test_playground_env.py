@@ -9,7 +9,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS
 from tests.jax_cache import jax_compile_cache  # noqa: F401 (module fixture: compile reset/step once)
 
@@ -19,7 +19,7 @@ CONFIG = os.path.join(CONFIGS, "ppo_playground_cartpole.yaml")
 
 
 def test_contract_auto_reset_final_obs_and_time_limit():
-    from rlchain.envs.playground_env import PlaygroundVecEnv
+    from rlchain.envs.backends.playground_env import PlaygroundVecEnv
     env = PlaygroundVecEnv("CartpoleBalance", 8, seed=3, episode_length=20)
     assert env.is_tensor_env and env.observation_space.shape == (5,) and env.action_space.shape == (1,)
     obs = env.reset(seed=3)
@@ -48,7 +48,7 @@ def test_contract_auto_reset_final_obs_and_time_limit():
 def test_dict_observations_keep_the_state_entry():
     import jax.numpy as jnp
 
-    from rlchain.envs.playground_env import observation_picker
+    from rlchain.envs.backends.playground_env import observation_picker
     size, pick = observation_picker({"state": (6,), "privileged_state": (9,)})
     obs = {"state": jnp.arange(12.0).reshape(2, 6), "privileged_state": jnp.zeros((2, 9))}
     assert size == 6 and np.array_equal(np.asarray(pick(obs)), np.arange(12.0).reshape(2, 6))

@@ -15,7 +15,7 @@ import pytest
 from rlchain import Runner, env_configurations
 from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.ray_env import WorkerLost
+from rlchain.envs.ray.ray_env import WorkerLost
 from rlchain.training.events import Callback
 from tests.conftest import ROOT
 

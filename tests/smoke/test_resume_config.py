@@ -10,7 +10,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.resolve import CONFIG_FORMAT
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from tests.conftest import BASE, CONFIGS, ROOT
 

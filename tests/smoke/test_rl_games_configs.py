@@ -6,7 +6,7 @@ import warnings
 import pytest
 
 from rlchain import Runner
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from tests.conftest import ROOT
 
 pytestmark = pytest.mark.smoke

@@ -5,7 +5,7 @@ import os
 import pytest
 
 from rlchain import Runner
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.smoke

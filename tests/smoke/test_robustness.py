@@ -15,7 +15,7 @@ import torch
 import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.errors import DivergenceError, EnvError
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from rlchain.training.safety import StopSignals
 from tests.conftest import CONFIGS, ROOT
@@ -146,7 +146,7 @@ def test_sigkill_during_checkpoint_write_keeps_previous(tmp_path):
     script = textwrap.dedent(f"""
         import sys, time, torch
         sys.path.insert(0, {ROOT!r})
-        from rlchain.training import checkpoint as ckpt
+        from rlchain.runs import checkpoint as ckpt
         ckpt.save_atomic({{"format": ckpt.FORMAT, "value": 1}}, {str(path)!r})
         real_save = torch.save
         def slow_save(obj, fh):

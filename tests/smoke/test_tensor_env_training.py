@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
 

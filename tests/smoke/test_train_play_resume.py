@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.training import checkpoint as ckpt
+from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS, ROOT
 
 pytestmark = pytest.mark.smoke
@@ -68,12 +68,12 @@ def test_resume_restores_state_exactly(tmp_path):
 
     runner2 = Runner().load(os.path.join(CONFIGS, "ppo_pendulum.yaml"), small(tmp_path, epochs=2))
     # with max_epochs 2 already reached, the resumed run restores then stops after one more check
-    from rlchain.training.build import build_env, build_model, resolve_device
+    from rlchain.models.build import build_env, build_model, resolve_device
     params = runner2.params
     env = build_env(params, params.config.num_actors, 0)
     model = build_model(params, env, resolve_device("cpu"))
-    from rlchain.training.logging import TrainLogger
-    from rlchain.training.on_policy import OnPolicyTrainer
+    from rlchain.algos.ppo.trainer import OnPolicyTrainer
+    from rlchain.runs.logging import TrainLogger
     trainer = OnPolicyTrainer(params, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
                               runner2.raw)
     trainer.restore(saved, path)

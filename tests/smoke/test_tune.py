@@ -1,4 +1,5 @@
-"""Optuna search (rlchain.tune): a tiny CartPole search beats a bad learning rate and writes a runnable config."""
+"""Optuna search (tuning/optuna_search.py): a tiny CartPole search beats a bad learning rate and writes a runnable
+config."""
 
 import os
 
@@ -12,7 +13,8 @@ pytest.importorskip("optuna", reason="pip install rlchain[tune]")
 from rlchain.config import load_config  # noqa: E402
 from rlchain.config.errors import ConfigError  # noqa: E402
 from rlchain.runner import Runner  # noqa: E402
-from rlchain.tune import load_search, run_search  # noqa: E402
+from rlchain.tuning.common import load_search
+from rlchain.tuning.search import run_search  # noqa: E402
 
 BASE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 EPOCHS = 30
@@ -88,7 +90,7 @@ def test_missing_optuna_is_one_line(monkeypatch):
         return real(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_optuna)
-    from rlchain.tune import _import_optuna
+    from rlchain.tuning.common import import_optuna as _import_optuna
     with pytest.raises(ImportError, match=r"pip install rlchain\[tune\]"):
         _import_optuna()
 

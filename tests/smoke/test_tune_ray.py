@@ -16,8 +16,8 @@ pytest.importorskip("ray.tune", reason="pip install rlchain[ray]")
 
 from rlchain.config import load_config  # noqa: E402
 from rlchain.runner import Runner  # noqa: E402
-from rlchain.tune import load_search  # noqa: E402
 from rlchain.tuning import ray_search  # noqa: E402
+from rlchain.tuning.common import load_search  # noqa: E402
 from rlchain.tuning.spec import RaySpec  # noqa: E402
 
 BASE = os.path.join(CONFIGS, "ppo_cartpole.yaml")

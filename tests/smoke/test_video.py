@@ -1,4 +1,4 @@
-"""Video recording (rlchain.video): mp4 files from a checkpoint and from in-training evaluations."""
+"""Video recording (rlchain.inference.video): mp4 files from a checkpoint and from in-training evaluations."""
 
 import os
 
@@ -10,8 +10,8 @@ pytest.importorskip("moviepy", reason="pip install rlchain[video]")
 pytest.importorskip("pygame", reason="pip install rlchain[video]")
 
 from rlchain.config.errors import ConfigError  # noqa: E402
+from rlchain.inference.video import VideoCallback, record_episodes  # noqa: E402
 from rlchain.runner import Runner  # noqa: E402
-from rlchain.video import VideoCallback, record_episodes  # noqa: E402
 
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 

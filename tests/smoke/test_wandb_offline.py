@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from rlchain.training.wandb_logger import INSTALL_HINT, TrackingError, start_wandb
+from rlchain.runs.wandb_logger import INSTALL_HINT, TrackingError, start_wandb
 
 pytestmark = pytest.mark.smoke
 

@@ -1,4 +1,4 @@
-"""Checkpoint-folder evaluation (rlchain.watch): rl_games' player.evaluation / dir_to_monitor."""
+"""Checkpoint-folder evaluation (rlchain.inference.watch): rl_games' player.evaluation / dir_to_monitor."""
 
 import os
 import shutil
@@ -8,8 +8,8 @@ import time
 import pytest
 
 from rlchain.config.errors import ConfigError
+from rlchain.inference.watch import watch_and_evaluate
 from rlchain.runner import Runner
-from rlchain.watch import watch_and_evaluate
 from tests.conftest import CONFIGS, ROOT
 
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")

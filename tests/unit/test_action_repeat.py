@@ -1,11 +1,11 @@
 """env_config.action_repeat on envpool: each action held for k env steps, rewards summed, an env
-that ends stops stepping (rlchain/envs/action_repeat.py)."""
+that ends stops stepping (rlchain/envs/wrappers/action_repeat.py)."""
 
 import numpy as np
 import pytest
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs.action_repeat import repeat_step
+from rlchain.envs.wrappers.action_repeat import repeat_step
 
 
 class FakePool:
@@ -55,7 +55,7 @@ def test_envpool_action_repeat_matches_stepping_by_hand():
     """Pendulum (200-step time limit): one repeat-3 step = three plain steps with the same action,
     and the episode ends at decision 67 (66 * 3 = 198 steps, then 2)."""
     pytest.importorskip("envpool")
-    from rlchain.envs.envpool_env import EnvpoolVecEnv
+    from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
 
     repeated = EnvpoolVecEnv("Pendulum-v1", 2, seed=3, action_repeat=3)
     plain = EnvpoolVecEnv("Pendulum-v1", 2, seed=3)
@@ -80,7 +80,7 @@ def test_envpool_action_repeat_matches_stepping_by_hand():
 def test_envpool_action_repeat_with_env_groups_matches_one_pool():
     """env_groups > 1 (send/recv per group, as the pipelined rollout steps them): the same results."""
     pytest.importorskip("envpool")
-    from rlchain.envs.envpool_env import EnvpoolVecEnv
+    from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
 
     grouped = EnvpoolVecEnv("Pendulum-v1", 4, seed=3, action_repeat=2, groups=2)
     single = EnvpoolVecEnv("Pendulum-v1", 4, seed=3, action_repeat=2)

@@ -71,7 +71,7 @@ def test_multi_agent_policies_are_frozen_too():
 
 
 class FakeGroup:
-    """What resolve() reads of a torchrun group (rlchain.training.distributed.Distributed)."""
+    """What resolve() reads of a torchrun group (rlchain.parallel.distributed.Distributed)."""
 
     def __init__(self, rank, device=None):
         self.rank, self.world_size, self.device = rank, 2, device
@@ -227,7 +227,7 @@ def test_torch_compile_keys_are_checked_by_parse_value():
 def test_search_file_scalars_parse_with_the_schema_fields(tmp_path):
     import yaml
 
-    from rlchain.tune import load_search
+    from rlchain.tuning.common import load_search
     base = os.path.join(CONFIGS, "ppo_cartpole.yaml")
     dist = {"params.config.gamma": {"type": "uniform", "low": 0.9, "high": 0.99}}
     path = tmp_path / "search.yaml"
@@ -247,7 +247,7 @@ def test_search_file_scalars_parse_with_the_schema_fields(tmp_path):
 def test_ray_scheduler_blocks_parse_with_the_schema_fields(tmp_path):
     import yaml
 
-    from rlchain.tune import load_search
+    from rlchain.tuning.common import load_search
     base = os.path.join(CONFIGS, "ppo_cartpole.yaml")
     mutations = {"params.config.learning_rate": {"type": "loguniform", "low": 1e-5, "high": 1e-2}}
     path = tmp_path / "search.yaml"

@@ -1,4 +1,4 @@
-"""training/distributed.py: launch validation (no process group) and the syncs on a 1-process gloo group.
+"""parallel/distributed.py: launch validation (no process group) and the syncs on a 1-process gloo group.
 
 The same syncs with two real processes are in tests/smoke/test_distributed.py.
 """
@@ -11,7 +11,7 @@ import torch.distributed as dist
 
 from rlchain.config.errors import ConfigError
 from rlchain.models.normalization import RunningMeanStd
-from rlchain.training import distributed as D
+from rlchain.parallel import distributed as D
 
 TORCHRUN = {"RANK": "1", "WORLD_SIZE": "2", "LOCAL_RANK": "1", "LOCAL_WORLD_SIZE": "2",
             "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": "29500"}
@@ -141,7 +141,7 @@ def test_average_gradients_one_flat_all_reduce(group, monkeypatch):
 
 @pytest.mark.timeout(30)
 def test_normalizer_built_with_a_communicator_syncs_through_it(group):
-    from rlchain.training import communicator
+    from rlchain.parallel import communicator
 
     plain = RunningMeanStd((3,))
     pg = D.Distributed(0, 1, 0, "gloo", seed=0)

@@ -105,8 +105,8 @@ def _imports(path, inside_functions):
 
 def test_factory_and_ray_worker_share_the_building_module_without_a_cycle():
     envs = os.path.join(ROOT, "rlchain", "envs")
-    assert "rlchain.envs.ray_env" not in _imports(os.path.join(envs, "factory.py"), inside_functions=True)
-    assert "rlchain.envs.factory" not in _imports(os.path.join(envs, "ray_worker.py"), inside_functions=False)
-    assert "rlchain.envs.building" in _imports(os.path.join(envs, "ray_worker.py"), inside_functions=False)
+    assert "rlchain.envs.ray.ray_env" not in _imports(os.path.join(envs, "factory.py"), inside_functions=True)
+    assert "rlchain.envs.factory" not in _imports(os.path.join(envs, "ray", "ray_worker.py"), inside_functions=False)
+    assert "rlchain.envs.building" in _imports(os.path.join(envs, "ray", "ray_worker.py"), inside_functions=False)
     building = _imports(os.path.join(envs, "building.py"), inside_functions=False)
-    assert not building & {"rlchain.envs.factory", "rlchain.envs.ray_env", "rlchain.envs.ray_worker"}
+    assert not building & {"rlchain.envs.factory", "rlchain.envs.ray.ray_env", "rlchain.envs.ray.ray_worker"}

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs import envpool_env
-from rlchain.envs.envpool_env import EnvpoolVecEnv
+from rlchain.envs.backends import envpool_env
+from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
+from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.gymnasium_env import GymnasiumVecEnv
 from rlchain.registry import ENVS, VECENVS
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
@@ -224,7 +224,7 @@ def test_env_configurations_register_creator():
 def test_envpool_groups_match_one_pool():
     """Two background-stepped pools give the rows of one pool, resets and final obs included."""
     pytest.importorskip("envpool")
-    from rlchain.envs.envpool_env import concat_results
+    from rlchain.envs.backends.envpool_env import concat_results
     kwargs = {"max_episode_steps": 7}
     one = EnvpoolVecEnv("HalfCheetah-v4", 6, seed=3, env_kwargs=kwargs)
     two = EnvpoolVecEnv("HalfCheetah-v4", 6, seed=3, env_kwargs=kwargs, groups=2)

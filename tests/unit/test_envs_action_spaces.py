@@ -7,12 +7,12 @@ import torch
 
 import rlchain  # noqa: F401  (registers the test envs)
 from rlchain.config.errors import ConfigError
-from rlchain.envs.action_masks import stack_masks
-from rlchain.envs.dict_obs import should_flatten, split_flat_obs
+from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
+from rlchain.envs.backends.tensor_env import TensorVecEnv
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.gymnasium_env import GymnasiumVecEnv
-from rlchain.envs.tensor_env import TensorVecEnv
-from rlchain.envs.wrappers import cast_actions
+from rlchain.envs.wrappers.action_masks import stack_masks
+from rlchain.envs.wrappers.dict_obs import should_flatten, split_flat_obs
+from rlchain.envs.wrappers.spaces import cast_actions
 
 
 def _valid_actions(masks: np.ndarray, nvec: list[int]) -> np.ndarray:

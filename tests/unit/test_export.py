@@ -14,7 +14,7 @@ ort = pytest.importorskip("onnxruntime")
 
 from rlchain import Runner  # noqa: E402
 from rlchain.config.schema import DiscreteSpaceConfig, MlpConfig, NetworkConfig, SpaceConfig  # noqa: E402
-from rlchain.export import (  # noqa: E402
+from rlchain.inference.export.onnx import (  # noqa: E402
     env_observations,
     export_from_cli,
     export_model_onnx,
@@ -24,10 +24,10 @@ from rlchain.export import (  # noqa: E402
     verify_onnx,
 )
 from rlchain.models.actor_critic import ActorCritic  # noqa: E402
+from rlchain.models.build import build_env, build_model  # noqa: E402
 from rlchain.models.distributions import Categorical  # noqa: E402
 from rlchain.networks.actor_critic import ActorCriticBuilder  # noqa: E402
-from rlchain.training import checkpoint as ckpt  # noqa: E402
-from rlchain.training.build import build_env, build_model  # noqa: E402
+from rlchain.runs import checkpoint as ckpt  # noqa: E402
 from tests.conftest import CONFIGS, ROOT  # noqa: E402
 
 TOL = 1e-5

@@ -13,7 +13,7 @@ ort = pytest.importorskip("onnxruntime")
 from rlchain import Runner  # noqa: E402
 from rlchain.config.fields import parse_dataclass  # noqa: E402
 from rlchain.config.schema import NetworkConfig  # noqa: E402
-from rlchain.export import (  # noqa: E402
+from rlchain.inference.export.onnx import (  # noqa: E402
     OnnxPolicy,
     env_rollout,
     export_from_cli,
@@ -23,10 +23,10 @@ from rlchain.export import (  # noqa: E402
     verify_onnx,
 )
 from rlchain.models.actor_critic import ActorCritic  # noqa: E402
+from rlchain.models.build import build_env, build_model  # noqa: E402
 from rlchain.models.distributions import Categorical  # noqa: E402
 from rlchain.networks.actor_critic import ActorCriticNetwork  # noqa: E402
-from rlchain.training import checkpoint as ckpt  # noqa: E402
-from rlchain.training.build import build_env, build_model  # noqa: E402
+from rlchain.runs import checkpoint as ckpt  # noqa: E402
 from tests.conftest import CONFIGS  # noqa: E402
 
 CONFIG = os.path.join(CONFIGS, "ppo_test_masked.yaml")

@@ -10,8 +10,8 @@ pytest.importorskip("onnx")
 ort = pytest.importorskip("onnxruntime")
 
 from rlchain import Runner  # noqa: E402
-from rlchain.export import export_model_onnx, random_observations, verify_onnx  # noqa: E402
-from rlchain.training.build import build_env, build_model  # noqa: E402
+from rlchain.inference.export.onnx import export_model_onnx, random_observations, verify_onnx  # noqa: E402
+from rlchain.models.build import build_env, build_model  # noqa: E402
 from tests.conftest import CONFIGS  # noqa: E402
 
 

@@ -9,7 +9,7 @@ import torch
 
 from rlchain.config.fields import parse_dataclass
 from rlchain.config.schema import NetworkConfig
-from rlchain.export import OnnxPolicy, export_model_onnx, onnx_session, random_observations, verify_onnx
+from rlchain.inference.export.onnx import OnnxPolicy, export_model_onnx, onnx_session, random_observations, verify_onnx
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical, DiagGaussian
 from rlchain.networks.actor_critic import ActorCriticNetwork

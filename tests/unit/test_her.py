@@ -1,4 +1,4 @@
-"""Hindsight experience replay (algos/her.py): goal layout, offsets, relabelled goals and rewards checked by hand."""
+"""Hindsight experience replay (algos/off_policy/her.py): goal layout, offsets, relabelled goals and rewards by hand."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.her import HERReplayBuffer, future_offsets, goal_layout, relabel_probability
-from rlchain.envs.dict_obs import FlatDictBox
-from rlchain.envs.goal_env import fetch_compute_reward
+from rlchain.algos.off_policy.her import HERReplayBuffer, future_offsets, goal_layout, relabel_probability
+from rlchain.envs.wrappers.dict_obs import FlatDictBox
+from rlchain.envs.wrappers.goal_env import fetch_compute_reward
 
 BOX1 = gym.spaces.Box(-10, 10, (1,), np.float32)
 # flat obs layout: [observation, achieved_goal, desired_goal] (one value each)

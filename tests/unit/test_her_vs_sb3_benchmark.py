@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from rlchain.envs.goal_env import fetch_compute_reward
+from rlchain.envs.wrappers.goal_env import fetch_compute_reward
 from tests.conftest import CONFIGS, ROOT
 
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))

@@ -1,4 +1,4 @@
-"""params.config.log_info_keys: per-epoch means of step-info keys (rlchain/envs/info_means.py)."""
+"""params.config.log_info_keys: per-epoch means of step-info keys (rlchain/envs/wrappers/info_means.py)."""
 
 import logging
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.envs.info_means import InfoMeans
+from rlchain.envs.wrappers.info_means import InfoMeans
 
 
 def test_means_over_every_row_of_every_step_then_afresh():

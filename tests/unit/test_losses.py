@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.losses import normalize_advantages, policy_loss, smooth_clamp, value_loss
-from rlchain.algos.schedules import AdaptiveKLSchedule, LinearSchedule
+from rlchain.algos.core.losses import normalize_advantages, policy_loss, smooth_clamp, value_loss
+from rlchain.algos.core.schedules import AdaptiveKLSchedule, LinearSchedule
 from rlchain.models.distributions import Categorical, DiagGaussian, make_distribution
 
 

@@ -2,7 +2,7 @@
 
 import torch
 
-from rlchain.algos.storage import RolloutStorage, env_major_order
+from rlchain.algos.core.storage import RolloutStorage, env_major_order
 
 T, N = 4, 3  # horizon 4, 3 envs: time-major flat index t * 3 + n
 
@@ -74,7 +74,7 @@ def test_fixed_order_for_sequences_takes_each_envs_chunks_in_time_order():
 
 
 def test_auto_order_is_fixed_for_continuous_actions_and_shuffled_otherwise():
-    from rlchain.algos.ppo import shuffled_minibatches
+    from rlchain.algos.ppo.agent import shuffled_minibatches
 
     assert shuffled_minibatches("auto", continuous=True) is False
     assert shuffled_minibatches("auto", continuous=False) is True

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.storage import RolloutStorage
+from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.schema import MlpConfig, NetworkConfig
 from rlchain.models.normalization import RunningMeanStd
 from rlchain.networks.actor_critic import ActorCriticBuilder

@@ -9,16 +9,16 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.ppo.trainer import OnPolicyTrainer
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
+from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.gymnasium_env import GymnasiumVecEnv
-from rlchain.envs.multi_agent import MultiAgentVecEnv, make_multi_agent_env
 from rlchain.envs.test.cooperative import CooperativeEnv, nearest_flag_policy
-from rlchain.training.build import build_env, build_model
+from rlchain.envs.wrappers.multi_agent import MultiAgentVecEnv, make_multi_agent_env
+from rlchain.models.build import build_env, build_model
+from rlchain.runs.logging import TrainLogger
 from rlchain.training.episodes import EpisodeTracker
-from rlchain.training.logging import TrainLogger
-from rlchain.training.on_policy import OnPolicyTrainer
 from tests.conftest import BASE, CONFIGS
 
 

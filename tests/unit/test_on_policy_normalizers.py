@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.ppo import PPOAgent
+from rlchain.algos.ppo.agent import PPOAgent
 from tests.conftest import BASE
 
 

@@ -13,13 +13,13 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.masked import active_minibatches, masked_gae
-from rlchain.algos.returns import gae, next_values_from_rollout
-from rlchain.algos.storage import RolloutStorage
+from rlchain.algos.core.returns import gae, next_values_from_rollout
+from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.multi_policy.masked import active_minibatches, masked_gae
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import PolicyMapping
-from rlchain.envs.pettingzoo_env import pettingzoo_env, resolve_env_module
-from rlchain.training import checkpoint as ckpt
+from rlchain.envs.backends.pettingzoo_env import pettingzoo_env, resolve_env_module
+from rlchain.runs import checkpoint as ckpt
 
 DYING = {
     "params": {
@@ -192,9 +192,9 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
             "losses/runners/c_loss", "info/runners/last_lr", "rewards/step"} <= tags
     assert "losses/a_loss" not in tags  # two policies: no unprefixed loss to mix them up in
     # resume: the learner state is exactly the checkpoint's
-    from rlchain.training.build import build_env, build_model
-    from rlchain.training.logging import TrainLogger
-    from rlchain.training.multi_policy import MultiPolicyTrainer
+    from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+    from rlchain.models.build import build_env, build_model
+    from rlchain.runs.logging import TrainLogger
 
     params = runner.params
     env = build_env(params, 4, 3)
@@ -218,9 +218,9 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
 
 
 def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
-    from rlchain.training.build import build_env, build_model
-    from rlchain.training.logging import TrainLogger
-    from rlchain.training.multi_policy import MultiPolicyTrainer
+    from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+    from rlchain.models.build import build_env, build_model
+    from rlchain.runs.logging import TrainLogger
 
     runner = Runner().load(dying(tmp_path))
     params = runner.params
@@ -269,7 +269,7 @@ class Const(torch.nn.Module):
 
 
 def test_snapshot_refreshes_go_to_a_moving_window_of_envs_the_others_keep_theirs():
-    from rlchain.training.snapshots import SnapshotPool
+    from rlchain.algos.multi_policy.snapshots import SnapshotPool
 
     pool = SnapshotPool(Const(0), num_envs=4)
     obs = torch.zeros(8, 1)  # 2 agents x 4 envs, agent-major
@@ -290,7 +290,7 @@ def test_an_aec_env_that_says_it_is_parallelizable_goes_through_aec_to_parallel(
     module = types.ModuleType("aec_only_spread")
     module.env = mpe.env  # the AEC env alone (no parallel_env): is_parallelizable in its metadata
     monkeypatch.setitem(sys.modules, "aec_only_spread", module)
-    from rlchain.envs.pettingzoo_env import env_maker
+    from rlchain.envs.backends.pettingzoo_env import env_maker
 
     make, turn_based = env_maker("aec_only_spread", {"N": 2, "max_cycles": 3})
     assert not turn_based and type(make()).__name__ == "aec_to_parallel_wrapper"

@@ -1,4 +1,4 @@
-"""The one play() loop (rlchain/training/play.py) that evaluation, the Player, video and export share
+"""The one play() loop (rlchain/inference/play.py) that evaluation, the Player, video and export share
 (issue 19 part 4): games and steps limits, action masks, RNN state, the one-env recording adapter."""
 
 import os
@@ -10,11 +10,11 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.player import Player
-from rlchain.training.build import build_env, build_model
+from rlchain.inference.play import play
+from rlchain.inference.player import Player
+from rlchain.inference.video import OneEnv
+from rlchain.models.build import build_env, build_model
 from rlchain.training.evaluation import run_episodes
-from rlchain.training.play import play
-from rlchain.video import OneEnv
 from tests.conftest import CONFIGS
 
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
@@ -110,7 +110,7 @@ def test_the_recording_adapter_resets_per_game_and_not_after_the_last():
 
 
 def test_player_closes_its_env_when_the_checkpoint_cannot_be_loaded(tmp_path, monkeypatch):
-    import rlchain.player as player_module
+    import rlchain.inference.player as player_module
 
     closed = []
 

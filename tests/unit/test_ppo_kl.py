@@ -12,8 +12,8 @@ import pytest
 import torch
 import torch.nn as nn
 
-from rlchain.algos.ppo import PPOAgent
-from rlchain.algos.storage import RolloutStorage
+from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config import ConfigError
 from rlchain.config.load import parse_params
 from rlchain.models.actor_critic import ActorCritic

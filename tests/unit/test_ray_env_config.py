@@ -10,9 +10,9 @@ import torch
 from rlchain.config import ConfigError, parse_params
 from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.ray_env import merge_infos, worker_slices
-from rlchain.envs.ray_worker import EnvRecipe, EnvWorker, per_env_infos
-from rlchain.training.build import build_env
+from rlchain.envs.ray.ray_env import merge_infos, worker_slices
+from rlchain.envs.ray.ray_worker import EnvRecipe, EnvWorker, per_env_infos
+from rlchain.models.build import build_env
 from rlchain.training.episodes import EpisodeTracker
 
 
@@ -185,7 +185,7 @@ def test_unreachable_cluster_address_fails_fast_instead_of_hanging():
 def test_envs_the_workers_cannot_carry_are_named():
     from types import SimpleNamespace
 
-    from rlchain.envs.ray_worker import _unsupported
+    from rlchain.envs.ray.ray_worker import _unsupported
 
     assert _unsupported(SimpleNamespace()) is None
     assert _unsupported(SimpleNamespace(get_number_of_agents=lambda: 2)) == "has several agents per env"

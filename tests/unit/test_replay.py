@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.replay import ReplayBuffer, SumTree
+from rlchain.algos.core.replay import ReplayBuffer, SumTree
 
 
 def make(n_step=1, num_envs=1, gamma=0.5, capacity=16, **kw):

@@ -12,7 +12,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass
 from rlchain.config.load import parse_params
 from rlchain.config.schema import ResnetCnnConfig, ResnetNetworkConfig
-from rlchain.envs.dict_obs import FlatDictBox
+from rlchain.envs.wrappers.dict_obs import FlatDictBox
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical
 from rlchain.networks.impala import ImpalaEncoder
@@ -30,7 +30,7 @@ def config(**overrides):
 
 
 def dict_space(image=IMAGE, actions=ACTIONS):
-    """The flat layout envs/reward_action_obs.py produces."""
+    """The flat layout envs/wrappers/reward_action_obs.py produces."""
     return FlatDictBox(gym.spaces.Dict({"last_action": gym.spaces.Discrete(actions),
                                         "observation": gym.spaces.Box(0, 1, image, np.float32),
                                         "reward": gym.spaces.Box(-1, 1, (), np.float32)}))
@@ -198,7 +198,7 @@ def test_require_rewards_on_another_network_names_the_network(base_config):
 
 def test_onnx_export_of_dict_observations_and_lstm(tmp_path):
     pytest.importorskip("onnxruntime")
-    from rlchain.export import export_model_onnx, onnx_session, random_observations, verify_onnx
+    from rlchain.inference.export.onnx import export_model_onnx, onnx_session, random_observations, verify_onnx
 
     image = (4, 20, 20)
     space = dict_space(image)

@@ -5,7 +5,7 @@ import math
 import pytest
 import torch
 
-from rlchain.algos.returns import gae, next_values_from_rollout, shape_rewards
+from rlchain.algos.core.returns import gae, next_values_from_rollout, shape_rewards
 
 
 def test_gae_single_env_hand_computed():

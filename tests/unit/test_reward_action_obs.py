@@ -1,4 +1,4 @@
-"""RewardActionObs (envs/reward_action_obs.py): rl_games' {'observation', 'reward', 'last_action'}
+"""RewardActionObs (envs/wrappers/reward_action_obs.py): rl_games' {'observation', 'reward', 'last_action'}
 observations, flattened: layout, clipping, episode starts, final_obs, pipelined groups, errors."""
 
 import gymnasium as gym
@@ -7,9 +7,9 @@ import pytest
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs.dict_obs import FlatDictBox, split_flat_obs
-from rlchain.envs.reward_action_obs import RewardActionObs
 from rlchain.envs.vecenv import StepResult
+from rlchain.envs.wrappers.dict_obs import FlatDictBox, split_flat_obs
+from rlchain.envs.wrappers.reward_action_obs import RewardActionObs
 
 N, ACTIONS, SHAPE = 3, 4, (2, 3, 3)
 

@@ -6,7 +6,7 @@ import gymnasium as gym
 import pytest
 import torch
 
-from rlchain.algos.storage import RolloutStorage
+from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.fields import parse_dataclass
 from rlchain.config.schema import NetworkConfig, RnnConfig
 from rlchain.models.actor_critic import ActorCritic

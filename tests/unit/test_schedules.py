@@ -1,4 +1,4 @@
-"""Learning-rate and entropy schedules (rlchain/algos/schedules.py) and how the PPO agent applies them."""
+"""Learning-rate and entropy schedules (rlchain/algos/core/schedules.py) and how the PPO agent applies them."""
 
 import copy
 import warnings
@@ -6,8 +6,7 @@ import warnings
 import pytest
 import torch
 
-from rlchain.algos.ppo import PPOAgent
-from rlchain.algos.schedules import (
+from rlchain.algos.core.schedules import (
     MIN_ENTROPY_COEF,
     ConstantSchedule,
     LinearSchedule,
@@ -17,9 +16,10 @@ from rlchain.algos.schedules import (
     polynomial_decay,
     scheduled_entropy_coef,
 )
+from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config import ConfigError, compat, parse_params
 from rlchain.config.compat import RlchainDeprecationWarning
-from rlchain.training.logging import TrainLogger
+from rlchain.runs.logging import TrainLogger
 
 
 def parse(cfg, **config):
@@ -127,9 +127,9 @@ def test_agent_state_carries_entropy_coef(base_config):
 
 
 def test_logger_writes_entropy_coef():
+    from rlchain.algos.ppo.trainer import OnPolicyTrainer
     from rlchain.runs.writers import Writer
     from rlchain.training.loop import tag_metrics
-    from rlchain.training.on_policy import OnPolicyTrainer
 
     class Recorder(Writer):
         def __init__(self):

@@ -1,4 +1,5 @@
-"""Task success from step infos (envs/success.py) and the success rate of tracked episodes (training/episodes.py)."""
+"""Task success from step infos (envs/wrappers/success.py) and the success rate of tracked episodes
+(training/episodes.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.envs.success import SuccessReader, resolve_key, step_success
+from rlchain.envs.wrappers.success import SuccessReader, resolve_key, step_success
 from rlchain.training.episodes import EpisodeTracker
 
 NAN = float("nan")
@@ -110,8 +111,8 @@ class _Step:
 def test_appo_runner_episode_success_any_vs_last(mode, expected):
     """An APPO runner tracks success per episode by hand-made steps: env 0 succeeds at step 1 only, env 1
     never; env 2 reports nothing. The learner's tracker picks any / last with its success_mode."""
-    from rlchain.envs.ray_worker import EnvRecipe
-    from rlchain.training.fragments import FragmentRunner
+    from rlchain.algos.appo.fragments import FragmentRunner
+    from rlchain.envs.ray.ray_worker import EnvRecipe
 
     runner = FragmentRunner(EnvRecipe("x", {}, "sync"), worker=0, start=0, num_envs=3, horizon=3)
     returns, lengths, successes = [], [], []

@@ -11,11 +11,11 @@ import pytest
 import torch
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.backends.tensor_env import TensorVecEnv
+from rlchain.envs.backends.torch_envs import TorchCartPole, TorchPendulum, TorchReacher
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.tensor_env import TensorVecEnv
-from rlchain.envs.torch_envs import TorchCartPole, TorchPendulum, TorchReacher
+from rlchain.models.build import build_env
 from rlchain.registry import ENVS
-from rlchain.training.build import build_env
 
 NAMES = ["TorchCartPole-v0", "TorchPendulum-v0", "TorchReacher8-v0"]
 ATOL = RTOL = 1e-5  # float32 tensor envs against gymnasium's float64 state

@@ -124,7 +124,7 @@ def test_asymmetric_env_through_the_vecenv():
 @pytest.mark.parametrize("central", [True, False])
 def test_dict_observations_reach_the_trainer_flat_with_their_dict_space(central):
     """multi_obs_space (+ use_central_value): flattened by gymnasium's rule, the Dict kept for networks."""
-    from rlchain.envs.central_value import ObsStateBox
+    from rlchain.envs.wrappers.central_value import ObsStateBox
 
     env = make_vec_env("test_env", {"name": "TestRnnEnv-v0", "multi_obs_space": True, "aux_loss": True,
                                     "use_central_value": central}, 2, 0, None)

@@ -1,11 +1,11 @@
-"""rlchain.training.threads: thread counts per training phase, and the params.update_threads key."""
+"""rlchain.parallel.threads: thread counts per training phase, and the params.update_threads key."""
 
 import pytest
 import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
-from rlchain.training.threads import ThreadPlan, idle_cores, plan_threads
+from rlchain.parallel.threads import ThreadPlan, idle_cores, plan_threads
 
 BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
                    "network": {"name": "actor_critic", "mlp": {"units": [8]}},
@@ -76,7 +76,7 @@ def test_update_threads_key_parses_and_rejects_bad_values():
 def test_busy_cores_reads_the_cpu_time_other_processes_use_now(tmp_path, monkeypatch):
     """Non-idle share of /proc/stat's cpu time over the window, times the cores: here 200 of 300
     ticks busy on 2 cores -> 1.33 cores, so 1 idle core is left for the update."""
-    import rlchain.training.threads as threads
+    import rlchain.parallel.threads as threads
 
     stat = tmp_path / "stat"
     stat.write_text("cpu  100 0 100 800 0 0 0 0 0 0\ncpu0 ...\n")
@@ -93,7 +93,7 @@ def test_busy_cores_reads_the_cpu_time_other_processes_use_now(tmp_path, monkeyp
 def test_idle_cores_uses_the_cpu_busy_now_not_the_one_minute_average(monkeypatch):
     """Right after another run ended the 1-minute load average is still ~2.7 on an idle 2-core
     machine; the update must still get both cores."""
-    import rlchain.training.threads as threads
+    import rlchain.parallel.threads as threads
 
     monkeypatch.setattr(threads.os, "getloadavg", lambda: (2.7, 2.0, 1.0))
     monkeypatch.setattr(threads, "SAMPLE_MAX_AGE", 0.0)  # sample afresh each call
@@ -107,7 +107,7 @@ def test_idle_cores_uses_the_cpu_busy_now_not_the_one_minute_average(monkeypatch
 
 def test_runs_started_back_to_back_in_one_process_share_one_core_sample(monkeypatch):
     """The 0.2 s sample is taken once per SAMPLE_MAX_AGE seconds in a process, then taken afresh."""
-    import rlchain.training.threads as threads
+    import rlchain.parallel.threads as threads
 
     samples = []
     clock = [100.0]
@@ -123,7 +123,7 @@ def test_runs_started_back_to_back_in_one_process_share_one_core_sample(monkeypa
 
 def test_playing_plans_no_update_threads_and_samples_no_cores(monkeypatch):
     """--play never runs a gradient update: the rollout's count, without the 0.2 s /proc/stat sample."""
-    import rlchain.training.threads as threads
+    import rlchain.parallel.threads as threads
 
     def no_sample(*args, **kwargs):
         raise AssertionError("busy_cores sampled for a play")

@@ -4,9 +4,9 @@ V(the state before the last step), as rl_games adds ``gamma * V(s_t)`` to the la
 import pytest
 import torch
 
-import rlchain.training.on_policy as on_policy
+import rlchain.algos.ppo.trainer as on_policy
 from rlchain import Runner
-from rlchain.algos.returns import gae
+from rlchain.algos.core.returns import gae
 
 PENDULUM = "rlchain/configs/ppo_pendulum.yaml"
 

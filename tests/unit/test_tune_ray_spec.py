@@ -11,8 +11,8 @@ import yaml
 from rlchain.config.errors import ConfigError
 from rlchain.runner import Runner
 from rlchain.training.events import Callback
-from rlchain.tune import load_search
 from rlchain.tuning import ray_search
+from rlchain.tuning.common import load_search
 from rlchain.tuning.epochs import EpochStepper
 from tests.conftest import CONFIGS
 
@@ -116,7 +116,7 @@ def test_missing_ray_is_one_line(monkeypatch, tmp_path, capsys):
     monkeypatch.setattr(builtins, "__import__", no_ray)
     with pytest.raises(ImportError, match=r"^Ray Tune is not installed: pip install rlchain\[ray\]$"):
         ray_search.import_ray_tune()
-    from rlchain.tune import main
+    from rlchain.tuning.search import main
 
     assert main([_search(tmp_path), "-o", str(tmp_path / "best.yaml")]) == 2
     err = capsys.readouterr().err

@@ -5,8 +5,8 @@ import math
 import pytest
 import torch
 
-from rlchain.algos.returns import gae
-from rlchain.algos.vtrace import vtrace
+from rlchain.algos.core.returns import gae
+from rlchain.algos.core.vtrace import vtrace
 
 
 def _nstep_returns(rewards, values, bootstrap, gamma):

@@ -1,1 +1,1 @@
-"""Env backends: one module per kind of vectorized env."""
+"""Env backends: gymnasium, envpool, brax, playground, PettingZoo, tensor envs, jax, Atari, rl_games IVecEnvs."""

@@ -28,8 +28,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.central_value import ObsStateBox
 from rlchain.envs.vecenv import StepResult, VecEnv
+from rlchain.envs.wrappers.central_value import ObsStateBox
 
 
 def make_registered_vecenv(creator: Callable[..., Any], env_name: str, num_actors: int, seed: int | None,

@@ -12,7 +12,7 @@ partner's position as well as its own.
 
 Agent ``j``'s observation (6,) float32, positions scaled by 1 / (length - 1): own position,
 partner position, then (flag - own) for the left and right flag, then (flag - partner) for both.
-It follows the multi-agent contract of :mod:`rlchain.envs.multi_agent`: ``get_number_of_agents()
+It follows the multi-agent contract of :mod:`rlchain.envs.wrappers.multi_agent`: ``get_number_of_agents()
 == 2``, obs (2, 6), actions (2,), rewards (2,), one ``terminated`` per env.
 """
 

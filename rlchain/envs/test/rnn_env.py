@@ -28,6 +28,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from rlchain.envs.building import openai_gym_env
 from rlchain.registry import ENVS
 
 
@@ -124,7 +125,6 @@ class TestRNNEnv(gym.Env):
 def test_env(num_envs: int, seed: int | None = None, *, vecenv_type: str | None = None, render: bool = False,
              **env_config: Any) -> Any:
     """rl_games' ``env_name: test_env``: the gymnasium id in ``env_config.name``, the rest its kwargs."""
-    from rlchain.envs.building import openai_gym_env
 
     return openai_gym_env(num_envs, seed, vecenv_type=vecenv_type, render=render, **env_config)
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import torch
 
-from rlchain.algos.returns import shape_rewards
+from rlchain.algos.core.returns import shape_rewards
 from rlchain.config.fields import option
 from rlchain.config.schema import TrainConfig
 from rlchain.training.loop import Loop

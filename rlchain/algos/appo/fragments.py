@@ -1,0 +1,214 @@
+"""The runner side of appo / impala: a policy copy steps its own envs into fixed-length fragments.
+
+:class:`FragmentRunner` is the body of one runner, the same in a local thread
+(:mod:`rlchain.algos.appo.local_runners`) and in a Ray actor (:mod:`rlchain.algos.appo.ray_runners`):
+it builds its envs from an :class:`~rlchain.envs.ray.ray_worker.EnvRecipe`, acts with a CPU copy of
+the model (inference on the runner, as IMPALA does, so the learner never waits for a step), and
+returns :class:`Fragment` s of ``horizon`` steps that carry the behaviour log-probs and the policy
+version they were sampled with. Its envs run on between fragments (episodes span fragments).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.envs.spec import env_spec
+from rlchain.envs.wrappers.info_means import InfoMeans
+from rlchain.envs.wrappers.success import SuccessReader
+
+
+class RunnerKilled(RuntimeError):
+    """A runner was stopped in the middle of a fragment (its thread killed: tests, hung-runner cleanup)."""
+
+
+@dataclass
+class Fragment:
+    """``horizon`` (T) steps of a runner's ``n`` envs, as CPU tensors.
+
+    ``obs`` holds T + 1 rows: the last is the observation after the fragment (V-trace's bootstrap).
+    ``final_steps`` (K, 2) are the (t, env) where an episode ended, ``final_obs`` (K, ...) the true
+    last observation of each (a time-out bootstraps from it). ``episode_returns`` / ``episode_lengths``
+    are the raw (unshaped) games finished in the fragment, for the episode statistics;
+    ``episode_successes`` their task success where the env reported one (else None): (succeeded at
+    any step, at the last step reported), the learner's ``success_mode`` picks one.
+    """
+
+    obs: torch.Tensor
+    actions: torch.Tensor
+    log_probs: torch.Tensor
+    params: torch.Tensor
+    rewards: torch.Tensor
+    terminated: torch.Tensor
+    truncated: torch.Tensor
+    final_steps: torch.Tensor
+    final_obs: torch.Tensor
+    version: int
+    worker: int
+    episode_returns: list[float] = field(default_factory=list)
+    episode_lengths: list[int] = field(default_factory=list)
+    episode_successes: list[tuple[bool, bool] | None] = field(default_factory=list)
+    info_totals: tuple | None = None
+    """``log_info_keys``: (sums, counts, keys reported) over the fragment's steps (InfoMeans.totals)."""
+    sample_seconds: float = 0.0
+
+    @property
+    def frames(self) -> int:
+        return int(self.log_probs.numel())
+
+
+class FragmentRunner:
+    """One runner: envs ``[start, start + num_envs)`` of the batch and a CPU policy copy.
+
+    ``step_delay_s`` adds a sleep to every env step (benchmarks and tests make stragglers with it).
+    ``kill()`` makes the fragment in progress stop with :class:`RunnerKilled`.
+    """
+
+    def __init__(self, recipe: Any, worker: int, start: int, num_envs: int, horizon: int,
+                 step_delay_s: float = 0.0) -> None:
+        self.recipe, self.worker, self.start, self.num_envs, self.horizon = recipe, worker, start, num_envs, horizon
+        self.step_delay_s = step_delay_s
+        self.env: Any = None
+        self.model: torch.nn.Module | None = None
+        self.version = -1
+        self.obs: torch.Tensor | None = None
+        self._seed: int | None = None
+        self._killed = threading.Event()
+        self.fragments_sampled = 0
+        self._returns = np.zeros(num_envs)
+        self._lengths = np.zeros(num_envs, dtype=np.int64)
+        self._success = SuccessReader(getattr(recipe, "success_key", "auto"))
+        self._success_flags = np.zeros((3, num_envs), dtype=bool)  # reported, hit at any step, hit at the last
+        self._info_means = InfoMeans(getattr(recipe, "log_info_keys", ()))
+
+    # ----- setup ----------------------------------------------------------------------------
+    def build(self, seed: int | None, own_process: bool = False) -> dict:
+        """Make the envs; returns their spaces and value size. ``own_process`` (a Ray actor): one torch
+        thread, as many runners share the cores (a thread runner leaves the process's setting alone)."""
+        if own_process:
+            torch.set_num_threads(1)
+        try:
+            self.env = self.recipe.build(self.num_envs, seed)
+        except ValueError as exc:  # config errors travel as plain ValueErrors (picklable, one line)
+            raise ValueError(str(exc)) from None
+        self._seed = seed
+        return {"observation_space": self.env.observation_space, "action_space": self.env.action_space,
+                "value_size": env_spec(self.env).value_size}
+
+    def start(self, seed: int | None, own_process: bool, model: torch.nn.Module, weights: dict,
+              version: int) -> int:
+        """:meth:`build` then :meth:`set_policy` in one call (a replacement Ray actor); returns ``version``."""
+        self.build(seed, own_process)
+        self.set_policy(model, weights, version)
+        return version
+
+    def set_policy(self, model: torch.nn.Module, weights: dict | None = None, version: int = 0) -> None:
+        """The model this runner acts with (a CPU copy, evaluation mode), and its weights."""
+        self.model = model.to("cpu").eval()
+        if weights is not None:
+            self.load_weights(weights, version)
+
+    def load_weights(self, weights: dict, version: int) -> None:
+        """New policy weights (and normalizer statistics) of learner version ``version``."""
+        self.model.load_state_dict(weights)
+        self.version = version
+
+    def kill(self) -> None:
+        self._killed.set()
+
+    @property
+    def killed(self) -> bool:
+        return self._killed.is_set()
+
+    def pid(self) -> int:
+        import os
+        return os.getpid()
+
+    # ----- sampling -------------------------------------------------------------------------
+    def sample(self, weights: dict | None = None, version: int | None = None) -> Fragment:
+        """``horizon`` steps of every env with the current policy (new ``weights`` first, when given)."""
+        if weights is not None:
+            self.load_weights(weights, version)
+        began = time.monotonic()
+        if self.obs is None:
+            self.obs = torch.as_tensor(np.asarray(self.env.reset(seed=self._seed)))
+        t_len, model = self.horizon, self.model
+        obs_rows, actions, log_probs, params, rewards, terminated, truncated = [], [], [], [], [], [], []
+        final_steps, final_obs = [], []
+        ep_returns, ep_lengths, ep_successes = [], [], []
+        version = self.version
+        for t in range(t_len):
+            if self._killed.is_set():
+                raise RunnerKilled(f"runner {self.worker} killed")
+            out = model.act(self.obs)
+            obs_rows.append(self.obs)
+            result = self.env.step(model.dist.to_env(out["actions"]).numpy())
+            if self.step_delay_s and self._killed.wait(self.step_delay_s):
+                raise RunnerKilled(f"runner {self.worker} killed")
+            reward = np.asarray(result.reward, dtype=np.float32)
+            term, trunc = np.asarray(result.terminated, dtype=bool), np.asarray(result.truncated, dtype=bool)
+            done = term | trunc
+            actions.append(out["actions"])
+            log_probs.append(out["log_probs"])
+            params.append(out["params"])
+            rewards.append(torch.as_tensor(reward))
+            terminated.append(torch.as_tensor(term))
+            truncated.append(torch.as_tensor(trunc))
+            self._track(result, reward, done, ep_returns, ep_lengths, ep_successes)
+            if self._info_means.keys:
+                self._info_means.add(getattr(result, "infos", None))
+            rows = np.flatnonzero(done)
+            if rows.size:
+                final = np.asarray(result.final_obs)[rows]
+                final_steps.extend((t, int(r)) for r in rows)
+                final_obs.append(torch.as_tensor(final))
+            self.obs = torch.as_tensor(np.asarray(result.obs))
+        obs_rows.append(self.obs)
+        self.fragments_sampled += 1
+        empty_final = torch.zeros((0, *self.obs.shape[1:]), dtype=self.obs.dtype)
+        return Fragment(
+            obs=torch.stack(obs_rows), actions=torch.stack(actions), log_probs=torch.stack(log_probs),
+            params=torch.stack(params), rewards=torch.stack(rewards), terminated=torch.stack(terminated),
+            truncated=torch.stack(truncated),
+            final_steps=torch.tensor(final_steps, dtype=torch.long).reshape(-1, 2),
+            final_obs=torch.cat(final_obs).to(self.obs.dtype) if final_obs else empty_final,
+            version=version, worker=self.worker, episode_returns=ep_returns, episode_lengths=ep_lengths,
+            episode_successes=ep_successes, info_totals=self._info_means.totals() if self._info_means.keys else None,
+            sample_seconds=time.monotonic() - began)
+
+    def _track(self, result: Any, reward: np.ndarray, done: np.ndarray, returns: list, lengths: list,
+               successes: list) -> None:
+        """Raw episode returns and lengths (whole games when the env reports game_reward / game_over),
+        and the episodes' task success from the step infos (:mod:`rlchain.envs.wrappers.success`)."""
+        seen, hit_any, hit_last = self._success_flags
+        success = self._success.read(getattr(result, "infos", None), done)
+        if success is not None:
+            reported = ~np.isnan(success)
+            hit = reported & (success > 0.5)
+            seen |= reported
+            hit_any |= hit
+            hit_last[reported] = hit[reported]
+        game_reward = getattr(result, "game_reward", None)
+        game_over = getattr(result, "game_over", None)
+        reward = np.asarray(game_reward, dtype=np.float64).reshape(-1) if game_reward is not None else reward
+        if reward.ndim > 1:
+            reward = reward.sum(-1)
+        over = np.asarray(game_over, dtype=bool).reshape(-1) if game_over is not None else done
+        self._returns += reward
+        self._lengths += 1
+        for i in np.flatnonzero(over):
+            returns.append(float(self._returns[i]))
+            lengths.append(int(self._lengths[i]))
+            successes.append((bool(hit_any[i]), bool(hit_last[i])) if seen[i] else None)
+            self._returns[i], self._lengths[i] = 0.0, 0
+            self._success_flags[:, i] = False
+
+    def close(self) -> None:
+        if self.env is not None:
+            self.env.close()
+            self.env = None

@@ -1,0 +1,298 @@
+"""APPO and IMPALA on the Loop: an asynchronous learner fed by runners that never wait for it.
+
+Runners (threads or Ray actors, :mod:`rlchain.algos.appo.runner_pool`) sample fixed-length fragments
+with their own policy copy and queue them. One epoch of the learner (``collect`` then ``update``):
+
+1. take fragments from the queue until it has ``num_actors`` envs' worth (``num_workers``
+   fragments, from whichever runners are fastest); a fragment sampled more than
+   ``appo.max_policy_lag`` policy versions ago is dropped and counted;
+2. value the fragments with the current model and compute V-trace targets and advantages
+   (:func:`rlchain.algos.core.vtrace.vtrace`), fold them into the normalizers;
+3. train with the PPO agent (``appo``: clipped surrogate of pi/mu on the V-trace advantages,
+   ``mini_epochs`` passes; ``impala``: the V-trace policy gradient, one pass), adaptive lr included;
+4. bump the policy version; every ``appo.broadcast_interval`` versions publish the weights.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from contextlib import AbstractContextManager, nullcontext
+from typing import Any, ClassVar
+
+import torch
+
+from rlchain.algos.appo.fragments import Fragment
+from rlchain.algos.appo.impala import ImpalaAgent
+from rlchain.algos.appo.local_runners import LocalRunners
+from rlchain.algos.appo.ray_runners import RayRunners
+from rlchain.algos.appo.runner_pool import RunnerPool
+from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.core.vtrace import vtrace
+from rlchain.algos.ppo.agent import PPOAgent
+from rlchain.config.appo import APPOConfig, ImpalaConfig
+from rlchain.config.errors import ConfigError
+from rlchain.config.schema import EnvRunnersConfig, Params
+from rlchain.envs.ray.ray_env import worker_slices
+from rlchain.envs.ray.ray_worker import EnvRecipe
+from rlchain.errors import DivergenceError
+from rlchain.parallel.communicator import Communicator
+from rlchain.runs.logging import TrainLogger
+from rlchain.runs.run_dir import RunDir
+from rlchain.training.loop import Loop
+from rlchain.training.safety import DivergenceGuard, check_rollout
+
+PPO_TAGS = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
+            "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
+            "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm"}
+
+
+class APPOTrainer(Loop):
+    """Algo ``appo`` (see the module docstring); ``impala`` is :class:`ImpalaTrainer`."""
+
+    config_class: ClassVar[type] = APPOConfig
+    agent_class: ClassVar[type] = PPOAgent
+    metric_tags = {**PPO_TAGS, "policy_lag": "appo/policy_lag", "queue_size": "appo/queue_size",
+                   "sample_throughput": "appo/sample_throughput", "dropped_fragments": "appo/dropped_fragments",
+                   "learner_utilisation": "appo/learner_utilisation", "rho": "appo/mean_rho"}
+    console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"), ("policy_lag", "lag {:.1f}"),
+                      ("queue_size", "queue {:.0f}"))
+    tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
+               "kl_threshold", "mini_epochs", "gamma")
+    supports_distributed = True  # multi_gpu: one learner and runner pool per rank, gradients averaged
+    step_delays: ClassVar[list[float] | None] = None
+    """Tests and benchmarks: a sleep per env step for each runner (stragglers); None: none."""
+
+    @classmethod
+    def build_training_env(cls, params: Params, seed: int | None) -> RunnerPool:
+        """The runners (local threads or Ray actors, ``appo.runners``) instead of a vectorized env."""
+
+        cfg = params.config
+        runners = cfg.env_runners if cfg.env_runners is not None else EnvRunnersConfig()
+        try:
+            slices = worker_slices(cfg.num_actors, runners)
+        except ConfigError as exc:
+            raise ConfigError(params.source, exc.path, exc.message) from None
+        vecenv = None if cfg.vecenv_type is None or str(cfg.vecenv_type).lower() == "ray" else cfg.vecenv_type
+        recipe = EnvRecipe.capture(cfg.env_name, cfg.env_config, vecenv or "auto")
+        recipe.success_key, recipe.log_info_keys = cfg.success_key, tuple(cfg.log_info_keys)
+        args = (recipe, slices, seed, cfg.horizon_length, cfg.appo.learner_queue_size, runners.max_restarts,
+                cfg.appo.fragment_timeout_s, cls.step_delays)
+        try:
+            if runner_mode(cfg) == "ray":
+                return RayRunners(*args, runners=runners)
+            return LocalRunners(*args)
+        except ImportError:
+            raise ConfigError(params.source, "params.config.appo.runners", "ray runners need ray, which is not "
+                              "installed: pip install rlchain[ray] (or appo.runners: local)") from None
+        except ConfigError as exc:  # the Ray plumbing's errors name the key, not the file
+            if exc.source:
+                raise
+            raise ConfigError(params.source, exc.path, exc.message) from None
+        except ValueError as exc:
+            raise ConfigError(params.source, "", str(exc)) from None
+
+    def __init__(self, params: Params, env: RunnerPool, model: torch.nn.Module, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
+                 comm: Communicator | None = None) -> None:
+        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
+        cfg = self.cfg
+        if model.is_rnn:
+            raise ConfigError(params.source, "params.network.rnn", f"algo {params.algo.name}: the runners carry "
+                              f"no RNN state yet; use a feed-forward network")
+        self.pool = env
+        self.agent = self.agent_class(model, cfg, device, self.comm)
+        self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        self.version = 0  # learner updates so far: the policy version fragments are stamped with
+        self.dropped_fragments = 0
+        self.batch_fragments = env.num_workers
+        self.batch: list[Fragment] = []
+        self._received = 0  # frames received this epoch (dropped fragments included)
+        self._epoch_frames = cfg.num_actors * cfg.horizon_length
+        self._mark = time.monotonic()  # end of the previous update
+        self._lags: list[int] = []
+        obs_space = env.observation_space
+        self.storage = RolloutStorage(
+            cfg.horizon_length, cfg.num_actors, tuple(obs_space.shape),
+            torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+            model.dist.action_shape, model.dist.action_dtype, model.dist.param_size, env.value_size, device)
+
+    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    def collect(self) -> bool:
+        """Fragments from the queue until a learner batch is full; False when a stop signal came."""
+        self.batch, self._lags, self._received = [], [], 0
+        max_lag = self.cfg.appo.max_policy_lag
+        while len(self.batch) < self.batch_fragments:
+            if self.signals is not None and self.signals.requested:
+                return False
+            fragment = self.pool.get(timeout=0.2)
+            if fragment is None:
+                continue
+            self._received += fragment.frames
+            self.tracker.record(fragment.episode_returns, fragment.episode_lengths, fragment.episode_successes)
+            if fragment.info_totals is not None:
+                self.info_means.add_totals(*fragment.info_totals)
+            lag = self.version - fragment.version
+            if lag > max_lag:
+                self.dropped_fragments += 1
+                continue
+            self.batch.append(fragment)
+            self._lags.append(lag)
+        return True
+
+    def update(self) -> dict[str, float]:
+        """V-trace on the batch, normalizers, the agent's update; a new policy version for the runners."""
+        began = time.monotonic()
+        self._fill_storage()
+        self.model.train()
+        stats = self.agent.update(self.storage, self._progress(self._received))
+        stats["lr_mul"] = stats["lr"] / max(self.cfg.learning_rate, 1e-12)
+        stats["rho"] = self._rho
+        self.version += 1
+        if self.version % self.cfg.appo.broadcast_interval == 0:
+            self.pool.publish(self._weights(), self.version)
+        received = self._received
+        if self.comm.active:  # every rank counts every rank's frames, so all stop at the same max_frames
+            received = round(self.comm.mean(float(received)) * self.world_size)
+        self.frames += received
+        self._epoch_frames = received
+        now = time.monotonic()
+        stats.update(policy_lag=sum(self._lags) / max(len(self._lags), 1), queue_size=self.pool.queue_size(),
+                     sample_throughput=self._received / max(now - self._mark, 1e-9),
+                     dropped_fragments=self.dropped_fragments,
+                     learner_utilisation=(now - began) / max(now - self._mark, 1e-9))
+        self._mark = now
+        return stats
+
+    def frames_per_epoch(self) -> int:
+        """Env frames the last epoch received (a learner batch plus any fragments dropped as stale)."""
+        return self._epoch_frames
+
+    # ----- the learner batch ----------------------------------------------------------------
+    def _fill_storage(self) -> None:
+        """Stack the fragments (envs side by side), value them, V-trace, normalizers; into the storage."""
+        cfg, model, storage, dev = self.cfg, self.model, self.storage, self.device
+        frags = self.batch
+        t_len, n = cfg.horizon_length, cfg.num_actors
+
+        def cat(name: str) -> torch.Tensor:
+            return torch.cat([getattr(f, name) for f in frags], dim=1).to(dev)
+
+        obs, actions, mu_log_probs = cat("obs"), cat("actions"), cat("log_probs")
+        rewards = cat("rewards").float()
+        terminated, truncated = cat("terminated").bool(), cat("truncated").bool()
+        bad = check_rollout(rewards, obs[:t_len])
+        if bad is not None:
+            raise DivergenceError(bad)
+        dones = terminated | truncated
+        with torch.no_grad():
+            model.eval()
+            flat = obs.reshape((t_len + 1) * n, *obs.shape[2:])
+            params, raw_values, _ = model.evaluate(flat)
+            values = model.denorm_value(raw_values).reshape(t_len + 1, n, -1)
+            pi_log_probs = model.dist.log_prob(params[:t_len * n], actions.reshape(t_len * n, *actions.shape[2:]))
+            next_values = values[1:].clone()
+            ends = self._final_values(frags)
+            if ends is not None:
+                steps, envs, final_values = ends
+                next_values[steps, envs] = final_values
+            if rewards.dim() == 2:
+                rewards = rewards.unsqueeze(-1)
+            rs = cfg.reward_shaper
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+            appo = cfg.appo
+            out = vtrace(pi_log_probs.reshape(t_len, n) - mu_log_probs, shaped, values[:t_len], next_values,
+                         terminated if cfg.value_bootstrap else dones, dones, cfg.gamma,
+                         appo.vtrace_clip_rho, appo.vtrace_clip_c)
+            model.update_normalizers(obs=flat[:t_len * n], returns=out.vs.reshape(-1, out.vs.shape[-1]))
+            storage.obs.copy_(obs[:t_len])
+            storage.actions.copy_(actions)
+            storage.log_probs.copy_(mu_log_probs)
+            # the adaptive lr's KL compares with the learner's policy before this update, not the
+            # behaviour policy: the lag between them is not a step the lr should shrink for
+            storage.params.copy_(params[:t_len * n].reshape(storage.params.shape))
+            storage.values.copy_(values[:t_len])
+            storage.returns.copy_(out.vs)
+            storage.advantages.copy_(self.advantages(out))
+            storage.filled = t_len
+        self._rho = float(out.rhos.mean())
+
+    def advantages(self, out: Any) -> torch.Tensor:
+        """APPO: q - V (the surrogate weighs it by pi/mu itself)."""
+        return out.advantages
+
+    def _final_values(self, frags: list[Fragment]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None:
+        """(steps, envs, V(final obs)) of the batch's episode ends, envs numbered across the fragments."""
+        steps, final_obs, offset = [], [], 0
+        for f in frags:
+            if f.final_steps.numel():
+                steps.append(f.final_steps + torch.tensor([0, offset]))
+                final_obs.append(f.final_obs)
+            offset += f.log_probs.shape[1]
+        if not steps:
+            return None
+        idx = torch.cat(steps).to(self.device)
+        values = self.model.value(torch.cat(final_obs).to(self.device))
+        return idx[:, 0], idx[:, 1], values
+
+    def _weights(self) -> dict[str, torch.Tensor]:
+        """The model's parameters and normalizer statistics as CPU tensors, for the runners."""
+        return {k: v.detach().to("cpu", copy=True) for k, v in self.model.state_dict().items()}
+
+    def update_phase(self) -> AbstractContextManager:
+        """The update keeps the process's torch threads: runners sample meanwhile (PPO's update takes
+        ``update_threads`` because its envs are idle then)."""
+        return nullcontext()
+
+    # ----- the Loop's env handling ----------------------------------------------------------
+    def _reset_envs(self) -> None:
+        """Start the runners with the current weights (the first time); they reset their own envs."""
+        if not self.pool.started:
+            self.pool.start(self.model, self._weights(), self.version)
+            self._mark = time.monotonic()
+        return None
+
+    def restart_episodes(self) -> None:
+        """After a rollback: drop the queued fragments of the diverged policy, publish the restored one."""
+        self.dropped_fragments += self.pool.drain()
+        self.version += self.cfg.appo.max_policy_lag + 1  # what is in flight is now too old
+        self.pool.publish(self._weights(), self.version)
+
+    # ----- hyperparameters, checkpoints -----------------------------------------------------
+    def hyperparams(self) -> dict[str, float]:
+        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
+        return {**super().hyperparams(), **self.agent.live_hyperparams()}
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        if not self.agent.set_hyperparam(name, value):
+            super().apply_hyperparam(name, value)
+
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        return {"policy_version": self.version, "dropped_fragments": self.dropped_fragments}
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        self.version = int(state.get("policy_version", 0))
+        self.dropped_fragments = int(state.get("dropped_fragments", 0))
+
+
+class ImpalaTrainer(APPOTrainer):
+    """Algo ``impala``: the V-trace actor-critic, one pass per batch, no surrogate clipping."""
+
+    config_class = ImpalaConfig
+    agent_class = ImpalaAgent
+    tunable = ("learning_rate", "entropy_coef", "critic_coef", "bounds_loss_coef", "grad_norm", "kl_threshold",
+               "gamma")
+
+    def advantages(self, out: Any) -> torch.Tensor:
+        """min(rho-bar, pi/mu) * (q - V): IMPALA's policy-gradient advantage."""
+        return out.pg_advantages
+
+
+def runner_mode(cfg: APPOConfig) -> str:
+    """``appo.runners`` resolved: auto is ray when a cluster address is given, else local."""
+    mode = cfg.appo.runners
+    if mode == "auto":
+        address = cfg.env_runners.address if cfg.env_runners is not None else None
+        mode = "ray" if address or os.environ.get("RAY_ADDRESS") else "local"
+    return mode

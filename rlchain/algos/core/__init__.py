@@ -1,0 +1,1 @@
+"""Pure math and storage shared by the algorithms: returns, losses, schedules, rollout storage, replay, V-trace."""

@@ -1,0 +1,1 @@
+"""Multi-policy PPO: one learner per policy, snapshots of opponents, masked losses."""

@@ -1,0 +1,98 @@
+"""Per-policy pieces of multi-policy PPO: the models (one per policy), each policy's rows of the
+PettingZoo env, its learner (agent, rollout storage, active mask) and its episode statistics."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.multi_policy.masked import MaskedPPOAgent
+from rlchain.config.schema import Params
+from rlchain.runs.checkpoint import CheckpointError
+from rlchain.training.episodes import EpisodeTracker
+
+
+class AgentEpisodes(EpisodeTracker):
+    """Episode returns per agent row; an episode's length counts the agent's own (active) steps."""
+
+    def agent_step(self, rewards: torch.Tensor, dones: torch.Tensor, active: torch.Tensor) -> None:
+        """rewards (R,), dones (R,) bool (the agent ended at this step), active (R,) bool (it acted)."""
+        self.returns += rewards
+        self.lengths += active.long()
+        if dones.any():
+            idx = dones.nonzero().squeeze(-1)
+            self.finished_returns.extend(self.returns[idx].tolist())
+            self.finished_lengths.extend(self.lengths[idx].tolist())
+            self.games += int(idx.numel())
+            self.returns[idx] = 0.0
+            self.lengths[idx] = 0
+
+
+class PolicyLearner:
+    """One policy: its model, its agents' rows (agent-major: row ``k * E + e`` is agent k of env e)
+    and, when it trains, a :class:`MaskedPPOAgent`, a rollout storage and the (T, rows) active mask."""
+
+    def __init__(self, name: str, params: Params, agents: list[str], model: Any, obs_shape: tuple[int, ...],
+                 num_envs: int, train: bool, device: torch.device, games_to_track: int) -> None:
+        cfg = params.config
+        self.name, self.params, self.cfg, self.agents, self.model = name, params, cfg, agents, model
+        self.num_envs, self.rows, self.device = num_envs, num_envs * len(agents), device
+        self.use_masks = bool(cfg.use_action_masks)
+        self.agent = MaskedPPOAgent(model, cfg, device) if train else None
+        self.tracker = AgentEpisodes(self.rows, games_to_track, device)
+        self.storage = self.active = None
+        self.last_values: torch.Tensor | None = None
+        self.pool: Any = None  # a frozen self-play snapshot: past snapshots env by env (snapshots.py)
+        if train:
+            dist = model.dist
+            self.storage = RolloutStorage(cfg.horizon_length, self.rows, tuple(obs_shape), torch.float32,
+                                          dist.action_shape, dist.action_dtype, dist.param_size, 1, device,
+                                          mask_size=dist.param_size if self.use_masks else 0)
+            self.active = torch.zeros((cfg.horizon_length, self.rows), dtype=torch.bool, device=device)
+
+    def gather(self, views: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
+        """(obs (R, D), active (R,), masks (R, n) or None) of this policy's rows from the env's views."""
+        obs = np.concatenate([views[a].obs for a in self.agents])
+        active = np.concatenate([views[a].active for a in self.agents])
+        masks = None
+        if self.use_masks:
+            masks = torch.as_tensor(np.concatenate([views[a].mask for a in self.agents]), device=self.device)
+        return (torch.as_tensor(obs, device=self.device), torch.as_tensor(active, device=self.device), masks)
+
+    def split(self, env_actions: np.ndarray) -> dict[str, np.ndarray]:
+        """The policy's (R, ...) env actions as ``{agent: (E, ...)}``."""
+        e = self.num_envs
+        return {a: env_actions[k * e:(k + 1) * e] for k, a in enumerate(self.agents)}
+
+    def outcome(self, per_agent: dict[str, np.ndarray]) -> torch.Tensor:
+        """A step's ``{agent: (E,)}`` field as this policy's (R,) tensor."""
+        return torch.as_tensor(np.concatenate([per_agent[a] for a in self.agents]), device=self.device)
+
+
+class PolicyAgents:
+    """The trained policies' agents as one object: state_dict, lr scaling (divergence rollback)."""
+
+    def __init__(self, learners: list[PolicyLearner]) -> None:
+        self.agents = {lr.name: lr.agent for lr in learners if lr.agent is not None}
+
+    @property
+    def lr(self) -> float:
+        return next(iter(self.agents.values())).lr if self.agents else 0.0
+
+    def scale_lr(self, factor: float) -> None:
+        for agent in self.agents.values():
+            agent.scale_lr(factor)
+
+    def state_dict(self) -> dict:
+        return {name: agent.state_dict() for name, agent in self.agents.items()}
+
+    def load_state_dict(self, state: dict) -> None:
+        missing = [name for name in self.agents if name not in state]
+        if missing:
+                raise CheckpointError(f"checkpoint has no optimizer state for policy '{missing[0]}' "
+                                  f"(it has: {', '.join(state) or 'none'})")
+        for name, agent in self.agents.items():
+            agent.load_state_dict(state[name])

@@ -1,0 +1,228 @@
+"""Multi-policy PPO on the Loop: PettingZoo agents, each played by the policy the mapping names.
+
+Every policy has its own model, optimizer, normalizers, rollout storage, adaptive lr and tags
+(``rewards/<policy>/...``, ``losses/<policy>/...``, ``info/<policy>/...``); they share the env
+steps. A rollout step asks every policy for its agents' actions, steps the envs once, and hands
+each policy its agents' rewards and ends. Steps where an agent was not there or not on turn are
+inactive: :mod:`rlchain.algos.multi_policy.masked` leaves them out of returns, loss and statistics. Policies
+left out of ``policies_to_train`` act without learning (a frozen opponent, a snapshot for self-play).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import torch
+
+from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.multi_policy.masked import masked_gae
+from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
+from rlchain.algos.multi_policy.snapshots import SnapshotCallback
+from rlchain.config.errors import ConfigError
+from rlchain.config.multi_agent import KEY
+from rlchain.config.schema import Params
+from rlchain.errors import DivergenceError, EnvError
+from rlchain.models.build import policy_agents
+from rlchain.parallel.communicator import Communicator
+from rlchain.runs.logging import TrainLogger
+from rlchain.runs.run_dir import RunDir
+from rlchain.training.loop import Loop, describe
+from rlchain.training.safety import DivergenceGuard, check_rollout
+
+STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entropy": "losses/{}/entropy",
+             "b_loss": "losses/{}/bounds_loss", "lr": "info/{}/last_lr", "kl": "info/{}/kl",
+             "entropy_coef": "info/{}/entropy_coef", "clip_frac": "info/{}/clip_frac"}
+
+
+class MultiPolicyTrainer(Loop):
+    """PPO for several policies over one PettingZoo vector env (``config.multi_agent``)."""
+
+    env_self_play = False  # self_play_config acts through multi_agent.snapshots (SnapshotCallback)
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.ModuleDict, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
+                 comm: Communicator | None = None) -> None:
+        _check_supported(params)
+        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
+        if self.comm.active:
+            raise ConfigError(params.source, "params.config.multi_gpu", "is not supported with multi_agent yet")
+        ma = self.cfg.multi_agent
+        to_train = set(ma.policies_to_train if ma.policies_to_train is not None else params.policies)
+        self.learners: list[PolicyLearner] = []
+        for name, agents in policy_agents(params, env).items():
+            if not agents:
+                continue
+            policy = params.policies[name]
+            if policy.config.use_action_masks and not env.mask_sizes[agents[0]]:
+                raise ConfigError(params.source, f"{KEY}.policies.{name}", f"use_action_masks is True but agent "
+                                  f"'{agents[0]}' has no action_mask in its observations")
+            self.learners.append(PolicyLearner(name, policy, agents, model[name],
+                                               env.observation_spaces[agents[0]].shape, env.num_envs,
+                                               name in to_train, device, self.cfg.games_to_track))
+        rows = sum(lr.rows for lr in self.learners)
+        self.tracker = AgentEpisodes(rows, self.cfg.games_to_track, device)  # every agent's episodes
+        self.agent = PolicyAgents(self.learners)
+        self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
+        if self.cfg.self_play_config is not None:
+            self.events.add(SnapshotCallback(self.cfg.self_play_config, ma.snapshots, params.source))
+
+    def learner(self, name: str) -> PolicyLearner:
+        """The policy ``name``'s learner (KeyError naming the policies otherwise)."""
+        for lr in self.learners:
+            if lr.name == name:
+                return lr
+        raise KeyError(f"no policy '{name}' plays in this env (policies: {[lr.name for lr in self.learners]})")
+
+    # ----- the Algorithm hooks --------------------------------------------------------------
+    def collect(self) -> bool:
+        """horizon_length env steps; every trained policy's storage gets its agents' rows."""
+        for lr in self.learners:
+            lr.model.eval()
+        for t in range(self.cfg.horizon_length):
+            if self.signals is not None and self.signals.requested:
+                return False
+            actions, acted = {}, []
+            for lr in self.learners:
+                obs, active, masks = lr.gather(self.obs)
+                acted.append(active)
+                if lr.pool is not None:  # a self-play snapshot: each env's own
+                    with torch.no_grad():
+                        env_actions = lr.pool.act(obs, len(lr.agents), masks)
+                    actions.update(lr.split(lr.model.dist.to_env(env_actions).cpu().numpy()))
+                    continue
+                with torch.no_grad():
+                    out = lr.model.act(obs, action_masks=masks)
+                if lr.agent is not None:
+                    lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks)
+                    lr.active[t] = active
+                actions.update(lr.split(lr.model.dist.to_env(out["actions"]).cpu().numpy()))
+            result = self.env.step(actions)
+            self._observe(t, result, acted)
+            self.obs = result.obs
+        for lr in self.learners:
+            if lr.agent is not None:
+                with torch.no_grad():
+                    lr.last_values = lr.model.value(lr.gather(self.obs)[0])
+        return True
+
+    def _observe(self, t: int, result: Any, acted: list[torch.Tensor]) -> None:
+        """Rewards and ends of step t into each policy's storage and episode statistics."""
+        all_rewards, all_dones = [], []
+        for lr, active in zip(self.learners, acted):
+            rewards = lr.outcome(result.reward).float()
+            terminated, truncated = lr.outcome(result.terminated).bool(), lr.outcome(result.truncated).bool()
+            dones = terminated | truncated
+            lr.tracker.agent_step(rewards, dones, active)
+            all_rewards.append(rewards)
+            all_dones.append(dones)
+            if lr.agent is None:
+                continue
+            cfg = lr.cfg
+            rs = cfg.reward_shaper
+            shaped = shape_rewards(rewards.unsqueeze(-1), rs.scale_value, rs.shift_value, rs.min_val, rs.max_val,
+                                   rs.log_val)
+            if cfg.value_bootstrap and bool(truncated.any()):
+                idx = (truncated & ~terminated).nonzero().squeeze(-1)
+                if idx.numel():
+                    final = lr.outcome(result.final_obs).float()[idx]
+                    with torch.no_grad():
+                        lr.storage.final_values[t][idx] = lr.model.value(final)
+            lr.storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
+        self.tracker.agent_step(torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted))
+
+    def update(self) -> dict[str, float]:
+        """Masked GAE, normalizers and a PPO update for every trained policy."""
+        stats: dict[str, float] = {}
+        for lr in self.learners:
+            if lr.agent is None:
+                continue
+            storage = lr.storage
+            bad = check_rollout(storage.rewards, storage.obs)
+            if bad is not None:
+                raise DivergenceError(f"policy {lr.name}: {bad}")
+            if not bool(lr.active.any()):
+                continue
+            for key, value in self._learn(lr).items():
+                if key in STAT_TAGS:
+                    stats[STAT_TAGS[key].format(lr.name)] = value
+                    if len(self.learners) == 1:  # one shared policy: rl_games' own tags too
+                        stats[self.plain_tag(key)] = value
+        self.frames += self.frames_per_epoch()
+        return stats
+
+    @staticmethod
+    def plain_tag(key: str) -> str:
+        return STAT_TAGS[key].replace("{}/", "")
+
+    def _learn(self, lr: PolicyLearner) -> dict[str, float]:
+        cfg, storage, model = lr.cfg, lr.storage, lr.model
+        with torch.no_grad():
+            adv, returns = masked_gae(storage.rewards, storage.values, storage.final_values, lr.last_values,
+                                      lr.active, storage.terminated, storage.dones, cfg.gamma, cfg.tau)
+            storage.advantages.copy_(adv)
+            storage.returns.copy_(returns)
+            storage.final_values.zero_()
+            flat = lr.active.reshape(-1)
+            model.update_normalizers(obs=storage.obs.reshape(-1, *storage.obs.shape[2:])[flat],
+                                     returns=returns.reshape(-1, returns.shape[-1])[flat])
+        model.train()
+        lr.agent.active = lr.active
+        return lr.agent.update(storage, self._progress())
+
+    def frames_per_epoch(self) -> int:
+        """Env steps per epoch (a turn-based env's step is one move)."""
+        return self.cfg.horizon_length * self.num_envs
+
+    # ----- the Loop's env handling for per-agent observations ---------------------------------
+    def _reset_envs(self) -> Any:
+        try:
+            return self.env.reset(seed=self.seed + self.epoch)
+        except Exception as exc:
+            raise EnvError(f"env reset failed: {describe(exc)}") from exc
+
+    def restart_episodes(self) -> None:
+        super().restart_episodes()
+        for lr in self.learners:
+            lr.tracker.reset_running()
+
+    def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
+        """The Loop's epoch line and tags, then each policy's ``rewards/<policy>/{step,iter,time}``."""
+        super()._log(stats, episodes, rollout_s, update_s)
+        elapsed = int(time.time() - self.logger.start)
+        for lr in self.learners:
+            if not lr.tracker.has_data:
+                continue
+            for name, value in (("rewards", lr.tracker.mean_return()), ("episode_lengths", lr.tracker.mean_length())):
+                self.logger.scalar(f"{name}/{lr.name}/step", value, self.frames)
+                self.logger.scalar(f"{name}/{lr.name}/iter", value, self.epoch)
+                self.logger.scalar(f"{name}/{lr.name}/time", value, elapsed)
+
+    def policy_rewards(self) -> dict[str, float]:
+        """Each policy's mean episode reward over its tracked agent-episodes (NaN before any)."""
+        return {lr.name: lr.tracker.mean_return() if lr.tracker.has_data else float("nan") for lr in self.learners}
+
+    # ----- checkpoints ----------------------------------------------------------------------
+    def extra_state(self, kind: str) -> dict:
+        """Each policy's episode statistics (the models and optimizers travel as model / agent)."""
+        return {"policy_episodes": {lr.name: lr.tracker.state_dict() for lr in self.learners},
+                "policies": [lr.name for lr in self.learners]}
+
+    def restore_extra(self, state: dict) -> None:
+        saved = state.get("policy_episodes", {})
+        for lr in self.learners:
+            if lr.name in saved:
+                lr.tracker.load_state_dict(saved[lr.name])
+
+
+def _check_supported(params: Params) -> None:
+    """Features of the single-policy trainer multi_agent does not have yet: a one-line ConfigError."""
+    cfg = params.config
+    unsupported = [("central_value_config", cfg.central_value_config is not None),
+                   ("evaluation.interval", cfg.evaluation.interval > 0),
+                   ("torch_compile", bool(cfg.torch_compile)),
+                   ("env_runners", cfg.env_runners is not None or str(cfg.vecenv_type).lower() == "ray")]
+    for key, used in unsupported:
+        if used:
+            raise ConfigError(params.source, f"params.config.{key}", "is not supported with multi_agent yet; "
+                                                                     "remove it (docs/multi_agent.md)")

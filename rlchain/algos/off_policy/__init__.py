@@ -1,0 +1,1 @@
+"""Off-policy algorithms: SAC, DQN, hindsight relabelling (HER) and their trainer."""

@@ -1,0 +1,252 @@
+"""Off-policy algorithms (SAC, DQN) on the Loop: act -> replay buffer -> updates, every env step.
+
+One epoch is ``num_steps_per_episode`` vectorized env steps (``num_actors * num_steps_per_episode``
+frames). The first ``num_warmup_frames`` frames act uniformly at random and do not learn; after
+that every env step is followed by ``num_updates_per_step`` gradient updates on replay minibatches.
+Episode bookkeeping, logging, checkpoints, stop signals, divergence handling, callbacks and
+evaluation are the Loop's (rlchain.training.loop), as for PPO.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import torch
+
+from rlchain.algos.core.replay import ReplayBuffer
+from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.off_policy.dqn import DQNAgent, epsilon_at
+from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
+from rlchain.algos.off_policy.sac import SACAgent
+from rlchain.config.errors import ConfigError
+from rlchain.config.off_policy import DQNConfig, SACConfig
+from rlchain.config.schema import Params
+from rlchain.envs.wrappers.goal_env import env_compute_reward
+from rlchain.errors import DivergenceError
+from rlchain.parallel.communicator import Communicator
+from rlchain.runs.logging import TrainLogger
+from rlchain.runs.run_dir import RunDir
+from rlchain.training.loop import Loop
+from rlchain.training.safety import DivergenceGuard
+
+
+class OffPolicyTrainer(Loop):
+    """An off-policy algorithm on the Loop: env steps into a replay buffer, updates from it."""
+
+    config_class: type = SACConfig
+    SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
+                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
+                 comm: Communicator | None = None) -> None:
+        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
+        cfg = self.cfg
+        self.agent = self.make_agent()
+        self.buffer = self.make_buffer()
+        self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        self._epoch_stats: dict[str, float] = {}
+        self._update_s = 0.0  # seconds of gradient updates inside the last collect()
+
+    def make_agent(self) -> Any:  # pragma: no cover - subclasses
+        raise NotImplementedError
+
+    def make_buffer(self) -> ReplayBuffer:
+        """The replay buffer the config asks for: uniform / prioritized / n-step, or with hindsight goals."""
+        cfg, obs_space = self.cfg, self.env.observation_space
+        args = (cfg.replay_buffer_size, tuple(obs_space.shape), tuple(self.model.dist.action_shape))
+        kwargs = dict(device=self.device, num_envs=self.num_envs,
+                      obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+                      action_dtype=self.model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
+                      prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
+        her = cfg.replay.her
+        if her is None:
+            return ReplayBuffer(*args, **kwargs)
+        try:
+            layout = goal_layout(obs_space)
+            reward_fn = goal_reward_fn(env_compute_reward(self.env), cfg.reward_shaper, self.device)
+        except ValueError as exc:
+            raise ConfigError(self.params.source, "params.config.replay.her", str(exc)) from None
+        return HERReplayBuffer(*args, layout, reward_fn, strategy=her.strategy, k=her.k, **kwargs)
+
+    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    def collect(self) -> bool:
+        """num_steps_per_episode env steps, each followed by updates once warmup is over (the
+        updates run here, between the steps; :meth:`update` reports them)."""
+        self._epoch_stats, self._update_s, completed = self._epoch()
+        return completed
+
+    def update(self) -> dict[str, float]:
+        """The epoch's mean losses (its updates ran during :meth:`collect`), lr and buffer size."""
+        stats = dict(self._epoch_stats)
+        stats.update(lr=self.agent.lr, total_updates=self.agent.updates, replay_size=len(self.buffer))
+        stats.update(self.extra_stats())
+        return stats
+
+    def frames_per_epoch(self) -> int:
+        return self.cfg.num_steps_per_episode * self.num_envs
+
+    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """The gradient updates ran inside collect: their time moves to the update column."""
+        return collect_s - self._update_s, self._update_s + update_s
+
+    def snapshot_due(self) -> bool:
+        """An in-memory learner copy every ``snapshot_epochs`` epochs (epochs are short off-policy)."""
+        return self.epoch % self.cfg.snapshot_epochs == 0
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        """Learning rates go to their optimizer; gamma to the replay buffer's n-step returns too."""
+        optimizers = self.agent.optimizers()
+        if name in optimizers:
+            for group in optimizers[name].param_groups:
+                group["lr"] = float(value)
+            return
+        super().apply_hyperparam(name, value)
+        if name == "gamma":
+            self.buffer.gamma = float(value)
+
+    def hyperparams(self) -> dict[str, float]:
+        """The tunable values; learning rates are the optimizers' live ones (rollbacks lower them)."""
+        values = super().hyperparams()
+        for name, opt in self.agent.optimizers().items():
+            values[name] = opt.param_groups[0]["lr"]
+        return values
+
+    def _reset_envs(self) -> torch.Tensor:
+        obs = super()._reset_envs()
+        self.model.update_normalizers(obs=obs)
+        return obs
+
+    def _epoch(self) -> tuple[dict[str, float], float, bool]:
+        """num_steps_per_episode env steps, each followed by updates once warmup is over."""
+        cfg, model, dist = self.cfg, self.model, self.model.dist
+        rs = cfg.reward_shaper
+        sums: dict[str, torch.Tensor] = {}
+        count = 0
+        update_s = 0.0
+        obs = self.obs
+        for _ in range(cfg.num_steps_per_episode):
+            if self.signals is not None and self.signals.requested:
+                return {}, update_s, False
+            model.eval()
+            if self.frames < cfg.num_warmup_frames:
+                actions = dist.random(self.num_envs, self.device)
+            else:
+                actions = self.explore(obs)
+            result = self.env.step(self._env_actions(dist.to_env(actions)))
+            rewards, terminated, truncated, dones = self._env_outcome(result)
+            if rewards.dim() > 1:
+                rewards = rewards.sum(-1)
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+            next_obs = self._to_tensor(result.obs)
+            if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
+                                                          and not bool(torch.isfinite(next_obs).all())):
+                raise DivergenceError("the env returned a non-finite reward or observation")
+            real_next = next_obs
+            if bool(dones.any()):
+                real_next = next_obs.clone()
+                rows = dones.nonzero().squeeze(-1)
+                real_next[rows] = self._to_tensor(result.final_obs)[rows].to(next_obs.dtype)
+            self.buffer.add(obs, actions, shaped, real_next, terminated, truncated)
+            model.update_normalizers(obs=next_obs)
+            obs = next_obs
+            self.frames += self.num_envs
+            if self.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
+                t0 = time.time()
+                model.train()
+                with self.update_phase():
+                    for _ in range(cfg.num_updates_per_step):
+                        batch = self.buffer.sample(cfg.batch_size, beta=self._beta())
+                        stats, td = self.agent.update(batch)
+                        self.buffer.update_priorities(batch["indices"], td)
+                        for k, v in stats.items():
+                            sums[k] = sums.get(k, 0.0) + v
+                        count += 1
+                update_s += time.time() - t0
+        self.obs = obs
+        out = {k: float(v) / count for k, v in sums.items()} if count else {}
+        out["updates"] = count
+        return out, update_s, True
+
+    def explore(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.model.act(obs)["actions"]
+
+    def _beta(self) -> float:
+        """Importance-sampling exponent, annealed from priority_beta to 1 over the run."""
+        cfg = self.cfg
+        progress = 0.0
+        if cfg.max_frames > 0:
+            progress = self.frames / cfg.max_frames
+        elif cfg.max_epochs > 0:
+            progress = self.epoch / cfg.max_epochs
+        return cfg.priority_beta + min(progress, 1.0) * (1.0 - cfg.priority_beta)
+
+    # ----- bookkeeping ----------------------------------------------------------------------
+    def extra_stats(self) -> dict[str, float]:
+        """Per-epoch values of the algorithm beyond its losses (SAC: alpha, DQN: epsilon)."""
+        return {}
+
+    # ----- checkpoints ----------------------------------------------------------------------
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """The replay buffer, only with save_replay_buffer and only in last checkpoints."""
+        if self.cfg.save_replay_buffer and kind == "last":
+            return {"replay_buffer": self.buffer.state_dict()}
+        return {}
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        if "replay_buffer" in state:  # else the empty buffer refills to batch_size before learning resumes
+            self.buffer.load_state_dict(state["replay_buffer"])
+
+
+class SACTrainer(OffPolicyTrainer):
+    """Algo ``sac``."""
+
+    config_class = SACConfig
+    metric_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
+                   "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q",
+                   "alpha": "info/alpha", **OffPolicyTrainer.SHARED_TAGS}
+    console_fields = tuple((name, name + " {:.3g}") for name in
+                           ("actor_loss", "critic_loss", "alpha_loss", "entropy", "q", "alpha"))
+    tunable = ("actor_lr", "critic_lr", "alpha_lr", "gamma", "critic_tau", "batch_size", "num_updates_per_step",
+               "policy_frequency")
+
+    def make_agent(self) -> SACAgent:
+        return SACAgent(self.model, self.cfg)
+
+    def extra_stats(self) -> dict[str, float]:
+        return {"alpha": float(self.model.alpha.detach())}
+
+
+class DQNTrainer(OffPolicyTrainer):
+    """Algo ``dqn``."""
+
+    config_class = DQNConfig
+    metric_tags = {"td_loss": "losses/td_loss", "q": "info/q", "epsilon": "info/epsilon",
+                   **OffPolicyTrainer.SHARED_TAGS}
+    console_fields = tuple((name, name + " {:.3g}") for name in ("td_loss", "q", "epsilon"))
+    tunable = ("learning_rate", "gamma", "target_tau", "target_update_frequency", "batch_size",
+               "num_updates_per_step", "epsilon_end")
+
+    def make_agent(self) -> DQNAgent:
+        return DQNAgent(self.model, self.cfg)
+
+    def epsilon(self) -> float:
+        cfg = self.cfg
+        return epsilon_at(self.frames - cfg.num_warmup_frames, cfg.epsilon_start, cfg.epsilon_end,
+                          cfg.epsilon_decay_frames)
+
+    def explore(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.model.act(obs, epsilon=self.epsilon())["actions"]
+
+    def extra_stats(self) -> dict[str, float]:
+        return {"epsilon": self.epsilon()}
+
+
+def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:
+    """Tensor goals (B, G) -> shaped rewards (B,) on ``device``: the env's ``compute_reward`` (numpy)
+    followed by the run's reward_shaper, as every stored reward is shaped."""
+    def reward(achieved: torch.Tensor, desired: torch.Tensor) -> torch.Tensor:
+        raw = compute_reward(achieved.detach().cpu().numpy(), desired.detach().cpu().numpy(), None)
+        raw = torch.as_tensor(raw, dtype=torch.float32, device=device).reshape(-1)
+        return shape_rewards(raw, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+    return reward

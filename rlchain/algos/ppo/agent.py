@@ -1,0 +1,245 @@
+"""The on-policy PPO agent (``a2c_continuous`` and ``a2c_discrete`` are presets of it).
+
+It owns the optimizer and learning-rate schedule and turns a filled rollout into parameter
+updates. There is no action-space branch here: the model's distribution handles that.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import nullcontext
+
+import torch
+
+from rlchain.algos.core.losses import aux_loss_terms, normalize_advantages, policy_loss, value_loss
+from rlchain.algos.core.schedules import (
+    PROGRESS_SCHEDULES,
+    AdaptiveKLSchedule,
+    make_schedule,
+    scheduled_entropy_coef,
+)
+from rlchain.algos.core.storage import Batch, RolloutStorage
+from rlchain.config.schema import TrainConfig
+from rlchain.errors import DivergenceError, first_non_finite
+from rlchain.models.actor_critic import ActorCritic
+from rlchain.parallel.communicator import SINGLE, Communicator
+
+
+class PPOAgent:
+    """Clipped-surrogate PPO with value clipping, entropy and bounds losses, adaptive/linear/polynomial lr.
+
+    ``lr`` and ``entropy_coef`` are the live values (they change with the schedules, population-based
+    training and divergence rollbacks) and travel in :meth:`state_dict`, so a resumed run goes on
+    with the values the interrupted one had; ``cfg`` keeps the configured start values.
+
+    A network with ``get_aux_loss()`` (rl_games' contract) has its auxiliary losses added to the
+    loss after each forward pass; they come back from :meth:`update` as ``losses/<name>``.
+    """
+
+    def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device,
+                 comm: Communicator = SINGLE) -> None:
+        self.model = model
+        self.comm = comm  # multi_gpu: gradients and the KL behind the adaptive lr are averaged over ranks
+        self.cfg = cfg
+        self.device = device
+        self.lr = cfg.learning_rate
+        self.params = [p for p in model.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay,
+                                          **_fast_adam_kwargs(device))
+        self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
+                                      cfg.min_lr, cfg.max_lr, cfg.decay_power)
+        self.entropy_coef = cfg.entropy_coef
+        # schedule_entropy applies with the linear lr only, as in rl_games (config load warns otherwise)
+        self.schedule_entropy = cfg.schedule_entropy and cfg.lr_schedule == "linear"
+        self.train_critic = True  # False with a central value network (it trains the values itself)
+        model.bptt_length = cfg.bptt_length
+        self.amp = cfg.mixed_precision and device.type == "cuda"
+        self.scaler = torch.amp.GradScaler("cuda", enabled=self.amp) if self.amp else None
+
+    def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
+        """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
+
+        Auxiliary losses of the network appear as ``losses/<name>``, averaged over the minibatches
+        that returned them.
+        """
+        cfg = self.cfg
+        advantages = self._batch_advantages(storage)
+        sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
+                "grad_norm": 0.0}
+        count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
+        reference = self._kl_reference(storage)
+        for _ in range(cfg.mini_epochs):
+            epoch_kl, epoch_n = 0.0, 0
+            for batch in self._minibatches(storage, advantages):
+                stats = self._step(batch, reference)
+                for key, value in stats.items():
+                    sums[key] = sums.get(key, 0.0) + value
+                    if key.startswith("losses/"):  # auxiliary: averaged over the minibatches that had it
+                        aux_counts[key] = aux_counts.get(key, 0) + 1
+                count += 1
+                epoch_kl += stats["kl"]
+                epoch_n += 1
+                if cfg.schedule_type == "legacy":
+                    self._set_lr(self.schedule.update(self.lr, kl=self._rank_mean(stats["kl"])))
+            if cfg.schedule_type == "standard":
+                self._set_lr(self.schedule.update(self.lr, kl=self._rank_mean(epoch_kl / max(epoch_n, 1))))
+        self.apply_progress(progress)
+        out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
+        out["lr"] = self.lr
+        out["entropy_coef"] = self.entropy_coef
+        return out
+
+    def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
+        """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
+        normalized over the whole batch once when ``normalize_advantage``."""
+        advantages = storage.advantages.sum(-1)
+        if self.cfg.normalize_advantage:
+            advantages = normalize_advantages(advantages)
+        return advantages
+
+    def _rank_mean(self, kl: float) -> float:
+        """The KL the adaptive lr follows: averaged over ranks, so every rank sets the same lr."""
+        if self.comm.active and isinstance(self.schedule, AdaptiveKLSchedule):
+            return self.comm.mean(kl)
+        return kl
+
+    def apply_progress(self, progress: float) -> None:
+        """After an epoch's update: the schedules that follow the run's progress (linear or polynomial
+        lr, ``schedule_entropy``) set the values the next epoch trains with."""
+        if isinstance(self.schedule, PROGRESS_SCHEDULES):
+            self._set_lr(self.schedule.update(self.lr, progress=progress))
+        if self.schedule_entropy:
+            self.entropy_coef = scheduled_entropy_coef(self.cfg.entropy_coef, progress)
+
+    def _kl_reference(self, storage: RolloutStorage) -> torch.Tensor | None:
+        """With ``kl_reference: previous``, a (T * N, param_size) copy of the rollout's distribution
+        parameters that :meth:`_step` measures the KL against and then overwrites with the policy it
+        saw, so from the second pass on the KL is how far the policy moved since that sample's
+        previous minibatch (rl_games' continuous agent). None: the KL is against the rollout policy."""
+        mode = self.cfg.kl_reference
+        if mode == "auto":
+            mode = "previous" if self.model.dist.continuous else "rollout"
+        if mode == "rollout":
+            return None
+        return storage.params.reshape(-1, storage.params.shape[-1]).clone()
+
+    def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
+        cfg, model, dist = self.cfg, self.model, self.model.dist
+        autocast = torch.autocast("cuda", dtype=torch.float16) if self.amp else nullcontext()
+        with autocast:
+            params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
+                                               batch.action_masks)
+            log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
+            entropy = entropy.mean()
+            a_loss = self.surrogate(batch.log_probs, log_probs, batch.advantages).mean()
+            if self.train_critic:
+                c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
+                                    cfg.e_clip, cfg.clip_value).mean()
+            else:
+                c_loss = torch.zeros((), device=values.device)
+            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - self.entropy_coef * entropy
+            b_loss = torch.zeros((), device=params.device)
+            if cfg.bounds_loss_coef:
+                b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
+                loss = loss + cfg.bounds_loss_coef * b_loss
+            aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
+            for aux_loss in aux.values():
+                loss = loss + aux_loss
+        self.optimizer.zero_grad(set_to_none=True)
+        (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
+        if self.comm.active:  # before unscaling and clipping, so every rank sees the same grads
+            self.comm.average_gradients(self.params)
+        if self.scaler is not None:
+            self.scaler.unscale_(self.optimizer)
+        max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
+        grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
+        with torch.no_grad():
+            current = params.detach().float()
+            if reference is None:
+                kl = dist.kl(batch.params, current).mean()
+            else:
+                kl = dist.kl(reference.index_select(0, batch.index), current).mean()
+                reference.index_copy_(0, batch.index, current)
+            ratio = torch.exp(log_probs.detach() - batch.log_probs)
+            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+        names = ("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac", "loss", "grad_norm",
+                 *(f"losses/{name}" for name in aux))
+        values = torch.stack([a_loss.detach(), c_loss.detach(), entropy.detach(), b_loss.detach(), kl,
+                              clip_frac, loss.detach(), grad_norm.detach().float(),
+                              *(value.detach().float() for value in aux.values())]).tolist()
+        stats = dict(zip(names, values))
+        bad = first_non_finite(stats)
+        if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself
+            raise DivergenceError(f"{bad} in the PPO update")
+        if self.scaler is not None:
+            self.scaler.step(self.optimizer)
+            self.scaler.update()
+        else:
+            self.optimizer.step()
+        del stats["loss"]
+        return stats
+
+    def surrogate(self, old_log_probs: torch.Tensor, log_probs: torch.Tensor,
+                  advantages: torch.Tensor) -> torch.Tensor:
+        """Per-sample policy loss (B,): PPO's clipped surrogate (IMPALA replaces it)."""
+        return policy_loss(old_log_probs, log_probs, advantages, self.cfg.e_clip, self.cfg.use_smooth_clamp)
+
+    def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
+        """Flat minibatches, or whole sequences of seq_length steps for an RNN policy, in ``minibatch_order``."""
+        cfg = self.cfg
+        shuffle = shuffled_minibatches(cfg.minibatch_order, self.model.dist.continuous)
+        if self.model.is_rnn:
+            return storage.sequence_minibatches(cfg.minibatch_size, cfg.seq_length, advantages,
+                                                use_resets=cfg.zero_rnn_on_done, shuffle=shuffle)
+        return storage.minibatches(cfg.minibatch_size, advantages, shuffle=shuffle)
+
+    def scale_lr(self, factor: float) -> None:
+        """Multiply the learning rate (divergence rollback)."""
+        self._set_lr(self.lr * factor)
+
+    def live_hyperparams(self) -> dict[str, float]:
+        """The values the agent's schedules change during training (what get_params must report)."""
+        return {"learning_rate": self.lr, "entropy_coef": self.entropy_coef}
+
+    def set_hyperparam(self, name: str, value: float) -> bool:
+        """Change a live value the agent owns (True), else False: the trainer's config holds it. A new
+        ``kl_threshold`` reaches the adaptive schedule too, and returns False so the config keeps it."""
+        if name == "learning_rate":
+            self._set_lr(float(value))
+            return True
+        if name == "entropy_coef":  # the live value; schedule_entropy sets it again after the epoch
+            self.entropy_coef = float(value)
+            return True
+        if name == "kl_threshold" and hasattr(self.schedule, "kl_threshold"):
+            self.schedule.kl_threshold = float(value)
+        return False
+
+    def _set_lr(self, lr: float) -> None:
+        self.lr = lr
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+
+    def state_dict(self) -> dict:
+        state = {"optimizer": self.optimizer.state_dict(), "lr": self.lr, "entropy_coef": self.entropy_coef}
+        if self.scaler is not None:
+            state["scaler"] = self.scaler.state_dict()
+        return state
+
+    def load_state_dict(self, state: dict) -> None:
+        self.optimizer.load_state_dict(state["optimizer"])
+        self._set_lr(float(state["lr"]))
+        self.entropy_coef = float(state.get("entropy_coef", self.cfg.entropy_coef))  # older checkpoints: none
+        if self.scaler is not None and "scaler" in state:
+            self.scaler.load_state_dict(state["scaler"])
+
+
+def _fast_adam_kwargs(device: torch.device) -> dict:
+    """The fused Adam kernel: one call per step instead of a Python loop over parameters."""
+    return {"fused": True} if device.type in ("cpu", "cuda") else {}
+
+
+def shuffled_minibatches(order: str, continuous: bool) -> bool:
+    """``minibatch_order`` resolved: True for a new permutation every mini-epoch, False for rl_games'
+    fixed env-major blocks (``auto``: fixed for continuous actions, shuffled otherwise)."""
+    return order == "shuffle" or (order == "auto" and not continuous)
+

@@ -1,0 +1,141 @@
+"""The PPO rollout: step the envs for horizon_length steps and fill the RolloutStorage.
+
+Two ways, the same transitions: synchronous (act for all envs, step all, observe all), or
+pipelined over env groups (``env.env_groups`` with ``send``/``recv``, envpool with ``env_groups`` >
+1), where one group's env step runs in the background while the trainer takes the other group's
+result and computes its actions. :meth:`RolloutMixin._act` and :meth:`RolloutMixin._observe` work
+on a slice of env rows, so both ways share them.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.storage import ALL
+from rlchain.envs.vecenv import dropped_rows
+from rlchain.networks.rnn import zero_finished
+from rlchain.training.safety import check_obs_shape
+
+
+class RolloutMixin:
+    """The rollout half of :class:`rlchain.algos.ppo.trainer.OnPolicyTrainer` (uses its env, model,
+    storage, central value, RNN states and counters)."""
+
+    def _action_masks(self) -> torch.Tensor | None:
+        """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""
+        if not self.use_masks:
+            return None
+        return self._to_tensor(self.env.get_action_mask()).bool()
+
+    def _rollout(self) -> bool:
+        """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""
+        self.model.eval()
+        groups = self.env_spec.groups
+        if groups is not None and len(groups) > 1:
+            return self._pipelined_rollout(groups)
+        for t in range(self.cfg.horizon_length):
+            if self.signals is not None and self.signals.requested:
+                return False
+            pending, actions = self._act(t, ALL)
+            result = self.env.step(actions)
+            if self.epoch == 0 and t == 0:
+                check_obs_shape(result.obs, self.num_envs, self.env.observation_space, "env step")
+            self._observe(t, ALL, result, *pending)
+        self.last_values = self._value(self.obs, self.rnn_states)
+        return True
+
+    def _pipelined_rollout(self, groups: list[slice]) -> bool:
+        """The rollout over env groups that step in the background (``env.send`` / ``env.recv``).
+
+        Group g's actions for step t go out as soon as they are computed; while envpool's threads
+        step it, the trainer takes the other group's result and computes that group's actions. Each
+        row sees exactly the sequence of the synchronous rollout: obs -> act -> env answer -> next obs.
+        """
+        self.obs, self.resets = self.obs.clone(), self.resets.clone()  # filled in place, group by group
+        self.rnn_states = tuple(s.clone() for s in self.rnn_states)
+        pending: list[tuple | None] = [None] * len(groups)
+
+        def drain(t: int) -> None:
+            for g, rows in enumerate(groups):
+                if pending[g] is not None:
+                    self._observe(t, rows, self.env.recv(g), *pending[g])
+                    pending[g] = None
+
+        for t in range(self.cfg.horizon_length):
+            if self.signals is not None and self.signals.requested:
+                drain(t - 1)
+                return False
+            for g, rows in enumerate(groups):
+                if pending[g] is not None:
+                    self._observe(t - 1, rows, self.env.recv(g), *pending[g])
+                pending[g], actions = self._act(t, rows)
+                self.env.send(g, actions)
+        drain(self.cfg.horizon_length - 1)
+        self.last_values = self._value(self.obs, self.rnn_states)
+        return True
+
+    def _act(self, t: int, rows: slice) -> tuple[tuple, Any]:
+        """Policy step t for the envs ``rows``: record obs, actions, values and states in the storage.
+
+        Returns ((values, next RNN states) for :meth:`_observe`, the actions in the env's format).
+        """
+        model = self.model
+        obs, states, resets = self.obs, self.rnn_states, self.resets
+        if rows is not ALL:
+            obs, resets, states = obs[rows], resets[rows], tuple(s[:, rows] for s in states)
+        masks = self._action_masks()
+        out = model.act(obs, states=states, action_masks=masks)
+        next_states = tuple(out["states"] or ())
+        values = out["values"]
+        if self.central_value is not None:
+            values, cv_states = self.central_value.step(obs, states[model.num_states:])
+            next_states += cv_states
+        self.storage.add(t, obs, out["actions"], out["log_probs"], values, out["params"], masks,
+                         states, resets, rows=rows)
+        return (values, next_states), self._env_actions(model.dist.to_env(out["actions"]))
+
+    def _observe(self, t: int, rows: slice, result: Any, values: torch.Tensor, next_states: tuple) -> None:
+        """The env's answer to step t for the envs ``rows``: rewards, dones and bootstrap values into
+        the storage, episode statistics, then the next obs and RNN states."""
+        cfg, storage = self.cfg, self.storage
+        rewards, terminated, truncated, dones = self._env_outcome(result, rows)
+        if rewards.dim() == 1:
+            rewards = rewards.unsqueeze(-1)
+        rs = cfg.reward_shaper
+        shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+        dropped = dropped_rows(result)
+        if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
+            lost = self._to_tensor(np.asarray(dropped)).bool()
+            shaped[lost] = values[lost] * ((1 - cfg.gamma) if cfg.value_bootstrap else 1.0)
+        if cfg.value_bootstrap and bool(truncated.any()):
+            idx = (truncated & ~terminated).nonzero().squeeze(-1)
+            if idx.numel() and cfg.timeout_bootstrap == "previous_value":  # rl_games: V(s_t), no extra pass
+                storage.final_values[t, rows][idx] = values[idx]
+            elif idx.numel():
+                final_obs = self._to_tensor(result.final_obs)[idx]
+                row_states = tuple(s[:, idx] for s in next_states)
+                storage.final_values[t, rows][idx] = self._value(final_obs, row_states)
+        storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones, rows=rows)
+        obs = self._to_tensor(result.obs)
+        if next_states and cfg.zero_rnn_on_done:
+            next_states = zero_finished(next_states, dones)
+        if rows is ALL:
+            self.obs = obs
+            if next_states:
+                self.rnn_states, self.resets = next_states, dones
+            return
+        self.obs[rows] = obs
+        if next_states:
+            for state, new in zip(self.rnn_states, next_states):
+                state[:, rows] = new
+            self.resets[rows] = dones
+
+    def _value(self, obs: torch.Tensor, states: tuple) -> torch.Tensor:
+        """Raw-scale values of ``obs``: the central value's when there is one, else the model's."""
+        if self.central_value is not None:
+            return self.central_value.value(obs, states[self.model.num_states:])
+        return self.model.value(obs, states)

@@ -1,0 +1,1 @@
+"""Envs on Ray: env runners on Ray workers and the cluster connection."""

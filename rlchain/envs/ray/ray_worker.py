@@ -1,0 +1,161 @@
+"""The worker side of the Ray env runners (:mod:`rlchain.envs.ray.ray_env`): what runs inside an actor.
+
+:class:`EnvRecipe` travels to the actor and builds its slice of envs there; :class:`EnvWorker` is
+the actor's body (made a Ray actor by ``ray.remote`` in ray_env.py, so this module needs no ray).
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from rlchain.envs.building import build_local_env
+from rlchain.envs.spec import attach_spec, env_spec
+from rlchain.registry import ENVS
+
+
+@dataclass
+class EnvRecipe:
+    """How a worker builds its envs: the config's env plus the registrations this process made.
+
+    Ray workers are fresh processes: envs registered in the learner at run time
+    (``params.import_modules``, ``env_configurations.register``, ``gym.register``) travel along: every
+    :data:`ENVS` builder and every gymnasium spec whose entry point is a Python object (plus the
+    specs of the named env), each one that cloudpickle can serialize.
+    """
+
+    env_name: str
+    env_config: dict
+    vecenv_type: str
+    builders: dict = field(default_factory=dict)
+    gym_specs: dict = field(default_factory=dict)
+    success_key: str = "auto"
+    """The info key an APPO runner reads task success from (``params.config.success_key``)."""
+    log_info_keys: tuple = ()
+    """The info keys an APPO runner averages for TensorBoard (``params.config.log_info_keys``)."""
+
+    @classmethod
+    def capture(cls, env_name: str, env_config: dict | None, vecenv_type: str) -> EnvRecipe:
+        config = dict(env_config or {})
+        named = {env_name, config.get("name")}
+        specs = {k: s for k, s in gym.registry.items() if k in named or callable(s.entry_point)}
+        builders = {name: ENVS.get(name) for name in ENVS.names()}
+        return cls(env_name, config, vecenv_type, _picklable(builders), _picklable(specs))
+
+    def build(self, num_envs: int, seed: int | None) -> Any:
+        """The VecEnv of ``num_envs`` envs (runs inside the worker)."""
+        for name, spec in self.gym_specs.items():
+            gym.registry.setdefault(name, spec)
+        for name, builder in self.builders.items():
+            ENVS.register(name, builder, overwrite=True)
+        env = attach_spec(build_local_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type))
+        problem = _unsupported(env)
+        if problem:
+            env.close()
+            raise ValueError(f"params.config.env_name: '{self.env_name}' {problem}; Ray env workers do not "
+                             f"support it: remove vecenv_type RAY / env_runners")
+        return env
+
+
+def _unsupported(env: Any) -> str | None:
+    """What about ``env`` the Ray runners cannot carry (they move plain per-env numpy rows), or None."""
+    spec = env_spec(env)
+    if spec.tensor_native:
+        return "is a tensor env (it lives on the training device)"
+    if spec.num_agents > 1:
+        return "has several agents per env"
+    if spec.central_value:
+        return "has central-value (dict) observations"
+    if spec.action_masks:
+        return "has action masks"
+    return None
+
+
+def per_env_infos(infos: Any, n: int) -> dict:
+    """The step infos' per-env numbers: every value that is one number (or bool) per env, and the same of
+    a gymnasium ``final_info`` dict. What the learner reads from infos (success, ``log_info_keys``) is
+    of this kind; per-env vectors (final observations, frames) and objects stay in the worker."""
+    if not isinstance(infos, dict):
+        return {}
+    out: dict = {}
+    for key, value in infos.items():
+        if key == "final_info" and isinstance(value, dict):
+            final = per_env_infos(value, n)
+            if final:
+                out[key] = final
+            continue
+        if hasattr(value, "detach"):
+            value = value.detach().cpu().numpy()
+        if isinstance(value, np.ndarray) and value.shape == (n,) and (value.dtype.kind in "biuf"):
+            out[str(key)] = value
+    return out
+
+
+def _picklable(items: dict) -> dict:
+    """The entries cloudpickle (what Ray uses) can serialize; the others stay behind."""
+    import cloudpickle
+
+    out = {}
+    for key, value in items.items():
+        try:
+            cloudpickle.dumps(value)
+        except Exception:
+            continue
+        out[key] = value
+    return out
+
+
+class EnvWorker:
+    """The body of one Ray actor: envs ``[start, start + num_envs)`` of the batch, arrays in and out."""
+
+    def __init__(self, recipe: EnvRecipe, start: int, num_envs: int) -> None:
+        self.recipe, self.start, self.num_envs, self.env = recipe, start, num_envs, None
+
+    def build(self, seed: int | None) -> dict:
+        """Make the envs; returns what the learner needs to know about them (spaces, value_size)."""
+        try:
+            self.env = self.recipe.build(self.num_envs, seed)
+        except ValueError as exc:  # config errors travel as plain ValueErrors (picklable, one line)
+            raise ValueError(str(exc)) from None
+        return {"observation_space": self.env.observation_space, "action_space": self.env.action_space,
+                "value_size": env_spec(self.env).value_size}
+
+    def pid(self) -> int:
+        return os.getpid()
+
+    def reset(self, seed: int | None) -> np.ndarray:
+        return self._global(lambda: np.asarray(self.env.reset(seed=seed)))
+
+    def step(self, actions: bytes) -> bytes:
+        """Pickled actions (n, *action_shape) -> the pickled tuple (obs, reward, terminated, truncated,
+        ended rows, their final obs, game_reward, game_over, the infos' per-env numbers).
+
+        One pickled bytes object each way: Ray serializes it faster than a tuple of numpy arrays
+        (about 0.5 ms less per call, measured on a 2-core machine).
+        """
+        r = self._global(lambda: self.env.step(pickle.loads(actions)))
+        rows = np.flatnonzero(np.asarray(r.terminated) | np.asarray(r.truncated))
+        final = np.asarray(r.final_obs)[rows]
+        extra = [None if x is None else np.asarray(x) for x in (r.game_reward, r.game_over)]
+        return pickle.dumps((np.asarray(r.obs), np.asarray(r.reward), np.asarray(r.terminated),
+                             np.asarray(r.truncated), rows, final, *extra, per_env_infos(r.infos, self.num_envs)),
+                            protocol=pickle.HIGHEST_PROTOCOL)
+
+    def close(self) -> None:
+        if self.env is not None:
+            self.env.close()
+
+    def _global(self, fn: Any) -> Any:
+        """Run ``fn``; an env error is re-raised with the env's index in the whole batch."""
+        try:
+            return fn()
+        except Exception as exc:
+            text = " ".join(str(exc).split())
+            text = re.sub(r"^env (\d+)", lambda m: f"env {self.start + int(m.group(1))}", text)
+            raise RuntimeError(text if text.startswith("env ") else f"{type(exc).__name__}: {text}") from None

@@ -1,0 +1,77 @@
+"""Dict observation spaces: flattened into one vector in the vecenv layer, split back by key on demand.
+
+Every backend hands the trainer one flat observation per env: a gymnasium ``Dict`` observation
+space is flattened with gymnasium's own rule (``gym.spaces.flatten``: keys in the space's order,
+which gymnasium sorts; Box entries raveled, Discrete entries one-hot). Storage, input
+normalization and the built-in networks then work unchanged.
+
+Routing by key: a network that wants the entries apart (e.g. an image through a CNN, a vector
+through an MLP) receives the flat vector and splits it back with :func:`split_flat_obs` and the
+env's Dict space, which its builder gets as the ``observation_space`` keyword (the flat space is a
+:class:`FlatDictBox` that keeps it)::
+
+    parts = split_flat_obs(input_dict["obs"], observation_space)   # {'image': (B, 3, 8, 8), 'pos': (B, 2)}
+
+A backend that knows its Dict layout may declare the flat space as a :class:`FlatDictBox`, which
+carries the Dict (``dict_space``) for the network (e.g. rl_games' ``use_dict_obs_space``, see
+:mod:`rlchain.envs.wrappers.reward_action_obs`).
+
+With ``normalize_input`` the running mean/std is per flat dimension, i.e. per entry of every key.
+The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not flattened here.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
+
+
+def should_flatten(space: gym.Space) -> bool:
+    """True for a Dict observation space other than the central-value ``{'obs', 'state'}`` one."""
+    return isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS
+
+
+class FlatDictBox(gym.spaces.Box):
+    """The flat Box of a flattened Dict observation space that remembers it: ``dict_space`` (key
+    order = layout order), so a network can split the observations by key (:func:`split_flat_obs`).
+    ``dtype`` defaults to the flattened space's."""
+
+    def __init__(self, dict_space: gym.spaces.Dict, dtype: type | np.dtype | None = None,
+                 seed: int | None = None) -> None:
+        flat = gym.spaces.flatten_space(dict_space)
+        dtype = np.dtype(dtype or flat.dtype)
+        super().__init__(flat.low.astype(dtype), flat.high.astype(dtype), flat.shape, dtype, seed=seed)
+        self.dict_space = dict_space
+
+
+def flatten_dict_env(env: gym.Env) -> gym.Env:
+    """``env`` with Dict observations flattened (gymnasium's FlattenObservation, its space a
+    :class:`FlatDictBox`); others unchanged."""
+    if not should_flatten(env.observation_space):
+        return env
+    flat = gym.wrappers.FlattenObservation(env)
+    flat.observation_space = FlatDictBox(env.observation_space)
+    return flat
+
+
+def split_flat_obs(obs: torch.Tensor, space: gym.spaces.Dict) -> dict[str, torch.Tensor]:
+    """Flat observations (B, flatdim(space)) -> {key: (B, *shape)} views, in the order of ``space``.
+
+    Box entries get their shape back; other entries (e.g. one-hot Discrete) stay flat (B, flatdim).
+    """
+    total = int(gym.spaces.flatdim(space))
+    if obs.shape[-1] != total:
+        raise ValueError(f"flat observations have {obs.shape[-1]} values, the Dict space flattens to {total}")
+    out, start = {}, 0
+    for key, sub in space.spaces.items():
+        size = int(gym.spaces.flatdim(sub))
+        part = obs[:, start:start + size]
+        if isinstance(sub, gym.spaces.Box):
+            part = part.reshape(obs.shape[0], *sub.shape)
+        out[key] = part
+        start += size
+    return out
+

@@ -1,0 +1,92 @@
+"""``--play`` for ``config.multi_agent``: every policy plays its agents; per-policy episode rewards.
+
+A game is one env episode (every agent done); each policy's mean reward is over its agents'
+episodes (an agent that left early counts its own shorter episode).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from rlchain.config.schema import Params
+from rlchain.envs.spec import env_spec
+from rlchain.models.build import build_env, build_model, policy_agents, resolve_device
+from rlchain.runs import checkpoint as ckpt
+
+
+@dataclass
+class PoliciesPlayResult:
+    """Games played; each policy's mean episode reward and its agent-episodes' returns."""
+
+    games: int
+    mean_rewards: dict[str, float]
+    rewards: dict[str, list[float]] = field(default_factory=dict)
+
+    @property
+    def mean_reward(self) -> float:
+        """Over every agent-episode of every policy (what training reports as ``rewards/step``)."""
+        every = [r for returns in self.rewards.values() for r in returns]
+        return float(np.mean(every)) if every else float("nan")
+
+
+def play_policies(params: Params, checkpoint: str | None, games: int | None = None,
+                  deterministic: bool | None = None, quiet: bool = False,
+                  models: torch.nn.ModuleDict | None = None) -> PoliciesPlayResult:
+    """Play ``games`` env episodes (default player.games_num) with every policy of the checkpoint
+    (or of ``models``); returns each policy's mean agent-episode reward."""
+    pc = params.config.player
+    games = games or pc.games_num
+    deterministic = pc.deterministic if deterministic is None else deterministic
+    device = resolve_device(params.config.device)
+    seed = params.seed if params.seed is not None else 0
+    num_envs = pc.num_actors if pc.use_vecenv else 1
+    env = build_env(params, num_envs, seed, render=pc.render, env_config=pc.env_config)
+    try:
+        if models is None:
+            models = build_model(params, env, device)
+            if checkpoint:
+                ckpt.load_model_state(models, ckpt.load(checkpoint, map_location=device), checkpoint)
+        models.eval()
+        return _play(params, env, models, games, deterministic, device, quiet)
+    finally:
+        env.close()
+
+
+def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, deterministic: bool,
+          device: torch.device, quiet: bool) -> PoliciesPlayResult:
+    plan = {name: agents for name, agents in policy_agents(params, env).items() if agents}
+    returns = {a: np.zeros(env.num_envs) for a in env.agent_ids}
+    finished: dict[str, list[float]] = {name: [] for name in plan}
+    views = env.reset(seed=params.seed if params.seed is not None else 0)
+    played = 0
+    while played < games:
+        actions = {}
+        for name, agents in plan.items():
+            model = models[name]
+            obs = torch.as_tensor(np.concatenate([views[a].obs for a in agents]), device=device)
+            masks = None
+            if model.use_action_masks:
+                masks = torch.as_tensor(np.concatenate([views[a].mask for a in agents]), device=device)
+            with torch.inference_mode():
+                out = model.act(obs, deterministic=deterministic, action_masks=masks)
+            acts = model.dist.to_env(out["actions"]).cpu().numpy()
+            e = env.num_envs
+            actions.update({a: acts[k * e:(k + 1) * e] for k, a in enumerate(agents)})
+        result = env.step(actions)
+        for name, agents in plan.items():
+            for a in agents:
+                returns[a] += result.reward[a]
+                done = result.terminated[a] | result.truncated[a]
+                finished[name].extend(returns[a][done].tolist())
+                returns[a][done] = 0.0
+        ended = env.pop_games() if env_spec(env).games_counter else 0
+        played += ended
+        views = result.obs
+    means = {name: float(np.mean(r)) if r else float("nan") for name, r in finished.items()}
+    if not quiet:
+        text = ", ".join(f"{name} {value:.2f}" for name, value in means.items())
+        print(f"av reward per policy: {text} over {played} games", flush=True)
+    return PoliciesPlayResult(played, means, finished)

@@ -1,0 +1,196 @@
+"""Turn typed Params into live parts: device, vectorized env, model (network + distribution)."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.multi_agent import KEY, PolicyMapping
+from rlchain.config.schema import NetworkConfig, Params
+from rlchain.envs.factory import make_vec_env
+from rlchain.envs.spec import env_spec
+from rlchain.envs.wrappers.central_value import obs_state_parts, obs_state_split
+from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.central_value import CentralValue
+from rlchain.models.distributions import actions_num as action_head_size
+from rlchain.networks.base import instantiate
+from rlchain.registry import MODELS, NETWORKS
+
+
+def resolve_device(name: str) -> torch.device:
+    """``cpu`` / ``cuda`` / ``cuda:N``; without CUDA a cuda device falls back to cpu with a warning."""
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        warnings.warn(f"params.config.device is '{name}' but CUDA is not available; training on cpu",
+                      stacklevel=2)
+        return torch.device("cpu")
+    try:
+        return torch.device(name)
+    except RuntimeError:
+        raise ConfigError("", "params.config.device", f"'{name}' is not a device (cpu, cuda, cuda:N)") from None
+
+
+def build_env(params: Params, num_envs: int, seed: int | None, render: bool = False,
+              env_config: dict | None = None, runners: bool = False) -> Any:
+    """Make the vectorized env the config names; env errors come back naming the file.
+
+    ``runners=True`` (the training envs) honours ``vecenv_type: RAY`` / ``env_runners`` (Ray workers);
+    play, evaluation and export build the same envs in this process (RAY -> auto).
+    """
+    cfg = params.config
+    merged = dict(cfg.env_config)
+    merged.update(env_config or {})
+    vecenv_type, env_runners = cfg.vecenv_type, getattr(cfg, "env_runners", None) if runners else None
+    if not runners and str(vecenv_type).lower() == "ray":
+        vecenv_type = None
+    groups = getattr(cfg, "env_groups", 1) if runners else 1  # PPO training envs only
+    try:
+        return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
+                            env_runners=env_runners, groups=groups)
+    except ValueError as exc:
+        raise ConfigError(params.source, "", str(exc)) from None
+
+
+def value_size_of(env: Any) -> int:
+    """The value head size of ``env`` (a VecEnv or a policy's view of one): its spec's ``value_size``."""
+    return env_spec(env).value_size
+
+
+def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
+    """Network from the network registry, wrapped by the model preset from the model registry; with
+    ``config.multi_agent``, a ModuleDict of one such model per policy (algos/multi_policy/policies.py)."""
+    if getattr(params, "policies", None) is not None:
+        return build_policy_models(params, env, device)
+    obs_space, act_space = env.observation_space, env.action_space
+    declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
+    split = obs_state_split(obs_space)  # [obs | state] from a central-value env: the actor reads obs
+    if split is not None:
+        declared = obs_state_parts(obs_space)[0] or gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
+        obs_space = gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
+    factory = MODELS.get(params.model.name)
+    value_size = value_size_of(env)
+    actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
+    try:
+        network = instantiate(NETWORKS.get(_network_name(params.network)), params.network,
+                              actions_num=actions_num, input_shape=tuple(obs_space.shape),
+                              value_size=value_size, num_seqs=params.config.num_actors,
+                              action_space=act_space, observation_space=declared)
+        model = factory(network=network, action_space=act_space, obs_shape=tuple(obs_space.shape),
+                        value_size=value_size, config=params.config, model_name=params.model.name)
+    except ValueError as exc:
+        raise ConfigError(params.source, "", str(exc)) from None
+    if split is not None:
+        model.obs_slice = slice(0, split)
+    return model.to(device)
+
+
+def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
+    """The asymmetric critic of ``central_value_config`` on the env's state part, or None without one."""
+    cv = params.config.central_value_config
+    if cv is None:
+        return None
+    space = env.observation_space
+    split = obs_state_split(space)
+    if split is None:
+        raise ConfigError(params.source, "params.config.central_value_config", "the env has no central-value "
+                          "state: it must return {'obs': ..., 'state': ...} observations (use_central_value)")
+    state_shape = (space.shape[0] - split,)
+    value_size = value_size_of(env)
+    try:
+        if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
+            model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
+                                 params.config.normalize_value)
+        else:  # a registered network, given its block and rl_games' critic kwargs
+            block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
+            network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
+                                  "params.config.central_value_config.network", actions_num=value_size,
+                                  input_shape=state_shape, value_size=value_size,
+                                  num_seqs=params.config.num_actors,
+                                  observation_space=obs_state_parts(space)[1] or gym.spaces.Box(
+                                      -np.inf, np.inf, state_shape, np.float32))
+            model = CentralValue(None, state_shape, value_size, cv.normalize_input,
+                                 params.config.normalize_value, network=network)
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
+    model.obs_slice = slice(split, None)
+    return model.to(device)
+
+
+@dataclass
+class PolicyView:
+    """What one policy sees of the env: its agents' (equal) spaces; ``value_size`` as VecEnvs have."""
+
+    observation_space: gym.Space
+    action_space: gym.Space
+    mask_size: int
+    value_size: int = 1
+
+
+def policy_agents(params: Params, env: Any) -> dict[str, list[str]]:
+    """policy name -> the env's agent ids it plays (policy_mapping; an unmapped agent is an error)."""
+    ma = params.config.multi_agent
+    mapping = PolicyMapping(ma.policy_mapping, list(params.policies), params.source)
+    return mapping.assign(list(env.agent_ids))
+
+
+def policy_view(params: Params, env: Any, name: str, agents: list[str]) -> PolicyView:
+    """The spaces of the agents of ``name``; agents of one policy must share them."""
+    first = agents[0]
+    for other in agents[1:]:
+        for what, spaces in (("observation", env.observation_spaces), ("action", env.action_spaces)):
+            if spaces[other] != spaces[first]:
+                raise ConfigError(params.source, f"{KEY}.policy_mapping",
+                                  f"agents '{first}' and '{other}' both map to policy '{name}' but their "
+                                  f"{what} spaces differ ({spaces[first]} vs {spaces[other]}); give them "
+                                  f"separate policies")
+    return PolicyView(env.observation_spaces[first], env.action_spaces[first], env.mask_sizes[first])
+
+
+def build_policy_models(params: Params, env: Any, device: torch.device) -> torch.nn.ModuleDict:
+    """One model per policy (``params.policies``), each built from its own network and model preset
+    for its agents' spaces; a space the named network or model cannot take is a one-line ConfigError."""
+    if not env_spec(env).pettingzoo:
+        raise ConfigError(params.source, KEY, "needs env_name: pettingzoo (a PettingZoo env in env_config.env); "
+                                              "rl_games-style multi-agent envs share one policy without it")
+    models = torch.nn.ModuleDict()
+    for name, agents in policy_agents(params, env).items():
+        if not agents:
+            continue  # a policy no agent plays (e.g. the opponent of a seat not in this env) is not built
+        view = policy_view(params, env, name, agents)
+        policy = params.policies[name]
+        try:
+            models[name] = build_model(policy, view, device)
+        except (ConfigError, ValueError, TypeError, RuntimeError) as exc:
+            detail = getattr(exc, "message", None) or " ".join(str(exc).split())
+            raise ConfigError(params.source, f"{KEY}.policies.{name}",
+                              f"network '{_network_name(policy.network)}' / model '{policy.model.name}' do "
+                              f"not fit agents {agents} (observations {view.observation_space}, actions "
+                              f"{view.action_space}): {detail}") from None
+    return models
+
+
+def declared_space(space: gym.Space) -> gym.Space:
+    """The observation space as the env declared it: the Dict behind a flattened one, else ``space``."""
+    return getattr(space, "dict_space", None) or space
+
+
+def _network_name(network: Any) -> str:
+    return network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
+
+
+def apply_sigma(model: Any, sigma: float) -> None:
+    """``--sigma``: a one-line ConfigError when the policy has no fixed sigma to set (every policy's,
+    with config.multi_agent)."""
+    if isinstance(model, torch.nn.ModuleDict):
+        for policy in model.values():
+            apply_sigma(policy, sigma)
+        return
+    try:
+        model.override_sigma(sigma)
+    except ValueError as exc:
+        raise ConfigError("", "--sigma", str(exc)) from None

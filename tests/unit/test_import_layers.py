@@ -1,0 +1,210 @@
+"""The import graph of rlchain (docs/layout.md): imports point down, never circle, and an import inside a
+function is there only for an optional dependency, saying which (``# optional: ray``).
+
+Walks every module with ``ast`` (module-level and function-level imports, relative ones resolved), so it
+imports nothing and runs in a fraction of a second.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+from dataclasses import dataclass
+
+ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
+PACKAGE = os.path.join(ROOT, "rlchain")
+
+# the drivers: they may import the Runner (rlchain/runner.py) and the CLI; nothing else may
+ENTRY_POINTS = ("rlchain.cli", "rlchain.runner", "rlchain.tuning")  # and the package itself (rlchain.Runner)
+ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
+# Until the loop holds its algorithm (composition, issue 33 part 2) each family's trainer subclasses
+# training.loop.Loop (and its callbacks subclass training.events.Callback), so an algorithm family sits
+# above training/ for now; algos/core/, models/ and networks/ never import it, and training/ names no family.
+TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
+RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
+TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
+OPTIONAL = re.compile(r"#\s*optional:\s*\S")
+
+
+@dataclass(frozen=True)
+class Import:
+    importer: str
+    imported: str
+    line: int
+    in_function: bool
+    text: str
+
+
+def _modules() -> dict[str, str]:
+    found = {}
+    for folder, _, files in os.walk(PACKAGE):
+        for name in files:
+            if name.endswith(".py"):
+                path = os.path.join(folder, name)
+                parts = os.path.relpath(path, ROOT)[:-3].split(os.sep)
+                if parts[-1] == "__init__":
+                    parts = parts[:-1]
+                found[".".join(parts)] = path
+    return found
+
+
+MODULES = _modules()
+
+
+def _resolve(name: str) -> str | None:
+    """The rlchain module ``name`` names (a module, or a package's attribute -> the package)."""
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _imports_of(module: str, path: str) -> list[Import]:
+    source = open(path).read()
+    lines = source.splitlines()
+    is_package = path.endswith("__init__.py")
+    found: list[Import] = []
+
+    def visit(node: ast.AST, in_function: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            inside = in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+            names: list[str] = []
+            if isinstance(child, ast.Import):
+                names = [alias.name for alias in child.names]
+            elif isinstance(child, ast.ImportFrom):
+                base = child.module or ""
+                if child.level:
+                    package = module.split(".") if is_package else module.split(".")[:-1]
+                    package = package[:len(package) - (child.level - 1)]
+                    base = ".".join(package + ([base] if base else []))
+                names = [f"{base}.{alias.name}" for alias in child.names]  # a submodule, or base's attribute
+            for name in names:
+                target = _resolve(name) if name.split(".")[0] == "rlchain" else name
+                if target and target != module:
+                    found.append(Import(module, target, child.lineno, in_function,
+                                        lines[child.lineno - 1]))
+            visit(child, inside)
+
+    visit(ast.parse(source, path), False)
+    return found
+
+
+IMPORTS = [imp for module, path in MODULES.items() for imp in _imports_of(module, path)]
+
+
+def _under(module: str, *prefixes: str) -> bool:
+    return any(module == p or module.startswith(p + ".") for p in prefixes)
+
+
+def _family(module: str) -> str | None:
+    return next((f for f in ALGO_FAMILIES if _under(module, f)), None)
+
+
+def layer_violation(importer: str, imported: str) -> str | None:
+    """Why ``importer`` may not import ``imported`` (docs/layout.md), or None."""
+    if imported.split(".")[0] != "rlchain":
+        if _under(importer, "rlchain.config") and imported.split(".")[0] in TORCH_MODULES:
+            return "config/ imports no torch module"
+        return None
+    if _under(imported, "rlchain.runner", "rlchain.cli") and \
+            not (importer == "rlchain" or _under(importer, *ENTRY_POINTS)):
+        return "only entry points import runner.py / cli.py"
+    if _under(importer, "rlchain.algos", "rlchain.models", "rlchain.networks"):
+        if _under(imported, "rlchain.training") and _family(importer) is None:
+            return "algos/core/, models/, networks/ import no training/"
+        if _under(imported, "rlchain.inference", "rlchain.tuning", "rlchain.builtins"):
+            return "algos/, models/, networks/ sit below inference/ and tuning/"
+        if _under(imported, "rlchain.runs") and _family(importer) is None:
+            return "algos/core/, models/, networks/ write no run output"
+    if _under(importer, "rlchain.models", "rlchain.networks", "rlchain.algos.core") and \
+            _under(imported, "rlchain.algos") and not _under(imported, "rlchain.algos.core"):
+        return "models/, networks/ and algos/core/ import no algorithm family"
+    if _under(importer, "rlchain.envs") and not _under(imported, "rlchain.envs", "rlchain.config", "rlchain.errors",
+                                                       "rlchain.log", "rlchain.registry", "rlchain.parallel"):
+        return "envs/ imports only envs/, config/, parallel/ and the ground floor"
+    if _under(importer, "rlchain.config") and not _under(imported, "rlchain.config", "rlchain.errors", "rlchain.log",
+                                                         "rlchain.registry"):
+        return "config/ imports only config/ and the ground floor"
+    if _under(importer, "rlchain.parallel") and not _under(imported, "rlchain.parallel", "rlchain.errors",
+                                                           "rlchain.log", "rlchain.registry", "rlchain.config"):
+        return "parallel/ is low: it imports only config/ and the ground floor"
+    if _under(importer, "rlchain.errors", "rlchain.log", "rlchain.registry"):
+        return "the ground floor (errors, log, registry) imports nothing of rlchain"
+    if _under(importer, "rlchain.training") and _under(imported, "rlchain.algos", "rlchain.inference.export",
+                                                       "rlchain.tuning", "rlchain.builtins"):
+        return "training/ names no algorithm (and no export, tuning or built-ins)"
+    if _under(importer, "rlchain.runs") and (
+            _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning", "rlchain.builtins")
+            or _under(imported, "rlchain.training") and imported not in RUNS_MAY_IMPORT):
+        return "runs/ sits below the loop and the algorithms (of training/ it sees only the callback interface)"
+    if _under(importer, "rlchain.inference") and (TRAINER.match(imported) or _under(imported, "rlchain.tuning")
+                                                   or imported == "rlchain.training.loop"):
+        return "inference/ imports no trainer"
+    return None
+
+
+def _rlchain(imp: Import) -> bool:
+    return imp.imported.split(".")[0] == "rlchain"
+
+
+def test_no_upward_import():
+    bad = [f"{imp.importer}:{imp.line} imports {imp.imported}: {why}" for imp in IMPORTS
+           if (why := layer_violation(imp.importer, imp.imported)) is not None]
+    assert not bad, "imports that break the layers (docs/layout.md):\n" + "\n".join(sorted(set(bad)))
+
+
+def find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
+    """One cycle of the graph ``edges`` as [a, b, ..., a], or None."""
+    state: dict[str, int] = {}  # 1: on the stack, 2: done
+    stack: list[str] = []
+
+    def walk(node: str) -> list[str] | None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(edges.get(node, ())):
+            if state.get(nxt) == 1:
+                return stack[stack.index(nxt):] + [nxt]
+            if nxt not in state and (cycle := walk(nxt)) is not None:
+                return cycle
+        stack.pop()
+        state[node] = 2
+        return None
+
+    for node in sorted(edges):
+        if node not in state and (cycle := walk(node)) is not None:
+            return cycle
+    return None
+
+
+def _edges() -> dict[str, set[str]]:
+    edges: dict[str, set[str]] = {}
+    for imp in IMPORTS:
+        if _rlchain(imp):
+            edges.setdefault(imp.importer, set()).add(imp.imported)
+    return edges
+
+
+def test_no_import_cycle():
+    cycle = find_cycle(_edges())
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_function_level_imports_are_for_optional_dependencies_only():
+    late = [f"{imp.importer}:{imp.line}: {imp.text.strip()}" for imp in IMPORTS
+            if imp.in_function and _rlchain(imp) and not OPTIONAL.search(imp.text)]
+    assert not late, ("imports of rlchain modules inside functions: move them to the top of the module, or say "
+                      "which optional dependency they defer (# optional: ray):\n" + "\n".join(sorted(set(late))))
+
+
+def test_the_checks_bite():
+    assert layer_violation("rlchain.algos.core.returns", "rlchain.training.loop")
+    assert layer_violation("rlchain.models.normalization", "rlchain.training.loop")
+    assert layer_violation("rlchain.training.loop", "rlchain.algos.ppo.trainer")
+    assert layer_violation("rlchain.envs.factory", "rlchain.models.actor_critic")
+    assert layer_violation("rlchain.inference.player", "rlchain.algos.appo.trainer")
+    assert layer_violation("rlchain.training.loop", "rlchain.runner")
+    assert layer_violation("rlchain.config.schema", "torch")
+    assert layer_violation("rlchain.algos.core.storage", "rlchain.algos.ppo.agent")
+    assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop") is None
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": set()}) is None
