@@ -28,10 +28,10 @@ num_actors from the YAML only). Torch threads are set as the Runner
 sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``;
 ``--update-threads 1 2`` measures once per thread count of the PPO update (``params.update_threads``);
 the ``thr`` column is rollout/update threads. env-only is measured once per case.
-``--plans auto 1/1`` measures once per thread plan (``auto``: the Runner's plan, which reads the load;
-``R/U``: R rollout and U update threads), and ``--busy 0 1`` once per count of busy-looping background
-processes (a loaded machine, made on purpose), so "the thread plan never loses to one thread, loaded or
-idle" is one run::
+``--plans auto 1/1`` measures once per thread plan (``auto``: the Runner's plan, which adapts to the
+load; ``R/U``: exactly R rollout and U update threads, not adapted), and ``--busy 0 1`` once per
+count of busy-looping background processes (a loaded machine, made on purpose), so "the thread plan
+never loses to one thread, loaded or idle" is one run::
 
     python benchmarks/throughput.py --cases envpool:HalfCheetah-v4:64 --plans auto 1/1 --busy 0 1
 
@@ -60,7 +60,7 @@ if ROOT not in sys.path:
 from rlchain import Runner  # noqa: E402
 from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
 from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
-from rlchain.parallel.threads import plan_threads  # noqa: E402
+from rlchain.parallel.threads import ThreadPlan, plan_threads  # noqa: E402
 from rlchain.runs.logging import TrainLogger  # noqa: E402
 
 CONFIG_DIR = os.path.join(ROOT, "rlchain", "configs")
@@ -170,14 +170,17 @@ def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, mi
 
 def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
             device_name: str, groups: int = 1, update_threads: int | None = None,
-            env_sps: float | None = None) -> Row:
+            env_sps: float | None = None, fixed: bool = False) -> Row:
     """One row: env-only (unless ``env_sps`` is given), rollout and train steps/s of one case."""
     runner = Runner().load(config)
     extra = [f"params.config.env_groups={groups}"] if backend == "envpool" else []
     runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name) + extra)
     params = runner.params
-    plan = plan_threads(threads or params.torch_threads, update_threads or params.update_threads,
-                        params.config.device)
+    if fixed:  # exactly these counts, whatever else runs (what the Runner did before adaptive plans)
+        plan = ThreadPlan(threads or 1, update_threads or threads or 1)
+    else:
+        plan = plan_threads(threads or params.torch_threads, update_threads or params.update_threads,
+                            params.config.device)
     if plan is not None:
         plan.apply()
     torch.manual_seed(0)
@@ -250,7 +253,7 @@ def rl_games_fps(python: str, config: str, num_envs: int, epochs: int) -> float 
 
 
 def parse_plan(spec: str) -> tuple[str, int | None, int | None]:
-    """'auto' -> the Runner's plan; 'R/U' -> R rollout threads and U update threads."""
+    """'auto' -> the Runner's plan; 'R/U' -> exactly R rollout threads and U update threads."""
     if spec == "auto":
         return spec, None, None
     try:
@@ -343,7 +346,7 @@ def main(argv: list[str] | None = None) -> int:
                     for name, threads, update_threads in plans:
                         print(f"measuring {spec} env_groups={groups} plan={name} busy={busy} ...", flush=True)
                         row = measure(backend, env, num, config, args.seconds, threads, args.device, groups,
-                                      update_threads, env_sps)
+                                      update_threads, env_sps, fixed=name != "auto" and bool(args.plans))
                         row.rl_games_sps, row.plan, row.busy = peer, name, busy
                         env_sps = row.env_sps
                         rows.append(row)

@@ -9,37 +9,120 @@ most 4, when ``torch_threads`` is unset too; else the rollout's count).
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import torch
+
+BUSY_SLACK = 0.3
+"""Cores' worth of other processes' CPU use below which a core still counts as idle (a shell, a logger)."""
+
+
+class OtherLoad:
+    """How many cores other processes kept busy over an interval: the machine's non-idle CPU time
+    (``/proc/stat``) less this process's own (all its threads: torch's, envpool's), per wall second.
+    Child processes (async env workers, Ray actors) count as others: they compete for the cores too."""
+
+    def __init__(self, stat: str = "/proc/stat") -> None:
+        self.stat = stat
+        self.tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+        self.last = self._sample()
+
+    def _sample(self) -> tuple[float, float, float] | None:
+        times = _cpu_times(self.stat)
+        if times is None:
+            return None
+        busy = (sum(times) - times[3] - times[4]) / self.tick  # all but idle and iowait, in seconds
+        return time.monotonic(), busy, time.process_time()
+
+    def since_last(self) -> float | None:
+        """Cores others kept busy since the previous call (None without /proc/stat or under 20 ms)."""
+        if self.last is not None and time.monotonic() - self.last[0] < 0.02:
+            return None  # too short to tell (SAC alternates phases every step): the next call covers it
+        now = self._sample()
+        previous, self.last = self.last, now
+        if now is None or previous is None:
+            return None
+        wall = now[0] - previous[0]
+        return max(0.0, ((now[1] - previous[1]) - (now[2] - previous[2])) / wall)
+
+
+def free_cores(cores: int, others: float) -> int:
+    """Cores left to this process when others keep ``others`` cores busy (at least 1)."""
+    return max(1, cores - math.floor(others + 1.0 - BUSY_SLACK))
 
 
 @dataclass(frozen=True)
 class ThreadPlan:
-    """torch intra-op thread counts for the rollout and for the update (CPU training)."""
+    """torch intra-op thread counts for the rollout and for the update (CPU training).
+
+    ``rollout`` and ``update`` are the counts on an idle machine. With ``adaptive``, each phase takes
+    at most the cores other processes left idle during the same phase last time (measured, not
+    guessed from the load average): on 2 cores, two torch threads where another program keeps one
+    core busy stall every parallel op of each other (an LSTM epoch took 12 s instead of 0.3 s), so
+    a phase drops to one thread while the machine is busy and goes back up when it is idle again.
+    ``fixed_update``: the update's count was asked for (``update_threads``) and is kept as it is."""
 
     rollout: int
     update: int
+    adaptive: bool = field(default=False, compare=False)
+    fixed_update: bool = field(default=False, compare=False)
+    cores: int = field(default_factory=lambda: os.cpu_count() or 1, compare=False)
+    _state: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def _others(self) -> OtherLoad:
+        if "load" not in self._state:
+            self._state["load"] = OtherLoad()
+        return self._state["load"]
+
+    def _count(self, phase: str, wanted: int) -> int:
+        """``wanted`` capped at the cores others left idle in ``phase`` last time (adaptive plans)."""
+        others = self._state.get(phase)
+        if not self.adaptive or others is None:
+            return wanted
+        return min(wanted, free_cores(self.cores, others))
+
+    def _close_phase(self, phase: str) -> None:
+        """Attribute the CPU use since the last boundary to ``phase``."""
+        if self.adaptive:
+            others = self._others().since_last()
+            if others is not None:
+                self._state[phase] = others
+
+    def _set(self, count: int) -> None:
+        if self._state.get("set") != count:  # set_num_threads is not free: only on a change
+            torch.set_num_threads(count)
+            self._state["set"] = count
+
+    def current(self) -> tuple[int, int]:
+        """The (rollout, update) counts the next phases would use."""
+        return self._count("rollout", self.rollout), self._count("update", self.update)
 
     def apply(self) -> None:
         """Set the rollout's thread count (the count outside the update)."""
-        torch.set_num_threads(self.rollout)
+        if self.adaptive:
+            self._others()  # the first interval starts now
+        self._state.pop("set", None)
+        self._set(self._count("rollout", self.rollout))
 
     @contextmanager
     def update_phase(self) -> Iterator[None]:
-        """Run the block with ``update`` threads, then go back to ``rollout`` threads."""
-        if self.update == self.rollout:
+        """Run the block with the update's threads, then go back to the rollout's."""
+        self._close_phase("rollout")
+        update = self.update if self.fixed_update else self._count("update", self.update)
+        if not self.adaptive and update == self.rollout:
             yield
             return
-        torch.set_num_threads(self.update)
+        self._set(update)
         try:
             yield
         finally:
-            torch.set_num_threads(self.rollout)
+            self._close_phase("update")
+            self._set(self._count("rollout", self.rollout))
 
 
 def plan_threads(torch_threads: int | None, update_threads: int | None, device: str, processes: int = 1,
@@ -63,14 +146,19 @@ def plan_threads(torch_threads: int | None, update_threads: int | None, device: 
     share = max(1, total // processes)
     if torch_threads is None and update_threads is None and device.startswith("cuda"):
         return None
+    adaptive = not device.startswith("cuda")  # CPU phases share the cores with whatever else runs
     rollout = min(torch_threads, share) if torch_threads else max(1, min(4, share // 2))
     if not updates:
-        return ThreadPlan(rollout, rollout)
+        return ThreadPlan(rollout, rollout, adaptive, cores=total)
     if update_threads:
-        update = min(update_threads, share)
-    else:
-        update = rollout if torch_threads else max(rollout, min(4, share, idle_cores(total, load)))
-    return ThreadPlan(rollout, update)
+        return ThreadPlan(rollout, min(update_threads, share), adaptive, fixed_update=True, cores=total)
+    if torch_threads:
+        return ThreadPlan(rollout, rollout, adaptive, cores=total)
+    # the first update's count from a sample of the cores busy now; later ones from what others used
+    # during the previous update (adaptive), so a run keeps the idle cores it has and gives back the busy ones
+    first = max(rollout, min(4, share, idle_cores(total, load)))
+    return ThreadPlan(rollout, max(rollout, min(4, share)), adaptive, cores=total,
+                      _state={} if first == max(rollout, min(4, share)) else {"update": float(total - first)})
 
 
 def idle_cores(cores: int, load: float | None = None) -> int:

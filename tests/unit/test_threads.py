@@ -5,7 +5,8 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
-from rlchain.parallel.threads import ThreadPlan, idle_cores, plan_threads
+from rlchain.parallel import threads as threads_module
+from rlchain.parallel.threads import ThreadPlan, free_cores, idle_cores, plan_threads
 
 BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
                    "network": {"name": "actor_critic", "mlp": {"units": [8]}},
@@ -23,13 +24,74 @@ def test_default_is_half_the_cores_for_the_rollout_and_all_of_them_for_the_updat
 
 
 def test_default_update_leaves_out_the_cores_other_processes_keep_busy():
-    assert plan_threads(None, None, "cpu", cores=2, load=1.2) == ThreadPlan(1, 1)
-    assert plan_threads(None, None, "cpu", cores=2, load=7.0) == ThreadPlan(1, 1)
-    assert plan_threads(None, None, "cpu", cores=8, load=5.5) == ThreadPlan(4, 4)  # never below the rollout's
-    assert plan_threads(None, None, "cpu", cores=16, load=13.0) == ThreadPlan(4, 4)
-    assert plan_threads(None, None, "cpu", cores=4, load=3.0) == ThreadPlan(2, 2)
+    def now(plan):
+        return plan.current()
+
+    assert now(plan_threads(None, None, "cpu", cores=2, load=1.2)) == (1, 1)
+    assert plan_threads(None, None, "cpu", cores=2, load=1.2) == ThreadPlan(1, 2)  # 2 once the cores are idle
+    assert now(plan_threads(None, None, "cpu", cores=2, load=7.0)) == (1, 1)
+    assert now(plan_threads(None, None, "cpu", cores=8, load=5.5)) == (4, 4)  # never below the rollout's
+    assert now(plan_threads(None, None, "cpu", cores=16, load=13.0)) == (4, 4)
+    assert now(plan_threads(None, None, "cpu", cores=4, load=3.0)) == (2, 2)
     assert plan_threads(None, 2, "cpu", cores=2, load=7.0) == ThreadPlan(1, 2)  # asked for: kept
     assert idle_cores(4, 2.7) == 2 and idle_cores(2, 9.0) == 1 and idle_cores(2, 0.0) == 2
+
+
+def test_free_cores_counts_a_core_busy_from_a_third_of_one():
+    assert free_cores(2, 0.0) == 2 and free_cores(2, 0.25) == 2
+    assert free_cores(2, 0.35) == 1 and free_cores(2, 1.0) == 1 and free_cores(2, 5.0) == 1
+    assert free_cores(8, 2.5) == 5
+
+
+def _fake_stat(tmp_path, busy, idle):
+    path = tmp_path / "stat"
+    path.write_text(f"cpu  {busy} 0 0 {idle} 0 0 0 0 0 0\n")
+    return str(path)
+
+
+def test_other_load_is_the_machine_busy_time_less_this_process(tmp_path, monkeypatch):
+    clock = {"t": 100.0, "cpu": 5.0}
+    monkeypatch.setattr(threads_module.time, "monotonic", lambda: clock["t"])
+    monkeypatch.setattr(threads_module.time, "process_time", lambda: clock["cpu"])
+    load = threads_module.OtherLoad(_fake_stat(tmp_path, 0, 0))
+    tick = load.tick
+    # one wall second: the machine busy 1.5 cores' worth, this process 0.5 s of it -> others 1.0 core
+    load.stat = _fake_stat(tmp_path, int(1.5 * tick), 10)
+    clock["t"], clock["cpu"] = 101.0, 5.5
+    assert load.since_last() == pytest.approx(1.0)
+    clock["t"] += 0.001  # under 20 ms: no estimate
+    assert load.since_last() is None
+
+
+def test_an_adaptive_update_drops_to_one_thread_while_others_are_busy_and_comes_back(monkeypatch):
+    before = torch.get_num_threads()
+    seen = []
+    others = iter([0.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # rollout, update, rollout, update, ...
+    plan = ThreadPlan(1, 2, adaptive=True, cores=2)
+    monkeypatch.setattr(threads_module.OtherLoad, "since_last", lambda self: next(others))
+    try:
+        plan.apply()
+        for _ in range(3):
+            with plan.update_phase():
+                seen.append(torch.get_num_threads())
+        # the first update knows nothing yet (2); the second follows the first, which others kept busy
+        # (1); the third follows an idle one (2); the rollout stays at its 1 throughout
+        assert seen == [2, 1, 2] and torch.get_num_threads() == 1
+    finally:
+        torch.set_num_threads(before)
+
+
+def test_an_asked_update_count_is_kept_even_under_load(monkeypatch):
+    before = torch.get_num_threads()
+    plan = ThreadPlan(1, 2, adaptive=True, fixed_update=True, cores=2)
+    monkeypatch.setattr(threads_module.OtherLoad, "since_last", lambda self: 1.5)
+    try:
+        plan.apply()
+        for _ in range(2):
+            with plan.update_phase():
+                assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
 
 
 def test_an_explicit_torch_threads_also_caps_the_update_unless_update_threads_is_set():
