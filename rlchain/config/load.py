@@ -128,7 +128,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         if problem:
             key, message = problem
             raise ConfigError(source, f"params.config.{key}", message)
-    _check_callbacks(getattr(config, "callbacks", []), source)
+    _check_callbacks(config.callbacks, source)
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
@@ -145,7 +145,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     out = Params(algo=algo, model=model, config=config, network=network, seed=seed,
                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
                  source=source)
-    if getattr(config, "multi_agent", None) is not None:
+    if isinstance(config, TrainConfig) and config.multi_agent is not None:
         out = dataclasses.replace(out, policies=_policy_params(out, params, source))
     return out
 

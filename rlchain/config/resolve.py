@@ -19,7 +19,7 @@ from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.load import _parse_network
-from rlchain.config.schema import NamedBlock, Params
+from rlchain.config.schema import NamedBlock, Params, TrainConfig
 from rlchain.registry import ALGOS
 
 CONFIG_FORMAT = "rlchain-config-2"
@@ -127,7 +127,7 @@ def params_from_state(data: Any, source: str) -> Params:
     if isinstance(stored, dict):
         stored = drop_other_algo_keys(stored, algo.name, source, warn=False)
     config = parse_dataclass(config_class_of(algo.name), stored, "params.config", source)
-    cv = getattr(config, "central_value_config", None)
+    cv = config.central_value_config if isinstance(config, TrainConfig) else None
     if cv is not None:
         network = _parse_network(cv.network, source, "params.config.central_value_config.network")
         config = dataclasses.replace(config, central_value_config=dataclasses.replace(cv, network=network))
