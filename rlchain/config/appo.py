@@ -1,19 +1,20 @@
 """Typed ``params.config`` for the asynchronous algorithms ``appo`` and ``impala`` (V-trace).
 
-They train the PPO model with the PPO agent's optimizer, normalizers and lr schedules, so they
-share :class:`~rlchain.config.schema.TrainConfig`'s keys with the same meaning; ``horizon_length``
-is the length of a runner's trajectory fragment and one epoch is one learner batch of
-``num_actors * horizon_length`` frames. The keys that make no sense for them are listed in
-``not_for_this_algo`` and are an error (``rlchain.config.load`` checks them before parsing).
-"""
+They train the PPO model with the PPO agent's optimizer, normalizers and lr schedules, so they share
+:class:`~rlchain.config.actor_critic.ActorCriticConfig`'s keys with PPO, with the same meaning;
+``horizon_length`` is the length of a runner's trajectory fragment and one epoch is one learner batch of
+``num_actors * horizon_length`` frames. ``appo`` adds PPO's clipped-surrogate keys, ``impala`` fixes them.
+A key of PPO that they do not read (``tau``, ``env_groups``, ...) is ignored with a one-line warning that
+says why (``other_algo_keys``, see :mod:`rlchain.config.algo_keys`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
-from rlchain.config.fields import option, positive
-from rlchain.config.schema import TrainConfig
+from rlchain.config.actor_critic import ActorCriticConfig
+from rlchain.config.fields import option, positive, variant
+from rlchain.config.ppo import TrainConfig
 
 
 def _clip(x: float | None) -> str | None:
@@ -46,13 +47,23 @@ RNN_NOTE = "the asynchronous runners carry no RNN state yet: use a feed-forward 
 
 
 @dataclass(frozen=True)
-class APPOConfig(TrainConfig):
-    """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
-    (``mini_epochs``) per learner batch."""
+class VTraceConfig(ActorCriticConfig):
+    """The keys ``appo`` and ``impala`` share: the actor-critic keys and the asynchronous learner's block."""
 
     appo: AppoBlock = option(AppoBlock(), "the asynchronous learner (rlchain)")
 
-    not_for_this_algo: ClassVar[dict[str, str]] = {
+    # Not keys: the fixed values of features the runners do not have, read by the PPO agent and model they
+    # share with PPO. A YAML key of one of these names is PPO's, ignored here with the warning below.
+    use_action_masks: ClassVar[bool] = False
+    seq_length: ClassVar[int] = 1
+    bptt_length: ClassVar[int | None] = None
+    zero_rnn_on_done: ClassVar[bool] = True
+    central_value_config: ClassVar[Any] = None
+    self_play_config: ClassVar[Any] = None
+    torch_compile: ClassVar[Any] = False
+    env_groups: ClassVar[int] = 1
+
+    other_algo_keys: ClassVar[dict[str, str]] = {
         "tau": "it is GAE's lambda; V-trace's trace is cut by appo.vtrace_clip_c",
         "env_groups": "runners step their envs on their own",
         "central_value_config": "no asymmetric critic for the asynchronous learner yet",
@@ -60,10 +71,13 @@ class APPOConfig(TrainConfig):
         "use_action_masks": "the runners carry no action masks yet",
         "seq_length": RNN_NOTE, "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
         "torch_compile": "supported for PPO only so far",
+        "timeout_bootstrap": "a time-out always bootstraps V(the true final observation)",
     }
+    """Why this algorithm ignores a key of another algorithm (added to the warning)."""
 
     def validate(self) -> tuple[str, str] | None:
-        """Every runner holds the same number of envs, so every fragment has the same shape."""
+        """Every runner holds the same number of envs, so every fragment has the same shape; the learner
+        batch (``num_actors * horizon_length``) divides into minibatches."""
         appo = self.appo
         if appo.max_policy_lag < appo.broadcast_interval - 1:  # every fragment would be too old: no progress
             return "appo.max_policy_lag", (f"{appo.max_policy_lag} is below broadcast_interval - 1 = "
@@ -73,21 +87,40 @@ class APPOConfig(TrainConfig):
         if runners is not None and runners.num_workers is not None and self.num_actors % runners.num_workers:
             return "env_runners.num_workers", (f"num_actors {self.num_actors} does not divide by {runners.num_workers} "
                                                f"workers: appo/impala runners need equal env slices")
+        batch = self.num_actors * self.horizon_length
+        if self.minibatch_size is not None and (self.minibatch_size > batch or batch % self.minibatch_size):
+            what = "is larger than" if self.minibatch_size > batch else "does not divide"
+            return "minibatch_size", (f"minibatch_size {self.minibatch_size} {what} the batch "
+                                      f"num_actors*horizon_length = {batch}")
         return None
 
 
 @dataclass(frozen=True)
-class ImpalaConfig(APPOConfig):
+class APPOConfig(VTraceConfig):
+    """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
+    (``mini_epochs``) per learner batch."""
+
+    mini_epochs: int = variant(TrainConfig, "mini_epochs")
+    e_clip: float = variant(TrainConfig, "e_clip")
+    clip_value: bool = variant(TrainConfig, "clip_value")
+    use_smooth_clamp: bool = variant(TrainConfig, "use_smooth_clamp")
+
+
+@dataclass(frozen=True)
+class ImpalaConfig(VTraceConfig):
     """``params.config`` for algo ``impala``: the V-trace actor-critic (policy gradient weighted by the clipped
     ratio, no surrogate clipping), one pass over each learner batch."""
 
-    not_for_this_algo: ClassVar[dict[str, str]] = {
-        **APPOConfig.not_for_this_algo,
+    # Not keys: IMPALA's fixed values of appo's surrogate keys (e_clip only sizes the clip_frac diagnostic)
+    mini_epochs: ClassVar[int] = 1
+    e_clip: ClassVar[float] = 0.2
+    clip_value: ClassVar[bool] = False
+    use_smooth_clamp: ClassVar[bool] = False
+
+    other_algo_keys: ClassVar[dict[str, str]] = {
+        **VTraceConfig.other_algo_keys,
         "e_clip": "impala has no clipped surrogate (use algo appo)",
         "clip_value": "impala has no value clipping (use algo appo)",
+        "use_smooth_clamp": "impala has no clipped surrogate (use algo appo)",
         "mini_epochs": "impala makes one pass over each batch (use algo appo for several)",
     }
-
-    def __post_init__(self) -> None:
-        """One pass over each batch: mini_epochs is 1 (the key itself is not_for_this_algo)."""
-        object.__setattr__(self, "mini_epochs", 1)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 
@@ -29,9 +30,11 @@ ROOTS = [
     ("params.network (builder soft_actor_critic)", "params.network", SACNetworkConfig, "builder soft_actor_critic"),
     ("params.config for algo dqn", "params.config", DQNConfig, "algo dqn"),
     ("params.config for algo appo (asynchronous PPO on V-trace, docs/appo.md; keys shared with PPO have the same "
-     "meaning, horizon_length is the fragment length; status error: the key is an error for this algo)",
+     "meaning, horizon_length is the fragment length; a PPO key not listed here, e.g. tau, is ignored with a "
+     "warning)",
      "params.config", APPOConfig, "algo appo"),
-    ("params.config for algo impala (the V-trace actor-critic, docs/appo.md; as algo appo otherwise)",
+    ("params.config for algo impala (the V-trace actor-critic, docs/appo.md; as algo appo without its "
+     "clipped-surrogate keys: one pass per batch)",
      "params.config", ImpalaConfig, "algo impala"),
     ("params.network (builder dqn)", "params.network", DQNNetworkConfig, "builder dqn"),
 ]
@@ -59,8 +62,9 @@ ROW_NOTES = {
 
 HEADER = """# Configuration reference
 
-Generated from `rlchain/config/schema.py` by `python -m rlchain.config.docs > docs/config.md`;
-a unit test fails when this file and the schema disagree.
+Generated from the config classes of `rlchain/config/` (`network.py`, `run.py`, `actor_critic.py`, `ppo.py`,
+`appo.py`, `off_policy.py`) by `python -m rlchain.config.docs > docs/config.md`; a unit test fails when this
+file and the classes disagree.
 
 A config file is YAML (or JSON) with one top-level `params` block:
 
@@ -78,7 +82,9 @@ A config file is YAML (or JSON) with one top-level `params` block:
 
 Status: **yes** = implemented with rl_games' meaning; **deprecated** = accepted with a one-line
 warning, no effect; **planned** = an error unless left at its default (the issue that brings it is named).
-Any key not listed here is an error with a did-you-mean suggestion.
+Each algorithm reads its own `params.config` section below. A key of another algorithm's section (`tau`,
+PPO's GAE lambda, with `algo: appo`) is ignored with a one-line warning naming it; any other key not
+listed here is an error with a did-you-mean suggestion.
 
 `max_epochs` and `max_frames` count the whole run: a run resumed from a checkpoint at epoch 40 with
 `max_epochs: 100` trains 60 more epochs.
@@ -110,11 +116,7 @@ def _default(f: dataclasses.Field) -> str:
     return "None" if value is None else repr(value) if isinstance(value, str) else str(value)
 
 
-def _status(f: dataclasses.Field, cls: type) -> str:
-    """The key's status; a key the algo's config class rejects (``not_for_this_algo``) is an error there."""
-    why = getattr(cls, "not_for_this_algo", {}).get(f.name)
-    if why is not None and f.name in {g.name for g in dataclasses.fields(cls)}:
-        return f"error: {why}"
+def _status(f: dataclasses.Field) -> str:
     return f.metadata.get("status", "yes")
 
 
@@ -205,7 +207,7 @@ def render() -> str:
         hints = typing.get_type_hints(cls)
         for f in dataclasses.fields(cls):
             tp = str(hints[f.name]).replace("typing.", "").replace("<class '", "").replace("'>", "")
-            tp = tp.replace("rlchain.config.schema.", "").replace("rlchain.config.multi_agent.", "")
+            tp = re.sub(r"rlchain\.config\.(schema|multi_agent|network|run|actor_critic|ppo)\.", "", tp)
             tp = tp.replace(" | ", " or ")
             doc = f.metadata.get("doc", "")
             choices = f.metadata.get("choices")
@@ -213,7 +215,7 @@ def render() -> str:
                 doc += " (choices: " + ", ".join("None" if c is None else str(c) for c in choices) + ")"
             for path in section.paths:
                 doc += ROW_NOTES.get(f"{path}.{f.name}", "")
-            lines.append(f"| `{f.name}` | {tp} | `{_default(f)}` | {_status(f, cls)} | {doc.replace('|', '/')} |")
+            lines.append(f"| `{f.name}` | {tp} | `{_default(f)}` | {_status(f)} | {doc.replace('|', '/')} |")
         lines.append("")
     lines += ["## rl_games keys accepted without effect", "", "| key | note |", "|---|---|"]
     for key, why in {**compat.NO_EFFECT_CONFIG_KEYS, **{f"network ... {k}": v for k, v in

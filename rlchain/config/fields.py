@@ -38,9 +38,10 @@ def option(default: Any = dataclasses.MISSING, doc: str = "", *, choices: tuple 
 
 
 def variant(base: type, name: str, **changes: Any) -> Any:
-    """Field ``name`` of the dataclass ``base`` for a subclass that gives it another ``default`` or
-    ``doc``/``status`` (e.g. a key an algorithm accepts but does not implement): the type, choices and check
-    stay the ones declared once in ``base``."""
+    """Field ``name`` of the dataclass ``base``, declared again on another config class: a subclass that gives
+    it another ``default`` or ``doc``/``status`` (e.g. a key an algorithm accepts but does not implement), or a
+    sibling algorithm that reads the same key (appo and PPO's ``e_clip``): the type, choices and check stay
+    the ones declared once in ``base``."""
     f = {g.name: g for g in dataclasses.fields(base)}[name]
     meta = {**f.metadata, **{k: v for k, v in changes.items() if k != "default"}}
     if "default" in changes:

@@ -14,6 +14,8 @@ from typing import Any
 import yaml
 
 from rlchain.config import compat
+from rlchain.config.actor_critic import ActorCriticConfig
+from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
@@ -112,15 +114,13 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     config_raw = params["config"]
     if not isinstance(config_raw, dict):
         raise ConfigError(source, "params.config", f"expected a mapping, got {config_raw!r}")
-    # an algorithm may declare its own config dataclass (e.g. off-policy keys); PPO uses TrainConfig
-    config_class = getattr(ALGOS.get(algo.name), "config_class", TrainConfig)
+    # each algorithm declares its own config dataclass (config_class); PPO's is TrainConfig
+    config_class = config_class_of(algo.name)
     config_raw = compat.translate_config(config_raw, source)
-    for key, why in getattr(config_class, "not_for_this_algo", {}).items():  # TrainConfig keys an algo cannot use
-        if key in config_raw:
-            raise ConfigError(source, f"params.config.{key}", f"not used by algo {algo.name}: {why}; remove it")
+    config_raw = drop_other_algo_keys(config_raw, algo.name, source)  # another algo's key: a warning
     config = parse_dataclass(config_class, config_raw, "params.config", source)
     _check_planned(config, "params.config", source)
-    if isinstance(config, TrainConfig):
+    if isinstance(config, ActorCriticConfig):  # PPO, appo, impala: minibatches, lr schedules
         config = _resolve_training(config, source)
     validate = getattr(config, "validate", None)
     if validate is not None:
@@ -128,7 +128,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         if problem:
             key, message = problem
             raise ConfigError(source, f"params.config.{key}", message)
-    _check_callbacks(getattr(config, "callbacks", []), source)
+    _check_callbacks(config.callbacks, source)
 
     network = _parse_network(params.get("network"), source)
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
@@ -145,7 +145,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     out = Params(algo=algo, model=model, config=config, network=network, seed=seed,
                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
                  source=source)
-    if getattr(config, "multi_agent", None) is not None:
+    if isinstance(config, TrainConfig) and config.multi_agent is not None:
         out = dataclasses.replace(out, policies=_policy_params(out, params, source))
     return out
 
@@ -170,13 +170,15 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
     """``config.multi_agent``: each policy's own Params -- the top-level network, model and config with
     the policy's ``network`` / ``model`` / ``config`` in their place (see rlchain/config/multi_agent.py)."""
 
-    ma = top.config.multi_agent
+    ma = top.config_as(TrainConfig).multi_agent
     if top.network is not None and isinstance(top.network, (NetworkConfig, ResnetNetworkConfig)) \
             and top.network.rnn is not None:
         raise ConfigError(source, "params.network.rnn", "multi_agent policies are feedforward for now "
                                                         "(recurrent policies: not implemented)")
     names = check_multi_agent(ma, source)
-    base = {k: v for k, v in compat.translate_config(raw_params["config"], source).items() if k != "multi_agent"}
+    base = drop_other_algo_keys(compat.translate_config(raw_params["config"], source), top.algo.name, source,
+                                warn=False)  # warned about once already, as params.config
+    base.pop("multi_agent", None)
     out = {}
     for name in names:
         path = f"{KEY}.policies.{name}"
@@ -184,7 +186,8 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
         for key in spec.config:
             if key in RUN_LEVEL_KEYS:
                 raise ConfigError(source, f"{path}.config.{key}", "is a run-level key: set it at params.config")
-        merged = {**base, **compat.translate_config(spec.config, source)}
+        merged = {**base, **drop_other_algo_keys(compat.translate_config(spec.config, source), top.algo.name, source,
+                                                 f"{path}.config")}
         if "minibatch_size" in spec.config:
             merged.pop("minibatch_size_per_env", None)
         config = _resolve_training(parse_dataclass(TrainConfig, merged, f"{path}.config", source), source)
@@ -324,7 +327,7 @@ def _resolve_central_value(config: TrainConfig, source: str) -> CentralValueConf
     return cv
 
 
-def _resolve_training(config: TrainConfig, source: str) -> TrainConfig:
+def _resolve_training(config: ActorCriticConfig, source: str) -> ActorCriticConfig:
     """Cross-key checks that no single field can make; returns the config with the derived values
     filled in (minibatch_size from minibatch_size_per_env, lr_schedule constant -> None)."""
     if config.minibatch_size_per_env is not None:
@@ -345,7 +348,7 @@ def _resolve_training(config: TrainConfig, source: str) -> TrainConfig:
     return config
 
 
-def _check_schedules(config: TrainConfig, source: str) -> None:
+def _check_schedules(config: ActorCriticConfig, source: str) -> None:
     """polynom_decay needs a horizon to decay over; keys that only act with another schedule warn."""
     if config.lr_schedule == "polynom_decay" and config.max_epochs <= 0 and config.max_frames <= 0:
         raise ConfigError(source, "params.config.lr_schedule", "polynom_decay decays over the run: set "

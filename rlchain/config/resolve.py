@@ -15,6 +15,7 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
+from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.load import _parse_network
@@ -120,9 +121,13 @@ def params_from_state(data: Any, source: str) -> Params:
     model = parse_dataclass(NamedBlock, data["model"], "params.model", source)
     if algo.name not in ALGOS:
         raise ConfigError(source, "params.algo.name", ALGOS.unknown_message(algo.name))
-    config_class = getattr(ALGOS.get(algo.name), "config_class", TrainConfig)
-    config = parse_dataclass(config_class, data["config"], "params.config", source)
-    cv = getattr(config, "central_value_config", None)
+    # a checkpoint written before each algorithm had its own config class holds the keys of PPO's (appo's
+    # tau, impala's e_clip ...) at their defaults: they belong to another algorithm, read back quietly
+    stored = data["config"]
+    if isinstance(stored, dict):
+        stored = drop_other_algo_keys(stored, algo.name, source, warn=False)
+    config = parse_dataclass(config_class_of(algo.name), stored, "params.config", source)
+    cv = config.central_value_config if isinstance(config, TrainConfig) else None
     if cv is not None:
         network = _parse_network(cv.network, source, "params.config.central_value_config.network")
         config = dataclasses.replace(config, central_value_config=dataclasses.replace(cv, network=network))

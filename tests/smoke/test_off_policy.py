@@ -124,12 +124,21 @@ def test_bad_values_name_the_key(config, override, path, text):
     ("params.config.critic_tau=2", "params.config.critic_tau"),
     ("params.config.log_std_bounds=[2, -5]", "params.config.log_std_bounds"),
     ("params.network.log_std_bounds=[1]", "params.network.log_std_bounds"),
-    ("params.config.learning_rate=1e-3", "params.config.learning_rate"),  # a DQN/PPO key, not SAC
+    ("params.config.learnin_rate=1e-3", "params.config.learnin_rate"),  # a typo of a DQN/PPO key
 ])
 def test_bad_sac_values(override, path):
     with pytest.raises(ConfigError) as info:
         Runner().load(os.path.join(CONFIGS, "sac_pendulum.yaml"), [override])
     assert info.value.path == path
+
+
+def test_a_key_of_another_algo_is_ignored_with_a_warning():
+    """learning_rate is DQN's and PPO's: SAC (actor_lr, critic_lr) ignores it with a one-line warning."""
+    from rlchain.config import compat
+    with pytest.warns(compat.RlchainDeprecationWarning, match="params.config.learning_rate: a key of algo .*dqn"
+                                                              ".*, ignored by algo sac"):
+        params = Runner().load(os.path.join(CONFIGS, "sac_pendulum.yaml"), ["params.config.learning_rate=2e-3"]).params
+    assert not hasattr(params.config, "learning_rate")
 
 
 def test_wrong_action_space_is_a_clear_error(tmp_path):

@@ -1,12 +1,21 @@
-"""appo / impala config: the appo block, keys that make no sense for the algo, cross-key checks."""
+"""appo / impala config: the appo block, keys of another algo (a warning), unknown keys (an error), cross-key
+checks."""
 
 import copy
+import dataclasses
+import os
 
 import pytest
 
+from rlchain.config import compat
+from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import parse_params
+from rlchain.config.load import load_config, parse_params
+from rlchain.config.resolve import config_state, params_from_state
+from rlchain.config.run import RunConfig
+from rlchain.config.schema import TrainConfig
+from tests.conftest import ROOT
 
 APPO = {
     "params": {
@@ -36,20 +45,94 @@ def test_the_issue_block_parses_typed():
     assert isinstance(impala.config, ImpalaConfig) and impala.config.mini_epochs == 1
 
 
-@pytest.mark.parametrize("algo,key,value,words", [
-    ("appo", "tau", 0.95, "GAE's lambda"),
-    ("appo", "env_groups", 2, "runners step their envs"),
-    ("appo", "seq_length", 4, "RNN"),
-    ("impala", "e_clip", 0.2, "no clipped surrogate"),
-    ("impala", "mini_epochs", 4, "one pass"),
-    ("a2c_discrete", "appo", {"max_policy_lag": 2}, "algos appo and impala"),
+@pytest.mark.parametrize("algo,key,value,owners,words", [
+    ("appo", "tau", 0.95, "a2c_continuous, a2c_discrete", "GAE's lambda"),
+    ("appo", "env_groups", 2, "a2c_continuous, a2c_discrete", "runners step their envs"),
+    ("appo", "seq_length", 4, "a2c_continuous, a2c_discrete, dqn, sac", "RNN"),
+    ("impala", "e_clip", 0.2, "a2c_continuous, a2c_discrete, appo", "no clipped surrogate"),
+    ("impala", "mini_epochs", 4, "a2c_continuous, a2c_discrete, appo", "one pass"),
+    ("a2c_discrete", "appo", {"max_policy_lag": 2}, "appo, impala", ""),
+    ("sac", "learning_rate", 1e-3, "a2c_continuous, a2c_discrete, appo, dqn, impala", ""),
 ])
-def test_keys_that_make_no_sense_for_the_algo_are_one_line_errors(algo, key, value, words):
+def test_a_key_of_another_algo_is_a_one_line_warning(monkeypatch, algo, key, value, owners, words):
+    """rl_games' PPO YAML switched to appo keeps loading: PPO's keys are ignored with a warning naming them."""
+    monkeypatch.setattr(compat, "_warned", set())  # compat warns once per process
+    raw = copy.deepcopy(APPO)
+    raw["params"]["algo"]["name"] = algo
+    if algo == "sac":
+        raw["params"]["model"]["name"] = "soft_actor_critic"
+        raw["params"]["network"] = {"name": "soft_actor_critic", "space": {"continuous": None}}
+        for other in ("appo", "minibatch_size", "horizon_length"):
+            del raw["params"]["config"][other]
+    raw["params"]["config"][key] = value
+    with pytest.warns(compat.RlchainDeprecationWarning) as record:
+        params = parse_params(raw, "cfg.yaml")
+    assert len(record) == 1
+    text = str(record[0].message)
+    assert text.startswith(f"cfg.yaml: params.config.{key}: a key of algo {owners}, ignored by algo {algo}")
+    assert words in text and "\n" not in text
+    assert key not in {f.name for f in dataclasses.fields(params.config)}
+
+
+@pytest.mark.parametrize("algo,key,words", [
+    ("appo", "taux", "did you mean 'tau"),  # no algo has it: an error
+    ("appo", "learning_rat", "did you mean 'learning_rate'"),
+    ("a2c_discrete", "vtrace_clip_c", "unknown key"),  # a key of the appo block, not of params.config
+])
+def test_a_key_no_algo_has_stays_an_error(algo, key, words):
     with pytest.raises(ConfigError) as err:
-        parse(algo, **{key: value})
+        parse(algo, **{key: 1})
     text = str(err.value)
-    assert text.startswith(f"cfg.yaml: params.config.{key}: not used by algo {algo}") and words in text
-    assert "\n" not in text
+    assert text.startswith(f"cfg.yaml: params.config.{key}: unknown key") and "\n" not in text
+    if "did you mean" in words:
+        assert words.split("'")[0] in text
+
+
+def test_each_algo_has_its_own_class_and_no_forbidden_keys():
+    """appo and impala share the actor-critic keys with PPO, not PPO's own (no key they then forbid)."""
+    def keys(cls):
+        return {f.name for f in dataclasses.fields(cls)}
+    shared = keys(ActorCriticConfig)
+    assert issubclass(TrainConfig, ActorCriticConfig) and issubclass(APPOConfig, ActorCriticConfig)
+    assert not issubclass(APPOConfig, TrainConfig) and not issubclass(ImpalaConfig, APPOConfig)
+    assert {"learning_rate", "minibatch_size", "horizon_length", "critic_coef"} <= shared
+    assert {"tau", "env_groups", "seq_length", "torch_compile", "central_value_config"} <= keys(TrainConfig) - shared
+    ppo_only = keys(TrainConfig) - keys(APPOConfig)
+    for key in ("tau", "env_groups", "central_value_config", "self_play_config", "use_action_masks", "seq_length",
+                "bptt_length", "zero_rnn_on_done", "torch_compile"):
+        assert key in ppo_only and key not in keys(RunConfig)
+    assert keys(APPOConfig) - keys(ImpalaConfig) == {"mini_epochs", "e_clip", "clip_value", "use_smooth_clamp"}
+    impala = parse("impala").config  # its fixed values are class attributes, not keys: nothing is written
+    assert (impala.mini_epochs, impala.e_clip, impala.clip_value) == (1, 0.2, False)
+    assert impala.bptt_length is None and impala.use_action_masks is False  # read by the shared PPO agent
+
+
+def test_config_as_names_the_algo():
+    params = parse()
+    assert params.config_as(APPOConfig) is params.config and params.config_as(RunConfig) is params.config
+    with pytest.raises(ConfigError) as err:
+        params.config_as(TrainConfig)
+    assert str(err.value) == ("cfg.yaml: params.algo.name: algo appo configures a APPOConfig; this needs a "
+                              "TrainConfig (the params.config of another algorithm)")
+
+
+def test_rl_games_cartpole_yaml_loads_as_appo_and_impala(monkeypatch):
+    """The issue's case: rl_games' own cartpole YAML with algo appo stopped on tau."""
+    monkeypatch.setattr(compat, "_warned", set())
+    path = os.path.join(ROOT, "benchmarks", "rl_games_configs", "ppo_cartpole.yaml")
+    for algo in ("appo", "impala"):
+        with pytest.warns(compat.RlchainDeprecationWarning, match="params.config.tau: a key of algo"):
+            params = load_config(path, [f"params.algo.name={algo}"])
+        assert params.config.horizon_length == 32 and params.config.learning_rate == 2e-4
+
+
+def test_a_checkpoint_of_the_shared_class_reads_back_quietly(recwarn):
+    """Checkpoints written while appo's class held PPO's keys store them at their defaults."""
+    state = config_state(parse("impala"))["params"]
+    state["config"].update(tau=0.95, env_groups="auto", seq_length=4, mini_epochs=1, e_clip=0.2)
+    params = params_from_state(state, "old.pth")
+    assert isinstance(params.config, ImpalaConfig) and params.config.mini_epochs == 1
+    assert not [w for w in recwarn if "params.config" in str(w.message)]
 
 
 @pytest.mark.parametrize("config,key,words", [
@@ -58,6 +141,8 @@ def test_keys_that_make_no_sense_for_the_algo_are_one_line_errors(algo, key, val
     ({"appo": {"learner_queue_size": 0}}, "appo.learner_queue_size", "must be > 0"),
     ({"appo": {"runners": "threads"}}, "appo.runners", "local"),
     ({"appo": {"max_lag": 2}}, "appo.max_lag", "did you mean 'max_policy_lag'"),
+    ({"minibatch_size": 48}, "minibatch_size", "does not divide the batch num_actors*horizon_length = 64"),
+    ({"minibatch_size": 128}, "minibatch_size", "is larger than the batch"),
 ])
 def test_bad_appo_values(config, key, words):
     with pytest.raises(ConfigError) as err:

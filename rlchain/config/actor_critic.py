@@ -1,0 +1,76 @@
+"""Keys of the actor-critic algorithms that train with the PPO agent: PPO (``a2c_continuous`` /
+``a2c_discrete``), ``appo`` and ``impala``.
+
+They share the agent's optimizer, learning-rate schedules, value and entropy losses, normalizers and
+minibatches, so these keys mean the same for the three; each algorithm's class adds its own keys
+(:class:`~rlchain.config.ppo.TrainConfig`, :class:`~rlchain.config.appo.APPOConfig`,
+:class:`~rlchain.config.appo.ImpalaConfig`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rlchain.config.fields import non_negative, option, positive
+from rlchain.config.run import RunConfig
+
+
+@dataclass(frozen=True)
+class ActorCriticConfig(RunConfig):
+    """``params.config`` keys every algorithm trained by the PPO agent reads (PPO, appo, impala)."""
+
+    horizon_length: int = option(32, "steps per env per epoch; batch = num_actors * horizon_length * "
+                                     "agents per env", check=positive)
+    minibatch_size: int | None = option(None, "minibatch size; the batch must divide by it (this or "
+                                              "minibatch_size_per_env is required)", check=positive)
+    minibatch_size_per_env: int | None = option(None, "minibatch = num_actors * this", check=positive)
+    minibatch_order: str = option("auto", "which steps each minibatch holds. fixed = rl_games' order: the "
+                                          "rollout flattened env by env and cut in turn, so minibatch k is the "
+                                          "same whole env trajectories (whole sequences for an RNN) in every "
+                                          "mini-epoch; shuffle = a new random permutation every mini-epoch; "
+                                          "auto = fixed for continuous actions (measured better on the MuJoCo "
+                                          "YAMLs, docs/ppo_parity.md), shuffle otherwise",
+                                  choices=("auto", "fixed", "shuffle"))
+    learning_rate: float = option(3e-4, "Adam learning rate", check=positive)
+    lr_schedule: str | None = option(None, "None (constant), linear, adaptive (KL-based) or polynom_decay "
+                                           "(min_lr + (learning_rate - min_lr) * (1 - progress) ** decay_power; "
+                                           "progress = epochs/max_epochs, else frames/max_frames)",
+                                     choices=("linear", "adaptive", "constant", "polynom_decay"))
+    kl_threshold: float = option(0.008, "adaptive schedule target KL", check=positive)
+    schedule_type: str = option("legacy", "adaptive: legacy = after every minibatch, standard = "
+                                          "after every mini-epoch", choices=("legacy", "standard"))
+    kl_reference: str = option("auto", "adaptive: the policy the KL compares the current one with. previous = each "
+                                       "sample's policy at its previous minibatch (the rollout's on the first "
+                                       "pass), as rl_games' continuous agent; rollout = the policy that collected "
+                                       "the batch, as rl_games' discrete agent; auto = previous for continuous "
+                                       "actions, rollout otherwise. The logged kl is this one",
+                               choices=("auto", "previous", "rollout"))
+    min_lr: float = option(1e-6, "adaptive / linear / polynom_decay schedule floor", check=non_negative)
+    max_lr: float = option(1e-2, "adaptive schedule ceiling", check=positive)
+    decay_power: float = option(1.0, "polynom_decay: the exponent (1 = linear; rl_games' TensorFlow agent's key; "
+                                     "its torch agent keeps a polynom_decay lr constant)", check=positive)
+    critic_coef: float = option(1.0, "critic loss weight: loss += critic_coef * 0.5 * value loss",
+                                check=non_negative)
+    entropy_coef: float = option(0.0, "entropy bonus weight")
+    schedule_entropy: bool = option(False, "with lr_schedule linear: the entropy bonus weight moves linearly from "
+                                           "entropy_coef to 1e-4 alongside the lr (logged as info/entropy_coef); "
+                                           "no effect with another lr_schedule (a warning), as in rl_games")
+    normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
+    normalize_value: bool = option(False, "running mean/std normalization of value targets (statistics of the "
+                                          "returns, not clipped; rl_games also folds the rollout's values in and "
+                                          "clips at +-5: measured worse, see docs/ppo_parity.md)")
+    normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
+                                           status="planned")
+    adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")
+    freeze_critic: bool = option(False, "train the actor only", status="planned")
+    epochs_between_resets: int = option(0, "reset all envs every N epochs", status="planned")
+    value_bootstrap: bool = option(True, "on time-out bootstrap V(true final obs) instead of a terminal")
+    grad_norm: float = option(1.0, "max gradient norm when truncate_grads", check=positive)
+    truncate_grads: bool = option(False, "clip gradients to grad_norm")
+    weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
+    bounds_loss_coef: float | None = option(None, "continuous: weight of the bounds loss (None = off)",
+                                            check=non_negative)
+    bound_loss_type: str = option("bound", "bound (mean beyond +-1.1) or regularisation (sum mu^2)",
+                                  choices=("bound", "regularisation"))
+    use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
+    value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")

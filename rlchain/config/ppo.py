@@ -1,0 +1,101 @@
+"""``params.config`` of PPO (algos ``a2c_continuous`` / ``a2c_discrete``): :class:`TrainConfig`, the keys
+only PPO reads (GAE, the clipped surrogate, RNN sequences, torch.compile, env groups, the asymmetric critic,
+self-play, multi-agent policies) on top of the actor-critic keys it shares with appo and impala."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from rlchain.config.actor_critic import ActorCriticConfig
+from rlchain.config.compile import check_compile
+from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
+from rlchain.config.multi_agent import MultiAgentConfig
+
+
+@dataclass(frozen=True)
+class SelfPlayConfig:
+    """``config.self_play_config``: train against frozen copies of the policy loaded into the env.
+
+    The env provides ``set_opponent(policy, env_ids)`` (see rlchain/training/self_play.py). After
+    every epoch the mean score of the games finished since the last opponent update is checked;
+    once ``games_to_check`` games are in and it is above ``update_score``, a frozen copy of the
+    current policy becomes the opponent of ``env_update_num`` envs.
+    """
+
+    update_score: float = option(doc="replace the opponent once the mean score is above this (e.g. a win "
+                                     "rate with check_scores, a mean episode reward without)")
+    games_to_check: int = option(doc="games (since the last update) the mean score is taken over",
+                                 check=positive)
+    check_scores: bool = option(False, "score = the env's per-game scores (pop_scores(): win 1, draw 0.5, "
+                                       "loss 0) instead of the episode rewards")
+    env_update_num: int = option(1, "envs that get the new opponent per update: a window of envs that moves "
+                                    "on by one env per update, as in rl_games", check=positive)
+    deterministic: bool = option(False, "the frozen opponent acts with its distribution's mode instead of "
+                                        "sampling (rlchain)")
+
+
+@dataclass(frozen=True)
+class CentralValueConfig:
+    """``config.central_value_config``: a critic that sees the env's full ``state`` while the actor
+    sees ``obs`` (asymmetric actor-critic). It has its own network, optimizer and minibatches; the
+    actor's own value head is then not trained. Needs an env with ``use_central_value = True``.
+    """
+
+    # parsed in load.py like params.network: a NetworkConfig for actor_critic, the raw dict for a user builder
+    network: Any = option(doc="the critic's network block: actor_critic (mlp, cnn, rnn; `central_value: True`; "
+                              "no action head) or a registered network, built with `central_value: True` and "
+                              "returning (value, states)")
+    learning_rate: float = option(5e-4, "critic Adam learning rate", check=positive)
+    lr_schedule: str | None = option(None, "None (constant) or linear (to 0 over max_epochs/max_frames)",
+                                     choices=("linear", "constant"))
+    minibatch_size: int | None = option(None, "critic minibatch size (default: the actor's)", check=positive)
+    minibatch_size_per_env: int | None = option(None, "critic minibatch = num_actors * this", check=positive)
+    mini_epochs: int = option(4, "critic passes over the batch per epoch", check=positive)
+    normalize_input: bool = option(True, "running mean/std normalization of states")
+    clip_value: bool = option(False, "clip the value update to e_clip around the old value")
+    e_clip: float = option(0.2, "value clip range", check=positive)
+    truncate_grads: bool = option(False, "clip gradients to grad_norm")
+    grad_norm: float = option(1.0, "max gradient norm", check=positive)
+    weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
+
+
+@dataclass(frozen=True)
+class TrainConfig(ActorCriticConfig):
+    """``params.config``: the training keys of an rl_games config (PPO)."""
+
+    env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
+                                     "the background while the policy acts for the other (overlaps env "
+                                     "stepping with inference); auto = 2 when num_actors is even and >= "
+                                     "16, else 1. Must divide num_actors", check=check_env_groups)
+    tau: float = option(0.95, "GAE lambda", check=unit_interval)
+    mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
+    e_clip: float = option(0.2, "PPO clip range", check=positive)
+    clip_value: bool = option(False, "clip the value update to e_clip around the old value")
+    use_smooth_clamp: bool = option(False, "smooth clamp instead of clamp in the clipped objective")
+    timeout_bootstrap: str = option("final_obs", "with value_bootstrap, the value a time-out bootstraps (rlchain): "
+                                                 "final_obs = V(the true final observation); previous_value = "
+                                                 "V(the state before the last step), as rl_games (reward += "
+                                                 "gamma * V(s_t)); see docs/ppo_parity.md",
+                                    choices=("final_obs", "previous_value"))
+    torch_compile: Any = option(False, "PPO: torch.compile the network: false, true (mode default), a mode "
+                                       "(default, reduce-overhead, max-autotune) or {mode, critic_mode, "
+                                       "backend}. rl_games defaults to true; rlchain to false (compiling "
+                                       "costs ~30 s on a CPU)", check=check_compile)
+    seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
+                                "divide by it (the deprecated `seq_len` is read as this, with a warning)",
+                             check=positive)
+    bptt_length: int | None = option(None, "RNN: backpropagate through at most this many steps of a "
+                                           "sequence (truncated BPTT; default: the whole seq_length)",
+                                     check=positive)
+    zero_rnn_on_done: bool = option(True, "RNN: zero the hidden state when an episode ends, in the rollout "
+                                          "and inside training sequences")
+    central_value_config: CentralValueConfig | None = option(
+        None, "asymmetric actor-critic: a value network on the env's `state` (env use_central_value)")
+    use_action_masks: bool = option(False, "invalid-action masks from the env's has_action_mask() / "
+                                           "get_action_mask() (discrete and multi-discrete actions)")
+    self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "
+                                                           "env's opponent (needs env set_opponent)")
+    multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each "
+                                                        "with its own model and optimizer (env_name: "
+                                                        "pettingzoo; docs/multi_agent.md)")

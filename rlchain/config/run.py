@@ -1,0 +1,167 @@
+"""The keys every algorithm reads (:class:`RunConfig`) and the blocks they hold: the run, its env and
+Ray env runners, stop rules, checkpoints, logging, evaluation, the player and divergence handling."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rlchain.config.fields import non_negative, option, positive, rate_target, unit_interval
+from rlchain.config.hyperparam_schedule import check_hyperparam_schedule
+
+
+@dataclass(frozen=True)
+class RewardShaperConfig:
+    """``reward_shaper``: r' = clip((r + shift_value) * scale_value, min_val, max_val)."""
+
+    scale_value: float = option(1.0, "multiply rewards")
+    shift_value: float = option(0.0, "add to rewards before scaling")
+    min_val: float = option(float("-inf"), "clip shaped rewards below")
+    max_val: float = option(float("inf"), "clip shaped rewards above")
+    log_val: bool = option(False, "log of the shaped (scaled, shifted, clipped) reward, as rl_games; it must "
+                                  "be > 0, e.g. with shift_value")
+
+
+@dataclass(frozen=True)
+class PlayerConfig:
+    """``config.player``: inference settings for ``--play``."""
+
+    render: bool = option(False, "render the env while playing")
+    render_sleep: float = option(0.002, "seconds to sleep between rendered frames", check=non_negative)
+    deterministic: bool = option(True, "act with the distribution's mode instead of sampling")
+    games_num: int = option(2000, "episodes to play", check=positive)
+    n_game_life: int = option(1, "lives per game (rl_games scales per-life averages by it); accepted, not needed: "
+                                 "Atari games are always counted whole, see docs/environments.md (Atari)",
+                                 check=positive)
+    print_stats: bool = option(True, "print each finished game")
+    use_vecenv: bool = option(False, "play with several envs at once (num_actors of the player)")
+    num_actors: int = option(1, "envs stepped together while playing", check=positive)
+    evaluation: bool = option(False, "watch dir_to_monitor and evaluate new checkpoints",
+                              status="yes")
+    update_checkpoint_freq: int = option(100, "with evaluation: games between checkpoint reloads",
+                                         status="yes")
+    dir_to_monitor: str | None = option(None, "with evaluation: folder to watch", status="yes")
+    env_config: dict = option({}, "env_config overrides used only by the player")
+    games_to_track: int = option(100, "unused, accepted for rl_games configs", status="deprecated")
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """``config.evaluation`` (rlchain): play games with the current policy during training."""
+
+    interval: int = option(0, "evaluate every N epochs (0 = off)", check=non_negative)
+    games: int = option(10, "episodes per evaluation", check=positive)
+    deterministic: bool = option(True, "act with the distribution's mode")
+    num_envs: int = option(4, "evaluation envs, separate from the training envs", check=positive)
+    seed: int = option(10_000, "evaluation env seed (the same every evaluation, so scores compare)")
+    select_best: str = option("training", "which mean reward picks the best checkpoint nn/<name>.pth",
+                              choices=("training", "evaluation"))
+
+
+@dataclass(frozen=True)
+class DivergenceConfig:
+    """``config.divergence`` (rlchain): what to do when a loss, gradient or parameter turns NaN/inf."""
+
+    action: str = option("stop", "stop: end the run with a message; rollback: restore the last good "
+                                 "epoch and scale the learning rate", choices=("stop", "rollback"))
+    max_rollbacks: int = option(3, "rollbacks allowed before the run stops", check=non_negative)
+    lr_factor: float = option(0.5, "learning-rate multiplier applied at each rollback",
+                              check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class EnvRunnersConfig:
+    """``config.env_runners`` (rlchain): step the training envs on Ray actors (``pip install rlchain[ray]``).
+
+    This block, or ``vecenv_type: RAY`` (rl_games' name; the block's defaults), turns it on. The
+    ``num_actors`` envs are split over the workers; each worker builds its slice with the backend
+    ``vecenv_type`` names (RAY: auto). Details: rlchain/envs/ray/ray_env.py.
+    """
+
+    num_workers: int | None = option(None, "Ray actors stepping the envs (default: num_actors / envs_per_worker "
+                                           "when that is set, else 2, at most num_actors)", check=positive)
+    envs_per_worker: int | None = option(None, "envs per worker; num_workers * envs_per_worker must equal "
+                                               "num_actors (default: num_actors split evenly)", check=positive)
+    address: str | None = option(None, "None: start a local Ray (or use the one this process started); "
+                                       "'auto', 'host:port' or 'ray://host:10001': an existing cluster")
+    num_cpus_per_worker: float = option(1.0, "CPUs each worker reserves from Ray", check=non_negative)
+    max_restarts: int = option(3, "restarts of a dead worker allowed (each worker) before the run stops",
+                               check=non_negative)
+    step_timeout_s: float = option(60.0, "a worker that does not answer a step or reset within this is "
+                                         "treated as dead", check=positive)
+    start_timeout_s: float = option(120.0, "seconds a (re)started worker may take to build its envs",
+                                    check=positive)
+    runtime_env: dict = option({}, "Ray runtime_env for ray.init (e.g. {pip: [rlchain]} on a cluster)")
+
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
+
+    Each algorithm's ``params.config`` class derives from it (PPO's :class:`~rlchain.config.ppo.TrainConfig`,
+    ``sac``, ``dqn``, ``appo``, ``impala``); a key only some algorithms read lives on their classes.
+    """
+
+    name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
+    env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
+                               "(env_config.env_name), `atari_gym` (env_config.name, an ale-py id) or a "
+                               "registered env")
+    env_config: dict = option({}, "keyword arguments for the environment; with env_name envpool also "
+                                  "rlchain's `action_repeat` (env steps per action, default 1: rewards summed, "
+                                  "an ending episode stops there)")
+    env_runners: EnvRunnersConfig | None = option(None, "step the envs on Ray workers (rlchain; see the "
+                                                            "env_runners section)")
+    gamma: float = option(0.99, "discount", check=unit_interval)
+    normalize_input: bool = option(False, "running mean/std normalization of observations (clipped to +-5); "
+                                          "each PPO update trains with statistics that include its rollout")
+    reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
+    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
+    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
+    score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
+    success_to_win: float = option(float("inf"), "stop once the success rate of the tracked episodes reaches "
+                                                  "this (0..1; envs that report success, see success_key)",
+                                  check=rate_target)
+    success_key: str = option("auto", "info key holding task success (rlchain): auto = `success` (MetaWorld, "
+                                      "MuJoCo Playground), else `is_success` (gymnasium-robotics); none = off. "
+                                      "Logged as episodes/success_rate")
+    log_info_keys: list[str] = option([], "numeric step-info keys to average over each epoch's env steps and log "
+                                          "as env_info/<key> (rlchain; e.g. a robot task's reward terms: "
+                                          "reward_box_target)")
+    success_mode: str = option("any", "an episode succeeded when the success value was true at any of its "
+                                      "steps (MetaWorld's rule) or at its last step (gymnasium-robotics')",
+                               choices=("any", "last"))
+    save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
+    save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)",
+                                 check=non_negative)
+    games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
+    print_stats: bool = option(True, "print the progress line every epoch")
+    device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
+    train_dir: str = option("runs", "folder that holds the run folders")
+    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
+    player: PlayerConfig = option(PlayerConfig(), "settings for --play")
+    evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
+    callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    log_writers: list[str] = option([], "rlchain: extra log writers by registered name, e.g. [csv] "
+                                        "(<run>/summaries/scalars.csv); each gets every scalar under its "
+                                        "TensorBoard tag. Console, TensorBoard and (--track) wandb are always on; "
+                                        "register yours with rlchain.runs.writers.register_writer")
+    hyperparam_schedule: dict = option({}, "rlchain: {epoch: {name: value}}, live values set after that many "
+                                           "epochs through set_params (0 = from the start), e.g. the schedule "
+                                           "a PBT winner followed (--tune, docs/tuning.md); names from the "
+                                           "algorithm's tunable", check=check_hyperparam_schedule)
+    # a subclass changes a default or status with fields.variant
+    vecenv_type: str | None = option(None, "vectorization backend: auto (native, sync), sync, async, "
+                                           "envpool, RAY (Ray workers, see env_runners), or a name registered "
+                                           "with rlchain.envs.vecenv.register (rl_games' vecenv.register); "
+                                           "unset: the env_configurations entry's vecenv_type, else auto")
+    num_actors: int = option(8, "parallel environments", check=positive)
+    clip_actions: bool = option(True, "continuous: clip actions to [-1, 1] and rescale them to the action "
+                                      "space bounds")
+    multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
+                                    "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
+                                    "minibatch_size are per process, gradients are averaged, rank 0 saves")
+    mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
+    divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain); rollback restores "
+                                                             "the last good learner snapshot (off-policy: "
+                                                             "taken every snapshot_epochs epochs)")
+
