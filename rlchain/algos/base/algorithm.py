@@ -41,7 +41,8 @@ from rlchain.models.build import build_env
 @runtime_checkable
 class Algorithm(Protocol):
     """The hooks the Loop drives. ``model``, ``agent`` (``state_dict``/``load_state_dict``: the
-    optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls back."""
+    optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls back. A class
+    attribute ``config_class`` names its ``params.config`` dataclass (TrainConfig when absent)."""
 
     metric_tags: ClassVar[dict[str, str]]
     """Metric name (a key of :meth:`update`'s result) -> TensorBoard tag. Keys that already look like
@@ -61,7 +62,6 @@ class Algorithm(Protocol):
 
     envs_idle_in_update: ClassVar[bool]
     """Whether the envs wait during :meth:`update` (its gradient steps then take ``update_threads``)."""
-
     ctx: RunContext
     model: torch.nn.Module
     agent: Any
@@ -142,6 +142,7 @@ class AlgorithmBase:
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
+        """No checks beyond the config's own (PPO checks its minibatch against the env's agents)."""
         return None
 
     @classmethod
@@ -150,22 +151,28 @@ class AlgorithmBase:
         return build_env(params, params.config.num_actors, seed, runners=True)
 
     def start(self) -> None:
+        """Reset the envs: ``self.obs`` holds their first observations."""
         self.obs = self.ctx.reset_envs()
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """(rollout, update) seconds: the time in collect and in update, as they are."""
         return collect_s, update_s
 
     def end_epoch(self, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        """Nothing after the Loop's logging and checkpoints."""
         return None
 
     def snapshot_due(self) -> bool:
+        """The divergence guard snapshots the learner after every epoch."""
         return True
 
     def restart_episodes(self) -> None:
+        """Drop the running episodes' statistics and reset the envs."""
         self.ctx.tracker.reset_running()
         self.obs = self.ctx.reset_envs()
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """The model and its agent."""
         return [(self.model, self.agent)]
 
     def progress(self, epoch_frames: int | None = None) -> float:
@@ -186,10 +193,13 @@ class AlgorithmBase:
                 part.cfg = new
 
     def extra_state(self, kind: str) -> dict[str, Any]:
+        """Nothing beyond the model, the agent and the counters."""
         return {}
 
     def restore_extra(self, state: dict[str, Any]) -> None:
+        """Nothing to restore beyond what the Loop restores."""
         return None
 
     def close(self) -> None:
+        """Nothing opened besides the training env (which its builder closes)."""
         return None

@@ -74,6 +74,7 @@ class RunContext:
 
     @property
     def num_envs(self) -> int:
+        """Envs of the training env."""
         return self.env.num_envs
 
     @property
@@ -128,6 +129,7 @@ class RunContext:
             raise EnvError(f"env reset failed: {describe(exc)}") from exc
 
     def to_tensor(self, x: Any) -> torch.Tensor:
+        """``x`` as a tensor on the training device (:func:`to_device`)."""
         return to_device(x, self.device)
 
     def env_actions(self, actions: torch.Tensor) -> Any:
