@@ -38,7 +38,7 @@ class DumpState(Callback):
         state = {"model": trainer.model.state_dict(), "optimizer": trainer.algorithm.agent.optimizer.state_dict(),
                  "lr": trainer.algorithm.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
                  "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
-        if getattr(trainer, "central_value", None) is not None:
+        if getattr(trainer.algorithm, "central_value", None) is not None:
             state["central_value"] = trainer.algorithm.central_value.state_dict()
             state["cv_optimizer"] = trainer.algorithm.cv_agent.optimizer.state_dict()
         torch.save(state, os.path.join(folder, f"rank{rank}.pt"))
