@@ -14,7 +14,7 @@ scaled to keep the same number of minibatches per epoch. For each case it measur
 
 - env-only: ``env.step`` with pre-drawn random actions (tensors on the env's device for tensor
   envs, numpy arrays otherwise) -- the ceiling;
-- rollout: ``OnPolicyTrainer._rollout`` (policy inference, env step, storage), no update;
+- rollout: ``OnPolicyTrainer.rollout`` (policy inference, env step, storage), no update;
 - train: ``_rollout`` + ``_learn`` (GAE and the PPO update), i.e. what a training run does
   minus logging and checkpoints;
 
@@ -62,6 +62,7 @@ from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
 from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
 from rlchain.parallel.threads import ThreadPlan, plan_threads  # noqa: E402
 from rlchain.runs.logging import TrainLogger  # noqa: E402
+from rlchain.training.loop import Loop  # noqa: E402
 
 CONFIG_DIR = os.path.join(ROOT, "rlchain", "configs")
 CONFIGS = {
@@ -202,22 +203,23 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
             env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
         if backend == "envpool" and groups > 1:  # the training envs, in env groups
             env.close()
-            env = build_env(params, num_envs, 0, runners=True)
+            env = build_env(params, num_envs, 0, runners=True, groups=params.config.env_groups)
 
         model = build_model(params, env, device)
-        trainer = OnPolicyTrainer(params, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
-        trainer.threads = plan
-        trainer.obs = torch.as_tensor(env.reset(seed=0), device=device)
-        trainer._rollout()
-        with trainer.update_phase():
-            trainer._learn()  # warm-up
+        loop = Loop(params, OnPolicyTrainer, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
+        loop.threads = plan
+        ppo, ctx = loop.algorithm, loop.ctx  # the algorithm the loop holds, and the run context it gets
+        ppo.obs = torch.as_tensor(env.reset(seed=0), device=device)
+        ppo.rollout()
+        with ctx.update_phase():
+            ppo.learn()  # warm-up
         batch = params.config.horizon_length * num_envs
-        rollout_sps = timed(trainer._rollout, batch, seconds, device)
+        rollout_sps = timed(ppo.rollout, batch, seconds, device)
 
         def train_epoch() -> None:
-            trainer._rollout()
-            with trainer.update_phase():
-                trainer._learn()
+            ppo.rollout()
+            with ctx.update_phase():
+                ppo.learn()
 
         train_sps = timed(train_epoch, batch, seconds, device)
     finally:

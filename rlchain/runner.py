@@ -13,16 +13,16 @@ from typing import Any
 
 from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import apply_overrides, check_batch, import_user_modules, load_raw, parse_params
+from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
-from rlchain.config.schema import Params, TrainConfig
+from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
 from rlchain.inference.export.onnx import export_from_cli
 from rlchain.inference.export.policies import export_policies
 from rlchain.inference.player import Player
 from rlchain.inference.policy_player import play_policies
 from rlchain.log import get_logger
-from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.models.build import apply_sigma, build_model, resolve_device
 from rlchain.parallel import communicator, distributed
 from rlchain.parallel.threads import ThreadPlan, set_threads
 from rlchain.registry import ALGOS
@@ -31,6 +31,7 @@ from rlchain.runs.checkpoint import seed_everything
 from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import create_run_dir
 from rlchain.runs.writers import WandbWriter, check_writer_names, make_writers
+from rlchain.training.loop import Loop
 
 log = get_logger(__name__)
 
@@ -109,12 +110,10 @@ class Runner:
                               group.local_world_size if group is not None else 1)
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
-        build_own = getattr(ALGOS.get(params.algo.name), "build_training_env", None)  # appo: its runners
-        env = build_own(params, seed) if build_own is not None else build_env(params, cfg.num_actors, seed,
-                                                                              runners=True)
+        algorithm = algorithm_class(params)
+        env = algorithm.build_training_env(params, seed)  # the vectorized env; APPO: its runners
         try:
-            if isinstance(cfg, TrainConfig):  # the minibatch must divide the batch of all agents' rows
-                check_batch(cfg, params.source, env_spec(env).num_agents)
+            algorithm.check_config(params, env_spec(env))  # before the model (PPO: the minibatch)
             with communicator.building_with(group or communicator.SINGLE):  # normalizers sync over ranks
                 model = build_model(params, env, device)
             if state is not None:  # a mismatched checkpoint fails before any run folder exists
@@ -144,13 +143,10 @@ class Runner:
         logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers)
         trainer = None
         try:
-            trainer_class = ALGOS.get(params.algo.name)
-            if params.policies is not None:  # config.multi_agent: one PPO learner per policy
-                trainer_class = MultiPolicyTrainer
-            make = getattr(trainer_class, "create", trainer_class)  # Loop.create: no leak if __init__ fails
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
-            with communicator.building_with(group or communicator.SINGLE):
-                trainer = make(params, env, model, device, run, logger, seed, self.raw, **extra)
+            with communicator.building_with(group or communicator.SINGLE):  # Loop.create: no leak on failure
+                trainer = Loop.create(params, algorithm_class(params), env, model, device, run, logger, seed,
+                                      self.raw, **extra)
             trainer.threads = threads
             if state is not None:
                 trainer.restore(state, checkpoint)
@@ -167,7 +163,7 @@ class Runner:
             ok = True
             return result
         finally:  # on every exit path (an env error, a divergence, KeyboardInterrupt): the eval env too
-            if trainer is not None and callable(getattr(trainer, "close", None)):
+            if trainer is not None:
                 trainer.close()
             if tracker is not None:
                 tracker.exit_code = 0 if ok else 1
@@ -203,3 +199,10 @@ class Runner:
         if self.params is None:
             raise RuntimeError("call Runner.load(config) first")
         return self.params
+
+
+def algorithm_class(params: Params) -> Any:
+    """The registered algorithm of ``params.algo.name`` (multi-policy PPO with ``config.multi_agent``)."""
+    if params.policies is not None:  # config.multi_agent: one PPO learner per policy
+        return MultiPolicyTrainer
+    return ALGOS.get(params.algo.name)

@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.algos.base.episodes import game_outcome
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.models.stepper import PolicyStepper
-from rlchain.training.episodes import game_outcome
 
 
 @dataclass

@@ -36,19 +36,19 @@ def resolve_device(name: str) -> torch.device:
 
 
 def build_env(params: Params, num_envs: int, seed: int | None, render: bool = False,
-              env_config: dict | None = None, runners: bool = False) -> Any:
+              env_config: dict | None = None, runners: bool = False, groups: Any = 1) -> Any:
     """Make the vectorized env the config names; env errors come back naming the file.
 
     ``runners=True`` (the training envs) honours ``vecenv_type: RAY`` / ``env_runners`` (Ray workers);
-    play, evaluation and export build the same envs in this process (RAY -> auto).
+    play, evaluation and export build the same envs in this process (RAY -> auto). ``groups``: env groups
+    stepping in the background (PPO's ``env_groups``; the algorithm that pipelines its rollout passes it).
     """
     cfg = params.config
     merged = dict(cfg.env_config)
     merged.update(env_config or {})
-    vecenv_type, env_runners = cfg.vecenv_type, getattr(cfg, "env_runners", None) if runners else None
+    vecenv_type, env_runners = cfg.vecenv_type, cfg.env_runners if runners else None
     if not runners and str(vecenv_type).lower() == "ray":
         vecenv_type = None
-    groups = getattr(cfg, "env_groups", 1) if runners else 1  # PPO training envs only
     try:
         return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
                             env_runners=env_runners, groups=groups)

@@ -160,9 +160,11 @@ class CallbackContext:
         if name.startswith("__"):
             raise AttributeError(name)
         trainer = self._trainer
-        if not hasattr(trainer, name):
-            raise AttributeError(f"a callback context has no attribute '{name}' (see "
-                                 f"rlchain.training.callback_context.CallbackContext)")
+        if not hasattr(trainer, name):  # the loop's, else its algorithm's (the agent, the storage ...)
+            trainer = getattr(trainer, "algorithm", None)
+            if trainer is None or not hasattr(trainer, name):
+                raise AttributeError(f"a callback context has no attribute '{name}' (see "
+                                     f"rlchain.training.callback_context.CallbackContext)")
         self._deprecated(name)
         return getattr(trainer, name)
 

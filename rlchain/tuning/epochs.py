@@ -100,7 +100,7 @@ class EpochStepper(Callback):
         trainer = self.trainer
         trainer.restore(ckpt.load(path), path)
         trainer.restart_episodes()
-        trainer._snapshot()  # the divergence guard rolls back to the loaded learner, not the old one
+        trainer.snapshot()  # the divergence guard rolls back to the loaded learner, not the old one
 
     def set_params(self, values: dict[str, float]) -> None:
         """Change live hyperparameters from the next epoch on (before the start: at the start)."""

@@ -41,7 +41,7 @@ def random_play(params, games, seed=0):
 def starting_models(params, seed):
     """The models a run with ``seed`` starts from (the Runner seeds, builds the env, then the model)."""
     seed_everything(seed)
-    env = build_env(params, params.config.num_actors, seed, runners=True)
+    env = build_env(params, params.config.num_actors, seed, runners=True, groups=params.config.env_groups)
     models = build_model(params, env, torch.device("cpu"))
     env.close()
     return models

@@ -12,11 +12,12 @@ import os
 import pytest
 
 from rlchain import Runner
+from rlchain.algos.base.algorithm import Algorithm
 from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs.logging import TrainLogger
-from rlchain.training.algorithm import Algorithm
 from rlchain.training.events import Callback
+from rlchain.training.loop import Loop
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
 
@@ -46,7 +47,7 @@ def test_a_user_algorithm_trains_logs_and_resumes_through_the_loop(tmp_path, mon
         drives_trainer = True  # test instrument: the trainer itself
 
         def on_train_start(self, trainer):
-            loops.append(isinstance(trainer, Algorithm))
+            loops.append(isinstance(trainer.algorithm, Algorithm) and not isinstance(trainer.algorithm, Loop))
 
     result = reinforce(tmp_path, epochs=3).train(callbacks=[IsAlgorithm(), lambda ctx, stats, episodes: seen.append(
         (ctx.state.algo, ctx.state.epoch, ctx.state.frames, sorted(stats), dict(ctx.state.stats) == stats))])
@@ -93,9 +94,10 @@ def test_multi_gpu_for_an_algorithm_without_it_is_a_one_line_error(tmp_path, mon
 
 @pytest.mark.parametrize("config,changes,check", [
     ("sac_pendulum.yaml", {"actor_lr": 1e-5, "critic_tau": 0.01},
-     lambda t: (t.agent.actor_opt.param_groups[0]["lr"], t.cfg.critic_tau) == (1e-5, 0.01)),
+     lambda t: (t.algorithm.agent.actor_opt.param_groups[0]["lr"], t.cfg.critic_tau) == (1e-5, 0.01)),
     ("dqn_cartpole.yaml", {"learning_rate": 2e-5, "gamma": 0.9},
-     lambda t: (t.agent.opt.param_groups[0]["lr"], t.cfg.gamma, t.buffer.gamma) == (2e-5, 0.9, 0.9)),
+     lambda t: (t.algorithm.agent.opt.param_groups[0]["lr"], t.cfg.gamma, t.algorithm.buffer.gamma) == (2e-5, 0.9,
+                                                                                                  0.9)),
 ])
 def test_sac_and_dqn_get_and_set_params(tmp_path, config, changes, check):
     seen = []

@@ -119,13 +119,13 @@ class KillRunner(Callback):
 
     def on_epoch_end(self, trainer, stats, episodes):
         if trainer.epoch in self.epochs:
-            pool = trainer.pool
+            pool = trainer.algorithm.pool
             pool.kill(self.index)
             pool.threads[self.index].join(timeout=10)
             assert not pool.threads[self.index].is_alive()
 
     def on_train_end(self, trainer, result):
-        self.restarts = list(trainer.pool.restarts)
+        self.restarts = list(trainer.algorithm.pool.restarts)
 
 
 @pytest.mark.timeout(120)

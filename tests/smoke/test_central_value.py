@@ -112,7 +112,7 @@ def _value_fit(tmp_path, *extra):
     obs = torch.stack([torch.zeros_like(r), r, left / HiddenRewardEnv.LENGTH], -1).reshape(-1, 3)
     gamma = trainer.cfg.gamma
     true = (0.1 * r * (1 - gamma ** left) / (1 - gamma)).reshape(-1)
-    critic = trainer.central_value if trainer.central_value is not None else trainer.model
+    critic = trainer.algorithm.central_value if trainer.algorithm.central_value is not None else trainer.model
     predicted = critic.value(obs).reshape(-1)
     return float(1 - (predicted - true).square().mean() / true.var())
 
@@ -163,7 +163,7 @@ def test_recurrent_central_value(tmp_path, actor_rnn):
     seen = {}
 
     def record(trainer, stats, episodes):
-        seen["states"] = [tuple(s.shape) for s in trainer.storage.states]
+        seen["states"] = [tuple(s.shape) for s in trainer.algorithm.storage.states]
         seen["loss"] = stats["cval_loss"]
 
     result = Runner().load(CONFIG, overrides(tmp_path, 2, *extra)).train(callbacks=[record])
@@ -179,8 +179,8 @@ def test_multi_head_values(tmp_path):
     seen = {}
 
     def record(trainer, stats, episodes):
-        seen["values"] = tuple(trainer.storage.values.shape)
-        seen["rewards"] = trainer.storage.rewards.clone()
+        seen["values"] = tuple(trainer.algorithm.storage.values.shape)
+        seen["rewards"] = trainer.algorithm.storage.rewards.clone()
 
     extra = ["params.config.env_name=test_env", "params.config.env_config={name: TestRnnEnv-v0, "
              "multi_head_value: True, apply_dist_reward: True}", "params.config.num_actors=4",

@@ -35,12 +35,12 @@ class DumpState(Callback):
         if not folder:
             return
         rank = trainer.comm.rank
-        state = {"model": trainer.model.state_dict(), "optimizer": trainer.agent.optimizer.state_dict(),
-                 "lr": trainer.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
+        state = {"model": trainer.model.state_dict(), "optimizer": trainer.algorithm.agent.optimizer.state_dict(),
+                 "lr": trainer.algorithm.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
                  "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
-        if getattr(trainer, "central_value", None) is not None:
-            state["central_value"] = trainer.central_value.state_dict()
-            state["cv_optimizer"] = trainer.cv_agent.optimizer.state_dict()
+        if getattr(trainer.algorithm, "central_value", None) is not None:
+            state["central_value"] = trainer.algorithm.central_value.state_dict()
+            state["cv_optimizer"] = trainer.algorithm.cv_agent.optimizer.state_dict()
         torch.save(state, os.path.join(folder, f"rank{rank}.pt"))
 
 

@@ -5,7 +5,8 @@ import os
 
 import pytest
 
-import rlchain.runner as runner_module
+import rlchain.algos.base.algorithm as algorithm_base
+import rlchain.algos.ppo.trainer as ppo_trainer
 import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.config import ConfigError
@@ -43,7 +44,9 @@ def opened(monkeypatch):
             return env
         return build_env
 
-    monkeypatch.setattr(runner_module, "build_env", recording("train", runner_module.build_env))
+    # the training env: built by the algorithm class (build_training_env: PPO's, or AlgorithmBase's default)
+    for module in (ppo_trainer, algorithm_base):
+        monkeypatch.setattr(module, "build_env", recording("train", module.build_env))
     monkeypatch.setattr(loop, "build_env", recording("evaluation", loop.build_env))
     return envs
 

@@ -9,10 +9,10 @@ import pytest
 import torch
 
 from rlchain import Runner, env_configurations
+from rlchain.algos.base.context import RunContext
 from rlchain.config import ConfigError
 from rlchain.envs.vecenv import DROPPED, StepResult
 from rlchain.training.events import AlgoObserverCallback, Callback, CallbackList
-from rlchain.training.loop import Loop
 from rlchain.training.self_play import SelfPlayCallback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
@@ -216,10 +216,10 @@ def test_env_step_done_indices_multi_agent_and_dropped_rows():
     recorder = StepRecorder()
     events = CallbackList([recorder, Callback(), lambda ctx, stats, episodes: None])
     assert events.step_callbacks == [recorder]  # only the callbacks that want steps are called per step
-    trainer = types.SimpleNamespace(num_agents=2, events=events)
+    ctx = types.SimpleNamespace(num_agents=2, events=events)
     dones = torch.tensor([True, True, False, False, True, True, True, True])  # envs 0, 2, 3 ended (2 agents)
     result = StepResult(None, None, None, None, None, {DROPPED: np.array([0, 0, 0, 0, 0, 0, 1, 1], bool)})
-    Loop._emit_env_step(trainer, result, dones, slice(None))
+    RunContext.emit_env_step(ctx, result, dones, slice(None))
     assert recorder.steps == [([0, 4], slice(None))]  # env 3 was cut by a dead worker, not finished
 
 
@@ -295,4 +295,5 @@ def test_get_set_params_during_training(tmp_path, capsys):
     assert "set entropy_coef" not in capsys.readouterr().out
     with pytest.raises(KeyError, match="cannot set gamma_typo"):
         from rlchain.algos.ppo.trainer import OnPolicyTrainer
-        OnPolicyTrainer.set_params(type("T", (), {"tunable": OnPolicyTrainer.tunable})(), gamma_typo=1)
+        from rlchain.training.live_params import check_tunable
+        check_tunable({"gamma_typo": 1}, OnPolicyTrainer.tunable)

@@ -69,7 +69,7 @@ def test_sac_resume_with_replay_buffer(tmp_path):
         drives_trainer = True  # test instrument: reads the replay buffer
 
         def on_epoch_end(self, trainer, stats, episodes):
-            captured.setdefault("size", len(trainer.buffer))
+            captured.setdefault("size", len(trainer.algorithm.buffer))
 
     runner.train(checkpoint=last, callbacks=[BufferSize()])
     assert captured["size"] == 400

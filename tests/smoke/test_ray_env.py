@@ -230,10 +230,10 @@ class KillAppoRunner(Callback):
 
     def on_epoch_end(self, trainer, stats, episodes):
         if trainer.epoch in self.epochs:
-            os.kill(trainer.pool.worker_pids()[1], signal.SIGKILL)
+            os.kill(trainer.algorithm.pool.worker_pids()[1], signal.SIGKILL)
 
     def on_train_end(self, trainer, result):
-        self.restarts, self.lost = list(trainer.pool.restarts), trainer.pool.lost_fragments
+        self.restarts, self.lost = list(trainer.algorithm.pool.restarts), trainer.algorithm.pool.lost_fragments
 
 
 @pytest.mark.timeout(180)

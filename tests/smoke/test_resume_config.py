@@ -70,7 +70,7 @@ class Watch(Callback):
         self.seen = []
 
     def on_epoch_end(self, trainer, stats, episodes):
-        self.seen.append((trainer.cfg.e_clip, trainer.agent.cfg.e_clip, trainer.params.config.e_clip))
+        self.seen.append((trainer.cfg.e_clip, trainer.algorithm.agent.cfg.e_clip, trainer.params.config.e_clip))
 
 
 def test_live_hyperparameters_belong_to_the_run_and_survive_a_resume(tmp_path):
@@ -102,7 +102,8 @@ def test_off_policy_live_values_reach_the_agent_and_the_replay_buffer(tmp_path):
 
     class WatchSac(Callback):
         def on_epoch_end(self, trainer, stats, episodes):
-            seen.append((trainer.agent.cfg.critic_tau, trainer.buffer.gamma, trainer.params.config.critic_tau))
+            algo = trainer.algorithm
+            seen.append((algo.agent.cfg.critic_tau, algo.buffer.gamma, trainer.params.config.critic_tau))
 
     overrides = ["params.network.mlp.units=[8]", "params.config.num_actors=2",
                  "params.config.num_steps_per_episode=4", "params.config.num_warmup_frames=8",

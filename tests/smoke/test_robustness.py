@@ -14,10 +14,10 @@ import torch
 
 import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
+from rlchain.algos.base.safety import StopSignals
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
-from rlchain.training.safety import StopSignals
 from tests.conftest import CONFIGS, ROOT
 from tests.smoke.test_train_play_resume import run_cli, small
 
@@ -114,7 +114,7 @@ def test_signals_in_a_fresh_process_with_threads():
     script = textwrap.dedent(f"""
         import os, signal, sys, threading, time
         sys.path.insert(0, {ROOT!r})
-        from rlchain.training.safety import StopSignals
+        from rlchain.algos.base.safety import StopSignals
         stop = threading.Event()
         for _ in range(4):
             threading.Thread(target=lambda: [time.sleep(0.0005) for _ in iter(stop.is_set, True)],

@@ -74,8 +74,9 @@ def test_resume_restores_state_exactly(tmp_path):
     model = build_model(params, env, resolve_device("cpu"))
     from rlchain.algos.ppo.trainer import OnPolicyTrainer
     from rlchain.runs.logging import TrainLogger
-    trainer = OnPolicyTrainer(params, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
-                              runner2.raw)
+    from rlchain.training.loop import Loop
+    trainer = Loop(params, OnPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
+                   runner2.raw)
     trainer.restore(saved, path)
     env.close()
     state = trainer.state_dict()
@@ -178,10 +179,11 @@ def test_resume_keeps_the_entropy_schedule(tmp_path):
             self.seen, self.stop_at, self.start = [], stop_at, None
 
         def on_train_start(self, trainer):
-            self.start = trainer.agent.entropy_coef
+            self.start = trainer.algorithm.agent.entropy_coef
 
         def on_epoch_end(self, trainer, stats, episodes):
-            self.seen.append((trainer.epoch, trainer.agent.entropy_coef, trainer.agent.lr, stats["entropy_coef"]))
+            agent = trainer.algorithm.agent
+            self.seen.append((trainer.epoch, agent.entropy_coef, agent.lr, stats["entropy_coef"]))
             if trainer.epoch == self.stop_at:
                 trainer.request_stop("test")
 

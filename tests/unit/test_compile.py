@@ -4,7 +4,7 @@ import pytest
 import torch
 
 from rlchain.config.compile import CompileSpec, parse_compile
-from rlchain.training.compile import compile_network
+from rlchain.models.compile import compile_network
 
 
 @pytest.mark.parametrize("value,expect", [

@@ -32,7 +32,7 @@ DOCS = os.path.join(ROOT, "docs")
 # the public Python API the site must document (issue 18); docs/api.md may show more
 REQUIRED_API = {
     "rlchain.Runner", "rlchain.model_builder", "rlchain.networks.NetworkBuilder", "rlchain.training.events.Callback",
-    "rlchain.inference.export.onnx.OnnxPolicy", "rlchain.envs.vecenv", "rlchain.training.algorithm.Algorithm",
+    "rlchain.inference.export.onnx.OnnxPolicy", "rlchain.envs.vecenv", "rlchain.algos.base.algorithm.Algorithm",
     "rlchain.training.loop.Loop",
 }
 DOCS_PACKAGES = ("mkdocs", "mkdocs-material", "mkdocstrings")

@@ -18,9 +18,9 @@ PACKAGE = os.path.join(ROOT, "rlchain")
 # the drivers: they may import the Runner (rlchain/runner.py) and the CLI; nothing else may
 ENTRY_POINTS = ("rlchain.cli", "rlchain.runner", "rlchain.tuning")  # and the package itself (rlchain.Runner)
 ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
-# Until the loop holds its algorithm (composition, issue 33 part 2) each family's trainer subclasses
-# training.loop.Loop (and its callbacks subclass training.events.Callback), so an algorithm family sits
-# above training/ for now; algos/core/, models/ and networks/ never import it, and training/ names no family.
+# The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
+# Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
+ALGO_BASE = "rlchain.algos.base"
 TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
 RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
@@ -110,8 +110,8 @@ def layer_violation(importer: str, imported: str) -> str | None:
             not (importer == "rlchain" or _under(importer, *ENTRY_POINTS)):
         return "only entry points import runner.py / cli.py"
     if _under(importer, "rlchain.algos", "rlchain.models", "rlchain.networks"):
-        if _under(imported, "rlchain.training") and _family(importer) is None:
-            return "algos/core/, models/, networks/ import no training/"
+        if _under(imported, "rlchain.training"):
+            return "algos/, models/, networks/ import no training/ (the loop holds the algorithm)"
         if _under(imported, "rlchain.inference", "rlchain.tuning", "rlchain.builtins"):
             return "algos/, models/, networks/ sit below inference/ and tuning/"
         if _under(imported, "rlchain.runs") and _family(importer) is None:
@@ -119,6 +119,8 @@ def layer_violation(importer: str, imported: str) -> str | None:
     if _under(importer, "rlchain.models", "rlchain.networks", "rlchain.algos.core") and \
             _under(imported, "rlchain.algos") and not _under(imported, "rlchain.algos.core"):
         return "models/, networks/ and algos/core/ import no algorithm family"
+    if _under(importer, ALGO_BASE) and _family(imported) is not None:
+        return "algos/base/ (what the loop and every algorithm share) names no algorithm family"
     if _under(importer, "rlchain.envs") and not _under(imported, "rlchain.envs", "rlchain.config", "rlchain.errors",
                                                        "rlchain.log", "rlchain.registry", "rlchain.parallel"):
         return "envs/ imports only envs/, config/, parallel/ and the ground floor"
@@ -130,8 +132,8 @@ def layer_violation(importer: str, imported: str) -> str | None:
         return "parallel/ is low: it imports only config/ and the ground floor"
     if _under(importer, "rlchain.errors", "rlchain.log", "rlchain.registry"):
         return "the ground floor (errors, log, registry) imports nothing of rlchain"
-    if _under(importer, "rlchain.training") and _under(imported, "rlchain.algos", "rlchain.inference.export",
-                                                       "rlchain.tuning", "rlchain.builtins"):
+    if _under(importer, "rlchain.training") and not _under(imported, ALGO_BASE) and \
+            _under(imported, "rlchain.algos", "rlchain.inference.export", "rlchain.tuning", "rlchain.builtins"):
         return "training/ names no algorithm (and no export, tuning or built-ins)"
     if _under(importer, "rlchain.runs") and (
             _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning", "rlchain.builtins")
@@ -205,6 +207,10 @@ def test_the_checks_bite():
     assert layer_violation("rlchain.training.loop", "rlchain.runner")
     assert layer_violation("rlchain.config.schema", "torch")
     assert layer_violation("rlchain.algos.core.storage", "rlchain.algos.ppo.agent")
-    assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop") is None
+    assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop")
+    assert layer_violation("rlchain.algos.multi_policy.snapshots", "rlchain.training.events")
+    assert layer_violation("rlchain.algos.base.context", "rlchain.algos.ppo.agent")
+    assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.algos.base.algorithm") is None
+    assert layer_violation("rlchain.training.loop", "rlchain.algos.base.algorithm") is None
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None

@@ -9,6 +9,7 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.algos.ppo.trainer import OnPolicyTrainer
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
@@ -18,7 +19,7 @@ from rlchain.envs.test.cooperative import CooperativeEnv, nearest_flag_policy
 from rlchain.envs.wrappers.multi_agent import MultiAgentVecEnv, make_multi_agent_env
 from rlchain.models.build import build_env, build_model
 from rlchain.runs.logging import TrainLogger
-from rlchain.training.episodes import EpisodeTracker
+from rlchain.training.loop import Loop
 from tests.conftest import BASE, CONFIGS
 
 
@@ -208,13 +209,13 @@ def _trainer(raw):
     params = parse_params(raw, "<test>")
     env = build_env(params, params.config.num_actors, 0)
     model = build_model(params, env, torch.device("cpu"))
-    return OnPolicyTrainer(params, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0, raw)
+    return Loop(params, OnPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0, raw)
 
 
 def test_minibatch_is_checked_against_the_batch_with_agents():
     # 4 actors * 8 steps = 32 env steps; the cooperative env has 2 agents: a batch of 64 rows
     trainer = _trainer(_cooperative_config(minibatch_size=64))
-    assert trainer.num_envs == 8 and trainer.storage.obs.shape[:2] == (8, 8)
+    assert trainer.num_envs == 8 and trainer.algorithm.storage.obs.shape[:2] == (8, 8)
     trainer.env.close()
     with pytest.raises(ConfigError, match=r"batch num_actors\*horizon_length\*agents \(2 per env\) = 64 is not "
                                           r"divisible by minibatch_size 48"):

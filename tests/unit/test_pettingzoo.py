@@ -195,12 +195,13 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
     from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
+    from rlchain.training.loop import Loop
 
     params = runner.params
     env = build_env(params, 4, 3)
     model = build_model(params, env, torch.device("cpu"))
-    trainer = MultiPolicyTrainer(params, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
-                                 runner.raw)
+    trainer = Loop(params, MultiPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
+                   runner.raw)
     trainer.restore(state, path)
     again = trainer.state_dict()
     for key, value in state["model"].items():
@@ -221,14 +222,15 @@ def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
     from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
+    from rlchain.training.loop import Loop
 
     runner = Runner().load(dying(tmp_path))
     params = runner.params
     env = build_env(params, 4, 3)
     model = build_model(params, env, torch.device("cpu"))
-    trainer = MultiPolicyTrainer(params, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
-                                 runner.raw)
-    trainer.obs = trainer._reset_envs()
+    trainer = Loop(params, MultiPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
+                   runner.raw).algorithm
+    trainer.start()
     assert trainer.collect()
     late = trainer.learner("late")
     # late_0 acts at steps 2, 3, 4 of each 5-step episode: 3 of every 5 steps, in all 4 envs

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 import torch
 
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.config import ConfigError, parse_params
 from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.ray.ray_env import merge_infos, worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe, EnvWorker, per_env_infos
 from rlchain.models.build import build_env
-from rlchain.training.episodes import EpisodeTracker
 
 
 def parse(cfg):

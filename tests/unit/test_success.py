@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import torch
 
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.envs.wrappers.success import SuccessReader, resolve_key, step_success
-from rlchain.training.episodes import EpisodeTracker
 
 NAN = float("nan")
 

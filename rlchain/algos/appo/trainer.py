@@ -1,4 +1,4 @@
-"""APPO and IMPALA on the Loop: an asynchronous learner fed by runners that never wait for it.
+"""APPO and IMPALA: an asynchronous learner fed by runners that never wait for it.
 
 Runners (threads or Ray actors, :mod:`rlchain.algos.appo.runner_pool`) sample fixed-length fragments
 with their own policy copy and queue them. One epoch of the learner (``collect`` then ``update``):
@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import os
 import time
-from contextlib import AbstractContextManager, nullcontext
 from typing import Any, ClassVar
 
 import torch
@@ -27,28 +26,28 @@ from rlchain.algos.appo.impala import ImpalaAgent
 from rlchain.algos.appo.local_runners import LocalRunners
 from rlchain.algos.appo.ray_runners import RayRunners
 from rlchain.algos.appo.runner_pool import RunnerPool
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.core.vtrace import vtrace
 from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
+from rlchain.config.load import check_batch
 from rlchain.config.schema import EnvRunnersConfig, Params
 from rlchain.envs.ray.ray_env import worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe
+from rlchain.envs.spec import EnvSpec
 from rlchain.errors import DivergenceError
-from rlchain.parallel.communicator import Communicator
-from rlchain.runs.logging import TrainLogger
-from rlchain.runs.run_dir import RunDir
-from rlchain.training.loop import Loop
-from rlchain.training.safety import DivergenceGuard, check_rollout
 
 PPO_TAGS = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
             "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
             "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm"}
 
 
-class APPOTrainer(Loop):
+class APPOTrainer(AlgorithmBase):
     """Algo ``appo`` (see the module docstring); ``impala`` is :class:`ImpalaTrainer`."""
 
     config_class: ClassVar[type] = APPOConfig
@@ -61,8 +60,14 @@ class APPOTrainer(Loop):
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma")
     supports_distributed = True  # multi_gpu: one learner and runner pool per rank, gradients averaged
+    envs_idle_in_update = False  # the runners sample meanwhile: the update keeps the process's torch threads
     step_delays: ClassVar[list[float] | None] = None
     """Tests and benchmarks: a sleep per env step for each runner (stragglers); None: none."""
+
+    @classmethod
+    def check_config(cls, params: Params, spec: EnvSpec) -> None:
+        """The minibatch must divide the learner batch."""
+        check_batch(params.config, params.source, spec.num_agents)
 
     @classmethod
     def build_training_env(cls, params: Params, seed: int | None) -> RunnerPool:
@@ -93,16 +98,14 @@ class APPOTrainer(Loop):
         except ValueError as exc:
             raise ConfigError(params.source, "", str(exc)) from None
 
-    def __init__(self, params: Params, env: RunnerPool, model: torch.nn.Module, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None) -> None:
-        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
-        cfg = self.cfg
+    def __init__(self, params: Params, env: RunnerPool, model: torch.nn.Module, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
+        cfg, device = self.cfg, self.device
         if model.is_rnn:
             raise ConfigError(params.source, "params.network.rnn", f"algo {params.algo.name}: the runners carry "
                               f"no RNN state yet; use a feed-forward network")
         self.pool = env
-        self.agent = self.agent_class(model, cfg, device, self.comm)
+        self.agent = self.agent_class(model, cfg, device, ctx.comm)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self.version = 0  # learner updates so far: the policy version fragments are stamped with
         self.dropped_fragments = 0
@@ -118,21 +121,21 @@ class APPOTrainer(Loop):
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size, env.value_size, device)
 
-    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
         """Fragments from the queue until a learner batch is full; False when a stop signal came."""
         self.batch, self._lags, self._received = [], [], 0
         max_lag = self.cfg.appo.max_policy_lag
         while len(self.batch) < self.batch_fragments:
-            if self.signals is not None and self.signals.requested:
+            if self.ctx.stop_requested():
                 return False
             fragment = self.pool.get(timeout=0.2)
             if fragment is None:
                 continue
             self._received += fragment.frames
-            self.tracker.record(fragment.episode_returns, fragment.episode_lengths, fragment.episode_successes)
+            self.ctx.tracker.record(fragment.episode_returns, fragment.episode_lengths, fragment.episode_successes)
             if fragment.info_totals is not None:
-                self.info_means.add_totals(*fragment.info_totals)
+                self.ctx.info_means.add_totals(*fragment.info_totals)
             lag = self.version - fragment.version
             if lag > max_lag:
                 self.dropped_fragments += 1
@@ -146,16 +149,16 @@ class APPOTrainer(Loop):
         began = time.monotonic()
         self._fill_storage()
         self.model.train()
-        stats = self.agent.update(self.storage, self._progress(self._received))
+        stats = self.agent.update(self.storage, self.progress(self._received))
         stats["lr_mul"] = stats["lr"] / max(self.cfg.learning_rate, 1e-12)
         stats["rho"] = self._rho
         self.version += 1
         if self.version % self.cfg.appo.broadcast_interval == 0:
             self.pool.publish(self._weights(), self.version)
-        received = self._received
-        if self.comm.active:  # every rank counts every rank's frames, so all stop at the same max_frames
-            received = round(self.comm.mean(float(received)) * self.world_size)
-        self.frames += received
+        received, ctx = self._received, self.ctx
+        if ctx.comm.active:  # every rank counts every rank's frames, so all stop at the same max_frames
+            received = round(ctx.comm.mean(float(received)) * ctx.world_size)
+        ctx.frames += received
         self._epoch_frames = received
         now = time.monotonic()
         stats.update(policy_lag=sum(self._lags) / max(len(self._lags), 1), queue_size=self.pool.queue_size(),
@@ -240,18 +243,12 @@ class APPOTrainer(Loop):
         """The model's parameters and normalizer statistics as CPU tensors, for the runners."""
         return {k: v.detach().to("cpu", copy=True) for k, v in self.model.state_dict().items()}
 
-    def update_phase(self) -> AbstractContextManager:
-        """The update keeps the process's torch threads: runners sample meanwhile (PPO's update takes
-        ``update_threads`` because its envs are idle then)."""
-        return nullcontext()
-
-    # ----- the Loop's env handling ----------------------------------------------------------
-    def _reset_envs(self) -> None:
+    # ----- the runners -------------------------------------------------------------------------
+    def start(self) -> None:
         """Start the runners with the current weights (the first time); they reset their own envs."""
         if not self.pool.started:
             self.pool.start(self.model, self._weights(), self.version)
             self._mark = time.monotonic()
-        return None
 
     def restart_episodes(self) -> None:
         """After a rollback: drop the queued fragments of the diverged policy, publish the restored one."""

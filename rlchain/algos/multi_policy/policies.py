@@ -8,11 +8,11 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.multi_policy.masked import MaskedPPOAgent
 from rlchain.config.schema import Params
 from rlchain.runs.checkpoint import CheckpointError
-from rlchain.training.episodes import EpisodeTracker
 
 
 class AgentEpisodes(EpisodeTracker):

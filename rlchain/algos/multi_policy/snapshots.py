@@ -21,15 +21,13 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import SelfPlayConfig
 from rlchain.log import get_logger
-from rlchain.training.events import Callback
 
 log = get_logger(__name__)
 
 
-class SnapshotCallback(Callback):
-    """Copies each trained policy into its frozen snapshot policy when it scores well enough."""
-
-    drives_trainer = True  # reads and refreshes the trainer's learners
+class Snapshots:
+    """Copies each trained policy into its frozen snapshot policy when it scores well enough; the
+    multi-policy algorithm calls :meth:`start` and :meth:`end_epoch` with itself."""
 
     def __init__(self, cfg: SelfPlayConfig, snapshots: dict[str, str], source: str = "") -> None:
         if not snapshots:
@@ -41,13 +39,13 @@ class SnapshotCallback(Callback):
         self.updates = 0
         self.first_env = 0  # start of the window of envs the next refresh goes to
 
-    def on_train_start(self, trainer: Any) -> None:
+    def start(self, trainer: Any) -> None:
         for trained in self.seen:
             self.seen[trained] = trainer.learner(trained).tracker.games
         for frozen, trained in self.snapshots.items():
             learner = trainer.learner(frozen)
             learner.pool = SnapshotPool(learner.model, trainer.num_envs)
-            if trainer.epoch == 0:  # the opponent starts as the learner's starting self, everywhere
+            if trainer.ctx.epoch == 0:  # the opponent starts as the learner's starting self, everywhere
                 learner.pool.refresh(trainer.model[trained], list(range(trainer.num_envs)))
 
     def refresh(self, trainer: Any, frozen: str, trained: str) -> list[int]:
@@ -58,7 +56,7 @@ class SnapshotCallback(Callback):
         trainer.learner(frozen).pool.refresh(trainer.model[trained], env_ids)
         return env_ids
 
-    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
+    def end_epoch(self, trainer: Any) -> None:
         for frozen, trained in self.snapshots.items():
             tracker = trainer.learner(trained).tracker
             new = min(tracker.games - self.seen[trained], len(tracker.finished_returns))
@@ -69,16 +67,16 @@ class SnapshotCallback(Callback):
             if len(scores) < self.cfg.games_to_check:
                 continue
             score = float(np.mean(scores))
-            trainer.logger.scalar(f"selfplay/{trained}/score", score, trainer.frames)
+            trainer.ctx.logger.scalar(f"selfplay/{trained}/score", score, trainer.ctx.frames)
             if score > self.cfg.update_score:
                 env_ids = self.refresh(trainer, frozen, trained)
                 self.updates += 1
                 scores.clear()
-                trainer.logger.scalar("selfplay/updates", self.updates, trainer.frames)
+                trainer.ctx.logger.scalar("selfplay/updates", self.updates, trainer.ctx.frames)
                 if trainer.cfg.print_stats:
                     where = f"env(s) {env_ids}" if len(env_ids) <= 4 else f"{len(env_ids)} envs"
                     log.info(f"self-play: {trained} scored {score:.3f} > {self.cfg.update_score}: {frozen} in {where} "
-                             f"is now its snapshot of epoch {trainer.epoch} (update {self.updates})")
+                             f"is now its snapshot of epoch {trainer.ctx.epoch} (update {self.updates})")
 
 
 class SnapshotPool:

@@ -1,4 +1,4 @@
-"""Multi-policy PPO on the Loop: PettingZoo agents, each played by the policy the mapping names.
+"""Multi-policy PPO: PettingZoo agents, each played by the policy the mapping names.
 
 Every policy has its own model, optimizer, normalizers, rollout storage, adaptive lr and tags
 (``rewards/<policy>/...``, ``losses/<policy>/...``, ``info/<policy>/...``); they share the env
@@ -15,41 +15,44 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
 from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
-from rlchain.algos.multi_policy.snapshots import SnapshotCallback
+from rlchain.algos.multi_policy.snapshots import Snapshots
 from rlchain.config.errors import ConfigError
+from rlchain.config.load import check_batch
 from rlchain.config.multi_agent import KEY
 from rlchain.config.schema import Params
-from rlchain.errors import DivergenceError, EnvError
+from rlchain.envs.spec import EnvSpec
+from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
-from rlchain.parallel.communicator import Communicator
-from rlchain.runs.logging import TrainLogger
-from rlchain.runs.run_dir import RunDir
-from rlchain.training.loop import Loop, describe
-from rlchain.training.safety import DivergenceGuard, check_rollout
 
 STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entropy": "losses/{}/entropy",
              "b_loss": "losses/{}/bounds_loss", "lr": "info/{}/last_lr", "kl": "info/{}/kl",
              "entropy_coef": "info/{}/entropy_coef", "clip_frac": "info/{}/clip_frac"}
 
 
-class MultiPolicyTrainer(Loop):
-    """PPO for several policies over one PettingZoo vector env (``config.multi_agent``)."""
+class MultiPolicyTrainer(AlgorithmBase):
+    """PPO for several policies over one PettingZoo vector env (``config.multi_agent``); self_play_config
+    acts through ``multi_agent.snapshots`` (:class:`Snapshots`, driven from :meth:`end_epoch`)."""
 
-    env_self_play = False  # self_play_config acts through multi_agent.snapshots (SnapshotCallback)
-
-    def __init__(self, params: Params, env: Any, model: torch.nn.ModuleDict, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None) -> None:
+    @classmethod
+    def check_config(cls, params: Params, spec: EnvSpec) -> None:
+        """Features the single-policy trainer has and this one not yet; the minibatch against the batch."""
         _check_supported(params)
-        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
-        if self.comm.active:
+        check_batch(params.config, params.source, spec.num_agents)
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.ModuleDict, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
+        device = self.device
+        if ctx.comm.active:
             raise ConfigError(params.source, "params.config.multi_gpu", "is not supported with multi_agent yet")
         ma = self.cfg.multi_agent
         to_train = set(ma.policies_to_train if ma.policies_to_train is not None else params.policies)
-        self.learners: list[PolicyLearner] = []
+        self.policies: list[PolicyLearner] = []
         for name, agents in policy_agents(params, env).items():
             if not agents:
                 continue
@@ -57,33 +60,34 @@ class MultiPolicyTrainer(Loop):
             if policy.config.use_action_masks and not env.mask_sizes[agents[0]]:
                 raise ConfigError(params.source, f"{KEY}.policies.{name}", f"use_action_masks is True but agent "
                                   f"'{agents[0]}' has no action_mask in its observations")
-            self.learners.append(PolicyLearner(name, policy, agents, model[name],
+            self.policies.append(PolicyLearner(name, policy, agents, model[name],
                                                env.observation_spaces[agents[0]].shape, env.num_envs,
                                                name in to_train, device, self.cfg.games_to_track))
-        rows = sum(lr.rows for lr in self.learners)
-        self.tracker = AgentEpisodes(rows, self.cfg.games_to_track, device)  # every agent's episodes
-        self.agent = PolicyAgents(self.learners)
+        rows = sum(lr.rows for lr in self.policies)
+        ctx.tracker = AgentEpisodes(rows, self.cfg.games_to_track, device)  # every agent's episodes
+        self.agent = PolicyAgents(self.policies)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
+        self.snapshots = None
         if self.cfg.self_play_config is not None:
-            self.events.add(SnapshotCallback(self.cfg.self_play_config, ma.snapshots, params.source))
+            self.snapshots = Snapshots(self.cfg.self_play_config, ma.snapshots, params.source)
 
     def learner(self, name: str) -> PolicyLearner:
         """The policy ``name``'s learner (KeyError naming the policies otherwise)."""
-        for lr in self.learners:
+        for lr in self.policies:
             if lr.name == name:
                 return lr
-        raise KeyError(f"no policy '{name}' plays in this env (policies: {[lr.name for lr in self.learners]})")
+        raise KeyError(f"no policy '{name}' plays in this env (policies: {[lr.name for lr in self.policies]})")
 
     # ----- the Algorithm hooks --------------------------------------------------------------
     def collect(self) -> bool:
         """horizon_length env steps; every trained policy's storage gets its agents' rows."""
-        for lr in self.learners:
+        for lr in self.policies:
             lr.model.eval()
         for t in range(self.cfg.horizon_length):
-            if self.signals is not None and self.signals.requested:
+            if self.ctx.stop_requested():
                 return False
             actions, acted = {}, []
-            for lr in self.learners:
+            for lr in self.policies:
                 obs, active, masks = lr.gather(self.obs)
                 acted.append(active)
                 if lr.pool is not None:  # a self-play snapshot: each env's own
@@ -100,7 +104,7 @@ class MultiPolicyTrainer(Loop):
             result = self.env.step(actions)
             self._observe(t, result, acted)
             self.obs = result.obs
-        for lr in self.learners:
+        for lr in self.policies:
             if lr.agent is not None:
                 with torch.no_grad():
                     lr.last_values = lr.model.value(lr.gather(self.obs)[0])
@@ -109,7 +113,7 @@ class MultiPolicyTrainer(Loop):
     def _observe(self, t: int, result: Any, acted: list[torch.Tensor]) -> None:
         """Rewards and ends of step t into each policy's storage and episode statistics."""
         all_rewards, all_dones = [], []
-        for lr, active in zip(self.learners, acted):
+        for lr, active in zip(self.policies, acted):
             rewards = lr.outcome(result.reward).float()
             terminated, truncated = lr.outcome(result.terminated).bool(), lr.outcome(result.truncated).bool()
             dones = terminated | truncated
@@ -129,12 +133,12 @@ class MultiPolicyTrainer(Loop):
                     with torch.no_grad():
                         lr.storage.final_values[t][idx] = lr.model.value(final)
             lr.storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
-        self.tracker.agent_step(torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted))
+        self.ctx.tracker.agent_step(torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted))
 
     def update(self) -> dict[str, float]:
         """Masked GAE, normalizers and a PPO update for every trained policy."""
         stats: dict[str, float] = {}
-        for lr in self.learners:
+        for lr in self.policies:
             if lr.agent is None:
                 continue
             storage = lr.storage
@@ -146,9 +150,9 @@ class MultiPolicyTrainer(Loop):
             for key, value in self._learn(lr).items():
                 if key in STAT_TAGS:
                     stats[STAT_TAGS[key].format(lr.name)] = value
-                    if len(self.learners) == 1:  # one shared policy: rl_games' own tags too
+                    if len(self.policies) == 1:  # one shared policy: rl_games' own tags too
                         stats[self.plain_tag(key)] = value
-        self.frames += self.frames_per_epoch()
+        self.ctx.frames += self.frames_per_epoch()
         return stats
 
     @staticmethod
@@ -168,49 +172,56 @@ class MultiPolicyTrainer(Loop):
                                      returns=returns.reshape(-1, returns.shape[-1])[flat])
         model.train()
         lr.agent.active = lr.active
-        return lr.agent.update(storage, self._progress())
+        return lr.agent.update(storage, self.progress())
 
     def frames_per_epoch(self) -> int:
         """Env steps per epoch (a turn-based env's step is one move)."""
         return self.cfg.horizon_length * self.num_envs
 
-    # ----- the Loop's env handling for per-agent observations ---------------------------------
-    def _reset_envs(self) -> Any:
-        try:
-            return self.env.reset(seed=self.seed + self.epoch)
-        except Exception as exc:
-            raise EnvError(f"env reset failed: {describe(exc)}") from exc
+    # ----- per-agent observations, per-policy statistics ---------------------------------------
+    def start(self) -> None:
+        """Reset the envs (per-agent observations, as the env gives them); self-play snapshots start."""
+        self.obs = self.ctx.reset_raw()
+        if self.snapshots is not None:
+            self.snapshots.start(self)
 
     def restart_episodes(self) -> None:
-        super().restart_episodes()
-        for lr in self.learners:
+        self.ctx.tracker.reset_running()
+        self.obs = self.ctx.reset_raw()
+        for lr in self.policies:
             lr.tracker.reset_running()
 
-    def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
-        """The Loop's epoch line and tags, then each policy's ``rewards/<policy>/{step,iter,time}``."""
-        super()._log(stats, episodes, rollout_s, update_s)
-        elapsed = int(time.time() - self.logger.start)
-        for lr in self.learners:
+    def end_epoch(self, stats: dict[str, float], episodes: dict | None) -> None:
+        """Each policy's ``rewards/<policy>/{step,iter,time}`` after the Loop's epoch line and tags; then
+        the self-play snapshots' refresh rule."""
+        ctx = self.ctx
+        elapsed = int(time.time() - ctx.logger.start)
+        for lr in self.policies:
             if not lr.tracker.has_data:
                 continue
             for name, value in (("rewards", lr.tracker.mean_return()), ("episode_lengths", lr.tracker.mean_length())):
-                self.logger.scalar(f"{name}/{lr.name}/step", value, self.frames)
-                self.logger.scalar(f"{name}/{lr.name}/iter", value, self.epoch)
-                self.logger.scalar(f"{name}/{lr.name}/time", value, elapsed)
+                ctx.logger.scalar(f"{name}/{lr.name}/step", value, ctx.frames)
+                ctx.logger.scalar(f"{name}/{lr.name}/iter", value, ctx.epoch)
+                ctx.logger.scalar(f"{name}/{lr.name}/time", value, elapsed)
+        if self.snapshots is not None:
+            self.snapshots.end_epoch(self)
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        return [(self.model, self.agent)]
 
     def policy_rewards(self) -> dict[str, float]:
         """Each policy's mean episode reward over its tracked agent-episodes (NaN before any)."""
-        return {lr.name: lr.tracker.mean_return() if lr.tracker.has_data else float("nan") for lr in self.learners}
+        return {lr.name: lr.tracker.mean_return() if lr.tracker.has_data else float("nan") for lr in self.policies}
 
     # ----- checkpoints ----------------------------------------------------------------------
     def extra_state(self, kind: str) -> dict:
         """Each policy's episode statistics (the models and optimizers travel as model / agent)."""
-        return {"policy_episodes": {lr.name: lr.tracker.state_dict() for lr in self.learners},
-                "policies": [lr.name for lr in self.learners]}
+        return {"policy_episodes": {lr.name: lr.tracker.state_dict() for lr in self.policies},
+                "policies": [lr.name for lr in self.policies]}
 
     def restore_extra(self, state: dict) -> None:
         saved = state.get("policy_episodes", {})
-        for lr in self.learners:
+        for lr in self.policies:
             if lr.name in saved:
                 lr.tracker.load_state_dict(saved[lr.name])
 

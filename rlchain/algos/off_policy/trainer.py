@@ -1,10 +1,10 @@
-"""Off-policy algorithms (SAC, DQN) on the Loop: act -> replay buffer -> updates, every env step.
+"""Off-policy algorithms (SAC, DQN): act -> replay buffer -> updates, every env step.
 
 One epoch is ``num_steps_per_episode`` vectorized env steps (``num_actors * num_steps_per_episode``
 frames). The first ``num_warmup_frames`` frames act uniformly at random and do not learn; after
 that every env step is followed by ``num_updates_per_step`` gradient updates on replay minibatches.
 Episode bookkeeping, logging, checkpoints, stop signals, divergence handling, callbacks and
-evaluation are the Loop's (rlchain.training.loop), as for PPO.
+evaluation are the Loop's (rlchain.training.loop, which holds the algorithm), as for PPO.
 """
 
 from __future__ import annotations
@@ -14,6 +14,9 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.replay import ReplayBuffer
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.off_policy.dqn import DQNAgent, epsilon_at
@@ -24,23 +27,16 @@ from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.errors import DivergenceError
-from rlchain.parallel.communicator import Communicator
-from rlchain.runs.logging import TrainLogger
-from rlchain.runs.run_dir import RunDir
-from rlchain.training.loop import Loop
-from rlchain.training.safety import DivergenceGuard
 
 
-class OffPolicyTrainer(Loop):
-    """An off-policy algorithm on the Loop: env steps into a replay buffer, updates from it."""
+class OffPolicyTrainer(AlgorithmBase):
+    """An off-policy algorithm: env steps into a replay buffer, updates from it."""
 
     config_class: type = SACConfig
     SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None) -> None:
-        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
         cfg = self.cfg
         self.agent = self.make_agent()
         self.buffer = self.make_buffer()
@@ -69,7 +65,7 @@ class OffPolicyTrainer(Loop):
             raise ConfigError(self.params.source, "params.config.replay.her", str(exc)) from None
         return HERReplayBuffer(*args, layout, reward_fn, strategy=her.strategy, k=her.k, **kwargs)
 
-    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
         """num_steps_per_episode env steps, each followed by updates once warmup is over (the
         updates run here, between the steps; :meth:`update` reports them)."""
@@ -92,7 +88,7 @@ class OffPolicyTrainer(Loop):
 
     def snapshot_due(self) -> bool:
         """An in-memory learner copy every ``snapshot_epochs`` epochs (epochs are short off-policy)."""
-        return self.epoch % self.cfg.snapshot_epochs == 0
+        return self.ctx.epoch % self.cfg.snapshot_epochs == 0
 
     def apply_hyperparam(self, name: str, value: float) -> None:
         """Learning rates go to their optimizer; gamma to the replay buffer's n-step returns too."""
@@ -112,33 +108,38 @@ class OffPolicyTrainer(Loop):
             values[name] = opt.param_groups[0]["lr"]
         return values
 
-    def _reset_envs(self) -> torch.Tensor:
-        obs = super()._reset_envs()
-        self.model.update_normalizers(obs=obs)
-        return obs
+    def start(self) -> None:
+        """Reset the envs; their first observations go into the normalizers."""
+        self.obs = self.ctx.reset_envs()
+        self.model.update_normalizers(obs=self.obs)
+
+    def restart_episodes(self) -> None:
+        """After a rollback: fresh episodes everywhere."""
+        self.ctx.tracker.reset_running()
+        self.start()
 
     def _epoch(self) -> tuple[dict[str, float], float, bool]:
         """num_steps_per_episode env steps, each followed by updates once warmup is over."""
-        cfg, model, dist = self.cfg, self.model, self.model.dist
+        cfg, model, dist, ctx = self.cfg, self.model, self.model.dist, self.ctx
         rs = cfg.reward_shaper
         sums: dict[str, torch.Tensor] = {}
         count = 0
         update_s = 0.0
         obs = self.obs
         for _ in range(cfg.num_steps_per_episode):
-            if self.signals is not None and self.signals.requested:
+            if ctx.stop_requested():
                 return {}, update_s, False
             model.eval()
-            if self.frames < cfg.num_warmup_frames:
+            if ctx.frames < cfg.num_warmup_frames:
                 actions = dist.random(self.num_envs, self.device)
             else:
                 actions = self.explore(obs)
-            result = self.env.step(self._env_actions(dist.to_env(actions)))
-            rewards, terminated, truncated, dones = self._env_outcome(result)
+            result = self.env.step(ctx.env_actions(dist.to_env(actions)))
+            rewards, terminated, truncated, dones = ctx.env_outcome(result)
             if rewards.dim() > 1:
                 rewards = rewards.sum(-1)
             shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
-            next_obs = self._to_tensor(result.obs)
+            next_obs = ctx.to_tensor(result.obs)
             if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
                                                           and not bool(torch.isfinite(next_obs).all())):
                 raise DivergenceError("the env returned a non-finite reward or observation")
@@ -146,15 +147,15 @@ class OffPolicyTrainer(Loop):
             if bool(dones.any()):
                 real_next = next_obs.clone()
                 rows = dones.nonzero().squeeze(-1)
-                real_next[rows] = self._to_tensor(result.final_obs)[rows].to(next_obs.dtype)
+                real_next[rows] = ctx.to_tensor(result.final_obs)[rows].to(next_obs.dtype)
             self.buffer.add(obs, actions, shaped, real_next, terminated, truncated)
             model.update_normalizers(obs=next_obs)
             obs = next_obs
-            self.frames += self.num_envs
-            if self.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
+            ctx.frames += self.num_envs
+            if ctx.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
                 t0 = time.time()
                 model.train()
-                with self.update_phase():
+                with ctx.update_phase():
                     for _ in range(cfg.num_updates_per_step):
                         batch = self.buffer.sample(cfg.batch_size, beta=self._beta())
                         stats, td = self.agent.update(batch)
@@ -173,12 +174,12 @@ class OffPolicyTrainer(Loop):
 
     def _beta(self) -> float:
         """Importance-sampling exponent, annealed from priority_beta to 1 over the run."""
-        cfg = self.cfg
+        cfg, ctx = self.cfg, self.ctx
         progress = 0.0
         if cfg.max_frames > 0:
-            progress = self.frames / cfg.max_frames
+            progress = ctx.frames / cfg.max_frames
         elif cfg.max_epochs > 0:
-            progress = self.epoch / cfg.max_epochs
+            progress = ctx.epoch / cfg.max_epochs
         return cfg.priority_beta + min(progress, 1.0) * (1.0 - cfg.priority_beta)
 
     # ----- bookkeeping ----------------------------------------------------------------------
@@ -232,7 +233,7 @@ class DQNTrainer(OffPolicyTrainer):
 
     def epsilon(self) -> float:
         cfg = self.cfg
-        return epsilon_at(self.frames - cfg.num_warmup_frames, cfg.epsilon_start, cfg.epsilon_end,
+        return epsilon_at(self.ctx.frames - cfg.num_warmup_frames, cfg.epsilon_start, cfg.epsilon_end,
                           cfg.epsilon_decay_frames)
 
     def explore(self, obs: torch.Tensor) -> torch.Tensor:

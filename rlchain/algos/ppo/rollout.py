@@ -14,35 +14,35 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.algos.base.safety import check_obs_shape
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import ALL
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.networks.rnn import zero_finished
-from rlchain.training.safety import check_obs_shape
 
 
 class RolloutMixin:
     """The rollout half of :class:`rlchain.algos.ppo.trainer.OnPolicyTrainer` (uses its env, model,
-    storage, central value, RNN states and counters)."""
+    storage, central value, RNN states and run context)."""
 
     def _action_masks(self) -> torch.Tensor | None:
         """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""
         if not self.use_masks:
             return None
-        return self._to_tensor(self.env.get_action_mask()).bool()
+        return self.ctx.to_tensor(self.env.get_action_mask()).bool()
 
-    def _rollout(self) -> bool:
+    def rollout(self) -> bool:
         """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""
         self.model.eval()
-        groups = self.env_spec.groups
+        groups = self.ctx.spec.groups
         if groups is not None and len(groups) > 1:
             return self._pipelined_rollout(groups)
         for t in range(self.cfg.horizon_length):
-            if self.signals is not None and self.signals.requested:
+            if self.ctx.stop_requested():
                 return False
             pending, actions = self._act(t, ALL)
             result = self.env.step(actions)
-            if self.epoch == 0 and t == 0:
+            if self.ctx.epoch == 0 and t == 0:
                 check_obs_shape(result.obs, self.num_envs, self.env.observation_space, "env step")
             self._observe(t, ALL, result, *pending)
         self.last_values = self._value(self.obs, self.rnn_states)
@@ -66,7 +66,7 @@ class RolloutMixin:
                     pending[g] = None
 
         for t in range(self.cfg.horizon_length):
-            if self.signals is not None and self.signals.requested:
+            if self.ctx.stop_requested():
                 drain(t - 1)
                 return False
             for g, rows in enumerate(groups):
@@ -96,31 +96,31 @@ class RolloutMixin:
             next_states += cv_states
         self.storage.add(t, obs, out["actions"], out["log_probs"], values, out["params"], masks,
                          states, resets, rows=rows)
-        return (values, next_states), self._env_actions(model.dist.to_env(out["actions"]))
+        return (values, next_states), self.ctx.env_actions(model.dist.to_env(out["actions"]))
 
     def _observe(self, t: int, rows: slice, result: Any, values: torch.Tensor, next_states: tuple) -> None:
         """The env's answer to step t for the envs ``rows``: rewards, dones and bootstrap values into
         the storage, episode statistics, then the next obs and RNN states."""
         cfg, storage = self.cfg, self.storage
-        rewards, terminated, truncated, dones = self._env_outcome(result, rows)
+        rewards, terminated, truncated, dones = self.ctx.env_outcome(result, rows)
         if rewards.dim() == 1:
             rewards = rewards.unsqueeze(-1)
         rs = cfg.reward_shaper
         shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
         dropped = dropped_rows(result)
         if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
-            lost = self._to_tensor(np.asarray(dropped)).bool()
+            lost = self.ctx.to_tensor(np.asarray(dropped)).bool()
             shaped[lost] = values[lost] * ((1 - cfg.gamma) if cfg.value_bootstrap else 1.0)
         if cfg.value_bootstrap and bool(truncated.any()):
             idx = (truncated & ~terminated).nonzero().squeeze(-1)
             if idx.numel() and cfg.timeout_bootstrap == "previous_value":  # rl_games: V(s_t), no extra pass
                 storage.final_values[t, rows][idx] = values[idx]
             elif idx.numel():
-                final_obs = self._to_tensor(result.final_obs)[idx]
+                final_obs = self.ctx.to_tensor(result.final_obs)[idx]
                 row_states = tuple(s[:, idx] for s in next_states)
                 storage.final_values[t, rows][idx] = self._value(final_obs, row_states)
         storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones, rows=rows)
-        obs = self._to_tensor(result.obs)
+        obs = self.ctx.to_tensor(result.obs)
         if next_states and cfg.zero_rnn_on_done:
             next_states = zero_finished(next_states, dones)
         if rows is ALL:

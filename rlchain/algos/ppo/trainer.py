@@ -1,4 +1,4 @@
-"""PPO on the Loop: rollout -> returns -> update, the on-policy Algorithm (rlchain.training.algorithm)."""
+"""PPO: rollout -> returns -> update, the on-policy Algorithm (rlchain.algos.base.algorithm) the Loop drives."""
 
 from __future__ import annotations
 
@@ -6,30 +6,29 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
+from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
-from rlchain.envs.spec import env_spec
+from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.models.build import build_central_value
+from rlchain.models.build import build_central_value, build_env
+from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
-from rlchain.parallel.communicator import Communicator
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs.logging import TrainLogger
-from rlchain.runs.run_dir import RunDir
-from rlchain.training.compile import compile_model
-from rlchain.training.loop import Loop
-from rlchain.training.safety import DivergenceGuard, check_rollout
 
 
-class OnPolicyTrainer(RolloutMixin, Loop):
-    """PPO (algos ``a2c_continuous`` and ``a2c_discrete``) on the Loop: rollout into a storage, then
-    the PPO update (and the central value's, with an asymmetric critic)."""
+class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
+    """PPO (algos ``a2c_continuous`` and ``a2c_discrete``): rollout into a storage, then the PPO update
+    (and the central value's, with an asymmetric critic)."""
 
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
@@ -39,19 +38,29 @@ class OnPolicyTrainer(RolloutMixin, Loop):
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
     supports_distributed = True
+    self_play = True  # self_play_config: frozen opponents loaded into the env
 
-    def __init__(self, params: Params, env: Any, model: ActorCritic, device: torch.device,
-                 run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None) -> None:
-        super().__init__(params, env, model, device, run, logger, seed, raw_config, comm)
-        cfg = self.cfg
+    @classmethod
+    def check_config(cls, params: Params, spec: EnvSpec) -> None:
+        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs)."""
+        check_batch(params.config, params.source, spec.num_agents)
+
+    @classmethod
+    def build_training_env(cls, params: Params, seed: int | None) -> Any:
+        """The vectorized env, in ``env_groups`` that step in the background (the pipelined rollout)."""
+        cfg = params.config
+        return build_env(params, cfg.num_actors, seed, runners=True, groups=cfg.env_groups)
+
+    def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
+        cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
-        self.agent = PPOAgent(model, cfg, device, self.comm)
-        with communicator.building_with(self.comm):  # its normalizers fold every rank's batches
+        self.agent = PPOAgent(model, cfg, device, ctx.comm)
+        with communicator.building_with(ctx.comm):  # its normalizers fold every rank's batches
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
-            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, self.comm)
+            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm)
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
@@ -66,18 +75,18 @@ class OnPolicyTrainer(RolloutMixin, Loop):
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
 
-    # ----- the Algorithm hooks (rlchain.training.algorithm) ------------------------------------
+    # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
         """A rollout of horizon_length steps into the storage; False when a stop signal came."""
-        return self._rollout()
+        return self.rollout()
 
     def update(self) -> dict[str, float]:
         """GAE, normalizers and the PPO update on the rollout, which then counts as frames."""
         bad = check_rollout(self.storage.rewards, self.storage.obs)
         if bad is not None:
             raise DivergenceError(bad)
-        stats = self._learn()
-        self.frames += self.frames_per_epoch()
+        stats = self.learn()
+        self.ctx.frames += self.frames_per_epoch()
         return stats
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
@@ -87,10 +96,14 @@ class OnPolicyTrainer(RolloutMixin, Loop):
             pairs.append((self.central_value, self.cv_agent))
         return pairs
 
+    def start(self) -> None:
+        """Reset the envs: the first observations."""
+        self.obs = self.ctx.reset_envs()
+
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
         super().restart_episodes()
-        self._reset_states()
+        self.reset_states()
 
     def hyperparams(self) -> dict[str, float]:
         """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
@@ -106,12 +119,12 @@ class OnPolicyTrainer(RolloutMixin, Loop):
             states += self.central_value.initial_state(self.num_envs, self.device)
         return states
 
-    def _reset_states(self) -> None:
+    def reset_states(self) -> None:
         """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
         self.rnn_states = self._initial_states()
         self.resets.fill_(True)
 
-    def _learn(self) -> dict[str, float]:
+    def learn(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, then the PPO update.
 
         Every normalizer folds this rollout in before the update, so the network is trained with the
@@ -134,11 +147,11 @@ class OnPolicyTrainer(RolloutMixin, Loop):
             if self.central_value is not None:
                 self.central_value.update_normalizers(obs=flat_obs, returns=flat_returns)
         model.train()
-        stats = self.agent.update(storage, self._progress())
+        stats = self.agent.update(storage, self.progress())
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.cv_agent is not None:
-            stats.update(self.cv_agent.update(storage, self._progress(), model.num_states, cfg.seq_length,
+            stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
                                               shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
         return stats
@@ -161,9 +174,9 @@ class OnPolicyTrainer(RolloutMixin, Loop):
     # ----- bookkeeping ----------------------------------------------------------------------
     def frames_per_epoch(self) -> int:
         """Env steps per epoch over all ranks, as rl_games counts them: agents of one env share a step."""
-        return self.cfg.horizon_length * (self.num_envs // self.num_agents) * self.world_size
+        ctx = self.ctx
+        return self.cfg.horizon_length * (self.num_envs // ctx.num_agents) * ctx.world_size
 
-    _frames_per_epoch = frames_per_epoch  # the name before the Algorithm protocol
 
 def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
     """With use_action_masks the env must provide masks; a one-line ConfigError otherwise."""

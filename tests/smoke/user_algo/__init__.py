@@ -1,4 +1,5 @@
-"""A user package that adds its own algorithm: one module, one config class, this one registration."""
+"""A user package that adds its own algorithm: one module (reinforce.py: the algorithm and its config
+class), this one registration line. The Loop holds the algorithm; it never subclasses the Loop."""
 
 from rlchain import model_builder
 from tests.smoke.user_algo.reinforce import ReinforceTrainer

@@ -1,9 +1,11 @@
-"""A user's own algorithm on rlchain's Loop: REINFORCE with a mean-return baseline.
+"""A user's own algorithm for rlchain's Loop: REINFORCE with a mean-return baseline.
 
-What adding an algorithm takes, and all it takes: this module (the Loop's hooks), one config class
-and one registration (in the package's ``__init__.py``). The Loop supplies stop rules, signals,
-checkpoints and resume, the divergence guard, callbacks, evaluation and the TensorBoard / console
-logging of the metrics ``update`` returns.
+What adding an algorithm takes, and all it takes: this module (the Algorithm protocol's hooks, on
+``AlgorithmBase``'s defaults), one config class and one registration line (``model_builder.register_algo``
+in this package's ``__init__.py``, user code). The Loop holds the algorithm and supplies stop rules,
+signals, checkpoints and resume, the divergence guard, callbacks, evaluation and the TensorBoard /
+console logging of the metrics ``update`` returns; the run (env steps, counters, stop signals) reaches
+the algorithm through ``self.ctx``, the RunContext.
 """
 
 from __future__ import annotations
@@ -13,11 +15,12 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.config.fields import option
-from rlchain.config.schema import TrainConfig
-from rlchain.training.loop import Loop
-from rlchain.training.safety import DivergenceGuard
+from rlchain.config.schema import Params, TrainConfig
 
 
 @dataclass(frozen=True)
@@ -48,7 +51,7 @@ class ReinforceAgent:
         self.optimizer.load_state_dict(state["optimizer"])
 
 
-class ReinforceTrainer(Loop):
+class ReinforceTrainer(AlgorithmBase):
     """Algo ``reinforce``: horizon_length steps of every env, then one policy-gradient step."""
 
     config_class = ReinforceConfig
@@ -56,29 +59,29 @@ class ReinforceTrainer(Loop):
     console_fields = (("pg_loss", "pg_loss {:.3g}"),)
     tunable = ("learning_rate", "gamma")
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
         self.agent = ReinforceAgent(self.model, self.cfg.learning_rate)
         self.divergence = DivergenceGuard(self.cfg.divergence, self.model, self.agent)
         self.batch: dict[str, torch.Tensor] = {}
 
     def collect(self) -> bool:
-        cfg, model = self.cfg, self.model
+        cfg, model, ctx = self.cfg, self.model, self.ctx
         model.eval()
         obs, actions, rewards, dones = [], [], [], []
         for _ in range(cfg.horizon_length):
-            if self.signals is not None and self.signals.requested:
+            if ctx.stop_requested():
                 return False
             with torch.no_grad():
                 out = model.act(self.obs)
-            result = self.env.step(self._env_actions(model.dist.to_env(out["actions"])))
-            reward, _, _, done = self._env_outcome(result)
+            result = self.env.step(ctx.env_actions(model.dist.to_env(out["actions"])))
+            reward, _, _, done = ctx.env_outcome(result)
             rs = cfg.reward_shaper
             obs.append(self.obs)
             actions.append(out["actions"])
             rewards.append(shape_rewards(reward, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val))
             dones.append(done)
-            self.obs = self._to_tensor(result.obs)
+            self.obs = ctx.to_tensor(result.obs)
         self.batch = {"obs": torch.stack(obs), "actions": torch.stack(actions), "rewards": torch.stack(rewards),
                       "dones": torch.stack(dones)}
         return True
@@ -98,7 +101,7 @@ class ReinforceTrainer(Loop):
         self.agent.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.agent.optimizer.step()
-        self.frames += cfg.horizon_length * self.num_envs
+        self.ctx.frames += cfg.horizon_length * self.num_envs
         return {"pg_loss": float(loss), "mean_return": float(returns.mean()), "lr": self.agent.lr}
 
     def frames_per_epoch(self) -> int:

@@ -1,0 +1,2 @@
+"""What every algorithm and the training loop share: the Algorithm protocol, the run context, the
+safety checks and the episode statistics."""

@@ -1,0 +1,205 @@
+"""The Algorithm protocol: what the training loop (:class:`rlchain.training.loop.Loop`) asks of an algorithm.
+
+The Loop holds an algorithm and owns everything algorithms share -- counters, stop rules, checkpoint
+cadence, stop signals, the divergence guard, events, evaluation and the logging of whatever metrics
+an epoch returns. It builds the algorithm with the run's :class:`~rlchain.algos.base.context.RunContext`
+and drives it, once per epoch: ``collect`` then ``update``. A new algorithm is one folder, one config
+class and one registration line::
+
+    class MyAlgorithm(AlgorithmBase):                 # AlgorithmBase: the optional hooks' defaults
+        config_class = MyConfig                       # its params.config schema
+        metric_tags = {"loss": "losses/loss"}         # update()'s metrics -> TensorBoard tags
+        console_fields = (("loss", "loss {:.3g}"),)   # and on the console epoch line
+        tunable = ("learning_rate",)                  # what get_params/set_params (PBT) may change
+
+        def __init__(self, params, env, model, ctx):  # build the agent, its storage, its DivergenceGuard
+            ...
+        def collect(self) -> bool: ...                # one epoch of env steps (False: a stop signal came)
+        def update(self) -> dict[str, float] | None: ...  # learn, count ctx.frames; None: nothing learnt
+        def frames_per_epoch(self) -> int: ...
+
+    model_builder.register_algo("my_algo", MyAlgorithm)   # user code (rlchain/builtins.py for a built-in)
+
+PPO (:mod:`rlchain.algos.ppo.trainer`), SAC and DQN (:mod:`rlchain.algos.off_policy.trainer`), APPO and
+IMPALA (:mod:`rlchain.algos.appo.trainer`) and multi-policy PPO are built this way; the Loop never names a
+loss. An algorithm that brings its own env runners returns them from ``build_training_env``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+import torch
+
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.config.schema import Params
+from rlchain.envs.spec import EnvSpec
+from rlchain.models.build import build_env
+
+
+@runtime_checkable
+class Algorithm(Protocol):
+    """The hooks the Loop drives. ``model``, ``agent`` (``state_dict``/``load_state_dict``: the
+    optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls back. A class
+    attribute ``config_class`` names its ``params.config`` dataclass (TrainConfig when absent)."""
+
+    metric_tags: ClassVar[dict[str, str]]
+    """Metric name (a key of :meth:`update`'s result) -> TensorBoard tag. Keys that already look like
+    tags (``losses/aux``) are written as they are; other keys are passed to callbacks only."""
+
+    console_fields: ClassVar[tuple[tuple[str, str], ...]]
+    """(metric name, format) pairs appended to the console epoch line, when the metric is present."""
+
+    tunable: ClassVar[tuple[str, ...]]
+    """Hyperparameters :meth:`apply_hyperparam` may change between epochs (population-based training)."""
+
+    supports_distributed: ClassVar[bool]
+    """Whether ``multi_gpu`` (torchrun data-parallel learning) works for this algorithm."""
+
+    self_play: ClassVar[bool]
+    """Whether ``self_play_config`` loads frozen opponents into the env (the Loop's SelfPlayCallback)."""
+
+    envs_idle_in_update: ClassVar[bool]
+    """Whether the envs wait during :meth:`update` (its gradient steps then take ``update_threads``)."""
+    ctx: RunContext
+    model: torch.nn.Module
+    agent: Any
+    divergence: DivergenceGuard | None
+
+    @classmethod
+    def check_config(cls, params: Params, spec: EnvSpec) -> None:
+        """Checks of the config against the env, before the model is built (PPO: the minibatch)."""
+
+    @classmethod
+    def build_training_env(cls, params: Params, seed: int | None) -> Any:
+        """The training env (a vectorized env, or APPO's runners)."""
+
+    def start(self) -> None:
+        """Training starts (after a resume restored its state): reset the envs, start runners."""
+
+    def collect(self) -> bool:
+        """Step the envs for one epoch; False when a stop signal came (the epoch is then not counted)."""
+
+    def update(self) -> dict[str, float] | None:
+        """Learn from what :meth:`collect` gathered and count its frames into ``ctx.frames``;
+        returns the epoch's metrics, or None when there was nothing to count."""
+
+    def frames_per_epoch(self) -> int:
+        """Env frames one epoch adds (the fps of the console line and the TensorBoard tags)."""
+
+    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """(rollout, update) seconds of the epoch from the time spent in collect and in update."""
+
+    def end_epoch(self, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        """After the Loop logged and checkpointed the epoch (extra scalars, self-play snapshots)."""
+
+    def snapshot_due(self) -> bool:
+        """Whether the divergence guard snapshots the learner after this epoch."""
+
+    def restart_episodes(self) -> None:
+        """After a rollback to the last snapshot: every env starts a fresh episode."""
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """(model, agent) pairs that train: under torchrun every rank starts from rank 0's."""
+
+    def hyperparams(self) -> dict[str, float]:
+        """The live values of :attr:`tunable`."""
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        """Change one of :attr:`tunable` (called by the Loop between epochs)."""
+
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """What a checkpoint of ``kind`` carries beyond the model, the agent and the counters."""
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`extra_state` added."""
+
+    def close(self) -> None:
+        """Release what the algorithm opened (not the training env: its builder closes it)."""
+
+
+class AlgorithmBase:
+    """Defaults for the optional hooks of :class:`Algorithm`; an algorithm sets ``self.ctx``,
+    ``self.cfg``, ``self.env``, ``self.model``, ``self.agent`` and ``self.divergence`` and writes
+    ``collect`` / ``update`` / ``frames_per_epoch``. Not a loop: the Loop holds it."""
+
+    metric_tags: ClassVar[dict[str, str]] = {}
+    console_fields: ClassVar[tuple[tuple[str, str], ...]] = ()
+    tunable: ClassVar[tuple[str, ...]] = ()
+    supports_distributed: ClassVar[bool] = False
+    self_play: ClassVar[bool] = False
+    envs_idle_in_update: ClassVar[bool] = True
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+        self.params, self.env, self.model, self.ctx = params, env, model, ctx
+        self.cfg = ctx.cfg
+        self.device = ctx.device
+        self.num_envs = env.num_envs
+        self.agent: Any = None
+        self.divergence: DivergenceGuard | None = None
+        self.obs: Any = None
+
+    @classmethod
+    def check_config(cls, params: Params, spec: EnvSpec) -> None:
+        """No checks beyond the config's own (PPO checks its minibatch against the env's agents)."""
+        return None
+
+    @classmethod
+    def build_training_env(cls, params: Params, seed: int | None) -> Any:
+        """The vectorized env of the config (``num_actors`` envs, Ray workers with ``env_runners``)."""
+        return build_env(params, params.config.num_actors, seed, runners=True)
+
+    def start(self) -> None:
+        """Reset the envs: ``self.obs`` holds their first observations."""
+        self.obs = self.ctx.reset_envs()
+
+    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """(rollout, update) seconds: the time in collect and in update, as they are."""
+        return collect_s, update_s
+
+    def end_epoch(self, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        """Nothing after the Loop's logging and checkpoints."""
+        return None
+
+    def snapshot_due(self) -> bool:
+        """The divergence guard snapshots the learner after every epoch."""
+        return True
+
+    def restart_episodes(self) -> None:
+        """Drop the running episodes' statistics and reset the envs."""
+        self.ctx.tracker.reset_running()
+        self.obs = self.ctx.reset_envs()
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """The model and its agent."""
+        return [(self.model, self.agent)]
+
+    def progress(self, epoch_frames: int | None = None) -> float:
+        """Training progress in [0, 1] at the end of this epoch (:meth:`RunContext.progress`)."""
+        return self.ctx.progress(self.frames_per_epoch() if epoch_frames is None else epoch_frames)
+
+    def hyperparams(self) -> dict[str, float]:
+        """The live values of :attr:`tunable` (default: the config's)."""
+        return {name: getattr(self.cfg, name) for name in self.tunable}
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        """Change one tunable value (default: a config field): the run's config becomes a copy holding
+        it, and the algorithm's parts (agents, guards) that read the old one read the new one."""
+        old, new = self.ctx.replace_config(name, value)
+        for part in [self, *vars(self).values()]:
+            own = getattr(part, "__dict__", None)  # their own attribute only: no proxy's __getattr__ runs
+            if isinstance(own, dict) and own.get("cfg") is old:
+                part.cfg = new
+
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """Nothing beyond the model, the agent and the counters."""
+        return {}
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Nothing to restore beyond what the Loop restores."""
+        return None
+
+    def close(self) -> None:
+        """Nothing opened besides the training env (which its builder closes)."""
+        return None

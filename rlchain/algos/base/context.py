@@ -1,0 +1,196 @@
+"""What an algorithm gets from the run: a :class:`RunContext` the training loop builds and hands it.
+
+The loop (:class:`rlchain.training.loop.Loop`) owns the run -- counters, stop signals, events, the
+episode statistics; an algorithm reads and advances them through this object, never through a base
+class. It lives below ``training/`` so algorithms and the loop can both import it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+import torch
+
+from rlchain.algos.base.episodes import EpisodeTracker, game_outcome
+from rlchain.algos.base.safety import StopSignals, check_obs_shape
+from rlchain.config.schema import Params
+from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.vecenv import dropped_rows
+from rlchain.envs.wrappers.info_means import InfoMeans
+from rlchain.envs.wrappers.success import SuccessReader
+from rlchain.errors import EnvError
+from rlchain.parallel.communicator import Communicator
+from rlchain.parallel.threads import ThreadPlan
+
+
+class ScalarLogger(Protocol):
+    """The run's log (rlchain.runs.logging.TrainLogger): what an algorithm may write to it."""
+
+    start: float
+
+    def scalar(self, tag: str, value: float, step: int) -> None: ...
+
+
+class StepEvents(Protocol):
+    """The run's callbacks (rlchain.training.events.CallbackList), as far as an env step concerns them."""
+
+    step_callbacks: list
+
+    def emit_env_step(self, result: Any, done_indices: torch.Tensor, rows: slice) -> None: ...
+
+
+@dataclass(eq=False)
+class RunContext:
+    """The run an algorithm trains in: its env, device, counters, episode statistics, stop signals.
+
+    ``cfg`` is the run's config; population-based training replaces it with a changed copy
+    (:meth:`replace_config`), so read it here (or from the algorithm's own ``cfg``), not from ``params``.
+    """
+
+    params: Params
+    cfg: Any
+    env: Any
+    device: torch.device
+    seed: int
+    comm: Communicator
+    logger: ScalarLogger
+    events: StepEvents
+    tracker: Any  # an EpisodeTracker (multi-policy: every agent's AgentEpisodes)
+    success: SuccessReader
+    info_means: InfoMeans
+    spec: EnvSpec
+    epoch: int = 0
+    """Epochs completed (the loop counts them)."""
+    frames: int = 0
+    """Env frames so far over all ranks (the algorithm counts them, in ``update`` or while collecting)."""
+    signals: StopSignals | None = None
+    threads: ThreadPlan | None = None
+    live_config: dict[str, Any] = field(default_factory=dict)
+    """Tunable config fields changed during the run (set_params); checkpointed."""
+
+    @property
+    def num_envs(self) -> int:
+        """Envs of the training env."""
+        return self.env.num_envs
+
+    @property
+    def num_agents(self) -> int:
+        """Rows per env (rl_games' ``algo.num_agents``)."""
+        return self.spec.num_agents
+
+    @property
+    def world_size(self) -> int:
+        """Processes training together (torchrun); frame counters count all of them."""
+        return self.comm.world_size
+
+    def stop_requested(self) -> bool:
+        """Whether a stop signal (SIGINT/SIGTERM, a callback's request) came: end the epoch early."""
+        return self.signals is not None and self.signals.requested
+
+    def update_phase(self) -> AbstractContextManager:
+        """Context for gradient updates: ``update_threads`` CPU threads while the envs are idle."""
+        return self.threads.update_phase() if self.threads is not None else nullcontext()
+
+    def progress(self, epoch_frames: int) -> float:
+        """Training progress in [0, 1] at the end of this epoch, for the schedules: epochs/max_epochs,
+        else frames/max_frames (``epoch_frames``: the frames this epoch adds)."""
+        cfg = self.cfg
+        if cfg.max_epochs > 0:
+            return (self.epoch + 1) / cfg.max_epochs
+        if cfg.max_frames > 0:
+            return (self.frames + epoch_frames) / cfg.max_frames
+        return 0.0
+
+    def replace_config(self, name: str, value: Any) -> tuple[Any, Any]:
+        """Set config field ``name`` (keeping its type) for the rest of the run; (old cfg, new cfg).
+        The parsed config is frozen: the run goes on with a copy holding the new value."""
+        current = getattr(self.cfg, name)
+        value = type(current)(value) if current is not None else value
+        self.live_config[name] = value
+        old, self.cfg = self.cfg, dataclasses.replace(self.cfg, **{name: value})
+        return old, self.cfg
+
+    # ----- the env ---------------------------------------------------------------------------
+    def reset_envs(self) -> torch.Tensor:
+        """Reset every env (seeded by the epoch); the first observations as a device tensor."""
+        obs = self.reset_raw()
+        check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
+        return self.to_tensor(obs)
+
+    def reset_raw(self) -> Any:
+        """``env.reset`` as the env returns it (per-agent dicts of a multi-policy env); EnvError on failure."""
+        try:
+            return self.env.reset(seed=self.seed + self.epoch)
+        except Exception as exc:
+            raise EnvError(f"env reset failed: {describe(exc)}") from exc
+
+    def to_tensor(self, x: Any) -> torch.Tensor:
+        """``x`` as a tensor on the training device (:func:`to_device`)."""
+        return to_device(x, self.device)
+
+    def env_actions(self, actions: torch.Tensor) -> Any:
+        """Tensor envs take device tensors; numpy backends take arrays."""
+        return actions if self.spec.tensor_native else actions.cpu().numpy()
+
+    def env_outcome(self, result: Any, rows: slice = slice(None)
+                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """A step's (rewards, terminated, truncated, dones) as device tensors; finished episodes are
+        recorded as whole games (Atari lives), episodes cut by a dead Ray worker are dropped.
+        ``rows``: the envs ``result`` is for (a pipelined rollout's env group; all by default)."""
+        rewards = self.to_tensor(result.reward).float()
+        terminated = self.to_tensor(result.terminated).bool()
+        truncated = self.to_tensor(result.truncated).bool()
+        dones = terminated | truncated
+        success = self.success.read(result.infos, dones)
+        if self.info_means.keys:
+            self.info_means.add(result.infos)
+        self.tracker.step(*game_outcome(result, rewards, dones), dropped=dropped_rows(result), rows=rows,
+                          success=success)
+        if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
+            self.emit_env_step(result, dones, rows)
+        return rewards, terminated, truncated, dones
+
+    def emit_env_step(self, result: Any, dones: torch.Tensor, rows: slice) -> None:
+        """``on_env_step`` with the rows of ``result`` whose episode ended (one per env: its first
+        agent's row); episodes a dead Ray worker cut did not end."""
+        lost = dropped_rows(result)
+        if lost is not None:
+            dones = dones & ~torch.as_tensor(lost, device=dones.device).bool().reshape(-1)
+        done_indices = dones.nonzero().squeeze(-1)
+        if self.num_agents > 1:
+            done_indices = done_indices[done_indices % self.num_agents == 0]
+        self.events.emit_env_step(result, done_indices, rows)
+
+
+def make_context(params: Params, env: Any, device: torch.device, seed: int, comm: Communicator,
+                 logger: ScalarLogger, events: StepEvents) -> RunContext:
+    """The context of a fresh run on ``env``: counters at zero, episode statistics empty."""
+    cfg = params.config
+    return RunContext(params=params, cfg=cfg, env=env, device=device, seed=seed, comm=comm, logger=logger,
+                      events=events, tracker=EpisodeTracker(env.num_envs, cfg.games_to_track, device, cfg.success_mode),
+                      success=SuccessReader(cfg.success_key), info_means=InfoMeans(cfg.log_info_keys),
+                      spec=env_spec(env))
+
+
+def to_device(x: Any, device: torch.device) -> torch.Tensor:
+    """``x`` (numpy array, tensor, ...) as a tensor on ``device``: the one conversion per env step.
+
+    A numpy array bound for CUDA goes through page-locked (pinned) host memory and an asynchronous
+    copy, so the transfer does not stage through pageable memory; torch's caching host allocator
+    reuses the pinned blocks once their copy is done. On CPU the array is shared, not copied.
+    """
+    if device.type == "cuda" and isinstance(x, np.ndarray) and x.dtype != np.object_:
+        x = np.ascontiguousarray(x) if x.flags.writeable else np.array(x)  # from_numpy wants writable
+        host = torch.from_numpy(x)
+        return host.pin_memory().to(device, non_blocking=True)
+    return torch.as_tensor(x, device=device)
+
+
+def describe(exc: BaseException) -> str:
+    """``Type: message`` on one line."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

@@ -1,0 +1,94 @@
+"""The Loop's checkpoints: what a checkpoint holds (:meth:`Checkpoints.state_dict`), when one is written
+(:meth:`~Checkpoints.after_epoch`: best and periodic), writing it (:meth:`~Checkpoints.save`) and resuming
+from it (:meth:`~Checkpoints.restore`). The file format itself lives in :mod:`rlchain.runs.checkpoint`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from rlchain.algos.base.algorithm import Algorithm
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import check_parameters
+from rlchain.config.resolve import CONFIG_FORMAT, config_state
+from rlchain.log import get_logger
+from rlchain.runs import checkpoint as ckpt
+from rlchain.runs.run_dir import RunDir
+from rlchain.training.events import CallbackList
+from rlchain.version import __version__
+
+log = get_logger(__name__)
+
+
+class Checkpoints:
+    """Checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
+
+    def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
+        self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
+        self.best_reward = -math.inf
+
+    def state_dict(self, kind: str = "last") -> dict[str, Any]:
+        """Everything exact resume needs."""
+        ctx, algo = self.ctx, self.algorithm
+        params = ctx.params
+        state = {
+            "format": ckpt.FORMAT, "algo": params.algo.name, "model_name": params.model.name,
+            "config": config_state(params, {"seed": ctx.seed, "device": str(ctx.device),  # the run context
+                                            "rank": int(getattr(ctx.comm, "rank", 0)),
+                                            "world_size": ctx.world_size, "print_stats": ctx.cfg.print_stats}),
+            "config_format": CONFIG_FORMAT, "live_config": dict(ctx.live_config),
+            "model": algo.model.state_dict(), "agent": algo.agent.state_dict(),
+            "epoch": ctx.epoch, "frames": ctx.frames, "best_reward": self.best_reward,
+            "episodes": ctx.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": ctx.seed,
+            "version": __version__,
+        }
+        state.update(algo.extra_state(kind))
+        return state
+
+    def save(self, kind: str) -> str | None:
+        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
+        if self.run is None:
+            return None
+        bad = check_parameters(self.algorithm.model)
+        if bad is not None:
+            log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
+            return None
+        path = self.run.checkpoint(kind)
+        try:
+            ckpt.save_atomic(self.state_dict(kind), path)
+        except OSError as exc:
+            log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                        f"checkpoint is kept and training goes on")
+            return None
+        self.events.emit("on_checkpoint", path, kind)
+        return path
+
+    def after_epoch(self, episodes: dict | None) -> None:
+        """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
+        cfg, epoch = self.ctx.cfg, self.ctx.epoch
+        if episodes is not None and episodes["reward"] > self.best_reward:
+            self.best_reward = episodes["reward"]
+            if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                self.save("best")
+        if cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
+            self.save(f"ep_{epoch}")
+            self.save("last")
+
+    def restore(self, state: dict[str, Any], path: str) -> None:
+        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
+        ctx, algo = self.ctx, self.algorithm
+        name = ctx.params.algo.name
+        if state.get("algo") not in (None, name):
+            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
+                                       f"the config says '{name}'")
+        ckpt.load_model_state(algo.model, state, path)
+        algo.agent.load_state_dict(state["agent"])
+        ctx.epoch, ctx.frames = int(state["epoch"]), int(state["frames"])
+        for key, value in state.get("live_config", {}).items():  # values set_params gave the config fields
+            if key in algo.tunable:
+                algo.apply_hyperparam(key, value)
+        self.best_reward = float(state["best_reward"])
+        ctx.tracker.load_state_dict(state["episodes"])
+        ckpt.set_rng_state(state["rng"])
+        algo.restore_extra(state)
