@@ -1,0 +1,109 @@
+"""Throughput of two versions of rlchain side by side: this tree against another git revision, in one run.
+
+A refactor promises "speed unchanged"; this is how it is checked. The other revision is checked out into a
+temporary git worktree, and each version's own ``benchmarks/throughput.py`` runs there (it puts its own tree
+first on ``sys.path``, so it imports that version of rlchain). The two alternate, ``--rounds`` times each, so a
+change in the machine's load falls on both; the table gives each version's median steps/s and the ratio
+this tree / base::
+
+    python benchmarks/tree_compare.py --base 9a8d437 \\
+        --cases gymnasium:CartPole-v1:64 envpool:HalfCheetah-v4:64 --threads 1 --rounds 3
+
+``--threads N`` passes ``--threads N --update-threads N`` to both (a fixed thread count, so only the code
+differs); without it each version plans its threads as it ships.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+METRICS = ("env_sps", "rollout_sps", "train_sps")
+
+
+def run_throughput(tree: str, cases: list[str], seconds: float, threads: int | None) -> list[dict]:
+    """One ``throughput.py`` run of the rlchain in ``tree``; its rows as dicts."""
+    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as fh:
+        out = fh.name
+    cmd = [sys.executable, os.path.join(tree, "benchmarks", "throughput.py"), "--cases", *cases,
+           "--seconds", str(seconds), "--json", out]
+    if threads is not None:
+        cmd += ["--threads", str(threads), "--update-threads", str(threads)]
+    subprocess.run(cmd, cwd=tree, check=True, stdout=subprocess.DEVNULL)
+    with open(out) as fh:
+        rows = json.load(fh)
+    os.unlink(out)
+    return rows
+
+
+def check_imports_own_tree(tree: str) -> None:
+    """Fail unless a script in ``tree`` imports ``tree``'s rlchain (not an installed copy of another)."""
+    code = f"import sys; sys.path.insert(0, {tree!r}); import rlchain; print(rlchain.__file__)"
+    found = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.strip()
+    if not os.path.realpath(found).startswith(os.path.realpath(tree) + os.sep):
+        raise SystemExit(f"{tree}: imports rlchain from {found}, not from its own tree")
+
+
+def medians(runs: list[list[dict]]) -> dict[tuple[str, int], dict[str, float]]:
+    """Per case (env, num_envs): the median of each metric over the runs."""
+    by_case: dict[tuple[str, int], dict[str, list[float]]] = {}
+    for rows in runs:
+        for row in rows:
+            case = by_case.setdefault((row["env"], row["num_envs"]), {m: [] for m in METRICS})
+            for m in METRICS:
+                case[m].append(row[m])
+    return {case: {m: statistics.median(v) for m, v in values.items()} for case, values in by_case.items()}
+
+
+def table(base: str, new: dict, old: dict) -> str:
+    """Side by side: each metric for base and this tree, and the ratio this / base."""
+    head = f"{'env':<18} {'envs':>5} " + " ".join(f"{m + ' ' + base:>22} {m + ' HEAD':>18} {'ratio':>6}"
+                                                   for m in METRICS)
+    lines = [head, "-" * len(head)]
+    for case in sorted(new):
+        if case not in old:
+            continue
+        cells = " ".join(f"{old[case][m]:>22,.0f} {new[case][m]:>18,.0f} {new[case][m] / old[case][m]:>6.3f}"
+                         for m in METRICS)
+        lines.append(f"{case[0]:<18} {case[1]:>5} {cells}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--base", required=True, help="the git revision to compare against (e.g. a commit)")
+    ap.add_argument("--cases", nargs="+", default=["gymnasium:CartPole-v1:64", "envpool:HalfCheetah-v4:64"])
+    ap.add_argument("--seconds", type=float, default=3.0, help="time per measurement (throughput.py's)")
+    ap.add_argument("--threads", type=int, default=None, help="fixed torch threads for both (default: as shipped)")
+    ap.add_argument("--rounds", type=int, default=3, help="runs of each version, alternating (default 3)")
+    args = ap.parse_args(argv)
+
+    worktree = tempfile.mkdtemp(prefix="rlchain_base_")
+    subprocess.run(["git", "-C", REPO, "worktree", "add", "--detach", worktree, args.base], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    check_imports_own_tree(worktree)
+    load = os.getloadavg()[0]
+    new_runs, old_runs = [], []
+    try:
+        for k in range(args.rounds):
+            print(f"round {k + 1}/{args.rounds}: {args.base} ...", flush=True)
+            old_runs.append(run_throughput(worktree, args.cases, args.seconds, args.threads))
+            print(f"round {k + 1}/{args.rounds}: HEAD ...", flush=True)
+            new_runs.append(run_throughput(REPO, args.cases, args.seconds, args.threads))
+    finally:
+        subprocess.run(["git", "-C", REPO, "worktree", "remove", "--force", worktree], check=False)
+    print()
+    print(table(args.base, medians(new_runs), medians(old_runs)))
+    print(f"\nmedians of {args.rounds} alternating runs; threads {args.threads or 'as shipped'}; "
+          f"{os.cpu_count()} cores; load average {load:.2f} before / {os.getloadavg()[0]:.2f} after")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
