@@ -96,6 +96,9 @@ def main(argv: list[str] | None = None) -> int:
             old_runs.append(run_throughput(worktree, args.cases, args.seconds, args.threads))
             print(f"round {k + 1}/{args.rounds}: HEAD ...", flush=True)
             new_runs.append(run_throughput(REPO, args.cases, args.seconds, args.threads))
+            for name, rows in ((args.base, old_runs[-1]), ("HEAD", new_runs[-1])):
+                for row in rows:  # each run, so the spread behind the medians shows
+                    print(f"  {name:>10} {row['env']:<18} " + " ".join(f"{m} {row[m]:>10,.0f}" for m in METRICS))
     finally:
         subprocess.run(["git", "-C", REPO, "worktree", "remove", "--force", worktree], check=False)
     print()
