@@ -34,7 +34,7 @@ setup(
     description="PyTorch reinforcement learning with an rl_games-compatible config and runner",
     packages=find_packages(include=["rlchain", "rlchain.*"]),
     package_data={"rlchain": ["configs/*.yaml", "configs/tune/*.yaml"]},
-    python_requires=">=3.10",
+    python_requires=">=3.11",  # constraints.txt pins packages that need 3.11 (numpy, contourpy, brax, ...)
     # torch is deliberately a range that an already installed torch satisfies: install the build you want
     # first (README: torch==2.13.0, the CPU one from https://download.pytorch.org/whl/cpu on Linux x86_64)
     # so pip does not replace it.
