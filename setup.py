@@ -34,9 +34,10 @@ setup(
     description="PyTorch reinforcement learning with an rl_games-compatible config and runner",
     packages=find_packages(include=["rlchain", "rlchain.*"]),
     package_data={"rlchain": ["configs/*.yaml", "configs/tune/*.yaml"]},
-    python_requires=">=3.10",
-    # torch is deliberately a range that the CPU wheel (2.13.0) satisfies: install it first
-    # (see README) so pip does not pull a multi-GB CUDA build.
+    python_requires=">=3.11",  # constraints.txt pins packages that need 3.11 (numpy, contourpy, brax, ...)
+    # torch is deliberately a range that an already installed torch satisfies: install the build you want
+    # first (README: torch==2.13.0, the CPU one from https://download.pytorch.org/whl/cpu on Linux x86_64)
+    # so pip does not replace it.
     # Upper bounds: the next major version of these is untested. The exact versions CI and the README's
     # test command install are in constraints.txt; .ci/run-latest checks the newest within these bounds.
     install_requires=[

@@ -23,7 +23,7 @@ def _clip(x: float | None) -> str | None:
 
 @dataclass(frozen=True)
 class AppoBlock:
-    """``config.appo``: the asynchronous actor-learner (runners never wait for the learner)."""
+    """``config.appo``: the asynchronous actor-learner (runners wait for the learner only when its queue is full)."""
 
     vtrace_clip_rho: float | None = option(1.0, "V-trace rho-bar: clip of the importance ratio pi/mu in the TD "
                                                 "errors (None: no clipping)", check=_clip)

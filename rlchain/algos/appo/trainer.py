@@ -1,4 +1,4 @@
-"""APPO and IMPALA: an asynchronous learner fed by runners that never wait for it.
+"""APPO and IMPALA: an asynchronous learner fed by runners that wait for it only when its queue is full.
 
 Runners (threads or Ray actors, :mod:`rlchain.algos.appo.runner_pool`) sample fixed-length fragments
 with their own policy copy and queue them. One epoch of the learner (``collect`` then ``update``):
