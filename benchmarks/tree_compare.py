@@ -42,6 +42,18 @@ def run_throughput(tree: str, cases: list[str], seconds: float, threads: int | N
     return rows
 
 
+def add_worktree(base: str) -> str:
+    """A temporary git worktree of revision ``base`` (a one-line error when git cannot make it)."""
+    worktree = tempfile.mkdtemp(prefix="rlchain_base_")
+    made = subprocess.run(["git", "-C", REPO, "worktree", "add", "--detach", worktree, base],
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if made.returncode != 0:
+        os.rmdir(worktree)
+        reason = (made.stderr.strip().splitlines() or ["git worktree add failed"])[-1]
+        raise SystemExit(f"tree_compare.py: --base {base}: no worktree of that revision ({reason})")
+    return worktree
+
+
 def check_imports_own_tree(tree: str) -> None:
     """Fail unless a script in ``tree`` imports ``tree``'s rlchain (not an installed copy of another)."""
     code = f"import sys; sys.path.insert(0, {tree!r}); import rlchain; print(rlchain.__file__)"
@@ -84,13 +96,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=3, help="runs of each version, alternating (default 3)")
     args = ap.parse_args(argv)
 
-    worktree = tempfile.mkdtemp(prefix="rlchain_base_")
-    subprocess.run(["git", "-C", REPO, "worktree", "add", "--detach", worktree, args.base], check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    check_imports_own_tree(worktree)
-    load = os.getloadavg()[0]
+    worktree = add_worktree(args.base)
     new_runs, old_runs = [], []
     try:
+        check_imports_own_tree(worktree)
+        load = os.getloadavg()[0]
         for k in range(args.rounds):
             print(f"round {k + 1}/{args.rounds}: {args.base} ...", flush=True)
             old_runs.append(run_throughput(worktree, args.cases, args.seconds, args.threads))
