@@ -4,13 +4,18 @@ By default they are shown as plain lines on the current ``sys.stdout`` (as ``pri
 notebook, a captured test or a redirected run sees them). To route them elsewhere, or silence them,
 configure the ``rlchain`` logger: ``logging.getLogger("rlchain").setLevel(logging.WARNING)``, or
 replace its handlers. The console epoch line of a training run is output, not a log message.
+
+While a training run shows its live status line on a terminal (rlchain/runs/progress.py), it is
+registered with :func:`set_live_status`: a message erases it, is printed, and the line is redrawn under it.
 """
 
 from __future__ import annotations
 
 import logging
 import sys
-from typing import TextIO
+from typing import Any, TextIO
+
+_live_status: Any = None  # the LiveStatus on the terminal, if any: hide() before a message, show() after
 
 
 class _CurrentStdout(logging.StreamHandler):
@@ -26,6 +31,24 @@ class _CurrentStdout(logging.StreamHandler):
     @stream.setter
     def stream(self, value: TextIO) -> None:  # StreamHandler.__init__ assigns it; the property wins
         pass
+
+    def emit(self, record: logging.LogRecord) -> None:
+        live = _live_status
+        if live is None or live.stream is not sys.stdout:
+            super().emit(record)
+            return
+        live.hide()  # the message on a clean line, the status line drawn again under it
+        try:
+            super().emit(record)
+        finally:
+            live.show()
+
+
+def set_live_status(status: Any) -> None:
+    """Register the live status line (an object with ``stream``, ``hide()`` and ``show()``) that rlchain's
+    messages print above; None: there is none."""
+    global _live_status
+    _live_status = status
 
 
 def _install() -> logging.Logger:

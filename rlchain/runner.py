@@ -140,7 +140,8 @@ class Runner:
                                   os.path.basename(run.root), run.summaries)
             writers.append(tracker)
         ok = False
-        logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers)
+        logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers,
+                             progress=cfg.progress)
         trainer = None
         try:
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through

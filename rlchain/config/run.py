@@ -95,6 +95,27 @@ class EnvRunnersConfig:
 
 
 @dataclass(frozen=True)
+class ProgressConfig:
+    """``config.progress`` (rlchain): the console while training (``print_stats: True``).
+
+    On a terminal a live status line (epoch / frames against the limit, ETA, fps, reward, success
+    rate) stays under the epoch lines; off a terminal (a pipe, a file, CI, a notebook) the epoch
+    lines are printed as plain text. The environment variable ``RLCHAIN_PROGRESS`` (``0``/``off`` or
+    ``1``/``on``) wins over ``live``.
+    """
+
+    live: bool | None = option(None, "live status line: None = when stdout is a terminal (and rich is "
+                                     "installed), false = never, true = always")
+    print_every_epochs: int | None = option(None, "print the epoch line every N epochs (default: every epoch "
+                                                  "off the live view, see print_every_seconds under it)",
+                                            check=positive)
+    print_every_seconds: float | None = option(None, "print the epoch line when this many seconds passed since "
+                                                     "the last one (default: 10 under the live view, off "
+                                                     "otherwise); with print_every_epochs, either one prints",
+                                               check=non_negative)
+
+
+@dataclass(frozen=True)
 class RunConfig:
     """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
 
@@ -135,6 +156,8 @@ class RunConfig:
                                  check=non_negative)
     games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
     print_stats: bool = option(True, "print the progress line every epoch")
+    progress: ProgressConfig = option(ProgressConfig(), "how the progress line is shown: a live status on a "
+                                                        "terminal, how often the epoch line (rlchain)")
     device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
     train_dir: str = option("runs", "folder that holds the run folders")
     full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")

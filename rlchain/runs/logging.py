@@ -6,6 +6,7 @@ import sys
 import time
 from typing import Any
 
+from rlchain.config.run import ProgressConfig
 from rlchain.log import get_logger
 from rlchain.runs.writers import ConsoleWriter, EpochSummary, Step, TensorBoardWriter, Writer
 from rlchain.training.events import Callback
@@ -27,15 +28,18 @@ class TrainLogger:
     """Writes rl_games' TensorBoard tags (rewards/step|iter|time, performance/*, info/epochs), the
     algorithm's own (losses/*, info/*: the tags its ``metric_tags`` name) and, for envs that report
     task success, ``episodes/success_rate`` -- through every log writer (rlchain/runs/writers.py):
-    the console line (``print_stats``), TensorBoard (``summaries_dir``) and ``writers`` (wandb, the
-    config's ``log_writers``). :attr:`last_scalars` holds the last epoch's, for callbacks."""
+    the console line (``print_stats``; ``progress``: its live status on a terminal), TensorBoard
+    (``summaries_dir``) and ``writers`` (wandb, the config's ``log_writers``). :attr:`last_scalars` holds
+    the last epoch's, for callbacks."""
 
     def __init__(self, summaries_dir: str | None, print_stats: bool = True, stream: Any = None,
-                 writers: list[Writer] | None = None) -> None:
+                 writers: list[Writer] | None = None, progress: ProgressConfig | None = None) -> None:
         self.tensorboard = TensorBoardWriter(summaries_dir) if summaries_dir is not None else None
         self.print_stats = print_stats
         self.stream = stream or sys.stdout
-        console = [ConsoleWriter(self.stream)] if print_stats else []
+        # no progress block (tests, tuning's loggers): plain lines, never the live status
+        progress = progress if progress is not None else ProgressConfig(live=False)
+        console = [ConsoleWriter(self.stream, progress)] if print_stats else []
         self.writers: list[Writer] = [*console, *([self.tensorboard] if self.tensorboard else []), *(writers or [])]
         self.start = time.time()
         self.frames = self.epochs = 0
@@ -70,11 +74,11 @@ class TrainLogger:
 
     def epoch(self, epoch: int, max_epochs: int, frames: int, metrics: dict[str, float],
               episodes: dict[str, float] | None, best: float, timing: dict[str, float],
-              console: list[str] | tuple[str, ...] = ()) -> None:
+              console: list[str] | tuple[str, ...] = (), max_frames: int = 0) -> None:
         """Log one epoch: timing and fps, the algorithm's ``{tag: value}`` metrics, ``info/epochs`` and
-        the episode means when games finished; ``console``: the algorithm's fields of the epoch line."""
+        the episode means when games finished; ``console``: the algorithm's fields of the epoch line;
+        ``max_epochs`` / ``max_frames``: the run's limits (<= 0: none), for the line and the live ETA."""
         seconds = time.time() - self.start
-        elapsed = int(seconds)
         batch = timing["batch"]
         step_fps = batch / max(timing["rollout"], 1e-9)
         total_fps = batch / max(timing["rollout"] + timing["update"], 1e-9)
@@ -89,10 +93,11 @@ class TrainLogger:
         self.frames, self.epochs = frames, epoch
         self.last_scalars = {tag: float(value) for tag, value in scalars.items()}
         self.emit(self.last_scalars, Step(frames, epoch, seconds))
-        summary = EpochSummary(epoch, max_epochs, frames, elapsed, total_fps, step_fps,
+        summary = EpochSummary(epoch, max_epochs, frames, seconds, total_fps, step_fps,
                                episodes["reward"] if episodes is not None else None,
                                episodes["length"] if episodes is not None else None,
-                               episodes.get("success") if episodes is not None else None, best, tuple(console))
+                               episodes.get("success") if episodes is not None else None, best, tuple(console),
+                               max_frames)
         for writer in self.writers:
             writer.epoch_end(summary)
 

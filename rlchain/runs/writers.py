@@ -34,8 +34,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from rlchain.config.errors import ConfigError, did_you_mean
-from rlchain.log import get_logger
+from rlchain.config.run import ProgressConfig
+from rlchain.log import get_logger, set_live_status
 from rlchain.registry import WRITERS
+from rlchain.runs.progress import DEFAULT_LIVE_SECONDS, LiveStatus, StatusFields, live_wanted, run_eta, status_line
 from rlchain.runs.wandb_logger import start_wandb
 
 log = get_logger(__name__)
@@ -79,6 +81,7 @@ class EpochSummary:
     success: float | None
     best: float
     fields: Sequence[str] = ()  # the algorithm's own ``name value`` fields
+    max_frames: int = 0  # the run's frame limit (<= 0: none), for the live status's ETA
 
 
 class Writer:
@@ -98,25 +101,83 @@ class Writer:
         """The run ended; release files and connections."""
 
 
-class ConsoleWriter(Writer):
-    """The progress line, one per epoch: ``epoch 3/100 | frames 1536 | fps ... | reward ... | best ...``."""
+def epoch_line(s: EpochSummary) -> str:
+    """The plain epoch line: ``epoch 3/100 | frames 1536 | fps ... | reward ... | best ... | len ... | 12s``."""
+    limit = f"/{s.max_epochs}" if s.max_epochs > 0 else ""
+    reward = f"{s.reward:.2f}" if s.reward is not None else "-"
+    length = f"{s.length:.1f}" if s.length is not None else "-"
+    best = f"{s.best:.2f}" if math.isfinite(s.best) else "-"
+    fields = [f"success {s.success:.2f}", *s.fields] if s.success is not None else list(s.fields)
+    extra = "".join(f" | {field}" for field in fields)
+    return (f"epoch {s.epoch}{limit} | frames {s.frames} | fps {s.fps:.0f} (step {s.step_fps:.0f}) | "
+            f"reward {reward} | best {best} | len {length}{extra} | {int(s.seconds)}s")
 
-    def __init__(self, stream: Any = None) -> None:
+
+class ConsoleWriter(Writer):
+    """The progress line (``print_stats``): ``epoch 3/100 | frames 1536 | fps ... | reward ... | best ...``.
+
+    Off a terminal, one plain line per epoch (or every ``progress.print_every_epochs`` / ``_seconds``).
+    On a terminal (``progress.live``, rlchain/runs/progress.py) also a live status line with the
+    limit, ETA, fps, reward and success rate, redrawn in place under the epoch lines, which then
+    come every 10 s unless ``progress`` says otherwise. The first epoch's line, the line of the epoch
+    that reaches ``max_epochs`` / ``max_frames`` and, when the run ends, the last one are always printed."""
+
+    def __init__(self, stream: Any = None, progress: ProgressConfig | None = None) -> None:
         self.stream = stream or sys.stdout
+        progress = progress or ProgressConfig()
+        self.live = LiveStatus(self.stream) if live_wanted(progress.live, self.stream) else None
+        every_epochs, every_seconds = progress.print_every_epochs, progress.print_every_seconds
+        if every_epochs is None and every_seconds is None:
+            every_epochs, every_seconds = (None, DEFAULT_LIVE_SECONDS) if self.live else (1, None)
+        self.every_epochs, self.every_seconds = every_epochs, every_seconds
+        self.first: EpochSummary | None = None  # this process's first epoch: the ETA's reference
+        self.printed_at = 0.0  # seconds of the last printed line
+        self.pending: str | None = None  # the last epoch line, when it was not printed
 
     def write(self, scalars: Mapping[str, float], step: Step) -> None:
         pass  # the line is written once per epoch, from the summary
 
+    def _due(self, s: EpochSummary) -> bool:
+        """Whether this epoch's line is printed."""
+        if self.first is s or (s.max_epochs > 0 and s.epoch >= s.max_epochs) or \
+                (s.max_frames > 0 and s.frames >= s.max_frames):
+            return True
+        if self.every_epochs is not None and s.epoch % self.every_epochs == 0:
+            return True
+        return self.every_seconds is not None and s.seconds - self.printed_at >= self.every_seconds
+
     def epoch_end(self, s: EpochSummary) -> None:
-        limit = f"/{s.max_epochs}" if s.max_epochs > 0 else ""
-        reward = f"{s.reward:.2f}" if s.reward is not None else "-"
-        length = f"{s.length:.1f}" if s.length is not None else "-"
-        best = f"{s.best:.2f}" if math.isfinite(s.best) else "-"
-        fields = [f"success {s.success:.2f}", *s.fields] if s.success is not None else list(s.fields)
-        extra = "".join(f" | {field}" for field in fields)
-        print(f"epoch {s.epoch}{limit} | frames {s.frames} | fps {s.fps:.0f} (step {s.step_fps:.0f}) | "
-              f"reward {reward} | best {best} | len {length}{extra} | {int(s.seconds)}s",
-              file=self.stream, flush=True)
+        if self.first is None:
+            self.first = s
+        line = epoch_line(s)
+        if self._due(s):
+            self.printed_at, self.pending = s.seconds, None
+            if self.live is not None:
+                self.live.print(line, redraw=False)  # the new status follows
+            else:
+                print(line, file=self.stream, flush=True)
+        else:
+            self.pending = line
+        if self.live is not None:
+            first = self.first
+            eta = None if first is s else run_eta(s.epoch, s.max_epochs, s.frames, s.max_frames, first.epoch,
+                                                  first.frames, s.seconds - first.seconds)
+            self.live.show(status_line(StatusFields(s.epoch, s.max_epochs, s.frames, s.max_frames, s.fps, s.reward,
+                                                    s.success, s.seconds, eta)))
+            set_live_status(self.live)  # rlchain's log messages print above the status line
+
+    def flush(self) -> None:
+        """The run is ending (or pausing): the last epoch line, if it was skipped, and no status line."""
+        if self.live is not None:
+            self.live.hide()
+            set_live_status(None)  # drawn again at the next epoch
+        if self.pending is not None:
+            print(self.pending, file=self.stream, flush=True)
+            self.pending = None
+
+    def close(self) -> None:
+        self.flush()
+        self.live = None
 
 
 class TensorBoardWriter(Writer):
@@ -214,5 +275,5 @@ def make_writers(names: Sequence[str], run_dir: str, source: str = "") -> list[W
     return [WRITERS.get(name)(run_dir) for name in names]
 
 
-__all__ = ["Step", "EpochSummary", "Writer", "ConsoleWriter", "TensorBoardWriter", "WandbWriter", "CSVWriter",
-           "register_writer", "check_writer_names", "make_writers"]
+__all__ = ["Step", "EpochSummary", "epoch_line", "Writer", "ConsoleWriter", "TensorBoardWriter", "WandbWriter",
+           "CSVWriter",            "register_writer", "check_writer_names", "make_writers"]

@@ -356,7 +356,7 @@ class Loop:
         timing = {"batch": algo.frames_per_epoch(), "rollout": rollout_s, "update": update_s}
         console = [fmt.format(stats[name]) for name, fmt in algo.console_fields if name in stats]
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, tag_metrics(stats, algo.metric_tags),
-                          episodes, self.best_reward, timing, console)
+                          episodes, self.best_reward, timing, console, self.cfg.max_frames)
 
 
 def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:
