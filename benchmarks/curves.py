@@ -9,7 +9,10 @@ them the script writes, per config:
 
 * a table of mean +- standard deviation over seeds of the reward at fixed frame counts and at fixed
   times, frames/s, and the ratio rlchain / rl_games (``results.md``, also printed);
-* a PNG with reward vs frames and reward vs seconds, both libraries, the seed band shaded.
+* a PNG with reward vs frames and reward vs seconds, both libraries, the seed band shaded;
+* per config, the IQM over seeds with its 95% bootstrap interval at the same points (``rlchain compare``'s
+  table: the curves, the statistics and the plots are rlchain/compare's, this script adds the runs,
+  the ratios and the verdicts).
 
 Runs already saved with the same budget are reused (``--rerun`` trains them again), so the
 table and plots regenerate from the saved runs with ``--plot-only``. Every results file records the
@@ -44,6 +47,11 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from compare import read_rewards, stop  # noqa: E402  (benchmarks/ is not a package)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, REPO)  # rlchain from this checkout
+from rlchain.compare.plot import plot_tag  # noqa: E402
+from rlchain.compare.report import Settings, table  # noqa: E402
+from rlchain.compare.runs import REWARD, Curve, Run, curve_from_events  # noqa: E402
+
 HERE = os.path.join(REPO, "benchmarks")
 CONFIGS = {  # short name -> rl_games' own YAML (device: cpu added, nothing else changed)
     "ant": "rl_games_configs/ant_envpool.yaml",
@@ -177,15 +185,16 @@ def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], bud
 
 
 # ----- summarising (pure functions) -------------------------------------------------------------
+def curve(run: dict) -> Curve:
+    """A saved run's reward events as an rlchain.compare Curve; it went on until its time budget."""
+    return curve_from_events(run["events"], seconds_end=run.get("budget_s"))
+
+
 def value_at(events: list, x: float, axis: int) -> float | None:
-    """The last reported reward at or before ``x`` on ``axis`` (0 = seconds, 1 = frames); None if none yet."""
-    best = None
-    for event in events:
-        if event[axis] <= x:
-            best = event[2]
-        else:
-            break
-    return best
+    """The last reported reward at or before ``x`` on ``axis`` (0 = seconds, 1 = frames); None if none yet
+    (past the last event: the last one, the run went on to its budget)."""
+    inf = float("inf")
+    return curve_from_events(events, seconds_end=inf, frames_end=inf).value_at(x, ("seconds", "frames")[axis])
 
 
 def mean_std(values: list[float | None]) -> tuple[float, float] | None:
@@ -278,9 +287,15 @@ def summarise(config: str, runs: dict[str, list[dict]], budget: float) -> list[s
 
 
 # ----- plotting ------------------------------------------------------------------------------------
+def as_groups(runs: dict[str, list[dict]]) -> dict[str, list[Run]]:
+    """The saved runs as rlchain.compare groups, labelled as the tables and legends name the systems."""
+    return {describe(lib): [Run(f"{lib}_seed{r['seed']}", describe(lib), r["config"], {REWARD: curve(r)})
+                            for r in lib_runs] for lib, lib_runs in runs.items() if lib_runs}
+
+
 def band(runs: list[dict], axis: int, xs: list[float]) -> tuple[list[float], list[float], list[float], list[float]]:
-    """Mean, min and max over seeds at each x where every seed has a value."""
-    out = ([], [], [], [])
+    """Mean, min and max over seeds at each x where every seed has a value (benchmarks/her_vs_sb3.py's plots)."""
+    out: tuple[list[float], list[float], list[float], list[float]] = ([], [], [], [])
     for x in xs:
         values = [value_at(r["events"], x, axis) for r in runs]
         if all(v is not None for v in values):
@@ -290,32 +305,26 @@ def band(runs: list[dict], axis: int, xs: list[float]) -> tuple[list[float], lis
 
 
 def plot(config: str, runs: dict[str, list[dict]], budget: float, path: str) -> None:
-    """reward vs frames and reward vs seconds, mean line and min-max seed band per library."""
-    import matplotlib
+    """reward vs frames and reward vs seconds, mean line and min-max seed band per system (rlchain.compare's
+    plot; the frames axis ends at the last frame count every seed of the system reached)."""
+    groups = as_groups(runs)
+    colors = {describe(lib): COLORS.get(lib) for lib in runs}
+    plot_tag(groups, REWARD, path, f"{os.path.basename(CONFIGS[config])}: mean and min-max over seeds",
+             band="minmax", colors=colors, ylabel="mean episode reward", legend_loc="lower right",
+             xlabels={"frames": "frames", "seconds": "seconds from process start"})
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for lib, lib_runs in runs.items():
-        if not lib_runs:
-            continue
-        max_frames = max(r["events"][-1][1] for r in lib_runs)
-        for ax, axis, xs in ((axes[0], 1, [max_frames * k / 200 for k in range(201)]),
-                             (axes[1], 0, [budget * k / 200 for k in range(201)])):
-            x, mean, low, high = band(lib_runs, axis, xs)
-            ax.plot(x, mean, color=COLORS.get(lib), label=f"{describe(lib)} ({len(lib_runs)} seeds)")
-            ax.fill_between(x, low, high, color=COLORS.get(lib), alpha=0.2)
-    axes[0].set_xlabel("frames")
-    axes[1].set_xlabel("seconds from process start")
-    for ax in axes:
-        ax.set_ylabel("mean episode reward")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="lower right", fontsize=7)
-    fig.suptitle(f"{os.path.basename(CONFIGS[config])}: mean and min-max over seeds")
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+def iqm_table(config: str, runs: dict[str, list[dict]], budget: float) -> list[str]:
+    """Markdown lines: IQM over seeds [95% stratified bootstrap interval] of each system at the table's frame
+    and time points (rlchain compare's table, on the saved runs)."""
+    groups = as_groups(runs)
+    settings = Settings("iqm", 0.95, 2000, 0)
+    lines = ["IQM over seeds [95% bootstrap interval, 2000 resamples, seed 0] (`rlchain compare`'s statistics; "
+             "seeds that reached the point / seeds):", ""]
+    if len(groups) > 1:
+        lines += table(groups, REWARD, "frames", frame_grid(runs), settings) + [""]
+    lines += table(groups, REWARD, "seconds", time_grid(budget), settings)
+    return lines
 
 
 def splice(document: str, text: str, begin: str = "<!-- curves:begin -->", end: str = "<!-- curves:end -->") -> str:
@@ -392,6 +401,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         loads = [r[k] for lib_runs in runs.values() for r in lib_runs for k in ("load_before", "load_after")]
         lines += summarise(config, runs, budget)
+        lines += [""] + iqm_table(config, runs, budget)
         lines += ["", f"load average (1 min) before/after the runs: {min(loads):.2f}-{max(loads):.2f}; "
                       f"![{config}]({config}.png)", ""]
         plot(config, runs, budget, os.path.join(args.out, f"{config}.png"))

@@ -25,7 +25,7 @@ def bands(runs: Sequence[Run], tag: str, axis: str, band: str = "minmax", points
     if band not in BANDS:
         raise CompareError(f"--band: expected one of {', '.join(BANDS)}, got '{band}'")
     curves = [run.curves[tag] for run in runs]
-    end = min(float(c.axis(axis)[-1]) for c in curves)
+    end = min(c.end(axis) for c in curves)
     out: tuple[list[float], list[float], list[float], list[float]] = ([], [], [], [])
     for x in np.linspace(0.0, end, points + 1):
         values = [c.value_at(float(x), axis) for c in curves]
@@ -62,7 +62,8 @@ AXIS_NAMES = {"frames": "frames", "seconds": "seconds from the run's start"}
 
 
 def plot_tag(groups: dict[str, list[Run]], tag: str, path: str, title: str = "", band: str = "minmax",
-             colors: dict[str, str] | None = None, ylabel: str | None = None, legend_loc: str = "best") -> str:
+             colors: dict[str, str] | None = None, ylabel: str | None = None, legend_loc: str = "best",
+             xlabels: dict[str, str] | None = None) -> str:
     """A PNG at ``path``: ``tag`` against frames (left) and against seconds (right), per group the mean over
     its runs and a ``band``; returns ``path``."""
     plt = pyplot()
@@ -74,7 +75,7 @@ def plot_tag(groups: dict[str, list[Run]], tag: str, path: str, title: str = "",
             line, = ax.plot(x, mean, color=color, label=f"{label} ({len(runs)} seed{'s' if len(runs) != 1 else ''})")
             ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
     for ax, axis in zip(axes, ("frames", "seconds")):
-        ax.set_xlabel(AXIS_NAMES[axis])
+        ax.set_xlabel((xlabels or AXIS_NAMES)[axis])
         ax.set_ylabel(ylabel or tag)
         ax.grid(alpha=0.3)
         ax.legend(loc=legend_loc, fontsize=7)

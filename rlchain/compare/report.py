@@ -39,7 +39,7 @@ def round_down(value: float) -> float:
 
 def default_points(runs: Sequence[Run], tag: str, axis: str, count: int = 4) -> list[float]:
     """``count`` even points up to the last x every run reached on ``axis`` (two significant digits)."""
-    reach = min(float(run.curves[tag].axis(axis)[-1]) for run in runs if run.curves[tag].values.size)
+    reach = min(run.curves[tag].end(axis) for run in runs if run.curves[tag].values.size)
     points = sorted({round_down(reach * k / count) for k in range(1, count + 1)} - {0.0})
     return points or [reach]
 

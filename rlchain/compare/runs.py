@@ -37,11 +37,16 @@ class CompareError(ValueError):
 
 @dataclass(frozen=True)
 class Curve:
-    """One scalar of one run: its values at env ``frames`` and at ``seconds`` since the run started."""
+    """One scalar of one run: its values at env ``frames`` and at ``seconds`` since the run started.
+
+    ``frames_end`` / ``seconds_end``: how far the run went, when it is known to have gone on past its last
+    point (a benchmark run stopped at a time budget); by default its last point."""
 
     frames: np.ndarray
     seconds: np.ndarray
     values: np.ndarray
+    frames_end: float | None = None
+    seconds_end: float | None = None
 
     def axis(self, name: str) -> np.ndarray:
         """The x values on ``name`` (``frames`` or ``seconds``)."""
@@ -49,11 +54,17 @@ class Curve:
             raise ValueError(f"axis must be frames or seconds, got {name!r}")
         return self.frames if name == "frames" else self.seconds
 
-    def value_at(self, x: float, axis: str = "frames") -> float | None:
-        """The last value reported at or before ``x``; None before the first one or past the run's last
-        point (a run that ended earlier has no value there)."""
+    def end(self, axis: str) -> float:
+        """How far the run went on ``axis``."""
+        explicit = self.frames_end if axis == "frames" else self.seconds_end
         xs = self.axis(axis)
-        if xs.size == 0 or x < xs[0] or x > xs[-1]:
+        return float(explicit) if explicit is not None else float(xs[-1]) if xs.size else 0.0
+
+    def value_at(self, x: float, axis: str = "frames") -> float | None:
+        """The last value reported at or before ``x``; None before the first one or past the run's end
+        (a run that ended earlier has no value there)."""
+        xs = self.axis(axis)
+        if xs.size == 0 or x < xs[0] or x > self.end(axis):
             return None
         return float(self.values[int(np.searchsorted(xs, x, side="right")) - 1])
 
@@ -72,11 +83,14 @@ class Run:
         return os.path.basename(os.path.normpath(self.path))
 
 
-def curve_from_events(events: Sequence[tuple[float, float, float]]) -> Curve:
-    """A Curve from ``(seconds, frames, value)`` rows (benchmarks/curves.py's saved runs), sorted by frames."""
+def curve_from_events(events: Sequence[Sequence[float]], seconds_end: float | None = None,
+                      frames_end: float | None = None) -> Curve:
+    """A Curve from ``(seconds, frames, value)`` rows (benchmarks/curves.py's saved runs), sorted by frames;
+    ``seconds_end`` / ``frames_end``: the run went on until then (its time budget)."""
     rows = sorted(events, key=lambda e: (e[1], e[0]))
     array = np.asarray(rows, dtype=float).reshape(-1, 3)
-    return Curve(frames=array[:, 1], seconds=array[:, 0], values=array[:, 2])
+    return Curve(frames=array[:, 1], seconds=array[:, 0], values=array[:, 2], frames_end=frames_end,
+                 seconds_end=seconds_end)
 
 
 def event_folders(path: str) -> list[str]:
