@@ -106,11 +106,33 @@ def test_live_status_throttles_epoch_lines_and_prints_the_last(monkeypatch):
 def test_bad_progress_values_are_config_errors():
     from rlchain.config.load import parse_params
 
-    base = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
-                       "network": {"name": "actor_critic", "mlp": {"units": [8]}, "space": {"discrete": {}}},
-                       "config": {"env_name": "CartPole-v1", "progress": {"print_every_epochs": 0}}}}
-    with pytest.raises(ConfigError, match="progress.print_every_epochs"):
-        parse_params(base, "cfg.yaml")
-    base["params"]["config"]["progress"] = {"lives": True}
-    with pytest.raises(ConfigError, match="live"):
-        parse_params(base, "cfg.yaml")
+    def config(block):
+        return {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
+                           "network": {"name": "actor_critic", "mlp": {"units": [8]}, "space": {"discrete": {}}},
+                           "config": {"env_name": "CartPole-v1", "minibatch_size": 64, "progress": block}}}
+
+    with pytest.raises(ConfigError, match=r"cfg.yaml: params.config.progress.print_every_epochs: must be > 0, got 0"):
+        parse_params(config({"print_every_epochs": 0}), "cfg.yaml")
+    with pytest.raises(ConfigError, match=r"progress.lives: unknown key; did you mean 'live'"):
+        parse_params(config({"lives": True}), "cfg.yaml")
+    with pytest.raises(ConfigError, match=r"progress.print_every_seconds: must be >= 0"):
+        parse_params(config({"print_every_seconds": -1}), "cfg.yaml")
+
+
+def test_the_config_block_reaches_the_console_writer(monkeypatch):
+    from rlchain.config.load import parse_params
+    from rlchain.runs.logging import TrainLogger
+
+    monkeypatch.setenv("TERM", "xterm")
+    monkeypatch.delenv(progress.ENV_VAR, raising=False)
+    raw = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
+                      "network": {"name": "actor_critic", "mlp": {"units": [8]}, "space": {"discrete": {}}},
+                      "config": {"env_name": "CartPole-v1", "minibatch_size": 64,
+                                 "progress": {"live": False, "print_every_epochs": 5}}}}
+    cfg = parse_params(raw, "cfg.yaml").config
+    assert cfg.progress == ProgressConfig(live=False, print_every_epochs=5)
+    console = TrainLogger(None, True, stream=Terminal(), progress=cfg.progress).writers[0]
+    assert console.live is None and console.every_epochs == 5
+    auto = TrainLogger(None, True, stream=Terminal(), progress=ProgressConfig()).writers[0]
+    assert auto.live is not None and auto.every_seconds == progress.DEFAULT_LIVE_SECONDS
+    assert TrainLogger(None, True, stream=Terminal()).writers[0].live is None  # no block given: tuning, tests
