@@ -106,3 +106,16 @@ def test_saved_runs_of_another_setting_are_not_loaded(tmp_path):
     with open(path, "w") as f:
         json.dump(best, f)
     assert len(curves.load_runs(str(tmp_path), "hopper", ["rl_games"], [11], 180.0)["rl_games"]) == 1
+
+
+def test_iqm_table_is_rlchain_compare_on_the_saved_runs():
+    runs = {"rlchain": [{"events": [(10.0, 1000, float(v)), (30.0, 3000, float(v))], "seed": s, "config": "hopper",
+                         "budget_s": 30.0} for s, v in ((11, 1), (12, 2), (13, 3), (14, 100))],
+            "rl_games": [{"events": [(15.0, 2000, 4.0)], "seed": 11, "config": "hopper", "budget_s": 30.0}]}
+    text = "\n".join(curves.iqm_table("hopper", runs, 30.0))
+    assert "| at | rlchain, as shipped | rl_games 1.6.5, 1 thread, compile off |" in text
+    # at 30 s (the budget: the runs went on to it) rlchain's IQM of 1, 2, 3, 100 is 2.5; rl_games has one seed
+    row = next(line for line in text.splitlines() if line.startswith("| 30 s |"))
+    assert row.split("|")[2].strip().startswith("2.5 [") and row.endswith("| 4 [4, 4] (1/1) |")
+    # frames: quarters of the 2000 frames every run reached; rl_games had reported nothing by 500
+    assert "| 2k frames | 2.5 [" in text and text.split("| 500 frames |")[1].split("\n")[0].endswith("- (0/1) |")
