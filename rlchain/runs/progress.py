@@ -52,6 +52,11 @@ def format_count(value: float) -> str:
     return f"{value:.0f}"
 
 
+def format_value(value: float) -> str:
+    """A reward as the status line shows it: four significant digits, whole numbers from 1000 up (no exponent)."""
+    return f"{value:.0f}" if abs(value) >= 1000 else f"{value:.4g}"
+
+
 def eta_seconds(done: float, limit: float, done_at_start: float, elapsed: float) -> float | None:
     """Seconds left to reach ``limit`` at the average rate of this process: ``(limit - done) * elapsed /
     (done - done_at_start)``. ``done_at_start``: the count when this process started (a resumed run's
@@ -108,7 +113,7 @@ def status_line(s: StatusFields) -> str:
     epochs = f"epoch {s.epoch}" + (f"/{s.max_epochs}" if s.max_epochs > 0 else "")
     frames = f"frames {format_count(s.frames)}" + (f"/{format_count(s.max_frames)}" if s.max_frames > 0 else "")
     parts = [epochs, frames, f"{format_count(s.fps)} fps",
-             f"reward {s.reward:.4g}" if s.reward is not None else "reward -"]
+             f"reward {format_value(s.reward)}" if s.reward is not None else "reward -"]
     if s.success is not None:
         parts.append(f"success {s.success:.2f}")
     parts.append(format_duration(s.elapsed))
@@ -178,5 +183,6 @@ class LiveStatus:
             self.stream.flush()
 
 
-__all__ = ["format_duration", "format_count", "eta_seconds", "run_eta", "fraction_done", "bar", "StatusFields",
+__all__ = ["format_duration", "format_count", "format_value", "eta_seconds", "run_eta", "fraction_done", "bar",
+           "StatusFields",
            "status_line", "fit", "live_wanted", "LiveStatus", "ENV_VAR", "DEFAULT_LIVE_SECONDS"]

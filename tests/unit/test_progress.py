@@ -35,6 +35,7 @@ def test_durations_and_counts():
     assert progress.format_count(999_600) == "1M"
     assert progress.format_count(1_200_000) == "1.2M"
     assert progress.format_count(3e9) == "3G"
+    assert progress.format_value(12345.6) == "12346" and progress.format_value(-0.012345) == "-0.01235"
 
 
 def test_eta_is_the_remaining_work_at_this_process_average_rate():
