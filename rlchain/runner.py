@@ -14,6 +14,7 @@ from typing import Any
 from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
+from rlchain.config.packaged import resolve_config
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
@@ -44,9 +45,11 @@ class Runner:
         self.params: Params | None = None
 
     def load(self, config: str | dict[str, Any], overrides: list[str] | None = None) -> Runner:
-        """Load a YAML/JSON path or an already-read dict (``{'params': ...}``) and validate it."""
+        """Load a YAML/JSON path, a packaged config's name (``ppo_cartpole``, rlchain.config.packaged) or
+        an already-read dict (``{'params': ...}``) and validate it."""
         if isinstance(config, str):
-            source, raw = config, load_raw(config)
+            source = resolve_config(config)
+            raw = load_raw(source)
         else:
             source, raw = "<dict>", copy.deepcopy(config)
         raw = apply_overrides(raw, overrides or [], source)
