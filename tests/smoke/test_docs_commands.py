@@ -16,8 +16,9 @@ everywhere: training gets ``params.config.max_epochs=1`` appended (after the pag
 overrides, so it wins), ``--play`` gets ``params.config.player.games_num=2`` (a ``--games N``
 flag still wins), ``--tune SEARCH`` runs a copy of the search with 2 trials of 2 epochs, and
 ``<run>`` is the newest run folder under ``runs/``. ``rlchain ...`` commands get the same
-shortening (``rlchain train``/``play``/``tune`` as ``--train``/``--play``/``--tune``) and run the
-``rlchain`` console script of the venv the tests run in (``python -m rlchain`` where it has none).
+shortening (``rlchain train``/``play``/``tune`` as ``--train``/``--play``/``--tune``, also after
+``python -m`` / ``torchrun -m``); a leading ``rlchain`` runs the console script of the venv the
+tests run in (``python -m rlchain`` where that venv has none).
 A bash command that an earlier page already ran successfully in this session is not run again on
 a page where no later block can depend on it (no python or file blocks, no ``<run>``).
 """
@@ -141,6 +142,8 @@ def test_rlchain_commands_are_shortened_like_runner_py(tmp_path):
         f"{launcher} play --checkpoint cartpole params.config.player.games_num=2"
     assert shorten("rlchain -t -f x.yaml", str(tmp_path)) == f"{launcher} -t -f x.yaml params.config.max_epochs=1"
     assert shorten("rlchain export onnx -c cartpole", str(tmp_path)) == f"{launcher} export onnx -c cartpole"
+    assert shorten("torchrun --nproc_per_node=2 -m rlchain train ppo_cartpole", str(tmp_path)) == \
+        "torchrun --nproc_per_node=2 -m rlchain train ppo_cartpole params.config.max_epochs=1"
     tuned = shlex.split(shorten("rlchain tune tune_cartpole", str(tmp_path)))
     with open(tuned[-1], encoding="utf-8") as fh:
         assert yaml.safe_load(fh)["trials"] == 2
@@ -184,15 +187,17 @@ def rlchain_command() -> list[str]:
 def shorten(command: str, ws: str) -> str:
     """The command as the test runs it (see the module docstring)."""
     tokens = shlex.split(command, comments=True)
-    if tokens and tokens[0] == "rlchain":  # the console script: its subcommands are runner.py's flags
-        subcommand = tokens[1] if len(tokens) > 1 else ""
-        if subcommand == "tune" and len(tokens) > 2:
-            tokens[2] = short_search(resolve_config(tokens[2]), ws)
+    at = next((i for i, t in enumerate(tokens) if t == "rlchain" and (i == 0 or tokens[i - 1] == "-m")), None)
+    if at is not None:  # the console script or `-m rlchain` (python, torchrun): subcommands are runner.py's flags
+        subcommand = tokens[at + 1] if len(tokens) > at + 1 else ""
+        if subcommand == "tune" and len(tokens) > at + 2:
+            tokens[at + 2] = short_search(resolve_config(tokens[at + 2]), ws)
         elif subcommand == "train" or "--train" in tokens or "-t" in tokens:
             tokens.append("params.config.max_epochs=1")
         elif subcommand == "play" or "--play" in tokens or "-p" in tokens:
             tokens.append("params.config.player.games_num=2")
-        tokens = rlchain_command() + tokens[1:]
+        if at == 0:
+            tokens = rlchain_command() + tokens[1:]
     elif any(t.endswith(("runner.py", "train.py")) for t in tokens):
         if "--tune" in tokens:
             i = tokens.index("--tune") + 1
