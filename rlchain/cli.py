@@ -8,8 +8,8 @@ import signal
 import sys
 import warnings
 
-from rlchain.config.errors import ConfigError
-from rlchain.config.packaged import resolve_checkpoint, resolve_config
+from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
 from rlchain.inference.video import record_episodes
 from rlchain.inference.watch import watch_and_evaluate
@@ -98,6 +98,15 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"warning: {message}\n"
 
 
+def _check_checkpoint_name(checkpoint: str) -> None:
+    """A bare word that is neither a file nor a shipped checkpoint but close to one: say which was meant."""
+    if os.path.exists(checkpoint) or "/" in checkpoint or os.sep in checkpoint:
+        return
+    hint = did_you_mean(os.path.splitext(checkpoint)[0], checkpoint_names())
+    if hint:
+        raise CheckpointError(f"{checkpoint}: checkpoint not found, and no shipped checkpoint has that name{hint}")
+
+
 def _run(args: argparse.Namespace) -> int:
 
     if args.tune:
@@ -106,6 +115,7 @@ def _run(args: argparse.Namespace) -> int:
     output = args.output
     if args.checkpoint:
         args.checkpoint, packaged = resolve_checkpoint(args.checkpoint)
+        _check_checkpoint_name(args.checkpoint)
         if packaged and args.export and output is None:  # next to the shipped file is inside the package
             output = os.path.splitext(os.path.basename(args.checkpoint))[0] + ".onnx"
     overrides = list(args.overrides)

@@ -117,3 +117,10 @@ def test_compare_missing_is_one_line(monkeypatch, capsys):
     assert console.main(["compare", "runs"]) == 2
     assert capsys.readouterr().err == ("error: rlchain compare is not part of this rlchain install "
                                        "(no module rlchain.compare.cli)\n")
+
+
+def test_a_mistyped_shipped_checkpoint_is_named(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert console.main(["play", "--checkpoint", "cartpol"]) == 2
+    assert capsys.readouterr().err == ("checkpoint error: cartpol: checkpoint not found, and no shipped checkpoint "
+                                       "has that name; did you mean 'cartpole'?\n")
