@@ -33,7 +33,10 @@ setup(
     version="0.1.0",
     description="PyTorch reinforcement learning with an rl_games-compatible config and runner",
     packages=find_packages(include=["rlchain", "rlchain.*"]),
-    package_data={"rlchain": ["configs/*.yaml", "configs/tune/*.yaml"]},
+    # the configs (rlchain train NAME), rl_games' example YAMLs the docs use and the shipped checkpoints
+    # (--checkpoint NAME): rlchain.config.packaged finds them by name in an installed wheel
+    package_data={"rlchain": ["configs/*.yaml", "configs/*/*.yaml", "configs/*/*.json", "checkpoints/*.pth"]},
+    entry_points={"console_scripts": ["rlchain = rlchain.console:main"]},
     python_requires=">=3.11",  # constraints.txt pins packages that need 3.11 (numpy, contourpy, brax, ...)
     # torch is deliberately a range that an already installed torch satisfies: install the build you want
     # first (README: torch==2.13.0, the CPU one from https://download.pytorch.org/whl/cpu on Linux x86_64)

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import warnings
 
-from rlchain.config.errors import ConfigError
+from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
 from rlchain.inference.video import record_episodes
 from rlchain.inference.watch import watch_and_evaluate
@@ -17,15 +19,18 @@ from rlchain.runs.wandb_logger import TrackingError
 from rlchain.tuning.search import run_search
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="runner.py", description="Train or play an rl_games-style config.")
+def build_parser(prog: str = "runner.py") -> argparse.ArgumentParser:
+    """rl_games' flags and rlchain's additions; ``prog`` names the command in usage lines."""
+    p = argparse.ArgumentParser(prog=prog, description="Train or play an rl_games-style config.")
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("-t", "--train", action="store_true", help="train (resume with --checkpoint)")
     mode.add_argument("-p", "--play", action="store_true", help="play a checkpoint")
     mode.add_argument("--export", choices=["onnx"], help="export a checkpoint's deterministic policy")
     mode.add_argument("--tune", metavar="SEARCH", help="Optuna search from a search YAML (pip install rlchain[tune])")
-    p.add_argument("-f", "--file", help="YAML or JSON config (optional for --play: the checkpoint has one)")
-    p.add_argument("-c", "--checkpoint", help="checkpoint to resume from (--train) or play (--play)")
+    p.add_argument("-f", "--file", help="YAML or JSON config, or a packaged config's name (ppo_cartpole); "
+                   "optional for --play: the checkpoint has one")
+    p.add_argument("-c", "--checkpoint", help="checkpoint to resume from (--train) or play (--play); "
+                   "a shipped one by name (cartpole)")
     p.add_argument("-na", "--num_actors", type=int, help="override the number of envs")
     p.add_argument("--seed", type=int, help="override params.seed")
     p.add_argument("--sigma", type=float, help="fixed sigma (std) for a continuous fixed_sigma policy")
@@ -42,9 +47,9 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str = "runner.py") -> int:
     """Entry point; expected errors print one line and exit with status 2."""
-    args = build_parser().parse_args(argv)
+    args = build_parser(prog).parse_intermixed_args(argv)
     # SIGTERM and the warning format are the process's: changed for this call only, so an in-process
     # caller (a test, a notebook, a sweep) gets its own handlers back.
     previous_sigterm = signal.signal(signal.SIGTERM, _terminate)
@@ -93,11 +98,26 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"warning: {message}\n"
 
 
+def _check_checkpoint_name(checkpoint: str) -> None:
+    """A bare word that is neither a file nor a shipped checkpoint but close to one: say which was meant."""
+    if os.path.exists(checkpoint) or "/" in checkpoint or os.sep in checkpoint:
+        return
+    hint = did_you_mean(os.path.splitext(checkpoint)[0], checkpoint_names())
+    if hint:
+        raise CheckpointError(f"{checkpoint}: checkpoint not found, and no shipped checkpoint has that name{hint}")
+
+
 def _run(args: argparse.Namespace) -> int:
 
     if args.tune:
-        run_search(args.tune, args.output)
+        run_search(resolve_config(args.tune), args.output)
         return 0
+    output = args.output
+    if args.checkpoint:
+        args.checkpoint, packaged = resolve_checkpoint(args.checkpoint)
+        _check_checkpoint_name(args.checkpoint)
+        if packaged and args.export and output is None:  # next to the shipped file is inside the package
+            output = os.path.splitext(os.path.basename(args.checkpoint))[0] + ".onnx"
     overrides = list(args.overrides)
     if args.num_actors is not None:
         if args.play:
@@ -117,7 +137,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
-        runner.export(args.checkpoint, args.output, args.policy)
+        runner.export(args.checkpoint, output, args.policy)
         return 0
     if args.train:
         result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,

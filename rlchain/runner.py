@@ -14,6 +14,7 @@ from typing import Any
 from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
+from rlchain.config.packaged import resolve_checkpoint, resolve_config
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
@@ -44,9 +45,11 @@ class Runner:
         self.params: Params | None = None
 
     def load(self, config: str | dict[str, Any], overrides: list[str] | None = None) -> Runner:
-        """Load a YAML/JSON path or an already-read dict (``{'params': ...}``) and validate it."""
+        """Load a YAML/JSON path, a packaged config's name (``ppo_cartpole``, rlchain.config.packaged) or
+        an already-read dict (``{'params': ...}``) and validate it."""
         if isinstance(config, str):
-            source, raw = config, load_raw(config)
+            source = resolve_config(config)
+            raw = load_raw(source)
         else:
             source, raw = "<dict>", copy.deepcopy(config)
         raw = apply_overrides(raw, overrides or [], source)
@@ -57,7 +60,9 @@ class Runner:
 
     def load_from_checkpoint(self, path: str, overrides: list[str] | None = None) -> Runner:
         """Use the config stored inside a checkpoint (for --play without --file): the resolved config of
-        a current checkpoint, or the input config of one written before the config was frozen."""
+        a current checkpoint, or the input config of one written before the config was frozen.
+        A shipped checkpoint's name (``cartpole``) works."""
+        path = resolve_checkpoint(path)[0]
         state = ckpt.load(path)
         config = state.get("config")
         if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
@@ -172,9 +177,13 @@ class Runner:
 
     def export(self, checkpoint: str, output: str | None = None, policy: str | None = None) -> str | list[str]:
         """Export the checkpoint's deterministic policy to ONNX (with a parity check); returns the path.
-        With ``config.multi_agent``: one graph per policy (only ``policy`` when given); returns the paths."""
+        With ``config.multi_agent``: one graph per policy (only ``policy`` when given); returns the paths.
+        A shipped checkpoint's name (``cartpole``) works; its default output is ``<name>.onnx`` here."""
 
         params = self._require()
+        checkpoint, packaged = resolve_checkpoint(checkpoint)
+        if packaged and output is None:  # next to the shipped file is inside the installed package
+            output = os.path.splitext(os.path.basename(checkpoint))[0] + ".onnx"
         if params.policies is not None:
             return export_policies(params, checkpoint, output, policy)
         if policy is not None:
@@ -183,9 +192,11 @@ class Runner:
 
     def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
              sigma: float | None = None, quiet: bool = False) -> Any:
-        """Play with the Player; returns a PlayResult."""
+        """Play with the Player (a shipped checkpoint by name too: ``cartpole``); returns a PlayResult."""
 
         params = self._require()
+        if checkpoint is not None:
+            checkpoint = resolve_checkpoint(checkpoint)[0]
         # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
         set_threads(params.torch_threads, None, params.config.device, updates=False)
         if params.policies is not None:  # config.multi_agent: every policy plays its agents

@@ -15,9 +15,12 @@ benchmarks/, tests/ linked), its blocks in page order. Commands are shortened th
 everywhere: training gets ``params.config.max_epochs=1`` appended (after the page's own
 overrides, so it wins), ``--play`` gets ``params.config.player.games_num=2`` (a ``--games N``
 flag still wins), ``--tune SEARCH`` runs a copy of the search with 2 trials of 2 epochs, and
-``<run>`` is the newest run folder under ``runs/``. A bash command that an earlier page already
-ran successfully in this session is not run again on a page where no later block can depend on
-it (no python or file blocks, no ``<run>``).
+``<run>`` is the newest run folder under ``runs/``. ``rlchain ...`` commands get the same
+shortening (``rlchain train``/``play``/``tune`` as ``--train``/``--play``/``--tune``, also after
+``python -m`` / ``torchrun -m``); a leading ``rlchain`` runs the console script of the venv the
+tests run in (``python -m rlchain`` where that venv has none).
+A bash command that an earlier page already ran successfully in this session is not run again on
+a page where no later block can depend on it (no python or file blocks, no ``<run>``).
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from dataclasses import dataclass, field
 import pytest
 import yaml
 
+from rlchain.config.packaged import resolve_config
 from tests.conftest import ROOT
 
 pytestmark = pytest.mark.smoke
@@ -130,6 +134,21 @@ def test_the_marker_check_sees_an_unmarked_block():
     assert len(problems) == 3 and "x.md:1" in problems[0] and "reason" in problems[1] and "follow" in problems[2]
 
 
+def test_rlchain_commands_are_shortened_like_runner_py(tmp_path):
+    launcher = shlex.join(rlchain_command())
+    assert shorten("rlchain train ppo_cartpole lr=1", str(tmp_path)) == \
+        f"{launcher} train ppo_cartpole lr=1 params.config.max_epochs=1"
+    assert shorten("rlchain play --checkpoint cartpole  # shipped", str(tmp_path)) == \
+        f"{launcher} play --checkpoint cartpole params.config.player.games_num=2"
+    assert shorten("rlchain -t -f x.yaml", str(tmp_path)) == f"{launcher} -t -f x.yaml params.config.max_epochs=1"
+    assert shorten("rlchain export onnx -c cartpole", str(tmp_path)) == f"{launcher} export onnx -c cartpole"
+    assert shorten("torchrun --nproc_per_node=2 -m rlchain train ppo_cartpole", str(tmp_path)) == \
+        "torchrun --nproc_per_node=2 -m rlchain train ppo_cartpole params.config.max_epochs=1"
+    tuned = shlex.split(shorten("rlchain tune tune_cartpole", str(tmp_path)))
+    with open(tuned[-1], encoding="utf-8") as fh:
+        assert yaml.safe_load(fh)["trials"] == 2
+
+
 # ----- running a page -------------------------------------------------------------------------
 def commands(text: str) -> list[str]:
     """Logical command lines of a bash block: continuations joined, blank and comment lines dropped."""
@@ -158,10 +177,28 @@ def short_search(path: str, ws: str) -> str:
     return out
 
 
+def rlchain_command() -> list[str]:
+    """The ``rlchain`` console script of the venv the tests run in; ``python -m rlchain`` (the same main) where
+    that venv was installed before the script existed."""
+    script = os.path.join(os.path.dirname(sys.executable), "rlchain")
+    return [script] if os.path.isfile(script) else [sys.executable, "-m", "rlchain"]
+
+
 def shorten(command: str, ws: str) -> str:
     """The command as the test runs it (see the module docstring)."""
     tokens = shlex.split(command, comments=True)
-    if any(t.endswith(("runner.py", "train.py")) for t in tokens):
+    at = next((i for i, t in enumerate(tokens) if t == "rlchain" and (i == 0 or tokens[i - 1] == "-m")), None)
+    if at is not None:  # the console script or `-m rlchain` (python, torchrun): subcommands are runner.py's flags
+        subcommand = tokens[at + 1] if len(tokens) > at + 1 else ""
+        if subcommand == "tune" and len(tokens) > at + 2:
+            tokens[at + 2] = short_search(resolve_config(tokens[at + 2]), ws)
+        elif subcommand == "train" or "--train" in tokens or "-t" in tokens:
+            tokens.append("params.config.max_epochs=1")
+        elif subcommand == "play" or "--play" in tokens or "-p" in tokens:
+            tokens.append("params.config.player.games_num=2")
+        if at == 0:
+            tokens = rlchain_command() + tokens[1:]
+    elif any(t.endswith(("runner.py", "train.py")) for t in tokens):
         if "--tune" in tokens:
             i = tokens.index("--tune") + 1
             tokens[i] = short_search(tokens[i], ws)

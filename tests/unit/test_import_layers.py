@@ -16,7 +16,9 @@ ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 PACKAGE = os.path.join(ROOT, "rlchain")
 
 # the drivers: they may import the Runner (rlchain/runner.py) and the CLI; nothing else may
-ENTRY_POINTS = ("rlchain.cli", "rlchain.runner", "rlchain.tuning")  # and the package itself (rlchain.Runner)
+# (the console script rlchain.console and python -m rlchain's rlchain.__main__ included)
+ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.runner",
+                "rlchain.tuning")  # and the package itself (rlchain.Runner)
 ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
