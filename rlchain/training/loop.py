@@ -174,6 +174,8 @@ class Loop:
         with StopSignals() as signals:
             ctx.signals = signals
             algo.start()
+            self.checkpoints.point.after_start()
+            self.checkpoints.point.capture()  # epoch boundary: what a stop during the first epoch saves
             self.snapshot()
             self.events.emit("on_train_start")
             while stop is None:
@@ -196,6 +198,7 @@ class Loop:
                 if ctx.info_means.keys:
                     stats = {**stats, **ctx.info_means.pop()}
                 episodes = ctx.comm.episode_stats(ctx.tracker)  # under torchrun: every rank's games
+                self.checkpoints.point.capture()  # the epoch boundary every checkpoint until the next one holds
                 self._log(stats, episodes, rollout_s, update_s)
                 self.checkpoints.after_epoch(episodes)
                 if algo.snapshot_due():
