@@ -47,6 +47,8 @@ class Checkpoints:
             "episodes": boundary["episodes"], "rng": boundary["rng"], "run_state": boundary["run_state"],
             "seed": ctx.seed, "version": __version__,
         }
+        if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
+            state["ranks"] = boundary["ranks"]
         state.update(algo.extra_state(kind))
         return state
 

@@ -313,15 +313,16 @@ class Loop:
 
     def join_ranks(self) -> None:
         """Under torchrun, once the run is built (and resumed): every rank takes rank 0's parameters,
-        buffers and optimizer state; after a resume, which restored rank 0's RNG state everywhere,
-        the other ranks reseed their own streams."""
+        buffers and optimizer state; after a resume from a checkpoint without every rank's own state
+        (an older one, another world size), which restored rank 0's RNG state everywhere, the other
+        ranks reseed their own streams."""
         comm = self.ctx.comm
         if not comm.active:
             return
         for model, agent in self.algorithm.learners():
             comm.broadcast_learner(model, agent)
-        if self.epoch > 0 and not comm.is_main:
-            seed_everything(comm.rank_seed + self.epoch)
+        if self.epoch > 0 and not comm.is_main and not self.checkpoints.point.rank_restored:
+            seed_everything(comm.rank_seed + self.epoch)  # a checkpoint without every rank's own streams
 
     def _stop_reason(self, episodes: dict | None) -> str | None:
         cfg = self.cfg

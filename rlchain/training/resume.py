@@ -42,6 +42,7 @@ class ResumePoint:
         self.ctx, self.algorithm = ctx, algorithm
         self.env_missing: str | None = None if ctx.spec.state else "the env has no get_state / set_state"
         self.boundary: dict[str, Any] | None = None
+        self.rank_restored = False  # torchrun: this rank's own state came from the checkpoint
 
     def capture(self) -> None:
         """The state now, at an epoch boundary (after the update, or at the start of training)."""
@@ -50,12 +51,12 @@ class ResumePoint:
         env_state = self._env_state() if position is not None else None
         missing = self.env_missing if position is not None else "training had not started"
         tracker = ctx.tracker
-        self.boundary = {
-            "epoch": ctx.epoch, "frames": ctx.frames, "rng": ckpt.rng_state(),
-            "episodes": copy.deepcopy(tracker.state_dict()),
-            "run_state": {"env": env_state, "env_missing": missing, "env_label": env_label(ctx),
-                          "running": tracker.running_state(), "position": position},
-        }
+        own = {"rng": ckpt.rng_state(), "episodes": copy.deepcopy(tracker.state_dict()),
+               "run_state": {"env": env_state, "env_missing": missing, "env_label": env_label(ctx),
+                             "running": tracker.running_state(), "position": position}}
+        self.boundary = {"epoch": ctx.epoch, "frames": ctx.frames, **own}
+        if ctx.comm.active:  # torchrun: every rank's part, for rank 0's checkpoints (every rank calls this)
+            self.boundary["ranks"] = ctx.comm.gather_objects(own)
 
     def _env_state(self) -> Any:
         """The envs' state, or None (the env has none to give: said once, then not asked again)."""
@@ -79,11 +80,25 @@ class ResumePoint:
         """After the learner and counters are restored: the RNG streams now, the envs' state and the
         episodes in progress at the algorithm's ``start``; one line when the envs restart their episodes."""
         ctx = self.ctx
+        ranks = state.get("ranks")
+        self.rank_restored = ctx.comm.active and ranks is not None and len(ranks) == ctx.world_size
+        if self.rank_restored:  # torchrun: this rank's own streams, episodes and envs
+            state = {**state, **ranks[ctx.comm.rank]}
+            ctx.tracker.load_state_dict(state["episodes"])
         ckpt.set_rng_state(state["rng"])
         run_state = state.get("run_state")
         # until the first epoch, a checkpoint of this run holds the restored boundary as it was saved
         self.boundary = {"epoch": ctx.epoch, "frames": ctx.frames, "rng": state["rng"],
                          "episodes": state["episodes"], "run_state": run_state or self._no_run_state()}
+        if ranks is not None and self.rank_restored:
+            self.boundary["ranks"] = ranks
+        if ctx.comm.active and not self.rank_restored:
+            run_state = None  # rank 0's envs are not this rank's: every rank starts new episodes
+            why_ranks = (f"the checkpoint holds {len(ranks)} ranks' state, this run has {ctx.world_size}"
+                         if ranks is not None else "the checkpoint holds one process's state")
+            log.warning(f"resume: {env_label(ctx)} on rank {ctx.comm.rank} starts new episodes: {why_ranks}; "
+                        f"the learner and counters are restored, this rank's random streams are reseeded")
+            return
         why = None
         if run_state is None:
             why = "the checkpoint holds no env state (written by an older rlchain)"
