@@ -252,8 +252,11 @@ class Loop:
             self.algorithm.divergence.snapshot(self.epoch)
 
     def restart_episodes(self) -> None:
-        """After a rollback or a loaded checkpoint: every env starts a fresh episode."""
+        """After a rollback or a checkpoint loaded into the running envs (PBT's exploit): every env starts
+        a fresh episode (a loaded checkpoint's env state is not used), which is the new epoch boundary."""
+        self.ctx.resume_state = None
         self.algorithm.restart_episodes()
+        self.checkpoints.point.capture(gather=False)  # no collective: under torchrun a rank may roll back alone
 
     def frames_per_epoch(self) -> int:
         """Env frames one epoch adds (the algorithm's)."""

@@ -44,8 +44,10 @@ class ResumePoint:
         self.boundary: dict[str, Any] | None = None
         self.rank_restored = False  # torchrun: this rank's own state came from the checkpoint
 
-    def capture(self) -> None:
-        """The state now, at an epoch boundary (after the update, or at the start of training)."""
+    def capture(self, gather: bool = True) -> None:
+        """The state now, at an epoch boundary (after the update, or at the start of training). Under
+        torchrun every rank's part is gathered (a collective: every rank calls this at the same point);
+        ``gather=False`` (a rollback, which one rank may do alone) keeps this rank's part only."""
         ctx = self.ctx
         position = self.algorithm.position_state()
         env_state = self._env_state() if position is not None else None
@@ -55,7 +57,7 @@ class ResumePoint:
                "run_state": {"env": env_state, "env_missing": missing, "env_label": env_label(ctx),
                              "running": tracker.running_state(), "position": position}}
         self.boundary = {"epoch": ctx.epoch, "frames": ctx.frames, **own}
-        if ctx.comm.active:  # torchrun: every rank's part, for rank 0's checkpoints (every rank calls this)
+        if ctx.comm.active and gather:  # torchrun: every rank's part, for rank 0's checkpoints (every rank calls this)
             self.boundary["ranks"] = ctx.comm.gather_objects(own)
 
     def _env_state(self) -> Any:

@@ -12,6 +12,7 @@ import logging
 import os
 import signal
 
+import gymnasium as gym
 import pytest
 import torch
 
@@ -176,3 +177,33 @@ def test_an_old_checkpoint_resumes_as_before_with_one_line(tmp_path, caplog):
     assert len(lines) == 1 and "CartPole-v1 (GymnasiumVecEnv) starts new episodes: the checkpoint holds no env " \
                                "state (written by an older rlchain)" in lines[0]
     assert result.epoch == 3
+
+
+class Handle:
+    """What an env may hold that rlchain cannot read (an emulator, a physics engine)."""
+
+
+class OpaqueCartPole(gym.Wrapper):
+    """CartPole holding an unreadable handle: its state cannot be saved."""
+
+    def __init__(self):
+        super().__init__(gym.make("CartPole-v1"))
+        self.engine = Handle()
+
+
+def test_an_env_whose_state_cannot_be_read_is_named_once_and_resumes_as_before(tmp_path, caplog):
+    if "OpaqueCartPole-v0" not in gym.registry:
+        gym.register("OpaqueCartPole-v0", entry_point=OpaqueCartPole)
+    overrides = ["params.network.mlp.units=[16]", "params.config.num_actors=4", "params.config.minibatch_size=32",
+                 "params.config.env_name=OpaqueCartPole-v0", "params.config.vecenv_type=sync"]
+    with caplog.at_level(logging.WARNING, logger="rlchain"):
+        half, _ = train(tmp_path, "half", "ppo_cartpole.yaml", overrides, 2)
+        resumed, _ = train(tmp_path, "resumed", "ppo_cartpole.yaml", overrides, 3, checkpoint=last(half))
+    said = [r.getMessage() for r in caplog.records]
+    assert said[0] == ("warning: checkpoints will not hold the state of OpaqueCartPole-v0 (GymnasiumVecEnv): "
+                       "OpaqueCartPole-v0: env 0 (OpaqueCartPole) holds 'engine' of type Handle, which rlchain cannot "
+                       "snapshot; a resume restarts its episodes")
+    resume = [line for line in said if line.startswith("resume:")]
+    assert len(resume) == 1 and "OpaqueCartPole-v0 (GymnasiumVecEnv) starts new episodes: the checkpoint holds no " \
+                                "env state (OpaqueCartPole-v0: env 0 (OpaqueCartPole) holds 'engine'" in resume[0]
+    assert resumed.epoch == 3 and ckpt.load(last(half))["run_state"]["env"] is None

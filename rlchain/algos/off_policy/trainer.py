@@ -211,6 +211,7 @@ class OffPolicyTrainer(AlgorithmBase):
         return {"replay_buffer": state}
 
     def restore_extra(self, state: dict[str, Any]) -> None:
+        """The replay buffer's contents when the checkpoint has them, else one line: it refills."""
         if "replay_buffer" in state:
             self.buffer.load_state_dict(state["replay_buffer"])
         else:

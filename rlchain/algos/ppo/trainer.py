@@ -104,6 +104,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
                 "resets": self.resets.detach().clone()}
 
     def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state` on the training device."""
         self.obs = position["obs"].to(self.device)
         self.rnn_states = tuple(s.to(self.device) for s in position["rnn_states"])
         self.resets = position["resets"].to(self.device)

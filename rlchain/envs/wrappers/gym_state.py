@@ -33,6 +33,9 @@ from rlchain.envs.vecenv import StateUnavailable
 
 _PLAIN = (bool, int, float, complex, str, bytes, type(None), np.ndarray, np.generic, RunningMeanStd)
 _LINKS = ("env", "_env", "envs", "unwrapped")  # the wrapped env(s): walked, not copied
+_CONSTANT = frozenset(("_saved_kwargs", "_ezpickle_args", "_ezpickle_kwargs", "metadata", "_metadata", "fullpath",
+                       "observation_structure", "render_mode", "_disable_render_order_enforcing"))
+"""Attributes gymnasium sets once at construction (how the env was made, what it renders): not copied."""
 
 
 def _is_plain(value: Any, depth: int = 0) -> bool:
@@ -46,6 +49,24 @@ def _is_plain(value: Any, depth: int = 0) -> bool:
     if isinstance(value, dict):
         return all(isinstance(k, (str, int)) and _is_plain(v, depth + 1) for k, v in value.items())
     return False
+
+
+def _copy(value: Any) -> Any:
+    """A copy of plain data (see :func:`_is_plain`) that shares nothing mutable with ``value``: immutable
+    values as they are, arrays copied, containers rebuilt (cheaper than ``copy.deepcopy``)."""
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, (bool, int, float, complex, str, bytes, type(None), np.generic)):
+        return value
+    if isinstance(value, tuple):
+        return tuple(_copy(v) for v in value)
+    if isinstance(value, list):
+        return [_copy(v) for v in value]
+    if isinstance(value, deque):
+        return deque((_copy(v) for v in value), maxlen=value.maxlen)
+    if isinstance(value, dict):
+        return {k: _copy(v) for k, v in value.items()}
+    return copy.deepcopy(value)  # RunningMeanStd
 
 
 def _stateless(value: Any) -> bool:
@@ -75,14 +96,14 @@ def _layer_snapshot(layer: Any, where: str) -> dict[str, Any]:
     attrs, generators = {}, {}
     pair = _mujoco_pair(layer)
     for key, value in vars(layer).items():
-        if key in _LINKS:
+        if key in _LINKS or key in _CONSTANT:
             continue
         if isinstance(value, np.random.Generator):
             generators[key] = copy.deepcopy(value.bit_generator.state)
         elif isinstance(value, np.random.RandomState):
             generators[key] = value.get_state()
         elif _is_plain(value):
-            attrs[key] = copy.deepcopy(value)
+            attrs[key] = _copy(value)
         elif pair is not None and key == "data":
             continue
         elif not _stateless(value):
@@ -114,7 +135,7 @@ def restore(env: Any, state: list[dict[str, Any]], where: str = "env") -> None:
         raise ValueError(f"{where}: the saved env state is for layers {saved}, this env has {kinds}")
     for layer, layer_state in zip(chain, state):
         for key, value in layer_state["attrs"].items():
-            setattr(layer, key, copy.deepcopy(value))
+            setattr(layer, key, _copy(value))
         for key, gen_state in layer_state["generators"].items():
             gen = vars(layer).get(key)
             if isinstance(gen, np.random.RandomState) or isinstance(gen_state, tuple):
