@@ -49,9 +49,11 @@ class ResumePoint:
         torchrun every rank's part is gathered (a collective: every rank calls this at the same point);
         ``gather=False`` (a rollback, which one rank may do alone) keeps this rank's part only."""
         ctx = self.ctx
-        position = self.algorithm.position_state()
+        own_position = getattr(self.algorithm, "position_state", None)  # AlgorithmBase has it; a bare protocol may not
+        position = own_position() if callable(own_position) else None
         env_state = self._env_state() if position is not None else None
-        missing = self.env_missing if position is not None else "training had not started"
+        missing = (self.env_missing if position is not None else "training had not started" if callable(own_position)
+                   else f"{type(self.algorithm).__name__} has no position_state")
         tracker = ctx.tracker
         own = {"rng": ckpt.rng_state(), "episodes": copy.deepcopy(tracker.state_dict()),
                "run_state": {"env": env_state, "env_missing": missing, "env_label": env_label(ctx),
