@@ -67,8 +67,8 @@ class OffPolicyConfig(RunConfig):
     priority_beta: float = option(0.4, "prioritized replay: initial importance-sampling exponent, annealed "
                                        "to 1 over max_frames (or max_epochs)", check=unit_interval)
     replay: ReplayConfig = option(ReplayConfig(), "replay buffer extensions (rlchain): her")
-    save_replay_buffer: bool = option(False, "store the replay buffer in the last checkpoint (exact resume, "
-                                             "large files)")
+    save_replay_buffer: bool = option(False, "store the replay buffer's contents in every checkpoint "
+                                             "(exact resume of off-policy runs; large files, the size is printed)")
     mixed_precision: bool = variant(RunConfig, "mixed_precision", doc="autocast on CUDA",
                                     status="planned (off-policy AMP)")
     multi_gpu: bool = variant(RunConfig, "multi_gpu", doc="torch.distributed training",

@@ -47,6 +47,7 @@ class EnvSpec:
     scores: bool = False  # pop_scores()
     games_counter: bool = False  # pop_games() (multi-policy play)
     stats: bool = False  # log_stats() -> {tag: value}
+    state: bool = False  # get_state() / set_state(state), declared by the env's class (exact resume)
 
     @property
     def action_masks(self) -> bool:
@@ -94,7 +95,14 @@ def describe(env: Any) -> EnvSpec:
         self_play=callable(getattr(env, "set_opponent", None)),
         scores=callable(getattr(env, "pop_scores", None)),
         games_counter=callable(getattr(env, "pop_games", None)),
-        stats=callable(getattr(env, "log_stats", None)))
+        stats=callable(getattr(env, "log_stats", None)), state=declares_state(env))
+
+
+def declares_state(env: Any) -> bool:
+    """Whether the env's class defines ``get_state`` and ``set_state`` (the class, not the instance: a
+    wrapper that forwards unknown attributes to the env it wraps must not lend it the inner env's state)."""
+    cls = type(env)
+    return callable(getattr(cls, "get_state", None)) and callable(getattr(cls, "set_state", None))
 
 
 def _agents(env: Any) -> int:

@@ -41,6 +41,12 @@ Shapes for ``num_envs = N``:
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``
   counters the trainer writes to TensorBoard every epoch (e.g. ``env/dropped_episodes``).
+- exact resume (optional): ``get_state()`` -> anything ``torch.save`` can write (every env's state:
+  physics, episode step counters, wrappers' filters, the envs' random generators), or raises
+  :class:`StateUnavailable` naming what cannot be read; ``set_state(state)`` puts it back into an env
+  built from the same config. Declared by the class (the spec's ``state`` flag); a checkpoint then
+  carries it and a resumed run continues the episodes in flight (``rlchain/training/resume.py``).
+  Envs without it restart their episodes on resume, and the resume says so in one line.
 
 ``vecenv_type`` is a registry lookup, as in rl_games: :func:`register` ``(name, creator)`` with
 rl_games' creator ``creator(config_name, num_actors, **env_config)``; ``vecenv_type: name`` in a
@@ -63,6 +69,10 @@ from rlchain.config.errors import ConfigError
 from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
 
 DROPPED = "dropped"
+
+
+class StateUnavailable(RuntimeError):
+    """An env that declares ``get_state`` cannot give its state now (the message says what and why)."""
 
 
 @dataclass
@@ -103,6 +113,14 @@ class VecEnv(Protocol):
 
     def close(self) -> None:
         """Release the envs (processes, threads, devices)."""
+        ...
+
+    def get_state(self) -> Any:  # optional: exact resume (see the module docstring)
+        """Every env's state, for :meth:`set_state` of an env built from the same config."""
+        ...
+
+    def set_state(self, state: Any) -> None:  # optional, with get_state
+        """Put back what :meth:`get_state` returned."""
         ...
 
     def has_action_mask(self) -> bool:  # optional: absent means False

@@ -76,6 +76,11 @@ class Communicator:
     def broadcast_learner(self, model: torch.nn.Module, agent: Any) -> None:
         """Give every rank rank 0's parameters, buffers and agent state (optimizer, lr)."""
 
+    def gather_objects(self, obj: Any) -> list[Any]:
+        """Every rank's ``obj`` (picklable), in rank order, on every rank (exact resume: each rank's
+        envs and random streams go into rank 0's checkpoints)."""
+        return [obj]
+
 
 SINGLE = Communicator()
 """The communicator of an ordinary single-process run."""

@@ -225,6 +225,12 @@ class Distributed(Communicator):
         """Rank 0's parameters and buffers (tensor broadcasts) and its agent state (optimizer, lr)."""
         self._collective("state broadcast", self._broadcast_state, model, agent)
 
+    def gather_objects(self, obj: Any) -> list[Any]:
+        """Every rank's ``obj`` on every rank (``all_gather_object``)."""
+        gathered: list[Any] = [None] * self.world_size
+        self._collective("rank state gather", dist.all_gather_object, gathered, obj)
+        return gathered
+
     def _collective(self, what: str, fn: Any, *args: Any) -> Any:
         """``fn(*args)``; a RuntimeError from it (the collective) becomes a one-line CollectiveError."""
         try:

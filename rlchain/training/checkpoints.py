@@ -16,6 +16,7 @@ from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
+from rlchain.training.resume import ResumePoint
 from rlchain.version import __version__
 
 log = get_logger(__name__)
@@ -27,11 +28,14 @@ class Checkpoints:
     def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
         self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
         self.best_reward = -math.inf
+        self.point = ResumePoint(ctx, algorithm)  # the last epoch boundary: RNG, envs, episodes in progress
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
-        """Everything exact resume needs."""
+        """Everything exact resume needs: the learner now and the run's state at the last epoch
+        boundary (the same moment unless a stop signal or an env error came during an epoch's collect)."""
         ctx, algo = self.ctx, self.algorithm
         params = ctx.params
+        boundary = self.point.state()
         state = {
             "format": ckpt.FORMAT, "algo": params.algo.name, "model_name": params.model.name,
             "config": config_state(params, {"seed": ctx.seed, "device": str(ctx.device),  # the run context
@@ -39,10 +43,12 @@ class Checkpoints:
                                             "world_size": ctx.world_size, "print_stats": ctx.cfg.print_stats}),
             "config_format": CONFIG_FORMAT, "live_config": dict(ctx.live_config),
             "model": algo.model.state_dict(), "agent": algo.agent.state_dict(),
-            "epoch": ctx.epoch, "frames": ctx.frames, "best_reward": self.best_reward,
-            "episodes": ctx.tracker.state_dict(), "rng": ckpt.rng_state(), "seed": ctx.seed,
-            "version": __version__,
+            "epoch": ctx.epoch, "frames": boundary["frames"], "best_reward": self.best_reward,
+            "episodes": boundary["episodes"], "rng": boundary["rng"], "run_state": boundary["run_state"],
+            "seed": ctx.seed, "version": __version__,
         }
+        if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
+            state["ranks"] = boundary["ranks"]
         state.update(algo.extra_state(kind))
         return state
 
@@ -76,7 +82,8 @@ class Checkpoints:
             self.save("last")
 
     def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
+        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG, and (at the
+        algorithm's ``start``) the envs' state and episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
         if state.get("algo") not in (None, name):
@@ -90,5 +97,5 @@ class Checkpoints:
                 algo.apply_hyperparam(key, value)
         self.best_reward = float(state["best_reward"])
         ctx.tracker.load_state_dict(state["episodes"])
-        ckpt.set_rng_state(state["rng"])
         algo.restore_extra(state)
+        self.point.restore(state)

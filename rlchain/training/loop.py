@@ -174,6 +174,8 @@ class Loop:
         with StopSignals() as signals:
             ctx.signals = signals
             algo.start()
+            self.checkpoints.point.after_start()
+            self.checkpoints.point.capture()  # epoch boundary: what a stop during the first epoch saves
             self.snapshot()
             self.events.emit("on_train_start")
             while stop is None:
@@ -196,6 +198,7 @@ class Loop:
                 if ctx.info_means.keys:
                     stats = {**stats, **ctx.info_means.pop()}
                 episodes = ctx.comm.episode_stats(ctx.tracker)  # under torchrun: every rank's games
+                self.checkpoints.point.capture()  # the epoch boundary every checkpoint until the next one holds
                 self._log(stats, episodes, rollout_s, update_s)
                 self.checkpoints.after_epoch(episodes)
                 if algo.snapshot_due():
@@ -249,8 +252,11 @@ class Loop:
             self.algorithm.divergence.snapshot(self.epoch)
 
     def restart_episodes(self) -> None:
-        """After a rollback or a loaded checkpoint: every env starts a fresh episode."""
+        """After a rollback or a checkpoint loaded into the running envs (PBT's exploit): every env starts
+        a fresh episode (a loaded checkpoint's env state is not used), which is the new epoch boundary."""
+        self.ctx.resume_state = None
         self.algorithm.restart_episodes()
+        self.checkpoints.point.capture(gather=False)  # no collective: under torchrun a rank may roll back alone
 
     def frames_per_epoch(self) -> int:
         """Env frames one epoch adds (the algorithm's)."""
@@ -310,15 +316,16 @@ class Loop:
 
     def join_ranks(self) -> None:
         """Under torchrun, once the run is built (and resumed): every rank takes rank 0's parameters,
-        buffers and optimizer state; after a resume, which restored rank 0's RNG state everywhere,
-        the other ranks reseed their own streams."""
+        buffers and optimizer state; after a resume from a checkpoint without every rank's own state
+        (an older one, another world size), which restored rank 0's RNG state everywhere, the other
+        ranks reseed their own streams."""
         comm = self.ctx.comm
         if not comm.active:
             return
         for model, agent in self.algorithm.learners():
             comm.broadcast_learner(model, agent)
-        if self.epoch > 0 and not comm.is_main:
-            seed_everything(comm.rank_seed + self.epoch)
+        if self.epoch > 0 and not comm.is_main and not self.checkpoints.point.rank_restored:
+            seed_everything(comm.rank_seed + self.epoch)  # a checkpoint without every rank's own streams
 
     def _stop_reason(self, episodes: dict | None) -> str | None:
         cfg = self.cfg

@@ -1,6 +1,7 @@
 """Brax through the tensor-env contract (``env_name: brax``); skipped without the brax extra."""
 
 import os
+import pickle
 
 import numpy as np
 import pytest
@@ -66,3 +67,32 @@ def test_bad_brax_config_is_one_line(tmp_path, override, message):
         Runner().load(CONFIG, [override, f"params.config.train_dir={tmp_path}"]).train()
     text = str(err.value)
     assert message in text and "\n" not in text and "ppo_brax_inverted_pendulum.yaml" in text
+
+
+def test_state_round_trip_continues_bit_identically():
+    """Issue 35: get_state / set_state carry the JAX state pytree and key; after a set_state the env steps
+    exactly as it did from that point (auto-resets and the time limit included). The Loop path is the
+    tensor envs' (tests/smoke/test_exact_resume.py); a full brax resume test cost minutes of JAX compiles here."""
+    from rlchain.envs.backends.brax_env import BraxVecEnv
+    # the contract test's env (16 envs, 20 steps): its compiled reset and step come from the module's cache
+    env = BraxVecEnv("inverted_pendulum", 16, seed=3, episode_length=20, backend="spring")
+    env.reset(seed=3)
+    gen = torch.Generator().manual_seed(0)
+    actions = [torch.rand(16, 1, generator=gen) * 2 - 1 for _ in range(45)]
+    for a in actions[:5]:
+        env.step(a)
+    saved = pickle.loads(pickle.dumps(env.get_state()))  # as a checkpoint stores it
+
+    def run():
+        out = []
+        for a in actions[5:]:
+            r = env.step(a)
+            out.append(torch.cat([r.obs.flatten(), r.final_obs.flatten(), r.reward, r.terminated.float(),
+                                  r.truncated.float()]))
+        return torch.stack(out)
+
+    first = run()
+    env.set_state(saved)
+    again = run()
+    assert torch.equal(first, again)
+    assert float(first[:, -16:].sum()) > 0  # the time limit (20 steps) was crossed after the snapshot

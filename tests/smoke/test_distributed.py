@@ -333,3 +333,40 @@ def _collectives_worker(folder: str) -> None:
 
 if __name__ == "__main__":
     _collectives_worker(sys.argv[1])
+
+
+@pytest.mark.timeout(300)
+def test_two_rank_resume_is_bit_identical(tmp_path):
+    """Issue 35: each rank's envs, episodes and random streams are in rank 0's checkpoint; resuming the epoch-3
+    checkpoint to 6 equals 6 straight on both ranks (parameters, optimizer, lr, counters, episode statistics)."""
+    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
+    small = ["params.network.mlp.units=[16]", "params.config.num_actors=4", "params.config.minibatch_size=32",
+             "params.torch_threads=1", "params.update_threads=1", "params.config.score_to_win=100000",
+             "params.config.save_frequency=3", "params.config.max_epochs=6"]
+
+    def run(name, *extra):
+        args = overrides(tmp_path, *small, f"params.config.train_dir={tmp_path / name}")
+        out, dumps = torchrun(["--train", "--file", cfg, *args, *extra], tmp_path)
+        assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+        nn = glob.glob(str(tmp_path / name / "*" / "nn"))[0]
+        return load_dumps(dumps), nn, out
+
+    straight, nn, _ = run("straight")
+    at_3 = torch.load(os.path.join(nn, "cartpole_ep_3.pth"), weights_only=False)
+    assert at_3["epoch"] == 3 and len(at_3["ranks"]) == 2
+    assert all(part["run_state"]["env"] is not None for part in at_3["ranks"])
+    resumed, resumed_nn, out = run("resumed", "--checkpoint", os.path.join(nn, "cartpole_ep_3.pth"))
+    assert "starts new episodes" not in out.stdout + out.stderr
+    for rank in range(2):
+        a, b = straight[rank], resumed[rank]
+        for key, tensor in a["model"].items():
+            assert torch.equal(tensor, b["model"][key]), f"rank {rank} {key}"
+        for pid, slots in a["optimizer"]["state"].items():
+            for name, value in slots.items():
+                assert torch.equal(value, b["optimizer"]["state"][pid][name]), f"rank {rank} optimizer {pid}.{name}"
+        for key in ("lr", "epoch", "frames", "best_reward"):
+            assert a[key] == b[key], (rank, key)
+    ends = [torch.load(os.path.join(folder, "last_cartpole.pth"), weights_only=False)["ranks"]
+            for folder in (nn, resumed_nn)]
+    assert [part["episodes"] for part in ends[0]] == [part["episodes"] for part in ends[1]]
+    assert ends[0][0]["episodes"] != ends[0][1]["episodes"]  # each rank played its own games

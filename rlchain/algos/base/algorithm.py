@@ -79,7 +79,8 @@ class Algorithm(Protocol):
         """Training starts (after a resume restored its state): reset the envs, start runners."""
 
     def collect(self) -> bool:
-        """Step the envs for one epoch; False when a stop signal came (the epoch is then not counted)."""
+        """Step the envs for one epoch; False when a stop signal came (the epoch is then not counted;
+        the learner must not have changed: a stop checkpoint holds the last epoch boundary)."""
 
     def update(self) -> dict[str, float] | None:
         """Learn from what :meth:`collect` gathered and count its frames into ``ctx.frames``;
@@ -108,6 +109,13 @@ class Algorithm(Protocol):
 
     def apply_hyperparam(self, name: str, value: float) -> None:
         """Change one of :attr:`tunable` (called by the Loop between epochs)."""
+
+    def position_state(self) -> dict[str, Any] | None:
+        """Where the algorithm stands in the envs' episodes between epochs (the observations it acts on
+        next, RNN states): checkpointed with the envs' state for exact resume. None before ``start``."""
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state` (``start`` after a restore with the envs' state)."""
 
     def extra_state(self, kind: str) -> dict[str, Any]:
         """What a checkpoint of ``kind`` carries beyond the model, the agent and the counters."""
@@ -151,8 +159,27 @@ class AlgorithmBase:
         return build_env(params, params.config.num_actors, seed, runners=True)
 
     def start(self) -> None:
-        """Reset the envs: ``self.obs`` holds their first observations."""
-        self.obs = self.ctx.reset_envs()
+        """Reset the envs (``self.obs``: their first observations), or after a restore that carried the
+        envs' state put them back where the checkpoint left them."""
+        if not self.resume_position():
+            self.obs = self.ctx.reset_envs()
+
+    def resume_position(self) -> bool:
+        """After a restore with the envs' state: restore them and this algorithm's position; False when
+        there is none (a fresh run, an old checkpoint, an env that cannot give its state)."""
+        position = self.ctx.resume_envs()
+        if position is None:
+            return False
+        self.load_position(position)
+        return True
+
+    def position_state(self) -> dict[str, Any] | None:
+        """The observations the next epoch acts on (a copy); None before ``start``."""
+        return None if self.obs is None else {"obs": _copy(self.obs)}
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state`: the observations, on the training device."""
+        self.obs = _to(position["obs"], self.device)
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
         """(rollout, update) seconds: the time in collect and in update, as they are."""
@@ -203,3 +230,25 @@ class AlgorithmBase:
     def close(self) -> None:
         """Nothing opened besides the training env (which its builder closes)."""
         return None
+
+
+def _copy(x: Any) -> Any:
+    """A detached copy of a tensor, or of each tensor of a tuple / dict (anything else as it is)."""
+    if isinstance(x, torch.Tensor):
+        return x.detach().clone()
+    if isinstance(x, (tuple, list)):
+        return type(x)(_copy(v) for v in x)
+    if isinstance(x, dict):
+        return {k: _copy(v) for k, v in x.items()}
+    return x
+
+
+def _to(x: Any, device: torch.device) -> Any:
+    """A tensor (or tuple / dict of them) on ``device``."""
+    if isinstance(x, torch.Tensor):
+        return x.to(device)
+    if isinstance(x, (tuple, list)):
+        return type(x)(_to(v, device) for v in x)
+    if isinstance(x, dict):
+        return {k: _to(v, device) for k, v in x.items()}
+    return x

@@ -71,6 +71,9 @@ class RunContext:
     threads: ThreadPlan | None = None
     live_config: dict[str, Any] = field(default_factory=dict)
     """Tunable config fields changed during the run (set_params); checkpointed."""
+    resume_state: dict[str, Any] | None = None
+    """After a restore from a checkpoint holding the envs' state: that state and the algorithm's
+    position in its episodes, until :meth:`resume_envs` puts them back (the algorithm's ``start``)."""
 
     @property
     def num_envs(self) -> int:
@@ -120,6 +123,20 @@ class RunContext:
         obs = self.reset_raw()
         check_obs_shape(obs, self.num_envs, self.env.observation_space, "env reset")
         return self.to_tensor(obs)
+
+    def resume_envs(self) -> dict[str, Any] | None:
+        """At ``start`` after a restore that carried the envs' state (``resume_state``): put the envs and
+        the episodes in progress back and return the algorithm's saved position (its observations, RNN
+        states) for its ``load_position``; None otherwise (then the algorithm resets the envs)."""
+        pending, self.resume_state = self.resume_state, None
+        if pending is None:
+            return None
+        try:
+            self.env.set_state(pending["env"])
+        except Exception as exc:
+            raise EnvError(f"restoring the env state from the checkpoint failed: {describe(exc)}") from exc
+        self.tracker.load_running_state(pending["running"])
+        return pending["position"]
 
     def reset_raw(self) -> Any:
         """``env.reset`` as the env returns it (per-agent dicts of a multi-policy env); EnvError on failure."""

@@ -133,11 +133,25 @@ class EpisodeTracker:
         """Fraction of the tracked episodes with a success value that succeeded."""
         return sum(self.finished_successes) / max(len(self.finished_successes), 1)
 
+    def running_state(self) -> dict[str, torch.Tensor]:
+        """The episodes in progress (returns, lengths, success flags so far), copied: with the envs'
+        own state they let a resumed run finish those episodes exactly as an uninterrupted one."""
+        return {name: getattr(self, name).clone() for name in self.RUNNING}
+
+    def load_running_state(self, state: dict[str, torch.Tensor]) -> None:
+        """Put back :meth:`running_state` (on this tracker's device)."""
+        for name in self.RUNNING:
+            getattr(self, name).copy_(state[name].to(getattr(self, name).device))
+
+    RUNNING = ("returns", "lengths", "success_seen", "success_any", "success_last")
+
     def state_dict(self) -> dict:
+        """The finished games (the last ``games_to_track``) and the games count."""
         return {"returns": list(self.finished_returns), "lengths": list(self.finished_lengths),
                 "games": self.games, "successes": list(self.finished_successes)}
 
     def load_state_dict(self, state: dict) -> None:
+        """Put back :meth:`state_dict` (episodes in progress are not part of it: :meth:`load_running_state`)."""
         self.finished_returns.clear()
         self.finished_lengths.clear()
         self.finished_returns.extend(state["returns"])

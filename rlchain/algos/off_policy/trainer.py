@@ -27,6 +27,9 @@ from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.errors import DivergenceError
+from rlchain.log import get_logger
+
+log = get_logger(__name__)
 
 
 class OffPolicyTrainer(AlgorithmBase):
@@ -43,6 +46,7 @@ class OffPolicyTrainer(AlgorithmBase):
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0  # seconds of gradient updates inside the last collect()
+        self._replay_size_said = False
 
     def make_agent(self) -> Any:  # pragma: no cover - subclasses
         raise NotImplementedError
@@ -68,7 +72,9 @@ class OffPolicyTrainer(AlgorithmBase):
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
         """num_steps_per_episode env steps, each followed by updates once warmup is over (the
-        updates run here, between the steps; :meth:`update` reports them)."""
+        updates run here, between the steps; :meth:`update` reports them). A stop signal (Ctrl-C,
+        SIGTERM) ends the run after this epoch, not inside it: the learner changes during the epoch,
+        so only a whole epoch checkpoints exactly (off-policy epochs are a few env steps)."""
         self._epoch_stats, self._update_s, completed = self._epoch()
         return completed
 
@@ -109,14 +115,18 @@ class OffPolicyTrainer(AlgorithmBase):
         return values
 
     def start(self) -> None:
-        """Reset the envs; their first observations go into the normalizers."""
+        """Reset the envs; their first observations go into the normalizers (a resume that restores the
+        envs' state continues from the checkpoint's observations instead: the normalizers have them)."""
+        if self.resume_position():
+            return
         self.obs = self.ctx.reset_envs()
         self.model.update_normalizers(obs=self.obs)
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes everywhere."""
         self.ctx.tracker.reset_running()
-        self.start()
+        self.obs = self.ctx.reset_envs()
+        self.model.update_normalizers(obs=self.obs)
 
     def _epoch(self) -> tuple[dict[str, float], float, bool]:
         """num_steps_per_episode env steps, each followed by updates once warmup is over."""
@@ -126,9 +136,7 @@ class OffPolicyTrainer(AlgorithmBase):
         count = 0
         update_s = 0.0
         obs = self.obs
-        for _ in range(cfg.num_steps_per_episode):
-            if ctx.stop_requested():
-                return {}, update_s, False
+        for _ in range(cfg.num_steps_per_episode):  # a stop signal waits for the epoch's end (see collect)
             model.eval()
             if ctx.frames < cfg.num_warmup_frames:
                 actions = dist.random(self.num_envs, self.device)
@@ -189,14 +197,26 @@ class OffPolicyTrainer(AlgorithmBase):
 
     # ----- checkpoints ----------------------------------------------------------------------
     def extra_state(self, kind: str) -> dict[str, Any]:
-        """The replay buffer, only with save_replay_buffer and only in last checkpoints."""
-        if self.cfg.save_replay_buffer and kind == "last":
-            return {"replay_buffer": self.buffer.state_dict()}
-        return {}
+        """The replay buffer's contents, in every checkpoint, with save_replay_buffer (its size is said
+        once, at the first checkpoint)."""
+        if not self.cfg.save_replay_buffer:
+            return {}
+        state = self.buffer.state_dict()
+        if not self._replay_size_said:
+            self._replay_size_said = True
+            size = replay_bytes(state)
+            full = size * self.buffer.capacity / max(len(self.buffer), 1)
+            log.info(f"save_replay_buffer: checkpoints carry the replay buffer, {len(self.buffer)} transitions "
+                     f"now ({human_bytes(size)}; {human_bytes(full)} when full at {self.buffer.capacity})")
+        return {"replay_buffer": state}
 
     def restore_extra(self, state: dict[str, Any]) -> None:
-        if "replay_buffer" in state:  # else the empty buffer refills to batch_size before learning resumes
+        """The replay buffer's contents when the checkpoint has them, else one line: it refills."""
+        if "replay_buffer" in state:
             self.buffer.load_state_dict(state["replay_buffer"])
+        else:
+            log.warning(f"resume: the checkpoint holds no replay buffer (save_replay_buffer: False when it was "
+                        f"written): it refills from empty, {self.cfg.batch_size} transitions before learning goes on")
 
 
 class SACTrainer(OffPolicyTrainer):
@@ -241,6 +261,27 @@ class DQNTrainer(OffPolicyTrainer):
 
     def extra_stats(self) -> dict[str, float]:
         return {"epsilon": self.epsilon()}
+
+
+def replay_bytes(state: dict[str, Any]) -> int:
+    """Bytes of the tensors and arrays of a replay buffer's state_dict (about its size on disk)."""
+    total = 0
+    for value in state.values():
+        if isinstance(value, list):
+            total += sum(replay_bytes(v) for v in value if isinstance(v, dict))
+        elif hasattr(value, "nbytes"):
+            total += int(value.nbytes)
+        elif isinstance(value, torch.Tensor):
+            total += value.numel() * value.element_size()
+    return total
+
+
+def human_bytes(n: float) -> str:
+    """``n`` bytes as KiB / MiB / GiB with one decimal."""
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n / 2**10:.1f} KiB"
 
 
 def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:

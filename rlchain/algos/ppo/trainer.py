@@ -96,9 +96,18 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             pairs.append((self.central_value, self.cv_agent))
         return pairs
 
-    def start(self) -> None:
-        """Reset the envs: the first observations."""
-        self.obs = self.ctx.reset_envs()
+    def position_state(self) -> dict[str, Any] | None:
+        """The next observations, RNN states and their episode-start flags (copies); None before ``start``."""
+        if self.obs is None:
+            return None
+        return {"obs": self.obs.detach().clone(), "rnn_states": tuple(s.detach().clone() for s in self.rnn_states),
+                "resets": self.resets.detach().clone()}
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state` on the training device."""
+        self.obs = position["obs"].to(self.device)
+        self.rnn_states = tuple(s.to(self.device) for s in position["rnn_states"])
+        self.resets = position["resets"].to(self.device)
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""

@@ -27,7 +27,8 @@ import numpy as np
 from gymnasium.envs.registration import load_env_creator
 from gymnasium.vector import AutoresetMode
 
-from rlchain.envs.vecenv import StepResult
+from rlchain.envs.vecenv import StateUnavailable, StepResult
+from rlchain.envs.wrappers import gym_state
 from rlchain.envs.wrappers.action_masks import vector_action_mask, vector_has_action_mask
 from rlchain.envs.wrappers.spaces import (
     cast_actions,
@@ -152,6 +153,31 @@ class GymnasiumVecEnv:
                 mask = infos.pop("_final_obs")
                 final_obs[mask] = cast_obs(np.stack(infos.pop("final_obs")[mask]))
         return StepResult(obs, reward, terminated, truncated, final_obs, infos)
+
+    def get_state(self) -> dict[str, Any]:
+        """Every env's state (:mod:`rlchain.envs.wrappers.gym_state`): the native vector env's own,
+        else each sub-env's, read through the vector env (in the workers for async)."""
+        if self.mode == "native":
+            return {"mode": "native", "vector": gym_state.snapshot(self.env, f"{self.env_id} vector env"),
+                    "seed": self._seed}
+        states = list(self.env.get_attr("rlchain_state"))
+        for state in states:
+            if isinstance(state, Exception):
+                raise StateUnavailable(f"{self.env_id}: {state}")
+        return {"mode": "per_env", "envs": states, "seed": self._seed}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Put back :meth:`get_state`'s result (sync and async sub-envs share one format)."""
+        native = self.mode == "native"
+        if (state["mode"] == "native") != native or (not native and len(state["envs"]) != self.num_envs):
+            saved = "native" if state["mode"] == "native" else f"{len(state['envs'])} sub-envs"
+            raise ValueError(f"{self.env_id}: the saved env state is for {saved}, this env is "
+                             f"{'native' if native else f'{self.num_envs} {self.mode} sub-envs'}")
+        if native:
+            gym_state.restore(self.env, state["vector"], f"{self.env_id} vector env")
+        else:
+            self.env.set_attr("rlchain_state", state["envs"])
+        self._seed = state["seed"]
 
     def has_action_mask(self) -> bool:
         """Whether the envs define ``has_action_mask()`` returning True (rl_games' name)."""

@@ -104,6 +104,21 @@ class JaxBatchVecEnv:
                           self._torch(terminated).bool(), self._torch(truncated).bool(),
                           self._torch(final).float(), {})
 
+    def get_state(self) -> dict[str, Any]:
+        """The batch's JAX state pytree (physics, episode counters and metrics in ``info``) and the
+        random key (exact resume; the VecEnv contract's optional ``get_state``). JAX arrays are
+        immutable, so the state is kept as it is; a checkpoint pickles them with their dtypes and weak
+        types, which keeps the restored state's jitted step the compiled one."""
+        return {"state": self._state, "key": self._key}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Put back :meth:`get_state`'s result, committed to JAX's device as a reset's state is."""
+        jax = self._jax
+        device = jax.devices()[0]
+        self._state = jax.tree_util.tree_map(
+            lambda x: jax.device_put(x, device) if hasattr(x, "shape") else x, state["state"])
+        self._key = jax.device_put(state["key"], device)
+
     def close(self) -> None:
         """Nothing to release (JAX frees the arrays)."""
         self._state = None

@@ -120,6 +120,27 @@ class TensorVecEnv:
             self.episode_steps[env_ids] = 0
         return StepResult(obs, reward, terminated, truncated, final_obs, {})
 
+    def get_state(self) -> dict[str, Any]:
+        """The batch's state for exact resume: every tensor attribute (a subclass's physics state, the
+        step counters), the generator's state and whether a reset is due. A subclass keeping state
+        outside tensors lists those attributes in ``state_attrs``."""
+        tensors = {k: v.detach().clone() for k, v in vars(self).items() if isinstance(v, torch.Tensor)}
+        extra = {k: getattr(self, k) for k in self.state_attrs}
+        return {"tensors": tensors, "extra": extra, "generator": self.generator.get_state(),
+                "needs_reset": self._needs_reset}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Put back :meth:`get_state`'s result (tensors move to this env's device)."""
+        for key, value in state["tensors"].items():
+            setattr(self, key, value.to(self.device).clone())
+        for key, value in state["extra"].items():
+            setattr(self, key, value)
+        self.generator.set_state(state["generator"].cpu())
+        self._needs_reset = bool(state["needs_reset"])
+
+    state_attrs: tuple[str, ...] = ()
+    """Non-tensor attributes that change while stepping (saved by :meth:`get_state`)."""
+
     def has_action_mask(self) -> bool:
         """Whether :meth:`get_action_mask` is implemented: a subclass with masks overrides both."""
         return False

@@ -16,6 +16,7 @@ import numpy as np
 from rlchain.envs.wrappers.action_masks import ActionMaskProxy
 from rlchain.envs.wrappers.central_value import concat_obs_state_env
 from rlchain.envs.wrappers.dict_obs import FlatDictBox, flatten_dict_env
+from rlchain.envs.wrappers.gym_state import StateUnavailable, restore, snapshot
 
 KEPT_OBS_DTYPES = (np.dtype(np.float32), np.dtype(np.uint8))
 
@@ -112,6 +113,21 @@ class IndexedErrors(gym.Wrapper):
             return self.env.step(action)
         except Exception as exc:
             raise EnvIndexError(f"env {self.index} step raised {type(exc).__name__}: {exc}") from exc
+
+    @property
+    def rlchain_state(self) -> Any:
+        """This sub-env's whole state (:func:`rlchain.envs.wrappers.gym_state.snapshot`): read with the
+        vector env's ``get_attr``, written with ``set_attr`` (in the worker, for async envs).
+        A :class:`~rlchain.envs.wrappers.gym_state.StateUnavailable` is returned, not raised, so the
+        reason crosses an async worker's pipe intact."""
+        try:
+            return snapshot(self.env, f"env {self.index}")
+        except StateUnavailable as exc:
+            return exc
+
+    @rlchain_state.setter
+    def rlchain_state(self, state: Any) -> None:
+        restore(self.env, state, f"env {self.index}")
 
 
 def make_indexed(env_id: str, index: int, kwargs: dict) -> gym.Env:
