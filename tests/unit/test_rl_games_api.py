@@ -12,6 +12,7 @@ import torch
 from rlchain.config import ConfigError
 from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
 from rlchain.rl_games import alias
+from rlchain.rl_games.__main__ import main as launcher_main
 from rlchain.rl_games.algos_torch import model_builder
 from rlchain.rl_games.algos_torch.players import PpoPlayerDiscrete
 from rlchain.rl_games.algos_torch.torch_ext import AverageMeter
@@ -166,3 +167,11 @@ def test_alias_resolves_rl_games_names_to_rlchain_and_uninstalls():
     assert not any(isinstance(f, alias.RlGamesAlias) for f in sys.meta_path)
     assert alias.target_name("rl_games.common") == "rlchain.rl_games.common"
     assert alias.target_name("rl_gamesx") is None and alias.target_name("numpy") is None
+
+
+def test_launcher_bad_launch_lines_are_one_line_errors(tmp_path, capsys):
+    assert launcher_main([str(tmp_path / "missing.py")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "missing.py: no such script file" in err and len(err.splitlines()) == 1
+    assert launcher_main([]) == 2 and "usage: python -m rlchain.rl_games SCRIPT" in capsys.readouterr().err
+    assert launcher_main(["--help"]) == 0 and "usage:" in capsys.readouterr().out
