@@ -48,6 +48,18 @@ class TrainInfoCallback(Callback):
             env.set_train_info(loop.frames, ObserverAlgo(loop.events.context))
 
 
+class StopFnCallback(Callback):
+    """rl_games 2.0's ``config['stop_fn']``: ``stop_fn(algo) -> bool`` after every epoch; true stops the run
+    (with its last checkpoint, as a signal would)."""
+
+    def __init__(self, stop_fn: Any) -> None:
+        self.stop_fn = stop_fn
+
+    def on_epoch_end(self, ctx: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        if self.stop_fn(ObserverAlgo(ctx)):
+            ctx.request_stop("stop_fn returned True")
+
+
 def _checkpoint(args: dict[str, Any], fallback: str | None) -> str | None:
     path = args.get("checkpoint")
     return path if path else fallback
@@ -57,7 +69,9 @@ class Runner:
     """rl_games' Runner: holds one config (``load``) and trains or plays with it (``run``)."""
 
     def __init__(self, algo_observer: Any = None) -> None:
+        self._observer_injected = algo_observer is not None
         self.algo_observer = algo_observer if algo_observer is not None else DefaultAlgoObserver()
+        self.stop_fn: Any = None
         self.params: dict[str, Any] | None = None
         self.default_config: dict[str, Any] | None = None
         self.algo_name: str | None = None
@@ -85,6 +99,16 @@ class Runner:
         self.script_params = {key: params.pop(key) for key in SCRIPT_KEYS if key in params}
         load_checkpoint, load_path = params.pop("load_checkpoint", False), params.pop("load_path", None)
         self.load_path = load_path if load_checkpoint and load_path else None
+        config = params.get("config")
+        if isinstance(config, dict):
+            self.stop_fn = config.pop("stop_fn", None)  # a callable: a callback here, not a config value
+            if self.stop_fn is not None and not callable(self.stop_fn):
+                raise ValueError(f"params.config.stop_fn: expected a callable(algo) -> bool, got {self.stop_fn!r}")
+            if "algo_observer" in config:  # rl_games 2.0: the config names the observer unless one was given
+                if self._observer_injected:
+                    config.pop("algo_observer")
+                else:
+                    self.algo_observer = None  # the config's (a callback rlchain adds)
         self._runner = _RlchainRunner().load({"params": params})
         self.params = params
         self.algo_name = params["algo"]["name"]
@@ -112,6 +136,8 @@ class Runner:
         callbacks: list[Any] = [TrainInfoCallback()]
         if observer is not None and type(observer) is not AlgoObserver:
             callbacks.insert(0, observer)
+        if self.stop_fn is not None:
+            callbacks.append(StopFnCallback(self.stop_fn))
         self.last_result = self._runner.train(checkpoint=_checkpoint(args, self.load_path), seed=parsed.seed,
                                               sigma=args.get("sigma"), callbacks=callbacks)
         return self.last_result

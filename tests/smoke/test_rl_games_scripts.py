@@ -170,3 +170,20 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
     assert observer.calls.count(("after_steps",)) == 2
     assert observer.alive.current_size > 0
     assert "alive/mean" in _tags(result.run_dir)
+
+
+def test_stop_fn_in_the_config_dict_stops_the_run(tmp_path, base_config):
+    from rlchain.rl_games.torch_runner import Runner
+
+    seen = []
+
+    def stop_fn(algo):  # rl_games 2.0: callable(algo) -> bool after every epoch
+        seen.append(algo.epoch_num)
+        return algo.epoch_num >= 3
+
+    base_config["params"]["config"].update(max_epochs=50, train_dir=str(tmp_path), print_stats=False,
+                                           stop_fn=stop_fn)
+    runner = Runner()
+    runner.load(base_config)
+    result = runner.run({"train": True, "play": False})
+    assert result.epoch == 3 and seen == [1, 2, 3] and "stop_fn" in result.stop_reason

@@ -175,3 +175,18 @@ def test_launcher_bad_launch_lines_are_one_line_errors(tmp_path, capsys):
     assert "missing.py: no such script file" in err and len(err.splitlines()) == 1
     assert launcher_main([]) == 2 and "usage: python -m rlchain.rl_games SCRIPT" in capsys.readouterr().err
     assert launcher_main(["--help"]) == 0 and "usage:" in capsys.readouterr().out
+
+
+def test_config_algo_observer_unless_one_is_given(base_config):
+    base_config["params"]["config"]["algo_observer"] = "isaac"
+    runner = Runner()
+    runner.load(base_config)
+    assert runner.algo_observer is None  # the config's, added as a callback
+    assert runner._runner.params.config.callbacks == ["rlchain.rl_games.common.algo_observer:IsaacAlgoObserver"]
+    given = DefaultAlgoObserver()
+    runner = Runner(given)
+    runner.load(base_config)  # an observer passed to Runner wins, as in rl_games 2.0
+    assert runner.algo_observer is given and runner._runner.params.config.callbacks == []
+    base_config["params"]["config"]["stop_fn"] = "not callable"
+    with pytest.raises(ValueError, match="params.config.stop_fn: expected a callable"):
+        Runner().load(base_config)
