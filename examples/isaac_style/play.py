@@ -1,14 +1,16 @@
 """Play a checkpoint of the Isaac-style cart-pole, the way Isaac Lab's
 scripts/reinforcement_learning/rl_games/play.py does.
 
-    python -m rlchain.rl_games examples/isaac_style/play.py \
-        --checkpoint logs/rl_games/cartpole_direct/<run>/nn/cartpole_direct.pth
+    python -m rlchain.rl_games examples/isaac_style/play.py [--checkpoint PATH]
+
+Without ``--checkpoint`` it plays the newest run under ``--log_root``: its best checkpoint, else its last.
 
 Steps the env itself with ``agent.get_action(obs, is_deterministic=agent.is_deterministic)`` for
 ``--steps`` steps and prints the mean return of the episodes that ended.
 """
 
 import argparse
+import glob
 import math
 import os
 
@@ -21,7 +23,8 @@ from rl_games.torch_runner import Runner
 
 parser = argparse.ArgumentParser(description="Play a checkpoint of an RL agent from RL-Games.")
 parser.add_argument("--num_envs", type=int, default=16, help="Number of environments to simulate.")
-parser.add_argument("--checkpoint", type=str, required=True, help="Path to model checkpoint.")
+parser.add_argument("--checkpoint", type=str, default=None, help="Path to model checkpoint.")
+parser.add_argument("--log_root", type=str, default=os.path.join("logs", "rl_games"), help="Where runs are.")
 parser.add_argument("--steps", type=int, default=400, help="Env steps to play.")
 parser.add_argument("--device", type=str, default=None, help="Device: cpu or cuda:0.")
 args_cli = parser.parse_args()
@@ -33,6 +36,14 @@ if args_cli.device is not None:
     agent_cfg["params"]["config"]["device"] = args_cli.device
     agent_cfg["params"]["config"]["device_name"] = args_cli.device
 
+name = agent_cfg["params"]["config"]["name"]
+if args_cli.checkpoint is None:  # the newest run's checkpoint, as Isaac Lab's get_checkpoint_path finds it
+    runs = sorted(glob.glob(os.path.join(args_cli.log_root, name, "*", "nn")), key=os.path.getmtime)
+    found = [p for run in runs[-1:] for p in (os.path.join(run, f"{name}.pth"), os.path.join(run, f"last_{name}.pth"))
+             if os.path.isfile(p)]
+    if not found:
+        raise SystemExit(f"play.py: no checkpoint under {os.path.join(args_cli.log_root, name)}; pass --checkpoint")
+    args_cli.checkpoint = found[0]
 resume_path = os.path.abspath(args_cli.checkpoint)
 print(f"[INFO]: Loading model checkpoint from: {resume_path}")
 

@@ -27,7 +27,7 @@ parser.add_argument("--checkpoint", type=str, default=None, help="Path to model 
 parser.add_argument("--sigma", type=str, default=None, help="The policy's initial standard deviation.")
 parser.add_argument("--max_iterations", type=int, default=None, help="RL Policy training iterations.")
 parser.add_argument("--log_root", type=str, default=os.path.join("logs", "rl_games"), help="Where runs go.")
-args_cli = parser.parse_args()
+args_cli, overrides = parser.parse_known_args()
 
 here = os.path.dirname(os.path.abspath(__file__))
 with open(os.path.join(here, "agents", "rl_games_ppo_cfg.yaml")) as fh:
@@ -45,6 +45,18 @@ if args_cli.checkpoint is not None:
     resume_path = os.path.abspath(args_cli.checkpoint)
     print(f"[INFO]: Loading model checkpoint from: {resume_path}")
 train_sigma = float(args_cli.sigma) if args_cli.sigma is not None else None
+
+# hydra-style overrides of the agent config, as Isaac Lab takes them (after the flags, so they win):
+# agent.params.config.max_epochs=10
+for item in overrides:
+    key, sep, value = item.partition("=")
+    path = key.removeprefix("agent.").split(".")
+    if not sep or path[0] != "params":
+        parser.error(f"unrecognized argument '{item}' (overrides look like agent.params.config.KEY=VALUE)")
+    node = agent_cfg
+    for part in path[:-1]:
+        node = node.setdefault(part, {})
+    node[path[-1]] = yaml.safe_load(value)
 
 # specify directory for logging experiments
 log_root_path = os.path.abspath(os.path.join(args_cli.log_root, agent_cfg["params"]["config"]["name"]))

@@ -156,3 +156,32 @@ def test_supported_2_0_values(base_config):
                                            algo_observer="isaac")
     config = parse(base_config).config
     assert config.callbacks == ["rlchain.rl_games.common.algo_observer:IsaacAlgoObserver"]
+
+
+def test_env_name_gymnasium_takes_env_config_env_name(base_config):
+    from rlchain.models.build import build_env
+
+    base_config["params"]["config"].update(env_name="gymnasium",
+                                           env_config={"env_name": "Pendulum-v1", "use_async": False,
+                                                       "flatten_obs": True, "seed": 5})
+    env = build_env(parse(base_config), 2, seed=1)
+    try:
+        assert env.observation_space.shape == (3,) and env.num_envs == 2
+        assert env.reset().shape == (2, 3)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("env_name,env_config,expect", [
+    ("gymnasium", {}, "params.config.env_config.env_name: is required with env_name gymnasium"),
+    ("gymnasium", {"env_name": "Pendulum-v1", "use_async": "yes"}, "use_async: expected true or false"),
+    ("gymnasium", {"env_name": "Pendulm-v1", "use_async": False}, "unknown environment 'Pendulm-v1'"),
+    ("atari_gymnasium", {"env_name": "ALE/Pong-v5"}, "atari_gymnasium (rl_games 2.0's channel-first"),
+])
+def test_env_name_gymnasium_errors(base_config, env_name, env_config, expect):
+    from rlchain.models.build import build_env
+
+    base_config["params"]["config"].update(env_name=env_name, env_config=env_config)
+    with pytest.raises(ConfigError) as err:
+        build_env(parse(base_config), 2, seed=1)
+    assert expect in str(err.value) and "\n" not in str(err.value)
