@@ -8,7 +8,8 @@ runners and the :class:`~rlchain.envs.spec.EnvSpec`) and each Ray env worker
 
 1. a name in :data:`rlchain.registry.ENVS` -- a builder ``(num_envs, seed, **env_config) -> VecEnv``
    (it also gets ``vecenv_type=`` / ``render=`` / ``groups=`` when its signature names them). Built in:
-   ``openai_gym`` (gymnasium id in ``env_config.name``), ``gymnasium`` (rl_games 2.0: gymnasium id in
+   ``openai_gym`` and ``ray`` (gymnasium id in ``env_config.name``; ``vecenv_type: RAY`` puts ``ray``'s on Ray
+   workers, as any env's), ``gymnasium`` (rl_games 2.0: gymnasium id in
    ``env_config.env_name``), ``envpool`` (task id in
    ``env_config.env_name``), ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env),
    ``playground`` (a MuJoCo Playground registry name in ``env_config.env_name``, a tensor env)
@@ -121,7 +122,7 @@ def openai_gym_env(num_envs: int, seed: int | None, *, vecenv_type: str | None =
                    render: bool = False, groups: Any = 1, **env_config: Any) -> VecEnv:
     """``env_name: openai_gym``: the gymnasium id is ``env_config.name``, the rest gym.make kwargs."""
     if "name" not in env_config:
-        raise _error(f"{CONFIG}.name", "is required with env_name openai_gym (a gymnasium id)")
+        raise _error(f"{CONFIG}.name", "is required with env_name openai_gym or ray (a gymnasium id)")
     name = env_config.pop("name")
     return _gym_id_env(name, f"{CONFIG}.name", env_config, num_envs, seed,
                        normalize_vecenv_type(vecenv_type), render, groups)
@@ -245,6 +246,7 @@ def _gym_knows(name: str) -> bool:
 
 BUILTIN_ENVS = {"openai_gym": openai_gym_env, "envpool": envpool_env, "gymnasium": gymnasium_env,
                 "atari_gymnasium": atari_gymnasium_env,
+                "ray": openai_gym_env,  # rl_games' `ray` entry: env_config.name; vecenv_type RAY -> Ray workers
                 "brax": brax_env,  # imports jax/brax only when built
                 "playground": playground_env,  # imports mujoco_playground only when built
                 "pettingzoo": pettingzoo_env}  # imports pettingzoo (and the env's package) only when built

@@ -185,3 +185,14 @@ def test_env_name_gymnasium_errors(base_config, env_name, env_config, expect):
     with pytest.raises(ConfigError) as err:
         build_env(parse(base_config), 2, seed=1)
     assert expect in str(err.value) and "\n" not in str(err.value)
+
+
+def test_env_name_ray_builds_env_config_name_in_process(base_config):
+    from rlchain.models.build import build_env
+
+    base_config["params"]["config"].update(env_name="ray", env_config={"name": "Pendulum-v1"})
+    env = build_env(parse(base_config), 2, seed=1)
+    try:
+        assert env.observation_space.shape == (3,) and env.num_envs == 2
+    finally:
+        env.close()
