@@ -41,6 +41,9 @@ Shapes for ``num_envs = N``:
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``
   counters the trainer writes to TensorBoard every epoch (e.g. ``env/dropped_episodes``).
+- ``get_env_state()`` / ``set_env_state(state)`` (optional, rl_games' IVecEnv): a state the env keeps across
+  epochs (a curriculum); when ``get_env_state()`` returns something other than None it is stored in every
+  checkpoint as ``env_state`` and given back to ``set_env_state`` on resume.
 
 ``vecenv_type`` is a registry lookup, as in rl_games: :func:`register` ``(name, creator)`` with
 rl_games' creator ``creator(config_name, num_actors, **env_config)``; ``vecenv_type: name`` in a

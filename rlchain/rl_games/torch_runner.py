@@ -41,11 +41,9 @@ class TrainInfoCallback(Callback):
         self._tell(loop)
 
     def _tell(self, loop: Any) -> None:
-        env = loop.env
-        while env is not None and not callable(vars(type(env)).get("set_train_info")):
-            env = vars(env).get("env")  # an adapter's (or wrapper's) inner env
-        if env is not None:
-            env.set_train_info(loop.frames, ObserverAlgo(loop.events.context))
+        tell = getattr(loop.env, "set_train_info", None)  # the adapter hands it on to the IVecEnv
+        if callable(tell):
+            tell(loop.frames, ObserverAlgo(loop.events.context))
 
 
 class StopFnCallback(Callback):

@@ -118,7 +118,27 @@ def isaac_env(monkeypatch):
         ENV_CONFIGURATIONS.update(saved)
 
 
+def curriculum_env_class(isaac_env):
+    class CurriculumEnv(isaac_env.RlGamesGpuEnv):  # rl_games' curriculum hooks of an IVecEnv
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.frames_seen, self.level, self.restored = [], 0, None
+
+        def set_train_info(self, env_frames, *args, **kwargs):
+            self.frames_seen.append(env_frames)
+            self.level = env_frames // 4096
+
+        def get_env_state(self):
+            return {"level": self.level}
+
+        def set_env_state(self, env_state):
+            self.restored = env_state
+
+    return CurriculumEnv
+
+
 def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
+    """... and an IVecEnv's set_train_info / get_env_state / set_env_state are called as rl_games calls them."""
     from rl_games.algos_torch import torch_ext
     from rl_games.common import env_configurations, vecenv
     from rl_games.common.algo_observer import AlgoObserver
@@ -150,8 +170,8 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
             self.writer.add_scalar("alive/mean", self.alive.get_mean(), frame)
 
     env = isaac_env.RlGamesVecEnvWrapper(isaac_env.CartpoleDirectEnv(128, "cpu", seed=3), "cpu", 5.0, 1.0)
-    vecenv.register("IsaacRlgWrapper", lambda config_name, num_actors, **kwargs:
-                    isaac_env.RlGamesGpuEnv(config_name, num_actors, **kwargs))
+    curriculum, made = curriculum_env_class(isaac_env), []
+    vecenv.register("IsaacRlgWrapper", lambda name, n, **kw: made.append(curriculum(name, n, **kw)) or made[-1])
     env_configurations.register("rlgpu", {"vecenv_type": "IsaacRlgWrapper", "env_creator": lambda **kwargs: env})
     with open(os.path.join(EXAMPLE, "agents", "rl_games_ppo_cfg.yaml")) as fh:
         cfg = yaml.safe_load(fh)
@@ -170,6 +190,11 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
     assert observer.calls.count(("after_steps",)) == 2
     assert observer.alive.current_size > 0
     assert "alive/mean" in _tags(result.run_dir)
+    assert made[0].frames_seen[:3] == [0, batch, 2 * batch]  # before every epoch, as rl_games calls it
+    cfg["params"]["config"]["max_epochs"] = 3
+    runner.load(cfg)
+    runner.run({"train": True, "checkpoint": os.path.join(result.run_dir, "nn", "last_cartpole_direct.pth")})
+    assert made[1].restored == {"level": 2}  # the checkpoint carried the env's state
 
 
 def test_stop_fn_in_the_config_dict_stops_the_run(tmp_path, base_config):
@@ -187,3 +212,4 @@ def test_stop_fn_in_the_config_dict_stops_the_run(tmp_path, base_config):
     runner.load(base_config)
     result = runner.run({"train": True, "play": False})
     assert result.epoch == 3 and seen == [1, 2, 3] and "stop_fn" in result.stop_reason
+
