@@ -195,6 +195,11 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
     runner.load(cfg)
     runner.run({"train": True, "checkpoint": os.path.join(result.run_dir, "nn", "last_cartpole_direct.pth")})
     assert made[1].restored == {"level": 2}  # the checkpoint carried the env's state
+    cfg["params"]["config"]["player"] = {"use_vecenv": True, "num_actors": 128, "games_num": 4}
+    runner.load(cfg)
+    played = runner.run({"train": False, "play": True, "checkpoint": os.path.join(result.run_dir, "nn",
+                                                                                 "last_cartpole_direct.pth")})
+    assert played.games == 4 and played.mean_reward > 0
 
 
 def test_stop_fn_in_the_config_dict_stops_the_run(tmp_path, base_config):

@@ -190,3 +190,18 @@ def test_config_algo_observer_unless_one_is_given(base_config):
     base_config["params"]["config"]["stop_fn"] = "not callable"
     with pytest.raises(ValueError, match="params.config.stop_fn: expected a callable"):
         Runner().load(base_config)
+
+
+def test_an_ivecenv_with_another_env_count_is_a_one_line_error():
+    from rlchain.envs.backends.rl_games_vecenv import IVecEnvAdapter
+
+    class Fixed(vecenv.IVecEnv):  # built once for 3 envs, as Isaac Lab's env is
+        def get_env_info(self):
+            return {"observation_space": gym.spaces.Box(-1, 1, (2,)), "action_space": gym.spaces.Discrete(2)}
+
+        def reset(self):
+            return torch.zeros(3, 2)
+
+    with pytest.raises(ValueError, match=r"returned 3 observation rows, expected num_actors \(1\) x agents \(1\)"):
+        IVecEnvAdapter(Fixed(), 1)
+    assert IVecEnvAdapter(Fixed(), 3).num_envs == 3

@@ -25,12 +25,15 @@ def register(name: str, config: dict[str, Any]) -> None:
 def get_env_info(env: Any) -> dict[str, Any]:
     """``observation_space``, ``action_space``, ``agents``, ``value_size`` (and ``state_space`` when the
     env has one) of an env: its ``get_env_info()`` when it has one, else its attributes."""
-    info = dict(env.get_env_info()) if callable(getattr(env, "get_env_info", None)) else {}
-    info.setdefault("observation_space", env.observation_space)
-    info.setdefault("action_space", env.action_space)
-    agents = getattr(env, "get_number_of_agents", None)
-    info.setdefault("agents", agents() if callable(agents) else 1)
-    info.setdefault("value_size", getattr(env, "value_size", 1))
+    info = dict(env.get_env_info() or {}) if callable(getattr(env, "get_env_info", None)) else {}
+    for key in ("observation_space", "action_space"):
+        if key not in info:
+            info[key] = getattr(env, key)
+    if "agents" not in info:
+        agents = getattr(env, "get_number_of_agents", None)
+        info["agents"] = agents() if callable(agents) else 1
+    if "value_size" not in info:
+        info["value_size"] = getattr(env, "value_size", 1)
     return info
 
 

@@ -183,8 +183,10 @@ class BasePlayer:
         pc = self.parsed.config.player
         env = build_env(self.parsed, pc.num_actors if pc.use_vecenv else 1, self.seed, render=pc.render,
                         env_config=pc.env_config)
-        try:
-            result = play(self.model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
+        try:  # the model as training built it for this env ([obs | state] rows of a central-value env)
+            model = build_model(self.parsed, env, self.device)
+            model.load_state_dict(self.model.state_dict())
+            result = play(model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
         finally:
             env.close()
         print(f"av reward: {result.mean_reward:.2f} av steps: {result.mean_length:.1f} over {result.games} games",
