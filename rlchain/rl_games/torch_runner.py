@@ -43,7 +43,7 @@ class TrainInfoCallback(Callback):
     def _tell(self, loop: Any) -> None:
         tell = getattr(loop.env, "set_train_info", None)  # the adapter hands it on to the IVecEnv
         if callable(tell):
-            tell(loop.frames, ObserverAlgo(loop.events.context))
+            tell(loop.frames, ObserverAlgo(loop.events.context, in_epoch=True))  # before the epoch's rollout
 
 
 class StopFnCallback(Callback):
