@@ -27,7 +27,7 @@ from rlchain.runs.writers import CSVWriter
 def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_size: int, config: Any,
                        model_name: str) -> ActorCritic:
     """The model presets discrete_a2c / multi_discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
-    dist = make_distribution(model_name, action_space, config.clip_actions)
+    dist = make_distribution(model_name, action_space, config.clip_actions, network)
     if config.use_action_masks and not dist.mask_size:
         raise ValueError(f"params.config.use_action_masks: needs discrete or multi-discrete actions, the env has "
                          f"{action_space}")

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rlchain.config.fields import non_negative, option, positive
+from rlchain.config.fields import above_one, non_negative, option, positive
 from rlchain.config.run import RunConfig
 
 
@@ -47,6 +47,9 @@ class ActorCriticConfig(RunConfig):
                                choices=("auto", "previous", "rollout"))
     min_lr: float = option(1e-6, "adaptive / linear / polynom_decay schedule floor", check=non_negative)
     max_lr: float = option(1e-2, "adaptive schedule ceiling", check=positive)
+    lr_multiplier: float = option(1.5, "adaptive: the lr is divided / multiplied by this when the KL is above "
+                                       "2 * kl_threshold / below kl_threshold / 2 (rl_games 2.0's key)",
+                                  check=above_one)
     decay_power: float = option(1.0, "polynom_decay: the exponent (1 = linear; rl_games' TensorFlow agent's key; "
                                      "its torch agent keeps a polynom_decay lr constant)", check=positive)
     critic_coef: float = option(1.0, "critic loss weight: loss += critic_coef * 0.5 * value loss",

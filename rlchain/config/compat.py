@@ -67,7 +67,13 @@ UNSUPPORTED_CONFIG_KEYS = {
     "expl_type": "exploration bonuses",
     "has_central_value": "central value via env attribute",
     "use_ppg": "phasic policy gradients",
+    "capability_manifest": "a capability manifest stored in SAC checkpoints (rl_games 2.0)",
 }
+
+
+OBSERVERS = {"default": "rlchain.rl_games.common.algo_observer:DefaultAlgoObserver",
+             "isaac": "rlchain.rl_games.common.algo_observer:IsaacAlgoObserver"}
+"""rl_games 2.0's ``config.algo_observer`` names -> the callback (rlchain.rl_games' observer) they add."""
 
 
 def translate_config(config: dict[str, Any], source: str, path: str = "params.config") -> dict[str, Any]:
@@ -76,6 +82,13 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
     Unsupported rl_games features raise a ConfigError naming the key.
     """
     out = dict(config)
+    if "algo_observer" in out:  # rl_games 2.0: an observer by name, one of the config's callbacks here
+        name = out.pop("algo_observer")
+        if name not in OBSERVERS:
+            raise ConfigError(source, f"{path}.algo_observer", f"expected one of {', '.join(OBSERVERS)} "
+                                                               f"(rl_games 2.0's observer names), got {name!r}")
+        callbacks = out.get("callbacks") or []
+        out["callbacks"] = [*callbacks, OBSERVERS[name]] if isinstance(callbacks, list) else callbacks
     for key, reason in UNSUPPORTED_CONFIG_KEYS.items():
         if key in out and out[key] not in (None, False, {}):
             raise ConfigError(source, f"{path}.{key}",

@@ -79,6 +79,7 @@ A config file is YAML (or JSON) with one top-level `params` block:
 | `params.update_threads` | CPU threads for the gradient updates only, while the envs are idle (rlchain key). Default: every core of the process's share, at most 4, never fewer than the rollout's, when `torch_threads` is unset too (with `torch_threads` set, the same count), less the cores other processes kept busy during the last update (the first update: a 0.2 s sample of /proc/stat at start). 2 on an idle 2-core machine: PPO train steps/s 1.10-1.17x on envpool HalfCheetah, Ant and Hopper, SAC 1.26x; a shared core stalls every op of a multi-threaded update, many times slower. An explicit value is kept as it is, whatever the load |
 | `params.load_checkpoint`, `params.load_path` | deprecated, no effect: pass `--checkpoint` |
 | `params.import_modules` | list of Python modules imported before building (register your own networks/envs there) |
+| `params.config.algo_observer` | rl_games 2.0: `default` or `isaac` adds rl_games' DefaultAlgoObserver / IsaacAlgoObserver (`rlchain.rl_games.common.algo_observer`) to `callbacks`; with `rlchain.rl_games`' Runner an observer passed to `Runner(observer)` wins, as in rl_games |
 
 Status: **yes** = implemented with rl_games' meaning; **deprecated** = accepted with a one-line
 warning, no effect; **planned** = an error unless left at its default (the issue that brings it is named).

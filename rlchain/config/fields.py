@@ -186,6 +186,10 @@ def non_negative(x: Any) -> str | None:
     return None if x >= 0 else "must be >= 0"
 
 
+def above_one(x: Any) -> str | None:
+    return None if x > 1 else "must be > 1"
+
+
 def check_env_groups(x: Any) -> str | None:
     """``env_groups``: ``auto`` or an int >= 1."""
     if x == "auto" or (isinstance(x, int) and not isinstance(x, bool) and x >= 1):

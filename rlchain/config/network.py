@@ -92,6 +92,16 @@ class MultiDiscreteSpaceConfig:
     MultiBinary); the head outputs sum(nvec) logits. Use with model ``multi_discrete_a2c``."""
 
 
+def _check_bounds(value: object) -> str | None:
+    """``logstd_bounds``: None or two numbers, low < high."""
+    if value is None:
+        return None
+    if not isinstance(value, (list, tuple)) or len(value) != 2 or \
+            not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value) or value[0] >= value[1]:
+        return f"expected [low, high] with low < high, got {value!r}"
+    return None
+
+
 @dataclass(frozen=True)
 class ContinuousSpaceConfig:
     """``space.continuous``: a diagonal Gaussian head."""
@@ -103,6 +113,16 @@ class ContinuousSpaceConfig:
     sigma_init: InitializerConfig = option(InitializerConfig(name="const_initializer", val=0.0),
                                            "sigma initializer ({name: const_initializer, val: 0})")
     fixed_sigma: bool = option(True, "sigma is a learned vector that does not depend on the input")
+    sigma_parametrization: str = option("exp", "rl_games 2.0: how the sigma head's raw output becomes the std "
+                                               "(model continuous_a2c_logstd). exp: raw is the log-std (clamped to "
+                                               "logstd_bounds, plus min_sigma); softplus: softplus(raw) + "
+                                               "min_sigma; linear (alias scalar): the std itself above a smooth "
+                                               "floor, floor + softplus(raw - floor), floor = max(min_sigma, 1e-3)",
+                                        choices=("exp", "softplus", "linear", "scalar"))
+    min_sigma: float = option(0.0, "rl_games 2.0: a floor added to the std (see sigma_parametrization)",
+                              check=non_negative)
+    logstd_bounds: list[float] | None = option(None, "rl_games 2.0: [low, high] clamp on the raw log-std "
+                                                     "(sigma_parametrization exp)", check=_check_bounds)
 
 
 @dataclass(frozen=True)

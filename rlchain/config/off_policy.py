@@ -54,6 +54,9 @@ class OffPolicyConfig(RunConfig):
     num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
                                            "num_actors * num_steps_per_episode)", check=positive)
     num_updates_per_step: int = option(1, "gradient updates after every vectorized env step", check=positive)
+    utd_ratio: float | None = option(None, "rl_games 2.0: gradient updates per env frame; sets "
+                                           "num_updates_per_step = max(1, round(utd_ratio * num_actors)), "
+                                           "overriding it", check=positive)
     num_warmup_frames: int | None = option(None, "frames of uniformly random actions before learning starts "
                                                  "(default 1000, or from num_warmup_steps)", check=non_negative)
     num_warmup_steps: int | None = option(None, "rl_games' older warmup in epochs: num_warmup_frames = this * "
@@ -87,6 +90,8 @@ class OffPolicyConfig(RunConfig):
             steps = self.num_warmup_steps
             frames = 1000 if steps is None else steps * self.num_actors * self.num_steps_per_episode
             object.__setattr__(self, "num_warmup_frames", frames)
+        if self.utd_ratio is not None and isinstance(self.utd_ratio, (int, float)) and self.utd_ratio > 0:
+            object.__setattr__(self, "num_updates_per_step", max(1, round(self.utd_ratio * self.num_actors)))
 
     def validate(self) -> tuple[str, str] | None:
         """Cross-key checks; returns (key, message) for the first problem."""
@@ -147,6 +152,9 @@ class SACNetworkConfig:
     space: SpaceConfig = option(SpaceConfig(), "action head (continuous)")
     mlp: MlpConfig = option(MlpConfig(units=[256, 256], activation="relu"), "actor and critic hidden layers")
     log_std_bounds: list[float] = option([-5.0, 2.0], "[min, max] of the policy log-std", check=_check_bounds)
+    normalization: str | None = option(None, "rl_games 2.0's network-level spelling: layer_norm or batch_norm after "
+                                             "the hidden layers of the actor and both critics (as mlp.normalization)",
+                                       choices=("layer_norm", "batch_norm"))
 
 
 @dataclass(frozen=True)

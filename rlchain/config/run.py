@@ -4,6 +4,7 @@ Ray env runners, stop rules, checkpoints, logging, evaluation, the player and di
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from rlchain.config.fields import non_negative, option, positive, rate_target, unit_interval
 from rlchain.config.hyperparam_schedule import check_hyperparam_schedule
@@ -92,6 +93,45 @@ class EnvRunnersConfig:
                                     check=positive)
     runtime_env: dict = option({}, "Ray runtime_env for ray.init (e.g. {pip: [rlchain]} on a cluster)")
 
+
+
+PRECISIONS = (False, True, "bf16", "fp16")
+
+
+def check_precision(value: Any) -> str | None:
+    """``mixed_precision``: False, True, bf16 or fp16."""
+    return None if any(value is p or value == p and type(value) is type(p) for p in PRECISIONS) \
+        else f"expected False, True, bf16 or fp16, got {value!r}"
+
+
+def amp_dtype_name(value: Any, bf16_supported: bool) -> str | None:
+    """The autocast dtype ``mixed_precision`` asks for on a CUDA device: bfloat16 / float16 / None (off).
+    True means bf16 as in rl_games 2.0, float16 where the GPU has no bf16."""
+    if value is False or value is None:
+        return None
+    if value == "fp16" or (value is True and not bf16_supported):
+        return "float16"
+    return "bfloat16"
+
+
+def _sync_stats(value: Any) -> str | None:
+    return None if value is True else ("False is not supported: rlchain keeps the ranks' normalizer statistics "
+                                       "in sync (pooled); remove the key")
+
+
+def _sync_mode(value: Any) -> str | None:
+    if value == "pooled":
+        return None
+    if value == "broadcast":
+        return "broadcast (every rank takes rank 0's statistics) is not supported; rlchain pools them: use pooled"
+    return f"expected pooled or broadcast, got {value!r}"
+
+
+def _stop_fn(value: Any) -> str | None:
+    if value is None:
+        return None
+    return (f"a callable(algo) -> bool comes through the rl_games API (rlchain.rl_games' Runner takes it in the "
+            f"config dict), got {value!r}; in a YAML or rlchain.Runner use callbacks (ctx.request_stop)")
 
 
 @dataclass(frozen=True)
@@ -183,7 +223,22 @@ class RunConfig:
     multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
                                     "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
                                     "minibatch_size are per process, gradients are averaged, rank 0 saves")
-    mixed_precision: bool = option(False, "autocast + grad scaling on CUDA; no-op on CPU")
+    mixed_precision: Any = option(False, "autocast on CUDA (no-op on CPU): True or bf16 = bfloat16 autocast "
+                                         "without grad scaling (rl_games 2.0's; float16 with grad scaling on a GPU "
+                                         "without bf16), fp16 = float16 autocast with grad scaling (rl_games "
+                                         "1.6's), False = off", check=check_precision)
+    multi_gpu_sync_stats: bool = option(True, "multi_gpu (rl_games 2.0's key): the ranks' running normalizer "
+                                              "statistics are kept in sync; rlchain always does so (False is an "
+                                              "error)", check=_sync_stats)
+    multi_gpu_sync_stats_mode: str = option("pooled", "multi_gpu (rl_games 2.0's key): pooled = every rank folds "
+                                                      "in every rank's batch moments, so all ranks hold the "
+                                                      "statistics of the pooled stream (rlchain's way); broadcast "
+                                                      "(rank 0's statistics) is not supported",
+                                            check=_sync_mode)
+    stop_fn: Any = option(None, "rl_games 2.0: a callable(algo) -> bool checked after every epoch, true stops "
+                                "the run with a checkpoint. A Python callable: rlchain.rl_games' Runner takes it in "
+                                "the config dict; anywhere else it is an error (use callbacks)",
+                          check=_stop_fn)
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain); rollback restores "
                                                              "the last good learner snapshot (off-policy: "
                                                              "taken every snapshot_epochs epochs)")

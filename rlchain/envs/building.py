@@ -8,7 +8,9 @@ runners and the :class:`~rlchain.envs.spec.EnvSpec`) and each Ray env worker
 
 1. a name in :data:`rlchain.registry.ENVS` -- a builder ``(num_envs, seed, **env_config) -> VecEnv``
    (it also gets ``vecenv_type=`` / ``render=`` / ``groups=`` when its signature names them). Built in:
-   ``openai_gym`` (gymnasium id in ``env_config.name``), ``envpool`` (task id in
+   ``openai_gym`` and ``ray`` (gymnasium id in ``env_config.name``; ``vecenv_type: RAY`` puts ``ray``'s on Ray
+   workers, as any env's), ``gymnasium`` (rl_games 2.0: gymnasium id in
+   ``env_config.env_name``), ``envpool`` (task id in
    ``env_config.env_name``), ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env),
    ``playground`` (a MuJoCo Playground registry name in ``env_config.env_name``, a tensor env)
    and ``pettingzoo``;
@@ -120,10 +122,44 @@ def openai_gym_env(num_envs: int, seed: int | None, *, vecenv_type: str | None =
                    render: bool = False, groups: Any = 1, **env_config: Any) -> VecEnv:
     """``env_name: openai_gym``: the gymnasium id is ``env_config.name``, the rest gym.make kwargs."""
     if "name" not in env_config:
-        raise _error(f"{CONFIG}.name", "is required with env_name openai_gym (a gymnasium id)")
+        raise _error(f"{CONFIG}.name", "is required with env_name openai_gym or ray (a gymnasium id)")
     name = env_config.pop("name")
     return _gym_id_env(name, f"{CONFIG}.name", env_config, num_envs, seed,
                        normalize_vecenv_type(vecenv_type), render, groups)
+
+
+GYMNASIUM_KEYS = {"flatten_obs"}
+"""rl_games 2.0 ``env_name: gymnasium`` env_config keys that are not gym.make arguments and need nothing here
+(flatten_obs: rlchain flattens Dict observations anyway)."""
+
+
+def gymnasium_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,
+                  render: bool = False, groups: Any = 1, **env_config: Any) -> VecEnv:
+    """``env_name: gymnasium`` (rl_games 2.0): the gymnasium id is ``env_config.env_name`` (MuJoCo's ``-v5``
+    names, dm_control's ``dm_control/...``); ``use_async`` (default True, as in rl_games) picks the async
+    backend, False the sync one, when ``vecenv_type`` is unset; the other keys go to ``gym.make``."""
+    if "env_name" not in env_config:
+        raise _error(f"{CONFIG}.env_name", "is required with env_name gymnasium (a gymnasium id)")
+    name = env_config.pop("env_name")
+    use_async = env_config.pop("use_async", True)
+    if not isinstance(use_async, bool):
+        raise _error(f"{CONFIG}.use_async", f"expected true or false, got {use_async!r}")
+    if env_config.pop("wrap_env", None) is not None or env_config.pop("env_creator", None) is not None:
+        raise _error(CONFIG, "wrap_env / env_creator are Python callables of rl_games' GymnasiumVecEnv; register "
+                             "the env with env_configurations.register instead")
+    for key in GYMNASIUM_KEYS:
+        env_config.pop(key, None)
+    kind = normalize_vecenv_type(vecenv_type)
+    if kind == "auto":
+        kind = "async" if use_async else "sync"
+    return _gym_id_env(name, f"{CONFIG}.env_name", env_config, num_envs, seed, kind, render, groups)
+
+
+def atari_gymnasium_env(num_envs: int, seed: int | None, **env_config: Any) -> VecEnv:
+    """``env_name: atari_gymnasium`` (rl_games 2.0): not supported, one line saying what to use."""
+    raise _error(NAME, "atari_gymnasium (rl_games 2.0's channel-first Atari frame stack for permute_input: False) "
+                       "is not supported; use env_name atari_gym (rlchain's DeepMind wrappers, HWC frames) or "
+                       "envpool")
 
 
 def envpool_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,
@@ -208,7 +244,9 @@ def _gym_knows(name: str) -> bool:
     return True
 
 
-BUILTIN_ENVS = {"openai_gym": openai_gym_env, "envpool": envpool_env,
+BUILTIN_ENVS = {"openai_gym": openai_gym_env, "envpool": envpool_env, "gymnasium": gymnasium_env,
+                "atari_gymnasium": atari_gymnasium_env,
+                "ray": openai_gym_env,  # rl_games' `ray` entry: env_config.name; vecenv_type RAY -> Ray workers
                 "brax": brax_env,  # imports jax/brax only when built
                 "playground": playground_env,  # imports mujoco_playground only when built
                 "pettingzoo": pettingzoo_env}  # imports pettingzoo (and the env's package) only when built
@@ -218,4 +256,5 @@ VECENV_ALIASES = {"gymnasium": "auto", "brax": "auto"}
 """Other built-in ``vecenv_type`` names: rl_games' BRAX (the brax env is its own batch) and ``gymnasium``."""
 
 __all__ = ["build_local_env", "resolve_env_groups", "normalize_vecenv_type", "openai_gym_env", "envpool_env",
+           "gymnasium_env",
            "VECENV_TYPES", "BUILTIN_ENVS", "VECENV_ALIASES"]

@@ -99,6 +99,7 @@ class ActorCritic(ValueModel):
         param = getattr(self.network, "sigma", None)
         if not isinstance(param, nn.Parameter):
             raise ValueError("--sigma needs a continuous policy with fixed_sigma: True")
-        value = torch.log(torch.tensor(sigma)) if getattr(self.dist, "sigma_is_logstd", False) else sigma
+        raw_sigma = getattr(self.dist, "raw_sigma", None)  # the inverse of the std parametrization
+        value = raw_sigma(float(sigma)) if callable(raw_sigma) else sigma
         with torch.no_grad():
             param.fill_(float(value))

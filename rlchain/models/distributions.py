@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -263,7 +264,18 @@ class DiagGaussian(Distribution):
 
     continuous = True
 
-    def __init__(self, space: gym.spaces.Box, sigma_is_logstd: bool, clip_actions: bool) -> None:
+    def __init__(self, space: gym.spaces.Box, sigma_is_logstd: bool, clip_actions: bool,
+                 parametrization: str = "exp", min_sigma: float = 0.0,
+                 logstd_bounds: tuple[float, float] | None = None) -> None:
+        if parametrization not in ("exp", "softplus", "linear"):
+            raise ValueError(f"params.network.space.continuous.sigma_parametrization: '{parametrization}' is not "
+                             f"exp, softplus or linear")
+        if not sigma_is_logstd and (parametrization != "exp" or min_sigma or logstd_bounds is not None):
+            raise ValueError("params.network.space.continuous.sigma_parametrization / min_sigma / logstd_bounds "
+                             "apply to model continuous_a2c_logstd (the sigma head's raw output), not continuous_a2c")
+        self.parametrization = parametrization
+        self.min_sigma = float(min_sigma)
+        self.logstd_bounds = logstd_bounds
         self.action_shape = space.shape
         self.dim = int(np.prod(space.shape))
         self.param_size = 2 * self.dim
@@ -279,8 +291,34 @@ class DiagGaussian(Distribution):
 
     def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
         mu, sigma, value = out[0], out[1], out[2]
-        std = sigma.exp() if self.sigma_is_logstd else sigma
-        return torch.cat([mu, std], -1), value
+        return torch.cat([mu, self.std_of(sigma) if self.sigma_is_logstd else sigma], -1), value
+
+    def std_of(self, raw: torch.Tensor) -> torch.Tensor:
+        """The std from the sigma head's raw output (model continuous_a2c_logstd), by ``parametrization``:
+        exp: exp(raw clamped to logstd_bounds) + min_sigma; softplus: softplus(raw) + min_sigma; linear:
+        floor + softplus(raw - floor) with floor = max(min_sigma, 1e-3) (rl_games 2.0's)."""
+        if self.parametrization == "softplus":
+            return torch.nn.functional.softplus(raw) + self.min_sigma
+        if self.parametrization == "linear":
+            floor = max(self.min_sigma, 1e-3)
+            return floor + torch.nn.functional.softplus(raw - floor)
+        if self.logstd_bounds is not None:
+            raw = raw.clamp(self.logstd_bounds[0], self.logstd_bounds[1])
+        std = raw.exp()
+        return std + self.min_sigma if self.min_sigma > 0 else std
+
+    def raw_sigma(self, std: float) -> float:
+        """The raw sigma-head value whose std is ``std`` (the inverse of :meth:`std_of`; ``--sigma``)."""
+        if not self.sigma_is_logstd:
+            return std
+        floor = max(self.min_sigma, 1e-3) if self.parametrization == "linear" else self.min_sigma
+        if std <= floor:
+            raise ValueError(f"--sigma {std}: must be above the std floor {floor} (min_sigma)")
+        if self.parametrization == "exp":
+            return math.log(std - self.min_sigma)
+        excess = std - floor  # softplus(x) = excess -> x = log(expm1(excess))
+        raw = math.log(math.expm1(excess))
+        return raw + floor if self.parametrization == "linear" else raw
 
     def _split(self, params: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return params[..., : self.dim], params[..., self.dim:]
@@ -354,8 +392,9 @@ def actions_num(space: gym.Space) -> int:
 MULTI_DISCRETE_MODELS = ("multi_discrete_a2c",)
 
 
-def make_distribution(model_name: str, space: gym.Space, clip_actions: bool) -> Distribution:
-    """The distribution a model preset uses for ``space``; a clear error on a mismatch."""
+def make_distribution(model_name: str, space: gym.Space, clip_actions: bool, network: Any = None) -> Distribution:
+    """The distribution a model preset uses for ``space``; a clear error on a mismatch. A continuous head's
+    ``sigma_parametrization`` / ``min_sigma`` / ``logstd_bounds`` come from ``network``'s attributes."""
     multi = multi_discrete_dims(space)
     if isinstance(space, gym.spaces.Discrete):
         if model_name not in ("discrete_a2c",):
@@ -372,6 +411,9 @@ def make_distribution(model_name: str, space: gym.Space, clip_actions: bool) -> 
             raise ValueError(f"params.model.name: '{model_name}' needs discrete actions, the env has "
                              f"Box{space.shape}; use continuous_a2c_logstd")
         return DiagGaussian(space, sigma_is_logstd=model_name == "continuous_a2c_logstd",
-                            clip_actions=clip_actions)
+                            clip_actions=clip_actions,
+                            parametrization=getattr(network, "sigma_parametrization", "exp"),
+                            min_sigma=getattr(network, "min_sigma", 0.0),
+                            logstd_bounds=getattr(network, "logstd_bounds", None))
     raise ValueError(f"action space {space} is not supported (Discrete, MultiDiscrete, MultiBinary, "
                      f"Tuple of Discrete, Box)")

@@ -122,6 +122,11 @@ class ActorCriticNetwork(nn.Module):
             self.mu_act = activation(space.mu_activation)
             self.sigma_act = activation(space.sigma_activation)
             self.fixed_sigma = space.fixed_sigma
+            # rl_games 2.0: read by the model's distribution (rlchain.models.distributions.DiagGaussian)
+            self.sigma_parametrization = "linear" if space.sigma_parametrization == "scalar" \
+                else space.sigma_parametrization
+            self.min_sigma = float(space.min_sigma)
+            self.logstd_bounds = tuple(space.logstd_bounds) if space.logstd_bounds is not None else None
             if self.fixed_sigma:
                 self.sigma = nn.Parameter(torch.zeros(actions_num))
                 initialize(self.sigma.data.view(1, -1), space.sigma_init)

@@ -6,6 +6,7 @@ keys (``mlp.units / activation / initializer``, ``log_std_bounds``; ``dueling`` 
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium as gym
@@ -57,8 +58,11 @@ class SACNetwork(nn.Module):
     def __init__(self, cfg: SACNetworkConfig, input_shape: tuple[int, ...], actions_num: int) -> None:
         super().__init__()
         obs_dim = int(np.prod(input_shape))
-        self.actor = SACActor(obs_dim, actions_num, cfg.mlp, cfg.log_std_bounds)
-        self.critic = TwinQCritic(obs_dim, actions_num, cfg.mlp)
+        mlp = cfg.mlp
+        if cfg.normalization is not None and mlp.normalization is None:  # rl_games 2.0: actor and critics
+            mlp = dataclasses.replace(mlp, normalization=cfg.normalization)
+        self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds)
+        self.critic = TwinQCritic(obs_dim, actions_num, mlp)
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:
         mu, log_std = self.actor(input_dict["obs"].flatten(1))

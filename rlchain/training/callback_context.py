@@ -188,8 +188,11 @@ class ObserverAlgo:
     ``frame``, ``num_actors``, ``num_agents``, ``config``, ``experiment_dir``), live; anything
     else goes to the :class:`CallbackContext` (the trainer's attributes, deprecated)."""
 
-    def __init__(self, context: CallbackContext) -> None:
+    def __init__(self, context: CallbackContext, in_epoch: bool = False) -> None:
         self._context = context
+        self.in_epoch = in_epoch
+        """True while an epoch runs (its env steps, after_steps): ``epoch_num`` then counts it, as rl_games
+        increments its counter before an epoch's rollout; False in after_init and after_print_stats."""
 
     @property
     def writer(self) -> ScalarWriter:
@@ -207,7 +210,8 @@ class ObserverAlgo:
 
     @property
     def epoch_num(self) -> int:
-        return int(self._context._trainer.epoch)
+        """rl_games' epoch counter: the epochs completed, plus the one running while ``in_epoch``."""
+        return int(self._context._trainer.epoch) + (1 if self.in_epoch else 0)
 
     @property
     def frame(self) -> int:

@@ -50,6 +50,10 @@ class Checkpoints:
         if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
             state["ranks"] = boundary["ranks"]
         state.update(algo.extra_state(kind))
+        get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum
+        env_state = get_env_state() if callable(get_env_state) else None
+        if env_state is not None:
+            state["env_state"] = env_state
         return state
 
     def save(self, kind: str) -> str | None:
@@ -99,3 +103,6 @@ class Checkpoints:
         ctx.tracker.load_state_dict(state["episodes"])
         algo.restore_extra(state)
         self.point.restore(state)
+        set_env_state = getattr(ctx.env, "set_env_state", None)
+        if "env_state" in state and callable(set_env_state):
+            set_env_state(state["env_state"])

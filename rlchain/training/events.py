@@ -96,7 +96,8 @@ class AlgoObserverCallback(Callback):
 
     - ``before_init(name, config, experiment dir)`` and ``after_init(algo)`` at the start, where
       ``algo`` (:class:`~rlchain.training.callback_context.ObserverAlgo`) offers what observers read
-      of rl_games' algo: ``writer``, ``device`` / ``ppo_device``, ``games_to_track``, ``epoch_num``,
+      of rl_games' algo: ``writer``, ``device`` / ``ppo_device``, ``games_to_track``, ``epoch_num`` (during an
+      epoch's steps the epoch running, as rl_games counts it; in after_print_stats the epochs completed),
       ``frame``, ``num_actors``, ``num_agents``, ``config``, ``experiment_dir``;
     - ``process_infos(infos, done_indices)`` after every env step: the step's infos and a (k, 1)
       long tensor of the rows whose episode ended (``nonzero()`` of the dones, one row per finished
@@ -127,10 +128,11 @@ class AlgoObserverCallback(Callback):
 
     def on_train_start(self, ctx: CallbackContext) -> None:
         self.start = time.time()
-        algo = ObserverAlgo(ctx)
+        algo = self.algo = ObserverAlgo(ctx)
         # as before the context: the whole config as loaded, and the run folder
         self._call("before_init", ctx.params.config.name, ctx._trainer.raw_config, algo.experiment_dir)
         self._call("after_init", algo)
+        algo.in_epoch = True  # the first epoch's rollout: rl_games' epoch_num is 1 by then
 
     def _process_infos(self, ctx: CallbackContext, result: Any, done_indices: Any, rows: slice) -> None:
         infos = result.infos
@@ -143,11 +145,16 @@ class AlgoObserverCallback(Callback):
 
     def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
         state = ctx.state
+        algo = getattr(self, "algo", None)
+        if algo is not None:
+            algo.in_epoch = False  # epoch_num: the epochs completed, as rl_games prints them
         self._call("after_print_stats", state.frames, state.epoch, time.time() - self.start)
         self._printed_epoch = state.epoch
         if self._clear_pending:
             self._clear_pending = False
             self._call("after_clear_stats")
+        if algo is not None:
+            algo.in_epoch = True  # the next epoch's rollout
 
     def on_stats_cleared(self, ctx: CallbackContext) -> None:
         # rl_games prints an epoch's statistics before self-play clears them: a clear that comes

@@ -52,7 +52,7 @@ MARKER = re.compile(r"^<!--\s*test:\s*(\w+)\s*(.*?)\s*-->$")
 FENCE = re.compile(r"^(```+|~~~+)\s*([\w+-]*)")
 COMMAND_TIMEOUT = 300  # seconds for one command; the page's test has pytest's own limit
 COPIED = ("runner.py", "train.py", "nn")  # a command may write next to them: copies, not links
-LINKED = ("rlchain", "benchmarks", "tests", "notebooks")
+LINKED = ("rlchain", "benchmarks", "tests", "notebooks", "examples")
 
 _ran_ok: set[str] = set()  # bash commands (shortened) that succeeded on an earlier page
 

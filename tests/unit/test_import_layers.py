@@ -16,9 +16,10 @@ ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 PACKAGE = os.path.join(ROOT, "rlchain")
 
 # the drivers: they may import the Runner (rlchain/runner.py) and the CLI; nothing else may
-# (the console script rlchain.console and python -m rlchain's rlchain.__main__ included)
+# (the console script rlchain.console and python -m rlchain's rlchain.__main__ included). rlchain.rl_games
+# (rl_games' Python API names: its Runner drives rlchain's) is a facade at the same layer as cli.py / runner.py
 ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.runner",
-                "rlchain.tuning")  # and the package itself (rlchain.Runner)
+                "rlchain.tuning", "rlchain.rl_games")  # and the package itself (rlchain.Runner)
 ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
@@ -111,6 +112,8 @@ def layer_violation(importer: str, imported: str) -> str | None:
     if _under(imported, "rlchain.runner", "rlchain.cli") and \
             not (importer == "rlchain" or _under(importer, *ENTRY_POINTS)):
         return "only entry points import runner.py / cli.py"
+    if _under(imported, "rlchain.rl_games") and not _under(importer, "rlchain.rl_games"):
+        return "rlchain.rl_games (rl_games' names on rlchain) is a facade on top: nothing of rlchain imports it"
     if _under(importer, "rlchain.algos", "rlchain.models", "rlchain.networks"):
         if _under(imported, "rlchain.training"):
             return "algos/, models/, networks/ import no training/ (the loop holds the algorithm)"
@@ -207,6 +210,9 @@ def test_the_checks_bite():
     assert layer_violation("rlchain.envs.factory", "rlchain.models.actor_critic")
     assert layer_violation("rlchain.inference.player", "rlchain.algos.appo.trainer")
     assert layer_violation("rlchain.training.loop", "rlchain.runner")
+    assert layer_violation("rlchain.training.loop", "rlchain.rl_games.torch_runner")
+    assert layer_violation("rlchain.cli", "rlchain.rl_games.common.vecenv")
+    assert layer_violation("rlchain.rl_games.torch_runner", "rlchain.runner") is None  # the facade drives it
     assert layer_violation("rlchain.config.schema", "torch")
     assert layer_violation("rlchain.algos.core.storage", "rlchain.algos.ppo.agent")
     assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop")

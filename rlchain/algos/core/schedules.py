@@ -45,19 +45,21 @@ class ConstantSchedule:
 
 @dataclass
 class AdaptiveKLSchedule:
-    """lr / 1.5 when KL > 2 * threshold, lr * 1.5 when KL < threshold / 2, within [min_lr, max_lr]."""
+    """lr / m when KL > 2 * threshold, lr * m when KL < threshold / 2, within [min_lr, max_lr]
+    (m = ``lr_multiplier``, 1.5 as in rl_games)."""
 
     kl_threshold: float
     min_lr: float = 1e-6
     max_lr: float = 1e-2
+    lr_multiplier: float = 1.5
 
     def update(self, lr: float, kl: float | None = None, progress: float | None = None) -> float:
         if kl is None:
             return lr
         if kl > 2.0 * self.kl_threshold:
-            lr = max(lr / 1.5, self.min_lr)
+            lr = max(lr / self.lr_multiplier, self.min_lr)
         elif kl < 0.5 * self.kl_threshold:
-            lr = min(lr * 1.5, self.max_lr)
+            lr = min(lr * self.lr_multiplier, self.max_lr)
         return lr
 
 
@@ -101,10 +103,10 @@ PROGRESS_SCHEDULES = (LinearSchedule, PolynomialSchedule)
 
 
 def make_schedule(name: str | None, learning_rate: float, kl_threshold: float, min_lr: float,
-                  max_lr: float, decay_power: float = 1.0) -> Schedule:
+                  max_lr: float, decay_power: float = 1.0, lr_multiplier: float = 1.5) -> Schedule:
     """The schedule named by ``lr_schedule``."""
     if name == "adaptive":
-        return AdaptiveKLSchedule(kl_threshold, min_lr, max_lr)
+        return AdaptiveKLSchedule(kl_threshold, min_lr, max_lr, lr_multiplier)
     if name == "linear":
         return LinearSchedule(learning_rate, min_lr)
     if name == "polynom_decay":

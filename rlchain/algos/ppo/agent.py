@@ -19,6 +19,7 @@ from rlchain.algos.core.schedules import (
     scheduled_entropy_coef,
 )
 from rlchain.algos.core.storage import Batch, RolloutStorage
+from rlchain.config.run import amp_dtype_name
 from rlchain.config.schema import TrainConfig
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.models.actor_critic import ActorCritic
@@ -47,14 +48,19 @@ class PPOAgent:
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay,
                                           **_fast_adam_kwargs(device))
         self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
-                                      cfg.min_lr, cfg.max_lr, cfg.decay_power)
+                                      cfg.min_lr, cfg.max_lr, cfg.decay_power, cfg.lr_multiplier)
         self.entropy_coef = cfg.entropy_coef
         # schedule_entropy applies with the linear lr only, as in rl_games (config load warns otherwise)
         self.schedule_entropy = cfg.schedule_entropy and cfg.lr_schedule == "linear"
         self.train_critic = True  # False with a central value network (it trains the values itself)
         model.bptt_length = cfg.bptt_length
-        self.amp = cfg.mixed_precision and device.type == "cuda"
-        self.scaler = torch.amp.GradScaler("cuda", enabled=self.amp) if self.amp else None
+        # mixed_precision: bf16 autocast, no scaler (rl_games 2.0); fp16 autocast with a GradScaler (1.6)
+        name = amp_dtype_name(cfg.mixed_precision, device.type == "cuda" and torch.cuda.is_bf16_supported()) \
+            if device.type == "cuda" else None
+        self.amp = name is not None
+        self.amp_dtype = getattr(torch, name) if name is not None else None
+        scaled = self.amp_dtype == torch.float16
+        self.scaler = torch.amp.GradScaler("cuda", enabled=True) if scaled else None
 
     def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
@@ -125,7 +131,7 @@ class PPOAgent:
 
     def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
         cfg, model, dist = self.cfg, self.model, self.model.dist
-        autocast = torch.autocast("cuda", dtype=torch.float16) if self.amp else nullcontext()
+        autocast = torch.autocast("cuda", dtype=self.amp_dtype) if self.amp else nullcontext()
         with autocast:
             params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
                                                batch.action_masks)

@@ -64,6 +64,11 @@ class IVecEnvAdapter:
                                     obs_space=obs_space, state_space=self._state_space)
         self.observation_space = obs_space
         self._obs = self._pending = self._obs_of(env.reset())  # the first obs tells numpy from tensors
+        rows = len(self._obs)
+        if rows != self.num_envs:  # an env built once for N envs (Isaac Lab's) asked for another count
+            raise ValueError(f"the IVecEnv returned {rows} observation rows, expected num_actors ({self.num_actors})"
+                             f" x agents ({self.num_agents}) = {self.num_envs}; set num_actors to its env count "
+                             f"(to play: player.use_vecenv: True and player.num_actors: {rows // self.num_agents})")
         self.is_tensor_env = isinstance(self._obs, torch.Tensor)
         if self.is_tensor_env:
             self.device = self._obs.device

@@ -45,9 +45,14 @@ class TorchCartPole(TensorVecEnv):
         self.state[env_ids] = new
         return new.clone()
 
+    def _force(self, actions: torch.Tensor) -> torch.Tensor:
+        """The force (N,) on each cart: action 1 -> +force_mag, 0 -> -force_mag. A subclass with another
+        action space (a continuous force) overrides it."""
+        return (actions * 2 - 1).float() * self.force_mag
+
     def _step_physics(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         x, x_dot, theta, theta_dot = self.state.unbind(1)
-        force = (actions * 2 - 1).float() * self.force_mag  # 1 -> +force_mag, 0 -> -force_mag
+        force = self._force(actions)
         costheta = torch.cos(theta)
         sintheta = torch.sin(theta)
         temp = (force + self.polemass_length * theta_dot.square() * sintheta) / self.total_mass

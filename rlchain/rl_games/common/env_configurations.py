@@ -1,0 +1,40 @@
+"""rl_games' ``rl_games.common.env_configurations``: ``register(name, config)`` and ``configurations``.
+
+``register`` is :func:`rlchain.env_configurations.register` (the entry goes to rlchain's env registry;
+an ``env_creator`` is also registered with gymnasium), except that, as in rl_games, a name registered
+again is replaced. An entry with a ``vecenv_type`` (Isaac Lab: ``{'vecenv_type': 'IsaacRlgWrapper',
+'env_creator': lambda **kw: env}``) trains through that vector env when ``params.config.env_name`` names it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rlchain import env_configurations as _env_configurations
+from rlchain.registry import ENV_CONFIGURATIONS
+
+configurations = ENV_CONFIGURATIONS
+"""name -> the dict given to :func:`register` (rl_games' ``configurations``)."""
+
+
+def register(name: str, config: dict[str, Any]) -> None:
+    """Register ``config`` (with ``env_creator`` or ``vecenv_creator``) under ``name``, replacing any entry."""
+    _env_configurations.register(name, config, overwrite=True)
+
+
+def get_env_info(env: Any) -> dict[str, Any]:
+    """``observation_space``, ``action_space``, ``agents``, ``value_size`` (and ``state_space`` when the
+    env has one) of an env: its ``get_env_info()`` when it has one, else its attributes."""
+    info = dict(env.get_env_info() or {}) if callable(getattr(env, "get_env_info", None)) else {}
+    for key in ("observation_space", "action_space"):
+        if key not in info:
+            info[key] = getattr(env, key)
+    if "agents" not in info:
+        agents = getattr(env, "get_number_of_agents", None)
+        info["agents"] = agents() if callable(agents) else 1
+    if "value_size" not in info:
+        info["value_size"] = getattr(env, "value_size", 1)
+    return info
+
+
+__all__ = ["configurations", "register", "get_env_info"]

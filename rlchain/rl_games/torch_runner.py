@@ -1,0 +1,161 @@
+"""rl_games' ``Runner`` on rlchain: ``Runner(observer).load(cfg_dict)``, ``reset()``, ``run(args)``.
+
+    runner = Runner(IsaacAlgoObserver())
+    runner.load(agent_cfg)  # {'params': {...}}: rl_games' config as a dict
+    runner.reset()
+    runner.run({"train": True, "play": False, "sigma": None, "checkpoint": resume_path})
+
+Training is rlchain's (:class:`rlchain.runner.Runner` and its loop); the observer is one of its callbacks,
+called at rl_games' points. ``params.env`` (Isaac Lab's clip settings, read by its script) is set aside,
+and ``params.load_checkpoint`` / ``params.load_path`` (IsaacGymEnvs) resume when ``run`` gets no
+``checkpoint``. :meth:`create_player` builds an rl_games-style player (:mod:`.common.player`).
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from rlchain.config.schema import Params
+from rlchain.rl_games.algos_torch.players import PLAYERS
+from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver
+from rlchain.rl_games.common.player import BasePlayer
+from rlchain.runner import Runner as _RlchainRunner
+from rlchain.training.callback_context import ObserverAlgo
+from rlchain.training.events import Callback
+
+SCRIPT_KEYS = ("env",)
+"""Top-level ``params`` keys a launch script reads and rl_games' runner ignores (Isaac Lab's ``params.env``)."""
+
+
+class TrainInfoCallback(Callback):
+    """rl_games' ``vec_env.set_train_info(frames, algo)`` at the start of every epoch, for an rl_games
+    IVecEnv that has it (curricula)."""
+
+    drives_trainer = True
+
+    def on_train_start(self, loop: Any) -> None:
+        self._tell(loop)
+
+    def on_epoch_end(self, loop: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        self._tell(loop)
+
+    def _tell(self, loop: Any) -> None:
+        tell = getattr(loop.env, "set_train_info", None)  # the adapter hands it on to the IVecEnv
+        if callable(tell):
+            tell(loop.frames, ObserverAlgo(loop.events.context, in_epoch=True))  # before the epoch's rollout
+
+
+class StopFnCallback(Callback):
+    """rl_games 2.0's ``config['stop_fn']``: ``stop_fn(algo) -> bool`` after every epoch; true stops the run
+    (with its last checkpoint, as a signal would)."""
+
+    def __init__(self, stop_fn: Any) -> None:
+        self.stop_fn = stop_fn
+
+    def on_epoch_end(self, ctx: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        if self.stop_fn(ObserverAlgo(ctx)):
+            ctx.request_stop("stop_fn returned True")
+
+
+def _checkpoint(args: dict[str, Any], fallback: str | None) -> str | None:
+    path = args.get("checkpoint")
+    return path if path else fallback
+
+
+class Runner:
+    """rl_games' Runner: holds one config (``load``) and trains or plays with it (``run``)."""
+
+    def __init__(self, algo_observer: Any = None) -> None:
+        self._observer_injected = algo_observer is not None
+        self.algo_observer = algo_observer if algo_observer is not None else DefaultAlgoObserver()
+        self.stop_fn: Any = None
+        self.params: dict[str, Any] | None = None
+        self.default_config: dict[str, Any] | None = None
+        self.algo_name: str | None = None
+        self.seed: int | None = None
+        self.load_path: str | None = None
+        self.script_params: dict[str, Any] = {}
+        self.last_result: Any = None
+        self._runner: _RlchainRunner | None = None
+
+    def reset(self) -> None:
+        """Nothing to reset (rl_games' is a no-op too)."""
+
+    def load(self, yaml_config: dict[str, Any]) -> None:
+        """Take a config dict (``{'params': {...}}``, a YAML as read) and validate it with rlchain's schema:
+        a bad key is a one-line ConfigError naming it."""
+        config = copy.deepcopy(yaml_config)
+        if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
+            raise ValueError("Runner.load: expected the config as a dict with a 'params' dict (a YAML as read)")
+        self.default_config = copy.deepcopy(config["params"])
+        self.load_config(config["params"])
+
+    def load_config(self, params: dict[str, Any]) -> None:
+        """Validate ``params`` (the ``params`` block) and keep it."""
+        params = copy.deepcopy(params)
+        self.script_params = {key: params.pop(key) for key in SCRIPT_KEYS if key in params}
+        load_checkpoint, load_path = params.pop("load_checkpoint", False), params.pop("load_path", None)
+        self.load_path = load_path if load_checkpoint and load_path else None
+        config = params.get("config")
+        if isinstance(config, dict):
+            self.stop_fn = config.pop("stop_fn", None)  # a callable: a callback here, not a config value
+            if self.stop_fn is not None and not callable(self.stop_fn):
+                raise ValueError(f"params.config.stop_fn: expected a callable(algo) -> bool, got {self.stop_fn!r}")
+            if "algo_observer" in config:  # rl_games 2.0: the config names the observer unless one was given
+                if self._observer_injected:
+                    config.pop("algo_observer")
+                else:
+                    self.algo_observer = None  # the config's (a callback rlchain adds)
+        self._runner = _RlchainRunner().load({"params": params})
+        self.params = params
+        self.algo_name = params["algo"]["name"]
+        self.seed = self._parsed().seed
+
+    def _parsed(self) -> Params:
+        if self._runner is None or self._runner.params is None:
+            raise RuntimeError("call Runner.load(config) first")
+        return self._runner.params
+
+    def run(self, args: dict[str, Any]) -> Any:
+        """``{'train': True}`` trains, ``{'play': True}`` plays (training when neither); ``checkpoint``
+        resumes (or is played), ``sigma`` sets a fixed sigma. Returns rlchain's TrainResult / PlayResult."""
+        if args.get("train"):
+            return self.run_train(args)
+        if args.get("play"):
+            return self.run_play(args)
+        return self.run_train(args)
+
+    def run_train(self, args: dict[str, Any]) -> Any:
+        """Train with rlchain's loop, the observer called at rl_games' points; resume from ``checkpoint``."""
+        print("Started to train", flush=True)
+        parsed = self._parsed()
+        observer = self.algo_observer
+        callbacks: list[Any] = [TrainInfoCallback()]
+        if observer is not None and type(observer) is not AlgoObserver:
+            callbacks.insert(0, observer)
+        if self.stop_fn is not None:
+            callbacks.append(StopFnCallback(self.stop_fn))
+        self.last_result = self._runner.train(checkpoint=_checkpoint(args, self.load_path), seed=parsed.seed,
+                                              sigma=args.get("sigma"), callbacks=callbacks)
+        return self.last_result
+
+    def run_play(self, args: dict[str, Any]) -> Any:
+        """Play ``player.games_num`` games with the ``checkpoint``'s policy."""
+        print("Started to play", flush=True)
+        player = self.create_player()
+        path = _checkpoint(args, self.load_path)
+        if path:
+            player.restore(path)
+        if args.get("sigma") is not None:
+            player.override_sigma(float(args["sigma"]))
+        self.last_result = player.run()
+        return self.last_result
+
+    def create_player(self) -> BasePlayer:
+        """An rl_games-style player of this config's algorithm (untrained until ``restore``)."""
+        cls = PLAYERS.get(self.algo_name or "", BasePlayer)
+        return cls(self.params, self._parsed())
+
+
+__all__ = ["Runner"]
