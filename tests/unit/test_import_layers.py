@@ -17,7 +17,8 @@ PACKAGE = os.path.join(ROOT, "rlchain")
 
 # the drivers: they may import the Runner (rlchain/runner.py) and the CLI; nothing else may
 ENTRY_POINTS = ("rlchain.cli", "rlchain.runner", "rlchain.tuning")  # and the package itself (rlchain.Runner)
-ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
+ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy",
+                 "rlchain.algos.distill")
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"
