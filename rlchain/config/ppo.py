@@ -112,3 +112,11 @@ class TrainConfig(ActorCriticConfig):
     multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each "
                                                         "with its own model and optimizer (env_name: "
                                                         "pettingzoo; docs/multi_agent.md)")
+
+    @property
+    def model_group(self) -> str:
+        """The observation group PPO's model reads: the student's when starting from a distilled one, else
+        ``obs_groups.policy`` (teacher by default: the whole observation without groups)."""
+        if self.distilled_checkpoint:
+            return "student"
+        return self.obs_groups.policy if self.obs_groups is not None else "teacher"

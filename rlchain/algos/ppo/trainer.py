@@ -13,17 +13,21 @@ from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
+from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
+from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.build import build_central_value, build_env
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
 from rlchain.runs import checkpoint as ckpt
+
+log = get_logger(__name__)
 
 
 class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
@@ -74,6 +78,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -97,8 +102,13 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         return pairs
 
     def start(self) -> None:
-        """Reset the envs: the first observations."""
+        """Reset the envs: the first observations (after the value head's warm start from a distilled
+        teacher, on a fresh run with ``distilled_value: teacher``)."""
         self.obs = self.ctx.reset_envs()
+        if self.distilled_teacher is not None and self.ctx.epoch == 0:
+            mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs,
+                                   self.cfg.learning_rate)
+            log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
