@@ -170,3 +170,16 @@ def test_a_student_network_that_cannot_take_its_view_is_a_one_line_error(tmp_pat
     cnn = ["params.network.cnn={type: conv2d, convs: [{filters: 4, kernel_size: 3, strides: 1, padding: 0}]}"]
     with pytest.raises(ConfigError, match=r"params\.config\.obs_groups\.student: the network cannot take this view"):
         distill(tmp_path, 1, cnn).train()
+
+
+def test_the_central_value_reads_obs_groups_critic_on_a_plain_env(tmp_path):
+    cv = "{network: {name: actor_critic, central_value: True, mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"
+    runner = Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml"), [
+        f"params.config.central_value_config={cv}", "params.config.num_actors=16",
+        "params.config.obs_groups={student: [0, 2], critic: ['0:4'], policy: student}", *small(tmp_path, 1)])
+    runner.train()
+    last = glob.glob(str(tmp_path / "runs" / "*" / "nn" / "last_cartpole.pth"))[0]
+    state = ckpt.load(last)
+    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2  # the actor: positions
+    first = [v for k, v in state["central_value"].items() if k.endswith("weight")][0]
+    assert first.shape[1] == 4  # the critic: the full state, no {'obs', 'state'} env needed
