@@ -24,6 +24,9 @@ class DistillConfig(RunConfig):
     mini_epochs: int = option(2, "passes over each rollout", check=positive)
     minibatches: int = option(2, "minibatches per pass, split by env (an RNN student trains on whole "
                                      "rollouts of its envs); must divide num_actors", check=positive)
+    dataset_epochs: int = option(1, "DAgger's aggregated dataset: each update trains on the labelled rollouts "
+                                    "of the last this many epochs (1 = the current rollout only)",
+                                 check=positive)
     loss: str = option("auto", "behaviour loss: mse or huber on the action means (continuous), kl = "
                                "KL(teacher || student) on the action distributions, cross_entropy = the "
                                "student's negative log-likelihood of the teacher's action; auto = mse for "

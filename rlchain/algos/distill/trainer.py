@@ -83,6 +83,19 @@ def corrupt(obs: torch.Tensor, noise_std: float, dropout: float) -> torch.Tensor
     return out
 
 
+def _concat_envs(batches: list[dict[str, Any]]) -> dict[str, Any]:
+    """Rollouts of several epochs side by side: (T, N, ...) tensors concatenated along the env axis (RNN
+    states along their batch axis 1)."""
+    if len(batches) == 1:
+        return batches[0]
+    out: dict[str, Any] = {}
+    for key in ("obs", "labels", "resets"):
+        out[key] = torch.cat([b[key] for b in batches], 1)
+    out["masks"] = torch.cat([b["masks"] for b in batches], 1) if batches[0]["masks"] is not None else None
+    out["states"] = tuple(torch.cat(parts, 1) for parts in zip(*(b["states"] for b in batches)))
+    return out
+
+
 class DistillTrainer(AlgorithmBase):
     """Algo ``distill``: DAgger from a frozen PPO teacher into the student of ``params.network``."""
 
@@ -120,6 +133,7 @@ class DistillTrainer(AlgorithmBase):
         self.returns = torch.zeros(n, device=dev)
         self.finished = {"teacher": deque(maxlen=cfg.games_to_track), "student": deque(maxlen=cfg.games_to_track)}
         self.batch: dict[str, Any] = {}
+        self.dataset: deque[dict[str, Any]] = deque(maxlen=cfg.dataset_epochs)  # labelled rollouts kept
 
     # -- the schedule --------------------------------------------------------------------------------------
     def beta(self) -> float:
@@ -210,10 +224,14 @@ class DistillTrainer(AlgorithmBase):
 
     # -- update --------------------------------------------------------------------------------------------
     def update(self) -> dict[str, float]:
-        """Fit the student to the teacher's labels; ``mini_epochs`` passes, minibatches of whole env rollouts."""
+        """Fit the student to the teacher's labels: ``mini_epochs`` passes over this rollout and the ones kept
+        from the last ``dataset_epochs`` - 1 epochs (DAgger's aggregated dataset), minibatches of whole env
+        rollouts."""
         cfg, model, b = self.cfg, self.model, self.batch
-        horizon, n = b["obs"].shape[:2]
         model.update_normalizers(obs=b["obs"].flatten(0, 1))  # this rollout's statistics, as PPO
+        self.dataset.append({k: b[k] for k in ("obs", "labels", "resets", "masks", "states")})
+        data = _concat_envs(list(self.dataset))
+        horizon, n = data["obs"].shape[:2]
         model.train()
         per = n // cfg.minibatches
         losses = []
@@ -221,7 +239,7 @@ class DistillTrainer(AlgorithmBase):
             order = torch.randperm(n, device=self.device)
             for k in range(cfg.minibatches):
                 envs = order[k * per:(k + 1) * per]
-                loss = self._minibatch_loss(envs, horizon)
+                loss = self._minibatch_loss(data, envs, horizon)
                 if not bool(torch.isfinite(loss)):
                     raise DivergenceError(f"the behaviour loss is {float(loss)}")
                 self.agent.optimizer.zero_grad(set_to_none=True)
@@ -230,7 +248,7 @@ class DistillTrainer(AlgorithmBase):
                     torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_norm)
                 self.agent.optimizer.step()
                 losses.append(float(loss.detach()))
-        self.ctx.frames += horizon * n
+        self.ctx.frames += self.frames_per_epoch()
         out = {"behavior_loss": float(np.mean(losses)), "teacher_action_prob": b["beta"], "lr": self.agent.lr,
                "action_match": b["match"]}
         for side in ("teacher", "student"):
@@ -238,19 +256,18 @@ class DistillTrainer(AlgorithmBase):
                 out[f"{side}_return"] = float(np.mean(self.finished[side]))
         return out
 
-    def _minibatch_loss(self, envs: torch.Tensor, horizon: int) -> torch.Tensor:
+    def _minibatch_loss(self, data: dict[str, Any], envs: torch.Tensor, horizon: int) -> torch.Tensor:
         """The behaviour loss on the whole rollouts of ``envs``: rows env by env (sequence-major for an RNN)."""
-        b, model = self.batch, self.model
+        model = self.model
 
         def rows(x: torch.Tensor) -> torch.Tensor:  # (T, N, ...) -> (n_envs * T, ...), env by env
             return x[:, envs].transpose(0, 1).flatten(0, 1)
 
-        states = tuple(s[:, envs] for s in b["states"]) if b["states"] else None
-        masks = rows(b["masks"]) if b["masks"] is not None else None
-        params, _, _ = model.evaluate(rows(b["obs"]), states, rows(b["resets"]), seq_length=horizon,
+        states = tuple(s[:, envs] for s in data["states"]) if data["states"] else None
+        masks = rows(data["masks"]) if data["masks"] is not None else None
+        params, _, _ = model.evaluate(rows(data["obs"]), states, rows(data["resets"]), seq_length=horizon,
                                       action_masks=masks)
-        labels = rows(b["labels"])
-        return behavior_loss(model.dist, params, labels, self.loss_kind, self.cfg.huber_delta).mean()
+        return behavior_loss(model.dist, params, rows(data["labels"]), self.loss_kind, self.cfg.huber_delta).mean()
 
     def frames_per_epoch(self) -> int:
         """Env frames one epoch adds."""
