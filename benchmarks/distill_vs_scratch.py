@@ -2,14 +2,16 @@
 
     OMP_NUM_THREADS=1 python benchmarks/distill_vs_scratch.py                  # CartPole, seeds 1 2 3
     OMP_NUM_THREADS=1 python benchmarks/distill_vs_scratch.py --seeds 1 --csv-dir benchmarks/curves/distill
+    OMP_NUM_THREADS=1 python benchmarks/distill_vs_scratch.py --task halfcheetah --seeds 1 --max-frames 1000000
 
 The teacher's return is measured first: its checkpoint played ``--games`` games, deterministic, on the
 full observation. The target is ``--fraction`` (0.9) of it. Then, one run at a time in this process:
 
-- ``distill``: ``rlchain/configs/distill_cartpole_lstm.yaml`` (the LSTM student on positions only, DAgger
+- ``distill``: ``rlchain/configs/distill_<task>_lstm.yaml`` (an LSTM student on positions only, DAgger
   from the teacher);
-- ``scratch``: PPO on the same view (``obs_groups.student``, ``policy: student``) with the same network,
-  the PPO settings of ``ppo_cartpole_masked_velocity_rnn.yaml`` (tuned for that memory task).
+- ``scratch``: PPO on the same view (``obs_groups.student``, ``policy: student``) with the same network;
+  CartPole: the PPO settings of ``ppo_cartpole_masked_velocity_rnn.yaml`` (tuned for that memory task),
+  HalfCheetah: ``ppo_halfcheetah.yaml``'s (the teacher's) with the student's network.
 
 Both stop at the target (``score_to_win``: the mean return of the last 100 episodes the student played
 alone) or at ``--max-frames``. Printed: a row per run and the median per method, frames (independent of
@@ -44,6 +46,18 @@ TASKS = {
         "scratch": (os.path.join(CONFIGS, "ppo_cartpole_masked_velocity_rnn.yaml"),
                     ["params.config.env_name=CartPole-v1", "params.config.obs_groups={student: [0, 2], "
                                                            "policy: student}"]),
+    },
+    "halfcheetah": {
+        "teacher": os.path.join(ROOT, "nn", "halfcheetah_teacher.pth"),
+        "teacher_config": os.path.join(CONFIGS, "ppo_halfcheetah.yaml"),
+        "distill": (os.path.join(CONFIGS, "distill_halfcheetah_lstm.yaml"),
+                    ["params.config.full_experiment_name=null"]),
+        # PPO with the student's network (the distill config's) on the student's view, noise left out
+        "scratch": (os.path.join(CONFIGS, "ppo_halfcheetah.yaml"),
+                    ["params.config.obs_groups={student: ['0:8'], policy: student}",
+                     "params.network.mlp={units: [128, 64], activation: elu, initializer: {name: default}}",
+                     "params.network.rnn={name: lstm, units: 128, layers: 1, before_mlp: True, concat_input: True, "
+                     "layer_norm: True}", "params.config.seq_length=16"]),
     },
 }
 

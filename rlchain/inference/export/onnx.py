@@ -16,6 +16,9 @@ The exported graph is the deterministic policy as the Player runs it::
   rlchain/envs/wrappers/reward_action_obs.py): ``obs`` is the env's flat float32 vector
   ``[last action one-hot | frames scaled to [0, 1] | reward clipped to [-1, 1]]``; build it the same way.
 
+- A model that reads an observation group (``config.obs_groups``: a distilled student, PPO on
+  ``obs_groups.policy``): ``obs`` is the group's features alone, in the group's order (e.g. the
+  student's joint positions without the teacher's velocities); see docs/distillation.md.
 - Recurrent policies (``network.rnn``): the graph also takes the RNN states ``rnn_state_0``,
   ``rnn_state_1`` (LSTM h and c; GRU has one), each (layers, batch, units), zeros at an episode
   start, and returns the next ones as ``rnn_state_0_out`` ... after action and value. Feed them
