@@ -108,3 +108,16 @@ def test_corrupt_adds_noise_and_drops_readings():
     assert float((noisy - obs).std()) == pytest.approx(0.1, rel=0.1)
     dropped = corrupt(obs, 0.0, 0.25)
     assert float((dropped == 0).float().mean()) == pytest.approx(0.25, abs=0.03)
+
+
+def test_the_aggregated_dataset_puts_rollouts_side_by_side():
+    from rlchain.algos.distill.trainer import _concat_envs
+    a = {"obs": torch.zeros(4, 2, 3), "labels": torch.zeros(4, 2, 5), "resets": torch.zeros(4, 2, dtype=torch.bool),
+         "masks": None, "states": (torch.zeros(1, 2, 8), torch.zeros(1, 2, 8))}
+    b = {k: (v + 1 if isinstance(v, torch.Tensor) and v.dtype != torch.bool else v) for k, v in a.items()}
+    b["states"] = tuple(s + 1 for s in a["states"])
+    both = _concat_envs([a, b])
+    assert both["obs"].shape == (4, 4, 3) and both["labels"].shape == (4, 4, 5) and both["resets"].shape == (4, 4)
+    assert both["states"][0].shape == (1, 4, 8) and float(both["states"][1][0, 3, 0]) == 1.0
+    assert float(both["obs"][0, 1, 0]) == 0.0 and float(both["obs"][0, 2, 0]) == 1.0
+    assert _concat_envs([a]) is a
