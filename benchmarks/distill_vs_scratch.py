@@ -110,6 +110,8 @@ def main() -> None:
     p.add_argument("--games", type=int, default=20, help="games the teacher's return is measured over")
     p.add_argument("--max-frames", type=int, default=600_000)
     p.add_argument("--csv-dir", default=None, help="write each run's curve (seconds, frames, reward) here")
+    p.add_argument("--plot", default=None, help="write the curves against frames and seconds to this PNG")
+    p.add_argument("--replot", action="store_true", help="no training: plot and tabulate the curves of --csv-dir")
     args = p.parse_args()
     task = TASKS[args.task]
     teacher = teacher_return(task, args.games)
@@ -117,6 +119,15 @@ def main() -> None:
     print(f"{args.task}: teacher return {teacher:.1f} over {args.games} games; target {target:.1f} "
           f"({args.fraction:.0%})", flush=True)
     rows: dict[str, list[dict]] = {m: [] for m in args.methods}
+    if args.replot:
+        for method in args.methods:
+            for seed in args.seeds:
+                with open(os.path.join(args.csv_dir, f"{args.task}_{method}_seed{seed}.csv")) as fh:
+                    points = [(float(t), int(f), float(r)) for t, f, r in list(csv.reader(fh))[1:]]
+                hit = next(((t, f) for t, f, r in points if r >= target), None)
+                rows[method].append({"seed": seed, "reached": hit is not None, "seconds": hit and hit[0],
+                                     "frames": hit and hit[1], "points": points})
+        args.methods = []  # nothing to train
     with tempfile.TemporaryDirectory() as tmp:
         for method in args.methods:
             config, overrides = task[method]
@@ -133,6 +144,8 @@ def main() -> None:
                         w = csv.writer(fh)
                         w.writerow(["seconds", "frames", "mean_reward"])
                         w.writerows((f"{t:.2f}", f, f"{rew:.2f}") for t, f, rew in r["points"])
+    if args.plot:
+        plot(rows, target, teacher, args.task, args.plot)
     print(f"\n| method | seeds reaching {target:.0f} | median frames | median seconds (loaded machine) |")
     print("|---|---|---|---|")
     for method, runs in rows.items():
@@ -140,6 +153,31 @@ def main() -> None:
         frames = statistics.median(r["frames"] for r in hit) if hit else float("nan")
         seconds = statistics.median(r["seconds"] for r in hit) if hit else float("nan")
         print(f"| {method} | {len(hit)}/{len(runs)} | {frames:,.0f} | {seconds:.1f} |")
+
+
+def plot(rows: dict[str, list[dict]], target: float, teacher: float, task: str, path: str) -> None:
+    """Mean reward against frames and against seconds, one line per run, the target and the teacher."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    colors = {"distill": "tab:blue", "scratch": "tab:orange"}
+    for method, runs in rows.items():
+        for i, r in enumerate(runs):
+            t, f, rew = zip(*r["points"]) if r["points"] else ((), (), ())
+            label = f"{method} ({len(runs)} seeds)" if i == 0 else None
+            axes[0].plot(f, rew, color=colors[method], alpha=0.8, label=label)
+            axes[1].plot(t, rew, color=colors[method], alpha=0.8, label=label)
+    for ax, xlabel in zip(axes, ("env frames", "seconds (shared, loaded 2-core machine)")):
+        ax.axhline(teacher, color="gray", ls=":", label="teacher")
+        ax.axhline(target, color="gray", ls="--", label="90 % of the teacher")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("mean return (student alone)")
+    axes[0].legend(loc="lower right")
+    fig.suptitle(f"{task}: distilled student vs PPO from scratch on the student's view")
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path, dpi=80)
 
 
 if __name__ == "__main__":
