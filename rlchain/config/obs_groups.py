@@ -56,5 +56,8 @@ class ObsGroupsConfig:
     student_noise_std: float = option(0.0, "distill: Gaussian noise (this std) added to the student's view "
                                            "while training (a sensor's noise); not at play or export",
                                       check=non_negative)
+    student_delay: int = option(0, "distill: the student sees the observation of this many steps ago while "
+                                   "training (a slow sensor; an episode's first observation fills the line)",
+                                check=non_negative)
     student_dropout: float = option(0.0, "distill: probability that each element of the student's view is "
                                          "zeroed while training (a dropped sensor reading)", check=check_rate)

@@ -66,7 +66,9 @@ def test_distill_logs_behavior_loss_and_both_returns(tmp_path, monkeypatch):
     monkeypatch.setattr(TrainLogger, "emit", emit)
     distill(tmp_path, 2, ["params.config.horizon_length=128", "params.config.teacher_action_prob=0.5",
                           "params.config.teacher_action_prob_end=0.5",
-                          "params.config.env_config={max_episode_steps: 100}"]).train()
+                          "params.config.env_config={max_episode_steps: 100}",  # and a corrupted, late sensor:
+                          "params.config.obs_groups={student: [0, 2], student_noise_std: 0.05, student_dropout: 0.1, "
+                          "student_delay: 2}"]).train()
     assert len(tags["losses/behavior"]) == 2 and all(np.isfinite(tags["losses/behavior"]))
     assert tags["info/teacher_action_prob"] == [0.5, 0.5]
     assert "rewards/teacher" in tags and "rewards/student" in tags  # episodes played wholly by each

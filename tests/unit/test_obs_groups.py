@@ -121,3 +121,15 @@ def test_the_aggregated_dataset_puts_rollouts_side_by_side():
     assert both["states"][0].shape == (1, 4, 8) and float(both["states"][1][0, 3, 0]) == 1.0
     assert float(both["obs"][0, 1, 0]) == 0.0 and float(both["obs"][0, 2, 0]) == 1.0
     assert _concat_envs([a]) is a
+
+
+def test_the_delay_line_gives_the_observation_of_k_steps_ago_and_restarts_with_episodes():
+    from rlchain.algos.distill.trainer import DelayLine
+    line = DelayLine(2)
+    no = torch.zeros(2, dtype=torch.bool)
+    out = [line.push(torch.tensor([[float(t)], [10.0 + t]]), torch.tensor([t == 0, t == 0]) | no)[:, 0].tolist()
+           for t in range(4)]
+    assert out == [[0.0, 10.0], [0.0, 10.0], [0.0, 10.0], [1.0, 11.0]]
+    restarted = line.push(torch.tensor([[100.0], [14.0]]), torch.tensor([True, False]))
+    assert restarted[:, 0].tolist() == [100.0, 12.0]  # env 0 starts over: its first observation
+    assert DelayLine(0).push(torch.ones(1, 1), no[:1]) is not None

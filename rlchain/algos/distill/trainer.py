@@ -4,7 +4,8 @@ Each epoch (:meth:`DistillTrainer.collect`) steps the envs ``horizon_length`` ti
 DAgger's beta (``teacher_action_prob``, moving linearly to ``teacher_action_prob_end`` over
 ``teacher_action_prob_epochs``) once per episode or every step (``mixing``); the teacher labels every
 state either way (its action distribution on its own, clean, view). The student reads its view
-(``obs_groups.student``), corrupted by ``student_noise_std`` / ``student_dropout`` while training.
+(``obs_groups.student``), corrupted by ``student_noise_std`` / ``student_dropout`` and ``student_delay``
+steps late while training.
 :meth:`DistillTrainer.update` then fits the student to the labels (``loss``: MSE / Huber on the action
 means, KL or cross-entropy on the distributions; action masks applied to both sides) for ``mini_epochs``
 passes; an RNN student is trained on each env's whole rollout from the state it entered the epoch with
@@ -96,6 +97,27 @@ def _concat_envs(batches: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+class DelayLine:
+    """The student's view ``delay`` steps late (a slow sensor): :meth:`push` takes this step's observations
+    (N, ...) and returns the ones of ``delay`` steps ago; an env whose episode starts (``starts`` (N,) bool)
+    has its line filled with its first observation."""
+
+    def __init__(self, delay: int) -> None:
+        self.delay = delay
+        self.line: torch.Tensor | None = None  # (delay + 1, N, ...), oldest first
+
+    def push(self, obs: torch.Tensor, starts: torch.Tensor) -> torch.Tensor:
+        """This step's observations in, those of ``delay`` steps ago out (``obs`` itself when delay is 0)."""
+        if self.delay == 0:
+            return obs
+        if self.line is None:
+            self.line = obs.unsqueeze(0).repeat(self.delay + 1, *([1] * obs.dim())).clone()
+        self.line = torch.cat([self.line[1:], obs.unsqueeze(0)], 0)
+        if bool(starts.any()):
+            self.line[:, starts] = obs[starts].unsqueeze(0)
+        return self.line[0]
+
+
 class DistillTrainer(AlgorithmBase):
     """Algo ``distill``: DAgger from a frozen PPO teacher into the student of ``params.network``."""
 
@@ -134,6 +156,7 @@ class DistillTrainer(AlgorithmBase):
         self.finished = {"teacher": deque(maxlen=cfg.games_to_track), "student": deque(maxlen=cfg.games_to_track)}
         self.batch: dict[str, Any] = {}
         self.dataset: deque[dict[str, Any]] = deque(maxlen=cfg.dataset_epochs)  # labelled rollouts kept
+        self.delay = DelayLine(cfg.obs_groups.student_delay if cfg.obs_groups is not None else 0)
 
     # -- the schedule --------------------------------------------------------------------------------------
     def beta(self) -> float:
@@ -167,7 +190,7 @@ class DistillTrainer(AlgorithmBase):
             else:
                 self._draw(self.resets, beta)
             masks = ctx.to_tensor(self.env.get_action_mask()).bool() if self.use_masks else None
-            student_obs = corrupt(self.obs, noise, dropout)
+            student_obs = self.delay.push(corrupt(self.obs, noise, dropout), self.resets)
             with torch.no_grad():
                 t_params, _, t_states = teacher.evaluate(self.obs, self.teacher_states or None, action_masks=masks)
                 s_params, _, s_states = model.evaluate(student_obs, self.states or None, action_masks=masks)
@@ -280,6 +303,7 @@ class DistillTrainer(AlgorithmBase):
         self.states = self.model.initial_state(self.num_envs, self.device)
         self.teacher_states = self.teacher.model.initial_state(self.num_envs, self.device)
         self.resets = torch.ones_like(self.resets)
+        self.delay.line = None
         self.teacher_steps.zero_()
         self.student_steps.zero_()
         self.returns.zero_()
