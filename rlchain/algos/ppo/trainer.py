@@ -106,8 +106,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         teacher, on a fresh run with ``distilled_value: teacher``)."""
         self.obs = self.ctx.reset_envs()
         if self.distilled_teacher is not None and self.ctx.epoch == 0:
-            mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs,
-                                   self.cfg.learning_rate)
+            mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs)
             log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
 
     def restart_episodes(self) -> None:
