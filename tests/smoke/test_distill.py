@@ -120,7 +120,7 @@ def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, 
     _, last, _ = distilled
     runner = Runner().load(FINETUNE, [f"params.config.distilled_checkpoint={last}",
                                       f"params.config.distilled_value={value}",
-                                      "params.config.distilled_value_epochs=2", "params.config.num_actors=8",
+                                      "params.config.distilled_value_epochs=1", "params.config.num_actors=8",
                                       "params.config.minibatch_size=128", *small(tmp_path, 1)])
     seen = {}
 

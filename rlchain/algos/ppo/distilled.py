@@ -75,7 +75,7 @@ def value_head(model: Any) -> list[torch.nn.Parameter]:
     return list(head.parameters())
 
 
-def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, steps: int = 50) -> float:
+def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, steps: int = 25) -> float:
     """Regress ``trainer.model``'s value head on ``teacher``'s values over ``epochs`` rollouts of the student
     acting (its own sampling, as PPO will), ``steps`` Adam steps on each; returns the last rollout's mean
     squared error (normalized scale).
