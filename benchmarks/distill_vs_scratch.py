@@ -157,7 +157,7 @@ def main() -> None:
 
 def plot(rows: dict[str, list[dict]], target: float, teacher: float, task: str, path: str) -> None:
     """Mean reward against frames and against seconds, one line per run, the target and the teacher."""
-    import matplotlib
+    import matplotlib  # optional: matplotlib (the plot only)
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))

@@ -9,6 +9,7 @@ space (``params.config.teacher_checkpoint``), observation parts other than the o
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -84,7 +85,6 @@ def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
 
 
 def _with_teacher(groups: ObsGroupsConfig, indices: tuple[int, ...]) -> ObsGroupsConfig:
-    import dataclasses
     return dataclasses.replace(groups, teacher=list(indices) if indices else None)
 
 
