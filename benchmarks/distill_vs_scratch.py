@@ -34,13 +34,14 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
+from rlchain.algos.distill.teacher import shipped_path  # noqa: E402
 from rlchain.inference.player import Player  # noqa: E402
 from rlchain.training.events import Callback  # noqa: E402
 
 CONFIGS = os.path.join(ROOT, "rlchain", "configs")
 TASKS = {
     "cartpole": {
-        "teacher": os.path.join(ROOT, "nn", "cartpole.pth"),
+        "teacher": shipped_path(os.path.join(ROOT, "nn", "cartpole.pth")),
         "teacher_config": os.path.join(CONFIGS, "ppo_cartpole.yaml"),
         "distill": (os.path.join(CONFIGS, "distill_cartpole_lstm.yaml"), ["params.config.full_experiment_name=null"]),
         "scratch": (os.path.join(CONFIGS, "ppo_cartpole_masked_velocity_rnn.yaml"),
@@ -48,7 +49,7 @@ TASKS = {
                                                            "policy: student}"]),
     },
     "halfcheetah": {
-        "teacher": os.path.join(ROOT, "nn", "halfcheetah_teacher.pth"),
+        "teacher": os.path.join(ROOT, "rlchain", "checkpoints", "halfcheetah_teacher.pth"),
         "teacher_config": os.path.join(CONFIGS, "ppo_halfcheetah.yaml"),
         "distill": (os.path.join(CONFIGS, "distill_halfcheetah_lstm.yaml"),
                     ["params.config.full_experiment_name=null"]),

@@ -2,7 +2,7 @@
 deterministic. CartPole: the LSTM student of distill_cartpole_lstm.yaml sees the cart position and the pole
 angle only (teacher nn/cartpole.pth, PPO on the full state; 20 games each). HalfCheetah: the LSTM student of
 distill_halfcheetah_lstm.yaml sees the joint positions only, with sensor noise while training (teacher
-nn/halfcheetah_teacher.pth, PPO on all 17 numbers; 2 games each)."""
+rlchain/checkpoints/halfcheetah_teacher.pth, PPO on all 17 numbers; 2 games each)."""
 
 import glob
 import os
@@ -10,6 +10,7 @@ import os
 import pytest
 
 from rlchain import Runner
+from rlchain.algos.distill.teacher import shipped_path
 from rlchain.inference.player import Player
 from tests.conftest import CONFIGS, ROOT
 
@@ -25,7 +26,7 @@ def played(params, checkpoint, games=20):
 
 
 def test_lstm_student_reaches_90_percent_of_the_mlp_teacher(tmp_path):
-    teacher_path = os.path.join(ROOT, "nn", "cartpole.pth")
+    teacher_path = shipped_path(os.path.join(ROOT, "nn", "cartpole.pth"))
     runner = Runner().load(os.path.join(CONFIGS, "distill_cartpole_lstm.yaml"), [
         f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
         f"params.config.teacher_checkpoint={teacher_path}", "params.config.full_experiment_name=null",
@@ -39,7 +40,7 @@ def test_lstm_student_reaches_90_percent_of_the_mlp_teacher(tmp_path):
 
 def test_halfcheetah_student_without_velocities_reaches_90_percent_of_the_teacher(tmp_path):
     pytest.importorskip("envpool")
-    teacher_path = os.path.join(ROOT, "nn", "halfcheetah_teacher.pth")
+    teacher_path = os.path.join(ROOT, "rlchain", "checkpoints", "halfcheetah_teacher.pth")
     teacher = played(Runner().load(os.path.join(CONFIGS, "ppo_halfcheetah.yaml")).params, teacher_path, games=2)
     assert teacher > 3000, teacher
     runner = Runner().load(os.path.join(CONFIGS, "distill_halfcheetah_lstm.yaml"), [

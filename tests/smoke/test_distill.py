@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.distill.teacher import shipped_path
 from rlchain.config.errors import ConfigError
 from rlchain.inference.export.onnx import export_onnx, onnx_session
 from rlchain.inference.player import Player
@@ -22,7 +23,7 @@ from tests.smoke.test_train_play_resume import small
 pytestmark = pytest.mark.smoke
 DISTILL = os.path.join(CONFIGS, "distill_cartpole_lstm.yaml")
 FINETUNE = os.path.join(CONFIGS, "ppo_cartpole_student_finetune.yaml")
-TEACHER = os.path.join(ROOT, "nn", "cartpole.pth")
+TEACHER = shipped_path(os.path.join(ROOT, "nn", "cartpole.pth"))  # rlchain/checkpoints/ where nn/ moved there
 FAST = ["params.config.num_actors=4", "params.config.horizon_length=16", "params.config.teacher_action_prob_epochs=1",
         f"params.config.teacher_checkpoint={TEACHER}", "params.config.full_experiment_name=null"]
 
@@ -148,7 +149,7 @@ def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, 
 
 
 def test_a_teacher_with_another_action_space_is_a_one_line_error(tmp_path):
-    pendulum = os.path.join(ROOT, "nn", "pendulum.pth")
+    pendulum = shipped_path(os.path.join(ROOT, "nn", "pendulum.pth"))
     with pytest.raises(ConfigError, match=r"params\.config\.teacher_checkpoint: .*action space") as info:
         distill(tmp_path, 1, [f"params.config.teacher_checkpoint={pendulum}"]).train()
     assert "\n" not in str(info.value)

@@ -133,3 +133,12 @@ def test_the_delay_line_gives_the_observation_of_k_steps_ago_and_restarts_with_e
     restarted = line.push(torch.tensor([[100.0], [14.0]]), torch.tensor([True, False]))
     assert restarted[:, 0].tolist() == [100.0, 12.0]  # env 0 starts over: its first observation
     assert DelayLine(0).push(torch.ones(1, 1), no[:1]) is not None
+
+
+def test_a_teacher_path_falls_back_to_the_checkpoints_shipped_with_rlchain(tmp_path, monkeypatch):
+    from rlchain.algos.distill import teacher
+    (tmp_path / "cartpole.pth").write_bytes(b"x")
+    monkeypatch.setattr(teacher, "PACKAGE_CHECKPOINTS", str(tmp_path))
+    assert teacher.shipped_path("nn/no_such_dir/cartpole.pth") == str(tmp_path / "cartpole.pth")
+    assert teacher.shipped_path(str(tmp_path / "cartpole.pth")) == str(tmp_path / "cartpole.pth")
+    assert teacher.shipped_path("nn/other.pth") == "nn/other.pth"  # not shipped: as given (a clear error later)

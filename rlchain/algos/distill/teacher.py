@@ -10,6 +10,7 @@ space (``params.config.teacher_checkpoint``), observation parts other than the o
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +25,17 @@ from rlchain.models.build import build_model, model_view
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.teacher_checkpoint"
+PACKAGE_CHECKPOINTS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                   "checkpoints")
+
+
+def shipped_path(path: str) -> str:
+    """``path`` when it exists; else a checkpoint of that file name shipped with rlchain
+    (``rlchain/checkpoints/``, where ``nn/cartpole.pth`` of a clone lives in an install); else ``path``."""
+    if os.path.isfile(path):
+        return path
+    shipped = os.path.join(PACKAGE_CHECKPOINTS, os.path.basename(path))
+    return shipped if os.path.isfile(shipped) else path
 
 
 @dataclass
@@ -38,7 +50,7 @@ class Teacher:
 def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
     """The teacher of ``params.config.teacher_checkpoint`` on ``env``, frozen (eval mode, no gradients)."""
     cfg, source = params.config, params.source
-    path = cfg.teacher_checkpoint
+    path = shipped_path(cfg.teacher_checkpoint)
     try:
         state = ckpt.load(path, map_location=device)
     except ckpt.CheckpointError as exc:

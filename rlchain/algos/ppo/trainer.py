@@ -104,7 +104,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     def start(self) -> None:
         """Reset the envs: the first observations (after the value head's warm start from a distilled
         teacher, on a fresh run with ``distilled_value: teacher``)."""
-        self.obs = self.ctx.reset_envs()
+        super().start()
         if self.distilled_teacher is not None and self.ctx.epoch == 0:
             mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs)
             log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
