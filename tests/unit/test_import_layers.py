@@ -17,12 +17,12 @@ PACKAGE = os.path.join(ROOT, "rlchain")
 
 # the drivers: they may import the Runner (rlchain/runner.py) and the CLI; nothing else may
 ENTRY_POINTS = ("rlchain.cli", "rlchain.runner", "rlchain.tuning")  # and the package itself (rlchain.Runner)
-ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy",
-                 "rlchain.algos.distill")
+ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"
 TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
+ALGO_FAMILIES += ("rlchain.algos.distill",)  # teacher to student (issue 36)
 RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
 OPTIONAL = re.compile(r"#\s*optional:\s*\S")

@@ -82,7 +82,13 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
-        """A rollout of horizon_length steps into the storage; False when a stop signal came."""
+        """A rollout of horizon_length steps into the storage; False when a stop signal came. A fresh run
+        from a distilled student with ``distilled_value: teacher`` first regresses its value head."""
+        if self.distilled_teacher is not None:
+            if self.ctx.epoch == 0:
+                mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs)
+                log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
+            self.distilled_teacher = None  # once (a resumed run has its trained value head)
         return self.rollout()
 
     def update(self) -> dict[str, float]:
@@ -102,12 +108,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         return pairs
 
     def start(self) -> None:
-        """Reset the envs: the first observations (after the value head's warm start from a distilled
-        teacher, on a fresh run with ``distilled_value: teacher``)."""
-        super().start()
-        if self.distilled_teacher is not None and self.ctx.epoch == 0:
-            mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs)
-            log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
+        """Reset the envs: the first observations."""
+        self.obs = self.ctx.reset_envs()
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
