@@ -8,6 +8,7 @@ import rlchain.envs.backends.atari  # noqa: F401  (registers atari_gym and rl_ga
 import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
 import rlchain.envs.test  # noqa: F401  (registers the test envs)
 from rlchain.algos.appo.trainer import APPOTrainer, ImpalaTrainer
+from rlchain.algos.distill.trainer import DistillTrainer
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQNTrainer, SACTrainer
@@ -57,6 +58,7 @@ def register_builtins() -> None:
 
     ALGOS.register("appo", APPOTrainer, overwrite=True)
     ALGOS.register("impala", ImpalaTrainer, overwrite=True)
+    ALGOS.register("distill", DistillTrainer, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively

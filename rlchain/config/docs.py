@@ -10,6 +10,7 @@ import typing
 
 from rlchain.config import compat
 from rlchain.config.appo import APPOConfig, ImpalaConfig
+from rlchain.config.distill import DistillConfig
 from rlchain.config.multi_agent import PolicySpec
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
 from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
@@ -37,6 +38,9 @@ ROOTS = [
      "clipped-surrogate keys: one pass per batch)",
      "params.config", ImpalaConfig, "algo impala"),
     ("params.network (builder dqn)", "params.network", DQNNetworkConfig, "builder dqn"),
+    ("params.config for algo distill (a frozen PPO teacher labels the states a student visits, DAgger; "
+     "docs/distillation.md; keys shared with PPO have the same meaning)",
+     "params.config", DistillConfig, "algo distill"),
 ]
 
 # Extra words for a nested section's heading, by key path.
@@ -47,6 +51,7 @@ NOTES = {
     "params.config.central_value_config": "asymmetric actor-critic; the env sets use_central_value",
     "params.network.space": "exactly one; an empty value like `discrete:` selects it",
     "params.network.rnn": "training uses sequences of config.seq_length",
+    "params.config.obs_groups": "teacher, student and critic views of one observation; docs/distillation.md",
 }
 
 # A block type met at several key paths gets one section that names them all.

@@ -11,6 +11,7 @@ from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.compile import check_compile
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 from rlchain.config.multi_agent import MultiAgentConfig
+from rlchain.config.obs_groups import ObsGroupsConfig
 
 
 @dataclass(frozen=True)
@@ -90,6 +91,18 @@ class TrainConfig(ActorCriticConfig):
                                      check=positive)
     zero_rnn_on_done: bool = option(True, "RNN: zero the hidden state when an episode ends, in the rollout "
                                           "and inside training sequences")
+    obs_groups: ObsGroupsConfig | None = option(None, "rlchain: the part of the observation each network sees "
+                                                      "(teacher, student, critic; docs/distillation.md)")
+    distilled_checkpoint: str | None = option(None, "rlchain: start from a distilled student (an algo: distill "
+                                                    "checkpoint): its weights, the student's view "
+                                                    "(obs_groups.policy: student); stage three of "
+                                                    "docs/distillation.md")
+    distilled_value: str = option("scratch", "with distilled_checkpoint, the value head: scratch (as the "
+                                             "student has it, untrained) or teacher (regressed on the "
+                                             "teacher's values over distilled_value_epochs rollouts first)",
+                                  choices=("scratch", "teacher"))
+    distilled_value_epochs: int = option(5, "with distilled_value teacher: rollouts of value regression",
+                                         check=positive)
     central_value_config: CentralValueConfig | None = option(
         None, "asymmetric actor-critic: a value network on the env's `state` (env use_central_value)")
     use_action_masks: bool = option(False, "invalid-action masks from the env's has_action_mask() / "
@@ -99,3 +112,11 @@ class TrainConfig(ActorCriticConfig):
     multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each "
                                                         "with its own model and optimizer (env_name: "
                                                         "pettingzoo; docs/multi_agent.md)")
+
+    @property
+    def model_group(self) -> str:
+        """The observation group PPO's model reads: the student's when starting from a distilled one, else
+        ``obs_groups.policy`` (teacher by default: the whole observation without groups)."""
+        if self.distilled_checkpoint:
+            return "student"
+        return self.obs_groups.policy if self.obs_groups is not None else "teacher"

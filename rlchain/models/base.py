@@ -24,7 +24,9 @@ class ObservationModel(nn.Module):
     """
 
     flatten_obs = False
-    obs_slice: slice | None = None
+    obs_slice: slice | tuple[int, ...] | None = None
+    obs_group: str | None = None
+    """The ``obs_groups`` group this model reads (set when the config names groups; export then takes the view)."""
     obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
 
     def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
@@ -32,13 +34,20 @@ class ObservationModel(nn.Module):
 
         With a normalizer the uint8 scaling folds into it (one pass over the frames, not five).
         """
-        if self.obs_slice is not None:
-            obs = obs[:, self.obs_slice]
+        obs = self.view(obs)
         if self.obs_norm is None:
             return self._features(obs)
         scale = 1.0 / 255.0 if obs.dtype == torch.uint8 else 1.0
         x = obs if obs.dtype == torch.float32 else obs.float()
         return self.obs_norm.normalize(x.flatten(1) if self.flatten_obs else x, scale)
+
+    def view(self, obs: torch.Tensor) -> torch.Tensor:
+        """This model's part of the env's flat observations (B, total) -> (B, view): its ``obs_slice``."""
+        if self.obs_slice is None:
+            return obs
+        if isinstance(self.obs_slice, slice):
+            return obs[:, self.obs_slice]
+        return obs.index_select(1, torch.tensor(self.obs_slice, device=obs.device))
 
     def _features(self, obs: torch.Tensor) -> torch.Tensor:
         """float32 obs ([0, 1] for uint8), flattened when the model flattens: what the normalizer sees."""
@@ -49,7 +58,7 @@ class ObservationModel(nn.Module):
         """Fold a batch of observations (rows) into the input statistics (models with values add returns)."""
         if obs is not None and self.obs_norm is not None:
             # the same part and [0, 1] scale that preprocess() normalizes, converted chunk by chunk
-            self.obs_norm.update(obs if self.obs_slice is None else obs[:, self.obs_slice], self._features)
+            self.obs_norm.update(self.view(obs), self._features)
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Values in raw return scale (identity unless a value normalizer exists)."""

@@ -14,8 +14,9 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import NetworkConfig, Params
 from rlchain.envs.factory import make_vec_env
+from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
-from rlchain.envs.wrappers.central_value import obs_state_parts, obs_state_split
+from rlchain.envs.wrappers.central_value import obs_state_split
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
@@ -61,17 +62,30 @@ def value_size_of(env: Any) -> int:
     return env_spec(env).value_size
 
 
-def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
+def model_view(params: Params, space: gym.Space, group: str | None = None, groups: Any = None) -> ObsView:
+    """What the model of ``params`` reads of the flat observation space ``space``: the ``obs_groups`` group
+    its algorithm trains (PPO: ``obs_groups.policy``; distill: ``student``) or ``group``; ``groups``
+    overrides the config's block (distill builds its teacher with its own run's groups)."""
+    cfg = params.config
+    groups = getattr(cfg, "obs_groups", None) if groups is None else groups
+    if group is None:
+        group = getattr(cfg, "model_group", None) or (groups.policy if groups is not None else "teacher")
+    parts = group_parts(groups, group, space)
+    return resolve_view(space, parts, group, f"params.config.obs_groups.{group}", params.source)
+
+
+def build_model(params: Params, env: Any, device: torch.device, group: str | None = None,
+                groups: Any = None) -> ActorCritic:
     """Network from the network registry, wrapped by the model preset from the model registry; with
-    ``config.multi_agent``, a ModuleDict of one such model per policy (algos/multi_policy/policies.py)."""
+    ``config.multi_agent``, a ModuleDict of one such model per policy (algos/multi_policy/policies.py).
+    The model reads its observation group (:func:`model_view`; a central-value env's actor: ``obs``)."""
     if getattr(params, "policies", None) is not None:
         return build_policy_models(params, env, device)
     obs_space, act_space = env.observation_space, env.action_space
+    view = model_view(params, obs_space, group, groups)
     declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
-    split = obs_state_split(obs_space)  # [obs | state] from a central-value env: the actor reads obs
-    if split is not None:
-        declared = obs_state_parts(obs_space)[0] or gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
-        obs_space = gym.spaces.Box(-np.inf, np.inf, (split,), np.float32)
+    if not view.whole and view.size:
+        declared, obs_space = view.space, gym.spaces.Box(-np.inf, np.inf, (view.size,), np.float32)
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
     actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
@@ -83,23 +97,30 @@ def build_model(params: Params, env: Any, device: torch.device) -> ActorCritic:
         model = factory(network=network, action_space=act_space, obs_shape=tuple(obs_space.shape),
                         value_size=value_size, config=params.config, model_name=params.model.name)
     except ValueError as exc:
-        raise ConfigError(params.source, "", str(exc)) from None
-    if split is not None:
-        model.obs_slice = slice(0, split)
+        key = f"params.config.obs_groups.{view.group}" if not view.whole and view.size else ""
+        raise ConfigError(params.source, key, f"{'' if not key else 'the network cannot take this view: '}"
+                                              f"{exc}") from None
+    if not view.whole and view.size:
+        model.obs_slice = view.selector()
+        if getattr(params.config, "obs_groups", None) is not None or groups is not None:
+            model.obs_group = view.group
     return model.to(device)
 
 
 def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
-    """The asymmetric critic of ``central_value_config`` on the env's state part, or None without one."""
+    """The asymmetric critic of ``central_value_config`` on its view: ``obs_groups.critic``, by default the
+    env's state part."""
     cv = params.config.central_value_config
     if cv is None:
         return None
     space = env.observation_space
-    split = obs_state_split(space)
-    if split is None:
+    groups = getattr(params.config, "obs_groups", None)
+    if obs_state_split(space) is None and getattr(groups, "critic", None) is None:
         raise ConfigError(params.source, "params.config.central_value_config", "the env has no central-value "
-                          "state: it must return {'obs': ..., 'state': ...} observations (use_central_value)")
-    state_shape = (space.shape[0] - split,)
+                          "state: it must return {'obs': ..., 'state': ...} observations (use_central_value), "
+                          "or obs_groups.critic must name the critic's part")
+    view = model_view(params, space, "critic")
+    state_shape = (view.size,)
     value_size = value_size_of(env)
     try:
         if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
@@ -110,14 +131,12 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
             network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
                                   "params.config.central_value_config.network", actions_num=value_size,
                                   input_shape=state_shape, value_size=value_size,
-                                  num_seqs=params.config.num_actors,
-                                  observation_space=obs_state_parts(space)[1] or gym.spaces.Box(
-                                      -np.inf, np.inf, state_shape, np.float32))
+                                  num_seqs=params.config.num_actors, observation_space=view.space)
             model = CentralValue(None, state_shape, value_size, cv.normalize_input,
                                  params.config.normalize_value, network=network)
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
-    model.obs_slice = slice(split, None)
+    model.obs_slice = view.selector()
     return model.to(device)
 
 

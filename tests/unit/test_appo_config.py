@@ -51,9 +51,9 @@ def test_the_issue_block_parses_typed():
     ("appo", "env_groups", 2, "a2c_continuous, a2c_discrete", "runners step their envs"),
     ("appo", "seq_length", 4, "a2c_continuous, a2c_discrete, dqn, sac", "RNN"),
     ("impala", "e_clip", 0.2, "a2c_continuous, a2c_discrete, appo", "no clipped surrogate"),
-    ("impala", "mini_epochs", 4, "a2c_continuous, a2c_discrete, appo", "one pass"),
+    ("impala", "mini_epochs", 4, "a2c_continuous, a2c_discrete, appo, distill", "one pass"),
     ("a2c_discrete", "appo", {"max_policy_lag": 2}, "appo, impala", ""),
-    ("sac", "learning_rate", 1e-3, "a2c_continuous, a2c_discrete, appo, dqn, impala", ""),
+    ("sac", "learning_rate", 1e-3, "a2c_continuous, a2c_discrete, appo, distill, dqn, impala", ""),
 ])
 def test_a_key_of_another_algo_is_a_one_line_warning(monkeypatch, algo, key, value, owners, words):
     """rl_games' PPO YAML switched to appo keeps loading: PPO's keys are ignored with a warning naming them."""

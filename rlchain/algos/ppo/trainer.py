@@ -13,17 +13,21 @@ from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
+from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
+from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.build import build_central_value, build_env
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
 from rlchain.runs import checkpoint as ckpt
+
+log = get_logger(__name__)
 
 
 class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
@@ -74,10 +78,17 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
-        """A rollout of horizon_length steps into the storage; False when a stop signal came."""
+        """A rollout of horizon_length steps into the storage; False when a stop signal came. A fresh run
+        from a distilled student with ``distilled_value: teacher`` first regresses its value head."""
+        if self.distilled_teacher is not None:
+            if self.ctx.epoch == 0:
+                mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs)
+                log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
+            self.distilled_teacher = None  # once (a resumed run has its trained value head)
         return self.rollout()
 
     def update(self) -> dict[str, float]:

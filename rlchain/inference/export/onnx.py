@@ -16,6 +16,9 @@ The exported graph is the deterministic policy as the Player runs it::
   rlchain/envs/wrappers/reward_action_obs.py): ``obs`` is the env's flat float32 vector
   ``[last action one-hot | frames scaled to [0, 1] | reward clipped to [-1, 1]]``; build it the same way.
 
+- A model that reads an observation group (``config.obs_groups``: a distilled student, PPO on
+  ``obs_groups.policy``): ``obs`` is the group's features alone, in the group's order (e.g. the
+  student's joint positions without the teacher's velocities); see docs/distillation.md.
 - Recurrent policies (``network.rnn``): the graph also takes the RNN states ``rnn_state_0``,
   ``rnn_state_1`` (LSTM h and c; GRU has one), each (layers, batch, units), zeros at an episode
   start, and returns the next ones as ``rnn_state_0_out`` ... after action and value. Feed them
@@ -225,6 +228,23 @@ def _load(params: Any, checkpoint_path: str, num_envs: int = 1) -> tuple[ActorCr
     return model.eval(), env
 
 
+def exported_view(model: ActorCritic, space: gym.Space) -> tuple[ActorCritic, tuple[int, ...], torch.dtype, Any]:
+    """What the graph is built on: a model that reads an ``obs_groups`` group (a distilled student, PPO on
+    ``obs_groups.policy``) is exported on its view alone -- the graph's ``obs`` is the group's features in the
+    group's order, so a deployment feeds only what the student sees. Returns (the model to export, the
+    graph's obs shape, its dtype, a function mapping the env's observations to the graph's input)."""
+    if getattr(model, "obs_group", None) is None or model.obs_slice is None:
+        return model, tuple(space.shape), obs_dtype(space), lambda obs: obs
+    alone = copy.deepcopy(model)
+    alone.obs_slice, alone.obs_group = None, None
+    size = int(model.view(torch.zeros((1, *space.shape))).shape[1])
+
+    def take(obs: Any) -> np.ndarray:
+        return model.view(torch.as_tensor(np.asarray(obs, dtype=np.float32))).numpy()
+
+    return alone, (size,), torch.float32, take
+
+
 def default_output_path(checkpoint_path: str) -> str:
     """``nn/cartpole.pth`` -> ``nn/cartpole.onnx``."""
     return os.path.splitext(checkpoint_path)[0] + ".onnx"
@@ -241,8 +261,8 @@ def export_onnx(params: Any, checkpoint_path: str, output_path: str | None = Non
     output_path = output_path or default_output_path(checkpoint_path)
     model, env = _load(params, checkpoint_path)
     try:
-        space = env.observation_space
-        return export_model_onnx(model, tuple(space.shape), output_path, opset, obs_dtype(space))
+        graph_model, shape, dtype, _ = exported_view(model, env.observation_space)
+        return export_model_onnx(graph_model, shape, output_path, opset, dtype)
     finally:
         env.close()
 
@@ -265,16 +285,19 @@ def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = No
     model, env = _load(params, checkpoint, num_envs)
     try:
         space = env.observation_space
-        export_model_onnx(model, tuple(space.shape), output, opset, obs_dtype(space))
+        graph_model, shape, dtype, take = exported_view(model, space)
+        export_model_onnx(graph_model, shape, output, opset, dtype)
         session = onnx_session(output)
         seed = params.seed if params.seed is not None else 0
-        random_diff = verify_onnx(model, output, random_observations(space, num_random, seed), session, seed=seed)
-        real, real_masks = env_rollout(model, env, env_steps, seed)
-        real_diff = verify_onnx(model, output, real, session, masks=real_masks)
+        random_diff = verify_onnx(graph_model, output, take(random_observations(space, num_random, seed)), session,
+                                  seed=seed)
+        real, real_masks = env_rollout(model, env, env_steps, seed)  # the env's observations, the model playing
+        real_diff = verify_onnx(graph_model, output, take(real), session, masks=real_masks)
     finally:
         with contextlib.suppress(Exception):
             env.close()
-    print(f"exported ONNX policy to {output}", flush=True)
+    view = f" (input: obs_groups.{model.obs_group}, {shape[0]} features)" if graph_model is not model else ""
+    print(f"exported ONNX policy to {output}{view}", flush=True)
     masked = " (with action masks)" if getattr(model, "use_action_masks", False) else ""
     print(f"onnxruntime parity{masked}: max abs diff {random_diff:.2e} on {num_random} random observations, "
           f"{real_diff:.2e} on {len(real)} env observations", flush=True)

@@ -1,0 +1,105 @@
+"""The frozen teacher of ``algo: distill``: an rlchain PPO checkpoint rebuilt on the distillation's env.
+
+The checkpoint carries its own config (network, model preset, normalizers, the observation group it was
+trained on), so the teacher is rebuilt from it, not from the student's YAML. What does not fit is a
+one-line :class:`ConfigError` naming the key: a checkpoint of another algorithm or with another action
+space (``params.config.teacher_checkpoint``), observation parts other than the ones it was trained on
+(``params.config.obs_groups.teacher``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.obs_groups import ObsGroupsConfig
+from rlchain.config.ppo import TrainConfig
+from rlchain.config.resolve import params_from_state
+from rlchain.config.schema import Params
+from rlchain.models.build import build_model, model_view
+from rlchain.runs import checkpoint as ckpt
+
+KEY = "params.config.teacher_checkpoint"
+PACKAGE_CHECKPOINTS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                   "checkpoints")
+
+
+def shipped_path(path: str) -> str:
+    """``path`` when it exists; else a checkpoint of that file name shipped with rlchain
+    (``rlchain/checkpoints/``, where ``nn/cartpole.pth`` of a clone lives in an install); else ``path``."""
+    if os.path.isfile(path):
+        return path
+    shipped = os.path.join(PACKAGE_CHECKPOINTS, os.path.basename(path))
+    return shipped if os.path.isfile(shipped) else path
+
+
+@dataclass
+class Teacher:
+    """The frozen teacher model, the Params it was trained with and its checkpoint's path."""
+
+    model: Any
+    params: Params
+    path: str
+
+
+def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
+    """The teacher of ``params.config.teacher_checkpoint`` on ``env``, frozen (eval mode, no gradients)."""
+    cfg, source = params.config, params.source
+    path = shipped_path(cfg.teacher_checkpoint)
+    try:
+        state = ckpt.load(path, map_location=device)
+    except ckpt.CheckpointError as exc:
+        raise ConfigError(source, KEY, str(exc)) from None
+    try:
+        teacher_params = params_from_state(state["config"]["params"], path)
+    except (KeyError, TypeError, ConfigError) as exc:
+        raise ConfigError(source, KEY, f"{path}: the checkpoint's config cannot be read back ({exc})") from None
+    if not isinstance(teacher_params.config, TrainConfig) or teacher_params.policies is not None:
+        raise ConfigError(source, KEY, f"{path} was trained with algo '{teacher_params.algo.name}'; a teacher is a "
+                                       f"single-policy PPO checkpoint (a2c_continuous / a2c_discrete)")
+    groups = cfg.obs_groups or ObsGroupsConfig()
+    space = env.observation_space
+    try:  # the parts the teacher was trained on, on this env
+        trained = model_view(teacher_params, space)
+    except ConfigError as exc:
+        raise ConfigError(source, "params.config.obs_groups.teacher", f"the teacher in {path} was trained on "
+                                                                      f"observation parts this env does not have: "
+                                                                      f"{exc.message}") from None
+    if groups.teacher is None:  # default: what the teacher was trained on
+        chosen = trained
+        groups = _with_teacher(groups, trained.indices)
+    else:
+        chosen = model_view(params, space, "teacher", groups)
+    if chosen.indices != trained.indices:
+        raise ConfigError(source, "params.config.obs_groups.teacher",
+                          f"gives {chosen.size} features (indices {_short(chosen.indices)}) but the teacher in "
+                          f"{path} was trained on {trained.size} (indices {_short(trained.indices)})")
+    try:
+        model = build_model(teacher_params, env, device, group="teacher", groups=groups)
+    except (ConfigError, ValueError) as exc:
+        raise ConfigError(source, KEY, f"the teacher in {path} ({teacher_params.model.name}) does not fit this "
+                                       f"env's action space {env.action_space}: "
+                                       f"{getattr(exc, 'message', exc)}") from None
+    try:
+        ckpt.load_model_state(model, state, path)
+    except ckpt.CheckpointError as exc:
+        raise ConfigError(source, KEY, f"the teacher does not fit this env's action space {env.action_space} "
+                                       f"(or network): {exc}") from None
+    model.eval()
+    for p in model.parameters():
+        p.requires_grad_(False)
+    return Teacher(model, teacher_params, path)
+
+
+def _with_teacher(groups: ObsGroupsConfig, indices: tuple[int, ...]) -> ObsGroupsConfig:
+    return dataclasses.replace(groups, teacher=list(indices) if indices else None)
+
+
+def _short(indices: tuple[int, ...]) -> str:
+    shown = ", ".join(str(i) for i in indices[:8])
+    return f"[{shown}{', ...' if len(indices) > 8 else ''}]"

@@ -1,0 +1,330 @@
+"""``algo: distill``: a student learns to act like a frozen teacher on the states it visits itself (DAgger).
+
+Each epoch (:meth:`DistillTrainer.collect`) steps the envs ``horizon_length`` times. Who acts is drawn with
+DAgger's beta (``teacher_action_prob``, moving linearly to ``teacher_action_prob_end`` over
+``teacher_action_prob_epochs``) once per episode or every step (``mixing``); the teacher labels every
+state either way (its action distribution on its own, clean, view). The student reads its view
+(``obs_groups.student``), corrupted by ``student_noise_std`` / ``student_dropout`` and ``student_delay``
+steps late while training.
+:meth:`DistillTrainer.update` then fits the student to the labels (``loss``: MSE / Huber on the action
+means, KL or cross-entropy on the distributions; action masks applied to both sides) for ``mini_epochs``
+passes; an RNN student is trained on each env's whole rollout from the state it entered the epoch with
+(truncated BPTT: ``bptt_length``), its state zeroed where an episode started.
+
+The loop's reward statistics (``rewards/*``, the best checkpoint, ``score_to_win``) count the episodes the
+student played alone; ``rewards/teacher`` and ``rewards/student`` are the means of the last
+``games_to_track`` episodes each played alone. The loop checkpoints the student (``model``); the checkpoint
+also holds the teacher's weights and config (``teacher``), and ``--play`` / ``--export`` take the student alone.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.behavior import behavior_loss, resolve_loss
+from rlchain.algos.core.schedules import linear_decay
+from rlchain.algos.distill.teacher import load_teacher
+from rlchain.config.distill import DistillConfig
+from rlchain.config.errors import ConfigError
+from rlchain.config.resolve import config_state
+from rlchain.config.schema import Params
+from rlchain.envs.vecenv import DROPPED
+from rlchain.errors import DivergenceError
+from rlchain.networks.rnn import zero_finished
+
+
+class DistillAgent:
+    """The student's optimizer, with what the Loop's divergence guard and checkpoints need of an agent."""
+
+    def __init__(self, model: torch.nn.Module, lr: float, weight_decay: float) -> None:
+        self.optimizer = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=lr,
+                                          weight_decay=weight_decay)
+
+    @property
+    def lr(self) -> float:
+        """The current learning rate."""
+        return self.optimizer.param_groups[0]["lr"]
+
+    def scale_lr(self, factor: float) -> None:
+        """Scale the learning rate (the divergence guard's rollback)."""
+        for group in self.optimizer.param_groups:
+            group["lr"] *= factor
+
+    def set_lr(self, lr: float) -> None:
+        """Set the learning rate (set_params, hyperparam_schedule)."""
+        for group in self.optimizer.param_groups:
+            group["lr"] = float(lr)
+
+    def state_dict(self) -> dict[str, Any]:
+        """The optimizer's state."""
+        return {"optimizer": self.optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`state_dict`."""
+        self.optimizer.load_state_dict(state["optimizer"])
+
+
+def corrupt(obs: torch.Tensor, noise_std: float, dropout: float) -> torch.Tensor:
+    """``obs`` with Gaussian noise (``noise_std``) added and each element zeroed with probability ``dropout``
+    (a new tensor; ``obs`` itself when both are 0)."""
+    if noise_std <= 0.0 and dropout <= 0.0:
+        return obs
+    out = obs.float()
+    if noise_std > 0.0:
+        out = out + noise_std * torch.randn_like(out)
+    if dropout > 0.0:
+        out = out * (torch.rand_like(out) >= dropout).to(out.dtype)
+    return out
+
+
+def _concat_envs(batches: list[dict[str, Any]]) -> dict[str, Any]:
+    """Rollouts of several epochs side by side: (T, N, ...) tensors concatenated along the env axis (RNN
+    states along their batch axis 1)."""
+    if len(batches) == 1:
+        return batches[0]
+    out: dict[str, Any] = {}
+    for key in ("obs", "labels", "resets"):
+        out[key] = torch.cat([b[key] for b in batches], 1)
+    out["masks"] = torch.cat([b["masks"] for b in batches], 1) if batches[0]["masks"] is not None else None
+    out["states"] = tuple(torch.cat(parts, 1) for parts in zip(*(b["states"] for b in batches)))
+    return out
+
+
+class DelayLine:
+    """The student's view ``delay`` steps late (a slow sensor): :meth:`push` takes this step's observations
+    (N, ...) and returns the ones of ``delay`` steps ago; an env whose episode starts (``starts`` (N,) bool)
+    has its line filled with its first observation."""
+
+    def __init__(self, delay: int) -> None:
+        self.delay = delay
+        self.line: torch.Tensor | None = None  # (delay + 1, N, ...), oldest first
+
+    def push(self, obs: torch.Tensor, starts: torch.Tensor) -> torch.Tensor:
+        """This step's observations in, those of ``delay`` steps ago out (``obs`` itself when delay is 0)."""
+        if self.delay == 0:
+            return obs
+        if self.line is None:
+            self.line = obs.unsqueeze(0).repeat(self.delay + 1, *([1] * obs.dim())).clone()
+        self.line = torch.cat([self.line[1:], obs.unsqueeze(0)], 0)
+        if bool(starts.any()):
+            self.line[:, starts] = obs[starts].unsqueeze(0)
+        return self.line[0]
+
+
+class DistillTrainer(AlgorithmBase):
+    """Algo ``distill``: DAgger from a frozen PPO teacher into the student of ``params.network``."""
+
+    config_class = DistillConfig
+    metric_tags = {"behavior_loss": "losses/behavior", "teacher_action_prob": "info/teacher_action_prob",
+                   "action_match": "info/action_match", "lr": "info/last_lr", "teacher_return": "rewards/teacher",
+                   "student_return": "rewards/student"}
+    console_fields = (("behavior_loss", "behavior {:.3g}"), ("teacher_action_prob", "beta {:.2f}"),
+                      ("student_return", "student {:.1f}"), ("teacher_return", "teacher {:.1f}"))
+    tunable = ("learning_rate",)
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
+        cfg: DistillConfig = self.cfg
+        self.teacher = load_teacher(params, env, self.device)
+        if model.dist.param_size != self.teacher.model.dist.param_size:
+            raise ConfigError(params.source, "params.config.teacher_checkpoint",
+                              f"the teacher's action head has {self.teacher.model.dist.param_size} outputs, the "
+                              f"student's {model.dist.param_size}: another action space")
+        try:
+            self.loss_kind = resolve_loss(cfg.loss, bool(model.dist.continuous))
+        except ValueError as exc:
+            raise ConfigError(params.source, "params.config.loss", str(exc)) from None
+        self.use_masks = bool(getattr(model, "use_action_masks", False))
+        model.bptt_length = cfg.bptt_length
+        self.agent = DistillAgent(model, cfg.learning_rate, cfg.weight_decay)
+        self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        n, dev = self.num_envs, self.device
+        self.states: tuple = model.initial_state(n, dev)
+        self.teacher_states: tuple = self.teacher.model.initial_state(n, dev)
+        self.resets = torch.ones(n, dtype=torch.bool, device=dev)  # the first step starts an episode
+        self.teacher_drives = torch.ones(n, dtype=torch.bool, device=dev)
+        self.teacher_steps = torch.zeros(n, device=dev)  # steps the teacher acted in each running episode
+        self.student_steps = torch.zeros(n, device=dev)
+        self.returns = torch.zeros(n, device=dev)
+        self.finished = {"teacher": deque(maxlen=cfg.games_to_track), "student": deque(maxlen=cfg.games_to_track)}
+        self.batch: dict[str, Any] = {}
+        self.dataset: deque[dict[str, Any]] = deque(maxlen=cfg.dataset_epochs)  # labelled rollouts kept
+        self.delay = DelayLine(cfg.obs_groups.student_delay if cfg.obs_groups is not None else 0)
+
+    # -- the schedule --------------------------------------------------------------------------------------
+    def beta(self) -> float:
+        """DAgger's beta this epoch: the probability that the teacher acts."""
+        cfg = self.cfg
+        if cfg.teacher_action_prob_epochs == 0:
+            return cfg.teacher_action_prob_end
+        return linear_decay(cfg.teacher_action_prob, cfg.teacher_action_prob_end,
+                            self.ctx.epoch / cfg.teacher_action_prob_epochs)
+
+    def _draw(self, rows: torch.Tensor, beta: float) -> None:
+        """Who drives the envs ``rows`` (bool (N,)) from now: the teacher with probability beta."""
+        drawn = torch.rand(self.num_envs, device=self.device) < beta
+        self.teacher_drives = torch.where(rows, drawn, self.teacher_drives)
+
+    # -- collect -------------------------------------------------------------------------------------------
+    def collect(self) -> bool:
+        """One epoch of env steps: the teacher labels every state; the student or the teacher acts."""
+        cfg, model, teacher, ctx = self.cfg, self.model, self.teacher.model, self.ctx
+        groups = cfg.obs_groups
+        noise, dropout = (groups.student_noise_std, groups.student_dropout) if groups is not None else (0.0, 0.0)
+        beta = self.beta()
+        model.eval()
+        obs_buf, labels, resets, masks_buf, match = [], [], [], [], []
+        self.batch = {"states": tuple(s.clone() for s in self.states)}
+        for _ in range(cfg.horizon_length):
+            if ctx.stop_requested():
+                return False
+            if cfg.mixing == "step":
+                self._draw(torch.ones_like(self.resets), beta)
+            else:
+                self._draw(self.resets, beta)
+            masks = ctx.to_tensor(self.env.get_action_mask()).bool() if self.use_masks else None
+            student_obs = self.delay.push(corrupt(self.obs, noise, dropout), self.resets)
+            with torch.no_grad():
+                t_params, _, t_states = teacher.evaluate(self.obs, self.teacher_states or None, action_masks=masks)
+                s_params, _, s_states = model.evaluate(student_obs, self.states or None, action_masks=masks)
+            dist = model.dist
+            t_action = dist.mode(t_params)
+            s_action = dist.mode(s_params) if cfg.student_deterministic else dist.sample(s_params)
+            drives = self.teacher_drives.view(-1, *([1] * (t_action.dim() - 1)))
+            action = torch.where(drives, t_action, s_action)
+            match.append((s_action == t_action).reshape(self.num_envs, -1).all(-1).float().mean()
+                         if not dist.continuous else (s_action - t_action).abs().mean())
+            obs_buf.append(student_obs)
+            labels.append(t_params)
+            resets.append(self.resets)
+            if masks is not None:
+                masks_buf.append(masks)
+            result = self.env.step(ctx.env_actions(dist.to_env(action)))
+            self._exclude_mixed(result)
+            rewards, _, _, dones = ctx.env_outcome(result)
+            self._track(rewards, dones)
+            self.obs = ctx.to_tensor(result.obs)
+            self.states = zero_finished(tuple(s_states or ()), dones)
+            self.teacher_states = zero_finished(tuple(t_states or ()), dones)
+            self.resets = dones
+        self.batch.update(obs=torch.stack(obs_buf), labels=torch.stack(labels), resets=torch.stack(resets),
+                          masks=torch.stack(masks_buf) if masks_buf else None, beta=beta,
+                          match=float(torch.stack(match).mean()))
+        return True
+
+    def _exclude_mixed(self, result: Any) -> None:
+        """Keep the Loop's episode statistics to the episodes the student played alone: the others ending
+        this step are marked dropped for its tracker (not recorded, not counted)."""
+        if not isinstance(result.infos, dict):
+            return
+        acted = self.teacher_steps + self.teacher_drives.float()
+        not_student = (acted > 0).cpu().numpy()
+        old = result.infos.get(DROPPED)
+        result.infos[DROPPED] = not_student if old is None else (np.asarray(old, bool) | not_student)
+
+    def _track(self, rewards: torch.Tensor, dones: torch.Tensor) -> None:
+        """Who acted this step and the raw returns: episodes played wholly by one side are recorded."""
+        if rewards.dim() > 1:
+            rewards = rewards.sum(-1)
+        self.teacher_steps += self.teacher_drives.float()
+        self.student_steps += (~self.teacher_drives).float()
+        self.returns += rewards
+        for i in dones.nonzero().flatten().tolist():
+            if self.student_steps[i] == 0:
+                self.finished["teacher"].append(float(self.returns[i]))
+            elif self.teacher_steps[i] == 0:
+                self.finished["student"].append(float(self.returns[i]))
+        self.teacher_steps[dones] = 0
+        self.student_steps[dones] = 0
+        self.returns[dones] = 0
+
+    # -- update --------------------------------------------------------------------------------------------
+    def update(self) -> dict[str, float]:
+        """Fit the student to the teacher's labels: ``mini_epochs`` passes over this rollout and the ones kept
+        from the last ``dataset_epochs`` - 1 epochs (DAgger's aggregated dataset), minibatches of whole env
+        rollouts."""
+        cfg, model, b = self.cfg, self.model, self.batch
+        model.update_normalizers(obs=b["obs"].flatten(0, 1))  # this rollout's statistics, as PPO
+        self.dataset.append({k: b[k] for k in ("obs", "labels", "resets", "masks", "states")})
+        data = _concat_envs(list(self.dataset))
+        horizon, n = data["obs"].shape[:2]
+        model.train()
+        per = n // cfg.minibatches
+        losses = []
+        for _ in range(cfg.mini_epochs):
+            order = torch.randperm(n, device=self.device)
+            for k in range(cfg.minibatches):
+                envs = order[k * per:(k + 1) * per]
+                loss = self._minibatch_loss(data, envs, horizon)
+                if not bool(torch.isfinite(loss)):
+                    raise DivergenceError(f"the behaviour loss is {float(loss)}")
+                self.agent.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                if cfg.truncate_grads:
+                    torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_norm)
+                self.agent.optimizer.step()
+                losses.append(float(loss.detach()))
+        self.ctx.frames += self.frames_per_epoch()
+        out = {"behavior_loss": float(np.mean(losses)), "teacher_action_prob": b["beta"], "lr": self.agent.lr,
+               "action_match": b["match"]}
+        for side in ("teacher", "student"):
+            if self.finished[side]:
+                out[f"{side}_return"] = float(np.mean(self.finished[side]))
+        return out
+
+    def _minibatch_loss(self, data: dict[str, Any], envs: torch.Tensor, horizon: int) -> torch.Tensor:
+        """The behaviour loss on the whole rollouts of ``envs``: rows env by env (sequence-major for an RNN)."""
+        model = self.model
+
+        def rows(x: torch.Tensor) -> torch.Tensor:  # (T, N, ...) -> (n_envs * T, ...), env by env
+            return x[:, envs].transpose(0, 1).flatten(0, 1)
+
+        states = tuple(s[:, envs] for s in data["states"]) if data["states"] else None
+        masks = rows(data["masks"]) if data["masks"] is not None else None
+        params, _, _ = model.evaluate(rows(data["obs"]), states, rows(data["resets"]), seq_length=horizon,
+                                      action_masks=masks)
+        return behavior_loss(model.dist, params, rows(data["labels"]), self.loss_kind, self.cfg.huber_delta).mean()
+
+    def frames_per_epoch(self) -> int:
+        """Env frames one epoch adds."""
+        return self.cfg.horizon_length * self.num_envs
+
+    # -- the rest of the protocol --------------------------------------------------------------------------
+    def restart_episodes(self) -> None:
+        """After a rollback: fresh episodes, zero RNN states."""
+        super().restart_episodes()
+        self.states = self.model.initial_state(self.num_envs, self.device)
+        self.teacher_states = self.teacher.model.initial_state(self.num_envs, self.device)
+        self.resets = torch.ones_like(self.resets)
+        self.delay.line = None
+        self.teacher_steps.zero_()
+        self.student_steps.zero_()
+        self.returns.zero_()
+
+    def hyperparams(self) -> dict[str, float]:
+        """The live learning rate."""
+        return {"learning_rate": self.agent.lr}
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        """set_params: the learning rate goes to the optimizer."""
+        if name == "learning_rate":
+            self.agent.set_lr(value)
+        super().apply_hyperparam(name, value)
+
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """The teacher (weights and config, so the checkpoint stands alone) and the per-side returns."""
+        return {"teacher": {"model": self.teacher.model.state_dict(), "path": self.teacher.path,
+                            "config": config_state(self.teacher.params)},
+                "distill": {side: list(v) for side, v in self.finished.items()}}
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Restore the per-side returns (the teacher comes from teacher_checkpoint, as at the start)."""
+        for side, values in state.get("distill", {}).items():
+            self.finished[side].extend(values)

@@ -1,0 +1,126 @@
+"""Stage three of teacher-to-student (docs/distillation.md): PPO starts from a distilled student.
+
+``config.distilled_checkpoint`` names an ``algo: distill`` checkpoint; its student's weights are loaded into
+PPO's model (which reads ``obs_groups.student``, the view the student was distilled on). The value head
+is either kept as the student has it (``distilled_value: scratch``; distillation does not train it) or
+first regressed on the frozen teacher's values (``teacher``) over ``distilled_value_epochs`` rollouts of
+the student acting, the teacher rebuilt from the copy the distilled checkpoint holds. Only the value head
+moves during that regression, so the policy PPO starts from is exactly the distilled one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import torch
+
+from rlchain.config.errors import ConfigError
+from rlchain.config.obs_groups import ObsGroupsConfig
+from rlchain.config.resolve import params_from_state
+from rlchain.config.schema import Params
+from rlchain.models.build import build_model, model_view
+from rlchain.networks.rnn import zero_finished
+from rlchain.runs import checkpoint as ckpt
+
+KEY = "params.config.distilled_checkpoint"
+
+
+def load_distilled(params: Params, env: Any, model: Any, device: torch.device) -> Any:
+    """Load the distilled student into ``model``; returns the frozen teacher (a model) when
+    ``distilled_value`` is ``teacher``, else None. One-line ConfigErrors naming the key."""
+    cfg, source = params.config, params.source
+    path = cfg.distilled_checkpoint
+    try:
+        state = ckpt.load(path, map_location=device)
+    except ckpt.CheckpointError as exc:
+        raise ConfigError(source, KEY, str(exc)) from None
+    if state.get("algo") != "distill" or "teacher" not in state:
+        raise ConfigError(source, KEY, f"{path} was written by algo '{state.get('algo')}', not by distill")
+    student_params = params_from_state(state["config"]["params"], path)
+    groups = student_params.config.obs_groups or ObsGroupsConfig()
+    space = env.observation_space
+    theirs = model_view(student_params, space, "student", groups).indices
+    ours = model_view(params, space).indices
+    if theirs != ours:
+        raise ConfigError(source, "params.config.obs_groups.student",
+                          f"PPO's model reads {len(ours)} features but the student in {path} was distilled on "
+                          f"{len(theirs)} (set obs_groups.student as the distill config has it and "
+                          f"obs_groups.policy: student)")
+    try:
+        ckpt.load_model_state(model, state, path)
+    except ckpt.CheckpointError as exc:
+        raise ConfigError(source, KEY, f"the student does not fit PPO's network: {exc} (params.network, "
+                                       f"normalize_input and normalize_value must be the distill config's)") from None
+    if cfg.distilled_value != "teacher":
+        return None
+    teacher_state = state["teacher"]
+    teacher_params = params_from_state(teacher_state["config"]["params"], path)
+    trained = model_view(teacher_params, space).indices  # the view the teacher was trained on
+    teacher_groups = dataclasses.replace(groups, teacher=list(trained) if trained else None)
+    teacher = build_model(teacher_params, env, device, group="teacher", groups=teacher_groups)
+    ckpt.load_model_state(teacher, teacher_state, path)
+    teacher.eval()
+    for p in teacher.parameters():
+        p.requires_grad_(False)
+    return teacher
+
+
+def value_head(model: Any) -> list[torch.nn.Parameter]:
+    """The parameters of the model's value head (the network's ``value`` layer)."""
+    head = getattr(model.network, "value", None)
+    if not isinstance(head, torch.nn.Module):
+        raise ConfigError("", "params.config.distilled_value", "teacher needs a network with a `value` layer "
+                                                             "(the actor_critic builder's); use scratch")
+    return list(head.parameters())
+
+
+def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, steps: int = 25) -> float:
+    """Regress ``trainer.model``'s value head on ``teacher``'s values over ``epochs`` rollouts of the student
+    acting (its own sampling, as PPO will), ``steps`` Adam steps on each; returns the last rollout's mean
+    squared error (normalized scale).
+    The frames are not counted: they happen before training starts."""
+    model, ctx, cfg = trainer.model, trainer.ctx, trainer.cfg
+    params = value_head(model)
+    opt = torch.optim.Adam(params, lr=lr)
+    n = trainer.num_envs
+    states = model.initial_state(n, trainer.device)
+    t_states = teacher.initial_state(n, trainer.device)
+    resets = torch.ones(n, dtype=torch.bool, device=trainer.device)
+    obs = trainer.obs
+    loss = torch.zeros(())
+    for _ in range(epochs):
+        rows, targets, starts = [], [], []
+        first = tuple(s.clone() for s in states)
+        for _ in range(cfg.horizon_length):
+            with torch.no_grad():
+                out = model.act(obs, states=states or None)
+                t_value = teacher.value(obs, t_states or None)
+                _, _, t_next = teacher.evaluate(obs, t_states or None)
+            rows.append(obs)
+            targets.append(t_value)
+            starts.append(resets)
+            result = trainer.env.step(ctx.env_actions(model.dist.to_env(out["actions"])))
+            dones = ctx.to_tensor(result.terminated).bool() | ctx.to_tensor(result.truncated).bool()
+            obs = ctx.to_tensor(result.obs)
+            states = zero_finished(tuple(out["states"] or ()), dones)
+            t_states = zero_finished(tuple(t_next or ()), dones)
+            resets = dones
+        horizon = len(rows)
+
+        def seq(x: list[torch.Tensor]) -> torch.Tensor:  # (T, N, ...) -> env by env rows
+            return torch.stack(x).transpose(0, 1).flatten(0, 1)
+
+        model.train()
+        batch, starts_rows, target = seq(rows), seq(starts), model.norm_value(seq(targets))
+        for _ in range(steps):
+            _, value, _ = model.evaluate(batch, first or None, starts_rows, seq_length=horizon)
+            loss = (value - target).square().mean()
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+        model.eval()
+    model.zero_grad(set_to_none=True)
+    trainer.reset_states()
+    trainer.obs = ctx.reset_envs()  # fresh episodes: the statistics start with training
+    return float(loss.detach())

@@ -1,0 +1,53 @@
+"""Learning tier (slow): distilled students reach at least 90 % of their teacher's return, both played alone,
+deterministic. CartPole: the LSTM student of distill_cartpole_lstm.yaml sees the cart position and the pole
+angle only (teacher nn/cartpole.pth, PPO on the full state; 20 games each). HalfCheetah: the LSTM student of
+distill_halfcheetah_lstm.yaml sees the joint positions only, with sensor noise while training (teacher
+rlchain/checkpoints/halfcheetah_teacher.pth, PPO on all 17 numbers; 2 games each)."""
+
+import glob
+import os
+
+import pytest
+
+from rlchain import Runner
+from rlchain.algos.distill.teacher import shipped_path
+from rlchain.inference.player import Player
+from tests.conftest import CONFIGS, ROOT
+
+pytestmark = pytest.mark.slow
+
+
+def played(params, checkpoint, games=20):
+    player = Player(params, checkpoint)
+    try:
+        return player.play(games=games, deterministic=True, quiet=True).mean_reward
+    finally:
+        player.close()
+
+
+def test_lstm_student_reaches_90_percent_of_the_mlp_teacher(tmp_path):
+    teacher_path = shipped_path(os.path.join(ROOT, "nn", "cartpole.pth"))
+    runner = Runner().load(os.path.join(CONFIGS, "distill_cartpole_lstm.yaml"), [
+        f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
+        f"params.config.teacher_checkpoint={teacher_path}", "params.config.full_experiment_name=null",
+        "params.torch_threads=1"])
+    result = runner.train()
+    student = played(runner.params, glob.glob(str(tmp_path / "runs" / "*" / "nn" / "distill_cartpole_lstm.pth"))[0])
+    teacher = played(Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml")).params, teacher_path)
+    assert teacher >= 475, teacher
+    assert student >= 0.9 * teacher, (student, teacher, result)
+
+
+def test_halfcheetah_student_without_velocities_reaches_90_percent_of_the_teacher(tmp_path):
+    pytest.importorskip("envpool")
+    teacher_path = os.path.join(ROOT, "rlchain", "checkpoints", "halfcheetah_teacher.pth")
+    teacher = played(Runner().load(os.path.join(CONFIGS, "ppo_halfcheetah.yaml")).params, teacher_path, games=2)
+    assert teacher > 3000, teacher
+    runner = Runner().load(os.path.join(CONFIGS, "distill_halfcheetah_lstm.yaml"), [
+        f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
+        f"params.config.teacher_checkpoint={teacher_path}", "params.config.full_experiment_name=null",
+        f"params.config.score_to_win={0.93 * teacher}", "params.config.max_frames=500000", "params.torch_threads=1"])
+    result = runner.train()
+    best = glob.glob(str(tmp_path / "runs" / "*" / "nn" / "distill_halfcheetah_lstm.pth"))[0]
+    student = played(runner.params, best, games=2)
+    assert student >= 0.9 * teacher, (student, teacher, result)
