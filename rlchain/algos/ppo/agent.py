@@ -130,10 +130,11 @@ class PPOAgent:
             return None
         return storage.params.reshape(-1, storage.params.shape[-1]).clone()
 
-    def _losses(self, batch: Batch, entropy_coef: torch.Tensor
-                ) -> tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
+    def _losses(self, batch: Batch, entropy_coef: torch.Tensor, reference: torch.Tensor
+                ) -> tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor], torch.Tensor]:
         """One minibatch's forward pass and losses: (loss, detached stats (a_loss, c_loss, entropy, b_loss,
-        clip_frac), the network's auxiliary losses, the policy's params and log-probs, detached).
+        clip_frac, kl), the network's auxiliary losses, the policy's params, detached). ``reference``
+        (B, param_size) is the distribution the KL is measured against.
 
         No side effects and no host syncs: this is the region ``compile_update`` compiles (with the
         backward pass AOTAutograd derives from it). ``entropy_coef`` is a 0-d tensor so a scheduled
@@ -159,12 +160,14 @@ class PPOAgent:
             aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
             for aux_loss in aux.values():
                 loss = loss + aux_loss
-        log_probs = log_probs.detach()
-        ratio = torch.exp(log_probs - batch.log_probs)
-        clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+        with torch.no_grad():
+            current = params.detach().float()
+            kl = dist.kl(reference, current).mean()
+            ratio = torch.exp(log_probs.detach() - batch.log_probs)
+            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
         stats = torch.stack([a_loss.detach().float(), c_loss.detach().float(), entropy.detach().float(),
-                             b_loss.detach().float(), clip_frac])
-        return loss, stats, aux, params.detach().float(), log_probs
+                             b_loss.detach().float(), clip_frac, kl.float()])
+        return loss, stats, aux, current
 
     def compile_losses(self) -> None:
         """``compile_update``: from now on :meth:`_losses` runs as one compiled region with static
@@ -173,21 +176,24 @@ class PPOAgent:
         self._losses_fn = torch.compile(self._losses, dynamic=False)
         self._compile_pending = True
 
-    def _compiled_losses(self, batch: Batch, coef: torch.Tensor) -> tuple:
+    def _compiled_losses(self, batch: Batch, coef: torch.Tensor, reference: torch.Tensor) -> tuple:
         """:meth:`_losses` through ``_losses_fn``, logging the seconds the first (compiling) call took."""
         if not self._compile_pending:
-            return self._losses_fn(batch, coef)
+            return self._losses_fn(batch, coef, reference)
         start = time.perf_counter()
-        out = self._losses_fn(batch, coef)
+        out = self._losses_fn(batch, coef, reference)
         self._compile_pending = False
         _log.info(f"compile_update: compiled the PPO minibatch step in {time.perf_counter() - start:.1f} s")
         return out
 
     def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
         """One minibatch update: losses (compiled with ``compile_update``), backward, clip, optimizer step."""
-        cfg, dist = self.cfg, self.model.dist
+        cfg = self.cfg
         coef = self._entropy_coef_tensor()
-        loss, stats_t, aux, current, _ = self._compiled_losses(batch, coef)
+        previous = batch.params if reference is None else reference.index_select(0, batch.index)
+        loss, stats_t, aux, current = self._compiled_losses(batch, coef, previous)
+        if reference is not None:  # the next pass measures the KL against the policy this one saw
+            reference.index_copy_(0, batch.index, current)
         self.optimizer.zero_grad(set_to_none=True)
         (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
         if self.comm.active:  # before unscaling and clipping, so every rank sees the same grads
@@ -196,15 +202,9 @@ class PPOAgent:
             self.scaler.unscale_(self.optimizer)
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
         grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-        with torch.no_grad():
-            if reference is None:
-                kl = dist.kl(batch.params, current).mean()
-            else:
-                kl = dist.kl(reference.index_select(0, batch.index), current).mean()
-                reference.index_copy_(0, batch.index, current)
         names = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm",
                  *(f"losses/{name}" for name in aux))
-        values = torch.cat([stats_t, torch.stack([kl.float(), loss.detach().float(), grad_norm.detach().float(),
+        values = torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
                                                   *(value.detach().float() for value in aux.values())])]).tolist()
         stats = dict(zip(names, values))
         bad = first_non_finite(stats)
