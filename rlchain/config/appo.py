@@ -61,6 +61,7 @@ class VTraceConfig(ActorCriticConfig):
     central_value_config: ClassVar[Any] = None
     self_play_config: ClassVar[Any] = None
     torch_compile: ClassVar[Any] = False
+    compile_update: ClassVar[bool] = False
     env_groups: ClassVar[int] = 1
 
     other_algo_keys: ClassVar[dict[str, str]] = {
@@ -71,6 +72,7 @@ class VTraceConfig(ActorCriticConfig):
         "use_action_masks": "the runners carry no action masks yet",
         "seq_length": RNN_NOTE, "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
         "torch_compile": "supported for PPO only so far",
+        "compile_update": "supported for PPO only so far",
         "timeout_bootstrap": "a time-out always bootstraps V(the true final observation)",
     }
     """Why this algorithm ignores a key of another algorithm (added to the warning)."""

@@ -83,6 +83,10 @@ class TrainConfig(ActorCriticConfig):
                                        "(default, reduce-overhead, max-autotune) or {mode, critic_mode, "
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "
                                        "costs ~30 s on a CPU)", check=check_compile)
+    compile_update: bool = option(False, "PPO (rlchain): torch.compile one minibatch step's forward pass and "
+                                         "losses (with the backward pass derived from them); feed-forward "
+                                         "networks only. Compiling costs 5-50 s on a CPU, so it pays only "
+                                         "in long runs (docs/benchmarks.md, issue 37)")
     seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
                                 "divide by it (the deprecated `seq_len` is read as this, with a warning)",
                              check=positive)

@@ -41,18 +41,15 @@ Shapes for ``num_envs = N``:
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``
   counters the trainer writes to TensorBoard every epoch (e.g. ``env/dropped_episodes``).
-<<<<<<< HEAD
 - exact resume (optional): ``get_state()`` -> anything ``torch.save`` can write (every env's state:
   physics, episode step counters, wrappers' filters, the envs' random generators), or raises
   :class:`StateUnavailable` naming what cannot be read; ``set_state(state)`` puts it back into an env
   built from the same config. Declared by the class (the spec's ``state`` flag); a checkpoint then
   carries it and a resumed run continues the episodes in flight (``rlchain/training/resume.py``).
   Envs without it restart their episodes on resume, and the resume says so in one line.
-=======
 - ``get_env_state()`` / ``set_env_state(state)`` (optional, rl_games' IVecEnv): a state the env keeps across
   epochs (a curriculum); when ``get_env_state()`` returns something other than None it is stored in every
   checkpoint as ``env_state`` and given back to ``set_env_state`` on resume.
->>>>>>> api34
 
 ``vecenv_type`` is a registry lookup, as in rl_games: :func:`register` ``(name, creator)`` with
 rl_games' creator ``creator(config_name, num_actors, **env_config)``; ``vecenv_type: name`` in a

@@ -125,7 +125,7 @@ class Categorical(Distribution):
 
     @staticmethod
     def _log_softmax(params: torch.Tensor) -> torch.Tensor:
-        return torch.log_softmax(params, -1)
+        return _log_softmax_last(params)
 
     def sample(self, params: torch.Tensor) -> torch.Tensor:
         return _gumbel_argmax(params)
@@ -159,6 +159,21 @@ class Categorical(Distribution):
     def to_env(self, actions: torch.Tensor) -> torch.Tensor:
         """Indices 0..n-1 shifted by the space's ``start`` (gymnasium Discrete(n, start))."""
         return actions + self.start if self.start else actions
+
+
+SHORT_ROW = 8
+"""Logit rows up to this long take the transposed log_softmax on CPU (:func:`_log_softmax_last`)."""
+
+
+def _log_softmax_last(logits: torch.Tensor) -> torch.Tensor:
+    """log_softmax over the last dim of (B, n) logits, computed over dim 0 of the transposed view.
+
+    The same values bit for bit; on CPU, a reduction along a short contiguous last dim (n = 2 for
+    CartPole) runs one row at a time, while along dim 0 it vectorizes over the batch: 2.5-5x faster
+    for (8192, n <= 6), forward and backward (slower from n = 18 on). Other shapes take the plain call."""
+    if logits.dim() == 2 and logits.shape[1] <= SHORT_ROW and logits.device.type == "cpu":
+        return torch.log_softmax(logits.t(), 0).t()
+    return torch.log_softmax(logits, -1)
 
 
 def _gumbel_argmax(logits: torch.Tensor) -> torch.Tensor:

@@ -232,6 +232,7 @@ def _check_supported(params: Params) -> None:
     unsupported = [("central_value_config", cfg.central_value_config is not None),
                    ("evaluation.interval", cfg.evaluation.interval > 0),
                    ("torch_compile", bool(cfg.torch_compile)),
+                   ("compile_update", cfg.compile_update),
                    ("env_runners", cfg.env_runners is not None or str(cfg.vecenv_type).lower() == "ray")]
     for key, used in unsupported:
         if used:

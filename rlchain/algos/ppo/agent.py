@@ -6,6 +6,7 @@ updates. There is no action-space branch here: the model's distribution handles 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from contextlib import nullcontext
 
@@ -22,8 +23,11 @@ from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.config.run import amp_dtype_name
 from rlchain.config.schema import TrainConfig
 from rlchain.errors import DivergenceError, first_non_finite
+from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.parallel.communicator import SINGLE, Communicator
+
+_log = get_logger(__name__)
 
 
 class PPOAgent:
@@ -61,6 +65,9 @@ class PPOAgent:
         self.amp_dtype = getattr(torch, name) if name is not None else None
         scaled = self.amp_dtype == torch.float16
         self.scaler = torch.amp.GradScaler("cuda", enabled=True) if scaled else None
+        self._coef_value, self._coef = None, None
+        self._losses_fn = self._losses  # compile_losses() swaps in the compiled region
+        self._compile_pending = False
 
     def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
@@ -129,7 +136,15 @@ class PPOAgent:
             return None
         return storage.params.reshape(-1, storage.params.shape[-1]).clone()
 
-    def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
+    def _losses(self, batch: Batch, entropy_coef: torch.Tensor, reference: torch.Tensor
+                ) -> tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor], torch.Tensor]:
+        """One minibatch's forward pass and losses: (loss, detached stats (a_loss, c_loss, entropy, b_loss,
+        clip_frac, kl), the network's auxiliary losses, the policy's params, detached). ``reference``
+        (B, param_size) is the distribution the KL is measured against.
+
+        No side effects and no host syncs: this is the region ``compile_update`` compiles (with the
+        backward pass AOTAutograd derives from it). ``entropy_coef`` is a 0-d tensor so a scheduled
+        coefficient does not recompile it."""
         cfg, model, dist = self.cfg, self.model, self.model.dist
         autocast = torch.autocast("cuda", dtype=self.amp_dtype) if self.amp else nullcontext()
         with autocast:
@@ -143,7 +158,7 @@ class PPOAgent:
                                     cfg.e_clip, cfg.clip_value).mean()
             else:
                 c_loss = torch.zeros((), device=values.device)
-            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - self.entropy_coef * entropy
+            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - entropy_coef * entropy
             b_loss = torch.zeros((), device=params.device)
             if cfg.bounds_loss_coef:
                 b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
@@ -151,6 +166,40 @@ class PPOAgent:
             aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
             for aux_loss in aux.values():
                 loss = loss + aux_loss
+        with torch.no_grad():
+            current = params.detach().float()
+            kl = dist.kl(reference, current).mean()
+            ratio = torch.exp(log_probs.detach() - batch.log_probs)
+            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+        stats = torch.stack([a_loss.detach().float(), c_loss.detach().float(), entropy.detach().float(),
+                             b_loss.detach().float(), clip_frac, kl.float()])
+        return loss, stats, aux, current
+
+    def compile_losses(self) -> None:
+        """``compile_update``: from now on :meth:`_losses` runs as one compiled region with static
+        shapes (the minibatch size divides the batch, so every minibatch has the same shape). The
+        compile happens on the first minibatch; its seconds are logged."""
+        self._losses_fn = torch.compile(self._losses, dynamic=False)
+        self._compile_pending = True
+
+    def _compiled_losses(self, batch: Batch, coef: torch.Tensor, reference: torch.Tensor) -> tuple:
+        """:meth:`_losses` through ``_losses_fn``, logging the seconds the first (compiling) call took."""
+        if not self._compile_pending:
+            return self._losses_fn(batch, coef, reference)
+        start = time.perf_counter()
+        out = self._losses_fn(batch, coef, reference)
+        self._compile_pending = False
+        _log.info(f"compile_update: compiled the PPO minibatch step in {time.perf_counter() - start:.1f} s")
+        return out
+
+    def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
+        """One minibatch update: losses (compiled with ``compile_update``), backward, clip, optimizer step."""
+        cfg = self.cfg
+        coef = self._entropy_coef_tensor()
+        previous = batch.params if reference is None else reference.index_select(0, batch.index)
+        loss, stats_t, aux, current = self._compiled_losses(batch, coef, previous)
+        if reference is not None:  # the next pass measures the KL against the policy this one saw
+            reference.index_copy_(0, batch.index, current)
         self.optimizer.zero_grad(set_to_none=True)
         (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
         if self.comm.active:  # before unscaling and clipping, so every rank sees the same grads
@@ -159,20 +208,10 @@ class PPOAgent:
             self.scaler.unscale_(self.optimizer)
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
         grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-        with torch.no_grad():
-            current = params.detach().float()
-            if reference is None:
-                kl = dist.kl(batch.params, current).mean()
-            else:
-                kl = dist.kl(reference.index_select(0, batch.index), current).mean()
-                reference.index_copy_(0, batch.index, current)
-            ratio = torch.exp(log_probs.detach() - batch.log_probs)
-            clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
-        names = ("a_loss", "c_loss", "entropy", "b_loss", "kl", "clip_frac", "loss", "grad_norm",
+        names = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm",
                  *(f"losses/{name}" for name in aux))
-        values = torch.stack([a_loss.detach(), c_loss.detach(), entropy.detach(), b_loss.detach(), kl,
-                              clip_frac, loss.detach(), grad_norm.detach().float(),
-                              *(value.detach().float() for value in aux.values())]).tolist()
+        values = torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
+                                                  *(value.detach().float() for value in aux.values())])]).tolist()
         stats = dict(zip(names, values))
         bad = first_non_finite(stats)
         if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself
@@ -184,6 +223,13 @@ class PPOAgent:
             self.optimizer.step()
         del stats["loss"]
         return stats
+
+    def _entropy_coef_tensor(self) -> torch.Tensor:
+        """The live entropy coefficient as a 0-d tensor on the device, rebuilt only when it changes."""
+        if self._coef_value != self.entropy_coef:
+            self._coef_value = self.entropy_coef
+            self._coef = torch.tensor(float(self.entropy_coef), device=self.device)
+        return self._coef
 
     def surrogate(self, old_log_probs: torch.Tensor, log_probs: torch.Tensor,
                   advantages: torch.Tensor) -> torch.Tensor:

@@ -60,6 +60,9 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
         self.agent = PPOAgent(model, cfg, device, ctx.comm)
+        if cfg.compile_update:
+            _check_compile_update(model, params.source)
+            self.agent.compile_losses()
         with communicator.building_with(ctx.comm):  # its normalizers fold every rank's batches
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
@@ -206,6 +209,16 @@ def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
         raise ConfigError(source, "params.config.use_action_masks",
                           "True, but the env has no action masks (has_action_mask() / get_action_mask())")
     return True
+
+
+def _check_compile_update(model: ActorCritic, source: str) -> None:
+    """compile_update compiles a feed-forward minibatch step; a one-line ConfigError otherwise."""
+    if model.is_rnn:
+        raise ConfigError(source, "params.config.compile_update",
+                          "False for an RNN network (sequence minibatches are not compiled); set it false")
+    if callable(getattr(model.network, "get_aux_loss", None)):
+        raise ConfigError(source, "params.config.compile_update",
+                          "False for a network with get_aux_loss() (its losses are checked in Python)")
 
 
 def _value_size(env: Any) -> int:
