@@ -104,7 +104,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     try:
         if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
             model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
-                                 params.config.normalize_value)
+                                 params.config.normalize_value,
+                                 value_normalizer_kind=params.config.value_normalizer)
         else:  # a registered network, given its block and rl_games' critic kwargs
             block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
             network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
@@ -114,7 +115,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
                                   observation_space=obs_state_parts(space)[1] or gym.spaces.Box(
                                       -np.inf, np.inf, state_shape, np.float32))
             model = CentralValue(None, state_shape, value_size, cv.normalize_input,
-                                 params.config.normalize_value, network=network)
+                                 params.config.normalize_value, network=network,
+                                 value_normalizer_kind=params.config.value_normalizer)
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     model.obs_slice = slice(split, None)
