@@ -14,6 +14,10 @@ them the script writes, per config:
   table: the curves, the statistics and the plots are rlchain/compare's, this script adds the runs,
   the ratios and the verdicts).
 
+``--frames N`` caps every run at N env frames as well (rlchain: ``params.config.max_frames``; rl_games:
+``--max-epochs``, N / (horizon_length * num_actors) rounded up): reward per frame does not depend on the
+machine's load, so a frame budget compares learning on a busy machine.
+
 Runs already saved with the same budget are reused (``--rerun`` trains them again), so the
 table and plots regenerate from the saved runs with ``--plot-only``. Every results file records the
 CPU model and the load average before and after each run.
@@ -111,15 +115,30 @@ def seeded_config(path: str, seed: int, workdir: str) -> str:
     return out
 
 
+def frame_cap_args(lib: str, cfg_path: str, frames: int | None) -> list[str]:
+    """The arguments that stop one library's run after ``frames`` env frames (none for None): rlchain's
+    ``max_frames`` override, or rl_games' ``--max-epochs`` of horizon_length * num_actors frames each
+    (rounded up, so rl_games plays at least ``frames``)."""
+    if frames is None:
+        return []
+    if lib == "rlchain":
+        return [f"params.config.max_frames={frames}"]
+    with open(cfg_path) as f:
+        config = yaml.safe_load(f)["params"]["config"]
+    per_epoch = int(config["horizon_length"]) * int(config["num_actors"])
+    return ["--max-epochs", str(math.ceil(frames / per_epoch))]
+
+
 def command(name: str, cfg_path: str, args: argparse.Namespace) -> list[str]:
     """The training command of one system, as a user of it would type it."""
     system = SYSTEMS[name]
+    cap = frame_cap_args(system.lib, cfg_path, getattr(args, "frames", None))
     if system.lib == "rlchain":
         return [args.rlchain_python, os.path.join(REPO, "runner.py"), "--train", "--file", cfg_path,
-                *shlex.split(args.rlchain_args)]
+                *shlex.split(args.rlchain_args), *cap]
     python = args.rl_games_python if system.lib == "rl_games" else args.rl_games2_python
     return [python, os.path.join(HERE, "rl_games_driver.py"), "--file", cfg_path, *system.driver_args,
-            *shlex.split(args.rl_games_args)]
+            *shlex.split(args.rl_games_args), *cap]
 
 
 def environment(name: str) -> dict[str, str]:
@@ -159,7 +178,8 @@ def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.N
                            f"log in {workdir}:\n{tail}")
     last = events[-1]
     print(f"[{config} {lib} seed {seed}] {last[1]} frames, reward {last[2]:.1f} at {last[0]:.0f} s", flush=True)
-    return {"config": config, "lib": lib, "seed": seed, "budget_s": seconds, "wall_s": wall,
+    return {"config": config, "lib": lib, "seed": seed, "budget_s": seconds,
+            "budget_frames": getattr(args, "frames", None), "wall_s": wall,
             "events": events, "load_before": load_before, "load_after": load_average(), "cmd": cmd,
             "returncode": proc.returncode, "env": env,
             "setting": SYSTEMS[lib].setting, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
@@ -169,8 +189,9 @@ def run_path(runs_dir: str, config: str, lib: str, seed: int) -> str:
     return os.path.join(runs_dir, config, f"{lib}_seed{seed}.json")
 
 
-def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], budget: float) -> dict[str, list[dict]]:
-    """The saved runs of ``config`` with this budget, by library."""
+def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], budget: float,
+              frames: int | None = None) -> dict[str, list[dict]]:
+    """The saved runs of ``config`` with this budget (seconds, and frames: None for none), by library."""
     runs: dict[str, list[dict]] = {lib: [] for lib in libs}
     for lib in libs:
         for seed in seeds:
@@ -178,7 +199,8 @@ def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], bud
             if os.path.exists(path):
                 with open(path) as f:
                     run = json.load(f)
-                if run["budget_s"] == budget and run.get("env", {}) == dict(SYSTEMS[lib].env) \
+                same_budget = run["budget_s"] == budget and run.get("budget_frames") == frames
+                if same_budget and run.get("env", {}) == dict(SYSTEMS[lib].env) \
                         and run.get("setting", SYSTEMS[lib].setting) == SYSTEMS[lib].setting:
                     runs[lib].append(run)  # a run saved under other settings is not this system's
     return runs
@@ -354,6 +376,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--configs", nargs="+", choices=sorted(CONFIGS), default=list(CONFIGS))
     p.add_argument("--seeds", nargs="+", type=int, default=list(DEFAULT_SEEDS))
     p.add_argument("--seconds", type=float, default=300.0, help="wall-clock budget of each run")
+    p.add_argument("--frames", type=int, default=None,
+                   help="also stop each run after this many env frames (per-frame comparisons on a loaded machine)")
     p.add_argument("--pendulum-seconds", type=float, default=150.0,
                    help="budget of ppo_pendulum_torch runs (rl_games starts 16 Ray actors for it: ~60 s on 2 cores)")
     p.add_argument("--libs", nargs="+", choices=list(SYSTEMS), default=["rlchain", "rl_games", "rl_games2"],
@@ -369,7 +393,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                                                "curves/runs with --plot-only and more seeds into another --out")
     p.add_argument("--rerun", action="store_true", help="train again even where a saved run exists")
     p.add_argument("--plot-only", action="store_true", help="no training: table and plots from the saved runs")
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    if args.frames is not None and args.frames <= 0:
+        p.error(f"--frames must be a positive number of env frames, got {args.frames}")
+    return args
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -381,7 +408,8 @@ def main(argv: list[str] | None = None) -> int:
             budget = args.pendulum_seconds if config == "pendulum" else args.seconds
             for lib in args.libs:
                 path = run_path(runs_dir, config, lib, seed)
-                if args.plot_only or (not args.rerun and load_runs(runs_dir, config, [lib], [seed], budget)[lib]):
+                saved = load_runs(runs_dir, config, [lib], [seed], budget, args.frames)[lib]
+                if args.plot_only or (not args.rerun and saved):
                     continue
                 try:
                     run = train_for(lib, config, seed, budget, args)
@@ -396,7 +424,7 @@ def main(argv: list[str] | None = None) -> int:
     lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
     for config in args.configs:
         budget = args.pendulum_seconds if config == "pendulum" else args.seconds
-        runs = load_runs(runs_dir, config, args.libs, args.seeds, budget)
+        runs = load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames)
         if not any(runs.values()):
             continue
         loads = [r[k] for lib_runs in runs.values() for r in lib_runs for k in ("load_before", "load_after")]

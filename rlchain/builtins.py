@@ -33,7 +33,7 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
         raise ValueError(f"params.config.use_action_masks: needs discrete or multi-discrete actions, the env has "
                          f"{action_space}")
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
-                       use_action_masks=config.use_action_masks)
+                       use_action_masks=config.use_action_masks, value_normalizer_kind=config.value_normalizer)
 
 
 def register_builtins() -> None:

@@ -59,9 +59,14 @@ class ActorCriticConfig(RunConfig):
                                            "entropy_coef to 1e-4 alongside the lr (logged as info/entropy_coef); "
                                            "no effect with another lr_schedule (a warning), as in rl_games")
     normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
-    normalize_value: bool = option(False, "running mean/std normalization of value targets (statistics of the "
-                                          "returns, not clipped; rl_games also folds the rollout's values in and "
-                                          "clips at +-5: measured worse, see docs/ppo_parity.md)")
+    normalize_value: bool = option(False, "running mean/std normalization of value targets (value_normalizer "
+                                          "says which statistics)")
+    value_normalizer: str = option("rl_games", "with normalize_value: rl_games = statistics of the rollout's value "
+                                               "predictions and its returns, normalized values and the value "
+                                               "head's output clipped to +-5 (rl_games' value_mean_std; Hopper "
+                                               "learns faster per frame, docs/ppo_parity.md); returns = "
+                                               "statistics of the returns only, no clip (rlchain before issue 32)",
+                                   choices=("rl_games", "returns"))
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
     adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")

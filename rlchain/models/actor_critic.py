@@ -11,7 +11,7 @@ from typing import Any
 import torch
 import torch.nn as nn
 
-from rlchain.models.base import ValueModel
+from rlchain.models.base import ValueModel, value_normalizer
 from rlchain.models.distributions import Distribution
 from rlchain.models.normalization import RunningMeanStd
 
@@ -26,12 +26,13 @@ class ActorCritic(ValueModel):
 
     def __init__(self, network: nn.Module, dist: Distribution, obs_shape: tuple[int, ...],
                  value_size: int, normalize_input: bool, normalize_value: bool,
-                 use_action_masks: bool = False) -> None:
+                 use_action_masks: bool = False, value_normalizer_kind: str = "rl_games") -> None:
         super().__init__()
         self.network = network
         self.dist = dist
         self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
-        self.value_norm = RunningMeanStd((value_size,), clip=0.0) if normalize_value else None
+        self.value_norm = value_normalizer(value_size, normalize_value, value_normalizer_kind)
+        self.fold_values = value_normalizer_kind == "rl_games"
         self.use_action_masks = use_action_masks
         is_rnn = getattr(network, "is_rnn", None)
         self.is_rnn = bool(is_rnn()) if callable(is_rnn) else False

@@ -65,22 +65,54 @@ class ObservationModel(nn.Module):
         return value
 
 
+VALUE_NORMALIZERS = ("rl_games", "returns")
+"""``config.value_normalizer``: rl_games = statistics of the rollout's value predictions and its returns,
+normalized values clipped to +-5 (rl_games' value_mean_std); returns = statistics of the returns, no clip."""
+VALUE_NORM_CLIP = 5.0  # rl_games' RunningMeanStd clamp, in normalized units
+
+
+def value_normalizer(value_size: int, normalize_value: bool, kind: str) -> RunningMeanStd | None:
+    """The value normalizer of ``config.value_normalizer`` ``kind`` (None when normalize_value is off)."""
+    if kind not in VALUE_NORMALIZERS:
+        raise ValueError(f"params.config.value_normalizer: expected one of {', '.join(VALUE_NORMALIZERS)}, "
+                         f"got {kind!r}")
+    if not normalize_value:
+        return None
+    return RunningMeanStd((value_size,), clip=VALUE_NORM_CLIP if kind == "rl_games" else 0.0)
+
+
 class ValueModel(ObservationModel):
     """A model with a value output: ``self.value_norm`` (a RunningMeanStd or None) maps between the
-    return scale and the normalized scale the value head learns in."""
+    return scale and the normalized scale the value head learns in.
+
+    ``fold_values`` (``value_normalizer: rl_games``): the rollout's value predictions join the returns in
+    the statistics, and a clipping normalizer also clamps the head's output before denormalizing it, as
+    rl_games does (issue 32: Hopper learns faster per frame this way, docs/ppo_parity.md).
+    """
 
     value_norm: RunningMeanStd | None  # set by the subclass
+    fold_values: bool = False
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
-        """Normalized values -> return scale."""
-        return self.value_norm.denormalize(value) if self.value_norm is not None else value
+        """Normalized values -> return scale (the head's output clamped to +-clip first when it clips)."""
+        if self.value_norm is None:
+            return value
+        if self.value_norm.clip > 0:
+            value = value.clamp(-self.value_norm.clip, self.value_norm.clip)
+        return self.value_norm.denormalize(value)
 
     def norm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Return-scale values -> the normalized scale."""
         return self.value_norm.normalize(value) if self.value_norm is not None else value
 
-    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
-        """Fold a batch of observations / raw returns into the running statistics."""
+    def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None,
+                           values: torch.Tensor | None = None) -> None:
+        """Fold a batch of observations / raw returns into the running statistics, and the rollout's
+        raw value predictions (rows, value_size) first when ``fold_values``."""
         super().update_normalizers(obs=obs)
-        if returns is not None and self.value_norm is not None:
+        if self.value_norm is None:
+            return
+        if values is not None and self.fold_values:
+            self.value_norm.update(values)
+        if returns is not None:
             self.value_norm.update(returns)

@@ -119,3 +119,31 @@ def test_iqm_table_is_rlchain_compare_on_the_saved_runs():
     assert row.split("|")[2].strip().startswith("2.5 [") and row.endswith("| 4 [4, 4] (1/1) |")
     # frames: quarters of the 2000 frames every run reached; rl_games had reported nothing by 500
     assert "| 2k frames | 2.5 [" in text and text.split("| 500 frames |")[1].split("\n")[0].endswith("- (0/1) |")
+
+
+def test_a_frame_budget_caps_each_library_in_its_own_terms(tmp_path):
+    # issue 32: reward per frame compared on a loaded machine needs a frame budget, not a time budget
+    cfg = os.path.join(curves.HERE, curves.CONFIGS["hopper"])  # horizon_length 64 x num_actors 64 per epoch
+    assert curves.frame_cap_args("rlchain", cfg, 1_000_000) == ["params.config.max_frames=1000000"]
+    assert curves.frame_cap_args("rl_games", cfg, 1_000_000) == ["--max-epochs", "245"]  # 245 * 4096 >= 1M
+    assert curves.frame_cap_args("rl_games2", cfg, 4096) == ["--max-epochs", "1"]
+    assert curves.frame_cap_args("rl_games", cfg, None) == []
+    args = curves.parse_args(["--frames", "8192", "--libs", "rlchain", "rl_games"])
+    assert curves.command("rlchain", cfg, args)[-1] == "params.config.max_frames=8192"
+    assert curves.command("rl_games", cfg, args)[-2:] == ["--max-epochs", "2"]
+
+
+def test_frames_must_be_positive(capsys):
+    with pytest.raises(SystemExit):
+        curves.parse_args(["--frames", "0"])
+    assert "--frames must be a positive number of env frames, got 0" in capsys.readouterr().err
+
+
+def test_saved_runs_of_another_frame_budget_are_not_loaded(tmp_path):
+    path = curves.run_path(str(tmp_path), "hopper", "rlchain", 11)
+    os.makedirs(os.path.dirname(path))
+    with open(path, "w") as f:
+        json.dump({"budget_s": 900.0, "budget_frames": 1_000_000, "events": EVENTS, "env": {}}, f)
+    assert curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0)["rlchain"] == []
+    assert curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0, 500_000)["rlchain"] == []
+    assert len(curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0, 1_000_000)["rlchain"]) == 1

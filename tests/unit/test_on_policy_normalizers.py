@@ -10,7 +10,9 @@ from rlchain.algos.ppo.agent import PPOAgent
 from tests.conftest import BASE
 
 
-def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_path, monkeypatch):
+@pytest.mark.parametrize("kind,rows_per_step", [("rl_games", 2), ("returns", 1)])
+def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_path, monkeypatch, kind,
+                                                                         rows_per_step):
     seen = []
     real_update = PPOAgent.update
 
@@ -23,6 +25,7 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
 
     monkeypatch.setattr(PPOAgent, "update", update)
     config = {**BASE["params"]["config"], "normalize_input": True, "normalize_value": True, "max_epochs": 2,
+              "value_normalizer": kind,
               "train_dir": str(tmp_path), "print_stats": False}
     Runner().load({"params": {**BASE["params"], "config": config}}).train()
     steps = 4 * 8  # num_actors x horizon_length of BASE
@@ -30,5 +33,7 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
     (count1, mean1, rows1, vcount1), (count2, _, _, vcount2) = seen
     assert count1 == pytest.approx(steps, abs=1e-3) and count2 == pytest.approx(2 * steps, abs=1e-3)
     assert torch.allclose(mean1, rows1, atol=1e-4)  # the first update's statistics are its rollout's
-    # the value statistics fold this rollout's returns before the update too
-    assert vcount1 == pytest.approx(steps, abs=1e-3) and vcount2 == pytest.approx(2 * steps, abs=1e-3)
+    # the value statistics fold this rollout's returns (and with rl_games' normalizer its value predictions,
+    # issue 32) before the update too
+    per_epoch = rows_per_step * steps
+    assert vcount1 == pytest.approx(per_epoch, abs=1e-3) and vcount2 == pytest.approx(2 * per_epoch, abs=1e-3)

@@ -208,7 +208,8 @@ class APPOTrainer(AlgorithmBase):
             out = vtrace(pi_log_probs.reshape(t_len, n) - mu_log_probs, shaped, values[:t_len], next_values,
                          terminated if cfg.value_bootstrap else dones, dones, cfg.gamma,
                          appo.vtrace_clip_rho, appo.vtrace_clip_c)
-            model.update_normalizers(obs=flat[:t_len * n], returns=out.vs.reshape(-1, out.vs.shape[-1]))
+            model.update_normalizers(obs=flat[:t_len * n], returns=out.vs.reshape(-1, out.vs.shape[-1]),
+                                     values=values[:t_len].reshape(-1, values.shape[-1]))
             storage.obs.copy_(obs[:t_len])
             storage.actions.copy_(actions)
             storage.log_probs.copy_(mu_log_probs)

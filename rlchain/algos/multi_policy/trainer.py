@@ -169,7 +169,8 @@ class MultiPolicyTrainer(AlgorithmBase):
             storage.final_values.zero_()
             flat = lr.active.reshape(-1)
             model.update_normalizers(obs=storage.obs.reshape(-1, *storage.obs.shape[2:])[flat],
-                                     returns=returns.reshape(-1, returns.shape[-1])[flat])
+                                     returns=returns.reshape(-1, returns.shape[-1])[flat],
+                                     values=storage.values.reshape(-1, storage.values.shape[-1])[flat])
         model.train()
         lr.agent.active = lr.active
         return lr.agent.update(storage, self.progress())

@@ -166,9 +166,10 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             storage.returns.copy_(returns)
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
-            model.update_normalizers(obs=flat_obs, returns=flat_returns)
+            flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
+            model.update_normalizers(obs=flat_obs, returns=flat_returns, values=flat_values)
             if self.central_value is not None:
-                self.central_value.update_normalizers(obs=flat_obs, returns=flat_returns)
+                self.central_value.update_normalizers(obs=flat_obs, returns=flat_returns, values=flat_values)
         model.train()
         stats = self.agent.update(storage, self.progress())
         stats["lr0"] = cfg.learning_rate
