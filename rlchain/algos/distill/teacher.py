@@ -113,8 +113,6 @@ class SACTeacher(torch.nn.Module):
     the mean alone; the std carries nothing, so ``kl`` is refused for a SAC teacher).
     """
 
-    continuous = True
-
     def __init__(self, sac: Any) -> None:
         super().__init__()
         self.sac = sac
