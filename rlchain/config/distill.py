@@ -14,7 +14,8 @@ from rlchain.config.run import RunConfig
 class DistillConfig(RunConfig):
     """``params.config`` of ``algo: distill``: the student (``params.network``) learns to act like the teacher."""
 
-    teacher_checkpoint: str = option("", "the teacher: an rlchain PPO checkpoint (a2c_continuous / a2c_discrete), "
+    teacher_checkpoint: str = option("", "the teacher: an rlchain PPO checkpoint (a2c_continuous / a2c_discrete) "
+                                         "or SAC one (labels with its deterministic action; loss mse or huber), "
                                          "frozen; its network and input statistics come from the checkpoint")
     obs_groups: ObsGroupsConfig | None = option(None, "the teacher's and the student's views (default: the "
                                                       "teacher's = what it was trained on, the student's = all)")
@@ -63,7 +64,7 @@ class DistillConfig(RunConfig):
     def validate(self) -> tuple[str, str] | None:
         """Cross-key checks: a teacher is required, the minibatches split the envs."""
         if not self.teacher_checkpoint:
-            return "teacher_checkpoint", "required: the path of the teacher's PPO checkpoint"
+            return "teacher_checkpoint", "required: the path of the teacher's PPO or SAC checkpoint"
         if self.num_actors % self.minibatches:
             return "minibatches", f"{self.minibatches} does not divide num_actors {self.num_actors}"
         return None

@@ -1,4 +1,4 @@
-"""The frozen teacher of ``algo: distill``: an rlchain PPO checkpoint rebuilt on the distillation's env.
+"""The frozen teacher of ``algo: distill``: an rlchain PPO or SAC checkpoint rebuilt on the distillation's env.
 
 The checkpoint carries its own config (network, model preset, normalizers, the observation group it was
 trained on), so the teacher is rebuilt from it, not from the student's YAML. What does not fit is a
@@ -14,10 +14,12 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
+import gymnasium as gym
 import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
+from rlchain.config.off_policy import SACConfig
 from rlchain.config.ppo import TrainConfig
 from rlchain.config.resolve import params_from_state
 from rlchain.config.schema import Params
@@ -59,9 +61,13 @@ def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
         teacher_params = params_from_state(state["config"]["params"], path)
     except (KeyError, TypeError, ConfigError) as exc:
         raise ConfigError(source, KEY, f"{path}: the checkpoint's config cannot be read back ({exc})") from None
-    if not isinstance(teacher_params.config, TrainConfig) or teacher_params.policies is not None:
+    is_sac = isinstance(teacher_params.config, SACConfig)
+    if not (isinstance(teacher_params.config, TrainConfig) or is_sac) or teacher_params.policies is not None:
         raise ConfigError(source, KEY, f"{path} was trained with algo '{teacher_params.algo.name}'; a teacher is a "
-                                       f"single-policy PPO checkpoint (a2c_continuous / a2c_discrete)")
+                                       f"single-policy PPO checkpoint (a2c_continuous / a2c_discrete) or a SAC one")
+    if is_sac and not isinstance(env.action_space, gym.spaces.Box):
+        raise ConfigError(source, KEY, f"the SAC teacher in {path} acts in a continuous (Box) action space; this "
+                                       f"env's is {env.action_space}")
     groups = cfg.obs_groups or ObsGroupsConfig()
     space = env.observation_space
     try:  # the parts the teacher was trained on, on this env
@@ -93,7 +99,56 @@ def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
     model.eval()
     for p in model.parameters():
         p.requires_grad_(False)
+    if is_sac:
+        model = SACTeacher(model)
     return Teacher(model, teacher_params, path)
+
+
+class SACTeacher(torch.nn.Module):
+    """A frozen SAC policy seen through the distill loop's teacher interface (``evaluate``, ``initial_state``).
+
+    Its label is SAC's deterministic action, as SAC acts: tanh of the actor's mean, rescaled to the env's
+    action space (``clip_actions``). :meth:`labels` turns it into the student's distribution parameters: the
+    mean the student's ``to_env`` maps onto that same env action, a unit std beside it (mse / huber read
+    the mean alone; the std carries nothing, so ``kl`` is refused for a SAC teacher).
+    """
+
+    def __init__(self, sac: Any) -> None:
+        super().__init__()
+        self.sac = sac
+        self.dist = sac.dist  # SquashedActions: .dim, .to_env
+        self.student_dist: Any = None  # set by :meth:`bind`
+
+    def bind(self, student_dist: Any) -> None:
+        """The student's action distribution (DiagGaussian): labels are made in its parameter layout."""
+        self.student_dist = student_dist
+
+    def state_dict(self, *args: Any, **kwargs: Any) -> dict[str, Any]:  # the SAC model's keys, as trained
+        """The SAC model's weights under its own keys (the checkpoint's ``teacher.model``)."""
+        return self.sac.state_dict(*args, **kwargs)
+
+    def initial_state(self, n: int, device: torch.device) -> tuple:
+        """SAC's policy is feed-forward: no state."""
+        return ()
+
+    def env_action(self, obs: torch.Tensor) -> torch.Tensor:
+        """SAC's deterministic action in the env's units: to_env(tanh(mean))."""
+        mean, _ = self.sac.network.actor(self.sac.preprocess(obs))
+        return self.dist.to_env(torch.tanh(mean))
+
+    def evaluate(self, obs: torch.Tensor, states: Any = None, resets: Any = None, seq_length: int = 1,
+                 action_masks: Any = None) -> tuple[torch.Tensor, None, tuple]:
+        """(labels in the student's parameter layout (B, 2A), no value, no state)."""
+        return self.labels(self.env_action(obs)), None, ()
+
+    def labels(self, env_action: torch.Tensor) -> torch.Tensor:
+        """The student's params whose mean maps onto ``env_action`` through the student's ``to_env``."""
+        sd = self.student_dist
+        mean = env_action.reshape(env_action.shape[0], -1)
+        if getattr(sd, "rescale", False):  # to_env: [-1, 1] -> [low, high]; invert it
+            low, high = sd._low.to(mean.device), sd._high.to(mean.device)
+            mean = (mean - low) / (high - low) * 2.0 - 1.0
+        return torch.cat([mean, torch.ones_like(mean)], -1)
 
 
 def _with_teacher(groups: ObsGroupsConfig, indices: tuple[int, ...]) -> ObsGroupsConfig:

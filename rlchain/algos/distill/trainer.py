@@ -30,7 +30,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
 from rlchain.algos.core.schedules import linear_decay
-from rlchain.algos.distill.teacher import load_teacher
+from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.resolve import config_state
@@ -44,8 +44,8 @@ class DistillAgent:
     """The student's optimizer, with what the Loop's divergence guard and checkpoints need of an agent."""
 
     def __init__(self, model: torch.nn.Module, lr: float, weight_decay: float) -> None:
-        self.optimizer = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=lr,
-                                          weight_decay=weight_decay)
+        self.params = [p for p in model.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.Adam(self.params, lr=lr, weight_decay=weight_decay)
 
     @property
     def lr(self) -> float:
@@ -82,6 +82,15 @@ def corrupt(obs: torch.Tensor, noise_std: float, dropout: float) -> torch.Tensor
     if dropout > 0.0:
         out = out * (torch.rand_like(out) >= dropout).to(out.dtype)
     return out
+
+
+def _check_sac_student(source: str, dist: Any, teacher: SACTeacher) -> None:
+    """A SAC teacher's student has continuous actions of the same size (one-line ConfigError otherwise)."""
+    if not getattr(dist, "continuous", False) or getattr(dist, "dim", None) != teacher.dist.dim:
+        what = f"{dist.dim} continuous" if getattr(dist, "continuous", False) else "discrete"
+        raise ConfigError(source, "params.config.teacher_checkpoint",
+                          f"the SAC teacher acts with {teacher.dist.dim} continuous actions, the student has "
+                          f"{what} ones: another action space")
 
 
 def _concat_envs(batches: list[dict[str, Any]]) -> dict[str, Any]:
@@ -128,19 +137,28 @@ class DistillTrainer(AlgorithmBase):
     console_fields = (("behavior_loss", "behavior {:.3g}"), ("teacher_action_prob", "beta {:.2f}"),
                       ("student_return", "student {:.1f}"), ("teacher_return", "teacher {:.1f}"))
     tunable = ("learning_rate",)
+    supports_distributed = True  # multi_gpu: gradients averaged over the ranks, the student's normalizer pooled
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg: DistillConfig = self.cfg
         self.teacher = load_teacher(params, env, self.device)
-        if model.dist.param_size != self.teacher.model.dist.param_size:
+        teacher = self.teacher.model
+        if isinstance(teacher, SACTeacher):
+            _check_sac_student(params.source, model.dist, teacher)
+            teacher.bind(model.dist)
+        elif model.dist.param_size != teacher.dist.param_size:
             raise ConfigError(params.source, "params.config.teacher_checkpoint",
-                              f"the teacher's action head has {self.teacher.model.dist.param_size} outputs, the "
+                              f"the teacher's action head has {teacher.dist.param_size} outputs, the "
                               f"student's {model.dist.param_size}: another action space")
         try:
             self.loss_kind = resolve_loss(cfg.loss, bool(model.dist.continuous))
         except ValueError as exc:
             raise ConfigError(params.source, "params.config.loss", str(exc)) from None
+        if isinstance(teacher, SACTeacher) and self.loss_kind not in ("mse", "huber"):
+            raise ConfigError(params.source, "params.config.loss",
+                              f"{self.loss_kind} needs the teacher's action distribution; a SAC teacher labels "
+                              f"with its deterministic action: use mse or huber (or auto)")
         self.use_masks = bool(getattr(model, "use_action_masks", False))
         model.bptt_length = cfg.bptt_length
         self.agent = DistillAgent(model, cfg.learning_rate, cfg.weight_decay)
@@ -250,8 +268,9 @@ class DistillTrainer(AlgorithmBase):
         """Fit the student to the teacher's labels: ``mini_epochs`` passes over this rollout and the ones kept
         from the last ``dataset_epochs`` - 1 epochs (DAgger's aggregated dataset), minibatches of whole env
         rollouts."""
-        cfg, model, b = self.cfg, self.model, self.batch
-        model.update_normalizers(obs=b["obs"].flatten(0, 1))  # this rollout's statistics, as PPO
+        cfg, model, b, comm = self.cfg, self.model, self.batch, self.ctx.comm
+        # this rollout's statistics, as PPO (under torchrun the normalizer folds every rank's: built with comm)
+        model.update_normalizers(obs=b["obs"].flatten(0, 1))
         self.dataset.append({k: b[k] for k in ("obs", "labels", "resets", "masks", "states")})
         data = _concat_envs(list(self.dataset))
         horizon, n = data["obs"].shape[:2]
@@ -267,13 +286,15 @@ class DistillTrainer(AlgorithmBase):
                     raise DivergenceError(f"the behaviour loss is {float(loss)}")
                 self.agent.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
+                if comm.active:  # multi_gpu: every rank steps with the ranks' mean gradient, as PPO
+                    comm.average_gradients(self.agent.params)
                 if cfg.truncate_grads:
                     torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_norm)
                 self.agent.optimizer.step()
                 losses.append(float(loss.detach()))
         self.ctx.frames += self.frames_per_epoch()
-        out = {"behavior_loss": float(np.mean(losses)), "teacher_action_prob": b["beta"], "lr": self.agent.lr,
-               "action_match": b["match"]}
+        out = {"behavior_loss": comm.mean(float(np.mean(losses))), "teacher_action_prob": b["beta"],
+               "lr": self.agent.lr, "action_match": b["match"]}
         for side in ("teacher", "student"):
             if self.finished[side]:
                 out[f"{side}_return"] = float(np.mean(self.finished[side]))
@@ -293,8 +314,8 @@ class DistillTrainer(AlgorithmBase):
         return behavior_loss(model.dist, params, rows(data["labels"]), self.loss_kind, self.cfg.huber_delta).mean()
 
     def frames_per_epoch(self) -> int:
-        """Env frames one epoch adds."""
-        return self.cfg.horizon_length * self.num_envs
+        """Env frames one epoch adds, over all ranks (torchrun)."""
+        return self.cfg.horizon_length * self.num_envs * self.ctx.world_size
 
     # -- the rest of the protocol --------------------------------------------------------------------------
     def restart_episodes(self) -> None:

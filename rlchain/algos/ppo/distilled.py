@@ -56,6 +56,10 @@ def load_distilled(params: Params, env: Any, model: Any, device: torch.device) -
         return None
     teacher_state = state["teacher"]
     teacher_params = params_from_state(teacher_state["config"]["params"], path)
+    if teacher_params.algo.name == "sac":
+        raise ConfigError(source, "params.config.distilled_value", f"teacher regresses on a PPO teacher's state "
+                                                                   f"values; the student in {path} was distilled "
+                                                                   f"from a SAC teacher (no state value): use scratch")
     trained = model_view(teacher_params, space).indices  # the view the teacher was trained on
     teacher_groups = dataclasses.replace(groups, teacher=list(trained) if trained else None)
     teacher = build_model(teacher_params, env, device, group="teacher", groups=teacher_groups)
