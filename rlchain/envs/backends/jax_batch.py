@@ -124,12 +124,15 @@ class JaxBatchVecEnv:
         return {"state": self._state, "key": self._key}
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Put back :meth:`get_state`'s result, committed to JAX's device as a reset's state is."""
+        """Put back :meth:`get_state`'s result: the state committed to JAX's device as a reset's state is, the
+        key uncommitted as a fresh one is, so the restored env runs the step already compiled."""
         jax = self._jax
         device = jax.devices()[0]
         self._state = jax.tree_util.tree_map(
             lambda x: jax.device_put(x, device) if hasattr(x, "shape") else x, state["state"])
-        self._key = jax.device_put(state["key"], device)
+        # the key stays uncommitted, as PRNGKey makes it: a committed key gives a committed ``sub``, and the
+        # step's cache key (which includes each argument's committedness) would miss, compiling it again
+        self._key = self._jnp.asarray(np.asarray(state["key"]))
 
     def close(self) -> None:
         """Nothing to release (JAX frees the arrays)."""
