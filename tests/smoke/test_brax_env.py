@@ -44,6 +44,9 @@ def test_contract_auto_reset_final_obs_and_time_limit():
         terminated += int(result.terminated.sum())
         truncated += int(result.truncated.sum())
     assert terminated > 0 and truncated > 0
+    # the step compiled once: the state the step hands back keeps the reset's types (no weak-typed float
+    # leaves), so the jitted step's cache key is the same from the second step on (it compiled twice before)
+    assert env._step_fn._cache_size() == 1 and env._reset_fn._cache_size() == 1
 
 
 def test_shipped_config_train_play_resume(tmp_path):
@@ -71,8 +74,8 @@ def test_bad_brax_config_is_one_line(tmp_path, override, message):
 
 def test_state_round_trip_continues_bit_identically():
     """Issue 35: get_state / set_state carry the JAX state pytree and key; after a set_state the env steps
-    exactly as it did from that point (auto-resets and the time limit included). The Loop path is the
-    tensor envs' (tests/smoke/test_exact_resume.py); a full brax resume test cost minutes of JAX compiles here."""
+    exactly as it did from that point (auto-resets and the time limit included); the whole run's resume is
+    test_ppo_brax_resume_is_bit_identical below."""
     from rlchain.envs.backends.brax_env import BraxVecEnv
     # the contract test's env (16 envs, 20 steps): its compiled reset and step come from the module's cache
     env = BraxVecEnv("inverted_pendulum", 16, seed=3, episode_length=20, backend="spring")
@@ -96,3 +99,16 @@ def test_state_round_trip_continues_bit_identically():
     again = run()
     assert torch.equal(first, again)
     assert float(first[:, -16:].sum()) > 0  # the time limit (20 steps) was crossed after the snapshot
+    assert env._step_fn._cache_size() == 1  # a restored (unpickled) state runs the compiled step
+
+
+def test_ppo_brax_resume_is_bit_identical(tmp_path):
+    """Issue 35 end to end: PPO on Brax, 3 epochs + resume to 6 equals 6 straight (parameters, optimizer,
+    episodes, every logged metric; torch.equal). Same env shapes as the train/play/resume test above, so
+    the JAX compile cache of this module serves its reset and step."""
+    from tests.smoke.test_exact_resume import check_split
+
+    overrides = ["params.network.mlp.units=[16]", "params.config.num_actors=16", "params.config.minibatch_size=256",
+                 "params.config.mini_epochs=2", "params.config.save_best_after=0"]
+    half = check_split(tmp_path, "ppo_brax_inverted_pendulum.yaml", overrides, 3)
+    assert half["run_state"]["env"] is not None and half["episodes"]  # env state saved, episodes ended

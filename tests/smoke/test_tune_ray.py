@@ -131,3 +131,49 @@ def test_asha_stops_bad_trials_early(ray_session, tmp_path):
     assert len(iterations) == 3 and not outcome.results.errors and iterations[-1] == 14
     assert iterations[0] == 10  # ASHA stopped a trial at the rung
     assert os.path.isfile(outcome.config_path) and os.path.isfile(outcome.table_path)
+
+
+def _trial(tmp_path, name):
+    """A new actor with a trial's trainable (tests/smoke/tune_trial.py), as a (re)started trial gets one."""
+    from rlchain.config.load import load_raw
+    from rlchain.tuning.trainable import TrialSetup
+    from tests.smoke.tune_trial import Trial
+
+    overrides = ["params.network.mlp.units=[16]", "params.config.num_actors=4", "params.config.minibatch_size=32",
+                 "params.config.max_epochs=6", "params.config.print_stats=false", "params.torch_threads=1",
+                 "params.update_threads=1", f"params.config.train_dir={tmp_path / name}"]
+    setup = TrialSetup(base=load_raw(BASE), overrides=overrides, keys=[], seed=0)
+    return Trial.remote(setup, str(tmp_path / "ray_logdirs"))
+
+
+def test_a_restarted_trial_continues_bit_identically(ray_session, tmp_path):
+    """Issue 35 in a Ray Tune trial: a trial restored from its epoch-3 checkpoint in a new actor (what a
+    max_failures restart does: a new actor, ``load_checkpoint``, then ``step``) reports epochs 4-6 exactly as
+    a trial that never stopped and ends with identical parameters, optimizer state and episodes (torch.equal).
+    Tune's own scheduling around it (FailureConfig) is test_crashed_trial_restarts_from_its_checkpoint's."""
+    import ray
+
+    from rlchain.runs import checkpoint as ckpt
+    from tests.smoke.test_exact_resume import assert_same
+
+    def kept(result):
+        return {k: v for k, v in result.items() if k not in ("fps", "epoch_seconds", "restored_epoch")}
+
+    def run(actor, epochs, load=None, save=None):
+        if load:
+            ray.get(actor.load.remote(str(tmp_path / load)))
+        results = [ray.get(actor.step.remote()) for _ in range(epochs)]
+        ray.get(actor.save.remote(str(tmp_path / save)))
+        ray.get(actor.stop.remote())
+        ray.kill(actor)  # the trial's actor dies (a crash); its CPU goes back to the session
+        return results
+
+    straight = [kept(r) for r in run(_trial(tmp_path, "straight"), 6, save="ck_straight")]
+    assert [kept(r) for r in run(_trial(tmp_path, "crashed"), 3, save="ck3")] == straight[:3]
+    resumed = run(_trial(tmp_path, "restarted"), 3, load="ck3", save="ck_restarted")
+    assert resumed[0]["restored_epoch"] == 3 and [kept(r) for r in resumed] == straight[3:]
+    s, r = (ckpt.load(str(tmp_path / d / "rlchain.pth")) for d in ("ck_straight", "ck_restarted"))
+    assert s["epoch"] == r["epoch"] == 6
+    for key in ("model", "agent", "episodes"):
+        assert_same(s[key], r[key], key)
+    assert_same(s["run_state"]["running"], r["run_state"]["running"], "episodes in progress")

@@ -49,8 +49,20 @@ class JaxBatchVecEnv:
         self._jax, self._jnp = jax, jnp
         self._key = jax.random.PRNGKey(0 if seed is None else int(seed))
 
+        def strong(tree: Any) -> Any:
+            """Every array leaf of ``tree`` strongly typed (same dtype; free once compiled).
+
+            A brax env's step can compute ``done`` from Python floats (inverted_pendulum:
+            ``jnp.where(..., 1.0, 0.0)``), so ``done`` and the flags EpisodeWrapper derives from it
+            (``info['truncation']``, ``info['episode_done']``, ``info['time_out']``) come out
+            *weakly* typed float32, while the reset made them strong. The jitted step's cache key
+            includes weak types, so the second step (fed the step's state, not the reset's)
+            compiled the whole step again (~10-20 s on CPU). Reset and step both hand back strong
+            leaves, so the step compiles once."""
+            return jax.tree_util.tree_map(lambda x: x.astype(x.dtype) if hasattr(x, "dtype") else x, tree)
+
         def reset(keys: Any) -> tuple:
-            state = env.reset(keys)
+            state = strong(env.reset(keys))
             return state, obs_of(state.obs)
 
         def step(state: Any, action: Any, key: Any) -> tuple:
@@ -70,7 +82,7 @@ class JaxBatchVecEnv:
                     return jnp.where(done.reshape(done.shape + (1,) * (a.ndim - 1)), a, b)
                 return jax.tree_util.tree_map(pick, fresh, nxt)
 
-            merged = jax.lax.cond(done.any(), reset_done, lambda _: nxt, None)
+            merged = strong(jax.lax.cond(done.any(), reset_done, lambda _: nxt, None))
             return merged, obs_of(merged.obs), obs_of(nxt.obs), nxt.reward, done & ~trunc, trunc
 
         self._reset_fn = jax.jit(reset)
@@ -112,12 +124,15 @@ class JaxBatchVecEnv:
         return {"state": self._state, "key": self._key}
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Put back :meth:`get_state`'s result, committed to JAX's device as a reset's state is."""
+        """Put back :meth:`get_state`'s result: the state committed to JAX's device as a reset's state is, the
+        key uncommitted as a fresh one is, so the restored env runs the step already compiled."""
         jax = self._jax
         device = jax.devices()[0]
         self._state = jax.tree_util.tree_map(
             lambda x: jax.device_put(x, device) if hasattr(x, "shape") else x, state["state"])
-        self._key = jax.device_put(state["key"], device)
+        # the key stays uncommitted, as PRNGKey makes it: a committed key gives a committed ``sub``, and the
+        # step's cache key (which includes each argument's committedness) would miss, compiling it again
+        self._key = self._jnp.asarray(np.asarray(state["key"]))
 
     def close(self) -> None:
         """Nothing to release (JAX frees the arrays)."""
