@@ -32,8 +32,9 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
     if config.use_action_masks and not dist.mask_size:
         raise ValueError(f"params.config.use_action_masks: needs discrete or multi-discrete actions, the env has "
                          f"{action_space}")
+    kind = getattr(config, "value_normalizer", "rl_games")  # a user algorithm's config class may not have the key
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
-                       use_action_masks=config.use_action_masks, value_normalizer_kind=config.value_normalizer)
+                       use_action_masks=config.use_action_masks, value_normalizer_kind=kind)
 
 
 def register_builtins() -> None:

@@ -53,6 +53,9 @@ class DistillConfig(RunConfig):
     normalize_value: bool = option(False, "the student's value normalizer (its value head is not trained "
                                           "here): set it as the stage-three PPO config has it, so that "
                                           "distilled_checkpoint loads")
+    value_normalizer: str = option("rl_games", "which value statistics the student's normalizer keeps (as PPO's "
+                                               "key: set it as the stage-three PPO config has it)",
+                                   choices=("rl_games", "returns"))
     truncate_grads: bool = option(True, "clip gradients to grad_norm")
     grad_norm: float = option(1.0, "max gradient norm", check=positive)
 
