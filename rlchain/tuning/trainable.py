@@ -15,7 +15,9 @@ import dataclasses
 import json
 import math
 import os
+import re
 import shutil
+import zlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,10 +45,20 @@ class TrialSetup:
     worst: float = -math.inf  # the metric until the first episode ends (-inf when maximizing)
 
 
-def trial_seed(setup: TrialSetup, trial_id: str) -> int:
-    """The trial's seed: the search's seed plus the trial's index (``<experiment>_00003`` -> 3)."""
+def trial_seed(setup: TrialSetup, trial_id: str, dirname: str = "") -> int:
+    """The trial's seed: the search's seed plus the trial's index.
+
+    The index is read from Ray's trial folder name (``RlchainTrainable_3e5c299c_4_params...`` -> 4), or from a
+    trial id that ends in one (``<experiment>_00003`` -> 3). Ray 2.x trial ids are hex with no index: without a
+    folder name they get a stable number from the id, so trials never share a seed (with every trial on one
+    seed, exact resume made the trials of a FIFO search identical)."""
+    found = re.search(rf"_{re.escape(trial_id)}_(\d+)(?:_|$)", dirname) if dirname else None
+    if found:
+        return setup.seed + int(found.group(1))
     tail = trial_id.rsplit("_", 1)[-1]
-    return setup.seed + (int(tail) if tail.isdigit() else 0)
+    if tail.isdigit():
+        return setup.seed + int(tail)
+    return setup.seed + zlib.crc32(trial_id.encode()) % 100_000
 
 
 def thread_overrides(params: Any, cpus: int, envpool: bool) -> Any:
@@ -188,8 +200,14 @@ class RlchainTrainable(tune.Trainable):
         if checkpoint is None:
             self.lineage = [[0, live]]
         self.stepper = EpochStepper(runner, checkpoint=checkpoint, live=live,
-                                    seed=trial_seed(self.info, self.trial_id))
+                                    seed=trial_seed(self.info, self.trial_id, self._trial_dirname()))
         self.run_trial = self.trial_id
+
+    def _trial_dirname(self) -> str:
+        """Ray's folder name of this trial (it holds the trial's index), or "" where Ray does not say."""
+        storage = getattr(self, "_storage", None)
+        name = getattr(storage, "trial_dir_name", None) if storage is not None else None
+        return str(name or os.path.basename(str(getattr(self, "_logdir", "") or "")))
 
     def _frames_per_epoch(self) -> int:
         trainer = self.stepper.trainer if self.stepper is not None else None
