@@ -59,5 +59,7 @@ def test_ppo_playground_cartpole_balance_reaches_800(tmp_path):
     # MuJoCo Playground's CartpoleBalance (MJX, JAX on the CPU), 1000-step episodes, reward <= 1 per step:
     # all-zero actions score 699 and uniform random ones 366, so 800 needs a policy that balances
     pytest.importorskip("mujoco_playground")
-    result = train(tmp_path, "ppo_playground_cartpole.yaml")
+    # threads pinned: the adaptive thread plan follows the machine's load, and with it the float rounding of a
+    # same-seed run; unpinned, this test passed and failed on the same commit in two CI runs (session 12)
+    result = train(tmp_path, "ppo_playground_cartpole.yaml", "params.torch_threads=1", "params.update_threads=1")
     assert result.mean_reward >= 800, result
