@@ -257,14 +257,68 @@ def time_to(events: list, target: float) -> float | None:
     return next((t for t, _, value in events if value >= target), None)
 
 
-def reach_cell(times: list[float | None]) -> str:
+def reach_cell(times: list[float | None], spread: bool = False) -> str:
     """Median seconds to a target over seeds (a seed that never reached it counts as later than all), and
-    how many seeds reached it."""
+    how many seeds reached it; with ``spread``, the fastest and slowest seed that reached it too (where they differ)."""
+    reached = sorted(t for t in times if t is not None)
+    median = reach_median(times)
+    if median is None:
+        return f"not reached ({len(reached)}/{len(times)})"
+    span = f" [{reached[0]:.0f}-{reached[-1]:.0f}]" if spread and reached[0] != reached[-1] else ""
+    return f"{median:.0f} s{span} ({len(reached)}/{len(times)})"
+
+
+def reach_median(times: list[float | None]) -> float | None:
+    """Median seconds to a target over seeds, a seed that never reached it counting as later than all;
+    None when the median seed never reached it (or there are no seeds)."""
     reached = sorted(t for t in times if t is not None)
     median = statistics.median(reached + [math.inf] * (len(times) - len(reached))) if times else math.inf
-    if math.isinf(median):
-        return f"not reached ({len(reached)}/{len(times)})"
-    return f"{median:.0f} s ({len(reached)}/{len(times)})"
+    return None if math.isinf(median) else median
+
+
+def sooner(peer: float | None, ours: float | None) -> str:
+    """How many times sooner rlchain reached a target than a peer (the peer's median seconds over rlchain's):
+    '>' where only rlchain reached it, '-' where rlchain did not."""
+    if ours is None:
+        return "-"
+    if peer is None:
+        return "> budget"
+    return f"{peer / max(ours, 1e-9):.2f}x"
+
+
+def time_to_reward(config: str, runs: dict[str, list[dict]], budget: float, target_lib: str,
+                   names: list[str]) -> list[str] | None:
+    """One row (its cells) of the time-to-reward table: the target is ``target_lib``'s mean reward over seeds
+    at ``budget`` seconds; for each system of ``names``, its median seconds to reach it [fastest-slowest seed]
+    (seeds that reached it / seeds), '-' without runs; then, if rlchain is one of them, how many times sooner
+    rlchain got there than each other system. None where ``target_lib`` has no runs."""
+    final = mean_std([value_at(r["events"], budget, 0) for r in runs.get(target_lib, [])])
+    if final is None:
+        return None
+    times = {n: [time_to(r["events"], final[0]) for r in runs.get(n, [])] for n in names}
+    cells = [config, f"{target_lib} at {budget:g} s: {final[0]:.0f}"]
+    cells += [reach_cell(times[n], spread=True) if times[n] else "-" for n in names]
+    if "rlchain" in names:
+        ours = reach_median(times["rlchain"])
+        cells += [sooner(reach_median(times[n]), ours) if times[n] else "-" for n in names if n != "rlchain"]
+    return cells
+
+
+def time_to_reward_table(rows: list[tuple[str, dict[str, list[dict]], float]],
+                         targets: tuple[str, ...] = ("rl_games", "rl_games2")) -> list[str]:
+    """Markdown lines of the headline table (issue 37): for each config (its runs and budget) and each target
+    system, the seconds every system needs to reach the target's mean reward at the end of its budget, and
+    how many times sooner rlchain got there. The columns are every system with runs in any of ``rows``."""
+    names = [name for name in SYSTEMS if any(runs.get(name) for _, runs, _ in rows)]
+    others = [n for n in names if n != "rlchain"] if "rlchain" in names else []
+    lines = ["| YAML | target: mean reward | " + " | ".join(names) + "".join(f" | {p} / rlchain" for p in others)
+             + " |", "|---|---|" + "---|" * (len(names) + len(others))]
+    for config, runs, budget in rows:
+        for target in targets:
+            cells = time_to_reward(config, runs, budget, target, names)
+            if cells is not None:
+                lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def summarise(config: str, runs: dict[str, list[dict]], budget: float) -> list[str]:
@@ -296,15 +350,10 @@ def summarise(config: str, runs: dict[str, list[dict]], budget: float) -> list[s
         lines.append(row(f"{seconds:.0f} s", stats))
     lines.append(row("frames/s", {n: mean_std([fps(r) for r in runs[n]]) for n in names}, verdict=False))
     if peers:
-        lines += ["", "Seconds to reach each peer's mean reward at the end of its budget (median over seeds, "
-                      "seeds that reached it):", "",
-                  "| target | reward | rlchain | the peer |", "|---|---|---|---|"]
-        for peer in peers:
-            final = mean_std([value_at(r["events"], budget, 0) for r in runs[peer]])
-            if final is None:
-                continue
-            cells = [reach_cell([time_to(r["events"], final[0]) for r in runs[n]]) for n in ("rlchain", peer)]
-            lines.append(f"| {peer} at {budget:g} s | {final[0]:.0f} | {cells[0]} | {cells[1]} |")
+        lines += ["", "Seconds from process start to reach each peer's mean reward at the end of its budget (median "
+                      "over seeds, a seed that never reached it counting as later than all [fastest-slowest seed "
+                      "that reached it] (seeds that reached it / seeds)):", ""]
+        lines += time_to_reward_table([(config, runs, budget)], tuple(peers))
     return lines
 
 
@@ -422,9 +471,18 @@ def main(argv: list[str] | None = None) -> int:
                     json.dump(run, f)
     os.makedirs(args.out, exist_ok=True)
     lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
-    for config in args.configs:
-        budget = args.pendulum_seconds if config == "pendulum" else args.seconds
-        runs = load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames)
+    every = [(config, budget, load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames))
+             for config, budget in ((c, args.pendulum_seconds if c == "pendulum" else args.seconds)
+                                    for c in args.configs)]
+    headline = [(config, runs, budget) for config, budget, runs in every if sum(map(bool, runs.values())) > 1]
+    if headline:
+        lines += ["### Time to reward", "",
+                  "Seconds from process start until a run's reported mean reward first reaches the target, the "
+                  "target system's mean over seeds at the end of its budget: median over seeds (a seed that never "
+                  "reached it counts as later than all) [fastest-slowest seed that reached it] (seeds that reached "
+                  "it / seeds); `peer / rlchain` is how many times sooner rlchain got there.", ""]
+        lines += time_to_reward_table(headline) + [""]
+    for config, budget, runs in every:
         if not any(runs.values()):
             continue
         loads = [r[k] for lib_runs in runs.values() for r in lib_runs for k in ("load_before", "load_after")]

@@ -91,8 +91,28 @@ def test_summary_compares_rlchain_with_each_peer_and_the_time_to_their_final_rew
             "rl_games2": [{"events": [(15.0, 1000, 3.0), (30.0, 2000, 6.0)]}] * 2}
     text = "\n".join(curves.summarise("hopper", runs, 30.0))
     assert "rlchain / rl_games | rlchain / rl_games2" in text
-    assert "| rl_games at 30 s | 4 | 20 s (2/2) | 30 s (2/2) |" in text  # rlchain reached 4 at 20 s
-    assert "| rl_games2 at 30 s | 6 | 30 s (2/2) | 30 s (2/2) |" in text
+    # rlchain reached rl_games' final 4 at 20 s, rl_games at 30 s, rl_games2 (3 at 15 s, then 6) at 30 s
+    assert "| hopper | rl_games at 30 s: 4 | 20 s (2/2) | 30 s (2/2) | 30 s (2/2) | 1.50x | 1.50x |" in text
+    # rl_games2's final 6: rlchain at 30 s (9), rl_games never (4)
+    assert "| hopper | rl_games2 at 30 s: 6 | 30 s (2/2) | not reached (0/2) | 30 s (2/2) | > budget | 1.00x |" in text
+
+
+def test_reach_cell_gives_the_spread_of_the_seeds_that_reached():
+    assert curves.reach_cell([10.0, 30.0, 50.0, None], spread=True) == "40 s [10-50] (3/4)"
+    assert curves.reach_cell([12.0], spread=True) == "12 s (1/1)"
+
+
+def test_time_to_reward_table_spans_configs_and_marks_missing_systems():
+    fast = [{"events": [(10.0, 1000, 5.0)]}] * 3
+    slow = [{"events": [(10.0, 1000, 1.0), (40.0, 4000, 5.0)]}] * 3
+    rows = [("hopper", {"rlchain": fast, "rl_games": slow, "rl_games2": slow}, 40.0),
+            ("ant", {"rlchain": slow, "rl_games": fast}, 40.0)]
+    lines = curves.time_to_reward_table(rows)
+    assert lines[0] == ("| YAML | target: mean reward | rlchain | rl_games | rl_games2 | rl_games / rlchain "
+                        "| rl_games2 / rlchain |")
+    assert "| hopper | rl_games at 40 s: 5 | 10 s (3/3) | 40 s (3/3) | 40 s (3/3) | 4.00x | 4.00x |" in lines
+    assert "| ant | rl_games at 40 s: 5 | 40 s (3/3) | 10 s (3/3) | - | 0.25x | - |" in lines
+    assert not any(line.startswith("| ant | rl_games2") for line in lines)  # no rl_games2 runs: no target
 
 
 def test_saved_runs_of_another_setting_are_not_loaded(tmp_path):
