@@ -33,6 +33,13 @@ def parse_args(argv=None):
                    help="override config.max_epochs")
     p.add_argument("--device", default=None,
                    help="override config.device (e.g. cpu)")
+    p.add_argument("--tensor-env", action="store_true",
+                   help="config.env_name is one of rlchain's tensor envs (TorchCartPole-v0, ...): "
+                        "register it through rl_games' vecenv API first "
+                        "(rl_games_tensor_env.py)")
+    p.add_argument("--num-actors", type=int, default=None,
+                   help="override config.num_actors, scaling minibatch_size to keep "
+                        "the same number of minibatches per epoch")
     return p.parse_args(argv)
 
 
@@ -48,10 +55,20 @@ def load_config(args):
         config["torch_compile"] = args.torch_compile == "on"
     if args.max_epochs is not None:
         config["max_epochs"] = args.max_epochs
+    if args.num_actors is not None:
+        batch = int(config["horizon_length"]) * int(config["num_actors"])
+        count = max(1, batch // int(config["minibatch_size"]))
+        config["num_actors"] = args.num_actors
+        config["minibatch_size"] = int(config["horizon_length"]) * args.num_actors // count
     if args.device is not None:
         config["device"] = args.device
         if "device_name" in config:
             config["device_name"] = args.device
+        if isinstance(config.get("env_config"), dict) and "device" in config["env_config"]:
+            config["env_config"]["device"] = args.device  # a tensor env's batch lives there
+    mlp = params.get("network", {}).get("mlp", {})
+    if mlp.get("activation") == "silu":
+        mlp["activation"] = "swish"  # rl_games' name for the same nn.SiLU (rlchain takes both)
     return cfg
 
 
@@ -70,6 +87,10 @@ def main(argv=None):
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     args = parse_args(argv)
     cfg = load_config(args)
+    if args.tensor_env:
+        from rl_games_tensor_env import register  # beside this file
+
+        register(cfg["params"]["config"]["env_name"])
     from rl_games.torch_runner import Runner  # imported late: heavy
 
     runner = Runner()

@@ -21,10 +21,16 @@ scaled to keep the same number of minibatches per epoch. For each case it measur
 and prints steps/s for each plus rollout/env and train/env. ``--env-groups 1 2`` measures envpool
 cases once per ``env_groups`` value (1: synchronous rollout; 2: two env groups stepping in the
 background while the policy acts for the other, see ``EnvpoolVecEnv``); env-only is always the
-synchronous step of all envs. ``--rl-games-python PY`` adds rl_games' training fps on the same
-YAML (``rl_games_driver.py`` for ``--rl-games-epochs`` epochs, median "fps total" of the epochs after
-the first, torch.compile off), for cases whose NUM_ENVS is the config's num_actors (rl_games reads
-num_actors from the YAML only). Torch threads are set as the Runner
+synchronous step of all envs. ``--rl-games-python PY`` (rl_games 1.6.5) and ``--rl-games2-python PY``
+(its main branch, 2.0) add rl_games' training steps/s on the same YAML and NUM_ENVS (``rl_games_driver.py`` for
+``--rl-games-epochs`` epochs, median "fps total" of the epochs after the first, one torch thread, torch.compile
+off; ``--rl-games-compile off config`` adds a column with the YAML's or rl_games' default compile setting).
+Torch cases reach rl_games through its own vecenv API (``rl_games_tensor_env.py``), as an Isaac Lab env does::
+
+    python benchmarks/throughput.py --cases torch:TorchCartPole-v0:4096 torch:TorchPendulum-v0:4096 \
+        --rl-games-python /work/rlg-venv/bin/python --rl-games2-python /work/rlg2-venv/bin/python
+
+Torch threads are set as the Runner
 sets them (the config's ``torch_threads``, else half the cores, at most 4) unless ``--threads``;
 ``--update-threads 1 2`` measures once per thread count of the PPO update (``params.update_threads``);
 the ``thr`` column is rollout/update threads. env-only is measured once per case.
@@ -47,7 +53,7 @@ import multiprocessing
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -88,7 +94,7 @@ class Row:
     threads: int
     config: str
     groups: int = 1
-    rl_games_sps: float | None = None
+    peers: dict[str, float | None] = field(default_factory=dict)  # rl_games settings' train steps/s
     update_threads: int = 1
     plan: str = "auto"
     busy: int = 0
@@ -229,24 +235,33 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
                update_threads=plan.update if plan is not None else torch.get_num_threads())
 
 
-def rl_games_fps(python: str, config: str, num_envs: int, epochs: int) -> float | None:
-    """rl_games' median training fps ("fps total") over epochs 2..``epochs`` on ``config``, or None
-    when ``num_envs`` is not the config's num_actors or the run fails."""
+@dataclass(frozen=True)
+class Peer:
+    """One rl_games setting measured beside rlchain: its venv's python and its torch_compile setting."""
+
+    label: str  # the table's column, e.g. "rlg1.6.5" or "rlg2.0+compile"
+    python: str
+    compile: str  # "off", or "config": the YAML's torch_compile, rl_games' default (on) where it has none
+
+
+def rl_games_fps(python: str, config: str, num_envs: int, epochs: int, backend: str = "envpool",
+                 compile: str = "off", device: str = "cpu") -> float | None:
+    """rl_games' median training fps ("fps total": rollout and update) over epochs 2..``epochs`` on ``config``
+    with ``num_envs`` actors (minibatch_size scaled as rlchain's rows scale it), one torch thread; torch envs
+    through rl_games' vecenv API (rl_games_tensor_env.py). None when the run fails."""
     import re
     import statistics
     import subprocess
     import tempfile
 
-    import yaml
-
-    with open(config) as fh:
-        raw = yaml.safe_load(fh)
-    if int(raw["params"]["config"].get("num_actors", -1)) != num_envs:
-        return None
     driver = os.path.join(ROOT, "benchmarks", "rl_games_driver.py")
+    cmd = [python, driver, "--file", os.path.abspath(config), "--max-epochs", str(epochs), "--torch-compile",
+           compile, "--num-actors", str(num_envs), "--device", device]
+    if backend == "torch":
+        cmd.append("--tensor-env")
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # rl_games at its best on a small CPU
     with tempfile.TemporaryDirectory() as cwd:
-        proc = subprocess.run([python, driver, "--file", os.path.abspath(config), "--max-epochs", str(epochs),
-                               "--torch-compile", "off"], cwd=cwd, capture_output=True, text=True)
+        proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
     values = [float(v) for v in re.findall(r"fps total: ([0-9.]+)", proc.stdout)]
     if proc.returncode != 0 or len(values) < 2:
         print(f"rl_games run on {config} failed (exit {proc.returncode}): {proc.stderr.strip()[-300:]}", flush=True)
@@ -286,18 +301,27 @@ def busy_processes(count: int) -> Any:
 
 
 def table(rows: list[Row]) -> str:
+    labels = list(dict.fromkeys(label for r in rows for label in r.peers))
     head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>3} {'env-only sps':>13} {'rollout sps':>12} "
-            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'plan':>5} {'busy':>4} "
-            f"{'rl_games sps':>12} "
-            f"{'rl_games/env':>12} {'train/rl_games':>14}")
+            f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'plan':>5} {'busy':>4}"
+            + "".join(f" {label + ' sps':>18} {'train/' + label:>20}" for label in labels))
     lines = [head, "-" * len(head)]
     for r in rows:
-        peer = "" if r.rl_games_sps is None else (f"{r.rl_games_sps:>12,.0f} {r.rl_games_sps / r.env_sps:>12.3f} "
-                                                  f"{r.train_sps / r.rl_games_sps:>14.2f}")
+        peer = ""
+        for label in labels:
+            sps = r.peers.get(label)
+            peer += f" {'-':>18} {'-':>20}" if sps is None else f" {sps:>18,.0f} {r.train_sps / sps:>20.2f}"
         lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.groups:>3} {r.env_sps:>13,.0f} "
                      f"{r.rollout_sps:>12,.0f} {r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} "
-                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {r.plan:>5} {r.busy:>4} {peer}")
+                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {r.plan:>5} {r.busy:>4}{peer}")
     return "\n".join(lines)
+
+
+def rl_games_peers(args: argparse.Namespace) -> list[Peer]:
+    """The rl_games settings to measure beside rlchain: each version given a python, each compile setting."""
+    versions = [("rlg1.6.5", args.rl_games_python), ("rlg2.0", args.rl_games2_python)]
+    return [Peer(label + ("" if compile == "off" else "+compile"), python, compile)
+            for label, python in versions if python for compile in args.rl_games_compile]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -314,7 +338,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--env-groups", type=int, nargs="+", default=[1],
                     help="envpool cases: measure once per env_groups value (default: 1)")
     ap.add_argument("--rl-games-python", default=None,
-                    help="python of a venv with rl_games: add its training fps on the same YAML")
+                    help="python of a venv with rl_games 1.6.5: add its training fps on the same YAML and envs")
+    ap.add_argument("--rl-games2-python", default=None,
+                    help="python of a venv with rl_games' main branch (2.0, built from source): the same")
+    ap.add_argument("--rl-games-compile", nargs="+", choices=("off", "config"), default=["off"],
+                    help="rl_games' torch_compile: off (its best on a small CPU), config (the YAML's, else "
+                         "rl_games' default: on); one column per setting and version (default off)")
     ap.add_argument("--rl-games-epochs", type=int, default=12, help="rl_games epochs per case (default 12)")
     ap.add_argument("--plans", nargs="+", default=None,
                     help="thread plans to measure, 'auto' (the Runner's) or R/U (rollout/update threads); "
@@ -337,10 +366,11 @@ def main(argv: list[str] | None = None) -> int:
             except ImportError:
                 print(f"skipping {spec}: envpool is not installed", flush=True)
                 continue
-        peer = None
-        if args.rl_games_python:
-            print(f"rl_games on {spec} ...", flush=True)
-            peer = rl_games_fps(args.rl_games_python, config, num, args.rl_games_epochs)
+        peers = {}
+        for peer in rl_games_peers(args):
+            print(f"{peer.label} on {spec} ...", flush=True)
+            peers[peer.label] = rl_games_fps(peer.python, config, num, args.rl_games_epochs, backend, peer.compile,
+                                             args.device)
         env_sps = None  # env-only is measured once per case (idle): every row's ratios share one ceiling
         for busy in args.busy:
             with busy_processes(busy):
@@ -349,7 +379,7 @@ def main(argv: list[str] | None = None) -> int:
                         print(f"measuring {spec} env_groups={groups} plan={name} busy={busy} ...", flush=True)
                         row = measure(backend, env, num, config, args.seconds, threads, args.device, groups,
                                       update_threads, env_sps, fixed=name != "auto" and bool(args.plans))
-                        row.rl_games_sps, row.plan, row.busy = peer, name, busy
+                        row.peers, row.plan, row.busy = peers, name, busy
                         env_sps = row.env_sps
                         rows.append(row)
     load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")

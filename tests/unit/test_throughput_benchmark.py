@@ -26,3 +26,45 @@ def test_busy_processes_run_inside_the_block_and_are_gone_after():
         children = multiprocessing.active_children()
         assert len(children) == 1 and children[0].is_alive()
     assert multiprocessing.active_children() == []
+
+
+def test_rl_games_peers_are_one_column_per_version_and_compile_setting():
+    args = throughput.argparse.Namespace(rl_games_python="/a/python", rl_games2_python="/b/python",
+                                         rl_games_compile=["off", "config"])
+    peers = throughput.rl_games_peers(args)
+    assert [(p.label, p.python, p.compile) for p in peers] == [
+        ("rlg1.6.5", "/a/python", "off"), ("rlg1.6.5+compile", "/a/python", "config"),
+        ("rlg2.0", "/b/python", "off"), ("rlg2.0+compile", "/b/python", "config")]
+    args.rl_games_python = None  # a version without a venv is not measured
+    assert [p.label for p in throughput.rl_games_peers(args)] == ["rlg2.0", "rlg2.0+compile"]
+
+
+def test_table_gives_each_peer_its_steps_and_rlchains_ratio_and_a_dash_where_it_failed():
+    rows = [throughput.Row("torch", "TorchCartPole-v0", 4096, 1e7, 4e6, 2e6, 1, "c.yaml",
+                           peers={"rlg1.6.5": 5e5, "rlg2.0": None})]
+    text = throughput.table(rows)
+    head, _, line = text.splitlines()
+    assert "rlg1.6.5 sps" in head and "train/rlg2.0" in head
+    assert line.split()[-4:] == ["500,000", "4.00", "-", "-"]
+
+
+def test_the_tensor_env_for_rl_games_is_rlchains_own_env():
+    import rl_games_tensor_env
+
+    env = rl_games_tensor_env.make_env("TorchCartPole-v0", 8, device="cpu", seed=3)
+    assert env.num_envs == 8 and tuple(env.reset().shape) == (8, 4)
+
+
+def test_rl_games_driver_scales_the_minibatch_with_num_actors_and_names_silu_as_rl_games_does(tmp_path):
+    import rl_games_driver
+    import yaml
+
+    cfg = {"params": {"network": {"mlp": {"activation": "silu"}},
+                      "config": {"num_actors": 1024, "horizon_length": 32, "minibatch_size": 4096,
+                                 "env_config": {"device": "cpu"}}}}
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    args = rl_games_driver.parse_args(["--file", str(path), "--num-actors", "4096", "--device", "cuda:0"])
+    out = rl_games_driver.load_config(args)["params"]
+    assert out["config"]["num_actors"] == 4096 and out["config"]["minibatch_size"] == 16384  # still 8 minibatches
+    assert out["config"]["env_config"]["device"] == "cuda:0" and out["network"]["mlp"]["activation"] == "swish"
