@@ -56,10 +56,11 @@ def load_config(args):
     if args.max_epochs is not None:
         config["max_epochs"] = args.max_epochs
     if args.num_actors is not None:
-        batch = int(config["horizon_length"]) * int(config["num_actors"])
-        count = max(1, batch // int(config["minibatch_size"]))
+        if "minibatch_size" in config:  # (minibatch_size_per_env scales with num_actors by itself)
+            batch = int(config["horizon_length"]) * int(config["num_actors"])
+            count = max(1, batch // int(config["minibatch_size"]))
+            config["minibatch_size"] = int(config["horizon_length"]) * args.num_actors // count
         config["num_actors"] = args.num_actors
-        config["minibatch_size"] = int(config["horizon_length"]) * args.num_actors // count
     if args.device is not None:
         config["device"] = args.device
         if "device_name" in config:

@@ -68,3 +68,14 @@ def test_rl_games_driver_scales_the_minibatch_with_num_actors_and_names_silu_as_
     out = rl_games_driver.load_config(args)["params"]
     assert out["config"]["num_actors"] == 4096 and out["config"]["minibatch_size"] == 16384  # still 8 minibatches
     assert out["config"]["env_config"]["device"] == "cuda:0" and out["network"]["mlp"]["activation"] == "swish"
+
+
+def test_rl_games_driver_leaves_a_per_env_minibatch_to_scale_by_itself(tmp_path):
+    import rl_games_driver
+    import yaml
+
+    cfg = {"params": {"config": {"num_actors": 64, "horizon_length": 32, "minibatch_size_per_env": 8}}}
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    out = rl_games_driver.load_config(rl_games_driver.parse_args(["--file", str(path), "--num-actors", "256"]))
+    assert out["params"]["config"] == {"num_actors": 256, "horizon_length": 32, "minibatch_size_per_env": 8}
