@@ -278,7 +278,7 @@ def reach_median(times: list[float | None]) -> float | None:
 
 def sooner(peer: float | None, ours: float | None) -> str:
     """How many times sooner rlchain reached a target than a peer (the peer's median seconds over rlchain's):
-    '>' where only rlchain reached it, '-' where rlchain did not."""
+    '> budget' where only rlchain reached it, '-' where rlchain did not."""
     if ours is None:
         return "-"
     if peer is None:
@@ -304,13 +304,14 @@ def time_to_reward(config: str, runs: dict[str, list[dict]], budget: float, targ
     return cells
 
 
-def time_to_reward_table(rows: list[tuple[str, dict[str, list[dict]], float]],
-                         targets: tuple[str, ...] = ("rl_games", "rl_games2")) -> list[str]:
-    """Markdown lines of the headline table (issue 37): for each config (its runs and budget) and each target
-    system, the seconds every system needs to reach the target's mean reward at the end of its budget, and
-    how many times sooner rlchain got there. The columns are every system with runs in any of ``rows``."""
+def time_to_reward_table(rows: list[tuple[str, dict[str, list[dict]], float]]) -> list[str]:
+    """Markdown lines of the headline table (issue 37): for each config (its runs and budget) and each peer
+    (every system but rlchain) as the target, the seconds every system needs to reach the target's mean reward at
+    the end of its budget, and how many times sooner rlchain got there. The columns are every system with runs in
+    any of ``rows``."""
     names = [name for name in SYSTEMS if any(runs.get(name) for _, runs, _ in rows)]
-    others = [n for n in names if n != "rlchain"] if "rlchain" in names else []
+    targets = [n for n in names if n != "rlchain"]
+    others = targets if "rlchain" in names else []
     lines = ["| YAML | target: mean reward | " + " | ".join(names) + "".join(f" | {p} / rlchain" for p in others)
              + " |", "|---|---|" + "---|" * (len(names) + len(others))]
     for config, runs, budget in rows:
@@ -353,7 +354,7 @@ def summarise(config: str, runs: dict[str, list[dict]], budget: float) -> list[s
         lines += ["", "Seconds from process start to reach each peer's mean reward at the end of its budget (median "
                       "over seeds, a seed that never reached it counting as later than all [fastest-slowest seed "
                       "that reached it] (seeds that reached it / seeds)):", ""]
-        lines += time_to_reward_table([(config, runs, budget)], tuple(peers))
+        lines += time_to_reward_table([(config, runs, budget)])
     return lines
 
 
@@ -471,10 +472,10 @@ def main(argv: list[str] | None = None) -> int:
                     json.dump(run, f)
     os.makedirs(args.out, exist_ok=True)
     lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
-    every = [(config, budget, load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames))
+    every = [(config, load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames), budget)
              for config, budget in ((c, args.pendulum_seconds if c == "pendulum" else args.seconds)
                                     for c in args.configs)]
-    headline = [(config, runs, budget) for config, budget, runs in every if sum(map(bool, runs.values())) > 1]
+    headline = [row for row in every if sum(map(bool, row[1].values())) > 1]
     if headline:
         lines += ["### Time to reward", "",
                   "Seconds from process start until a run's reported mean reward first reaches the target, the "
@@ -482,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
                   "reached it counts as later than all) [fastest-slowest seed that reached it] (seeds that reached "
                   "it / seeds); `peer / rlchain` is how many times sooner rlchain got there.", ""]
         lines += time_to_reward_table(headline) + [""]
-    for config, budget, runs in every:
+    for config, runs, budget in every:
         if not any(runs.values()):
             continue
         loads = [r[k] for lib_runs in runs.values() for r in lib_runs for k in ("load_before", "load_after")]

@@ -55,6 +55,5 @@ def register(env_name: str) -> None:
         def get_env_info(self) -> dict:
             return {"action_space": self.env.action_space, "observation_space": self.env.observation_space}
 
-    vecenv.register(VECENV_TYPE, lambda config_name, num_actors, **kwargs: TensorEnv(config_name, num_actors,
-                                                                                      **kwargs))
+    vecenv.register(VECENV_TYPE, TensorEnv)  # rl_games calls it as (config_name, num_actors, **env_config)
     env_configurations.register(env_name, {"vecenv_type": VECENV_TYPE, "env_creator": lambda **kwargs: None})

@@ -244,16 +244,25 @@ class Peer:
     compile: str  # "off", or "config": the YAML's torch_compile, rl_games' default (on) where it has none
 
 
-def rl_games_fps(python: str, config: str, num_envs: int, epochs: int, backend: str = "envpool",
+def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs: int, backend: str = "envpool",
                  compile: str = "off", device: str = "cpu") -> float | None:
     """rl_games' median training fps ("fps total": rollout and update) over epochs 2..``epochs`` on ``config``
     with ``num_envs`` actors (minibatch_size scaled as rlchain's rows scale it), one torch thread; torch envs
-    through rl_games' vecenv API (rl_games_tensor_env.py). None when the run fails."""
+    through rl_games' vecenv API (rl_games_tensor_env.py). None when the run fails, or when the YAML's env is
+    not ``env_name`` (rlchain's rows override it; rl_games reads it from the YAML)."""
     import re
     import statistics
     import subprocess
     import tempfile
 
+    import yaml
+
+    with open(config) as fh:
+        cfg = yaml.safe_load(fh)["params"]["config"]
+    yaml_env = cfg.get("env_config", {}).get("env_name") if backend == "envpool" else cfg.get("env_name")
+    if yaml_env != env_name:  # rl_games reads the env from the YAML only
+        print(f"rl_games not run on {config}: its env is {yaml_env}, the case's is {env_name}", flush=True)
+        return None
     driver = os.path.join(ROOT, "benchmarks", "rl_games_driver.py")
     cmd = [python, driver, "--file", os.path.abspath(config), "--max-epochs", str(epochs), "--torch-compile",
            compile, "--num-actors", str(num_envs), "--device", device]
@@ -369,8 +378,8 @@ def main(argv: list[str] | None = None) -> int:
         peers = {}
         for peer in rl_games_peers(args):
             print(f"{peer.label} on {spec} ...", flush=True)
-            peers[peer.label] = rl_games_fps(peer.python, config, num, args.rl_games_epochs, backend, peer.compile,
-                                             args.device)
+            peers[peer.label] = rl_games_fps(peer.python, config, env, num, args.rl_games_epochs, backend,
+                                             peer.compile, args.device)
         env_sps = None  # env-only is measured once per case (idle): every row's ratios share one ceiling
         for busy in args.busy:
             with busy_processes(busy):

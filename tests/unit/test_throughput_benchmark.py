@@ -79,3 +79,10 @@ def test_rl_games_driver_leaves_a_per_env_minibatch_to_scale_by_itself(tmp_path)
     path.write_text(yaml.safe_dump(cfg))
     out = rl_games_driver.load_config(rl_games_driver.parse_args(["--file", str(path), "--num-actors", "256"]))
     assert out["params"]["config"] == {"num_actors": 256, "horizon_length": 32, "minibatch_size_per_env": 8}
+
+
+def test_rl_games_is_not_run_on_a_yaml_whose_env_is_not_the_cases(tmp_path, capsys):
+    path = tmp_path / "c.yaml"
+    path.write_text("params:\n  config:\n    env_name: TorchPendulum-v0\n")
+    assert throughput.rl_games_fps("/no/python", str(path), "TorchCartPole-v0", 64, 3, "torch") is None
+    assert "its env is TorchPendulum-v0, the case's is TorchCartPole-v0" in capsys.readouterr().out
