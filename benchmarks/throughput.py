@@ -270,7 +270,11 @@ def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs:
         cmd.append("--tensor-env")
     env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # rl_games at its best on a small CPU
     with tempfile.TemporaryDirectory() as cwd:
-        proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
+        try:
+            proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
+        except OSError as exc:  # e.g. a --rl-games-python that is not there
+            print(f"rl_games not run on {config}: {python}: {exc.strerror}", flush=True)
+            return None
     values = [float(v) for v in re.findall(r"fps total: ([0-9.]+)", proc.stdout)]
     if proc.returncode != 0 or len(values) < 2:
         print(f"rl_games run on {config} failed (exit {proc.returncode}): {proc.stderr.strip()[-300:]}", flush=True)

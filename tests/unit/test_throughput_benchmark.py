@@ -86,3 +86,10 @@ def test_rl_games_is_not_run_on_a_yaml_whose_env_is_not_the_cases(tmp_path, caps
     path.write_text("params:\n  config:\n    env_name: TorchPendulum-v0\n")
     assert throughput.rl_games_fps("/no/python", str(path), "TorchCartPole-v0", 64, 3, "torch") is None
     assert "its env is TorchPendulum-v0, the case's is TorchCartPole-v0" in capsys.readouterr().out
+
+
+def test_a_peer_python_that_is_not_there_is_one_line_not_a_traceback(tmp_path, capsys):
+    path = tmp_path / "c.yaml"
+    path.write_text("params:\n  config:\n    env_name: TorchCartPole-v0\n")
+    assert throughput.rl_games_fps(str(tmp_path / "no-python"), str(path), "TorchCartPole-v0", 64, 3, "torch") is None
+    assert "no-python: No such file or directory" in capsys.readouterr().out
