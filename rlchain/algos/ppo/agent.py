@@ -13,6 +13,7 @@ from contextlib import nullcontext
 import torch
 
 from rlchain.algos.core.losses import aux_loss_terms, normalize_advantages, policy_loss, value_loss
+from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.schedules import (
     PROGRESS_SCHEDULES,
     AdaptiveKLSchedule,
@@ -20,7 +21,6 @@ from rlchain.algos.core.schedules import (
     scheduled_entropy_coef,
 )
 from rlchain.algos.core.storage import Batch, RolloutStorage
-from rlchain.config.run import amp_dtype_name
 from rlchain.config.schema import TrainConfig
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.log import get_logger
@@ -58,11 +58,10 @@ class PPOAgent:
         self.schedule_entropy = cfg.schedule_entropy and cfg.lr_schedule == "linear"
         self.train_critic = True  # False with a central value network (it trains the values itself)
         model.bptt_length = cfg.bptt_length
-        # mixed_precision: bf16 autocast, no scaler (rl_games 2.0); fp16 autocast with a GradScaler (1.6)
-        name = amp_dtype_name(cfg.mixed_precision, device.type == "cuda" and torch.cuda.is_bf16_supported()) \
-            if device.type == "cuda" else None
-        self.amp = name is not None
-        self.amp_dtype = getattr(torch, name) if name is not None else None
+        # mixed_precision: bf16 autocast, no scaler (rl_games 2.0; on a CPU with native bf16 too); fp16
+        # autocast with a GradScaler (1.6, CUDA)
+        self.amp_dtype = autocast_dtype(cfg.mixed_precision, device)
+        self.amp = self.amp_dtype is not None
         scaled = self.amp_dtype == torch.float16
         self.scaler = torch.amp.GradScaler("cuda", enabled=True) if scaled else None
         self._coef_value, self._coef = None, None
@@ -144,28 +143,33 @@ class PPOAgent:
 
         No side effects and no host syncs: this is the region ``compile_update`` compiles (with the
         backward pass AOTAutograd derives from it). ``entropy_coef`` is a 0-d tensor so a scheduled
-        coefficient does not recompile it."""
+        coefficient does not recompile it. Under ``mixed_precision`` the network's forward pass runs in
+        autocast and its outputs are cast back to float32, so the log-probs, ratios, KL and losses are
+        computed in float32 against the rollout's float32 log-probs."""
         cfg, model, dist = self.cfg, self.model, self.model.dist
-        autocast = torch.autocast("cuda", dtype=self.amp_dtype) if self.amp else nullcontext()
+        autocast = torch.autocast(self.device.type, dtype=self.amp_dtype) if self.amp else nullcontext()
         with autocast:
             params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
                                                batch.action_masks)
-            log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
-            entropy = entropy.mean()
-            a_loss = self.surrogate(batch.log_probs, log_probs, batch.advantages).mean()
-            if self.train_critic:
-                c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
-                                    cfg.e_clip, cfg.clip_value).mean()
-            else:
-                c_loss = torch.zeros((), device=values.device)
-            loss = a_loss + 0.5 * cfg.critic_coef * c_loss - entropy_coef * entropy
-            b_loss = torch.zeros((), device=params.device)
-            if cfg.bounds_loss_coef:
-                b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
-                loss = loss + cfg.bounds_loss_coef * b_loss
             aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
-            for aux_loss in aux.values():
-                loss = loss + aux_loss
+        if self.amp:
+            params, values = params.float(), values.float()
+            aux = {name: value.float() for name, value in aux.items()}
+        log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
+        entropy = entropy.mean()
+        a_loss = self.surrogate(batch.log_probs, log_probs, batch.advantages).mean()
+        if self.train_critic:
+            c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
+                                cfg.e_clip, cfg.clip_value).mean()
+        else:
+            c_loss = torch.zeros((), device=values.device)
+        loss = a_loss + 0.5 * cfg.critic_coef * c_loss - entropy_coef * entropy
+        b_loss = torch.zeros((), device=params.device)
+        if cfg.bounds_loss_coef:
+            b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
+            loss = loss + cfg.bounds_loss_coef * b_loss
+        for aux_loss in aux.values():
+            loss = loss + aux_loss
         with torch.no_grad():
             current = params.detach().float()
             kl = dist.kl(reference, current).mean()
