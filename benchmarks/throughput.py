@@ -41,6 +41,14 @@ never loses to one thread, loaded or idle" is one run::
 
     python benchmarks/throughput.py --cases envpool:HalfCheetah-v4:64 --plans auto 1/1 --busy 0 1
 
+``--variants LABEL=KEY=VALUE[,KEY=VALUE...]`` measures each case once per set of config overrides
+(``base=`` for none), with the first variant as the base of the ``x base`` column, and the warm-up
+epoch's seconds (compilation happens there) in ``warmup s``::
+
+    python benchmarks/throughput.py --cases torch:TorchPendulum-v0:4096 --variants base= \
+        bf16=params.config.mixed_precision=bf16 \
+        bf16+compile=params.config.mixed_precision=bf16,params.config.compile_update=True
+
 The load average is printed too: other processes on the machine skew every number.
 """
 
@@ -98,6 +106,9 @@ class Row:
     update_threads: int = 1
     plan: str = "auto"
     busy: int = 0
+    variant: str = "base"
+    warmup_s: float = 0.0  # the first rollout + update (compiling, with compile_update)
+    base_train_sps: float | None = None  # the first variant's, same case, plan and load
 
     @property
     def rollout_ratio(self) -> float:
@@ -177,10 +188,11 @@ def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, mi
 
 def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
             device_name: str, groups: int = 1, update_threads: int | None = None,
-            env_sps: float | None = None, fixed: bool = False) -> Row:
-    """One row: env-only (unless ``env_sps`` is given), rollout and train steps/s of one case."""
+            env_sps: float | None = None, fixed: bool = False, sets: tuple[str, ...] = ()) -> Row:
+    """One row: env-only (unless ``env_sps`` is given), rollout and train steps/s of one case, with the
+    config overrides ``sets`` (a variant) on top of the case's."""
     runner = Runner().load(config)
-    extra = [f"params.config.env_groups={groups}"] if backend == "envpool" else []
+    extra = ([f"params.config.env_groups={groups}"] if backend == "envpool" else []) + list(sets)
     runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name) + extra)
     params = runner.params
     if fixed:  # exactly these counts, whatever else runs (what the Runner did before adaptive plans)
@@ -216,9 +228,12 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
         loop.threads = plan
         ppo, ctx = loop.algorithm, loop.ctx  # the algorithm the loop holds, and the run context it gets
         ppo.obs = torch.as_tensor(env.reset(seed=0), device=device)
+        start = time.perf_counter()
         ppo.rollout()
         with ctx.update_phase():
-            ppo.learn()  # warm-up
+            ppo.learn()  # warm-up (and compilation)
+        sync(device)
+        warmup_s = time.perf_counter() - start
         batch = params.config.horizon_length * num_envs
         rollout_sps = timed(ppo.rollout, batch, seconds, device)
 
@@ -232,7 +247,7 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
         env.close()
     return Row(backend, env_name, num_envs, env_sps, rollout_sps, train_sps, torch.get_num_threads(),
                os.path.relpath(config, ROOT), groups if backend == "envpool" else 1,
-               update_threads=plan.update if plan is not None else torch.get_num_threads())
+               update_threads=plan.update if plan is not None else torch.get_num_threads(), warmup_s=warmup_s)
 
 
 @dataclass(frozen=True)
@@ -293,6 +308,16 @@ def parse_plan(spec: str) -> tuple[str, int | None, int | None]:
     return spec, rollout, update
 
 
+def parse_variant(spec: str) -> tuple[str, tuple[str, ...]]:
+    """'LABEL=KEY=VALUE[,KEY=VALUE...]' -> (LABEL, overrides); 'LABEL=' -> no overrides."""
+    label, sep, sets = spec.partition("=")
+    overrides = tuple(s for s in sets.split(",") if s)
+    if not sep or not label or any("=" not in s for s in overrides):
+        raise SystemExit(f"bad variant '{spec}': expected LABEL= or LABEL=KEY=VALUE[,KEY=VALUE...], "
+                         f"e.g. bf16=params.config.mixed_precision=bf16")
+    return label, overrides
+
+
 def _spin() -> None:
     """A busy loop: one core's worth of load from another program."""
     while True:
@@ -317,16 +342,19 @@ def table(rows: list[Row]) -> str:
     labels = list(dict.fromkeys(label for r in rows for label in r.peers))
     head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>3} {'env-only sps':>13} {'rollout sps':>12} "
             f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'plan':>5} {'busy':>4}"
+            f" {'variant':>14} {'warmup s':>8} {'x base':>6}"
             + "".join(f" {label + ' sps':>18} {'train/' + label:>20}" for label in labels))
     lines = [head, "-" * len(head)]
     for r in rows:
+        x_base = "-" if r.base_train_sps is None else f"{r.train_sps / r.base_train_sps:.2f}"
         peer = ""
         for label in labels:
             sps = r.peers.get(label)
             peer += f" {'-':>18} {'-':>20}" if sps is None else f" {sps:>18,.0f} {r.train_sps / sps:>20.2f}"
         lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.groups:>3} {r.env_sps:>13,.0f} "
                      f"{r.rollout_sps:>12,.0f} {r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} "
-                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {r.plan:>5} {r.busy:>4}{peer}")
+                     f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {r.plan:>5} {r.busy:>4}"
+                     f" {r.variant:>14} {r.warmup_s:>8.1f} {x_base:>6}{peer}")
     return "\n".join(lines)
 
 
@@ -361,6 +389,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--plans", nargs="+", default=None,
                     help="thread plans to measure, 'auto' (the Runner's) or R/U (rollout/update threads); "
                          "replaces --threads / --update-threads")
+    ap.add_argument("--variants", nargs="+", default=["base="],
+                    help="measure once per LABEL=KEY=VALUE[,KEY=VALUE...] set of config overrides (LABEL= for "
+                         "none); the first is the base of the 'x base' column")
     ap.add_argument("--busy", type=int, nargs="+", default=[0],
                     help="measure once per count of busy-looping background processes (default 0)")
     args = ap.parse_args(argv)
@@ -368,6 +399,7 @@ def main(argv: list[str] | None = None) -> int:
         ("auto" if args.threads is None and u is None else f"{args.threads or '-'}/{u or '-'}", args.threads, u)
         for u in args.update_threads]
 
+    variants = [parse_variant(v) for v in args.variants]
     cases = args.cases or DEFAULT_CASES
     rows = []
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
@@ -389,12 +421,18 @@ def main(argv: list[str] | None = None) -> int:
             with busy_processes(busy):
                 for groups in (args.env_groups if backend == "envpool" else [1]):
                     for name, threads, update_threads in plans:
-                        print(f"measuring {spec} env_groups={groups} plan={name} busy={busy} ...", flush=True)
-                        row = measure(backend, env, num, config, args.seconds, threads, args.device, groups,
-                                      update_threads, env_sps, fixed=name != "auto" and bool(args.plans))
-                        row.peers, row.plan, row.busy = peers, name, busy
-                        env_sps = row.env_sps
-                        rows.append(row)
+                        base_sps = None
+                        for label, sets in variants:
+                            print(f"measuring {spec} env_groups={groups} plan={name} busy={busy} variant={label} "
+                                  f"...", flush=True)
+                            row = measure(backend, env, num, config, args.seconds, threads, args.device, groups,
+                                          update_threads, env_sps, fixed=name != "auto" and bool(args.plans),
+                                          sets=sets)
+                            row.peers, row.plan, row.busy, row.variant = peers, name, busy, label
+                            row.base_train_sps = base_sps
+                            base_sps = base_sps or row.train_sps
+                            env_sps = row.env_sps
+                            rows.append(row)
     load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print()
     print(table(rows))

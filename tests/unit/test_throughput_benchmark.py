@@ -19,6 +19,23 @@ def test_parse_plan_reads_auto_and_rollout_update_pairs():
         throughput.parse_plan("2")
 
 
+def test_parse_variant_reads_a_label_and_its_overrides():
+    assert throughput.parse_variant("base=") == ("base", ())
+    assert throughput.parse_variant("bf16+c=params.config.mixed_precision=bf16,params.config.compile_update=True") \
+        == ("bf16+c", ("params.config.mixed_precision=bf16", "params.config.compile_update=True"))
+    for bad in ("bf16", "=a=b", "x=params.config.mixed_precision"):
+        with pytest.raises(SystemExit, match="bad variant"):
+            throughput.parse_variant(bad)
+
+
+def test_table_gives_each_variant_its_ratio_to_the_first():
+    rows = [throughput.Row("torch", "TorchPendulum-v0", 64, 1e6, 5e5, 2e5, 1, "c.yaml", variant="base"),
+            throughput.Row("torch", "TorchPendulum-v0", 64, 1e6, 5e5, 3e5, 1, "c.yaml", variant="bf16",
+                           warmup_s=9.5, base_train_sps=2e5)]
+    lines = throughput.table(rows).splitlines()
+    assert lines[2].split()[-3:] == ["base", "0.0", "-"] and lines[3].split()[-3:] == ["bf16", "9.5", "1.50"]
+
+
 def test_busy_processes_run_inside_the_block_and_are_gone_after():
     with throughput.busy_processes(1):
         time.sleep(0.05)
