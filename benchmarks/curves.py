@@ -64,7 +64,12 @@ CONFIGS = {  # short name -> rl_games' own YAML (device: cpu added, nothing else
     "walker2d": "rl_games_configs/walker2d_envpool.yaml",
     "humanoid": "rl_games_configs/humanoid_envpool.yaml",
     "pendulum": "rl_games_configs/ppo_pendulum_torch.yaml",
+    # rlchain's tensor envs (batched torch math), rl_games reaching them through its vecenv API
+    # (rl_games_tensor_env.py); score_to_win is dropped so every run trains for the whole budget
+    "torch_pendulum": "../rlchain/configs/ppo_torch_pendulum.yaml",
+    "torch_reacher8": "../rlchain/configs/ppo_torch_reacher8.yaml",
 }
+TENSOR_CONFIGS = ("torch_pendulum", "torch_reacher8")
 DEFAULT_SEEDS = (11, 12, 13)
 
 
@@ -77,6 +82,7 @@ class System:
     driver_args: tuple[str, ...] = ()  # extra rl_games_driver.py arguments
     env: tuple[tuple[str, str], ...] = ()  # extra environment variables (thread counts)
     color: str = "tab:gray"
+    overrides: tuple[str, ...] = ()  # rlchain: runner.py key=value overrides
 
 
 ONE_THREAD = (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))
@@ -84,6 +90,9 @@ ONE_THREAD = (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))
 # every setting of both versions side by side; its table is in docs/benchmarks.md) and as shipped.
 SYSTEMS = {
     "rlchain": System("rlchain", "as shipped", color="tab:blue"),
+    "rlchain_bf16": System("rlchain", "mixed_precision: bf16 (the update's network passes in bfloat16 on an "
+                                      "AMX / AVX512-BF16 CPU)", overrides=("params.config.mixed_precision=bf16",),
+                           color="tab:purple"),
     "rl_games": System("rl_games", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:orange"),
     "rl_games_shipped": System("rl_games", "as shipped (compile on, default threads)", color="tab:brown"),
     "rl_games2": System("rl_games2", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:green"),
@@ -101,11 +110,14 @@ def describe(name: str) -> str:
 
 
 # ----- running -------------------------------------------------------------------------------
-def seeded_config(path: str, seed: int, workdir: str) -> str:
-    """A copy of the YAML in ``workdir`` with params.seed and env_config.seed (if any) set to ``seed``."""
+def seeded_config(path: str, seed: int, workdir: str, whole_budget: bool = False) -> str:
+    """A copy of the YAML in ``workdir`` with params.seed and env_config.seed (if any) set to ``seed``;
+    ``whole_budget``: without score_to_win, so the run does not stop when it reaches it."""
     with open(path) as f:
         cfg = yaml.safe_load(f)
     cfg["params"]["seed"] = seed
+    if whole_budget:
+        cfg["params"]["config"].pop("score_to_win", None)
     env_config = cfg["params"]["config"].get("env_config")
     if isinstance(env_config, dict):
         env_config["seed"] = seed
@@ -129,16 +141,24 @@ def frame_cap_args(lib: str, cfg_path: str, frames: int | None) -> list[str]:
     return ["--max-epochs", str(math.ceil(frames / per_epoch))]
 
 
-def command(name: str, cfg_path: str, args: argparse.Namespace) -> list[str]:
-    """The training command of one system, as a user of it would type it."""
+def command(name: str, cfg_path: str, args: argparse.Namespace, tensor_env: bool = False) -> list[str]:
+    """The training command of one system, as a user of it would type it (``tensor_env``: the YAML names one
+    of rlchain's tensor envs, which rl_games reaches through rl_games_tensor_env.py)."""
     system = SYSTEMS[name]
     cap = frame_cap_args(system.lib, cfg_path, getattr(args, "frames", None))
     if system.lib == "rlchain":
         return [args.rlchain_python, os.path.join(REPO, "runner.py"), "--train", "--file", cfg_path,
-                *shlex.split(args.rlchain_args), *cap]
+                *system.overrides, *shlex.split(args.rlchain_args), *cap]
     python = args.rl_games_python if system.lib == "rl_games" else args.rl_games2_python
     return [python, os.path.join(HERE, "rl_games_driver.py"), "--file", cfg_path, *system.driver_args,
-            *shlex.split(args.rl_games_args), *cap]
+            *(["--tensor-env"] if tensor_env else []), *shlex.split(args.rl_games_args), *cap]
+
+
+def budget_of(config: str, args: argparse.Namespace) -> float:
+    """Seconds of one run of ``config``: --pendulum-seconds, --tensor-seconds or --seconds."""
+    if config == "pendulum":
+        return args.pendulum_seconds
+    return args.tensor_seconds if config in TENSOR_CONFIGS else args.seconds
 
 
 def environment(name: str) -> dict[str, str]:
@@ -154,8 +174,9 @@ def load_average() -> float:
 def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.Namespace) -> dict:
     """One run for ``seconds`` of wall time from process start; its reward events and conditions."""
     workdir = tempfile.mkdtemp(prefix=f"curve_{config}_{lib}_{seed}_")
-    cfg_path = seeded_config(os.path.join(HERE, CONFIGS[config]), seed, workdir)
-    cmd = command(lib, cfg_path, args)
+    tensor = config in TENSOR_CONFIGS
+    cfg_path = seeded_config(os.path.join(HERE, CONFIGS[config]), seed, workdir, whole_budget=tensor)
+    cmd = command(lib, cfg_path, args, tensor_env=tensor)
     env = dict(SYSTEMS[lib].env)
     print(f"[{config} {lib} seed {seed}] $ {' '.join(f'{k}={v}' for k, v in env.items())} {shlex.join(cmd)}",
           flush=True)
@@ -430,6 +451,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="also stop each run after this many env frames (per-frame comparisons on a loaded machine)")
     p.add_argument("--pendulum-seconds", type=float, default=150.0,
                    help="budget of ppo_pendulum_torch runs (rl_games starts 16 Ray actors for it: ~60 s on 2 cores)")
+    p.add_argument("--tensor-seconds", type=float, default=30.0,
+                   help="budget of the tensor-env runs (" + ", ".join(TENSOR_CONFIGS) + ")")
     p.add_argument("--libs", nargs="+", choices=list(SYSTEMS), default=["rlchain", "rl_games", "rl_games2"],
                    help="systems to run: " + "; ".join(f"{n}: {describe(n)}" for n in SYSTEMS))
     p.add_argument("--rl-games-python", default="/work/rlg-venv/bin/python", help="rl_games 1.6.5's venv")
@@ -455,7 +478,7 @@ def main(argv: list[str] | None = None) -> int:
     cpu = cpu_model()
     for seed in args.seeds:  # seed-major (a cut-short run still has whole seeds), libraries alternating
         for config in args.configs:
-            budget = args.pendulum_seconds if config == "pendulum" else args.seconds
+            budget = budget_of(config, args)
             for lib in args.libs:
                 path = run_path(runs_dir, config, lib, seed)
                 saved = load_runs(runs_dir, config, [lib], [seed], budget, args.frames)[lib]
@@ -473,8 +496,7 @@ def main(argv: list[str] | None = None) -> int:
     os.makedirs(args.out, exist_ok=True)
     lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
     every = [(config, load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames), budget)
-             for config, budget in ((c, args.pendulum_seconds if c == "pendulum" else args.seconds)
-                                    for c in args.configs)]
+             for config, budget in ((c, budget_of(c, args)) for c in args.configs)]
     headline = [row for row in every if sum(map(bool, row[1].values())) > 1]
     if headline:
         lines += ["### Time to reward", "",

@@ -167,3 +167,20 @@ def test_saved_runs_of_another_frame_budget_are_not_loaded(tmp_path):
     assert curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0)["rlchain"] == []
     assert curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0, 500_000)["rlchain"] == []
     assert len(curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0, 1_000_000)["rlchain"]) == 1
+
+
+def test_bf16_system_is_rlchain_with_its_override_and_tensor_envs_reach_rl_games_through_its_vecenv(tmp_path):
+    args = curves.parse_args(["--libs", "rlchain", "rlchain_bf16", "rl_games2"])
+    cfg = os.path.join(curves.HERE, curves.CONFIGS["hopper"])
+    assert "params.config.mixed_precision=bf16" in curves.command("rlchain_bf16", cfg, args)
+    assert "params.config.mixed_precision=bf16" not in curves.command("rlchain", cfg, args)
+    assert "--tensor-env" in curves.command("rl_games2", cfg, args, tensor_env=True)
+    assert "--tensor-env" not in curves.command("rl_games2", cfg, args)
+    assert curves.budget_of("torch_pendulum", args) == 30.0 and curves.budget_of("hopper", args) == 300.0
+
+
+def test_tensor_env_runs_train_for_the_whole_budget(tmp_path):
+    src = os.path.join(curves.HERE, curves.CONFIGS["torch_pendulum"])
+    with open(curves.seeded_config(src, 12, str(tmp_path), whole_budget=True)) as f:
+        config = yaml.safe_load(f)["params"]
+    assert config["seed"] == 12 and "score_to_win" not in config["config"]
