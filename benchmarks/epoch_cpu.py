@@ -48,6 +48,11 @@ def child(tree: str, case: str, sets: list[str], warmup: int, epochs: int) -> di
     backend, env_name, num, config = tp.parse_case(case)
     raw = Runner().load(config).raw
     params = Runner().load(config, tp.overrides(backend, env_name, num, raw, "cpu") + sets).params
+    try:  # as training does, in a tree that has it
+        from rlchain.parallel.memory import tune_malloc
+        tune_malloc(params.malloc)
+    except ImportError:  # a tree from before params.malloc
+        pass
     torch.manual_seed(0)
     device = torch.device("cpu")
     env = build_env(params, num, 0)

@@ -74,6 +74,7 @@ if ROOT not in sys.path:
 from rlchain import Runner  # noqa: E402
 from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
 from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
+from rlchain.parallel.memory import tune_malloc  # noqa: E402
 from rlchain.parallel.threads import ThreadPlan, plan_threads  # noqa: E402
 from rlchain.runs.logging import TrainLogger  # noqa: E402
 from rlchain.training.loop import Loop  # noqa: E402
@@ -202,6 +203,7 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
                             params.config.device)
     if plan is not None:
         plan.apply()
+    tune_malloc(params.malloc)  # as training does (once per process: a later 'default' cannot undo it)
     torch.manual_seed(0)
     device = resolve_device(params.config.device)
     env = build_env(params, num_envs, 0)

@@ -10,7 +10,9 @@ this tree / base::
         --cases gymnasium:CartPole-v1:64 envpool:HalfCheetah-v4:64 --threads 1 --rounds 3
 
 ``--threads N`` passes ``--threads N --update-threads N`` to both (a fixed thread count, so only the code
-differs); without it each version plans its threads as it ships.
+differs); without it each version plans its threads as it ships. ``--set KEY=VALUE`` (repeatable) applies a
+config override to this tree only (through its throughput.py's ``--variants``), e.g. an option the base does
+not have.
 """
 
 from __future__ import annotations
@@ -27,14 +29,17 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 METRICS = ("env_sps", "rollout_sps", "train_sps")
 
 
-def run_throughput(tree: str, cases: list[str], seconds: float, threads: int | None) -> list[dict]:
-    """One ``throughput.py`` run of the rlchain in ``tree``; its rows as dicts."""
+def run_throughput(tree: str, cases: list[str], seconds: float, threads: int | None,
+                   sets: list[str] | None = None) -> list[dict]:
+    """One ``throughput.py`` run of the rlchain in ``tree`` (with the config overrides ``sets``); its rows."""
     with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as fh:
         out = fh.name
     cmd = [sys.executable, os.path.join(tree, "benchmarks", "throughput.py"), "--cases", *cases,
            "--seconds", str(seconds), "--json", out]
     if threads is not None:
         cmd += ["--threads", str(threads), "--update-threads", str(threads)]
+    if sets:
+        cmd += ["--variants", "head=" + ",".join(sets)]
     subprocess.run(cmd, cwd=tree, check=True, stdout=subprocess.DEVNULL)
     with open(out) as fh:
         rows = json.load(fh)
@@ -94,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=3.0, help="time per measurement (throughput.py's)")
     ap.add_argument("--threads", type=int, default=None, help="fixed torch threads for both (default: as shipped)")
     ap.add_argument("--rounds", type=int, default=3, help="runs of each version, alternating (default 3)")
+    ap.add_argument("--set", action="append", default=[], help="a config override for this tree only")
     args = ap.parse_args(argv)
 
     worktree = add_worktree(args.base)
@@ -105,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"round {k + 1}/{args.rounds}: {args.base} ...", flush=True)
             old_runs.append(run_throughput(worktree, args.cases, args.seconds, args.threads))
             print(f"round {k + 1}/{args.rounds}: HEAD ...", flush=True)
-            new_runs.append(run_throughput(REPO, args.cases, args.seconds, args.threads))
+            new_runs.append(run_throughput(REPO, args.cases, args.seconds, args.threads, args.set))
             for name, rows in ((args.base, old_runs[-1]), ("HEAD", new_runs[-1])):
                 for row in rows:  # each run, so the spread behind the medians shows
                     print(f"  {name:>10} {row['env']:<18} " + " ".join(f"{m} {row[m]:>10,.0f}" for m in METRICS))

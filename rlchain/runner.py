@@ -25,6 +25,7 @@ from rlchain.inference.policy_player import play_policies
 from rlchain.log import get_logger
 from rlchain.models.build import apply_sigma, build_model, resolve_device
 from rlchain.parallel import communicator, distributed
+from rlchain.parallel.memory import tune_malloc
 from rlchain.parallel.threads import ThreadPlan, set_threads
 from rlchain.registry import ALGOS
 from rlchain.runs import checkpoint as ckpt
@@ -113,6 +114,7 @@ class Runner:
         seed_everything(seed)
         threads = set_threads(params.torch_threads, params.update_threads, cfg.device,
                               group.local_world_size if group is not None else 1)
+        tune_malloc(params.malloc)  # freed tensors reused, not fresh pages from the kernel every epoch
         state = ckpt.load(checkpoint) if checkpoint else None
         device = resolve_device(cfg.device)
         algorithm = algorithm_class(params)

@@ -30,6 +30,10 @@ from rlchain.config.schema import (
 from rlchain.registry import ALGOS, MODELS, NETWORKS, network_config_class
 
 
+def check_malloc(value: str) -> str | None:
+    """``params.malloc``: keep or default (rlchain.parallel.memory)."""
+    return None if value in ("keep", "default") else f"expected keep or default, got {value!r}"
+
 def load_raw(path: str) -> dict[str, Any]:
     """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML)."""
     if not os.path.isfile(path):
@@ -86,7 +90,8 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     if not isinstance(params, dict):
         raise ConfigError(source, "params", f"expected a mapping, got {params!r}")
     params = compat.translate_params(params, source)
-    known = {"seed", "algo", "model", "network", "config", "import_modules", "torch_threads", "update_threads"}
+    known = {"seed", "algo", "model", "network", "config", "import_modules", "torch_threads", "update_threads",
+             "malloc"}
     for key in params:
         if key not in known:
             import difflib
@@ -105,6 +110,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
                           {"check": lambda x: None if x > 0 else "must be > 0"})
     update_threads = parse_value(int | None, params.get("update_threads"), "params.update_threads", source,
                                  {"check": lambda x: None if x > 0 else "must be > 0"})
+    malloc = parse_value(str, params.get("malloc", "keep"), "params.malloc", source, {"check": check_malloc})
     algo = parse_dataclass(NamedBlock, params["algo"], "params.algo", source)
     old_model_name = params["model"].get("name") if isinstance(params["model"], dict) else None
     model = parse_dataclass(NamedBlock, compat.translate_model(params["model"], source), "params.model", source)
@@ -144,7 +150,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
         config = dataclasses.replace(config, central_value_config=_resolve_central_value(config, source))
     out = Params(algo=algo, model=model, config=config, network=network, seed=seed,
                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
-                 source=source)
+                 malloc=malloc, source=source)
     if isinstance(config, TrainConfig) and config.multi_agent is not None:
         out = dataclasses.replace(out, policies=_policy_params(out, params, source))
     return out
@@ -199,7 +205,8 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
             NamedBlock, compat.translate_model(spec.model, source), f"{path}.model", source)
         _check_registered(MODELS, model.name, f"{path}.model.name", source)
         out[name] = Params(algo=top.algo, model=model, config=config, network=network, seed=top.seed,
-                           torch_threads=top.torch_threads, update_threads=top.update_threads, source=source)
+                           torch_threads=top.torch_threads, update_threads=top.update_threads, malloc=top.malloc,
+                           source=source)
     return out
 
 

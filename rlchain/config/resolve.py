@@ -138,5 +138,6 @@ def params_from_state(data: Any, source: str) -> Params:
         import_modules=parse_value(list[str] | None, data.get("import_modules"), "params.import_modules", source),
         torch_threads=parse_value(int | None, data.get("torch_threads"), "params.torch_threads", source),
         update_threads=parse_value(int | None, data.get("update_threads"), "params.update_threads", source),
+        malloc=data.get("malloc", "keep"),
         source=source,
         policies=None if policies is None else {name: params_from_state(p, source) for name, p in policies.items()})

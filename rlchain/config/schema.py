@@ -73,6 +73,7 @@ class Params:
     import_modules: list[str] | None = None
     torch_threads: int | None = None  # torch.set_num_threads for this process (rl_games key)
     update_threads: int | None = None  # CPU threads for the gradient updates (default: all cores, at most 4)
+    malloc: str = "keep"  # glibc's malloc keeps freed memory (rlchain.parallel.memory), or "default"
     source: str = ""
     policies: dict[str, Params] | None = None  # config.multi_agent: each policy's own Params (load.py)
 
