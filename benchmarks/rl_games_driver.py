@@ -31,6 +31,9 @@ def parse_args(argv=None):
                         "(rl_games defaults it to True); on/off: force it")
     p.add_argument("--max-epochs", type=int, default=None,
                    help="override config.max_epochs")
+    p.add_argument("--torch-threads", type=int, default=None,
+                   help="params.torch_threads: rl_games calls torch.set_num_threads with it; unset, rl_games "
+                        "uses min(4, cores) (2 on 2 cores) whatever OMP_NUM_THREADS says")
     p.add_argument("--device", default=None,
                    help="override config.device (e.g. cpu)")
     p.add_argument("--tensor-env", action="store_true",
@@ -55,6 +58,8 @@ def load_config(args):
         config["torch_compile"] = args.torch_compile == "on"
     if args.max_epochs is not None:
         config["max_epochs"] = args.max_epochs
+    if args.torch_threads is not None:
+        params["torch_threads"] = args.torch_threads
     if args.num_actors is not None:
         if "minibatch_size" in config:  # (minibatch_size_per_env scales with num_actors by itself)
             batch = int(config["horizon_length"]) * int(config["num_actors"])

@@ -87,6 +87,19 @@ def test_rl_games_driver_scales_the_minibatch_with_num_actors_and_names_silu_as_
     assert out["config"]["env_config"]["device"] == "cuda:0" and out["network"]["mlp"]["activation"] == "swish"
 
 
+def test_rl_games_driver_sets_rl_games_own_thread_count(tmp_path):
+    # rl_games calls torch.set_num_threads(params.torch_threads or min(4, cores)): OMP_NUM_THREADS=1 is not one thread
+    import rl_games_driver
+    import yaml
+
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump({"params": {"config": {"num_actors": 8}}}))
+    unset = rl_games_driver.load_config(rl_games_driver.parse_args(["--file", str(path)]))["params"]
+    assert "torch_threads" not in unset
+    args = rl_games_driver.parse_args(["--file", str(path), "--torch-threads", "1"])
+    assert rl_games_driver.load_config(args)["params"]["torch_threads"] == 1
+
+
 def test_rl_games_driver_leaves_a_per_env_minibatch_to_scale_by_itself(tmp_path):
     import rl_games_driver
     import yaml
