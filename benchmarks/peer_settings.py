@@ -24,10 +24,15 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import curves  # noqa: E402  (benchmarks/ is not a package)
 
-THREADS = {  # key -> (what a reader is told, environment)
-    "tdefault": ("default threads", ()),
-    "t1": ("1 thread", (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))),
-    "t2": ("2 threads", (("OMP_NUM_THREADS", "2"), ("MKL_NUM_THREADS", "2"))),
+# rl_games itself calls torch.set_num_threads(params.torch_threads, default min(4, cores)): the environment
+# variables set OpenMP/MKL's defaults, which that call then overrides (2 torch threads on 2 cores), so only
+# torch_threads (rl_games_driver.py --torch-threads) gives it one torch thread.
+THREADS = {  # key -> (what a reader is told, environment, driver arguments)
+    "tdefault": ("default threads (torch: 2 on 2 cores)", (), ()),
+    "t1": ("OMP_NUM_THREADS=1 (torch: 2 on 2 cores)", (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1")), ()),
+    "t2": ("OMP_NUM_THREADS=2 (torch: 2)", (("OMP_NUM_THREADS", "2"), ("MKL_NUM_THREADS", "2")), ()),
+    "tt1": ("torch_threads: 1, OMP_NUM_THREADS=1", (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1")),
+            ("--torch-threads", "1")),
 }
 COMPILE = {"compile": ("compile on", ("--torch-compile", "on")),
            "nocompile": ("compile off", ("--torch-compile", "off"))}
@@ -37,9 +42,9 @@ def settings(libs: list[str]) -> dict[str, curves.System]:
     """Every (version, threads, compile) combination as a named system, rlchain first."""
     out = {"rlchain": curves.SYSTEMS["rlchain"]}
     for lib in libs:
-        for tkey, (threads, env) in THREADS.items():
+        for tkey, (threads, env, thread_args) in THREADS.items():
             for ckey, (compiled, args) in COMPILE.items():
-                out[f"{lib}_{tkey}_{ckey}"] = curves.System(lib, f"{threads}, {compiled}", args, env)
+                out[f"{lib}_{tkey}_{ckey}"] = curves.System(lib, f"{threads}, {compiled}", args + thread_args, env)
     return out
 
 
