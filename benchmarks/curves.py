@@ -86,6 +86,10 @@ class System:
 
 
 ONE_THREAD = (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))
+# Caution (found 2026-11-26): rl_games calls torch.set_num_threads(params.torch_threads, default min(4, cores))
+# itself, so "rl_games" / "rl_games2" below (OMP_NUM_THREADS=1, the label says "1 thread") ran 2 torch threads on 2
+# cores. The label stays as the saved runs were recorded under it; "*_tt1" is one torch thread for real
+# (rl_games_driver.py --torch-threads 1), which ran Hopper faster (peer_settings.py; docs/benchmarks.md).
 # Each peer at its best on a 2-core CPU: compile off, one torch thread (benchmarks/peer_settings.py measures
 # every setting of both versions side by side; its table is in docs/benchmarks.md) and as shipped.
 SYSTEMS = {
@@ -97,6 +101,10 @@ SYSTEMS = {
     "rl_games_shipped": System("rl_games", "as shipped (compile on, default threads)", color="tab:brown"),
     "rl_games2": System("rl_games2", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:green"),
     "rl_games2_shipped": System("rl_games2", "as shipped (compile on, default threads)", color="tab:olive"),
+    "rl_games_tt1": System("rl_games", "torch_threads: 1 (one torch thread), compile off",
+                           ("--torch-compile", "off", "--torch-threads", "1"), ONE_THREAD, "tab:red"),
+    "rl_games2_tt1": System("rl_games2", "torch_threads: 1 (one torch thread), compile off",
+                            ("--torch-compile", "off", "--torch-threads", "1"), ONE_THREAD, "tab:cyan"),
 }
 PEERS = [name for name in SYSTEMS if name != "rlchain"]
 COLORS = {name: system.color for name, system in SYSTEMS.items()}

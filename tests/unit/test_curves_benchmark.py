@@ -83,6 +83,8 @@ def test_every_peer_names_its_version_and_setting():
     assert curves.describe("rl_games2_shipped").startswith("rl_games 2.0 (main), as shipped")
     best = curves.SYSTEMS["rl_games"]
     assert dict(best.env)["OMP_NUM_THREADS"] == "1" and best.driver_args == ("--torch-compile", "off")
+    one = curves.SYSTEMS["rl_games2_tt1"]  # rl_games sets its own torch threads: only torch_threads: 1 is one
+    assert one.lib == "rl_games2" and one.driver_args[-2:] == ("--torch-threads", "1")
 
 
 def test_summary_compares_rlchain_with_each_peer_and_the_time_to_their_final_reward():
