@@ -34,6 +34,7 @@ def check_malloc(value: str) -> str | None:
     """``params.malloc``: keep or default (rlchain.parallel.memory)."""
     return None if value in ("keep", "default") else f"expected keep or default, got {value!r}"
 
+
 def load_raw(path: str) -> dict[str, Any]:
     """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML)."""
     if not os.path.isfile(path):

@@ -18,7 +18,7 @@ from typing import Any
 from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
-from rlchain.config.load import _parse_network
+from rlchain.config.load import _parse_network, check_malloc
 from rlchain.config.schema import NamedBlock, Params, TrainConfig
 from rlchain.registry import ALGOS
 
@@ -138,6 +138,6 @@ def params_from_state(data: Any, source: str) -> Params:
         import_modules=parse_value(list[str] | None, data.get("import_modules"), "params.import_modules", source),
         torch_threads=parse_value(int | None, data.get("torch_threads"), "params.torch_threads", source),
         update_threads=parse_value(int | None, data.get("update_threads"), "params.update_threads", source),
-        malloc=data.get("malloc", "keep"),
+        malloc=parse_value(str, data.get("malloc", "keep"), "params.malloc", source, {"check": check_malloc}),
         source=source,
         policies=None if policies is None else {name: params_from_state(p, source) for name, p in policies.items()})
