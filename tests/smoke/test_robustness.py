@@ -115,6 +115,8 @@ def test_signals_in_a_fresh_process_with_threads():
         import os, signal, sys, threading, time
         sys.path.insert(0, {ROOT!r})
         from rlchain.algos.base.safety import StopSignals
+        # what the process started with: default_int_handler, or SIG_IGN under a launcher that ignores SIGINT
+        before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
         stop = threading.Event()
         for _ in range(4):
             threading.Thread(target=lambda: [time.sleep(0.0005) for _ in iter(stop.is_set, True)],
@@ -132,8 +134,7 @@ def test_signals_in_a_fresh_process_with_threads():
             except KeyboardInterrupt as exc:
                 print("second", exc)
         stop.set()
-        print("restored", signal.getsignal(signal.SIGINT) is signal.default_int_handler,
-              signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+        print("restored", signal.getsignal(signal.SIGINT) is before[0], signal.getsignal(signal.SIGTERM) is before[1])
     """)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
