@@ -5,9 +5,10 @@ With glibc's defaults each one above its adaptive mmap threshold, or on top of a
 free, comes back as fresh pages from the kernel: a page fault and a zeroing per 4 KB, then cold caches for
 the kernel that reads them. On a 2-core Xeon that made every matmul and activation of the update 1.5-3x
 slower than the same op on warm memory (TorchPendulum at 4,096 envs: 126k minor faults per three updates,
-7k with ``keep``; train steps/s 1.24-1.45x on tensor envs and 1.14x on envpool HalfCheetah and Humanoid,
-docs/benchmarks.md). ``keep`` raises the mmap threshold to glibc's maximum (32 MiB) and stops trimming, so
-freed blocks are reused; memory is not returned to the OS until the process ends.
+7k with ``keep``; PPO train steps/s 1.16-1.34x on tensor envs at 4,096 envs, envpool level; this tree
+against the one before it, docs/benchmarks.md). ``keep`` raises the mmap threshold to glibc's maximum
+(32 MiB) and stops trimming, so freed blocks are reused; memory is not returned to the OS until the process
+ends.
 """
 
 from __future__ import annotations
@@ -40,8 +41,10 @@ def _glibc() -> ctypes.CDLL | None:
 def tune_malloc(mode: str = "keep") -> bool:
     """Apply ``params.malloc`` to this process (once; later calls are no-ops). True when glibc took the
     settings; False for ``default``, on a C library other than glibc, or when mallopt refused them."""
-    if mode != "keep" or "keep" in _applied:
-        return "keep" in _applied and mode == "keep"
+    if mode != "keep":
+        return False
+    if _applied:
+        return True
     libc = _glibc()
     if libc is None:
         return False
