@@ -43,7 +43,9 @@ never loses to one thread, loaded or idle" is one run::
 
 ``--variants LABEL=KEY=VALUE[,KEY=VALUE...]`` measures each case once per set of config overrides
 (``base=`` for none), with the first variant as the base of the ``x base`` column, and the warm-up
-epoch's seconds (compilation happens there) in ``warmup s``::
+epoch's seconds (compilation happens there) in ``warmup s``. A compiled variant on a CPU with an adaptive thread
+plan warms up once per thread count the plan may use (inductor builds CPU kernels per count), so that no
+compilation lands in the timed window::
 
     python benchmarks/throughput.py --cases torch:TorchPendulum-v0:4096 --variants base= \
         bf16=params.config.mixed_precision=bf16 \
@@ -234,6 +236,14 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
         ppo.rollout()
         with ctx.update_phase():
             ppo.learn()  # warm-up (and compilation)
+        if plan is not None and plan.adaptive and (params.config.compile_update or params.config.torch_compile):
+            # inductor builds its CPU kernels once per torch thread count, and an adaptive plan may run a phase
+            # at any count from 1 up to its own: compile them all here, not inside the timed window
+            for count in range(1, max(plan.rollout, plan.update) + 1):
+                torch.set_num_threads(count)
+                ppo.rollout()
+                ppo.learn()
+            plan.apply()
         sync(device)
         warmup_s = time.perf_counter() - start
         batch = params.config.horizon_length * num_envs
