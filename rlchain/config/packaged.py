@@ -92,13 +92,17 @@ def resolve_config(name_or_path: str) -> str:
 def resolve_checkpoint(name_or_path: str) -> tuple[str, bool]:
     """The checkpoint ``name_or_path`` means and whether it is a packaged one.
 
-    An existing path is used as given; else ``rlchain/checkpoints/<x>.pth`` or a packaged name
-    (``cartpole``); else the argument unchanged, for the checkpoint loader to report as not found.
+    An existing path is used as given; else ``rlchain/checkpoints/<x>.pth``, a packaged name
+    (``cartpole``) or ``nn/<name>.pth`` (the README's spelling: the repository's ``nn`` link to
+    ``rlchain/checkpoints``, which git checks out as a plain file where links are off, as on Windows by
+    default, and which an installed wheel has not got); else the argument unchanged, for the checkpoint
+    loader to report as not found.
     """
     if os.path.isfile(name_or_path):
         return name_or_path, False
     found = _in_package(name_or_path)
     if found is None:
-        found = checkpoint_names().get(name_or_path[:-len(".pth")] if name_or_path.endswith(".pth")
-                                       else name_or_path)
+        parts = name_or_path.replace("\\", "/").split("/")
+        key = parts[1] if len(parts) == 2 and parts[0] == "nn" else name_or_path
+        found = checkpoint_names().get(key[:-len(".pth")] if key.endswith(".pth") else key)
     return (found, True) if found is not None else (name_or_path, False)

@@ -64,6 +64,11 @@ def test_checkpoint_names(tmp_path, monkeypatch):
     assert resolve_checkpoint("cartpole") == (checkpoint_names()["cartpole"], True)
     assert resolve_checkpoint("pendulum.pth") == (checkpoint_names()["pendulum"], True)
     assert resolve_checkpoint("runs/x/nn/x.pth") == ("runs/x/nn/x.pth", False)  # the loader says not found
+    # the README's nn/X.pth where nn/ is not there (a wheel) or is a plain file (git without links, Windows)
+    assert resolve_checkpoint("nn/cartpole.pth") == (checkpoint_names()["cartpole"], True)
+    (tmp_path / "nn").write_text("rlchain/checkpoints")
+    assert resolve_checkpoint("nn\\pendulum.pth") == (checkpoint_names()["pendulum"], True)
+    assert resolve_checkpoint("nn/nothing.pth") == ("nn/nothing.pth", False)
     (tmp_path / "cartpole").write_bytes(b"")
     assert resolve_checkpoint("cartpole") == ("cartpole", False)
 
