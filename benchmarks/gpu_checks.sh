@@ -100,18 +100,14 @@ step throughput_eager 330 "$PY" benchmarks/throughput.py --device "$DEV" --cases
     --json "$LOGS/throughput_eager.json"
 sed -n '/^backend/,$p' "$LOGS/throughput_eager.log" | tee -a "$SUMMARY"
 
-# 4. compile_update at the first size, a process per env, against eager in the same process, beside rl_games
-# 2.0 with its default torch_compile. On CUDA the thread plan is torch's own (no per-phase switching), so a
-# compiled variant after an eager one in one process is measured as compiled; on a CPU the per-phase thread
-# counts recompile the update at every switch (fixed --plans 1/1 there: throughput.py's docstring).
+# 4. compile_update at the first size, a process per env, against eager in the same process (throughput.py
+# warms a compiled variant up before timing it), beside rl_games 2.0 with its default torch_compile.
 first=${SIZES%% *}
-plans=()
-[ "${DEV#cuda}" = "$DEV" ] && plans=(--plans 1/1)
+peerc=()
+[ -n "$RLG2" ] && peerc=(--rl-games2-python "$RLG2" --rl-games-epochs 6 --rl-games-compile config)
 for env in $ENVS; do
-    peerc=()
-    [ -n "$RLG2" ] && peerc=(--rl-games2-python "$RLG2" --rl-games-epochs 6 --rl-games-compile config)
     step "throughput_compile_$env" 150 "$PY" benchmarks/throughput.py --device "$DEV" --cases "torch:$env:$first" \
-        --seconds "$SECONDS_PER" --variants eager= compile=params.config.compile_update=True "${plans[@]}" \
+        --seconds "$SECONDS_PER" --variants eager= compile=params.config.compile_update=True \
         "${peerc[@]}" --json "$LOGS/throughput_compile_$env.json"
     sed -n '/^backend/,$p' "$LOGS/throughput_compile_$env.log" | tee -a "$SUMMARY"
 done

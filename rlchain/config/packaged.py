@@ -60,8 +60,12 @@ def checkpoint_names() -> dict[str, str]:
 
 
 def _in_package(path: str) -> str | None:
-    """``rlchain/...`` read against the installed package, when that file exists there."""
+    """``rlchain/...`` read against the installed package, when that file exists there; ``nn/...`` is read
+    as ``rlchain/checkpoints/...``, what the clone's ``nn`` link points to (the README's ``nn/cartpole.pth``
+    then works from an installed wheel, and where git checks the link out as a plain file, as on Windows)."""
     parts = path.replace("\\", "/").split("/")
+    if len(parts) > 1 and parts[0] == "nn":
+        parts = ["rlchain", "checkpoints", *parts[1:]]
     if len(parts) > 1 and parts[0] == "rlchain":
         candidate = os.path.join(PACKAGE_DIR, *parts[1:])
         if os.path.isfile(candidate):
@@ -92,17 +96,13 @@ def resolve_config(name_or_path: str) -> str:
 def resolve_checkpoint(name_or_path: str) -> tuple[str, bool]:
     """The checkpoint ``name_or_path`` means and whether it is a packaged one.
 
-    An existing path is used as given; else ``rlchain/checkpoints/<x>.pth``, a packaged name
-    (``cartpole``) or ``nn/<name>.pth`` (the README's spelling: the repository's ``nn`` link to
-    ``rlchain/checkpoints``, which git checks out as a plain file where links are off, as on Windows by
-    default, and which an installed wheel has not got); else the argument unchanged, for the checkpoint
-    loader to report as not found.
+    An existing path is used as given; else ``rlchain/checkpoints/<x>.pth`` (or ``nn/<x>.pth``) or a
+    packaged name (``cartpole``); else the argument unchanged, for the checkpoint loader to report as not found.
     """
     if os.path.isfile(name_or_path):
         return name_or_path, False
     found = _in_package(name_or_path)
     if found is None:
-        parts = name_or_path.replace("\\", "/").split("/")
-        key = parts[1] if len(parts) == 2 and parts[0] == "nn" else name_or_path
-        found = checkpoint_names().get(key[:-len(".pth")] if key.endswith(".pth") else key)
+        found = checkpoint_names().get(name_or_path[:-len(".pth")] if name_or_path.endswith(".pth")
+                                       else name_or_path)
     return (found, True) if found is not None else (name_or_path, False)
