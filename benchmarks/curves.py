@@ -218,9 +218,20 @@ def run_path(runs_dir: str, config: str, lib: str, seed: int) -> str:
     return os.path.join(runs_dir, config, f"{lib}_seed{seed}.json")
 
 
+def mismatch(run: dict, lib: str, budget: float, frames: int | None) -> str | None:
+    """Why a saved run is not ``lib``'s run with this budget (seconds, and frames: None for none), or None."""
+    if run["budget_s"] != budget or run.get("budget_frames") != frames:
+        return (f"saved with --seconds {run['budget_s']:g} --frames {run.get('budget_frames')}, "
+                f"asked for --seconds {budget:g} --frames {frames}")
+    if run.get("env", {}) != dict(SYSTEMS[lib].env) or run.get("setting", SYSTEMS[lib].setting) != SYSTEMS[lib].setting:
+        return f"saved under another setting ({run.get('setting', '?')}, env {run.get('env', {})})"
+    return None
+
+
 def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], budget: float,
-              frames: int | None = None) -> dict[str, list[dict]]:
-    """The saved runs of ``config`` with this budget (seconds, and frames: None for none), by library."""
+              frames: int | None = None, skipped: list[str] | None = None) -> dict[str, list[dict]]:
+    """The saved runs of ``config`` with this budget (seconds, and frames: None for none), by library;
+    each saved file that is not one of them adds ``path: why`` to ``skipped`` when given."""
     runs: dict[str, list[dict]] = {lib: [] for lib in libs}
     for lib in libs:
         for seed in seeds:
@@ -228,10 +239,11 @@ def load_runs(runs_dir: str, config: str, libs: list[str], seeds: list[int], bud
             if os.path.exists(path):
                 with open(path) as f:
                     run = json.load(f)
-                same_budget = run["budget_s"] == budget and run.get("budget_frames") == frames
-                if same_budget and run.get("env", {}) == dict(SYSTEMS[lib].env) \
-                        and run.get("setting", SYSTEMS[lib].setting) == SYSTEMS[lib].setting:
+                why = mismatch(run, lib, budget, frames)
+                if why is None:
                     runs[lib].append(run)  # a run saved under other settings is not this system's
+                elif skipped is not None:
+                    skipped.append(f"{path}: {why}")
     return runs
 
 
@@ -503,8 +515,11 @@ def main(argv: list[str] | None = None) -> int:
                     json.dump(run, f)
     os.makedirs(args.out, exist_ok=True)
     lines = [f"CPU: {cpu}; one run at a time; budgets from process start (startup included).", ""]
-    every = [(config, load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames), budget)
+    skipped: list[str] = []
+    every = [(config, load_runs(runs_dir, config, args.libs, args.seeds, budget, args.frames, skipped), budget)
              for config, budget in ((c, budget_of(c, args)) for c in args.configs)]
+    for line in skipped:  # e.g. --plot-only without the runs' --seconds: say so rather than plot nothing
+        print(f"curves.py: not used: {line}", file=sys.stderr)
     headline = [row for row in every if sum(map(bool, row[1].values())) > 1]
     if headline:
         lines += ["### Time to reward", "",

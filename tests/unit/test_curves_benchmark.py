@@ -169,6 +169,9 @@ def test_saved_runs_of_another_frame_budget_are_not_loaded(tmp_path):
     assert curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0)["rlchain"] == []
     assert curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0, 500_000)["rlchain"] == []
     assert len(curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 900.0, 1_000_000)["rlchain"]) == 1
+    skipped = []  # what --plot-only prints instead of silently plotting nothing
+    curves.load_runs(str(tmp_path), "hopper", ["rlchain"], [11], 180.0, None, skipped)
+    assert skipped == [f"{path}: saved with --seconds 900 --frames 1000000, asked for --seconds 180 --frames None"]
 
 
 def test_bf16_system_is_rlchain_with_its_override_and_tensor_envs_reach_rl_games_through_its_vecenv(tmp_path):
