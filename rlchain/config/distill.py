@@ -16,7 +16,8 @@ class DistillConfig(RunConfig):
 
     teacher_checkpoint: str = option("", "the teacher: an rlchain PPO checkpoint (a2c_continuous / a2c_discrete) "
                                          "or SAC one (labels with its deterministic action; loss mse or huber), "
-                                         "frozen; its network and input statistics come from the checkpoint")
+                                         "frozen; its network and input statistics come from the checkpoint. "
+                                         "Read as --checkpoint is: a path, nn/<x>.pth or a packaged name (cartpole)")
     obs_groups: ObsGroupsConfig | None = option(None, "the teacher's and the student's views (default: the "
                                                       "teacher's = what it was trained on, the student's = all)")
     horizon_length: int = option(32, "steps per env per epoch", check=positive)

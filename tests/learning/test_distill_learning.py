@@ -11,7 +11,7 @@ import os
 import pytest
 
 from rlchain import Runner
-from rlchain.algos.distill.teacher import shipped_path
+from rlchain.config.packaged import resolve_checkpoint
 from rlchain.inference.player import Player
 from tests.conftest import CONFIGS, ROOT
 
@@ -27,7 +27,7 @@ def played(params, checkpoint, games=20):
 
 
 def test_lstm_student_reaches_90_percent_of_the_mlp_teacher(tmp_path):
-    teacher_path = shipped_path(os.path.join(ROOT, "nn", "cartpole.pth"))
+    teacher_path = resolve_checkpoint("cartpole")[0]
     runner = Runner().load(os.path.join(CONFIGS, "distill_cartpole_lstm.yaml"), [
         f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
         f"params.config.teacher_checkpoint={teacher_path}", "params.config.full_experiment_name=null",
@@ -58,7 +58,7 @@ def test_student_of_a_sac_teacher_reaches_pendulum_score(tmp_path):
     """distill_pendulum_sac.yaml: an MLP student fitted (MSE) to the shipped SAC teacher's deterministic actions
     plays Pendulum to score_to_win -250 on its own (measured 60-69 epochs over seeds 5, 1, 2; ~11 s; the
     student then plays -150 over 10 games, its teacher about -143)."""
-    teacher_path = shipped_path(os.path.join(ROOT, "nn", "pendulum_sac.pth"))
+    teacher_path = resolve_checkpoint("pendulum_sac")[0]
     runner = Runner().load(os.path.join(CONFIGS, "distill_pendulum_sac.yaml"), [
         f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
         f"params.config.teacher_checkpoint={teacher_path}", "params.config.full_experiment_name=null",

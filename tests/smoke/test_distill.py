@@ -12,18 +12,18 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.distill.teacher import shipped_path
 from rlchain.config.errors import ConfigError
+from rlchain.config.packaged import resolve_checkpoint
 from rlchain.inference.export.onnx import export_onnx, onnx_session
 from rlchain.inference.player import Player
 from rlchain.runs import checkpoint as ckpt
-from tests.conftest import CONFIGS, ROOT
+from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
 
 pytestmark = pytest.mark.smoke
 DISTILL = os.path.join(CONFIGS, "distill_cartpole_lstm.yaml")
 FINETUNE = os.path.join(CONFIGS, "ppo_cartpole_student_finetune.yaml")
-TEACHER = shipped_path(os.path.join(ROOT, "nn", "cartpole.pth"))  # rlchain/checkpoints/ where nn/ moved there
+TEACHER = resolve_checkpoint("cartpole")[0]  # the packaged checkpoint (nn/cartpole.pth in a clone)
 FAST = ["params.config.num_actors=4", "params.config.horizon_length=16", "params.config.teacher_action_prob_epochs=1",
         f"params.config.teacher_checkpoint={TEACHER}", "params.config.full_experiment_name=null"]
 
@@ -151,7 +151,7 @@ def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, 
 
 
 def test_a_teacher_with_another_action_space_is_a_one_line_error(tmp_path):
-    pendulum = shipped_path(os.path.join(ROOT, "nn", "pendulum.pth"))
+    pendulum = resolve_checkpoint("pendulum")[0]
     with pytest.raises(ConfigError, match=r"params\.config\.teacher_checkpoint: .*action space") as info:
         distill(tmp_path, 1, [f"params.config.teacher_checkpoint={pendulum}"]).train()
     assert "\n" not in str(info.value)

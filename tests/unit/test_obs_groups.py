@@ -1,6 +1,8 @@
 """Observation groups (rlchain/envs/obs_groups.py, config/obs_groups.py) and the distillation's pure parts:
 the behaviour losses (algos/core/behavior.py) and the student's sensor corruption."""
 
+import os
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -135,10 +137,21 @@ def test_the_delay_line_gives_the_observation_of_k_steps_ago_and_restarts_with_e
     assert DelayLine(0).push(torch.ones(1, 1), no[:1]) is not None
 
 
-def test_a_teacher_path_falls_back_to_the_checkpoints_shipped_with_rlchain(tmp_path, monkeypatch):
-    from rlchain.algos.distill import teacher
-    (tmp_path / "cartpole.pth").write_bytes(b"x")
-    monkeypatch.setattr(teacher, "PACKAGE_CHECKPOINTS", str(tmp_path))
-    assert teacher.shipped_path("nn/no_such_dir/cartpole.pth") == str(tmp_path / "cartpole.pth")
-    assert teacher.shipped_path(str(tmp_path / "cartpole.pth")) == str(tmp_path / "cartpole.pth")
-    assert teacher.shipped_path("nn/other.pth") == "nn/other.pth"  # not shipped: as given (a clear error later)
+def test_a_teacher_path_is_read_as_checkpoint_does(tmp_path):
+    # the same rule as --checkpoint (config/packaged.py resolve_checkpoint): a path, nn/<x>.pth or a packaged name
+    from rlchain.config.packaged import CHECKPOINTS_DIR
+    shipped = os.path.join(CHECKPOINTS_DIR, "cartpole.pth")
+    cfg = {"teacher_checkpoint": "cartpole"}  # a packaged name, as `--checkpoint cartpole`
+    assert _teacher_path(cfg) == shipped
+    assert os.path.samefile(_teacher_path({"teacher_checkpoint": "nn/cartpole.pth"}), shipped)  # any cwd
+    mine = tmp_path / "cartpole.pth"
+    mine.write_bytes(b"x")
+    assert _teacher_path({"teacher_checkpoint": str(mine)}) == str(mine)
+    # a missing path of the user's is never swapped for the shipped file of the same name: reported as not found
+    missing = str(tmp_path / "runs" / "cartpole.pth")
+    assert _teacher_path({"teacher_checkpoint": missing}) == missing
+
+
+def _teacher_path(cfg: dict) -> str:
+    from rlchain.config.packaged import resolve_checkpoint
+    return resolve_checkpoint(cfg["teacher_checkpoint"])[0]

@@ -10,7 +10,6 @@ space (``params.config.teacher_checkpoint``), observation parts other than the o
 from __future__ import annotations
 
 import dataclasses
-import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,6 +19,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.off_policy import SACConfig
+from rlchain.config.packaged import resolve_checkpoint
 from rlchain.config.ppo import TrainConfig
 from rlchain.config.resolve import params_from_state
 from rlchain.config.schema import Params
@@ -27,17 +27,6 @@ from rlchain.models.build import build_model, model_view
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.teacher_checkpoint"
-PACKAGE_CHECKPOINTS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                                   "checkpoints")
-
-
-def shipped_path(path: str) -> str:
-    """``path`` when it exists; else a checkpoint of that file name shipped with rlchain
-    (``rlchain/checkpoints/``, where ``nn/cartpole.pth`` of a clone lives in an install); else ``path``."""
-    if os.path.isfile(path):
-        return path
-    shipped = os.path.join(PACKAGE_CHECKPOINTS, os.path.basename(path))
-    return shipped if os.path.isfile(shipped) else path
 
 
 @dataclass
@@ -52,7 +41,7 @@ class Teacher:
 def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
     """The teacher of ``params.config.teacher_checkpoint`` on ``env``, frozen (eval mode, no gradients)."""
     cfg, source = params.config, params.source
-    path = shipped_path(cfg.teacher_checkpoint)
+    path, _ = resolve_checkpoint(cfg.teacher_checkpoint)  # as --checkpoint: a path, nn/<x>.pth or a packaged name
     try:
         state = ckpt.load(path, map_location=device)
     except ckpt.CheckpointError as exc:
