@@ -207,6 +207,7 @@ def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.N
                            f"log in {workdir}:\n{tail}")
     last = events[-1]
     print(f"[{config} {lib} seed {seed}] {last[1]} frames, reward {last[2]:.1f} at {last[0]:.0f} s", flush=True)
+    shutil.rmtree(workdir, ignore_errors=True)  # the events are in the saved run; a failed run's folder stays
     return {"config": config, "lib": lib, "seed": seed, "budget_s": seconds,
             "budget_frames": getattr(args, "frames", None), "wall_s": wall,
             "events": events, "load_before": load_before, "load_after": load_average(), "cmd": cmd,
