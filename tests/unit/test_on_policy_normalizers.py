@@ -16,12 +16,13 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
     seen = []
     real_update = PPOAgent.update
 
-    def update(self, storage, progress):
+    def update(self, storage, progress, obs_per_minibatch=False):
+        assert not obs_per_minibatch  # obs_normalizer_update: rollout, the default
         model = self.model
         rows = storage.obs.reshape(-1, storage.obs.shape[-1]).double()
         seen.append((model.obs_norm.count.item(), model.obs_norm.mean.clone(), rows.mean(0),
                      model.value_norm.count.item()))
-        return real_update(self, storage, progress)
+        return real_update(self, storage, progress, obs_per_minibatch)
 
     monkeypatch.setattr(PPOAgent, "update", update)
     config = {**BASE["params"]["config"], "normalize_input": True, "normalize_value": True, "max_epochs": 2,
@@ -37,3 +38,34 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
     # issue 32) before the update too
     per_epoch = rows_per_step * steps
     assert vcount1 == pytest.approx(per_epoch, abs=1e-3) and vcount2 == pytest.approx(2 * per_epoch, abs=1e-3)
+
+
+def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_forward_pass(tmp_path, monkeypatch):
+    # obs_normalizer_update: minibatch (rl_games' timing, issue 32): the update starts with last epoch's
+    # statistics; minibatch k of the first mini-epoch is normalized with statistics that hold minibatches 1..k;
+    # the later passes use the whole rollout's
+    seen, counts = [], []
+    real_step = PPOAgent._step
+
+    def step(self, batch, reference):
+        norm = self.model.obs_norm
+        seen.append((norm.count.item(), norm.mean.clone(), batch.obs.double().mean(0)))
+        return real_step(self, batch, reference)
+
+    real_update = PPOAgent.update
+
+    def update(self, storage, progress, obs_per_minibatch=False):
+        counts.append((self.model.obs_norm.count.item(), obs_per_minibatch))
+        return real_update(self, storage, progress, obs_per_minibatch)
+
+    monkeypatch.setattr(PPOAgent, "_step", step)
+    monkeypatch.setattr(PPOAgent, "update", update)
+    config = {**BASE["params"]["config"], "normalize_input": True, "max_epochs": 2, "mini_epochs": 2,
+              "minibatch_size": 16, "obs_normalizer_update": "minibatch", "train_dir": str(tmp_path),
+              "print_stats": False}
+    Runner().load({"params": {**BASE["params"], "config": config}}).train()
+    steps = 4 * 8  # num_actors x horizon_length of BASE: 2 minibatches of 16
+    assert [c for c, _ in counts] == pytest.approx([1e-5, steps], abs=1e-3) and all(on for _, on in counts)
+    assert [c for c, _, _ in seen] == pytest.approx([16, 32, 32, 32, 48, 64, 64, 64], abs=1e-3)
+    assert torch.allclose(seen[0][1], seen[0][2], atol=1e-4)  # minibatch 1 alone: its own mean
+

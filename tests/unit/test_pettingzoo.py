@@ -158,10 +158,11 @@ def test_a_policy_whose_network_does_not_fit_its_agents_spaces_is_named(tmp_path
         Runner().load(raw).train()
 
 
-def test_single_policy_features_not_there_yet_are_errors(tmp_path):
+@pytest.mark.parametrize("key,value", [("evaluation", {"interval": 2}), ("obs_normalizer_update", "minibatch")])
+def test_single_policy_features_not_there_yet_are_errors(tmp_path, key, value):
     raw = dying(tmp_path)
-    raw["params"]["config"]["evaluation"] = {"interval": 2}
-    with pytest.raises(ConfigError, match=r"params.config.evaluation.interval: is not supported with multi_agent"):
+    raw["params"]["config"][key] = value
+    with pytest.raises(ConfigError, match=rf"params.config.{key}(.interval)?: is not supported with multi_agent"):
         Runner().load(raw).train()
 
 

@@ -68,11 +68,13 @@ class PPOAgent:
         self._losses_fn = self._losses  # compile_losses() swaps in the compiled region
         self._compile_pending = False
 
-    def update(self, storage: RolloutStorage, progress: float) -> dict[str, float]:
+    def update(self, storage: RolloutStorage, progress: float, obs_per_minibatch: bool = False) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
 
         Auxiliary losses of the network appear as ``losses/<name>``, averaged over the minibatches
-        that returned them.
+        that returned them. ``obs_per_minibatch`` (``obs_normalizer_update: minibatch``): each minibatch
+        of the first pass folds its observations into the input statistics just before its forward
+        pass, as rl_games' training forward does (the caller has not folded the rollout in).
         """
         cfg = self.cfg
         advantages = self._batch_advantages(storage)
@@ -80,9 +82,12 @@ class PPOAgent:
                 "grad_norm": 0.0}
         count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
         reference = self._kl_reference(storage)
-        for _ in range(cfg.mini_epochs):
+        for mini_epoch in range(cfg.mini_epochs):
             epoch_kl, epoch_n = 0.0, 0
             for batch in self._minibatches(storage, advantages):
+                if obs_per_minibatch and mini_epoch == 0:
+                    with torch.no_grad():
+                        self.model.update_normalizers(obs=batch.obs)
                 stats = self._step(batch, reference)
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value

@@ -150,10 +150,11 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     def learn(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, then the PPO update.
 
-        Every normalizer folds this rollout in before the update, so the network is trained with the
-        statistics the next rollout acts with. (Folding the observations in after the update, as
-        rlchain did before, trained each update under one normalization and acted under another:
-        Hopper reached ~400 at 0.5M frames against ~1,450 this way; docs/ppo_parity.md.)
+        Every normalizer folds this rollout in before the update (the observations, with
+        ``obs_normalizer_update: minibatch``, minibatch by minibatch in the update's first pass), so the
+        network is trained with the statistics the next rollout acts with. (Folding the observations in
+        after the update, as rlchain did before, trained each update under one normalization and acted
+        under another: Hopper reached ~400 at 0.5M frames against ~1,450 this way; docs/ppo_parity.md.)
         """
         cfg, storage, model = self.cfg, self.storage, self.model
         flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
@@ -167,11 +168,13 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
             flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
-            model.update_normalizers(obs=flat_obs, returns=flat_returns, values=flat_values)
+            per_minibatch = cfg.obs_normalizer_update == "minibatch"  # else the whole rollout, here
+            model.update_normalizers(obs=None if per_minibatch else flat_obs, returns=flat_returns,
+                                     values=flat_values)
             if self.central_value is not None:
                 self.central_value.update_normalizers(obs=flat_obs, returns=flat_returns, values=flat_values)
         model.train()
-        stats = self.agent.update(storage, self.progress())
+        stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.cv_agent is not None:
