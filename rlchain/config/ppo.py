@@ -79,13 +79,15 @@ class TrainConfig(ActorCriticConfig):
                                                  "V(the state before the last step), as rl_games (reward += "
                                                  "gamma * V(s_t)); see docs/ppo_parity.md",
                                     choices=("final_obs", "previous_value"))
-    obs_normalizer_update: str = option("rollout", "with normalize_input, when the observation statistics fold "
-                                                   "the rollout in: rollout = all of it once before the update "
-                                                   "(every minibatch trains under the statistics the next "
-                                                   "rollout acts with); minibatch = as rl_games, each minibatch "
-                                                   "of the first mini-epoch just before its forward pass (the "
-                                                   "central value keeps rollout); see docs/ppo_parity.md",
-                                        choices=("rollout", "minibatch"))
+    obs_normalizer_update: str = option("auto", "with normalize_input, when the observation statistics fold "
+                                                "the rollout in: rollout = all of it once before the update "
+                                                "(every minibatch trains under the statistics the next rollout "
+                                                "acts with); minibatch = as rl_games, each minibatch of the "
+                                                "first mini-epoch just before its forward pass (the central "
+                                                "value keeps rollout); auto = minibatch for continuous actions "
+                                                "(measured better on Hopper, level on the other MuJoCo YAMLs, "
+                                                "docs/ppo_parity.md), rollout otherwise and with multi_agent",
+                                        choices=("auto", "rollout", "minibatch"))
     torch_compile: Any = option(False, "PPO: torch.compile the network: false, true (mode default), a mode "
                                        "(default, reduce-overhead, max-autotune) or {mode, critic_mode, "
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "

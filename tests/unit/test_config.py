@@ -50,7 +50,7 @@ def test_unknown_key_suggests(base_config):
     ("gamma", 1.5, "between 0 and 1"),
     ("success_to_win", 90, "must be between 0 and 1 (a fraction of episodes), or inf"),
     ("timeout_bootstrap", "last_value", "'last_value' is not one of: final_obs, previous_value"),
-    ("obs_normalizer_update", "batch", "'batch' is not one of: rollout, minibatch"),
+    ("obs_normalizer_update", "batch", "'batch' is not one of: auto, rollout, minibatch"),
     ("log_info_keys", "reward_box_target", "expected a list, got 'reward_box_target'"),
     # minibatch_size against the batch is checked with the env (its agent count): test_minibatch_checked_with_env
 ])

@@ -17,7 +17,7 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
     real_update = PPOAgent.update
 
     def update(self, storage, progress, obs_per_minibatch=False):
-        assert not obs_per_minibatch  # obs_normalizer_update: rollout, the default
+        assert not obs_per_minibatch  # obs_normalizer_update: auto with discrete actions (BASE) = rollout
         model = self.model
         rows = storage.obs.reshape(-1, storage.obs.shape[-1]).double()
         seen.append((model.obs_norm.count.item(), model.obs_norm.mean.clone(), rows.mean(0),
@@ -69,3 +69,11 @@ def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_f
     assert [c for c, _, _ in seen] == pytest.approx([16, 32, 32, 32, 48, 64, 64, 64], abs=1e-3)
     assert torch.allclose(seen[0][1], seen[0][2], atol=1e-4)  # minibatch 1 alone: its own mean
 
+
+
+def test_auto_is_minibatch_for_continuous_actions_only():
+    from rlchain.algos.ppo.trainer import obs_per_minibatch
+
+    assert [obs_per_minibatch("auto", c) for c in (True, False)] == [True, False]
+    assert [obs_per_minibatch("rollout", c) for c in (True, False)] == [False, False]
+    assert [obs_per_minibatch("minibatch", c) for c in (True, False)] == [True, True]

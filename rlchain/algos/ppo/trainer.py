@@ -168,7 +168,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
             flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
-            per_minibatch = cfg.obs_normalizer_update == "minibatch"  # else the whole rollout, here
+            per_minibatch = obs_per_minibatch(cfg.obs_normalizer_update, model.dist.continuous)  # else here
             model.update_normalizers(obs=None if per_minibatch else flat_obs, returns=flat_returns,
                                      values=flat_values)
             if self.central_value is not None:
@@ -227,3 +227,9 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
 
 def _value_size(env: Any) -> int:
     return env_spec(env).value_size
+
+
+def obs_per_minibatch(mode: str, continuous: bool) -> bool:
+    """``obs_normalizer_update`` resolved: True when each minibatch of the update's first pass folds its
+    observations in (minibatch, or auto with continuous actions), False for the whole rollout at once."""
+    return mode == "minibatch" or (mode == "auto" and continuous)
