@@ -74,6 +74,7 @@ class VTraceConfig(ActorCriticConfig):
         "torch_compile": "supported for PPO only so far",
         "compile_update": "supported for PPO only so far",
         "timeout_bootstrap": "a time-out always bootstraps V(the true final observation)",
+        "obs_normalizer_update": "the learner folds each whole batch into the statistics before its update",
     }
     """Why this algorithm ignores a key of another algorithm (added to the warning)."""
 
