@@ -14,13 +14,15 @@ from tests.conftest import CONFIGS
 pytestmark = pytest.mark.slow
 
 
-def train(tmp_path, config):
-    overrides = [f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false"]
+def train(tmp_path, config, *extra):
+    overrides = [f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false", *extra]
     return Runner().load(os.path.join(CONFIGS, config), overrides).train()
 
 
 def test_appo_cartpole_reaches_475(tmp_path):
-    result = train(tmp_path, "appo_cartpole.yaml")
+    # score_to_win stops the run when reached (~420 epochs, ~20 s here); the config's 600 epochs were not enough
+    # once under CI load (429 at epoch 600), so the test allows 1,200: a run that learns stops as early as before
+    result = train(tmp_path, "appo_cartpole.yaml", "params.config.max_epochs=1200")
     assert result.mean_reward >= 475, result
 
 
