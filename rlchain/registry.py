@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 from collections.abc import Iterator
 from typing import Any
@@ -47,6 +48,29 @@ class Registry:
             self._replaceable.discard(name)
         return obj
 
+    def unregister(self, name: str) -> None:
+        """Remove ``name``; a name nobody registered raises RegistryError with a did-you-mean."""
+        if name not in self._items:
+            raise RegistryError(self.unknown_message(name))
+        del self._items[name]
+        self._replaceable.discard(name)
+
+    @contextlib.contextmanager
+    def scoped(self) -> Iterator[Registry]:
+        """Registrations made inside the ``with`` block are undone when it ends (a test's own names).
+
+        What was registered before is back as it was, replaced or unregistered names included, also
+        when the block raises; the table object is the same one throughout.
+        """
+        items, replaceable = dict(self._items), set(self._replaceable)
+        try:
+            yield self
+        finally:
+            self._items.clear()
+            self._items.update(items)
+            self._replaceable.clear()
+            self._replaceable.update(replaceable)
+
     def get(self, name: str) -> Any:
         """Return what was registered under ``name`` or raise with a did-you-mean."""
         try:
@@ -86,6 +110,26 @@ ENV_CONFIGURATIONS: dict[str, dict] = {}
 
 NETWORK_CONFIGS: dict[str, type] = {}
 """network name -> the dataclass its block parses into, given to ``register_network(config_class=...)``."""
+
+REGISTRIES = (ALGOS, MODELS, NETWORKS, ENVS, VECENVS, WRITERS)
+
+
+@contextlib.contextmanager
+def scoped_registrations() -> Iterator[None]:
+    """Every registry, ``ENV_CONFIGURATIONS`` and ``NETWORK_CONFIGS`` as they were once the block ends.
+
+    For tests (rlchain's and a user's) that register their own envs, networks or writers.
+    """
+    tables = {id(t): dict(t) for t in (ENV_CONFIGURATIONS, NETWORK_CONFIGS)}
+    with contextlib.ExitStack() as stack:
+        for registry in REGISTRIES:
+            stack.enter_context(registry.scoped())
+        try:
+            yield
+        finally:
+            for table in (ENV_CONFIGURATIONS, NETWORK_CONFIGS):
+                table.clear()
+                table.update(tables[id(table)])
 
 
 def network_config_class(name: str) -> type | None:

@@ -29,6 +29,16 @@ BASE = {
 
 
 @pytest.fixture
+def scoped_registries():
+    """What the test registers (algos, models, networks, envs, vecenv types, log writers, env_configurations)
+    is gone after it; what it replaced or unregistered is back."""
+    from rlchain.registry import scoped_registrations
+
+    with scoped_registrations():
+        yield
+
+
+@pytest.fixture
 def base_config():
     """A fresh small valid CartPole config dict."""
     return copy.deepcopy(BASE)

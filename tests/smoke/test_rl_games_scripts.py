@@ -10,7 +10,6 @@ import sys
 import pytest
 import yaml
 
-from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
 from rlchain.rl_games import alias
 from tests.conftest import ROOT
 
@@ -101,10 +100,8 @@ def test_isaac_style_scripts_train_resume_and_play(tmp_path):
 
 
 @pytest.fixture
-def isaac_env(monkeypatch):
+def isaac_env(monkeypatch, scoped_registries):
     """examples/isaac_style/cartpole_env.py imported in this process (it imports rl_games' names)."""
-    monkeypatch.setattr(VECENVS, "_items", dict(VECENVS._items))
-    saved = dict(ENV_CONFIGURATIONS)
     monkeypatch.syspath_prepend(EXAMPLE)
     alias.install()
     try:
@@ -114,8 +111,6 @@ def isaac_env(monkeypatch):
     finally:
         alias.uninstall()
         sys.modules.pop("cartpole_env", None)
-        ENV_CONFIGURATIONS.clear()
-        ENV_CONFIGURATIONS.update(saved)
 
 
 def curriculum_env_class(isaac_env):

@@ -10,7 +10,6 @@ import yaml
 from rlchain import Runner
 from rlchain.config import ConfigError
 from rlchain.envs import vecenv
-from rlchain.registry import VECENVS
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
 
@@ -58,8 +57,7 @@ def create_reach(config_name, num_actors, seed=None, **kwargs):
 
 
 @pytest.fixture
-def my_vecenv(monkeypatch):
-    monkeypatch.setattr(VECENVS, "_items", dict(VECENVS._items))
+def my_vecenv(scoped_registries):
     vecenv.register("my_vecenv", create_reach)
     CREATED.clear()
 

@@ -10,7 +10,6 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from rlchain import Runner
 from rlchain.config import ConfigError
-from rlchain.registry import WRITERS
 from rlchain.runs.writers import Writer, register_writer
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
@@ -47,8 +46,7 @@ class SeesTags(Callback):
 
 
 @pytest.fixture
-def recorder(monkeypatch):
-    monkeypatch.setattr(WRITERS, "_items", dict(WRITERS._items))
+def recorder(scoped_registries):
     register_writer("recorder", Recorder)
     RECORDED.clear()
 

@@ -55,13 +55,15 @@ def test_the_issue_block_parses_typed():
     ("a2c_discrete", "appo", {"max_policy_lag": 2}, "appo, impala", ""),
     ("sac", "learning_rate", 1e-3, "a2c_continuous, a2c_discrete, appo, distill, dqn, impala", ""),
 ])
-def test_a_key_of_another_algo_is_a_one_line_warning(monkeypatch, algo, key, value, owners, words):
+def test_a_key_of_another_algo_is_a_one_line_warning(monkeypatch, scoped_registries, algo, key, value, owners,
+                                                     words):
     """rl_games' PPO YAML switched to appo keeps loading: PPO's keys are ignored with a warning naming them."""
     monkeypatch.setattr(compat, "_warned", set())  # compat warns once per process
     # the owners listed are every registered algo that has the key: only rlchain's own here, not one a test
     # registered before (the user REINFORCE algo of tests/smoke has PPO's keys too)
-    builtin = {name: obj for name, obj in ALGOS._items.items() if obj.__module__.startswith("rlchain.")}
-    monkeypatch.setattr(ALGOS, "_items", builtin)
+    for name in ALGOS.names():
+        if not ALGOS.get(name).__module__.startswith("rlchain."):
+            ALGOS.unregister(name)
     raw = copy.deepcopy(APPO)
     raw["params"]["algo"]["name"] = algo
     if algo == "sac":

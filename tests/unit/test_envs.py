@@ -157,7 +157,7 @@ def test_envpool_name_resolution():
         make_vec_env("envpool", {"env_name": "CartPol-v1"}, 2, 0, None)
 
 
-def test_registered_env_builder(monkeypatch):
+def test_registered_env_builder(scoped_registries):
     """A name in ENVS is called as builder(num_envs, seed, **env_config)."""
     calls = []
 
@@ -165,7 +165,7 @@ def test_registered_env_builder(monkeypatch):
         calls.append((num_envs, seed, env_config))
         return "env"
 
-    monkeypatch.setitem(ENVS._items, "my_env", builder)
+    ENVS.register("my_env", builder)
     assert make_vec_env("my_env", {"a": 1}, 4, 2, None) == "env"
     assert calls == [(4, 2, {"a": 1})]
 

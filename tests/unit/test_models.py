@@ -55,6 +55,35 @@ def test_registry_did_you_mean():
         r.register("alpha", 2)
 
 
+def test_registry_scoped_undoes_registrations_replacements_and_removals():
+    r = Registry("thing")
+    r.register("alpha", 1)
+    r.register("example", 2, replaceable=True)
+    table = r._items
+    with pytest.raises(RuntimeError), r.scoped():
+        r.register("beta", 3)
+        r.register("example", 4)  # a replaceable built-in replaced: no longer replaceable inside
+        r.unregister("alpha")
+        assert r.names() == ["beta", "example"]
+        raise RuntimeError("the test failed")
+    assert r.names() == ["alpha", "example"] and r.get("example") == 2 and r._items is table
+    r.register("example", 5)  # replaceable again after the block
+    with pytest.raises(RegistryError, match="unknown thing 'alpah'; did you mean 'alpha'"):
+        r.unregister("alpah")
+
+
+def test_scoped_registrations_restores_every_table():
+    from rlchain.registry import ENV_CONFIGURATIONS, NETWORKS, VECENVS, WRITERS, scoped_registrations
+
+    before = (NETWORKS.names(), VECENVS.names(), WRITERS.names(), dict(ENV_CONFIGURATIONS))
+    with scoped_registrations():
+        NETWORKS.register("scoped_net", object)
+        VECENVS.register("scoped_vec", object)
+        WRITERS.unregister(WRITERS.names()[0])
+        ENV_CONFIGURATIONS["scoped_env"] = {}
+    assert (NETWORKS.names(), VECENVS.names(), WRITERS.names(), dict(ENV_CONFIGURATIONS)) == before
+
+
 def test_mlp_d2rl_shapes():
     net = MLP(5, MlpConfig(units=[8, 4], d2rl=True))
     assert net(torch.zeros(2, 5)).shape == (2, 4)

@@ -22,13 +22,9 @@ from rlchain.rl_games.torch_runner import Runner
 
 
 @pytest.fixture
-def registries(monkeypatch):
-    """Registrations made by a test vanish after it."""
-    monkeypatch.setattr(VECENVS, "_items", dict(VECENVS._items))
-    saved = dict(ENV_CONFIGURATIONS)
+def registries(scoped_registries):
+    """Registrations made by a test vanish after it, gym's too."""
     yield
-    ENV_CONFIGURATIONS.clear()
-    ENV_CONFIGURATIONS.update(saved)
     for name in ("api_test_env",):
         gym.registry.pop(name, None)
 
@@ -136,9 +132,8 @@ def test_player_acts_on_one_or_a_batch_of_observations(base_config):
     assert torch.equal(same, player.get_action(batch, is_deterministic=True))  # the mode: no sampling
 
 
-def test_register_model_rejects_rl_games_model_classes(registries, monkeypatch):
+def test_register_model_rejects_rl_games_model_classes(registries):
     from rlchain.registry import MODELS
-    monkeypatch.setattr(MODELS, "_items", dict(MODELS._items))
 
     class RlGamesStyleModel:  # rl_games' BaseModel: built later with .build(config)
         def __init__(self, network, **kwargs):

@@ -14,7 +14,9 @@ from rlchain.algos.core.schedules import (
     linear_decay,
     make_schedule,
     polynomial_decay,
+    scale_lr,
     scheduled_entropy_coef,
+    set_lr,
 )
 from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config import ConfigError, compat, parse_params
@@ -198,3 +200,12 @@ def test_decay_power_without_polynom_decay_warns(base_config):
         warnings.simplefilter("always")
         parse(base_config, lr_schedule="linear", decay_power=3.0)
     assert any("params.config.decay_power: no effect with lr_schedule linear" in str(w.message) for w in caught)
+
+
+def test_set_lr_and_scale_lr_reach_every_parameter_group():
+    opt = torch.optim.Adam([{"params": [torch.zeros(1, requires_grad=True)]},
+                            {"params": [torch.zeros(1, requires_grad=True)], "lr": 0.5}], lr=1e-3)
+    scale_lr(opt, 0.5)
+    assert [g["lr"] for g in opt.param_groups] == [5e-4, 0.25]
+    set_lr(opt, 2e-4)
+    assert [g["lr"] for g in opt.param_groups] == [2e-4, 2e-4]

@@ -49,12 +49,9 @@ class CountVecEnv:
 
 
 @pytest.fixture
-def registered(monkeypatch):
+def registered(scoped_registries):
     """A clean slot for test names in VECENVS and env_configurations."""
-    monkeypatch.setattr(VECENVS, "_items", dict(VECENVS._items))
-    monkeypatch.setattr(VECENVS, "_replaceable", set(VECENVS._replaceable))
-    for name in ("Count-test",):
-        monkeypatch.delitem(ENV_CONFIGURATIONS, name, raising=False)
+    ENV_CONFIGURATIONS.pop("Count-test", None)
     yield
 
 

@@ -7,6 +7,23 @@ The decays are pure functions of ``progress``, the fraction of the run done (epo
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
+
+
+class _HasParamGroups(Protocol):
+    param_groups: list[dict]
+
+
+def set_lr(optimizer: _HasParamGroups, lr: float) -> None:
+    """Give every parameter group of ``optimizer`` the learning rate ``lr`` (schedules, set_params)."""
+    for group in optimizer.param_groups:
+        group["lr"] = float(lr)
+
+
+def scale_lr(optimizer: _HasParamGroups, factor: float) -> None:
+    """Multiply every parameter group's learning rate by ``factor`` (the divergence guard's rollback)."""
+    for group in optimizer.param_groups:
+        group["lr"] *= factor
 
 MIN_ENTROPY_COEF = 1e-4
 """Where ``schedule_entropy`` ends: rl_games' LinearScheduler ``min_entropy_coef``, not configurable there."""

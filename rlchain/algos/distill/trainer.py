@@ -29,7 +29,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
-from rlchain.algos.core.schedules import linear_decay
+from rlchain.algos.core.schedules import linear_decay, scale_lr, set_lr
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
@@ -54,13 +54,11 @@ class DistillAgent:
 
     def scale_lr(self, factor: float) -> None:
         """Scale the learning rate (the divergence guard's rollback)."""
-        for group in self.optimizer.param_groups:
-            group["lr"] *= factor
+        scale_lr(self.optimizer, factor)
 
     def set_lr(self, lr: float) -> None:
         """Set the learning rate (set_params, hyperparam_schedule)."""
-        for group in self.optimizer.param_groups:
-            group["lr"] = float(lr)
+        set_lr(self.optimizer, lr)
 
     def state_dict(self) -> dict[str, Any]:
         """The optimizer's state."""

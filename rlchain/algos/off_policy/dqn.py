@@ -10,6 +10,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import RunningMeanStd
 
@@ -97,8 +98,7 @@ class DQNAgent:
 
     def scale_lr(self, factor: float) -> None:
         """Multiply the learning rate (divergence rollback)."""
-        for group in self.opt.param_groups:
-            group["lr"] *= factor
+        scale_lr(self.opt, factor)
 
     def update(self, batch: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
         model, cfg = self.model, self.cfg

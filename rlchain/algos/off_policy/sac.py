@@ -13,6 +13,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import RunningMeanStd
 
@@ -129,8 +130,7 @@ class SACAgent:
     def scale_lr(self, factor: float) -> None:
         """Multiply the actor, critic and temperature learning rates (divergence rollback)."""
         for opt in (self.actor_opt, self.critic_opt, self.alpha_opt):
-            for group in opt.param_groups:
-                group["lr"] *= factor
+            scale_lr(opt, factor)
 
     def update(self, batch: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
         """One step on a replay minibatch; returns (stats as 0-d tensors, |TD error| per sample)."""

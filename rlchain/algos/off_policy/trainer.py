@@ -19,6 +19,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.replay import ReplayBuffer
 from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.off_policy.dqn import DQNAgent, epsilon_at
 from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
 from rlchain.algos.off_policy.sac import SACAgent
@@ -100,8 +101,7 @@ class OffPolicyTrainer(AlgorithmBase):
         """Learning rates go to their optimizer; gamma to the replay buffer's n-step returns too."""
         optimizers = self.agent.optimizers()
         if name in optimizers:
-            for group in optimizers[name].param_groups:
-                group["lr"] = float(value)
+            set_lr(optimizers[name], value)
             return
         super().apply_hyperparam(name, value)
         if name == "gamma":

@@ -19,6 +19,7 @@ from rlchain.algos.core.schedules import (
     AdaptiveKLSchedule,
     make_schedule,
     scheduled_entropy_coef,
+    set_lr,
 )
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.config.schema import TrainConfig
@@ -277,8 +278,7 @@ class PPOAgent:
 
     def _set_lr(self, lr: float) -> None:
         self.lr = lr
-        for group in self.optimizer.param_groups:
-            group["lr"] = lr
+        set_lr(self.optimizer, lr)
 
     def state_dict(self) -> dict:
         state = {"optimizer": self.optimizer.state_dict(), "lr": self.lr, "entropy_coef": self.entropy_coef}

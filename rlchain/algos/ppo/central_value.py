@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from rlchain.algos.core.losses import value_loss
+from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.schema import CentralValueConfig
 from rlchain.errors import DivergenceError
@@ -62,8 +63,7 @@ class CentralValueAgent:
 
     def _set_lr(self, lr: float) -> None:
         self.lr = lr
-        for group in self.optimizer.param_groups:
-            group["lr"] = lr
+        set_lr(self.optimizer, lr)
 
     def state_dict(self) -> dict:
         return {"optimizer": self.optimizer.state_dict(), "lr": self.lr}
