@@ -83,12 +83,18 @@ class System:
     env: tuple[tuple[str, str], ...] = ()  # extra environment variables (thread counts)
     color: str = "tab:gray"
     overrides: tuple[str, ...] = ()  # rlchain: runner.py key=value overrides
+    saved_as: str = ""  # the label its saved runs carry, where ``setting`` was corrected after they ran
+
+    @property
+    def run_label(self) -> str:
+        """What a saved run of this system records (and is matched by): ``saved_as``, else ``setting``."""
+        return self.saved_as or self.setting
 
 
 ONE_THREAD = (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))
-# Caution (found 2026-11-26): rl_games calls torch.set_num_threads(params.torch_threads, default min(4, cores))
-# itself, so "rl_games" / "rl_games2" below (OMP_NUM_THREADS=1, the label says "1 thread") ran 2 torch threads on 2
-# cores. The label stays as the saved runs were recorded under it; "*_tt1" is one torch thread for real
+# rl_games calls torch.set_num_threads(params.torch_threads, default min(4, cores)) itself, so "rl_games" /
+# "rl_games2" below (OMP_NUM_THREADS=1) ran 2 torch threads on 2 cores; their runs were saved as "1 thread, compile
+# off" (saved_as), the label they had until that was found. "*_tt1" is one torch thread for real
 # (rl_games_driver.py --torch-threads 1), which ran Hopper faster (peer_settings.py; docs/benchmarks.md).
 # Each peer at its best on a 2-core CPU: compile off, one torch thread (benchmarks/peer_settings.py measures
 # every setting of both versions side by side; its table is in docs/benchmarks.md) and as shipped.
@@ -97,9 +103,11 @@ SYSTEMS = {
     "rlchain_bf16": System("rlchain", "mixed_precision: bf16 (the update's network passes in bfloat16 on an "
                                       "AMX / AVX512-BF16 CPU)", overrides=("params.config.mixed_precision=bf16",),
                            color="tab:purple"),
-    "rl_games": System("rl_games", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:orange"),
+    "rl_games": System("rl_games", "OMP_NUM_THREADS=1 (2 torch threads), compile off", ("--torch-compile", "off"),
+                       ONE_THREAD, "tab:orange", saved_as="1 thread, compile off"),
     "rl_games_shipped": System("rl_games", "as shipped (compile on, default threads)", color="tab:brown"),
-    "rl_games2": System("rl_games2", "1 thread, compile off", ("--torch-compile", "off"), ONE_THREAD, "tab:green"),
+    "rl_games2": System("rl_games2", "OMP_NUM_THREADS=1 (2 torch threads), compile off", ("--torch-compile", "off"),
+                        ONE_THREAD, "tab:green", saved_as="1 thread, compile off"),
     "rl_games2_shipped": System("rl_games2", "as shipped (compile on, default threads)", color="tab:olive"),
     "rl_games_tt1": System("rl_games", "torch_threads: 1 (one torch thread), compile off",
                            ("--torch-compile", "off", "--torch-threads", "1"), ONE_THREAD, "tab:red"),
@@ -212,7 +220,7 @@ def train_for(lib: str, config: str, seed: int, seconds: float, args: argparse.N
             "budget_frames": getattr(args, "frames", None), "wall_s": wall,
             "events": events, "load_before": load_before, "load_after": load_average(), "cmd": cmd,
             "returncode": proc.returncode, "env": env,
-            "setting": SYSTEMS[lib].setting, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+            "setting": SYSTEMS[lib].run_label, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
 def run_path(runs_dir: str, config: str, lib: str, seed: int) -> str:
@@ -224,7 +232,8 @@ def mismatch(run: dict, lib: str, budget: float, frames: int | None) -> str | No
     if run["budget_s"] != budget or run.get("budget_frames") != frames:
         return (f"saved with --seconds {run['budget_s']:g} --frames {run.get('budget_frames')}, "
                 f"asked for --seconds {budget:g} --frames {frames}")
-    if run.get("env", {}) != dict(SYSTEMS[lib].env) or run.get("setting", SYSTEMS[lib].setting) != SYSTEMS[lib].setting:
+    label = SYSTEMS[lib].run_label
+    if run.get("env", {}) != dict(SYSTEMS[lib].env) or run.get("setting", label) != label:
         return f"saved under another setting ({run.get('setting', '?')}, env {run.get('env', {})})"
     return None
 

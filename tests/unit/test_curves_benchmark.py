@@ -79,7 +79,8 @@ def test_reach_cell_counts_a_seed_that_never_reached_as_later_than_all():
 
 
 def test_every_peer_names_its_version_and_setting():
-    assert curves.describe("rl_games") == "rl_games 1.6.5, 1 thread, compile off"
+    # OMP_NUM_THREADS=1 left rl_games at 2 torch threads: the label says so (its saved runs keep their old one)
+    assert curves.describe("rl_games") == "rl_games 1.6.5, OMP_NUM_THREADS=1 (2 torch threads), compile off"
     assert curves.describe("rl_games2_shipped").startswith("rl_games 2.0 (main), as shipped")
     best = curves.SYSTEMS["rl_games"]
     assert dict(best.env)["OMP_NUM_THREADS"] == "1" and best.driver_args == ("--torch-compile", "off")
@@ -124,10 +125,14 @@ def test_saved_runs_of_another_setting_are_not_loaded(tmp_path):
     with open(path, "w") as f:
         json.dump(shipped, f)
     assert curves.load_runs(str(tmp_path), "hopper", ["rl_games"], [11], 180.0)["rl_games"] == []
-    best = dict(shipped, env=dict(curves.SYSTEMS["rl_games"].env), setting=curves.SYSTEMS["rl_games"].setting)
+    best = dict(shipped, env=dict(curves.SYSTEMS["rl_games"].env), setting="1 thread, compile off")  # saved_as
     with open(path, "w") as f:
         json.dump(best, f)
     assert len(curves.load_runs(str(tmp_path), "hopper", ["rl_games"], [11], 180.0)["rl_games"]) == 1
+    relabelled = dict(best, setting=curves.SYSTEMS["rl_games"].setting)  # the display text is not the key
+    with open(path, "w") as f:
+        json.dump(relabelled, f)
+    assert curves.load_runs(str(tmp_path), "hopper", ["rl_games"], [11], 180.0)["rl_games"] == []
 
 
 def test_iqm_table_is_rlchain_compare_on_the_saved_runs():
@@ -135,7 +140,7 @@ def test_iqm_table_is_rlchain_compare_on_the_saved_runs():
                          "budget_s": 30.0} for s, v in ((11, 1), (12, 2), (13, 3), (14, 100))],
             "rl_games": [{"events": [(15.0, 2000, 4.0)], "seed": 11, "config": "hopper", "budget_s": 30.0}]}
     text = "\n".join(curves.iqm_table("hopper", runs, 30.0))
-    assert "| at | rlchain, as shipped | rl_games 1.6.5, 1 thread, compile off |" in text
+    assert "| at | rlchain, as shipped | rl_games 1.6.5, OMP_NUM_THREADS=1 (2 torch threads), compile off |" in text
     # at 30 s (the budget: the runs went on to it) rlchain's IQM of 1, 2, 3, 100 is 2.5; rl_games has one seed
     row = next(line for line in text.splitlines() if line.startswith("| 30 s |"))
     assert row.split("|")[2].strip().startswith("2.5 [") and row.endswith("| 4 [4, 4] (1/1) |")
