@@ -120,16 +120,16 @@ def scoped_registrations() -> Iterator[None]:
 
     For tests (rlchain's and a user's) that register their own envs, networks or writers.
     """
-    tables = {id(t): dict(t) for t in (ENV_CONFIGURATIONS, NETWORK_CONFIGS)}
+    saved = [(table, dict(table)) for table in (ENV_CONFIGURATIONS, NETWORK_CONFIGS)]
     with contextlib.ExitStack() as stack:
         for registry in REGISTRIES:
             stack.enter_context(registry.scoped())
         try:
             yield
         finally:
-            for table in (ENV_CONFIGURATIONS, NETWORK_CONFIGS):
+            for table, items in saved:
                 table.clear()
-                table.update(tables[id(table)])
+                table.update(items)
 
 
 def network_config_class(name: str) -> type | None:

@@ -7,6 +7,8 @@ import sys
 import pytest
 import torch
 
+from rlchain.registry import scoped_registrations
+
 # One intra-op thread, as the Runner sets on a 2-core machine: tests that build models directly
 # (not through the Runner) would otherwise spin 2 OpenMP threads beside envpool / Ray workers.
 torch.set_num_threads(1)
@@ -32,8 +34,6 @@ BASE = {
 def scoped_registries():
     """What the test registers (algos, models, networks, envs, vecenv types, log writers, env_configurations)
     is gone after it; what it replaced or unregistered is back."""
-    from rlchain.registry import scoped_registrations
-
     with scoped_registrations():
         yield
 

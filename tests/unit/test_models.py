@@ -10,7 +10,15 @@ from rlchain.config.schema import MlpConfig, NetworkConfig
 from rlchain.models.normalization import RunningMeanStd
 from rlchain.networks.actor_critic import ActorCriticBuilder
 from rlchain.networks.mlp import MLP
-from rlchain.registry import Registry, RegistryError
+from rlchain.registry import (
+    ENV_CONFIGURATIONS,
+    NETWORKS,
+    VECENVS,
+    WRITERS,
+    Registry,
+    RegistryError,
+    scoped_registrations,
+)
 
 
 def test_running_mean_std_matches_numpy():
@@ -73,8 +81,6 @@ def test_registry_scoped_undoes_registrations_replacements_and_removals():
 
 
 def test_scoped_registrations_restores_every_table():
-    from rlchain.registry import ENV_CONFIGURATIONS, NETWORKS, VECENVS, WRITERS, scoped_registrations
-
     before = (NETWORKS.names(), VECENVS.names(), WRITERS.names(), dict(ENV_CONFIGURATIONS))
     with scoped_registrations():
         NETWORKS.register("scoped_net", object)
