@@ -62,6 +62,7 @@ class VTraceConfig(ActorCriticConfig):
     self_play_config: ClassVar[Any] = None
     torch_compile: ClassVar[Any] = False
     compile_update: ClassVar[bool] = False
+    cuda_graph: ClassVar[bool] = False
     env_groups: ClassVar[int] = 1
 
     other_algo_keys: ClassVar[dict[str, str]] = {
@@ -73,6 +74,7 @@ class VTraceConfig(ActorCriticConfig):
         "seq_length": RNN_NOTE, "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
         "torch_compile": "supported for PPO only so far",
         "compile_update": "supported for PPO only so far",
+        "cuda_graph": "supported for PPO only so far",
         "timeout_bootstrap": "a time-out always bootstraps V(the true final observation)",
         "obs_normalizer_update": "the learner folds each whole batch into the statistics before its update",
     }

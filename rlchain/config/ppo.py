@@ -96,6 +96,11 @@ class TrainConfig(ActorCriticConfig):
                                          "losses (with the backward pass derived from them); feed-forward "
                                          "networks only. Compiling costs 5-50 s on a CPU, so it pays only "
                                          "in long runs (docs/benchmarks.md, issue 37)")
+    cuda_graph: bool = option(False, "PPO (rlchain), CUDA: capture one minibatch step (forward, losses, "
+                                     "backward, clipping, fused Adam) as a CUDA graph after 3 eager steps and "
+                                     "replay it for every minibatch; feed-forward networks on one GPU, "
+                                     "mixed_precision off or bf16. Ignored with a warning on a CPU "
+                                     "(docs/benchmarks.md, issue 37)")
     seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
                                 "divide by it (the deprecated `seq_len` is read as this, with a warning)",
                              check=positive)

@@ -22,6 +22,7 @@ from rlchain.algos.core.schedules import (
     set_lr,
 )
 from rlchain.algos.core.storage import Batch, RolloutStorage
+from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
 from rlchain.config.schema import TrainConfig
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.log import get_logger
@@ -50,8 +51,14 @@ class PPOAgent:
         self.device = device
         self.lr = cfg.learning_rate
         self.params = [p for p in model.parameters() if p.requires_grad]
-        self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay,
-                                          **_fast_adam_kwargs(device))
+        # cuda_graph: Adam reads its lr from a device tensor the captured step writes (lr_live, or 0 for
+        # a non-finite step); every other path keeps a float lr
+        self.graphed = use_cuda_graph(cfg, device)
+        self._lr_live = torch.tensor(float(self.lr), device=device) if self.graphed else None
+        self._lr_step = self._lr_live.clone() if self.graphed else None
+        self.optimizer = torch.optim.Adam(self.params, lr=self._lr_step if self.graphed else self.lr, eps=1e-8,
+                                          weight_decay=cfg.weight_decay, **_fast_adam_kwargs(device),
+                                          **({"capturable": True} if self.graphed else {}))
         self.schedule = make_schedule(cfg.lr_schedule, cfg.learning_rate, cfg.kl_threshold,
                                       cfg.min_lr, cfg.max_lr, cfg.decay_power, cfg.lr_multiplier)
         self.entropy_coef = cfg.entropy_coef
@@ -68,6 +75,8 @@ class PPOAgent:
         self._coef_value, self._coef = None, None
         self._losses_fn = self._losses  # compile_losses() swaps in the compiled region
         self._compile_pending = False
+        self._graph = GraphedStep(self.sync_free_step, self._grads_to_none) if self.graphed else None
+        self._aux_names: tuple[str, ...] = ()
 
     def update(self, storage: RolloutStorage, progress: float, obs_per_minibatch: bool = False) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
@@ -153,7 +162,8 @@ class PPOAgent:
         autocast and its outputs are cast back to float32, so the log-probs, ratios, KL and losses are
         computed in float32 against the rollout's float32 log-probs."""
         cfg, model, dist = self.cfg, self.model, self.model.dist
-        autocast = torch.autocast(self.device.type, dtype=self.amp_dtype) if self.amp else nullcontext()
+        autocast = (torch.autocast(self.device.type, dtype=self.amp_dtype, cache_enabled=not self.graphed)
+                    if self.amp else nullcontext())
         with autocast:
             params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
                                                batch.action_masks)
@@ -207,6 +217,8 @@ class PPOAgent:
         cfg = self.cfg
         coef = self._entropy_coef_tensor()
         previous = batch.params if reference is None else reference.index_select(0, batch.index)
+        if self._graph is not None:
+            return self._graph_step(batch, coef, previous, reference)
         loss, stats_t, aux, current = self._compiled_losses(batch, coef, previous)
         if reference is not None:  # the next pass measures the KL against the policy this one saw
             reference.index_copy_(0, batch.index, current)
@@ -218,8 +230,7 @@ class PPOAgent:
             self.scaler.unscale_(self.optimizer)
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
         grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-        names = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm",
-                 *(f"losses/{name}" for name in aux))
+        names = (*STEP_STATS, *(f"losses/{name}" for name in aux))
         values = torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
                                                   *(value.detach().float() for value in aux.values())])]).tolist()
         stats = dict(zip(names, values))
@@ -231,6 +242,47 @@ class PPOAgent:
             self.scaler.update()
         else:
             self.optimizer.step()
+        del stats["loss"]
+        return stats
+
+    def sync_free_step(self, batch: Batch, coef: torch.Tensor, previous: torch.Tensor
+                       ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The minibatch step ``cuda_graph`` captures: losses, backward, clip, Adam, with no host sync.
+
+        Returns (the statistics of :attr:`STEP_STATS` then the auxiliary losses, as one float32 vector;
+        the policy's params). The gradients must be None or zero on entry (the eager warm-up sets them to
+        None; in the graph backward writes the graph's own). A non-finite statistic zeroes the gradients
+        and this step's lr, so the parameters stay as they were and the caller raises on the statistics.
+        """
+        loss, stats_t, aux, current = self._compiled_losses(batch, coef, previous)
+        loss.backward()
+        max_norm = self.cfg.grad_norm if self.cfg.truncate_grads else float("inf")
+        grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
+        values = torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
+                                                  *(value.detach().float() for value in aux.values())])])
+        finite = torch.isfinite(values).all()
+        zero_non_finite_(finite, self.params)
+        self._lr_step.copy_(self._lr_live * finite)
+        self.optimizer.step()
+        self._aux_names = tuple(aux)
+        return values, current
+
+    def _grads_to_none(self) -> None:
+        self.optimizer.zero_grad(set_to_none=True)
+
+    def _graph_step(self, batch: Batch, coef: torch.Tensor, previous: torch.Tensor,
+                    reference: torch.Tensor | None) -> dict[str, float]:
+        """:meth:`_step` through the captured graph: the same statistics, one host sync to read them."""
+        if self._graph.graph is None:  # eager warm-up: backward must start from no gradients
+            self.optimizer.zero_grad(set_to_none=True)
+        values, current = self._graph(batch, coef, previous)
+        if reference is not None:
+            reference.index_copy_(0, batch.index, current)
+        names = (*STEP_STATS, *(f"losses/{name}" for name in self._aux_names))
+        stats = dict(zip(names, values.tolist()))
+        bad = first_non_finite(stats)
+        if bad is not None:  # the step left the parameters as they were
+            raise DivergenceError(f"{bad} in the PPO update")
         del stats["loss"]
         return stats
 
@@ -278,20 +330,51 @@ class PPOAgent:
 
     def _set_lr(self, lr: float) -> None:
         self.lr = lr
-        set_lr(self.optimizer, lr)
+        if self.graphed:  # Adam reads it from the device (the captured step copies it into its group lr)
+            self._lr_live.fill_(float(lr))
+        else:
+            set_lr(self.optimizer, lr)
 
     def state_dict(self) -> dict:
-        state = {"optimizer": self.optimizer.state_dict(), "lr": self.lr, "entropy_coef": self.entropy_coef}
+        """Optimizer state, live lr and entropy coefficient. A ``cuda_graph`` run saves its optimizer as an
+        eager one would (float lr, not capturable), so any run can load its checkpoints."""
+        optimizer = self.optimizer.state_dict()
+        if self.graphed:
+            for group in optimizer["param_groups"]:
+                group["lr"], group["capturable"] = float(self.lr), False
+        state = {"optimizer": optimizer, "lr": self.lr, "entropy_coef": self.entropy_coef}
         if self.scaler is not None:
             state["scaler"] = self.scaler.state_dict()
         return state
 
     def load_state_dict(self, state: dict) -> None:
         self.optimizer.load_state_dict(state["optimizer"])
+        if self.graphed:  # new optimizer state tensors: the captured step is recorded again
+            for group in self.optimizer.param_groups:
+                group["lr"], group["capturable"] = self._lr_step, True
+            self._graph.reset()
         self._set_lr(float(state["lr"]))
         self.entropy_coef = float(state.get("entropy_coef", self.cfg.entropy_coef))  # older checkpoints: none
         if self.scaler is not None and "scaler" in state:
             self.scaler.load_state_dict(state["scaler"])
+
+
+STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")
+"""The statistics of a minibatch step, in the order of its statistics vector (auxiliary losses follow)."""
+
+
+def use_cuda_graph(cfg: TrainConfig, device: torch.device) -> bool:
+    """``cuda_graph`` resolved for ``device``: the captured step runs on CUDA only (a warning elsewhere)."""
+    if not cfg.cuda_graph:
+        return False
+    if device.type != "cuda":
+        _log.warning(f"cuda_graph: True needs a CUDA device; the PPO update runs eagerly on {device}")
+        return False
+    if autocast_dtype(cfg.mixed_precision, device) == torch.float16:  # a GPU without bf16: True means fp16
+        _log.warning("cuda_graph: mixed_precision is float16 here (its grad scaler syncs with the host); "
+                     "the PPO update runs eagerly")
+        return False
+    return True
 
 
 def _fast_adam_kwargs(device: torch.device) -> dict:

@@ -59,6 +59,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
+        if cfg.cuda_graph:  # before the agent builds its capturable optimizer
+            _check_cuda_graph(model, cfg.mixed_precision, ctx.comm.active, params.source)
         self.agent = PPOAgent(model, cfg, device, ctx.comm)
         if cfg.compile_update:
             _check_compile_update(model, params.source)
@@ -223,6 +225,23 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
     if callable(getattr(model.network, "get_aux_loss", None)):
         raise ConfigError(source, "params.config.compile_update",
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
+
+
+def _check_cuda_graph(model: ActorCritic, mixed_precision: Any, distributed: bool, source: str) -> None:
+    """cuda_graph captures a feed-forward, single-GPU step without a grad scaler; a one-line ConfigError
+    otherwise."""
+    key = "params.config.cuda_graph"
+    if model.is_rnn:
+        raise ConfigError(source, key, "False for an RNN network (sequence minibatches are not captured); "
+                                       "set it false")
+    if callable(getattr(model.network, "get_aux_loss", None)):
+        raise ConfigError(source, key, "False for a network with get_aux_loss() (its losses are checked in Python)")
+    if mixed_precision == "fp16":
+        raise ConfigError(source, key, "False with mixed_precision fp16 (its grad scaler syncs with the host); "
+                                       "use mixed_precision: bf16 or set cuda_graph false")
+    if distributed:
+        raise ConfigError(source, key, "False with multi_gpu (the gradients are averaged between ranks outside "
+                                       "the graph); set it false")
 
 
 def _value_size(env: Any) -> int:

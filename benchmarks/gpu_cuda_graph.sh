@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# cuda_graph on a lent GPU (issue 37; docs/benchmarks.md "On a GPU"): the CUDA-only tests, then the three
+# tensor-env PPO configs trained to their score_to_win with cuda_graph on (seconds printed), then
+# throughput.py at 4,096 / 16,384 / 65,536 envs: eager against cuda_graph in the same process, beside
+# rl_games 2.0 (compile off) on the same env and GPU. Every step has its own timeout and the script goes on
+# after a failure; $OUT gets summary.txt and logs.tgz.
+#
+#   OUT=/tmp/g bash benchmarks/gpu_cuda_graph.sh                                   # on the GPU machine
+#   OUT=/tmp/g DEVICE=cpu SIZES=256 SECONDS_PER=0.3 bash benchmarks/gpu_cuda_graph.sh   # a dry run on a CPU
+#
+# Needs what benchmarks/gpu_checks.sh needs (gymnasium; tensorboardX and rl_games 2.0's source on
+# PYTHONPATH for the rl_games column, RL_GAMES2_PYTHON= leaves it out).
+set -u
+OUT=${OUT:-/tmp/gpu_graph}
+LOGS=${LOGS:-/tmp/gpu_graph_logs}
+mkdir -p "$OUT" "$LOGS"
+PY=${PYTHON:-python3}
+DEV=${DEVICE:-cuda}
+SIZES=${SIZES:-"4096 16384 65536"}
+SECONDS_PER=${SECONDS_PER:-1}
+RLG2=${RL_GAMES2_PYTHON-$PY}
+ENVS=${ENVS:-"TorchCartPole-v0 TorchPendulum-v0 TorchReacher8-v0"}
+VARIANTS=${VARIANTS:-"eager= graph=params.config.cuda_graph=True"}
+LEARN=${LEARN:-"torch_cartpole torch_pendulum torch_reacher8"}
+export PYTHONUNBUFFERED=1
+SUMMARY="$OUT/summary.txt"
+
+say() { echo "$*" | tee -a "$SUMMARY"; }
+
+step() {  # step NAME SECONDS CMD...: run CMD with a timeout into $LOGS/NAME.log; exit status and seconds
+    local name=$1 limit=$2
+    shift 2
+    local t0 t1 rc
+    t0=$(date +%s.%N)
+    timeout "$limit" "$@" >"$LOGS/$name.log" 2>&1
+    rc=$?
+    t1=$(date +%s.%N)
+    say "$(printf '%-28s exit %3d  %7.1f s' "$name" "$rc" "$(python3 -c "print($t1 - $t0)")")"
+    tar czf "$OUT/logs.tgz" -C "$LOGS" .
+    return $rc
+}
+
+say "== $(date -u +%FT%TZ) device=$DEV sizes=[$SIZES]"
+{ nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader 2>/dev/null || echo "no nvidia-smi"
+  lscpu | grep -m1 "Model name"; nproc
+  "$PY" -c "import torch, sys; print('python', sys.version.split()[0], 'torch', torch.__version__, 'cuda', \
+torch.cuda.is_available(), torch.cuda.get_device_name(0) if torch.cuda.is_available() else '')"
+} 2>&1 | tee -a "$SUMMARY"
+
+step tests_cuda 240 "$PY" -m pytest -q -p no:cacheprovider tests/unit/test_cuda_graph.py tests/unit/test_to_device.py \
+    tests/unit/test_tensor_envs.py tests/unit/test_aux_loss.py tests/unit/test_mixed_precision.py
+tail -n 3 "$LOGS/tests_cuda.log" | tee -a "$SUMMARY"
+
+RUNS=runs_gpu_graph
+rm -rf "$RUNS"
+for cfg in $LEARN; do
+    step "learn_graph_$cfg" 150 "$PY" runner.py --train --file "rlchain/configs/ppo_$cfg.yaml" \
+        "params.config.device=$DEV" "params.config.env_config.device=$DEV" params.config.cuda_graph=True \
+        "params.config.train_dir=$RUNS"
+    { grep -m1 "cuda_graph:" "$LOGS/learn_graph_$cfg.log"
+      grep -E "^stopped|^epoch|Error" "$LOGS/learn_graph_$cfg.log" | tail -n 2; } | tee -a "$SUMMARY"
+done
+
+cases=()
+for env in $ENVS; do for n in $SIZES; do cases+=("torch:$env:$n"); done; done
+peer=()
+[ -n "$RLG2" ] && peer=(--rl-games2-python "$RLG2" --rl-games-epochs 5)
+# shellcheck disable=SC2086
+step throughput_graph 330 "$PY" benchmarks/throughput.py --device "$DEV" --cases "${cases[@]}" \
+    --seconds "$SECONDS_PER" --variants $VARIANTS "${peer[@]}" --json "$LOGS/throughput_graph.json"
+sed -n '/^backend/,$p' "$LOGS/throughput_graph.log" | tee -a "$SUMMARY"
+rm -rf "$RUNS"
+say "== done $(date -u +%FT%TZ)"
