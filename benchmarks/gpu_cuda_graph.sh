@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # cuda_graph on a lent GPU (issue 37; docs/benchmarks.md "On a GPU"): the CUDA-only tests, then the three
-# tensor-env PPO configs trained to their score_to_win with cuda_graph on (seconds printed), then
+# tensor-env PPO configs trained to their score_to_win eager and with cuda_graph (seconds printed), then
 # throughput.py at 4,096 / 16,384 / 65,536 envs: eager against cuda_graph in the same process, beside
 # rl_games 2.0 (compile off) on the same env and GPU. Every step has its own timeout and the script goes on
 # after a failure; $OUT gets summary.txt and logs.tgz.
@@ -21,7 +21,9 @@ SECONDS_PER=${SECONDS_PER:-1}
 RLG2=${RL_GAMES2_PYTHON-$PY}
 ENVS=${ENVS:-"TorchCartPole-v0 TorchPendulum-v0 TorchReacher8-v0"}
 VARIANTS=${VARIANTS:-"eager= graph=params.config.cuda_graph=True"}
+BASE_VARIANTS=${BASE_VARIANTS:-$VARIANTS}
 LEARN=${LEARN:-"torch_cartpole torch_pendulum torch_reacher8"}
+LEARN_VARIANTS=${LEARN_VARIANTS:-"eager graph"}
 export PYTHONUNBUFFERED=1
 SUMMARY="$OUT/summary.txt"
 
@@ -53,12 +55,16 @@ tail -n 3 "$LOGS/tests_cuda.log" | tee -a "$SUMMARY"
 
 RUNS=runs_gpu_graph
 rm -rf "$RUNS"
-for cfg in $LEARN; do
-    step "learn_graph_$cfg" 150 "$PY" runner.py --train --file "rlchain/configs/ppo_$cfg.yaml" \
-        "params.config.device=$DEV" "params.config.env_config.device=$DEV" params.config.cuda_graph=True \
-        "params.config.train_dir=$RUNS"
-    { grep -m1 "cuda_graph:" "$LOGS/learn_graph_$cfg.log"
-      grep -E "^stopped|^epoch|Error" "$LOGS/learn_graph_$cfg.log" | tail -n 2; } | tee -a "$SUMMARY"
+for cfg in $LEARN; do  # the same seed eager and with cuda_graph: seconds to score_to_win
+    for variant in $LEARN_VARIANTS; do
+        extra=()
+        [ "$variant" = graph ] && extra=(params.config.cuda_graph=True)
+        step "learn_${variant}_$cfg" 150 "$PY" runner.py --train --file "rlchain/configs/ppo_$cfg.yaml" \
+            "params.config.device=$DEV" "params.config.env_config.device=$DEV" "${extra[@]}" \
+            "params.config.train_dir=$RUNS"
+        { grep -m2 "cuda_graph:" "$LOGS/learn_${variant}_$cfg.log"
+          grep -E "^stopped|^epoch|Error" "$LOGS/learn_${variant}_$cfg.log" | tail -n 2; } | tee -a "$SUMMARY"
+    done
 done
 
 cases=()
@@ -69,5 +75,16 @@ peer=()
 step throughput_graph 330 "$PY" benchmarks/throughput.py --device "$DEV" --cases "${cases[@]}" \
     --seconds "$SECONDS_PER" --variants $VARIANTS "${peer[@]}" --json "$LOGS/throughput_graph.json"
 sed -n '/^backend/,$p' "$LOGS/throughput_graph.log" | tee -a "$SUMMARY"
+# BASE=DIR: a checkout of an earlier commit (its rlchain/ and benchmarks/throughput.py): the same variants
+# at the first size, so a change's gain is measured on this machine in this run
+if [ -n "${BASE:-}" ]; then
+    first=${SIZES%% *}
+    base_cases=()
+    for env in $ENVS; do base_cases+=("torch:$env:$first"); done
+    # shellcheck disable=SC2086
+    step throughput_base 200 "$PY" "$BASE/benchmarks/throughput.py" --device "$DEV" --cases "${base_cases[@]}" \
+        --seconds "$SECONDS_PER" --variants $BASE_VARIANTS --json "$LOGS/throughput_base.json"
+    sed -n '/^backend/,$p' "$LOGS/throughput_base.log" | tee -a "$SUMMARY"
+fi
 rm -rf "$RUNS"
 say "== done $(date -u +%FT%TZ)"

@@ -15,6 +15,7 @@ from rlchain import Runner
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo import agent as agent_module
 from rlchain.algos.ppo.agent import PPOAgent
+from rlchain.algos.ppo.graph_step import GraphedAct
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
 from rlchain.errors import DivergenceError
@@ -181,3 +182,31 @@ def test_on_cuda_a_non_finite_replay_raises_and_a_load_captures_again(monkeypatc
     agent.update(_rollout(agent), 0.0)
     assert agent._graph.captures == 2
     assert all(torch.isfinite(p).all() for p in agent.params)
+
+
+def _check_act(device):
+    model = ActorCritic(MLP(), make_distribution("continuous_a2c_logstd", gym.spaces.Box(-1.0, 1.0, (2,)), False),
+                        (3,), 1, False, False).to(device)
+    graphed = GraphedAct(model.act)
+    for _ in range(6):  # 3 warm-up calls, the capture, 2 replays
+        obs = torch.randn(8, 3, device=device)
+        out = graphed(obs)
+        with torch.no_grad():
+            params, values, _ = model.evaluate(obs, (), None, 1, None)
+        torch.testing.assert_close(out["params"], params)  # this call's obs, the current parameters
+        torch.testing.assert_close(out["values"], values)
+        torch.testing.assert_close(out["log_probs"], model.dist.log_prob(params, out["actions"]))
+        with torch.no_grad():  # an optimizer step changes the parameters in place: the graph sees it
+            for p in model.parameters():
+                p.add_(0.01)
+    return graphed
+
+
+def test_the_act_step_wrapper_acts_on_each_calls_obs():
+    assert _check_act("cpu").graph is None
+
+
+@CUDA
+def test_on_cuda_the_captured_act_step_follows_obs_and_parameters():
+    graphed = _check_act("cuda")
+    assert graphed.graph is not None

@@ -33,15 +33,19 @@ class EpisodeTracker:
                  success_mode: str = "any") -> None:
         self.returns = torch.zeros(num_envs, dtype=torch.float64, device=device)
         self.lengths = torch.zeros(num_envs, dtype=torch.long, device=device)
-        self.finished_returns: deque[float] = deque(maxlen=games_to_track)
-        self.finished_lengths: deque[int] = deque(maxlen=games_to_track)
-        self.games = 0
+        self._finished_returns: deque[float] = deque(maxlen=games_to_track)
+        self._finished_lengths: deque[int] = deque(maxlen=games_to_track)
+        self._games = 0
+        # episodes that ended since the last read, as device tensors: no host sync per step (on a GPU a
+        # sync per step cost more than the step's work); read into the deques in step order on demand
+        self._pending: list[tuple[torch.Tensor | None, ...]] = []
+        self._tracks_success = False  # True from the first step that reported a success value
         # task success of the episodes in progress: reported at some step, succeeded at any / the last one
         self.success_mode = success_mode
         self.success_seen = torch.zeros(num_envs, dtype=torch.bool, device=device)
         self.success_any = torch.zeros(num_envs, dtype=torch.bool, device=device)
         self.success_last = torch.zeros(num_envs, dtype=torch.bool, device=device)
-        self.finished_successes: deque[float] = deque(maxlen=games_to_track)
+        self._finished_successes: deque[float] = deque(maxlen=games_to_track)
 
     def step(self, rewards: torch.Tensor, dones: torch.Tensor, dropped: Any = None,
              rows: slice = slice(None), success: Any = None) -> None:
@@ -62,18 +66,69 @@ class EpisodeTracker:
         lengths += 1
         if success is not None:
             self._step_success(torch.as_tensor(success, device=dones.device).reshape(-1), rows)
-        if dones.any():
-            idx = dones.nonzero().squeeze(-1)
-            self.finished_returns.extend(returns[idx].tolist())
-            self.finished_lengths.extend(lengths[idx].tolist())
-            self.games += int(idx.numel())
-            returns[idx] = 0.0
-            lengths[idx] = 0
-            self._finish_success(idx, rows)
-        if lost is not None:
-            returns[lost] = 0.0
-            lengths[lost] = 0
-            self._forget_success(lost, rows)
+            self._tracks_success = True
+        ended = dones if lost is None else dones | lost
+        if self._tracks_success:  # (before any success value every flag is False: nothing to keep)
+            seen, hit = self.success_seen[rows], self._success_flags()[rows]
+            self._pending.append((dones.clone(), returns.clone(), lengths.clone(), seen & dones, hit & dones))
+            for flags in (self.success_seen, self.success_any, self.success_last):
+                flags[rows] &= ~ended
+        else:
+            self._pending.append((dones.clone(), returns.clone(), lengths.clone(), None, None))
+        returns.masked_fill_(ended, 0.0)
+        lengths.masked_fill_(ended, 0)
+        if len(self._pending) >= self.MAX_PENDING:
+            self._flush()
+
+    MAX_PENDING = 64
+    """Steps of ended episodes kept on the device before they are read anyway."""
+
+    def _success_flags(self) -> torch.Tensor:
+        return self.success_any if self.success_mode == "any" else self.success_last
+
+    def _flush(self) -> None:
+        """Move the episodes that ended since the last read into the deques, in the order they ended
+        (step by step, env by env): one host sync for all of them."""
+        if not self._pending:
+            return
+        pending, self._pending = self._pending, []
+        dones, returns, lengths = (torch.cat([entry[k] for entry in pending]) for k in range(3))
+        idx = dones.nonzero().squeeze(-1)
+        self._finished_returns.extend(returns[idx].tolist())
+        self._finished_lengths.extend(lengths[idx].tolist())
+        self._games += int(idx.numel())
+        with_success = [entry for entry in pending if entry[3] is not None]
+        if with_success:
+            seen, hit = torch.cat([entry[3] for entry in with_success]), torch.cat([e[4] for e in with_success])
+            self._finished_successes.extend(hit[seen].float().tolist())
+
+    @property
+    def finished_returns(self) -> deque[float]:
+        """The raw returns of the last ``games_to_track`` finished games, oldest first."""
+        self._flush()
+        return self._finished_returns
+
+    @property
+    def finished_lengths(self) -> deque[int]:
+        self._flush()
+        return self._finished_lengths
+
+    @property
+    def finished_successes(self) -> deque[float]:
+        """1.0 / 0.0 per tracked finished game that reported a success value."""
+        self._flush()
+        return self._finished_successes
+
+    @property
+    def games(self) -> int:
+        """Games finished since the start of the run."""
+        self._flush()
+        return self._games
+
+    @games.setter
+    def games(self, value: int) -> None:
+        self._flush()
+        self._games = int(value)
 
     def _step_success(self, success: torch.Tensor, rows: slice) -> None:
         """Fold one step's success values (n,) float, NaN = none, into the episodes in progress."""
@@ -82,33 +137,22 @@ class EpisodeTracker:
         self.success_seen[rows] |= seen
         self.success_any[rows] |= hit
         last = self.success_last[rows]  # a view
-        last[seen] = hit[seen]
-
-    def _finish_success(self, idx: torch.Tensor, rows: slice) -> None:
-        """Record the success of the episodes that just ended (rows ``idx`` of ``rows``) and clear them."""
-        seen, hit_any, hit_last = self.success_seen[rows], self.success_any[rows], self.success_last[rows]
-        hit = hit_any if self.success_mode == "any" else hit_last
-        reported = idx[seen[idx]]
-        if reported.numel():
-            self.finished_successes.extend(hit[reported].float().tolist())
-        self._forget_success(idx, rows)
-
-    def _forget_success(self, idx: torch.Tensor, rows: slice) -> None:
-        for flags in (self.success_seen, self.success_any, self.success_last):
-            flags[rows][idx] = False
+        last.copy_(torch.where(seen, hit, last))
 
     def record(self, returns: list[float], lengths: list[int],
                successes: list[tuple[bool, bool] | None] | None = None) -> None:
         """Games finished elsewhere (an asynchronous runner tracked them): add them as they are.
         ``successes``: per game None (no success reported) or (succeeded at any step, at the last)."""
-        self.finished_returns.extend(returns)
-        self.finished_lengths.extend(lengths)
-        self.games += len(returns)
+        self._flush()
+        self._finished_returns.extend(returns)
+        self._finished_lengths.extend(lengths)
+        self._games += len(returns)
         pick = 0 if self.success_mode == "any" else 1
-        self.finished_successes.extend(float(s[pick]) for s in successes or () if s is not None)
+        self._finished_successes.extend(float(s[pick]) for s in successes or () if s is not None)
 
     def reset_running(self) -> None:
         """Forget episodes in progress (after an env reset)."""
+        self._flush()
         self.returns.zero_()
         self.lengths.zero_()
         for flags in (self.success_seen, self.success_any, self.success_last):
@@ -142,6 +186,7 @@ class EpisodeTracker:
         """Put back :meth:`running_state` (on this tracker's device)."""
         for name in self.RUNNING:
             getattr(self, name).copy_(state[name].to(getattr(self, name).device))
+        self._tracks_success = self._tracks_success or bool(self.success_seen.any())
 
     RUNNING = ("returns", "lengths", "success_seen", "success_any", "success_last")
 
@@ -152,10 +197,11 @@ class EpisodeTracker:
 
     def load_state_dict(self, state: dict) -> None:
         """Put back :meth:`state_dict` (episodes in progress are not part of it: :meth:`load_running_state`)."""
-        self.finished_returns.clear()
-        self.finished_lengths.clear()
-        self.finished_returns.extend(state["returns"])
-        self.finished_lengths.extend(state["lengths"])
-        self.games = int(state["games"])
-        self.finished_successes.clear()
-        self.finished_successes.extend(state.get("successes", []))  # absent in older checkpoints
+        self._pending.clear()
+        self._finished_returns.clear()
+        self._finished_lengths.clear()
+        self._finished_returns.extend(state["returns"])
+        self._finished_lengths.extend(state["lengths"])
+        self._games = int(state["games"])
+        self._finished_successes.clear()
+        self._finished_successes.extend(state.get("successes", []))  # absent in older checkpoints

@@ -1,4 +1,5 @@
-"""``cuda_graph``: the PPO minibatch step captured once as a CUDA graph and replayed for every minibatch.
+"""``cuda_graph``: the PPO minibatch step and the rollout's act step, each captured once as a CUDA graph
+and replayed.
 
 An eager minibatch step of a small policy is some hundreds of kernel launches (forward, losses, backward,
 clipping, Adam) that cost ~4 ms of host time for ~0.1 ms of GPU work (docs/benchmarks.md, "On a GPU").
@@ -13,6 +14,10 @@ the learning rate for that step (the parameters stay as they were) and the stati
 the replay raise the DivergenceError there. Anything that replaces the optimizer's state tensors (a
 checkpoint load, a divergence rollback) makes the agent call :meth:`GraphedStep.reset`, and the step is
 captured again.
+
+:class:`GraphedAct` does the same for the rollout's act step of a feed-forward policy over every env
+(normalise, forward, sample, log-prob, values): a few dozen launches become one. The parameters and
+normaliser statistics it reads are updated in place, so the graph stays valid for the whole run.
 """
 
 from __future__ import annotations
@@ -104,3 +109,40 @@ def zero_non_finite_(finite: torch.Tensor, params: list[torch.nn.Parameter]) -> 
     for param in params:
         if param.grad is not None:
             param.grad.copy_(torch.where(finite, param.grad, torch.zeros_like(param.grad)))
+
+
+class GraphedAct:
+    """``act_fn(obs)`` (the model's act step) eagerly for the first ``warmup`` calls, then as one captured
+    CUDA graph on a static copy of ``obs``. The returned dict holds the graph's buffers (overwritten by the
+    next call) except the actions, which are a copy the env may keep."""
+
+    def __init__(self, act_fn: Callable[[torch.Tensor], dict], warmup: int = WARMUP_STEPS) -> None:
+        self.act_fn = act_fn
+        self.warmup = warmup
+        self.graph: torch.cuda.CUDAGraph | None = None
+        self._obs: torch.Tensor | None = None
+        self._outputs: dict | None = None
+        self._warmup_left = warmup
+
+    def __call__(self, obs: torch.Tensor) -> dict:
+        if self._obs is None or self._obs.shape != obs.shape or self._obs.dtype != obs.dtype:
+            self.graph, self._obs, self._warmup_left = None, torch.empty_like(obs), self.warmup
+        self._obs.copy_(obs)
+        if not obs.is_cuda:  # no graphs off CUDA: eager on the static buffer (unit tests)
+            return self.act_fn(self._obs)
+        if self.graph is None and self._warmup_left > 0:
+            self._warmup_left -= 1
+            side = torch.cuda.Stream()
+            side.wait_stream(torch.cuda.current_stream())
+            with torch.cuda.stream(side):
+                out = self.act_fn(self._obs)
+            torch.cuda.current_stream().wait_stream(side)
+            return out
+        if self.graph is None:
+            graph = torch.cuda.CUDAGraph()
+            with torch.cuda.graph(graph):
+                self._outputs = self.act_fn(self._obs)
+            self.graph = graph
+            _log.info("cuda_graph: captured the rollout's act step")
+        self.graph.replay()
+        return {**self._outputs, "actions": self._outputs["actions"].clone()}

@@ -25,6 +25,9 @@ class RolloutMixin:
     """The rollout half of :class:`rlchain.algos.ppo.trainer.OnPolicyTrainer` (uses its env, model,
     storage, central value, RNN states and run context)."""
 
+    graphed_act = None
+    """``cuda_graph``: the act step captured as a CUDA graph (rlchain.algos.ppo.graph_step.GraphedAct)."""
+
     def _action_masks(self) -> torch.Tensor | None:
         """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""
         if not self.use_masks:
@@ -88,7 +91,10 @@ class RolloutMixin:
         if rows is not ALL:
             obs, resets, states = obs[rows], resets[rows], tuple(s[:, rows] for s in states)
         masks = self._action_masks()
-        out = model.act(obs, states=states, action_masks=masks)
+        if self.graphed_act is not None and rows is ALL:  # cuda_graph: feed-forward, no masks, every env
+            out = self.graphed_act(obs)
+        else:
+            out = model.act(obs, states=states, action_masks=masks)
         next_states = tuple(out["states"] or ())
         values = out["values"]
         if self.central_value is not None:

@@ -14,6 +14,7 @@ from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
+from rlchain.algos.ppo.graph_step import GraphedAct
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import check_batch
@@ -83,6 +84,9 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
+        # cuda_graph: the act step as a graph too, for a feed-forward policy without masks or central value
+        plain = not model.is_rnn and not self.use_masks and self.central_value is None
+        self.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
         self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
