@@ -90,13 +90,15 @@ for f in "$LOGS"/smoke_*.log; do
     grep -m1 -E "Error|error:" "$f" | sed "s|^|$(basename "$f" .log): |" | tee -a "$SUMMARY"
 done
 
-# 3. throughput, eager and bf16 autocast, beside rl_games 2.0 with compile off
+# 3. throughput, eager (cuda_graph off; benchmarks/gpu_cuda_graph.sh measures the graphs) and bf16 autocast,
+# beside rl_games 2.0 with compile off
 cases=()
 for env in $ENVS; do for n in $SIZES; do cases+=("torch:$env:$n"); done; done
 peer=()
 [ -n "$RLG2" ] && peer=(--rl-games2-python "$RLG2" --rl-games-epochs 5)
 step throughput_eager 330 "$PY" benchmarks/throughput.py --device "$DEV" --cases "${cases[@]}" \
-    --seconds "$SECONDS_PER" --variants eager= bf16=params.config.mixed_precision=bf16 "${peer[@]}" \
+    --seconds "$SECONDS_PER" --variants eager=params.config.cuda_graph=False \
+    bf16=params.config.mixed_precision=bf16,params.config.cuda_graph=False "${peer[@]}" \
     --json "$LOGS/throughput_eager.json"
 sed -n '/^backend/,$p' "$LOGS/throughput_eager.log" | tee -a "$SUMMARY"
 
@@ -107,7 +109,7 @@ peerc=()
 [ -n "$RLG2" ] && peerc=(--rl-games2-python "$RLG2" --rl-games-epochs 6 --rl-games-compile config)
 for env in $ENVS; do
     step "throughput_compile_$env" 150 "$PY" benchmarks/throughput.py --device "$DEV" --cases "torch:$env:$first" \
-        --seconds "$SECONDS_PER" --variants eager= compile=params.config.compile_update=True \
+        --seconds "$SECONDS_PER" --variants eager=params.config.cuda_graph=False compile=params.config.compile_update=True \
         "${peerc[@]}" --json "$LOGS/throughput_compile_$env.json"
     sed -n '/^backend/,$p' "$LOGS/throughput_compile_$env.log" | tee -a "$SUMMARY"
 done

@@ -20,7 +20,7 @@ SIZES=${SIZES:-"4096 16384 65536"}
 SECONDS_PER=${SECONDS_PER:-1}
 RLG2=${RL_GAMES2_PYTHON-$PY}
 ENVS=${ENVS:-"TorchCartPole-v0 TorchPendulum-v0 TorchReacher8-v0"}
-VARIANTS=${VARIANTS:-"eager= graph=params.config.cuda_graph=True"}
+VARIANTS=${VARIANTS:-"eager=params.config.cuda_graph=False graph=params.config.cuda_graph=True"}
 BASE_VARIANTS=${BASE_VARIANTS:-$VARIANTS}
 LEARN=${LEARN:-"torch_cartpole torch_pendulum torch_reacher8"}
 LEARN_VARIANTS=${LEARN_VARIANTS:-"eager graph"}
@@ -57,7 +57,7 @@ RUNS=runs_gpu_graph
 rm -rf "$RUNS"
 for cfg in $LEARN; do  # the same seed eager and with cuda_graph: seconds to score_to_win
     for variant in $LEARN_VARIANTS; do
-        extra=()
+        extra=(params.config.cuda_graph=False)
         [ "$variant" = graph ] && extra=(params.config.cuda_graph=True)
         step "learn_${variant}_$cfg" 150 "$PY" runner.py --train --file "rlchain/configs/ppo_$cfg.yaml" \
             "params.config.device=$DEV" "params.config.env_config.device=$DEV" "${extra[@]}" \

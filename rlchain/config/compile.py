@@ -69,3 +69,9 @@ def check_compile(value: Any) -> str | None:
     except ValueError as exc:
         return str(exc)
     return None
+
+
+def check_cuda_graph(value: Any) -> str | None:
+    """The schema's check: True, False or auto."""
+    return None if value is True or value is False or value == "auto" else \
+        f"expected True, False or auto, got {value!r}"

@@ -12,10 +12,9 @@ import torch
 import torch.nn as nn
 
 from rlchain import Runner
-from rlchain.algos.core.storage import RolloutStorage
-from rlchain.algos.ppo import agent as agent_module
+from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent
-from rlchain.algos.ppo.graph_step import GraphedAct
+from rlchain.algos.ppo.graph_step import GraphedAct, GraphedStep, resolve_cuda_graph
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
 from rlchain.errors import DivergenceError
@@ -40,19 +39,14 @@ class MLP(nn.Module):
         return self.mu(h), self.logstd.expand(h.shape[0], 2), self.value(h), None
 
 
-def _agent(device, graphed, monkeypatch, **config):
+def _agent(device, graphed, **config):
     raw = copy.deepcopy(BASE)
     raw["params"]["config"].update({"num_actors": 8, "horizon_length": 8, "minibatch_size": 16, "mini_epochs": 2,
                                     "learning_rate": 1e-3, "lr_schedule": "adaptive", **config})
     cfg = parse_params(raw, "cfg.yaml").config
     model = ActorCritic(MLP(), make_distribution("continuous_a2c_logstd", gym.spaces.Box(-1.0, 1.0, (2,)), False),
                         (3,), 1, False, False).to(device)
-    with monkeypatch.context() as patch:  # the graphed agent on any device (on a CPU it never captures)
-        patch.setattr(agent_module, "use_cuda_graph", lambda cfg, device: graphed)
-        agent = PPOAgent(model, cfg, torch.device(device))
-    if graphed and device == "cpu":
-        agent._graph.warmup = agent._graph._warmup_left = 10 ** 9
-    return agent
+    return PPOAgent(model, cfg, torch.device(device), cuda_graph=graphed)  # on a CPU it never captures
 
 
 def _rollout(agent, nan=False):
@@ -72,8 +66,8 @@ def _rollout(agent, nan=False):
     return storage
 
 
-def _same_update(device, monkeypatch, epochs=3):
-    eager, graphed = _agent(device, False, monkeypatch), _agent(device, True, monkeypatch)
+def _same_update(device, epochs=3):
+    eager, graphed = _agent(device, False), _agent(device, True)
     for _ in range(epochs):
         out_e, out_g = eager.update(_rollout(eager), 0.0), graphed.update(_rollout(graphed), 0.0)
         for key in ("a_loss", "c_loss", "entropy", "kl", "grad_norm", "clip_frac"):
@@ -84,14 +78,14 @@ def _same_update(device, monkeypatch, epochs=3):
     return eager, graphed
 
 
-def test_the_sync_free_step_trains_what_the_eager_step_does(monkeypatch):
-    _, graphed = _same_update("cpu", monkeypatch)
+def test_the_sync_free_step_trains_what_the_eager_step_does():
+    _, graphed = _same_update("cpu")
     assert graphed.optimizer.param_groups[0]["capturable"] is True
     assert isinstance(graphed.optimizer.param_groups[0]["lr"], torch.Tensor)
 
 
-def test_a_non_finite_step_raises_and_leaves_the_parameters_as_they_were(monkeypatch):
-    agent = _agent("cpu", True, monkeypatch)
+def test_a_non_finite_step_raises_and_leaves_the_parameters_as_they_were():
+    agent = _agent("cpu", True)
     agent.update(_rollout(agent), 0.0)
     before = [p.detach().clone() for p in agent.params]
     with pytest.raises(DivergenceError, match="in the PPO update"):
@@ -101,8 +95,8 @@ def test_a_non_finite_step_raises_and_leaves_the_parameters_as_they_were(monkeyp
     assert all(torch.isfinite(v).all() for state in agent.optimizer.state.values() for v in state.values())
 
 
-def test_the_live_learning_rate_reaches_the_captured_optimizer(monkeypatch):
-    agent = _agent("cpu", True, monkeypatch, lr_schedule="constant")
+def test_the_live_learning_rate_reaches_the_captured_optimizer():
+    agent = _agent("cpu", True, lr_schedule="constant")
     agent.set_hyperparam("learning_rate", 0.0)
     before = [p.detach().clone() for p in agent.params]
     agent.update(_rollout(agent), 0.0)
@@ -113,8 +107,8 @@ def test_the_live_learning_rate_reaches_the_captured_optimizer(monkeypatch):
     assert any(not torch.equal(a, b) for a, b in zip(before, agent.params))
 
 
-def test_checkpoints_load_both_ways_and_a_load_captures_again(monkeypatch):
-    graphed, eager = _agent("cpu", True, monkeypatch), _agent("cpu", False, monkeypatch)
+def test_checkpoints_load_both_ways_and_a_load_captures_again():
+    graphed, eager = _agent("cpu", True), _agent("cpu", False)
     graphed.update(_rollout(graphed), 0.0)
     state = graphed.state_dict()
     group = state["optimizer"]["param_groups"][0]
@@ -130,13 +124,60 @@ def test_checkpoints_load_both_ways_and_a_load_captures_again(monkeypatch):
     graphed.update(_rollout(graphed), 0.0)
 
 
-def test_cuda_graph_on_a_cpu_warns_and_runs_eagerly(caplog):
+def _cfg(**config):
     raw = copy.deepcopy(BASE)
-    raw["params"]["config"]["cuda_graph"] = True
-    cfg = parse_params(raw, "cfg.yaml").config
+    raw["params"]["config"].update(config)
+    return parse_params(raw, "cfg.yaml").config
+
+
+class BuiltIn(MLP):
+    """Stands for one of rlchain's own networks (auto's test is the class's module)."""
+
+
+BuiltIn.__module__ = "rlchain.networks.actor_critic"
+
+
+class UserNet(MLP):
+    pass
+
+
+UserNet.__module__ = "my_package.networks"
+
+
+def _resolve(cfg, network=None, rnn=False, device="cuda", distributed=False):
+    return resolve_cuda_graph(cfg, network or BuiltIn(), rnn, torch.device(device), distributed, "cfg.yaml")
+
+
+def test_cuda_graph_on_a_cpu_warns_when_asked_for_and_runs_eagerly(caplog):
     with caplog.at_level(logging.WARNING, logger="rlchain"):
-        assert agent_module.use_cuda_graph(cfg, torch.device("cpu")) is False
-    assert any("cuda_graph: True needs a CUDA device" in r.getMessage() for r in caplog.records)
+        assert _resolve(_cfg(cuda_graph=True), device="cpu") is False
+        assert _resolve(_cfg(), device="cpu") is False  # auto: quietly off
+    assert [r.getMessage() for r in caplog.records if "cuda_graph" in r.getMessage()] == [
+        "cuda_graph: True needs a CUDA device; the PPO update runs eagerly on cpu"]
+
+
+@pytest.mark.parametrize("case,auto,explicit", [
+    ({}, True, True),
+    ({"rnn": True}, False, "for an RNN network"),
+    ({"mixed_precision": "fp16"}, False, "float16 mixed precision"),
+    ({"distributed": True}, False, "with multi_gpu"),
+    ({"torch_compile": "reduce-overhead"}, False, "reduce-overhead or max-autotune"),
+    ({"torch_compile": True}, False, True),  # auto: not measured together; True: allowed
+    ({"compile_update": True}, False, True),
+    ({"mixed_precision": "bf16"}, False, True),  # auto: not measured together; True: bf16 autocast, no cache
+    ({"network": UserNet()}, False, True),  # auto: a user's forward pass might sync with the host
+])
+def test_where_auto_turns_cuda_graphs_on_and_true_refuses(case, auto, explicit):
+    case = dict(case)
+    kw = {"network": case.pop("network", None), "rnn": case.pop("rnn", False),
+          "distributed": case.pop("distributed", False)}
+    assert _resolve(_cfg(**case), **kw) is auto
+    if explicit is True:
+        assert _resolve(_cfg(cuda_graph=True, **case), **kw) is True
+    else:
+        with pytest.raises(ConfigError, match=rf"params\.config\.cuda_graph: .*{explicit}"):
+            _resolve(_cfg(cuda_graph=True, **case), **kw)
+    assert _resolve(_cfg(cuda_graph=False, **case), **kw) is False
 
 
 def _overrides(tmp_path, *extra):
@@ -152,7 +193,7 @@ def test_cuda_graph_must_be_a_bool(tmp_path):
 
 @pytest.mark.parametrize("config,override,expected", [
     ("ppo_torch_pendulum.yaml", "params.config.mixed_precision=fp16",
-     r"params\.config\.cuda_graph: False with mixed_precision fp16"),
+     r"params\.config\.cuda_graph: False with float16 mixed precision"),
     ("ppo_cartpole_masked_velocity_rnn.yaml", "params.config.print_stats=false",
      r"params\.config\.cuda_graph: False for an RNN network"),
 ])
@@ -163,14 +204,14 @@ def test_cuda_graph_refuses_what_it_cannot_capture(tmp_path, config, override, e
 
 
 @CUDA
-def test_on_cuda_the_captured_step_trains_what_the_eager_step_does(monkeypatch):
-    _, graphed = _same_update("cuda", monkeypatch)
+def test_on_cuda_the_captured_step_trains_what_the_eager_step_does():
+    _, graphed = _same_update("cuda")
     assert graphed._graph.captures == 1 and graphed._graph.graph is not None
 
 
 @CUDA
-def test_on_cuda_a_non_finite_replay_raises_and_a_load_captures_again(monkeypatch):
-    agent = _agent("cuda", True, monkeypatch)
+def test_on_cuda_a_non_finite_replay_raises_and_a_load_captures_again():
+    agent = _agent("cuda", True)
     agent.update(_rollout(agent), 0.0)  # 8 minibatch steps: warmed up and captured
     assert agent._graph.captures == 1
     before = [p.detach().clone() for p in agent.params]
@@ -210,3 +251,29 @@ def test_the_act_step_wrapper_acts_on_each_calls_obs():
 def test_on_cuda_the_captured_act_step_follows_obs_and_parameters():
     graphed = _check_act("cuda")
     assert graphed.graph is not None
+
+
+@CUDA
+def test_on_cuda_a_step_that_cannot_be_captured_runs_eagerly_with_a_warning(caplog):
+    weight = torch.ones(3, device="cuda", requires_grad=True)
+    calls = []
+
+    def step(batch, coef, reference):  # .item() syncs with the host: no graph can hold it
+        calls.append(float((batch.obs.sum() * weight.sum()).item()))
+        return batch.obs.sum().reshape(1), reference
+
+    graphed = GraphedStep(step, lambda: None, warmup=1)
+    batch = Batch(obs=torch.ones(4, 3, device="cuda"), actions=None, log_probs=None, values=None, returns=None,
+                  advantages=None, params=torch.zeros(4, 2, device="cuda"))
+    with caplog.at_level(logging.WARNING, logger="rlchain"):
+        for _ in range(3):
+            out, _ = graphed(batch, torch.zeros((), device="cuda"), torch.zeros(4, 2, device="cuda"))
+    assert graphed.eager and graphed.graph is None and float(out) == 12.0
+    assert any("could not capture the PPO minibatch step" in r.getMessage() for r in caplog.records)
+
+
+def test_a_changed_hyperparameter_drops_the_captured_step():
+    agent = _agent("cpu", True)
+    agent._graph.graph = "captured"  # stands for a recorded graph holding e_clip as a constant
+    agent.config_changed()
+    assert agent._graph.graph is None

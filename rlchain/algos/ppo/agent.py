@@ -44,7 +44,7 @@ class PPOAgent:
     """
 
     def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device,
-                 comm: Communicator = SINGLE) -> None:
+                 comm: Communicator = SINGLE, cuda_graph: bool = False) -> None:
         self.model = model
         self.comm = comm  # multi_gpu: gradients and the KL behind the adaptive lr are averaged over ranks
         self.cfg = cfg
@@ -53,7 +53,7 @@ class PPOAgent:
         self.params = [p for p in model.parameters() if p.requires_grad]
         # cuda_graph: Adam reads its lr from a device tensor the captured step writes (lr_live, or 0 for
         # a non-finite step); every other path keeps a float lr
-        self.graphed = use_cuda_graph(cfg, device)
+        self.graphed = cuda_graph  # resolved by the trainer (rlchain.algos.ppo.graph_step.resolve_cuda_graph)
         self._lr_live = torch.tensor(float(self.lr), device=device) if self.graphed else None
         self._lr_step = self._lr_live.clone() if self.graphed else None
         self.optimizer = torch.optim.Adam(self.params, lr=self._lr_step if self.graphed else self.lr, eps=1e-8,
@@ -273,8 +273,6 @@ class PPOAgent:
     def _graph_step(self, batch: Batch, coef: torch.Tensor, previous: torch.Tensor,
                     reference: torch.Tensor | None) -> dict[str, float]:
         """:meth:`_step` through the captured graph: the same statistics, one host sync to read them."""
-        if self._graph.graph is None:  # eager warm-up: backward must start from no gradients
-            self.optimizer.zero_grad(set_to_none=True)
         values, current = self._graph(batch, coef, previous)
         if reference is not None:
             reference.index_copy_(0, batch.index, current)
@@ -328,6 +326,12 @@ class PPOAgent:
             self.schedule.kl_threshold = float(value)
         return False
 
+    def config_changed(self) -> None:
+        """A value of ``cfg`` changed (population-based training): a captured step holds the old one as a
+        constant, so it is recorded again."""
+        if self._graph is not None:
+            self._graph.reset()
+
     def _set_lr(self, lr: float) -> None:
         self.lr = lr
         if self.graphed:  # Adam reads it from the device (the captured step copies it into its group lr)
@@ -361,20 +365,6 @@ class PPOAgent:
 
 STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")
 """The statistics of a minibatch step, in the order of its statistics vector (auxiliary losses follow)."""
-
-
-def use_cuda_graph(cfg: TrainConfig, device: torch.device) -> bool:
-    """``cuda_graph`` resolved for ``device``: the captured step runs on CUDA only (a warning elsewhere)."""
-    if not cfg.cuda_graph:
-        return False
-    if device.type != "cuda":
-        _log.warning(f"cuda_graph: True needs a CUDA device; the PPO update runs eagerly on {device}")
-        return False
-    if autocast_dtype(cfg.mixed_precision, device) == torch.float16:  # a GPU without bf16: True means fp16
-        _log.warning("cuda_graph: mixed_precision is float16 here (its grad scaler syncs with the host); "
-                     "the PPO update runs eagerly")
-        return False
-    return True
 
 
 def _fast_adam_kwargs(device: torch.device) -> dict:

@@ -14,7 +14,7 @@ from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
-from rlchain.algos.ppo.graph_step import GraphedAct
+from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import check_batch
@@ -60,9 +60,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
-        if cfg.cuda_graph:  # before the agent builds its capturable optimizer
-            _check_cuda_graph(model, cfg.mixed_precision, ctx.comm.active, params.source)
-        self.agent = PPOAgent(model, cfg, device, ctx.comm)
+        graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
+        self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed)
         if cfg.compile_update:
             _check_compile_update(model, params.source)
             self.agent.compile_losses()
@@ -141,6 +140,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     def apply_hyperparam(self, name: str, value: float) -> None:
         if not self.agent.set_hyperparam(name, value):
             super().apply_hyperparam(name, value)
+            self.agent.config_changed()  # cuda_graph: the captured step holds e_clip, critic_coef, ...
 
     def _initial_states(self) -> tuple[torch.Tensor, ...]:
         states = tuple(self.model.initial_state(self.num_envs, self.device))
@@ -229,23 +229,6 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
     if callable(getattr(model.network, "get_aux_loss", None)):
         raise ConfigError(source, "params.config.compile_update",
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
-
-
-def _check_cuda_graph(model: ActorCritic, mixed_precision: Any, distributed: bool, source: str) -> None:
-    """cuda_graph captures a feed-forward, single-GPU step without a grad scaler; a one-line ConfigError
-    otherwise."""
-    key = "params.config.cuda_graph"
-    if model.is_rnn:
-        raise ConfigError(source, key, "False for an RNN network (sequence minibatches are not captured); "
-                                       "set it false")
-    if callable(getattr(model.network, "get_aux_loss", None)):
-        raise ConfigError(source, key, "False for a network with get_aux_loss() (its losses are checked in Python)")
-    if mixed_precision == "fp16":
-        raise ConfigError(source, key, "False with mixed_precision fp16 (its grad scaler syncs with the host); "
-                                       "use mixed_precision: bf16 or set cuda_graph false")
-    if distributed:
-        raise ConfigError(source, key, "False with multi_gpu (the gradients are averaged between ranks outside "
-                                       "the graph); set it false")
 
 
 def _value_size(env: Any) -> int:
