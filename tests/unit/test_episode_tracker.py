@@ -35,7 +35,8 @@ def _reference(steps, num_envs, mode):
     return out_r, out_l, out_s
 
 
-def test_the_tracker_records_what_a_per_env_loop_records():
+@pytest.mark.parametrize("cheap_sync", [True, False])  # False: the GPU's path, every step kept on the device
+def test_the_tracker_records_what_a_per_env_loop_records(cheap_sync):
     rng = random.Random(3)
     num_envs = 6
     groups = [slice(0, 3), slice(3, 6), slice(None)]
@@ -50,6 +51,7 @@ def test_the_tracker_records_what_a_per_env_loop_records():
         steps.append((rows, rewards, dones, dropped, success))
     for mode in ("any", "last"):
         tracker = EpisodeTracker(num_envs, 10_000, torch.device("cpu"), success_mode=mode)
+        tracker._cheap_sync = cheap_sync
         for t, (rows, rewards, dones, dropped, success) in enumerate(steps):
             tracker.step(torch.tensor(rewards), torch.tensor(dones), dropped=dropped, rows=rows,
                          success=None if success is None else torch.tensor(success))
@@ -63,7 +65,11 @@ def test_the_tracker_records_what_a_per_env_loop_records():
 
 
 def test_ended_episodes_wait_on_the_device_until_read_or_too_many():
+    on_cpu = EpisodeTracker(2, 10, torch.device("cpu"))
+    on_cpu.step(torch.ones(2), torch.tensor([False, False]))
+    assert on_cpu._cheap_sync and not on_cpu._pending  # on a CPU a step where nothing ended keeps nothing
     tracker = EpisodeTracker(2, 10, torch.device("cpu"))
+    tracker._cheap_sync = False  # the GPU's path
     for _ in range(3):
         tracker.step(torch.ones(2), torch.tensor([True, False]))
     assert len(tracker._pending) == 3  # nothing read yet

@@ -40,6 +40,7 @@ class EpisodeTracker:
         # sync per step cost more than the step's work); read into the deques in step order on demand
         self._pending: list[tuple[torch.Tensor | None, ...]] = []
         self._tracks_success = False  # True from the first step that reported a success value
+        self._cheap_sync = torch.device(device).type == "cpu"
         # task success of the episodes in progress: reported at some step, succeeded at any / the last one
         self.success_mode = success_mode
         self.success_seen = torch.zeros(num_envs, dtype=torch.bool, device=device)
@@ -68,6 +69,8 @@ class EpisodeTracker:
             self._step_success(torch.as_tensor(success, device=dones.device).reshape(-1), rows)
             self._tracks_success = True
         ended = dones if lost is None else dones | lost
+        if self._cheap_sync and not bool(ended.any()):  # on a CPU the check costs less than the copies
+            return
         if self._tracks_success:  # (before any success value every flag is False: nothing to keep)
             seen, hit = self.success_seen[rows], self._success_flags()[rows]
             self._pending.append((dones.clone(), returns.clone(), lengths.clone(), seen & dones, hit & dones))
