@@ -29,29 +29,11 @@ ENVS=${ENVS:-"TorchCartPole-v0 TorchPendulum-v0 TorchReacher8-v0"}
 export PYTHONUNBUFFERED=1 TORCHINDUCTOR_CACHE_DIR=${TORCHINDUCTOR_CACHE_DIR:-/tmp/inductor_cache}
 SUMMARY="$OUT/summary.txt"
 
-say() { echo "$*" | tee -a "$SUMMARY"; }
-
-# step NAME SECONDS CMD...: run CMD with a timeout, log to $LOGS/NAME.log (packed into $OUT/logs.tgz),
-# record its exit status and wall seconds
-step() {
-    local name=$1 limit=$2
-    shift 2
-    local t0 t1 rc
-    t0=$(date +%s.%N)
-    timeout "$limit" "$@" >"$LOGS/$name.log" 2>&1
-    rc=$?
-    t1=$(date +%s.%N)
-    say "$(printf '%-28s exit %3d  %7.1f s' "$name" "$rc" "$(python3 -c "print($t1 - $t0)")")"
-    tar czf "$OUT/logs.tgz" -C "$LOGS" .
-    return $rc
-}
+# shellcheck source=benchmarks/gpu_steps.sh
+source "$(dirname "$0")/gpu_steps.sh"
 
 say "== $(date -u +%FT%TZ) device=$DEV sizes=[$SIZES]"
-{ nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader 2>/dev/null || echo "no nvidia-smi"
-  lscpu | grep -m1 "Model name"; nproc
-  "$PY" -c "import torch, sys; print('python', sys.version.split()[0], 'torch', torch.__version__, 'cuda', \
-torch.cuda.is_available(), torch.cuda.get_device_name(0) if torch.cuda.is_available() else '')"
-} 2>&1 | tee -a "$SUMMARY"
+describe_machine
 
 # 1. the CUDA-only tests, with the files around them
 step tests_cuda 180 "$PY" -m pytest -q -p no:cacheprovider tests/unit/test_tensor_envs.py \
