@@ -125,30 +125,35 @@ class _Recorder:
         """``fn(*args)``: replayed, recorded or eager (see the class); returns its outputs, which after the
         capture are the graph's buffers."""
         if self.graph is not None:
-            self.graph.replay()
+            if torch.cuda.current_device() == self._device.index:
+                self.graph.replay()
+            else:
+                with torch.cuda.device(self._device):
+                    self.graph.replay()
             return self._outputs
-        on_cuda = any(isinstance(a, torch.Tensor) and a.is_cuda for a in args)
-        if not on_cuda or self.eager:
-            return self._eager_call(fn, args, before_capture, on_cuda)
-        if self._warmup_left > 0:
-            self._warmup_left -= 1
-            return self._eager_call(fn, args, before_capture, on_cuda)
-        if before_capture is not None:
-            before_capture()
-        graph = torch.cuda.CUDAGraph()
-        try:
-            with torch.cuda.graph(graph):
-                self._outputs = fn(*args)
-        except RuntimeError as exc:  # an op that syncs with the host or cannot be recorded
-            self.eager = True
-            _log.warning(f"cuda_graph: could not capture {self.what} ({' '.join(str(exc).split())[:200]}); "
-                         f"it runs eagerly")
-            return self._eager_call(fn, args, before_capture, on_cuda)
-        self.graph = graph
-        self.captures += 1
-        _log.info(f"cuda_graph: captured {self.what} (capture {self.captures})")
-        graph.replay()  # recording ran nothing: this is the call
-        return self._outputs
+        device = next((a.device for a in args if isinstance(a, torch.Tensor) and a.is_cuda), None)
+        if device is None or self.eager:  # no side stream: nothing will be recorded
+            return self._eager_call(fn, args, before_capture, False)
+        with torch.cuda.device(device):  # streams and graphs belong to the current device: make it the tensors'
+            if self._warmup_left > 0:
+                self._warmup_left -= 1
+                return self._eager_call(fn, args, before_capture, True)
+            if before_capture is not None:
+                before_capture()
+            graph = torch.cuda.CUDAGraph()
+            try:
+                with torch.cuda.graph(graph):
+                    self._outputs = fn(*args)
+            except RuntimeError as exc:  # an op that syncs with the host or cannot be recorded
+                self.eager = True
+                _log.warning(f"cuda_graph: could not capture {self.what} "
+                             f"({' '.join(str(exc).split())[:200]}); it runs eagerly")
+                return self._eager_call(fn, args, before_capture, True)
+            self.graph, self._device = graph, device
+            self.captures += 1
+            _log.info(f"cuda_graph: captured {self.what} (capture {self.captures})")
+            graph.replay()  # recording ran nothing: this is the call
+            return self._outputs
 
     @staticmethod
     def _eager_call(fn: Callable[..., Any], args: tuple, before: Callable[[], None] | None, on_cuda: bool) -> Any:
