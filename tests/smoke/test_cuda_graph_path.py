@@ -1,0 +1,87 @@
+"""cuda_graph's code path through real PPO runs on a CPU: the trainer forced onto it (the sync-free step with its
+device-tensor lr and capturable Adam, the act-step wrapper; nothing is recorded off CUDA) learns what the eager
+trainer does, and its checkpoints resume in an eager run and the other way round."""
+
+import os
+
+import pytest
+import torch
+
+from rlchain import Runner
+from rlchain.algos.ppo import trainer as ppo_trainer
+from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.models.build import build_env, build_model
+from rlchain.runs.logging import TrainLogger
+from rlchain.training.loop import Loop
+from tests.conftest import CONFIGS
+
+pytestmark = pytest.mark.smoke
+
+KEYS = ("a_loss", "c_loss", "entropy", "kl", "clip_frac", "grad_norm", "lr")
+CONFIG = os.path.join(CONFIGS, "ppo_torch_pendulum.yaml")  # continuous: kl_reference previous, obs per minibatch
+
+
+def _forced(monkeypatch):
+    monkeypatch.setattr(ppo_trainer, "resolve_cuda_graph", lambda *args: True)
+
+
+def _epochs(epochs: int = 3) -> tuple[list[dict[str, float]], OnPolicyTrainer]:
+    overrides = ["params.config.num_actors=64", "params.config.minibatch_size=512", "params.config.print_stats=false"]
+    params = Runner().load(CONFIG, overrides).params
+    torch.manual_seed(0)
+    env = build_env(params, 64, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    loop = Loop(params, OnPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0, {})
+    ppo = loop.algorithm
+    ppo.obs = torch.as_tensor(env.reset(seed=0))
+    out = []
+    for _ in range(epochs):
+        ppo.rollout()
+        out.append(ppo.learn())
+    env.close()
+    return out, ppo
+
+
+def test_the_graph_path_learns_what_the_eager_path_does(monkeypatch):
+    eager, eager_ppo = _epochs()
+    assert not eager_ppo.agent.graphed and eager_ppo.graphed_act is None
+    _forced(monkeypatch)
+    graphed, ppo = _epochs()
+    assert ppo.agent.graphed and ppo.graphed_act is not None
+    for a, b in zip(eager, graphed):
+        for key in KEYS:
+            assert b[key] == pytest.approx(a[key], rel=1e-4, abs=1e-6), key
+
+
+def _train(tmp_path, name, epochs, checkpoint=None):
+    overrides = [f"params.config.train_dir={tmp_path}", f"params.config.full_experiment_name={name}",
+                 f"params.config.max_epochs={epochs}", "params.config.num_actors=64",
+                 "params.config.minibatch_size=512", "params.config.print_stats=false"]
+    result = Runner().load(CONFIG, overrides).train(checkpoint=checkpoint)
+    return os.path.join(result.run_dir, "nn", "last_torch_pendulum.pth")  # the config's name
+
+
+def _optimizer_groups(path):
+    state = torch.load(path, map_location="cpu", weights_only=False)
+    found = []
+
+    def walk(x):
+        if isinstance(x, dict):
+            if "param_groups" in x:
+                found.extend(x["param_groups"])
+            for v in x.values():
+                walk(v)
+    walk(state)
+    return found
+
+
+def test_graph_path_checkpoints_resume_eagerly_and_back(tmp_path, monkeypatch):
+    with monkeypatch.context() as patch:
+        _forced(patch)
+        graphed = _train(tmp_path, "graphed", 3)
+    groups = _optimizer_groups(graphed)
+    assert groups and all(isinstance(g["lr"], float) and g["capturable"] is False for g in groups)
+    resumed = _train(tmp_path, "eager_from_graphed", 5, graphed)  # an eager run loads it
+    _forced(monkeypatch)
+    again = _train(tmp_path, "graphed_from_eager", 7, resumed)
+    assert os.path.exists(again)
