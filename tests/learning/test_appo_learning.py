@@ -27,5 +27,7 @@ def test_appo_cartpole_reaches_475(tmp_path):
 
 
 def test_appo_pendulum_reaches_minus_250(tmp_path):
-    result = train(tmp_path, "appo_pendulum.yaml")
+    # likewise: alone it stops at the score in ~20 s; once under CI load with another job beside it, it was at -441
+    # (best -275) at the config's 500 epochs; 1,000 leave a slowed run the room a run that learns never uses
+    result = train(tmp_path, "appo_pendulum.yaml", "params.config.max_epochs=1000")
     assert result.mean_reward >= -250, result
