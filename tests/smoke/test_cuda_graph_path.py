@@ -9,11 +9,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.algos.ppo import trainer as ppo_trainer
-from rlchain.algos.ppo.trainer import OnPolicyTrainer
-from rlchain.models.build import build_env, build_model
-from rlchain.runs.logging import TrainLogger
-from rlchain.training.loop import Loop
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, ppo_epochs
 
 pytestmark = pytest.mark.smoke
 
@@ -25,21 +21,9 @@ def _forced(monkeypatch):
     monkeypatch.setattr(ppo_trainer, "resolve_cuda_graph", lambda *args: True)
 
 
-def _epochs(epochs: int = 3) -> tuple[list[dict[str, float]], OnPolicyTrainer]:
+def _epochs() -> tuple[list[dict[str, float]], object]:
     overrides = ["params.config.num_actors=64", "params.config.minibatch_size=512", "params.config.print_stats=false"]
-    params = Runner().load(CONFIG, overrides).params
-    torch.manual_seed(0)
-    env = build_env(params, 64, 0)
-    model = build_model(params, env, torch.device("cpu"))
-    loop = Loop(params, OnPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0, {})
-    ppo = loop.algorithm
-    ppo.obs = torch.as_tensor(env.reset(seed=0))
-    out = []
-    for _ in range(epochs):
-        ppo.rollout()
-        out.append(ppo.learn())
-    env.close()
-    return out, ppo
+    return ppo_epochs(CONFIG, overrides, 64, 3)
 
 
 def test_the_graph_path_learns_what_the_eager_path_does(monkeypatch):
