@@ -7,7 +7,7 @@ updates. There is no action-space branch here: the model's distribution handles 
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import nullcontext
 
 import torch
@@ -214,7 +214,6 @@ class PPOAgent:
 
     def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
         """One minibatch update: losses (compiled with ``compile_update``), backward, clip, optimizer step."""
-        cfg = self.cfg
         coef = self._entropy_coef_tensor()
         previous = batch.params if reference is None else reference.index_select(0, batch.index)
         if self._graph is not None:
@@ -228,12 +227,7 @@ class PPOAgent:
             self.comm.average_gradients(self.params)
         if self.scaler is not None:
             self.scaler.unscale_(self.optimizer)
-        max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
-        grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-        names = (*STEP_STATS, *(f"losses/{name}" for name in aux))
-        values = torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
-                                                  *(value.detach().float() for value in aux.values())])]).tolist()
-        stats = dict(zip(names, values))
+        stats = _named_stats(self._stats_vector(loss, stats_t, aux, self._clip_grads()).tolist(), aux)
         bad = first_non_finite(stats)
         if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself
             raise DivergenceError(f"{bad} in the PPO update")
@@ -256,16 +250,25 @@ class PPOAgent:
         """
         loss, stats_t, aux, current = self._compiled_losses(batch, coef, previous)
         loss.backward()
-        max_norm = self.cfg.grad_norm if self.cfg.truncate_grads else float("inf")
-        grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-        values = torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
-                                                  *(value.detach().float() for value in aux.values())])])
+        values = self._stats_vector(loss, stats_t, aux, self._clip_grads())
         finite = torch.isfinite(values).all()
         zero_non_finite_(finite, self.params)
         self._lr_step.copy_(self._lr_live * finite)
         self.optimizer.step()
         self._aux_names = tuple(aux)
         return values, current
+
+    def _clip_grads(self) -> torch.Tensor:
+        """Clip the gradients to ``grad_norm`` when ``truncate_grads``; their total norm before clipping."""
+        max_norm = self.cfg.grad_norm if self.cfg.truncate_grads else float("inf")
+        return torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
+
+    @staticmethod
+    def _stats_vector(loss: torch.Tensor, stats_t: torch.Tensor, aux: dict[str, torch.Tensor],
+                      grad_norm: torch.Tensor) -> torch.Tensor:
+        """A step's statistics as one float32 vector in :data:`STEP_STATS` order, the auxiliary losses after."""
+        return torch.cat([stats_t, torch.stack([loss.detach().float(), grad_norm.detach().float(),
+                                                *(value.detach().float() for value in aux.values())])])
 
     def _grads_to_none(self) -> None:
         self.optimizer.zero_grad(set_to_none=True)
@@ -276,8 +279,7 @@ class PPOAgent:
         values, current = self._graph(batch, coef, previous)
         if reference is not None:
             reference.index_copy_(0, batch.index, current)
-        names = (*STEP_STATS, *(f"losses/{name}" for name in self._aux_names))
-        stats = dict(zip(names, values.tolist()))
+        stats = _named_stats(values.tolist(), self._aux_names)
         bad = first_non_finite(stats)
         if bad is not None:  # the step left the parameters as they were
             raise DivergenceError(f"{bad} in the PPO update")
@@ -365,6 +367,11 @@ class PPOAgent:
 
 STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")
 """The statistics of a minibatch step, in the order of its statistics vector (auxiliary losses follow)."""
+
+
+def _named_stats(values: list[float], aux_names: Iterable[str]) -> dict[str, float]:
+    """A step's statistics vector (read back) by name: :data:`STEP_STATS`, then ``losses/<name>``."""
+    return dict(zip((*STEP_STATS, *(f"losses/{name}" for name in aux_names)), values))
 
 
 def _fast_adam_kwargs(device: torch.device) -> dict:

@@ -218,9 +218,10 @@ def _static_batch(inputs: dict[str, torch.Tensor]) -> Batch:
 def zero_non_finite_(finite: torch.Tensor, params: list[torch.nn.Parameter]) -> None:
     """Zero every gradient unless ``finite`` (a 0-d bool): a step with a NaN or inf loss leaves Adam's
     moments finite (no host sync, so it can run inside a graph)."""
+    not_finite = ~finite
     for param in params:
         if param.grad is not None:
-            param.grad.copy_(torch.where(finite, param.grad, torch.zeros_like(param.grad)))
+            param.grad.masked_fill_(not_finite, 0.0)
 
 
 class GraphedAct(_Recorder):
