@@ -7,7 +7,12 @@ import sys
 import pytest
 import torch
 
+from rlchain import Runner
+from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.models.build import build_env, build_model
 from rlchain.registry import scoped_registrations
+from rlchain.runs.logging import TrainLogger
+from rlchain.training.loop import Loop
 
 # One intra-op thread, as the Runner sets on a 2-core machine: tests that build models directly
 # (not through the Runner) would otherwise spin 2 OpenMP threads beside envpool / Ray workers.
@@ -66,15 +71,9 @@ def signal_state_is_restored():
     assert after == before, f"this test left the signal state changed: {before} -> {after}"
 
 
-def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) -> tuple[list[dict], object]:
+def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) -> tuple[list[dict], OnPolicyTrainer]:
     """Same-seed PPO epochs of ``config`` on a CPU, driven by hand (rollout, then learn): each update's stats and
     the trainer (rlchain.algos.ppo.trainer.OnPolicyTrainer), its env closed."""
-    from rlchain import Runner
-    from rlchain.algos.ppo.trainer import OnPolicyTrainer
-    from rlchain.models.build import build_env, build_model
-    from rlchain.runs.logging import TrainLogger
-    from rlchain.training.loop import Loop
-
     params = Runner().load(config, overrides).params
     torch.manual_seed(0)
     env = build_env(params, num_envs, 0)
