@@ -67,8 +67,10 @@ class TrainConfig(ActorCriticConfig):
 
     env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
                                      "the background while the policy acts for the other (overlaps env "
-                                     "stepping with inference); auto = 2 when num_actors is even and >= "
-                                     "16, else 1. Must divide num_actors", check=check_env_groups)
+                                     "stepping with inference). auto (num_actors even and >= 16) measures at "
+                                     "the start: one envpool pool or two, and with two, the pipelined "
+                                     "rollout or both stepped together, whichever is faster (the same "
+                                     "transitions); else 1. Must divide num_actors", check=check_env_groups)
     tau: float = option(0.95, "GAE lambda", check=unit_interval)
     mini_epochs: int = option(4, "passes over the batch per epoch", check=positive)
     e_clip: float = option(0.2, "PPO clip range", check=positive)

@@ -57,7 +57,8 @@ GROUPS = "params.config.env_groups"
 
 def resolve_env_groups(groups: Any, num_envs: int) -> int:
     """``env_groups`` for an envpool backend of ``num_envs`` envs: ``auto`` -> 2 when ``num_envs`` is
-    even and >= 16 (measured faster, see docs/benchmarks.md), else 1; an int must divide ``num_envs``."""
+    even and >= 16 (the PPO trainer then measures whether one pool is faster: algos/ppo/env_layout.py),
+    else 1; an int must divide ``num_envs``."""
     if groups == "auto":
         return 2 if num_envs >= 16 and num_envs % 2 == 0 else 1
     if num_envs % int(groups):

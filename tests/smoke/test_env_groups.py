@@ -97,3 +97,44 @@ def test_env_groups_needs_envpool(tmp_path, base_config):
         Runner().load(base_config).train()
     base_config["params"]["config"]["env_groups"] = "auto"  # auto: synchronous for gymnasium envs
     assert Runner().load(base_config).train().epoch == 1
+
+
+
+@pytest.mark.parametrize("layout", ["one pool", "two pools"])
+def test_auto_trains_like_one_group_whichever_layout_wins(tmp_path, monkeypatch, layout):
+    """env_groups: auto measures one pool against two (and then, with two, the pipelined rollout against the
+    rollout stepped together, switching ways over epochs 1-6): whatever it picks, the same training."""
+    from rlchain.algos.ppo import env_layout
+    picked = env_layout.ONE_POOL if layout == "one pool" else env_layout.TWO_POOLS
+    monkeypatch.setattr(env_layout, "fastest", lambda seconds: picked)
+    built = []
+    choose = env_layout.choose_env_layout
+
+    def recording(params, env, seed):
+        env = choose(params, env, seed)
+        built.append(len(env.pools))
+        return env
+    monkeypatch.setattr("rlchain.algos.ppo.trainer.choose_env_layout", recording)
+    one = envpool_cartpole(tmp_path, 1, "params.config.max_epochs=8").train()
+    auto = envpool_cartpole(tmp_path, "auto", "params.config.max_epochs=8").train()
+    assert built == [picked.pools]
+    assert one.mean_reward == auto.mean_reward and one.frames == auto.frames
+    assert_same(last_params(one), last_params(auto))
+
+
+def test_layout_probe_leaves_the_random_state_and_the_seeds_alone(tmp_path):
+    """The probe steps the envs with a throwaway policy: the torch random state is as before, and the first
+    seeded reset restarts every env from the run's seed."""
+    from rlchain.algos.ppo.trainer import OnPolicyTrainer
+    from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
+    params = envpool_cartpole(tmp_path, "auto").params
+    torch.manual_seed(11)
+    before = torch.get_rng_state()
+    env = OnPolicyTrainer.build_training_env(params, 7)
+    reference = EnvpoolVecEnv("CartPole-v1", 16, seed=7)
+    try:
+        assert torch.equal(before, torch.get_rng_state())
+        assert (env.reset(seed=7) == reference.reset(seed=7)).all()
+    finally:
+        env.close()
+        reference.close()

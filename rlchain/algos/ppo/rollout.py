@@ -9,7 +9,8 @@ on a slice of env rows, so both ways share them.
 
 from __future__ import annotations
 
-from typing import Any
+import time
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -20,6 +21,9 @@ from rlchain.algos.core.storage import ALL
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.networks.rnn import zero_finished
 
+if TYPE_CHECKING:
+    from rlchain.algos.ppo.env_layout import PipelineChoice
+
 
 class RolloutMixin:
     """The rollout half of :class:`rlchain.algos.ppo.trainer.OnPolicyTrainer` (uses its env, model,
@@ -27,6 +31,8 @@ class RolloutMixin:
 
     graphed_act = None
     """``cuda_graph``: the act step captured as a CUDA graph (rlchain.algos.ppo.graph_step.GraphedAct)."""
+    pipeline_choice: PipelineChoice
+    """Over env groups: pipelined, or stepped together (``env_groups: auto`` measures; rlchain.algos.ppo.env_layout)."""
 
     def _action_masks(self) -> torch.Tensor | None:
         """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""
@@ -35,11 +41,21 @@ class RolloutMixin:
         return self.ctx.to_tensor(self.env.get_action_mask()).bool()
 
     def rollout(self) -> bool:
-        """Step the envs for horizon_length steps, filling the storage; False if a stop signal came."""
+        """Step the envs for horizon_length steps, filling the storage; False if a stop signal came. Over env
+        groups, pipelined or stepped together as :attr:`pipeline_choice` says (the same transitions)."""
         self.model.eval()
         groups = self.ctx.spec.groups
-        if groups is not None and len(groups) > 1:
-            return self._pipelined_rollout(groups)
+        if groups is None or len(groups) < 2:
+            return self._rollout()
+        pipelined = self.pipeline_choice.pipelined()
+        start = time.perf_counter()
+        complete = self._pipelined_rollout(groups) if pipelined else self._rollout()
+        if complete:
+            self.pipeline_choice.record(pipelined, time.perf_counter() - start)
+        return complete
+
+    def _rollout(self) -> bool:
+        """The synchronous rollout: act for every env, step them all, observe them all."""
         for t in range(self.cfg.horizon_length):
             if self.ctx.stop_requested():
                 return False

@@ -14,6 +14,7 @@ from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
+from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, probed
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
@@ -52,9 +53,17 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
 
     @classmethod
     def build_training_env(cls, params: Params, seed: int | None) -> Any:
-        """The vectorized env, in ``env_groups`` that step in the background (the pipelined rollout)."""
+        """The vectorized env, in ``env_groups`` that step in the background (the pipelined rollout); under
+        ``env_groups: auto`` an envpool env is laid out as measured fastest (algos/ppo/env_layout.py)."""
         cfg = params.config
-        return build_env(params, cfg.num_actors, seed, runners=True, groups=cfg.env_groups)
+        env = build_env(params, cfg.num_actors, seed, runners=True, groups=cfg.env_groups)
+        if not probed(env, params):
+            return env
+        try:
+            return choose_env_layout(params, env, seed)
+        except BaseException:
+            env.close()
+            raise
 
     def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
@@ -76,6 +85,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         # RNN states carried through the rollout: the model's, then the central value's
         self.rnn_states = self._initial_states()
         self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=device)
+        self.pipeline_choice = PipelineChoice(auto=cfg.env_groups == "auto")
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
