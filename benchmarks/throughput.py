@@ -20,8 +20,10 @@ scaled to keep the same number of minibatches per epoch. For each case it measur
 
 and prints steps/s for each plus rollout/env and train/env. ``--env-groups 1 2`` measures envpool
 cases once per ``env_groups`` value (1: synchronous rollout; 2: two env groups stepping in the
-background while the policy acts for the other, see ``EnvpoolVecEnv``); env-only is always the
-synchronous step of all envs. ``--rl-games-python PY`` (rl_games 1.6.5) and ``--rl-games2-python PY``
+background while the policy acts for the other, see ``EnvpoolVecEnv``; auto: the layout the trainer measures
+fastest at the start, shown as a1 / a2t / a2p for one pool / two stepped together / two pipelined, its
+trial rollouts run before the timing); env-only is always the synchronous step of all envs.
+``--rl-games-python PY`` (rl_games 1.6.5) and ``--rl-games2-python PY``
 (its main branch, 2.0) add rl_games' training steps/s on the same YAML and NUM_ENVS (``rl_games_driver.py`` for
 ``--rl-games-epochs`` epochs, median "fps total" of the epochs after the first, one torch thread, torch.compile
 off; ``--rl-games-compile off config`` adds a column with the YAML's or rl_games' default compile setting).
@@ -104,7 +106,7 @@ class Row:
     train_sps: float
     threads: int
     config: str
-    groups: int = 1
+    groups: int | str = 1
     peers: dict[str, float | None] = field(default_factory=dict)  # rl_games settings' train steps/s
     update_threads: int = 1
     plan: str = "auto"
@@ -190,7 +192,7 @@ def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, mi
 
 
 def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
-            device_name: str, groups: int = 1, update_threads: int | None = None,
+            device_name: str, groups: int | str = 1, update_threads: int | None = None,
             env_sps: float | None = None, fixed: bool = False, sets: tuple[str, ...] = ()) -> Row:
     """One row: env-only (unless ``env_sps`` is given), rollout and train steps/s of one case, with the
     config overrides ``sets`` (a variant) on top of the case's."""
@@ -223,9 +225,9 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
         if env_sps is None:
             env_steps()  # warm-up
             env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
-        if backend == "envpool" and groups > 1:  # the training envs, in env groups
+        if backend == "envpool" and groups != 1:  # the training envs, in env groups (auto: as measured)
             env.close()
-            env = build_env(params, num_envs, 0, runners=True, groups=params.config.env_groups)
+            env = OnPolicyTrainer.build_training_env(params, 0)
 
         model = build_model(params, env, device)
         loop = Loop(params, OnPolicyTrainer, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
@@ -236,6 +238,10 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
         ppo.rollout()
         with ctx.update_phase():
             ppo.learn()  # warm-up (and compilation)
+        while len(ctx.spec.groups or ()) > 1 and ppo.pipeline_choice.decided is None:  # auto, two pools: trials
+            ppo.rollout()
+        if groups == "auto":
+            groups = auto_label(env, ppo)
         if plan is not None and plan.adaptive and (params.config.compile_update or params.config.torch_compile):
             # inductor builds its CPU kernels once per torch thread count, and an adaptive plan may run a phase
             # at any count from 1 up to its own: compile them all here, not inside the timed window
@@ -307,6 +313,23 @@ def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs:
         print(f"rl_games run on {config} failed (exit {proc.returncode}): {proc.stderr.strip()[-300:]}", flush=True)
         return None
     return statistics.median(values[1:])
+
+
+def auto_label(env: Any, ppo: Any) -> str:
+    """What ``env_groups: auto`` chose: a1 (one pool), a2t (two stepped together), a2p (two pipelined)."""
+    if len(getattr(env, "pools", ())) < 2:
+        return "a1"
+    return "a2p" if ppo.pipeline_choice.decided else "a2t"
+
+
+def parse_groups(spec: str) -> int | str:
+    """An ``--env-groups`` value: auto or an int >= 1."""
+    if spec == "auto":
+        return spec
+    try:
+        return int(spec)
+    except ValueError:
+        raise SystemExit(f"bad --env-groups value '{spec}': expected auto or an int") from None
 
 
 def parse_plan(spec: str) -> tuple[str, int | None, int | None]:
@@ -388,8 +411,8 @@ def main(argv: list[str] | None = None) -> int:
                          "the config's, else the same as --threads)")
     ap.add_argument("--device", default="cpu", help="training device, and the device of tensor envs")
     ap.add_argument("--json", default=None, help="also write the rows to this file")
-    ap.add_argument("--env-groups", type=int, nargs="+", default=[1],
-                    help="envpool cases: measure once per env_groups value (default: 1)")
+    ap.add_argument("--env-groups", type=parse_groups, nargs="+", default=[1],
+                    help="envpool cases: measure once per env_groups value, auto or an int (default: 1)")
     ap.add_argument("--rl-games-python", default=None,
                     help="python of a venv with rl_games 1.6.5: add its training fps on the same YAML and envs")
     ap.add_argument("--rl-games2-python", default=None,
