@@ -21,8 +21,9 @@ scaled to keep the same number of minibatches per epoch. For each case it measur
 and prints steps/s for each plus rollout/env and train/env. ``--env-groups 1 2`` measures envpool
 cases once per ``env_groups`` value (1: synchronous rollout; 2: two env groups stepping in the
 background while the policy acts for the other, see ``EnvpoolVecEnv``; auto: the layout the trainer measures
-fastest at the start, shown as a1 / a2t / a2p for one pool / two stepped together / two pipelined, its
-trial rollouts run before the timing); env-only is always the synchronous step of all envs.
+fastest at the start, its trial rollouts run before the timing; the grp column shows the layout: 1 / 2t / 2p
+for one pool / two stepped together / two pipelined, a1 / a2t / a2p where auto chose it); env-only is always
+the synchronous step of all envs.
 ``--rl-games-python PY`` (rl_games 1.6.5) and ``--rl-games2-python PY``
 (its main branch, 2.0) add rl_games' training steps/s on the same YAML and NUM_ENVS (``rl_games_driver.py`` for
 ``--rl-games-epochs`` epochs, median "fps total" of the epochs after the first, one torch thread, torch.compile
@@ -240,8 +241,8 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
             ppo.learn()  # warm-up (and compilation)
         while len(ctx.spec.groups or ()) > 1 and ppo.pipeline_choice.decided is None:  # auto, two pools: trials
             ppo.rollout()
-        if groups == "auto":
-            groups = auto_label(env, ppo)
+        if backend == "envpool":
+            groups = layout_label(env, ppo, params.config.env_groups == "auto")
         if plan is not None and plan.adaptive and (params.config.compile_update or params.config.torch_compile):
             # inductor builds its CPU kernels once per torch thread count, and an adaptive plan may run a phase
             # at any count from 1 up to its own: compile them all here, not inside the timed window
@@ -315,11 +316,12 @@ def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs:
     return statistics.median(values[1:])
 
 
-def auto_label(env: Any, ppo: Any) -> str:
-    """What ``env_groups: auto`` chose: a1 (one pool), a2t (two stepped together), a2p (two pipelined)."""
-    if len(getattr(env, "pools", ())) < 2:
-        return "a1"
-    return "a2p" if ppo.pipeline_choice.decided else "a2t"
+def layout_label(env: Any, ppo: Any, auto: bool) -> str:
+    """The envpool layout measured: 1 (one pool), Nt (N pools stepped together), Np (N pools pipelined);
+    prefixed a where ``env_groups: auto`` chose it."""
+    pools = len(getattr(env, "pools", ())) or 1
+    label = "1" if pools == 1 else f"{pools}{'p' if ppo.pipeline_choice.decided else 't'}"
+    return f"a{label}" if auto else label
 
 
 def parse_groups(spec: str) -> int | str:
@@ -375,7 +377,7 @@ def busy_processes(count: int) -> Any:
 
 def table(rows: list[Row]) -> str:
     labels = list(dict.fromkeys(label for r in rows for label in r.peers))
-    head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>3} {'env-only sps':>13} {'rollout sps':>12} "
+    head = (f"{'backend':<10} {'env':<18} {'envs':>6} {'grp':>4} {'env-only sps':>13} {'rollout sps':>12} "
             f"{'train sps':>11} {'rollout/env':>11} {'train/env':>9} {'thr':>5} {'plan':>5} {'busy':>4}"
             f" {'variant':>14} {'warmup s':>8} {'x base':>6}"
             + "".join(f" {label + ' sps':>18} {'train/' + label:>20}" for label in labels))
@@ -386,7 +388,7 @@ def table(rows: list[Row]) -> str:
         for label in labels:
             sps = r.peers.get(label)
             peer += f" {'-':>18} {'-':>20}" if sps is None else f" {sps:>18,.0f} {r.train_sps / sps:>20.2f}"
-        lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {r.groups:>3} {r.env_sps:>13,.0f} "
+        lines.append(f"{r.backend:<10} {r.env:<18} {r.num_envs:>6} {str(r.groups):>4} {r.env_sps:>13,.0f} "
                      f"{r.rollout_sps:>12,.0f} {r.train_sps:>11,.0f} {r.rollout_ratio:>11.3f} "
                      f"{r.train_ratio:>9.3f} {f'{r.threads}/{r.update_threads}':>5} {r.plan:>5} {r.busy:>4}"
                      f" {r.variant:>14} {r.warmup_s:>8.1f} {x_base:>6}{peer}")

@@ -19,6 +19,18 @@ def test_parse_plan_reads_auto_and_rollout_update_pairs():
         throughput.parse_plan("2")
 
 
+def test_env_groups_values_and_layout_labels():
+    from types import SimpleNamespace
+    assert throughput.parse_groups("auto") == "auto" and throughput.parse_groups("2") == 2
+    with pytest.raises(SystemExit, match="bad --env-groups value 'two'"):
+        throughput.parse_groups("two")
+    ppo = SimpleNamespace(pipeline_choice=SimpleNamespace(decided=True))
+    two, one = SimpleNamespace(pools=[0, 1]), SimpleNamespace(pools=[0])
+    assert throughput.layout_label(two, ppo, auto=True) == "a2p" and throughput.layout_label(one, ppo, True) == "a1"
+    ppo.pipeline_choice.decided = False
+    assert throughput.layout_label(two, ppo, auto=False) == "2t"
+
+
 def test_parse_variant_reads_a_label_and_its_overrides():
     assert throughput.parse_variant("base=") == ("base", ())
     assert throughput.parse_variant("bf16+c=params.config.mixed_precision=bf16,params.config.compile_update=True") \
