@@ -89,19 +89,20 @@ class _Stepper:
 def measure_layouts(steppers: list[_Stepper], rounds: int = ROUNDS,
                     round_seconds: float = ROUND_SECONDS) -> dict[Layout, list[float]]:
     """Seconds per step of each stepper's layout: 2 warm-up steps each, then ``rounds`` rounds in turn."""
-    per_step = {}
-    for stepper in steppers:
-        start = time.perf_counter()
-        stepper.steps(2)
-        per_step[stepper.layout] = (time.perf_counter() - start) / 2
+    per_step = {stepper.layout: _seconds_per_step(stepper, 2) for stepper in steppers}
     seconds: dict[Layout, list[float]] = {s.layout: [] for s in steppers}
     for _ in range(rounds):
         for stepper in steppers:
             count = int(min(64, max(2, round(round_seconds / max(per_step[stepper.layout], 1e-6)))))
-            start = time.perf_counter()
-            stepper.steps(count)
-            seconds[stepper.layout].append((time.perf_counter() - start) / count)
+            seconds[stepper.layout].append(_seconds_per_step(stepper, count))
     return seconds
+
+
+def _seconds_per_step(stepper: _Stepper, count: int) -> float:
+    """Wall seconds per step of ``count`` steps of ``stepper``."""
+    start = time.perf_counter()
+    stepper.steps(count)
+    return (time.perf_counter() - start) / count
 
 
 def _policy_act(params: Params, env: Any, device: torch.device) -> Callable[[Any], np.ndarray]:
