@@ -80,7 +80,7 @@ from rlchain import Runner  # noqa: E402
 from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
 from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
 from rlchain.parallel.memory import tune_malloc  # noqa: E402
-from rlchain.parallel.threads import ThreadPlan, plan_threads  # noqa: E402
+from rlchain.parallel.threads import ThreadPlan, for_env, plan_threads  # noqa: E402
 from rlchain.runs.logging import TrainLogger  # noqa: E402
 from rlchain.training.loop import Loop  # noqa: E402
 
@@ -212,6 +212,8 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
     torch.manual_seed(0)
     device = resolve_device(params.config.device)
     env = build_env(params, num_envs, 0)
+    if not fixed:  # as the Runner does: a tensor env's rollout takes the update's threads
+        plan = for_env(plan, env, threads or params.torch_threads)
     try:
         env_device = getattr(env, "device", torch.device("cpu"))
         env.reset(seed=0)

@@ -26,7 +26,7 @@ from rlchain.log import get_logger
 from rlchain.models.build import apply_sigma, build_model, resolve_device
 from rlchain.parallel import communicator, distributed
 from rlchain.parallel.memory import tune_malloc
-from rlchain.parallel.threads import ThreadPlan, set_threads
+from rlchain.parallel.threads import ThreadPlan, for_env, set_threads
 from rlchain.registry import ALGOS
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs.checkpoint import seed_everything
@@ -119,6 +119,7 @@ class Runner:
         device = resolve_device(cfg.device)
         algorithm = algorithm_class(params)
         env = algorithm.build_training_env(params, seed)  # the vectorized env; APPO: its runners
+        threads = for_env(threads, env, params.torch_threads)  # tensor envs: rollout threads as the update's
         try:
             algorithm.check_config(params, env_spec(env))  # before the model (PPO: the minibatch)
             with communicator.building_with(group or communicator.SINGLE):  # normalizers sync over ranks

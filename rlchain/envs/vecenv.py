@@ -16,6 +16,9 @@ Shapes for ``num_envs = N``:
 - ``observation_space`` / ``action_space``: the single-env gymnasium spaces.
 - tensor envs set ``is_tensor_env = True`` and ``device``: ``step`` then takes a torch tensor of
   actions on that device and every StepResult field is a tensor on it (no numpy round trip).
+- ``steps_on_torch_threads = True`` (optional; rlchain's tensor envs): the env steps with torch ops
+  in this process and has no threads of its own, so on a CPU the rollout takes as many torch
+  threads as the update (envpool's and subprocess envs' threads need the other cores instead).
 - optional rl_games attributes: ``value_size`` (default 1), ``get_number_of_agents()`` (1),
   ``use_central_value`` (False), ``has_action_mask()`` (False). rlchain reads these (and the other
   optional parts below) once, into the :class:`~rlchain.envs.spec.EnvSpec` the factory attaches as

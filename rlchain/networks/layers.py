@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 import torch
 import torch.nn as nn
+import torch.nn.functional as F
 
 from rlchain.config.schema import InitializerConfig
 
@@ -66,9 +67,31 @@ def _variance_scaling(weight: torch.Tensor, cfg: InitializerConfig) -> None:
         nn.init.normal_(weight, std=math.sqrt(variance))
 
 
+NARROW_INPUTS = 12
+"""Input widths up to which :class:`Linear` passes its weight to the matmul as an (in, out) copy on a CPU."""
+
+
+class Linear(nn.Linear):
+    """``nn.Linear`` with the same parameters and state dict, faster to train on a CPU with a narrow input.
+
+    For ``F.linear(x, W, b)`` autograd computes the weight gradient in the layout of ``W.t()``, as
+    ``(g.t() @ x).t()``: for an observation layer (x of B x 3 .. 12) that is a (out x B) @ (B x in) product,
+    which MKL runs at a few GFLOP/s (1.3 ms for B = 16,384, in = 3, out = 64 on one core). Passing the
+    weight as a contiguous (in, out) copy makes it ``x.t() @ g`` instead, 2-3.6x faster; the forward pass
+    gives the same values, the gradient the same sum in another order (float rounding). Only while a
+    gradient is taken on a CPU: inference, export and CUDA run ``F.linear`` as before.
+    """
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if (self.in_features <= NARROW_INPUTS and self.bias is not None and x.dim() == 2
+                and x.device.type == "cpu" and torch.is_grad_enabled() and self.weight.requires_grad):
+            return torch.addmm(self.bias, x, self.weight.t().contiguous())
+        return F.linear(x, self.weight, self.bias)
+
+
 def linear(in_features: int, out_features: int, init: InitializerConfig) -> nn.Linear:
     """A Linear layer with the named weight initializer and zero bias (torch default when 'default')."""
-    layer = nn.Linear(in_features, out_features)
+    layer = Linear(in_features, out_features)
     if init.name not in ("default", "None"):
         initialize(layer.weight, init)
         nn.init.zeros_(layer.bias)

@@ -193,3 +193,25 @@ def test_playing_plans_no_update_threads_and_samples_no_cores(monkeypatch):
     monkeypatch.setattr(threads, "busy_cores", no_sample)
     assert plan_threads(None, None, "cpu", cores=2, updates=False) == ThreadPlan(1, 1)
     assert plan_threads(2, None, "cpu", cores=8, updates=False) == ThreadPlan(2, 2)
+
+
+def test_a_tensor_env_rollout_takes_the_update_count_and_other_envs_keep_theirs():
+    from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
+    from rlchain.parallel.threads import for_env
+
+    class Envpool:  # its own threads step the envs: the rollout leaves them the other cores
+        pass
+
+    before = torch.get_num_threads()
+    try:
+        tensor_env = TorchCartPole(4)
+        plan = plan_threads(None, None, "cpu", cores=2, load=0.0)
+        adjusted = for_env(plan, tensor_env, None)
+        assert adjusted == ThreadPlan(2, 2) and torch.get_num_threads() == 2  # applied now
+        assert for_env(plan, Envpool(), None) is plan
+        assert for_env(plan_threads(1, None, "cpu", cores=2, load=0.0), tensor_env, 1) == ThreadPlan(1, 1)
+        assert for_env(None, tensor_env, None) is None  # CUDA: torch's own choice
+        busy = for_env(plan_threads(None, None, "cpu", cores=2, load=1.2), tensor_env, None)
+        assert busy.current() == (1, 1)  # the machine was busy at the start: both phases start at one
+    finally:
+        torch.set_num_threads(before)

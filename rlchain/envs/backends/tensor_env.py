@@ -56,6 +56,7 @@ class TensorVecEnv:
     """
 
     is_tensor_env = True
+    steps_on_torch_threads = True  # the rollout's thread plan: see rlchain.parallel.threads.for_env
     observation_space: gym.spaces.Box
     action_space: gym.Space
 
