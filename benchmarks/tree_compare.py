@@ -114,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
             new_runs.append(run_throughput(REPO, args.cases, args.seconds, args.threads, args.set))
             for name, rows in ((args.base, old_runs[-1]), ("HEAD", new_runs[-1])):
                 for row in rows:  # each run, so the spread behind the medians shows
-                    print(f"  {name:>10} {row['env']:<18} " + " ".join(f"{m} {row[m]:>10,.0f}" for m in METRICS))
+                    print(f"  {name:>10} {row['env']:<18} " + " ".join(f"{m} {row[m]:>10,.0f}" for m in METRICS)
+                          + f" warm-up {row.get('warmup_s', 0.0):.1f} s")  # compile_update compiles there
     finally:
         subprocess.run(["git", "-C", REPO, "worktree", "remove", "--force", worktree], check=False)
     print()
