@@ -80,3 +80,51 @@ def test_auto_order_is_fixed_for_continuous_actions_and_shuffled_otherwise():
     assert shuffled_minibatches("auto", continuous=False) is True
     assert shuffled_minibatches("fixed", continuous=False) is False
     assert shuffled_minibatches("shuffle", continuous=True) is True
+
+
+def test_a_packed_gather_gives_every_field_bit_for_bit_in_its_dtype():
+    from rlchain.algos.core.storage import pack_rows, unpack_rows
+
+    size = 64
+    flat = {"obs": torch.randn(size, 4), "actions": torch.randint(-2**62, 2**62, (size,)),  # any int64 comes back
+            "log_probs": torch.randn(size), "values": torch.randn(size, 2), "params": torch.randn(size, 3),
+            "action_masks": torch.rand(size, 5) > 0.5}
+    flat["obs"][3, 1] = float("nan")
+    flat["actions"][:4] = torch.tensor([0, 1, -1, 2**63 - 1])  # small ones, and bit patterns that read as NaN
+    packed, layout = pack_rows(flat)
+    assert packed.shape == (size, 4 + 2 + 1 + 2 + 3 + 5)
+    idx = torch.randperm(size)[:16]
+    out = unpack_rows(packed.index_select(0, idx), layout)
+    for key, value in flat.items():
+        expected = value.index_select(0, idx)
+        assert out[key].dtype == expected.dtype and out[key].shape == expected.shape
+        assert torch.equal(out[key].view(torch.uint8), expected.view(torch.uint8)), key  # same bytes, NaN included
+
+
+def test_shuffled_minibatches_hold_the_same_rows_packed_or_not():
+    from rlchain.algos.core import storage as storage_module
+
+    storage = _storage()
+    advantages = torch.arange(T * N, dtype=torch.float32).reshape(T, N)
+    torch.manual_seed(3)
+    packed = list(storage.minibatches(4, advantages, shuffle=True))
+    torch.manual_seed(3)
+    original = storage_module.PACKED_ROW_WORDS
+    storage_module.PACKED_ROW_WORDS = 0  # every row too wide: field by field
+    try:
+        plain = list(storage.minibatches(4, advantages, shuffle=True))
+    finally:
+        storage_module.PACKED_ROW_WORDS = original
+    assert storage_module.pack_rows({"obs": storage.obs.reshape(T * N, 1)}) is not None
+    for a, b in zip(packed, plain, strict=True):
+        for field in ("obs", "actions", "log_probs", "values", "returns", "advantages", "params", "index"):
+            assert torch.equal(getattr(a, field), getattr(b, field)), field
+        assert a.advantages.tolist() == a.obs.squeeze(-1).tolist()  # each row's own advantage
+
+
+def test_wide_rows_and_other_dtypes_are_gathered_field_by_field():
+    from rlchain.algos.core.storage import pack_rows
+
+    assert pack_rows({"obs": torch.zeros(4, 84 * 84, dtype=torch.uint8)}) is None
+    assert pack_rows({"obs": torch.zeros(4, 65)}) is None
+    assert pack_rows({"obs": torch.zeros(4, 8, dtype=torch.float16)}) is None

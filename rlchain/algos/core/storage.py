@@ -123,9 +123,13 @@ class RolloutStorage:
             order = torch.randperm(size, device=self.obs.device)
         else:
             order = env_major_order(self.horizon, self.num_envs, self.obs.device)
+        packed = pack_rows(flat) if shuffle and self.obs.device.type == "cpu" else None
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
-            yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()}, index=idx)
+            if packed is not None:  # one gather of whole rows instead of one per field
+                yield Batch(**unpack_rows(packed[0].index_select(0, idx), packed[1]), index=idx)
+            else:
+                yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()}, index=idx)
 
     def sequence_minibatches(self, minibatch_size: int, seq_length: int, advantages: torch.Tensor,
                              use_resets: bool = True, shuffle: bool = True) -> Iterator[Batch]:
@@ -161,6 +165,46 @@ class RolloutStorage:
             rows = (seqs.unsqueeze(1) * length + steps).reshape(-1)
             batch = {k: v.index_select(0, rows) for k, v in flat.items()}
             yield Batch(**batch, states=tuple(s.index_select(1, seqs) for s in starts), seq_length=length)
+
+
+PACKED_ROW_WORDS = 64
+"""Rows up to this many 4-byte words wide are gathered as one packed row in shuffled CPU minibatches."""
+
+_WORDS = {torch.float32: 1, torch.int64: 2, torch.bool: 1}  # how each dtype travels in a packed row
+
+
+def pack_rows(flat: dict[str, torch.Tensor]) -> tuple[torch.Tensor, list[tuple]] | None:
+    """The (size, ...) per-step fields side by side in one (size, W) float32 tensor, and where each lies.
+
+    A shuffled minibatch gathers random rows of every field; on a CPU each field's gather waits on a
+    cache miss per row (62 us for 8,192 rows of a 4-float field after an update has evicted them, 7
+    fields per minibatch), so one gather of whole packed rows costs about one field's. float32 fields
+    go in as they are, int64 ones as their bytes (two float32 words, never converted: any value comes
+    back exactly), bool ones as 0/1. None where a field has another dtype or the row is wider than
+    :data:`PACKED_ROW_WORDS` (an image is gathered field by field: its rows fill cache lines anyway).
+    """
+    if any(v.dtype not in _WORDS for v in flat.values()):
+        return None
+    cols = [v.reshape(v.shape[0], -1) for v in flat.values()]
+    if sum(c.shape[1] * _WORDS[c.dtype] for c in cols) > PACKED_ROW_WORDS:
+        return None
+    layout, parts, at = [], [], 0
+    for (key, value), col in zip(flat.items(), cols):
+        part = col.float() if col.dtype == torch.bool else col.contiguous().view(torch.float32)
+        layout.append((key, at, at + part.shape[1], value.shape[1:], value.dtype))
+        parts.append(part)
+        at += part.shape[1]
+    return torch.cat(parts, 1), layout
+
+
+def unpack_rows(rows: torch.Tensor, layout: list[tuple]) -> dict[str, torch.Tensor]:
+    """The fields of gathered packed ``rows`` (B, W), each back in its dtype and per-row shape."""
+    out = {}
+    for key, start, stop, shape, dtype in layout:
+        part = rows[:, start:stop].contiguous()
+        part = part.bool() if dtype == torch.bool else part.view(dtype)
+        out[key] = part.reshape(rows.shape[0], *shape)
+    return out
 
 
 def env_major_order(horizon: int, num_envs: int, device: torch.device | str = "cpu") -> torch.Tensor:
