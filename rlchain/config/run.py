@@ -227,10 +227,11 @@ class RunConfig:
                                          "bfloat16 without grad scaling (rl_games 2.0's; float16 with grad "
                                          "scaling on a GPU without bf16), fp16 = float16 with grad scaling "
                                          "(rl_games 1.6's); on a CPU only bf16, where the CPU has native bf16 "
-                                         "(AVX512-BF16/AMX: up to 1.37x PPO train steps/s on "
-                                         "continuous tensor envs, level on envpool, TorchReacher8 behind late per "
-                                         "frame; elsewhere a warning and float32), True and fp16 are float32 there as "
-                                         "in rl_games; the rollout and the losses stay float32; False = off",
+                                         "(AVX512-BF16/AMX: 1.37-1.87x PPO train steps/s on "
+                                         "continuous tensor envs, level on envpool; TorchReacher8 level per frame "
+                                         "over 10 seeds; elsewhere a warning and float32), True and fp16 are "
+                                         "float32 there as in rl_games; the rollout and the losses stay float32; "
+                                         "False = off",
                                   check=check_precision)
     multi_gpu_sync_stats: bool = option(True, "multi_gpu (rl_games 2.0's key): the ranks' running normalizer "
                                               "statistics are kept in sync; rlchain always does so (False is an "

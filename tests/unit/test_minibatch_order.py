@@ -101,21 +101,21 @@ def test_a_packed_gather_gives_every_field_bit_for_bit_in_its_dtype():
         assert torch.equal(out[key].view(torch.uint8), expected.view(torch.uint8)), key  # same bytes, NaN included
 
 
-def test_shuffled_minibatches_hold_the_same_rows_packed_or_not():
+def test_shuffled_minibatches_hold_the_same_rows_packed_or_not(monkeypatch):
     from rlchain.algos.core import storage as storage_module
 
+    packs = []
+    pack_rows = storage_module.pack_rows
+    monkeypatch.setattr(storage_module, "pack_rows", lambda flat: packs.append(1) or pack_rows(flat))
     storage = _storage()
     advantages = torch.arange(T * N, dtype=torch.float32).reshape(T, N)
     torch.manual_seed(3)
-    packed = list(storage.minibatches(4, advantages, shuffle=True))
+    plain = list(storage.minibatches(4, advantages, shuffle=True))  # under PACKED_MIN_ROWS: field by field
+    assert not packs
+    monkeypatch.setattr(storage_module, "PACKED_MIN_ROWS", 4)
     torch.manual_seed(3)
-    original = storage_module.PACKED_ROW_WORDS
-    storage_module.PACKED_ROW_WORDS = 0  # every row too wide: field by field
-    try:
-        plain = list(storage.minibatches(4, advantages, shuffle=True))
-    finally:
-        storage_module.PACKED_ROW_WORDS = original
-    assert storage_module.pack_rows({"obs": storage.obs.reshape(T * N, 1)}) is not None
+    packed = list(storage.minibatches(4, advantages, shuffle=True))
+    assert len(packs) == 1  # once per pass
     for a, b in zip(packed, plain, strict=True):
         for field in ("obs", "actions", "log_probs", "values", "returns", "advantages", "params", "index"):
             assert torch.equal(getattr(a, field), getattr(b, field)), field
