@@ -103,6 +103,10 @@ SYSTEMS = {
     "rlchain_bf16": System("rlchain", "mixed_precision: bf16 (the update's network passes in bfloat16 on an "
                                       "AMX / AVX512-BF16 CPU)", overrides=("params.config.mixed_precision=bf16",),
                            color="tab:purple"),
+    "rlchain_compiled": System("rlchain", "compile_update and torch_compile (the minibatch step and the act step "
+                                          "compiled by inductor)",
+                               overrides=("params.config.compile_update=True", "params.config.torch_compile=True"),
+                               color="tab:pink"),
     "rl_games": System("rl_games", "OMP_NUM_THREADS=1 (2 torch threads), compile off", ("--torch-compile", "off"),
                        ONE_THREAD, "tab:orange", saved_as="1 thread, compile off"),
     "rl_games_shipped": System("rl_games", "as shipped (compile on, default threads)", color="tab:brown"),

@@ -184,6 +184,8 @@ def test_bf16_system_is_rlchain_with_its_override_and_tensor_envs_reach_rl_games
     cfg = os.path.join(curves.HERE, curves.CONFIGS["hopper"])
     assert "params.config.mixed_precision=bf16" in curves.command("rlchain_bf16", cfg, args)
     assert "params.config.mixed_precision=bf16" not in curves.command("rlchain", cfg, args)
+    compiled = curves.command("rlchain_compiled", cfg, curves.parse_args(["--libs", "rlchain_compiled"]))
+    assert "params.config.compile_update=True" in compiled and "params.config.torch_compile=True" in compiled
     assert "--tensor-env" in curves.command("rl_games2", cfg, args, tensor_env=True)
     assert "--tensor-env" not in curves.command("rl_games2", cfg, args)
     assert curves.budget_of("torch_pendulum", args) == 30.0 and curves.budget_of("hopper", args) == 300.0
