@@ -103,8 +103,7 @@ SYSTEMS = {
     "rlchain_bf16": System("rlchain", "mixed_precision: bf16 (the update's network passes in bfloat16 on an "
                                       "AMX / AVX512-BF16 CPU)", overrides=("params.config.mixed_precision=bf16",),
                            color="tab:purple"),
-    "rlchain_compiled": System("rlchain", "compile_update and torch_compile (the minibatch step and the act step "
-                                          "compiled by inductor)",
+    "rlchain_compiled": System("rlchain", "compiled: compile_update + torch_compile",
                                overrides=("params.config.compile_update=True", "params.config.torch_compile=True"),
                                color="tab:pink"),
     "rl_games": System("rl_games", "OMP_NUM_THREADS=1 (2 torch threads), compile off", ("--torch-compile", "off"),
