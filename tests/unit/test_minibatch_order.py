@@ -2,7 +2,8 @@
 
 import torch
 
-from rlchain.algos.core.storage import RolloutStorage, env_major_order
+from rlchain.algos.core import storage as storage_module
+from rlchain.algos.core.storage import RolloutStorage, env_major_order, pack_rows, unpack_rows
 
 T, N = 4, 3  # horizon 4, 3 envs: time-major flat index t * 3 + n
 
@@ -83,8 +84,6 @@ def test_auto_order_is_fixed_for_continuous_actions_and_shuffled_otherwise():
 
 
 def test_a_packed_gather_gives_every_field_bit_for_bit_in_its_dtype():
-    from rlchain.algos.core.storage import pack_rows, unpack_rows
-
     size = 64
     flat = {"obs": torch.randn(size, 4), "actions": torch.randint(-2**62, 2**62, (size,)),  # any int64 comes back
             "log_probs": torch.randn(size), "values": torch.randn(size, 2), "params": torch.randn(size, 3),
@@ -102,10 +101,7 @@ def test_a_packed_gather_gives_every_field_bit_for_bit_in_its_dtype():
 
 
 def test_shuffled_minibatches_hold_the_same_rows_packed_or_not(monkeypatch):
-    from rlchain.algos.core import storage as storage_module
-
     packs = []
-    pack_rows = storage_module.pack_rows
     monkeypatch.setattr(storage_module, "pack_rows", lambda flat: packs.append(1) or pack_rows(flat))
     storage = _storage()
     advantages = torch.arange(T * N, dtype=torch.float32).reshape(T, N)
@@ -123,8 +119,6 @@ def test_shuffled_minibatches_hold_the_same_rows_packed_or_not(monkeypatch):
 
 
 def test_wide_rows_and_other_dtypes_are_gathered_field_by_field():
-    from rlchain.algos.core.storage import pack_rows
-
     assert pack_rows({"obs": torch.zeros(4, 84 * 84, dtype=torch.uint8)}) is None
     assert pack_rows({"obs": torch.zeros(4, 65)}) is None
     assert pack_rows({"obs": torch.zeros(4, 8, dtype=torch.float16)}) is None

@@ -5,8 +5,9 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
+from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
 from rlchain.parallel import threads as threads_module
-from rlchain.parallel.threads import ThreadPlan, free_cores, idle_cores, plan_threads
+from rlchain.parallel.threads import ThreadPlan, for_env, free_cores, idle_cores, plan_threads
 
 BASE = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
                    "network": {"name": "actor_critic", "mlp": {"units": [8]}},
@@ -196,9 +197,6 @@ def test_playing_plans_no_update_threads_and_samples_no_cores(monkeypatch):
 
 
 def test_a_tensor_env_rollout_takes_the_update_count_and_other_envs_keep_theirs():
-    from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
-    from rlchain.parallel.threads import for_env
-
     class Envpool:  # its own threads step the envs: the rollout leaves them the other cores
         pass
 

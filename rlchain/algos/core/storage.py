@@ -127,10 +127,11 @@ class RolloutStorage:
             else None
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
-            if packed is not None:  # one gather of whole rows instead of one per field
-                yield Batch(**unpack_rows(packed[0].index_select(0, idx), packed[1]), index=idx)
-            else:
+            if packed is None:
                 yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()}, index=idx)
+            else:  # one gather of whole rows instead of one per field
+                rows, layout = packed
+                yield Batch(**unpack_rows(rows.index_select(0, idx), layout), index=idx)
 
     def sequence_minibatches(self, minibatch_size: int, seq_length: int, advantages: torch.Tensor,
                              use_resets: bool = True, shuffle: bool = True) -> Iterator[Batch]:
