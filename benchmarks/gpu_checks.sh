@@ -77,7 +77,7 @@ done
 cases=()
 for env in $ENVS; do for n in $SIZES; do cases+=("torch:$env:$n"); done; done
 peer=()
-[ -n "$RLG2" ] && peer=(--rl-games2-python "$RLG2" --rl-games-epochs 5)
+[ -n "$RLG2" ] && peer=(--rl-games2-python "$RLG2" --rl-games-epochs 5 --rl-games-threads 4)  # rl_games' own min(4, cores), as the H100 figures ran
 step throughput_eager 330 "$PY" benchmarks/throughput.py --device "$DEV" --cases "${cases[@]}" \
     --seconds "$SECONDS_PER" --variants eager=params.config.cuda_graph=False \
     bf16=params.config.mixed_precision=bf16,params.config.cuda_graph=False "${peer[@]}" \
@@ -88,7 +88,7 @@ sed -n '/^backend/,$p' "$LOGS/throughput_eager.log" | tee -a "$SUMMARY"
 # warms a compiled variant up before timing it), beside rl_games 2.0 with its default torch_compile.
 first=${SIZES%% *}
 peerc=()
-[ -n "$RLG2" ] && peerc=(--rl-games2-python "$RLG2" --rl-games-epochs 6 --rl-games-compile config)
+[ -n "$RLG2" ] && peerc=(--rl-games2-python "$RLG2" --rl-games-epochs 6 --rl-games-compile config --rl-games-threads 4)
 for env in $ENVS; do
     step "throughput_compile_$env" 150 "$PY" benchmarks/throughput.py --device "$DEV" --cases "torch:$env:$first" \
         --seconds "$SECONDS_PER" --variants eager=params.config.cuda_graph=False compile=params.config.compile_update=True \

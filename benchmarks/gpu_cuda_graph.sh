@@ -54,7 +54,7 @@ done
 cases=()
 for env in $ENVS; do for n in $SIZES; do cases+=("torch:$env:$n"); done; done
 peer=()
-[ -n "$RLG2" ] && peer=(--rl-games2-python "$RLG2" --rl-games-epochs 5)
+[ -n "$RLG2" ] && peer=(--rl-games2-python "$RLG2" --rl-games-epochs 5 --rl-games-threads 4)  # rl_games' own min(4, cores), as the H100 figures ran
 # shellcheck disable=SC2086
 step throughput_graph 330 "$PY" benchmarks/throughput.py --device "$DEV" --cases "${cases[@]}" \
     --seconds "$SECONDS_PER" --variants $VARIANTS "${peer[@]}" --json "$LOGS/throughput_graph.json"

@@ -26,8 +26,10 @@ for one pool / two stepped together / two pipelined, a1 / a2t / a2p where auto c
 the synchronous step of all envs.
 ``--rl-games-python PY`` (rl_games 1.6.5) and ``--rl-games2-python PY``
 (its main branch, 2.0) add rl_games' training steps/s on the same YAML and NUM_ENVS (``rl_games_driver.py`` for
-``--rl-games-epochs`` epochs, median "fps total" of the epochs after the first, one torch thread, torch.compile
-off; ``--rl-games-compile off config`` adds a column with the YAML's or rl_games' default compile setting).
+``--rl-games-epochs`` epochs, median "fps total" of the epochs after the first, ``--rl-games-threads`` torch
+threads (default 1, set through rl_games' own ``params.torch_threads``: before 2026-11-27 only OMP_NUM_THREADS was
+set and rl_games ran min(4, cores) threads), torch.compile off; ``--rl-games-compile off config`` adds a column with
+the YAML's or rl_games' default compile setting).
 Torch cases reach rl_games through its own vecenv API (``rl_games_tensor_env.py``), as an Isaac Lab env does::
 
     python benchmarks/throughput.py --cases torch:TorchCartPole-v0:4096 torch:TorchPendulum-v0:4096 \
@@ -281,11 +283,13 @@ class Peer:
 
 
 def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs: int, backend: str = "envpool",
-                 compile: str = "off", device: str = "cpu") -> float | None:
+                 compile: str = "off", device: str = "cpu", threads: int = 1) -> float | None:
     """rl_games' median training fps ("fps total": rollout and update) over epochs 2..``epochs`` on ``config``
-    with ``num_envs`` actors (minibatch_size scaled as rlchain's rows scale it), one torch thread; torch envs
-    through rl_games' vecenv API (rl_games_tensor_env.py). None when the run fails, or when the YAML's env is
-    not ``env_name`` (rlchain's rows override it; rl_games reads it from the YAML)."""
+    with ``num_envs`` actors (minibatch_size scaled as rlchain's rows scale it) and ``threads`` torch threads
+    (rl_games sets its own count from ``params.torch_threads``, min(4, cores) when unset, whatever
+    OMP_NUM_THREADS says, so the driver passes it); torch envs through rl_games' vecenv API
+    (rl_games_tensor_env.py). None when the run fails, or when the YAML's env is not ``env_name`` (rlchain's rows
+    override it; rl_games reads it from the YAML)."""
     import re
     import statistics
     import subprocess
@@ -301,10 +305,11 @@ def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs:
         return None
     driver = os.path.join(ROOT, "benchmarks", "rl_games_driver.py")
     cmd = [python, driver, "--file", os.path.abspath(config), "--max-epochs", str(epochs), "--torch-compile",
-           compile, "--num-actors", str(num_envs), "--device", device]
+           compile, "--num-actors", str(num_envs), "--device", device, "--torch-threads", str(threads)]
     if backend == "torch":
         cmd.append("--tensor-env")
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # rl_games at its best on a small CPU
+    count = str(threads)
+    env = {**os.environ, "OMP_NUM_THREADS": count, "MKL_NUM_THREADS": count}  # 1: rl_games at its best on 2 cores
     with tempfile.TemporaryDirectory() as cwd:
         try:
             proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
@@ -425,6 +430,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="rl_games' torch_compile: off (its best on a small CPU), config (the YAML's, else "
                          "rl_games' default: on); one column per setting and version (default off)")
     ap.add_argument("--rl-games-epochs", type=int, default=12, help="rl_games epochs per case (default 12)")
+    ap.add_argument("--rl-games-threads", type=int, default=1,
+                    help="rl_games' torch threads (params.torch_threads; default 1, its best on a small CPU)")
     ap.add_argument("--plans", nargs="+", default=None,
                     help="thread plans to measure, 'auto' (the Runner's) or R/U (rollout/update threads); "
                          "replaces --threads / --update-threads")
@@ -454,7 +461,7 @@ def main(argv: list[str] | None = None) -> int:
         for peer in rl_games_peers(args):
             print(f"{peer.label} on {spec} ...", flush=True)
             peers[peer.label] = rl_games_fps(peer.python, config, env, num, args.rl_games_epochs, backend,
-                                             peer.compile, args.device)
+                                             peer.compile, args.device, args.rl_games_threads)
         env_sps = None  # env-only is measured once per case (idle): every row's ratios share one ceiling
         for busy in args.busy:
             with busy_processes(busy):

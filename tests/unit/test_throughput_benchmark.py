@@ -135,3 +135,20 @@ def test_a_peer_python_that_is_not_there_is_one_line_not_a_traceback(tmp_path, c
     path.write_text("params:\n  config:\n    env_name: TorchCartPole-v0\n")
     assert throughput.rl_games_fps(str(tmp_path / "no-python"), str(path), "TorchCartPole-v0", 64, 3, "torch") is None
     assert "no-python: No such file or directory" in capsys.readouterr().out
+
+
+def test_rl_games_gets_one_torch_thread_through_its_own_setting(tmp_path):
+    # OMP_NUM_THREADS=1 alone left rl_games at min(4, cores) threads: the driver must pass params.torch_threads
+    path = tmp_path / "c.yaml"
+    path.write_text("params:\n  config:\n    env_name: TorchCartPole-v0\n")
+    seen = tmp_path / "seen"
+    fake = tmp_path / "python"
+    fake.write_text(f'#!/bin/sh\necho "$@ OMP=$OMP_NUM_THREADS" > {seen}\n'
+                    'printf "fps total: 10\\nfps total: 20\\nfps total: 40\\n"\n')
+    fake.chmod(0o755)
+    assert throughput.rl_games_fps(str(fake), str(path), "TorchCartPole-v0", 64, 3, "torch") == 30.0
+    args = seen.read_text().split()
+    assert args[args.index("--torch-threads") + 1] == "1" and "OMP=1" in args
+    throughput.rl_games_fps(str(fake), str(path), "TorchCartPole-v0", 64, 3, "torch", threads=2)
+    args = seen.read_text().split()
+    assert args[args.index("--torch-threads") + 1] == "2" and "OMP=2" in args
