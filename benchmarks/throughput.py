@@ -431,7 +431,8 @@ def main(argv: list[str] | None = None) -> int:
                          "rl_games' default: on); one column per setting and version (default off)")
     ap.add_argument("--rl-games-epochs", type=int, default=12, help="rl_games epochs per case (default 12)")
     ap.add_argument("--rl-games-threads", type=int, default=1,
-                    help="rl_games' torch threads (params.torch_threads; default 1, its best on a small CPU)")
+                    help="rl_games' torch threads (params.torch_threads; default 1, its best beside envpool on a small "
+                         "CPU; a tensor env steps on torch's threads, so measure 2 there too)")
     ap.add_argument("--plans", nargs="+", default=None,
                     help="thread plans to measure, 'auto' (the Runner's) or R/U (rollout/update threads); "
                          "replaces --threads / --update-threads")
