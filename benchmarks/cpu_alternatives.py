@@ -37,7 +37,6 @@ sys.path.insert(0, os.path.dirname(HERE))
 import throughput as tp  # noqa: E402
 from curves import cpu_model  # noqa: E402
 
-from rlchain import Runner  # noqa: E402
 from rlchain.algos.core.returns import gae  # noqa: E402
 from rlchain.models.build import build_env, build_model  # noqa: E402
 from rlchain.parallel.memory import tune_malloc  # noqa: E402
@@ -148,14 +147,13 @@ def trunk_rows(units: list[int], act: str, obs: int, heads: int, rows: int, reps
 def build_case(env_name: str, envs: int):
     """The shipped config's env, model and params at ``envs`` envs, as throughput.py builds them."""
     backend, env_name, num, config = tp.parse_case(f"torch:{env_name}:{envs}")
-    raw = Runner().load(config).raw
-    params = Runner().load(config, tp.overrides(backend, env_name, num, raw, "cpu")).params
+    params = tp.case_runner(backend, env_name, num, config, "cpu").params
     env = build_env(params, num, 0)
     model = build_model(params, env, torch.device("cpu"))
     return params, env, model
 
 
-def network_shape(params, env, model) -> tuple[list[int], str, int, int, int]:  # noqa: ANN001
+def network_shape(params, env) -> tuple[list[int], str, int, int, int]:  # noqa: ANN001
     """(units, activation, obs size, head outputs, minibatch rows) of a shipped config's update."""
     mlp = params.network.mlp
     space = env.action_space  # the heads: logits (discrete) or means (continuous, a fixed sigma), and the value
@@ -180,7 +178,7 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{'what':<64} {'shipped ms':>11} {'alt ms':>9} {'shipped/alt':>12}")
     for name in args.cases:
         params, env, model = build_case(name, args.envs)
-        units, act, obs, heads, rows = network_shape(params, env, model)
+        units, act, obs, heads, rows = network_shape(params, env)
         rows_out = [(f"{name} trunk {label}", a, b)
                     for label, a, b in trunk_rows(units, act, obs, heads, rows, args.reps, tuple(args.chunks))]
         if not args.no_compile:

@@ -194,14 +194,20 @@ def timed(fn: Any, steps_per_call: int, seconds: float, device: torch.device, mi
     return calls * steps_per_call / (time.perf_counter() - start)
 
 
+def case_runner(backend: str, env_name: str, num_envs: int, config: str, device_name: str,
+                extra: list[str] | tuple[str, ...] = ()) -> Runner:
+    """A Runner loaded with ``config`` and the case's :func:`overrides` (then ``extra`` ones) on top."""
+    raw = Runner().load(config).raw
+    return Runner().load(config, overrides(backend, env_name, num_envs, raw, device_name) + list(extra))
+
+
 def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: float, threads: int | None,
             device_name: str, groups: int | str = 1, update_threads: int | None = None,
             env_sps: float | None = None, fixed: bool = False, sets: tuple[str, ...] = ()) -> Row:
     """One row: env-only (unless ``env_sps`` is given), rollout and train steps/s of one case, with the
     config overrides ``sets`` (a variant) on top of the case's."""
-    runner = Runner().load(config)
     extra = ([f"params.config.env_groups={groups}"] if backend == "envpool" else []) + list(sets)
-    runner = Runner().load(config, overrides(backend, env_name, num_envs, runner.raw, device_name) + extra)
+    runner = case_runner(backend, env_name, num_envs, config, device_name, extra)
     params = runner.params
     if fixed:  # exactly these counts, whatever else runs (what the Runner did before adaptive plans)
         plan = ThreadPlan(threads or 1, update_threads or threads or 1)
@@ -304,11 +310,11 @@ def rl_games_fps(python: str, config: str, env_name: str, num_envs: int, epochs:
         print(f"rl_games not run on {config}: its env is {yaml_env}, the case's is {env_name}", flush=True)
         return None
     driver = os.path.join(ROOT, "benchmarks", "rl_games_driver.py")
+    count = str(threads)
     cmd = [python, driver, "--file", os.path.abspath(config), "--max-epochs", str(epochs), "--torch-compile",
-           compile, "--num-actors", str(num_envs), "--device", device, "--torch-threads", str(threads)]
+           compile, "--num-actors", str(num_envs), "--device", device, "--torch-threads", count]
     if backend == "torch":
         cmd.append("--tensor-env")
-    count = str(threads)
     env = {**os.environ, "OMP_NUM_THREADS": count, "MKL_NUM_THREADS": count}  # 1: rl_games at its best on 2 cores
     with tempfile.TemporaryDirectory() as cwd:
         try:
