@@ -347,6 +347,17 @@ def parse_groups(spec: str) -> int | str:
         raise SystemExit(f"bad --env-groups value '{spec}': expected auto or an int") from None
 
 
+def parse_threads(spec: str) -> int:
+    """A ``--rl-games-threads`` value: an int >= 1 (rl_games reads 0 as torch's default count)."""
+    try:
+        value = int(spec)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise SystemExit(f"bad --rl-games-threads value '{spec}': expected an int >= 1")
+    return value
+
+
 def parse_plan(spec: str) -> tuple[str, int | None, int | None]:
     """'auto' -> the Runner's plan; 'R/U' -> exactly R rollout threads and U update threads."""
     if spec == "auto":
@@ -436,7 +447,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="rl_games' torch_compile: off (its best on a small CPU), config (the YAML's, else "
                          "rl_games' default: on); one column per setting and version (default off)")
     ap.add_argument("--rl-games-epochs", type=int, default=12, help="rl_games epochs per case (default 12)")
-    ap.add_argument("--rl-games-threads", type=int, default=1,
+    ap.add_argument("--rl-games-threads", type=parse_threads, default=1,
                     help="rl_games' torch threads (params.torch_threads; default 1, its best beside envpool on a small "
                          "CPU; a tensor env steps on torch's threads, so measure 2 there too)")
     ap.add_argument("--plans", nargs="+", default=None,

@@ -152,3 +152,10 @@ def test_rl_games_gets_one_torch_thread_through_its_own_setting(tmp_path):
     throughput.rl_games_fps(str(fake), str(path), "TorchCartPole-v0", 64, 3, "torch", threads=2)
     args = seen.read_text().split()
     assert args[args.index("--torch-threads") + 1] == "2" and "OMP=2" in args
+
+
+def test_rl_games_threads_must_be_a_positive_int():
+    assert throughput.parse_threads("2") == 2
+    for bad in ("0", "-1", "two"):
+        with pytest.raises(SystemExit, match=f"bad --rl-games-threads value '{bad}': expected an int >= 1"):
+            throughput.parse_threads(bad)
