@@ -162,13 +162,24 @@ def network_shape(params, env) -> tuple[list[int], str, int, int, int]:  # noqa:
         int(params.config.minibatch_size)
 
 
+def positive(spec: str) -> int:
+    """An int >= 1 for --envs, --threads, --reps and --chunks (argparse turns the error into one line)."""
+    try:
+        value = int(spec)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an int >= 1, got '{spec}'")
+    return value
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--envs", type=int, default=4096)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--reps", type=int, default=20)
-    ap.add_argument("--cases", nargs="+", default=list(CASES))
-    ap.add_argument("--chunks", nargs="+", type=int, default=[1024, 2048, 4096])
+    ap.add_argument("--envs", type=positive, default=4096)
+    ap.add_argument("--threads", type=positive, default=2)
+    ap.add_argument("--reps", type=positive, default=20)
+    ap.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
+    ap.add_argument("--chunks", nargs="+", type=positive, default=[1024, 2048, 4096])
     ap.add_argument("--no-compile", action="store_true", help="leave out the compiled alternatives")
     args = ap.parse_args(argv)
     tune_malloc("keep")  # as training does

@@ -47,3 +47,15 @@ def test_a_quick_run_prints_a_row_per_chunk(capsys):
     # 64 envs x 16 steps in 8 minibatches: 128 rows, so chunks of 32 and 64 run and 4096 (not a split) does not
     assert [row.split("chunks of ")[1].split()[0] for row in rows] == ["32", "64"]
     assert all(row.rstrip().endswith("x") for row in rows)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--reps", "0"], "argument --reps: expected an int >= 1, got '0'"),
+    (["--chunks", "64", "x"], "argument --chunks: expected an int >= 1, got 'x'"),
+    (["--cases", "CartPole-v1"], "argument --cases: invalid choice: 'CartPole-v1'"),
+])
+def test_bad_arguments_are_one_line_errors(args, message, capsys):
+    with pytest.raises(SystemExit):
+        cpu_alternatives.main(["--no-compile", *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert message in err[-1]
