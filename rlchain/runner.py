@@ -25,6 +25,7 @@ from rlchain.inference.policy_player import play_policies
 from rlchain.log import get_logger
 from rlchain.models.build import apply_sigma, build_model, resolve_device
 from rlchain.parallel import communicator, distributed
+from rlchain.parallel.device import on_available_device
 from rlchain.parallel.memory import tune_malloc
 from rlchain.parallel.threads import ThreadPlan, for_env, set_threads
 from rlchain.registry import ALGOS
@@ -55,7 +56,7 @@ class Runner:
             source, raw = "<dict>", copy.deepcopy(config)
         raw = apply_overrides(raw, overrides or [], source)
         import_user_modules(raw, source)  # first: they register the networks / algos the parser looks up
-        self.params = parse_params(raw, source)
+        self.params = on_available_device(parse_params(raw, source))  # no GPU: the run is a device: cpu run
         self.raw = raw
         return self
 
@@ -77,7 +78,7 @@ class Runner:
                                        f"--file cfg.yaml")
         raw = apply_overrides({"params": config["params"]}, overrides or [], path)
         import_user_modules(raw, path)
-        self.params = params_from_state(raw["params"], path)
+        self.params = on_available_device(params_from_state(raw["params"], path))
         self.raw = raw
         return self
 
