@@ -19,7 +19,7 @@ PACKAGE = os.path.join(ROOT, "rlchain")
 # (the console script rlchain.console and python -m rlchain's rlchain.__main__ included). rlchain.rl_games
 # (rl_games' Python API names: its Runner drives rlchain's) is a facade at the same layer as cli.py / runner.py
 ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.runner",
-                "rlchain.tuning", "rlchain.rl_games")  # and the package itself (rlchain.Runner)
+                "rlchain.tuning", "rlchain.rl_games", "rlchain.sb3")  # and the package itself (rlchain.Runner)
 ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).

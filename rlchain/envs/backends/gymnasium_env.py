@@ -31,6 +31,7 @@ from rlchain.envs.vecenv import StateUnavailable, StepResult
 from rlchain.envs.wrappers import gym_state
 from rlchain.envs.wrappers.action_masks import vector_action_mask, vector_has_action_mask
 from rlchain.envs.wrappers.spaces import (
+    call_indexed,
     cast_actions,
     cast_obs,
     float32_action_space,
@@ -90,15 +91,19 @@ class GymnasiumVecEnv:
 
     ``env_kwargs`` go to ``gym.make`` (e.g. ``max_episode_steps``) or to the native vector env.
     ``render=True`` creates the envs with ``render_mode='human'`` (sync only). ``seed`` is used
-    by the first ``reset()`` that is given no seed.
+    by the first ``reset()`` that is given no seed. ``env_fns`` (``num_envs`` zero-argument env factories,
+    e.g. a user's env objects from Python) replace ``gym.make(env_id)``; ``env_id`` then only names them, and
+    they step in this process (sync, or async when asked).
     """
 
     def __init__(self, env_id: str, num_envs: int, mode: str = "auto", env_kwargs: dict | None = None,
-                 render: bool = False, seed: int | None = None) -> None:
+                 render: bool = False, seed: int | None = None, env_fns: list[Callable[[], Any]] | None = None) -> None:
         if mode not in MODES:
             raise ValueError(f"unknown gymnasium vectorization mode '{mode}' (choices: {', '.join(MODES)})")
         kwargs = dict(env_kwargs or {})
-        native = native_vector_class(env_id, kwargs)
+        if env_fns is not None and (len(env_fns) != num_envs or kwargs or mode == "native"):
+            raise ValueError(f"'{env_id}': env_fns takes {num_envs} factories, no env_kwargs and mode sync or async")
+        native = native_vector_class(env_id, kwargs) if env_fns is None else None
         if mode == "native" and (native is None or render):
             why = "rendering needs sync" if render else "no same-step native vector env for these kwargs"
             raise ValueError(f"'{env_id}' can't use the native gymnasium vector env: {why}")
@@ -119,7 +124,8 @@ class GymnasiumVecEnv:
             if self.env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
                 self._reset_rows = _resetters()[type(self.env.unwrapped)]
         else:
-            fns = [functools.partial(make_indexed, env_id, i, kwargs) for i in range(num_envs)]
+            fns = [functools.partial(make_indexed, env_id, i, kwargs) for i in range(num_envs)] if env_fns is None \
+                else [functools.partial(call_indexed, make, i) for i, make in enumerate(env_fns)]
             vector_cls = gym.vector.SyncVectorEnv if mode == "sync" else gym.vector.AsyncVectorEnv
             self.env = vector_cls(fns, autoreset_mode=AutoresetMode.SAME_STEP)
         self._env_action_space = self.env.single_action_space

@@ -133,5 +133,14 @@ class IndexedErrors(gym.Wrapper):
 def make_indexed(env_id: str, index: int, kwargs: dict) -> gym.Env:
     """``gym.make(env_id, **kwargs)`` wrapped so its errors name ``index`` (picklable for async),
     Dict observations flattened and action-mask methods always present (see action_masks.py)."""
-    env = concat_obs_state_env(flatten_dict_env(gym.make(env_id, **kwargs)))
-    return IndexedErrors(ActionMaskProxy(env), index)
+    return wrap_indexed(gym.make(env_id, **kwargs), index)
+
+
+def wrap_indexed(env: gym.Env, index: int) -> gym.Env:
+    """``env`` as :func:`make_indexed` wraps the env it makes."""
+    return IndexedErrors(ActionMaskProxy(concat_obs_state_env(flatten_dict_env(env))), index)
+
+
+def call_indexed(make: Any, index: int) -> gym.Env:
+    """``make()`` (a zero-argument env factory) wrapped as :func:`make_indexed` wraps the env it makes."""
+    return wrap_indexed(make(), index)

@@ -1,0 +1,28 @@
+"""PPO, SAC and DQN in Stable-Baselines3's shape, on rlchain's loop (see :mod:`rlchain.sb3.model`).
+
+Arguments you leave out take rlchain's settings of the packaged examples (``ppo_cartpole``, ``ppo_pendulum``,
+``sac_pendulum``, ``dqn_cartpole``), not SB3's defaults; SB3's names you pass are mapped to rlchain's keys
+(:mod:`rlchain.sb3.keys`, the table in docs/sb3.md), and any rlchain config key is taken as it is.
+"""
+
+from __future__ import annotations
+
+from rlchain.sb3.model import BaseModel
+
+
+class PPO(BaseModel):
+    """PPO (rl_games' ``a2c_discrete`` / ``a2c_continuous``): ``PPO("MlpPolicy", "CartPole-v1").learn(50_000)``."""
+
+    algo = "ppo"
+
+
+class SAC(BaseModel):
+    """Soft actor-critic for continuous actions: ``SAC("MlpPolicy", "Pendulum-v1").learn(20_000)``."""
+
+    algo = "sac"
+
+
+class DQN(BaseModel):
+    """Double DQN with a dueling head for discrete actions: ``DQN("MlpPolicy", "CartPole-v1").learn(100_000)``."""
+
+    algo = "dqn"

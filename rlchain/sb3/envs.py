@@ -1,0 +1,89 @@
+"""The ``env`` argument of the SB3-style API as an ``env_name`` rlchain builds.
+
+A gymnasium id is used as it is. A callable (``lambda: gym.make(...)``), a gymnasium env object or a
+gymnasium ``SyncVectorEnv`` / ``AsyncVectorEnv`` object is registered in :data:`rlchain.registry.ENVS`
+under a fresh name whose builder steps those envs with rlchain's gymnasium backend. An env object is
+one env (rlchain steps it, never closes it: it stays the caller's); a vector env object's sub-envs are
+stepped by rlchain with same-step resets.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+
+from rlchain.config.errors import ConfigError
+from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
+from rlchain.registry import ENVS
+
+_COUNTER = itertools.count(1)
+
+
+@dataclass(frozen=True)
+class EnvSource:
+    """What the config needs: ``env_name`` and, when the env argument fixes it, the env count."""
+
+    env_name: str
+    num_envs: int | None  # None: the caller picks (n_envs or the family's default)
+    label: str  # the env in messages: 'CartPole-v1', 'a gymnasium env object (CartPole-v1)', ...
+
+
+class _Borrowed(gym.Wrapper):
+    """A caller's env object stepped by rlchain: closing the vector env leaves the object open."""
+
+    def close(self) -> None:
+        pass
+
+
+def _id_of(env: Any) -> str:
+    spec = getattr(env, "spec", None)
+    return getattr(spec, "id", None) or type(getattr(env, "unwrapped", env)).__name__
+
+
+def _register(label: str, factories: list[Callable[[], gym.Env]], fixed: bool) -> str:
+    """A fresh ENVS name whose builder steps ``factories`` (cycled when more envs are asked for, unless
+    ``fixed``: env objects are exactly as many as given)."""
+    name = f"python_env_{next(_COUNTER)}"
+
+    def build(num_envs: int, seed: int | None, *, vecenv_type: str | None = None, render: bool = False,
+              **env_config: Any) -> GymnasiumVecEnv:
+        if env_config:
+            raise ConfigError("", "params.config.env_config", f"{label} takes no env_config keys")
+        if fixed and num_envs > len(factories):
+            raise ConfigError("", "params.config.num_actors", f"{num_envs} envs asked of {label}, which is "
+                                                              f"{len(factories)}; pass a callable for more envs")
+        mode = "async" if str(vecenv_type).lower() == "async" else "sync"
+        fns = [factories[i % len(factories)] for i in range(num_envs)]
+        return GymnasiumVecEnv(name, num_envs, mode=mode, seed=seed, env_fns=fns)
+
+    ENVS.register(name, build)
+    return name
+
+
+def env_source(env: Any, algo: str) -> EnvSource:
+    """The :class:`EnvSource` of the SB3-style ``env`` argument (see the module docstring)."""
+    if isinstance(env, str):
+        return EnvSource(env, None, env)
+    if isinstance(env, gym.vector.SyncVectorEnv):
+        label = f"a gymnasium SyncVectorEnv ({_id_of(env.envs[0])} x {env.num_envs})"
+        objects = list(env.envs)
+        return EnvSource(_register(label, [lambda e=e: _Borrowed(e) for e in objects], fixed=True),
+                         len(objects), label)
+    if isinstance(env, gym.vector.AsyncVectorEnv):
+        label = f"a gymnasium AsyncVectorEnv (x {env.num_envs})"
+        return EnvSource(_register(label, list(env.env_fns), fixed=False), env.num_envs, label)
+    if isinstance(env, gym.vector.VectorEnv):
+        raise ConfigError(f"rlchain.{algo.upper()}", "env", f"{type(env).__name__}: pass its gymnasium id, a "
+                                                            f"callable that makes one env, or a SyncVectorEnv")
+    if isinstance(env, gym.Env):
+        label = f"a gymnasium env object ({_id_of(env)})"
+        return EnvSource(_register(label, [lambda: _Borrowed(env)], fixed=True), 1, label)
+    if callable(env):
+        label = f"the env factory {getattr(env, '__name__', type(env).__name__)}"
+        return EnvSource(_register(label, [env], fixed=False), None, label)
+    raise ConfigError(f"rlchain.{algo.upper()}", "env", f"expected a gymnasium id, a gymnasium env or vector env, or "
+                                                        f"a callable that makes an env; got {type(env).__name__}")

@@ -1,0 +1,286 @@
+"""Stable-Baselines3's constructor arguments -> an rl_games-style rlchain config (plain data, no torch).
+
+:func:`build_config` starts from rlchain's settings for the family (those of the packaged examples
+``ppo_cartpole`` / ``ppo_pendulum``, ``sac_pendulum``, ``dqn_cartpole``), then applies each argument the
+user gave: an SB3 name (``n_steps``, ``gae_lambda``, ``buffer_size``, ...) through its mapping, or an
+rlchain config key (``horizon_length``, ``kl_threshold``, ...) as it is. Anything else is a one-line
+:class:`~rlchain.config.errors.ConfigError` with a did-you-mean.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+from collections.abc import Iterable
+from typing import Any
+
+from rlchain.config.errors import ConfigError, did_you_mean
+
+SOURCE = "rlchain.{algo}"  # where ConfigErrors say the bad argument came from
+
+ACTIVATIONS = {"tanh": "tanh", "relu": "relu", "elu": "elu", "selu": "selu", "silu": "swish", "swish": "swish",
+               "gelu": "gelu", "softplus": "softplus", "sigmoid": "sigmoid", "identity": "None"}
+"""torch.nn activation class names (lower case) -> rl_games' activation names."""
+
+_PPO_NETWORK = {"name": "actor_critic", "separate": False, "mlp": {"units": [64, 64], "activation": "tanh",
+                                                                   "initializer": {"name": "default"}}}
+_CONTINUOUS_SPACE = {"continuous": {"mu_activation": "None", "sigma_activation": "None",
+                                    "mu_init": {"name": "default"},
+                                    "sigma_init": {"name": "const_initializer", "val": 0}, "fixed_sigma": True}}
+
+DEFAULTS: dict[str, dict[str, Any]] = {
+    "ppo": {"network": _PPO_NETWORK,
+            "config": {"reward_shaper": {"scale_value": 0.1}, "normalize_advantage": True, "normalize_input": False,
+                       "normalize_value": False, "value_bootstrap": True, "gamma": 0.99, "tau": 0.95,
+                       "learning_rate": 1e-3, "lr_schedule": "adaptive", "kl_threshold": 0.016, "grad_norm": 1.0,
+                       "truncate_grads": True, "entropy_coef": 0.0, "e_clip": 0.2, "clip_value": True,
+                       "horizon_length": None, "minibatch_size": 256, "mini_epochs": 4, "critic_coef": 2,
+                       "save_best_after": 5}},
+    "ppo_continuous": {"network": {**_PPO_NETWORK, "space": _CONTINUOUS_SPACE,
+                                   "mlp": {**_PPO_NETWORK["mlp"], "activation": "elu"}},
+                       "config": {"normalize_input": True, "normalize_value": True, "gamma": 0.95,
+                                  "mini_epochs": 8, "bounds_loss_coef": 0.001}},
+    "sac": {"network": {"name": "soft_actor_critic", "separate": True, "space": {"continuous": None},
+                        "mlp": {"units": [128, 128], "activation": "relu", "initializer": {"name": "default"}},
+                        "log_std_bounds": [-5, 2]},
+            "config": {"normalize_input": False, "gamma": 0.99, "init_alpha": 1.0, "alpha_lr": 3e-4,
+                       "actor_lr": 3e-4, "critic_lr": 1e-3, "critic_tau": 0.005, "learnable_temperature": True,
+                       "batch_size": 128, "num_steps_per_episode": 50, "num_updates_per_step": 2,
+                       "policy_frequency": 1, "num_warmup_frames": 1000, "replay_buffer_size": 100_000,
+                       "save_best_after": 10}},
+    "dqn": {"network": {"name": "dqn", "dueling": True, "space": {"discrete": None},
+                        "mlp": {"units": [128, 128], "activation": "relu", "initializer": {"name": "default"}}},
+            "config": {"gamma": 0.99, "learning_rate": 5e-4, "double_dqn": True, "n_step": 3, "batch_size": 128,
+                       "num_steps_per_episode": 100, "num_updates_per_step": 1, "num_warmup_frames": 2000,
+                       "replay_buffer_size": 50_000, "target_update_frequency": 1, "target_tau": 0.01,
+                       "epsilon_start": 1.0, "epsilon_end": 0.02, "epsilon_decay_frames": 20_000, "loss": "huber",
+                       "grad_norm": 10, "save_best_after": 10}},
+}
+
+NUM_ENVS = {"ppo": 32, "sac": 4, "dqn": 4}
+"""Envs stepped together when the env argument does not fix the count and ``n_envs`` is not given."""
+
+PPO_FRAMES_PER_EPOCH = 512  # the default horizon_length is this / num_actors (at least 16)
+
+ALGO_NAMES = {"ppo": ("a2c_discrete", "discrete_a2c"), "ppo_continuous": ("a2c_continuous", "continuous_a2c_logstd"),
+              "sac": ("sac", "soft_actor_critic"), "dqn": ("dqn", "dqn")}
+
+
+class Unsupported(str):
+    """A known SB3 argument with no rlchain counterpart: the string says what to use instead."""
+
+
+def _lr_all(value: Any) -> dict[str, Any]:
+    lr = _number("learning_rate", value)
+    return {"actor_lr": lr, "critic_lr": lr, "alpha_lr": lr}
+
+
+def _number(name: str, value: Any) -> float:
+    if callable(value) or isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{name}: expected a number, got {value!r} (schedules: set lr_schedule, e.g. 'linear')")
+    return float(value)
+
+
+def _train_freq(value: Any) -> int:
+    if isinstance(value, (tuple, list)):
+        if len(value) != 2 or str(value[1]) != "step":
+            raise ValueError(f"train_freq: {value!r}: only (n, 'step') maps to rlchain (it updates after env steps)")
+        value = value[0]
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"train_freq: expected an int >= 1, got {value!r}")
+    return value
+
+
+def _ent_coef(value: Any) -> dict[str, Any]:
+    if isinstance(value, str) and (value == "auto" or value.startswith("auto_")):
+        return {"learnable_temperature": True, "init_alpha": float(value[5:]) if value != "auto" else 1.0}
+    return {"learnable_temperature": False, "init_alpha": _number("ent_coef", value)}
+
+
+def _every_step(value: Any) -> dict[str, Any]:
+    if value != 1:
+        raise ValueError("target_update_interval: rlchain's SAC updates its targets after every update (Polyak, "
+                         "tau); only 1 maps")
+    return {}
+
+
+def _clip_range_vf(value: Any) -> dict[str, Any]:
+    return {"clip_value": value is not None}
+
+
+PPO_KEYS: dict[str, Any] = {
+    "learning_rate": lambda v: {"learning_rate": _number("learning_rate", v), "lr_schedule": None},
+    "n_steps": "horizon_length", "batch_size": "minibatch_size", "n_epochs": "mini_epochs", "gamma": "gamma",
+    "gae_lambda": "tau", "clip_range": lambda v: {"e_clip": _number("clip_range", v)},
+    "clip_range_vf": _clip_range_vf, "normalize_advantage": "normalize_advantage", "ent_coef": "entropy_coef",
+    "vf_coef": lambda v: {"critic_coef": 2 * _number("vf_coef", v)},  # rlchain's value loss is 0.5 * coef * mse
+    "max_grad_norm": lambda v: {"grad_norm": _number("max_grad_norm", v), "truncate_grads": True},
+    "stats_window_size": "games_to_track",
+    "target_kl": Unsupported("rlchain adapts the learning rate to a KL target instead: "
+                             "lr_schedule='adaptive', kl_threshold=..."),
+    "use_sde": Unsupported("state-dependent exploration is not in rlchain"),
+    "sde_sample_freq": Unsupported("state-dependent exploration is not in rlchain"),
+    "rollout_buffer_class": Unsupported("rlchain's rollout storage is built in"),
+    "rollout_buffer_kwargs": Unsupported("rlchain's rollout storage is built in"),
+}
+
+OFF_POLICY_KEYS: dict[str, Any] = {
+    "buffer_size": "replay_buffer_size", "learning_starts": "num_warmup_frames", "batch_size": "batch_size",
+    "gamma": "gamma", "stats_window_size": "games_to_track",
+    "train_freq": None, "gradient_steps": None,  # together: num_updates_per_step (see _updates)
+    "action_noise": Unsupported("rlchain's SAC explores with its own policy noise"),
+    "replay_buffer_class": Unsupported("rlchain's replay buffer is built in (prioritized_replay, replay.her)"),
+    "replay_buffer_kwargs": Unsupported("rlchain's replay buffer is built in (prioritized_replay, replay.her)"),
+    "optimize_memory_usage": Unsupported("rlchain's replay buffer is built in"),
+}
+
+SAC_KEYS: dict[str, Any] = {
+    **OFF_POLICY_KEYS, "learning_rate": _lr_all, "tau": "critic_tau", "ent_coef": _ent_coef,
+    "target_entropy": lambda v: {"target_entropy": None if v == "auto" else _number("target_entropy", v)},
+    "target_update_interval": lambda v: _every_step(v),
+    "use_sde": Unsupported("state-dependent exploration is not in rlchain"),
+    "sde_sample_freq": Unsupported("state-dependent exploration is not in rlchain"),
+    "use_sde_at_warmup": Unsupported("state-dependent exploration is not in rlchain"),
+}
+
+DQN_KEYS: dict[str, Any] = {
+    **OFF_POLICY_KEYS, "learning_rate": lambda v: {"learning_rate": _number("learning_rate", v)},
+    "tau": "target_tau", "target_update_interval": "target_update_frequency",
+    "exploration_initial_eps": "epsilon_start", "exploration_final_eps": "epsilon_end",
+    "exploration_fraction": None,  # * total_timesteps: epsilon_decay_frames (see build_config)
+    "max_grad_norm": "grad_norm",
+}
+
+KEYS = {"ppo": PPO_KEYS, "sac": SAC_KEYS, "dqn": DQN_KEYS}
+
+POLICY_KWARGS = ("net_arch", "activation_fn", "log_std_init")
+
+
+def _updates(algo: str, given: dict[str, Any], num_actors: int) -> dict[str, Any]:
+    """SB3's train_freq / gradient_steps (``gradient_steps`` updates after every ``train_freq`` steps of each
+    env) as rlchain's ``num_updates_per_step`` (updates after every vectorized env step)."""
+    if "train_freq" not in given and "gradient_steps" not in given:
+        return {}
+    freq = _train_freq(given.get("train_freq", 1))
+    steps = given.get("gradient_steps", 1)
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps == 0 or steps < -1:
+        raise ValueError(f"gradient_steps: expected an int >= 1 or -1, got {steps!r}")
+    steps = freq * num_actors if steps == -1 else steps
+    if steps % freq:
+        raise ValueError(f"train_freq {freq} with gradient_steps {steps}: rlchain updates after every env step, "
+                         f"so gradient_steps must be a multiple of train_freq")
+    return {"num_updates_per_step": steps // freq}
+
+
+def _net_arch(algo: str, value: Any) -> dict[str, Any]:
+    if isinstance(value, dict):
+        parts = [list(v) for v in value.values()]
+        if any(p != parts[0] for p in parts):
+            raise ValueError(f"policy_kwargs.net_arch: {value!r}: rlchain gives the actor and the critic the same "
+                             f"hidden layers; give one list")
+        value = parts[0] if parts else []
+    if not isinstance(value, (list, tuple)) or not all(isinstance(u, int) and u > 0 for u in value):
+        raise ValueError(f"policy_kwargs.net_arch: expected a list of layer sizes, got {value!r}")
+    network: dict[str, Any] = {"mlp": {"units": list(value)}}
+    if algo == "ppo":
+        network["separate"] = True  # SB3's actor and critic share no layers
+    return network
+
+
+def activation_name(value: Any) -> str:
+    """rl_games' name of a torch.nn activation class (``nn.ReLU``) or name (``'relu'``)."""
+    name = value if isinstance(value, str) else getattr(value, "__name__", repr(value))
+    found = ACTIVATIONS.get(str(name).lower())
+    if found is None:
+        raise ValueError(f"policy_kwargs.activation_fn: {name} has no rl_games activation "
+                         f"(choices: {', '.join(sorted(ACTIVATIONS))})")
+    return found
+
+
+def _policy_kwargs(algo: str, continuous: bool, policy_kwargs: dict[str, Any]) -> dict[str, Any]:
+    network: dict[str, Any] = {}
+    for key, value in policy_kwargs.items():
+        if key == "net_arch":
+            _merge(network, _net_arch(algo, value))
+        elif key == "activation_fn":
+            _merge(network, {"mlp": {"activation": activation_name(value)}})
+        elif key == "log_std_init" and algo == "ppo" and continuous:
+            _merge(network, {"space": {"continuous": {"sigma_init": {"name": "const_initializer",
+                                                                     "val": _number(key, value)}}}})
+        else:
+            raise ValueError(f"policy_kwargs: unknown key '{key}'{did_you_mean(key, POLICY_KWARGS)} "
+                             f"(rlchain maps {', '.join(POLICY_KWARGS)}; any network block: network=...)")
+    return network
+
+
+def _merge(into: dict[str, Any], new: dict[str, Any]) -> None:
+    for key, value in new.items():
+        if isinstance(value, dict) and isinstance(into.get(key), dict):
+            _merge(into[key], value)
+        else:
+            into[key] = copy.deepcopy(value)
+
+
+def run_name(algo: str, env_name: str) -> str:
+    """A run name from the algorithm and the env: ``ppo_cartpole``."""
+    env = re.sub(r"-v\d+$", "", env_name.rsplit("/", 1)[-1])
+    return f"{algo}_{re.sub(r'[^a-z0-9]+', '_', env.lower()).strip('_') or 'env'}"
+
+
+def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, given: dict[str, Any],
+                 rlchain_keys: Iterable[str], policy_kwargs: dict[str, Any] | None = None,
+                 total_timesteps: int | None = None, seed: int | None = None,
+                 run: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The ``{'params': ...}`` config of ``algo`` (ppo, sac, dqn) on ``env_name`` with ``num_actors`` envs,
+    after the user's arguments ``given`` (SB3 names, or the rlchain config keys ``rlchain_keys``).
+    ``run``: further ``params.config`` keys (train_dir, device, print_stats, ...). ValueError (a ConfigError
+    naming the argument) for an unknown or unmappable argument."""
+    source = SOURCE.format(algo=algo.upper())
+    family = "ppo_continuous" if algo == "ppo" and continuous else algo
+    network = copy.deepcopy(DEFAULTS[algo]["network"])
+    config = copy.deepcopy(DEFAULTS[algo]["config"])
+    if family != algo:
+        _merge(network, DEFAULTS[family]["network"])
+        _merge(config, DEFAULTS[family]["config"])
+    elif algo == "ppo":
+        network["space"] = {"discrete": None}
+    config.update({"name": run_name(algo, env_name), "env_name": env_name, "num_actors": num_actors})
+    table, rlchain_keys = KEYS[algo], set(rlchain_keys)
+    try:
+        for key, value in given.items():
+            mapping = table.get(key, key if key in rlchain_keys else ...)
+            if mapping is ...:
+                raise ConfigError(source, key, f"unknown argument{did_you_mean(key, [*table, *rlchain_keys])} "
+                                               f"(an SB3 argument or an rlchain config key: docs/sb3.md)")
+            if isinstance(mapping, Unsupported):
+                raise ConfigError(source, key, f"has no rlchain counterpart: {mapping}")
+            if mapping is None:
+                continue  # read together with other arguments below
+            config.update(mapping(value) if callable(mapping) else {mapping: value})
+        config.update(_updates(algo, given, num_actors))
+        if algo == "dqn" and "exploration_fraction" in given:
+            fraction = _number("exploration_fraction", given["exploration_fraction"])
+            if total_timesteps is not None:
+                config["epsilon_decay_frames"] = max(1, int(fraction * total_timesteps))
+        _merge(network, _policy_kwargs(algo, continuous, dict(policy_kwargs or {})))
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        key, _, message = str(exc).partition(": ")
+        raise ConfigError(source, key, message) from None
+    if algo == "ppo":
+        if config.get("horizon_length") is None:
+            config["horizon_length"] = max(16, -(-PPO_FRAMES_PER_EPOCH // num_actors))
+        if "minibatch_size" not in given:  # the largest that divides the batch, as rlchain requires
+            batch = num_actors * config["horizon_length"]
+            config["minibatch_size"] = max(d for d in range(1, min(config["minibatch_size"], batch) + 1)
+                                           if batch % d == 0)
+    if total_timesteps is not None:
+        config["max_frames"] = int(total_timesteps)
+    config.update(run or {})
+    name, model = ALGO_NAMES[family]
+    params: dict[str, Any] = {"algo": {"name": name}, "model": {"name": model}, "network": network, "config": config}
+    if seed is not None:
+        params["seed"] = int(seed)
+    return {"params": params}
+

@@ -1,0 +1,82 @@
+"""rlchain.sb3.keys: Stable-Baselines3's argument names -> rlchain's config keys (pure, no env, no torch)."""
+
+import pytest
+
+from rlchain.config.errors import ConfigError
+from rlchain.sb3.keys import activation_name, build_config, run_name
+
+PPO_KEYS = ["horizon_length", "minibatch_size", "kl_threshold", "num_actors", "learning_rate"]
+
+
+def ppo(given, num_actors=8, continuous=False, **kw):
+    return build_config("ppo", "CartPole-v1", num_actors, continuous, given, PPO_KEYS, **kw)["params"]
+
+
+def test_ppo_names_map_to_rl_games_keys():
+    cfg = ppo({"n_steps": 64, "batch_size": 128, "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.8,
+               "clip_range": 0.1, "ent_coef": 0.01, "vf_coef": 0.5, "max_grad_norm": 0.5, "learning_rate": 3e-4,
+               "clip_range_vf": None})["config"]
+    assert (cfg["horizon_length"], cfg["minibatch_size"], cfg["mini_epochs"]) == (64, 128, 10)
+    assert (cfg["gamma"], cfg["tau"], cfg["e_clip"], cfg["entropy_coef"]) == (0.98, 0.8, 0.1, 0.01)
+    assert cfg["critic_coef"] == 1.0  # rlchain's value loss is 0.5 * critic_coef * mse; SB3's vf_coef * mse
+    assert cfg["grad_norm"] == 0.5 and cfg["truncate_grads"] is True
+    assert cfg["learning_rate"] == 3e-4 and cfg["lr_schedule"] is None  # SB3's learning rate is constant
+    assert cfg["clip_value"] is False
+
+
+def test_defaults_fit_the_env_count():
+    cfg = ppo({}, num_actors=3)["config"]
+    batch = 3 * cfg["horizon_length"]
+    assert batch >= 512 and batch % cfg["minibatch_size"] == 0 and cfg["minibatch_size"] <= 256
+    assert ppo({}, num_actors=32)["config"]["horizon_length"] == 16
+
+
+def test_rlchain_keys_pass_through_and_policy_kwargs_map():
+    params = ppo({"kl_threshold": 0.02}, policy_kwargs={"net_arch": {"pi": [32], "vf": [32]},
+                                                          "activation_fn": "ReLU"})
+    assert params["config"]["kl_threshold"] == 0.02
+    assert params["network"]["mlp"]["units"] == [32] and params["network"]["mlp"]["activation"] == "relu"
+    assert params["network"]["separate"] is True
+
+
+def test_continuous_ppo_and_log_std_init():
+    params = ppo({}, continuous=True, policy_kwargs={"log_std_init": -0.5})
+    assert params["algo"]["name"] == "a2c_continuous"
+    assert params["network"]["space"]["continuous"]["sigma_init"]["val"] == -0.5
+
+
+@pytest.mark.parametrize(("given", "policy_kwargs", "says"), [
+    ({"n_step": 8}, None, "n_step: unknown argument; did you mean 'n_steps'?"),
+    ({"target_kl": 0.01}, None, "target_kl: has no rlchain counterpart"),
+    ({"learning_rate": lambda p: 1e-3}, None, "learning_rate: expected a number"),
+    ({}, {"net_arch": {"pi": [64], "vf": [32]}}, "the same hidden layers"),
+    ({}, {"netarch": [64]}, "did you mean 'net_arch'?"),
+])
+def test_bad_arguments_are_one_line_errors(given, policy_kwargs, says):
+    with pytest.raises(ConfigError) as err:
+        ppo(given, policy_kwargs=policy_kwargs)
+    assert says in str(err.value) and "\n" not in str(err.value) and str(err.value).startswith("rlchain.PPO: ")
+
+
+def test_off_policy_names():
+    sac = build_config("sac", "Pendulum-v1", 4, True, {"buffer_size": 5000, "learning_starts": 100, "tau": 0.01,
+                                                      "learning_rate": 1e-3, "ent_coef": "auto_0.1",
+                                                      "train_freq": 2, "gradient_steps": 4}, [])["params"]["config"]
+    assert (sac["replay_buffer_size"], sac["num_warmup_frames"], sac["critic_tau"]) == (5000, 100, 0.01)
+    assert sac["actor_lr"] == sac["critic_lr"] == sac["alpha_lr"] == 1e-3
+    assert sac["learnable_temperature"] is True and sac["init_alpha"] == 0.1
+    assert sac["num_updates_per_step"] == 2
+    dqn = build_config("dqn", "CartPole-v1", 4, False, {"exploration_fraction": 0.1, "target_update_interval": 500,
+                                                        "tau": 1.0, "gradient_steps": -1}, [],
+                       total_timesteps=100_000)["params"]["config"]
+    assert dqn["epsilon_decay_frames"] == 10_000 and dqn["target_update_frequency"] == 500
+    assert dqn["target_tau"] == 1.0 and dqn["num_updates_per_step"] == 4 and dqn["max_frames"] == 100_000
+    with pytest.raises(ConfigError, match="multiple of train_freq"):
+        build_config("sac", "Pendulum-v1", 1, True, {"train_freq": 4, "gradient_steps": 1}, [])
+
+
+def test_names():
+    assert run_name("ppo", "CartPole-v1") == "ppo_cartpole" and run_name("sac", "ALE/Pong-v5") == "sac_pong"
+    assert activation_name(type("Tanh", (), {})) == "tanh"
+    with pytest.raises(ValueError, match="no rl_games activation"):
+        activation_name("Mish")
