@@ -7,26 +7,46 @@ import os
 import signal
 import sys
 import warnings
+from typing import Any
 
 from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
 from rlchain.inference.video import record_episodes
 from rlchain.inference.watch import watch_and_evaluate
+from rlchain.log import set_dialect
 from rlchain.runner import Runner
 from rlchain.runs.checkpoint import CheckpointError
 from rlchain.runs.wandb_logger import TrackingError
 from rlchain.tuning.search import run_search
 
+MODE_HELP = {  # rlchain COMMAND --help: the usage line and the options that command reads
+    "train": ("%(prog)s NAME|PATH [options] [key.path=value ...]",
+              {"checkpoint", "num_actors", "seed", "sigma", "track", "wandb_project_name", "wandb_entity",
+               "overrides"}),
+    "play": ("%(prog)s [NAME|PATH] --checkpoint CKPT [options] [key.path=value ...]",
+             {"checkpoint", "num_actors", "seed", "sigma", "games", "stochastic", "video", "untrained", "overrides"}),
+    "export": ("%(prog)s [NAME|PATH] --checkpoint CKPT [-o OUT] [--policy NAME]",
+               {"checkpoint", "output", "policy", "overrides"}),
+    "tune": ("%(prog)s SEARCH [-o OUT]", {"output"}),
+}
 
-def build_parser(prog: str = "runner.py") -> argparse.ArgumentParser:
-    """rl_games' flags and rlchain's additions; ``prog`` names the command in usage lines."""
-    p = argparse.ArgumentParser(prog=prog, description="Train or play an rl_games-style config.")
+
+def build_parser(prog: str = "runner.py", command: str | None = None) -> argparse.ArgumentParser:
+    """rl_games' flags and rlchain's additions; ``prog`` names the command in usage lines. ``command`` (train,
+    play, export, tune: ``rlchain COMMAND``) shows only that command's options in ``--help``; all still parse."""
+    usage, shown = MODE_HELP[command] if command else (None, None)
+    p = argparse.ArgumentParser(prog=prog, usage=usage, description=None if command else
+                                "Train or play an rl_games-style config.")
     mode = p.add_mutually_exclusive_group(required=True)
-    mode.add_argument("-t", "--train", action="store_true", help="train (resume with --checkpoint)")
-    mode.add_argument("-p", "--play", action="store_true", help="play a checkpoint")
-    mode.add_argument("--export", choices=["onnx"], help="export a checkpoint's deterministic policy")
-    mode.add_argument("--tune", metavar="SEARCH", help="Optuna search from a search YAML (pip install rlchain[tune])")
+    hide = argparse.SUPPRESS if command else None
+    mode.add_argument("-t", "--train", action="store_true", help=hide or "train (resume with --checkpoint)")
+    mode.add_argument("-p", "--play", action="store_true", help=hide or "play a checkpoint")
+    mode.add_argument("--export", choices=["onnx"], help=hide or "export a checkpoint's deterministic policy")
+    mode.add_argument("--tune", metavar="SEARCH",
+                      help=hide or "Optuna search from a search YAML (pip install rlchain[tune])")
+    if command:
+        p.add_argument = _shown_only(p.add_argument, shown)  # the config is the usage line's NAME|PATH
     p.add_argument("-f", "--file", help="YAML or JSON config, or a packaged config's name (ppo_cartpole); "
                    "optional for --play: the checkpoint has one")
     p.add_argument("-c", "--checkpoint", help="checkpoint to resume from (--train) or play (--play); "
@@ -36,6 +56,8 @@ def build_parser(prog: str = "runner.py") -> argparse.ArgumentParser:
     p.add_argument("--sigma", type=float, help="fixed sigma (std) for a continuous fixed_sigma policy")
     p.add_argument("--games", type=int, help="--play: episodes to play (player.games_num)")
     p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
+    p.add_argument("--untrained", action="store_true", help="--play without --checkpoint: play the untrained "
+                   "(freshly initialized) policy on purpose")
     p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx); "
                    "--tune: best config (default <base name>_best.yaml)")
     p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
@@ -47,21 +69,43 @@ def build_parser(prog: str = "runner.py") -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None, prog: str = "runner.py") -> int:
-    """Entry point; expected errors print one line and exit with status 2."""
-    args = build_parser(prog).parse_intermixed_args(argv)
-    # SIGTERM and the warning format are the process's: changed for this call only, so an in-process
-    # caller (a test, a notebook, a sweep) gets its own handlers back.
+def _shown_only(add_argument: Any, shown: set[str]) -> Any:
+    """``add_argument`` that hides (argparse.SUPPRESS) the help of options whose dest is not in ``shown``."""
+
+    def add(*flags: str, **kwargs: Any) -> Any:
+        dest = kwargs.get("dest") or next((f.lstrip("-") for f in flags if f.startswith("--")), flags[0])
+        if dest.replace("-", "_") not in shown:
+            kwargs["help"] = argparse.SUPPRESS
+        return add_argument(*flags, **kwargs)
+
+    return add
+
+
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
+EXIT_TERMINATED = 143  # SIGTERM (128 + SIGTERM)
+
+
+def main(argv: list[str] | None = None, prog: str = "runner.py", command: str | None = None) -> int:
+    """Entry point; expected errors print one line and exit with status 2. ``command``: the ``rlchain``
+    subcommand this call serves (its --help and hints), None for runner.py's flags."""
+    args = build_parser(prog, command).parse_intermixed_args(argv)
+    args.prog = prog
+    # SIGTERM, the warning format and the hints' dialect are the process's: changed for this call only, so an
+    # in-process caller (a test, a notebook, a sweep) gets its own back.
+    _terminated.clear()
     previous_sigterm = signal.signal(signal.SIGTERM, _terminate)
     previous_format = warnings.formatwarning
     warnings.formatwarning = _one_line_warning
+    previous_dialect = set_dialect("rlchain" if prog.startswith("rlchain") else "runner.py")
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*Box .*precision lowered.*")
-            return _report(args)
+            status = _report(args)
+        return EXIT_TERMINATED if status == EXIT_INTERRUPTED and _terminated else status
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
         warnings.formatwarning = previous_format
+        set_dialect(previous_dialect)
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -85,11 +129,15 @@ def _report(args: argparse.Namespace) -> int:
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+
+
+_terminated: list[bool] = []  # non-empty once SIGTERM arrived during this call (exit 143, not 130)
 
 
 def _terminate(signum, frame) -> None:
     """SIGTERM unwinds like Ctrl-C, so logs are flushed and envs closed on the way out."""
+    _terminated.append(True)
     raise KeyboardInterrupt
 
 
@@ -105,6 +153,26 @@ def _check_checkpoint_name(checkpoint: str) -> None:
     hint = did_you_mean(os.path.splitext(checkpoint)[0], checkpoint_names())
     if hint:
         raise CheckpointError(f"{checkpoint}: checkpoint not found, and no shipped checkpoint has that name{hint}")
+
+
+def _play_usage(prog: str) -> str:
+    if prog.startswith("rlchain play"):
+        return "rlchain play NAME|PATH --checkpoint CKPT (shipped checkpoints: rlchain list)"
+    if prog.startswith("rlchain"):
+        return f"{prog} --play --file CONFIG --checkpoint CKPT"
+    return "python runner.py --play --file CONFIG --checkpoint CKPT"
+
+
+def _needs_config(args: argparse.Namespace) -> str:
+    """What to type instead, in the words the user launched with."""
+    if args.play:
+        return f"a checkpoint is required: {_play_usage(args.prog)}"
+    if args.export:
+        return f"a checkpoint is required: {args.prog} [NAME|PATH] --checkpoint CKPT" if \
+            args.prog.startswith("rlchain export") else "--export needs --checkpoint CKPT (and --file CONFIG)"
+    if args.prog.startswith("rlchain train"):
+        return "a config is required: rlchain train NAME|PATH (rlchain list names the packaged ones)"
+    return f"--file: a config file is required: {args.prog} --train --file CONFIG"
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -133,7 +201,12 @@ def _run(args: argparse.Namespace) -> int:
     elif (args.play or args.export) and args.checkpoint:
         runner.load_from_checkpoint(args.checkpoint, overrides)
     else:
-        raise ConfigError("", "--file", "a config file is required (or --play/--export with --checkpoint)")
+        raise ConfigError("", "", _needs_config(args))
+    if args.play and not args.checkpoint and not runner.params.config.player.evaluation:
+        if not args.untrained:
+            raise ConfigError("", "--checkpoint", f"nothing to play without a checkpoint: {_play_usage(args.prog)}; "
+                                                  f"--untrained plays the untrained policy on purpose")
+        warnings.warn("--untrained: playing a freshly initialized policy, no checkpoint loaded", stacklevel=2)
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
@@ -143,7 +216,7 @@ def _run(args: argparse.Namespace) -> int:
         result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,
                               wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
-            return 130
+            return EXIT_TERMINATED if "SIGTERM" in result.stop_reason else EXIT_INTERRUPTED
     elif args.video and runner.params.policies is not None:
         raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
     elif args.video:

@@ -29,7 +29,7 @@ commands:
   compare ARGS...                                compare run folders (rlchain compare --help)
   list                                           the packaged configs and checkpoints
 
-Flags are runner.py's: rlchain train NAME --help lists them."""
+Each command's options: rlchain COMMAND --help (rlchain train --help)."""
 
 MODES = {"train": ["--train"], "play": ["--play"], "tune": ["--tune"]}
 
@@ -86,13 +86,13 @@ def main(argv: list[str] | None = None) -> int:
     if command.startswith("-"):
         return cli.main(argv, prog="rlchain")
     if command in MODES:
-        return cli.main(_with_config(MODES[command], rest), prog=f"rlchain {command}")
+        return cli.main(_with_config(MODES[command], rest), prog=f"rlchain {command}", command=command)
     if command == "export":
         if not rest or rest[0] != "onnx":
             print("error: rlchain export: the format comes first: rlchain export onnx --checkpoint CKPT",
                   file=sys.stderr)
             return 2
-        return cli.main(_with_config(["--export", "onnx"], rest[1:]), prog="rlchain export onnx")
+        return cli.main(_with_config(["--export", "onnx"], rest[1:]), prog="rlchain export onnx", command="export")
     if command == "compare":
         return compare(rest)
     if command == "list":

@@ -68,3 +68,30 @@ _install()
 def get_logger(name: str) -> logging.Logger:
     """The logger of module ``name`` (``rlchain.training.loop`` and so on)."""
     return logging.getLogger(name)
+
+
+# ----- hints in the words the user launched with ----------------------------------------------------
+DIALECTS = ("python", "rlchain", "runner.py")
+_dialect = "python"  # the rlchain command and runner.py's flags set theirs for the duration of a call
+
+
+def set_dialect(name: str) -> str:
+    """How the user launched rlchain (one of :data:`DIALECTS`), for the commands hints print; returns the
+    previous one, so a caller can put it back."""
+    global _dialect
+    if name not in DIALECTS:
+        raise ValueError(f"dialect '{name}' is not one of {', '.join(DIALECTS)}")
+    previous, _dialect = _dialect, name
+    return previous
+
+
+def train_hint(config: str | None, checkpoint: str | None = None) -> str:
+    """The command that trains ``config`` (a path; None or ``<dict>``: a placeholder) from ``checkpoint``, in
+    the dialect the user launched with: ``rlchain train cfg.yaml --checkpoint X``, ``python runner.py --train
+    --file cfg.yaml --checkpoint X`` or ``Runner().load('cfg.yaml').train(checkpoint='X')``."""
+    config = config if config and not config.startswith("<") else "<config>"
+    if _dialect == "rlchain":
+        return f"rlchain train {config}" + (f" --checkpoint {checkpoint}" if checkpoint else "")
+    if _dialect == "runner.py":
+        return f"python runner.py --train --file {config}" + (f" --checkpoint {checkpoint}" if checkpoint else "")
+    return f"rlchain.Runner().load({config!r}).train(" + (f"checkpoint={checkpoint!r})" if checkpoint else ")")

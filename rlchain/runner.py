@@ -166,8 +166,9 @@ class Runner:
                 trainer.join_ranks()
             trainer.events.extend(callbacks)
             if cfg.print_stats:
-                what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"
-                log.info(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "
+                verb, origin = ("resuming", f" from {checkpoint} at epoch {trainer.epoch}") if state \
+                    else ("training", "")
+                log.info(f"rlchain: {verb} {params.algo.name} on {cfg.env_name}{origin} ({env.num_envs} envs, "
                          f"device {device}, seed {seed}) -> {run.root}")
             result = trainer.train()
             ok = True

@@ -35,6 +35,23 @@ def check_malloc(value: str) -> str | None:
     return None if value in ("keep", "default") else f"expected keep or default, got {value!r}"
 
 
+def syntax_error(exc: Exception, text: str) -> str:
+    """A YAML / JSON syntax error as ``line L, column C: problem``, then the offending line and a caret under
+    the column (the parser's own message, flattened, when it gives no position)."""
+    if isinstance(exc, json.JSONDecodeError):
+        line, column, problem = exc.lineno, exc.colno, exc.msg
+    else:
+        mark = getattr(exc, "problem_mark", None)
+        if mark is None:
+            return " ".join(str(exc).split())
+        line, column = mark.line + 1, mark.column + 1
+        context = getattr(exc, "context", None)
+        problem = f"{getattr(exc, 'problem', None) or 'syntax error'}" + (f" ({context})" if context else "")
+    lines = text.splitlines()
+    shown = lines[line - 1] if 0 < line <= len(lines) else ""
+    return f"line {line}, column {column}: {problem}\n    {shown}\n    {' ' * (column - 1)}^"
+
+
 def load_raw(path: str) -> dict[str, Any]:
     """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML)."""
     if not os.path.isfile(path):
@@ -44,8 +61,7 @@ def load_raw(path: str) -> dict[str, Any]:
     try:
         data = json.loads(text) if path.endswith(".json") else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
-        detail = " ".join(str(exc).split())
-        raise ConfigError(path, "", f"cannot parse file: {detail}") from None
+        raise ConfigError(path, "", f"cannot parse file: {syntax_error(exc, text)}") from None
     if not isinstance(data, dict):
         raise ConfigError(path, "", "expected a mapping with a top-level 'params' key")
     return data

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from typing import Any
@@ -74,10 +75,12 @@ class TrainLogger:
 
     def epoch(self, epoch: int, max_epochs: int, frames: int, metrics: dict[str, float],
               episodes: dict[str, float] | None, best: float, timing: dict[str, float],
-              console: list[str] | tuple[str, ...] = (), max_frames: int = 0) -> None:
+              console: list[str] | tuple[str, ...] = (), max_frames: int = 0,
+              score_to_win: float = math.inf) -> None:
         """Log one epoch: timing and fps, the algorithm's ``{tag: value}`` metrics, ``info/epochs`` and
         the episode means when games finished; ``console``: the algorithm's fields of the epoch line;
-        ``max_epochs`` / ``max_frames``: the run's limits (<= 0: none), for the line and the live ETA."""
+        ``max_epochs`` / ``max_frames``: the run's limits (<= 0: none), for the line and the live ETA;
+        ``score_to_win``: the score that stops the run (its ETA from the reward's trend)."""
         seconds = time.time() - self.start
         batch = timing["batch"]
         step_fps = batch / max(timing["rollout"], 1e-9)
@@ -97,7 +100,7 @@ class TrainLogger:
                                episodes["reward"] if episodes is not None else None,
                                episodes["length"] if episodes is not None else None,
                                episodes.get("success") if episodes is not None else None, best, tuple(console),
-                               max_frames)
+                               max_frames, score_to_win)
         for writer in self.writers:
             writer.epoch_end(summary)
 

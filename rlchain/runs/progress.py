@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -71,11 +72,26 @@ def eta_seconds(done: float, limit: float, done_at_start: float, elapsed: float)
     return (limit - done) * elapsed / progressed
 
 
+def score_eta(history: Sequence[tuple[float, float]], score: float) -> float | None:
+    """Seconds until the mean reward reaches ``score`` (``score_to_win``) at its recent rate: the slope from the
+    oldest to the newest ``(seconds, reward)`` of ``history``. None: no finite score, fewer than two points, or
+    a reward that is not rising (then no stop by score can be estimated)."""
+    if not math.isfinite(score) or len(history) < 2:
+        return None
+    (t0, r0), (t1, r1) = history[0], history[-1]
+    if r1 >= score:
+        return 0.0
+    if t1 <= t0 or r1 <= r0:
+        return None
+    return (score - r1) * (t1 - t0) / (r1 - r0)
+
+
 def run_eta(epoch: int, max_epochs: int, frames: int, max_frames: int, start_epoch: int, start_frames: int,
-            elapsed: float) -> float | None:
-    """The run's ETA: the sooner of the epoch limit and the frame limit (whichever stops the run first)."""
+            elapsed: float, by_score: float | None = None) -> float | None:
+    """The run's ETA: the soonest of the epoch limit, the frame limit and ``by_score`` (:func:`score_eta`),
+    whichever would stop the run first."""
     etas = [eta for eta in (eta_seconds(epoch, max_epochs, start_epoch, elapsed),
-                            eta_seconds(frames, max_frames, start_frames, elapsed)) if eta is not None]
+                            eta_seconds(frames, max_frames, start_frames, elapsed), by_score) if eta is not None]
     return min(etas) if etas else None
 
 
@@ -183,6 +199,6 @@ class LiveStatus:
             self.stream.flush()
 
 
-__all__ = ["format_duration", "format_count", "format_value", "eta_seconds", "run_eta", "fraction_done", "bar",
-           "StatusFields",
+__all__ = ["format_duration", "format_count", "format_value", "eta_seconds", "score_eta", "run_eta", "fraction_done",
+           "bar", "StatusFields",
            "status_line", "fit", "live_wanted", "LiveStatus", "ENV_VAR", "DEFAULT_LIVE_SECONDS"]

@@ -25,6 +25,7 @@ extension points::
 
 from __future__ import annotations
 
+import collections
 import csv
 import math
 import os
@@ -37,11 +38,20 @@ from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.config.run import ProgressConfig
 from rlchain.log import get_logger, set_live_status
 from rlchain.registry import WRITERS
-from rlchain.runs.progress import DEFAULT_LIVE_SECONDS, LiveStatus, StatusFields, live_wanted, run_eta, status_line
+from rlchain.runs.progress import (
+    DEFAULT_LIVE_SECONDS,
+    LiveStatus,
+    StatusFields,
+    live_wanted,
+    run_eta,
+    score_eta,
+    status_line,
+)
 from rlchain.runs.wandb_logger import start_wandb
 
 log = get_logger(__name__)
 KEY = "params.config.log_writers"
+SCORE_WINDOW = 10  # epochs of mean reward the ETA by score_to_win reads the trend from
 
 
 @dataclass(frozen=True)
@@ -82,6 +92,7 @@ class EpochSummary:
     best: float
     fields: Sequence[str] = ()  # the algorithm's own ``name value`` fields
     max_frames: int = 0  # the run's frame limit (<= 0: none), for the live status's ETA
+    score_to_win: float = math.inf  # the run's score stop (inf: none), for the ETA by the reward's trend
 
 
 class Writer:
@@ -133,6 +144,7 @@ class ConsoleWriter(Writer):
         self.first: EpochSummary | None = None  # this process's first epoch: the ETA's reference
         self.printed_at = 0.0  # seconds of the last printed line
         self.pending: str | None = None  # the last epoch line, when it was not printed
+        self.rewards: collections.deque = collections.deque(maxlen=SCORE_WINDOW)  # (seconds, reward): its trend
 
     def write(self, scalars: Mapping[str, float], step: Step) -> None:
         pass  # the line is written once per epoch, from the summary
@@ -160,8 +172,11 @@ class ConsoleWriter(Writer):
             self.pending = line
         if self.live is not None:
             first = self.first
+            if s.reward is not None:
+                self.rewards.append((s.seconds, s.reward))
             eta = None if first is s else run_eta(s.epoch, s.max_epochs, s.frames, s.max_frames, first.epoch,
-                                                  first.frames, s.seconds - first.seconds)
+                                                  first.frames, s.seconds - first.seconds,
+                                                  score_eta(self.rewards, s.score_to_win))
             self.live.show(status_line(StatusFields(s.epoch, s.max_epochs, s.frames, s.max_frames, s.fps, s.reward,
                                                     s.success, s.seconds, eta)))
             set_live_status(self.live)  # rlchain's log messages print above the status line

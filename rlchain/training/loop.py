@@ -24,7 +24,7 @@ from rlchain.algos.base.safety import DivergenceGuard, StopSignals, check_parame
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError, EnvError
-from rlchain.log import get_logger
+from rlchain.log import get_logger, train_hint
 from rlchain.models.build import build_env
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
@@ -345,13 +345,15 @@ class Loop:
         """Report the stop, emit on_train_end and build the result."""
         self.logger.flush()
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
+        if self.ctx.comm.world_size > 1 and self.last_episodes is not None:  # every rank's games, as `best` is
+            mean = self.last_episodes["reward"]
         if self.cfg.print_stats or stop.startswith("interrupted"):
             success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
             head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
             log.info(f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward "
                      f"{mean:.2f}, best {self.best_reward:.2f}{success}")
         if stop.startswith("interrupted") and last:
-            log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")
+            log.info(f"resume with: {train_hint(self.params.source, last)}")
         result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                              self.run.root if self.run else "", time.time() - start)
         self.events.emit("on_train_end", result)
@@ -362,8 +364,9 @@ class Loop:
         algo = self.algorithm
         timing = {"batch": algo.frames_per_epoch(), "rollout": rollout_s, "update": update_s}
         console = [fmt.format(stats[name]) for name, fmt in algo.console_fields if name in stats]
+        best = self.best_reward if episodes is None else max(self.best_reward, episodes["reward"])  # with this epoch
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, tag_metrics(stats, algo.metric_tags),
-                          episodes, self.best_reward, timing, console, self.cfg.max_frames)
+                          episodes, best, timing, console, self.cfg.max_frames, self.cfg.score_to_win)
 
 
 def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:

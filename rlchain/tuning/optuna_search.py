@@ -12,6 +12,7 @@ import time
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.log import train_hint
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
@@ -59,12 +60,12 @@ def run_optuna_search(spec: SearchSpec, output: str | None = None,
     optuna = import_optuna()
     check_space(spec)
     stem = os.path.splitext(os.path.basename(spec.base))[0]
-    output = output or f"{stem}_best.yaml"
     base_params = Runner().load(spec.base, spec.overrides).params
     study_dir = os.path.join(train_dir or base_params.config.train_dir,
                              f"tune_{stem}_{time.strftime('%d-%H-%M-%S')}")
     if os.path.exists(study_dir):
         study_dir = f"{study_dir}_{os.getpid()}"
+    output = output or os.path.join(study_dir, f"{stem}_best.yaml")  # beside the trials' runs, not in the cwd
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     pruner = optuna.pruners.NopPruner() if spec.pruner is None else optuna.pruners.MedianPruner(
         **{"n_startup_trials": 2, "n_warmup_steps": max(1, (spec.max_epochs_per_trial or 20) // 5),
@@ -112,7 +113,7 @@ def run_optuna_search(spec: SearchSpec, output: str | None = None,
     print(table)
     print(f"best trial {best.number}: {spec.metric} {best.value:.2f} with "
           + ", ".join(f"{k}={fmt(v)}" for k, v in best.params.items()), flush=True)
-    print(f"best config: {path} (train with: python runner.py --train --file {path}); "
+    print(f"best config: {path} (train with: {train_hint(path)}); "
           f"trials: {table_path}", flush=True)
     return float(best.value), path
 

@@ -25,6 +25,7 @@ import yaml
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.log import train_hint
 from rlchain.registry import ALGOS
 from rlchain.runner import Runner
 from rlchain.tuning.common import check_space, fmt, import_optuna, override_strings, write_best_config
@@ -86,11 +87,11 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
 
     rs: RaySpec = spec.ray
     stem = os.path.splitext(os.path.basename(spec.base))[0]
-    output = output or f"{stem}_best.yaml"
     study_dir = os.path.abspath(os.path.join(train_dir or base.params.config.train_dir,
                                              f"tune_{stem}_{time.strftime('%d-%H-%M-%S')}"))
     if os.path.exists(study_dir):
         study_dir = f"{study_dir}_{os.getpid()}"
+    output = output or os.path.join(study_dir, f"{stem}_best.yaml")  # beside the trials' runs, not in the cwd
     if spec.seed is not None:  # PBT's perturbations and the random searcher draw from these
         random.seed(spec.seed)
         np.random.seed(spec.seed)
@@ -337,7 +338,7 @@ def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOut
     print(f"best trial {best[0]}: {spec.metric} {best[2]:.2f} with "
           + ", ".join(f"{k}={fmt(v)}" for k, v in values.items())
           + (f"; {len(exploits)} PBT exploits" if spec.ray.scheduler == "pbt" else ""), flush=True)
-    print(f"best config: {path} (train with: python runner.py --train --file {path}); trials: {table_path}"
+    print(f"best config: {path} (train with: {train_hint(path)}); trials: {table_path}"
           + (f"; winner's schedule: {schedule_path}" if schedule_path else ""), flush=True)
     return SearchOutcome(float(best[2]), best[0], values, path, schedule_path, table_path, exploits, results)
 
@@ -386,7 +387,7 @@ def write_schedule_config(spec: Any, lineage: list[list[Any]], output: str, valu
     raw["params"]["config"]["hyperparam_schedule"] = {int(epoch): dict(values) for epoch, values in lineage}
     with open(output, "w", encoding="utf-8") as fh:
         fh.write(f"# rlchain tune: the PBT schedule of the winner of {spec.source} (trial {trial}, "
-                 f"{spec.metric} {value:.2f})\n# replay: python runner.py --train --file {output}\n")
+                 f"{spec.metric} {value:.2f})\n# replay: {train_hint(output)}\n")
         for epoch, values in lineage:
             fh.write(f"#   from epoch {epoch}: " + ", ".join(f"{k}={fmt(v)}" for k, v in values.items()) + "\n")
         yaml.safe_dump(raw, fh, sort_keys=False)

@@ -123,7 +123,7 @@ def test_two_ranks_reach_cartpole_score_identically_then_resume(tmp_path):
                                *overrides(tmp_path, f"params.config.max_epochs={epoch + 2}",
                                           "params.config.score_to_win=100000")], tmp_path)
     assert resumed.returncode == 0, resumed.stdout[-3000:] + resumed.stderr[-3000:]
-    assert f"resuming {last} at epoch {epoch}" in resumed.stdout
+    assert f"from {last} at epoch {epoch}" in resumed.stdout
     assert f"epoch {epoch + 2}/{epoch + 2}" in resumed.stdout and f"epoch {epoch}/" not in resumed.stdout
     states = load_dumps(dumps)
     assert_ranks_identical(states)

@@ -75,7 +75,7 @@ def test_checkpoint_names(tmp_path, monkeypatch):
 
 def test_subcommands_become_runner_flags(monkeypatch):
     calls = []
-    monkeypatch.setattr(console.cli, "main", lambda argv, prog: calls.append((argv, prog)) or 0)
+    monkeypatch.setattr(console.cli, "main", lambda argv, prog, command=None: calls.append((argv, prog)) or 0)
     assert console.main(["train", "ppo_cartpole", "params.config.max_epochs=2", "--seed", "3"]) == 0
     assert console.main(["play", "--checkpoint", "cartpole", "--games", "2"]) == 0
     assert console.main(["export", "onnx", "ppo_cartpole", "-c", "cartpole"]) == 0
