@@ -24,7 +24,7 @@ EXTRAS = {
     # the docs packages: tests/unit/test_docs_site.py builds the site
     "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
-    "bench": ["matplotlib"],  # benchmarks/curves.py plots
+    "bench": ["matplotlib"],  # benchmarks/curves.py plots (matplotlib is a core dependency now; kept for old commands)
 }
 EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
 
@@ -49,6 +49,7 @@ setup(
         "numpy>=1.24,<3",
         "pyyaml>=6",
         "tensorboard>=2.10",
+        "matplotlib",  # rlchain compare draws its figures (as Stable-Baselines3 has it in its core dependencies)
     ],
     extras_require=EXTRAS,
     py_modules=[],

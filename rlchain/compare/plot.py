@@ -1,7 +1,7 @@
 """Seed-aggregated curves: a tag against frames and against seconds, one line and a band per group.
 
-matplotlib is imported only here and only when a plot is drawn (it is in the ``bench`` extra:
-``pip install rlchain[bench]``); :func:`bands` is numpy and needs no display.
+matplotlib (a core dependency) is imported only here and only when a plot is drawn; :func:`bands` is numpy and
+needs no display.
 """
 
 from __future__ import annotations
@@ -48,11 +48,11 @@ def bands(runs: Sequence[Run], tag: str, axis: str, band: str = "minmax", points
 def pyplot():
     """matplotlib.pyplot on the Agg backend; a missing matplotlib is a one-line CompareError naming the extra."""
     try:
-        import matplotlib  # optional: matplotlib (the bench extra)
+        import matplotlib  # optional: matplotlib (imported only to draw)
     except ImportError:
-        raise CompareError("the plots need matplotlib: pip install 'rlchain[bench]' (or pass --no-plot)") from None
+        raise CompareError("the plots need matplotlib (an rlchain dependency): pip install matplotlib (or pass --no-plot)") from None
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # optional: matplotlib (the bench extra)
+    import matplotlib.pyplot as plt  # optional: matplotlib (imported only to draw)
 
     return plt
 

@@ -177,13 +177,14 @@ def group_runs(arguments: Sequence[str], label_by: str = "name") -> list[tuple[s
     """``(label, run folder)`` for every run the arguments name, in argument order, each folder once.
 
     ``label_by``: ``glob`` (the argument, or its ``LABEL=``), ``name`` (:func:`name_label`) or ``config``
-    (``params.config.name``); an argument with ``LABEL=`` is labelled so whatever ``label_by`` says."""
+    (``params.config.name``); an argument with ``LABEL=`` is labelled so whatever ``label_by`` says. Runs of one
+    name whose configs differ beyond the seed are told apart by those keys (:func:`distinguish`)."""
     if label_by not in LABEL_BY:
         raise CompareError(f"--label-by: expected one of {', '.join(LABEL_BY)}, got '{label_by}'")
     if not arguments:
         raise CompareError("no run folders given: rlchain compare RUN_FOLDER_OR_GLOB [...]")
     seen: set[str] = set()
-    out: list[tuple[str, str]] = []
+    out: list[tuple[str, str, bool]] = []  # (label, folder, whether the label was derived, not chosen)
     for argument in arguments:
         label, pattern = split_label(argument)
         folders = expand(pattern)
@@ -202,8 +203,55 @@ def group_runs(arguments: Sequence[str], label_by: str = "name") -> list[tuple[s
                 run_label = config_name(folder) or name_label(folder)
             else:
                 run_label = name_label(folder)
-            out.append((run_label, folder))
-    return out
+            out.append((run_label, folder, label is None and label_by != "glob"))
+    return distinguish(out)
+
+
+SEED_KEYS = ("params.seed", "params.config.env_config.seed", "params.config.train_dir",
+             "params.config.full_experiment_name")
+"""What differs between the seeds of one config: left out when telling same-named runs apart."""
+
+
+def run_settings(path: str) -> dict[str, str]:
+    """The run's ``config.yaml`` as flat ``{'params.config.learning_rate': '0.001', ...}``, without the seed
+    keys (:data:`SEED_KEYS`); empty when there is none."""
+    try:
+        with open(os.path.join(path, "config.yaml"), encoding="utf-8") as fh:
+            raw = yaml.safe_load(fh)
+    except (OSError, yaml.YAMLError):
+        return {}
+    flat: dict[str, str] = {}
+
+    def walk(prefix: str, value: object) -> None:
+        if isinstance(value, dict):
+            for key, item in value.items():
+                walk(f"{prefix}.{key}" if prefix else str(key), item)
+        elif prefix not in SEED_KEYS:
+            flat[prefix] = repr(value) if isinstance(value, str) else str(value)
+
+    walk("", raw if isinstance(raw, dict) else {})
+    return flat
+
+
+def distinguish(labelled: Sequence[tuple[str, str, bool]]) -> list[tuple[str, str]]:
+    """``(label, folder)``; runs that share a label they did not choose (the same config name) but whose configs
+    differ in more than the seed get the differing keys added: ``cartpole (learning_rate=0.003)``."""
+    by_label: dict[str, list[str]] = {}
+    for label, folder, auto in labelled:
+        if auto:
+            by_label.setdefault(label, []).append(folder)
+    extra: dict[str, str] = {}
+    for label, folders in by_label.items():
+        if len(folders) < 2:
+            continue
+        settings = {folder: run_settings(folder) for folder in folders}
+        keys = sorted({k for s in settings.values() for k in s
+                       if len({str(t.get(k)) for t in settings.values()}) > 1})
+        for folder in folders if keys else ():
+            shown = ", ".join(f"{k.removeprefix('params.config.').removeprefix('params.')}="
+                              f"{settings[folder].get(k, '-').strip(chr(39))}" for k in keys[:3])
+            extra[folder] = f" ({shown}{', ...' if len(keys) > 3 else ''})"
+    return [(label + extra.get(folder, ""), folder) for label, folder, _ in labelled]
 
 
 def resolve_tags(requested: Sequence[str], runs: Sequence[Run]) -> list[str]:
@@ -241,4 +289,4 @@ def groups(runs: Sequence[Run]) -> dict[str, list[Run]]:
 
 
 __all__ = ["REWARD", "SUCCESS", "LABEL_BY", "CompareError", "Curve", "Run", "curve_from_events", "read_curves",
-           "config_name", "name_label", "expand", "split_label", "group_runs", "resolve_tags", "load_runs", "groups"]
+           "config_name", "name_label", "run_settings", "distinguish", "expand", "split_label", "group_runs", "resolve_tags", "load_runs", "groups"]

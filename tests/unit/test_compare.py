@@ -112,12 +112,13 @@ def test_bad_input_is_one_line(two_groups, tmp_path, capsys, argv, message):
     assert message in err and len(err.splitlines()) == 1 and err.startswith("rlchain compare: error: ")
 
 
-def test_missing_matplotlib_names_the_extra(two_groups, tmp_path, monkeypatch, capsys):
+def test_missing_matplotlib_says_how_to_get_it(two_groups, tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
     assert cli.main([two_groups, "--out", str(tmp_path / "cmp")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == "rlchain compare: error: the plots need matplotlib: pip install 'rlchain[bench]' (or pass --no-plot)"
-    with pytest.raises(CompareError, match="bench"):
+    assert err == ("rlchain compare: error: the plots need matplotlib (an rlchain dependency): pip install matplotlib "
+                   "(or pass --no-plot)")
+    with pytest.raises(CompareError, match="pip install matplotlib"):
         from rlchain.compare.plot import pyplot
         pyplot()
 
@@ -125,3 +126,18 @@ def test_missing_matplotlib_names_the_extra(two_groups, tmp_path, monkeypatch, c
 def test_amounts():
     assert cli.amount("500k") == 500_000 and cli.amount("1.5M") == 1_500_000 and cli.amount("5e5") == 500_000
     assert cli.amount("90") == 90.0
+
+
+def test_same_named_runs_with_different_configs_are_told_apart(tmp_path):
+    from rlchain.compare.runs import group_runs
+
+    for folder, lr, seed in (("cartpole_27-10-00-00", 0.001, 1), ("cartpole_27-10-05-00", 0.003, 1),
+                             ("cartpole_27-10-09-00", 0.003, 2)):
+        run = tmp_path / folder
+        (run / "summaries").mkdir(parents=True)
+        (run / "config.yaml").write_text(yaml.safe_dump(
+            {"params": {"seed": seed, "config": {"name": "cartpole", "learning_rate": lr}}}))
+    labels = [label for label, _ in group_runs([str(tmp_path / "cartpole_*")])]
+    assert labels == ["cartpole (learning_rate=0.001)", "cartpole (learning_rate=0.003)",
+                      "cartpole (learning_rate=0.003)"]  # the seed alone does not split a group
+    assert [label for label, _ in group_runs([f"a={tmp_path}/cartpole_27-10-0*"])] == ["a"] * 3
