@@ -50,7 +50,8 @@ def pyplot():
     try:
         import matplotlib  # optional: matplotlib (imported only to draw)
     except ImportError:
-        raise CompareError("the plots need matplotlib (an rlchain dependency): pip install matplotlib (or pass --no-plot)") from None
+        raise CompareError("the plots need matplotlib (an rlchain dependency): pip install matplotlib "
+                           "(or pass --no-plot)") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # optional: matplotlib (imported only to draw)
 

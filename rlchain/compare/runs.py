@@ -241,7 +241,7 @@ def distinguish(labelled: Sequence[tuple[str, str, bool]]) -> list[tuple[str, st
         if auto:
             by_label.setdefault(label, []).append(folder)
     extra: dict[str, str] = {}
-    for label, folders in by_label.items():
+    for folders in by_label.values():
         if len(folders) < 2:
             continue
         settings = {folder: run_settings(folder) for folder in folders}
