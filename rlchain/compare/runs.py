@@ -289,4 +289,5 @@ def groups(runs: Sequence[Run]) -> dict[str, list[Run]]:
 
 
 __all__ = ["REWARD", "SUCCESS", "LABEL_BY", "CompareError", "Curve", "Run", "curve_from_events", "read_curves",
-           "config_name", "name_label", "run_settings", "distinguish", "expand", "split_label", "group_runs", "resolve_tags", "load_runs", "groups"]
+           "config_name", "name_label", "run_settings", "distinguish", "expand", "split_label", "group_runs",
+           "resolve_tags", "load_runs", "groups"]
