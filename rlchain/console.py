@@ -15,7 +15,6 @@ import importlib
 import os
 import sys
 
-from rlchain import cli
 from rlchain.config.packaged import CHECKPOINTS_DIR, CONFIGS_DIR, checkpoint_names, config_names
 
 USAGE = """usage: rlchain COMMAND [ARGS]
@@ -76,6 +75,12 @@ def compare(argv: list[str]) -> int:
     return int(module.main(argv) or 0)
 
 
+def _cli():
+    """rlchain.cli (runner.py's flags): imported only by the commands that train, play, export or tune, so
+    ``--help``, ``list`` and ``compare`` start without torch."""
+    return importlib.import_module("rlchain.cli")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Dispatch a subcommand; anything that starts with a flag goes to runner.py's parser as it is."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -84,15 +89,15 @@ def main(argv: list[str] | None = None) -> int:
         return 0 if argv else 2
     command, rest = argv[0], argv[1:]
     if command.startswith("-"):
-        return cli.main(argv, prog="rlchain")
+        return _cli().main(argv, prog="rlchain")
     if command in MODES:
-        return cli.main(_with_config(MODES[command], rest), prog=f"rlchain {command}", command=command)
+        return _cli().main(_with_config(MODES[command], rest), prog=f"rlchain {command}", command=command)
     if command == "export":
         if not rest or rest[0] != "onnx":
             print("error: rlchain export: the format comes first: rlchain export onnx --checkpoint CKPT",
                   file=sys.stderr)
             return 2
-        return cli.main(_with_config(["--export", "onnx"], rest[1:]), prog="rlchain export onnx", command="export")
+        return _cli().main(_with_config(["--export", "onnx"], rest[1:]), prog="rlchain export onnx", command="export")
     if command == "compare":
         return compare(rest)
     if command == "list":

@@ -4,8 +4,29 @@ from __future__ import annotations
 
 import contextlib
 import difflib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
+
+_builtins: list[Callable[[], None]] = []  # registers rlchain's own entries; run on the first lookup
+
+
+def load_builtins_with(loader: Callable[[], None]) -> None:
+    """``loader`` registers rlchain's built-in entries; it runs once, on the first lookup of any registry (so
+    ``import rlchain`` and the ``rlchain --help`` / ``list`` commands do not import torch). Entries registered
+    before it ran (a user's, a module's) win over the built-ins of the same name."""
+    _builtins.append(loader)
+
+
+def ensure_builtins() -> None:
+    """Run the pending built-in loader now (a no-op once it ran, and while it runs)."""
+    while _builtins:
+        loader = _builtins.pop(0)
+        before = [(registry, dict(registry._items), set(registry._replaceable)) for registry in REGISTRIES]
+        loader()
+        for registry, items, replaceable in before:  # what was registered first keeps its name
+            registry._items.update(items)
+            registry._replaceable.difference_update(set(items) - replaceable)
+            registry._replaceable.update(replaceable)
 
 
 class RegistryError(KeyError):
@@ -50,6 +71,7 @@ class Registry:
 
     def unregister(self, name: str) -> None:
         """Remove ``name``; a name nobody registered raises RegistryError with a did-you-mean."""
+        ensure_builtins()
         if name not in self._items:
             raise RegistryError(self.unknown_message(name))
         del self._items[name]
@@ -62,6 +84,7 @@ class Registry:
         What was registered before is back as it was, replaced or unregistered names included, also
         when the block raises; the table object is the same one throughout.
         """
+        ensure_builtins()
         items, replaceable = dict(self._items), set(self._replaceable)
         try:
             yield self
@@ -73,6 +96,7 @@ class Registry:
 
     def get(self, name: str) -> Any:
         """Return what was registered under ``name`` or raise with a did-you-mean."""
+        ensure_builtins()
         try:
             return self._items[name]
         except KeyError:
@@ -80,19 +104,23 @@ class Registry:
 
     def unknown_message(self, name: str) -> str:
         """A one-line explanation of a failed lookup, with the closest registered names."""
+        ensure_builtins()
         close = difflib.get_close_matches(str(name), list(self._items), n=3)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         known = ", ".join(sorted(self._items))
         return f"unknown {self.kind} '{name}'{hint} (registered: {known})"
 
     def __contains__(self, name: object) -> bool:
+        ensure_builtins()
         return name in self._items
 
     def __iter__(self) -> Iterator[str]:
+        ensure_builtins()
         return iter(sorted(self._items))
 
     def names(self) -> list[str]:
         """Every registered name, sorted."""
+        ensure_builtins()
         return sorted(self._items)
 
 
@@ -120,6 +148,7 @@ def scoped_registrations() -> Iterator[None]:
 
     For tests (rlchain's and a user's) that register their own envs, networks or writers.
     """
+    ensure_builtins()
     saved = [(table, dict(table)) for table in (ENV_CONFIGURATIONS, NETWORK_CONFIGS)]
     with contextlib.ExitStack() as stack:
         for registry in REGISTRIES:
@@ -135,6 +164,7 @@ def scoped_registrations() -> Iterator[None]:
 def network_config_class(name: str) -> type | None:
     """The dataclass a network block named ``name`` parses into: the one given at registration, else the
     builder's ``config_class`` attribute; None: the block stays a dict."""
+    ensure_builtins()
     if name in NETWORK_CONFIGS:
         return NETWORK_CONFIGS[name]
     return getattr(NETWORKS.get(name), "config_class", None) if name in NETWORKS else None

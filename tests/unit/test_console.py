@@ -75,7 +75,8 @@ def test_checkpoint_names(tmp_path, monkeypatch):
 
 def test_subcommands_become_runner_flags(monkeypatch):
     calls = []
-    monkeypatch.setattr(console.cli, "main", lambda argv, prog, command=None: calls.append((argv, prog)) or 0)
+    fake = types.SimpleNamespace(main=lambda argv, prog, command=None: calls.append((argv, prog)) or 0)
+    monkeypatch.setattr(console, "_cli", lambda: fake)
     assert console.main(["train", "ppo_cartpole", "params.config.max_epochs=2", "--seed", "3"]) == 0
     assert console.main(["play", "--checkpoint", "cartpole", "--games", "2"]) == 0
     assert console.main(["export", "onnx", "ppo_cartpole", "-c", "cartpole"]) == 0
@@ -129,3 +130,22 @@ def test_a_mistyped_shipped_checkpoint_is_named(tmp_path, monkeypatch, capsys):
     assert console.main(["play", "--checkpoint", "cartpol"]) == 2
     assert capsys.readouterr().err == ("checkpoint error: cartpol: checkpoint not found, and no shipped checkpoint "
                                        "has that name; did you mean 'cartpole'?\n")
+
+
+@pytest.mark.parametrize("args", [["--help"], ["list"]])
+def test_help_and_list_answer_without_torch(args):
+    """`rlchain --help` and `rlchain list` import no torch: they answer in well under half a second (the bound
+    here is generous for a loaded CI machine; the import check is the exact one)."""
+    import subprocess
+    import time
+
+    code = ("import sys, runpy; sys.argv = ['rlchain', *sys.argv[1:]]\n"
+            "try:\n    runpy.run_module('rlchain', run_name='__main__')\nexcept SystemExit:\n    pass\n"
+            "assert 'torch' not in sys.modules, 'torch was imported'\n")
+    start = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=120,
+                         cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+    seconds = time.perf_counter() - start
+    assert out.returncode == 0, out.stderr
+    assert ("usage: rlchain COMMAND" if args == ["--help"] else "configs (rlchain train NAME)") in out.stdout
+    assert seconds < 5.0, f"rlchain {' '.join(args)} took {seconds:.2f} s"
