@@ -95,3 +95,12 @@ def train_hint(config: str | None, checkpoint: str | None = None) -> str:
     if _dialect == "runner.py":
         return f"python runner.py --train --file {config}" + (f" --checkpoint {checkpoint}" if checkpoint else "")
     return f"rlchain.Runner().load({config!r}).train(" + (f"checkpoint={checkpoint!r})" if checkpoint else ")")
+
+
+def torchrun_hint(config: str | None) -> str:
+    """The torchrun command that trains ``config`` on N processes, in the launch dialect."""
+    config = config if config and not config.startswith("<") else "<config>"
+    head = "torchrun --standalone --nproc_per_node=N"
+    if _dialect == "rlchain":
+        return f"{head} -m rlchain train {config} params.config.multi_gpu=True"
+    return f"{head} runner.py --train --file {config} params.config.multi_gpu=True"

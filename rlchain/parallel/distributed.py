@@ -38,6 +38,7 @@ import torch.distributed as dist
 from rlchain.config.errors import ConfigError
 from rlchain.config.resolve import RANK_SEED_STRIDE  # rank r seeds its envs and RNGs with seed + r * this
 from rlchain.errors import DistributedError
+from rlchain.log import torchrun_hint
 from rlchain.parallel.communicator import Communicator, merge_moments
 from rlchain.registry import ALGOS
 
@@ -45,7 +46,6 @@ KEY = "params.config.multi_gpu"
 LAUNCH_VARS = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
 TIMEOUT = datetime.timedelta(minutes=30)  # collectives; torchrun ends the group first when a rank dies
 BARRIER_TIMEOUT = datetime.timedelta(minutes=2)  # the final barrier: every rank is at its last epoch
-HINT = "torchrun --standalone --nproc_per_node=N runner.py --train --file <cfg>"
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,7 @@ def read_launch(environ: Mapping[str, str], multi_gpu: bool, source: str = "",
     if missing:
         got = f" (only {', '.join(present)} set)" if present else ""
         raise ConfigError(source, KEY, f"True needs the torchrun launcher: {', '.join(missing)} not set{got}; "
-                                       f"start with: {HINT}")
+                                       f"start with: {torchrun_hint(source)}")
     rank = _int_var(environ, "RANK", source)
     local_rank = _int_var(environ, "LOCAL_RANK", source)
     local_world = _int_var(environ, "LOCAL_WORLD_SIZE", source) if "LOCAL_WORLD_SIZE" in environ else world

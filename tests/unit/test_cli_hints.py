@@ -73,3 +73,15 @@ def test_eta_by_score_to_win():
     # the epoch limit says 390 s, the reward's trend 20 s: the sooner stop is the ETA
     assert run_eta(10, 400, 5120, -1, 0, 0, 10.0, by_score=20.0) == pytest.approx(20.0)
     assert run_eta(10, 400, 5120, -1, 0, 0, 10.0) == pytest.approx(390.0)
+
+
+def test_torchrun_hint_follows_the_dialect():
+    from rlchain.log import torchrun_hint
+
+    previous = set_dialect("rlchain")
+    try:
+        assert torchrun_hint("cfg.yaml").endswith("-m rlchain train cfg.yaml params.config.multi_gpu=True")
+        set_dialect("runner.py")
+        assert "runner.py --train --file cfg.yaml" in torchrun_hint("cfg.yaml")
+    finally:
+        set_dialect(previous)
