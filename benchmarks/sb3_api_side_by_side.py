@@ -5,7 +5,8 @@
 
 ``--setting defaults``: ``PPO("MlpPolicy", "CartPole-v1").learn(50_000)``, each library with its own
 defaults. ``--setting zoo``: both given rl-baselines3-zoo's CartPole-v1 hyperparameters (constant learning
-rate and clip range; rlchain maps the names). One JSON line: library, setting, seed, training seconds
+rate and clip range) and SB3's defaults for the value loss, gradient clipping and value clipping, which
+rlchain maps to its keys; rlchain also gets an unscaled reward (its PPO default scales rewards by 0.1). One JSON line: library, setting, seed, training seconds
 (the ``learn`` call), and the mean deterministic return over 10 evaluation episodes (seeds 1000..1009).
 Only public API of either library is called.
 """
@@ -19,7 +20,9 @@ import numpy as np
 import torch
 
 ZOO = dict(n_steps=32, batch_size=256, gae_lambda=0.8, gamma=0.98, n_epochs=20, ent_coef=0.0,
-           learning_rate=0.001, clip_range=0.2)  # rl-baselines3-zoo hyperparams/ppo.yml CartPole-v1, 8 envs
+           learning_rate=0.001, clip_range=0.2,  # rl-baselines3-zoo hyperparams/ppo.yml CartPole-v1, 8 envs
+           vf_coef=0.5, max_grad_norm=0.5, clip_range_vf=None)  # SB3's defaults, passed so rlchain uses them too
+RLCHAIN_AS_SB3 = dict(reward_shaper={"scale_value": 1.0})  # rlchain's default scales CartPole's reward by 0.1
 
 
 def evaluate(model, episodes=10):
@@ -51,7 +54,7 @@ def main():
         PPO, extra = rlchain.PPO, {"verbose": 0, "tensorboard_log": "/tmp/sb3_side_by_side_runs"}
         env = "CartPole-v1"
         if args.setting == "zoo":
-            extra["n_envs"] = 8
+            extra.update(n_envs=8, **RLCHAIN_AS_SB3)
     else:
         from stable_baselines3 import PPO
         from stable_baselines3.common.env_util import make_vec_env
