@@ -7,7 +7,8 @@
 defaults. ``--setting zoo``: both given rl-baselines3-zoo's CartPole-v1 hyperparameters (constant learning
 rate and clip range) and SB3's defaults for the value loss, gradient clipping and value clipping, which
 rlchain maps to its keys; rlchain also gets an unscaled reward (its PPO default scales rewards by 0.1).
-One JSON line: library, setting, seed, training seconds (the ``learn`` call), and the mean deterministic return over 10 evaluation episodes (seeds 1000..1009).
+One JSON line: library, setting, seed, training seconds (the ``learn`` call), and the mean deterministic
+return over 10 evaluation episodes (seeds 1000..1009).
 Only public API of either library is called.
 """
 
