@@ -59,7 +59,7 @@ def build_parser(prog: str = "runner.py", command: str | None = None) -> argpars
     p.add_argument("--untrained", action="store_true", help="--play without --checkpoint: play the untrained "
                    "(freshly initialized) policy on purpose")
     p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx); "
-                   "--tune: best config (default <base name>_best.yaml)")
+                   "--tune: best config (default: <base name>_best.yaml in the search's run folder)")
     p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")

@@ -27,7 +27,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m rlchain.tuning.search",
                                 description="Hyperparameter search over a config")
     p.add_argument("search", help="search file (YAML)")
-    p.add_argument("-o", "--output", help="best config to write (default <base name>_best.yaml)")
+    p.add_argument("-o", "--output",
+                   help="best config to write (default: <base name>_best.yaml in the search's run folder)")
     p.add_argument("--train_dir", help="folder for the trial runs (default: the base config's train_dir)")
     args = p.parse_args(argv)
     try:
