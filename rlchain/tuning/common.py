@@ -21,8 +21,8 @@ trials in parallel, on one machine or a cluster): see :mod:`rlchain.tuning` and 
 
 Each trial trains in-process with ``Runner().load(base, overrides).train()``; the epoch's mean
 reward is reported to Optuna and bad trials stop early (MedianPruner). The best trial's values
-are applied to the base config and written as a runnable YAML (default ``<base name>_best.yaml`` in the search's run folder),
-with a CSV table of all trials next to it.
+are applied to the base config and written as a runnable YAML (default ``<base name>_best.yaml`` in the
+search's run folder), with a CSV table of all trials next to it.
 
     python runner.py --tune search.yaml            # or: python -m rlchain.tuning.search search.yaml
 """
