@@ -90,6 +90,8 @@ def main(argv: list[str] | None = None) -> int:
     command, rest = argv[0], argv[1:]
     if command.startswith("-"):
         return _cli().main(argv, prog="rlchain")
+    if command in MODES and ("-h" in rest or "--help" in rest):  # that command's options, whatever else is given
+        return _cli().main(["--help"], prog=f"rlchain {command}", command=command)
     if command in MODES:
         return _cli().main(_with_config(MODES[command], rest), prog=f"rlchain {command}", command=command)
     if command == "export":
@@ -97,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
             print("error: rlchain export: the format comes first: rlchain export onnx --checkpoint CKPT",
                   file=sys.stderr)
             return 2
-        return _cli().main(_with_config(["--export", "onnx"], rest[1:]), prog="rlchain export onnx", command="export")
+        argv = ["--help"] if "-h" in rest or "--help" in rest else _with_config(["--export", "onnx"], rest[1:])
+        return _cli().main(argv, prog="rlchain export onnx", command="export")
     if command == "compare":
         return compare(rest)
     if command == "list":

@@ -35,6 +35,9 @@ def test_train_help_shows_the_train_options(capsys):
     out = capsys.readouterr().out
     assert out.startswith("usage: rlchain train NAME|PATH") and "--checkpoint" in out and "--seed" in out
     assert "--export" not in out and "--games" not in out and "-t, --train" not in out
+    with pytest.raises(SystemExit):
+        console.main(["tune", "--help"])
+    assert capsys.readouterr().out.startswith("usage: rlchain tune SEARCH")
 
 
 def test_play_without_a_checkpoint_is_an_error(capsys):
