@@ -74,11 +74,11 @@ def test_site_loads_nothing_from_the_network(site):
 
 
 def test_every_committed_plot_is_shown_by_a_page(site):
-    """Benchmark results go to benchmarks/results/ (outside git); docs/img/ holds only plots a page shows."""
+    """Benchmark results go to benchmarks/results/ (outside git); docs/img/ holds only plots a page shows or links."""
     shown = set()
     for path in glob.glob(os.path.join(site, "**", "*.html"), recursive=True):
         with open(path, encoding="utf-8") as fh:
-            shown.update(os.path.basename(src) for src in re.findall(r'<img[^>]*\bsrc="([^"]+\.png)"', fh.read()))
+            shown.update(os.path.basename(src) for src in re.findall(r'\b(?:src|href)="([^"]+\.png)"', fh.read()))
     committed = [os.path.relpath(p, DOCS) for p in glob.glob(os.path.join(DOCS, "img", "**", "*.png"), recursive=True)]
     assert committed, "docs/img/ has no plots"
     unshown = [name for name in committed if os.path.basename(name) not in shown]
