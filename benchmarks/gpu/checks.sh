@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The CUDA checks a session runs first when a GPU is lent to it (docs/benchmarks.md, "On a GPU"):
+# The CUDA path on a GPU machine, run first there (docs/benchmarks.md, "On a GPU: NVIDIA H100 and CUDA graphs"):
 #   1. the CUDA-only tests (tests skip them without CUDA);
 #   2. shipped configs on the GPU: the three tensor-env PPO configs trained to their score_to_win with the
 #      seconds it took, then train -> save -> play -> resume of a gymnasium config, SAC, DQN, an LSTM, autocast

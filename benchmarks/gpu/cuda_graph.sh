@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# cuda_graph on a lent GPU (issue 37; docs/benchmarks.md "On a GPU"): the CUDA-only tests, then the three
+# cuda_graph on a GPU (docs/benchmarks.md, "On a GPU: NVIDIA H100 and CUDA graphs"): the CUDA-only tests, then the three
 # tensor-env PPO configs trained to their score_to_win eager and with cuda_graph (seconds printed), then
 # throughput.py at 4,096 / 16,384 / 65,536 envs: eager against cuda_graph in the same process, beside
 # rl_games 2.0 (compile off) on the same env and GPU. Every step has its own timeout and the script goes on

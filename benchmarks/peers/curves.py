@@ -92,11 +92,10 @@ class System:
 
 ONE_THREAD = (("OMP_NUM_THREADS", "1"), ("MKL_NUM_THREADS", "1"))
 # rl_games calls torch.set_num_threads(params.torch_threads, default min(4, cores)) itself, so "rl_games" /
-# "rl_games2" below (OMP_NUM_THREADS=1) ran 2 torch threads on 2 cores; their runs were saved as "1 thread, compile
-# off" (saved_as), the label they had until that was found. "*_tt1" is one torch thread for real
-# (rl_games_driver.py --torch-threads 1), which ran Hopper faster (peer_settings.py; docs/benchmarks.md).
-# Each peer at its best on a 2-core CPU: compile off, one torch thread (benchmarks/peers/peer_settings.py measures
-# every setting of both versions side by side; its table is in docs/benchmarks.md) and as shipped.
+# "rl_games2" below (OMP_NUM_THREADS=1) run 2 torch threads on 2 cores; saved runs of them carry the label
+# "1 thread, compile off" (saved_as), so they still load. "*_tt1" is one torch thread for real
+# (rl_games_driver.py --torch-threads 1). Each peer at its best on a 2-core CPU: compile off, one torch thread
+# (peer_settings.py measures every setting of both versions side by side), and as shipped.
 SYSTEMS = {
     "rlchain": System("rlchain", "as shipped", color="tab:blue"),
     "rlchain_bf16": System("rlchain", "mixed_precision: bf16 (the update's network passes in bfloat16 on an "
@@ -353,7 +352,7 @@ def time_to_reward(config: str, runs: dict[str, list[dict]], budget: float, targ
 
 
 def time_to_reward_table(rows: list[tuple[str, dict[str, list[dict]], float]]) -> list[str]:
-    """Markdown lines of the headline table (issue 37): for each config (its runs and budget) and each peer
+    """Markdown lines of the headline table (time to reward): for each config (its runs and budget) and each peer
     (every system but rlchain) as the target, the seconds every system needs to reach the target's mean reward at
     the end of its budget, and how many times sooner rlchain got there. The columns are every system with runs in
     any of ``rows``."""

@@ -209,7 +209,7 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
     extra = ([f"params.config.env_groups={groups}"] if backend == "envpool" else []) + list(sets)
     runner = case_runner(backend, env_name, num_envs, config, device_name, extra)
     params = runner.params
-    if fixed:  # exactly these counts, whatever else runs (what the Runner did before adaptive plans)
+    if fixed:  # exactly these counts, whatever else runs (no adaptation to the load)
         plan = ThreadPlan(threads or 1, update_threads or threads or 1)
     else:
         plan = plan_threads(threads or params.torch_threads, update_threads or params.update_threads,

@@ -122,7 +122,7 @@ def test_simple_tag_prey_trained_alone_beats_its_starting_self_and_the_predators
 
 def test_connect_four_self_play_beats_a_random_player_90_percent(tmp_path):
     """ppo_pz_connect_four_self_play.yaml as shipped (seed 5, 150 epochs, ~40 s): the learner, moving first
-    as in training, wins more than 90% of 1000 games against uniformly random legal moves (issue 16's
+    as in training, wins more than 90% of 1000 games against uniformly random legal moves (the
     bar; seeds 5, 6 and 7 measured 93.1-95.1% with benchmarks/studies/pz_connect_four_vs_random.py, whose
     play_vs_random this test uses)."""
     pytest.importorskip("pettingzoo.classic")

@@ -1,4 +1,4 @@
-"""The documentation site (issue 18): it builds strictly and offline, and the API it shows is documented.
+"""The documentation site: it builds strictly and offline, and the API it shows is documented.
 
 - ``mkdocs build --strict`` (mkdocs.yml at the repository root): a broken link, a missing page, a
   page left out of the nav or a link to a missing anchor fails the build;
@@ -28,7 +28,7 @@ import pytest
 from tests.conftest import ROOT
 
 DOCS = os.path.join(ROOT, "docs")
-# the public Python API the site must document (issue 18); docs/api.md may show more
+# the public Python API the site must document; docs/api.md may show more
 REQUIRED_API = {
     "rlchain.Runner", "rlchain.model_builder", "rlchain.networks.NetworkBuilder", "rlchain.training.events.Callback",
     "rlchain.inference.export.onnx.OnnxPolicy", "rlchain.envs.vecenv", "rlchain.algos.base.algorithm.Algorithm",
