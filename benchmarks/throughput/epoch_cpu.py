@@ -40,7 +40,10 @@ def child(tree: str, case: str, sets: list[str], warmup: int, epochs: int) -> di
         raise SystemExit(f"epoch_cpu.py: {tree}'s throughput.py imported {rlchain.__file__}, not that tree's rlchain")
 
     from rlchain import Runner
-    from rlchain.algos.ppo.trainer import OnPolicyTrainer
+    try:  # PPO's class, by its name in the tree being timed
+        from rlchain.algos.ppo.trainer import PPO
+    except ImportError:  # a tree from before the algorithms were named for what they are
+        from rlchain.algos.ppo.trainer import OnPolicyTrainer as PPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
@@ -58,7 +61,7 @@ def child(tree: str, case: str, sets: list[str], warmup: int, epochs: int) -> di
     device = torch.device("cpu")
     env = build_env(params, num, 0)
     model = build_model(params, env, device)
-    loop = Loop(params, OnPolicyTrainer, env, model, device, None, TrainLogger(None, False), 0, raw)
+    loop = Loop(params, PPO, env, model, device, None, TrainLogger(None, False), 0, raw)
     ppo = loop.algorithm
     ppo.obs = torch.as_tensor(env.reset(seed=0), device=device)
     start = time.perf_counter()
