@@ -25,7 +25,7 @@ ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"
 TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
-ALGO_FAMILIES += ("rlchain.algos.distill",)  # teacher to student
+ALGO_FAMILIES += ("rlchain.algos.distill",)  # teacher to student (issue 36)
 RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
 OPTIONAL = re.compile(r"#\s*optional:\s*\S")

@@ -1,5 +1,5 @@
-"""The one play() loop (rlchain/inference/play.py) that evaluation, the Player, video and export share:
-games and steps limits, action masks, RNN state, the one-env recording adapter."""
+"""The one play() loop (rlchain/inference/play.py) that evaluation, the Player, video and export share
+(issue 19 part 4): games and steps limits, action masks, RNN state, the one-env recording adapter."""
 
 import os
 
