@@ -24,7 +24,7 @@ EXTRAS = {
     # the docs packages: tests/unit/test_docs_site.py builds the site
     "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
-    "bench": ["matplotlib"],  # benchmarks/peers/curves.py plots
+    "bench": ["matplotlib"],  # benchmarks/curves.py plots
 }
 EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
 
