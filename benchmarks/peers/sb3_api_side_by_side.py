@@ -1,7 +1,7 @@
 """The same SB3-shaped script under rlchain and under Stable-Baselines3: seconds and evaluated return.
 
-    python benchmarks/sb3_api_side_by_side.py --lib rlchain --setting defaults --seed 0
-    /path/to/sb3-venv/bin/python benchmarks/sb3_api_side_by_side.py --lib sb3 --setting zoo --seed 0
+    python benchmarks/peers/sb3_api_side_by_side.py --lib rlchain --setting defaults --seed 0
+    /path/to/sb3-venv/bin/python benchmarks/peers/sb3_api_side_by_side.py --lib sb3 --setting zoo --seed 0
 
 ``--setting defaults``: ``PPO("MlpPolicy", "CartPole-v1").learn(50_000)``, each library with its own
 defaults. ``--setting zoo``: both given rl-baselines3-zoo's CartPole-v1 hyperparameters (constant learning
