@@ -206,7 +206,6 @@ def _run(args: argparse.Namespace) -> int:
         if not args.untrained:
             raise ConfigError("", "--checkpoint", f"nothing to play without a checkpoint: {_play_usage(args.prog)}; "
                                                   f"--untrained plays the untrained policy on purpose")
-        warnings.warn("--untrained: playing a freshly initialized policy, no checkpoint loaded", stacklevel=2)
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")

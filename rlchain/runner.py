@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import os
+import warnings
 from typing import Any
 
 from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
@@ -202,6 +203,8 @@ class Runner:
         params = self._require()
         if checkpoint is not None:
             checkpoint = resolve_checkpoint(checkpoint)[0]
+        elif not params.config.player.evaluation:
+            warnings.warn("no checkpoint: playing an untrained (freshly initialized) policy", stacklevel=2)
         # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
         set_threads(params.torch_threads, None, params.config.device, updates=False)
         if params.policies is not None:  # config.multi_agent: every policy plays its agents

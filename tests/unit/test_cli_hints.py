@@ -52,7 +52,7 @@ def test_play_without_a_checkpoint_is_an_error(capsys):
 
 
 def test_untrained_play_is_explicit_and_warned():
-    with pytest.warns(UserWarning, match="--untrained: playing a freshly initialized policy"):
+    with pytest.warns(UserWarning, match="no checkpoint: playing an untrained"):
         assert console.main(["play", "ppo_cartpole", "--untrained", "--games", "1",
                              "params.config.player.print_stats=false"]) == 0
 
