@@ -8,6 +8,7 @@ each rank save its final parameters, buffers and optimizer state for the compari
 import glob
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -104,6 +105,9 @@ def test_two_ranks_reach_cartpole_score_identically_then_resume(tmp_path):
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     assert "score_to_win 475.0 reached" in out.stdout
     assert out.stdout.count("rlchain: training") == 1  # rank 0 alone prints progress
+    last = re.findall(r"reward ([\d.]+) \| best ([\d.]+)", out.stdout)[-1]
+    stop = re.search(r"mean reward ([\d.]+), best ([\d.]+)", out.stdout).groups()
+    assert stop == last, (stop, last)  # the stop line's mean and best are every rank's, as the epoch line's
     states = load_dumps(dumps)
     assert_ranks_identical(states)
     epoch = states[0]["epoch"]
