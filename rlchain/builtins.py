@@ -7,12 +7,12 @@ from typing import Any
 import rlchain.envs.backends.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
 import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
 import rlchain.envs.test  # noqa: F401  (registers the test envs)
-from rlchain.algos.appo.trainer import APPOTrainer, ImpalaTrainer
-from rlchain.algos.distill.trainer import DistillTrainer
+from rlchain.algos.appo.trainer import APPO, IMPALA
+from rlchain.algos.distill.trainer import Distill
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
-from rlchain.algos.off_policy.trainer import DQNTrainer, SACTrainer
-from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.algos.off_policy.trainer import DQN, SAC
+from rlchain.algos.ppo.trainer import PPO
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
 from rlchain.envs.factory import BuiltinVecEnv
 from rlchain.models.actor_critic import ActorCritic
@@ -48,18 +48,18 @@ def register_builtins() -> None:
     NETWORKS.register("testnet_aux_loss", TestNetAuxLossBuilder, overwrite=True, replaceable=True)
     NETWORKS.register("resnet_actor_critic", ResnetActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
-        ALGOS.register(name, OnPolicyTrainer, overwrite=True)
+        ALGOS.register(name, PPO, overwrite=True)
 
     MODELS.register("soft_actor_critic", soft_actor_critic_model, overwrite=True)
     MODELS.register("dqn", dqn_model, overwrite=True)
     NETWORKS.register("soft_actor_critic", SACNetworkBuilder, overwrite=True)
     NETWORKS.register("dqn", QNetworkBuilder, overwrite=True)
-    ALGOS.register("sac", SACTrainer, overwrite=True)
-    ALGOS.register("dqn", DQNTrainer, overwrite=True)
+    ALGOS.register("sac", SAC, overwrite=True)
+    ALGOS.register("dqn", DQN, overwrite=True)
 
-    ALGOS.register("appo", APPOTrainer, overwrite=True)
-    ALGOS.register("impala", ImpalaTrainer, overwrite=True)
-    ALGOS.register("distill", DistillTrainer, overwrite=True)
+    ALGOS.register("appo", APPO, overwrite=True)
+    ALGOS.register("impala", IMPALA, overwrite=True)
+    ALGOS.register("distill", Distill, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively

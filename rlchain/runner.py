@@ -11,11 +11,11 @@ import copy
 import os
 from typing import Any
 
-from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
 from rlchain.config.packaged import resolve_checkpoint, resolve_config
-from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
+from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
 from rlchain.inference.export.onnx import export_from_cli
@@ -108,7 +108,7 @@ class Runner:
     def _train(self, params: Params, group: Any, checkpoint: str | None, seed: int | None, sigma: float | None,
                callbacks: list[Any], track: bool, wandb_project: str, wandb_entity: str | None) -> Any:
 
-        run_ctx: RunContext = resolve(params, seed, group)  # this process's device, seed (per rank), printing
+        run_ctx: ProcessContext = resolve(params, seed, group)  # device, seed (per rank), printing
         params, seed = run_ctx.params, run_ctx.seed
         cfg = params.config
         seed_everything(seed)
@@ -219,5 +219,5 @@ class Runner:
 def algorithm_class(params: Params) -> Any:
     """The registered algorithm of ``params.algo.name`` (multi-policy PPO with ``config.multi_agent``)."""
     if params.policies is not None:  # config.multi_agent: one PPO learner per policy
-        return MultiPolicyTrainer
+        return MultiPolicyPPO
     return ALGOS.get(params.algo.name)

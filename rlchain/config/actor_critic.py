@@ -3,7 +3,7 @@
 
 They share the agent's optimizer, learning-rate schedules, value and entropy losses, normalizers and
 minibatches, so these keys mean the same for the three; each algorithm's class adds its own keys
-(:class:`~rlchain.config.ppo.TrainConfig`, :class:`~rlchain.config.appo.APPOConfig`,
+(:class:`~rlchain.config.ppo.PPOConfig`, :class:`~rlchain.config.appo.APPOConfig`,
 :class:`~rlchain.config.appo.ImpalaConfig`).
 """
 

@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.fields import option, positive, variant
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 
 
 def _clip(x: float | None) -> str | None:
@@ -105,10 +105,10 @@ class APPOConfig(VTraceConfig):
     """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
     (``mini_epochs``) per learner batch."""
 
-    mini_epochs: int = variant(TrainConfig, "mini_epochs")
-    e_clip: float = variant(TrainConfig, "e_clip")
-    clip_value: bool = variant(TrainConfig, "clip_value")
-    use_smooth_clamp: bool = variant(TrainConfig, "use_smooth_clamp")
+    mini_epochs: int = variant(PPOConfig, "mini_epochs")
+    e_clip: float = variant(PPOConfig, "e_clip")
+    clip_value: bool = variant(PPOConfig, "clip_value")
+    use_smooth_clamp: bool = variant(PPOConfig, "use_smooth_clamp")
 
 
 @dataclass(frozen=True)

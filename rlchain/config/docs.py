@@ -13,14 +13,14 @@ from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.distill import DistillConfig
 from rlchain.config.multi_agent import PolicySpec
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
-from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
+from rlchain.config.schema import InitializerConfig, NetworkConfig, PPOConfig, ResnetNetworkConfig
 
 # The top-level blocks: (heading, key path, dataclass, qualifier). Every field whose type is a dataclass
 # (or Optional of one, or a list of one) becomes a section of its own, recursively (see ``sections``),
 # so no nested block can be left out. The qualifier tells apart blocks of different types that share a
 # key path (``params.network.cnn`` of actor_critic and of resnet_actor_critic).
 ROOTS = [
-    ("params.config", "params.config", TrainConfig, "algo a2c_discrete / a2c_continuous"),
+    ("params.config", "params.config", PPOConfig, "algo a2c_discrete / a2c_continuous"),
     ("params.network (builder actor_critic)", "params.network", NetworkConfig, "builder actor_critic"),
     ("params.network (builder resnet_actor_critic: rl_games' IMPALA network; mlp, rnn, space as actor_critic)",
      "params.network", ResnetNetworkConfig, "builder resnet_actor_critic"),

@@ -24,8 +24,8 @@ from rlchain.config.schema import (
     NamedBlock,
     NetworkConfig,
     Params,
+    PPOConfig,
     ResnetNetworkConfig,
-    TrainConfig,
 )
 from rlchain.registry import ALGOS, MODELS, NETWORKS, network_config_class
 
@@ -121,7 +121,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     config_raw = params["config"]
     if not isinstance(config_raw, dict):
         raise ConfigError(source, "params.config", f"expected a mapping, got {config_raw!r}")
-    # each algorithm declares its own config dataclass (config_class); PPO's is TrainConfig
+    # each algorithm declares its own config dataclass (config_class); PPO's is PPOConfig
     config_class = config_class_of(algo.name)
     config_raw = compat.translate_config(config_raw, source)
     config_raw = drop_other_algo_keys(config_raw, algo.name, source)  # another algo's key: a warning
@@ -141,18 +141,18 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     _check_registered(NETWORKS, _network_name(network), "params.network.name", source)
     if isinstance(network, (NetworkConfig, ResnetNetworkConfig)):
         compat.check_model_alias(old_model_name, network.rnn is not None, source)
-    if isinstance(config, TrainConfig) and isinstance(network, (NetworkConfig, ResnetNetworkConfig)) \
+    if isinstance(config, PPOConfig) and isinstance(network, (NetworkConfig, ResnetNetworkConfig)) \
             and network.rnn is not None:
         _check_sequences(config, source)
     if isinstance(network, NetworkConfig) and network.central_value:
         raise ConfigError(source, "params.network.central_value", "True makes a value-only critic, but "
                           "params.network is the actor; put the critic under config.central_value_config.network")
-    if isinstance(config, TrainConfig) and config.central_value_config is not None:
+    if isinstance(config, PPOConfig) and config.central_value_config is not None:
         config = dataclasses.replace(config, central_value_config=_resolve_central_value(config, source))
     out = Params(algo=algo, model=model, config=config, network=network, seed=seed,
                  import_modules=modules, torch_threads=threads, update_threads=update_threads,
                  malloc=malloc, source=source)
-    if isinstance(config, TrainConfig) and config.multi_agent is not None:
+    if isinstance(config, PPOConfig) and config.multi_agent is not None:
         out = dataclasses.replace(out, policies=_policy_params(out, params, source))
     return out
 
@@ -177,7 +177,7 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
     """``config.multi_agent``: each policy's own Params -- the top-level network, model and config with
     the policy's ``network`` / ``model`` / ``config`` in their place (see rlchain/config/multi_agent.py)."""
 
-    ma = top.config_as(TrainConfig).multi_agent
+    ma = top.config_as(PPOConfig).multi_agent
     if top.network is not None and isinstance(top.network, (NetworkConfig, ResnetNetworkConfig)) \
             and top.network.rnn is not None:
         raise ConfigError(source, "params.network.rnn", "multi_agent policies are feedforward for now "
@@ -197,7 +197,7 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
                                                  f"{path}.config")}
         if "minibatch_size" in spec.config:
             merged.pop("minibatch_size_per_env", None)
-        config = _resolve_training(parse_dataclass(TrainConfig, merged, f"{path}.config", source), source)
+        config = _resolve_training(parse_dataclass(PPOConfig, merged, f"{path}.config", source), source)
         network = top.network if spec.network is None else _parse_network(spec.network, source, f"{path}.network")
         _check_registered(NETWORKS, _network_name(network), f"{path}.network.name", source)
         if isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and network.rnn is not None:
@@ -280,7 +280,7 @@ def _check_callbacks(specs: list[str], source: str) -> None:
             raise ConfigError(source, path, f"module '{module_name}' has no '{attr}'")
 
 
-def _check_sequences(config: TrainConfig, source: str) -> None:
+def _check_sequences(config: PPOConfig, source: str) -> None:
     """An RNN trains on whole sequences: horizon and minibatch must hold whole seq_length blocks."""
     length = config.seq_length
     if config.horizon_length % length:
@@ -291,7 +291,7 @@ def _check_sequences(config: TrainConfig, source: str) -> None:
                           f"minibatch_size {config.minibatch_size} is not divisible by seq_length {length}")
 
 
-def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
+def check_batch(config: PPOConfig, source: str, agents: int = 1) -> None:
     """minibatch_size must divide the batch num_actors * horizon_length * ``agents`` (agents per env).
 
     At load time the env is unknown, so this runs once the env is built (``Runner.train``), with
@@ -307,7 +307,7 @@ def check_batch(config: TrainConfig, source: str, agents: int = 1) -> None:
                           f"batch {what} = {batch} is not divisible by minibatch_size {config.minibatch_size}")
 
 
-def _resolve_central_value(config: TrainConfig, source: str) -> CentralValueConfig:
+def _resolve_central_value(config: PPOConfig, source: str) -> CentralValueConfig:
     """The asymmetric critic: value-only network, a minibatch that divides the batch. Returns the block
     with its network parsed and its minibatch_size resolved (default: the actor's)."""
 

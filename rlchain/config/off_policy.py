@@ -1,7 +1,7 @@
 """Typed ``params.config`` for the off-policy algorithms (``sac``, ``dqn``).
 
 The algorithm registered in ALGOS names its dataclass as ``config_class``; ``parse_params`` then
-parses ``params.config`` with it instead of PPO's :class:`~rlchain.config.ppo.TrainConfig`.
+parses ``params.config`` with it instead of PPO's :class:`~rlchain.config.ppo.PPOConfig`.
 The generic rl_games keys (run name, env, stop conditions, checkpoints, player: :class:`~rlchain.config.run.
 RunConfig`) mean the same as for PPO.
 """
@@ -13,7 +13,7 @@ from typing import Any
 
 from rlchain.config.fields import non_negative, option, positive, unit_interval, variant
 from rlchain.config.network import MlpConfig, SpaceConfig
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.config.run import RunConfig
 
 
@@ -76,9 +76,9 @@ class OffPolicyConfig(RunConfig):
                                     status="planned (off-policy AMP)")
     multi_gpu: bool = variant(RunConfig, "multi_gpu", doc="torch.distributed training",
                               status="planned (torchrun is PPO-only for now)")
-    seq_length: int = variant(TrainConfig, "seq_length", doc="RNN sequence length",
+    seq_length: int = variant(PPOConfig, "seq_length", doc="RNN sequence length",
                               status="accepted; no effect off-policy")
-    torch_compile: Any = variant(TrainConfig, "torch_compile")  # accepted as false only (validate)
+    torch_compile: Any = variant(PPOConfig, "torch_compile")  # accepted as false only (validate)
     snapshot_epochs: int = option(100, "divergence rollback: epochs between in-memory learner snapshots "
                                        "(rlchain; an off-policy epoch is num_steps_per_episode env steps)",
                                   check=positive)

@@ -1,4 +1,4 @@
-"""``params.config`` of PPO (algos ``a2c_continuous`` / ``a2c_discrete``): :class:`TrainConfig`, the keys
+"""``params.config`` of PPO (algos ``a2c_continuous`` / ``a2c_discrete``): :class:`PPOConfig`, the keys
 only PPO reads (GAE, the clipped surrogate, RNN sequences, torch.compile, env groups, the asymmetric critic,
 self-play, multi-agent policies) on top of the actor-critic keys it shares with appo and impala."""
 
@@ -12,6 +12,7 @@ from rlchain.config.compile import check_compile, check_cuda_graph
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 from rlchain.config.multi_agent import MultiAgentConfig
 from rlchain.config.obs_groups import ObsGroupsConfig
+from rlchain.deprecation import renamed
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,7 @@ class CentralValueConfig:
 
 
 @dataclass(frozen=True)
-class TrainConfig(ActorCriticConfig):
+class PPOConfig(ActorCriticConfig):
     """``params.config``: the training keys of an rl_games config (PPO)."""
 
     env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
@@ -143,3 +144,9 @@ class TrainConfig(ActorCriticConfig):
         if self.distilled_checkpoint:
             return "student"
         return self.obs_groups.policy if self.obs_groups is not None else "teacher"
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "TrainConfig": ("PPOConfig", PPOConfig),
+})

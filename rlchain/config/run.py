@@ -159,7 +159,7 @@ class ProgressConfig:
 class RunConfig:
     """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
 
-    Each algorithm's ``params.config`` class derives from it (PPO's :class:`~rlchain.config.ppo.TrainConfig`,
+    Each algorithm's ``params.config`` class derives from it (PPO's :class:`~rlchain.config.ppo.PPOConfig`,
     ``sac``, ``dqn``, ``appo``, ``impala``); a key only some algorithms read lives on their classes.
     """
 

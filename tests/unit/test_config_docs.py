@@ -15,14 +15,14 @@ import typing
 import pytest
 
 import rlchain  # noqa: F401  (registers the built-in algos and networks)
-from rlchain.config.schema import TrainConfig
+from rlchain.config.schema import PPOConfig
 from rlchain.registry import ALGOS, NETWORKS
 from tests.conftest import ROOT
 
 
 def _roots():
     """(key path, dataclass, a word the heading must hold): what parse_params parses each block with."""
-    roots = [("params.config", TrainConfig, "params.config")]  # algos without a config_class (PPO)
+    roots = [("params.config", PPOConfig, "params.config")]  # algos without a config_class (PPO)
     for registry, path, kind in ((ALGOS, "params.config", "algo"), (NETWORKS, "params.network", "builder")):
         for name in registry.names():
             cls = getattr(registry.get(name), "config_class", None)

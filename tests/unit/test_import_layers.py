@@ -27,6 +27,7 @@ ALGO_BASE = "rlchain.algos.base"
 TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
 ALGO_FAMILIES += ("rlchain.algos.distill",)  # teacher to student (issue 36)
 RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
+GROUND_FLOOR = ("rlchain.errors", "rlchain.log", "rlchain.registry", "rlchain.deprecation")  # import nothing of rlchain
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
 OPTIONAL = re.compile(r"#\s*optional:\s*\S")
 
@@ -127,17 +128,16 @@ def layer_violation(importer: str, imported: str) -> str | None:
         return "models/, networks/ and algos/core/ import no algorithm family"
     if _under(importer, ALGO_BASE) and _family(imported) is not None:
         return "algos/base/ (what the loop and every algorithm share) names no algorithm family"
-    if _under(importer, "rlchain.envs") and not _under(imported, "rlchain.envs", "rlchain.config", "rlchain.errors",
-                                                       "rlchain.log", "rlchain.registry", "rlchain.parallel"):
+    if _under(importer, "rlchain.envs") and not _under(imported, "rlchain.envs", "rlchain.config", "rlchain.parallel",
+                                                       *GROUND_FLOOR):
         return "envs/ imports only envs/, config/, parallel/ and the ground floor"
-    if _under(importer, "rlchain.config") and not _under(imported, "rlchain.config", "rlchain.errors", "rlchain.log",
-                                                         "rlchain.registry"):
+    if _under(importer, "rlchain.config") and not _under(imported, "rlchain.config", *GROUND_FLOOR):
         return "config/ imports only config/ and the ground floor"
-    if _under(importer, "rlchain.parallel") and not _under(imported, "rlchain.parallel", "rlchain.errors",
-                                                           "rlchain.log", "rlchain.registry", "rlchain.config"):
+    if _under(importer, "rlchain.parallel") and not _under(imported, "rlchain.parallel", "rlchain.config",
+                                                           *GROUND_FLOOR):
         return "parallel/ is low: it imports only config/ and the ground floor"
-    if _under(importer, "rlchain.errors", "rlchain.log", "rlchain.registry"):
-        return "the ground floor (errors, log, registry) imports nothing of rlchain"
+    if _under(importer, *GROUND_FLOOR):
+        return "the ground floor (errors, log, registry, deprecation) imports nothing of rlchain"
     if _under(importer, "rlchain.training") and not _under(imported, ALGO_BASE) and \
             _under(imported, "rlchain.algos", "rlchain.inference.export", "rlchain.tuning", "rlchain.builtins"):
         return "training/ names no algorithm (and no export, tuning or built-ins)"

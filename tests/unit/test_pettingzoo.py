@@ -193,7 +193,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
             "losses/runners/c_loss", "info/runners/last_lr", "rewards/step"} <= tags
     assert "losses/a_loss" not in tags  # two policies: no unprefixed loss to mix them up in
     # resume: the learner state is exactly the checkpoint's
-    from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+    from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
@@ -201,7 +201,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
     params = runner.params
     env = build_env(params, 4, 3)
     model = build_model(params, env, torch.device("cpu"))
-    trainer = Loop(params, MultiPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
+    trainer = Loop(params, MultiPolicyPPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
                    runner.raw)
     trainer.restore(state, path)
     again = trainer.state_dict()
@@ -220,7 +220,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
 
 
 def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
-    from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+    from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
@@ -229,7 +229,7 @@ def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
     params = runner.params
     env = build_env(params, 4, 3)
     model = build_model(params, env, torch.device("cpu"))
-    trainer = Loop(params, MultiPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
+    trainer = Loop(params, MultiPolicyPPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
                    runner.raw).algorithm
     trainer.start()
     assert trainer.collect()

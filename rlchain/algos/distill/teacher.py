@@ -20,7 +20,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.off_policy import SACConfig
 from rlchain.config.packaged import resolve_checkpoint
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.config.resolve import params_from_state
 from rlchain.config.schema import Params
 from rlchain.models.build import build_model, model_view
@@ -51,7 +51,7 @@ def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
     except (KeyError, TypeError, ConfigError) as exc:
         raise ConfigError(source, KEY, f"{path}: the checkpoint's config cannot be read back ({exc})") from None
     is_sac = isinstance(teacher_params.config, SACConfig)
-    if not (isinstance(teacher_params.config, TrainConfig) or is_sac) or teacher_params.policies is not None:
+    if not (isinstance(teacher_params.config, PPOConfig) or is_sac) or teacher_params.policies is not None:
         raise ConfigError(source, KEY, f"{path} was trained with algo '{teacher_params.algo.name}'; a teacher is a "
                                        f"single-policy PPO checkpoint (a2c_continuous / a2c_discrete) or a SAC one")
     if is_sac and not isinstance(env.action_space, gym.spaces.Box):

@@ -26,6 +26,7 @@ from rlchain.algos.off_policy.sac import SACAgent
 from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
+from rlchain.deprecation import renamed
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
@@ -33,7 +34,7 @@ from rlchain.log import get_logger
 log = get_logger(__name__)
 
 
-class OffPolicyTrainer(AlgorithmBase):
+class OffPolicyAlgorithm(AlgorithmBase):
     """An off-policy algorithm: env steps into a replay buffer, updates from it."""
 
     config_class: type = SACConfig
@@ -219,13 +220,13 @@ class OffPolicyTrainer(AlgorithmBase):
                         f"written): it refills from empty, {self.cfg.batch_size} transitions before learning goes on")
 
 
-class SACTrainer(OffPolicyTrainer):
+class SAC(OffPolicyAlgorithm):
     """Algo ``sac``."""
 
     config_class = SACConfig
     metric_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
                    "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q",
-                   "alpha": "info/alpha", **OffPolicyTrainer.SHARED_TAGS}
+                   "alpha": "info/alpha", **OffPolicyAlgorithm.SHARED_TAGS}
     console_fields = tuple((name, name + " {:.3g}") for name in
                            ("actor_loss", "critic_loss", "alpha_loss", "entropy", "q", "alpha"))
     tunable = ("actor_lr", "critic_lr", "alpha_lr", "gamma", "critic_tau", "batch_size", "num_updates_per_step",
@@ -238,12 +239,12 @@ class SACTrainer(OffPolicyTrainer):
         return {"alpha": float(self.model.alpha.detach())}
 
 
-class DQNTrainer(OffPolicyTrainer):
+class DQN(OffPolicyAlgorithm):
     """Algo ``dqn``."""
 
     config_class = DQNConfig
     metric_tags = {"td_loss": "losses/td_loss", "q": "info/q", "epsilon": "info/epsilon",
-                   **OffPolicyTrainer.SHARED_TAGS}
+                   **OffPolicyAlgorithm.SHARED_TAGS}
     console_fields = tuple((name, name + " {:.3g}") for name in ("td_loss", "q", "epsilon"))
     tunable = ("learning_rate", "gamma", "target_tau", "target_update_frequency", "batch_size",
                "num_updates_per_step", "epsilon_end")
@@ -292,3 +293,11 @@ def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:
         raw = torch.as_tensor(raw, dtype=torch.float32, device=device).reshape(-1)
         return shape_rewards(raw, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
     return reward
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "OffPolicyTrainer": ("OffPolicyAlgorithm", OffPolicyAlgorithm),
+    "SACTrainer": ("SAC", SAC),
+    "DQNTrainer": ("DQN", DQN),
+})

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
 
 class RolloutMixin:
-    """The rollout half of :class:`rlchain.algos.ppo.trainer.OnPolicyTrainer` (uses its env, model,
+    """The rollout half of :class:`rlchain.algos.ppo.trainer.PPO` (uses its env, model,
     storage, central value, RNN states and run context)."""
 
     graphed_act = None

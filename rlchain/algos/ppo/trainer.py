@@ -20,6 +20,7 @@ from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
+from rlchain.deprecation import renamed
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
@@ -32,7 +33,7 @@ from rlchain.runs import checkpoint as ckpt
 log = get_logger(__name__)
 
 
-class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
+class PPO(RolloutMixin, AlgorithmBase):
     """PPO (algos ``a2c_continuous`` and ``a2c_discrete``): rollout into a storage, then the PPO update
     (and the central value's, with an asymmetric critic)."""
 
@@ -249,3 +250,9 @@ def obs_per_minibatch(mode: str, continuous: bool) -> bool:
     """``obs_normalizer_update`` resolved: True when each minibatch of the update's first pass folds its
     observations in (minibatch, or auto with continuous actions), False for the whole rollout at once."""
     return mode == "minibatch" or (mode == "auto" and continuous)
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "OnPolicyTrainer": ("PPO", PPO),
+})

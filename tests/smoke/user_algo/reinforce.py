@@ -20,11 +20,11 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.config.fields import option
-from rlchain.config.schema import Params, TrainConfig
+from rlchain.config.schema import Params, PPOConfig
 
 
 @dataclass(frozen=True)
-class ReinforceConfig(TrainConfig):
+class ReinforceConfig(PPOConfig):
     """PPO's keys (horizon_length, learning_rate, gamma, ...) plus this algorithm's own."""
 
     baseline: bool = option(True, "subtract the batch's mean return from every return")
