@@ -5,7 +5,7 @@ rollback and checkpoints every algorithm shares.
 The algorithm (:class:`rlchain.algos.base.algorithm.Algorithm`: PPO, SAC, DQN, APPO, ...) is built by the
 Loop with the run's :class:`~rlchain.algos.base.context.RunContext` and never subclasses it. The Loop logs
 whatever metrics ``update`` returns, under the algorithm's ``metric_tags``; checkpoints are
-:class:`~rlchain.training.checkpoints.Checkpoints`, PBT's live parameters
+:class:`~rlchain.training.saving.CheckpointSaver`, PBT's live parameters
 :class:`~rlchain.training.live_params.LiveParams`.
 """
 
@@ -32,7 +32,7 @@ from rlchain.parallel.threads import ThreadPlan
 from rlchain.runs.checkpoint import seed_everything
 from rlchain.runs.logging import EnvStatsCallback, TrainLogger
 from rlchain.runs.run_dir import RunDir
-from rlchain.training.checkpoints import Checkpoints
+from rlchain.training.saving import CheckpointSaver
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
@@ -98,7 +98,7 @@ class Loop:
         if cfg.hyperparam_schedule:  # a replayed PBT schedule, through set_params
             check_names(cfg.hyperparam_schedule, self.algorithm.tunable, params.algo.name, params.source)
             self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
-        self.checkpoints = Checkpoints(self.ctx, self.algorithm, run, self.events)
+        self.checkpoints = CheckpointSaver(self.ctx, self.algorithm, run, self.events)
         self.live = LiveParams(self.ctx, self.algorithm)
 
     # ----- the run's state (callbacks, tuning and the Runner read it here) ----------------------
