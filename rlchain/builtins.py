@@ -1,26 +1,27 @@
-"""Registration of every built-in algo, model and network: the one place it happens."""
+"""Registration of every built-in algo, model, network and env: the one place it happens."""
 
 from __future__ import annotations
 
 from typing import Any
 
-import rlchain.envs.backends.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
-import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
-import rlchain.envs.test  # noqa: F401  (registers the test envs)
+import gymnasium as gym
+
 from rlchain.algos.appo.trainer import APPO, IMPALA
 from rlchain.algos.distill.trainer import Distill
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQN, SAC
 from rlchain.algos.ppo.trainer import PPO
+from rlchain.envs import examples
+from rlchain.envs.backends import atari, torch_envs
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
 from rlchain.envs.factory import BuiltinVecEnv
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
+from rlchain.networks.example_networks import TestNetAuxLossBuilder, TestNetBuilder
 from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
 from rlchain.networks.sac_network import QNetworkBuilder, SACNetworkBuilder
-from rlchain.networks.test_networks import TestNetAuxLossBuilder, TestNetBuilder
 from rlchain.registry import ALGOS, ENVS, MODELS, NETWORKS, VECENVS, WRITERS
 from rlchain.runs.writers import CSVWriter
 
@@ -62,6 +63,13 @@ def register_builtins() -> None:
     ALGOS.register("distill", Distill, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
+    for name, builder in {**atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS}.items():
+        ENVS.register(name, builder, overwrite=True)
+    # gymnasium ids: Atari with the DeepMind preprocessing, the example envs
+    gym_ids = {atari.ATARI_ID: (atari.make_atari_env, {"disable_env_checker": True}), **examples.GYM_ENVS}
+    for env_id, (entry_point, kwargs) in gym_ids.items():
+        if env_id not in gym.registry:
+            gym.register(env_id, entry_point=entry_point, **kwargs)
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively
     for name, mode in [*((m, m) for m in VECENV_TYPES), *VECENV_ALIASES.items()]:
         VECENVS.register(name, BuiltinVecEnv(mode), overwrite=True)

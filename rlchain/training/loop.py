@@ -32,11 +32,11 @@ from rlchain.parallel.threads import ThreadPlan
 from rlchain.runs.checkpoint import seed_everything
 from rlchain.runs.logging import EnvStatsCallback, TrainLogger
 from rlchain.runs.run_dir import RunDir
-from rlchain.training.saving import CheckpointSaver
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
 from rlchain.training.live_params import LiveParams
+from rlchain.training.saving import CheckpointSaver
 from rlchain.training.self_play import SelfPlayCallback
 
 __all__ = ["Loop", "TrainResult", "AlgorithmFactory", "tag_metrics", "to_device", "describe"]

@@ -209,8 +209,6 @@ def test_runners_report_task_success(tmp_path, mode):
     get a success rate, counted with the config's success_mode, and log_info_keys' env_info/success."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    import rlchain.envs.test  # noqa: F401  (registers TestGoalReach-v0)
-
     raw = config(tmp_path, env_name="TestGoalReach-v0", success_mode=mode, max_epochs=4, log_info_keys=["success"],
                  env_config={"goal_dict": False, "reward_type": "dense", "max_steps": 8})
     raw["params"]["model"] = {"name": "continuous_a2c_logstd"}

@@ -16,7 +16,7 @@ from rlchain.config.load import parse_params
 from rlchain.errors import NetworkError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
-from rlchain.networks.test_networks import TestNet, TestNetAuxLoss
+from rlchain.networks.example_networks import TestNet, TestNetAuxLoss
 from rlchain.registry import NETWORKS, Registry
 from rlchain.runs.logging import TrainLogger
 from tests.conftest import BASE

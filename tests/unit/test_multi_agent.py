@@ -14,8 +14,8 @@ from rlchain.algos.ppo.trainer import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
+from rlchain.envs.examples.cooperative import CooperativeEnv, nearest_flag_policy
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.test.cooperative import CooperativeEnv, nearest_flag_policy
 from rlchain.envs.wrappers.multi_agent import MultiAgentVecEnv, make_multi_agent_env
 from rlchain.models.build import build_env, build_model
 from rlchain.runs.logging import TrainLogger

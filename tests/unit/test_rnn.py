@@ -184,8 +184,7 @@ def test_rnn_config_errors(tmp_path):
 
 
 def test_masked_velocity_env_hides_velocities():
-    import rlchain.envs.test  # noqa: F401
-
+    # rlchain.builtins (run when rlchain is imported) registered the id
     env = gym.make("CartPoleMaskedVelocity-v1")
     obs, _ = env.reset(seed=0)
     assert obs.shape == (2,) and env.observation_space.shape == (2,)
