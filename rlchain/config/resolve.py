@@ -18,8 +18,9 @@ from typing import Any
 from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
-from rlchain.config.load import _parse_network, check_malloc
-from rlchain.config.schema import NamedBlock, Params, PPOConfig
+from rlchain.config.load import check_malloc
+from rlchain.config.network_block import parse_network
+from rlchain.config.schema import NamedBlock, Params
 from rlchain.deprecation import renamed
 from rlchain.registry import ALGOS
 
@@ -128,13 +129,13 @@ def params_from_state(data: Any, source: str) -> Params:
     if isinstance(stored, dict):
         stored = drop_other_algo_keys(stored, algo.name, source, warn=False)
     config = parse_dataclass(config_class_of(algo.name), stored, "params.config", source)
-    cv = config.central_value_config if isinstance(config, PPOConfig) else None
+    cv = getattr(config, "central_value_config", None)  # PPO's asymmetric critic
     if cv is not None:
-        network = _parse_network(cv.network, source, "params.config.central_value_config.network")
+        network = parse_network(cv.network, source, "params.config.central_value_config.network")
         config = dataclasses.replace(config, central_value_config=dataclasses.replace(cv, network=network))
     policies = data.get("policies")
     return Params(
-        algo=algo, model=model, config=config, network=_parse_network(data.get("network"), source),
+        algo=algo, model=model, config=config, network=parse_network(data.get("network"), source),
         seed=parse_value(int | None, data.get("seed"), "params.seed", source),
         import_modules=parse_value(list[str] | None, data.get("import_modules"), "params.import_modules", source),
         torch_threads=parse_value(int | None, data.get("torch_threads"), "params.torch_threads", source),

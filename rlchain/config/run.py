@@ -249,3 +249,18 @@ class RunConfig:
                                                              "the last good learner snapshot (off-policy: "
                                                              "taken every snapshot_epochs epochs)")
 
+    # The checks an algorithm's config runs on itself, in this order, while the file is parsed
+    # (rlchain.config.load.parse_params); an algorithm's class overrides the ones it needs.
+
+    def resolved(self, source: str) -> RunConfig:
+        """This config with its derived values filled in (cross-key checks raise ConfigError)."""
+        return self
+
+    def validate(self) -> tuple[str, str] | None:
+        """A problem no single key shows: (key under params.config, message), or None."""
+        return None
+
+    def with_network(self, network: Any, source: str) -> RunConfig:
+        """Checks against the parsed ``params.network`` (e.g. RNN sequences); the config, completed."""
+        return self
+

@@ -33,9 +33,9 @@ from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.core.vtrace import vtrace
 from rlchain.algos.ppo.agent import PPOAgent
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
 from rlchain.config.schema import EnvRunnersConfig, Params
 from rlchain.deprecation import renamed
 from rlchain.envs.ray.ray_env import worker_slices

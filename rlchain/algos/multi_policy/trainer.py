@@ -22,8 +22,8 @@ from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
 from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
 from rlchain.algos.multi_policy.snapshots import Snapshots
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
 from rlchain.config.multi_agent import KEY
 from rlchain.config.schema import Params
 from rlchain.deprecation import renamed

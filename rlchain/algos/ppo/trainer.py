@@ -17,8 +17,8 @@ from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
 from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, probed
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
 from rlchain.algos.ppo.rollout import RolloutMixin
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
 from rlchain.config.schema import Params
 from rlchain.deprecation import renamed
 from rlchain.envs.spec import EnvSpec, env_spec
