@@ -105,6 +105,11 @@ class APPOConfig(VTraceConfig):
     """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
     (``mini_epochs``) per learner batch."""
 
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = ("asynchronous PPO on V-trace, docs/appo.md; keys shared with PPO have the same "
+                               "meaning, horizon_length is the fragment length; a PPO key not listed here, e.g. "
+                               "tau, is ignored with a warning")
+
     mini_epochs: int = variant(PPOConfig, "mini_epochs")
     e_clip: float = variant(PPOConfig, "e_clip")
     clip_value: bool = variant(PPOConfig, "clip_value")
@@ -115,6 +120,10 @@ class APPOConfig(VTraceConfig):
 class ImpalaConfig(VTraceConfig):
     """``params.config`` for algo ``impala``: the V-trace actor-critic (policy gradient weighted by the clipped
     ratio, no surrogate clipping), one pass over each learner batch."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = ("the V-trace actor-critic, docs/appo.md; as algo appo without its clipped-"
+                               "surrogate keys: one pass per batch")
 
     # Not keys: IMPALA's fixed values of appo's surrogate keys (e_clip only sizes the clip_frac diagnostic)
     mini_epochs: ClassVar[int] = 1

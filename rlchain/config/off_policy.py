@@ -9,7 +9,7 @@ RunConfig`) mean the same as for PPO.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.config.fields import non_negative, option, positive, unit_interval, variant
 from rlchain.config.network import MlpConfig, SpaceConfig
@@ -110,6 +110,9 @@ class OffPolicyConfig(RunConfig):
 @dataclass(frozen=True)
 class SACConfig(OffPolicyConfig):
     """``params.config`` for algo ``sac`` (soft actor-critic, twin critics, tanh-squashed Gaussian)."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = "keys shared with PPO have the same meaning"
 
     init_alpha: float = option(1.0, "initial entropy temperature", check=positive)
     alpha_lr: float = option(3e-4, "temperature learning rate", check=_check_lr)

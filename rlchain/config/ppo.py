@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.compile import check_compile, check_cuda_graph
@@ -70,6 +70,9 @@ class CentralValueConfig:
 @dataclass(frozen=True)
 class PPOConfig(ActorCriticConfig):
     """``params.config``: the training keys of an rl_games config (PPO)."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = "PPO"
 
     env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
                                      "the background while the policy acts for the other (overlaps env "

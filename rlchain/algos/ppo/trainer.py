@@ -19,7 +19,7 @@ from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
 from rlchain.algos.ppo.rollout import RolloutMixin
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
+from rlchain.config.schema import Params, PPOConfig
 from rlchain.deprecation import renamed
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
@@ -37,6 +37,7 @@ class PPO(RolloutMixin, AlgorithmBase):
     """PPO (algos ``a2c_continuous`` and ``a2c_discrete``): rollout into a storage, then the PPO update
     (and the central value's, with an asymmetric critic)."""
 
+    config_class = PPOConfig
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
                    "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
