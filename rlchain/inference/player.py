@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from rlchain.config.schema import Params
-from rlchain.inference.play import PlayResult, play
 from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.policy.play import PlayResult, play
 from rlchain.runs import checkpoint as ckpt
 
 

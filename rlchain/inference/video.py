@@ -24,9 +24,9 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.spaces import cast_actions, cast_obs
-from rlchain.inference.play import play
 from rlchain.inference.player import Player
 from rlchain.log import get_logger
+from rlchain.policy.play import play
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
@@ -78,7 +78,7 @@ def make_recording_env(params: Params, video_dir: str, name_prefix: str = "rl-vi
 
 class OneEnv:
     """One gymnasium env (the recording env) as a VecEnv of ``num_envs = 1`` for
-    :func:`rlchain.inference.play.play`.
+    :func:`rlchain.policy.play.play`.
 
     An ended episode is reset in the same step (the VecEnv contract), episode ``k`` seeded
     ``seed + k``, except after the ``games``-th: RecordVideo would start one more video.

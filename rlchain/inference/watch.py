@@ -24,8 +24,8 @@ from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
-from rlchain.inference.play import PlayResult, play
 from rlchain.inference.player import Player
+from rlchain.policy.play import PlayResult, play
 from rlchain.runs import checkpoint as ckpt
 
 

@@ -30,10 +30,10 @@ from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
 from rlchain.parallel.threads import ThreadPlan
 from rlchain.runs.checkpoint import seed_everything
-from rlchain.runs.logging import EnvStatsCallback, TrainLogger
+from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.evaluation import EvaluationCallback
-from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.events import CallbackList, EnvStatsCallback, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
 from rlchain.training.live_params import LiveParams
 from rlchain.training.saving import CheckpointSaver

@@ -27,7 +27,6 @@ ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.r
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"
 TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
-RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
 GROUND_FLOOR = ("rlchain.errors", "rlchain.log", "rlchain.registry", "rlchain.deprecation")  # import nothing of rlchain
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
 OPTIONAL = re.compile(r"#\s*optional:\s*\S")
@@ -159,10 +158,16 @@ def layer_violation(importer: str, imported: str, families: tuple[str, ...] | No
     if _under(importer, "rlchain.training") and not _under(imported, ALGO_BASE) and \
             _under(imported, "rlchain.algos", "rlchain.inference.export", "rlchain.tuning", "rlchain.builtins"):
         return "training/ names no algorithm (and no export, tuning or built-ins)"
-    if _under(importer, "rlchain.runs") and (
-            _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning", "rlchain.builtins")
-            or _under(imported, "rlchain.training") and imported not in RUNS_MAY_IMPORT):
-        return "runs/ sits below the loop and the algorithms (of training/ it sees only the callback interface)"
+    if _under(importer, "rlchain.runs") and _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning",
+                                                   "rlchain.builtins", "rlchain.training", "rlchain.policy"):
+        return "runs/ sits below the loop, the algorithms and the policy"
+    if _under(importer, "rlchain.policy") and (
+            _under(imported, "rlchain.training", "rlchain.inference", "rlchain.tuning", "rlchain.builtins",
+                   "rlchain.runs") or _family(imported, families) is not None):
+        return "policy/ (a trained policy, its play loop) sits below training/, inference/ and the algorithms"
+    if _under(importer, "rlchain.models", "rlchain.networks", "rlchain.algos.core", ALGO_BASE, "rlchain.envs",
+              "rlchain.config", "rlchain.parallel") and _under(imported, "rlchain.policy"):
+        return "models/, networks/, algos/core/, algos/base/, envs/, config/ and parallel/ sit below policy/"
     if _under(importer, "rlchain.inference") and (TRAINER.match(imported) or _under(imported, "rlchain.tuning")
                                                    or imported == "rlchain.training.loop"):
         return "inference/ imports no trainer"
@@ -237,6 +242,12 @@ def test_the_checks_bite():
     assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop")
     assert layer_violation("rlchain.algos.multi_policy.snapshots", "rlchain.training.events")
     assert layer_violation("rlchain.algos.base.context", "rlchain.algos.ppo.agent")
+    assert layer_violation("rlchain.runs.logging", "rlchain.training.events")
+    assert layer_violation("rlchain.policy.play", "rlchain.training.events")
+    assert layer_violation("rlchain.policy.play", "rlchain.inference.player")
+    assert layer_violation("rlchain.models.build", "rlchain.policy.stepper")
+    assert layer_violation("rlchain.training.evaluation", "rlchain.policy.play") is None
+    assert layer_violation("rlchain.algos.distill.teacher", "rlchain.policy.play") is None
     assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.algos.base.algorithm") is None
     assert layer_violation("rlchain.training.loop", "rlchain.algos.base.algorithm") is None
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]

@@ -1,4 +1,4 @@
-"""The one play() loop (rlchain/inference/play.py) that evaluation, the Player, video and export share
+"""The one play() loop (rlchain/policy/play.py) that evaluation, the Player, video and export share
 (issue 19 part 4): games and steps limits, action masks, RNN state, the one-env recording adapter."""
 
 import os
@@ -10,10 +10,10 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.inference.play import play
 from rlchain.inference.player import Player
 from rlchain.inference.video import OneEnv
 from rlchain.models.build import build_env, build_model
+from rlchain.policy.play import play
 from rlchain.training.evaluation import run_episodes
 from tests.conftest import CONFIGS
 

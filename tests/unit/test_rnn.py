@@ -211,7 +211,7 @@ def test_truncated_bptt_cuts_gradients_but_not_values(name):
 
 def test_stepper_names_the_key_when_a_masked_policy_meets_an_env_without_masks():
     from rlchain.config.errors import ConfigError
-    from rlchain.models.stepper import PolicyStepper
+    from rlchain.policy.stepper import PolicyStepper
 
     class NoMasks:
         def has_action_mask(self):

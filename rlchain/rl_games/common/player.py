@@ -25,8 +25,8 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
-from rlchain.inference.play import play
 from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.policy.play import play
 from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.common import env_configurations, vecenv
 from rlchain.runs import checkpoint as ckpt

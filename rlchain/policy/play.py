@@ -21,7 +21,7 @@ import torch
 from rlchain.algos.base.episodes import game_outcome
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.success import SuccessReader
-from rlchain.models.stepper import PolicyStepper
+from rlchain.policy.stepper import PolicyStepper
 
 
 @dataclass
