@@ -23,8 +23,9 @@ from rlchain.inference.export.policies import export_policies
 from rlchain.inference.player import Player
 from rlchain.inference.policy_player import play_policies
 from rlchain.log import get_logger
-from rlchain.models.build import apply_sigma, build_model, resolve_device
+from rlchain.models.build import apply_sigma, build_model
 from rlchain.parallel import communicator, distributed
+from rlchain.parallel.device import resolve_device
 from rlchain.parallel.memory import tune_malloc
 from rlchain.parallel.threads import ThreadPlan, for_env, set_threads
 from rlchain.registry import ALGOS

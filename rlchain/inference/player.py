@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from rlchain.config.schema import Params
-from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.envs.factory import build_env
+from rlchain.models.build import apply_sigma, build_model
+from rlchain.parallel.device import resolve_device
 from rlchain.policy.play import PlayResult, play
 from rlchain.runs import checkpoint as ckpt
 

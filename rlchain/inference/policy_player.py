@@ -12,8 +12,10 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
-from rlchain.models.build import build_env, build_model, policy_agents, resolve_device
+from rlchain.models.build import build_model, policy_agents
+from rlchain.parallel.device import resolve_device
 from rlchain.runs import checkpoint as ckpt
 
 

@@ -22,10 +22,10 @@ from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import describe, make_context, to_device
 from rlchain.algos.base.safety import DivergenceGuard, StopSignals, check_parameters
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger
-from rlchain.models.build import build_env
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
 from rlchain.parallel.threads import ThreadPlan

@@ -21,11 +21,12 @@ from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params, PPOConfig
 from rlchain.deprecation import renamed
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.models.build import build_central_value, build_env
+from rlchain.models.build import build_central_value
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
 from rlchain.runs import checkpoint as ckpt

@@ -51,6 +51,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.factory import build_env
 from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the parity inputs)
     HUGE_BOUND,
     RANDOM_OBS_BOUND,
@@ -60,7 +61,7 @@ from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the p
     random_observations,
 )
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.models.build import build_env, build_model
+from rlchain.models.build import build_model
 from rlchain.runs import checkpoint as ckpt
 
 INSTALL_HINT = "pip install rlchain[onnx]"

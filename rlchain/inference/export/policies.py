@@ -17,9 +17,10 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.factory import build_env
 from rlchain.inference.export.inputs import random_observations
 from rlchain.inference.export.onnx import _require, default_output_path, export_model_onnx, onnx_session, verify_onnx
-from rlchain.models.build import build_env, build_model, policy_agents
+from rlchain.models.build import build_model, policy_agents
 from rlchain.runs import checkpoint as ckpt
 
 

@@ -25,7 +25,9 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
-from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.envs.factory import build_env
+from rlchain.models.build import apply_sigma, build_model
+from rlchain.parallel.device import resolve_device
 from rlchain.policy.play import play
 from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.common import env_configurations, vecenv
