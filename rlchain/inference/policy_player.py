@@ -14,9 +14,9 @@ import torch
 from rlchain.config.schema import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
-from rlchain.models.build import build_model, policy_agents
+from rlchain.models.build import policy_agents
 from rlchain.parallel.device import resolve_device
-from rlchain.runs import checkpoint as ckpt
+from rlchain.policy.load import LoadedPolicy, load_policy
 
 
 @dataclass
@@ -42,19 +42,18 @@ def play_policies(params: Params, checkpoint: str | None, games: int | None = No
     pc = params.config.player
     games = games or pc.games_num
     deterministic = pc.deterministic if deterministic is None else deterministic
-    device = resolve_device(params.config.device)
-    seed = params.seed if params.seed is not None else 0
     num_envs = pc.num_actors if pc.use_vecenv else 1
-    env = build_env(params, num_envs, seed, render=pc.render, env_config=pc.env_config)
+    if models is None:
+        policy = load_policy(params, checkpoint, num_envs=num_envs, render=pc.render, env_config=pc.env_config)
+    else:  # the given models on a fresh env
+        device = resolve_device(params.config.device)
+        seed = params.seed if params.seed is not None else 0
+        env = build_env(params, num_envs, seed, render=pc.render, env_config=pc.env_config)
+        policy = LoadedPolicy(models.eval(), env, device, None)
     try:
-        if models is None:
-            models = build_model(params, env, device)
-            if checkpoint:
-                ckpt.load_model_state(models, ckpt.load(checkpoint, map_location=device), checkpoint)
-        models.eval()
-        return _play(params, env, models, games, deterministic, device, quiet)
+        return _play(params, policy.env, policy.model, games, deterministic, policy.device, quiet)
     finally:
-        env.close()
+        policy.close()
 
 
 def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, deterministic: bool,

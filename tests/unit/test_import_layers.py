@@ -162,8 +162,8 @@ def layer_violation(importer: str, imported: str, families: tuple[str, ...] | No
                                                    "rlchain.builtins", "rlchain.training", "rlchain.policy"):
         return "runs/ sits below the loop, the algorithms and the policy"
     if _under(importer, "rlchain.policy") and (
-            _under(imported, "rlchain.training", "rlchain.inference", "rlchain.tuning", "rlchain.builtins",
-                   "rlchain.runs") or _family(imported, families) is not None):
+            _under(imported, "rlchain.training", "rlchain.inference", "rlchain.tuning", "rlchain.builtins")
+            or _family(imported, families) is not None):
         return "policy/ (a trained policy, its play loop) sits below training/, inference/ and the algorithms"
     if _under(importer, "rlchain.models", "rlchain.networks", "rlchain.algos.core", ALGO_BASE, "rlchain.envs",
               "rlchain.config", "rlchain.parallel") and _under(imported, "rlchain.policy"):

@@ -17,11 +17,10 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs.factory import build_env
 from rlchain.inference.export.inputs import random_observations
 from rlchain.inference.export.onnx import _require, default_output_path, export_model_onnx, onnx_session, verify_onnx
-from rlchain.models.build import build_model, policy_agents
-from rlchain.runs import checkpoint as ckpt
+from rlchain.models.build import policy_agents
+from rlchain.policy.load import load_policy
 
 
 def policy_output_path(output: str, policy: str) -> str:
@@ -39,12 +38,11 @@ def export_policies(params: Any, checkpoint: str, output: str | None = None, pol
     if policy is not None and policy not in params.policies:
         raise ConfigError(params.source, "--policy", f"unknown policy '{policy}' (policies: "
                                                      f"{', '.join(params.policies)})")
-    state = ckpt.load(checkpoint, map_location="cpu")
     seed = params.seed if params.seed is not None else 0
-    env = build_env(params, 2, seed, env_config=params.config.player.env_config)
+    loaded = load_policy(params, checkpoint, device=torch.device("cpu"), num_envs=2, seed=seed,
+                         env_config=params.config.player.env_config, eval_mode=False)  # each model: eval below
+    env, models = loaded.env, loaded.model
     try:
-        models = build_model(params, env, torch.device("cpu"))
-        ckpt.load_model_state(models, state, checkpoint)
         plan = {name: agents for name, agents in policy_agents(params, env).items() if agents}
         if policy is not None and policy not in plan:
             raise ConfigError(params.source, "--policy", f"policy '{policy}' plays no agent of this env")
