@@ -75,9 +75,13 @@ class Loop:
 
     def __init__(self, params: Params, algorithm: AlgorithmFactory, env: Any, model: torch.nn.Module,
                  device: torch.device, run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None) -> None:
+                 comm: Communicator | None = None, checked: bool = False, resuming: bool = False) -> None:
+        """``checked``: the caller ran ``algorithm.check_config`` on this env already (the Runner does, before
+        the model is built); ``resuming``: ``model`` holds the weights of the checkpoint :meth:`restore`
+        will be given (the algorithm loads no others into it, and restore does not load them again)."""
         cfg = params.config
-        algorithm.check_config(params, env_spec(env))  # before anything opens (PPO: its minibatch)
+        if not checked:
+            algorithm.check_config(params, env_spec(env))  # before anything opens (PPO: its minibatch)
         self.params, self.env, self.model, self.raw_config = params, env, model, raw_config
         self.started = time.time()  # when train() started
         self.last_stats: dict[str, float] = {}  # the last epoch's metrics and episode means (TrainingState)
@@ -87,6 +91,7 @@ class Loop:
         # the other ranks (torchrun): the algorithm's agents and the episode statistics sync through it
         comm = comm if comm is not None else communicator.current()
         self.ctx = make_context(params, env, device, seed, comm, logger, self.events)
+        self.ctx.resuming = resuming
         self.events.bind(self)  # callbacks get a CallbackContext of this run
         if self.ctx.spec.stats:  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
@@ -272,8 +277,9 @@ class Loop:
         return self.checkpoints.save(kind)
 
     def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
-        self.checkpoints.restore(state, path)
+        """Continue from a checkpoint: weights (unless the model was built holding them: ``resuming``),
+        optimizer(s), lr, normalizers, counters, RNG."""
+        self.checkpoints.restore(state, path, weights=not self.ctx.resuming)
 
     def get_params(self) -> dict[str, float]:
         """The training parameters population-based training may change (see :meth:`set_params`)."""

@@ -86,15 +86,17 @@ class CheckpointSaver:
             self.save(f"ep_{epoch}")
             self.save("last")
 
-    def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG, and (at the
-        algorithm's ``start``) the envs' state and episodes in progress when the checkpoint has them."""
+    def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
+        """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
+        optimizer(s), lr, normalizers, counters, RNG, and (at the algorithm's ``start``) the envs' state and
+        episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
         if state.get("algo") not in (None, name):
             raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
                                        f"the config says '{name}'")
-        ckpt.load_model_state(algo.model, state, path)
+        if weights:
+            ckpt.load_model_state(algo.model, state, path)
         algo.agent.load_state_dict(state["agent"])
         ctx.epoch, ctx.frames = int(state["epoch"]), int(state["frames"])
         for key, value in state.get("live_config", {}).items():  # values set_params gave the config fields

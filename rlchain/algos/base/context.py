@@ -71,6 +71,9 @@ class RunContext:
     threads: ThreadPlan | None = None
     live_config: dict[str, Any] = field(default_factory=dict)
     """Tunable config fields changed during the run (set_params); checkpointed."""
+    resuming: bool = False
+    """The run continues from a checkpoint whose weights the model already holds (the Runner loaded them
+    before building the algorithm): an algorithm loads no other weights into it (PPO's distilled student)."""
     resume_state: dict[str, Any] | None = None
     """After a restore from a checkpoint holding the envs' state: that state and the algorithm's
     position in its episodes, until :meth:`resume_envs` puts them back (the algorithm's ``start``)."""

@@ -99,7 +99,9 @@ class PPO(RolloutMixin, AlgorithmBase):
         # cuda_graph: the act step as a graph too, for a feed-forward policy without masks or central value
         plain = not model.is_rnn and not self.use_masks and self.central_value is None
         self.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
-        self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
+        # a fresh run starts from the distilled student; a resumed one holds its checkpoint's weights already
+        fresh = cfg.distilled_checkpoint and not ctx.resuming
+        self.distilled_teacher = load_distilled(params, env, model, device) if fresh else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
