@@ -1,16 +1,22 @@
-"""The PPO rollout: step the envs for horizon_length steps and fill the RolloutStorage.
+"""The on-policy collector: step the envs for ``horizon_length`` steps and fill a RolloutStorage.
 
-Two ways, the same transitions: synchronous (act for all envs, step all, observe all), or
-pipelined over env groups (``env.env_groups`` with ``send``/``recv``, envpool with ``env_groups`` >
-1), where one group's env step runs in the background while the trainer takes the other group's
-result and computes its actions. :meth:`RolloutMixin._act` and :meth:`RolloutMixin._observe` work
-on a slice of env rows, so both ways share them.
+What it records per step: observations, actions, log-probs, values, distribution parameters, action masks,
+RNN states and their episode starts, rewards (shaped), terminations and dones, and on a time-out the
+value to bootstrap from (``value_bootstrap``); the env's step outcome (episode statistics, success,
+callbacks) goes to the run through :meth:`RunContext.env_outcome`. With a central value the values and
+the bootstrap come from it, and its RNN states ride along after the model's.
+
+Two ways, the same transitions: synchronous (act for all envs, step all, observe all), or pipelined over
+env groups (``env.env_groups`` with ``send``/``recv``, envpool with ``env_groups`` > 1), where one group's
+env step runs in the background while the collector takes the other group's result and computes its
+actions. :meth:`OnPolicyCollector._act` and :meth:`OnPolicyCollector._observe` work on a slice of env
+rows, so both ways share them. PPO collects with it; so can a user's on-policy algorithm.
 """
 
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import torch
@@ -21,18 +27,61 @@ from rlchain.algos.core.storage import ALL
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.networks.rnn import zero_finished
 
-if TYPE_CHECKING:
-    from rlchain.algos.ppo.env_layout import PipelineChoice
+
+class PipelineChoice(Protocol):
+    """Over env groups: pipeline them or step them together (PPO's ``env_groups: auto`` measures which,
+    rlchain.algos.ppo.env_layout.PipelineChoice)."""
+
+    def pipelined(self) -> bool: ...
+
+    def record(self, pipelined: bool, seconds: float) -> None: ...
 
 
-class RolloutMixin:
-    """The rollout half of :class:`rlchain.algos.ppo.trainer.PPO` (uses its env, model,
-    storage, central value, RNN states and run context)."""
+class AlwaysPipelined:
+    """Env groups are always pipelined (an explicit ``env_groups``)."""
 
-    graphed_act = None
-    """``cuda_graph``: the act step captured as a CUDA graph (rlchain.algos.ppo.graph_step.GraphedAct)."""
-    pipeline_choice: PipelineChoice
-    """Over env groups: pipelined, or stepped together (``env_groups: auto`` measures; rlchain.algos.ppo.env_layout)."""
+    def pipelined(self) -> bool:
+        return True
+
+    def record(self, pipelined: bool, seconds: float) -> None:
+        return None
+
+
+class OnPolicyCollector:
+    """Collects rollouts of ``model`` on ``env`` into ``storage`` for the run ``ctx`` (its RunContext).
+
+    ``cfg`` (the run's config) gives ``horizon_length``, ``reward_shaper``, ``gamma``, ``value_bootstrap``,
+    ``timeout_bootstrap`` and ``zero_rnn_on_done``; ``central_value`` (optional) gives the values and adds
+    its RNN states after the model's; ``use_masks`` asks the env for action masks every step. Between
+    rollouts it holds where the envs stand: :attr:`obs` (the next observations, set by the algorithm's
+    ``start``), :attr:`rnn_states` and :attr:`resets` (their episode starts); after a rollout
+    :attr:`last_values` holds the values of the next observations (raw scale), for the returns.
+    """
+
+    def __init__(self, env: Any, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
+                 use_masks: bool = False, pipeline_choice: PipelineChoice | None = None) -> None:
+        self.env, self.model, self.ctx, self.cfg = env, model, ctx, cfg
+        self.storage, self.central_value, self.use_masks = storage, central_value, use_masks
+        self.pipeline_choice: PipelineChoice = pipeline_choice or AlwaysPipelined()
+        self.graphed_act: Any = None
+        """``cuda_graph``: the act step captured as a CUDA graph (rlchain.algos.ppo.graph_step.GraphedAct)."""
+        self.num_envs, self.device = env.num_envs, ctx.device
+        self.obs: Any = None
+        self.rnn_states: tuple[torch.Tensor, ...] = ()
+        self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
+        self.last_values: torch.Tensor | None = None
+
+    def initial_states(self) -> tuple[torch.Tensor, ...]:
+        """Zero RNN states for every env: the model's, then the central value's."""
+        states = tuple(self.model.initial_state(self.num_envs, self.device))
+        if self.central_value is not None:
+            states += self.central_value.initial_state(self.num_envs, self.device)
+        return states
+
+    def reset_states(self) -> None:
+        """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
+        self.rnn_states = self.initial_states()
+        self.resets.fill_(True)
 
     def _action_masks(self) -> torch.Tensor | None:
         """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""
