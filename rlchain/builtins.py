@@ -30,12 +30,13 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
                        model_name: str) -> ActorCritic:
     """The model presets discrete_a2c / multi_discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
     dist = make_distribution(model_name, action_space, config.clip_actions, network)
-    if config.use_action_masks and not dist.mask_size:
+    masks = getattr(config, "use_action_masks", False)  # PPO's keys; another algorithm's config may lack them
+    if masks and not dist.mask_size:
         raise ValueError(f"params.config.use_action_masks: needs discrete or multi-discrete actions, the env has "
                          f"{action_space}")
     kind = getattr(config, "value_normalizer", "rl_games")  # a user algorithm's config class may not have the key
-    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
-                       use_action_masks=config.use_action_masks, value_normalizer_kind=kind)
+    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input,
+                       getattr(config, "normalize_value", False), use_action_masks=masks, value_normalizer_kind=kind)
 
 
 def register_builtins() -> None:

@@ -50,12 +50,13 @@ class AlwaysPipelined:
 class OnPolicyCollector:
     """Collects rollouts of ``model`` on ``env`` into ``storage`` for the run ``ctx`` (its RunContext).
 
-    ``cfg`` (the run's config) gives ``horizon_length``, ``reward_shaper``, ``gamma``, ``value_bootstrap``,
-    ``timeout_bootstrap`` and ``zero_rnn_on_done``; ``central_value`` (optional) gives the values and adds
-    its RNN states after the model's; ``use_masks`` asks the env for action masks every step. Between
-    rollouts it holds where the envs stand: :attr:`obs` (the next observations, set by the algorithm's
-    ``start``), :attr:`rnn_states` and :attr:`resets` (their episode starts); after a rollout
-    :attr:`last_values` holds the values of the next observations (raw scale), for the returns.
+    ``cfg`` (the run's config) gives ``horizon_length``, ``reward_shaper`` and ``gamma``, and where it
+    has them (PPO's keys) ``value_bootstrap`` (default False), ``timeout_bootstrap`` and
+    ``zero_rnn_on_done``; ``central_value`` (optional) gives the values and adds its RNN states after the
+    model's; ``use_masks`` asks the env for action masks every step. Between rollouts it holds where the
+    envs stand: :attr:`obs` (the next observations, set by the algorithm's ``start``), :attr:`rnn_states`
+    and :attr:`resets` (their episode starts); after a rollout :attr:`last_values` holds the values of the
+    next observations (raw scale), for the returns.
     """
 
     def __init__(self, env: Any, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
@@ -173,6 +174,7 @@ class OnPolicyCollector:
         """The env's answer to step t for the envs ``rows``: rewards, dones and bootstrap values into
         the storage, episode statistics, then the next obs and RNN states."""
         cfg, storage = self.cfg, self.storage
+        bootstrap = getattr(cfg, "value_bootstrap", False)  # PPO's keys; another algorithm's config may lack them
         rewards, terminated, truncated, dones = self.ctx.env_outcome(result, rows)
         if rewards.dim() == 1:
             rewards = rewards.unsqueeze(-1)
@@ -181,18 +183,19 @@ class OnPolicyCollector:
         dropped = dropped_rows(result)
         if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
             lost = self.ctx.to_tensor(np.asarray(dropped)).bool()
-            shaped[lost] = values[lost] * ((1 - cfg.gamma) if cfg.value_bootstrap else 1.0)
-        if cfg.value_bootstrap and bool(truncated.any()):
+            shaped[lost] = values[lost] * ((1 - cfg.gamma) if bootstrap else 1.0)
+        if bootstrap and bool(truncated.any()):
             idx = (truncated & ~terminated).nonzero().squeeze(-1)
-            if idx.numel() and cfg.timeout_bootstrap == "previous_value":  # rl_games: V(s_t), no extra pass
+            previous = getattr(cfg, "timeout_bootstrap", "final_obs") == "previous_value"
+            if idx.numel() and previous:  # rl_games: V(s_t), no extra pass
                 storage.final_values[t, rows][idx] = values[idx]
             elif idx.numel():
                 final_obs = self.ctx.to_tensor(result.final_obs)[idx]
                 row_states = tuple(s[:, idx] for s in next_states)
                 storage.final_values[t, rows][idx] = self._value(final_obs, row_states)
-        storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones, rows=rows)
+        storage.add_outcome(t, shaped, terminated if bootstrap else dones, dones, rows=rows)
         obs = self.ctx.to_tensor(result.obs)
-        if next_states and cfg.zero_rnn_on_done:
+        if next_states and getattr(cfg, "zero_rnn_on_done", True):
             next_states = zero_finished(next_states, dones)
         if rows is ALL:
             self.obs = obs
