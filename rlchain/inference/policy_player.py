@@ -17,6 +17,7 @@ from rlchain.envs.spec import env_spec
 from rlchain.models.build import policy_agents
 from rlchain.parallel.device import resolve_device
 from rlchain.policy.load import LoadedPolicy, load_policy
+from rlchain.policy.play import step_policies
 
 
 @dataclass
@@ -61,31 +62,18 @@ def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, 
     plan = {name: agents for name, agents in policy_agents(params, env).items() if agents}
     returns = {a: np.zeros(env.num_envs) for a in env.agent_ids}
     finished: dict[str, list[float]] = {name: [] for name in plan}
-    views = env.reset(seed=params.seed if params.seed is not None else 0)
     played = 0
-    while played < games:
-        actions = {}
-        for name, agents in plan.items():
-            model = models[name]
-            obs = torch.as_tensor(np.concatenate([views[a].obs for a in agents]), device=device)
-            masks = None
-            if model.use_action_masks:
-                masks = torch.as_tensor(np.concatenate([views[a].mask for a in agents]), device=device)
-            with torch.inference_mode():
-                out = model.act(obs, deterministic=deterministic, action_masks=masks)
-            acts = model.dist.to_env(out["actions"]).cpu().numpy()
-            e = env.num_envs
-            actions.update({a: acts[k * e:(k + 1) * e] for k, a in enumerate(agents)})
-        result = env.step(actions)
+    seed = params.seed if params.seed is not None else 0
+    for result in step_policies(env, models, plan, device, deterministic, seed):
         for name, agents in plan.items():
             for a in agents:
                 returns[a] += result.reward[a]
                 done = result.terminated[a] | result.truncated[a]
                 finished[name].extend(returns[a][done].tolist())
                 returns[a][done] = 0.0
-        ended = env.pop_games() if env_spec(env).games_counter else 0
-        played += ended
-        views = result.obs
+        played += env.pop_games() if env_spec(env).games_counter else 0
+        if played >= games:
+            break
     means = {name: float(np.mean(r)) if r else float("nan") for name, r in finished.items()}
     if not quiet:
         text = ", ".join(f"{name} {value:.2f}" for name, value in means.items())

@@ -10,8 +10,8 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
+from rlchain.envs.wrappers.one_env import OneEnv
 from rlchain.inference.player import Player
-from rlchain.inference.video import OneEnv
 from rlchain.models.build import build_env, build_model
 from rlchain.policy.play import play
 from rlchain.training.evaluation import run_episodes
