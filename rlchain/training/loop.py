@@ -92,6 +92,7 @@ class Loop:
         comm = comm if comm is not None else communicator.current()
         self.ctx = make_context(params, env, device, seed, comm, logger, self.events)
         self.ctx.resuming = resuming
+        self._weights_loaded = resuming  # the first restore (the Runner's) finds them in the model already
         self.events.bind(self)  # callbacks get a CallbackContext of this run
         if self.ctx.spec.stats:  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
@@ -277,9 +278,10 @@ class Loop:
         return self.checkpoints.save(kind)
 
     def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights (unless the model was built holding them: ``resuming``),
-        optimizer(s), lr, normalizers, counters, RNG."""
-        self.checkpoints.restore(state, path, weights=not self.ctx.resuming)
+        """Continue from a checkpoint: weights (unless the model was built holding this checkpoint's:
+        the first restore of a run made with ``resuming``), optimizer(s), lr, normalizers, counters, RNG."""
+        self.checkpoints.restore(state, path, weights=not self._weights_loaded)
+        self._weights_loaded = False  # a later restore (PBT's exploit, a tuning trial) loads its weights
 
     def get_params(self) -> dict[str, float]:
         """The training parameters population-based training may change (see :meth:`set_params`)."""
