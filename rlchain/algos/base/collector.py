@@ -121,7 +121,7 @@ class OnPolicyCollector:
         """The rollout over env groups that step in the background (``env.send`` / ``env.recv``).
 
         Group g's actions for step t go out as soon as they are computed; while envpool's threads
-        step it, the trainer takes the other group's result and computes that group's actions. Each
+        step it, the collector takes the other group's result and computes that group's actions. Each
         row sees exactly the sequence of the synchronous rollout: obs -> act -> env answer -> next obs.
         """
         self.obs, self.resets = self.obs.clone(), self.resets.clone()  # filled in place, group by group
