@@ -3,7 +3,7 @@
 What it records per step: observations, actions, log-probs, values, distribution parameters, action masks,
 RNN states and their episode starts, rewards (shaped), terminations and dones, and on a time-out the
 value to bootstrap from (``value_bootstrap``); the env's step outcome (episode statistics, success,
-callbacks) goes to the run through :meth:`RunContext.env_outcome`. With a central value the values and
+callbacks) goes to the run through :meth:`RunContext.record_step`. With a central value the values and
 the bootstrap come from it, and its RNN states ride along after the model's.
 
 Two ways, the same transitions: synchronous (act for all envs, step all, observe all), or pipelined over
@@ -175,7 +175,7 @@ class OnPolicyCollector:
         the storage, episode statistics, then the next obs and RNN states."""
         cfg, storage = self.cfg, self.storage
         bootstrap = getattr(cfg, "value_bootstrap", False)  # PPO's keys; another algorithm's config may lack them
-        rewards, terminated, truncated, dones = self.ctx.env_outcome(result, rows)
+        rewards, terminated, truncated, dones = self.ctx.record_step(result, rows)
         if rewards.dim() == 1:
             rewards = rewards.unsqueeze(-1)
         rs = cfg.reward_shaper

@@ -1,7 +1,7 @@
 """The off-policy stepper: one env step of every env into a replay buffer.
 
 It steps the envs with the actions it is given, reports the step's outcome to the run (episode statistics,
-success, callbacks: :meth:`RunContext.env_outcome`), shapes and checks the rewards, stores each transition
+success, callbacks: :meth:`RunContext.record_step`), shapes and checks the rewards, stores each transition
 with the true final observation of an ended episode (``next_obs`` of a time-out is not the next episode's
 first one), folds the new observations into the model's normalizers and counts the frames. Which actions
 to take and when to update stay with the algorithm (SAC, DQN; a user's off-policy algorithm).
@@ -31,7 +31,7 @@ class OffPolicyStepper:
         ctx, model = self.ctx, self.model
         rs = self.cfg.reward_shaper
         result = self.env.step(ctx.env_actions(model.dist.to_env(actions)))
-        rewards, terminated, truncated, dones = ctx.env_outcome(result)
+        rewards, terminated, truncated, dones = ctx.record_step(result)
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
         shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)

@@ -225,7 +225,7 @@ class Distill(AlgorithmBase):
                 masks_buf.append(masks)
             result = self.env.step(ctx.env_actions(dist.to_env(action)))
             self._exclude_mixed(result)
-            rewards, _, _, dones = ctx.env_outcome(result)
+            rewards, _, _, dones = ctx.record_step(result)
             self._track(rewards, dones)
             self.obs = ctx.to_tensor(result.obs)
             self.states = zero_finished(tuple(s_states or ()), dones)
