@@ -14,7 +14,7 @@ from typing import Any
 import yaml
 
 from rlchain.config import compat
-from rlchain.config.actor_critic import check_batch  # noqa: F401  (its old home; algorithms import it from there)
+from rlchain.config.actor_critic import check_batch  # noqa: F401  (importable from here too)
 from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value

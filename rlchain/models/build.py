@@ -12,7 +12,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import NetworkConfig, Params
-from rlchain.envs.factory import build_env  # noqa: F401  (its old home; built here before envs/ had it)
+from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.central_value import obs_state_split
@@ -20,7 +20,7 @@ from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
-from rlchain.parallel.device import resolve_device  # noqa: F401  (its old home, as build_env's)
+from rlchain.parallel.device import resolve_device  # noqa: F401  (importable from here too)
 from rlchain.registry import MODELS, NETWORKS
 
 
