@@ -94,8 +94,9 @@ class Runner:
         seed = seed if seed is not None else params.seed
         group = distributed.setup(params, self.raw, seed)  # None unless launched by torchrun (multi_gpu)
         try:
-            result = self._train(params, group, checkpoint, seed, sigma, callbacks or [], track, wandb_project,
-                                 wandb_entity)
+            with ckpt.trusting(params.config.trust_checkpoint):  # the resume file and a distillation teacher
+                result = self._train(params, group, checkpoint, seed, sigma, callbacks or [], track,
+                                     wandb_project, wandb_entity)
         except BaseException as exc:
             distributed.shutdown(group, clean=False)
             lost = distributed.collective_failure(group, exc)  # a dead peer: one line (by type), not a traceback
@@ -187,11 +188,12 @@ class Runner:
         checkpoint, packaged = resolve_checkpoint(checkpoint)
         if packaged and output is None:  # next to the shipped file is inside the installed package
             output = os.path.splitext(os.path.basename(checkpoint))[0] + ".onnx"
-        if params.policies is not None:
-            return export_policies(params, checkpoint, output, policy)
-        if policy is not None:
-            raise ConfigError(params.source, "--policy", "applies to configs with config.multi_agent only")
-        return export_from_cli(self, checkpoint, output)
+        with ckpt.trusting(params.config.trust_checkpoint):
+            if params.policies is not None:
+                return export_policies(params, checkpoint, output, policy)
+            if policy is not None:
+                raise ConfigError(params.source, "--policy", "applies to configs with config.multi_agent only")
+            return export_from_cli(self, checkpoint, output)
 
     def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
              sigma: float | None = None, quiet: bool = False) -> Any:
@@ -202,9 +204,10 @@ class Runner:
             checkpoint = resolve_checkpoint(checkpoint)[0]
         # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
         set_threads(params.torch_threads, None, params.config.device, updates=False)
-        if params.policies is not None:  # config.multi_agent: every policy plays its agents
-            return play_policies(params, checkpoint, games, deterministic, quiet)
-        player = Player(params, checkpoint, sigma=sigma)
+        with ckpt.trusting(params.config.trust_checkpoint):
+            if params.policies is not None:  # config.multi_agent: every policy plays its agents
+                return play_policies(params, checkpoint, games, deterministic, quiet)
+            player = Player(params, checkpoint, sigma=sigma)
         try:
             return player.play(games=games, deterministic=deterministic, quiet=quiet)
         finally:

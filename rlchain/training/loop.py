@@ -11,6 +11,7 @@ whatever metrics ``update`` returns, under the algorithm's ``metric_tags``; chec
 
 from __future__ import annotations
 
+import copy
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -20,7 +21,7 @@ import torch
 
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import describe, make_context, to_device
-from rlchain.algos.base.safety import DivergenceGuard, StopSignals, check_parameters
+from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterrupted, check_parameters
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError, EnvError
@@ -29,7 +30,7 @@ from rlchain.models.build import build_env
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
 from rlchain.parallel.threads import ThreadPlan
-from rlchain.runs.checkpoint import seed_everything
+from rlchain.runs.checkpoint import CheckpointError, seed_everything
 from rlchain.runs.logging import EnvStatsCallback, TrainLogger
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.checkpoints import Checkpoints
@@ -188,6 +189,9 @@ class Loop:
                     self.events.emit("on_rollout_end")
                     t1 = time.time()
                     stats = self._guarded_update()
+                except UpdateInterrupted:
+                    stop = signals.stop_reason()
+                    break
                 except DivergenceError as exc:
                     self._diverged(exc)
                     continue  # rolled back: collect afresh with the restored learner
@@ -222,10 +226,21 @@ class Loop:
             raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
 
     def _guarded_update(self) -> dict[str, float] | None:
-        """``update`` (under the update's thread count while the envs wait); non-finite parameters diverge."""
+        """``update`` (under the update's thread count while the envs wait); non-finite parameters diverge.
+        An algorithm that leaves its update on a stop signal (``interruptible_update``) gets the learner of
+        the epoch boundary back, so the checkpoint then written resumes exactly."""
         algo = self.algorithm
-        with self.ctx.update_phase() if algo.envs_idle_in_update else nullcontext():
-            stats = algo.update()
+        before = learner_copy(algo) if getattr(algo, "interruptible_update", False) else None
+        try:
+            with self.ctx.update_phase() if algo.envs_idle_in_update else nullcontext():
+                stats = algo.update()
+        except UpdateInterrupted:
+            if before is None:
+                raise
+            for (model, agent), (model_state, agent_state) in zip(algo.learners(), before):
+                model.load_state_dict(model_state)
+                agent.load_state_dict(agent_state)
+            raise
         if stats is None:
             return None
         bad = check_parameters(algo.model)
@@ -342,19 +357,28 @@ class Loop:
         return None
 
     def _finish(self, stop: str, start: float, last: str | None) -> TrainResult:
-        """Report the stop, emit on_train_end and build the result."""
+        """Report the stop, emit on_train_end and build the result. A final checkpoint that could not be
+        written ends the run with a CheckpointError (non-zero exit) whose line is the stop line and why."""
         self.logger.flush()
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
-        if self.cfg.print_stats or stop.startswith("interrupted"):
-            success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
-            head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
-            log.info(f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward "
-                     f"{mean:.2f}, best {self.best_reward:.2f}{success}")
-        if stop.startswith("interrupted") and last:
+        interrupted = stop.startswith("interrupted")
+        success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
+        head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
+        line = (f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward {mean:.2f}, "
+                f"best {self.best_reward:.2f}{success}")
+        lost = self.run is not None and last is None and self.checkpoints.failure is not None
+        if lost:
+            line += (f"; the final checkpoint was not written ({self.checkpoints.failure}); "
+                     f"{self.checkpoints.kept()}")
+        if (self.cfg.print_stats or interrupted) and not (lost and not interrupted):
+            log.info(line)
+        if interrupted and last:
             log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")
         result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                              self.run.root if self.run else "", time.time() - start)
         self.events.emit("on_train_end", result)
+        if lost and not interrupted:  # an interrupted run exits non-zero already (130), its line says what is kept
+            raise CheckpointError(line)
         return result
 
     def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
@@ -364,6 +388,11 @@ class Loop:
         console = [fmt.format(stats[name]) for name, fmt in algo.console_fields if name in stats]
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, tag_metrics(stats, algo.metric_tags),
                           episodes, self.best_reward, timing, console, self.cfg.max_frames)
+
+
+def learner_copy(algo: Algorithm) -> list[tuple[dict, dict]]:
+    """Copies of every (model, agent) state of the algorithm, to put back after an interrupted update."""
+    return [(copy.deepcopy(model.state_dict()), copy.deepcopy(agent.state_dict())) for model, agent in algo.learners()]
 
 
 def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:

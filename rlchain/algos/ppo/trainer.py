@@ -44,6 +44,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
     supports_distributed = True
+    interruptible_update = True  # between minibatches, in a single process (see _stop_requested)
     self_play = True  # self_play_config: frozen opponents loaded into the env
 
     @classmethod
@@ -71,6 +72,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         compile_model(model, cfg.torch_compile)
         graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
         self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed)
+        self.agent.should_stop = self._stop_requested
         if cfg.compile_update:
             _check_compile_update(model, params.source)
             self.agent.compile_losses()
@@ -117,6 +119,12 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         stats = self.learn()
         self.ctx.frames += self.frames_per_epoch()
         return stats
+
+    def _stop_requested(self) -> bool:
+        """A stop signal came (checked between minibatches). Under torchrun the update always finishes: the
+        ranks would leave it at different minibatches and wait for each other in the gradient all-reduce."""
+        signals = self.ctx.signals
+        return signals is not None and signals.by_signal and not self.ctx.comm.active
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
         """The actor-critic and PPO agent, and the central value with its own agent when there is one."""
