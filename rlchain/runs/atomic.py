@@ -10,7 +10,8 @@ from __future__ import annotations
 import glob
 import os
 import tempfile
-from typing import BinaryIO, Callable
+from collections.abc import Callable
+from typing import BinaryIO
 
 TEMP_PREFIX = ".tmp_"
 

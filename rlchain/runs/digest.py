@@ -8,7 +8,8 @@ contain is :mod:`rlchain.runs.checkpoint`'s allow-list.
 from __future__ import annotations
 
 import zlib
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import torch
 
