@@ -13,7 +13,7 @@ from typing import Any
 
 from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
+from rlchain.config.load import apply_overrides, check_seed, import_user_modules, load_raw, parse_params
 from rlchain.config.packaged import resolve_checkpoint, resolve_config
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params
@@ -92,6 +92,8 @@ class Runner:
 
         params = self._require()
         seed = seed if seed is not None else params.seed
+        if seed is not None and check_seed(seed):
+            raise ConfigError(params.source, "--seed", check_seed(seed))
         group = distributed.setup(params, self.raw, seed)  # None unless launched by torchrun (multi_gpu)
         try:
             with ckpt.trusting(params.config.trust_checkpoint):  # the resume file and a distillation teacher

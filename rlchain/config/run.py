@@ -162,14 +162,14 @@ def plain_name(value: Any) -> str | None:
     if not isinstance(value, str) or value.strip() == "":
         return "must be a non-empty name"
     if value.startswith("."):
-        return f"must not start with '.' (got {value!r}): it is a name, not a path"
+        return "must not start with '.': it is a name, not a path"
     if "/" in value or "\\" in value or ".." in value or "\0" in value:
-        return f"must be a plain name without '/', '\\' or '..' (got {value!r}): it is a name, not a path"
+        return "must be a plain name without '/', '\\' or '..': it is a name, not a path"
     return None
 
 
 def _limit(value: Any) -> str | None:
-    return "0 would stop before any training; use -1 for no limit" if value == 0 else None
+    return "must not be 0 (it would stop before any training); use -1 for no limit" if value == 0 else None
 
 
 @dataclass(frozen=True)

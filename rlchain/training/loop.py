@@ -171,7 +171,7 @@ class Loop:
         """
         start = self.started = time.time()
         algo, ctx = self.algorithm, self.ctx
-        stop = None
+        stop = self._limit_reached()  # a resumed run already at max_epochs / max_frames trains no further
         with StopSignals() as signals:
             ctx.signals = signals
             algo.start()
@@ -341,6 +341,15 @@ class Loop:
             comm.broadcast_learner(model, agent)
         if self.epoch > 0 and not comm.is_main and not self.checkpoints.point.rank_restored:
             seed_everything(comm.rank_seed + self.epoch)  # a checkpoint without every rank's own streams
+
+    def _limit_reached(self) -> str | None:
+        """At the start: the stop a run resumed at or past its max_epochs / max_frames has reached already."""
+        cfg = self.cfg
+        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached (the checkpoint is at epoch {self.epoch}; nothing to train)"
+        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached (the checkpoint is at frame {self.frames}; nothing to train)"
+        return None
 
     def _stop_reason(self, episodes: dict | None) -> str | None:
         cfg = self.cfg

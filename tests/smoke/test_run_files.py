@@ -121,3 +121,14 @@ def test_sigterm_with_a_full_disk_says_nothing_was_kept(tmp_path, monkeypatch, c
     text = caplog.text
     assert "the final checkpoint was not written" in text and "no checkpoint of this run exists" in text, text
     assert "previous checkpoint is kept" not in text and "resume with" not in text
+
+
+def test_a_resume_past_max_epochs_stops_at_once(tmp_path, caplog):
+    over = [*SMALL, f"params.config.train_dir={tmp_path}"]
+    first = Runner().load(CARTPOLE, [*over, "params.config.max_epochs=3"]).train()
+    last = os.path.join(first.run_dir, "nn", "last_cartpole.pth")
+    with caplog.at_level(logging.INFO):
+        again = Runner().load(CARTPOLE, [*over, "params.config.max_epochs=2", "params.config.print_stats=true"]
+                              ).train(checkpoint=last)
+    assert again.epoch == 3 and again.frames == first.frames  # not one more epoch ("epoch 4/2")
+    assert "max_epochs 2 reached (the checkpoint is at epoch 3; nothing to train)" in caplog.text

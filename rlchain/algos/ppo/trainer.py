@@ -10,7 +10,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
-from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.core.storage import RolloutStorage, rollout_step_bytes
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
@@ -27,6 +27,7 @@ from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.build import build_central_value, build_env
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
+from rlchain.parallel.memory import check_fits
 from rlchain.runs import checkpoint as ckpt
 
 log = get_logger(__name__)
@@ -49,8 +50,16 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs)."""
+        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs); the rollout
+        storage must fit the training device's free memory."""
         check_batch(params.config, params.source, spec.num_agents)
+        cfg = params.config
+        if spec.observation_space is not None and spec.action_space is not None:
+            rows = cfg.horizon_length * spec.num_envs
+            nbytes = rows * rollout_step_bytes(spec.observation_space, spec.action_space, spec.value_size)
+            key = "params.config.horizon_length" if cfg.horizon_length >= cfg.num_actors else "params.config.num_actors"
+            check_fits(nbytes, cfg.device, params.source, key, f"the rollout storage (horizon_length "
+                       f"{cfg.horizon_length} x {spec.num_envs} env rows)")
 
     @classmethod
     def build_training_env(cls, params: Params, seed: int | None) -> Any:
