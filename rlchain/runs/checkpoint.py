@@ -88,10 +88,20 @@ def _refused_type(path: str, exc: Exception) -> str:
 
 
 def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> dict[str, Any]:
-    """Read a checkpoint written by rlchain as data: tensors, numpy arrays and plain containers only
-    (``weights_only``). A file naming any other object (a class, a function: code that unpickling would run)
-    is refused with one line naming the file and the type, unless it is trusted (``trusted=True`` or inside
-    :func:`trusting`). A tensor whose checksum differs from the one saved is an error naming it."""
+    """Read a checkpoint written by rlchain as data (see :func:`read`); any other file is a one-line
+    CheckpointError."""
+    state = read(path, map_location, trusted)
+    if not isinstance(state, dict) or state.get("format") != FORMAT:
+        raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
+    return state
+
+
+def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> Any:
+    """Read any torch-saved file as data: tensors, numpy arrays and plain containers only (``weights_only``),
+    e.g. a checkpoint of another library to import. A file naming any other object (a class, a function: code
+    that unpickling would run) is refused with one line naming the file and the type, unless it is trusted
+    (``trusted=True`` or inside :func:`trusting`). A tensor whose checksum differs from the one rlchain saved
+    with it is an error naming it."""
     if not os.path.isfile(path):
         raise CheckpointError(f"{path}: checkpoint not found")
     trust = is_trusted() if trusted is None else trusted
@@ -111,8 +121,8 @@ def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
     except Exception as exc:  # torch raises many types for a corrupt file
         raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
                               f"{' '.join(str(exc).split())[:200]})") from None
-    if not isinstance(state, dict) or state.get("format") != FORMAT:
-        raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
+    if not isinstance(state, dict):
+        return state
     bad = digest.first_mismatch(state)
     if bad is not None:
         raise CheckpointError(f"{path}: tensor '{bad}' does not match the checksum saved with it: the file "

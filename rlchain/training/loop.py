@@ -230,7 +230,8 @@ class Loop:
         An algorithm that leaves its update on a stop signal (``interruptible_update``) gets the learner of
         the epoch boundary back, so the checkpoint then written resumes exactly."""
         algo = self.algorithm
-        before = learner_copy(algo) if getattr(algo, "interruptible_update", False) else None
+        interruptible = getattr(algo, "interruptible_update", False) and not self.ctx.comm.active
+        before = learner_copy(algo) if interruptible else None
         try:
             with self.ctx.update_phase() if algo.envs_idle_in_update else nullcontext():
                 stats = algo.update()
