@@ -72,7 +72,7 @@ class Checkpoints:
             ckpt.save_atomic(self.state_dict(kind), path)
         except OSError as exc:
             self.failure = f"writing {path} failed: {exc.strerror or exc}"
-            log.warning(f"warning: checkpoint {self.failure}; {self.kept()}; training goes on")
+            log.warning(f"warning: checkpoint {self.failure}; {self.kept()}")
             return None
         self.failure = None
         self.newest = (path, self.ctx.epoch)
