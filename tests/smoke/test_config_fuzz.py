@@ -1,6 +1,6 @@
-"""Fuzzing the shipped ppo_cartpole.yaml: one key at a time set to a wrong, extreme or meaningless value, and
-files that are not configs at all. Every case must end as a run (two tiny epochs) or as one clean error
-line from the command line, never a traceback and never a hang (each case has a 20 s alarm).
+"""Fuzzing the shipped ppo_cartpole.yaml and sac_pendulum.yaml: one key at a time set to a wrong, extreme or
+meaningless value, and files that are not configs at all. Every case must end as a run (two tiny epochs) or
+as one clean error line from the command line, never a traceback and never a hang (each case has a 20 s alarm).
 
 Values that only make a valid run take long (mini_epochs: 10**9, a network of 10**9 units) are left out:
 they are work the user asked for, not bad input the config can recognise.
@@ -53,6 +53,21 @@ MUTATIONS = {
     "config.nosuchkey": [1],
     "nosuch": [1],
 }
+SAC = os.path.join(CONFIGS, "sac_pendulum.yaml")
+SAC_SMALL = {"config.num_actors": 2, "config.num_steps_per_episode": 8, "config.num_warmup_frames": 16,
+             "config.batch_size": 16, "config.replay_buffer_size": 64, "config.max_epochs": 2,
+             "config.max_frames": 64, "config.print_stats": False, "network.mlp.units": [8],
+             "torch_threads": 1, "update_threads": 1}
+SAC_MUTATIONS = {
+    "config.replay_buffer_size": [0, -1, 10**12, "x"],
+    "config.batch_size": [0, 10**9],
+    "config.num_steps_per_episode": [0, -1],
+    "config.num_updates_per_step": [0, "x"],
+    "config.actor_lr": [-1, 1e9],
+    "config.critic_tau": [2, -1],
+    "config.init_alpha": [0, -1],
+    "network.log_std_bounds": [[2, -5], "x", [1]],
+}
 TEXTS = {
     "alias bomb": "params:\n  config:\n    env_config:\n      a: &a [x, x, x, x, x, x, x, x, x]\n"
                   "      b: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\n"
@@ -66,11 +81,12 @@ TEXTS = {
 
 
 def cases():
-    for key, values in MUTATIONS.items():
-        for value in values:
-            yield pytest.param(key, value, id=f"{key}={value!r}")
+    for base, mutations in ((BASE, MUTATIONS), (SAC, SAC_MUTATIONS)):
+        for key, values in mutations.items():
+            for value in values:
+                yield pytest.param(base, key, value, id=f"{os.path.basename(base)}:{key}={value!r}")
     for name in TEXTS:
-        yield pytest.param(None, name, id=name)
+        yield pytest.param(BASE, None, name, id=name)
 
 
 class Hang(Exception):
@@ -85,14 +101,14 @@ def set_key(raw, key, value):
     node[last] = value
 
 
-def mutated_file(tmp_path, key, value):
+def mutated_file(tmp_path, key, value, base=BASE):
     path = tmp_path / "cfg.yaml"
     if key is None:
         path.write_text(TEXTS[value], encoding="utf-8")
         return path
-    with open(BASE, encoding="utf-8") as fh:
+    with open(base, encoding="utf-8") as fh:
         raw = yaml.safe_load(fh)
-    for small, v in SMALL.items():
+    for small, v in (SMALL if base == BASE else SAC_SMALL).items():
         if small != key:
             set_key(raw, small, v)
     set_key(raw, "config.train_dir", str(tmp_path / "runs"))
@@ -105,9 +121,9 @@ def _alarm(signum, frame):
     raise Hang
 
 
-@pytest.mark.parametrize("key, value", list(cases()))
-def test_a_mutated_config_is_a_run_or_one_clean_line(tmp_path, key, value):
-    path = mutated_file(tmp_path, key, value)
+@pytest.mark.parametrize("base, key, value", list(cases()))
+def test_a_mutated_config_is_a_run_or_one_clean_line(tmp_path, base, key, value):
+    path = mutated_file(tmp_path, key, value, base)
     err = io.StringIO()
     previous = signal.signal(signal.SIGALRM, _alarm)
     signal.setitimer(signal.ITIMER_REAL, 20)
