@@ -7,6 +7,7 @@ import os
 import pickle
 import random
 import re
+import threading
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -74,6 +75,21 @@ def _data_types() -> list[Any]:
     return types
 
 
+_allowed = threading.Lock()
+_allowed_done: list[bool] = []
+
+
+def _allow_data_types() -> None:
+    """Add :func:`_data_types` to torch's ``weights_only`` allow-list, once per process. Process-wide rather
+    than a ``safe_globals`` block, which edits the same global list and would race between threads (a Tune
+    stepper's training thread and its caller); the types are data, so other ``weights_only`` loads of the
+    process may read them too."""
+    with _allowed:
+        if not _allowed_done:
+            torch.serialization.add_safe_globals(_data_types())
+            _allowed_done.append(True)
+
+
 def _refused_type(path: str, exc: Exception) -> str:
     """The first global a file names that is not data (from torch's refusal, else from a scan of the file)."""
     match = re.search(r"GLOBAL ([\w.]+)", str(exc))
@@ -109,8 +125,8 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
         if trust:
             state = torch.load(path, map_location=map_location, weights_only=False)
         else:
-            with torch.serialization.safe_globals(_data_types()):
-                state = torch.load(path, map_location=map_location, weights_only=True)
+            _allow_data_types()
+            state = torch.load(path, map_location=map_location, weights_only=True)
     except pickle.UnpicklingError as exc:
         name = None if trust else _refused_type(path, exc)
         if name:
