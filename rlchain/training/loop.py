@@ -11,7 +11,6 @@ whatever metrics ``update`` returns, under the algorithm's ``metric_tags``; chec
 
 from __future__ import annotations
 
-import copy
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -37,6 +36,7 @@ from rlchain.training.checkpoints import Checkpoints
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
+from rlchain.training.learner_backup import LearnerBackup
 from rlchain.training.live_params import LiveParams
 from rlchain.training.self_play import SelfPlayCallback
 
@@ -100,6 +100,7 @@ class Loop:
             check_names(cfg.hyperparam_schedule, self.algorithm.tunable, params.algo.name, params.source)
             self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
         self.checkpoints = Checkpoints(self.ctx, self.algorithm, run, self.events)
+        self.backup = LearnerBackup()  # the learner when an update starts (undone on a stop signal)
         self.live = LiveParams(self.ctx, self.algorithm)
 
     # ----- the run's state (callbacks, tuning and the Runner read it here) ----------------------
@@ -231,16 +232,14 @@ class Loop:
         the epoch boundary back, so the checkpoint then written resumes exactly."""
         algo = self.algorithm
         interruptible = getattr(algo, "interruptible_update", False) and not self.ctx.comm.active
-        before = learner_copy(algo) if interruptible else None
+        if interruptible:
+            self.backup.capture(algo.learners())
         try:
             with self.ctx.update_phase() if algo.envs_idle_in_update else nullcontext():
                 stats = algo.update()
         except UpdateInterrupted:
-            if before is None:
-                raise
-            for (model, agent), (model_state, agent_state) in zip(algo.learners(), before):
-                model.load_state_dict(model_state)
-                agent.load_state_dict(agent_state)
+            if interruptible:
+                self.backup.restore(algo.learners())
             raise
         if stats is None:
             return None
@@ -398,11 +397,6 @@ class Loop:
         console = [fmt.format(stats[name]) for name, fmt in algo.console_fields if name in stats]
         self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, tag_metrics(stats, algo.metric_tags),
                           episodes, self.best_reward, timing, console, self.cfg.max_frames)
-
-
-def learner_copy(algo: Algorithm) -> list[tuple[dict, dict]]:
-    """Copies of every (model, agent) state of the algorithm, to put back after an interrupted update."""
-    return [(copy.deepcopy(model.state_dict()), copy.deepcopy(agent.state_dict())) for model, agent in algo.learners()]
 
 
 def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:
