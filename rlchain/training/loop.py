@@ -166,9 +166,11 @@ class Loop:
     def train(self) -> TrainResult:
         """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics.
 
-        SIGINT/SIGTERM stop after the current env step with a checkpoint of the last completed
-        epoch; an env failure does the same, then raises EnvError; a NaN/inf stops (or rolls back,
-        with ``divergence.action: rollback``) without ever saving non-finite parameters.
+        SIGINT/SIGTERM stop after the current env step (or, in an ``interruptible_update``, the current
+        minibatch, the update undone) with a checkpoint of the last completed epoch; an env failure does
+        the same, then raises EnvError; a NaN/inf stops (or rolls back, with ``divergence.action:
+        rollback``) without ever saving non-finite parameters. A final checkpoint that cannot be written
+        raises CheckpointError.
         """
         start = self.started = time.time()
         algo, ctx = self.algorithm, self.ctx
