@@ -76,3 +76,15 @@ def test_read_takes_another_library_s_file_and_refuses_code(tmp_path):
     with pytest.raises(ckpt.CheckpointError, match=r"refused: it names the type 'posix.getcwd'"):
         ckpt.read(str(code))
     assert ckpt.read(str(code), trusted=True)["f"] is os.getcwd
+
+
+def test_the_folder_is_fsynced_after_the_rename(tmp_path, monkeypatch):
+    from rlchain.runs import atomic
+
+    synced = []
+    real = os.fsync
+    monkeypatch.setattr(atomic.os, "fsync", lambda fd: (synced.append(os.path.isdir(f"/proc/self/fd/{fd}")
+                                                                      and os.readlink(f"/proc/self/fd/{fd}")),
+                                                        real(fd)))
+    write_atomic(str(tmp_path / "f"), lambda fh: fh.write(b"x"))
+    assert synced[-1] == str(tmp_path)  # the file first, then its folder (the rename's entry)
