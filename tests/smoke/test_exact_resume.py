@@ -148,12 +148,12 @@ class SigtermInUpdate(Record):
 
     drives_trainer = True  # test instrument: wraps the agent's stop check
 
-    def __init__(self, epoch):
+    def __init__(self, epoch, agent="agent"):
         super().__init__()
-        self.epoch, self.checks, self.after, self.sent = epoch, 0, 0, None
+        self.epoch, self.agent, self.checks, self.after, self.sent = epoch, agent, 0, 0, None
 
     def on_train_start(self, trainer):
-        agent = trainer.algorithm.agent
+        agent = getattr(trainer.algorithm, self.agent)
         check = agent.should_stop
 
         def counted():
@@ -175,10 +175,18 @@ class SigtermInUpdate(Record):
         self.seconds = time.monotonic() - self.sent if self.sent else None
 
 
-def test_sigterm_mid_update_stops_between_minibatches_and_resumes_bit_identically(tmp_path):
+CENTRAL_VALUE = ["params.config.env_name=ObsStateCartPoleTest-v0", "params.config.central_value_config={network: "
+                 "{name: actor_critic, central_value: True, mlp: {units: [16]}}, mini_epochs: 2}"]
+
+
+@pytest.mark.parametrize("agent", ["agent", "cv_agent"])  # the actor's update; the central value's, after it
+def test_sigterm_mid_update_stops_between_minibatches_and_resumes_bit_identically(tmp_path, agent):
     config, overrides = CARTPOLE
+    if agent == "cv_agent":
+        import tests.smoke.test_central_value  # noqa: F401  (registers ObsStateCartPoleTest-v0)
+        overrides = [*overrides, *CENTRAL_VALUE]
     straight, rec_s = train(tmp_path, "straight", config, overrides, 8)
-    record = SigtermInUpdate(epoch=3)  # the update of epoch 4 is left after 2 of its minibatches
+    record = SigtermInUpdate(epoch=3, agent=agent)  # the update of epoch 4 is left after 2 of its minibatches
     stopped, _ = train(tmp_path, "stopped", config, overrides, 8, record=record)
     assert stopped.stop_reason == "interrupted by SIGTERM" and stopped.epoch == 3
     assert record.sent is not None and record.after == 0  # not one more minibatch after the signal

@@ -90,6 +90,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
             self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm)
+            self.cv_agent.should_stop = self._stop_requested
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
