@@ -11,7 +11,7 @@ import glob
 import os
 import tempfile
 from collections.abc import Callable
-from typing import BinaryIO
+from typing import BinaryIO, TextIO
 
 TEMP_PREFIX = ".tmp_"
 
@@ -68,3 +68,16 @@ def remove_stale_temps(folder: str) -> list[str]:
         except OSError:
             pass  # another process's file, or already gone
     return removed
+
+
+def open_append(path: str) -> TextIO:
+    """``path`` opened for appending text, never through a symlink (a link planted at a run file's place is
+    an OSError naming it, not a write elsewhere)."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_APPEND | getattr(os, "O_NOFOLLOW", 0)
+    try:
+        fd = os.open(path, flags, 0o666)
+    except OSError as exc:
+        if os.path.islink(path):
+            raise OSError(f"'{path}' is a symlink; a run writes into its own files only") from None
+        raise exc
+    return os.fdopen(fd, "a", newline="", encoding="utf-8")

@@ -132,3 +132,15 @@ def test_a_resume_past_max_epochs_stops_at_once(tmp_path, caplog):
                               ).train(checkpoint=last)
     assert again.epoch == 3 and again.frames == first.frames  # not one more epoch ("epoch 4/2")
     assert "max_epochs 2 reached (the checkpoint is at epoch 3; nothing to train)" in caplog.text
+
+
+def test_the_csv_log_is_not_written_through_a_planted_symlink(tmp_path):
+    root = tmp_path / "runs" / "exp" / "summaries"
+    root.mkdir(parents=True)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    os.symlink(victim, root / "scalars.csv")
+    with pytest.raises(OSError, match="is a symlink"):
+        Runner().load(CARTPOLE, [*SMALL, "params.config.max_epochs=1", f"params.config.train_dir={tmp_path / 'runs'}",
+                                 "params.config.full_experiment_name=exp", "params.config.log_writers=[csv]"]).train()
+    assert victim.read_text() == "keep me"
