@@ -3,31 +3,30 @@
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import warnings
 from typing import Any
 
-from rlchain.config.errors import ConfigError, did_you_mean
-from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
+from rlchain.config.errors import ConfigError
+from rlchain.config.packaged import resolve_config
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
-from rlchain.inference.video import record_episodes
 from rlchain.inference.watch import watch_and_evaluate
 from rlchain.log import set_dialect
 from rlchain.runner import Runner
-from rlchain.runs.checkpoint import CheckpointError
+from rlchain.runs.checkpoint import CheckpointError, trusting
 from rlchain.runs.wandb_logger import TrackingError
 from rlchain.tuning.search import run_search
 
 MODE_HELP = {  # rlchain COMMAND --help: the usage line and the options that command reads
     "train": ("%(prog)s NAME|PATH [options] [key.path=value ...]",
               {"checkpoint", "num_actors", "seed", "sigma", "track", "wandb_project_name", "wandb_entity",
-               "overrides"}),
+               "trust_checkpoint", "overrides"}),
     "play": ("%(prog)s [NAME|PATH] --checkpoint CKPT [options] [key.path=value ...]",
-             {"checkpoint", "num_actors", "seed", "sigma", "games", "stochastic", "video", "untrained", "overrides"}),
+             {"checkpoint", "num_actors", "seed", "sigma", "games", "stochastic", "video", "untrained",
+              "trust_checkpoint", "overrides"}),
     "export": ("%(prog)s [NAME|PATH] --checkpoint CKPT [-o OUT] [--policy NAME]",
-               {"checkpoint", "output", "policy", "overrides"}),
+               {"checkpoint", "output", "policy", "trust_checkpoint", "overrides"}),
     "tune": ("%(prog)s SEARCH [-o OUT]", {"output"}),
 }
 
@@ -62,6 +61,9 @@ def build_parser(prog: str = "runner.py", command: str | None = None) -> argpars
                    "--tune: best config (default: <base name>_best.yaml in the search's run folder)")
     p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
+    p.add_argument("--trust-checkpoint", action="store_true",
+                   help="load checkpoints with full pickle, which runs any code stored in them: only for a file "
+                        "you trust (by default a checkpoint loads as data and any other object is refused)")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
     p.add_argument("--wandb-entity", default=None)
@@ -111,7 +113,8 @@ def main(argv: list[str] | None = None, prog: str = "runner.py", command: str | 
 def _report(args: argparse.Namespace) -> int:
     """Run the command; an expected error is one line on stderr and an exit status."""
     try:
-        return _run(args)
+        with trusting(args.trust_checkpoint):
+            return _run(args)
     except (ConfigError, CheckpointError) as exc:
         kind = "config error" if isinstance(exc, ConfigError) else "checkpoint error"
         print(f"{kind}: {exc}", file=sys.stderr)
@@ -146,15 +149,6 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"warning: {message}\n"
 
 
-def _check_checkpoint_name(checkpoint: str) -> None:
-    """A bare word that is neither a file nor a shipped checkpoint but close to one: say which was meant."""
-    if os.path.exists(checkpoint) or "/" in checkpoint or os.sep in checkpoint:
-        return
-    hint = did_you_mean(os.path.splitext(checkpoint)[0], checkpoint_names())
-    if hint:
-        raise CheckpointError(f"{checkpoint}: checkpoint not found, and no shipped checkpoint has that name{hint}")
-
-
 def _play_usage(prog: str) -> str:
     if prog.startswith("rlchain play"):
         return "rlchain play NAME|PATH --checkpoint CKPT (shipped checkpoints: rlchain list)"
@@ -180,12 +174,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.tune:
         run_search(resolve_config(args.tune), args.output)
         return 0
-    output = args.output
-    if args.checkpoint:
-        args.checkpoint, packaged = resolve_checkpoint(args.checkpoint)
-        _check_checkpoint_name(args.checkpoint)
-        if packaged and args.export and output is None:  # next to the shipped file is inside the package
-            output = os.path.splitext(os.path.basename(args.checkpoint))[0] + ".onnx"
+    # the Runner resolves --checkpoint (a path or a shipped checkpoint's name) wherever it takes one
     overrides = list(args.overrides)
     if args.num_actors is not None:
         if args.play:
@@ -209,21 +198,19 @@ def _run(args: argparse.Namespace) -> int:
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
-        runner.export(args.checkpoint, output, args.policy)
+        runner.export(args.checkpoint, args.output, args.policy)
         return 0
     if args.train:
         result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,
                               wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
             return EXIT_TERMINATED if "SIGTERM" in result.stop_reason else EXIT_INTERRUPTED
-    elif args.video and runner.params.policies is not None:
-        raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
     elif args.video:
-        files = record_episodes(runner.params, args.checkpoint, args.video, games=args.games or 1,
-                                deterministic=not args.stochastic)
+        files = runner.record(args.checkpoint, args.video, games=args.games or 1, deterministic=not args.stochastic)
         print("\n".join(files))
     elif runner.params.config.player.evaluation:  # rl_games: watch dir_to_monitor, evaluate new checkpoints
-        watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)
+        with trusting(runner.params.config.trust_checkpoint):
+            watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)
     else:
         runner.play(args.checkpoint, deterministic=False if args.stochastic else None, sigma=args.sigma)
     return 0

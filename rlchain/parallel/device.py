@@ -1,9 +1,9 @@
-"""Where a config runs: a CUDA device that this machine lacks becomes ``cpu`` once, at load.
+"""Which torch device a run uses: ``params.config.device`` resolved once, with a CPU fallback.
 
 rl_games' default device is ``cuda:0`` and most of its YAMLs say nothing, so on a machine without a GPU
-the config is rewritten to ``cpu`` before anything reads it: the thread plan, pinned memory, CUDA graphs,
-mixed precision and a tensor env's ``env_config.device`` then all see the device the run really uses, and
-the run is the same run as one whose YAML says ``device: cpu``.
+:func:`on_available_device` rewrites the config to ``cpu`` once, at load, before anything reads it: the thread
+plan, pinned memory, CUDA graphs, mixed precision and a tensor env's ``env_config.device`` then all see the
+device the run really uses, and the run is the same run as one whose YAML says ``device: cpu``.
 """
 
 from __future__ import annotations
@@ -12,8 +12,21 @@ import warnings
 
 import torch
 
+from rlchain.config.errors import ConfigError
 from rlchain.config.resolve import with_config
 from rlchain.config.schema import Params
+
+
+def resolve_device(name: str) -> torch.device:
+    """``cpu`` / ``cuda`` / ``cuda:N``; without CUDA a cuda device falls back to cpu with a warning."""
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        warnings.warn(f"params.config.device is '{name}' but CUDA is not available; training on cpu",
+                      stacklevel=2)
+        return torch.device("cpu")
+    try:
+        return torch.device(name)
+    except RuntimeError:
+        raise ConfigError("", "params.config.device", f"'{name}' is not a device (cpu, cuda, cuda:N)") from None
 
 
 def wants_cuda(name: object) -> bool:

@@ -34,15 +34,15 @@ import torch
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec
-from rlchain.models.build import build_env
 
 
 @runtime_checkable
 class Algorithm(Protocol):
     """The hooks the Loop drives. ``model``, ``agent`` (``state_dict``/``load_state_dict``: the
     optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls back. A class
-    attribute ``config_class`` names its ``params.config`` dataclass (TrainConfig when absent)."""
+    attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent)."""
 
     metric_tags: ClassVar[dict[str, str]]
     """Metric name (a key of :meth:`update`'s result) -> TensorBoard tag. Keys that already look like
@@ -138,6 +138,9 @@ class AlgorithmBase:
     supports_distributed: ClassVar[bool] = False
     self_play: ClassVar[bool] = False
     envs_idle_in_update: ClassVar[bool] = True
+    # update() may raise UpdateInterrupted between minibatches on a stop signal (the Loop then puts back
+    # the learner of the epoch boundary); an algorithm without it finishes its update first
+    interruptible_update: ClassVar[bool] = False
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
         self.params, self.env, self.model, self.ctx = params, env, model, ctx

@@ -7,35 +7,51 @@ from typing import Any
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
-from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.core.storage import RolloutStorage, rollout_step_bytes
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
 from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, probed
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
-from rlchain.algos.ppo.rollout import RolloutMixin
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
-from rlchain.config.schema import Params
+from rlchain.config.schema import Params, PPOConfig
+from rlchain.deprecation import renamed
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.models.build import build_central_value, build_env
+from rlchain.models.build import build_central_value
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
+from rlchain.parallel.memory import check_fits
 from rlchain.runs import checkpoint as ckpt
 
 log = get_logger(__name__)
 
 
-class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
+def _collector_attr(name: str, doc: str) -> property:
+    """A property of PPO that reads and sets ``self.collector.<name>``."""
+
+    def get(self: PPO) -> Any:
+        return getattr(self.collector, name)
+
+    def set_(self: PPO, value: Any) -> None:
+        setattr(self.collector, name, value)
+
+    return property(get, set_, doc=doc)
+
+
+class PPO(AlgorithmBase):
     """PPO (algos ``a2c_continuous`` and ``a2c_discrete``): rollout into a storage, then the PPO update
     (and the central value's, with an asymmetric critic)."""
 
+    config_class = PPOConfig
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
                    "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
@@ -44,12 +60,21 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
     supports_distributed = True
+    interruptible_update = True  # between minibatches, in a single process (see _stop_requested)
     self_play = True  # self_play_config: frozen opponents loaded into the env
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs)."""
+        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs); the rollout
+        storage must fit the training device's free memory."""
         check_batch(params.config, params.source, spec.num_agents)
+        cfg = params.config
+        if spec.observation_space is not None and spec.action_space is not None:
+            rows = cfg.horizon_length * spec.num_envs
+            nbytes = rows * rollout_step_bytes(spec.observation_space, spec.action_space, spec.value_size)
+            key = "params.config.horizon_length" if cfg.horizon_length >= cfg.num_actors else "params.config.num_actors"
+            check_fits(nbytes, cfg.device, params.source, key, f"the rollout storage (horizon_length "
+                       f"{cfg.horizon_length} x {spec.num_envs} env rows)")
 
     @classmethod
     def build_training_env(cls, params: Params, seed: int | None) -> Any:
@@ -66,11 +91,14 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             raise
 
     def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
+        # the collector first: it holds where the envs stand (obs, RNN states), which AlgorithmBase sets
+        self.collector = OnPolicyCollector(env, model, ctx, ctx.cfg)
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
         graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
         self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed)
+        self.agent.should_stop = self._stop_requested
         if cfg.compile_update:
             _check_compile_update(model, params.source)
             self.agent.compile_losses()
@@ -79,24 +107,29 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
             self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm)
+            self.cv_agent.should_stop = self._stop_requested
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
+        collector = self.collector
+        collector.central_value, collector.use_masks = self.central_value, self.use_masks
+        collector.pipeline_choice = PipelineChoice(auto=cfg.env_groups == "auto")
         # RNN states carried through the rollout: the model's, then the central value's
-        self.rnn_states = self._initial_states()
-        self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=device)
-        self.pipeline_choice = PipelineChoice(auto=cfg.env_groups == "auto")
+        collector.rnn_states = collector.initial_states()
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
+        collector.storage = self.storage
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         # cuda_graph: the act step as a graph too, for a feed-forward policy without masks or central value
         plain = not model.is_rnn and not self.use_masks and self.central_value is None
-        self.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
-        self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
+        collector.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
+        # a fresh run starts from the distilled student; a resumed one holds its checkpoint's weights already
+        fresh = cfg.distilled_checkpoint and not ctx.resuming
+        self.distilled_teacher = load_distilled(params, env, model, device) if fresh else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -117,6 +150,12 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         stats = self.learn()
         self.ctx.frames += self.frames_per_epoch()
         return stats
+
+    def _stop_requested(self) -> bool:
+        """A stop signal came (checked between minibatches). Under torchrun the update always finishes: the
+        ranks would leave it at different minibatches and wait for each other in the gradient all-reduce."""
+        signals = self.ctx.signals
+        return signals is not None and signals.by_signal and not self.ctx.comm.active
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
         """The actor-critic and PPO agent, and the central value with its own agent when there is one."""
@@ -152,16 +191,23 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             super().apply_hyperparam(name, value)
             self.agent.config_changed()  # cuda_graph: the captured step holds e_clip, critic_coef, ...
 
-    def _initial_states(self) -> tuple[torch.Tensor, ...]:
-        states = tuple(self.model.initial_state(self.num_envs, self.device))
-        if self.central_value is not None:
-            states += self.central_value.initial_state(self.num_envs, self.device)
-        return states
-
     def reset_states(self) -> None:
         """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
-        self.rnn_states = self._initial_states()
-        self.resets.fill_(True)
+        self.collector.reset_states()
+
+    def rollout(self) -> bool:
+        """Step the envs for horizon_length steps into the storage (the collector); False if a stop signal
+        came."""
+        return self.collector.rollout()
+
+    # where the envs stand, held by the collector (read and set here by start, resume and callers)
+    obs = _collector_attr("obs", "The observations the next rollout acts on (None before ``start``).")
+    rnn_states = _collector_attr("rnn_states", "RNN states carried through the rollout: the model's, then the "
+                                               "central value's.")
+    resets = _collector_attr("resets", "Which env rows start an episode at the next step.")
+    last_values = _collector_attr("last_values", "Values of the observations after the last rollout (raw scale).")
+    pipeline_choice = _collector_attr("pipeline_choice", "Over env groups: pipelined or stepped together.")
+    graphed_act = _collector_attr("graphed_act", "cuda_graph: the act step as a CUDA graph, else None.")
 
     def learn(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, then the PPO update.
@@ -249,3 +295,9 @@ def obs_per_minibatch(mode: str, continuous: bool) -> bool:
     """``obs_normalizer_update`` resolved: True when each minibatch of the update's first pass folds its
     observations in (minibatch, or auto with continuous actions), False for the whole rollout at once."""
     return mode == "minibatch" or (mode == "auto" and continuous)
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "OnPolicyTrainer": ("PPO", PPO),
+})

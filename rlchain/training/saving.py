@@ -1,6 +1,7 @@
-"""The Loop's checkpoints: what a checkpoint holds (:meth:`Checkpoints.state_dict`), when one is written
-(:meth:`~Checkpoints.after_epoch`: best and periodic), writing it (:meth:`~Checkpoints.save`) and resuming
-from it (:meth:`~Checkpoints.restore`). The file format itself lives in :mod:`rlchain.runs.checkpoint`.
+"""When and what the Loop saves: what a checkpoint holds (:meth:`CheckpointSaver.state_dict`), when one is
+written (:meth:`~CheckpointSaver.after_epoch`: best and periodic), writing it (:meth:`~CheckpointSaver.save`) and
+resuming from it (:meth:`~CheckpointSaver.restore`). The file itself (atomic writes, reading, its errors) is
+:mod:`rlchain.runs.checkpoint`'s.
 """
 
 from __future__ import annotations
@@ -22,13 +23,16 @@ from rlchain.version import __version__
 log = get_logger(__name__)
 
 
-class Checkpoints:
-    """Checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
+class CheckpointSaver:
+    """The checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
 
     def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
         self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
         self.best_reward = -math.inf
         self.point = ResumePoint(ctx, algorithm)  # the last epoch boundary: RNG, envs, episodes in progress
+        self.newest: tuple[str, int] | None = None  # (path, epoch) of the newest checkpoint this run wrote
+        self.resumed_from: str | None = None  # the checkpoint this run started from
+        self.failure: str | None = None  # why the latest write failed (None once one succeeds)
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
         """Everything exact resume needs: the learner now and the run's state at the last epoch
@@ -68,11 +72,21 @@ class Checkpoints:
         try:
             ckpt.save_atomic(self.state_dict(kind), path)
         except OSError as exc:
-            log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
-                        f"checkpoint is kept and training goes on")
+            self.failure = f"writing {path} failed: {exc.strerror or exc}"
+            log.warning(f"warning: checkpoint {self.failure}; {self.kept()}")
             return None
+        self.failure = None
+        self.newest = (path, self.ctx.epoch)
         self.events.emit("on_checkpoint", path, kind)
         return path
+
+    def kept(self) -> str:
+        """What is on disk to resume from, in words (for a failed write and the stop line)."""
+        if self.newest is not None:
+            return f"the newest checkpoint is {self.newest[0]} (epoch {self.newest[1]})"
+        if self.resumed_from is not None:
+            return f"this run wrote no checkpoint; the one it resumed from is {self.resumed_from}"
+        return "no checkpoint of this run exists"
 
     def after_epoch(self, episodes: dict | None) -> None:
         """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
@@ -85,15 +99,18 @@ class Checkpoints:
             self.save(f"ep_{epoch}")
             self.save("last")
 
-    def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG, and (at the
-        algorithm's ``start``) the envs' state and episodes in progress when the checkpoint has them."""
+    def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
+        """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
+        optimizer(s), lr, normalizers, counters, RNG, and (at the algorithm's ``start``) the envs' state and
+        episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
         if state.get("algo") not in (None, name):
             raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
                                        f"the config says '{name}'")
-        ckpt.load_model_state(algo.model, state, path)
+        if weights:
+            ckpt.load_model_state(algo.model, state, path)
+        self.resumed_from = path
         algo.agent.load_state_dict(state["agent"])
         ctx.epoch, ctx.frames = int(state["epoch"]), int(state["frames"])
         for key, value in state.get("live_config", {}).items():  # values set_params gave the config fields
