@@ -13,6 +13,7 @@ from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQNTrainer, SACTrainer
 from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.envs.backends.mjlab_env import mjlab_env, mjlab_vecenv
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
 from rlchain.envs.factory import BuiltinVecEnv
 from rlchain.models.actor_critic import ActorCritic
@@ -65,4 +66,7 @@ def register_builtins() -> None:
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively
     for name, mode in [*((m, m) for m in VECENV_TYPES), *VECENV_ALIASES.items()]:
         VECENVS.register(name, BuiltinVecEnv(mode), overwrite=True)
+    # mjlab (imports mjlab only when built): env_name mjlab, or rl_games 2.0's vecenv_type MJLAB
+    ENVS.register("mjlab", mjlab_env, overwrite=True)
+    VECENVS.register("mjlab", mjlab_vecenv, overwrite=True)
     WRITERS.register("csv", CSVWriter, overwrite=True, replaceable=True)  # a user package may register its own
