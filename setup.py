@@ -25,8 +25,13 @@ EXTRAS = {
     "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots
+    # mjlab (env_name: mjlab, vecenv_type: MJLAB): Isaac Lab's manager-based API on MuJoCo Warp. It pins
+    # mujoco 3.11 (and rsl-rl-lib) where the mujoco / playground extras take mujoco 4: install it in its own
+    # environment (constraints-mjlab.txt, the mjlab job of .ci/run); "all" leaves it out
+    "mjlab": ["mjlab>=1.6,<2"],
 }
-EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
+SEPARATE = {"mjlab"}
+EXTRAS["all"] = sorted({dep for name, deps in EXTRAS.items() if name not in SEPARATE for dep in deps})
 
 setup(
     name="rlchain",

@@ -41,6 +41,10 @@ NETWORK_ONLY_KEYS = {
     "require_rewards": "resnet_actor_critic",
     "require_last_actions": "resnet_actor_critic",
 }
+# central_value_config keys rl_games' own YAMLs carry and its central value never reads (mjlab/ppo_lift_cube_yam)
+NO_EFFECT_CENTRAL_VALUE_KEYS = {
+    "kl_threshold": "rl_games' central value does not read it (its learning rate is constant or linear)",
+}
 NO_EFFECT_NETWORK_KEYS = {
     "regularizer": "rl_games never applied it",
 }
@@ -112,6 +116,14 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
                   "play uses config.device")
         out["player"] = player
     cv = out.get("central_value_config")
+    if isinstance(cv, dict) and any(key in cv for key in NO_EFFECT_CENTRAL_VALUE_KEYS):
+        cv = dict(cv)
+        for key, reason in NO_EFFECT_CENTRAL_VALUE_KEYS.items():
+            if key in cv:
+                warn_once(source, f"{path}.central_value_config.{key}",
+                          f"accepted for rl_games compatibility, no effect: {reason}")
+                cv.pop(key)
+        out["central_value_config"] = cv
     if isinstance(cv, dict) and isinstance(cv.get("network"), dict):
         out["central_value_config"] = {**cv, "network": translate_network(
             cv["network"], source, f"{path}.central_value_config.network")}
