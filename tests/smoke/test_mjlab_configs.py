@@ -19,7 +19,8 @@ ENVS = 8  # x horizon_length 24 = a batch of 192
 def small(tmp_path, epochs=2):
     return [f"params.config.train_dir={tmp_path}", "params.config.print_stats=false", "params.config.device=cpu",
             f"params.config.max_epochs={epochs}", f"params.config.num_actors={ENVS}",
-            f"params.config.minibatch_size={ENVS * 24}", f"params.config.central_value_config.minibatch_size={ENVS * 24}",
+            f"params.config.minibatch_size={ENVS * 24}",
+            f"params.config.central_value_config.minibatch_size={ENVS * 24}",
             "params.config.env_config.device=cpu"]
 
 
