@@ -35,7 +35,8 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
                          f"{action_space}")
     kind = getattr(config, "value_normalizer", "rl_games")  # a user algorithm's config class may not have the key
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
-                       use_action_masks=config.use_action_masks, value_normalizer_kind=kind)
+                       use_action_masks=config.use_action_masks, value_normalizer_kind=kind,
+                       obs_normalizer_kind=getattr(config, "obs_normalizer", "rl_games"))
 
 
 def register_builtins() -> None:

@@ -67,6 +67,11 @@ class ActorCriticConfig(RunConfig):
                                                "learns faster per frame, docs/ppo_parity.md); returns = "
                                                "statistics of the returns only, no clip (rlchain before issue 32)",
                                    choices=("rl_games", "returns"))
+    obs_normalizer: str = option("rl_games", "with normalize_input (and central_value_config.normalize_input): "
+                                             "rl_games = (x - mean) / sqrt(var + 1e-5) clipped to +-5; rsl_rl = "
+                                             "rsl_rl's empirical normalization, (x - mean) / (std + 1e-2), no clip, "
+                                             "folded in at every env step (obs_normalizer_update auto)",
+                                 choices=("rl_games", "rsl_rl"))
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
     adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")

@@ -88,8 +88,10 @@ class TrainConfig(ActorCriticConfig):
                                                 "first mini-epoch just before its forward pass (the central "
                                                 "value keeps rollout); auto = minibatch for continuous actions "
                                                 "(measured better on Hopper, level on the other MuJoCo YAMLs, "
-                                                "docs/ppo_parity.md), rollout otherwise and with multi_agent",
-                                        choices=("auto", "rollout", "minibatch"))
+                                                "docs/ppo_parity.md), rollout otherwise and with multi_agent; "
+                                                "step = as rsl_rl, each env step's next observations as they "
+                                                "come (auto with obs_normalizer rsl_rl)",
+                                        choices=("auto", "rollout", "minibatch", "step"))
     torch_compile: Any = option(False, "PPO: torch.compile the network: false, true (mode default), a mode "
                                        "(default, reduce-overhead, max-autotune) or {mode, critic_mode, "
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "

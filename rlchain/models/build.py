@@ -126,7 +126,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
         if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
             model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
                                  params.config.normalize_value,
-                                 value_normalizer_kind=params.config.value_normalizer)
+                                 value_normalizer_kind=params.config.value_normalizer,
+                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
         else:  # a registered network, given its block and rl_games' critic kwargs
             block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
             network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
@@ -135,7 +136,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
                                   num_seqs=params.config.num_actors, observation_space=view.space)
             model = CentralValue(None, state_shape, value_size, cv.normalize_input,
                                  params.config.normalize_value, network=network,
-                                 value_normalizer_kind=params.config.value_normalizer)
+                                 value_normalizer_kind=params.config.value_normalizer,
+                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     model.obs_slice = view.selector()

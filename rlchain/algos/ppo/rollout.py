@@ -143,6 +143,11 @@ class RolloutMixin:
                 storage.final_values[t, rows][idx] = self._value(final_obs, row_states)
         storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones, rows=rows)
         obs = self.ctx.to_tensor(result.obs)
+        if getattr(self, "fold_obs_each_step", False):  # obs_normalizer_update step: rsl_rl's timing
+            with torch.no_grad():
+                self.model.update_normalizers(obs=obs)
+                if self.central_value is not None:
+                    self.central_value.update_normalizers(obs=obs)
         if next_states and cfg.zero_rnn_on_done:
             next_states = zero_finished(next_states, dones)
         if rows is ALL:

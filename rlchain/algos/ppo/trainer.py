@@ -97,6 +97,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         plain = not model.is_rnn and not self.use_masks and self.central_value is None
         self.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
         self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
+        self.fold_obs_each_step = obs_each_step(cfg.obs_normalizer_update, cfg.obs_normalizer)
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -184,11 +185,13 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
             flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
-            per_minibatch = obs_per_minibatch(cfg.obs_normalizer_update, model.dist.continuous)  # else here
-            model.update_normalizers(obs=None if per_minibatch else flat_obs, returns=flat_returns,
+            each_step = self.fold_obs_each_step  # already folded in by the rollout (rsl_rl's timing)
+            per_minibatch = not each_step and obs_per_minibatch(cfg.obs_normalizer_update, model.dist.continuous)
+            model.update_normalizers(obs=None if per_minibatch or each_step else flat_obs, returns=flat_returns,
                                      values=flat_values)
             if self.central_value is not None:
-                self.central_value.update_normalizers(obs=flat_obs, returns=flat_returns, values=flat_values)
+                self.central_value.update_normalizers(obs=None if each_step else flat_obs, returns=flat_returns,
+                                                      values=flat_values)
         model.train()
         stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
         stats["lr0"] = cfg.learning_rate
@@ -243,6 +246,12 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
 
 def _value_size(env: Any) -> int:
     return env_spec(env).value_size
+
+
+def obs_each_step(mode: str, kind: str) -> bool:
+    """``obs_normalizer_update`` resolved: True when the rollout folds each env step's next observations into
+    the observation statistics (step, or auto with ``obs_normalizer: rsl_rl``, rsl_rl's timing)."""
+    return mode == "step" or (mode == "auto" and kind == "rsl_rl")
 
 
 def obs_per_minibatch(mode: str, continuous: bool) -> bool:
