@@ -100,7 +100,7 @@ def rsl_rl_command(args: argparse.Namespace, task: str, shape: dict, run_dir: st
     gpus = "None" if args.device == "cpu" else str(int(args.device.split(":")[1]) if ":" in args.device else 0)
     return [args.python, "-m", "mjlab.scripts.train", task, "--env.scene.num-envs", str(shape["num_actors"]),
             "--agent.max-iterations", str(args.epochs), "--agent.seed", str(args.seed), "--agent.save-interval",
-            str(10 ** 9), "--log-root", run_dir, "--gpu-ids", gpus]
+            str(10 ** 9), "--agent.logger", "tensorboard", "--log-root", run_dir, "--gpu-ids", gpus]
 
 
 def scalar_events(folder: str, tag: str) -> list[tuple[float, int, float]]:

@@ -9,6 +9,7 @@ from typing import Any
 
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.compile import check_compile, check_cuda_graph
+from rlchain.config.exploration import RndConfig, SymmetryConfig
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 from rlchain.config.multi_agent import MultiAgentConfig
 from rlchain.config.obs_groups import ObsGroupsConfig
@@ -130,6 +131,10 @@ class TrainConfig(ActorCriticConfig):
                                          check=positive)
     central_value_config: CentralValueConfig | None = option(
         None, "asymmetric actor-critic: a value network on the env's `state` (env use_central_value)")
+    rnd: RndConfig | None = option(None, "rlchain (rsl_rl's rnd_cfg; not rl_games' rnd_config): random network "
+                                         "distillation, an intrinsic reward for novel states (docs/robot_learning.md)")
+    symmetry: SymmetryConfig | None = option(None, "rlchain (rsl_rl's symmetry_cfg): mirrored samples and a "
+                                                   "mirror loss from a robot's mirror map (docs/robot_learning.md)")
     use_action_masks: bool = option(False, "invalid-action masks from the env's has_action_mask() / "
                                            "get_action_mask() (discrete and multi-discrete actions)")
     self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "

@@ -129,6 +129,8 @@ class RolloutMixin:
             rewards = rewards.unsqueeze(-1)
         rs = cfg.reward_shaper
         shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+        if getattr(self, "rnd", None) is not None:  # rnd: the intrinsic reward of the next observation (rsl_rl)
+            shaped = shaped + self.intrinsic_reward(result.obs)
         dropped = dropped_rows(result)
         if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
             lost = self.ctx.to_tensor(np.asarray(dropped)).bool()

@@ -10,6 +10,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
+from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
@@ -39,7 +40,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
                    "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
-                   "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr"}
+                   "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr", "rnd_loss": "losses/rnd_loss",
+                   "rnd_reward": "rewards/intrinsic", "mirror_loss": "losses/mirror_loss"}
     console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"))
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
@@ -98,6 +100,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         self.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
         self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
         self.fold_obs_each_step = obs_each_step(cfg.obs_normalizer_update, cfg.obs_normalizer)
+        self.rnd = build_rnd(params, model, obs_space, device)
+        self._rnd_reward_sum, self._rnd_reward_rows = 0.0, 0
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -196,19 +200,43 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
+        if self.rnd is not None:  # the predictor learns the rollout's states: their intrinsic reward fades
+            stats.update(self.train_rnd(flat_obs))
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
                                               shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
         return stats
 
+    def intrinsic_reward(self, obs: Any) -> torch.Tensor:
+        """``rnd``: the (B, 1) intrinsic rewards of a step's next observations (their statistics folded in
+        first, as rsl_rl does)."""
+        view = self.model.view(self.ctx.to_tensor(obs))
+        self.rnd.observe(view)
+        reward = self.rnd.reward(view)
+        self._rnd_reward_sum += float(reward.sum())
+        self._rnd_reward_rows += reward.numel()
+        return reward.unsqueeze(-1)
+
+    def train_rnd(self, flat_obs: torch.Tensor) -> dict[str, float]:
+        """The predictor's passes over the rollout; its loss and the epoch's mean intrinsic reward."""
+        rnd_cfg = self.cfg.rnd
+        loss = self.rnd.train_on(self.model.view(flat_obs), self.cfg.minibatch_size, rnd_cfg.mini_epochs)
+        mean = self._rnd_reward_sum / max(self._rnd_reward_rows, 1)
+        self._rnd_reward_sum, self._rnd_reward_rows = 0.0, 0
+        return {"rnd_loss": loss, "rnd_reward": mean}
+
     def extra_state(self, kind: str) -> dict:
-        """The central value's weights and optimizer, when there is one."""
+        """The central value's weights and optimizer, when there is one; the RND's."""
+        out = {} if self.rnd is None else {"rnd": self.rnd.full_state()}
         if self.central_value is None:
-            return {}
-        return {"central_value": self.central_value.state_dict(), "central_value_agent": self.cv_agent.state_dict()}
+            return out
+        return {**out, "central_value": self.central_value.state_dict(),
+                "central_value_agent": self.cv_agent.state_dict()}
 
     def restore_extra(self, state: dict) -> None:
+        if self.rnd is not None and "rnd" in state:
+            self.rnd.load_full_state(state["rnd"])
         if self.central_value is None:
             return
         if "central_value" not in state:
@@ -246,6 +274,19 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
 
 def _value_size(env: Any) -> int:
     return env_spec(env).value_size
+
+
+def build_rnd(params: Params, model: ActorCritic, obs_space: Any, device: torch.device) -> Any:
+    """The ``rnd`` block's networks on the actor's view of the observation (None without the block)."""
+    cfg = params.config.rnd
+    if cfg is None:
+        return None
+    size = int(model.view(torch.zeros((1, *obs_space.shape))).flatten(1).shape[1])
+    try:
+        indices = parts_to_indices(cfg.obs, size)
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.rnd.obs", str(exc)) from None
+    return RandomNetworkDistillation(size, cfg, indices, device)
 
 
 def obs_each_step(mode: str, kind: str) -> bool:

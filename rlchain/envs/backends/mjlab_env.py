@@ -50,7 +50,7 @@ CRITIC_GROUP = "critic"
 def import_mjlab() -> tuple[Any, Any]:
     """(``mjlab.tasks.registry``, ``ManagerBasedRlEnv``), or an ImportError naming the extra."""
     try:
-        import mjlab.tasks  # noqa: F401  (optional dependency: importing it registers mjlab's tasks)
+        import mjlab.tasks  # noqa: F401  (optional: mjlab; importing it registers its tasks)
         from mjlab.envs import ManagerBasedRlEnv
         from mjlab.tasks import registry
     except ImportError as exc:
