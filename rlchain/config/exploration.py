@@ -40,15 +40,14 @@ class RndConfig:
 
 @dataclass(frozen=True)
 class SymmetryConfig:
-    """``config.symmetry`` (rlchain; rsl_rl's ``symmetry_cfg``): a mirror map of the robot (``go1``,
-    ``g1`` for mjlab's velocity tasks, or ``module:function`` returning a
-    :class:`~rlchain.algos.core.symmetry.MirrorMap` for the env) gives each sample its left-right mirror image.
-    ``data_augmentation`` trains the policy on the mirrored samples as well (same advantages and old
-    log-probabilities, as rsl_rl); ``mirror_loss_coef`` > 0 adds the mean squared difference between the
-    policy's mean action on a mirrored observation and the mirrored mean action (a pass over the rollout after
-    each PPO update)."""
+    """``config.symmetry`` (rlchain; rsl_rl's ``symmetry_cfg``): a mirror map of the robot (``go1``, ``g1`` for
+    mjlab's velocity tasks, or ``module:function`` returning a :class:`~rlchain.algos.core.symmetry.MirrorMap`
+    for the env's observation and action sizes) gives each sample its left-right mirror image; the mirror loss
+    (the mean squared difference between the policy's mean action on a mirrored observation and the mirrored
+    mean action) is minimised over the rollout after each PPO update. Continuous actions."""
 
-    mirror: str = option(doc="go1, g1, or module:function returning a MirrorMap (called with the env's "
-                             "observation and action sizes)")
-    data_augmentation: bool = option(True, "train the policy on the mirrored samples too")
-    mirror_loss_coef: float = option(0.0, "weight of the mirror loss (0 = off)", check=non_negative)
+    mirror: str = option(doc="go1, g1, or module:function returning a MirrorMap (called with the actor's "
+                             "observation size and the action size)")
+    mirror_loss_coef: float = option(1.0, "weight of the mirror loss", check=non_negative)
+    data_augmentation: bool = option(False, "train the PPO objective on the mirrored samples as well (rsl_rl's "
+                                            "use_data_augmentation)", status="planned")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
@@ -11,6 +12,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
+from rlchain.algos.core.symmetry import MirrorLoss, resolve_mirror
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
@@ -101,6 +103,7 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
         self.fold_obs_each_step = obs_each_step(cfg.obs_normalizer_update, cfg.obs_normalizer)
         self.rnd = build_rnd(params, model, obs_space, device)
+        self.mirror_loss = build_mirror_loss(params, model, obs_space, env.action_space)
         self._rnd_reward_sum, self._rnd_reward_rows = 0.0, 0
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
@@ -202,6 +205,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.rnd is not None:  # the predictor learns the rollout's states: their intrinsic reward fades
             stats.update(self.train_rnd(flat_obs))
+        if self.mirror_loss is not None:  # symmetry: the policy acts as its mirror image
+            stats["mirror_loss"] = self.mirror_loss.train_on(flat_obs, cfg.minibatch_size)
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
@@ -229,6 +234,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     def extra_state(self, kind: str) -> dict:
         """The central value's weights and optimizer, when there is one; the RND's."""
         out = {} if self.rnd is None else {"rnd": self.rnd.full_state()}
+        if self.mirror_loss is not None:
+            out["mirror_optimizer"] = self.mirror_loss.optimizer.state_dict()
         if self.central_value is None:
             return out
         return {**out, "central_value": self.central_value.state_dict(),
@@ -237,6 +244,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
     def restore_extra(self, state: dict) -> None:
         if self.rnd is not None and "rnd" in state:
             self.rnd.load_full_state(state["rnd"])
+        if self.mirror_loss is not None and "mirror_optimizer" in state:
+            self.mirror_loss.optimizer.load_state_dict(state["mirror_optimizer"])
         if self.central_value is None:
             return
         if "central_value" not in state:
@@ -287,6 +296,22 @@ def build_rnd(params: Params, model: ActorCritic, obs_space: Any, device: torch.
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.rnd.obs", str(exc)) from None
     return RandomNetworkDistillation(size, cfg, indices, device)
+
+
+def build_mirror_loss(params: Params, model: ActorCritic, obs_space: Any, action_space: Any) -> Any:
+    """The ``symmetry`` block's mirror loss on the actor's view (None without the block)."""
+    cfg = params.config.symmetry
+    if cfg is None:
+        return None
+    if not model.dist.continuous or model.is_rnn:
+        raise ConfigError(params.source, "params.config.symmetry", "needs a feed-forward policy with continuous "
+                                                                   "actions")
+    size = int(model.view(torch.zeros((1, *obs_space.shape))).flatten(1).shape[1])
+    try:
+        mirror = resolve_mirror(cfg.mirror, size, int(np.prod(action_space.shape)))
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.symmetry.mirror", str(exc)) from None
+    return MirrorLoss(model, mirror, cfg.mirror_loss_coef, params.config.learning_rate)
 
 
 def obs_each_step(mode: str, kind: str) -> bool:
