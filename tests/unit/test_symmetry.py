@@ -5,7 +5,7 @@ import copy
 import pytest
 import torch
 
-from rlchain.algos.core.symmetry import G1_JOINTS, GO1_JOINTS, MirrorLoss, MirrorMap, g1, go1, resolve_mirror
+from rlchain.algos.core.symmetry import G1_JOINTS, GO1_JOINTS, MirrorMap, g1, go1, resolve_mirror
 from rlchain.config.errors import ConfigError
 from tests.conftest import ppo_epochs
 

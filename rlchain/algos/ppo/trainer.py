@@ -12,8 +12,8 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
-from rlchain.algos.core.symmetry import MirrorLoss, resolve_mirror
 from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.core.symmetry import MirrorLoss, resolve_mirror
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
