@@ -44,10 +44,12 @@ class SymmetryConfig:
     mjlab's velocity tasks, or ``module:function`` returning a :class:`~rlchain.algos.core.symmetry.MirrorMap`
     for the env's observation and action sizes) gives each sample its left-right mirror image; the mirror loss
     (the mean squared difference between the policy's mean action on a mirrored observation and the mirrored
-    mean action) is minimised over the rollout after each PPO update. Continuous actions."""
+    mean action) is minimised over the rollout after each PPO update; ``data_augmentation`` also trains the PPO
+    objective on the mirrored samples. Continuous actions, feed-forward policies."""
 
     mirror: str = option(doc="go1, g1, or module:function returning a MirrorMap (called with the actor's "
                              "observation size and the action size)")
-    mirror_loss_coef: float = option(1.0, "weight of the mirror loss", check=non_negative)
+    mirror_loss_coef: float = option(1.0, "weight of the mirror loss (0 = off)", check=non_negative)
     data_augmentation: bool = option(False, "train the PPO objective on the mirrored samples as well (rsl_rl's "
-                                            "use_data_augmentation)", status="planned")
+                                            "use_data_augmentation): the batch doubles, the minibatch size stays "
+                                            "(rsl_rl doubles the minibatch instead)")

@@ -5,7 +5,16 @@ import copy
 import pytest
 import torch
 
-from rlchain.algos.core.symmetry import G1_JOINTS, GO1_JOINTS, MirrorMap, g1, go1, resolve_mirror
+from rlchain.algos.core.symmetry import (
+    G1_JOINTS,
+    GO1_JOINTS,
+    MirrorMap,
+    augmented_storage,
+    g1,
+    go1,
+    mirrored_params,
+    resolve_mirror,
+)
 from rlchain.config.errors import ConfigError
 from tests.conftest import ppo_epochs
 
@@ -93,3 +102,22 @@ def test_symmetry_needs_continuous_actions(base_config):
     config["params"]["config"]["symmetry"] = {"mirror": "go1"}
     with pytest.raises(ConfigError, match=r"symmetry\.mirror.*velocity tasks"):
         ppo_epochs(config, [], 4, 1)
+
+
+def test_the_augmented_rollout_holds_the_mirror_images_with_the_originals_advantages():
+    config = copy.deepcopy(PENDULUM)
+    config["params"]["config"]["symmetry"] = {"mirror": "tests.unit.test_symmetry:pendulum_mirror",
+                                              "mirror_loss_coef": 0.0, "data_augmentation": True}
+    stats, ppo = ppo_epochs(config, [], 4, 2)  # the update trains on the doubled rollout
+    assert "mirror_loss" not in stats[0] and stats[1]["a_loss"] == stats[1]["a_loss"]
+    storage, mirror = ppo.storage, ppo.mirror_loss.mirror
+    out = augmented_storage(storage, mirror, None)
+    assert out.obs.shape == (8, 8, 3) and out.num_envs == 8 and storage.num_envs == 4
+    torch.testing.assert_close(out.obs[:, 4:], storage.obs * torch.tensor([1.0, -1.0, -1.0]))
+    torch.testing.assert_close(out.actions[:, 4:], -storage.actions)
+    torch.testing.assert_close(out.advantages[:, 4:], storage.advantages)
+    torch.testing.assert_close(out.log_probs[:, 4:], storage.log_probs)
+    params = torch.tensor([[0.5, 2.0]])
+    assert mirrored_params(params, mirror).tolist() == [[-0.5, 2.0]]  # the mean mirrored, the scale kept
+    batches = list(out.minibatches(16, out.advantages.sum(-1)))
+    assert len(batches) == 4 and all(b.obs.shape == (16, 3) for b in batches)

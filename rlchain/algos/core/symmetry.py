@@ -9,13 +9,16 @@ commanded vy), the angular velocity's x and z and the commanded yaw rate, swaps 
 negates the joints whose axis the mirror reverses (Go1: the hip abduction joints; G1: every roll and yaw joint).
 A user's map is ``module:function``, called with the observation and action sizes.
 
-The mirror loss (:class:`MirrorLoss`) is the mean squared difference between the policy's mean action on a
+Data augmentation (:func:`augmented_storage`, rsl_rl's ``use_data_augmentation``) trains the PPO objective on a
+rollout doubled by its mirror images, with the originals' advantages, returns and old log-probabilities. The
+mirror loss (:class:`MirrorLoss`) is the mean squared difference between the policy's mean action on a
 mirrored observation and the mirror of its mean action on the observation (the latter held fixed), weighted by
 ``mirror_loss_coef`` and minimised over the rollout after each PPO update.
 """
 
 from __future__ import annotations
 
+import copy
 import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -186,4 +189,40 @@ def mirrored_obs(obs: torch.Tensor, view: torch.Tensor, mirrored_view: torch.Ten
         out[:, obs_slice] = mirrored_view
     else:
         out[:, torch.tensor(obs_slice, device=obs.device)] = mirrored_view
+    return out
+
+
+MIRRORED_FIELDS = ("log_probs", "values", "final_values", "rewards", "terminated", "dones", "advantages", "returns")
+"""Rollout fields a mirrored sample shares with its original (rsl_rl's data augmentation keeps the old
+log-probabilities, values, returns and advantages)."""
+
+
+def mirrored_params(params: torch.Tensor, mirror: MirrorMap) -> torch.Tensor:
+    """A Gaussian policy's (B, 2 x actions) parameters [mean | scale] under the mirror: the mean mirrored, the
+    scale only permuted (a scale has no sign)."""
+    n = len(mirror.act_perm)
+    mean, scale = params[:, :n], params[:, n:]
+    return torch.cat([mirror.mirror_actions(mean), scale.index_select(1, torch.tensor(mirror.act_perm,
+                                                                                      device=params.device))], 1)
+
+
+def augmented_storage(storage: Any, mirror: MirrorMap, obs_slice: Any) -> Any:
+    """A (T, 2N) copy of a filled (T, N) rollout: the N envs as they were, then their mirror images (the
+    model's observation view and the actions mirrored, the distribution parameters too, the rest shared)."""
+    t, n = storage.horizon, storage.num_envs
+    out = copy.copy(storage)
+    out.num_envs = 2 * n
+    obs = storage.obs.reshape(t * n, -1)
+    view = obs if obs_slice is None else (obs[:, obs_slice] if isinstance(obs_slice, slice)
+                                          else obs[:, torch.tensor(obs_slice, device=obs.device)])
+    mirrored = mirrored_obs(obs, view, mirror.mirror_obs(view), obs_slice).reshape(storage.obs.shape)
+    out.obs = torch.cat([storage.obs, mirrored], 1)
+    actions = storage.actions.reshape(t * n, -1)
+    out.actions = torch.cat([storage.actions, mirror.mirror_actions(actions).reshape(storage.actions.shape)], 1)
+    params = storage.params.reshape(t * n, -1)
+    out.params = torch.cat([storage.params, mirrored_params(params, mirror).reshape(storage.params.shape)], 1)
+    for name in MIRRORED_FIELDS:
+        value = getattr(storage, name)
+        setattr(out, name, torch.cat([value, value], 1))
+    out.action_masks, out.states, out.resets = None, (), None
     return out

@@ -13,7 +13,7 @@ from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
 from rlchain.algos.core.storage import RolloutStorage
-from rlchain.algos.core.symmetry import MirrorLoss, resolve_mirror
+from rlchain.algos.core.symmetry import MirrorLoss, augmented_storage, resolve_mirror
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
@@ -200,12 +200,20 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
                 self.central_value.update_normalizers(obs=None if each_step else flat_obs, returns=flat_returns,
                                                       values=flat_values)
         model.train()
-        stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
+        symmetry = cfg.symmetry
+        if symmetry is not None and symmetry.data_augmentation:  # the PPO update sees the mirror images too
+            if per_minibatch:  # the statistics stay the env's: fold the original rows in once, here
+                with torch.no_grad():
+                    model.update_normalizers(obs=flat_obs)
+            stats = self.agent.update(augmented_storage(storage, self.mirror_loss.mirror, model.obs_slice),
+                                      self.progress())
+        else:
+            stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.rnd is not None:  # the predictor learns the rollout's states: their intrinsic reward fades
             stats.update(self.train_rnd(flat_obs))
-        if self.mirror_loss is not None:  # symmetry: the policy acts as its mirror image
+        if self.mirror_loss is not None and self.mirror_loss.coef > 0:  # symmetry: the policy acts as its mirror
             stats["mirror_loss"] = self.mirror_loss.train_on(flat_obs, cfg.minibatch_size)
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
