@@ -14,6 +14,8 @@ pytestmark = pytest.mark.slow
 
 EXTRAS = {
     "symmetry": "params.config.symmetry={mirror: tests.unit.test_symmetry:pendulum_mirror, mirror_loss_coef: 1.0}",
+    "symmetry_augmentation": "params.config.symmetry={mirror: tests.unit.test_symmetry:pendulum_mirror, "
+                             "mirror_loss_coef: 0.0, data_augmentation: true}",
     "rnd": "params.config.rnd={weight: 0.02}",
     "obs_normalizer": "params.config.obs_normalizer=rsl_rl",
 }
