@@ -223,3 +223,20 @@ def test_an_rl_games_mjlab_config_trains_an_epoch_with_its_episode_log(fake_mjla
     # log_info_keys reads infos['episode']; log_stats writes the whole log under rsl_rl's names
     assert {"env_info/Episode_Reward/track", "Episode_Reward/track", "Episode_Termination/time_out"} <= tags
     assert fake_mjlab[0]["seed"] is not None and fake_mjlab[0]["task_name"] == "Mjlab-Velocity-Flat-Unitree-Go1"
+
+
+def test_an_mjlab_policy_exports_to_onnx_on_the_whole_observation_or_the_actor_group(fake_mjlab, tmp_path):
+    pytest.importorskip("onnxruntime")
+    import onnx
+
+    from rlchain.inference.export.onnx import export_onnx
+
+    sizes = {}
+    for name, extra in (("whole", []), ("actor", ["params.config.obs_groups={teacher: [obs]}"])):
+        overrides = [f"params.config.train_dir={tmp_path / name}", "params.config.print_stats=false", *extra]
+        runner = Runner().load(copy.deepcopy(CONFIG), overrides)
+        result = runner.train()
+        out = export_onnx(runner.params, os.path.join(result.run_dir, "nn", "last_mjlab_test.pth"),
+                          str(tmp_path / f"{name}.onnx"))
+        sizes[name] = onnx.load(out).graph.input[0].type.tensor_type.shape.dim[1].dim_value
+    assert sizes == {"whole": ACTOR + CRITIC, "actor": ACTOR}
