@@ -2,7 +2,7 @@
 # mjlab on one GPU: rlchain (cuda_graph off and on) against rsl_rl (mjlab's own train) and rl_games 2.0, on Go1 flat
 # velocity and Lift-Cube-Yam with rl_games 2.0's YAMLs: reward against frames and seconds, the seconds each system
 # takes to reach each peer's final reward, one summary. Sized to fit one 10-minute device call: 2 tasks x 4 systems,
-# EPOCHS each at ENVS envs (benchmarks/mjlab_peers.py runs them one after the other).
+# EPOCHS each at ENVS envs (benchmarks/peers/mjlab_peers.py runs them one after the other).
 #
 #   PY=python3 RL_GAMES_SRC=/path/to/rl_games OUT=/tmp/mjlab_gpu bash benchmarks/gpu/mjlab_time_to_reward.sh
 #
@@ -30,7 +30,7 @@ mkdir -p "$OUT"
 "$PY" -c "import torch; print('torch', torch.__version__, 'cuda', torch.cuda.is_available(), torch.cuda.get_device_name(0) if torch.cuda.is_available() else 'cpu')" | tee "$OUT/summary.md"
 status=0
 for task in $TASKS; do
-  "$PY" benchmarks/mjlab_peers.py --config "rlchain/configs/rl_games/$task.yaml" --systems "$SYSTEMS" \
+  "$PY" benchmarks/peers/mjlab_peers.py --config "rlchain/configs/rl_games/$task.yaml" --systems "$SYSTEMS" \
     --seed "$SEED" --device "$DEVICE" --envs "$ENVS" --epochs "$EPOCHS" --rl-games-src "$RL_GAMES_SRC" \
     --python "$PY" --timeout "$TIMEOUT" --out "$OUT/$task" || status=1
   { echo; cat "$OUT/$task/summary.md"; } >> "$OUT/summary.md"

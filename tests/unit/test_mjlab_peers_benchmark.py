@@ -1,16 +1,13 @@
-"""benchmarks/mjlab_peers.py without mjlab: batch geometry, the commands each system runs, the summary's seconds
+"""benchmarks/peers/mjlab_peers.py without mjlab: batch geometry, the commands each system runs, the summary's seconds
 to each peer's final reward, and its argument errors."""
 
 import os
-import sys
 
 import pytest
 import yaml
 
-from tests.conftest import CONFIGS, ROOT
-
-sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-import mjlab_peers  # noqa: E402
+from benchmarks.peers import mjlab_peers
+from tests.conftest import CONFIGS
 
 GO1 = os.path.join(CONFIGS, "rl_games", "ppo_go1_velocity.yaml")
 

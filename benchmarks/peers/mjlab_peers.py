@@ -20,7 +20,7 @@ seconds to each peer's final reward) and ``curves.png`` (matplotlib, when instal
 
 Run it with a Python that has mjlab (and rl_games 2.0's dependencies, tensorboardX, for rl_games2). On a GPU::
 
-    python benchmarks/mjlab_peers.py --config rlchain/configs/rl_games/ppo_go1_velocity.yaml --device cuda:0 \\
+    python benchmarks/peers/mjlab_peers.py --config rlchain/configs/rl_games/ppo_go1_velocity.yaml --device cuda:0 \\
         --envs 4096 --epochs 300 --rl-games-src /path/to/rl_games --out /tmp/mjlab_go1
 """
 
@@ -34,12 +34,14 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
 
 import yaml
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if __package__ in (None, ""):  # run by path: this checkout's benchmarks and rlchain first
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+from benchmarks.common import REPO, results_dir  # noqa: E402
+
 SYSTEMS = ("rlchain", "rlchain_graph_off", "rlchain_graph_on", "rsl_rl", "rl_games2")
 RLCHAIN_REWARD, RSL_REWARD = "rewards/step", "Train/mean_reward"
 
@@ -228,7 +230,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="an rl_games 2.0 (main branch) source checkout, for rl_games2")
     p.add_argument("--python", default=sys.executable, help="the interpreter every system runs under")
     p.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
-    p.add_argument("--out", default=None, help="results folder (default: a temporary one)")
+    p.add_argument("--out", default=None, help="results folder (default: benchmarks/results/mjlab_peers/<time>)")
     args = p.parse_args(argv)
     args.systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     unknown = [s for s in args.systems if s not in SYSTEMS]
@@ -246,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     config = load_yaml(args.config)
     shape = geometry(config, args.envs)
-    out = args.out or tempfile.mkdtemp(prefix="mjlab_peers_")
+    out = args.out or results_dir("mjlab_peers", time.strftime("%Y%m%d-%H%M%S"))
     os.makedirs(out, exist_ok=True)
     runs = []
     for system in args.systems:
