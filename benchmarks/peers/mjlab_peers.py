@@ -32,6 +32,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -154,10 +155,19 @@ def train(system: str, args: argparse.Namespace, config: dict, shape: dict, work
         command = rlchain_command(args, shape, run_dir, graph)
     started = time.time()
     with open(os.path.join(work, f"{system}.log"), "w", encoding="utf-8") as log:
-        code = subprocess.run(command, cwd=run_dir, env=env, stdout=log, stderr=subprocess.STDOUT,
-                              timeout=args.timeout).returncode
+        process = subprocess.Popen(command, cwd=run_dir, env=env, stdout=log, stderr=subprocess.STDOUT)
+        try:
+            code = process.wait(timeout=args.timeout)
+        except subprocess.TimeoutExpired:  # cut at its time budget: the points it logged so far still count
+            process.send_signal(signal.SIGINT)  # a KeyboardInterrupt lets its log writers flush
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+            code = 124
     seconds = time.time() - started
-    got = points(system, run_dir, shape["num_actors"], started) if code == 0 else []
+    got = points(system, run_dir, shape["num_actors"], started) if code in (0, 124) else []
     return {"system": system, "returncode": code, "seconds": seconds, "points": got, "command": command}
 
 
@@ -229,7 +239,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--rl-games-src", default=os.environ.get("RL_GAMES_SRC", ""),
                    help="an rl_games 2.0 (main branch) source checkout, for rl_games2")
     p.add_argument("--python", default=sys.executable, help="the interpreter every system runs under")
-    p.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
+    p.add_argument("--timeout", type=float, default=3600.0,
+                   help="seconds per run; a run cut there keeps the rewards it logged (exit 124 in the summary)")
     p.add_argument("--out", default=None, help="results folder (default: benchmarks/results/mjlab_peers/<time>)")
     args = p.parse_args(argv)
     args.systems = [s.strip() for s in args.systems.split(",") if s.strip()]
@@ -264,7 +275,7 @@ def main(argv: list[str] | None = None) -> int:
         fh.write(text)
     plot(runs, os.path.join(out, "curves.png"), os.path.basename(args.config))
     print(text)
-    return 0 if all(run["returncode"] == 0 for run in runs) else 1
+    return 0 if all(run["returncode"] in (0, 124) for run in runs) else 1
 
 
 if __name__ == "__main__":

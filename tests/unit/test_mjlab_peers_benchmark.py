@@ -50,3 +50,14 @@ def test_bad_arguments_are_one_line_errors(capsys):
     with pytest.raises(SystemExit):
         mjlab_peers.parse_args(["--config", GO1, "--systems", "rl_games2", "--rl-games-src", "/nowhere"])
     assert "rl_games 2.0 source checkout" in capsys.readouterr().err
+
+
+def test_a_run_past_its_time_budget_is_cut_and_keeps_its_points(tmp_path, monkeypatch):
+    import sys
+
+    args = mjlab_peers.parse_args(["--config", GO1, "--systems", "rlchain", "--timeout", "0.5"])
+    monkeypatch.setattr(mjlab_peers, "rlchain_command",
+                        lambda *a: [sys.executable, "-c", "import time; time.sleep(30)"])
+    monkeypatch.setattr(mjlab_peers, "points", lambda *a: [(0.1, 10, 1.0)])
+    run = mjlab_peers.train("rlchain", args, {}, {"num_actors": 4}, str(tmp_path))
+    assert run["returncode"] == 124 and run["points"] == [(0.1, 10, 1.0)] and run["seconds"] < 20
