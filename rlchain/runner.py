@@ -11,9 +11,12 @@ import copy
 import os
 from typing import Any
 
+import yaml
+
 from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+from rlchain.config.embodichain import is_embodichain
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
+from rlchain.config.load import apply_overrides, from_embodichain, import_user_modules, load_raw, parse_params
 from rlchain.config.packaged import resolve_checkpoint, resolve_config
 from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
 from rlchain.config.schema import Params
@@ -53,7 +56,12 @@ class Runner:
             raw = load_raw(source)
         else:
             source, raw = "<dict>", copy.deepcopy(config)
-        raw = apply_overrides(raw, overrides or [], source)
+        translated = is_embodichain(raw)
+        raw, rest = from_embodichain(raw, overrides or [], source)
+        if translated:
+            log.info("EmbodiChain config read as this rl_games-style config (saved as the run folder's config):\n"
+                     + yaml.safe_dump(raw, sort_keys=False).rstrip())
+        raw = apply_overrides(raw, rest, source)
         import_user_modules(raw, source)  # first: they register the networks / algos the parser looks up
         self.params = parse_params(raw, source)
         self.raw = raw

@@ -156,6 +156,20 @@ class ProgressConfig:
 
 
 @dataclass(frozen=True)
+class EventConfig:
+    """A ``config.events`` entry (rlchain; EmbodiChain's ``trainer.events.<train|eval>.<name>``)."""
+
+    func: str = option(doc="package.module:function, called as fn(env, env_ids=None, **params) with the "
+                           "training env (the EmbodiChain-contract env itself where the backend wraps one); or "
+                           "video: record evaluation episodes (rlchain's VideoCallback; EmbodiChain's "
+                           "record_camera_data functors)")
+    phase: str = option("train", "train: every interval_step env steps of training; eval: after every "
+                                 "interval_step-th in-training evaluation", choices=("train", "eval"))
+    interval_step: int = option(1, "env steps (train) or evaluations (eval) between calls", check=positive)
+    params: dict = option({}, "keyword arguments of func (video: save_path is the folder)")
+
+
+@dataclass(frozen=True)
 class RunConfig:
     """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
 
@@ -204,6 +218,8 @@ class RunConfig:
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    events: list[EventConfig] = option([], "functions run during training or after evaluations (rlchain; "
+                                           "what EmbodiChain's trainer.events become, docs/embodichain.md)")
     log_writers: list[str] = option([], "rlchain: extra log writers by registered name, e.g. [csv] "
                                         "(<run>/summaries/scalars.csv); each gets every scalar under its "
                                         "TensorBoard tag. Console, TensorBoard and (--track) wandb are always on; "

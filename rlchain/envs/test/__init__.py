@@ -8,6 +8,7 @@ from rlchain.envs.test import (  # noqa: F401  (each module registers its envs)
     asymmetric,
     cooperative,
     duel,
+    embodichain_standins,
     goal_reach,
     masked,
     masked_velocity,
