@@ -9,6 +9,7 @@ import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartP
 import rlchain.envs.test  # noqa: F401  (registers the test envs)
 from rlchain.algos.appo.trainer import APPOTrainer, ImpalaTrainer
 from rlchain.algos.distill.trainer import DistillTrainer
+from rlchain.algos.grpo.trainer import GRPOTrainer
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQNTrainer, SACTrainer
@@ -60,6 +61,7 @@ def register_builtins() -> None:
     ALGOS.register("appo", APPOTrainer, overwrite=True)
     ALGOS.register("impala", ImpalaTrainer, overwrite=True)
     ALGOS.register("distill", DistillTrainer, overwrite=True)
+    ALGOS.register("grpo", GRPOTrainer, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively

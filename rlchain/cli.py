@@ -40,6 +40,8 @@ def build_parser(prog: str = "runner.py") -> argparse.ArgumentParser:
                    "--tune: best config (default <base name>_best.yaml)")
     p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
+    p.add_argument("--distributed", action="store_true", help="EmbodiChain's flag: params.config.multi_gpu=true "
+                   "(launch with torchrun)")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
     p.add_argument("--wandb-entity", default=None)
@@ -119,6 +121,8 @@ def _run(args: argparse.Namespace) -> int:
         if packaged and args.export and output is None:  # next to the shipped file is inside the package
             output = os.path.splitext(os.path.basename(args.checkpoint))[0] + ".onnx"
     overrides = list(args.overrides)
+    if args.distributed:
+        overrides.append("params.config.multi_gpu=true")
     if args.num_actors is not None:
         if args.play:
             overrides += ["params.config.player.use_vecenv=true",

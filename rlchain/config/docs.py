@@ -11,6 +11,7 @@ import typing
 from rlchain.config import compat
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.distill import DistillConfig
+from rlchain.config.grpo import GRPOConfig
 from rlchain.config.multi_agent import PolicySpec
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
 from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
@@ -41,6 +42,9 @@ ROOTS = [
     ("params.config for algo distill (a frozen PPO teacher labels the states a student visits, DAgger; "
      "docs/distillation.md; keys shared with PPO have the same meaning)",
      "params.config", DistillConfig, "algo distill"),
+    ("params.config for algo grpo (group-relative policy optimisation without a critic, docs/algorithms.md; PPO's "
+     "keys have the same meaning, the value keys are unused)",
+     "params.config", GRPOConfig, "algo grpo"),
 ]
 
 # Extra words for a nested section's heading, by key path.
