@@ -7,6 +7,7 @@ from typing import Any
 import rlchain.envs.backends.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
 import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
 import rlchain.envs.test  # noqa: F401  (registers the test envs)
+from rlchain.algos.apg.trainer import APGTrainer
 from rlchain.algos.appo.trainer import APPOTrainer, ImpalaTrainer
 from rlchain.algos.distill.trainer import DistillTrainer
 from rlchain.algos.grpo.trainer import GRPOTrainer
@@ -62,6 +63,7 @@ def register_builtins() -> None:
     ALGOS.register("impala", ImpalaTrainer, overwrite=True)
     ALGOS.register("distill", DistillTrainer, overwrite=True)
     ALGOS.register("grpo", GRPOTrainer, overwrite=True)
+    ALGOS.register("apg", APGTrainer, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively

@@ -9,6 +9,7 @@ import types
 import typing
 
 from rlchain.config import compat
+from rlchain.config.apg import APGConfig
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.distill import DistillConfig
 from rlchain.config.grpo import GRPOConfig
@@ -45,6 +46,8 @@ ROOTS = [
     ("params.config for algo grpo (group-relative policy optimisation without a critic, docs/algorithms.md; PPO's "
      "keys have the same meaning, the value keys are unused)",
      "params.config", GRPOConfig, "algo grpo"),
+    ("params.config for algo apg (analytic policy gradients through a differentiable tensor env, "
+     "docs/algorithms.md)", "params.config", APGConfig, "algo apg"),
 ]
 
 # Extra words for a nested section's heading, by key path.

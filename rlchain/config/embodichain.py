@@ -145,6 +145,14 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     horizon = int(trainer.get("buffer_size", trainer.get("rollout_steps", DEFAULTS["buffer_size"])))
     if name == "apg":
         horizon = int(trainer.get("segment_length", 16))
+        if int(trainer.get("update_horizon", horizon)) != horizon:
+            raise ConfigError(source, "trainer.update_horizon", "rlchain's APG takes one optimizer step per "
+                                                                "segment: set it to segment_length or remove it")
+    elif any(k in trainer for k in ("segment_length", "update_horizon", "deterministic_actions",
+                                    "save_frequency_updates")):
+        key = next(k for k in ("segment_length", "update_horizon", "deterministic_actions", "save_frequency_updates")
+                   if k in trainer)
+        raise ConfigError(source, f"trainer.{key}", f"an APG key; algorithm {name} does not read it")
     world = int(os.environ.get("WORLD_SIZE", "1")) if trainer.get("distributed") else 1
     frames_per_epoch = horizon * num_envs * world
     config: dict[str, Any] = {
@@ -162,6 +170,9 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         "callbacks": ["rlchain.training.embodichain_tags:EmbodiChainTags"],
         "save_frequency": _epochs(trainer.get("save_freq", DEFAULTS["save_freq"]), frames_per_epoch),
     }
+    if name == "apg":  # EmbodiChain's differentiable trainer counts saves in updates (= segments here)
+        config["save_frequency"] = int(trainer.get("save_frequency_updates", 0))
+        config["deterministic_actions"] = bool(trainer.get("deterministic_actions", False))
     if "total_timesteps" in trainer:
         config["max_frames"] = int(trainer["total_timesteps"])
         config["max_epochs"] = -1
