@@ -294,6 +294,7 @@ def _algo_keys(name: str, cfg: dict, batch: int, source: str) -> dict[str, Any]:
         "value_bootstrap": False,
         "bounds_loss_coef": 0.0,
         "kl_threshold": 0.008,
+        "kl_reference": "rollout",  # info/kl: KL to the rollout policy, as their approx_kl
     })
     if name == "ppo":
         out["critic_coef"] = 2.0 * float(cfg.get("vf_coef", DEFAULTS["vf_coef"]))

@@ -74,3 +74,18 @@ def test_rlchain_train_and_the_dexsim_error(tmp_path, capsys):
     gym.write_text(json.dumps({"id": "PushCubeRL"}))
     assert main(["train", layout(tmp_path, gym_config=str(gym))]) == 2
     assert "task 'PushCubeRL'" in capsys.readouterr().err
+
+
+def test_rlchain_benchmark_writes_its_report(tmp_path):
+    from rlchain.console import main
+
+    path = layout(tmp_path, "grpo", "EmbodiChainCartPoleStandIn")
+    out = tmp_path / "bench"
+    assert main(["benchmark", path, "--seeds", "0", "--threshold", "0.0", "--out", str(out),
+                 "trainer.events={}", "params.torch_threads=1"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    (run,) = report["runs"]
+    assert run["status"] == 0 and run["final_success_rate_stable"] is not None and run["peak_memory_mb"] > 0
+    assert run["steps_to_success_threshold"] is None  # two evaluations: never 3 in a row
+    assert report["leaderboard"][0]["algorithm"] == "grpo"
+    assert "| EmbodiChainCartPoleStandIn | grpo | 1 |" in (out / "report.md").read_text()
