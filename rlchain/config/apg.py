@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rlchain.config.fields import non_negative, option, positive, unit_interval
+from rlchain.config.fields import non_negative, option, positive
 from rlchain.config.run import RunConfig
 
 
@@ -20,7 +20,6 @@ class APGConfig(RunConfig):
                                      choices=("linear", "constant"))
     min_lr: float = option(0.0, "with lr_schedule linear: the final learning rate", check=non_negative)
     weight_decay: float = option(0.0, "Adam weight decay", check=non_negative)
-    tau: float = option(0.95, "unused by APG (accepted so PPO-shaped configs load)", check=unit_interval)
     entropy_coef: float = option(0.0, "weight of the policy's discounted entropy in the objective")
     grad_norm: float = option(0.5, "max gradient norm", check=positive)
     truncate_grads: bool = option(True, "clip gradients to grad_norm")
