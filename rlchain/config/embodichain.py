@@ -52,10 +52,13 @@ ACTIVATIONS = {"relu": "relu", "elu": "elu", "tanh": "tanh", "sigmoid": "sigmoid
                "gelu": "gelu", "silu": "swish", "swish": "swish", "softplus": "softplus", "none": "None",
                "identity": "None"}
 CAMERA_EVENTS = ("record_camera_data", "record_camera_data_async")
-# EmbodiChain's defaults where a key is absent (train.py, utils/config.py, algo/*.py)
+# EmbodiChain's defaults where a key is absent (train.py, utils/config.py, algo/*.py); a learning_env run
+# (its _train_learning_env) has its own for a few trainer keys
 DEFAULTS = {"seed": 1, "iterations": 250, "buffer_size": 2048, "eval_freq": 10000, "save_freq": 50000,
-            "num_eval_episodes": 5, "num_eval_envs": 4, "learning_rate": 3e-4, "batch_size": 64, "gamma": 0.99,
-            "gae_lambda": 0.95, "max_grad_norm": 0.5, "n_epochs": 10, "clip_coef": 0.2, "vf_coef": 0.5}
+            "num_eval_episodes": 5, "num_eval_envs": 4, "num_envs": 64, "learning_rate": 3e-4, "batch_size": 64,
+            "gamma": 0.99, "gae_lambda": 0.95, "max_grad_norm": 0.5, "n_epochs": 10, "clip_coef": 0.2,
+            "vf_coef": 0.5}
+LEARNING_ENV_DEFAULTS = {"buffer_size": 256, "eval_freq": 0, "save_freq": 0, "num_eval_envs": 16}
 ENT_DEFAULT = {"ppo": 0.01, "grpo": 0.0, "apg": 0.0}
 LOG_STD_BOUNDS = [-5.0, 2.0]
 
@@ -133,16 +136,17 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         if key in trainer:
             warn_once(source, f"trainer.{key}", "a DexSim simulator setting; no effect on rlchain's envs")
 
+    defaults = {**DEFAULTS, **(LEARNING_ENV_DEFAULTS if "learning_env" in trainer else {})}
     env_name, env_config = resolve_env(trainer, source)
     if "device" not in env_config and "device" in inspect.signature(ENVS.get(env_name)).parameters:
         env_config["device"] = str(trainer.get("device", "cpu"))  # EmbodiChain's envs live on the sim device
-    num_envs = int(trainer.get("num_envs", 64))
+    num_envs = int(trainer.get("num_envs", defaults["num_envs"]))
     if "rollout_steps" in trainer:
         if "buffer_size" in trainer:
             raise ConfigError(source, "trainer.rollout_steps", "both rollout_steps (old name) and buffer_size "
                                                               "given; keep buffer_size")
         warn_once(source, "trainer.rollout_steps", "old name, read as buffer_size")
-    horizon = int(trainer.get("buffer_size", trainer.get("rollout_steps", DEFAULTS["buffer_size"])))
+    horizon = int(trainer.get("buffer_size", trainer.get("rollout_steps", defaults["buffer_size"])))
     if name == "apg":
         horizon = int(trainer.get("segment_length", 16))
         if int(trainer.get("update_horizon", horizon)) != horizon:
@@ -168,7 +172,7 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         "clip_actions": False,
         "print_stats": True,
         "callbacks": ["rlchain.training.embodichain_tags:EmbodiChainTags"],
-        "save_frequency": _epochs(trainer.get("save_freq", DEFAULTS["save_freq"]), frames_per_epoch),
+        "save_frequency": _epochs(trainer.get("save_freq", defaults["save_freq"]), frames_per_epoch),
     }
     if name == "apg":  # EmbodiChain's differentiable trainer counts saves in updates (= segments here)
         config["save_frequency"] = int(trainer.get("save_frequency_updates", 0))
@@ -178,7 +182,7 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         config["max_epochs"] = -1
     if trainer.get("distributed"):
         config["multi_gpu"] = True
-    config.update(_evaluation(trainer, frames_per_epoch, source))
+    config.update(_evaluation(trainer, frames_per_epoch, defaults, source))
     config.update(_optimizer(cfg, source))
     config.update(_algo_keys(name, cfg, num_envs * horizon, source))
     if trainer.get("use_wandb"):
@@ -199,7 +203,7 @@ def _epochs(steps: Any, frames_per_epoch: int) -> int:
     return 0 if steps <= 0 else max(1, math.ceil(steps / frames_per_epoch))
 
 
-def _evaluation(trainer: dict, frames_per_epoch: int, source: str) -> dict[str, Any]:
+def _evaluation(trainer: dict, frames_per_epoch: int, defaults: dict, source: str) -> dict[str, Any]:
     if not trainer.get("enable_eval"):
         return {}
     metric = trainer.get("best_eval_metric", "eval/avg_reward")
@@ -209,9 +213,9 @@ def _evaluation(trainer: dict, frames_per_epoch: int, source: str) -> dict[str, 
     if metric != "eval/avg_reward" or mode != "max":
         warn_once(source, "trainer.best_eval_metric", f"{metric} ({mode}): rlchain's best checkpoint follows the "
                   "highest evaluation mean reward (eval/avg_reward, max)")
-    block = {"interval": _epochs(trainer.get("eval_freq", DEFAULTS["eval_freq"]), frames_per_epoch),
-             "games": int(trainer.get("num_eval_episodes", DEFAULTS["num_eval_episodes"])),
-             "num_envs": int(trainer.get("num_eval_envs", DEFAULTS["num_eval_envs"])),
+    block = {"interval": _epochs(trainer.get("eval_freq", defaults["eval_freq"]), frames_per_epoch),
+             "games": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
+             "num_envs": int(trainer.get("num_eval_envs", defaults["num_eval_envs"])),
              "seed": int(trainer.get("eval_seed", int(trainer.get("seed", DEFAULTS["seed"])) + 10_000)),
              "select_best": "evaluation"}
     if block["interval"] == 0:
@@ -286,6 +290,7 @@ def _algo_keys(name: str, cfg: dict, batch: int, source: str) -> dict[str, Any]:
     out.update({
         "minibatch_size": _minibatch(int(cfg.get("batch_size", DEFAULTS["batch_size"])), batch, source),
         "mini_epochs": int(cfg.get("n_epochs", DEFAULTS["n_epochs"])),
+        "minibatch_order": "shuffle",  # a fresh permutation every pass, as their iterate_minibatches
         "e_clip": float(cfg.get("clip_coef", DEFAULTS["clip_coef"])),
         "tau": float(cfg.get("gae_lambda", DEFAULTS["gae_lambda"])),
         "normalize_value": False,
