@@ -210,14 +210,15 @@ def _evaluation(trainer: dict, frames_per_epoch: int, defaults: dict, source: st
     mode = trainer.get("best_eval_mode", "max")
     if mode not in ("max", "min"):
         raise ConfigError(source, "trainer.best_eval_mode", f"expected max or min, got {mode!r}")
-    if metric != "eval/avg_reward" or mode != "max":
+    select = {("eval/avg_reward", "max"): "evaluation", ("eval/success_rate", "max"): "evaluation_success"}
+    if (metric, mode) not in select:
         warn_once(source, "trainer.best_eval_metric", f"{metric} ({mode}): rlchain's best checkpoint follows the "
-                  "highest evaluation mean reward (eval/avg_reward, max)")
+                  "highest evaluation mean reward (eval/avg_reward, max) or success rate (eval/success_rate, max)")
     block = {"interval": _epochs(trainer.get("eval_freq", defaults["eval_freq"]), frames_per_epoch),
              "games": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
              "num_envs": int(trainer.get("num_eval_envs", defaults["num_eval_envs"])),
              "seed": int(trainer.get("eval_seed", int(trainer.get("seed", DEFAULTS["seed"])) + 10_000)),
-             "select_best": "evaluation"}
+             "select_best": select.get((metric, mode), "evaluation")}
     if block["interval"] == 0:
         return {}
     return {"evaluation": block}

@@ -54,8 +54,11 @@ class EvaluationConfig:
     deterministic: bool = option(True, "act with the distribution's mode")
     num_envs: int = option(4, "evaluation envs, separate from the training envs", check=positive)
     seed: int = option(10_000, "evaluation env seed (the same every evaluation, so scores compare)")
-    select_best: str = option("training", "which mean reward picks the best checkpoint nn/<name>.pth",
-                              choices=("training", "evaluation"))
+    select_best: str = option("training", "what picks the best checkpoint nn/<name>.pth: the training or the "
+                                          "evaluation mean reward, or evaluation_success: the evaluation success "
+                                          "rate (ties: the higher evaluation reward; EmbodiChain's "
+                                          "best_eval_metric eval/success_rate)",
+                              choices=("training", "evaluation", "evaluation_success"))
 
 
 @dataclass(frozen=True)

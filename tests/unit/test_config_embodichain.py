@@ -143,6 +143,11 @@ def test_other_optimizers_and_dropout_are_errors(tmp_path):
         load_config(write(tmp_path, data))
 
 
+def test_best_eval_metric_success_rate(tmp_path):
+    data = layout(best_eval_metric="eval/success_rate", best_eval_mode="max")
+    assert load_config(write(tmp_path, data)).config.evaluation.select_best == "evaluation_success"
+
+
 def test_linear_lr_scheduler_end_factor(tmp_path):
     data = layout()
     data["algorithm"]["cfg"]["lr_scheduler"] = {"name": "linear", "kwargs": {"end_factor": 0.4}}
