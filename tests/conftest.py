@@ -62,7 +62,7 @@ def signal_state_is_restored():
     """Every test leaves the process's signal handling as it found it.
 
     A run, a library or a test that installs a handler or blocks a signal in the main thread and
-    keeps it makes later signal tests depend on the order the suite runs in (issue 23): this
+    keeps it makes later signal tests depend on the order the suite runs in: this
     fixture names the test that leaked instead.
     """
     before = _signal_state()

@@ -1,4 +1,4 @@
-"""docs/config.md documents every key of every config block, nested blocks included (issue 19).
+"""docs/config.md documents every key of every config block, nested blocks included.
 
 The sync test in test_config.py only checks that the file equals ``render()``; this one walks the
 config dataclasses on its own (``dataclasses.fields``, recursively, from the types the registries

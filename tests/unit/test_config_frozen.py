@@ -1,4 +1,4 @@
-"""The frozen config (issue 19): parsing returns an immutable value with its derived keys filled in,
+"""The frozen config: parsing returns an immutable value with its derived keys filled in,
 resolve() makes the per-process run context, checkpoints store the resolved config as data."""
 
 import copy

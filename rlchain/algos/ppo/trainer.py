@@ -169,8 +169,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         Every normalizer folds this rollout in before the update (the observations, with
         ``obs_normalizer_update: minibatch``, minibatch by minibatch in the update's first pass), so the
         network is trained with the statistics the next rollout acts with. (Folding the observations in
-        after the update, as rlchain did before, trained each update under one normalization and acted
-        under another: Hopper reached ~400 at 0.5M frames against ~1,450 this way; docs/ppo_parity.md.)
+        after the update would train each update under one normalization and act under another, which
+        slows learning per frame; docs/ppo_parity.md.)
         """
         cfg, storage, model = self.cfg, self.storage, self.model
         flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
