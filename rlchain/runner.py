@@ -58,7 +58,7 @@ class Runner:
             source, raw = "<dict>", copy.deepcopy(config)
         translated = is_embodichain(raw)
         raw, rest = from_embodichain(raw, overrides or [], source)
-        if translated:
+        if translated and os.environ.get("RANK", "0") == "0":  # once under torchrun
             log.info("EmbodiChain config read as this rl_games-style config (saved as the run folder's config):\n"
                      + yaml.safe_dump(raw, sort_keys=False).rstrip())
         raw = apply_overrides(raw, rest, source)
