@@ -48,7 +48,7 @@ def test_runs_with_their_tags_events_and_saved_config(tmp_path):
         events = EventAccumulator(folder)
         events.Reload()
         tags |= set(events.Tags()["scalars"])
-    assert {"rewards/object_to_goal", "rewards/success_bonus", "metrics/object_to_goal_distance", "charts/SPS",
+    assert {"rewards/goal_distance_reward", "rewards/success_bonus", "metrics/distance_to_goal", "charts/SPS",
             "eval/avg_reward", "eval/success_rate", "train/a_loss", "losses/a_loss"} <= tags, sorted(tags)
     assert len(CALLS) == 4 and CALLS[0] == ("PushStandIn", None, {"x": 1})  # 32 env steps, every 8th
     saved = glob.glob(os.path.join(result.run_dir, "*.yaml"))

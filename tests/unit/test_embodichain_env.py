@@ -18,11 +18,12 @@ def test_nested_dict_flattened_in_sorted_key_order():
 def test_registered_contract_env_steps_as_a_tensor_vecenv():
     env = ENVS.get("EmbodiChainPushStandIn")(4, 0, device="cpu")
     obs = env.reset(seed=1)
-    assert obs.shape == (4, 6) and env.observation_space.shape == (6,) and env.is_tensor_env
+    assert obs.shape == (4, 12) and env.observation_space.shape == (12,) and env.is_tensor_env
     result = env.step(torch.zeros(4, 2))
-    assert result.obs.shape == (4, 6) and result.reward.shape == (4,)
+    assert result.obs.shape == (4, 12) and result.reward.shape == (4,)
     assert set(result.infos) >= {"success", "fail", "elapsed_steps", "metrics", "rewards"}
-    assert set(result.infos["rewards"]) == {"object_to_goal", "success_bonus"}
+    assert set(result.infos["rewards"]) == {"reaching_reward", "goal_distance_reward", "action_penalty",
+                                            "success_bonus"}
 
 
 def test_register_env_decorator_and_unknown_cfg_key():

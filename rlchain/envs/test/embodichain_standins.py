@@ -4,8 +4,8 @@ contract (rlchain.envs.backends.embodichain_env): nested dict observations, ``in
 its DexSim simulator, which does not install here; point ``trainer.gym_config`` at one of these names to
 run its configs as written:
 
-- ``EmbodiChainPushStandIn``: a planar push to a goal (rlchain's TorchPointMass-v0 physics), continuous
-  2-D action, success when the pushed body is within ``success_threshold`` of the goal;
+- ``EmbodiChainPushStandIn``: a planar push-cube (rlchain's TorchPush2D-v0: a gripper pushes a cube to a goal,
+  EmbodiChain's push_cube starts, reward terms and success test), continuous 2-D action;
 - ``EmbodiChainCartPoleStandIn``: cart-pole with a continuous force in [-1, 1] (x force_mag), the pole
   kept up for ``max_episode_steps`` steps counts as success.
 """
@@ -20,7 +20,7 @@ import torch
 
 from rlchain.envs.backends.embodichain_env import register_env
 from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
-from rlchain.envs.backends.torch_envs.point_mass import TorchPointMass
+from rlchain.envs.backends.torch_envs.push2d import TorchPush2D
 
 
 class ContinuousCartPole(TorchCartPole):
@@ -72,22 +72,22 @@ class _Contract:
 
 @register_env("EmbodiChainPushStandIn")
 class PushStandIn(_Contract):
-    """Planar push stand-in: obs {'goal': (N, 2), 'object': {'pos': (N, 2), 'vel': (N, 2)}}."""
+    """Planar push-cube stand-in: obs {'robot': {'ee_pos': (N, 2)}, 'object': {'cube_pos', 'goal_pos', ...}}."""
 
     def __init__(self, num_envs: int, device: Any = "cpu", max_episode_steps: int = 100,
-                 success_threshold: float = 0.1, success_bonus: float = 1.0) -> None:
-        super().__init__(TorchPointMass(num_envs, device, None, max_episode_steps, success_threshold, success_bonus))
+                 success_threshold: float = 0.1) -> None:
+        super().__init__(TorchPush2D(num_envs, device, None, max_episode_steps, success_threshold))
 
     def _obs(self, flat: torch.Tensor) -> dict:
-        return {"object": {"pos": flat[:, 0:2], "vel": flat[:, 2:4]}, "goal": flat[:, 4:6]}
+        return {"robot": {"ee_pos": flat[:, 0:2], "last_action": flat[:, 10:12]},
+                "object": {"cube_pos": flat[:, 2:4], "goal_pos": flat[:, 4:6], "cube_to_goal": flat[:, 6:8],
+                           "ee_to_cube": flat[:, 8:10]}}
 
     def _success(self, r: Any) -> torch.Tensor:
         return r.infos["success"]
 
     def _terms(self, obs: torch.Tensor, reward: torch.Tensor, success: torch.Tensor) -> tuple[dict, dict]:
-        distance = (obs[:, 0:2] - obs[:, 4:6]).norm(dim=-1)
-        return ({"object_to_goal": -distance, "success_bonus": success.float()},
-                {"object_to_goal_distance": distance})
+        return dict(self.inner.last_terms), {"distance_to_goal": obs[:, 6:8].norm(dim=-1)}
 
 
 @register_env("EmbodiChainCartPoleStandIn")

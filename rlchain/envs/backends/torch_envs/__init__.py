@@ -4,7 +4,9 @@
 - ``TorchPendulum-v0``: gymnasium Pendulum-v1, Box(1), 200-step limit;
 - ``TorchReacher8-v0``: an 8-link planar reacher, Box(8), 200-step limit;
 - ``TorchPointMass-v0``: a damped 2-D point mass to a goal, Box(2), 100-step limit, info ``success``
-  (differentiable, like the pendulum: APG).
+  (differentiable, like the pendulum: APG);
+- ``TorchPush2D-v0``: a planar push-cube with EmbodiChain's push_cube starts, reward terms and success
+  test (cube within 0.1 m of the goal), Box(2), 100-step limit.
 
 Use them as ``params.config.env_name``; ``env_config.device`` (default cpu) picks where the
 batch lives and should match ``params.config.device``. Other ``env_config`` keys:
@@ -22,6 +24,7 @@ from rlchain.envs.backends.tensor_env import TensorVecEnv
 from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
 from rlchain.envs.backends.torch_envs.pendulum import TorchPendulum
 from rlchain.envs.backends.torch_envs.point_mass import TorchPointMass
+from rlchain.envs.backends.torch_envs.push2d import TorchPush2D
 from rlchain.envs.backends.torch_envs.reacher import TorchReacher
 from rlchain.registry import ENVS
 
@@ -54,11 +57,14 @@ build_torch_cartpole = _builder(TorchCartPole, "TorchCartPole-v0")
 build_torch_pendulum = _builder(TorchPendulum, "TorchPendulum-v0")
 build_torch_reacher8 = _builder(TorchReacher, "TorchReacher8-v0", num_links=8)
 build_torch_point_mass = _builder(TorchPointMass, "TorchPointMass-v0")
+build_torch_push2d = _builder(TorchPush2D, "TorchPush2D-v0")
 
 ENVS.register("TorchCartPole-v0", build_torch_cartpole, overwrite=True)
 ENVS.register("TorchPendulum-v0", build_torch_pendulum, overwrite=True)
 ENVS.register("TorchReacher8-v0", build_torch_reacher8, overwrite=True)
 ENVS.register("TorchPointMass-v0", build_torch_point_mass, overwrite=True)
+ENVS.register("TorchPush2D-v0", build_torch_push2d, overwrite=True)
 
-__all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "TorchPointMass", "build_torch_cartpole",
-           "build_torch_pendulum", "build_torch_reacher8", "build_torch_point_mass"]
+__all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "TorchPointMass", "TorchPush2D",
+           "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8", "build_torch_point_mass",
+           "build_torch_push2d"]
