@@ -31,6 +31,9 @@ class GRPOConfig(TrainConfig):
                                         "one start (needs reset_every_rollout and an env whose get_state() holds "
                                         "its batch as tensors: rlchain's tensor envs and contract envs on them)")
 
+    value_bootstrap: bool = option(False, "GRPO: no critic, so no bootstrap (True only spends a value pass at "
+                                          "time-outs)")
+
     other_algo_keys = {}
 
     def validate(self) -> tuple[str, str] | None:
