@@ -172,6 +172,9 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         "clip_actions": False,
         "print_stats": True,
         "callbacks": ["rlchain.training.embodichain_tags:EmbodiChainTags"],
+        # --play: the evaluation's episode count and its deterministic actions
+        "player": {"games_num": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
+                   "deterministic": True},
         "save_frequency": _epochs(trainer.get("save_freq", defaults["save_freq"]), frames_per_epoch),
     }
     if name == "apg":  # EmbodiChain's differentiable trainer counts saves in updates (= segments here)
