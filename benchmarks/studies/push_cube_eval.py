@@ -72,7 +72,7 @@ def main() -> None:
 
     from rlchain.config.load import load_config
     from rlchain.models.build import build_env, build_model
-    from rlchain.models.stepper import PolicyStepper
+    from rlchain.policy.stepper import PolicyStepper
     from rlchain.runs import checkpoint as ckpt
 
     torch.set_num_threads(1)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from rlchain.config.fields import non_negative, option, positive
 from rlchain.config.run import RunConfig
@@ -11,6 +12,8 @@ from rlchain.config.run import RunConfig
 @dataclass(frozen=True)
 class APGConfig(RunConfig):
     """``params.config`` of ``algo: apg``: the policy's return is differentiated through the env's steps."""
+
+    doc_note: ClassVar[str] = "analytic policy gradients through a differentiable tensor env, docs/algorithms.md"
 
     horizon_length: int = option(16, "APG: env steps per segment (EmbodiChain's segment_length): one optimizer "
                                      "step per segment, the graph cut after it (truncated backpropagation)",

@@ -4,9 +4,10 @@ group-relative ones, as EmbodiChain defines them, plus rlchain's ``shared_starts
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from rlchain.config.fields import non_negative, option, positive
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 
 
 def _group(value: int) -> str | None:
@@ -14,7 +15,7 @@ def _group(value: int) -> str | None:
 
 
 @dataclass(frozen=True)
-class GRPOConfig(TrainConfig):
+class GRPOConfig(PPOConfig):
     """``params.config`` of ``algo: grpo``: no critic; per-step discounted returns normalised within groups."""
 
     group_size: int = option(4, "GRPO: envs per group, contiguous (envs 0..G-1 are group 0); num_actors must "
@@ -34,7 +35,9 @@ class GRPOConfig(TrainConfig):
     value_bootstrap: bool = option(False, "GRPO: no critic, so no bootstrap (True only spends a value pass at "
                                           "time-outs)")
 
-    other_algo_keys = {}
+    other_algo_keys: ClassVar[dict[str, str]] = {}
+    doc_note: ClassVar[str] = ("group-relative policy optimisation without a critic, docs/algorithms.md; PPO's keys "
+                               "have the same meaning, the value keys are unused")
 
     def validate(self) -> tuple[str, str] | None:
         """The groups split the envs; shared starts come at a reset."""

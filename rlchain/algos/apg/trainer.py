@@ -47,7 +47,7 @@ class APGAgent:
         self.optimizer.load_state_dict(state["optimizer"])
 
 
-class APGTrainer(AlgorithmBase):
+class APG(AlgorithmBase):
     """Algo ``apg`` (see the module docstring)."""
 
     config_class = APGConfig
@@ -85,7 +85,7 @@ class APGTrainer(AlgorithmBase):
             result = self.env.step(action)
             reward = result.reward
             # the episode statistics and callbacks see a detached copy of the step
-            _, _, _, done = ctx.env_outcome(dataclasses.replace(result, reward=reward.detach(),
+            _, _, _, done = ctx.record_step(dataclasses.replace(result, reward=reward.detach(),
                                                                 obs=result.obs.detach()))
             rewards.append(reward)
             dones.append(done)

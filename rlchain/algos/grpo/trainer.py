@@ -14,7 +14,7 @@ import torch
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.grpo.advantages import alive_mask, discounted_returns, group_advantages, k3_kl
 from rlchain.algos.grpo.shared_starts import share_group_starts, supports_shared_starts
-from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.algos.ppo.trainer import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.grpo import GRPOConfig
 from rlchain.config.schema import Params
@@ -22,7 +22,7 @@ from rlchain.envs.spec import EnvSpec
 from rlchain.models.actor_critic import ActorCritic
 
 
-class GRPOTrainer(OnPolicyTrainer):
+class GRPO(PPO):
     """``algo: grpo`` (see the module docstring). The model's value head is built and never trained."""
 
     config_class = GRPOConfig

@@ -31,8 +31,10 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.log import get_logger
-from rlchain.models.build import build_env, build_model, resolve_device
+from rlchain.models.build import build_model
+from rlchain.parallel.device import resolve_device
 
 log = get_logger(__name__)
 

@@ -109,41 +109,43 @@ def _flags(x: Any, n: int) -> torch.Tensor:
     return torch.as_tensor(x).reshape(n).bool()
 
 
-def register_env(name: str, factory: Callable[..., Any] | None = None, *, overwrite: bool = False) -> Any:
-    """Register an EmbodiChain-contract env class or factory under ``name`` (decorator or direct call).
+def contract_builder(name: str, target: Callable[..., Any]) -> Callable[..., EmbodiChainVecEnv]:
+    """The :data:`rlchain.registry.ENVS` builder ``(num_envs, seed, device='cpu', render=False, **cfg)`` of an
+    EmbodiChain-contract env class or factory ``target(num_envs=, device=, **cfg)``: ``cfg`` (``env_config`` /
+    EmbodiChain's ``learning_env.cfg``) goes to it; a key it does not take is an error naming it."""
+    params = inspect.signature(target).parameters
+    open_kwargs = any(p.kind is p.VAR_KEYWORD for p in params.values())
+    accepted = [p for p in params if p not in ("self", "num_envs", "device")]
 
-    The builder it adds to :data:`rlchain.registry.ENVS` takes ``(num_envs, seed, device='cpu',
-    render=False, **cfg)``: ``cfg`` (``env_config`` / EmbodiChain's ``learning_env.cfg``) goes to the
-    factory; a key it does not take is an error naming it.
-    """
+    def build(num_envs: int, seed: int | None, device: str = "cpu", render: bool = False,
+              **cfg: Any) -> EmbodiChainVecEnv:
+        if render:
+            raise ValueError(f"params.config.player.render: {name} is a tensor env and does not render")
+        if not open_kwargs:
+            for key in cfg:
+                if key not in accepted:
+                    raise ValueError(f"{CONFIG}.{key}: not an option of {name} (valid: device, "
+                                     f"{', '.join(accepted)})")
+        env = EmbodiChainVecEnv(target(num_envs=num_envs, device=resolve_env_device(device), **cfg), name)
+        if seed is not None:
+            env.env.reset(seed=seed)
+        env.describe_shapes()
+        return env
+
+    build.__name__ = build.__qualname__ = f"build_{name}"
+    build.__doc__ = f"Builder of the EmbodiChain-contract env ``{name}`` ({getattr(target, '__name__', '?')})."
+    return build
+
+
+def register_env(name: str, factory: Callable[..., Any] | None = None, *, overwrite: bool = False) -> Any:
+    """Register an EmbodiChain-contract env class or factory under ``name`` in :data:`rlchain.registry.ENVS`
+    (a decorator, or a direct call, as EmbodiChain's ``register_learning_env``); see :func:`contract_builder`."""
 
     def decorator(target: Callable[..., Any]) -> Callable[..., Any]:
-        params = inspect.signature(target).parameters
-        open_kwargs = any(p.kind is p.VAR_KEYWORD for p in params.values())
-        accepted = [p for p in params if p not in ("self", "num_envs", "device")]
-
-        def build(num_envs: int, seed: int | None, device: str = "cpu", render: bool = False,
-                  **cfg: Any) -> EmbodiChainVecEnv:
-            if render:
-                raise ValueError(f"params.config.player.render: {name} is a tensor env and does not render")
-            if not open_kwargs:
-                for key in cfg:
-                    if key not in accepted:
-                        raise ValueError(f"{CONFIG}.{key}: not an option of {name} (valid: device, "
-                                         f"{', '.join(accepted)})")
-            env = EmbodiChainVecEnv(target(num_envs=num_envs, device=resolve_env_device(device), **cfg), name)
-            if seed is not None:
-                env.env.reset(seed=seed)
-            env.describe_shapes()
-            return env
-
-        build.__name__ = build.__qualname__ = f"build_{name}"
-        build.__doc__ = f"Builder of the EmbodiChain-contract env ``{name}`` ({getattr(target, '__name__', '?')})."
-        build.takes_device = True  # the EmbodiChain config reader passes trainer.device as env_config.device
-        ENVS.register(name, build, overwrite=overwrite)
+        ENVS.register(name, contract_builder(name, target), overwrite=overwrite)
         return target
 
     return decorator if factory is None else decorator(factory)
 
 
-__all__ = ["EmbodiChainVecEnv", "flatten_obs", "register_env"]
+__all__ = ["EmbodiChainVecEnv", "contract_builder", "flatten_obs", "register_env"]

@@ -1,4 +1,4 @@
-"""Built-in batched torch envs, registered in :data:`rlchain.registry.ENVS`:
+"""Built-in batched torch envs, for :data:`rlchain.registry.ENVS` (:data:`ENV_BUILDERS`):
 
 - ``TorchCartPole-v0``: gymnasium CartPole-v1, Discrete(2), 500-step limit;
 - ``TorchPendulum-v0``: gymnasium Pendulum-v1, Box(1), 200-step limit;
@@ -26,7 +26,6 @@ from rlchain.envs.backends.torch_envs.pendulum import TorchPendulum
 from rlchain.envs.backends.torch_envs.point_mass import TorchPointMass
 from rlchain.envs.backends.torch_envs.push2d import TorchPush2D
 from rlchain.envs.backends.torch_envs.reacher import TorchReacher
-from rlchain.registry import ENVS
 
 CONFIG = "params.config.env_config"
 
@@ -59,11 +58,10 @@ build_torch_reacher8 = _builder(TorchReacher, "TorchReacher8-v0", num_links=8)
 build_torch_point_mass = _builder(TorchPointMass, "TorchPointMass-v0")
 build_torch_push2d = _builder(TorchPush2D, "TorchPush2D-v0")
 
-ENVS.register("TorchCartPole-v0", build_torch_cartpole, overwrite=True)
-ENVS.register("TorchPendulum-v0", build_torch_pendulum, overwrite=True)
-ENVS.register("TorchReacher8-v0", build_torch_reacher8, overwrite=True)
-ENVS.register("TorchPointMass-v0", build_torch_point_mass, overwrite=True)
-ENVS.register("TorchPush2D-v0", build_torch_push2d, overwrite=True)
+ENV_BUILDERS = {"TorchCartPole-v0": build_torch_cartpole, "TorchPendulum-v0": build_torch_pendulum,
+                "TorchReacher8-v0": build_torch_reacher8, "TorchPointMass-v0": build_torch_point_mass,
+                "TorchPush2D-v0": build_torch_push2d}
+"""``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""
 
 __all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "TorchPointMass", "TorchPush2D",
            "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8", "build_torch_point_mass",

@@ -75,7 +75,3 @@ class MultiDiscreteGoalEnv(gym.Env):
         terminated = bool(after == 0)
         truncated = not terminated and self.steps >= self.max_steps
         return self._obs(), reward, terminated, truncated, {}
-
-
-if ENV_ID not in gym.registry:
-    gym.register(ENV_ID, entry_point=MultiDiscreteGoalEnv)

@@ -29,7 +29,6 @@ import gymnasium as gym
 import numpy as np
 
 from rlchain.envs.building import openai_gym_env
-from rlchain.registry import ENVS
 
 
 class TestRNNEnv(gym.Env):
@@ -130,8 +129,3 @@ def test_env(num_envs: int, seed: int | None = None, *, vecenv_type: str | None 
 
 
 test_env.__test__ = False  # not a pytest test
-
-if "TestRnnEnv-v0" not in gym.registry:
-    gym.register("TestRnnEnv-v0", entry_point=TestRNNEnv)
-if "test_env" not in ENVS:
-    ENVS.register("test_env", test_env)

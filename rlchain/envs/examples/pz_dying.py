@@ -1,6 +1,6 @@
 """A small PettingZoo-style ParallelEnv whose agents come and go (no pettingzoo import needed).
 
-``env_config: {env: rlchain.envs.test.pz_dying}``. Agents ``runner_0..runner_{n-1}`` start the
+``env_config: {env: rlchain.envs.examples.pz_dying}``. Agents ``runner_0..runner_{n-1}`` start the
 episode; ``runner_k`` terminates after ``k + 2`` steps. ``late_0`` appears at step 2 and terminates
 at step 5. The episode is truncated after ``length`` steps. Every step an agent sees a one-hot
 target (3 values) and gets +1 for choosing it, 0 otherwise, so a perfect agent's return is its

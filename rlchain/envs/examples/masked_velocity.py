@@ -25,7 +25,3 @@ class MaskVelocity(gym.ObservationWrapper):
 def make_cartpole_masked_velocity(**kwargs) -> gym.Env:
     """CartPole-v1 (500 steps) observed without velocities."""
     return MaskVelocity(gym.make("CartPole-v1", **kwargs))
-
-
-if "CartPoleMaskedVelocity-v1" not in gym.registry:
-    gym.register("CartPoleMaskedVelocity-v1", entry_point=make_cartpole_masked_velocity)

@@ -32,7 +32,6 @@ import gymnasium as gym
 import numpy as np
 
 from rlchain.envs.vecenv import StepResult
-from rlchain.registry import ENVS
 
 Policy = Callable[[np.ndarray], Any]
 
@@ -183,7 +182,3 @@ def play_duel(policy: Policy, opponent: Policy | str, games: int = 200, seed: in
 def make_duel(num_envs: int, seed: int | None = None, **env_config: Any) -> DuelVecEnv:
     """``env_name: duel``: env_config keys min_distance, max_distance, max_move, opponent."""
     return DuelVecEnv(num_envs, seed, **env_config)
-
-
-if "duel" not in ENVS:
-    ENVS.register("duel", make_duel)

@@ -80,6 +80,3 @@ class GoalReachEnv(gym.Env):
         info = {"is_success" if self.goal_dict else "success": float(success)}
         terminated = success and self.terminate_on_success
         return self._obs(), reward, terminated, self.steps >= self.max_steps, info
-
-
-gym.register(ENV_ID, entry_point=GoalReachEnv)

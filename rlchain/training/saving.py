@@ -1,6 +1,7 @@
-"""The Loop's checkpoints: what a checkpoint holds (:meth:`Checkpoints.state_dict`), when one is written
-(:meth:`~Checkpoints.after_epoch`: best and periodic), writing it (:meth:`~Checkpoints.save`) and resuming
-from it (:meth:`~Checkpoints.restore`). The file format itself lives in :mod:`rlchain.runs.checkpoint`.
+"""When and what the Loop saves: what a checkpoint holds (:meth:`CheckpointSaver.state_dict`), when one is
+written (:meth:`~CheckpointSaver.after_epoch`: best and periodic), writing it (:meth:`~CheckpointSaver.save`) and
+resuming from it (:meth:`~CheckpointSaver.restore`). The file itself (atomic writes, reading, its errors) is
+:mod:`rlchain.runs.checkpoint`'s.
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from rlchain.version import __version__
 log = get_logger(__name__)
 
 
-class Checkpoints:
-    """Checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
+class CheckpointSaver:
+    """The checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
 
     def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
         self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
@@ -85,15 +86,17 @@ class Checkpoints:
             self.save(f"ep_{epoch}")
             self.save("last")
 
-    def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG, and (at the
-        algorithm's ``start``) the envs' state and episodes in progress when the checkpoint has them."""
+    def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
+        """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
+        optimizer(s), lr, normalizers, counters, RNG, and (at the algorithm's ``start``) the envs' state and
+        episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
         if state.get("algo") not in (None, name):
             raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
                                        f"the config says '{name}'")
-        ckpt.load_model_state(algo.model, state, path)
+        if weights:
+            ckpt.load_model_state(algo.model, state, path)
         algo.agent.load_state_dict(state["agent"])
         ctx.epoch, ctx.frames = int(state["epoch"]), int(state["frames"])
         for key, value in state.get("live_config", {}).items():  # values set_params gave the config fields

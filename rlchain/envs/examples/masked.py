@@ -78,7 +78,3 @@ class MaskedActionsEnv(gym.Env):
         score = np.mean([1.0 if a == self.preferred[k] else 0.5 for k, a in enumerate(actions)])
         truncated = self.steps >= self.max_steps
         return self._draw(), float(score) / self.max_steps, False, truncated, {"invalid_action": False}
-
-
-if ENV_ID not in gym.registry:
-    gym.register(ENV_ID, entry_point=MaskedActionsEnv)

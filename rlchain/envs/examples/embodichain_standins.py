@@ -18,7 +18,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.backends.embodichain_env import register_env
+from rlchain.envs.backends.embodichain_env import contract_builder
 from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
 from rlchain.envs.backends.torch_envs.push2d import TorchPush2D
 
@@ -70,7 +70,6 @@ class _Contract:
         self.inner.close()
 
 
-@register_env("EmbodiChainPushStandIn")
 class PushStandIn(_Contract):
     """Planar push-cube stand-in: obs {'robot': {'ee_pos': (N, 2)}, 'object': {'cube_pos', 'goal_pos', ...}}."""
 
@@ -90,7 +89,6 @@ class PushStandIn(_Contract):
         return dict(self.inner.last_terms), {"distance_to_goal": obs[:, 6:8].norm(dim=-1)}
 
 
-@register_env("EmbodiChainCartPoleStandIn")
 class CartPoleStandIn(_Contract):
     """Continuous cart-pole stand-in: obs {'robot': {'qpos': (N, 2), 'qvel': (N, 2)}} (cart x, pole angle)."""
 
@@ -105,3 +103,8 @@ class CartPoleStandIn(_Contract):
 
     def _terms(self, obs: torch.Tensor, reward: torch.Tensor, success: torch.Tensor) -> tuple[dict, dict]:
         return {"alive": reward}, {"pole_angle": obs[:, 2].abs(), "cart_position": obs[:, 0].abs()}
+
+
+ENV_BUILDERS = {"EmbodiChainPushStandIn": contract_builder("EmbodiChainPushStandIn", PushStandIn),
+                "EmbodiChainCartPoleStandIn": contract_builder("EmbodiChainCartPoleStandIn", CartPoleStandIn)}
+"""``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import rlchain  # noqa: F401  (registers the test envs)
+from rlchain.envs.examples.asymmetric import TestAsymmetricCritic
+from rlchain.envs.examples.rnn_env import TestRNNEnv
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.test.asymmetric import TestAsymmetricCritic
-from rlchain.envs.test.rnn_env import TestRNNEnv
 
 MOVES = {(1, 0): 0, (-1, 0): 1, (0, 1): 2, (0, -1): 3}
 

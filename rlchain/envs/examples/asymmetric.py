@@ -86,7 +86,3 @@ class TestAsymmetricCritic(gym.Env):
 
     def close(self) -> None:
         self.env.close()
-
-
-if "TestAsymmetricEnv-v0" not in gym.registry:
-    gym.register("TestAsymmetricEnv-v0", entry_point=TestAsymmetricCritic)

@@ -6,12 +6,15 @@ recording (``inference/video.py``, through a one-env VecEnv) and the env inputs 
 where an episode ended), fetches action masks when the policy uses them, counts whole games
 (``game_reward`` / ``game_over``: Atari lives) and task success, one row = one game (multi-agent
 envs: one per agent row).
+
+Several policies on a PettingZoo env (``config.multi_agent``) play through :func:`step_policies`, the
+same loop for each policy's agents: the multi-policy player and the per-policy ONNX export use it.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,7 +24,7 @@ import torch
 from rlchain.algos.base.episodes import game_outcome
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.success import SuccessReader
-from rlchain.models.stepper import PolicyStepper
+from rlchain.policy.stepper import PolicyStepper
 
 
 @dataclass
@@ -145,3 +148,39 @@ def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
     n = len(rewards)
     return PlayResult(n, sum(rewards) / n if n else float("nan"), sum(episode_lengths) / n if n else float("nan"),
                       rewards, successes)
+
+
+def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any], num_envs: int,
+                 device: torch.device, deterministic: bool,
+                 on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
+                 ) -> dict[str, np.ndarray]:
+    """Each policy's actions for its agents: ``plan`` maps a policy to its agent ids, ``views`` an agent
+    id to its view (``obs`` (num_envs, ...), ``mask``, ``active``); ``models[policy]`` acts on its agents'
+    rows stacked agent by agent. ``on_obs(policy, its agents' views, obs, masks)`` sees each policy's
+    stacked rows first."""
+    actions = {}
+    for name, agents in plan.items():
+        model = models[name]
+        obs = np.concatenate([views[a].obs for a in agents])
+        masks = np.concatenate([views[a].mask for a in agents]) if model.use_action_masks else None
+        if on_obs is not None:
+            on_obs(name, [views[a] for a in agents], obs, masks)
+        with torch.inference_mode():
+            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic,
+                            action_masks=None if masks is None else torch.as_tensor(masks, device=device))
+        acts = model.dist.to_env(out["actions"]).cpu().numpy()
+        actions.update({a: acts[k * num_envs:(k + 1) * num_envs] for k, a in enumerate(agents)})
+    return actions
+
+
+def step_policies(env: Any, models: Any, plan: dict[str, list[str]], device: torch.device, deterministic: bool,
+                  seed: int | None,
+                  on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
+                  ) -> Iterator[Any]:
+    """Reset ``env`` (a multi-agent VecEnv of views per agent) with ``seed``, then step it with every
+    policy's actions (:func:`act_policies`) for as long as the caller iterates; yields each StepResult."""
+    views = env.reset(seed=seed)
+    while True:
+        result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs))
+        yield result
+        views = result.obs

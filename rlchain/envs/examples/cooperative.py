@@ -84,7 +84,3 @@ def nearest_flag_policy(obs: np.ndarray) -> np.ndarray:
     to_left, to_right = obs[:, 2], obs[:, 3]
     target = np.where(np.abs(to_left) <= np.abs(to_right), to_left, to_right)
     return (np.sign(np.round(target, 6)) + 1).astype(np.int64)
-
-
-if "TestCooperativeEnv-v0" not in gym.registry:
-    gym.register("TestCooperativeEnv-v0", entry_point=CooperativeEnv, max_episode_steps=20)
