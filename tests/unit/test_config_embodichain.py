@@ -36,7 +36,8 @@ def layout(algo="ppo", **trainer):
 
 def write(tmp_path, data, name="train_config.json"):
     path = tmp_path / name
-    path.write_text(json.dumps(data) if name.endswith(".json") else yaml.safe_dump(data))
+    plain = json.loads(json.dumps(data))  # no shared objects: YAML would write them as aliases
+    path.write_text(json.dumps(plain) if name.endswith(".json") else yaml.safe_dump(plain))
     return str(path)
 
 
