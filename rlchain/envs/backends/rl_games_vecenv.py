@@ -28,6 +28,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.envs.vecenv import StepResult, VecEnv
 from rlchain.envs.wrappers.central_value import ObsStateBox
 
@@ -46,7 +47,7 @@ class IVecEnvAdapter:
 
     def __init__(self, env: Any, num_actors: int) -> None:
         self.env = env
-        info = dict(env.get_env_info())
+        info = spaces_to_gymnasium(dict(env.get_env_info()))  # gym 0.2x spaces (Isaac Lab's) as gymnasium
         agents = info.get("agents")
         if agents is None:
             count = getattr(env, "get_number_of_agents", None)

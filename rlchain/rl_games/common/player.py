@@ -25,6 +25,7 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
+from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.inference.play import play
 from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
 from rlchain.registry import ENV_CONFIGURATIONS
@@ -51,7 +52,7 @@ class BasePlayer:
         self.render_env = bool(cfg.player.render)
         self.clip_actions = bool(cfg.clip_actions)
         self.env = None
-        self.env_info = self.config.get("env_info") or self._env_info()
+        self.env_info = spaces_to_gymnasium(dict(self.config.get("env_info") or self._env_info()))
         self.num_agents = int(self.env_info.get("agents", 1))
         self.value_size = int(self.env_info.get("value_size", 1))
         self.action_space = self.env_info["action_space"]
