@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.runs import rl_games_checkpoint
+
 FORMAT = "rlchain-checkpoint-1"
 
 
@@ -47,6 +49,11 @@ def load(path: str, map_location: str | torch.device = "cpu") -> dict[str, Any]:
         raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
                               f"{' '.join(str(exc).split())[:200]})") from None
     if not isinstance(state, dict) or state.get("format") != FORMAT:
+        if rl_games_checkpoint.is_rl_games_checkpoint(state):  # rl_games 1.6.5 / 2.0: read as rlchain's
+            try:
+                return {**rl_games_checkpoint.from_rl_games(state), "format": FORMAT}
+            except ValueError as exc:
+                raise CheckpointError(f"{path}: an rl_games checkpoint rlchain cannot read: {exc}") from None
         raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
     return state
 

@@ -14,6 +14,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
+from rlchain.runs import rl_games_checkpoint
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -85,11 +86,28 @@ class Checkpoints:
             self.save(f"ep_{epoch}")
             self.save("last")
 
+    def _from_rl_games(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        """A converted rl_games checkpoint completed for resume: its optimizer state on this agent's
+        parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
+        none), so the envs start new episodes."""
+        agent = self.algorithm.agent.state_dict()
+        if "rl_games_optimizer" in state and "optimizer" in agent:
+            names = [n for n, p in self.algorithm.model.named_parameters() if p.requires_grad]
+            try:
+                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names)
+            except ValueError as exc:
+                raise ckpt.CheckpointError(f"{path}: {exc}") from None
+            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
+                "run_state": None, "live_config": {}}
+
     def restore(self, state: dict[str, Any], path: str) -> None:
         """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG, and (at the
         algorithm's ``start``) the envs' state and episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
+        if state.get("origin") == rl_games_checkpoint.ORIGIN:
+            state = self._from_rl_games(state, path)
         if state.get("algo") not in (None, name):
             raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
                                        f"the config says '{name}'")

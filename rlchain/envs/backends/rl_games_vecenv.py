@@ -88,6 +88,8 @@ class IVecEnvAdapter:
         obs, rewards, dones, infos = self.env.step(actions)
         obs = self._obs = self._obs_of(obs)
         self._pending = None
+        if isinstance(infos, (list, tuple)):  # one info dict per env (gym-style vec envs): observers get the list
+            infos = {"env_infos": list(infos)}
         infos = infos if isinstance(infos, dict) else {}
         time_outs = infos.get("time_outs")
         if self.is_tensor_env:

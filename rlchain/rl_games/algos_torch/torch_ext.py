@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -46,16 +47,24 @@ class AverageMeter(nn.Module):
         return mean
 
 
-def load_checkpoint(filename: str, map_location: Any = "cpu") -> dict[str, Any]:
-    """Read an rlchain checkpoint (a dict: ``model``, ``optimizer``, counters, ``config``...)."""
-    return _checkpoint.load(filename, map_location=map_location)
+def load_checkpoint(filename: str, map_location: Any = None) -> dict[str, Any]:
+    """What :func:`save_checkpoint` (or rl_games' own) wrote, as it was written: tensors, numbers, strings
+    and containers of them (numpy scalars too); a file holding other objects is refused, as torch's
+    ``weights_only`` loading refuses it."""
+    print(f"=> loading checkpoint '{filename}'")
+    with torch.serialization.safe_globals(_NUMPY_GLOBALS):
+        return torch.load(filename, map_location=map_location, weights_only=True)
 
 
 def save_checkpoint(filename: str, state: dict[str, Any]) -> None:
-    """Write ``state`` to ``filename`` (``.pth`` appended when missing, as rl_games does)."""
-    if not filename.endswith(".pth"):
-        filename += ".pth"
-    torch.save(state, filename)
+    """Write ``state`` to ``filename + '.pth'`` (rl_games appends the suffix, always)."""
+    print(f"=> saving checkpoint '{filename}.pth'")
+    _checkpoint.save_atomic(state, filename + ".pth")
+
+
+_NUMPY_GLOBALS = [np.dtype, np.core.multiarray.scalar, *{type(np.dtype(t)) for t in ("float32", "float64", "int64",
+                                                                                      "int32", "bool")}]
+"""numpy objects an rl_games checkpoint may hold (a numpy scalar reward, its dtype)."""
 
 
 __all__ = ["AverageMeter", "load_checkpoint", "save_checkpoint"]

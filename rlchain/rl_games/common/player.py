@@ -18,6 +18,7 @@ True})``).
 
 from __future__ import annotations
 
+import copy
 from types import SimpleNamespace
 from typing import Any
 
@@ -33,10 +34,21 @@ from rlchain.rl_games.common import env_configurations, vecenv
 from rlchain.runs import checkpoint as ckpt
 
 
-class BasePlayer:
-    """A policy built from ``params`` (rl_games' ``params`` dict, parsed by rlchain as ``parsed``)."""
+def parse_player_params(params: dict[str, Any]) -> Params:
+    """rl_games' ``params`` dict validated by rlchain (its ``env_info`` / ``vec_env`` objects set aside)."""
+    from rlchain.config.load import parse_params
 
-    def __init__(self, params: dict[str, Any], parsed: Params) -> None:
+    config = {k: v for k, v in (params.get("config") or {}).items() if k not in ("env_info", "vec_env", "stop_fn")}
+    raw = {k: v for k, v in params.items() if k not in ("env", "load_checkpoint", "load_path", "config")}
+    return parse_params(copy.deepcopy({"params": {**raw, "config": config}}), "<params>")
+
+
+class BasePlayer:
+    """A policy built from ``params`` (rl_games' ``params`` dict, parsed by rlchain as ``parsed``; built as
+    rl_games builds a player, ``Player(params)``, when ``parsed`` is not given)."""
+
+    def __init__(self, params: dict[str, Any], parsed: Params | None = None) -> None:
+        parsed = parse_player_params(params) if parsed is None else parsed
         self.params = params
         self.parsed = parsed
         cfg = parsed.config
@@ -73,6 +85,9 @@ class BasePlayer:
 
     def _env_info(self) -> dict[str, Any]:
         """The spaces as rl_games finds them: the env_configurations entry's env, else rlchain's env."""
+        if self.config.get("vec_env") is not None:  # rl_games: the env given in the config
+            self.env = self.config["vec_env"]
+            return env_configurations.get_env_info(self.env)
         entry = ENV_CONFIGURATIONS.get(self.env_name) or {}
         if self.player_config.get("use_vecenv", False) and "vecenv_type" in entry:
             self.env = vecenv.create_vec_env(self.env_name, self.parsed.config.player.num_actors, **self.env_config)
