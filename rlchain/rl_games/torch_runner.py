@@ -17,8 +17,8 @@ import copy
 from typing import Any
 
 from rlchain.config.schema import Params
-from rlchain.rl_games.algos_torch.players import PLAYERS
 from rlchain.envs import vecenv as _vecenv
+from rlchain.rl_games.algos_torch.players import PLAYERS
 from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver
 from rlchain.rl_games.common.object_factory import ObjectFactory
 from rlchain.rl_games.common.player import BasePlayer

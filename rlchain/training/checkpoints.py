@@ -98,8 +98,9 @@ class Checkpoints:
             except ValueError as exc:
                 raise ckpt.CheckpointError(f"{path}: {exc}") from None
             agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
-                "run_state": None, "live_config": {}}
+                "run_state": run_state, "live_config": {}}
 
     def restore(self, state: dict[str, Any], path: str) -> None:
         """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG, and (at the

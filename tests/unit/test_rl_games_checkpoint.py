@@ -5,6 +5,7 @@ import copy
 import os
 import sys
 
+import gymnasium
 import numpy as np
 import pytest
 import torch
@@ -17,8 +18,6 @@ from rlchain.runs import rl_games_checkpoint as rlg
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
 from make_checkpoints import ACTIONS, CONFIGS, OBS  # noqa: E402
-
-import gymnasium  # noqa: E402
 
 CASES = [(tag, kind) for tag in ("v165", "v20") for kind in ("continuous", "discrete")]
 

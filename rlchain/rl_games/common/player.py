@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.config.load import parse_params
 from rlchain.config.schema import Params
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.inference.play import play
@@ -36,8 +37,6 @@ from rlchain.runs import checkpoint as ckpt
 
 def parse_player_params(params: dict[str, Any]) -> Params:
     """rl_games' ``params`` dict validated by rlchain (its ``env_info`` / ``vec_env`` objects set aside)."""
-    from rlchain.config.load import parse_params
-
     config = {k: v for k, v in (params.get("config") or {}).items() if k not in ("env_info", "vec_env", "stop_fn")}
     raw = {k: v for k, v in params.items() if k not in ("env", "load_checkpoint", "load_path", "config")}
     return parse_params(copy.deepcopy({"params": {**raw, "config": config}}), "<params>")

@@ -56,7 +56,6 @@ CONFIGS = {kind: config(kind) for kind in ("continuous", "discrete")}
 
 def make_env_class(continuous: bool):
     import gym  # OpenAI gym 0.26: the spaces Isaac Lab's rl_games wrapper returns
-
     from rl_games.common.ivecenv import IVecEnv
 
     class TinyVecEnv(IVecEnv):
