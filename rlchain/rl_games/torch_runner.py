@@ -145,6 +145,7 @@ class Runner:
                 else:
                     self.algo_observer = None  # the config's (a callback rlchain adds)
         self._runner = _RlchainRunner().load({"params": params})
+        self._runner.layout = "rl_games"  # rl_games' checkpoint names, tags and frame axis
         if self.objects:  # back into the config dict, where rl_games' agents and players read them
             params["config"].update(self.objects)
         self.params = params

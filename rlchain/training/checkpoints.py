@@ -14,7 +14,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint
+from rlchain.runs import rl_games_checkpoint, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -29,6 +29,7 @@ class Checkpoints:
     def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
         self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
         self.best_reward = -math.inf
+        self.last_reward: float | None = None  # the last epoch's mean reward (rl_games' final file name)
         self.point = ResumePoint(ctx, algorithm)  # the last epoch boundary: RNG, envs, episodes in progress
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
@@ -61,6 +62,8 @@ class Checkpoints:
         """Write a checkpoint; a failed write is reported and training keeps the previous one."""
         if self.run is None:
             return None
+        if kind == "last" and self.run.layout == "rl_games":
+            kind = "file:" + rl_games_layout.final_stem(self.ctx.params.config.name, self.ctx.epoch, self.last_reward)
         bad = check_parameters(self.algorithm.model)
         if bad is not None:
             log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
@@ -78,6 +81,17 @@ class Checkpoints:
     def after_epoch(self, episodes: dict | None) -> None:
         """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
         cfg, epoch = self.ctx.cfg, self.ctx.epoch
+        if episodes is not None:
+            self.last_reward = float(episodes["reward"])
+        if self.run is not None and self.run.layout == "rl_games":
+            # rl_games: the periodic file once games have finished, before the best one
+            if episodes is not None and cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
+                self.save("file:" + rl_games_layout.periodic_stem(cfg.name, epoch, episodes["reward"]))
+            if episodes is not None and episodes["reward"] > self.best_reward:
+                self.best_reward = episodes["reward"]
+                if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                    self.save("best")
+            return
         if episodes is not None and episodes["reward"] > self.best_reward:
             self.best_reward = episodes["reward"]
             if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":

@@ -70,6 +70,14 @@ def _run_folder(log_root):
     return runs[-1]
 
 
+def _last(run):
+    """The checkpoint rl_games (and rlchain through its API) writes when a run stops:
+    nn/last_<name>_ep_<N>_rew__<R>_.pth."""
+    found = sorted(glob.glob(os.path.join(run, "nn", "last_cartpole_direct_ep_*_rew_*_.pth")), key=os.path.getmtime)
+    assert found, f"no final checkpoint in {run}/nn: {os.listdir(os.path.join(run, 'nn'))}"
+    return found[-1]
+
+
 def _tags(run):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
@@ -88,7 +96,8 @@ def test_isaac_style_scripts_train_resume_and_play(tmp_path):
     first = _run_folder(logs)
     tags = _tags(first)
     assert {"Episode/Episode_Reward/alive", "Episode/Episode_Termination/pole_fell", "rewards/step"} <= tags
-    last = os.path.join(first, "nn", "last_cartpole_direct.pth")
+    last = _last(first)
+    assert os.path.basename(last).startswith("last_cartpole_direct_ep_2_rew__")
     out = launch([train, "--num_envs", "128", "--max_iterations", "3", "--log_root", logs, "--checkpoint", last],
                  tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]
@@ -188,12 +197,11 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
     assert made[0].frames_seen[:3] == [0, batch, 2 * batch]  # before every epoch, as rl_games calls it
     cfg["params"]["config"]["max_epochs"] = 3
     runner.load(cfg)
-    runner.run({"train": True, "checkpoint": os.path.join(result.run_dir, "nn", "last_cartpole_direct.pth")})
+    runner.run({"train": True, "checkpoint": _last(result.run_dir)})
     assert made[1].restored == {"level": 2}  # the checkpoint carried the env's state
     cfg["params"]["config"]["player"] = {"use_vecenv": True, "num_actors": 128, "games_num": 4}
     runner.load(cfg)
-    played = runner.run({"train": False, "play": True, "checkpoint": os.path.join(result.run_dir, "nn",
-                                                                                 "last_cartpole_direct.pth")})
+    played = runner.run({"train": False, "play": True, "checkpoint": _last(result.run_dir)})
     assert played.games == 4 and played.mean_reward > 0
 
 
