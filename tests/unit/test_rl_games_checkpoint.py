@@ -71,3 +71,15 @@ def test_torch_ext_save_and_load_checkpoint_round_trip(tmp_path):
     loaded = torch_ext.load_checkpoint(str(tmp_path / "run.pth"))
     assert torch.equal(loaded["model"]["w"], state["model"]["w"]) and loaded["epoch"] == 4
     assert float(loaded["last_mean_rewards"]) == 1.5
+
+
+def test_export_rl_games_writes_what_rl_games_reads(tmp_path):
+    from rlchain.cli import main
+
+    rlchain_file = str(tmp_path / "rlchain.pth")
+    ckpt.save_atomic(ckpt.load(os.path.join(DATA, "v20_continuous.pth")), rlchain_file)
+    assert main(["--export", "rl_games", "--checkpoint", rlchain_file, "--output", str(tmp_path / "out.pth")]) == 0
+    written = torch_ext.load_checkpoint(str(tmp_path / "out.pth"))
+    original = rlg.strip_compiled(torch_ext.load_checkpoint(os.path.join(DATA, "v20_continuous.pth"))["model"])
+    assert set(written) >= {"model", "epoch", "frame", "last_mean_rewards"}
+    assert all(torch.equal(written["model"][k], original[k]) for k in original) and written["epoch"] == 2
