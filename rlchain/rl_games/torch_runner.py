@@ -44,6 +44,20 @@ def _builtin(name: str) -> Any:
     return build
 
 
+def _copy_keeping_objects(config: dict[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``{'params': ...}`` whose ``config.env_info`` / ``vec_env`` are the objects given (an env
+    is used, not copied)."""
+    inner = config["params"].get("config")
+    objects = {k: inner[k] for k in OBJECT_KEYS if k in inner} if isinstance(inner, dict) else {}
+    if not objects:
+        return copy.deepcopy(config)
+    stripped = {**config, "params": {**config["params"], "config": {k: v for k, v in inner.items()
+                                                                     if k not in objects}}}
+    out = copy.deepcopy(stripped)
+    out["params"]["config"].update(objects)
+    return out
+
+
 def _vec_env_creator(env: Any) -> Any:
     """A vecenv_type creator that returns ``env`` (rl_games' ``config['vec_env']``)."""
     return lambda config_name, num_actors, **kwargs: env
@@ -114,15 +128,15 @@ class Runner:
     def load(self, yaml_config: dict[str, Any]) -> None:
         """Take a config dict (``{'params': {...}}``, a YAML as read) and validate it with rlchain's schema:
         a bad key is a one-line ConfigError naming it."""
-        config = copy.deepcopy(yaml_config)
-        if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
+        if not isinstance(yaml_config, dict) or not isinstance(yaml_config.get("params"), dict):
             raise ValueError("Runner.load: expected the config as a dict with a 'params' dict (a YAML as read)")
-        self.default_config = copy.deepcopy(config["params"])
+        config = _copy_keeping_objects(yaml_config)
+        self.default_config = _copy_keeping_objects(config)["params"]
         self.load_config(config["params"])
 
     def load_config(self, params: dict[str, Any]) -> None:
         """Validate ``params`` (the ``params`` block) and keep it."""
-        params = copy.deepcopy(params)
+        params = _copy_keeping_objects({"params": params})["params"]
         self.script_params = {key: params.pop(key) for key in SCRIPT_KEYS if key in params}
         load_checkpoint, load_path = params.pop("load_checkpoint", False), params.pop("load_path", None)
         self.load_path = load_path if load_checkpoint and load_path else None

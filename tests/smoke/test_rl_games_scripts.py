@@ -221,3 +221,33 @@ def test_stop_fn_in_the_config_dict_stops_the_run(tmp_path, base_config):
     result = runner.run({"train": True, "play": False})
     assert result.epoch == 3 and seen == [1, 2, 3] and "stop_fn" in result.stop_reason
 
+
+
+def test_the_observers_algo_has_what_rl_games_and_isaac_lab_observers_read(tmp_path, base_config):
+    import torch
+
+    from rlchain.rl_games.common.algo_observer import AlgoObserver
+    from rlchain.rl_games.torch_runner import Runner
+
+    class Reader(AlgoObserver):
+        def after_init(self, algo):
+            self.algo = algo
+            self.seen = {"train_dir": algo.train_dir, "experiment_dir": algo.experiment_dir,
+                         "optimizer": type(algo.optimizer).__name__, "last_lr": algo.last_lr}
+
+        def after_print_stats(self, frame, epoch_num, total_time):
+            if epoch_num == 1:
+                self.weights = self.algo.get_full_state_weights()
+            else:  # what population-based training does: load another member's weights into the running run
+                self.algo.set_full_state_weights(self.weights, set_epoch=False)
+                self.after = self.algo.get_full_state_weights()
+
+    base_config["params"]["config"].update(train_dir=str(tmp_path), max_epochs=2, learning_rate=1e-3)
+    observer = Reader()
+    runner = Runner(observer)
+    runner.load(base_config)
+    runner.run({"train": True})
+    assert observer.seen["train_dir"] == str(tmp_path) and observer.seen["experiment_dir"].startswith(str(tmp_path))
+    assert observer.seen["optimizer"] == "Adam" and observer.seen["last_lr"] == pytest.approx(1e-3)
+    assert all(torch.equal(observer.after["model"][k], v) for k, v in observer.weights["model"].items())
+    assert observer.after["epoch"] == 2  # set_epoch=False keeps the run's counters

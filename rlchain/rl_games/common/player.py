@@ -63,7 +63,10 @@ class BasePlayer:
         self.render_env = bool(cfg.player.render)
         self.clip_actions = bool(cfg.clip_actions)
         self.env = None
-        self.env_info = spaces_to_gymnasium(dict(self.config.get("env_info") or self._env_info()))
+        given = self.config.get("env_info")
+        if given is not None:  # rl_games: the spaces given, the env (if any) from config['vec_env']
+            self.env = self.config.get("vec_env")
+        self.env_info = spaces_to_gymnasium(dict(given if given is not None else self._env_info()))
         self.num_agents = int(self.env_info.get("agents", 1))
         self.value_size = int(self.env_info.get("value_size", 1))
         self.action_space = self.env_info["action_space"]
