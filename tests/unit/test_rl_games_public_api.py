@@ -84,3 +84,27 @@ def test_per_env_info_dicts_reach_the_observer_as_a_list():
     observer.process_infos = lambda infos, done: seen.append((infos, done.tolist()))
     AlgoObserverCallback(observer)._process_infos(None, result, torch.tensor([0]), slice(None))
     assert seen == [([{"scores": 3.0}, {"scores": 5.0}], [[0]])]
+
+
+def test_tracing_adapter_flattens_a_dict_in_and_a_tuple_out():
+    from rlchain.rl_games.algos_torch.flatten import TracingAdapter
+
+    class Net(torch.nn.Module):
+        def forward(self, input_dict):
+            return input_dict["obs"] * 2, input_dict["obs"].sum(-1, keepdim=True), None
+
+    adapter = TracingAdapter(Net(), {"obs": torch.ones(1, 3), "rnn_states": None}, allow_non_tensor=True)
+    traced = torch.jit.trace(adapter, adapter.flattened_inputs, check_trace=False)
+    doubled, total = traced(torch.full((1, 3), 2.0))
+    assert torch.equal(doubled, torch.full((1, 3), 4.0)) and float(total) == 6.0
+    with pytest.raises(ValueError, match="allow_non_tensor=False"):
+        TracingAdapter(Net(), {"obs": torch.ones(1, 3), "rnn_states": None})
+
+
+def test_the_player_model_has_rl_games_onnx_recipe_names(base_config):
+    runner = Runner()
+    runner.load(base_config)
+    model = runner.create_player().model
+    logits, value, states = model.a2c_network({"obs": model.norm_obs(torch.zeros(1, 4))})
+    assert logits.shape == (1, 2) and value.shape == (1, 1)
+    assert not any(k.startswith("a2c_network") for k in model.state_dict())

@@ -48,12 +48,21 @@ class AverageMeter(nn.Module):
 
 
 def load_checkpoint(filename: str, map_location: Any = None) -> dict[str, Any]:
-    """What :func:`save_checkpoint` (or rl_games' own) wrote, as it was written: tensors, numbers, strings
-    and containers of them (numpy scalars too); a file holding other objects is refused, as torch's
-    ``weights_only`` loading refuses it."""
+    """What :func:`save_checkpoint` (or rl_games' own) wrote: tensors, numbers, strings and containers of
+    them (numpy scalars too), torch.compile's ``_orig_mod.`` taken out of every key; a file holding other
+    objects is refused, as torch's ``weights_only`` loading refuses it."""
     print(f"=> loading checkpoint '{filename}'")
     with torch.serialization.safe_globals(_NUMPY_GLOBALS):
-        return torch.load(filename, map_location=map_location, weights_only=True)
+        return _strip_compiled(torch.load(filename, map_location=map_location, weights_only=True))
+
+
+def _strip_compiled(value: Any) -> Any:
+    """``value`` with torch.compile's ``_orig_mod.`` taken out of every string key, at any depth (rl_games 2.0
+    does the same, so a compiled model's checkpoint loads into an uncompiled one)."""
+    if isinstance(value, dict):
+        return {(k.replace("_orig_mod.", "") if isinstance(k, str) else k): _strip_compiled(v)
+                for k, v in value.items()}
+    return value
 
 
 def save_checkpoint(filename: str, state: dict[str, Any]) -> None:

@@ -78,6 +78,10 @@ class BasePlayer:
                                 value_size=self.value_size)
         self.model = build_model(parsed, shape, self.device)
         self.model.eval()
+        # rl_games' model names its ONNX recipe reads: norm_obs (input normalization) and a2c_network (the
+        # network with rl_games' forward(input_dict) contract); plain attributes, not extra state_dict keys
+        object.__setattr__(self.model, "norm_obs", self.model.preprocess)
+        object.__setattr__(self.model, "a2c_network", self.model.network)
         self.is_rnn = bool(getattr(self.model, "is_rnn", False))
         self.normalize_input = getattr(self.model, "obs_norm", None) is not None
         self.states: list[torch.Tensor] | None = None
