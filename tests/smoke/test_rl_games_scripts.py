@@ -190,7 +190,8 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
     batch = 128 * 32
     assert observer.calls[:2] == [("before_init", "cartpole_direct"), ("after_init", 50)]
     prints = [c for c in observer.calls if c[0] == "print"]
-    assert prints == [("print", batch, 1, batch, 1), ("print", 2 * batch, 2, 2 * batch, 2)]
+    # rl_games: the frames before the epoch as the argument, algo.frame after it
+    assert prints == [("print", 0, 1, batch, 1), ("print", batch, 2, 2 * batch, 2)]
     assert [c for c in observer.calls if c[0] == "after_steps"][:2] == [("after_steps", 1), ("after_steps", 2)]
     assert observer.alive.current_size > 0
     assert "alive/mean" in _tags(result.run_dir)
