@@ -1,26 +1,27 @@
-"""Registration of every built-in algo, model and network: the one place it happens."""
+"""Registration of every built-in algo, model, network and env: the one place it happens."""
 
 from __future__ import annotations
 
 from typing import Any
 
-import rlchain.envs.backends.atari  # noqa: F401  (registers atari_gym and rl_games' Atari preset names)
-import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the TorchCartPole/Pendulum/Reacher8 tensor envs)
-import rlchain.envs.test  # noqa: F401  (registers the test envs)
-from rlchain.algos.appo.trainer import APPOTrainer, ImpalaTrainer
-from rlchain.algos.distill.trainer import DistillTrainer
+import gymnasium as gym
+
+from rlchain.algos.appo.trainer import APPO, IMPALA
+from rlchain.algos.distill.trainer import Distill
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
-from rlchain.algos.off_policy.trainer import DQNTrainer, SACTrainer
-from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.algos.off_policy.trainer import DQN, SAC
+from rlchain.algos.ppo.trainer import PPO
+from rlchain.envs import examples
+from rlchain.envs.backends import atari, torch_envs
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
 from rlchain.envs.factory import BuiltinVecEnv
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
+from rlchain.networks.example_networks import TestNetAuxLossBuilder, TestNetBuilder
 from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
 from rlchain.networks.sac_network import QNetworkBuilder, SACNetworkBuilder
-from rlchain.networks.test_networks import TestNetAuxLossBuilder, TestNetBuilder
 from rlchain.registry import ALGOS, ENVS, MODELS, NETWORKS, VECENVS, WRITERS
 from rlchain.runs.writers import CSVWriter
 
@@ -29,12 +30,13 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
                        model_name: str) -> ActorCritic:
     """The model presets discrete_a2c / multi_discrete_a2c / continuous_a2c_logstd / continuous_a2c."""
     dist = make_distribution(model_name, action_space, config.clip_actions, network)
-    if config.use_action_masks and not dist.mask_size:
+    masks = getattr(config, "use_action_masks", False)  # PPO's keys; another algorithm's config may lack them
+    if masks and not dist.mask_size:
         raise ValueError(f"params.config.use_action_masks: needs discrete or multi-discrete actions, the env has "
                          f"{action_space}")
     kind = getattr(config, "value_normalizer", "rl_games")  # a user algorithm's config class may not have the key
-    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input, config.normalize_value,
-                       use_action_masks=config.use_action_masks, value_normalizer_kind=kind)
+    return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input,
+                       getattr(config, "normalize_value", False), use_action_masks=masks, value_normalizer_kind=kind)
 
 
 def register_builtins() -> None:
@@ -48,20 +50,27 @@ def register_builtins() -> None:
     NETWORKS.register("testnet_aux_loss", TestNetAuxLossBuilder, overwrite=True, replaceable=True)
     NETWORKS.register("resnet_actor_critic", ResnetActorCriticBuilder, overwrite=True)
     for name in ("a2c_continuous", "a2c_discrete"):
-        ALGOS.register(name, OnPolicyTrainer, overwrite=True)
+        ALGOS.register(name, PPO, overwrite=True)
 
     MODELS.register("soft_actor_critic", soft_actor_critic_model, overwrite=True)
     MODELS.register("dqn", dqn_model, overwrite=True)
     NETWORKS.register("soft_actor_critic", SACNetworkBuilder, overwrite=True)
     NETWORKS.register("dqn", QNetworkBuilder, overwrite=True)
-    ALGOS.register("sac", SACTrainer, overwrite=True)
-    ALGOS.register("dqn", DQNTrainer, overwrite=True)
+    ALGOS.register("sac", SAC, overwrite=True)
+    ALGOS.register("dqn", DQN, overwrite=True)
 
-    ALGOS.register("appo", APPOTrainer, overwrite=True)
-    ALGOS.register("impala", ImpalaTrainer, overwrite=True)
-    ALGOS.register("distill", DistillTrainer, overwrite=True)
+    ALGOS.register("appo", APPO, overwrite=True)
+    ALGOS.register("impala", IMPALA, overwrite=True)
+    ALGOS.register("distill", Distill, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
+    for name, builder in {**atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS}.items():
+        ENVS.register(name, builder, overwrite=True)
+    # gymnasium ids: Atari with the DeepMind preprocessing, the example envs
+    gym_ids = {atari.ATARI_ID: (atari.make_atari_env, {"disable_env_checker": True}), **examples.GYM_ENVS}
+    for env_id, (entry_point, kwargs) in gym_ids.items():
+        if env_id not in gym.registry:
+            gym.register(env_id, entry_point=entry_point, **kwargs)
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively
     for name, mode in [*((m, m) for m in VECENV_TYPES), *VECENV_ALIASES.items()]:
         VECENVS.register(name, BuiltinVecEnv(mode), overwrite=True)

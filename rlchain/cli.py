@@ -3,18 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import warnings
 
-from rlchain.config.errors import ConfigError, did_you_mean
-from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
+from rlchain.config.errors import ConfigError
+from rlchain.config.packaged import resolve_config
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
 from rlchain.inference.export.rl_games_checkpoint import export_rl_games
-from rlchain.inference.video import record_episodes
 from rlchain.inference.watch import watch_and_evaluate
-from rlchain.runner import Runner
+from rlchain.runner import Runner, locate_checkpoint
 from rlchain.runs.checkpoint import CheckpointError
 from rlchain.runs.wandb_logger import TrackingError
 from rlchain.tuning.search import run_search
@@ -101,31 +99,17 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"warning: {message}\n"
 
 
-def _check_checkpoint_name(checkpoint: str) -> None:
-    """A bare word that is neither a file nor a shipped checkpoint but close to one: say which was meant."""
-    if os.path.exists(checkpoint) or "/" in checkpoint or os.sep in checkpoint:
-        return
-    hint = did_you_mean(os.path.splitext(checkpoint)[0], checkpoint_names())
-    if hint:
-        raise CheckpointError(f"{checkpoint}: checkpoint not found, and no shipped checkpoint has that name{hint}")
-
-
 def _run(args: argparse.Namespace) -> int:
 
     if args.tune:
         run_search(resolve_config(args.tune), args.output)
         return 0
-    output = args.output
     if args.export == "rl_games":  # the checkpoint alone: no config needed
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
-        print(f"wrote {export_rl_games(resolve_checkpoint(args.checkpoint)[0], output)}")
+        print(f"wrote {export_rl_games(locate_checkpoint(args.checkpoint)[0], args.output)}")
         return 0
-    if args.checkpoint:
-        args.checkpoint, packaged = resolve_checkpoint(args.checkpoint)
-        _check_checkpoint_name(args.checkpoint)
-        if packaged and args.export and output is None:  # next to the shipped file is inside the package
-            output = os.path.splitext(os.path.basename(args.checkpoint))[0] + ".onnx"
+    # the Runner resolves --checkpoint (a path or a shipped checkpoint's name) wherever it takes one
     overrides = list(args.overrides)
     if args.num_actors is not None:
         if args.play:
@@ -145,18 +129,15 @@ def _run(args: argparse.Namespace) -> int:
     if args.export:
         if not args.checkpoint:
             raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
-        runner.export(args.checkpoint, output, args.policy)
+        runner.export(args.checkpoint, args.output, args.policy)
         return 0
     if args.train:
         result = runner.train(checkpoint=args.checkpoint, seed=args.seed, sigma=args.sigma, track=args.track,
                               wandb_project=args.wandb_project_name, wandb_entity=args.wandb_entity)
         if result.stop_reason.startswith("interrupted"):
             return 130
-    elif args.video and runner.params.policies is not None:
-        raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
     elif args.video:
-        files = record_episodes(runner.params, args.checkpoint, args.video, games=args.games or 1,
-                                deterministic=not args.stochastic)
+        files = runner.record(args.checkpoint, args.video, games=args.games or 1, deterministic=not args.stochastic)
         print("\n".join(files))
     elif runner.params.config.player.evaluation:  # rl_games: watch dir_to_monitor, evaluate new checkpoints
         watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)

@@ -9,22 +9,25 @@ from __future__ import annotations
 
 import copy
 import os
+from dataclasses import dataclass
 from typing import Any
 
-from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
-from rlchain.config.errors import ConfigError
+from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
-from rlchain.config.packaged import resolve_checkpoint, resolve_config
-from rlchain.config.resolve import CONFIG_FORMAT, RunContext, params_from_state, resolve
+from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
+from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
 from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
 from rlchain.inference.export.onnx import export_from_cli
 from rlchain.inference.export.policies import export_policies
 from rlchain.inference.player import Player
 from rlchain.inference.policy_player import play_policies
+from rlchain.inference.video import record_episodes
 from rlchain.log import get_logger
-from rlchain.models.build import apply_sigma, build_model, resolve_device
+from rlchain.models.build import apply_sigma, build_model
 from rlchain.parallel import communicator, distributed
+from rlchain.parallel.device import resolve_device
 from rlchain.parallel.memory import tune_malloc
 from rlchain.parallel.threads import ThreadPlan, for_env, set_threads
 from rlchain.registry import ALGOS
@@ -37,6 +40,35 @@ from rlchain.runs.writers import WandbWriter, check_writer_names, make_writers
 from rlchain.training.loop import Loop
 
 log = get_logger(__name__)
+
+
+@dataclass(frozen=True)
+class BuiltRun:
+    """What :meth:`Runner._train` built for one run, in one pass: the algorithm class, its env, the model
+    (with the checkpoint's weights when resuming), the checkpoint read (``state``) and this process's
+    device, seed, torchrun group and thread plan."""
+
+    params: Params
+    algorithm: Any
+    env: Any
+    model: Any
+    device: Any
+    seed: int
+    state: dict[str, Any] | None
+    checkpoint: str | None
+    group: Any
+    threads: ThreadPlan | None
+
+
+@dataclass(frozen=True)
+class TrainOptions:
+    """The caller's choices for a training run beyond the config (``Runner.train``'s arguments)."""
+
+    sigma: float | None
+    callbacks: list[Any]
+    track: bool
+    wandb_project: str
+    wandb_entity: str | None
 
 
 class Runner:
@@ -67,7 +99,7 @@ class Runner:
         """Use the config stored inside a checkpoint (for --play without --file): the resolved config of
         a current checkpoint, or the input config of one written before the config was frozen.
         A shipped checkpoint's name (``cartpole``) works."""
-        path = resolve_checkpoint(path)[0]
+        path = locate_checkpoint(path)[0]
         state = ckpt.load(path)
         config = state.get("config")
         if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
@@ -95,6 +127,8 @@ class Runner:
         """
 
         params = self._require()
+        if checkpoint is not None:
+            checkpoint = locate_checkpoint(checkpoint)[0]
         seed = seed if seed is not None else params.seed
         group = distributed.setup(params, self.raw, seed)  # None unless launched by torchrun (multi_gpu)
         try:
@@ -111,8 +145,10 @@ class Runner:
 
     def _train(self, params: Params, group: Any, checkpoint: str | None, seed: int | None, sigma: float | None,
                callbacks: list[Any], track: bool, wandb_project: str, wandb_entity: str | None) -> Any:
+        """Build the run once -- this process's context, the algorithm (looked up once), its env, its check
+        (once), the model with the checkpoint's weights (read and loaded once) -- then train it."""
 
-        run_ctx: RunContext = resolve(params, seed, group)  # this process's device, seed (per rank), printing
+        run_ctx: ProcessContext = resolve(params, seed, group)  # device, seed (per rank), printing
         params, seed = run_ctx.params, run_ctx.seed
         cfg = params.config
         seed_everything(seed)
@@ -132,15 +168,13 @@ class Runner:
                 ckpt.load_model_state(model, state, checkpoint)
             if group is not None:  # so do ranks with different envs or resume points (torchrun)
                 group.check_consistent(env, model, state)
-            return self._train_in_run_dir(params, env, model, device, seed, state, checkpoint, sigma,
-                                          callbacks, track, wandb_project, wandb_entity, group, threads)
+            built = BuiltRun(params, algorithm, env, model, device, seed, state, checkpoint, group, threads)
+            return self._train_in_run_dir(built, TrainOptions(sigma, callbacks, track, wandb_project, wandb_entity))
         finally:
             env.close()
 
-    def _train_in_run_dir(self, params: Params, env: Any, model: Any, device: Any, seed: int, state: Any,
-                          checkpoint: str | None, sigma: float | None, callbacks: list[Any], track: bool,
-                          wandb_project: str, wandb_entity: str | None, group: Any = None,
-                          threads: ThreadPlan | None = None) -> Any:
+    def _train_in_run_dir(self, built: BuiltRun, options: TrainOptions) -> Any:
+        params, group, model, state, checkpoint = built.params, built.group, built.model, built.state, built.checkpoint
         cfg = params.config
         main = group is None or group.is_main  # under torchrun only rank 0 writes folders, logs and checkpoints
         check_writer_names(cfg.log_writers, params.source)  # before a run folder exists
@@ -149,9 +183,9 @@ class Runner:
             run.layout = self.layout
         writers = make_writers(cfg.log_writers, run.root, params.source) if run is not None else []
         tracker = None
-        if track and run is not None:  # a log writer like the others: wandb.log of the tagged scalars
-            tracker = WandbWriter(wandb_project, wandb_entity, {**self.raw, "run": {"seed": seed}},
-                                  os.path.basename(run.root), run.summaries)
+        if options.track and run is not None:  # a log writer like the others: wandb.log of the tagged scalars
+            tracker = WandbWriter(options.wandb_project, options.wandb_entity,
+                                  {**self.raw, "run": {"seed": built.seed}}, os.path.basename(run.root), run.summaries)
             writers.append(tracker)
         ok = False
         logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers,
@@ -162,20 +196,20 @@ class Runner:
         try:
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
             with communicator.building_with(group or communicator.SINGLE):  # Loop.create: no leak on failure
-                trainer = Loop.create(params, algorithm_class(params), env, model, device, run, logger, seed,
-                                      self.raw, **extra)
-            trainer.threads = threads
+                trainer = Loop.create(params, built.algorithm, built.env, model, built.device, run, logger,
+                                      built.seed, self.raw, checked=True, resuming=state is not None, **extra)
+            trainer.threads = built.threads
             if state is not None:
                 trainer.restore(state, checkpoint)
-            if sigma is not None:
-                apply_sigma(model, sigma)
+            if options.sigma is not None:
+                apply_sigma(model, options.sigma)
             if group is not None:  # every rank starts from rank 0's state
                 trainer.join_ranks()
-            trainer.events.extend(callbacks)
+            trainer.events.extend(options.callbacks)
             if cfg.print_stats:
                 what = f"resuming {checkpoint} at epoch {trainer.epoch}" if state else "training"
-                log.info(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({env.num_envs} envs, "
-                         f"device {device}, seed {seed}) -> {run.root}")
+                log.info(f"rlchain: {what} {params.algo.name} on {cfg.env_name} ({built.env.num_envs} envs, "
+                         f"device {built.device}, seed {built.seed}) -> {run.root}")
             result = trainer.train()
             ok = True
             return result
@@ -192,7 +226,7 @@ class Runner:
         A shipped checkpoint's name (``cartpole``) works; its default output is ``<name>.onnx`` here."""
 
         params = self._require()
-        checkpoint, packaged = resolve_checkpoint(checkpoint)
+        checkpoint, packaged = locate_checkpoint(checkpoint)
         if packaged and output is None:  # next to the shipped file is inside the installed package
             output = os.path.splitext(os.path.basename(checkpoint))[0] + ".onnx"
         if params.policies is not None:
@@ -207,7 +241,7 @@ class Runner:
 
         params = self._require()
         if checkpoint is not None:
-            checkpoint = resolve_checkpoint(checkpoint)[0]
+            checkpoint = locate_checkpoint(checkpoint)[0]
         # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
         set_threads(params.torch_threads, None, params.config.device, updates=False)
         if params.policies is not None:  # config.multi_agent: every policy plays its agents
@@ -218,6 +252,16 @@ class Runner:
         finally:
             player.close()
 
+    def record(self, checkpoint: str | None, video_dir: str, games: int = 1, deterministic: bool = True) -> list[str]:
+        """Record ``games`` episodes of the checkpoint's policy to mp4 files in ``video_dir`` (single-policy
+        configs); returns their paths. A shipped checkpoint's name works."""
+        params = self._require()
+        if params.policies is not None:
+            raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
+        if checkpoint is not None:
+            checkpoint = locate_checkpoint(checkpoint)[0]
+        return record_episodes(params, checkpoint, video_dir, games=games, deterministic=deterministic)
+
     def _require(self) -> Params:
         if self.params is None:
             raise RuntimeError("call Runner.load(config) first")
@@ -227,7 +271,7 @@ class Runner:
 def algorithm_class(params: Params) -> Any:
     """The registered algorithm of ``params.algo.name`` (multi-policy PPO with ``config.multi_agent``)."""
     if params.policies is not None:  # config.multi_agent: one PPO learner per policy
-        return MultiPolicyTrainer
+        return MultiPolicyPPO
     return ALGOS.get(params.algo.name)
 
 
@@ -237,3 +281,15 @@ def rl_games_tags(cfg: Any) -> RlGamesTags:
     affine = not rs.log_val and rs.min_val == float("-inf") and rs.max_val == float("inf")
     return RlGamesTags(getattr(cfg, "e_clip", None), float(rs.scale_value), float(rs.shift_value), affine)
 
+
+def locate_checkpoint(name_or_path: str) -> tuple[str, bool]:
+    """Where a ``--checkpoint`` / ``checkpoint=`` is: a path as given, or a shipped checkpoint by name
+    (``cartpole``); whether it is a shipped one. A bare word that is neither but close to a shipped name is a
+    CheckpointError with a did-you-mean. Every Runner method that takes a checkpoint resolves it here."""
+    path, packaged = resolve_checkpoint(name_or_path)
+    if not (os.path.exists(path) or "/" in path or os.sep in path):
+        hint = did_you_mean(os.path.splitext(path)[0], checkpoint_names())
+        if hint:
+            raise ckpt.CheckpointError(f"{path}: checkpoint not found, and no shipped checkpoint has that "
+                                       f"name{hint}")
+    return path, packaged

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.algos.ppo.trainer import PPO
 from rlchain.models.build import build_env, build_model
 from rlchain.registry import scoped_registrations
 from rlchain.runs.logging import TrainLogger
@@ -62,7 +62,7 @@ def signal_state_is_restored():
     """Every test leaves the process's signal handling as it found it.
 
     A run, a library or a test that installs a handler or blocks a signal in the main thread and
-    keeps it makes later signal tests depend on the order the suite runs in (issue 23): this
+    keeps it makes later signal tests depend on the order the suite runs in: this
     fixture names the test that leaked instead.
     """
     before = _signal_state()
@@ -71,14 +71,14 @@ def signal_state_is_restored():
     assert after == before, f"this test left the signal state changed: {before} -> {after}"
 
 
-def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) -> tuple[list[dict], OnPolicyTrainer]:
+def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) -> tuple[list[dict], PPO]:
     """Same-seed PPO epochs of ``config`` on a CPU, driven by hand (rollout, then learn): each update's stats and
-    the trainer (rlchain.algos.ppo.trainer.OnPolicyTrainer), its env closed."""
+    the trainer (rlchain.algos.ppo.trainer.PPO), its env closed."""
     params = Runner().load(config, overrides).params
     torch.manual_seed(0)
     env = build_env(params, num_envs, 0)
     model = build_model(params, env, torch.device("cpu"))
-    ppo = Loop(params, OnPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
+    ppo = Loop(params, PPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
                {}).algorithm
     ppo.obs = torch.as_tensor(env.reset(seed=0))
     out = []

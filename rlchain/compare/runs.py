@@ -85,7 +85,7 @@ class Run:
 
 def curve_from_events(events: Sequence[Sequence[float]], seconds_end: float | None = None,
                       frames_end: float | None = None) -> Curve:
-    """A Curve from ``(seconds, frames, value)`` rows (benchmarks/curves.py's saved runs), sorted by frames;
+    """A Curve from ``(seconds, frames, value)`` rows (benchmarks/peers/curves.py's saved runs), sorted by frames;
     ``seconds_end`` / ``frames_end``: the run went on until then (its time budget)."""
     rows = sorted(events, key=lambda e: (e[1], e[0]))
     array = np.asarray(rows, dtype=float).reshape(-1, 3)

@@ -3,14 +3,17 @@
 
 They share the agent's optimizer, learning-rate schedules, value and entropy losses, normalizers and
 minibatches, so these keys mean the same for the three; each algorithm's class adds its own keys
-(:class:`~rlchain.config.ppo.TrainConfig`, :class:`~rlchain.config.appo.APPOConfig`,
+(:class:`~rlchain.config.ppo.PPOConfig`, :class:`~rlchain.config.appo.APPOConfig`,
 :class:`~rlchain.config.appo.ImpalaConfig`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
+from rlchain.config import compat
+from rlchain.config.errors import ConfigError
 from rlchain.config.fields import above_one, non_negative, option, positive
 from rlchain.config.run import RunConfig
 
@@ -82,3 +85,53 @@ class ActorCriticConfig(RunConfig):
                                   choices=("bound", "regularisation"))
     use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
     value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
+
+    def resolved(self, source: str) -> ActorCriticConfig:
+        """Cross-key checks that no single field can make; returns the config with the derived values
+        filled in (minibatch_size from minibatch_size_per_env, lr_schedule constant -> None)."""
+        config = self
+        if config.minibatch_size_per_env is not None:
+            if config.minibatch_size is not None:
+                raise ConfigError(source, "params.config.minibatch_size_per_env",
+                                  "give minibatch_size or minibatch_size_per_env, not both")
+            config = dataclasses.replace(config, minibatch_size=config.num_actors * config.minibatch_size_per_env)
+        if config.minibatch_size is None:
+            raise ConfigError(source, "params.config.minibatch_size",
+                              "required key is missing (or give minibatch_size_per_env)")
+        # minibatch_size must divide num_actors * horizon_length * agents per env; the agent count is known
+        # once the env is built, so that check runs then (check_batch, before any run folder exists)
+        if not config.env_name:
+            raise ConfigError(source, "params.config.env_name", "required key is missing")
+        if config.lr_schedule == "constant":
+            config = dataclasses.replace(config, lr_schedule=None)
+        config._check_schedules(source)
+        return config
+
+    def _check_schedules(self, source: str) -> None:
+        """polynom_decay needs a horizon to decay over; keys that only act with another schedule warn."""
+        if self.lr_schedule == "polynom_decay" and self.max_epochs <= 0 and self.max_frames <= 0:
+            raise ConfigError(source, "params.config.lr_schedule", "polynom_decay decays over the run: set "
+                              "max_epochs or max_frames")
+        if self.schedule_entropy and self.lr_schedule != "linear":
+            compat.warn_once(source, "params.config.schedule_entropy", f"True has no effect with lr_schedule "
+                             f"{self.lr_schedule or 'None'}: as in rl_games the entropy schedule runs with "
+                             f"lr_schedule linear only; entropy_coef stays {self.entropy_coef}")
+        if self.decay_power != 1.0 and self.lr_schedule != "polynom_decay":
+            compat.warn_once(source, "params.config.decay_power", f"no effect with lr_schedule "
+                             f"{self.lr_schedule or 'None'}; it is the exponent of polynom_decay")
+
+
+def check_batch(config: ActorCriticConfig, source: str, agents: int = 1) -> None:
+    """minibatch_size must divide the batch num_actors * horizon_length * ``agents`` (agents per env).
+
+    At load time the env is unknown, so the algorithm runs this once the env is built (its
+    ``check_config``), with its agent count, before a run folder is created.
+    """
+    batch = config.num_actors * config.horizon_length * agents
+    what = "num_actors*horizon_length" + (f"*agents ({agents} per env)" if agents > 1 else "")
+    if config.minibatch_size > batch:
+        raise ConfigError(source, "params.config.minibatch_size",
+                          f"minibatch_size {config.minibatch_size} is larger than the batch {what} = {batch}")
+    if batch % config.minibatch_size != 0:
+        raise ConfigError(source, "params.config.minibatch_size",
+                          f"batch {what} = {batch} is not divisible by minibatch_size {config.minibatch_size}")

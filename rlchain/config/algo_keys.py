@@ -1,6 +1,6 @@
 """Which algorithm's ``params.config`` class a key belongs to.
 
-Every registered algorithm names its config class (``config_class``; PPO's :class:`TrainConfig` when it
+Every registered algorithm names its config class (``config_class``; PPO's :class:`PPOConfig` when it
 names none). A ``params.config`` key that this run's algorithm does not read but another registered
 algorithm's class declares (``tau`` with algo ``appo``: rl_games' own PPO YAML switched to appo) is
 ignored with a one-line warning naming the file, the key, the algorithms it belongs to and why this one
@@ -16,13 +16,13 @@ from typing import Any
 
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.registry import ALGOS
 
 
 def config_class_of(algo: str) -> type:
     """The dataclass ``params.config`` of the registered algorithm ``algo`` parses into."""
-    return getattr(ALGOS.get(algo), "config_class", TrainConfig)
+    return getattr(ALGOS.get(algo), "config_class", PPOConfig)
 
 
 def owners_of(key: str) -> list[str]:

@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.fields import option, positive, variant
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 
 
 def _clip(x: float | None) -> str | None:
@@ -105,16 +105,25 @@ class APPOConfig(VTraceConfig):
     """``params.config`` for algo ``appo``: PPO's clipped surrogate on V-trace advantages, several SGD passes
     (``mini_epochs``) per learner batch."""
 
-    mini_epochs: int = variant(TrainConfig, "mini_epochs")
-    e_clip: float = variant(TrainConfig, "e_clip")
-    clip_value: bool = variant(TrainConfig, "clip_value")
-    use_smooth_clamp: bool = variant(TrainConfig, "use_smooth_clamp")
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = ("asynchronous PPO on V-trace, docs/appo.md; keys shared with PPO have the same "
+                               "meaning, horizon_length is the fragment length; a PPO key not listed here, e.g. "
+                               "tau, is ignored with a warning")
+
+    mini_epochs: int = variant(PPOConfig, "mini_epochs")
+    e_clip: float = variant(PPOConfig, "e_clip")
+    clip_value: bool = variant(PPOConfig, "clip_value")
+    use_smooth_clamp: bool = variant(PPOConfig, "use_smooth_clamp")
 
 
 @dataclass(frozen=True)
 class ImpalaConfig(VTraceConfig):
     """``params.config`` for algo ``impala``: the V-trace actor-critic (policy gradient weighted by the clipped
     ratio, no surrogate clipping), one pass over each learner batch."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = ("the V-trace actor-critic, docs/appo.md; as algo appo without its clipped-"
+                               "surrogate keys: one pass per batch")
 
     # Not keys: IMPALA's fixed values of appo's surrogate keys (e_clip only sizes the clip_frac diagnostic)
     mini_epochs: ClassVar[int] = 1

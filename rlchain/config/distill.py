@@ -4,6 +4,7 @@ checkpoint) labels the states a student visits, DAgger-style; see docs/distillat
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from rlchain.config.fields import non_negative, option, positive, unit_interval
 from rlchain.config.obs_groups import ObsGroupsConfig
@@ -13,6 +14,10 @@ from rlchain.config.run import RunConfig
 @dataclass(frozen=True)
 class DistillConfig(RunConfig):
     """``params.config`` of ``algo: distill``: the student (``params.network``) learns to act like the teacher."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = ("a frozen PPO teacher labels the states a student visits, DAgger; "
+                               "docs/distillation.md; keys shared with PPO have the same meaning")
 
     teacher_checkpoint: str = option("", "the teacher: an rlchain PPO checkpoint (a2c_continuous / a2c_discrete) "
                                          "or SAC one (labels with its deterministic action; loss mse or huber), "

@@ -9,39 +9,52 @@ import types
 import typing
 
 from rlchain.config import compat
-from rlchain.config.appo import APPOConfig, ImpalaConfig
-from rlchain.config.distill import DistillConfig
+from rlchain.config.algo_keys import config_class_of
 from rlchain.config.multi_agent import PolicySpec
-from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
-from rlchain.config.schema import InitializerConfig, NetworkConfig, ResnetNetworkConfig, TrainConfig
+from rlchain.config.schema import InitializerConfig
+from rlchain.registry import ALGOS, NETWORKS, network_config_class
 
-# The top-level blocks: (heading, key path, dataclass, qualifier). Every field whose type is a dataclass
-# (or Optional of one, or a list of one) becomes a section of its own, recursively (see ``sections``),
-# so no nested block can be left out. The qualifier tells apart blocks of different types that share a
-# key path (``params.network.cnn`` of actor_critic and of resnet_actor_critic).
-ROOTS = [
-    ("params.config", "params.config", TrainConfig, "algo a2c_discrete / a2c_continuous"),
-    ("params.network (builder actor_critic)", "params.network", NetworkConfig, "builder actor_critic"),
-    ("params.network (builder resnet_actor_critic: rl_games' IMPALA network; mlp, rnn, space as actor_critic)",
-     "params.network", ResnetNetworkConfig, "builder resnet_actor_critic"),
+# The top-level blocks come from the registries (:func:`roots`): each registered algorithm's ``params.config``
+# class and each registered network builder's block class, plus EXTRA_ROOTS (blocks parsed from a dict).
+# Every field whose type is a dataclass (or Optional of one, or a list of one) becomes a section of its own,
+# recursively (see ``sections``), so no nested block can be left out. The qualifier tells apart blocks of
+# different types that share a key path (``params.network.cnn`` of actor_critic and of resnet_actor_critic).
+EXTRA_ROOTS = [
     ("params.config.multi_agent.policies.<name> (one policy of config.multi_agent; docs/multi_agent.md)",
      "params.config.multi_agent.policies.<name>", PolicySpec, "multi_agent"),
-    ("params.config for algo sac (keys shared with PPO have the same meaning)", "params.config", SACConfig,
-     "algo sac"),
-    ("params.network (builder soft_actor_critic)", "params.network", SACNetworkConfig, "builder soft_actor_critic"),
-    ("params.config for algo dqn", "params.config", DQNConfig, "algo dqn"),
-    ("params.config for algo appo (asynchronous PPO on V-trace, docs/appo.md; keys shared with PPO have the same "
-     "meaning, horizon_length is the fragment length; a PPO key not listed here, e.g. tau, is ignored with a "
-     "warning)",
-     "params.config", APPOConfig, "algo appo"),
-    ("params.config for algo impala (the V-trace actor-critic, docs/appo.md; as algo appo without its "
-     "clipped-surrogate keys: one pass per batch)",
-     "params.config", ImpalaConfig, "algo impala"),
-    ("params.network (builder dqn)", "params.network", DQNNetworkConfig, "builder dqn"),
-    ("params.config for algo distill (a frozen PPO teacher labels the states a student visits, DAgger; "
-     "docs/distillation.md; keys shared with PPO have the same meaning)",
-     "params.config", DistillConfig, "algo distill"),
 ]
+
+
+def _note(cls: type) -> str:
+    """The class's own ``doc_note`` (not a base class's): words for its heading."""
+    return cls.__dict__.get("doc_note", "")
+
+
+def roots() -> list[tuple[str, str, type, str]]:
+    """(heading, key path, dataclass, qualifier) of every top-level block: the ``params.config`` class of
+    each registered algorithm (algorithms sharing a class share a section), the ``params.network`` class
+    of each registered builder that declares one, then EXTRA_ROOTS."""
+    algos: dict[type, list[str]] = {}
+    for name in ALGOS.names():
+        algos.setdefault(config_class_of(name), []).append(name)
+    networks: dict[type, list[str]] = {}
+    for name in NETWORKS.names():
+        cls = network_config_class(name)
+        if cls is not None:
+            networks.setdefault(cls, []).append(name)
+    out = []
+    for cls, names in algos.items():
+        qualifier = "algo " + " / ".join(names)
+        note = _note(cls)
+        out.append((f"params.config for {qualifier}" + (f" ({note})" if note else ""), "params.config", cls,
+                    qualifier))
+    for cls, names in networks.items():
+        qualifier = "builder " + " / ".join(names)
+        note = _note(cls)
+        out.append((f"params.network ({qualifier}" + (f": {note}" if note else "") + ")", "params.network", cls,
+                    qualifier))
+    return out + EXTRA_ROOTS
+
 
 # Extra words for a nested section's heading, by key path.
 NOTES = {
@@ -133,8 +146,8 @@ class Section:
 
     cls: type
     paths: list[str]
-    qualifiers: list[str]  # the ROOTS it is reached from
-    heading: str = ""  # set for the ROOTS; built from the paths for nested blocks
+    qualifiers: list[str]  # the roots it is reached from
+    heading: str = ""  # set for the roots; built from the paths for nested blocks
     list_item: bool = False  # the paths hold a list of these blocks
 
 
@@ -151,7 +164,7 @@ def _block_type(tp: typing.Any) -> tuple[type | None, bool]:
 
 
 def sections() -> list[Section]:
-    """Every block reachable from ROOTS, in depth-first order; one section per block type."""
+    """Every block reachable from the roots, in depth-first order; one section per block type."""
     out: list[Section] = []
     by_cls: dict[type, Section] = {}
     seen: set[tuple[type, str, str]] = set()
@@ -176,7 +189,7 @@ def sections() -> list[Section]:
                 section.qualifiers.append(qualifier)
             visit(child, child_path, qualifier)
 
-    for heading, path, cls, qualifier in ROOTS:
+    for heading, path, cls, qualifier in roots():
         by_cls[cls] = Section(cls, [path], [qualifier], heading)
         out.append(by_cls[cls])
         visit(cls, path, qualifier)
@@ -238,5 +251,5 @@ def render() -> str:
     return "\n".join(lines) + "\n"
 
 
-if __name__ == "__main__":
+if __name__ == "__main__":  # python -m imports the rlchain package first: the built-ins are registered
     print(render(), end="")

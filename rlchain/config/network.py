@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from rlchain.config.fields import non_negative, option, positive
 
@@ -180,6 +181,9 @@ class ResnetNetworkConfig:
     is no ``rnn``). The env supplies them: ``env_config.use_dict_obs_space: True`` (envpool) or
     ``wrap_impala: True`` (atari_gym), see rlchain/envs/wrappers/reward_action_obs.py.
     """
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = "rl_games' IMPALA network; mlp, rnn, space as actor_critic"
 
     name: str = option("resnet_actor_critic", "registered network builder")
     separate: bool = option(False, "separate critic network with the same architecture")

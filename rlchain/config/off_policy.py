@@ -1,7 +1,7 @@
 """Typed ``params.config`` for the off-policy algorithms (``sac``, ``dqn``).
 
 The algorithm registered in ALGOS names its dataclass as ``config_class``; ``parse_params`` then
-parses ``params.config`` with it instead of PPO's :class:`~rlchain.config.ppo.TrainConfig`.
+parses ``params.config`` with it instead of PPO's :class:`~rlchain.config.ppo.PPOConfig`.
 The generic rl_games keys (run name, env, stop conditions, checkpoints, player: :class:`~rlchain.config.run.
 RunConfig`) mean the same as for PPO.
 """
@@ -9,11 +9,11 @@ RunConfig`) mean the same as for PPO.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.config.fields import non_negative, option, positive, unit_interval, variant
 from rlchain.config.network import MlpConfig, SpaceConfig
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.config.run import RunConfig
 
 
@@ -76,9 +76,9 @@ class OffPolicyConfig(RunConfig):
                                     status="planned (off-policy AMP)")
     multi_gpu: bool = variant(RunConfig, "multi_gpu", doc="torch.distributed training",
                               status="planned (torchrun is PPO-only for now)")
-    seq_length: int = variant(TrainConfig, "seq_length", doc="RNN sequence length",
+    seq_length: int = variant(PPOConfig, "seq_length", doc="RNN sequence length",
                               status="accepted; no effect off-policy")
-    torch_compile: Any = variant(TrainConfig, "torch_compile")  # accepted as false only (validate)
+    torch_compile: Any = variant(PPOConfig, "torch_compile")  # accepted as false only (validate)
     snapshot_epochs: int = option(100, "divergence rollback: epochs between in-memory learner snapshots "
                                        "(rlchain; an off-policy epoch is num_steps_per_episode env steps)",
                                   check=positive)
@@ -110,6 +110,9 @@ class OffPolicyConfig(RunConfig):
 @dataclass(frozen=True)
 class SACConfig(OffPolicyConfig):
     """``params.config`` for algo ``sac`` (soft actor-critic, twin critics, tanh-squashed Gaussian)."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = "keys shared with PPO have the same meaning"
 
     init_alpha: float = option(1.0, "initial entropy temperature", check=positive)
     alpha_lr: float = option(3e-4, "temperature learning rate", check=_check_lr)

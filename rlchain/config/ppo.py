@@ -1,17 +1,23 @@
-"""``params.config`` of PPO (algos ``a2c_continuous`` / ``a2c_discrete``): :class:`TrainConfig`, the keys
+"""``params.config`` of PPO (algos ``a2c_continuous`` / ``a2c_discrete``): :class:`PPOConfig`, the keys
 only PPO reads (GAE, the clipped surrogate, RNN sequences, torch.compile, env groups, the asymmetric critic,
 self-play, multi-agent policies) on top of the actor-critic keys it shares with appo and impala."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.compile import check_compile, check_cuda_graph
+from rlchain.config.errors import ConfigError
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 from rlchain.config.multi_agent import MultiAgentConfig
+from rlchain.config.network import NetworkConfig
+from rlchain.config.network_block import check_registered, has_rnn, network_name, parse_network
 from rlchain.config.obs_groups import ObsGroupsConfig
+from rlchain.deprecation import renamed
+from rlchain.registry import NETWORKS
 
 
 @dataclass(frozen=True)
@@ -62,8 +68,11 @@ class CentralValueConfig:
 
 
 @dataclass(frozen=True)
-class TrainConfig(ActorCriticConfig):
+class PPOConfig(ActorCriticConfig):
     """``params.config``: the training keys of an rl_games config (PPO)."""
+
+    # words for its heading in docs/config.md
+    doc_note: ClassVar[str] = "PPO"
 
     env_groups: Any = option("auto", "rlchain, envpool: split the envs into this many groups that step in "
                                      "the background while the policy acts for the other (overlaps env "
@@ -143,3 +152,55 @@ class TrainConfig(ActorCriticConfig):
         if self.distilled_checkpoint:
             return "student"
         return self.obs_groups.policy if self.obs_groups is not None else "teacher"
+
+
+    def with_network(self, network: Any, source: str) -> PPOConfig:
+        """An RNN's sequences fit the horizon and the minibatch; the asymmetric critic's block resolved."""
+        if has_rnn(network):
+            self._check_sequences(source)
+        if self.central_value_config is not None:
+            return dataclasses.replace(self, central_value_config=self._resolve_central_value(source))
+        return self
+
+    def _check_sequences(self, source: str) -> None:
+        """An RNN trains on whole sequences: horizon and minibatch must hold whole seq_length blocks."""
+        length = self.seq_length
+        if self.horizon_length % length:
+            raise ConfigError(source, "params.config.seq_length",
+                              f"horizon_length {self.horizon_length} is not divisible by seq_length {length}")
+        if self.minibatch_size % length:
+            raise ConfigError(source, "params.config.seq_length",
+                              f"minibatch_size {self.minibatch_size} is not divisible by seq_length {length}")
+
+    def _resolve_central_value(self, source: str) -> CentralValueConfig:
+        """The asymmetric critic: value-only network, a minibatch that divides the batch. Returns the block
+        with its network parsed and its minibatch_size resolved (default: the actor's)."""
+
+        cv, path = self.central_value_config, "params.config.central_value_config"
+        cv = dataclasses.replace(cv, network=parse_network(cv.network, source, f"{path}.network"))
+        check_registered(NETWORKS, network_name(cv.network), f"{path}.network.name", source)
+        typed = isinstance(cv.network, NetworkConfig)  # actor_critic; a user network's block is its own
+        heads = [k for k in ("discrete", "multi_discrete", "continuous")
+                 if typed and getattr(cv.network.space, k) is not None]
+        if heads:
+            raise ConfigError(source, f"{path}.network.space", f"the central value network is a critic (value "
+                              f"only); remove the '{heads[0]}' action head")
+        if cv.minibatch_size_per_env is not None:
+            cv = dataclasses.replace(cv, minibatch_size=self.num_actors * cv.minibatch_size_per_env)
+        cv = dataclasses.replace(cv, minibatch_size=cv.minibatch_size or self.minibatch_size)
+        batch = self.num_actors * self.horizon_length
+        if batch % cv.minibatch_size:
+            raise ConfigError(source, f"{path}.minibatch_size", f"batch num_actors*horizon_length = {batch} is not "
+                              f"divisible by {cv.minibatch_size}")
+        if typed and cv.network.rnn is not None:
+            if cv.minibatch_size % self.seq_length or self.horizon_length % self.seq_length:
+                raise ConfigError(source, f"{path}.minibatch_size", f"a recurrent critic trains on sequences: "
+                                  f"minibatch_size {cv.minibatch_size} and horizon_length {self.horizon_length} "
+                                  f"must divide by seq_length {self.seq_length}")
+        return cv
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "TrainConfig": ("PPOConfig", PPOConfig),
+})

@@ -2,7 +2,7 @@
 
 Parsing gives a frozen :class:`~rlchain.config.schema.Params`, the same on every process of a run.
 What differs per process (the seed, and under torchrun the rank's device, its ``env_config`` seed
-and whether it prints) goes into a :class:`RunContext` made once by :func:`resolve`; nothing
+and whether it prints) goes into a :class:`ProcessContext` made once by :func:`resolve`; nothing
 assigns to the parsed config afterwards. Checkpoints store the resolved config as plain data
 (:func:`config_state`) and :func:`params_from_state` turns it back into Params with the same field
 checks as a config file (:func:`rlchain.config.fields.parse_dataclass`).
@@ -18,8 +18,10 @@ from typing import Any
 from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
-from rlchain.config.load import _parse_network, check_malloc
-from rlchain.config.schema import NamedBlock, Params, TrainConfig
+from rlchain.config.load import check_malloc
+from rlchain.config.network_block import parse_network
+from rlchain.config.schema import NamedBlock, Params
+from rlchain.deprecation import renamed
 from rlchain.registry import ALGOS
 
 CONFIG_FORMAT = "rlchain-config-2"
@@ -30,7 +32,7 @@ RANK_SEED_STRIDE = 100_003  # rank r seeds its envs and RNGs with seed + r * thi
 
 
 @dataclass(frozen=True)
-class RunContext:
+class ProcessContext:
     """What one process runs with: the config with its per-process values, and those values by name."""
 
     params: Params  # the parsed config, with device / print_stats / env_config of this process
@@ -52,13 +54,13 @@ class RunContext:
                 "print_stats": self.print_stats}
 
 
-def resolve(params: Params, seed: int | None, group: Any = None) -> RunContext:
+def resolve(params: Params, seed: int | None, group: Any = None) -> ProcessContext:
     """The run context of this process: ``group`` is the torchrun :class:`~rlchain.parallel.distributed.
     Distributed` (None for a single process). A missing seed is drawn here. Under torchrun a CUDA run moves
     to the rank's ``cuda:LOCAL_RANK`` (and a tensor env's ``env_config.device`` with it), ``env_config.seed``
     is offset per rank and ranks other than 0 do not print progress."""
     if group is None:
-        return RunContext(params, secrets.randbelow(2**31) if seed is None else int(seed))
+        return ProcessContext(params, secrets.randbelow(2**31) if seed is None else int(seed))
     changes: dict[str, Any] = {}
     env_config = dict(params.config.env_config)
     device = getattr(group, "device", None)
@@ -72,7 +74,7 @@ def resolve(params: Params, seed: int | None, group: Any = None) -> RunContext:
         changes["env_config"] = env_config
     if group.rank != 0:
         changes["print_stats"] = False
-    return RunContext(with_config(params, **changes), group.rank_seed, group.rank, group.world_size)
+    return ProcessContext(with_config(params, **changes), group.rank_seed, group.rank, group.world_size)
 
 
 def with_config(params: Params, **changes: Any) -> Params:
@@ -127,13 +129,13 @@ def params_from_state(data: Any, source: str) -> Params:
     if isinstance(stored, dict):
         stored = drop_other_algo_keys(stored, algo.name, source, warn=False)
     config = parse_dataclass(config_class_of(algo.name), stored, "params.config", source)
-    cv = config.central_value_config if isinstance(config, TrainConfig) else None
+    cv = getattr(config, "central_value_config", None)  # PPO's asymmetric critic
     if cv is not None:
-        network = _parse_network(cv.network, source, "params.config.central_value_config.network")
+        network = parse_network(cv.network, source, "params.config.central_value_config.network")
         config = dataclasses.replace(config, central_value_config=dataclasses.replace(cv, network=network))
     policies = data.get("policies")
     return Params(
-        algo=algo, model=model, config=config, network=_parse_network(data.get("network"), source),
+        algo=algo, model=model, config=config, network=parse_network(data.get("network"), source),
         seed=parse_value(int | None, data.get("seed"), "params.seed", source),
         import_modules=parse_value(list[str] | None, data.get("import_modules"), "params.import_modules", source),
         torch_threads=parse_value(int | None, data.get("torch_threads"), "params.torch_threads", source),
@@ -141,3 +143,8 @@ def params_from_state(data: Any, source: str) -> Params:
         malloc=parse_value(str, data.get("malloc", "keep"), "params.malloc", source, {"check": check_malloc}),
         source=source,
         policies=None if policies is None else {name: params_from_state(p, source) for name, p in policies.items()})
+
+
+# the old name, importable with a DeprecationWarning for one release (the algorithm's RunContext is
+# rlchain.algos.base.context.RunContext)
+__getattr__ = renamed(__name__, {"RunContext": ("ProcessContext", ProcessContext)})

@@ -159,7 +159,7 @@ class ProgressConfig:
 class RunConfig:
     """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
 
-    Each algorithm's ``params.config`` class derives from it (PPO's :class:`~rlchain.config.ppo.TrainConfig`,
+    Each algorithm's ``params.config`` class derives from it (PPO's :class:`~rlchain.config.ppo.PPOConfig`,
     ``sac``, ``dqn``, ``appo``, ``impala``); a key only some algorithms read lives on their classes.
     """
 
@@ -248,4 +248,19 @@ class RunConfig:
     divergence: DivergenceConfig = option(DivergenceConfig(), "NaN/inf handling (rlchain); rollback restores "
                                                              "the last good learner snapshot (off-policy: "
                                                              "taken every snapshot_epochs epochs)")
+
+    # The checks an algorithm's config runs on itself, in this order, while the file is parsed
+    # (rlchain.config.load.parse_params); an algorithm's class overrides the ones it needs.
+
+    def resolved(self, source: str) -> RunConfig:
+        """This config with its derived values filled in (cross-key checks raise ConfigError)."""
+        return self
+
+    def validate(self) -> tuple[str, str] | None:
+        """A problem no single key shows: (key under params.config, message), or None."""
+        return None
+
+    def with_network(self, network: Any, source: str) -> RunConfig:
+        """Checks against the parsed ``params.network`` (e.g. RNN sequences); the config, completed."""
+        return self
 

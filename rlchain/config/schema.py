@@ -33,7 +33,7 @@ from rlchain.config.network import (
     RnnConfig,
     SpaceConfig,
 )
-from rlchain.config.ppo import CentralValueConfig, SelfPlayConfig, TrainConfig
+from rlchain.config.ppo import CentralValueConfig, PPOConfig, SelfPlayConfig
 from rlchain.config.run import (
     DivergenceConfig,
     EnvRunnersConfig,
@@ -42,13 +42,14 @@ from rlchain.config.run import (
     RewardShaperConfig,
     RunConfig,
 )
+from rlchain.deprecation import renamed
 
 __all__ = [
     "ACTIVATIONS", "INITIALIZERS", "ActorCriticConfig", "CentralValueConfig", "CnnConfig", "ContinuousSpaceConfig",
     "ConvSpec", "DiscreteSpaceConfig", "DivergenceConfig", "EnvRunnersConfig", "EvaluationConfig",
     "InitializerConfig", "MlpConfig", "MultiDiscreteSpaceConfig", "NamedBlock", "NetworkConfig", "Params",
     "PlayerConfig", "ResnetCnnConfig", "ResnetNetworkConfig", "RewardShaperConfig", "RnnConfig", "RunConfig",
-    "SelfPlayConfig", "SpaceConfig", "TrainConfig",
+    "SelfPlayConfig", "SpaceConfig", "PPOConfig",
 ]
 
 C = TypeVar("C")
@@ -67,7 +68,7 @@ class Params:
 
     algo: NamedBlock
     model: NamedBlock
-    config: RunConfig  # the algo's own class (TrainConfig, SACConfig, DQNConfig, APPOConfig, ...): see config_as
+    config: RunConfig  # the algo's own class (PPOConfig, SACConfig, DQNConfig, APPOConfig, ...): see config_as
     network: Any = None  # NetworkConfig for built-in builders, the raw dict for user builders
     seed: int | None = None
     import_modules: list[str] | None = None
@@ -78,10 +79,16 @@ class Params:
     policies: dict[str, Params] | None = None  # config.multi_agent: each policy's own Params (load.py)
 
     def config_as(self, cls: type[C]) -> C:
-        """``config`` as the class ``cls`` that the caller needs (e.g. PPO's :class:`TrainConfig`); a one-line
+        """``config`` as the class ``cls`` that the caller needs (e.g. PPO's :class:`PPOConfig`); a one-line
         :class:`ConfigError` naming the algo and both classes when this run's algorithm has another."""
         if isinstance(self.config, cls):
             return self.config
         raise ConfigError(self.source, "params.algo.name", f"algo {self.algo.name} configures a "
                           f"{type(self.config).__name__}; this needs a {cls.__name__} (the params.config of "
                           f"another algorithm)")
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "TrainConfig": ("PPOConfig", PPOConfig),
+})

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from rlchain.config.errors import ConfigError
+from rlchain.config.schema import Params
 from rlchain.envs.building import (
     RL_GAMES_ENVPOOL_KEYS,
     VECENV_TYPES,
@@ -63,3 +65,24 @@ class BuiltinVecEnv:
 
 __all__ = ["make_vec_env", "normalize_vecenv_type", "openai_gym_env", "envpool_env", "resolve_env_groups",
            "RL_GAMES_ENVPOOL_KEYS", "VECENV_TYPES", "BuiltinVecEnv"]
+
+
+def build_env(params: Params, num_envs: int, seed: int | None, render: bool = False,
+              env_config: dict | None = None, runners: bool = False, groups: Any = 1) -> Any:
+    """Make the vectorized env the config names; env errors come back naming the file.
+
+    ``runners=True`` (the training envs) honours ``vecenv_type: RAY`` / ``env_runners`` (Ray workers);
+    play, evaluation and export build the same envs in this process (RAY -> auto). ``groups``: env groups
+    stepping in the background (PPO's ``env_groups``; the algorithm that pipelines its rollout passes it).
+    """
+    cfg = params.config
+    merged = dict(cfg.env_config)
+    merged.update(env_config or {})
+    vecenv_type, env_runners = cfg.vecenv_type, cfg.env_runners if runners else None
+    if not runners and str(vecenv_type).lower() == "ray":
+        vecenv_type = None
+    try:
+        return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
+                            env_runners=env_runners, groups=groups)
+    except ValueError as exc:
+        raise ConfigError(params.source, "", str(exc)) from None

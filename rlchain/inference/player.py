@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 from rlchain.config.schema import Params
-from rlchain.inference.play import PlayResult, play
-from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
-from rlchain.runs import checkpoint as ckpt
+from rlchain.policy.load import load_policy
+from rlchain.policy.play import PlayResult, play
 
 
 class Player:
@@ -19,22 +18,11 @@ class Player:
         self.params = params
         cfg = params.config
         self.player_cfg = cfg.player
-        self.device = resolve_device(device or cfg.device)
         self.num_envs = self.player_cfg.num_actors if self.player_cfg.use_vecenv else 1
         seed = params.seed if params.seed is not None else 0
-        self.env = build_env(params, self.num_envs, seed, render=self.player_cfg.render,
-                             env_config=self.player_cfg.env_config)
-        try:  # a bad checkpoint or --sigma must not leave the env (its processes, its window) open
-            self.model = build_model(params, self.env, self.device)
-            if checkpoint_path:
-                state = ckpt.load(checkpoint_path, map_location=self.device)
-                ckpt.load_model_state(self.model, state, checkpoint_path)
-            if sigma is not None:
-                apply_sigma(self.model, sigma)
-        except BaseException:
-            self.env.close()
-            raise
-        self.model.eval()
+        policy = load_policy(params, checkpoint_path, device=device, num_envs=self.num_envs, seed=seed,
+                             render=self.player_cfg.render, env_config=self.player_cfg.env_config, sigma=sigma)
+        self.model, self.env, self.device = policy.model, policy.env, policy.device
         self.seed = seed
 
     def play(self, games: int | None = None, deterministic: bool | None = None,

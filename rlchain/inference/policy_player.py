@@ -12,9 +12,12 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
-from rlchain.models.build import build_env, build_model, policy_agents, resolve_device
-from rlchain.runs import checkpoint as ckpt
+from rlchain.models.build import policy_agents
+from rlchain.parallel.device import resolve_device
+from rlchain.policy.load import LoadedPolicy, load_policy
+from rlchain.policy.play import step_policies
 
 
 @dataclass
@@ -40,19 +43,18 @@ def play_policies(params: Params, checkpoint: str | None, games: int | None = No
     pc = params.config.player
     games = games or pc.games_num
     deterministic = pc.deterministic if deterministic is None else deterministic
-    device = resolve_device(params.config.device)
-    seed = params.seed if params.seed is not None else 0
     num_envs = pc.num_actors if pc.use_vecenv else 1
-    env = build_env(params, num_envs, seed, render=pc.render, env_config=pc.env_config)
+    if models is None:
+        policy = load_policy(params, checkpoint, num_envs=num_envs, render=pc.render, env_config=pc.env_config)
+    else:  # the given models on a fresh env
+        device = resolve_device(params.config.device)
+        seed = params.seed if params.seed is not None else 0
+        env = build_env(params, num_envs, seed, render=pc.render, env_config=pc.env_config)
+        policy = LoadedPolicy(models.eval(), env, device, None)
     try:
-        if models is None:
-            models = build_model(params, env, device)
-            if checkpoint:
-                ckpt.load_model_state(models, ckpt.load(checkpoint, map_location=device), checkpoint)
-        models.eval()
-        return _play(params, env, models, games, deterministic, device, quiet)
+        return _play(params, policy.env, policy.model, games, deterministic, policy.device, quiet)
     finally:
-        env.close()
+        policy.close()
 
 
 def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, deterministic: bool,
@@ -60,31 +62,18 @@ def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, 
     plan = {name: agents for name, agents in policy_agents(params, env).items() if agents}
     returns = {a: np.zeros(env.num_envs) for a in env.agent_ids}
     finished: dict[str, list[float]] = {name: [] for name in plan}
-    views = env.reset(seed=params.seed if params.seed is not None else 0)
     played = 0
-    while played < games:
-        actions = {}
-        for name, agents in plan.items():
-            model = models[name]
-            obs = torch.as_tensor(np.concatenate([views[a].obs for a in agents]), device=device)
-            masks = None
-            if model.use_action_masks:
-                masks = torch.as_tensor(np.concatenate([views[a].mask for a in agents]), device=device)
-            with torch.inference_mode():
-                out = model.act(obs, deterministic=deterministic, action_masks=masks)
-            acts = model.dist.to_env(out["actions"]).cpu().numpy()
-            e = env.num_envs
-            actions.update({a: acts[k * e:(k + 1) * e] for k, a in enumerate(agents)})
-        result = env.step(actions)
+    seed = params.seed if params.seed is not None else 0
+    for result in step_policies(env, models, plan, device, deterministic, seed):
         for name, agents in plan.items():
             for a in agents:
                 returns[a] += result.reward[a]
                 done = result.terminated[a] | result.truncated[a]
                 finished[name].extend(returns[a][done].tolist())
                 returns[a][done] = 0.0
-        ended = env.pop_games() if env_spec(env).games_counter else 0
-        played += ended
-        views = result.obs
+        played += env.pop_games() if env_spec(env).games_counter else 0
+        if played >= games:
+            break
     means = {name: float(np.mean(r)) if r else float("nan") for name, r in finished.items()}
     if not quiet:
         text = ", ".join(f"{name} {value:.2f}" for name, value in means.items())

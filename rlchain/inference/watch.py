@@ -24,8 +24,9 @@ from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
-from rlchain.inference.play import PlayResult, play
 from rlchain.inference.player import Player
+from rlchain.policy.load import load_weights
+from rlchain.policy.play import PlayResult, play
 from rlchain.runs import checkpoint as ckpt
 
 
@@ -110,7 +111,6 @@ def watch_and_evaluate(params: Params, dir_to_monitor: str | None = None, games:
 
 def _evaluate(player: Any, path: str, games: int, deterministic: bool) -> CheckpointScore:
     mtime = os.path.getmtime(path)
-    state = ckpt.load(path, map_location=player.device)
-    ckpt.load_model_state(player.model, state, path)
+    load_weights(player.model, path, player.device)
     result = play(player.model, player.env, games, deterministic, device=player.device, seed=player.seed)
     return CheckpointScore(path, mtime, result)

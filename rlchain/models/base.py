@@ -87,7 +87,7 @@ class ValueModel(ObservationModel):
 
     ``fold_values`` (``value_normalizer: rl_games``): the rollout's value predictions join the returns in
     the statistics, and a clipping normalizer also clamps the head's output before denormalizing it, as
-    rl_games does (issue 32: Hopper learns faster per frame this way, docs/ppo_parity.md).
+    rl_games does (so the value head learns on rl_games' scale; docs/ppo_parity.md).
     """
 
     value_norm: RunningMeanStd | None  # set by the subclass

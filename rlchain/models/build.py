@@ -1,8 +1,7 @@
-"""Turn typed Params into live parts: device, vectorized env, model (network + distribution)."""
+"""Turn typed Params into a model (network + distribution), one per policy, and the central value."""
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -13,7 +12,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import NetworkConfig, Params
-from rlchain.envs.factory import make_vec_env
+from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
@@ -22,40 +21,8 @@ from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.networks.base import instantiate
+from rlchain.parallel.device import resolve_device  # noqa: F401  (importable from here too)
 from rlchain.registry import MODELS, NETWORKS
-
-
-def resolve_device(name: str) -> torch.device:
-    """``cpu`` / ``cuda`` / ``cuda:N``; without CUDA a cuda device falls back to cpu with a warning."""
-    if name.startswith("cuda") and not torch.cuda.is_available():
-        warnings.warn(f"params.config.device is '{name}' but CUDA is not available; training on cpu",
-                      stacklevel=2)
-        return torch.device("cpu")
-    try:
-        return torch.device(name)
-    except RuntimeError:
-        raise ConfigError("", "params.config.device", f"'{name}' is not a device (cpu, cuda, cuda:N)") from None
-
-
-def build_env(params: Params, num_envs: int, seed: int | None, render: bool = False,
-              env_config: dict | None = None, runners: bool = False, groups: Any = 1) -> Any:
-    """Make the vectorized env the config names; env errors come back naming the file.
-
-    ``runners=True`` (the training envs) honours ``vecenv_type: RAY`` / ``env_runners`` (Ray workers);
-    play, evaluation and export build the same envs in this process (RAY -> auto). ``groups``: env groups
-    stepping in the background (PPO's ``env_groups``; the algorithm that pipelines its rollout passes it).
-    """
-    cfg = params.config
-    merged = dict(cfg.env_config)
-    merged.update(env_config or {})
-    vecenv_type, env_runners = cfg.vecenv_type, cfg.env_runners if runners else None
-    if not runners and str(vecenv_type).lower() == "ray":
-        vecenv_type = None
-    try:
-        return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
-                            env_runners=env_runners, groups=groups)
-    except ValueError as exc:
-        raise ConfigError(params.source, "", str(exc)) from None
 
 
 def value_size_of(env: Any) -> int:

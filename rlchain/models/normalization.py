@@ -19,7 +19,7 @@ def batch_moments(x: torch.Tensor, transform: Callable[[torch.Tensor], torch.Ten
 
     Rows go through ``transform`` (e.g. uint8 -> float in [0, 1]) a chunk at a time and each chunk's
     moments are taken in float32, then merged exactly in float64: a rollout of Atari frames
-    (8192 x 4 x 84 x 84) never exists as one float64 copy, and it is ~4x faster than that copy.
+    (8192 x 4 x 84 x 84) never exists as one float64 copy, and it is faster than making that copy.
     float64 input keeps float64.
     """
     n = x.shape[0]

@@ -13,7 +13,7 @@ state's) and returns ``(value, states)``.
 
 Optional, as in rl_games: ``get_aux_loss()`` returning ``{name: scalar tensor}`` (or None) from the
 last ``forward``; PPO adds each loss to its loss (weight 1) and logs it as ``losses/<name>``
-(example: :mod:`rlchain.networks.test_networks`).
+(example: :mod:`rlchain.networks.example_networks`).
 """
 
 from __future__ import annotations

@@ -3,12 +3,10 @@
 A PPO epoch allocates and frees the same few-MB tensors over and over (a (16,384 x 64) activation is 4 MB).
 With glibc's defaults each one above its adaptive mmap threshold, or on top of a heap it trims after every
 free, comes back as fresh pages from the kernel: a page fault and a zeroing per 4 KB, then cold caches for
-the kernel that reads them. On a 2-core Xeon that made every matmul and activation of the update 1.5-3x
-slower than the same op on warm memory (TorchPendulum at 4,096 envs: 126k minor faults per three updates,
-7k with ``keep``; PPO train steps/s 1.16-1.34x on tensor envs at 4,096 envs, envpool level; this tree
-against the one before it, docs/benchmarks.md). ``keep`` raises the mmap threshold to glibc's maximum
-(32 MiB) and stops trimming, so freed blocks are reused; memory is not returned to the OS until the process
-ends.
+the kernel that reads them, which makes the update's matmuls and activations slower than the same ops on
+warm memory (the tensor-env update most of all; envpool runs are bound by the env). ``keep`` raises the mmap
+threshold to glibc's maximum (32 MiB) and stops trimming, so freed blocks are reused; memory is not returned to
+the OS until the process ends.
 """
 
 from __future__ import annotations

@@ -63,7 +63,7 @@ class ThreadPlan:
     ``rollout`` and ``update`` are the counts on an idle machine. With ``adaptive``, each phase takes
     at most the cores other processes left idle during the same phase last time (measured, not
     guessed from the load average): on 2 cores, two torch threads where another program keeps one
-    core busy stall every parallel op of each other (an LSTM epoch took 12 s instead of 0.3 s), so
+    core busy stall every parallel op of each other (an epoch can take many times longer), so
     a phase drops to one thread while the machine is busy and goes back up when it is idle again.
     ``fixed_update``: the update's count was asked for (``update_threads``) and is kept as it is."""
 
@@ -135,8 +135,7 @@ def plan_threads(torch_threads: int | None, update_threads: int | None, device: 
     the cores (``processes`` torchrun ranks share a node); unset, half the share, at most 4, which
     measured fastest for rl-sized networks beside envpool's threads. ``update_threads`` sets the
     update's count (same cap); unset, the update gets the whole share, at most 4 (the envs are idle
-    then: 2 threads on 2 cores measured 1.10-1.17x PPO train steps/s on envpool HalfCheetah, Ant and
-    Hopper and 1.26x SAC fps), unless ``torch_threads`` was set, whose count it then keeps. That
+    then, so every core can work on the update), unless ``torch_threads`` was set, whose count it then keeps. That
     default also leaves out the cores other processes keep busy (``load``: cores busy now, see :func:`busy_cores`,
     read when not given): an update thread that has to share its core stalls every parallel op of the
     others, and 2 update threads on a 2-core machine at load 5 ran PPO and SAC several times slower
@@ -164,8 +163,8 @@ def plan_threads(torch_threads: int | None, update_threads: int | None, device: 
 def for_env(plan: ThreadPlan | None, env: object, torch_threads: int | None) -> ThreadPlan | None:
     """``plan`` adjusted to the env it trains on: an env that steps on torch's own threads
     (``steps_on_torch_threads``, rlchain's tensor envs on a CPU) leaves no env threads to share the
-    cores with, so its rollout takes the update's count (2 threads on 2 cores: TorchPendulum rollout
-    1.47x, train 1.05x on a 2-core AMD EPYC, throughput.py). Unchanged where ``torch_threads`` set the
+    cores with, so its rollout takes the update's count (benchmarks/throughput/throughput.py measures
+    it). Unchanged where ``torch_threads`` set the
     rollout's count, and for any other env. Applies the new plan's rollout count."""
     if plan is None or torch_threads or not getattr(env, "steps_on_torch_threads", False) \
             or plan.rollout >= plan.update:

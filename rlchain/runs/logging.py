@@ -10,19 +10,8 @@ from rlchain.config.run import ProgressConfig
 from rlchain.log import get_logger
 from rlchain.runs.rl_games_layout import RlGamesTags
 from rlchain.runs.writers import ConsoleWriter, EpochSummary, Step, TensorBoardWriter, Writer
-from rlchain.training.events import Callback
 
 log = get_logger(__name__)
-
-
-class EnvStatsCallback(Callback):
-    """Writes an env backend's counters, ``env.log_stats()`` (e.g. ``env/dropped_episodes``), every epoch."""
-
-    drives_trainer = True  # reads the training env itself
-
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        for tag, value in trainer.env.log_stats().items():
-            trainer.logger.scalar(tag, float(value), trainer.frames)
 
 
 class TrainLogger:

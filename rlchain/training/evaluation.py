@@ -1,5 +1,5 @@
 """In-training evaluation: :class:`EvaluationCallback` plays the policy on its own envs with
-:func:`rlchain.inference.play.play` (the loop the Player, video and export share)."""
+:func:`rlchain.policy.play.play` (the loop the Player, video and export share)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from typing import Any
 
 import torch
 
-from rlchain.inference.play import EpisodeSuccess, PlayResult, play
 from rlchain.log import get_logger
+from rlchain.policy.play import EpisodeSuccess, PlayResult, play
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
@@ -22,7 +22,7 @@ def run_episodes(model: Any, env: Any, games: int, deterministic: bool, device: 
                  seed: int | None = None, on_game: Callable[[int, float, int, float | None], None] | None = None,
                  render_sleep: float | None = None, success_key: str = "auto",
                  success_mode: str = "any") -> PlayResult:
-    """Play ``games`` finished episodes on ``env`` with ``model``: :func:`rlchain.inference.play.play`
+    """Play ``games`` finished episodes on ``env`` with ``model``: :func:`rlchain.policy.play.play`
     under its former name and positional order."""
     return play(model, env, games, deterministic, device=device, seed=seed, on_game=on_game,
                 render_sleep=render_sleep, success_key=success_key, success_mode=success_mode)

@@ -199,6 +199,16 @@ def handles_env_steps(callback: Callback) -> bool:
     return "on_env_step" in vars(callback) or type(callback).on_env_step is not Callback.on_env_step
 
 
+class EnvStatsCallback(Callback):
+    """Writes an env backend's counters, ``env.log_stats()`` (e.g. ``env/dropped_episodes``), every epoch."""
+
+    drives_trainer = True  # reads the training env itself
+
+    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        for tag, value in trainer.env.log_stats().items():
+            trainer.logger.scalar(tag, float(value), trainer.frames)
+
+
 class CallbackList:
     """Dispatches each event to every callback in order, with the run's context first (the trainer
     for callbacks that :attr:`~Callback.drives_trainer`): :meth:`bind` sets them.

@@ -5,7 +5,7 @@ rollback and checkpoints every algorithm shares.
 The algorithm (:class:`rlchain.algos.base.algorithm.Algorithm`: PPO, SAC, DQN, APPO, ...) is built by the
 Loop with the run's :class:`~rlchain.algos.base.context.RunContext` and never subclasses it. The Loop logs
 whatever metrics ``update`` returns, under the algorithm's ``metric_tags``; checkpoints are
-:class:`~rlchain.training.checkpoints.Checkpoints`, PBT's live parameters
+:class:`~rlchain.training.saving.CheckpointSaver`, PBT's live parameters
 :class:`~rlchain.training.live_params.LiveParams`.
 """
 
@@ -22,21 +22,21 @@ from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import describe, make_context, to_device
 from rlchain.algos.base.safety import DivergenceGuard, StopSignals, check_parameters
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger
-from rlchain.models.build import build_env
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
 from rlchain.parallel.threads import ThreadPlan
 from rlchain.runs.checkpoint import seed_everything
-from rlchain.runs.logging import EnvStatsCallback, TrainLogger
+from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import RunDir
-from rlchain.training.checkpoints import Checkpoints
 from rlchain.training.evaluation import EvaluationCallback
-from rlchain.training.events import CallbackList, load_callback
+from rlchain.training.events import CallbackList, EnvStatsCallback, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
 from rlchain.training.live_params import LiveParams
+from rlchain.training.saving import CheckpointSaver
 from rlchain.training.self_play import SelfPlayCallback
 
 __all__ = ["Loop", "TrainResult", "AlgorithmFactory", "tag_metrics", "to_device", "describe"]
@@ -75,9 +75,13 @@ class Loop:
 
     def __init__(self, params: Params, algorithm: AlgorithmFactory, env: Any, model: torch.nn.Module,
                  device: torch.device, run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None) -> None:
+                 comm: Communicator | None = None, checked: bool = False, resuming: bool = False) -> None:
+        """``checked``: the caller ran ``algorithm.check_config`` on this env already (the Runner does, before
+        the model is built); ``resuming``: ``model`` holds the weights of the checkpoint :meth:`restore`
+        will be given (the algorithm loads no others into it, and restore does not load them again)."""
         cfg = params.config
-        algorithm.check_config(params, env_spec(env))  # before anything opens (PPO: its minibatch)
+        if not checked:
+            algorithm.check_config(params, env_spec(env))  # before anything opens (PPO: its minibatch)
         self.params, self.env, self.model, self.raw_config = params, env, model, raw_config
         self.started = time.time()  # when train() started
         self.last_stats: dict[str, float] = {}  # the last epoch's metrics and episode means (TrainingState)
@@ -87,6 +91,8 @@ class Loop:
         # the other ranks (torchrun): the algorithm's agents and the episode statistics sync through it
         comm = comm if comm is not None else communicator.current()
         self.ctx = make_context(params, env, device, seed, comm, logger, self.events)
+        self.ctx.resuming = resuming
+        self._weights_loaded = resuming  # the first restore (the Runner's) finds them in the model already
         self.events.bind(self)  # callbacks get a CallbackContext of this run
         if self.ctx.spec.stats:  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
@@ -98,7 +104,7 @@ class Loop:
         if cfg.hyperparam_schedule:  # a replayed PBT schedule, through set_params
             check_names(cfg.hyperparam_schedule, self.algorithm.tunable, params.algo.name, params.source)
             self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
-        self.checkpoints = Checkpoints(self.ctx, self.algorithm, run, self.events)
+        self.checkpoints = CheckpointSaver(self.ctx, self.algorithm, run, self.events)
         self.live = LiveParams(self.ctx, self.algorithm)
 
     # ----- the run's state (callbacks, tuning and the Runner read it here) ----------------------
@@ -272,8 +278,10 @@ class Loop:
         return self.checkpoints.save(kind)
 
     def restore(self, state: dict[str, Any], path: str) -> None:
-        """Continue from a checkpoint: weights, optimizer(s), lr, normalizers, counters, RNG."""
-        self.checkpoints.restore(state, path)
+        """Continue from a checkpoint: weights (unless the model was built holding this checkpoint's:
+        the first restore of a run made with ``resuming``), optimizer(s), lr, normalizers, counters, RNG."""
+        self.checkpoints.restore(state, path, weights=not self._weights_loaded)
+        self._weights_loaded = False  # a later restore (PBT's exploit, a tuning trial) loads its weights
 
     def get_params(self) -> dict[str, float]:
         """The training parameters population-based training may change (see :meth:`set_params`)."""

@@ -15,7 +15,7 @@ from rlchain import Runner
 from rlchain.inference.policy_player import play_policies
 from rlchain.models.build import build_env, build_model
 from rlchain.runs.checkpoint import seed_everything
-from tests.conftest import CONFIGS, ROOT
+from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.slow
 pytest.importorskip("mpe2")
@@ -122,16 +122,12 @@ def test_simple_tag_prey_trained_alone_beats_its_starting_self_and_the_predators
 
 def test_connect_four_self_play_beats_a_random_player_90_percent(tmp_path):
     """ppo_pz_connect_four_self_play.yaml as shipped (seed 5, 150 epochs, ~40 s): the learner, moving first
-    as in training, wins more than 90% of 1000 games against uniformly random legal moves (issue 16's
-    bar; seeds 5, 6 and 7 measured 93.1-95.1% with benchmarks/pz_connect_four_vs_random.py, whose
+    as in training, wins more than 90% of 1000 games against uniformly random legal moves (the
+    bar; seeds 5, 6 and 7 measured 93.1-95.1% with benchmarks/studies/pz_connect_four_vs_random.py, whose
     play_vs_random this test uses)."""
     pytest.importorskip("pettingzoo.classic")
-    import importlib.util
+    from benchmarks.studies import pz_connect_four_vs_random as bench
 
-    spec = importlib.util.spec_from_file_location(
-        "pz_connect_four_vs_random", os.path.join(ROOT, "benchmarks", "pz_connect_four_vs_random.py"))
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
     runner = Runner().load(os.path.join(CONFIGS, "ppo_pz_connect_four_self_play.yaml"),
                            [f"params.config.train_dir={tmp_path}", "params.config.print_stats=false"])
     runner.train()

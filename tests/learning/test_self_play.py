@@ -5,7 +5,7 @@ import os
 import pytest
 
 from rlchain import Runner
-from rlchain.envs.test.duel import play_duel
+from rlchain.envs.examples.duel import play_duel
 from rlchain.training.events import Callback
 from rlchain.training.self_play import FrozenPolicy, SelfPlayCallback
 from tests.conftest import CONFIGS

@@ -24,7 +24,7 @@ from tests.smoke.test_train_play_resume import small
 pytestmark = pytest.mark.smoke
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 REINFORCE = ["params.import_modules=[tests.smoke.user_algo]", "params.algo.name=reinforce",
-             "params.config.num_actors=4", "params.config.horizon_length=32", "params.config.minibatch_size=128"]
+             "params.config.num_actors=4", "params.config.horizon_length=32"]
 
 
 def reinforce(tmp_path, epochs=2, extra=()):

@@ -10,7 +10,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.algos.appo.local_runners import LocalRunners
-from rlchain.algos.appo.trainer import APPOTrainer
+from rlchain.algos.appo.trainer import APPO
 from rlchain.config.load import parse_params
 from rlchain.config.schema import EnvRunnersConfig
 from rlchain.envs.ray.ray_env import worker_slices
@@ -21,7 +21,7 @@ from rlchain.training.events import Callback
 
 pytestmark = pytest.mark.smoke
 
-APPO = {
+APPO_CONFIG = {
     "params": {
         "seed": 3,
         "algo": {"name": "appo"},
@@ -36,7 +36,7 @@ APPO = {
 
 
 def config(tmp_path, algo="appo", **changes):
-    raw = copy.deepcopy(APPO)
+    raw = copy.deepcopy(APPO_CONFIG)
     raw["params"]["algo"]["name"] = algo
     raw["params"]["config"]["train_dir"] = str(tmp_path)
     for key, value in changes.items():
@@ -149,7 +149,7 @@ def test_runner_that_keeps_dying_ends_the_run_with_one_line_and_a_checkpoint(tmp
 @pytest.mark.timeout(120)
 def test_a_straggler_does_not_set_the_pace(tmp_path, monkeypatch):
     # runner 0 sleeps 10x longer per env step: 8 steps = 0.4 s a fragment against 0.04 s for the others
-    monkeypatch.setattr(APPOTrainer, "step_delays", [0.05, 0.005, 0.005, 0.005])
+    monkeypatch.setattr(APPO, "step_delays", [0.05, 0.005, 0.005, 0.005])
     grab = Grab()
     epochs = 20  # 80 fragments; a synchronous runner pool would need 20 x 0.4 s = 8 s of sleeping alone
     start = time.monotonic()
@@ -208,8 +208,6 @@ def test_runners_report_task_success(tmp_path, mode):
     """TestGoalReach-v0 reports info['success'] inside the runners: APPO's epoch stats and TensorBoard
     get a success rate, counted with the config's success_mode, and log_info_keys' env_info/success."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
-
-    import rlchain.envs.test  # noqa: F401  (registers TestGoalReach-v0)
 
     raw = config(tmp_path, env_name="TestGoalReach-v0", success_mode=mode, max_epochs=4, log_info_keys=["success"],
                  env_config={"goal_dict": False, "reward_type": "dense", "max_steps": 8})

@@ -73,7 +73,7 @@ def test_bad_brax_config_is_one_line(tmp_path, override, message):
 
 
 def test_state_round_trip_continues_bit_identically():
-    """Issue 35: get_state / set_state carry the JAX state pytree and key; after a set_state the env steps
+    """Exact resume: get_state / set_state carry the JAX state pytree and key; after a set_state the env steps
     exactly as it did from that point (auto-resets and the time limit included); the whole run's resume is
     test_ppo_brax_resume_is_bit_identical below."""
     from rlchain.envs.backends.brax_env import BraxVecEnv
@@ -103,7 +103,7 @@ def test_state_round_trip_continues_bit_identically():
 
 
 def test_ppo_brax_resume_is_bit_identical(tmp_path):
-    """Issue 35 end to end: PPO on Brax, 3 epochs + resume to 6 equals 6 straight (parameters, optimizer,
+    """Exact resume end to end: PPO on Brax, 3 epochs + resume to 6 equals 6 straight (parameters, optimizer,
     episodes, every logged metric; torch.equal). Same env shapes as the train/play/resume test above, so
     the JAX compile cache of this module serves its reset and step."""
     from tests.smoke.test_exact_resume import check_split

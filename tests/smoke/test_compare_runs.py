@@ -1,5 +1,5 @@
 """``rlchain compare`` on CartPole runs trained here: two configs, two seeds each, a couple of epochs
-(issue 38 item 3: a PNG and a Markdown table with IQM and intervals from real run folders)."""
+(a PNG and a Markdown table with IQM and intervals from real run folders)."""
 
 import os
 

@@ -1,4 +1,4 @@
-"""algo distill, issue 36 item 2: a SAC teacher (tests/data/sac_pendulum_*.pth, a 2-epoch SAC Pendulum
+"""algo distill with a SAC teacher (tests/data/sac_pendulum_*.pth, a 2-epoch SAC Pendulum
 checkpoint) labels with its deterministic action and a Gaussian student fits it; ``multi_gpu: True`` under
 a 2-rank gloo torchrun keeps the ranks' students identical. Bad pairings are one-line errors."""
 

@@ -142,7 +142,7 @@ def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
     model = states[0]["model"]
     # each normalizer folded both ranks' batches (16 envs x 64 steps per rank and epoch)
     assert model["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
-    # value_normalizer: rl_games (issue 32) folds each sample's value prediction and its return: twice the count
+    # value_normalizer: rl_games folds each sample's value prediction and its return: twice the count
     assert model["value_norm.count"].item() == pytest.approx(2 * 3 * 2 * 16 * 64, abs=1e-3)
 
 
@@ -338,8 +338,9 @@ if __name__ == "__main__":
 
 @pytest.mark.timeout(300)
 def test_two_rank_resume_is_bit_identical(tmp_path):
-    """Issue 35: each rank's envs, episodes and random streams are in rank 0's checkpoint; resuming the epoch-3
-    checkpoint to 6 equals 6 straight on both ranks (parameters, optimizer, lr, counters, episode statistics)."""
+    """Exact resume across ranks: each rank's envs, episodes and random streams are in rank 0's checkpoint;
+    resuming the epoch-3 checkpoint to 6 equals 6 straight on both ranks (parameters, optimizer, lr, counters,
+    episode statistics)."""
     cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
     small = ["params.network.mlp.units=[16]", "params.config.num_actors=4", "params.config.minibatch_size=32",
              "params.torch_threads=1", "params.update_threads=1", "params.config.score_to_win=100000",

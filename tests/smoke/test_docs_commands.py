@@ -1,4 +1,4 @@
-"""Every command the docs show runs (issue 18): README.md and docs/*.md, block by block.
+"""Every command the docs show runs: README.md and docs/*.md, block by block.
 
 Each ``bash`` / ``python`` fenced block carries a marker, an HTML comment on the line before it
 (docs/layout.md, "The docs are tested", has the table)::

@@ -1,4 +1,4 @@
-"""Every env a training run opens is closed, however the run ends (issue 19): a finished run, an
+"""Every env a training run opens is closed, however the run ends: a finished run, an
 env that raises, a divergence, a failing callback, Ctrl-C, a trainer that fails to start."""
 
 import os

@@ -125,12 +125,12 @@ def test_auto_trains_like_one_group_whichever_layout_wins(tmp_path, monkeypatch,
 def test_layout_probe_leaves_the_random_state_and_the_seeds_alone(tmp_path):
     """The probe steps the envs with a throwaway policy: the torch random state is as before, and the first
     seeded reset restarts every env from the run's seed."""
-    from rlchain.algos.ppo.trainer import OnPolicyTrainer
+    from rlchain.algos.ppo.trainer import PPO
     from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
     params = envpool_cartpole(tmp_path, "auto").params
     torch.manual_seed(11)
     before = torch.get_rng_state()
-    env = OnPolicyTrainer.build_training_env(params, 7)
+    env = PPO.build_training_env(params, 7)
     reference = EnvpoolVecEnv("CartPole-v1", 16, seed=7)
     try:
         assert torch.equal(before, torch.get_rng_state())

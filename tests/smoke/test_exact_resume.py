@@ -1,4 +1,4 @@
-"""Exact resume (issue 35): N epochs + resume to 2N is bit-identical to 2N straight -- parameters, optimizer
+"""Exact resume: N epochs + resume to 2N is bit-identical to 2N straight -- parameters, optimizer
 state, every logged epoch metric and episode reward -- for PPO on gymnasium (native, sync, async; classic
 control and MuJoCo), a torch tensor env, SAC with its replay buffer saved, a SIGTERM in the middle of an
 epoch and the periodic / best checkpoints; envs that cannot give their state resume as before with one line.

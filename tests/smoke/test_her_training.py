@@ -58,7 +58,7 @@ def test_gymnasium_goal_env_compute_reward_and_sac_her_trains(tmp_path):
 
 
 def test_fetch_push_benchmark_config_trains_one_epoch_with_her_updates(tmp_path):
-    """sac_her_fetch_push.yaml (the benchmark config of benchmarks/her_vs_sb3.py) parses and trains on
+    """sac_her_fetch_push.yaml (the benchmark config of benchmarks/peers/her_vs_sb3.py) parses and trains on
     envpool FetchPush-v4: one epoch (200 frames) with the warmup cut to 100 frames and a 32-sample batch,
     so the HER replay is sampled (relabelled with the Fetch reward) for the config's 2 updates after
     each env step from the one that reaches 100 frames (26 of the 50)."""

@@ -1,5 +1,5 @@
 """A short CartPole run under a pseudo-terminal shows the live status line (carriage return, ANSI erase,
-ETA); the same run piped prints the plain epoch lines with no control characters (issue 38 item 2)."""
+ETA); the same run piped prints the plain epoch lines with no control characters."""
 
 import os
 import pty

@@ -1,4 +1,4 @@
-"""Checkpoints and the frozen config (issue 19): a checkpoint stores the resolved config; checkpoints written
+"""Checkpoints and the frozen config: a checkpoint stores the resolved config; checkpoints written
 before (main at 7e59869, tests/data/*_7e59869.pth) still play and resume; one without a config fails in one
 line; live hyperparameters belong to the run and survive a resume."""
 

@@ -68,7 +68,7 @@ def test_rl_games_test_network_configs_run_unchanged(tmp_path, name):
     assert len(aux) == (2 if "aux_loss" in name else 0) and all(v >= 0 for v in aux)
 
 
-RL_GAMES2 = os.path.join(ROOT, "benchmarks", "rl_games2_configs")
+RL_GAMES2 = os.path.join(ROOT, "benchmarks", "peers", "rl_games2_configs")
 
 
 @pytest.mark.parametrize("name", ["hopper.yaml", "ant_envpool.yaml"])

@@ -147,7 +147,7 @@ def _trial(tmp_path, name):
 
 
 def test_a_restarted_trial_continues_bit_identically(ray_session, tmp_path):
-    """Issue 35 in a Ray Tune trial: a trial restored from its epoch-3 checkpoint in a new actor (what a
+    """Exact resume in a Ray Tune trial: a trial restored from its epoch-3 checkpoint in a new actor (what a
     max_failures restart does: a new actor, ``load_checkpoint``, then ``step``) reports epochs 4-6 exactly as
     a trial that never stopped and ends with identical parameters, optimizer state and episodes (torch.equal).
     Tune's own scheduling around it (FailureConfig) is test_crashed_trial_restarts_from_its_checkpoint's."""

@@ -1,4 +1,4 @@
-"""rlchain as a package (issue 38): the built wheel, installed into a fresh venv outside the clone, trains,
+"""rlchain as a package: the built wheel, installed into a fresh venv outside the clone, trains,
 plays a shipped checkpoint, exports to ONNX and runs the push-cube JSON by name, from a folder that is
 not the clone.
 

@@ -14,7 +14,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.load import load_config, parse_params
 from rlchain.config.resolve import config_state, params_from_state
 from rlchain.config.run import RunConfig
-from rlchain.config.schema import TrainConfig
+from rlchain.config.schema import PPOConfig
 from rlchain.registry import ALGOS
 from tests.conftest import ROOT
 
@@ -100,11 +100,11 @@ def test_each_algo_has_its_own_class_and_no_forbidden_keys():
     def keys(cls):
         return {f.name for f in dataclasses.fields(cls)}
     shared = keys(ActorCriticConfig)
-    assert issubclass(TrainConfig, ActorCriticConfig) and issubclass(APPOConfig, ActorCriticConfig)
-    assert not issubclass(APPOConfig, TrainConfig) and not issubclass(ImpalaConfig, APPOConfig)
+    assert issubclass(PPOConfig, ActorCriticConfig) and issubclass(APPOConfig, ActorCriticConfig)
+    assert not issubclass(APPOConfig, PPOConfig) and not issubclass(ImpalaConfig, APPOConfig)
     assert {"learning_rate", "minibatch_size", "horizon_length", "critic_coef"} <= shared
-    assert {"tau", "env_groups", "seq_length", "torch_compile", "central_value_config"} <= keys(TrainConfig) - shared
-    ppo_only = keys(TrainConfig) - keys(APPOConfig)
+    assert {"tau", "env_groups", "seq_length", "torch_compile", "central_value_config"} <= keys(PPOConfig) - shared
+    ppo_only = keys(PPOConfig) - keys(APPOConfig)
     for key in ("tau", "env_groups", "central_value_config", "self_play_config", "use_action_masks", "seq_length",
                 "bptt_length", "zero_rnn_on_done", "torch_compile"):
         assert key in ppo_only and key not in keys(RunConfig)
@@ -118,9 +118,9 @@ def test_config_as_names_the_algo():
     params = parse()
     assert params.config_as(APPOConfig) is params.config and params.config_as(RunConfig) is params.config
     with pytest.raises(ConfigError) as err:
-        params.config_as(TrainConfig)
+        params.config_as(PPOConfig)
     assert str(err.value) == ("cfg.yaml: params.algo.name: algo appo configures a APPOConfig; this needs a "
-                              "TrainConfig (the params.config of another algorithm)")
+                              "PPOConfig (the params.config of another algorithm)")
 
 
 def test_rl_games_cartpole_yaml_loads_as_appo_and_impala(monkeypatch):

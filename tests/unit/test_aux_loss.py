@@ -16,7 +16,7 @@ from rlchain.config.load import parse_params
 from rlchain.errors import NetworkError
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
-from rlchain.networks.test_networks import TestNet, TestNetAuxLoss
+from rlchain.networks.example_networks import TestNet, TestNetAuxLoss
 from rlchain.registry import NETWORKS, Registry
 from rlchain.runs.logging import TrainLogger
 from tests.conftest import BASE
@@ -107,10 +107,10 @@ def test_aux_losses_are_logged_with_rl_games_tag_names():
     logger = TrainLogger(None, print_stats=False, writers=[Recorder()])
     stats = {"a_loss": 0.1, "c_loss": 0.2, "entropy": 0.3, "b_loss": 0.0, "lr": 1e-3, "kl": 0.01,
              "clip_frac": 0.0, "grad_norm": 1.0, "losses/aux_dist_loss": 0.5}
-    from rlchain.algos.ppo.trainer import OnPolicyTrainer
+    from rlchain.algos.ppo.trainer import PPO
     from rlchain.training.loop import tag_metrics
 
-    metrics = tag_metrics(stats, OnPolicyTrainer.metric_tags)
+    metrics = tag_metrics(stats, PPO.metric_tags)
     logger.epoch(1, 2, 64, metrics, None, float("-inf"), {"batch": 64, "rollout": 1.0, "update": 1.0})
     assert written["losses/aux_dist_loss"] == 0.5 and written["losses/a_loss"] == 0.1
 

@@ -1,5 +1,5 @@
 """``rlchain compare`` (rlchain/compare/) on run folders written here with rlchain's own TensorBoard writer:
-grouping, tags, the IQM table, the PNGs, and one-line errors for bad input (issue 38 item 3)."""
+grouping, tags, the IQM table, the PNGs, and one-line errors for bad input."""
 
 import os
 import sys

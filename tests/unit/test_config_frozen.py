@@ -1,4 +1,4 @@
-"""The frozen config (issue 19): parsing returns an immutable value with its derived keys filled in,
+"""The frozen config: parsing returns an immutable value with its derived keys filled in,
 resolve() makes the per-process run context, checkpoints store the resolved config as data."""
 
 import copy
@@ -17,7 +17,7 @@ from rlchain.config.fields import option
 from rlchain.config.load import import_user_modules, load_config
 from rlchain.config.resolve import (
     RANK_SEED_STRIDE,
-    RunContext,
+    ProcessContext,
     config_state,
     params_from_state,
     resolve,
@@ -81,7 +81,7 @@ class FakeGroup:
 def test_resolve_makes_the_per_process_context_and_leaves_the_parsed_config_alone():
     params = parse(device="cuda:0", env_config={"seed": 5, "device": "cuda:0"})
     single = resolve(params, 3)
-    assert single == RunContext(params, 3) and single.params is params and single.print_stats
+    assert single == ProcessContext(params, 3) and single.params is params and single.print_stats
     assert isinstance(resolve(params, None).seed, int)  # drawn when none is given
 
     rank1 = resolve(params, 7, FakeGroup(1, device="cuda:1"))

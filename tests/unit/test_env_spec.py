@@ -1,5 +1,5 @@
 """EnvSpec (rlchain/envs/spec.py): what the factory's envs carry, read once; and the env-building
-module that the factory and the Ray worker share without importing each other (issue 19 part 4)."""
+module that the factory and the Ray worker share without importing each other."""
 
 import ast
 import dataclasses

@@ -1,4 +1,4 @@
-"""The envs' state for exact resume (issue 35): gymnasium wrapper chains (frame stacks, normalization
+"""The envs' state for exact resume: gymnasium wrapper chains (frame stacks, normalization
 filters, TimeLimit, np_random), an env holding what cannot be copied, the spec's capability flag and the
 episode tracker's episodes in progress."""
 

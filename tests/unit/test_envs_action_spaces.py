@@ -1,4 +1,5 @@
-"""Vecenv layer for issue 3's action spaces: masks (has/get_action_mask), Tuple actions, Dict observations."""
+"""Vecenv layer for the action spaces beyond Discrete and Box: masks (has/get_action_mask), Tuple actions,
+Dict observations."""
 
 import gymnasium as gym
 import numpy as np

@@ -2,7 +2,7 @@
 function is there only for an optional dependency, saying which (``# optional: ray``).
 
 Walks every module with ``ast`` (module-level and function-level imports, relative ones resolved), so it
-imports nothing and runs in a fraction of a second.
+runs nothing of them; it imports rlchain only for the registry of algorithms, whose packages are the families.
 """
 
 from __future__ import annotations
@@ -12,6 +12,9 @@ import os
 import re
 from dataclasses import dataclass
 
+import rlchain  # noqa: F401  (registers the built-in algorithms, whose packages are the families)
+from rlchain.registry import ALGOS, Registry
+
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 PACKAGE = os.path.join(ROOT, "rlchain")
 
@@ -20,13 +23,11 @@ PACKAGE = os.path.join(ROOT, "rlchain")
 # (rl_games' Python API names: its Runner drives rlchain's) is a facade at the same layer as cli.py / runner.py
 ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.runner",
                 "rlchain.tuning", "rlchain.rl_games")  # and the package itself (rlchain.Runner)
-ALGO_FAMILIES = ("rlchain.algos.ppo", "rlchain.algos.off_policy", "rlchain.algos.appo", "rlchain.algos.multi_policy")
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"
 TRAINER = re.compile(r"^rlchain\.algos\.\w+\.trainer$")
-ALGO_FAMILIES += ("rlchain.algos.distill",)  # teacher to student (issue 36)
-RUNS_MAY_IMPORT = ("rlchain.training.events", "rlchain.training.callback_context")  # log callbacks
+GROUND_FLOOR = ("rlchain.errors", "rlchain.log", "rlchain.registry", "rlchain.deprecation")  # import nothing of rlchain
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
 OPTIONAL = re.compile(r"#\s*optional:\s*\S")
 
@@ -54,6 +55,21 @@ def _modules() -> dict[str, str]:
 
 
 MODULES = _modules()
+
+
+def algo_families(algos: Registry = ALGOS) -> tuple[str, ...]:
+    """The algorithm families: the package under ``rlchain.algos`` of every registered algorithm class and
+    every other folder there (multi_policy is picked by config.multi_agent, not by name); algos/base/ and
+    algos/core/ are what they share, not families."""
+    found = {".".join(m.split(".")[:3]) for m in MODULES if m.startswith("rlchain.algos.") and m.count(".") >= 2}
+    for name in algos.names():
+        module = getattr(algos.get(name), "__module__", "")
+        if module.startswith("rlchain.algos."):
+            found.add(".".join(module.split(".")[:3]))
+    return tuple(sorted(found - {ALGO_BASE, "rlchain.algos.core"}))
+
+
+ALGO_FAMILIES = algo_families()
 
 
 def _resolve(name: str) -> str | None:
@@ -100,12 +116,14 @@ def _under(module: str, *prefixes: str) -> bool:
     return any(module == p or module.startswith(p + ".") for p in prefixes)
 
 
-def _family(module: str) -> str | None:
-    return next((f for f in ALGO_FAMILIES if _under(module, f)), None)
+def _family(module: str, families: tuple[str, ...]) -> str | None:
+    return next((f for f in families if _under(module, f)), None)
 
 
-def layer_violation(importer: str, imported: str) -> str | None:
-    """Why ``importer`` may not import ``imported`` (docs/layout.md), or None."""
+def layer_violation(importer: str, imported: str, families: tuple[str, ...] | None = None) -> str | None:
+    """Why ``importer`` may not import ``imported`` (docs/layout.md), or None; ``families``: the algorithm
+    families (default: :func:`algo_families` of the registered algorithms)."""
+    families = ALGO_FAMILIES if families is None else families
     if imported.split(".")[0] != "rlchain":
         if _under(importer, "rlchain.config") and imported.split(".")[0] in TORCH_MODULES:
             return "config/ imports no torch module"
@@ -120,31 +138,36 @@ def layer_violation(importer: str, imported: str) -> str | None:
             return "algos/, models/, networks/ import no training/ (the loop holds the algorithm)"
         if _under(imported, "rlchain.inference", "rlchain.tuning", "rlchain.builtins"):
             return "algos/, models/, networks/ sit below inference/ and tuning/"
-        if _under(imported, "rlchain.runs") and _family(importer) is None:
+        if _under(imported, "rlchain.runs") and _family(importer, families) is None:
             return "algos/core/, models/, networks/ write no run output"
     if _under(importer, "rlchain.models", "rlchain.networks", "rlchain.algos.core") and \
             _under(imported, "rlchain.algos") and not _under(imported, "rlchain.algos.core"):
         return "models/, networks/ and algos/core/ import no algorithm family"
-    if _under(importer, ALGO_BASE) and _family(imported) is not None:
+    if _under(importer, ALGO_BASE) and _family(imported, families) is not None:
         return "algos/base/ (what the loop and every algorithm share) names no algorithm family"
-    if _under(importer, "rlchain.envs") and not _under(imported, "rlchain.envs", "rlchain.config", "rlchain.errors",
-                                                       "rlchain.log", "rlchain.registry", "rlchain.parallel"):
+    if _under(importer, "rlchain.envs") and not _under(imported, "rlchain.envs", "rlchain.config", "rlchain.parallel",
+                                                       *GROUND_FLOOR):
         return "envs/ imports only envs/, config/, parallel/ and the ground floor"
-    if _under(importer, "rlchain.config") and not _under(imported, "rlchain.config", "rlchain.errors", "rlchain.log",
-                                                         "rlchain.registry"):
+    if _under(importer, "rlchain.config") and not _under(imported, "rlchain.config", *GROUND_FLOOR):
         return "config/ imports only config/ and the ground floor"
-    if _under(importer, "rlchain.parallel") and not _under(imported, "rlchain.parallel", "rlchain.errors",
-                                                           "rlchain.log", "rlchain.registry", "rlchain.config"):
+    if _under(importer, "rlchain.parallel") and not _under(imported, "rlchain.parallel", "rlchain.config",
+                                                           *GROUND_FLOOR):
         return "parallel/ is low: it imports only config/ and the ground floor"
-    if _under(importer, "rlchain.errors", "rlchain.log", "rlchain.registry"):
-        return "the ground floor (errors, log, registry) imports nothing of rlchain"
+    if _under(importer, *GROUND_FLOOR):
+        return "the ground floor (errors, log, registry, deprecation) imports nothing of rlchain"
     if _under(importer, "rlchain.training") and not _under(imported, ALGO_BASE) and \
             _under(imported, "rlchain.algos", "rlchain.inference.export", "rlchain.tuning", "rlchain.builtins"):
         return "training/ names no algorithm (and no export, tuning or built-ins)"
-    if _under(importer, "rlchain.runs") and (
-            _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning", "rlchain.builtins")
-            or _under(imported, "rlchain.training") and imported not in RUNS_MAY_IMPORT):
-        return "runs/ sits below the loop and the algorithms (of training/ it sees only the callback interface)"
+    if _under(importer, "rlchain.runs") and _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning",
+                                                   "rlchain.builtins", "rlchain.training", "rlchain.policy"):
+        return "runs/ sits below the loop, the algorithms and the policy"
+    if _under(importer, "rlchain.policy") and (
+            _under(imported, "rlchain.training", "rlchain.inference", "rlchain.tuning", "rlchain.builtins")
+            or _family(imported, families) is not None):
+        return "policy/ (a trained policy, its play loop) sits below training/, inference/ and the algorithms"
+    if _under(importer, "rlchain.models", "rlchain.networks", "rlchain.algos.core", ALGO_BASE, "rlchain.envs",
+              "rlchain.config", "rlchain.parallel") and _under(imported, "rlchain.policy"):
+        return "models/, networks/, algos/core/, algos/base/, envs/, config/ and parallel/ sit below policy/"
     if _under(importer, "rlchain.inference") and (TRAINER.match(imported) or _under(imported, "rlchain.tuning")
                                                    or imported == "rlchain.training.loop"):
         return "inference/ imports no trainer"
@@ -219,6 +242,12 @@ def test_the_checks_bite():
     assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop")
     assert layer_violation("rlchain.algos.multi_policy.snapshots", "rlchain.training.events")
     assert layer_violation("rlchain.algos.base.context", "rlchain.algos.ppo.agent")
+    assert layer_violation("rlchain.runs.logging", "rlchain.training.events")
+    assert layer_violation("rlchain.policy.play", "rlchain.training.events")
+    assert layer_violation("rlchain.policy.play", "rlchain.inference.player")
+    assert layer_violation("rlchain.models.build", "rlchain.policy.stepper")
+    assert layer_violation("rlchain.training.evaluation", "rlchain.policy.play") is None
+    assert layer_violation("rlchain.algos.distill.teacher", "rlchain.policy.play") is None
     assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.algos.base.algorithm") is None
     assert layer_violation("rlchain.training.loop", "rlchain.algos.base.algorithm") is None
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]

@@ -10,12 +10,12 @@ import torch
 
 from rlchain import Runner
 from rlchain.algos.base.episodes import EpisodeTracker
-from rlchain.algos.ppo.trainer import OnPolicyTrainer
+from rlchain.algos.ppo.trainer import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
+from rlchain.envs.examples.cooperative import CooperativeEnv, nearest_flag_policy
 from rlchain.envs.factory import make_vec_env
-from rlchain.envs.test.cooperative import CooperativeEnv, nearest_flag_policy
 from rlchain.envs.wrappers.multi_agent import MultiAgentVecEnv, make_multi_agent_env
 from rlchain.models.build import build_env, build_model
 from rlchain.runs.logging import TrainLogger
@@ -209,7 +209,7 @@ def _trainer(raw):
     params = parse_params(raw, "<test>")
     env = build_env(params, params.config.num_actors, 0)
     model = build_model(params, env, torch.device("cpu"))
-    return Loop(params, OnPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0, raw)
+    return Loop(params, PPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0, raw)
 
 
 def test_minibatch_is_checked_against_the_batch_with_agents():

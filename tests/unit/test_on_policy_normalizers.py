@@ -1,6 +1,6 @@
 """The PPO update trains with normalizer statistics that already include its own rollout, so the
-policy the update produces is the one the next rollout acts with (before this, the observations were
-folded in after the update: each update trained under one normalization and acted under another)."""
+policy the update produces is the one the next rollout acts with (folding the observations in after the
+update would train each update under one normalization and act under another)."""
 
 import pytest
 import torch
@@ -34,14 +34,14 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
     (count1, mean1, rows1, vcount1), (count2, _, _, vcount2) = seen
     assert count1 == pytest.approx(steps, abs=1e-3) and count2 == pytest.approx(2 * steps, abs=1e-3)
     assert torch.allclose(mean1, rows1, atol=1e-4)  # the first update's statistics are its rollout's
-    # the value statistics fold this rollout's returns (and with rl_games' normalizer its value predictions,
-    # issue 32) before the update too
+    # the value statistics fold this rollout's returns (and with rl_games' normalizer its value predictions)
+    # before the update too
     per_epoch = rows_per_step * steps
     assert vcount1 == pytest.approx(per_epoch, abs=1e-3) and vcount2 == pytest.approx(2 * per_epoch, abs=1e-3)
 
 
 def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_forward_pass(tmp_path, monkeypatch):
-    # obs_normalizer_update: minibatch (rl_games' timing, issue 32): the update starts with last epoch's
+    # obs_normalizer_update: minibatch (rl_games' timing): the update starts with last epoch's
     # statistics; minibatch k of the first mini-epoch is normalized with statistics that hold minibatches 1..k;
     # the later passes use the whole rollout's
     seen, counts = [], []

@@ -1,6 +1,6 @@
 """PettingZoo adapter, masked returns and minibatches, the multi_agent block and multi-policy PPO.
 
-The env here is rlchain/envs/test/pz_dying.py (PettingZoo's ParallelEnv API without importing
+The env here is rlchain/envs/examples/pz_dying.py (PettingZoo's ParallelEnv API without importing
 pettingzoo): agents that terminate early and one that appears later. The MPE / classic envs are
 tried in tests/smoke/test_pettingzoo_configs.py and tests/learning/test_pettingzoo_learning.py.
 """
@@ -28,7 +28,7 @@ DYING = {
         "model": {"name": "discrete_a2c"},
         "network": {"name": "actor_critic", "space": {"discrete": None}, "mlp": {"units": [16]}},
         "config": {"name": "dying", "env_name": "pettingzoo", "device": "cpu", "num_actors": 4,
-                   "env_config": {"env": "rlchain.envs.test.pz_dying", "kwargs": {"runners": 2, "length": 6}},
+                   "env_config": {"env": "rlchain.envs.examples.pz_dying", "kwargs": {"runners": 2, "length": 6}},
                    "horizon_length": 12, "minibatch_size": 16, "mini_epochs": 2, "max_epochs": 3,
                    "print_stats": False, "save_best_after": 0,
                    "multi_agent": {"policies": {"runners": {}, "late": {"config": {"learning_rate": 1e-3}}},
@@ -48,7 +48,7 @@ def dying(tmp_path=None, **config):
 
 # ----- the adapter -------------------------------------------------------------------------
 def test_agents_that_die_or_appear_later_are_inactive_and_end_once():
-    env = pettingzoo_env(2, 0, env="rlchain.envs.test.pz_dying", kwargs={"runners": 2, "length": 6})
+    env = pettingzoo_env(2, 0, env="rlchain.envs.examples.pz_dying", kwargs={"runners": 2, "length": 6})
     views = env.reset(seed=0)
     active, ends = [], []
     for _ in range(6):
@@ -193,7 +193,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
             "losses/runners/c_loss", "info/runners/last_lr", "rewards/step"} <= tags
     assert "losses/a_loss" not in tags  # two policies: no unprefixed loss to mix them up in
     # resume: the learner state is exactly the checkpoint's
-    from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+    from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
@@ -201,7 +201,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
     params = runner.params
     env = build_env(params, 4, 3)
     model = build_model(params, env, torch.device("cpu"))
-    trainer = Loop(params, MultiPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
+    trainer = Loop(params, MultiPolicyPPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
                    runner.raw)
     trainer.restore(state, path)
     again = trainer.state_dict()
@@ -220,7 +220,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
 
 
 def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
-    from rlchain.algos.multi_policy.trainer import MultiPolicyTrainer
+    from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
@@ -229,7 +229,7 @@ def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
     params = runner.params
     env = build_env(params, 4, 3)
     model = build_model(params, env, torch.device("cpu"))
-    trainer = Loop(params, MultiPolicyTrainer, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
+    trainer = Loop(params, MultiPolicyPPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
                    runner.raw).algorithm
     trainer.start()
     assert trainer.collect()

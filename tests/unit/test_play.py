@@ -1,4 +1,4 @@
-"""The one play() loop (rlchain/inference/play.py) that evaluation, the Player, video and export share
+"""The one play() loop (rlchain/policy/play.py) that evaluation, the Player, video and export share
 (issue 19 part 4): games and steps limits, action masks, RNN state, the one-env recording adapter."""
 
 import os
@@ -10,10 +10,10 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
-from rlchain.inference.play import play
+from rlchain.envs.wrappers.one_env import OneEnv
 from rlchain.inference.player import Player
-from rlchain.inference.video import OneEnv
 from rlchain.models.build import build_env, build_model
+from rlchain.policy.play import play
 from rlchain.training.evaluation import run_episodes
 from tests.conftest import CONFIGS
 
@@ -109,21 +109,25 @@ def test_the_recording_adapter_resets_per_game_and_not_after_the_last():
     assert result.rewards == [2.0, 2.0, 2.0] and inner.seeds == [10, 11, 12]  # no 4th video started
 
 
-def test_player_closes_its_env_when_the_checkpoint_cannot_be_loaded(tmp_path, monkeypatch):
-    import rlchain.inference.player as player_module
+def test_player_opens_no_env_for_a_bad_checkpoint_and_closes_one_it_cannot_use(tmp_path, monkeypatch):
+    import rlchain.policy.load as load_module
 
-    closed = []
+    opened, closed = [], []
 
     def build(*args, **kwargs):
         env = build_env(*args, **kwargs)
+        opened.append(env)
         close = env.close
         env.close = lambda: (closed.append(True), close())
         return env
 
-    monkeypatch.setattr(player_module, "build_env", build)
+    monkeypatch.setattr(load_module, "build_env", build)
     params = Runner().load(CARTPOLE).params
     bad = tmp_path / "bad.pth"
     bad.write_bytes(b"not a checkpoint")
     with pytest.raises(Exception):  # noqa: B017 (whatever the loader raises)
         Player(params, str(bad))
-    assert closed == [True]
+    assert opened == [] and closed == []  # the checkpoint is read before any env opens
+    with pytest.raises(ConfigError, match="--sigma"):  # CartPole's policy has no sigma to set
+        Player(params, None, sigma=0.5)
+    assert len(opened) == 1 and closed == [True]

@@ -1,4 +1,4 @@
-"""The live status line (rlchain/runs/progress.py) and the console writer's choice of lines (issue 38 item 2)."""
+"""The live status line (rlchain/runs/progress.py) and the console writer's choice of lines."""
 
 import io
 import logging

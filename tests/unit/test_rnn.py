@@ -184,8 +184,7 @@ def test_rnn_config_errors(tmp_path):
 
 
 def test_masked_velocity_env_hides_velocities():
-    import rlchain.envs.test  # noqa: F401
-
+    # rlchain.builtins (run when rlchain is imported) registered the id
     env = gym.make("CartPoleMaskedVelocity-v1")
     obs, _ = env.reset(seed=0)
     assert obs.shape == (2,) and env.observation_space.shape == (2,)
@@ -212,7 +211,7 @@ def test_truncated_bptt_cuts_gradients_but_not_values(name):
 
 def test_stepper_names_the_key_when_a_masked_policy_meets_an_env_without_masks():
     from rlchain.config.errors import ConfigError
-    from rlchain.models.stepper import PolicyStepper
+    from rlchain.policy.stepper import PolicyStepper
 
     class NoMasks:
         def has_action_mask(self):

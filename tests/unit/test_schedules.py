@@ -129,7 +129,7 @@ def test_agent_state_carries_entropy_coef(base_config):
 
 
 def test_logger_writes_entropy_coef():
-    from rlchain.algos.ppo.trainer import OnPolicyTrainer
+    from rlchain.algos.ppo.trainer import PPO
     from rlchain.runs.writers import Writer
     from rlchain.training.loop import tag_metrics
 
@@ -144,7 +144,7 @@ def test_logger_writes_entropy_coef():
     logger = TrainLogger(None, print_stats=False, writers=[recorder])
     stats = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "lr": 1e-3, "kl": 0.0,
              "clip_frac": 0.0, "grad_norm": 0.0, "entropy_coef": 0.005}
-    metrics = tag_metrics(stats, OnPolicyTrainer.metric_tags)
+    metrics = tag_metrics(stats, PPO.metric_tags)
     logger.epoch(1, 10, 64, metrics, None, float("-inf"), {"batch": 64, "rollout": 0.1, "update": 0.1})
     assert recorder.tags["info/entropy_coef"] == 0.005
 

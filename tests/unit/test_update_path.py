@@ -1,4 +1,4 @@
-"""Issue 37's update path: the transposed log_softmax equals torch's, compile_update's config checks."""
+"""The PPO update path: the transposed log_softmax equals torch's, compile_update's config checks."""
 
 import os
 
@@ -23,7 +23,7 @@ def test_log_softmax_last_matches_torch_values_and_grads(n):
     weights = torch.randn(777, n)
     (out * weights).sum().backward()
     (want * weights).sum().backward()
-    # with a gradient torch's own call: the update's gradients are bit for bit what they were (issue 37)
+    # with a gradient torch's own call: the update's gradients are torch's, bit for bit
     assert torch.equal(logits.grad, reference.grad)
 
 

@@ -1,7 +1,6 @@
-"""``value_normalizer`` (issue 32): rl_games' value statistics fold the rollout's value predictions in with
-the returns and clip at +-5, in and out; rlchain's earlier normalizer used the returns only, unclipped.
-Hopper learned slower per frame from ~0.3M to ~1M frames with the returns-only statistics
-(docs/ppo_parity.md, "Hopper's first million frames")."""
+"""``value_normalizer``: rl_games' value statistics fold the rollout's value predictions in with
+the returns and clip at +-5, in and out; ``returns`` uses the returns only, unclipped (docs/ppo_parity.md,
+"Hopper's first million frames", compares the two)."""
 
 import gymnasium as gym
 import pytest

@@ -33,10 +33,11 @@ from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.core.vtrace import vtrace
 from rlchain.algos.ppo.agent import PPOAgent
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
 from rlchain.config.schema import EnvRunnersConfig, Params
+from rlchain.deprecation import renamed
 from rlchain.envs.ray.ray_env import worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.envs.spec import EnvSpec
@@ -47,8 +48,8 @@ PPO_TAGS = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "lo
             "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm"}
 
 
-class APPOTrainer(AlgorithmBase):
-    """Algo ``appo`` (see the module docstring); ``impala`` is :class:`ImpalaTrainer`."""
+class APPO(AlgorithmBase):
+    """Algo ``appo`` (see the module docstring); ``impala`` is :class:`IMPALA`."""
 
     config_class: ClassVar[type] = APPOConfig
     agent_class: ClassVar[type] = PPOAgent
@@ -274,7 +275,7 @@ class APPOTrainer(AlgorithmBase):
         self.dropped_fragments = int(state.get("dropped_fragments", 0))
 
 
-class ImpalaTrainer(APPOTrainer):
+class IMPALA(APPO):
     """Algo ``impala``: the V-trace actor-critic, one pass per batch, no surrogate clipping."""
 
     config_class = ImpalaConfig
@@ -294,3 +295,10 @@ def runner_mode(cfg: APPOConfig) -> str:
         address = cfg.env_runners.address if cfg.env_runners is not None else None
         mode = "ray" if address or os.environ.get("RAY_ADDRESS") else "local"
     return mode
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "APPOTrainer": ("APPO", APPO),
+    "ImpalaTrainer": ("IMPALA", IMPALA),
+})

@@ -34,15 +34,15 @@ import torch
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec
-from rlchain.models.build import build_env
 
 
 @runtime_checkable
 class Algorithm(Protocol):
     """The hooks the Loop drives. ``model``, ``agent`` (``state_dict``/``load_state_dict``: the
     optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls back. A class
-    attribute ``config_class`` names its ``params.config`` dataclass (TrainConfig when absent)."""
+    attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent)."""
 
     metric_tags: ClassVar[dict[str, str]]
     """Metric name (a key of :meth:`update`'s result) -> TensorBoard tag. Keys that already look like

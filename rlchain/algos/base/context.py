@@ -71,6 +71,9 @@ class RunContext:
     threads: ThreadPlan | None = None
     live_config: dict[str, Any] = field(default_factory=dict)
     """Tunable config fields changed during the run (set_params); checkpointed."""
+    resuming: bool = False
+    """The run continues from a checkpoint whose weights the model already holds (the Runner loaded them
+    before building the algorithm): an algorithm loads no other weights into it (PPO's distilled student)."""
     resume_state: dict[str, Any] | None = None
     """After a restore from a checkpoint holding the envs' state: that state and the algorithm's
     position in its episodes, until :meth:`resume_envs` puts them back (the algorithm's ``start``)."""
@@ -153,10 +156,11 @@ class RunContext:
         """Tensor envs take device tensors; numpy backends take arrays."""
         return actions if self.spec.tensor_native else actions.cpu().numpy()
 
-    def env_outcome(self, result: Any, rows: slice = slice(None)
+    def record_step(self, result: Any, rows: slice = slice(None)
                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """A step's (rewards, terminated, truncated, dones) as device tensors; finished episodes are
-        recorded as whole games (Atari lives), episodes cut by a dead Ray worker are dropped.
+        """Record an env step in the run -- episode statistics (finished episodes as whole games: Atari
+        lives; episodes cut by a dead Ray worker dropped), task success, info means, ``on_env_step``
+        callbacks -- and return its (rewards, terminated, truncated, dones) as device tensors.
         ``rows``: the envs ``result`` is for (a pipelined rollout's env group; all by default)."""
         rewards = self.to_tensor(result.reward).float()
         terminated = self.to_tensor(result.terminated).bool()
@@ -170,6 +174,8 @@ class RunContext:
         if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
             self.emit_env_step(result, dones, rows)
         return rewards, terminated, truncated, dones
+
+    env_outcome = record_step  # the same method, for user algorithms that call it by this name
 
     def emit_env_step(self, result: Any, dones: torch.Tensor, rows: slice) -> None:
         """``on_env_step`` with the rows of ``result`` whose episode ended (one per env: its first

@@ -20,10 +20,11 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.off_policy import SACConfig
 from rlchain.config.packaged import resolve_checkpoint
-from rlchain.config.ppo import TrainConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.config.resolve import params_from_state
 from rlchain.config.schema import Params
-from rlchain.models.build import build_model, model_view
+from rlchain.models.build import model_view
+from rlchain.policy.load import load_policy
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.teacher_checkpoint"
@@ -51,7 +52,7 @@ def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
     except (KeyError, TypeError, ConfigError) as exc:
         raise ConfigError(source, KEY, f"{path}: the checkpoint's config cannot be read back ({exc})") from None
     is_sac = isinstance(teacher_params.config, SACConfig)
-    if not (isinstance(teacher_params.config, TrainConfig) or is_sac) or teacher_params.policies is not None:
+    if not (isinstance(teacher_params.config, PPOConfig) or is_sac) or teacher_params.policies is not None:
         raise ConfigError(source, KEY, f"{path} was trained with algo '{teacher_params.algo.name}'; a teacher is a "
                                        f"single-policy PPO checkpoint (a2c_continuous / a2c_discrete) or a SAC one")
     if is_sac and not isinstance(env.action_space, gym.spaces.Box):
@@ -75,17 +76,15 @@ def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
                           f"gives {chosen.size} features (indices {_short(chosen.indices)}) but the teacher in "
                           f"{path} was trained on {trained.size} (indices {_short(trained.indices)})")
     try:
-        model = build_model(teacher_params, env, device, group="teacher", groups=groups)
+        model = load_policy(teacher_params, path, state=state, env=env, device=device, group="teacher",
+                            groups=groups).model
+    except ckpt.CheckpointError as exc:
+        raise ConfigError(source, KEY, f"the teacher does not fit this env's action space {env.action_space} "
+                                       f"(or network): {exc}") from None
     except (ConfigError, ValueError) as exc:
         raise ConfigError(source, KEY, f"the teacher in {path} ({teacher_params.model.name}) does not fit this "
                                        f"env's action space {env.action_space}: "
                                        f"{getattr(exc, 'message', exc)}") from None
-    try:
-        ckpt.load_model_state(model, state, path)
-    except ckpt.CheckpointError as exc:
-        raise ConfigError(source, KEY, f"the teacher does not fit this env's action space {env.action_space} "
-                                       f"(or network): {exc}") from None
-    model.eval()
     for p in model.parameters():
         p.requires_grad_(False)
     if is_sac:

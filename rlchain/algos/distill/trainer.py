@@ -1,12 +1,12 @@
 """``algo: distill``: a student learns to act like a frozen teacher on the states it visits itself (DAgger).
 
-Each epoch (:meth:`DistillTrainer.collect`) steps the envs ``horizon_length`` times. Who acts is drawn with
+Each epoch (:meth:`Distill.collect`) steps the envs ``horizon_length`` times. Who acts is drawn with
 DAgger's beta (``teacher_action_prob``, moving linearly to ``teacher_action_prob_end`` over
 ``teacher_action_prob_epochs``) once per episode or every step (``mixing``); the teacher labels every
 state either way (its action distribution on its own, clean, view). The student reads its view
 (``obs_groups.student``), corrupted by ``student_noise_std`` / ``student_dropout`` and ``student_delay``
 steps late while training.
-:meth:`DistillTrainer.update` then fits the student to the labels (``loss``: MSE / Huber on the action
+:meth:`Distill.update` then fits the student to the labels (``loss``: MSE / Huber on the action
 means, KL or cross-entropy on the distributions; action masks applied to both sides) for ``mini_epochs``
 passes; an RNN student is trained on each env's whole rollout from the state it entered the epoch with
 (truncated BPTT: ``bptt_length``), its state zeroed where an episode started.
@@ -35,6 +35,7 @@ from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.resolve import config_state
 from rlchain.config.schema import Params
+from rlchain.deprecation import renamed
 from rlchain.envs.vecenv import DROPPED
 from rlchain.errors import DivergenceError
 from rlchain.networks.rnn import zero_finished
@@ -125,7 +126,7 @@ class DelayLine:
         return self.line[0]
 
 
-class DistillTrainer(AlgorithmBase):
+class Distill(AlgorithmBase):
     """Algo ``distill``: DAgger from a frozen PPO teacher into the student of ``params.network``."""
 
     config_class = DistillConfig
@@ -224,7 +225,7 @@ class DistillTrainer(AlgorithmBase):
                 masks_buf.append(masks)
             result = self.env.step(ctx.env_actions(dist.to_env(action)))
             self._exclude_mixed(result)
-            rewards, _, _, dones = ctx.env_outcome(result)
+            rewards, _, _, dones = ctx.record_step(result)
             self._track(rewards, dones)
             self.obs = ctx.to_tensor(result.obs)
             self.states = zero_finished(tuple(s_states or ()), dones)
@@ -347,3 +348,9 @@ class DistillTrainer(AlgorithmBase):
         """Restore the per-side returns (the teacher comes from teacher_checkpoint, as at the start)."""
         for side, values in state.get("distill", {}).items():
             self.finished[side].extend(values)
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "DistillTrainer": ("Distill", Distill),
+})

@@ -22,10 +22,11 @@ from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
 from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
 from rlchain.algos.multi_policy.snapshots import Snapshots
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
 from rlchain.config.multi_agent import KEY
 from rlchain.config.schema import Params
+from rlchain.deprecation import renamed
 from rlchain.envs.spec import EnvSpec
 from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
@@ -35,7 +36,7 @@ STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entrop
              "entropy_coef": "info/{}/entropy_coef", "clip_frac": "info/{}/clip_frac"}
 
 
-class MultiPolicyTrainer(AlgorithmBase):
+class MultiPolicyPPO(AlgorithmBase):
     """PPO for several policies over one PettingZoo vector env (``config.multi_agent``); self_play_config
     acts through ``multi_agent.snapshots`` (:class:`Snapshots`, driven from :meth:`end_epoch`)."""
 
@@ -241,3 +242,9 @@ def _check_supported(params: Params) -> None:
         if used:
             raise ConfigError(params.source, f"params.config.{key}", "is not supported with multi_agent yet; "
                                                                      "remove it (docs/multi_agent.md)")
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "MultiPolicyTrainer": ("MultiPolicyPPO", MultiPolicyPPO),
+})

@@ -17,6 +17,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.base.stepper import OffPolicyStepper
 from rlchain.algos.core.replay import ReplayBuffer
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.schedules import set_lr
@@ -26,14 +27,14 @@ from rlchain.algos.off_policy.sac import SACAgent
 from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import DQNConfig, SACConfig
 from rlchain.config.schema import Params
+from rlchain.deprecation import renamed
 from rlchain.envs.wrappers.goal_env import env_compute_reward
-from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 
 log = get_logger(__name__)
 
 
-class OffPolicyTrainer(AlgorithmBase):
+class OffPolicyAlgorithm(AlgorithmBase):
     """An off-policy algorithm: env steps into a replay buffer, updates from it."""
 
     config_class: type = SACConfig
@@ -44,6 +45,7 @@ class OffPolicyTrainer(AlgorithmBase):
         cfg = self.cfg
         self.agent = self.make_agent()
         self.buffer = self.make_buffer()
+        self.stepper = OffPolicyStepper(env, model, ctx, cfg, self.buffer)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0  # seconds of gradient updates inside the last collect()
@@ -131,7 +133,6 @@ class OffPolicyTrainer(AlgorithmBase):
     def _epoch(self) -> tuple[dict[str, float], float, bool]:
         """num_steps_per_episode env steps, each followed by updates once warmup is over."""
         cfg, model, dist, ctx = self.cfg, self.model, self.model.dist, self.ctx
-        rs = cfg.reward_shaper
         sums: dict[str, torch.Tensor] = {}
         count = 0
         update_s = 0.0
@@ -142,24 +143,7 @@ class OffPolicyTrainer(AlgorithmBase):
                 actions = dist.random(self.num_envs, self.device)
             else:
                 actions = self.explore(obs)
-            result = self.env.step(ctx.env_actions(dist.to_env(actions)))
-            rewards, terminated, truncated, dones = ctx.env_outcome(result)
-            if rewards.dim() > 1:
-                rewards = rewards.sum(-1)
-            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
-            next_obs = ctx.to_tensor(result.obs)
-            if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
-                                                          and not bool(torch.isfinite(next_obs).all())):
-                raise DivergenceError("the env returned a non-finite reward or observation")
-            real_next = next_obs
-            if bool(dones.any()):
-                real_next = next_obs.clone()
-                rows = dones.nonzero().squeeze(-1)
-                real_next[rows] = ctx.to_tensor(result.final_obs)[rows].to(next_obs.dtype)
-            self.buffer.add(obs, actions, shaped, real_next, terminated, truncated)
-            model.update_normalizers(obs=next_obs)
-            obs = next_obs
-            ctx.frames += self.num_envs
+            obs = self.stepper.step(obs, actions)
             if ctx.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
                 t0 = time.time()
                 model.train()
@@ -219,13 +203,13 @@ class OffPolicyTrainer(AlgorithmBase):
                         f"written): it refills from empty, {self.cfg.batch_size} transitions before learning goes on")
 
 
-class SACTrainer(OffPolicyTrainer):
+class SAC(OffPolicyAlgorithm):
     """Algo ``sac``."""
 
     config_class = SACConfig
     metric_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
                    "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q",
-                   "alpha": "info/alpha", **OffPolicyTrainer.SHARED_TAGS}
+                   "alpha": "info/alpha", **OffPolicyAlgorithm.SHARED_TAGS}
     console_fields = tuple((name, name + " {:.3g}") for name in
                            ("actor_loss", "critic_loss", "alpha_loss", "entropy", "q", "alpha"))
     tunable = ("actor_lr", "critic_lr", "alpha_lr", "gamma", "critic_tau", "batch_size", "num_updates_per_step",
@@ -238,12 +222,12 @@ class SACTrainer(OffPolicyTrainer):
         return {"alpha": float(self.model.alpha.detach())}
 
 
-class DQNTrainer(OffPolicyTrainer):
+class DQN(OffPolicyAlgorithm):
     """Algo ``dqn``."""
 
     config_class = DQNConfig
     metric_tags = {"td_loss": "losses/td_loss", "q": "info/q", "epsilon": "info/epsilon",
-                   **OffPolicyTrainer.SHARED_TAGS}
+                   **OffPolicyAlgorithm.SHARED_TAGS}
     console_fields = tuple((name, name + " {:.3g}") for name in ("td_loss", "q", "epsilon"))
     tunable = ("learning_rate", "gamma", "target_tau", "target_update_frequency", "batch_size",
                "num_updates_per_step", "epsilon_end")
@@ -292,3 +276,11 @@ def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:
         raw = torch.as_tensor(raw, dtype=torch.float32, device=device).reshape(-1)
         return shape_rewards(raw, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
     return reward
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "OffPolicyTrainer": ("OffPolicyAlgorithm", OffPolicyAlgorithm),
+    "SACTrainer": ("SAC", SAC),
+    "DQNTrainer": ("DQN", DQN),
+})

@@ -23,7 +23,7 @@ from rlchain.algos.core.schedules import (
 )
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
-from rlchain.config.schema import TrainConfig
+from rlchain.config.schema import PPOConfig
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
@@ -43,7 +43,7 @@ class PPOAgent:
     loss after each forward pass; they come back from :meth:`update` as ``losses/<name>``.
     """
 
-    def __init__(self, model: ActorCritic, cfg: TrainConfig, device: torch.device,
+    def __init__(self, model: ActorCritic, cfg: PPOConfig, device: torch.device,
                  comm: Communicator = SINGLE, cuda_graph: bool = False) -> None:
         self.model = model
         self.comm = comm  # multi_gpu: gradients and the KL behind the adaptive lr are averaged over ranks

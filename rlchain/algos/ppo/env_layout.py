@@ -2,11 +2,10 @@
 
 The layouts of the same envs give the same transitions (env i is seeded ``seed + i`` in each; the rollout
 acts on the same observations in the same order: tests/smoke/test_env_groups.py), at speeds that depend on
-the task and the machine (docs/benchmarks.md, "env_groups: auto"; 2-core AMD EPYC, ms per epoch):
+the task and the machine (docs/benchmarks.md measures them):
 
 - **one pool** stepped with ``step()``: the fewest calls per step. On 2 cores it is the fastest on rl_games' five
-  MuJoCo YAMLs (train steps/s against the two pipelined pools that were the default before: HalfCheetah 1.16x,
-  Ant and Hopper 1.04x, Walker2d 1.02x, Humanoid 0.99x);
+  MuJoCo YAMLs, where envpool's own threads already keep both cores busy;
 - **two pools** stepped together: one pool's same-step auto-reset call can overlap the other pool's stepping;
 - **two pools, pipelined**: the policy acts for one while the other steps, which pays where stepping leaves a
   core idle (more cores, or the policy on a GPU).
@@ -32,8 +31,10 @@ import numpy as np
 import torch
 
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.log import get_logger
-from rlchain.models.build import build_env, build_model, resolve_device
+from rlchain.models.build import build_model
+from rlchain.parallel.device import resolve_device
 
 log = get_logger(__name__)
 

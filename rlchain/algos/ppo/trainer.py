@@ -7,6 +7,7 @@ from typing import Any
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
@@ -16,15 +17,16 @@ from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
 from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, probed
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
-from rlchain.algos.ppo.rollout import RolloutMixin
+from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.load import check_batch
-from rlchain.config.schema import Params
+from rlchain.config.schema import Params, PPOConfig
+from rlchain.deprecation import renamed
+from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.models.build import build_central_value, build_env
+from rlchain.models.build import build_central_value
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
 from rlchain.runs import checkpoint as ckpt
@@ -32,10 +34,23 @@ from rlchain.runs import checkpoint as ckpt
 log = get_logger(__name__)
 
 
-class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
+def _collector_attr(name: str, doc: str) -> property:
+    """A property of PPO that reads and sets ``self.collector.<name>``."""
+
+    def get(self: PPO) -> Any:
+        return getattr(self.collector, name)
+
+    def set_(self: PPO, value: Any) -> None:
+        setattr(self.collector, name, value)
+
+    return property(get, set_, doc=doc)
+
+
+class PPO(AlgorithmBase):
     """PPO (algos ``a2c_continuous`` and ``a2c_discrete``): rollout into a storage, then the PPO update
     (and the central value's, with an asymmetric critic)."""
 
+    config_class = PPOConfig
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
                    "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
@@ -66,6 +81,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             raise
 
     def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
+        # the collector first: it holds where the envs stand (obs, RNN states), which AlgorithmBase sets
+        self.collector = OnPolicyCollector(env, model, ctx, ctx.cfg)
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
@@ -82,21 +99,25 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
+        collector = self.collector
+        collector.central_value, collector.use_masks = self.central_value, self.use_masks
+        collector.pipeline_choice = PipelineChoice(auto=cfg.env_groups == "auto")
         # RNN states carried through the rollout: the model's, then the central value's
-        self.rnn_states = self._initial_states()
-        self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=device)
-        self.pipeline_choice = PipelineChoice(auto=cfg.env_groups == "auto")
+        collector.rnn_states = collector.initial_states()
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
+        collector.storage = self.storage
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         # cuda_graph: the act step as a graph too, for a feed-forward policy without masks or central value
         plain = not model.is_rnn and not self.use_masks and self.central_value is None
-        self.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
-        self.distilled_teacher = load_distilled(params, env, model, device) if cfg.distilled_checkpoint else None
+        collector.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
+        # a fresh run starts from the distilled student; a resumed one holds its checkpoint's weights already
+        fresh = cfg.distilled_checkpoint and not ctx.resuming
+        self.distilled_teacher = load_distilled(params, env, model, device) if fresh else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -152,16 +173,23 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
             super().apply_hyperparam(name, value)
             self.agent.config_changed()  # cuda_graph: the captured step holds e_clip, critic_coef, ...
 
-    def _initial_states(self) -> tuple[torch.Tensor, ...]:
-        states = tuple(self.model.initial_state(self.num_envs, self.device))
-        if self.central_value is not None:
-            states += self.central_value.initial_state(self.num_envs, self.device)
-        return states
-
     def reset_states(self) -> None:
         """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
-        self.rnn_states = self._initial_states()
-        self.resets.fill_(True)
+        self.collector.reset_states()
+
+    def rollout(self) -> bool:
+        """Step the envs for horizon_length steps into the storage (the collector); False if a stop signal
+        came."""
+        return self.collector.rollout()
+
+    # where the envs stand, held by the collector (read and set here by start, resume and callers)
+    obs = _collector_attr("obs", "The observations the next rollout acts on (None before ``start``).")
+    rnn_states = _collector_attr("rnn_states", "RNN states carried through the rollout: the model's, then the "
+                                               "central value's.")
+    resets = _collector_attr("resets", "Which env rows start an episode at the next step.")
+    last_values = _collector_attr("last_values", "Values of the observations after the last rollout (raw scale).")
+    pipeline_choice = _collector_attr("pipeline_choice", "Over env groups: pipelined or stepped together.")
+    graphed_act = _collector_attr("graphed_act", "cuda_graph: the act step as a CUDA graph, else None.")
 
     def learn(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, then the PPO update.
@@ -169,8 +197,8 @@ class OnPolicyTrainer(RolloutMixin, AlgorithmBase):
         Every normalizer folds this rollout in before the update (the observations, with
         ``obs_normalizer_update: minibatch``, minibatch by minibatch in the update's first pass), so the
         network is trained with the statistics the next rollout acts with. (Folding the observations in
-        after the update, as rlchain did before, trained each update under one normalization and acted
-        under another: Hopper reached ~400 at 0.5M frames against ~1,450 this way; docs/ppo_parity.md.)
+        after the update would train each update under one normalization and act under another, which
+        slows learning per frame; docs/ppo_parity.md.)
         """
         cfg, storage, model = self.cfg, self.storage, self.model
         flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
@@ -249,3 +277,9 @@ def obs_per_minibatch(mode: str, continuous: bool) -> bool:
     """``obs_normalizer_update`` resolved: True when each minibatch of the update's first pass folds its
     observations in (minibatch, or auto with continuous actions), False for the whole rollout at once."""
     return mode == "minibatch" or (mode == "auto" and continuous)
+
+
+# the old names, importable with a DeprecationWarning for one release
+__getattr__ = renamed(__name__, {
+    "OnPolicyTrainer": ("PPO", PPO),
+})

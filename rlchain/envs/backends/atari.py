@@ -38,12 +38,11 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.reward_action_obs import RewardActionObs
-from rlchain.registry import ENVS
 
 INSTALL_HINT = "Atari needs ale-py and opencv: pip install rlchain[atari]"
 ATARI_ID = "rlchain/AtariDeepMind-v0"
-"""The gymnasium id of :func:`make_atari_env` (registered on import; importing rlchain imports this
-module through rlchain.builtins, so async workers know the id too)."""
+"""The gymnasium id of :func:`make_atari_env` (registered by rlchain.builtins, which importing rlchain runs,
+so async workers know the id too)."""
 
 WRAPPER_OPTIONS = {"skip": 4, "noop_max": 30, "episode_life": True, "fire_reset": True, "clip_rewards": False,
                    "frame_stack": 4, "screen_size": 84, "channels_first": False}
@@ -234,7 +233,5 @@ def preset_env(name: str) -> Any:
     return build
 
 
-gym.register(id=ATARI_ID, entry_point=make_atari_env, disable_env_checker=True)
-ENVS.register("atari_gym", atari_gym_env, overwrite=True)
-for _name in RL_GAMES_PRESETS:
-    ENVS.register(_name, preset_env(_name), overwrite=True)
+ENV_BUILDERS = {"atari_gym": atari_gym_env, **{name: preset_env(name) for name in RL_GAMES_PRESETS}}
+"""``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""

@@ -3,7 +3,7 @@
 Modes:
 
 - ``native``: the id's ``vector_entry_point`` (e.g. CartPole-v1: one numpy env for the whole
-  batch, ~3x faster than ``sync``). Only used when the result has same-step auto-reset: the
+  batch, faster than ``sync``'s env per row). Only used when the result has same-step auto-reset: the
   vector env declares ``AutoresetMode.SAME_STEP``, or it is a NEXT_STEP env we know how to reset
   row-wise right after the step (see ``_SAME_STEP_RESETTERS``).
 - ``sync``: ``SyncVectorEnv`` with ``AutoresetMode.SAME_STEP``, one process.

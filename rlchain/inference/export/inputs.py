@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.inference.play import play
+from rlchain.policy.play import play
 
 RANDOM_OBS_BOUND = 10.0
 """Random parity observations: an unbounded side of a Box dim (inf, or beyond +-1e6 like CartPole's
@@ -57,7 +57,7 @@ def random_masks(dist: Any, n: int, seed: int = 0) -> np.ndarray:
 def env_rollout(model: Any, env: Any, steps: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray | None]:
     """Observations of ``steps`` deterministic policy steps in ``env`` (all envs), stacked, and the
     env's action masks at each of them ((n, mask_size) bool), None when the model uses no masks.
-    The steps are played by :func:`rlchain.inference.play.play` (RNN state zeroed where episodes end)."""
+    The steps are played by :func:`rlchain.policy.play.play` (RNN state zeroed where episodes end)."""
 
     seen, masks = [], []
 

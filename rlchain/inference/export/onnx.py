@@ -60,8 +60,7 @@ from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the p
     random_observations,
 )
 from rlchain.models.actor_critic import ActorCritic
-from rlchain.models.build import build_env, build_model
-from rlchain.runs import checkpoint as ckpt
+from rlchain.policy.load import load_policy
 
 INSTALL_HINT = "pip install rlchain[onnx]"
 
@@ -216,16 +215,9 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
 def _load(params: Any, checkpoint_path: str, num_envs: int = 1) -> tuple[ActorCritic, Any]:
     """Checkpoint + env + model on the CPU, as the Player builds them. Returns (model, env)."""
 
-    state = ckpt.load(checkpoint_path, map_location="cpu")  # CheckpointError before building anything
-    seed = params.seed if params.seed is not None else 0
-    env = build_env(params, num_envs, seed, env_config=params.config.player.env_config)
-    try:
-        model = build_model(params, env, torch.device("cpu"))
-        ckpt.load_model_state(model, state, checkpoint_path)
-    except BaseException:
-        env.close()
-        raise
-    return model.eval(), env
+    policy = load_policy(params, checkpoint_path, device=torch.device("cpu"), num_envs=num_envs,
+                         env_config=params.config.player.env_config)
+    return policy.model, policy.env
 
 
 def exported_view(model: ActorCritic, space: gym.Space) -> tuple[ActorCritic, tuple[int, ...], torch.dtype, Any]:

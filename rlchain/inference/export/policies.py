@@ -19,8 +19,9 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.inference.export.inputs import random_observations
 from rlchain.inference.export.onnx import _require, default_output_path, export_model_onnx, onnx_session, verify_onnx
-from rlchain.models.build import build_env, build_model, policy_agents
-from rlchain.runs import checkpoint as ckpt
+from rlchain.models.build import policy_agents
+from rlchain.policy.load import load_policy
+from rlchain.policy.play import step_policies
 
 
 def policy_output_path(output: str, policy: str) -> str:
@@ -38,12 +39,11 @@ def export_policies(params: Any, checkpoint: str, output: str | None = None, pol
     if policy is not None and policy not in params.policies:
         raise ConfigError(params.source, "--policy", f"unknown policy '{policy}' (policies: "
                                                      f"{', '.join(params.policies)})")
-    state = ckpt.load(checkpoint, map_location="cpu")
     seed = params.seed if params.seed is not None else 0
-    env = build_env(params, 2, seed, env_config=params.config.player.env_config)
+    loaded = load_policy(params, checkpoint, device=torch.device("cpu"), num_envs=2, seed=seed,
+                         env_config=params.config.player.env_config, eval_mode=False)  # each model: eval below
+    env, models = loaded.env, loaded.model
     try:
-        models = build_model(params, env, torch.device("cpu"))
-        ckpt.load_model_state(models, state, checkpoint)
         plan = {name: agents for name, agents in policy_agents(params, env).items() if agents}
         if policy is not None and policy not in plan:
             raise ConfigError(params.source, "--policy", f"policy '{policy}' plays no agent of this env")
@@ -77,23 +77,15 @@ def _env_observations(env: Any, models: Any, plan: dict[str, list[str]], steps: 
     """Each policy's active observations (and masks) over ``steps`` steps of the deterministic policies."""
     seen: dict[str, list] = {name: [] for name in plan}
     masks_seen: dict[str, list] = {name: [] for name in plan}
-    views = env.reset(seed=seed)
-    e = env.num_envs
+
+    def record(name: str, agent_views: list[Any], obs: np.ndarray, masks: np.ndarray | None) -> None:
+        active = np.concatenate([view.active for view in agent_views])
+        seen[name].append(obs[active])
+        if masks is not None:
+            masks_seen[name].append(masks[active])
+
+    stepping = step_policies(env, models, plan, torch.device("cpu"), True, seed, on_obs=record)
     for _ in range(steps):
-        actions = {}
-        for name, agents in plan.items():
-            model = models[name]
-            obs = np.concatenate([views[a].obs for a in agents])
-            active = np.concatenate([views[a].active for a in agents])
-            masks = np.concatenate([views[a].mask for a in agents]) if model.use_action_masks else None
-            seen[name].append(obs[active])
-            if masks is not None:
-                masks_seen[name].append(masks[active])
-            with torch.no_grad():
-                out = model.act(torch.as_tensor(obs), deterministic=True,
-                                action_masks=None if masks is None else torch.as_tensor(masks))
-            acts = model.dist.to_env(out["actions"]).numpy()
-            actions.update({a: acts[k * e:(k + 1) * e] for k, a in enumerate(agents)})
-        views = env.step(actions).obs
+        next(stepping)
     return {name: (np.concatenate(seen[name]), np.concatenate(masks_seen[name]) if masks_seen[name] else None)
             for name in plan}

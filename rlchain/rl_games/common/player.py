@@ -27,12 +27,14 @@ import torch
 
 from rlchain.config.load import parse_params
 from rlchain.config.schema import Params
+from rlchain.envs.factory import build_env
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
-from rlchain.inference.play import play
-from rlchain.models.build import apply_sigma, build_env, build_model, resolve_device
+from rlchain.models.build import apply_sigma, build_model
+from rlchain.parallel.device import resolve_device
+from rlchain.policy.load import load_policy, load_weights
+from rlchain.policy.play import play
 from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.common import env_configurations, vecenv
-from rlchain.runs import checkpoint as ckpt
 
 
 def parse_player_params(params: dict[str, Any]) -> Params:
@@ -111,8 +113,7 @@ class BasePlayer:
     # ----- weights ------------------------------------------------------------------------------------
     def restore(self, fn: str) -> None:
         """Load the policy of an rlchain checkpoint (a mismatched one is a one-line CheckpointError)."""
-        state = ckpt.load(fn, map_location=self.device)
-        ckpt.load_model_state(self.model, state, fn)
+        load_weights(self.model, fn, self.device)
 
     def get_weights(self) -> dict[str, Any]:
         """``{'model': state_dict}`` (normalizers included)."""
@@ -203,14 +204,15 @@ class BasePlayer:
         """Play ``player.games_num`` games on the env rlchain builds for the config (``player.num_actors``
         envs with ``use_vecenv``, else one); prints and returns the PlayResult."""
         pc = self.parsed.config.player
-        env = build_env(self.parsed, pc.num_actors if pc.use_vecenv else 1, self.seed, render=pc.render,
-                        env_config=pc.env_config)
-        try:  # the model as training built it for this env ([obs | state] rows of a central-value env)
-            model = build_model(self.parsed, env, self.device)
-            model.load_state_dict(self.model.state_dict())
-            result = play(model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
+        # the model as training built it for this env ([obs | state] rows of a central-value env)
+        policy = load_policy(self.parsed, device=self.device, num_envs=pc.num_actors if pc.use_vecenv else 1,
+                             seed=self.seed, render=pc.render, env_config=pc.env_config, eval_mode=False)
+        try:
+            policy.model.load_state_dict(self.model.state_dict())
+            result = play(policy.model, policy.env, self.games_num, self.is_deterministic, device=self.device,
+                          seed=self.seed)
         finally:
-            env.close()
+            policy.close()
         print(f"av reward: {result.mean_reward:.2f} av steps: {result.mean_length:.1f} over {result.games} games",
               flush=True)
         return result

@@ -2,6 +2,6 @@
 class), this one registration line. The Loop holds the algorithm; it never subclasses the Loop."""
 
 from rlchain import model_builder
-from tests.smoke.user_algo.reinforce import ReinforceTrainer
+from tests.smoke.user_algo.reinforce import Reinforce
 
-model_builder.register_algo("reinforce", ReinforceTrainer, overwrite=True)
+model_builder.register_algo("reinforce", Reinforce, overwrite=True)

@@ -1,11 +1,12 @@
 """A user's own algorithm for rlchain's Loop: REINFORCE with a mean-return baseline.
 
-What adding an algorithm takes, and all it takes: this module (the Algorithm protocol's hooks, on
-``AlgorithmBase``'s defaults), one config class and one registration line (``model_builder.register_algo``
-in this package's ``__init__.py``, user code). The Loop holds the algorithm and supplies stop rules,
-signals, checkpoints and resume, the divergence guard, callbacks, evaluation and the TensorBoard /
-console logging of the metrics ``update`` returns; the run (env steps, counters, stop signals) reaches
-the algorithm through ``self.ctx``, the RunContext.
+What adding an algorithm takes, and all it takes: this module (a config class and the algorithm's
+``update``, on ``AlgorithmBase``'s defaults for the other hooks) and one registration line
+(``model_builder.register_algo`` in this package's ``__init__.py``, user code). The on-policy collector
+steps the envs into a rollout storage (episode statistics, callbacks, stop signals included); the Loop
+holds the algorithm and supplies stop rules, signals, checkpoints and resume, the divergence guard,
+callbacks, evaluation and the TensorBoard / console logging of the metrics ``update`` returns; the run
+(counters, the env's outcome) reaches the algorithm through ``self.ctx``, the RunContext.
 """
 
 from __future__ import annotations
@@ -16,17 +17,22 @@ from typing import Any
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.returns import shape_rewards
-from rlchain.config.fields import option
-from rlchain.config.schema import Params, TrainConfig
+from rlchain.algos.core.storage import RolloutStorage
+from rlchain.config.fields import option, positive
+from rlchain.config.run import RunConfig
+from rlchain.config.schema import Params
 
 
 @dataclass(frozen=True)
-class ReinforceConfig(TrainConfig):
-    """PPO's keys (horizon_length, learning_rate, gamma, ...) plus this algorithm's own."""
+class ReinforceConfig(RunConfig):
+    """The keys every algorithm reads (RunConfig: env, num_actors, gamma, reward_shaper, stop rules, ...)
+    plus REINFORCE's own."""
 
+    horizon_length: int = option(32, "steps per env per epoch", check=positive)
+    learning_rate: float = option(3e-4, "Adam learning rate", check=positive)
     baseline: bool = option(True, "subtract the batch's mean return from every return")
 
 
@@ -51,8 +57,9 @@ class ReinforceAgent:
         self.optimizer.load_state_dict(state["optimizer"])
 
 
-class ReinforceTrainer(AlgorithmBase):
-    """Algo ``reinforce``: horizon_length steps of every env, then one policy-gradient step."""
+class Reinforce(AlgorithmBase):
+    """Algo ``reinforce``: the collector's rollout of horizon_length steps of every env, then one
+    policy-gradient step."""
 
     config_class = ReinforceConfig
     metric_tags = {"pg_loss": "losses/pg_loss", "mean_return": "info/mean_return", "lr": "info/last_lr"}
@@ -61,42 +68,31 @@ class ReinforceTrainer(AlgorithmBase):
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
-        self.agent = ReinforceAgent(self.model, self.cfg.learning_rate)
-        self.divergence = DivergenceGuard(self.cfg.divergence, self.model, self.agent)
-        self.batch: dict[str, torch.Tensor] = {}
+        cfg, dist = self.cfg, model.dist
+        self.agent = ReinforceAgent(self.model, cfg.learning_rate)
+        self.divergence = DivergenceGuard(cfg.divergence, self.model, self.agent)
+        storage = RolloutStorage(cfg.horizon_length, self.num_envs, tuple(env.observation_space.shape),
+                                 torch.float32, dist.action_shape, dist.action_dtype, dist.param_size, 1, self.device)
+        self.collector = OnPolicyCollector(env, model, ctx, cfg, storage=storage)
 
     def collect(self) -> bool:
-        cfg, model, ctx = self.cfg, self.model, self.ctx
-        model.eval()
-        obs, actions, rewards, dones = [], [], [], []
-        for _ in range(cfg.horizon_length):
-            if ctx.stop_requested():
-                return False
-            with torch.no_grad():
-                out = model.act(self.obs)
-            result = self.env.step(ctx.env_actions(model.dist.to_env(out["actions"])))
-            reward, _, _, done = ctx.env_outcome(result)
-            rs = cfg.reward_shaper
-            obs.append(self.obs)
-            actions.append(out["actions"])
-            rewards.append(shape_rewards(reward, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val))
-            dones.append(done)
-            self.obs = ctx.to_tensor(result.obs)
-        self.batch = {"obs": torch.stack(obs), "actions": torch.stack(actions), "rewards": torch.stack(rewards),
-                      "dones": torch.stack(dones)}
-        return True
+        self.collector.obs = self.obs  # where the envs stand: start() and resume set self.obs
+        complete = self.collector.rollout()
+        self.obs = self.collector.obs
+        return complete
 
     def update(self) -> dict[str, float]:
-        cfg, model, b = self.cfg, self.model, self.batch
-        returns = torch.zeros_like(b["rewards"])
-        running = torch.zeros_like(b["rewards"][0])
+        cfg, model, rollout = self.cfg, self.model, self.collector.storage
+        rewards, dones = rollout.rewards[..., 0], rollout.dones
+        returns = torch.zeros_like(rewards)
+        running = torch.zeros_like(rewards[0])
         for t in reversed(range(cfg.horizon_length)):  # the horizon's end cuts episodes: no bootstrap
-            running = b["rewards"][t] + cfg.gamma * running * (~b["dones"][t]).float()
+            running = rewards[t] + cfg.gamma * running * (~dones[t]).float()
             returns[t] = running
         advantages = returns - returns.mean() if cfg.baseline else returns
         model.train()
-        params, _, _ = model.evaluate(b["obs"].flatten(0, 1))
-        log_probs, _ = model.dist.log_prob_and_entropy(params, b["actions"].flatten(0, 1))
+        params, _, _ = model.evaluate(rollout.obs.flatten(0, 1))
+        log_probs, _ = model.dist.log_prob_and_entropy(params, rollout.actions.flatten(0, 1))
         loss = -(log_probs * advantages.flatten()).mean()
         self.agent.optimizer.zero_grad(set_to_none=True)
         loss.backward()

@@ -1,4 +1,4 @@
-"""Built-in batched torch envs, registered in :data:`rlchain.registry.ENVS`:
+"""Built-in batched torch envs, for :data:`rlchain.registry.ENVS` (:data:`ENV_BUILDERS`):
 
 - ``TorchCartPole-v0``: gymnasium CartPole-v1, Discrete(2), 500-step limit;
 - ``TorchPendulum-v0``: gymnasium Pendulum-v1, Box(1), 200-step limit;
@@ -20,7 +20,6 @@ from rlchain.envs.backends.tensor_env import TensorVecEnv
 from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
 from rlchain.envs.backends.torch_envs.pendulum import TorchPendulum
 from rlchain.envs.backends.torch_envs.reacher import TorchReacher
-from rlchain.registry import ENVS
 
 CONFIG = "params.config.env_config"
 
@@ -51,9 +50,9 @@ build_torch_cartpole = _builder(TorchCartPole, "TorchCartPole-v0")
 build_torch_pendulum = _builder(TorchPendulum, "TorchPendulum-v0")
 build_torch_reacher8 = _builder(TorchReacher, "TorchReacher8-v0", num_links=8)
 
-ENVS.register("TorchCartPole-v0", build_torch_cartpole, overwrite=True)
-ENVS.register("TorchPendulum-v0", build_torch_pendulum, overwrite=True)
-ENVS.register("TorchReacher8-v0", build_torch_reacher8, overwrite=True)
+ENV_BUILDERS = {"TorchCartPole-v0": build_torch_cartpole, "TorchPendulum-v0": build_torch_pendulum,
+                "TorchReacher8-v0": build_torch_reacher8}
+"""``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""
 
 __all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "build_torch_cartpole",
            "build_torch_pendulum", "build_torch_reacher8"]

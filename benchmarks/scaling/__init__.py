@@ -1,0 +1,1 @@
+"""More workers: torchrun processes, Ray env runners, the asynchronous runner pool."""

@@ -1,0 +1,1 @@
+"""One feature measured against its alternative: APPO vs PPO, distillation vs scratch, PBT, evaluation scripts."""

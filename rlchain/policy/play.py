@@ -1,0 +1,186 @@
+"""One loop that plays a fixed policy on a VecEnv: :func:`play`.
+
+In-training evaluation (``training/evaluation.py``), the Player (``--play``, ``watch``), video
+recording (``inference/video.py``, through a one-env VecEnv) and the env inputs of the ONNX parity check
+(``export_inputs.env_rollout``) all play through it. It carries the policy's RNN state (zeroed
+where an episode ended), fetches action masks when the policy uses them, counts whole games
+(``game_reward`` / ``game_over``: Atari lives) and task success, one row = one game (multi-agent
+envs: one per agent row).
+
+Several policies on a PettingZoo env (``config.multi_agent``) play through :func:`step_policies`, the
+same loop for each policy's agents: the multi-policy player and the per-policy ONNX export use it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.algos.base.episodes import game_outcome
+from rlchain.envs.spec import env_spec
+from rlchain.envs.wrappers.success import SuccessReader
+from rlchain.policy.stepper import PolicyStepper
+
+
+@dataclass
+class PlayResult:
+    """Mean episode reward and length over the games played; ``successes`` (1.0 / 0.0) of the games
+    for which the env reported task success (empty for envs that report none)."""
+
+    games: int
+    mean_reward: float
+    mean_length: float
+    rewards: list[float]
+    successes: list[float] = field(default_factory=list)
+
+    @property
+    def success_rate(self) -> float | None:
+        """Fraction of the games with a success value that succeeded; None when the env reports none."""
+        return sum(self.successes) / len(self.successes) if self.successes else None
+
+
+class EpisodeSuccess:
+    """Per-env task success of the episodes in progress while playing (see ``envs/wrappers/success.py``)."""
+
+    def __init__(self, num_envs: int, key: str, mode: str) -> None:
+        self.reader = SuccessReader(key)
+        self.mode = mode
+        self.seen = np.zeros(num_envs, bool)
+        self.any = np.zeros(num_envs, bool)
+        self.last = np.zeros(num_envs, bool)
+
+    def step(self, infos: Any, dones: Any) -> None:
+        """Take in one step's ``infos`` and (N,) bool ``dones``."""
+        values = self.reader.read(infos, dones)
+        if values is None:
+            return
+        seen = ~np.isnan(values)
+        hit = seen & (np.nan_to_num(values) > 0.5)
+        self.seen |= seen
+        self.any |= hit
+        self.last[seen] = hit[seen]
+
+    def pop(self, i: int) -> float | None:
+        """Env ``i``'s finished episode: 1.0 / 0.0, or None without a success value; clears the row."""
+        result = float((self.any if self.mode == "any" else self.last)[i]) if self.seen[i] else None
+        self.seen[i] = self.any[i] = self.last[i] = False
+        return result
+
+
+GameHook = Callable[[int, float, int, "float | None"], None]
+ObsHook = Callable[[torch.Tensor, "torch.Tensor | None"], None]
+
+
+def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
+         device: torch.device | None = None, seed: int | None = None, steps: int | None = None,
+         on_game: GameHook | None = None, on_obs: ObsHook | None = None, render_sleep: float | None = None,
+         success_key: str = "auto", success_mode: str = "any") -> PlayResult:
+    """Play ``model`` on ``env`` (any VecEnv) until ``games`` episodes finished or ``steps`` env steps
+    were taken (whichever is given and comes first); returns the finished games' statistics.
+
+    ``device``: where the model runs (default: its parameters' device). ``seed`` seeds the first
+    ``reset``. ``on_game(index, reward, length, success)`` is called per finished game (success
+    None when the env reports none); ``on_obs(obs, masks)`` with every observation batch the policy
+    meets (and the one after the last step), with the action masks it acts under (None without).
+    ``render_sleep`` renders each step. The model acts in eval mode (its mode restored after),
+    with its distribution's mode when ``deterministic``. ``success_key`` / ``success_mode``: as the
+    config keys.
+    """
+    if games is None and steps is None:
+        raise ValueError("play needs games or steps")
+    spec = env_spec(env)
+    device = device if device is not None else next(model.parameters()).device
+    dist = model.dist
+    obs = torch.as_tensor(env.reset(seed=seed), device=device)
+    returns = torch.zeros(env.num_envs, dtype=torch.float64)
+    lengths = torch.zeros(env.num_envs, dtype=torch.long)
+    rewards: list[float] = []
+    episode_lengths: list[int] = []
+    successes: list[float] = []
+    success = EpisodeSuccess(env.num_envs, success_key, success_mode)
+    was_training = model.training
+    model.eval()
+    policy = PolicyStepper(model, env.num_envs, device)
+    use_masks = policy.uses_masks(spec)
+    taken = 0
+    try:
+        while True:
+            finished = (games is not None and len(rewards) >= games) or (steps is not None and taken >= steps)
+            if finished and on_obs is None:
+                break
+            masks = policy.masks_from(env) if use_masks else None
+            if on_obs is not None:
+                on_obs(obs, masks)
+            if finished:
+                break
+            actions = dist.to_env(policy.act(obs, deterministic=deterministic, masks=masks))
+            result = env.step(spec.to_env(actions))
+            taken += 1
+            reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
+            reward = reward.sum(-1) if reward.dim() > 1 else reward
+            lengths += 1
+            done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
+            policy.done(done)
+            success.step(result.infos, done.numpy())
+            reward, game_over = game_outcome(result, reward, done)  # whole games (Atari lives)
+            returns += reward
+            for i in game_over.nonzero().flatten().tolist():
+                won = success.pop(i)
+                if games is None or len(rewards) < games:
+                    rewards.append(float(returns[i]))
+                    episode_lengths.append(int(lengths[i]))
+                    if won is not None:
+                        successes.append(won)
+                    if on_game is not None:
+                        on_game(len(rewards), rewards[-1], episode_lengths[-1], won)
+                returns[i], lengths[i] = 0.0, 0
+            if render_sleep is not None:
+                env.render()
+                time.sleep(render_sleep)
+            obs = torch.as_tensor(result.obs, device=device)
+    finally:
+        model.train(was_training)
+    n = len(rewards)
+    return PlayResult(n, sum(rewards) / n if n else float("nan"), sum(episode_lengths) / n if n else float("nan"),
+                      rewards, successes)
+
+
+def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any], num_envs: int,
+                 device: torch.device, deterministic: bool,
+                 on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
+                 ) -> dict[str, np.ndarray]:
+    """Each policy's actions for its agents: ``plan`` maps a policy to its agent ids, ``views`` an agent
+    id to its view (``obs`` (num_envs, ...), ``mask``, ``active``); ``models[policy]`` acts on its agents'
+    rows stacked agent by agent. ``on_obs(policy, its agents' views, obs, masks)`` sees each policy's
+    stacked rows first."""
+    actions = {}
+    for name, agents in plan.items():
+        model = models[name]
+        obs = np.concatenate([views[a].obs for a in agents])
+        masks = np.concatenate([views[a].mask for a in agents]) if model.use_action_masks else None
+        if on_obs is not None:
+            on_obs(name, [views[a] for a in agents], obs, masks)
+        with torch.inference_mode():
+            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic,
+                            action_masks=None if masks is None else torch.as_tensor(masks, device=device))
+        acts = model.dist.to_env(out["actions"]).cpu().numpy()
+        actions.update({a: acts[k * num_envs:(k + 1) * num_envs] for k, a in enumerate(agents)})
+    return actions
+
+
+def step_policies(env: Any, models: Any, plan: dict[str, list[str]], device: torch.device, deterministic: bool,
+                  seed: int | None,
+                  on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
+                  ) -> Iterator[Any]:
+    """Reset ``env`` (a multi-agent VecEnv of views per agent) with ``seed``, then step it with every
+    policy's actions (:func:`act_policies`) for as long as the caller iterates; yields each StepResult."""
+    views = env.reset(seed=seed)
+    while True:
+        result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs))
+        yield result
+        views = result.obs

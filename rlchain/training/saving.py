@@ -1,0 +1,144 @@
+"""When and what the Loop saves: what a checkpoint holds (:meth:`CheckpointSaver.state_dict`), when one is
+written (:meth:`~CheckpointSaver.after_epoch`: best and periodic), writing it (:meth:`~CheckpointSaver.save`) and
+resuming from it (:meth:`~CheckpointSaver.restore`). The file itself (atomic writes, reading, its errors) is
+:mod:`rlchain.runs.checkpoint`'s.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from rlchain.algos.base.algorithm import Algorithm
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import check_parameters
+from rlchain.config.resolve import CONFIG_FORMAT, config_state
+from rlchain.log import get_logger
+from rlchain.runs import checkpoint as ckpt
+from rlchain.runs import rl_games_checkpoint, rl_games_layout
+from rlchain.runs.run_dir import RunDir
+from rlchain.training.events import CallbackList
+from rlchain.training.resume import ResumePoint
+from rlchain.version import __version__
+
+log = get_logger(__name__)
+
+
+class CheckpointSaver:
+    """The checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
+
+    def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
+        self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
+        self.best_reward = -math.inf
+        self.last_reward: float | None = None  # the last epoch's mean reward (rl_games' final file name)
+        self.point = ResumePoint(ctx, algorithm)  # the last epoch boundary: RNG, envs, episodes in progress
+
+    def state_dict(self, kind: str = "last") -> dict[str, Any]:
+        """Everything exact resume needs: the learner now and the run's state at the last epoch
+        boundary (the same moment unless a stop signal or an env error came during an epoch's collect)."""
+        ctx, algo = self.ctx, self.algorithm
+        params = ctx.params
+        boundary = self.point.state()
+        state = {
+            "format": ckpt.FORMAT, "algo": params.algo.name, "model_name": params.model.name,
+            "config": config_state(params, {"seed": ctx.seed, "device": str(ctx.device),  # the run context
+                                            "rank": int(getattr(ctx.comm, "rank", 0)),
+                                            "world_size": ctx.world_size, "print_stats": ctx.cfg.print_stats}),
+            "config_format": CONFIG_FORMAT, "live_config": dict(ctx.live_config),
+            "model": algo.model.state_dict(), "agent": algo.agent.state_dict(),
+            "epoch": ctx.epoch, "frames": boundary["frames"], "best_reward": self.best_reward,
+            "episodes": boundary["episodes"], "rng": boundary["rng"], "run_state": boundary["run_state"],
+            "seed": ctx.seed, "version": __version__,
+        }
+        if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
+            state["ranks"] = boundary["ranks"]
+        state.update(algo.extra_state(kind))
+        get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum
+        env_state = get_env_state() if callable(get_env_state) else None
+        if env_state is not None:
+            state["env_state"] = env_state
+        return state
+
+    def save(self, kind: str) -> str | None:
+        """Write a checkpoint; a failed write is reported and training keeps the previous one."""
+        if self.run is None:
+            return None
+        if kind == "last" and self.run.layout == "rl_games":
+            kind = "file:" + rl_games_layout.final_stem(self.ctx.params.config.name, self.ctx.epoch, self.last_reward)
+        bad = check_parameters(self.algorithm.model)
+        if bad is not None:
+            log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
+            return None
+        path = self.run.checkpoint(kind)
+        try:
+            ckpt.save_atomic(self.state_dict(kind), path)
+        except OSError as exc:
+            log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
+                        f"checkpoint is kept and training goes on")
+            return None
+        self.events.emit("on_checkpoint", path, kind)
+        return path
+
+    def after_epoch(self, episodes: dict | None) -> None:
+        """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
+        cfg, epoch = self.ctx.cfg, self.ctx.epoch
+        if episodes is not None:
+            self.last_reward = float(episodes["reward"])
+        if self.run is not None and self.run.layout == "rl_games":
+            # rl_games: the periodic file once games have finished, before the best one
+            if episodes is not None and cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
+                self.save("file:" + rl_games_layout.periodic_stem(cfg.name, epoch, episodes["reward"]))
+            if episodes is not None and episodes["reward"] > self.best_reward:
+                self.best_reward = episodes["reward"]
+                if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                    self.save("best")
+            return
+        if episodes is not None and episodes["reward"] > self.best_reward:
+            self.best_reward = episodes["reward"]
+            if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                self.save("best")
+        if cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
+            self.save(f"ep_{epoch}")
+            self.save("last")
+
+    def _from_rl_games(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        """A converted rl_games checkpoint completed for resume: its optimizer state on this agent's
+        parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
+        none), so the envs start new episodes."""
+        agent = self.algorithm.agent.state_dict()
+        if "rl_games_optimizer" in state and "optimizer" in agent:
+            names = [n for n, p in self.algorithm.model.named_parameters() if p.requires_grad]
+            try:
+                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names)
+            except ValueError as exc:
+                raise ckpt.CheckpointError(f"{path}: {exc}") from None
+            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
+        return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
+                "run_state": run_state, "live_config": {}}
+
+    def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
+        """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
+        optimizer(s), lr, normalizers, counters, RNG, and (at the algorithm's ``start``) the envs' state and
+        episodes in progress when the checkpoint has them."""
+        ctx, algo = self.ctx, self.algorithm
+        name = ctx.params.algo.name
+        if state.get("origin") == rl_games_checkpoint.ORIGIN:
+            state = self._from_rl_games(state, path)
+        if state.get("algo") not in (None, name):
+            raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
+                                       f"the config says '{name}'")
+        if weights:
+            ckpt.load_model_state(algo.model, state, path)
+        algo.agent.load_state_dict(state["agent"])
+        ctx.epoch, ctx.frames = int(state["epoch"]), int(state["frames"])
+        for key, value in state.get("live_config", {}).items():  # values set_params gave the config fields
+            if key in algo.tunable:
+                algo.apply_hyperparam(key, value)
+        self.best_reward = float(state["best_reward"])
+        ctx.tracker.load_state_dict(state["episodes"])
+        algo.restore_extra(state)
+        self.point.restore(state)
+        set_env_state = getattr(ctx.env, "set_env_state", None)
+        if "env_state" in state and callable(set_env_state):
+            set_env_state(state["env_state"])

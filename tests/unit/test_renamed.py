@@ -1,0 +1,40 @@
+"""Names that changed stay importable for one release, each with a DeprecationWarning naming the new one."""
+
+import importlib
+
+import pytest
+
+import rlchain  # noqa: F401  (registers the built-ins)
+
+RENAMED = [
+    ("rlchain.config.ppo", "TrainConfig", "rlchain.config.ppo", "PPOConfig"),
+    ("rlchain.config.schema", "TrainConfig", "rlchain.config.ppo", "PPOConfig"),
+    ("rlchain.config.resolve", "RunContext", "rlchain.config.resolve", "ProcessContext"),
+    ("rlchain.algos.ppo.trainer", "OnPolicyTrainer", "rlchain.algos.ppo.trainer", "PPO"),
+    ("rlchain.algos.off_policy.trainer", "OffPolicyTrainer", "rlchain.algos.off_policy.trainer", "OffPolicyAlgorithm"),
+    ("rlchain.algos.off_policy.trainer", "SACTrainer", "rlchain.algos.off_policy.trainer", "SAC"),
+    ("rlchain.algos.off_policy.trainer", "DQNTrainer", "rlchain.algos.off_policy.trainer", "DQN"),
+    ("rlchain.algos.appo.trainer", "APPOTrainer", "rlchain.algos.appo.trainer", "APPO"),
+    ("rlchain.algos.appo.trainer", "ImpalaTrainer", "rlchain.algos.appo.trainer", "IMPALA"),
+    ("rlchain.algos.distill.trainer", "DistillTrainer", "rlchain.algos.distill.trainer", "Distill"),
+    ("rlchain.algos.multi_policy.trainer", "MultiPolicyTrainer", "rlchain.algos.multi_policy.trainer",
+     "MultiPolicyPPO"),
+]
+
+
+@pytest.mark.parametrize("module, old, new_module, new", RENAMED)
+def test_an_old_name_is_the_new_object_with_a_warning(module, old, new_module, new):
+    target = getattr(importlib.import_module(new_module), new)
+    with pytest.warns(DeprecationWarning, match=rf"{old} is renamed {new}"):
+        assert getattr(importlib.import_module(module), old) is target
+
+
+def test_an_unknown_name_is_still_an_attribute_error():
+    with pytest.raises(AttributeError, match="TrainConfg"):
+        _ = importlib.import_module("rlchain.config.ppo").TrainConfg
+
+
+def test_no_built_in_algorithm_class_is_named_trainer():
+    from rlchain.registry import ALGOS
+
+    assert not [name for name in ALGOS.names() if ALGOS.get(name).__name__.endswith("Trainer")]
