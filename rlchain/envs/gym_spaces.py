@@ -29,13 +29,16 @@ def _where(space: Any) -> str:
     return f"{type(space).__module__}.{type(space).__name__}"
 
 
-def to_gymnasium(space: Any) -> Any:
+def to_gymnasium(space: Any, strict: bool = True) -> Any:
     """``space`` as a gymnasium space: a gymnasium space as it is, a gym 0.2x Box, Discrete, MultiDiscrete,
-    MultiBinary, Tuple or Dict converted (nested ones too); None stays None. Anything else is a SpaceError
-    naming the space's module and class."""
+    MultiBinary, Tuple or Dict converted (nested ones too); None stays None. Another gym space is a SpaceError
+    naming its module and class, and so is any other object when ``strict`` (else it is returned as it is,
+    for the caller's own checks)."""
     if space is None or isinstance(space, gymnasium.spaces.Space):
         return space
     name = _gym_class(space)
+    if name is None and not strict:
+        return space
     if name == "Box":
         return gymnasium.spaces.Box(np.asarray(space.low), np.asarray(space.high), tuple(space.shape),
                                     dtype=space.dtype)

@@ -49,7 +49,7 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     The model reads its observation group (:func:`model_view`; a central-value env's actor: ``obs``)."""
     if getattr(params, "policies", None) is not None:
         return build_policy_models(params, env, device)
-    obs_space, act_space = to_gymnasium(env.observation_space), to_gymnasium(env.action_space)
+    obs_space, act_space = to_gymnasium(env.observation_space, False), to_gymnasium(env.action_space, False)
     view = model_view(params, obs_space, group, groups)
     declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
     if not view.whole and view.size:
