@@ -252,3 +252,31 @@ def test_the_observers_algo_has_what_rl_games_and_isaac_lab_observers_read(tmp_p
     assert observer.seen["optimizer"] == "Adam" and observer.seen["last_lr"] == pytest.approx(1e-3)
     assert all(torch.equal(observer.after["model"][k], v) for k, v in observer.weights["model"].items())
     assert observer.after["epoch"] == 2  # set_epoch=False keeps the run's counters
+
+
+def test_an_rl_games_checkpoint_resumes_under_the_launcher(tmp_path, monkeypatch, scoped_registries):
+    """tests/data/rl_games/make_checkpoints.py's own training code, run with rlchain standing in for rl_games,
+    fine-tunes the checkpoint real rl_games 1.6.5 wrote with it."""
+    import copy
+
+    pytest.importorskip("gym")
+    data = os.path.join(ROOT, "tests", "data", "rl_games")
+    monkeypatch.syspath_prepend(data)
+    alias.install()
+    try:
+        import make_checkpoints
+        from rl_games.common import env_configurations, vecenv
+        from rl_games.torch_runner import Runner
+
+        env_class = make_checkpoints.make_env_class(True)
+        vecenv.register("TINY", lambda config_name, num_actors, **kwargs: env_class(num_actors))
+        env_configurations.register("tiny_env", {"vecenv_type": "TINY", "env_creator": lambda **kwargs: env_class(4)})
+        cfg = copy.deepcopy(make_checkpoints.CONFIGS["continuous"])
+        cfg["params"]["config"].update(train_dir=str(tmp_path), max_epochs=3)
+        runner = Runner()
+        runner.load(cfg)
+        result = runner.run({"train": True, "checkpoint": os.path.join(data, "v165_continuous.pth")})
+    finally:
+        alias.uninstall()
+        sys.modules.pop("make_checkpoints", None)
+    assert (result.epoch, result.frames) == (3, 64 + 32)  # rl_games' counters carried on

@@ -17,18 +17,18 @@ from rlchain.runs import rl_games_checkpoint as rlg
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
-from make_checkpoints import ACTIONS, CONFIGS, OBS  # noqa: E402
+from make_checkpoints import ACTIONS, CONFIGS, KINDS, OBS  # noqa: E402
 
-CASES = [(tag, kind) for tag in ("v165", "v20") for kind in ("continuous", "discrete")]
+CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS]
 
 
 def _player(kind):
     params = copy.deepcopy(CONFIGS[kind]["params"])
-    action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if kind == "continuous"
+    action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if kind != "discrete"
               else gymnasium.spaces.Discrete(ACTIONS))
     params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, (OBS,)),
                                     "action_space": action}
-    cls = PpoPlayerContinuous if kind == "continuous" else PpoPlayerDiscrete
+    cls = PpoPlayerContinuous if kind != "discrete" else PpoPlayerDiscrete
     return cls(params)  # built as rl_games builds a player: one argument
 
 

@@ -6,9 +6,11 @@ Run it with rl_games installed, once per version, e.g. from a venv with ``torch=
     python tests/data/rl_games/make_checkpoints.py --tag v165
     PYTHONPATH=<rl_games main checkout> python tests/data/rl_games/make_checkpoints.py --tag v20
 
-Each run trains two epochs of PPO, continuous (``a2c_continuous``) and discrete (``a2c_discrete``), with
-an 8-unit MLP and input/value normalization on a tiny batched torch env that reports OpenAI gym spaces
-(as Isaac Lab's wrapper does), and keeps rl_games' last checkpoint as ``<tag>_<kind>.pth``.
+Each run trains two epochs of PPO, continuous (``a2c_continuous``) and discrete (``a2c_discrete``) with an
+8-unit MLP, and continuous with separate actor and critic MLPs of two 8-unit layers, all with input and value
+normalization, on a tiny batched torch env that reports OpenAI gym spaces (as Isaac Lab's wrapper does), and
+keeps rl_games' last checkpoint as ``<tag>_<kind>.pth`` and the deterministic actions rl_games' player takes
+with it as ``<tag>_<kind>_actions.pt``.
 ``tests/unit/test_rl_games_checkpoint.py`` reads them with the same config (:data:`CONFIGS`).
 """
 
@@ -28,8 +30,9 @@ OBS, ACTIONS, HORIZON = 3, 2, 16
 
 
 def config(kind: str) -> dict:
-    """The rl_games config of ``kind`` (continuous / discrete) these checkpoints were trained with."""
-    continuous = kind == "continuous"
+    """The rl_games config of ``kind`` these checkpoints were trained with: continuous, discrete, or
+    separate (continuous, separate actor and critic MLPs of two layers)."""
+    continuous = kind in ("continuous", "separate")
     space = ({"continuous": {"mu_activation": "None", "sigma_activation": "None", "mu_init": {"name": "default"},
                              "sigma_init": {"name": "const_initializer", "val": 0}, "fixed_sigma": True}}
              if continuous else {"discrete": {}})
@@ -37,8 +40,9 @@ def config(kind: str) -> dict:
         "seed": 3,
         "algo": {"name": "a2c_continuous" if continuous else "a2c_discrete"},
         "model": {"name": "continuous_a2c_logstd" if continuous else "discrete_a2c"},
-        "network": {"name": "actor_critic", "separate": False, "space": space,
-                    "mlp": {"units": [8], "activation": "elu", "initializer": {"name": "default"}}},
+        "network": {"name": "actor_critic", "separate": kind == "separate", "space": space,
+                    "mlp": {"units": [8, 8] if kind == "separate" else [8], "activation": "elu",
+                            "initializer": {"name": "default"}}},
         "config": {"name": f"tiny_{kind}", "env_name": "tiny_env", "device": "cpu", "device_name": "cpu", "ppo": True,
                    "normalize_input": True, "normalize_value": True, "normalize_advantage": True,
                    "reward_shaper": {"scale_value": 1.0}, "num_actors": 4, "horizon_length": 8,
@@ -51,7 +55,8 @@ def config(kind: str) -> dict:
     }}
 
 
-CONFIGS = {kind: config(kind) for kind in ("continuous", "discrete")}
+KINDS = ("continuous", "discrete", "separate")
+CONFIGS = {kind: config(kind) for kind in KINDS}
 
 
 def make_env_class(continuous: bool):
@@ -97,7 +102,7 @@ def train(kind: str, tag: str, out_dir: str) -> str:
     from rl_games.common import env_configurations, vecenv
     from rl_games.torch_runner import Runner
 
-    env_class = make_env_class(kind == "continuous")
+    env_class = make_env_class(kind != "discrete")
     vecenv.register("TINY", lambda config_name, num_actors, **kwargs: env_class(num_actors))
     env_configurations.register("tiny_env", {"vecenv_type": "TINY", "env_creator": lambda **kwargs: env_class(4)})
     cfg = copy.deepcopy(CONFIGS[kind])
@@ -129,7 +134,7 @@ def main() -> None:
     parser.add_argument("--tag", required=True, help="file name prefix: the rl_games version (v165, v20)")
     parser.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
     args = parser.parse_args()
-    for kind in ("continuous", "discrete"):
+    for kind in KINDS:
         print("wrote", train(kind, args.tag, args.out))
 
 
