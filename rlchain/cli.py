@@ -13,7 +13,7 @@ from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkE
 from rlchain.inference.export.rl_games_checkpoint import export_rl_games
 from rlchain.inference.watch import watch_and_evaluate
 from rlchain.runner import Runner, locate_checkpoint
-from rlchain.runs.checkpoint import CheckpointError
+from rlchain.runs.checkpoint import CheckpointError, trusting
 from rlchain.runs.wandb_logger import TrackingError
 from rlchain.tuning.search import run_search
 
@@ -41,6 +41,9 @@ def build_parser(prog: str = "runner.py") -> argparse.ArgumentParser:
                    "--tune: best config (default <base name>_best.yaml)")
     p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
+    p.add_argument("--trust-checkpoint", action="store_true",
+                   help="load checkpoints with full pickle, which runs any code stored in them: only for a file "
+                        "you trust (by default a checkpoint loads as data and any other object is refused)")
     p.add_argument("--track", action="store_true", help="mirror logs and config to Weights & Biases")
     p.add_argument("--wandb-project-name", default="rlchain")
     p.add_argument("--wandb-entity", default=None)
@@ -68,7 +71,8 @@ def main(argv: list[str] | None = None, prog: str = "runner.py") -> int:
 def _report(args: argparse.Namespace) -> int:
     """Run the command; an expected error is one line on stderr and an exit status."""
     try:
-        return _run(args)
+        with trusting(args.trust_checkpoint):
+            return _run(args)
     except (ConfigError, CheckpointError) as exc:
         kind = "config error" if isinstance(exc, ConfigError) else "checkpoint error"
         print(f"{kind}: {exc}", file=sys.stderr)
@@ -140,7 +144,8 @@ def _run(args: argparse.Namespace) -> int:
         files = runner.record(args.checkpoint, args.video, games=args.games or 1, deterministic=not args.stochastic)
         print("\n".join(files))
     elif runner.params.config.player.evaluation:  # rl_games: watch dir_to_monitor, evaluate new checkpoints
-        watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)
+        with trusting(runner.params.config.trust_checkpoint):
+            watch_and_evaluate(runner.params, deterministic=False if args.stochastic else None)
     else:
         runner.play(args.checkpoint, deterministic=False if args.stochastic else None, sigma=args.sigma)
     return 0

@@ -14,7 +14,7 @@ from typing import Any
 
 from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
 from rlchain.config.errors import ConfigError, did_you_mean
-from rlchain.config.load import apply_overrides, import_user_modules, load_raw, parse_params
+from rlchain.config.load import apply_overrides, check_seed, import_user_modules, load_raw, parse_params
 from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
 from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
 from rlchain.config.schema import Params
@@ -130,10 +130,13 @@ class Runner:
         if checkpoint is not None:
             checkpoint = locate_checkpoint(checkpoint)[0]
         seed = seed if seed is not None else params.seed
+        if seed is not None and check_seed(seed):
+            raise ConfigError(params.source, "--seed", check_seed(seed))
         group = distributed.setup(params, self.raw, seed)  # None unless launched by torchrun (multi_gpu)
         try:
-            result = self._train(params, group, checkpoint, seed, sigma, callbacks or [], track, wandb_project,
-                                 wandb_entity)
+            with ckpt.trusting(params.config.trust_checkpoint):  # the resume file and a distillation teacher
+                result = self._train(params, group, checkpoint, seed, sigma, callbacks or [], track,
+                                     wandb_project, wandb_entity)
         except BaseException as exc:
             distributed.shutdown(group, clean=False)
             lost = distributed.collective_failure(group, exc)  # a dead peer: one line (by type), not a traceback
@@ -229,11 +232,12 @@ class Runner:
         checkpoint, packaged = locate_checkpoint(checkpoint)
         if packaged and output is None:  # next to the shipped file is inside the installed package
             output = os.path.splitext(os.path.basename(checkpoint))[0] + ".onnx"
-        if params.policies is not None:
-            return export_policies(params, checkpoint, output, policy)
-        if policy is not None:
-            raise ConfigError(params.source, "--policy", "applies to configs with config.multi_agent only")
-        return export_from_cli(self, checkpoint, output)
+        with ckpt.trusting(params.config.trust_checkpoint):
+            if params.policies is not None:
+                return export_policies(params, checkpoint, output, policy)
+            if policy is not None:
+                raise ConfigError(params.source, "--policy", "applies to configs with config.multi_agent only")
+            return export_from_cli(self, checkpoint, output)
 
     def play(self, checkpoint: str | None, games: int | None = None, deterministic: bool | None = None,
              sigma: float | None = None, quiet: bool = False) -> Any:
@@ -244,9 +248,10 @@ class Runner:
             checkpoint = locate_checkpoint(checkpoint)[0]
         # the rollout's threads as training (2 threads on 2 busy cores cost 30x); no update, so no core sample
         set_threads(params.torch_threads, None, params.config.device, updates=False)
-        if params.policies is not None:  # config.multi_agent: every policy plays its agents
-            return play_policies(params, checkpoint, games, deterministic, quiet)
-        player = Player(params, checkpoint, sigma=sigma)
+        with ckpt.trusting(params.config.trust_checkpoint):
+            if params.policies is not None:  # config.multi_agent: every policy plays its agents
+                return play_policies(params, checkpoint, games, deterministic, quiet)
+            player = Player(params, checkpoint, sigma=sigma)
         try:
             return player.play(games=games, deterministic=deterministic, quiet=quiet)
         finally:
@@ -260,7 +265,8 @@ class Runner:
             raise ConfigError("", "--video", "records single-policy configs only (not config.multi_agent yet)")
         if checkpoint is not None:
             checkpoint = locate_checkpoint(checkpoint)[0]
-        return record_episodes(params, checkpoint, video_dir, games=games, deterministic=deterministic)
+        with ckpt.trusting(params.config.trust_checkpoint):
+            return record_episodes(params, checkpoint, video_dir, games=games, deterministic=deterministic)
 
     def _require(self) -> Params:
         if self.params is None:

@@ -14,7 +14,7 @@ scaled to keep the same number of minibatches per epoch. For each case it measur
 
 - env-only: ``env.step`` with pre-drawn random actions (tensors on the env's device for tensor
   envs, numpy arrays otherwise) -- the ceiling;
-- rollout: ``OnPolicyTrainer.rollout`` (policy inference, env step, storage), no update;
+- rollout: ``PPO.rollout`` (policy inference, env step, storage), no update;
 - train: ``_rollout`` + ``_learn`` (GAE and the PPO update), i.e. what a training run does
   minus logging and checkpoints;
 
@@ -79,7 +79,7 @@ if __package__ in (None, ""):  # run by path: this checkout's rlchain first (tre
     sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
-from rlchain.algos.ppo.trainer import OnPolicyTrainer  # noqa: E402
+from rlchain.algos.ppo.trainer import PPO  # noqa: E402
 from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
 from rlchain.parallel.memory import tune_malloc  # noqa: E402
 from rlchain.parallel.threads import ThreadPlan, for_env, plan_threads  # noqa: E402
@@ -238,10 +238,10 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
             env_sps = timed(env_steps, 10 * num_envs, seconds, env_device)
         if backend == "envpool" and groups != 1:  # the training envs, in env groups (auto: as measured)
             env.close()
-            env = OnPolicyTrainer.build_training_env(params, 0)
+            env = PPO.build_training_env(params, 0)
 
         model = build_model(params, env, device)
-        loop = Loop(params, OnPolicyTrainer, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
+        loop = Loop(params, PPO, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
         loop.threads = plan
         ppo, ctx = loop.algorithm, loop.ctx  # the algorithm the loop holds, and the run context it gets
         ppo.obs = torch.as_tensor(env.reset(seed=0), device=device)

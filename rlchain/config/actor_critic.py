@@ -10,6 +10,7 @@ minibatches, so these keys mean the same for the three; each algorithm's class a
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 from rlchain.config import compat
@@ -105,7 +106,23 @@ class ActorCriticConfig(RunConfig):
         if config.lr_schedule == "constant":
             config = dataclasses.replace(config, lr_schedule=None)
         config._check_schedules(source)
+        config._check_rollout_size(source)
         return config
+
+    def _check_rollout_size(self, source: str) -> None:
+        """Before any env is built: a rollout that cannot fit this machine's memory even at its smallest
+        (num_actors or horizon_length far too large) is an error; the exact size is checked once the env's
+        spaces are known (the algorithm's check_config)."""
+        try:
+            total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (OSError, ValueError, AttributeError):
+            return
+        least = self.num_actors * self.horizon_length * ROLLOUT_MIN_BYTES
+        if least > total:
+            key = "horizon_length" if self.horizon_length >= self.num_actors else "num_actors"
+            raise ConfigError(source, f"params.config.{key}", f"num_actors {self.num_actors} x horizon_length "
+                              f"{self.horizon_length} needs at least {least / 2**30:.0f} GiB for the rollout, "
+                              f"this machine has {total / 2**30:.0f} GiB of memory")
 
     def _check_schedules(self, source: str) -> None:
         """polynom_decay needs a horizon to decay over; keys that only act with another schedule warn."""
@@ -119,6 +136,9 @@ class ActorCriticConfig(RunConfig):
         if self.decay_power != 1.0 and self.lr_schedule != "polynom_decay":
             compat.warn_once(source, "params.config.decay_power", f"no effect with lr_schedule "
                              f"{self.lr_schedule or 'None'}; it is the exponent of polynom_decay")
+
+
+ROLLOUT_MIN_BYTES = 16  # the least one step of one env takes in the rollout storage (an observation, an action)
 
 
 def check_batch(config: ActorCriticConfig, source: str, agents: int = 1) -> None:

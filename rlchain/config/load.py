@@ -29,14 +29,40 @@ def check_malloc(value: str) -> str | None:
     return None if value in ("keep", "default") else f"expected keep or default, got {value!r}"
 
 
+SEED_RANGE = 2**32
+"""Seeds are 0 .. 2**32 - 1: what numpy's and gymnasium's generators take."""
+
+
+def check_seed(value: int) -> str | None:
+    return None if 0 <= value < SEED_RANGE else "must be in 0 .. 2**32 - 1"
+
+
+class _NoAliasLoader(yaml.SafeLoader):
+    """YAML without aliases (``*name``): a config has no need for them, and nested aliases expand
+    exponentially (a few lines can describe more data than memory holds)."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise _AliasFound(f"line {event.start_mark.line + 1}: YAML alias *{event.anchor} is not allowed in a "
+                              f"config (write the value out, or use a key.path=value override)")
+        return super().compose_node(parent, index)
+
+
+class _AliasFound(Exception):
+    pass
+
+
 def load_raw(path: str) -> dict[str, Any]:
-    """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML)."""
+    """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML, aliases refused)."""
     if not os.path.isfile(path):
         raise ConfigError(path, "", "config file not found")
     with open(path, encoding="utf-8") as fh:
         text = fh.read()
     try:
-        data = json.loads(text) if path.endswith(".json") else yaml.safe_load(text)
+        data = json.loads(text) if path.endswith(".json") else yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506
+    except _AliasFound as exc:
+        raise ConfigError(path, "", str(exc)) from None
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         detail = " ".join(str(exc).split())
         raise ConfigError(path, "", f"cannot parse file: {detail}") from None
@@ -58,7 +84,9 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
         if parts[0] != "params":
             parts = ["params", *parts]
         try:
-            value = yaml.safe_load(text)
+            value = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506
+        except _AliasFound as exc:
+            raise ConfigError(source, key.strip(), str(exc)) from None
         except yaml.YAMLError:
             value = text
         node = out
@@ -100,7 +128,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
     # imported by the Runner before parsing (import_user_modules): they register what the checks below look up
     modules = parse_value(list[str], params.get("import_modules") or [], "params.import_modules", source)
 
-    seed = parse_value(int | None, params.get("seed"), "params.seed", source)
+    seed = parse_value(int | None, params.get("seed"), "params.seed", source, {"check": check_seed})
     threads = parse_value(int | None, params.get("torch_threads"), "params.torch_threads", source,
                           {"check": lambda x: None if x > 0 else "must be > 0"})
     update_threads = parse_value(int | None, params.get("update_threads"), "params.update_threads", source,

@@ -155,6 +155,23 @@ class ProgressConfig:
                                                check=non_negative)
 
 
+def plain_name(value: Any) -> str | None:
+    """A run name is a folder / file name, never a path: it cannot leave ``train_dir``."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or value.strip() == "":
+        return "must be a non-empty name"
+    if value.startswith("."):
+        return "must not start with '.': it is a name, not a path"
+    if "/" in value or "\\" in value or ".." in value or "\0" in value:
+        return "must be a plain name without '/', '\\' or '..': it is a name, not a path"
+    return None
+
+
+def _limit(value: Any) -> str | None:
+    return "must not be 0 (it would stop before any training); use -1 for no limit" if value == 0 else None
+
+
 @dataclass(frozen=True)
 class RunConfig:
     """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
@@ -163,7 +180,8 @@ class RunConfig:
     ``sac``, ``dqn``, ``appo``, ``impala``); a key only some algorithms read lives on their classes.
     """
 
-    name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth")
+    name: str = option("run", "run name: runs/<name>_<datetime>, best checkpoint nn/<name>.pth; a plain name "
+                              "(no '/', backslash, '..' or leading '.')", check=plain_name)
     env_name: str = option("", "gymnasium id, `openai_gym` (env_config.name), `envpool` "
                                "(env_config.env_name), `atari_gym` (env_config.name, an ale-py id) or a "
                                "registered env")
@@ -176,8 +194,10 @@ class RunConfig:
     normalize_input: bool = option(False, "running mean/std normalization of observations (clipped to +-5); "
                                           "each PPO update trains with statistics that include its rollout")
     reward_shaper: RewardShaperConfig = option(RewardShaperConfig(), "reward scaling and clipping")
-    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit)")
-    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit)")
+    max_epochs: int = option(-1, "stop after this many epochs in total, resumes included (-1 = no limit; "
+                                 "0 is an error)", check=_limit)
+    max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit; 0 is an error)",
+                             check=_limit)
     score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
     success_to_win: float = option(float("inf"), "stop once the success rate of the tracked episodes reaches "
                                                   "this (0..1; envs that report success, see success_key)",
@@ -200,7 +220,12 @@ class RunConfig:
                                                         "terminal, how often the epoch line (rlchain)")
     device: str = option("cuda:0", "cpu, cuda or cuda:N; falls back to cpu with a warning without CUDA")
     train_dir: str = option("runs", "folder that holds the run folders")
-    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>")
+    full_experiment_name: str | None = option(None, "run folder name instead of <name>_<datetime>; a plain "
+                                                    "name like name", check=plain_name)
+    trust_checkpoint: bool = option(False, "rlchain: load the checkpoints this run reads (--checkpoint, a "
+                                           "distillation teacher, watched ones) with full pickle, which runs any "
+                                           "code stored in them; only for files you trust (same as "
+                                           "--trust-checkpoint; see docs/reliability.md, Trusting files)")
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
@@ -223,6 +248,10 @@ class RunConfig:
     multi_gpu: bool = option(False, "torch.distributed training: launch with `torchrun --nproc_per_node=N "
                                     "runner.py --train ...`; as in rl_games num_actors, horizon_length and "
                                     "minibatch_size are per process, gradients are averaged, rank 0 saves")
+    multi_gpu_timeout_s: float = option(300.0, "rlchain, multi_gpu: seconds a collective (an all-reduce, a "
+                                               "barrier) may wait for the other ranks; a rank that does not "
+                                               "answer in time (stopped, wedged) ends the job on every rank",
+                                        check=positive)
     mixed_precision: Any = option(False, "autocast of the PPO update's network passes: on CUDA True or bf16 = "
                                          "bfloat16 without grad scaling (rl_games 2.0's; float16 with grad "
                                          "scaling on a GPU without bf16), fp16 = float16 with grad scaling "

@@ -28,6 +28,7 @@ import json
 import os
 import signal
 import threading
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -43,8 +44,9 @@ from rlchain.registry import ALGOS
 
 KEY = "params.config.multi_gpu"
 LAUNCH_VARS = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
-TIMEOUT = datetime.timedelta(minutes=30)  # collectives; torchrun ends the group first when a rank dies
 BARRIER_TIMEOUT = datetime.timedelta(minutes=2)  # the final barrier: every rank is at its last epoch
+ROLL_CALL = "rlchain/after_timeout/"  # store keys: the ranks still running after a collective timed out
+ROLL_CALL_SECONDS = 2.0  # how long a rank waits for the others' answer to the roll call
 HINT = "torchrun --standalone --nproc_per_node=N runner.py --train --file <cfg>"
 
 
@@ -189,6 +191,7 @@ class Distributed(Communicator):
     seed: int  # the run's seed, the same on every rank; each rank seeds with :attr:`rank_seed`
     local_world_size: int = 1  # processes on this node (they share its cores)
     device: str | None = None  # nccl: this rank's cuda:LOCAL_RANK, which replaces config.device (resolve)
+    timeout_s: float = 300.0  # multi_gpu_timeout_s: how long a collective waits for the other ranks
 
     @property
     def rank_seed(self) -> int:
@@ -239,11 +242,36 @@ class Distributed(Communicator):
             raise self.failure(what, exc) from exc
 
     def failure(self, what: str, exc: BaseException) -> CollectiveError:
-        """The one-line error of a failed collective ``what``."""
+        """The one-line error of a failed collective ``what``; after a timeout it names the ranks that did
+        not answer (:meth:`silent_ranks`)."""
         detail = " ".join(str(exc).split())
         detail = "".join(ch for ch in detail if ch.isprintable())[:200]
+        if "timed out" in detail.lower() or "timeout" in detail.lower():
+            silent = self.silent_ranks()
+            if silent:
+                who = ", ".join(str(r) for r in silent)
+                return CollectiveError(f"rank {self.rank}: rank {who} did not answer within {self.timeout_s:g} s "
+                                       f"(params.config.multi_gpu_timeout_s) in the {what}: it is stopped or "
+                                       f"wedged (a hung GPU or file system, a debugger); the job ends on every rank")
         return CollectiveError(f"rank {self.rank}: a collective with the other ranks failed ({what}: {detail}); "
                                f"another rank probably died or was killed: its own error above names the cause")
+
+    def silent_ranks(self, grace: float = ROLL_CALL_SECONDS) -> list[int] | None:
+        """After a collective timed out: every rank still running answers a roll call in the group's store
+        (torchrun's, which outlives a stopped rank); the ranks missing after ``grace`` seconds are the ones
+        that stalled. None when the store cannot be reached."""
+        try:
+            store = dist.distributed_c10d._get_default_store()
+            store.set_timeout(datetime.timedelta(seconds=grace))
+            store.set(f"{ROLL_CALL}{self.rank}", "1")
+            deadline = time.monotonic() + grace
+            while True:
+                silent = [r for r in range(self.world_size) if not store.check([f"{ROLL_CALL}{r}"])]
+                if not silent or time.monotonic() >= deadline:
+                    return silent
+                time.sleep(0.05)
+        except Exception:  # the store itself is gone or stalled: no names, the plain message
+            return None
 
     def check_consistent(self, env: Any, model: torch.nn.Module, state: dict[str, Any] | None) -> None:
         """Before any run folder exists: every rank has the same env count, parameters and resume point.
@@ -292,7 +320,9 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
                                      torch.cuda.device_count() if torch.cuda.is_available() else 0, params.source)
     if backend == "nccl":
         torch.cuda.set_device(launch.local_rank)
-    dist.init_process_group(backend, rank=launch.rank, world_size=launch.world_size, timeout=TIMEOUT)
+    timeout_s = float(getattr(cfg, "multi_gpu_timeout_s", 300.0))
+    dist.init_process_group(backend, rank=launch.rank, world_size=launch.world_size,
+                            timeout=datetime.timedelta(seconds=timeout_s))
     try:
         fingerprint = config_fingerprint(raw, seed)
         gathered: list[Any] = [None] * launch.world_size
@@ -309,7 +339,7 @@ def setup(params: Any, raw: dict[str, Any], seed: int | None) -> Distributed | N
         raise
     # the per-rank config (device, env_config seed, printing) is rlchain.config.resolve.resolve's, from this
     return Distributed(launch.rank, launch.world_size, launch.local_rank, backend, int(shared[0]),
-                       launch.local_world_size, device if backend == "nccl" else None)
+                       launch.local_world_size, device if backend == "nccl" else None, timeout_s)
 
 
 def shutdown(group: Distributed | None, clean: bool) -> None:

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import os
 import platform
 
+from rlchain.config.errors import ConfigError
 from rlchain.log import get_logger
 
 _log = get_logger(__name__)
@@ -52,3 +54,40 @@ def tune_malloc(mode: str = "keep") -> bool:
     else:
         _log.warning("params.malloc: keep: glibc's mallopt refused the settings; malloc stays as it was")
     return ok
+
+
+def available_bytes(device: str) -> int | None:
+    """Memory free for new tensors on ``device`` (a CUDA GPU's free memory, else the host's MemAvailable);
+    None when it cannot be read."""
+    try:
+        if str(device).startswith("cuda"):
+            import torch  # the GPU's own count
+
+            if not torch.cuda.is_available():
+                return available_bytes("cpu")  # the run falls back to the CPU
+            return int(torch.cuda.mem_get_info(torch.device(device))[0])
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, RuntimeError, AttributeError):
+        return None
+
+
+def human_bytes(n: float) -> str:
+    """1.5 GiB, 512.0 TiB, 12 B."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(n) < 1024 or unit == "PiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} PiB"
+
+
+def check_fits(nbytes: int, device: str, source: str, key: str, what: str) -> None:
+    """A ConfigError naming ``key`` when ``what`` (``nbytes``) is more than ``device`` has free: before the
+    storage is built, so no allocation fails half-way or swaps the machine to a halt."""
+    free = available_bytes(device)
+    if free is not None and nbytes > free:
+        raise ConfigError(source, key, f"{what} needs {human_bytes(nbytes)} but {device} has "
+                                       f"{human_bytes(free)} available; lower it")

@@ -1,53 +1,112 @@
-"""Checkpoints: atomic writes, exact resume state, and clear errors for bad files."""
+"""Checkpoints: atomic writes with tensor checksums, loading as data (never as code unless trusted),
+exact resume state, and clear errors for bad files."""
 
 from __future__ import annotations
 
 import os
+import pickle
 import random
-import tempfile
+import re
+import threading
+from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import Any
 
 import numpy as np
 import torch
+from gymnasium.wrappers.utils import RunningMeanStd
 
-from rlchain.runs import rl_games_checkpoint
+try:
+    from numpy._core import multiarray as _multiarray
+except ImportError:  # numpy 1.x
+    from numpy.core import multiarray as _multiarray
+
+from rlchain.envs.backends.pettingzoo_env import AgentObs
+from rlchain.runs import digest, rl_games_checkpoint
+from rlchain.runs.atomic import write_atomic
 
 FORMAT = "rlchain-checkpoint-1"
+TRUST_HINT = ("unpickling it would run code from the file; if you trust the file, load it with "
+              "--trust-checkpoint (params.config.trust_checkpoint: true)")
+
+_trusted: ContextVar[bool] = ContextVar("rlchain_trust_checkpoints", default=False)
 
 
 class CheckpointError(RuntimeError):
     """A checkpoint that cannot be read or does not fit the model."""
 
 
+@contextmanager
+def trusting(trust: bool = True) -> Iterator[None]:
+    """Within the block, checkpoints load with full pickle (any object, any code it names): for files the
+    user trusts, e.g. one written by an older tool that stored its own classes. ``trust=False`` keeps the
+    setting of an enclosing block."""
+    token = _trusted.set(bool(trust) or _trusted.get())
+    try:
+        yield
+    finally:
+        _trusted.reset(token)
+
+
+def is_trusted() -> bool:
+    """Whether checkpoints load with full pickle here (inside :func:`trusting`)."""
+    return _trusted.get()
+
+
 def save_atomic(state: dict[str, Any], path: str) -> None:
-    """Write ``state`` to ``path`` through a temp file + rename: a crash never leaves half a file."""
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp_", suffix=".pth", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            torch.save(state, fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a checkpoint is an ordinary file
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    """Write ``state`` with a checksum of every tensor to ``path`` through a temp file + rename: a crash
+    never leaves half a file, and a later corruption is caught on load."""
+    state = {**_encode(state), digest.KEY: digest.digest(state)}
+    write_atomic(path, lambda fh: torch.save(state, fh), suffix=".pth")
 
 
-def load(path: str, map_location: str | torch.device = "cpu") -> dict[str, Any]:
-    """Read a checkpoint written by rlchain; any other file is a one-line CheckpointError."""
-    if not os.path.isfile(path):
-        raise CheckpointError(f"{path}: checkpoint not found")
+def _data_types() -> list[Any]:
+    """What rlchain writes besides tensors and plain containers (torch's own allow-list): numpy arrays,
+    scalars and dtypes (RNG states, env states, replay counters) and gymnasium's running mean
+    (a gymnasium env's wrapper state). Loading builds these from the file's data and runs nothing else."""
+    types: list[Any] = [np.ndarray, np.dtype, bytes]
+    for module in ("numpy._core.multiarray", "numpy.core.multiarray"):  # numpy 2's name, numpy 1's
+        types += [(_multiarray._reconstruct, f"{module}._reconstruct"), (_multiarray.scalar, f"{module}.scalar")]
+    dtypes = getattr(np, "dtypes", None)  # the dtype classes (numpy >= 1.25)
+    types += [getattr(dtypes, name) for name in dir(dtypes) if name.endswith("DType")] if dtypes else []
+    types += [RunningMeanStd, AgentObs]  # a gymnasium wrapper's statistics; multi-agent observations in progress
+    return types
+
+
+_allowed = threading.Lock()
+_allowed_done: list[bool] = []
+
+
+def _allow_data_types() -> None:
+    """Add :func:`_data_types` to torch's ``weights_only`` allow-list, once per process. Process-wide rather
+    than a ``safe_globals`` block, which edits the same global list and would race between threads (a Tune
+    stepper's training thread and its caller); the types are data, so other ``weights_only`` loads of the
+    process may read them too."""
+    with _allowed:
+        if not _allowed_done:
+            torch.serialization.add_safe_globals(_data_types())
+            _allowed_done.append(True)
+
+
+def _refused_type(path: str, exc: Exception) -> str:
+    """The first global a file names that is not data (from torch's refusal, else from a scan of the file)."""
+    match = re.search(r"GLOBAL ([\w.]+)", str(exc))
+    if match:
+        return match.group(1)
     try:
-        state = torch.load(path, map_location=map_location, weights_only=False)
-    except Exception as exc:  # torch raises many types for a corrupt file
-        raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
-                              f"{' '.join(str(exc).split())[:200]})") from None
+        allowed = {t[1] if isinstance(t, tuple) else f"{t.__module__}.{t.__name__}" for t in _data_types()}
+        unsafe = [g for g in torch.serialization.get_unsafe_globals_in_checkpoint(path) if g not in allowed]
+        return unsafe[0] if unsafe else ""
+    except Exception:  # not a zip checkpoint: the caller reports it as unreadable
+        return ""
+
+
+def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> dict[str, Any]:
+    """Read a checkpoint written by rlchain as data (see :func:`read`); any other file is a one-line
+    CheckpointError."""
+    state = read(path, map_location, trusted)
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         if rl_games_checkpoint.is_rl_games_checkpoint(state):  # rl_games 1.6.5 / 2.0: read as rlchain's
             try:
@@ -56,6 +115,72 @@ def load(path: str, map_location: str | torch.device = "cpu") -> dict[str, Any]:
                 raise CheckpointError(f"{path}: an rl_games checkpoint rlchain cannot read: {exc}") from None
         raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
     return state
+
+
+def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> Any:
+    """Read any torch-saved file as data: tensors, numpy arrays and plain containers only (``weights_only``),
+    e.g. a checkpoint of another library to import. A file naming any other object (a class, a function: code
+    that unpickling would run) is refused with one line naming the file and the type, unless it is trusted
+    (``trusted=True`` or inside :func:`trusting`). A tensor whose checksum differs from the one rlchain saved
+    with it is an error naming it."""
+    if not os.path.isfile(path):
+        raise CheckpointError(f"{path}: checkpoint not found")
+    trust = is_trusted() if trusted is None else trusted
+    try:
+        if trust:
+            state = torch.load(path, map_location=map_location, weights_only=False)
+        else:
+            _allow_data_types()
+            state = torch.load(path, map_location=map_location, weights_only=True)
+    except pickle.UnpicklingError as exc:
+        name = None if trust else _refused_type(path, exc)
+        if name:
+            raise CheckpointError(f"{path}: refused: it names the type '{name}', which is not checkpoint data "
+                                  f"(tensors, arrays, numbers, strings, containers); {TRUST_HINT}") from None
+        raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
+                              f"{' '.join(str(exc).split())[:200]})") from None
+    except Exception as exc:  # torch raises many types for a corrupt file
+        raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
+                              f"{' '.join(str(exc).split())[:200]})") from None
+    if not isinstance(state, dict):
+        return state
+    bad = digest.first_mismatch(state)
+    if bad is not None:
+        raise CheckpointError(f"{path}: tensor '{bad}' does not match the checksum saved with it: the file "
+                              f"is corrupted (disk or copy); use another checkpoint")
+    state.pop(digest.KEY, None)
+    return _decode(state)
+
+
+_DEQUE = "__rlchain_deque__"
+
+
+def _encode(value: Any) -> Any:
+    """``value`` with every deque (a frame-stack queue in a gymnasium env's state) as a tagged dict, which
+    ``weights_only`` can read; the object itself when it holds none. Only plain dicts, lists and tuples are
+    rebuilt (an OrderedDict state_dict keeps its metadata)."""
+    if isinstance(value, deque):
+        return {_DEQUE: [_encode(v) for v in value], "maxlen": value.maxlen}
+    if type(value) is dict:
+        items = {k: _encode(v) for k, v in value.items()}
+        return items if any(items[k] is not value[k] for k in value) else value
+    if type(value) in (list, tuple):
+        items = [_encode(v) for v in value]
+        return type(value)(items) if any(a is not b for a, b in zip(items, value)) else value
+    return value
+
+
+def _decode(value: Any) -> Any:
+    """:func:`_encode` undone."""
+    if type(value) is dict:
+        if _DEQUE in value:
+            return deque((_decode(v) for v in value[_DEQUE]), maxlen=value["maxlen"])
+        items = {k: _decode(v) for k, v in value.items()}
+        return items if any(items[k] is not value[k] for k in value) else value
+    if type(value) in (list, tuple):
+        items = [_decode(v) for v in value]
+        return type(value)(items) if any(a is not b for a, b in zip(items, value)) else value
+    return value
 
 
 def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -> None:

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 import yaml
 
+from rlchain.runs.atomic import remove_stale_temps, write_text_atomic
+
 
 @dataclass
 class RunDir:
@@ -38,16 +40,28 @@ class RunDir:
 
 
 def create_run_dir(train_dir: str, name: str, experiment: str | None, raw_config: dict) -> RunDir:
-    """Make the folders (failing early with a clear message) and store the config used."""
+    """Make the folders (failing early with a clear message) and store the config used.
+
+    The run folder must lie inside ``train_dir`` (the config's name checks keep it so; this is the last
+    guard), its ``nn`` and ``summaries`` must be real folders (not symlinks planted to send files
+    elsewhere), and temp files a killed writer left there are removed."""
     folder = experiment or f"{name}_{time.strftime('%d-%H-%M-%S')}"
     root = os.path.join(train_dir, folder)
     if experiment is None and os.path.exists(root):
         root = f"{root}_{os.getpid()}"
+    base = os.path.realpath(train_dir)
+    if os.path.dirname(os.path.realpath(root)) != base:
+        raise OSError(f"cannot create run folder '{root}': it is not a folder directly inside train_dir "
+                      f"'{train_dir}' (name and full_experiment_name are names, not paths)")
     try:
-        os.makedirs(os.path.join(root, "nn"), exist_ok=True)
-        os.makedirs(os.path.join(root, "summaries"), exist_ok=True)
-        with open(os.path.join(root, "config.yaml"), "w", encoding="utf-8") as fh:
-            yaml.safe_dump(raw_config, fh, sort_keys=False)
+        for sub in ("nn", "summaries"):
+            path = os.path.join(root, sub)
+            if os.path.islink(path):
+                raise OSError(f"'{path}' is a symlink; a run writes into its own folders only")
+            os.makedirs(path, exist_ok=True)
+        for sub in ("", "nn"):
+            remove_stale_temps(os.path.join(root, sub))
+        write_text_atomic(os.path.join(root, "config.yaml"), yaml.safe_dump(raw_config, sort_keys=False))
     except OSError as exc:
         raise OSError(f"cannot create run folder '{root}': {exc.strerror or exc}") from None
     return RunDir(root=root, name=name)

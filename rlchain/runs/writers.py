@@ -37,6 +37,7 @@ from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.config.run import ProgressConfig
 from rlchain.log import get_logger, set_live_status
 from rlchain.registry import WRITERS
+from rlchain.runs.atomic import open_append
 from rlchain.runs.progress import DEFAULT_LIVE_SECONDS, LiveStatus, StatusFields, live_wanted, run_eta, status_line
 from rlchain.runs.wandb_logger import start_wandb
 
@@ -238,7 +239,7 @@ class CSVWriter(Writer):
         folder = os.path.join(run_dir, "summaries")
         os.makedirs(folder, exist_ok=True)
         self.path = os.path.join(folder, self.FILE)
-        self._file = open(self.path, "a", newline="")  # a resumed run with the same folder appends
+        self._file = open_append(self.path)  # a resumed run with the same folder appends
         self._csv = csv.writer(self._file)
         if self._file.tell() == 0:
             self._csv.writerow(["frames", "epoch", "seconds", "tag", "value"])

@@ -20,7 +20,7 @@ import torch
 
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import describe, make_context, to_device
-from rlchain.algos.base.safety import DivergenceGuard, StopSignals, check_parameters
+from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterrupted, check_parameters
 from rlchain.config.schema import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
@@ -29,12 +29,13 @@ from rlchain.log import get_logger
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
 from rlchain.parallel.threads import ThreadPlan
-from rlchain.runs.checkpoint import seed_everything
+from rlchain.runs.checkpoint import CheckpointError, seed_everything
 from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, EnvStatsCallback, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
+from rlchain.training.learner_backup import LearnerBackup
 from rlchain.training.live_params import LiveParams
 from rlchain.training.saving import CheckpointSaver
 from rlchain.training.self_play import SelfPlayCallback
@@ -105,6 +106,7 @@ class Loop:
             check_names(cfg.hyperparam_schedule, self.algorithm.tunable, params.algo.name, params.source)
             self.events.add(HyperparamSchedule(cfg.hyperparam_schedule))
         self.checkpoints = CheckpointSaver(self.ctx, self.algorithm, run, self.events)
+        self.backup = LearnerBackup()  # the learner when an update starts (undone on a stop signal)
         self.live = LiveParams(self.ctx, self.algorithm)
 
     # ----- the run's state (callbacks, tuning and the Runner read it here) ----------------------
@@ -170,13 +172,15 @@ class Loop:
     def train(self) -> TrainResult:
         """Train until max_epochs, max_frames, score_to_win or a stop signal; returns the statistics.
 
-        SIGINT/SIGTERM stop after the current env step with a checkpoint of the last completed
-        epoch; an env failure does the same, then raises EnvError; a NaN/inf stops (or rolls back,
-        with ``divergence.action: rollback``) without ever saving non-finite parameters.
+        SIGINT/SIGTERM stop after the current env step (or, in an ``interruptible_update``, the current
+        minibatch, the update undone) with a checkpoint of the last completed epoch; an env failure does
+        the same, then raises EnvError; a NaN/inf stops (or rolls back, with ``divergence.action:
+        rollback``) without ever saving non-finite parameters. A final checkpoint that cannot be written
+        raises CheckpointError.
         """
         start = self.started = time.time()
         algo, ctx = self.algorithm, self.ctx
-        stop = None
+        stop = self._limit_reached()  # a resumed run already at max_epochs / max_frames trains no further
         with StopSignals() as signals:
             ctx.signals = signals
             algo.start()
@@ -194,6 +198,9 @@ class Loop:
                     self.events.emit("on_rollout_end")
                     t1 = time.time()
                     stats = self._guarded_update()
+                except UpdateInterrupted:
+                    stop = signals.stop_reason()
+                    break
                 except DivergenceError as exc:
                     self._diverged(exc)
                     continue  # rolled back: collect afresh with the restored learner
@@ -228,10 +235,20 @@ class Loop:
             raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
 
     def _guarded_update(self) -> dict[str, float] | None:
-        """``update`` (under the update's thread count while the envs wait); non-finite parameters diverge."""
+        """``update`` (under the update's thread count while the envs wait); non-finite parameters diverge.
+        An algorithm that leaves its update on a stop signal (``interruptible_update``) gets the learner of
+        the epoch boundary back, so the checkpoint then written resumes exactly."""
         algo = self.algorithm
-        with self.ctx.update_phase() if algo.envs_idle_in_update else nullcontext():
-            stats = algo.update()
+        interruptible = getattr(algo, "interruptible_update", False) and not self.ctx.comm.active
+        if interruptible:
+            self.backup.capture(algo.learners())
+        try:
+            with self.ctx.update_phase() if algo.envs_idle_in_update else nullcontext():
+                stats = algo.update()
+        except UpdateInterrupted:
+            if interruptible:
+                self.backup.restore(algo.learners())
+            raise
         if stats is None:
             return None
         bad = check_parameters(algo.model)
@@ -335,6 +352,15 @@ class Loop:
         if self.epoch > 0 and not comm.is_main and not self.checkpoints.point.rank_restored:
             seed_everything(comm.rank_seed + self.epoch)  # a checkpoint without every rank's own streams
 
+    def _limit_reached(self) -> str | None:
+        """At the start: the stop a run resumed at or past its max_epochs / max_frames has reached already."""
+        cfg = self.cfg
+        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached (the checkpoint is at epoch {self.epoch}; nothing to train)"
+        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached (the checkpoint is at frame {self.frames}; nothing to train)"
+        return None
+
     def _stop_reason(self, episodes: dict | None) -> str | None:
         cfg = self.cfg
         if episodes is not None and episodes["reward"] >= cfg.score_to_win:
@@ -350,19 +376,28 @@ class Loop:
         return None
 
     def _finish(self, stop: str, start: float, last: str | None) -> TrainResult:
-        """Report the stop, emit on_train_end and build the result."""
+        """Report the stop, emit on_train_end and build the result. A final checkpoint that could not be
+        written ends the run with a CheckpointError (non-zero exit) whose line is the stop line and why."""
         self.logger.flush()
         mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
-        if self.cfg.print_stats or stop.startswith("interrupted"):
-            success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
-            head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
-            log.info(f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward "
-                     f"{mean:.2f}, best {self.best_reward:.2f}{success}")
-        if stop.startswith("interrupted") and last:
+        interrupted = stop.startswith("interrupted")
+        success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
+        head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
+        line = (f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward {mean:.2f}, "
+                f"best {self.best_reward:.2f}{success}")
+        lost = self.run is not None and last is None and self.checkpoints.failure is not None
+        if lost:
+            line += (f"; the final checkpoint was not written ({self.checkpoints.failure}); "
+                     f"{self.checkpoints.kept()}")
+        if (self.cfg.print_stats or interrupted) and not (lost and not interrupted):
+            log.info(line)
+        if interrupted and last:
             log.info(f"resume with: python runner.py --train --file <config> --checkpoint {last}")
         result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
                              self.run.root if self.run else "", time.time() - start)
         self.events.emit("on_train_end", result)
+        if lost and not interrupted:  # an interrupted run exits non-zero already (130), its line says what is kept
+            raise CheckpointError(line)
         return result
 
     def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:

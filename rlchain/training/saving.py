@@ -32,6 +32,9 @@ class CheckpointSaver:
         self.best_reward = -math.inf
         self.last_reward: float | None = None  # the last epoch's mean reward (rl_games' final file name)
         self.point = ResumePoint(ctx, algorithm)  # the last epoch boundary: RNG, envs, episodes in progress
+        self.newest: tuple[str, int] | None = None  # (path, epoch) of the newest checkpoint this run wrote
+        self.resumed_from: str | None = None  # the checkpoint this run started from
+        self.failure: str | None = None  # why the latest write failed (None once one succeeds)
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
         """Everything exact resume needs: the learner now and the run's state at the last epoch
@@ -73,11 +76,21 @@ class CheckpointSaver:
         try:
             ckpt.save_atomic(self.state_dict(kind), path)
         except OSError as exc:
-            log.warning(f"warning: checkpoint write to {path} failed ({exc.strerror or exc}); the previous "
-                        f"checkpoint is kept and training goes on")
+            self.failure = f"writing {path} failed: {exc.strerror or exc}"
+            log.warning(f"warning: checkpoint {self.failure}; {self.kept()}")
             return None
+        self.failure = None
+        self.newest = (path, self.ctx.epoch)
         self.events.emit("on_checkpoint", path, kind)
         return path
+
+    def kept(self) -> str:
+        """What is on disk to resume from, in words (for a failed write and the stop line)."""
+        if self.newest is not None:
+            return f"the newest checkpoint is {self.newest[0]} (epoch {self.newest[1]})"
+        if self.resumed_from is not None:
+            return f"this run wrote no checkpoint; the one it resumed from is {self.resumed_from}"
+        return "no checkpoint of this run exists"
 
     def after_epoch(self, episodes: dict | None) -> None:
         """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
@@ -130,6 +143,7 @@ class CheckpointSaver:
                                        f"the config says '{name}'")
         if weights:
             ckpt.load_model_state(algo.model, state, path)
+        self.resumed_from = path
         algo.agent.load_state_dict(state["agent"])
         ctx.epoch, ctx.frames = int(state["epoch"]), int(state["frames"])
         for key, value in state.get("live_config", {}).items():  # values set_params gave the config fields

@@ -98,7 +98,9 @@ class EpochStepper(Callback):
         if not self.parked:
             raise RuntimeError("a checkpoint can be loaded only between epochs")
         trainer = self.trainer
-        trainer.restore(ckpt.load(path), path)
+        with ckpt.trusting(trainer.cfg.trust_checkpoint):
+            state = ckpt.load(path)
+        trainer.restore(state, path)
         trainer.restart_episodes()
         trainer.snapshot()  # the divergence guard rolls back to the loaded learner, not the old one
 

@@ -52,6 +52,14 @@ class KillRank1(Callback):
             os.kill(os.getpid(), signal.SIGKILL)
 
 
+class StopRank1(Callback):
+    """Test-only: rank 1 stops (SIGSTOP) at the end of epoch 2, as a wedged GPU or file system would."""
+
+    def on_epoch_end(self, ctx, stats, episodes):
+        if ctx.state.rank == 1 and ctx.state.epoch == 2:
+            os.kill(os.getpid(), signal.SIGSTOP)
+
+
 def torchrun(args, tmp_path, nproc=2, timeout=180, script=None, module=None):
     """Run ``torchrun --standalone --nproc_per_node=nproc`` on runner.py (or a script / -m module)."""
     dumps = tmp_path / "dumps"
@@ -272,6 +280,34 @@ def test_a_dead_rank_ends_the_run_with_a_clear_message(tmp_path):
     lost = "distributed error: rank 0: a collective with the other ranks failed" in out.stderr
     stopped = "SIGTERM received" in out.stdout or "interrupted" in out.stderr
     assert lost or stopped, out.stdout[-2000:] + out.stderr[-3000:]
+
+
+def test_a_stalled_rank_ends_the_run_within_the_collective_timeout(tmp_path):
+    """Rank 1 stops (SIGSTOP) and never answers: rank 0 gives up after multi_gpu_timeout_s (2 s here) and
+    a roll call, with one line naming rank 1. torchrun then takes a while to kill a stopped process, so the
+    test reads rank 0's error as it comes and ends the launch itself."""
+    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
+            *overrides(tmp_path, "params.config.score_to_win=100000", "params.config.max_epochs=200",
+                       "params.config.multi_gpu_timeout_s=2"),
+            'params.config.callbacks=["tests.smoke.test_distributed:StopRank1"]']
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""), OMP_NUM_THREADS="1")
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nnodes=1", "--nproc_per_node=2",
+           os.path.join(ROOT, "runner.py"), *args]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    lines = []
+    try:
+        deadline = time.monotonic() + 120  # the test's own bound; the run's is the 2 s timeout + the roll call
+        for line in proc.stderr:
+            lines.append(line)
+            if "distributed error: rank 0" in line or time.monotonic() > deadline:
+                break
+        found = [line for line in lines if "distributed error: rank 0" in line]
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the launch and both ranks (rank 1 is stopped)
+        proc.wait(timeout=30)
+    assert found, "".join(lines[-40:])
+    assert "rank 1 did not answer within 2 s (params.config.multi_gpu_timeout_s)" in found[0]
 
 
 # ----- the collectives with two real processes ---------------------------------------------------

@@ -11,6 +11,7 @@ import glob
 import logging
 import os
 import signal
+import time
 
 import gymnasium as gym
 import pytest
@@ -136,6 +137,60 @@ def test_sigterm_mid_epoch_resumes_bit_identically(tmp_path):
     # 16 steps per epoch: the SIGTERM comes at step 6 of epoch 4, which is then not counted
     stopped, _ = train(tmp_path, "stopped", config, overrides, 8, record=Record(sigterm_at_step=3 * 16 + 6))
     assert stopped.stop_reason == "interrupted by SIGTERM" and stopped.epoch == 3
+    resumed, rec_r = train(tmp_path, "resumed", config, overrides, 8, checkpoint=last(stopped))
+    assert_resumed_equals_straight(straight, resumed, rec_s, rec_r, 4)
+
+
+class SigtermInUpdate(Record):
+    """SIGTERM between the 2nd and 3rd minibatch of the update after epoch ``epoch`` (through the PPO agent's
+    stop check, which runs before every minibatch); counts the minibatches run after it and the seconds
+    from the signal to the end of the run."""
+
+    drives_trainer = True  # test instrument: wraps the agent's stop check
+
+    def __init__(self, epoch, agent="agent"):
+        super().__init__()
+        self.epoch, self.agent, self.checks, self.after, self.sent = epoch, agent, 0, 0, None
+
+    def on_train_start(self, trainer):
+        agent = getattr(trainer.algorithm, self.agent)
+        check = agent.should_stop
+
+        def counted():
+            if trainer.epoch == self.epoch:
+                self.checks += 1
+                if self.checks == 3:
+                    self.sent = time.monotonic()
+                    os.kill(os.getpid(), signal.SIGTERM)
+                elif self.sent is not None:
+                    self.after += 1
+            return check()
+        agent.should_stop = counted
+
+    def on_epoch_end(self, trainer, stats, episodes):
+        kept = {k: v for k, v in stats.items() if not any(t in k for t in TIMING)}
+        self.epochs[trainer.epoch] = (kept, dict(episodes) if episodes else None)
+
+    def on_train_end(self, trainer, result):
+        self.seconds = time.monotonic() - self.sent if self.sent else None
+
+
+CENTRAL_VALUE = ["params.config.env_name=ObsStateCartPoleTest-v0", "params.config.central_value_config={network: "
+                 "{name: actor_critic, central_value: True, mlp: {units: [16]}}, mini_epochs: 2}"]
+
+
+@pytest.mark.parametrize("agent", ["agent", "cv_agent"])  # the actor's update; the central value's, after it
+def test_sigterm_mid_update_stops_between_minibatches_and_resumes_bit_identically(tmp_path, agent):
+    config, overrides = CARTPOLE
+    if agent == "cv_agent":
+        import tests.smoke.test_central_value  # noqa: F401  (registers ObsStateCartPoleTest-v0)
+        overrides = [*overrides, *CENTRAL_VALUE]
+    straight, rec_s = train(tmp_path, "straight", config, overrides, 8)
+    record = SigtermInUpdate(epoch=3, agent=agent)  # the update of epoch 4 is left after 2 of its minibatches
+    stopped, _ = train(tmp_path, "stopped", config, overrides, 8, record=record)
+    assert stopped.stop_reason == "interrupted by SIGTERM" and stopped.epoch == 3
+    assert record.sent is not None and record.after == 0  # not one more minibatch after the signal
+    assert record.seconds < 1.0
     resumed, rec_r = train(tmp_path, "resumed", config, overrides, 8, checkpoint=last(stopped))
     assert_resumed_equals_straight(straight, resumed, rec_s, rec_r, 4)
 

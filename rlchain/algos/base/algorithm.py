@@ -138,6 +138,9 @@ class AlgorithmBase:
     supports_distributed: ClassVar[bool] = False
     self_play: ClassVar[bool] = False
     envs_idle_in_update: ClassVar[bool] = True
+    # update() may raise UpdateInterrupted between minibatches on a stop signal (the Loop then puts back
+    # the learner of the epoch boundary); an algorithm without it finishes its update first
+    interruptible_update: ClassVar[bool] = False
 
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
         self.params, self.env, self.model, self.ctx = params, env, model, ctx

@@ -15,8 +15,14 @@ from rlchain.log import get_logger
 log = get_logger(__name__)
 
 
+class UpdateInterrupted(Exception):
+    """A stop signal came during an update: the algorithm left it between two minibatches; the loop puts
+    back the learner of the last epoch boundary, so the checkpoint it saves resumes exactly."""
+
+
 class StopSignals:
-    """SIGINT / SIGTERM ask the loop to stop after the current step; a second one exits at once.
+    """SIGINT / SIGTERM ask the loop to stop after the current env step or minibatch; a second one exits
+    at once.
 
     Use as a context manager around training; ``requested`` holds the signal name once one came, or
     the reason a callback gave (:meth:`request`). Outside the main thread (where Python cannot
@@ -58,8 +64,8 @@ class StopSignals:
         self.requested = name
         self.by_signal = True
         # print, not logging: this runs in a signal handler, where logging's locks could deadlock
-        print(f"\n{name} received: finishing the current step, then saving a checkpoint "
-              f"(send it again to exit at once)", flush=True)
+        print(f"\n{name} received: finishing the current env step or minibatch, then saving a checkpoint of "
+              f"the last completed epoch (send it again to exit at once)", flush=True)
 
 
 def check_parameters(module: torch.nn.Module) -> str | None:

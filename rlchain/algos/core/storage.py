@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
+import gymnasium as gym
+import numpy as np
 import torch
 
 ALL = slice(None)
@@ -33,6 +36,16 @@ class Batch:
     seq_length: int = 1
     index: torch.Tensor | None = None
     """(B,) int64: each row's place in the rollout flattened time-major (t * num_envs + env)."""
+
+
+def rollout_step_bytes(obs_space: Any, action_space: Any, value_size: int) -> int:
+    """Bytes one step of one env row takes in :class:`RolloutStorage` (masks and RNN states left out): the
+    estimate a run checks against free memory before the storage is built."""
+    shape = getattr(obs_space, "shape", None)
+    obs = int(np.prod(shape)) if shape else gym.spaces.flatdim(obs_space)
+    obs *= 1 if getattr(obs_space, "dtype", None) == np.uint8 else 4
+    act = gym.spaces.flatdim(action_space)
+    return obs + 4 * (3 * act + 1 + 5 * value_size) + 3  # actions, params; log prob; values .. returns; flags
 
 
 class RolloutStorage:

@@ -12,6 +12,8 @@ from __future__ import annotations
 import time
 from typing import Any
 
+import gymnasium as gym
+import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
@@ -30,6 +32,7 @@ from rlchain.config.schema import Params
 from rlchain.deprecation import renamed
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.log import get_logger
+from rlchain.parallel.memory import check_fits
 
 log = get_logger(__name__)
 
@@ -50,6 +53,19 @@ class OffPolicyAlgorithm(AlgorithmBase):
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0  # seconds of gradient updates inside the last collect()
         self._replay_size_said = False
+
+    @classmethod
+    def check_config(cls, params: Params, spec: Any) -> None:
+        """The replay buffer must fit the training device's free memory (checked before it is built)."""
+        cfg, obs_space = params.config, spec.observation_space
+        if obs_space is None or spec.action_space is None:
+            return
+        shape = getattr(obs_space, "shape", None)
+        obs = int(np.prod(shape)) if shape else gym.spaces.flatdim(obs_space)
+        obs *= 1 if obs_space.dtype == np.uint8 else 4
+        per = 2 * obs + 4 * gym.spaces.flatdim(spec.action_space) + 11  # obs, next obs, action; reward .. flags
+        check_fits(cfg.replay_buffer_size * per, cfg.device, params.source, "params.config.replay_buffer_size",
+                   f"the replay buffer ({cfg.replay_buffer_size} transitions)")
 
     def make_agent(self) -> Any:  # pragma: no cover - subclasses
         raise NotImplementedError

@@ -7,11 +7,12 @@ updates. There is no action-space branch here: the model's distribution handles 
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import nullcontext
 
 import torch
 
+from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.losses import aux_loss_terms, normalize_advantages, policy_loss, value_loss
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.schedules import (
@@ -50,6 +51,7 @@ class PPOAgent:
         self.cfg = cfg
         self.device = device
         self.lr = cfg.learning_rate
+        self.should_stop: Callable[[], bool] | None = None  # checked between minibatches (a stop signal)
         self.params = [p for p in model.parameters() if p.requires_grad]
         # cuda_graph: Adam reads its lr from a device tensor the captured step writes (lr_live, or 0 for
         # a non-finite step); every other path keeps a float lr
@@ -98,6 +100,8 @@ class PPOAgent:
                 if obs_per_minibatch and mini_epoch == 0:
                     with torch.no_grad():
                         self.model.update_normalizers(obs=batch.obs)
+                if self.should_stop is not None and self.should_stop():
+                    raise UpdateInterrupted
                 stats = self._step(batch, reference)
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import torch
 
+from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.losses import value_loss
 from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.storage import RolloutStorage
@@ -20,6 +23,7 @@ class CentralValueAgent:
                  comm: Communicator = SINGLE) -> None:
         self.model, self.cfg, self.device, self.comm = model, cfg, device, comm
         self.lr = cfg.learning_rate
+        self.should_stop: Callable[[], bool] | None = None  # checked between minibatches (a stop signal)
         self.params = [p for p in model.parameters() if p.requires_grad]
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
 
@@ -43,6 +47,8 @@ class CentralValueAgent:
             else:
                 batches = storage.minibatches(cfg.minibatch_size, zeros, shuffle)
             for batch in batches:
+                if self.should_stop is not None and self.should_stop():
+                    raise UpdateInterrupted
                 states = batch.states[state_offset:] if batch.states else ()
                 predicted, _ = model(batch.obs, states, batch.resets, batch.seq_length)
                 loss = value_loss(predicted, model.norm_value(batch.values), model.norm_value(batch.returns),

@@ -11,7 +11,7 @@ from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
-from rlchain.algos.core.storage import RolloutStorage
+from rlchain.algos.core.storage import RolloutStorage, rollout_step_bytes
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
@@ -29,6 +29,7 @@ from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.build import build_central_value
 from rlchain.models.compile import compile_model
 from rlchain.parallel import communicator
+from rlchain.parallel.memory import check_fits
 from rlchain.runs import checkpoint as ckpt
 
 log = get_logger(__name__)
@@ -59,12 +60,21 @@ class PPO(AlgorithmBase):
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
     supports_distributed = True
+    interruptible_update = True  # between minibatches, in a single process (see _stop_requested)
     self_play = True  # self_play_config: frozen opponents loaded into the env
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs)."""
+        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs); the rollout
+        storage must fit the training device's free memory."""
         check_batch(params.config, params.source, spec.num_agents)
+        cfg = params.config
+        if spec.observation_space is not None and spec.action_space is not None:
+            rows = cfg.horizon_length * spec.num_envs
+            nbytes = rows * rollout_step_bytes(spec.observation_space, spec.action_space, spec.value_size)
+            key = "params.config.horizon_length" if cfg.horizon_length >= cfg.num_actors else "params.config.num_actors"
+            check_fits(nbytes, cfg.device, params.source, key, f"the rollout storage (horizon_length "
+                       f"{cfg.horizon_length} x {spec.num_envs} env rows)")
 
     @classmethod
     def build_training_env(cls, params: Params, seed: int | None) -> Any:
@@ -88,6 +98,7 @@ class PPO(AlgorithmBase):
         compile_model(model, cfg.torch_compile)
         graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
         self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed)
+        self.agent.should_stop = self._stop_requested
         if cfg.compile_update:
             _check_compile_update(model, params.source)
             self.agent.compile_losses()
@@ -96,6 +107,7 @@ class PPO(AlgorithmBase):
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
             self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm)
+            self.cv_agent.should_stop = self._stop_requested
             self.agent.train_critic = False
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
@@ -138,6 +150,12 @@ class PPO(AlgorithmBase):
         stats = self.learn()
         self.ctx.frames += self.frames_per_epoch()
         return stats
+
+    def _stop_requested(self) -> bool:
+        """A stop signal came (checked between minibatches). Under torchrun the update always finishes: the
+        ranks would leave it at different minibatches and wait for each other in the gradient all-reduce."""
+        signals = self.ctx.signals
+        return signals is not None and signals.by_signal and not self.ctx.comm.active
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
         """The actor-critic and PPO agent, and the central value with its own agent when there is one."""

@@ -118,18 +118,39 @@ class JaxBatchVecEnv:
 
     def get_state(self) -> dict[str, Any]:
         """The batch's JAX state pytree (physics, episode counters and metrics in ``info``) and the
-        random key (exact resume; the VecEnv contract's optional ``get_state``). JAX arrays are
-        immutable, so the state is kept as it is; a checkpoint pickles them with their dtypes and weak
-        types, which keeps the restored state's jitted step the compiled one."""
-        return {"state": self._state, "key": self._key}
+        random key (exact resume; the VecEnv contract's optional ``get_state``), as plain data: the
+        pytree's leaves as numpy arrays with each one's weak type, so a checkpoint holds no JAX or env
+        classes (it loads as data); :meth:`set_state` rebuilds the pytree on this env's own structure."""
+        jax = self._jax
+        if self._state is None:
+            self.reset()
+        leaves = jax.tree_util.tree_leaves(self._state)
+        return {"leaves": [np.asarray(x) if hasattr(x, "shape") else x for x in leaves],
+                "weak_types": [bool(getattr(getattr(x, "aval", None), "weak_type", False)) for x in leaves],
+                "key": np.asarray(self._key)}
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Put back :meth:`get_state`'s result: the state committed to JAX's device as a reset's state is, the
-        key uncommitted as a fresh one is, so the restored env runs the step already compiled."""
+        """Put back :meth:`get_state`'s result: the leaves committed to JAX's device as a reset's state is
+        (with their weak types, which the jitted step's cache key includes), the key uncommitted as a fresh
+        one is, so the restored env runs the step already compiled."""
         jax = self._jax
+        if self._state is None:
+            self.reset()
+        own, treedef = jax.tree_util.tree_flatten(self._state)
+        leaves, weak = state["leaves"], state.get("weak_types") or [False] * len(state["leaves"])
+        if len(leaves) != len(own):
+            raise ValueError(f"the saved state has {len(leaves)} arrays, this env's {len(own)}: saved from "
+                             f"another env or env_config")
         device = jax.devices()[0]
-        self._state = jax.tree_util.tree_map(
-            lambda x: jax.device_put(x, device) if hasattr(x, "shape") else x, state["state"])
+
+        def put(value: Any, is_weak: bool) -> Any:
+            if not hasattr(value, "shape"):
+                return value
+            array = jax.device_put(value, device)
+            if is_weak:  # as JAX's own unpickling does: numpy has no weak types
+                array.aval = array.aval.update(weak_type=True)
+            return array
+        self._state = jax.tree_util.tree_unflatten(treedef, [put(v, w) for v, w in zip(leaves, weak)])
         # the key stays uncommitted, as PRNGKey makes it: a committed key gives a committed ``sub``, and the
         # step's cache key (which includes each argument's committedness) would miss, compiling it again
         self._key = self._jnp.asarray(np.asarray(state["key"]))

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import os
 
+import torch
+
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint
+from rlchain.runs.atomic import write_atomic
 
 
 def export_rl_games(checkpoint: str, output: str | None = None) -> str:
@@ -18,7 +21,7 @@ def export_rl_games(checkpoint: str, output: str | None = None) -> str:
     except ValueError as exc:
         raise ckpt.CheckpointError(f"{checkpoint}: cannot be written for rl_games: {exc}") from None
     output = output or os.path.splitext(checkpoint)[0] + "_rl_games.pth"
-    ckpt.save_atomic(converted, output)
+    write_atomic(output, lambda fh: torch.save(converted, fh), suffix=".pth")  # as rl_games saves: no digest
     return output
 
 

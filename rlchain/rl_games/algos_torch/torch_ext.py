@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 from torch import nn
 
 from rlchain.runs import checkpoint as _checkpoint
+from rlchain.runs.atomic import write_atomic
 
 
 class AverageMeter(nn.Module):
@@ -48,12 +48,11 @@ class AverageMeter(nn.Module):
 
 
 def load_checkpoint(filename: str, map_location: Any = None) -> dict[str, Any]:
-    """What :func:`save_checkpoint` (or rl_games' own) wrote: tensors, numbers, strings and containers of
-    them (numpy scalars too), torch.compile's ``_orig_mod.`` taken out of every key; a file holding other
-    objects is refused, as torch's ``weights_only`` loading refuses it."""
+    """What :func:`save_checkpoint` (or rl_games' own) wrote: read as data (tensors, numbers, strings,
+    containers, numpy scalars; a file naming other objects is refused unless trusted, see
+    :func:`rlchain.runs.checkpoint.read`), torch.compile's ``_orig_mod.`` taken out of every key."""
     print(f"=> loading checkpoint '{filename}'")
-    with torch.serialization.safe_globals(_NUMPY_GLOBALS):
-        return _strip_compiled(torch.load(filename, map_location=map_location, weights_only=True))
+    return _strip_compiled(_checkpoint.read(filename, map_location=map_location or "cpu"))
 
 
 def _strip_compiled(value: Any) -> Any:
@@ -66,14 +65,9 @@ def _strip_compiled(value: Any) -> Any:
 
 
 def save_checkpoint(filename: str, state: dict[str, Any]) -> None:
-    """Write ``state`` to ``filename + '.pth'`` (rl_games appends the suffix, always)."""
+    """Write ``state`` as it is to ``filename + '.pth'`` (rl_games appends the suffix, always), atomically."""
     print(f"=> saving checkpoint '{filename}.pth'")
-    _checkpoint.save_atomic(state, filename + ".pth")
-
-
-_NUMPY_GLOBALS = [np.dtype, np.core.multiarray.scalar, *{type(np.dtype(t)) for t in ("float32", "float64", "int64",
-                                                                                      "int32", "bool")}]
-"""numpy objects an rl_games checkpoint may hold (a numpy scalar reward, its dtype)."""
+    write_atomic(filename + ".pth", lambda fh: torch.save(state, fh), suffix=".pth")
 
 
 __all__ = ["AverageMeter", "load_checkpoint", "save_checkpoint"]

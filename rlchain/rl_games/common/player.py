@@ -204,15 +204,14 @@ class BasePlayer:
         """Play ``player.games_num`` games on the env rlchain builds for the config (``player.num_actors``
         envs with ``use_vecenv``, else one); prints and returns the PlayResult."""
         pc = self.parsed.config.player
-        # the model as training built it for this env ([obs | state] rows of a central-value env)
-        policy = load_policy(self.parsed, device=self.device, num_envs=pc.num_actors if pc.use_vecenv else 1,
-                             seed=self.seed, render=pc.render, env_config=pc.env_config, eval_mode=False)
-        try:
-            policy.model.load_state_dict(self.model.state_dict())
-            result = play(policy.model, policy.env, self.games_num, self.is_deterministic, device=self.device,
-                          seed=self.seed)
+        env = build_env(self.parsed, pc.num_actors if pc.use_vecenv else 1, self.seed, render=pc.render,
+                        env_config=pc.env_config)
+        try:  # the model as training built it for this env ([obs | state] rows of a central-value env)
+            model = load_policy(self.parsed, device=self.device, env=env, eval_mode=False).model
+            model.load_state_dict(self.model.state_dict())
+            result = play(model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
         finally:
-            policy.close()
+            env.close()
         print(f"av reward: {result.mean_reward:.2f} av steps: {result.mean_length:.1f} over {result.games} games",
               flush=True)
         return result
