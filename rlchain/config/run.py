@@ -275,9 +275,8 @@ class RunConfig:
                                          "bfloat16 without grad scaling (rl_games 2.0's; float16 with grad "
                                          "scaling on a GPU without bf16), fp16 = float16 with grad scaling "
                                          "(rl_games 1.6's); on a CPU only bf16, where the CPU has native bf16 "
-                                         "(AVX512-BF16/AMX: 1.37-1.87x PPO train steps/s on "
-                                         "continuous tensor envs, level on envpool; TorchReacher8 level per frame "
-                                         "over 10 seeds; elsewhere a warning and float32), True and fp16 are "
+                                         "(AVX512-BF16/AMX; docs/benchmarks.md says what it gains; elsewhere a "
+                                         "warning and float32), True and fp16 are "
                                          "float32 there as in rl_games; the rollout and the losses stay float32; "
                                          "False = off",
                                   check=check_precision)
