@@ -109,8 +109,8 @@ class PPOConfig(ActorCriticConfig):
                                          "in long runs (docs/benchmarks.md)")
     cuda_graph: Any = option("auto", "PPO (rlchain), CUDA: capture the rollout's act step and one minibatch step "
                                      "(forward, losses, backward, clipping, fused Adam) as CUDA graphs after 3 "
-                                     "eager steps and replay them (docs/benchmarks.md). auto = on for rlchain's feed-forward "
-                                     "networks on one GPU "
+                                     "eager steps and replay them (docs/benchmarks.md). auto = on for rlchain's "
+                                     "feed-forward networks on one GPU "
                                      "without torch_compile, compile_update or mixed_precision; True = on "
                                      "(a ConfigError where it cannot run: RNN, get_aux_loss, fp16, multi_gpu; "
                                      "a warning on a CPU); False = off",
