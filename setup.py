@@ -22,7 +22,8 @@ EXTRAS = {
     "docs": ["mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom;
     # the docs packages: tests/unit/test_docs_site.py builds the site
-    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel",
+    # gym: OpenAI gym 0.26 (what Isaac Lab's rl-games extra installs), for the tests of its spaces
+    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel", "gym==0.26.2",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots
     # mjlab (env_name: mjlab, vecenv_type: MJLAB): Isaac Lab's manager-based API on MuJoCo Warp. It pins

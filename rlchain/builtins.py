@@ -6,8 +6,10 @@ from typing import Any
 
 import gymnasium as gym
 
+from rlchain.algos.apg.trainer import APG
 from rlchain.algos.appo.trainer import APPO, IMPALA
 from rlchain.algos.distill.trainer import Distill
+from rlchain.algos.grpo.trainer import GRPO
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQN, SAC
@@ -64,6 +66,8 @@ def register_builtins() -> None:
     ALGOS.register("appo", APPO, overwrite=True)
     ALGOS.register("impala", IMPALA, overwrite=True)
     ALGOS.register("distill", Distill, overwrite=True)
+    ALGOS.register("grpo", GRPO, overwrite=True)
+    ALGOS.register("apg", APG, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
     for name, builder in {**atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS}.items():

@@ -109,14 +109,14 @@ class PPOConfig(ActorCriticConfig):
     compile_update: bool = option(False, "PPO (rlchain): torch.compile one minibatch step's forward pass and "
                                          "losses (with the backward pass derived from them); feed-forward "
                                          "networks only. Compiling costs 5-50 s on a CPU, so it pays only "
-                                         "in long runs (docs/benchmarks.md, issue 37)")
+                                         "in long runs (docs/benchmarks.md)")
     cuda_graph: Any = option("auto", "PPO (rlchain), CUDA: capture the rollout's act step and one minibatch step "
                                      "(forward, losses, backward, clipping, fused Adam) as CUDA graphs after 3 "
-                                     "eager steps and replay them: 1.6-2.7x train steps/s on an H100 with "
-                                     "tensor envs. auto = on for rlchain's feed-forward networks on one GPU "
+                                     "eager steps and replay them (docs/benchmarks.md). auto = on for rlchain's "
+                                     "feed-forward networks on one GPU "
                                      "without torch_compile, compile_update or mixed_precision; True = on "
                                      "(a ConfigError where it cannot run: RNN, get_aux_loss, fp16, multi_gpu; "
-                                     "a warning on a CPU); False = off (docs/benchmarks.md, issue 37)",
+                                     "a warning on a CPU); False = off",
                               check=check_cuda_graph)
     seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
                                 "divide by it (the deprecated `seq_len` is read as this, with a warning)",
