@@ -22,11 +22,17 @@ EXTRAS = {
     "docs": ["mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom;
     # the docs packages: tests/unit/test_docs_site.py builds the site
-    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel",
+    # gym: OpenAI gym 0.26 (what Isaac Lab's rl-games extra installs), for the tests of its spaces
+    "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel", "gym==0.26.2",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots (matplotlib is a core dependency now; kept for old commands)
+    # mjlab (env_name: mjlab, vecenv_type: MJLAB): Isaac Lab's manager-based API on MuJoCo Warp. It pins
+    # mujoco 3.11 (and rsl-rl-lib) where the mujoco / playground extras take mujoco 4: install it in its own
+    # environment (constraints-mjlab.txt, the mjlab job of .ci/run); "all" leaves it out
+    "mjlab": ["mjlab>=1.6,<2"],
 }
-EXTRAS["all"] = sorted({dep for deps in EXTRAS.values() for dep in deps})
+SEPARATE = {"mjlab"}
+EXTRAS["all"] = sorted({dep for name, deps in EXTRAS.items() if name not in SEPARATE for dep in deps})
 
 setup(
     name="rlchain",

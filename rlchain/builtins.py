@@ -6,14 +6,17 @@ from typing import Any
 
 import gymnasium as gym
 
+from rlchain.algos.apg.trainer import APG
 from rlchain.algos.appo.trainer import APPO, IMPALA
 from rlchain.algos.distill.trainer import Distill
+from rlchain.algos.grpo.trainer import GRPO
 from rlchain.algos.off_policy.dqn import dqn_model
 from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQN, SAC
 from rlchain.algos.ppo.trainer import PPO
 from rlchain.envs import examples
 from rlchain.envs.backends import atari, torch_envs
+from rlchain.envs.backends.mjlab_env import mjlab_env, mjlab_vecenv
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
 from rlchain.envs.factory import BuiltinVecEnv
 from rlchain.models.actor_critic import ActorCritic
@@ -36,7 +39,8 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
                          f"{action_space}")
     kind = getattr(config, "value_normalizer", "rl_games")  # a user algorithm's config class may not have the key
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input,
-                       getattr(config, "normalize_value", False), use_action_masks=masks, value_normalizer_kind=kind)
+                       getattr(config, "normalize_value", False), use_action_masks=masks, value_normalizer_kind=kind,
+                       obs_normalizer_kind=getattr(config, "obs_normalizer", "rl_games"))
 
 
 def register_builtins() -> None:
@@ -62,6 +66,8 @@ def register_builtins() -> None:
     ALGOS.register("appo", APPO, overwrite=True)
     ALGOS.register("impala", IMPALA, overwrite=True)
     ALGOS.register("distill", Distill, overwrite=True)
+    ALGOS.register("grpo", GRPO, overwrite=True)
+    ALGOS.register("apg", APG, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
     for name, builder in {**atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS}.items():
@@ -74,4 +80,7 @@ def register_builtins() -> None:
     # vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively
     for name, mode in [*((m, m) for m in VECENV_TYPES), *VECENV_ALIASES.items()]:
         VECENVS.register(name, BuiltinVecEnv(mode), overwrite=True)
+    # mjlab (imports mjlab only when built): env_name mjlab, or rl_games 2.0's vecenv_type MJLAB
+    ENVS.register("mjlab", mjlab_env, overwrite=True)
+    VECENVS.register("mjlab", mjlab_vecenv, overwrite=True)
     WRITERS.register("csv", CSVWriter, overwrite=True, replaceable=True)  # a user package may register its own

@@ -11,9 +11,10 @@ from typing import Any
 from rlchain.config.errors import ConfigError
 from rlchain.config.packaged import resolve_config
 from rlchain.errors import DistributedError, DivergenceError, EnvError, NetworkError
+from rlchain.inference.export.rl_games_checkpoint import export_rl_games
 from rlchain.inference.watch import watch_and_evaluate
 from rlchain.log import set_dialect
-from rlchain.runner import Runner
+from rlchain.runner import Runner, locate_checkpoint
 from rlchain.runs.checkpoint import CheckpointError, trusting
 from rlchain.runs.wandb_logger import TrackingError
 from rlchain.tuning.search import run_search
@@ -21,7 +22,7 @@ from rlchain.tuning.search import run_search
 MODE_HELP = {  # rlchain COMMAND --help: the usage line and the options that command reads
     "train": ("%(prog)s NAME|PATH [options] [key.path=value ...]",
               {"checkpoint", "num_actors", "seed", "sigma", "track", "wandb_project_name", "wandb_entity",
-               "trust_checkpoint", "overrides"}),
+               "trust_checkpoint", "distributed", "overrides"}),
     "play": ("%(prog)s [NAME|PATH] --checkpoint CKPT [options] [key.path=value ...]",
              {"checkpoint", "num_actors", "seed", "sigma", "games", "stochastic", "video", "untrained",
               "trust_checkpoint", "overrides"}),
@@ -41,7 +42,8 @@ def build_parser(prog: str = "runner.py", command: str | None = None) -> argpars
     hide = argparse.SUPPRESS if command else None
     mode.add_argument("-t", "--train", action="store_true", help=hide or "train (resume with --checkpoint)")
     mode.add_argument("-p", "--play", action="store_true", help=hide or "play a checkpoint")
-    mode.add_argument("--export", choices=["onnx"], help=hide or "export a checkpoint's deterministic policy")
+    mode.add_argument("--export", choices=["onnx", "rl_games"], help=hide or "export a checkpoint's deterministic "
+                      "policy (onnx) or the checkpoint as rl_games 1.6.5 / 2.0 restore it (rl_games)")
     mode.add_argument("--tune", metavar="SEARCH",
                       help=hide or "Optuna search from a search YAML (pip install rlchain[tune])")
     if command:
@@ -57,10 +59,12 @@ def build_parser(prog: str = "runner.py", command: str | None = None) -> argpars
     p.add_argument("--stochastic", action="store_true", help="--play: sample actions instead of the mode")
     p.add_argument("--untrained", action="store_true", help="--play without --checkpoint: play the untrained "
                    "(freshly initialized) policy on purpose")
-    p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx); "
-                   "--tune: best config (default: <base name>_best.yaml in the search's run folder)")
+    p.add_argument("-o", "--output", help="--export: output file (default: the checkpoint with .onnx, or "
+                   "_rl_games.pth); --tune: best config (default: <base name>_best.yaml in the search's run folder)")
     p.add_argument("--policy", help="--export with config.multi_agent: export only this policy (default: all)")
     p.add_argument("--video", metavar="DIR", help="--play: record the games to mp4 in DIR (pip install rlchain[video])")
+    p.add_argument("--distributed", action="store_true", help="EmbodiChain's flag: params.config.multi_gpu=true "
+                   "(launch with torchrun)")
     p.add_argument("--trust-checkpoint", action="store_true",
                    help="load checkpoints with full pickle, which runs any code stored in them: only for a file "
                         "you trust (by default a checkpoint loads as data and any other object is refused)")
@@ -174,8 +178,15 @@ def _run(args: argparse.Namespace) -> int:
     if args.tune:
         run_search(resolve_config(args.tune), args.output)
         return 0
+    if args.export == "rl_games":  # the checkpoint alone: no config needed
+        if not args.checkpoint:
+            raise ConfigError("", "--checkpoint", "--export needs the checkpoint to export")
+        print(f"wrote {export_rl_games(locate_checkpoint(args.checkpoint)[0], args.output)}")
+        return 0
     # the Runner resolves --checkpoint (a path or a shipped checkpoint's name) wherever it takes one
     overrides = list(args.overrides)
+    if args.distributed:
+        overrides.append("params.config.multi_gpu=true")
     if args.num_actors is not None:
         if args.play:
             overrides += ["params.config.player.use_vecenv=true",

@@ -5,6 +5,7 @@
     rlchain export onnx --checkpoint cartpole -o cartpole.onnx
     rlchain tune tune/tune_cartpole
     rlchain compare runs/a* runs/b*                      # rlchain.compare.cli, imported on use
+    rlchain benchmark a.json b.yaml --seeds 0 1 2        # EmbodiChain's protocol (rlchain.compare.benchmark)
     rlchain list                                         # the packaged configs and checkpoints
     rlchain --train --file cfg.yaml                      # rl_games' flags, exactly as runner.py takes them
 """
@@ -26,6 +27,7 @@ commands:
   export onnx [NAME|PATH] --checkpoint CKPT      export the deterministic policy to ONNX (pip install rlchain[onnx])
   tune SEARCH [-o OUT]                           Optuna / Ray Tune search (pip install rlchain[tune])
   compare ARGS...                                compare run folders (rlchain compare --help)
+  benchmark CFG... [--seeds ...]                 EmbodiChain's benchmark protocol over configs x seeds
   list                                           the packaged configs and checkpoints
 
 Each command's options: rlchain COMMAND --help (rlchain train --help)."""
@@ -103,9 +105,11 @@ def main(argv: list[str] | None = None) -> int:
         return _cli().main(argv, prog="rlchain export onnx", command="export")
     if command == "compare":
         return compare(rest)
+    if command == "benchmark":  # imported on use, like compare
+        return int(importlib.import_module("rlchain.compare.benchmark").main(rest) or 0)
     if command == "list":
         print(list_packaged())
         return 0
-    known = [*MODES, "export", "compare", "list"]
+    known = [*MODES, "export", "compare", "benchmark", "list"]
     print(f"error: unknown command '{command}' (one of {', '.join(known)}; rlchain --help)", file=sys.stderr)
     return 2

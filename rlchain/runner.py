@@ -13,9 +13,19 @@ import warnings
 from dataclasses import dataclass
 from typing import Any
 
+import yaml
+
 from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+from rlchain.config.embodichain import is_embodichain
 from rlchain.config.errors import ConfigError, did_you_mean
-from rlchain.config.load import apply_overrides, check_seed, import_user_modules, load_raw, parse_params
+from rlchain.config.load import (
+    apply_overrides,
+    check_seed,
+    from_embodichain,
+    import_user_modules,
+    load_raw,
+    parse_params,
+)
 from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
 from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
 from rlchain.config.schema import Params
@@ -35,6 +45,7 @@ from rlchain.registry import ALGOS
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs.checkpoint import seed_everything
 from rlchain.runs.logging import TrainLogger
+from rlchain.runs.rl_games_layout import RlGamesTags
 from rlchain.runs.run_dir import create_run_dir
 from rlchain.runs.writers import WandbWriter, check_writer_names, make_writers
 from rlchain.training.loop import Loop
@@ -77,6 +88,9 @@ class Runner:
     def __init__(self) -> None:
         self.raw: dict[str, Any] | None = None
         self.params: Params | None = None
+        self.layout = "rlchain"
+        """``rl_games`` (set by rl_games' API, :mod:`rlchain.rl_games`): checkpoint names, extra tags and the
+        frame axis as rl_games writes them (:mod:`rlchain.runs.rl_games_layout`)."""
 
     def load(self, config: str | dict[str, Any], overrides: list[str] | None = None) -> Runner:
         """Load a YAML/JSON path, a packaged config's name (``ppo_cartpole``, rlchain.config.packaged) or
@@ -86,7 +100,12 @@ class Runner:
             raw = load_raw(source)
         else:
             source, raw = "<dict>", copy.deepcopy(config)
-        raw = apply_overrides(raw, overrides or [], source)
+        translated = is_embodichain(raw)
+        raw, rest = from_embodichain(raw, overrides or [], source)
+        if translated and os.environ.get("RANK", "0") == "0":  # once under torchrun
+            log.info("EmbodiChain config read as this rl_games-style config (saved as the run folder's config):\n"
+                     + yaml.safe_dump(raw, sort_keys=False).rstrip())
+        raw = apply_overrides(raw, rest, source)
         import_user_modules(raw, source)  # first: they register the networks / algos the parser looks up
         self.params = on_available_device(parse_params(raw, source))  # no GPU: the run is a device: cpu run
         self.raw = raw
@@ -179,6 +198,8 @@ class Runner:
         main = group is None or group.is_main  # under torchrun only rank 0 writes folders, logs and checkpoints
         check_writer_names(cfg.log_writers, params.source)  # before a run folder exists
         run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw) if main else None
+        if run is not None:
+            run.layout = self.layout
         writers = make_writers(cfg.log_writers, run.root, params.source) if run is not None else []
         tracker = None
         if options.track and run is not None:  # a log writer like the others: wandb.log of the tagged scalars
@@ -188,6 +209,8 @@ class Runner:
         ok = False
         logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers,
                              progress=cfg.progress)
+        if self.layout == "rl_games":
+            logger.rl_games = rl_games_tags(cfg)
         trainer = None
         try:
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
@@ -275,6 +298,13 @@ def algorithm_class(params: Params) -> Any:
     if params.policies is not None:  # config.multi_agent: one PPO learner per policy
         return MultiPolicyPPO
     return ALGOS.get(params.algo.name)
+
+
+def rl_games_tags(cfg: Any) -> RlGamesTags:
+    """What rl_games' extra tags read of a run's config (PPO's e_clip; the reward shaper)."""
+    rs = cfg.reward_shaper
+    affine = not rs.log_val and rs.min_val == float("-inf") and rs.max_val == float("inf")
+    return RlGamesTags(getattr(cfg, "e_clip", None), float(rs.scale_value), float(rs.shift_value), affine)
 
 
 def locate_checkpoint(name_or_path: str) -> tuple[str, bool]:

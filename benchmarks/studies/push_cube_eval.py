@@ -8,7 +8,8 @@ at any step), mean episode length and return, and the cube-to-target distance: t
 box-to-target reward term ``reward_box_target = box_target_scale * tol(d)`` with MuJoCo Playground's
 ``tolerance(d, bounds=(0, 0.005), margin=0.4, sigmoid='reciprocal')`` (value 0.1 at the margin),
 i.e. ``tol = 1 / (1 + 9 (d - 0.005) / 0.4)``, which this inverts to the planar distance d in metres.
-Reported: d at each episode's last step and its minimum over the episode, averaged over episodes.
+Reported: d at each episode's last step and its minimum over the episode, averaged over episodes, and
+``success_0.1m``: the fraction of episodes whose d went under 0.1 m (EmbodiChain's push_cube success test).
 The checkpoint plays its mean action (``checkpoint``) and, as in training, sampled actions
 (``sampled``). The references: uniformly random actions, and zero actions (with gravity compensation the arm holds
 still, so the cube stays where it started: the distance a policy must beat to have pushed at all).
@@ -56,8 +57,9 @@ def play(env, act, episodes: int, scale: float = 8.0) -> dict[str, float]:
             ret[i], length[i], hit[i], dmin[i] = 0.0, 0.0, False, np.inf
         obs = result.obs
     r = np.array(rows[:episodes])
-    return {"success": r[:, 0].mean(), "length": r[:, 1].mean(), "return": r[:, 2].mean(),
-            "final_distance_m": r[:, 3].mean(), "min_distance_m": r[:, 4].mean(), "episodes": len(r)}
+    return {"success": r[:, 0].mean(), "success_0.1m": (r[:, 4] < 0.1).mean(), "length": r[:, 1].mean(),
+            "return": r[:, 2].mean(), "final_distance_m": r[:, 3].mean(), "min_distance_m": r[:, 4].mean(),
+            "episodes": len(r)}
 
 
 def main() -> None:

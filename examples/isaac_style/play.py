@@ -3,7 +3,8 @@ scripts/reinforcement_learning/rl_games/play.py does.
 
     python -m rlchain.rl_games examples/isaac_style/play.py [--checkpoint PATH]
 
-Without ``--checkpoint`` it plays the newest run under ``--log_root``: its best checkpoint, else its last.
+Without ``--checkpoint`` it plays the newest run under ``--log_root``: its best checkpoint, else its newest
+``last_*`` one.
 
 Steps the env itself with ``agent.get_action(obs, is_deterministic=agent.is_deterministic)`` for
 ``--steps`` steps and prints the mean return of the episodes that ended.
@@ -39,7 +40,10 @@ if args_cli.device is not None:
 name = agent_cfg["params"]["config"]["name"]
 if args_cli.checkpoint is None:  # the newest run's checkpoint, as Isaac Lab's get_checkpoint_path finds it
     runs = sorted(glob.glob(os.path.join(args_cli.log_root, name, "*", "nn")), key=os.path.getmtime)
-    found = [p for run in runs[-1:] for p in (os.path.join(run, f"{name}.pth"), os.path.join(run, f"last_{name}.pth"))
+    # the best checkpoint, else the newest last_<name>_ep_<N>_rew_<R>.pth (rl_games' names)
+    found = [p for run in runs[-1:] for p in (os.path.join(run, f"{name}.pth"),
+                                              *sorted(glob.glob(os.path.join(run, f"last_{name}*.pth")),
+                                                      key=os.path.getmtime, reverse=True))
              if os.path.isfile(p)]
     if not found:
         raise SystemExit(f"play.py: no checkpoint under {os.path.join(args_cli.log_root, name)}; pass --checkpoint")

@@ -5,7 +5,7 @@ scripts/reinforcement_learning/rl_games/train.py does.
 
 (``python examples/isaac_style/train.py ...`` runs the same script on rl_games itself.) The env stands in
 for Isaac Lab's: cartpole_env.py. Resume with
-``--checkpoint logs/rl_games/cartpole_direct/<run>/nn/last_cartpole_direct.pth``.
+``--checkpoint logs/rl_games/cartpole_direct/<run>/nn/last_cartpole_direct_ep_<N>_rew_<R>.pth``.
 """
 
 import argparse

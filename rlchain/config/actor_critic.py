@@ -69,8 +69,13 @@ class ActorCriticConfig(RunConfig):
                                                "predictions and its returns, normalized values and the value "
                                                "head's output clipped to +-5 (rl_games' value_mean_std; Hopper "
                                                "learns faster per frame, docs/ppo_parity.md); returns = "
-                                               "statistics of the returns only, no clip (rlchain before issue 32)",
+                                               "statistics of the returns only, no clip",
                                    choices=("rl_games", "returns"))
+    obs_normalizer: str = option("rl_games", "with normalize_input (and central_value_config.normalize_input): "
+                                             "rl_games = (x - mean) / sqrt(var + 1e-5) clipped to +-5; rsl_rl = "
+                                             "rsl_rl's empirical normalization, (x - mean) / (std + 1e-2), no clip, "
+                                             "folded in at every env step (obs_normalizer_update auto)",
+                                 choices=("rl_games", "rsl_rl"))
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
     adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")
@@ -85,7 +90,7 @@ class ActorCriticConfig(RunConfig):
     bound_loss_type: str = option("bound", "bound (mean beyond +-1.1) or regularisation (sum mu^2)",
                                   choices=("bound", "regularisation"))
     use_diagnostics: bool = option(False, "extra TensorBoard diagnostics (clip fraction, explained variance)")
-    value_size: int | None = option(None, "value outputs (normally from the env)", status="planned (issue 3)")
+    value_size: int | None = option(None, "value outputs (normally from the env)", status="planned")
 
     def resolved(self, source: str) -> ActorCriticConfig:
         """Cross-key checks that no single field can make; returns the config with the derived values

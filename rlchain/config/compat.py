@@ -44,6 +44,22 @@ NETWORK_ONLY_KEYS = {
 NO_EFFECT_NETWORK_KEYS = {
     "regularizer": "rl_games never applied it",
 }
+# Keys of network.space (and of its continuous / discrete / multi_discrete blocks) that rl_games' network
+# builders never read: rl_games' own examples carry them (its discrete ONNX notebook, sac_pendulum.yaml).
+NO_EFFECT_SPACE_KEYS = {
+    "seed": "rl_games' network builders never read it; seed with params.seed",
+}
+NO_EFFECT_ACTION_SPACE_KEYS = {
+    "scale": "rl_games' network builders never read it (actions are rescaled with clip_actions)",
+}
+# central_value_config keys rl_games' central value never reads (rl_games' mjlab configs carry them).
+NO_EFFECT_CENTRAL_VALUE_KEYS = {
+    "kl_threshold": "rl_games' central value never reads it (its learning rate is fixed or linear)",
+}
+# Initializer blocks (mu_init, sigma_init, initializer): rl_games 2.0's const_initializer reads `value`
+# beside `val`.
+INITIALIZER_BLOCKS = ("mu_init", "sigma_init", "initializer")
+INITIALIZER_ALIASES = {"value": "val"}
 # Old spellings that mean exactly a current key.
 ALIASES = {
     "seq_len": "seq_length",
@@ -112,9 +128,11 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
                   "play uses config.device")
         out["player"] = player
     cv = out.get("central_value_config")
-    if isinstance(cv, dict) and isinstance(cv.get("network"), dict):
-        out["central_value_config"] = {**cv, "network": translate_network(
-            cv["network"], source, f"{path}.central_value_config.network")}
+    if isinstance(cv, dict):
+        cv = _drop_no_effect(cv, NO_EFFECT_CENTRAL_VALUE_KEYS, source, f"{path}.central_value_config")
+        if isinstance(cv.get("network"), dict):
+            cv["network"] = translate_network(cv["network"], source, f"{path}.central_value_config.network")
+        out["central_value_config"] = cv
     return out
 
 
@@ -152,7 +170,39 @@ def check_model_alias(old_name: Any, has_rnn: bool, source: str) -> None:
 def translate_network(network: dict[str, Any], source: str, path: str = "params.network") -> dict[str, Any]:
     """A network block (``params.network`` or the central value's) with rl_games' old spellings read:
     the TensorFlow-era ``lstm:`` block becomes ``rnn:``; no-op keys are dropped anywhere inside."""
-    return _translate_block(_translate_tf_lstm(dict(network), source, path), source, path)
+    out = _translate_block(_translate_tf_lstm(dict(network), source, path), source, path)
+    if isinstance(out.get("space"), dict):
+        out["space"] = _translate_space(out["space"], source, f"{path}.space")
+    return out
+
+
+def _translate_space(space: dict[str, Any], source: str, path: str) -> dict[str, Any]:
+    """``network.space`` without the keys rl_games' builders never read (each a one-line warning)."""
+    out = _drop_no_effect(space, NO_EFFECT_SPACE_KEYS, source, path)
+    for kind in ("continuous", "discrete", "multi_discrete"):
+        if isinstance(out.get(kind), dict):
+            out[kind] = _drop_no_effect(out[kind], NO_EFFECT_ACTION_SPACE_KEYS, source, f"{path}.{kind}")
+    return out
+
+
+def _drop_no_effect(block: dict[str, Any], keys: dict[str, str], source: str, path: str) -> dict[str, Any]:
+    out = dict(block)
+    for key, reason in keys.items():
+        if key in out:
+            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
+            out.pop(key)
+    return out
+
+
+def _translate_initializer(init: dict[str, Any], source: str, path: str) -> dict[str, Any]:
+    """An initializer block with rl_games 2.0's ``value`` read as ``val``."""
+    out = dict(init)
+    for old, new in INITIALIZER_ALIASES.items():
+        if old in out:
+            if new in out:
+                raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
+            out[new] = out.pop(old)
+    return out
 
 
 def _translate_tf_lstm(out: dict[str, Any], source: str, path: str) -> dict[str, Any]:
@@ -203,6 +253,8 @@ def _translate_block(network: dict[str, Any], source: str, path: str) -> dict[st
             out.pop(key)
     for key, value in list(out.items()):
         if isinstance(value, dict):
+            if key in INITIALIZER_BLOCKS:
+                value = _translate_initializer(value, source, f"{path}.{key}")
             out[key] = _translate_block(value, source, f"{path}.{key}")
     return out
 

@@ -238,8 +238,9 @@ def render() -> str:
             lines.append(f"| `{f.name}` | {tp} | `{_default(f)}` | {_status(f)} | {doc.replace('|', '/')} |")
         lines.append("")
     lines += ["## rl_games keys accepted without effect", "", "| key | note |", "|---|---|"]
-    for key, why in {**compat.NO_EFFECT_CONFIG_KEYS, **{f"network ... {k}": v for k, v in
-                                                          compat.NO_EFFECT_NETWORK_KEYS.items()}}.items():
+    for key, why in {**compat.NO_EFFECT_CONFIG_KEYS,
+                     **{f"central_value_config.{k}": v for k, v in compat.NO_EFFECT_CENTRAL_VALUE_KEYS.items()},
+                     **{f"network ... {k}": v for k, v in compat.NO_EFFECT_NETWORK_KEYS.items()}}.items():
         lines.append(f"| `{key}` | {why} |")
     lines += ["", "## Renamed keys", "", "| old | new |", "|---|---|"]
     lines += [f"| `{old}` | `{new}` |" for old, new in compat.ALIASES.items()]

@@ -13,7 +13,7 @@ from typing import Any
 
 import yaml
 
-from rlchain.config import compat
+from rlchain.config import compat, embodichain
 from rlchain.config.actor_critic import check_batch  # noqa: F401  (importable from here too)
 from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
@@ -115,6 +115,19 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
             node = child
         node[parts[-1]] = value
     return out
+
+
+def from_embodichain(raw: dict[str, Any], overrides: list[str], source: str) -> tuple[dict[str, Any], list[str]]:
+    """An EmbodiChain ``train_config`` (``trainer`` / ``policy`` / ``algorithm``) as rlchain's ``{'params': ...}``
+    dict, with the overrides on its own keys (``trainer.seed=3``) applied first; returns it and the other
+    overrides (``params.*``, applied by the caller). Any other dict comes back as it is. The
+    ``params.import_modules`` overrides are imported first: they register the envs ``gym_config`` names."""
+    if not embodichain.is_embodichain(raw):
+        return raw, overrides
+    ours, rest = embodichain.split_overrides(overrides)
+    import_user_modules(apply_overrides({"params": {}}, [o for o in rest if "import_modules=" in o], source),
+                        source)
+    return embodichain.translate(embodichain.apply_overrides(raw, ours, source), source), rest
 
 
 def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
@@ -252,7 +265,8 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
 def load_config(path: str, overrides: list[str] | None = None) -> Params:
     """Read, override, import ``params.import_modules`` and validate a config file in one call (what
     ``Runner.load`` does with a path)."""
-    raw = apply_overrides(load_raw(path), overrides or [], path)
+    raw, overrides = from_embodichain(load_raw(path), overrides or [], path)
+    raw = apply_overrides(raw, overrides, path)
     import_user_modules(raw, path)
     return parse_params(raw, path)
 

@@ -11,6 +11,7 @@ from typing import Any, ClassVar
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.compile import check_compile, check_cuda_graph
 from rlchain.config.errors import ConfigError
+from rlchain.config.exploration import RndConfig, SymmetryConfig
 from rlchain.config.fields import check_env_groups, non_negative, option, positive, unit_interval
 from rlchain.config.multi_agent import MultiAgentConfig
 from rlchain.config.network import NetworkConfig
@@ -97,8 +98,10 @@ class PPOConfig(ActorCriticConfig):
                                                 "first mini-epoch just before its forward pass (the central "
                                                 "value keeps rollout); auto = minibatch for continuous actions "
                                                 "(measured better on Hopper, level on the other MuJoCo YAMLs, "
-                                                "docs/ppo_parity.md), rollout otherwise and with multi_agent",
-                                        choices=("auto", "rollout", "minibatch"))
+                                                "docs/ppo_parity.md), rollout otherwise and with multi_agent; "
+                                                "step = as rsl_rl, each env step's next observations as they "
+                                                "come (auto with obs_normalizer rsl_rl)",
+                                        choices=("auto", "rollout", "minibatch", "step"))
     torch_compile: Any = option(False, "PPO: torch.compile the network: false, true (mode default), a mode "
                                        "(default, reduce-overhead, max-autotune) or {mode, critic_mode, "
                                        "backend}. rl_games defaults to true; rlchain to false (compiling "
@@ -106,14 +109,14 @@ class PPOConfig(ActorCriticConfig):
     compile_update: bool = option(False, "PPO (rlchain): torch.compile one minibatch step's forward pass and "
                                          "losses (with the backward pass derived from them); feed-forward "
                                          "networks only. Compiling costs 5-50 s on a CPU, so it pays only "
-                                         "in long runs (docs/benchmarks.md, issue 37)")
+                                         "in long runs (docs/benchmarks.md)")
     cuda_graph: Any = option("auto", "PPO (rlchain), CUDA: capture the rollout's act step and one minibatch step "
                                      "(forward, losses, backward, clipping, fused Adam) as CUDA graphs after 3 "
-                                     "eager steps and replay them: 1.6-2.7x train steps/s on an H100 with "
-                                     "tensor envs. auto = on for rlchain's feed-forward networks on one GPU "
+                                     "eager steps and replay them (docs/benchmarks.md). auto = on for rlchain's "
+                                     "feed-forward networks on one GPU "
                                      "without torch_compile, compile_update or mixed_precision; True = on "
                                      "(a ConfigError where it cannot run: RNN, get_aux_loss, fp16, multi_gpu; "
-                                     "a warning on a CPU); False = off (docs/benchmarks.md, issue 37)",
+                                     "a warning on a CPU); False = off",
                               check=check_cuda_graph)
     seq_length: int = option(4, "RNN: steps per training sequence; horizon_length and minibatch_size must "
                                 "divide by it (the deprecated `seq_len` is read as this, with a warning)",
@@ -137,6 +140,10 @@ class PPOConfig(ActorCriticConfig):
                                          check=positive)
     central_value_config: CentralValueConfig | None = option(
         None, "asymmetric actor-critic: a value network on the env's `state` (env use_central_value)")
+    rnd: RndConfig | None = option(None, "rlchain (rsl_rl's rnd_cfg; not rl_games' rnd_config): random network "
+                                         "distillation, an intrinsic reward for novel states (docs/robot_learning.md)")
+    symmetry: SymmetryConfig | None = option(None, "rlchain (rsl_rl's symmetry_cfg): mirrored samples and a "
+                                                   "mirror loss from a robot's mirror map (docs/robot_learning.md)")
     use_action_masks: bool = option(False, "invalid-action masks from the env's has_action_mask() / "
                                            "get_action_mask() (discrete and multi-discrete actions)")
     self_play_config: SelfPlayConfig | None = option(None, "self-play: frozen copies of the policy as the "

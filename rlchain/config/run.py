@@ -54,8 +54,11 @@ class EvaluationConfig:
     deterministic: bool = option(True, "act with the distribution's mode")
     num_envs: int = option(4, "evaluation envs, separate from the training envs", check=positive)
     seed: int = option(10_000, "evaluation env seed (the same every evaluation, so scores compare)")
-    select_best: str = option("training", "which mean reward picks the best checkpoint nn/<name>.pth",
-                              choices=("training", "evaluation"))
+    select_best: str = option("training", "what picks the best checkpoint nn/<name>.pth: the training or the "
+                                          "evaluation mean reward, or evaluation_success: the evaluation success "
+                                          "rate (ties: the higher evaluation reward; EmbodiChain's "
+                                          "best_eval_metric eval/success_rate)",
+                              choices=("training", "evaluation", "evaluation_success"))
 
 
 @dataclass(frozen=True)
@@ -173,6 +176,20 @@ def _limit(value: Any) -> str | None:
 
 
 @dataclass(frozen=True)
+class EventConfig:
+    """A ``config.events`` entry (rlchain; EmbodiChain's ``trainer.events.<train|eval>.<name>``)."""
+
+    func: str = option(doc="package.module:function, called as fn(env, env_ids=None, **params) with the "
+                           "training env (the EmbodiChain-contract env itself where the backend wraps one); or "
+                           "video: record evaluation episodes (rlchain's VideoCallback; EmbodiChain's "
+                           "record_camera_data functors)")
+    phase: str = option("train", "train: every interval_step env steps of training; eval: after every "
+                                 "interval_step-th in-training evaluation", choices=("train", "eval"))
+    interval_step: int = option(1, "env steps (train) or evaluations (eval) between calls", check=positive)
+    params: dict = option({}, "keyword arguments of func (video: save_path is the folder)")
+
+
+@dataclass(frozen=True)
 class RunConfig:
     """Keys every algorithm reads: the run, its env, stop conditions, checkpoints and logging.
 
@@ -229,6 +246,8 @@ class RunConfig:
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")
+    events: list[EventConfig] = option([], "functions run during training or after evaluations (rlchain; "
+                                           "what EmbodiChain's trainer.events become, docs/embodichain.md)")
     log_writers: list[str] = option([], "rlchain: extra log writers by registered name, e.g. [csv] "
                                         "(<run>/summaries/scalars.csv); each gets every scalar under its "
                                         "TensorBoard tag. Console, TensorBoard and (--track) wandb are always on; "
@@ -256,9 +275,8 @@ class RunConfig:
                                          "bfloat16 without grad scaling (rl_games 2.0's; float16 with grad "
                                          "scaling on a GPU without bf16), fp16 = float16 with grad scaling "
                                          "(rl_games 1.6's); on a CPU only bf16, where the CPU has native bf16 "
-                                         "(AVX512-BF16/AMX: 1.37-1.87x PPO train steps/s on "
-                                         "continuous tensor envs, level on envpool; TorchReacher8 level per frame "
-                                         "over 10 seeds; elsewhere a warning and float32), True and fp16 are "
+                                         "(AVX512-BF16/AMX; docs/benchmarks.md says what it gains; elsewhere a "
+                                         "warning and float32), True and fp16 are "
                                          "float32 there as in rl_games; the rollout and the losses stay float32; "
                                          "False = off",
                                   check=check_precision)

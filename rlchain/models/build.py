@@ -13,6 +13,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.schema import NetworkConfig, Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
+from rlchain.envs.gym_spaces import to_gymnasium
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.central_value import obs_state_split
@@ -48,7 +49,7 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     The model reads its observation group (:func:`model_view`; a central-value env's actor: ``obs``)."""
     if getattr(params, "policies", None) is not None:
         return build_policy_models(params, env, device)
-    obs_space, act_space = env.observation_space, env.action_space
+    obs_space, act_space = to_gymnasium(env.observation_space, False), to_gymnasium(env.action_space, False)
     view = model_view(params, obs_space, group, groups)
     declared = declared_space(obs_space)  # the env's own (e.g. Dict) space, for networks that split by key
     if not view.whole and view.size:
@@ -93,7 +94,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
         if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
             model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
                                  params.config.normalize_value,
-                                 value_normalizer_kind=params.config.value_normalizer)
+                                 value_normalizer_kind=params.config.value_normalizer,
+                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
         else:  # a registered network, given its block and rl_games' critic kwargs
             block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
             network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
@@ -102,7 +104,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
                                   num_seqs=params.config.num_actors, observation_space=view.space)
             model = CentralValue(None, state_shape, value_size, cv.normalize_input,
                                  params.config.normalize_value, network=network,
-                                 value_normalizer_kind=params.config.value_normalizer)
+                                 value_normalizer_kind=params.config.value_normalizer,
+                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     model.obs_slice = view.selector()

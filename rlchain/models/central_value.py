@@ -9,7 +9,7 @@ import torch.nn as nn
 from rlchain.config.schema import NetworkConfig
 from rlchain.errors import NetworkError
 from rlchain.models.base import ValueModel, value_normalizer
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.models.normalization import obs_normalizer
 from rlchain.networks.actor_critic import Trunk
 from rlchain.networks.layers import activation, linear
 
@@ -75,12 +75,12 @@ class CentralValue(ValueModel):
 
     def __init__(self, cfg: NetworkConfig | None, state_shape: tuple[int, ...], value_size: int,
                  normalize_input: bool, normalize_value: bool, network: nn.Module | None = None,
-                 value_normalizer_kind: str = "rl_games") -> None:
+                 value_normalizer_kind: str = "rl_games", obs_normalizer_kind: str = "rl_games") -> None:
         """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None)."""
         super().__init__()
         self.network = CentralValueNetwork(cfg, state_shape, value_size) if network is None \
             else RegisteredCriticNetwork(network, value_size)
-        self.obs_norm = RunningMeanStd(state_shape) if normalize_input else None
+        self.obs_norm = obs_normalizer(state_shape, obs_normalizer_kind) if normalize_input else None
         self.value_norm = value_normalizer(value_size, normalize_value, value_normalizer_kind)
         self.fold_values = value_normalizer_kind == "rl_games"
 

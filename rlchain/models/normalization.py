@@ -83,3 +83,33 @@ class RunningMeanStd(nn.Module):
 
     def denormalize(self, y: torch.Tensor) -> torch.Tensor:
         return y * torch.sqrt(self.var.to(y.dtype) + self.epsilon) + self.mean.to(y.dtype)
+
+
+class EmpiricalNormalization(RunningMeanStd):
+    """rsl_rl's empirical normalization (``obs_normalizer: rsl_rl``): the same running mean and population
+    variance over every row folded in (the statistics start empty: the first batch replaces the initial 0 / 1),
+    applied as (x - mean) / (std + eps) with eps 1e-2 and no clip."""
+
+    def __init__(self, shape: tuple[int, ...], epsilon: float = 1e-2) -> None:
+        super().__init__(shape, epsilon=epsilon, clip=0.0)
+        self.count.zero_()
+
+    def normalize(self, x: torch.Tensor, scale: float = 1.0) -> torch.Tensor:
+        """(x * scale - mean) / (sqrt(var) + eps)."""
+        inv = 1.0 / (self.var.sqrt() + self.epsilon)
+        return torch.addcmul((-self.mean * inv).to(x.dtype), x, (inv * scale).to(x.dtype))
+
+    def denormalize(self, y: torch.Tensor) -> torch.Tensor:
+        return y * (self.var.sqrt().to(y.dtype) + self.epsilon) + self.mean.to(y.dtype)
+
+
+OBS_NORMALIZERS = ("rl_games", "rsl_rl")
+"""``config.obs_normalizer``: rl_games = (x - mean) / sqrt(var + 1e-5) clipped to +-5 (rl_games' RunningMeanStd);
+rsl_rl = (x - mean) / (std + 1e-2), no clip (rsl_rl's EmpiricalNormalization)."""
+
+
+def obs_normalizer(shape: tuple[int, ...], kind: str = "rl_games") -> RunningMeanStd:
+    """The observation normalizer ``kind`` (one of :data:`OBS_NORMALIZERS`) for observations of ``shape``."""
+    if kind not in OBS_NORMALIZERS:
+        raise ValueError(f"obs_normalizer must be one of {', '.join(OBS_NORMALIZERS)}, got {kind!r}")
+    return EmpiricalNormalization(shape) if kind == "rsl_rl" else RunningMeanStd(shape)

@@ -17,8 +17,10 @@ import copy
 from typing import Any
 
 from rlchain.config.schema import Params
+from rlchain.envs import vecenv as _vecenv
 from rlchain.rl_games.algos_torch.players import PLAYERS
 from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver
+from rlchain.rl_games.common.object_factory import ObjectFactory
 from rlchain.rl_games.common.player import BasePlayer
 from rlchain.runner import Runner as _RlchainRunner
 from rlchain.training.callback_context import ObserverAlgo
@@ -26,6 +28,39 @@ from rlchain.training.events import Callback
 
 SCRIPT_KEYS = ("env",)
 """Top-level ``params`` keys a launch script reads and rl_games' runner ignores (Isaac Lab's ``params.env``)."""
+
+OBJECT_KEYS = ("env_info", "vec_env")
+"""``params.config`` keys that hold Python objects, not settings: rl_games' agent and player read the env's
+spaces from ``env_info`` and step the env given as ``vec_env`` instead of creating one."""
+
+
+def _builtin(name: str) -> Any:
+    """The marker builder of an algorithm rlchain trains itself (a user's builder replaces it)."""
+
+    def build(**kwargs: Any) -> Any:
+        raise RuntimeError(f"'{name}' is trained by rlchain's loop; register your own builder to create an agent")
+
+    build.rlchain_builtin = True  # type: ignore[attr-defined]
+    return build
+
+
+def _copy_keeping_objects(config: dict[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``{'params': ...}`` whose ``config.env_info`` / ``vec_env`` are the objects given (an env
+    is used, not copied)."""
+    inner = config["params"].get("config")
+    objects = {k: inner[k] for k in OBJECT_KEYS if k in inner} if isinstance(inner, dict) else {}
+    if not objects:
+        return copy.deepcopy(config)
+    stripped = {**config, "params": {**config["params"], "config": {k: v for k, v in inner.items()
+                                                                     if k not in objects}}}
+    out = copy.deepcopy(stripped)
+    out["params"]["config"].update(objects)
+    return out
+
+
+def _vec_env_creator(env: Any) -> Any:
+    """A vecenv_type creator that returns ``env`` (rl_games' ``config['vec_env']``)."""
+    return lambda config_name, num_actors, **kwargs: env
 
 
 class TrainInfoCallback(Callback):
@@ -78,6 +113,14 @@ class Runner:
         self.script_params: dict[str, Any] = {}
         self.last_result: Any = None
         self._runner: _RlchainRunner | None = None
+        self.objects: dict[str, Any] = {}
+        # rl_games' factories: a builder registered by a script replaces rlchain's training / player
+        self.algo_factory = ObjectFactory()
+        for name in ("a2c_continuous", "a2c_discrete", "sac"):
+            self.algo_factory.register_builder(name, _builtin(name))
+        self.player_factory = ObjectFactory()
+        for name, player in PLAYERS.items():
+            self.player_factory.register_builder(name, player)
 
     def reset(self) -> None:
         """Nothing to reset (rl_games' is a no-op too)."""
@@ -85,20 +128,28 @@ class Runner:
     def load(self, yaml_config: dict[str, Any]) -> None:
         """Take a config dict (``{'params': {...}}``, a YAML as read) and validate it with rlchain's schema:
         a bad key is a one-line ConfigError naming it."""
-        config = copy.deepcopy(yaml_config)
-        if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
+        if not isinstance(yaml_config, dict) or not isinstance(yaml_config.get("params"), dict):
             raise ValueError("Runner.load: expected the config as a dict with a 'params' dict (a YAML as read)")
-        self.default_config = copy.deepcopy(config["params"])
+        config = _copy_keeping_objects(yaml_config)
+        self.default_config = _copy_keeping_objects(config)["params"]
         self.load_config(config["params"])
 
     def load_config(self, params: dict[str, Any]) -> None:
         """Validate ``params`` (the ``params`` block) and keep it."""
-        params = copy.deepcopy(params)
+        params = _copy_keeping_objects({"params": params})["params"]
         self.script_params = {key: params.pop(key) for key in SCRIPT_KEYS if key in params}
         load_checkpoint, load_path = params.pop("load_checkpoint", False), params.pop("load_path", None)
         self.load_path = load_path if load_checkpoint and load_path else None
         config = params.get("config")
+        self.objects = {}
         if isinstance(config, dict):
+            self.objects = {key: config.pop(key) for key in OBJECT_KEYS if config.get(key) is not None}
+            for key in OBJECT_KEYS:
+                config.pop(key, None)
+            if "vec_env" in self.objects:  # train on the env given (a one-off vecenv_type naming it)
+                name = f"rl_games_vec_env_{id(self.objects['vec_env'])}"
+                _vecenv.register(name, _vec_env_creator(self.objects["vec_env"]), overwrite=True)
+                config["vecenv_type"] = name
             self.stop_fn = config.pop("stop_fn", None)  # a callable: a callback here, not a config value
             if self.stop_fn is not None and not callable(self.stop_fn):
                 raise ValueError(f"params.config.stop_fn: expected a callable(algo) -> bool, got {self.stop_fn!r}")
@@ -108,6 +159,9 @@ class Runner:
                 else:
                     self.algo_observer = None  # the config's (a callback rlchain adds)
         self._runner = _RlchainRunner().load({"params": params})
+        self._runner.layout = "rl_games"  # rl_games' checkpoint names, tags and frame axis
+        if self.objects:  # back into the config dict, where rl_games' agents and players read them
+            params["config"].update(self.objects)
         self.params = params
         self.algo_name = params["algo"]["name"]
         self.seed = self._parsed().seed
@@ -129,6 +183,9 @@ class Runner:
     def run_train(self, args: dict[str, Any]) -> Any:
         """Train with rlchain's loop, the observer called at rl_games' points; resume from ``checkpoint``."""
         print("Started to train", flush=True)
+        builder = self.algo_factory.get(self.algo_name or "")
+        if builder is not None and not getattr(builder, "rlchain_builtin", False):
+            return self._run_own_agent(args)
         parsed = self._parsed()
         observer = self.algo_observer
         callbacks: list[Any] = [TrainInfoCallback()]
@@ -138,6 +195,17 @@ class Runner:
             callbacks.append(StopFnCallback(self.stop_fn))
         self.last_result = self._runner.train(checkpoint=_checkpoint(args, self.load_path), seed=parsed.seed,
                                               sigma=args.get("sigma"), callbacks=callbacks)
+        return self.last_result
+
+    def _run_own_agent(self, args: dict[str, Any]) -> Any:
+        """An agent a script registered with ``algo_factory``: built, restored and trained as rl_games does."""
+        agent = self.algo_factory.create(self.algo_name, base_name="run", params=self.params)
+        path = _checkpoint(args, self.load_path)
+        if path:
+            agent.restore(path)
+        if args.get("sigma") is not None and callable(getattr(agent, "override_sigma", None)):
+            agent.override_sigma(float(args["sigma"]))
+        self.last_result = agent.train()
         return self.last_result
 
     def run_play(self, args: dict[str, Any]) -> Any:
@@ -153,9 +221,14 @@ class Runner:
         return self.last_result
 
     def create_player(self) -> BasePlayer:
-        """An rl_games-style player of this config's algorithm (untrained until ``restore``)."""
-        cls = PLAYERS.get(self.algo_name or "", BasePlayer)
-        return cls(self.params, self._parsed())
+        """The player of this config's algorithm (untrained until ``restore``): ``player_factory``'s builder,
+        called with ``params=`` as rl_games calls it; an algorithm without one gets :class:`BasePlayer`."""
+        builder = self.player_factory.get(self.algo_name or "")
+        if builder is None:
+            return BasePlayer(self.params, self._parsed())
+        if isinstance(builder, type) and issubclass(builder, BasePlayer):
+            return builder(self.params, self._parsed())
+        return builder(params=self.params)
 
 
 __all__ = ["Runner"]

@@ -24,7 +24,7 @@ except ImportError:  # numpy 1.x
     from numpy.core import multiarray as _multiarray
 
 from rlchain.envs.backends.pettingzoo_env import AgentObs
-from rlchain.runs import digest
+from rlchain.runs import digest, rl_games_checkpoint
 from rlchain.runs.atomic import write_atomic
 
 FORMAT = "rlchain-checkpoint-1"
@@ -108,6 +108,11 @@ def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
     CheckpointError."""
     state = read(path, map_location, trusted)
     if not isinstance(state, dict) or state.get("format") != FORMAT:
+        if rl_games_checkpoint.is_rl_games_checkpoint(state):  # rl_games 1.6.5 / 2.0: read as rlchain's
+            try:
+                return {**rl_games_checkpoint.from_rl_games(state), "format": FORMAT}
+            except ValueError as exc:
+                raise CheckpointError(f"{path}: an rl_games checkpoint rlchain cannot read: {exc}") from None
         raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
     return state
 

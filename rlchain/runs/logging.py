@@ -9,6 +9,7 @@ from typing import Any
 
 from rlchain.config.run import ProgressConfig
 from rlchain.log import get_logger
+from rlchain.runs.rl_games_layout import RlGamesTags
 from rlchain.runs.writers import ConsoleWriter, EpochSummary, Step, TensorBoardWriter, Writer
 
 log = get_logger(__name__)
@@ -34,6 +35,8 @@ class TrainLogger:
         self.start = time.time()
         self.frames = self.epochs = 0
         self.last_scalars: dict[str, float] = {}
+        self.rl_games: RlGamesTags | None = None
+        """Set for runs through rl_games' API: rl_games' extra tags, scalars at the frames before the epoch."""
 
     @property
     def writer(self) -> Any:
@@ -83,8 +86,12 @@ class TrainLogger:
             if "success" in episodes:  # envs that report task success (rlchain/envs/wrappers/success.py)
                 scalars["episodes/success_rate"] = episodes["success"]
         self.frames, self.epochs = frames, epoch
+        axis = frames
+        if self.rl_games is not None:
+            scalars.update(self.rl_games.scalars(episodes, step_fps))
+            axis = max(0, frames - batch)  # rl_games counts an epoch's frames after writing its scalars
         self.last_scalars = {tag: float(value) for tag, value in scalars.items()}
-        self.emit(self.last_scalars, Step(frames, epoch, seconds))
+        self.emit(self.last_scalars, Step(axis, epoch, seconds))
         summary = EpochSummary(epoch, max_epochs, frames, seconds, total_fps, step_fps,
                                episodes["reward"] if episodes is not None else None,
                                episodes["length"] if episodes is not None else None,

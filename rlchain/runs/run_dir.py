@@ -17,6 +17,8 @@ class RunDir:
 
     root: str
     name: str
+    layout: str = "rlchain"
+    """``rl_games``: checkpoint names as rl_games writes them (:mod:`rlchain.runs.rl_games_layout`)."""
 
     @property
     def nn(self) -> str:
@@ -27,7 +29,9 @@ class RunDir:
         return os.path.join(self.root, "summaries")
 
     def checkpoint(self, kind: str = "best") -> str:
-        """best: nn/<name>.pth; last: nn/last_<name>.pth; ep_N: nn/<name>_ep_N.pth."""
+        """best: nn/<name>.pth; last: nn/last_<name>.pth; ep_N: nn/<name>_ep_N.pth; file:STEM: nn/STEM.pth."""
+        if kind.startswith("file:"):
+            return os.path.join(self.nn, f"{kind[len('file:'):]}.pth")
         if kind == "best":
             return os.path.join(self.nn, f"{self.name}.pth")
         if kind == "last":

@@ -185,7 +185,8 @@ class CallbackContext:
 class ObserverAlgo:
     """What an rl_games AlgoObserver's ``after_init(algo)`` gets: the attributes observers read of
     rl_games' algo (``writer``, ``device`` / ``ppo_device``, ``games_to_track``, ``epoch_num``,
-    ``frame``, ``num_actors``, ``num_agents``, ``config``, ``experiment_dir``), live; anything
+    ``frame``, ``num_actors``, ``num_agents``, ``config``, ``experiment_dir``, ``train_dir``, ``optimizer``,
+    ``last_lr``, ``get_full_state_weights`` / ``set_full_state_weights``), live; anything
     else goes to the :class:`CallbackContext` (the trainer's attributes, deprecated)."""
 
     def __init__(self, context: CallbackContext, in_epoch: bool = False) -> None:
@@ -234,6 +235,40 @@ class ObserverAlgo:
     @property
     def experiment_dir(self) -> str:
         return self._context.state.experiment_dir
+
+    @property
+    def train_dir(self) -> str:
+        """The folder that holds the run folders (``params.config.train_dir``)."""
+        return str(self._context.params.config.train_dir)
+
+    @property
+    def optimizer(self) -> Any:
+        """The policy's optimizer (None for an algorithm without one)."""
+        agent = getattr(self._context._trainer.algorithm, "agent", None)
+        return getattr(agent, "optimizer", None)
+
+    @property
+    def last_lr(self) -> float:
+        """The learning rate now: the agent's ``lr`` (the adaptive schedule's), else the optimizer's."""
+        agent = getattr(self._context._trainer.algorithm, "agent", None)
+        lr = getattr(agent, "lr", None)
+        if lr is None and self.optimizer is not None:
+            lr = self.optimizer.param_groups[0]["lr"]
+        return float(lr) if lr is not None else 0.0
+
+    def get_full_state_weights(self) -> dict[str, Any]:
+        """Everything exact resume needs, as a checkpoint holds it (rl_games' name)."""
+        return self._context._trainer.state_dict("last")
+
+    def set_full_state_weights(self, weights: dict[str, Any], set_epoch: bool = True) -> None:
+        """Load what :meth:`get_full_state_weights` returned into the running training; the envs start fresh
+        episodes. ``set_epoch=False`` keeps this run's epoch and frame counters."""
+        trainer = self._context._trainer
+        epoch, frames = trainer.epoch, trainer.frames
+        trainer.restore(weights, "<full state weights>")
+        if not set_epoch:
+            trainer.ctx.epoch, trainer.ctx.frames = epoch, frames
+        trainer.restart_episodes()
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):

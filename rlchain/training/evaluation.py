@@ -38,7 +38,7 @@ class EvaluationCallback(Callback):
     def __init__(self, cfg: Any, make_env: Callable[[int, int], Any]) -> None:
         self.cfg = cfg
         self.env = make_env(cfg.num_envs, cfg.seed)
-        self.best = float("-inf")
+        self.best: Any = None  # the best score so far (a float, or a (success, reward) pair)
 
     def on_epoch_end(self, ctx: CallbackContext, stats: dict, episodes: dict | None) -> None:
         state, config = ctx.state, ctx.params.config
@@ -58,8 +58,9 @@ class EvaluationCallback(Callback):
             log.info(f"evaluation at epoch {state.epoch}: reward {result.mean_reward:.2f} length "
                      f"{result.mean_length:.1f}{won} over {result.games} games")
         ctx.emit("on_evaluation", result)
-        if self.cfg.select_best == "evaluation" and result.mean_reward > self.best:
-            self.best = result.mean_reward
+        score = _score(self.cfg.select_best, result)
+        if score is not None and (self.best is None or score > self.best):
+            self.best = score
             if state.epoch >= config.save_best_after:
                 ctx.save("best")
 
@@ -71,3 +72,12 @@ class EvaluationCallback(Callback):
         env, self.env = self.env, None
         if env is not None:
             env.close()
+
+
+def _score(select_best: str, result: PlayResult) -> Any:
+    """What ``select_best`` ranks evaluations by (None: evaluations do not pick the best checkpoint)."""
+    if select_best == "evaluation":
+        return result.mean_reward
+    if select_best == "evaluation_success":
+        return (result.success_rate if result.success_rate is not None else float("-inf"), result.mean_reward)
+    return None

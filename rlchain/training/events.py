@@ -105,7 +105,8 @@ class AlgoObserverCallback(Callback):
       comes as the list of per-env info dicts an rl_games vec env returns. A pipelined rollout
       (``env_groups``) calls it per env group, with that group's infos and rows;
     - ``after_steps()`` after each rollout (an off-policy epoch's env steps), before the update;
-    - ``after_print_stats(frames, epoch, seconds)`` after each epoch's logging;
+    - ``after_print_stats(frames, epoch, seconds)`` after each epoch's logging (in a run through rl_games'
+      API, as rl_games: the frames counted before that epoch);
     - ``after_clear_stats()`` where rl_games clears its game statistics: when self-play replaces
       the opponent, after that epoch's ``after_print_stats`` (rlchain's own episode statistics
       are never cleared; without self-play it is not called, as in rl_games).
@@ -148,7 +149,11 @@ class AlgoObserverCallback(Callback):
         algo = getattr(self, "algo", None)
         if algo is not None:
             algo.in_epoch = False  # epoch_num: the epochs completed, as rl_games prints them
-        self._call("after_print_stats", state.frames, state.epoch, time.time() - self.start)
+        frames = state.frames
+        run = getattr(ctx._trainer, "run", None)
+        if getattr(run, "layout", None) == "rl_games":  # rl_games passes the frames counted before the epoch
+            frames = max(0, frames - int(ctx._trainer.frames_per_epoch()))
+        self._call("after_print_stats", frames, state.epoch, time.time() - self.start)
         self._printed_epoch = state.epoch
         if self._clear_pending:
             self._clear_pending = False

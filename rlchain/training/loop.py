@@ -32,6 +32,7 @@ from rlchain.parallel.threads import ThreadPlan
 from rlchain.runs.checkpoint import CheckpointError, seed_everything
 from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import RunDir
+from rlchain.training.env_events import event_callbacks
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, EnvStatsCallback, load_callback
 from rlchain.training.hyperparam_schedule import HyperparamSchedule, check_names
@@ -99,6 +100,8 @@ class Loop:
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
             self.events.add(EvaluationCallback(cfg.evaluation, lambda n, s: build_env(params, n, s)))
+        for callback in event_callbacks(getattr(cfg, "events", []), cfg.evaluation.interval > 0, params):
+            self.events.add(callback)
         self.algorithm: Algorithm = algorithm(params, env, model, self.ctx)
         if self.algorithm.self_play and cfg.self_play_config is not None:  # opponents loaded into the env
             self.events.add(SelfPlayCallback(cfg.self_play_config, env, params.source))

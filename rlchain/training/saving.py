@@ -15,6 +15,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
+from rlchain.runs import rl_games_checkpoint, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -29,6 +30,7 @@ class CheckpointSaver:
     def __init__(self, ctx: RunContext, algorithm: Algorithm, run: RunDir | None, events: CallbackList) -> None:
         self.ctx, self.algorithm, self.run, self.events = ctx, algorithm, run, events
         self.best_reward = -math.inf
+        self.last_reward: float | None = None  # the last epoch's mean reward (rl_games' final file name)
         self.point = ResumePoint(ctx, algorithm)  # the last epoch boundary: RNG, envs, episodes in progress
         self.newest: tuple[str, int] | None = None  # (path, epoch) of the newest checkpoint this run wrote
         self.resumed_from: str | None = None  # the checkpoint this run started from
@@ -64,6 +66,8 @@ class CheckpointSaver:
         """Write a checkpoint; a failed write is reported and training keeps the previous one."""
         if self.run is None:
             return None
+        if kind == "last" and self.run.layout == "rl_games":
+            kind = "file:" + rl_games_layout.final_stem(self.ctx.params.config.name, self.ctx.epoch, self.last_reward)
         bad = check_parameters(self.algorithm.model)
         if bad is not None:
             log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
@@ -91,6 +95,17 @@ class CheckpointSaver:
     def after_epoch(self, episodes: dict | None) -> None:
         """Best checkpoint on a new best mean reward (after save_best_after), periodic ones."""
         cfg, epoch = self.ctx.cfg, self.ctx.epoch
+        if episodes is not None:
+            self.last_reward = float(episodes["reward"])
+        if self.run is not None and self.run.layout == "rl_games":
+            # rl_games: the periodic file once games have finished, before the best one
+            if episodes is not None and cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
+                self.save("file:" + rl_games_layout.periodic_stem(cfg.name, epoch, episodes["reward"]))
+            if episodes is not None and episodes["reward"] > self.best_reward:
+                self.best_reward = episodes["reward"]
+                if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
+                    self.save("best")
+            return
         if episodes is not None and episodes["reward"] > self.best_reward:
             self.best_reward = episodes["reward"]
             if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
@@ -99,12 +114,30 @@ class CheckpointSaver:
             self.save(f"ep_{epoch}")
             self.save("last")
 
+    def _from_rl_games(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        """A converted rl_games checkpoint completed for resume: its optimizer state on this agent's
+        parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
+        none), so the envs start new episodes."""
+        agent = self.algorithm.agent.state_dict()
+        if "rl_games_optimizer" in state and "optimizer" in agent:
+            names = [n for n, p in self.algorithm.model.named_parameters() if p.requires_grad]
+            try:
+                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names)
+            except ValueError as exc:
+                raise ckpt.CheckpointError(f"{path}: {exc}") from None
+            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
+        return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
+                "run_state": run_state, "live_config": {}}
+
     def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
         """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
         optimizer(s), lr, normalizers, counters, RNG, and (at the algorithm's ``start``) the envs' state and
         episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
+        if state.get("origin") == rl_games_checkpoint.ORIGIN:
+            state = self._from_rl_games(state, path)
         if state.get("algo") not in (None, name):
             raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
                                        f"the config says '{name}'")

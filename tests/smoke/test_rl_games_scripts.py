@@ -70,6 +70,14 @@ def _run_folder(log_root):
     return runs[-1]
 
 
+def _last(run):
+    """The checkpoint rl_games (and rlchain through its API) writes when a run stops:
+    nn/last_<name>_ep_<N>_rew__<R>_.pth."""
+    found = sorted(glob.glob(os.path.join(run, "nn", "last_cartpole_direct_ep_*_rew_*_.pth")), key=os.path.getmtime)
+    assert found, f"no final checkpoint in {run}/nn: {os.listdir(os.path.join(run, 'nn'))}"
+    return found[-1]
+
+
 def _tags(run):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
@@ -88,7 +96,8 @@ def test_isaac_style_scripts_train_resume_and_play(tmp_path):
     first = _run_folder(logs)
     tags = _tags(first)
     assert {"Episode/Episode_Reward/alive", "Episode/Episode_Termination/pole_fell", "rewards/step"} <= tags
-    last = os.path.join(first, "nn", "last_cartpole_direct.pth")
+    last = _last(first)
+    assert os.path.basename(last).startswith("last_cartpole_direct_ep_2_rew__")
     out = launch([train, "--num_envs", "128", "--max_iterations", "3", "--log_root", logs, "--checkpoint", last],
                  tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]
@@ -181,19 +190,19 @@ def test_an_rl_games_observer_runs_unchanged(tmp_path, isaac_env):
     batch = 128 * 32
     assert observer.calls[:2] == [("before_init", "cartpole_direct"), ("after_init", 50)]
     prints = [c for c in observer.calls if c[0] == "print"]
-    assert prints == [("print", batch, 1, batch, 1), ("print", 2 * batch, 2, 2 * batch, 2)]
+    # rl_games: the frames before the epoch as the argument, algo.frame after it
+    assert prints == [("print", 0, 1, batch, 1), ("print", batch, 2, 2 * batch, 2)]
     assert [c for c in observer.calls if c[0] == "after_steps"][:2] == [("after_steps", 1), ("after_steps", 2)]
     assert observer.alive.current_size > 0
     assert "alive/mean" in _tags(result.run_dir)
     assert made[0].frames_seen[:3] == [0, batch, 2 * batch]  # before every epoch, as rl_games calls it
     cfg["params"]["config"]["max_epochs"] = 3
     runner.load(cfg)
-    runner.run({"train": True, "checkpoint": os.path.join(result.run_dir, "nn", "last_cartpole_direct.pth")})
+    runner.run({"train": True, "checkpoint": _last(result.run_dir)})
     assert made[1].restored == {"level": 2}  # the checkpoint carried the env's state
     cfg["params"]["config"]["player"] = {"use_vecenv": True, "num_actors": 128, "games_num": 4}
     runner.load(cfg)
-    played = runner.run({"train": False, "play": True, "checkpoint": os.path.join(result.run_dir, "nn",
-                                                                                 "last_cartpole_direct.pth")})
+    played = runner.run({"train": False, "play": True, "checkpoint": _last(result.run_dir)})
     assert played.games == 4 and played.mean_reward > 0
 
 
@@ -213,3 +222,61 @@ def test_stop_fn_in_the_config_dict_stops_the_run(tmp_path, base_config):
     result = runner.run({"train": True, "play": False})
     assert result.epoch == 3 and seen == [1, 2, 3] and "stop_fn" in result.stop_reason
 
+
+
+def test_the_observers_algo_has_what_rl_games_and_isaac_lab_observers_read(tmp_path, base_config):
+    import torch
+
+    from rlchain.rl_games.common.algo_observer import AlgoObserver
+    from rlchain.rl_games.torch_runner import Runner
+
+    class Reader(AlgoObserver):
+        def after_init(self, algo):
+            self.algo = algo
+            self.seen = {"train_dir": algo.train_dir, "experiment_dir": algo.experiment_dir,
+                         "optimizer": type(algo.optimizer).__name__, "last_lr": algo.last_lr}
+
+        def after_print_stats(self, frame, epoch_num, total_time):
+            if epoch_num == 1:
+                self.weights = self.algo.get_full_state_weights()
+            else:  # what population-based training does: load another member's weights into the running run
+                self.algo.set_full_state_weights(self.weights, set_epoch=False)
+                self.after = self.algo.get_full_state_weights()
+
+    base_config["params"]["config"].update(train_dir=str(tmp_path), max_epochs=2, learning_rate=1e-3)
+    observer = Reader()
+    runner = Runner(observer)
+    runner.load(base_config)
+    runner.run({"train": True})
+    assert observer.seen["train_dir"] == str(tmp_path) and observer.seen["experiment_dir"].startswith(str(tmp_path))
+    assert observer.seen["optimizer"] == "Adam" and observer.seen["last_lr"] == pytest.approx(1e-3)
+    assert all(torch.equal(observer.after["model"][k], v) for k, v in observer.weights["model"].items())
+    assert observer.after["epoch"] == 2  # set_epoch=False keeps the run's counters
+
+
+def test_an_rl_games_checkpoint_resumes_under_the_launcher(tmp_path, monkeypatch, scoped_registries):
+    """tests/data/rl_games/make_checkpoints.py's own training code, run with rlchain standing in for rl_games,
+    fine-tunes the checkpoint real rl_games 1.6.5 wrote with it."""
+    import copy
+
+    pytest.importorskip("gym")
+    data = os.path.join(ROOT, "tests", "data", "rl_games")
+    monkeypatch.syspath_prepend(data)
+    alias.install()
+    try:
+        import make_checkpoints
+        from rl_games.common import env_configurations, vecenv
+        from rl_games.torch_runner import Runner
+
+        env_class = make_checkpoints.make_env_class(True)
+        vecenv.register("TINY", lambda config_name, num_actors, **kwargs: env_class(num_actors))
+        env_configurations.register("tiny_env", {"vecenv_type": "TINY", "env_creator": lambda **kwargs: env_class(4)})
+        cfg = copy.deepcopy(make_checkpoints.CONFIGS["continuous"])
+        cfg["params"]["config"].update(train_dir=str(tmp_path), max_epochs=3)
+        runner = Runner()
+        runner.load(cfg)
+        result = runner.run({"train": True, "checkpoint": os.path.join(data, "v165_continuous.pth")})
+    finally:
+        alias.uninstall()
+        sys.modules.pop("make_checkpoints", None)
+    assert (result.epoch, result.frames) == (3, 64 + 32)  # rl_games' counters carried on

@@ -47,13 +47,13 @@ def test_the_issue_block_parses_typed():
 
 
 @pytest.mark.parametrize("algo,key,value,owners,words", [
-    ("appo", "tau", 0.95, "a2c_continuous, a2c_discrete", "GAE's lambda"),
-    ("appo", "env_groups", 2, "a2c_continuous, a2c_discrete", "runners step their envs"),
-    ("appo", "seq_length", 4, "a2c_continuous, a2c_discrete, dqn, sac", "RNN"),
-    ("impala", "e_clip", 0.2, "a2c_continuous, a2c_discrete, appo", "no clipped surrogate"),
-    ("impala", "mini_epochs", 4, "a2c_continuous, a2c_discrete, appo, distill", "one pass"),
+    ("appo", "tau", 0.95, "a2c_continuous, a2c_discrete, grpo", "GAE's lambda"),
+    ("appo", "env_groups", 2, "a2c_continuous, a2c_discrete, grpo", "runners step their envs"),
+    ("appo", "seq_length", 4, "a2c_continuous, a2c_discrete, dqn, grpo, sac", "RNN"),
+    ("impala", "e_clip", 0.2, "a2c_continuous, a2c_discrete, appo, grpo", "no clipped surrogate"),
+    ("impala", "mini_epochs", 4, "a2c_continuous, a2c_discrete, appo, distill, grpo", "one pass"),
     ("a2c_discrete", "appo", {"max_policy_lag": 2}, "appo, impala", ""),
-    ("sac", "learning_rate", 1e-3, "a2c_continuous, a2c_discrete, appo, distill, dqn, impala", ""),
+    ("sac", "learning_rate", 1e-3, "a2c_continuous, a2c_discrete, apg, appo, distill, dqn, grpo, impala", ""),
 ])
 def test_a_key_of_another_algo_is_a_one_line_warning(monkeypatch, scoped_registries, algo, key, value, owners,
                                                      words):

@@ -354,3 +354,20 @@ def test_cuda_step_stays_on_device(name):
         res = env.step(random_actions(env, gen))
     for value in (obs, res.obs, res.reward, res.terminated, res.truncated, res.final_obs):
         assert value.device.type == "cuda"
+
+
+def test_push2d_pushes_the_cube_and_scores_embodichain_terms():
+    from rlchain.envs.backends.torch_envs.push2d import WEIGHTS, TorchPush2D
+
+    env = TorchPush2D(2, seed=0)
+    env.reset(seed=0)
+    env.state[:, 0:2] = torch.tensor([[0.0, -0.05], [0.3, 0.3]])  # env 0: just below its cube
+    env.state[:, 2:4] = torch.tensor([[0.0, 0.0], [-0.3, -0.3]])
+    env.state[:, 4:6] = torch.tensor([[0.0, 0.2], [0.2, 0.2]])
+    result = env.step(torch.tensor([[0.0, 1.0], [0.0, 0.0]]))
+    cube = env.state[:, 2:4]
+    assert cube[0, 1].item() == pytest.approx(-0.05 + 0.03 + 0.045, abs=1e-5)
+    assert cube[1].tolist() == pytest.approx([-0.3, -0.3])
+    terms = env.last_terms
+    expected = sum(WEIGHTS[k] * terms[k] for k in WEIGHTS)
+    assert torch.allclose(result.reward, expected) and not result.infos["success"].any()

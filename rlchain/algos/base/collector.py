@@ -71,6 +71,12 @@ class OnPolicyCollector:
         self.rnn_states: tuple[torch.Tensor, ...] = ()
         self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self.last_values: torch.Tensor | None = None
+        self.reward_bonus: Any = None
+        """Optional: (next observations of a step's rows) -> (rows, 1) rewards added to the shaped env reward
+        (PPO's ``rnd``)."""
+        self.fold_obs_each_step = False
+        """Fold each step's next observations into the model's (and central value's) input statistics as they
+        come (``obs_normalizer_update: step``, rsl_rl's timing)."""
 
     def initial_states(self) -> tuple[torch.Tensor, ...]:
         """Zero RNN states for every env: the model's, then the central value's."""
@@ -180,6 +186,8 @@ class OnPolicyCollector:
             rewards = rewards.unsqueeze(-1)
         rs = cfg.reward_shaper
         shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+        if self.reward_bonus is not None:  # e.g. PPO's rnd: an intrinsic reward of the next observation (rsl_rl)
+            shaped = shaped + self.reward_bonus(result.obs)
         dropped = dropped_rows(result)
         if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
             lost = self.ctx.to_tensor(np.asarray(dropped)).bool()
@@ -195,6 +203,11 @@ class OnPolicyCollector:
                 storage.final_values[t, rows][idx] = self._value(final_obs, row_states)
         storage.add_outcome(t, shaped, terminated if bootstrap else dones, dones, rows=rows)
         obs = self.ctx.to_tensor(result.obs)
+        if self.fold_obs_each_step:  # obs_normalizer_update step: rsl_rl's timing
+            with torch.no_grad():
+                self.model.update_normalizers(obs=obs)
+                if self.central_value is not None:
+                    self.central_value.update_normalizers(obs=obs)
         if next_states and getattr(cfg, "zero_rnn_on_done", True):
             next_states = zero_finished(next_states, dones)
         if rows is ALL:

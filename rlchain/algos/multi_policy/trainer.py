@@ -236,7 +236,7 @@ def _check_supported(params: Params) -> None:
                    ("torch_compile", bool(cfg.torch_compile)),
                    ("compile_update", cfg.compile_update),
                    ("cuda_graph", cfg.cuda_graph is True),  # auto: eager
-                   ("obs_normalizer_update", cfg.obs_normalizer_update == "minibatch"),  # auto: rollout
+                   ("obs_normalizer_update", cfg.obs_normalizer_update in ("minibatch", "step")),  # auto: rollout
                    ("env_runners", cfg.env_runners is not None or str(cfg.vecenv_type).lower() == "ray")]
     for key, used in unsupported:
         if used:

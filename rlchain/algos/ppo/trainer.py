@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
@@ -11,7 +12,9 @@ from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import gae, next_values_from_rollout
+from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
 from rlchain.algos.core.storage import RolloutStorage, rollout_step_bytes
+from rlchain.algos.core.symmetry import MirrorLoss, augmented_storage, resolve_mirror
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
@@ -55,7 +58,8 @@ class PPO(AlgorithmBase):
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
                    "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
-                   "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr"}
+                   "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr", "rnd_loss": "losses/rnd_loss",
+                   "rnd_reward": "rewards/intrinsic", "mirror_loss": "losses/mirror_loss"}
     console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"))
     tunable = ("learning_rate", "entropy_coef", "e_clip", "critic_coef", "bounds_loss_coef", "grad_norm",
                "kl_threshold", "mini_epochs", "gamma", "tau")
@@ -130,6 +134,13 @@ class PPO(AlgorithmBase):
         # a fresh run starts from the distilled student; a resumed one holds its checkpoint's weights already
         fresh = cfg.distilled_checkpoint and not ctx.resuming
         self.distilled_teacher = load_distilled(params, env, model, device) if fresh else None
+        # rsl_rl's extras: empirical normalization's timing, the RND intrinsic reward, the mirror loss
+        self.fold_obs_each_step = obs_each_step(cfg.obs_normalizer_update, cfg.obs_normalizer)
+        collector.fold_obs_each_step = self.fold_obs_each_step
+        self.rnd = build_rnd(params, model, obs_space, device)
+        collector.reward_bonus = self.intrinsic_reward if self.rnd is not None else None
+        self.mirror_loss = build_mirror_loss(params, model, obs_space, env.action_space)
+        self._rnd_reward_sum, self._rnd_reward_rows = 0.0, 0
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -230,28 +241,68 @@ class PPO(AlgorithmBase):
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
             flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
-            per_minibatch = obs_per_minibatch(cfg.obs_normalizer_update, model.dist.continuous)  # else here
-            model.update_normalizers(obs=None if per_minibatch else flat_obs, returns=flat_returns,
+            each_step = self.fold_obs_each_step  # already folded in by the rollout (rsl_rl's timing)
+            per_minibatch = not each_step and obs_per_minibatch(cfg.obs_normalizer_update, model.dist.continuous)
+            model.update_normalizers(obs=None if per_minibatch or each_step else flat_obs, returns=flat_returns,
                                      values=flat_values)
             if self.central_value is not None:
-                self.central_value.update_normalizers(obs=flat_obs, returns=flat_returns, values=flat_values)
+                self.central_value.update_normalizers(obs=None if each_step else flat_obs, returns=flat_returns,
+                                                      values=flat_values)
         model.train()
-        stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
+        symmetry = cfg.symmetry
+        if symmetry is not None and symmetry.data_augmentation:  # the PPO update sees the mirror images too
+            if per_minibatch:  # the statistics stay the env's: fold the original rows in once, here
+                with torch.no_grad():
+                    model.update_normalizers(obs=flat_obs)
+            stats = self.agent.update(augmented_storage(storage, self.mirror_loss.mirror, model.obs_slice),
+                                      self.progress())
+        else:
+            stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
+        if self.rnd is not None:  # the predictor learns the rollout's states: their intrinsic reward fades
+            stats.update(self.train_rnd(flat_obs))
+        if self.mirror_loss is not None and self.mirror_loss.coef > 0:  # symmetry: the policy acts as its mirror
+            stats["mirror_loss"] = self.mirror_loss.train_on(flat_obs, cfg.minibatch_size)
         if self.cv_agent is not None:
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
                                               shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
         return stats
 
+    def intrinsic_reward(self, obs: Any) -> torch.Tensor:
+        """``rnd``: the (B, 1) intrinsic rewards of a step's next observations (their statistics folded in
+        first, as rsl_rl does)."""
+        view = self.model.view(self.ctx.to_tensor(obs))
+        self.rnd.observe(view)
+        reward = self.rnd.reward(view)
+        self._rnd_reward_sum += float(reward.sum())
+        self._rnd_reward_rows += reward.numel()
+        return reward.unsqueeze(-1)
+
+    def train_rnd(self, flat_obs: torch.Tensor) -> dict[str, float]:
+        """The predictor's passes over the rollout; its loss and the epoch's mean intrinsic reward."""
+        rnd_cfg = self.cfg.rnd
+        loss = self.rnd.train_on(self.model.view(flat_obs), self.cfg.minibatch_size, rnd_cfg.mini_epochs)
+        mean = self._rnd_reward_sum / max(self._rnd_reward_rows, 1)
+        self._rnd_reward_sum, self._rnd_reward_rows = 0.0, 0
+        return {"rnd_loss": loss, "rnd_reward": mean}
+
     def extra_state(self, kind: str) -> dict:
-        """The central value's weights and optimizer, when there is one."""
+        """The central value's weights and optimizer, when there is one; the RND's."""
+        out = {} if self.rnd is None else {"rnd": self.rnd.full_state()}
+        if self.mirror_loss is not None:
+            out["mirror_optimizer"] = self.mirror_loss.optimizer.state_dict()
         if self.central_value is None:
-            return {}
-        return {"central_value": self.central_value.state_dict(), "central_value_agent": self.cv_agent.state_dict()}
+            return out
+        return {**out, "central_value": self.central_value.state_dict(),
+                "central_value_agent": self.cv_agent.state_dict()}
 
     def restore_extra(self, state: dict) -> None:
+        if self.rnd is not None and "rnd" in state:
+            self.rnd.load_full_state(state["rnd"])
+        if self.mirror_loss is not None and "mirror_optimizer" in state:
+            self.mirror_loss.optimizer.load_state_dict(state["mirror_optimizer"])
         if self.central_value is None:
             return
         if "central_value" not in state:
@@ -289,6 +340,41 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
 
 def _value_size(env: Any) -> int:
     return env_spec(env).value_size
+
+
+def build_rnd(params: Params, model: ActorCritic, obs_space: Any, device: torch.device) -> Any:
+    """The ``rnd`` block's networks on the actor's view of the observation (None without the block)."""
+    cfg = params.config.rnd
+    if cfg is None:
+        return None
+    size = int(model.view(torch.zeros((1, *obs_space.shape))).flatten(1).shape[1])
+    try:
+        indices = parts_to_indices(cfg.obs, size)
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.rnd.obs", str(exc)) from None
+    return RandomNetworkDistillation(size, cfg, indices, device)
+
+
+def build_mirror_loss(params: Params, model: ActorCritic, obs_space: Any, action_space: Any) -> Any:
+    """The ``symmetry`` block's mirror loss on the actor's view (None without the block)."""
+    cfg = params.config.symmetry
+    if cfg is None:
+        return None
+    if not model.dist.continuous or model.is_rnn:
+        raise ConfigError(params.source, "params.config.symmetry", "needs a feed-forward policy with continuous "
+                                                                   "actions")
+    size = int(model.view(torch.zeros((1, *obs_space.shape))).flatten(1).shape[1])
+    try:
+        mirror = resolve_mirror(cfg.mirror, size, int(np.prod(action_space.shape)))
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.symmetry.mirror", str(exc)) from None
+    return MirrorLoss(model, mirror, cfg.mirror_loss_coef, params.config.learning_rate)
+
+
+def obs_each_step(mode: str, kind: str) -> bool:
+    """``obs_normalizer_update`` resolved: True when the rollout folds each env step's next observations into
+    the observation statistics (step, or auto with ``obs_normalizer: rsl_rl``, rsl_rl's timing)."""
+    return mode == "step" or (mode == "auto" and kind == "rsl_rl")
 
 
 def obs_per_minibatch(mode: str, continuous: bool) -> bool:

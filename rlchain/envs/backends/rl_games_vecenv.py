@@ -28,6 +28,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.envs.vecenv import StepResult, VecEnv
 from rlchain.envs.wrappers.central_value import ObsStateBox
 
@@ -46,7 +47,7 @@ class IVecEnvAdapter:
 
     def __init__(self, env: Any, num_actors: int) -> None:
         self.env = env
-        info = dict(env.get_env_info())
+        info = spaces_to_gymnasium(dict(env.get_env_info()))  # gym 0.2x spaces (Isaac Lab's) as gymnasium
         agents = info.get("agents")
         if agents is None:
             count = getattr(env, "get_number_of_agents", None)
@@ -87,6 +88,8 @@ class IVecEnvAdapter:
         obs, rewards, dones, infos = self.env.step(actions)
         obs = self._obs = self._obs_of(obs)
         self._pending = None
+        if isinstance(infos, (list, tuple)):  # one info dict per env (gym-style vec envs): observers get the list
+            infos = {"env_infos": list(infos)}
         infos = infos if isinstance(infos, dict) else {}
         time_outs = infos.get("time_outs")
         if self.is_tensor_env:

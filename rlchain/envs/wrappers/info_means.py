@@ -3,7 +3,9 @@
 Robot-learning envs report their reward terms and task measures in the step infos (MuJoCo
 Playground on envpool: ``reward_box_target``, ``reward_gripper_box`` ...; MetaWorld:
 ``near_object``, ``obj_to_target``). Each named key is averaged over every env row of every step of
-an epoch and logged as ``env_info/<key>``. Non-numeric values and NaNs are skipped.
+an epoch and logged as ``env_info/<key>``. Non-numeric values and NaNs are skipped. A key that is not in the
+infos is looked up in ``infos['episode']``, where Isaac Lab-style envs (mjlab) put their per-episode log
+(``Episode_Reward/track_linear_velocity``, ``Curriculum/...``) at the steps where envs reset.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from rlchain.log import get_logger
 log = get_logger(__name__)
 
 PREFIX = "env_info/"
+EPISODE = "episode"
 
 
 class InfoMeans:
@@ -35,10 +38,12 @@ class InfoMeans:
         """Fold one step's ``infos`` (a dict of per-env arrays or tensors) in."""
         if not self.keys or not isinstance(infos, dict):
             return
+        episode = infos.get(EPISODE)
+        episode = episode if isinstance(episode, dict) else {}
         if not self._checked:
-            self._reported.update(str(k) for k in infos)
+            self._reported.update(str(k) for k in (*infos, *episode))
         for key in self.keys:
-            value = infos.get(key)
+            value = infos.get(key, episode.get(key))
             if value is None:
                 continue
             if hasattr(value, "detach"):

@@ -8,6 +8,7 @@ import torch
 from torch import nn
 
 from rlchain.runs import checkpoint as _checkpoint
+from rlchain.runs.atomic import write_atomic
 
 
 class AverageMeter(nn.Module):
@@ -46,16 +47,27 @@ class AverageMeter(nn.Module):
         return mean
 
 
-def load_checkpoint(filename: str, map_location: Any = "cpu") -> dict[str, Any]:
-    """Read an rlchain checkpoint (a dict: ``model``, ``optimizer``, counters, ``config``...)."""
-    return _checkpoint.load(filename, map_location=map_location)
+def load_checkpoint(filename: str, map_location: Any = None) -> dict[str, Any]:
+    """What :func:`save_checkpoint` (or rl_games' own) wrote: read as data (tensors, numbers, strings,
+    containers, numpy scalars; a file naming other objects is refused unless trusted, see
+    :func:`rlchain.runs.checkpoint.read`), torch.compile's ``_orig_mod.`` taken out of every key."""
+    print(f"=> loading checkpoint '{filename}'")
+    return _strip_compiled(_checkpoint.read(filename, map_location=map_location or "cpu"))
+
+
+def _strip_compiled(value: Any) -> Any:
+    """``value`` with torch.compile's ``_orig_mod.`` taken out of every string key, at any depth (rl_games 2.0
+    does the same, so a compiled model's checkpoint loads into an uncompiled one)."""
+    if isinstance(value, dict):
+        return {(k.replace("_orig_mod.", "") if isinstance(k, str) else k): _strip_compiled(v)
+                for k, v in value.items()}
+    return value
 
 
 def save_checkpoint(filename: str, state: dict[str, Any]) -> None:
-    """Write ``state`` to ``filename`` (``.pth`` appended when missing, as rl_games does)."""
-    if not filename.endswith(".pth"):
-        filename += ".pth"
-    torch.save(state, filename)
+    """Write ``state`` as it is to ``filename + '.pth'`` (rl_games appends the suffix, always), atomically."""
+    print(f"=> saving checkpoint '{filename}.pth'")
+    write_atomic(filename + ".pth", lambda fh: torch.save(state, fh), suffix=".pth")
 
 
 __all__ = ["AverageMeter", "load_checkpoint", "save_checkpoint"]

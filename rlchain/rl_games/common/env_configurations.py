@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from rlchain import env_configurations as _env_configurations
+from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.registry import ENV_CONFIGURATIONS
 
 configurations = ENV_CONFIGURATIONS
@@ -24,7 +25,8 @@ def register(name: str, config: dict[str, Any]) -> None:
 
 def get_env_info(env: Any) -> dict[str, Any]:
     """``observation_space``, ``action_space``, ``agents``, ``value_size`` (and ``state_space`` when the
-    env has one) of an env: its ``get_env_info()`` when it has one, else its attributes."""
+    env has one) of an env: its ``get_env_info()`` when it has one, else its attributes; OpenAI gym spaces
+    come back as gymnasium ones."""
     info = dict(env.get_env_info() or {}) if callable(getattr(env, "get_env_info", None)) else {}
     for key in ("observation_space", "action_space"):
         if key not in info:
@@ -34,7 +36,7 @@ def get_env_info(env: Any) -> dict[str, Any]:
         info["agents"] = agents() if callable(agents) else 1
     if "value_size" not in info:
         info["value_size"] = getattr(env, "value_size", 1)
-    return info
+    return spaces_to_gymnasium(info)
 
 
 __all__ = ["configurations", "register", "get_env_info"]

@@ -18,14 +18,17 @@ True})``).
 
 from __future__ import annotations
 
+import copy
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import torch
 
+from rlchain.config.load import parse_params
 from rlchain.config.schema import Params
 from rlchain.envs.factory import build_env
+from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.models.build import apply_sigma, build_model
 from rlchain.parallel.device import resolve_device
 from rlchain.policy.load import load_policy, load_weights
@@ -34,10 +37,19 @@ from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.common import env_configurations, vecenv
 
 
-class BasePlayer:
-    """A policy built from ``params`` (rl_games' ``params`` dict, parsed by rlchain as ``parsed``)."""
+def parse_player_params(params: dict[str, Any]) -> Params:
+    """rl_games' ``params`` dict validated by rlchain (its ``env_info`` / ``vec_env`` objects set aside)."""
+    config = {k: v for k, v in (params.get("config") or {}).items() if k not in ("env_info", "vec_env", "stop_fn")}
+    raw = {k: v for k, v in params.items() if k not in ("env", "load_checkpoint", "load_path", "config")}
+    return parse_params(copy.deepcopy({"params": {**raw, "config": config}}), "<params>")
 
-    def __init__(self, params: dict[str, Any], parsed: Params) -> None:
+
+class BasePlayer:
+    """A policy built from ``params`` (rl_games' ``params`` dict, parsed by rlchain as ``parsed``; built as
+    rl_games builds a player, ``Player(params)``, when ``parsed`` is not given)."""
+
+    def __init__(self, params: dict[str, Any], parsed: Params | None = None) -> None:
+        parsed = parse_player_params(params) if parsed is None else parsed
         self.params = params
         self.parsed = parsed
         cfg = parsed.config
@@ -53,7 +65,10 @@ class BasePlayer:
         self.render_env = bool(cfg.player.render)
         self.clip_actions = bool(cfg.clip_actions)
         self.env = None
-        self.env_info = self.config.get("env_info") or self._env_info()
+        given = self.config.get("env_info")
+        if given is not None:  # rl_games: the spaces given, the env (if any) from config['vec_env']
+            self.env = self.config.get("vec_env")
+        self.env_info = spaces_to_gymnasium(dict(given if given is not None else self._env_info()))
         self.num_agents = int(self.env_info.get("agents", 1))
         self.value_size = int(self.env_info.get("value_size", 1))
         self.action_space = self.env_info["action_space"]
@@ -65,6 +80,10 @@ class BasePlayer:
                                 value_size=self.value_size)
         self.model = build_model(parsed, shape, self.device)
         self.model.eval()
+        # rl_games' model names its ONNX recipe reads: norm_obs (input normalization) and a2c_network (the
+        # network with rl_games' forward(input_dict) contract); plain attributes, not extra state_dict keys
+        object.__setattr__(self.model, "norm_obs", self.model.preprocess)
+        object.__setattr__(self.model, "a2c_network", self.model.network)
         self.is_rnn = bool(getattr(self.model, "is_rnn", False))
         self.normalize_input = getattr(self.model, "obs_norm", None) is not None
         self.states: list[torch.Tensor] | None = None
@@ -74,6 +93,9 @@ class BasePlayer:
 
     def _env_info(self) -> dict[str, Any]:
         """The spaces as rl_games finds them: the env_configurations entry's env, else rlchain's env."""
+        if self.config.get("vec_env") is not None:  # rl_games: the env given in the config
+            self.env = self.config["vec_env"]
+            return env_configurations.get_env_info(self.env)
         entry = ENV_CONFIGURATIONS.get(self.env_name) or {}
         if self.player_config.get("use_vecenv", False) and "vecenv_type" in entry:
             self.env = vecenv.create_vec_env(self.env_name, self.parsed.config.player.num_actors, **self.env_config)

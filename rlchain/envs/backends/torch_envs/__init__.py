@@ -2,7 +2,11 @@
 
 - ``TorchCartPole-v0``: gymnasium CartPole-v1, Discrete(2), 500-step limit;
 - ``TorchPendulum-v0``: gymnasium Pendulum-v1, Box(1), 200-step limit;
-- ``TorchReacher8-v0``: an 8-link planar reacher, Box(8), 200-step limit.
+- ``TorchReacher8-v0``: an 8-link planar reacher, Box(8), 200-step limit;
+- ``TorchPointMass-v0``: a damped 2-D point mass to a goal, Box(2), 100-step limit, info ``success``
+  (differentiable, like the pendulum: APG);
+- ``TorchPush2D-v0``: a planar push-cube with EmbodiChain's push_cube starts, reward terms and success
+  test (cube within 0.1 m of the goal), Box(2), 100-step limit.
 
 Use them as ``params.config.env_name``; ``env_config.device`` (default cpu) picks where the
 batch lives and should match ``params.config.device``. Other ``env_config`` keys:
@@ -19,6 +23,8 @@ from typing import Any
 from rlchain.envs.backends.tensor_env import TensorVecEnv
 from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
 from rlchain.envs.backends.torch_envs.pendulum import TorchPendulum
+from rlchain.envs.backends.torch_envs.point_mass import TorchPointMass
+from rlchain.envs.backends.torch_envs.push2d import TorchPush2D
 from rlchain.envs.backends.torch_envs.reacher import TorchReacher
 
 CONFIG = "params.config.env_config"
@@ -49,10 +55,14 @@ def _builder(cls: type[TensorVecEnv], name: str, **fixed: Any) -> Callable[..., 
 build_torch_cartpole = _builder(TorchCartPole, "TorchCartPole-v0")
 build_torch_pendulum = _builder(TorchPendulum, "TorchPendulum-v0")
 build_torch_reacher8 = _builder(TorchReacher, "TorchReacher8-v0", num_links=8)
+build_torch_point_mass = _builder(TorchPointMass, "TorchPointMass-v0")
+build_torch_push2d = _builder(TorchPush2D, "TorchPush2D-v0")
 
 ENV_BUILDERS = {"TorchCartPole-v0": build_torch_cartpole, "TorchPendulum-v0": build_torch_pendulum,
-                "TorchReacher8-v0": build_torch_reacher8}
+                "TorchReacher8-v0": build_torch_reacher8, "TorchPointMass-v0": build_torch_point_mass,
+                "TorchPush2D-v0": build_torch_push2d}
 """``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""
 
-__all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "build_torch_cartpole",
-           "build_torch_pendulum", "build_torch_reacher8"]
+__all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "TorchPointMass", "TorchPush2D",
+           "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8", "build_torch_point_mass",
+           "build_torch_push2d"]

@@ -3,7 +3,9 @@
 Same dynamics (g = 10, m = l = 1, dt = 0.05, speed clipped to 8, torque clipped to 2), reward
 -(angle_normalize(th)^2 + 0.1 thdot^2 + 0.001 u^2) computed on the state before the step, obs
 (cos th, sin th, thdot), no termination, a 200-step time limit and initial state
-th ~ U(-pi, pi), thdot ~ U(-1, 1). float32 state (gymnasium: float64).
+th ~ U(-pi, pi), thdot ~ U(-1, 1). float32 state (gymnasium: float64). The step is differentiable
+(no in-place writes on the state): APG backpropagates through it, :meth:`TorchPendulum.detach_state`
+cuts the graph between segments.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ class TorchPendulum(TensorVecEnv):
 
     def _reset_idx(self, env_ids: torch.Tensor) -> torch.Tensor:
         new = self.uniform((env_ids.numel(), 2), -self._high, self._high)
-        self.state[env_ids] = new
+        self.state = self.state.index_put((env_ids,), new)  # out of place: differentiable (APG)
         return self._obs(new)
 
     def _step_physics(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -59,3 +61,8 @@ class TorchPendulum(TensorVecEnv):
         newth = th + newthdot * self.dt
         self.state = torch.stack((newth, newthdot), 1)
         return self._obs(self.state), -costs, torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
+
+    def detach_state(self) -> torch.Tensor:
+        """Cut the autograd graph (truncated backpropagation): the current observations, detached."""
+        self.state = self.state.detach()
+        return self._obs(self.state)

@@ -1,0 +1,3 @@
+class Timer:
+    enable = True
+    enable_display_output = True

@@ -1,0 +1,1 @@
+"""APG: analytic policy gradients through a differentiable tensor env (truncated backpropagation)."""

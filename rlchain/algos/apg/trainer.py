@@ -1,0 +1,144 @@
+"""``algo: apg``: analytic policy gradients (EmbodiChain's APG). Each epoch is one segment of
+``horizon_length`` steps of a differentiable tensor env: actions are reparameterised samples (or the mean)
+of the policy, rewards keep their graph back to the policy's parameters through the env's dynamics, and the
+loss is minus the mean discounted segment return (minus ``entropy_coef`` times the discounted entropy).
+After the optimizer step the env's ``detach_state()`` cuts the graph (truncated backpropagation); episodes
+go on across segments, finished ones auto-reset inside the env's step."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import torch
+
+from rlchain.algos.apg.objective import discounted_segment_return
+from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.schedules import linear_decay, scale_lr, set_lr
+from rlchain.config.apg import APGConfig
+from rlchain.config.errors import ConfigError
+from rlchain.config.schema import Params
+from rlchain.errors import DivergenceError
+
+
+class APGAgent:
+    """The policy's Adam optimizer, with what the divergence guard and checkpoints need of an agent."""
+
+    def __init__(self, model: torch.nn.Module, lr: float, weight_decay: float) -> None:
+        self.params = [p for p in model.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.Adam(self.params, lr=lr, weight_decay=weight_decay)
+
+    @property
+    def lr(self) -> float:
+        return self.optimizer.param_groups[0]["lr"]
+
+    def scale_lr(self, factor: float) -> None:
+        scale_lr(self.optimizer, factor)
+
+    def set_lr(self, lr: float) -> None:
+        set_lr(self.optimizer, lr)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"optimizer": self.optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.optimizer.load_state_dict(state["optimizer"])
+
+
+class APG(AlgorithmBase):
+    """Algo ``apg`` (see the module docstring)."""
+
+    config_class = APGConfig
+    metric_tags = {"loss": "losses/apg_loss", "objective": "info/objective", "entropy": "losses/entropy",
+                   "grad_norm": "info/grad_norm", "skipped_update": "info/skipped_update", "lr": "info/last_lr"}
+    console_fields = (("objective", "objective {:.3g}"), ("grad_norm", "grad {:.3g}"))
+    tunable = ("learning_rate", "entropy_coef", "grad_norm", "gamma")
+
+    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+        super().__init__(params, env, model, ctx)
+        if not ctx.spec.tensor_native or not callable(getattr(env, "detach_state", None)):
+            raise ConfigError(params.source, "params.config.env_name",
+                              f"APG needs a differentiable tensor env with detach_state() (TorchPointMass-v0, "
+                              f"TorchPendulum-v0, an EmbodiChain-contract env with detach_state); "
+                              f"{type(env).__name__} has none")
+        if not model.dist.continuous or model.is_rnn:
+            raise ConfigError(params.source, "params.model.name", "APG trains feed-forward continuous policies "
+                                                                  "(continuous_a2c_logstd)")
+        self.agent = APGAgent(model, self.cfg.learning_rate, self.cfg.weight_decay)
+        self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
+        self.stats: dict[str, float] = {}
+
+    def collect(self) -> bool:
+        """One segment: act, step, keep the graph; then the optimizer step and the cut."""
+        cfg, ctx, model, dist = self.cfg, self.ctx, self.model, self.model.dist
+        model.train()
+        obs = self.obs
+        rewards, dones, entropies = [], [], []
+        for _ in range(cfg.horizon_length):
+            if ctx.stop_requested():
+                return False
+            params, _, _ = model.evaluate(obs)
+            mu, std = params.chunk(2, -1)
+            action = mu if cfg.deterministic_actions else mu + std * torch.randn_like(mu)
+            result = self.env.step(action)
+            reward = result.reward
+            # the episode statistics and callbacks see a detached copy of the step
+            _, _, _, done = ctx.record_step(dataclasses.replace(result, reward=reward.detach(),
+                                                                obs=result.obs.detach()))
+            rewards.append(reward)
+            dones.append(done)
+            entropies.append(dist.entropy(params))
+            obs = result.obs
+        segment_return, _ = discounted_segment_return(rewards, dones, cfg.gamma)
+        entropy, _ = discounted_segment_return(entropies, dones, cfg.gamma)
+        objective, mean_entropy = segment_return.mean(), entropy.mean()
+        loss = -objective - cfg.entropy_coef * mean_entropy
+        self.stats = self._step(loss)
+        self.stats.update(objective=float(objective.detach()), entropy=float(mean_entropy.detach()),
+                          loss=float(loss.detach()))
+        self.obs = self.env.detach_state()
+        return True
+
+    def _step(self, loss: torch.Tensor) -> dict[str, float]:
+        agent, cfg = self.agent, self.cfg
+        agent.optimizer.zero_grad(set_to_none=True)
+        finite = bool(torch.isfinite(loss))
+        if finite:
+            loss.backward()
+            finite = all(p.grad is None or bool(torch.isfinite(p.grad).all()) for p in agent.params)
+        if not finite:
+            if not cfg.skip_nonfinite_updates:
+                raise DivergenceError(f"APG: the segment's loss or gradient is not finite (loss {float(loss)})")
+            agent.optimizer.zero_grad(set_to_none=True)
+            return {"grad_norm": float("nan"), "skipped_update": 1.0, "lr": agent.lr}
+        grad_norm = torch.nn.utils.clip_grad_norm_(agent.params, cfg.grad_norm if cfg.truncate_grads else 1e12)
+        agent.optimizer.step()
+        if cfg.lr_schedule == "linear":
+            agent.set_lr(linear_decay(cfg.learning_rate, cfg.min_lr, self.progress()))
+        return {"grad_norm": float(grad_norm), "skipped_update": 0.0, "lr": agent.lr}
+
+    def update(self) -> dict[str, float]:
+        """The segment's step was taken in :meth:`collect`; count its frames and report it."""
+        self.ctx.frames += self.frames_per_epoch()
+        return dict(self.stats)
+
+    def frames_per_epoch(self) -> int:
+        return self.cfg.horizon_length * self.num_envs
+
+    def start(self) -> None:
+        super().start()
+        self.obs = self.obs.detach()
+
+    def restart_episodes(self) -> None:
+        super().restart_episodes()
+        self.obs = self.obs.detach()
+
+    def hyperparams(self) -> dict[str, float]:
+        return {**super().hyperparams(), "learning_rate": self.agent.lr}
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        if name == "learning_rate":
+            self.agent.set_lr(value)
+        super().apply_hyperparam(name, value)

@@ -1,0 +1,160 @@
+"""EmbodiChain's train_config layout -> rlchain's typed config (rlchain/config/embodichain.py).
+
+The configs here are this project's own, in EmbodiChain's layout (not copies of its files)."""
+
+import json
+
+import pytest
+import yaml
+
+import rlchain.builtins  # noqa: F401
+from rlchain.builtins import register_builtins
+from rlchain.config.embodichain import is_embodichain, translate
+from rlchain.config.errors import ConfigError
+from rlchain.config.load import load_config
+
+register_builtins()
+
+
+def layout(algo="ppo", **trainer):
+    """A small config in EmbodiChain's current layout."""
+    base = {"exp_name": "demo", "gym_config": "EmbodiChainPushStandIn", "seed": 3, "device": "cpu",
+            "num_envs": 8, "iterations": 5, "buffer_size": 16, "enable_eval": True, "eval_freq": 200,
+            "save_freq": 300, "num_eval_envs": 2, "num_eval_episodes": 4}
+    base.update(trainer)
+    actor = {"type": "mlp", "network_cfg": {"hidden_sizes": [32, 32], "activation": "relu"}}
+    policy = {"name": "actor_critic", "actor": actor, "critic": actor} if algo == "ppo" else \
+        {"name": "actor_only", "actor": actor}
+    cfg = {"optimizer": {"name": "adam", "learning_rate": 1e-3}, "n_epochs": 2, "batch_size": 64,
+           "gamma": 0.98, "clip_coef": 0.25, "ent_coef": 0.0, "max_grad_norm": 0.7}
+    if algo == "ppo":
+        cfg.update(gae_lambda=0.9, vf_coef=0.5)
+    if algo == "grpo":
+        cfg.update(kl_coef=0.01, group_size=4, eps=1e-8, reset_every_rollout=True, truncate_at_first_done=True)
+    return {"trainer": base, "policy": policy, "algorithm": {"name": algo, "cfg": cfg}}
+
+
+def write(tmp_path, data, name="train_config.json"):
+    path = tmp_path / name
+    plain = json.loads(json.dumps(data))  # no shared objects: YAML would write them as aliases
+    path.write_text(json.dumps(plain) if name.endswith(".json") else yaml.safe_dump(plain))
+    return str(path)
+
+
+def test_ppo_keys_keep_embodichain_meaning(tmp_path):
+    cfg = load_config(write(tmp_path, layout())).config
+    assert (cfg.num_actors, cfg.horizon_length, cfg.max_epochs) == (8, 16, 5)
+    assert (cfg.mini_epochs, cfg.minibatch_size, cfg.gamma, cfg.tau, cfg.e_clip) == (2, 64, 0.98, 0.9, 0.25)
+    assert cfg.learning_rate == 1e-3 and cfg.lr_schedule is None
+    assert cfg.critic_coef == 1.0  # vf_coef * MSE == 0.5 * critic_coef * MSE
+    assert not cfg.clip_value and not cfg.normalize_input and not cfg.normalize_value and not cfg.value_bootstrap
+    assert cfg.normalize_advantage and not cfg.clip_actions and cfg.grad_norm == 0.7 and cfg.truncate_grads
+    # 200 and 300 env steps with 8 envs x 16 steps = 128 per epoch: every 2nd and 3rd epoch
+    assert cfg.evaluation.interval == 2 and cfg.save_frequency == 3
+    assert (cfg.evaluation.games, cfg.evaluation.num_envs, cfg.evaluation.seed) == (4, 2, 10_003)
+
+
+def test_yaml_and_json_read_the_same(tmp_path):
+    a = load_config(write(tmp_path, layout(), "a.json")).config
+    b = load_config(write(tmp_path, layout(), "b.yaml")).config
+    assert a == b
+
+
+def test_old_layout_rollout_steps_and_flat_learning_rate(tmp_path):
+    data = layout()
+    data["trainer"]["rollout_steps"] = data["trainer"].pop("buffer_size")
+    data["algorithm"]["cfg"]["learning_rate"] = data["algorithm"]["cfg"].pop("optimizer")["learning_rate"]
+    with pytest.warns(UserWarning, match="old"):
+        cfg = load_config(write(tmp_path, data)).config
+    assert cfg.horizon_length == 16 and cfg.learning_rate == 1e-3
+
+
+def test_network_and_policy(tmp_path):
+    data = layout()
+    data["policy"]["initial_log_std"] = -1.0
+    params = load_config(write(tmp_path, data))
+    net = params.network
+    assert net.separate and net.mlp.units == [32, 32] and net.mlp.activation == "relu"
+    assert net.space.continuous.fixed_sigma and net.space.continuous.sigma_init.val == -1.0
+    assert params.algo.name == "a2c_continuous" and params.model.name == "continuous_a2c_logstd"
+
+
+@pytest.mark.parametrize("where, key, hint", [
+    ("trainer", "num_env", "num_envs"),
+    ("cfg", "clip_coeff", "clip_coef"),
+    ("top", "trainr", "trainer"),
+])
+def test_unknown_key_is_an_error_with_did_you_mean(tmp_path, where, key, hint):
+    data = layout()
+    target = {"trainer": data["trainer"], "cfg": data["algorithm"]["cfg"], "top": data}[where]
+    target[key] = 1
+    with pytest.raises(ConfigError, match=f"did you mean '{hint}'"):
+        load_config(write(tmp_path, data))
+
+
+def test_dexsim_task_not_installed_is_a_clear_error(tmp_path):
+    (tmp_path / "gym_config.json").write_text(json.dumps({"id": "PushCubeRL", "max_episode_steps": 100}))
+    data = layout(gym_config="gym_config.json")
+    with pytest.raises(ConfigError, match="task 'PushCubeRL'.*DexSim"):
+        load_config(write(tmp_path, data))
+
+
+def test_gym_config_file_names_a_registered_env(tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "gym_config.json").write_text(json.dumps({"id": "EmbodiChainCartPoleStandIn"}))
+    # the path is relative to the config's repository root (a folder above it), as EmbodiChain writes them
+    data = layout(gym_config="sub/gym_config.json")
+    (tmp_path / "sub" / "deep").mkdir()
+    assert load_config(write(tmp_path / "sub" / "deep", data)).config.env_name == "EmbodiChainCartPoleStandIn"
+
+
+def test_learning_env_with_cfg(tmp_path):
+    data = layout()
+    data["trainer"].pop("gym_config")
+    data["trainer"]["learning_env"] = {"name": "TorchPointMass-v0", "cfg": {"max_episode_steps": 50}}
+    cfg = load_config(write(tmp_path, data)).config
+    assert cfg.env_name == "TorchPointMass-v0" and cfg.env_config == {"max_episode_steps": 50, "device": "cpu"}
+
+
+def test_overrides_on_embodichain_keys_and_params(tmp_path):
+    path = write(tmp_path, layout())
+    params = load_config(path, ["trainer.num_envs=4", "params.config.print_stats=false"])
+    assert params.config.num_actors == 4 and params.config.print_stats is False
+
+
+def test_distributed_is_multi_gpu_and_events_map(tmp_path):
+    data = layout(distributed=True, events={
+        "eval": {"cam": {"func": "record_camera_data_async", "mode": "interval", "interval_step": 1,
+                         "params": {"save_path": "videos"}}},
+        "train": {"tick": {"func": "mypkg.events.tick", "interval_step": 5, "params": {"x": 1}}}})
+    raw = translate(data, "t.json")["params"]["config"]
+    assert raw["multi_gpu"] is True
+    assert raw["events"] == [{"func": "video", "phase": "eval", "interval_step": 1, "params": {"save_path": "videos"}},
+                             {"func": "mypkg.events:tick", "phase": "train", "interval_step": 5, "params": {"x": 1}}]
+
+
+def test_other_optimizers_and_dropout_are_errors(tmp_path):
+    data = layout()
+    data["algorithm"]["cfg"]["optimizer"]["name"] = "sgd"
+    with pytest.raises(ConfigError, match="optimizer.name"):
+        load_config(write(tmp_path, data))
+    data = layout()
+    data["policy"]["actor"]["network_cfg"]["dropout_p"] = 0.1
+    with pytest.raises(ConfigError, match="dropout"):
+        load_config(write(tmp_path, data))
+
+
+def test_best_eval_metric_success_rate(tmp_path):
+    data = layout(best_eval_metric="eval/success_rate", best_eval_mode="max")
+    assert load_config(write(tmp_path, data)).config.evaluation.select_best == "evaluation_success"
+
+
+def test_linear_lr_scheduler_end_factor(tmp_path):
+    data = layout()
+    data["algorithm"]["cfg"]["lr_scheduler"] = {"name": "linear", "kwargs": {"end_factor": 0.4}}
+    cfg = load_config(write(tmp_path, data)).config
+    assert cfg.lr_schedule == "linear" and cfg.min_lr == pytest.approx(4e-4)
+
+
+def test_is_embodichain():
+    assert is_embodichain(layout()) and not is_embodichain({"params": {}})
