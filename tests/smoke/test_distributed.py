@@ -58,6 +58,9 @@ class StopRank1(Callback):
 
     def on_epoch_end(self, ctx, stats, episodes):
         if ctx.state.rank == 1 and ctx.state.epoch == 2:
+            # the pid, so the test can kill the stopped rank: torchrun runs each rank in a session of its own
+            with open("stopped_rank.pid", "w", encoding="utf-8") as fh:
+                fh.write(str(os.getpid()))
             os.kill(os.getpid(), signal.SIGSTOP)
 
 
@@ -308,7 +311,13 @@ def test_a_stalled_rank_ends_the_run_within_the_collective_timeout(tmp_path):
                 break
         found = [line for line in lines if "distributed error: rank 0" in line]
     finally:
-        os.killpg(proc.pid, signal.SIGKILL)  # the launch and both ranks (rank 1 is stopped)
+        os.killpg(proc.pid, signal.SIGKILL)  # the launch and rank 0
+        stopped = tmp_path / "stopped_rank.pid"
+        if stopped.exists():  # rank 1, stopped in a session of its own, would outlive the test
+            try:
+                os.kill(int(stopped.read_text()), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
         proc.wait(timeout=30)
     assert found, "".join(lines[-40:])
     assert "rank 1 did not answer within 2 s (params.config.multi_gpu_timeout_s)" in found[0]
