@@ -42,8 +42,13 @@ def syntax_error(exc: Exception, text: str) -> str:
         context = getattr(exc, "context", None)
         problem = f"{getattr(exc, 'problem', None) or 'syntax error'}" + (f" ({context})" if context else "")
     lines = text.splitlines()
-    shown = lines[line - 1] if 0 < line <= len(lines) else ""
-    return f"line {line}, column {column}: {problem}\n    {shown}\n    {' ' * (column - 1)}^"
+    where = f"line {line}, column {column}: {problem}"
+    if line > len(lines):
+        return f"{where} (at the end of the file)"
+    shown = lines[line - 1] if line > 0 else ""
+    if not shown.strip():
+        return where  # a blank line and a caret under it would say nothing more
+    return f"{where}\n    {shown}\n    {' ' * (column - 1)}^"
 
 
 SEED_RANGE = 2**32
