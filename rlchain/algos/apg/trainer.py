@@ -16,35 +16,12 @@ from rlchain.algos.apg.objective import discounted_segment_return
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.schedules import linear_decay, scale_lr, set_lr
+from rlchain.algos.core.adam_agent import AdamAgent
+from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.schema import Params
 from rlchain.errors import DivergenceError
-
-
-class APGAgent:
-    """The policy's Adam optimizer, with what the divergence guard and checkpoints need of an agent."""
-
-    def __init__(self, model: torch.nn.Module, lr: float, weight_decay: float) -> None:
-        self.params = [p for p in model.parameters() if p.requires_grad]
-        self.optimizer = torch.optim.Adam(self.params, lr=lr, weight_decay=weight_decay)
-
-    @property
-    def lr(self) -> float:
-        return self.optimizer.param_groups[0]["lr"]
-
-    def scale_lr(self, factor: float) -> None:
-        scale_lr(self.optimizer, factor)
-
-    def set_lr(self, lr: float) -> None:
-        set_lr(self.optimizer, lr)
-
-    def state_dict(self) -> dict[str, Any]:
-        return {"optimizer": self.optimizer.state_dict()}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.optimizer.load_state_dict(state["optimizer"])
 
 
 class APG(AlgorithmBase):
@@ -66,7 +43,7 @@ class APG(AlgorithmBase):
         if not model.dist.continuous or model.is_rnn:
             raise ConfigError(params.source, "params.model.name", "APG trains feed-forward continuous policies "
                                                                   "(continuous_a2c_logstd)")
-        self.agent = APGAgent(model, self.cfg.learning_rate, self.cfg.weight_decay)
+        self.agent = AdamAgent(model, self.cfg.learning_rate, self.cfg.weight_decay)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         self.stats: dict[str, float] = {}
 

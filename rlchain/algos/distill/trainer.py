@@ -28,8 +28,9 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
-from rlchain.algos.core.schedules import linear_decay, scale_lr, set_lr
+from rlchain.algos.core.schedules import linear_decay
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
@@ -39,35 +40,6 @@ from rlchain.deprecation import renamed
 from rlchain.envs.vecenv import DROPPED
 from rlchain.errors import DivergenceError
 from rlchain.networks.rnn import zero_finished
-
-
-class DistillAgent:
-    """The student's optimizer, with what the Loop's divergence guard and checkpoints need of an agent."""
-
-    def __init__(self, model: torch.nn.Module, lr: float, weight_decay: float) -> None:
-        self.params = [p for p in model.parameters() if p.requires_grad]
-        self.optimizer = torch.optim.Adam(self.params, lr=lr, weight_decay=weight_decay)
-
-    @property
-    def lr(self) -> float:
-        """The current learning rate."""
-        return self.optimizer.param_groups[0]["lr"]
-
-    def scale_lr(self, factor: float) -> None:
-        """Scale the learning rate (the divergence guard's rollback)."""
-        scale_lr(self.optimizer, factor)
-
-    def set_lr(self, lr: float) -> None:
-        """Set the learning rate (set_params, hyperparam_schedule)."""
-        set_lr(self.optimizer, lr)
-
-    def state_dict(self) -> dict[str, Any]:
-        """The optimizer's state."""
-        return {"optimizer": self.optimizer.state_dict()}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        """Restore :meth:`state_dict`."""
-        self.optimizer.load_state_dict(state["optimizer"])
 
 
 def corrupt(obs: torch.Tensor, noise_std: float, dropout: float) -> torch.Tensor:
@@ -160,7 +132,7 @@ class Distill(AlgorithmBase):
                               f"with its deterministic action: use mse or huber (or auto)")
         self.use_masks = bool(getattr(model, "use_action_masks", False))
         model.bptt_length = cfg.bptt_length
-        self.agent = DistillAgent(model, cfg.learning_rate, cfg.weight_decay)
+        self.agent = AdamAgent(model, cfg.learning_rate, cfg.weight_decay)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         n, dev = self.num_envs, self.device
         self.states: tuple = model.initial_state(n, dev)
