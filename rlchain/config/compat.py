@@ -138,12 +138,7 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
 
 def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
     """Drop rl_games' top-level no-op keys (``params.load_checkpoint`` ...) with a warning."""
-    out = dict(params)
-    for key, reason in NO_EFFECT_PARAMS_KEYS.items():
-        if key in out:
-            warn_once(source, f"params.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
-            out.pop(key)
-    return out
+    return _drop_no_effect(params, NO_EFFECT_PARAMS_KEYS, source, "params")
 
 
 def translate_model(model: Any, source: str) -> Any:
