@@ -22,7 +22,8 @@ terms (the change of a distance in one decision, as their ``incremental_distance
 - ``goal_distance_reward``: exp(-d^2 / (2 * 0.12^2)), d the cube's planar distance to the goal;
 - ``action_penalty``: -|a - a_prev|^2;
 - ``success_bonus``: 1 on success;
-- ``reach_progress``: how much nearer (m) the pusher came to the pushing point;
+- ``reach_progress``: how much nearer (m) the pusher came to the pushing point along the way around the
+  cube (see ``_distances``);
 - ``goal_progress``: how much nearer (m) the cube came to the goal.
 
 The reward is their sum weighted by ``reward_weights`` (:data:`DEFAULT_WEIGHTS`; missing terms weigh 0).
@@ -53,6 +54,7 @@ EMBODICHAIN_WEIGHTS = {"reaching_reward": 0.03, "goal_distance_reward": 0.8, "ac
 HALF = 0.05  # cube half size (m)
 RADIUS = 0.02  # pusher radius (m)
 LIMIT = 0.6  # pusher joint range and table half width (m)
+AROUND = 0.1  # clearance of a pusher going around the cube, from the cube's centre (its corner is at 0.071)
 
 SCENE = f"""
 <mujoco model="push_cube">
@@ -157,13 +159,28 @@ class MuJoCoPushCube:
                            "goal_pos": t(k * self.goal), "cube_to_goal": t(k * (self.goal - cube)),
                            "ee_to_cube": t(k * (cube - ee)), "ee_to_push_point": t(k * (push_point - ee))}}
 
-    def _distances(self) -> tuple[np.ndarray, np.ndarray]:
-        """(pusher to the pushing point, cube to goal), planar, in metres."""
+    def _distances(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pusher to the pushing point straight, the same around the cube, cube to goal), planar, in metres.
+
+        Around the cube: a pusher not yet behind the cube goes by the cube's side (``AROUND`` from its
+        centre, on the pusher's side) and its back corner on that side, then to the pushing point; the path
+        a pusher must take without shoving the cube away from the goal."""
         ee, _, cube, _, _ = self._parts()
         to_goal = self.goal - cube
         d_goal = np.linalg.norm(to_goal, axis=1)
-        behind = cube - to_goal / np.maximum(d_goal, 1e-6)[:, None] * (HALF + RADIUS)
-        return np.linalg.norm(ee - behind, axis=1), d_goal
+        u = to_goal / np.maximum(d_goal, 1e-6)[:, None]
+        push = cube - u * (HALF + RADIUS)
+        straight = np.linalg.norm(ee - push, axis=1)
+        rel = ee - cube
+        along = (rel * u).sum(1)
+        side = rel - along[:, None] * u
+        norm = np.linalg.norm(side, axis=1)
+        side = np.where(norm[:, None] > 1e-6, side / np.maximum(norm, 1e-6)[:, None], np.stack((-u[:, 1], u[:, 0]), 1))
+        beside, corner = cube + AROUND * side, cube + AROUND * (side - u)
+        to_push = np.linalg.norm(corner - push, axis=1)
+        around = np.where(along > 0.0, np.linalg.norm(ee - beside, axis=1) + AROUND + to_push,
+                          np.where(along > -AROUND, np.linalg.norm(ee - corner, axis=1) + to_push, straight))
+        return straight, around, d_goal
 
     # -- the contract ------------------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: Any = None) -> tuple[dict, dict]:
@@ -174,19 +191,19 @@ class MuJoCoPushCube:
 
     def step(self, action: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
         a = np.clip(action.detach().cpu().numpy().astype(np.float64).reshape(self.num_envs, 2), -1.0, 1.0)
-        d_reach0, d_goal0 = self._distances()
+        _, around0, d_goal0 = self._distances()
         control = (a * self.max_speed)[:, None, :]
         self._rollout.rollout(self.model, self.data, self.state, control, nstep=self.substeps,
                               state=self._out)
         self.state = self._out[:, -1].copy()
         self.elapsed += 1
-        d_reach, d_goal = self._distances()
+        d_reach, around, d_goal = self._distances()
         success = d_goal < self.success_threshold
         terms = {"reaching_reward": 1.0 - np.tanh(8.0 * d_reach),
                  "goal_distance_reward": np.exp(-d_goal ** 2 / (2 * 0.12 ** 2)),
                  "action_penalty": -np.square(a - self.last_action).sum(1),
                  "success_bonus": success.astype(np.float64),
-                 "reach_progress": d_reach0 - d_reach, "goal_progress": d_goal0 - d_goal}
+                 "reach_progress": around0 - around, "goal_progress": d_goal0 - d_goal}
         reward = sum(self.weights.get(k, 0.0) * v for k, v in terms.items())
         self.last_action = a
         truncated = self.elapsed >= self.max_episode_steps
