@@ -162,10 +162,7 @@ class RunContext:
         lives; episodes cut by a dead Ray worker dropped), task success, info means, ``on_env_step``
         callbacks -- and return its (rewards, terminated, truncated, dones) as device tensors.
         ``rows``: the envs ``result`` is for (a pipelined rollout's env group; all by default)."""
-        rewards = self.to_tensor(result.reward).float()
-        terminated = self.to_tensor(result.terminated).bool()
-        truncated = self.to_tensor(result.truncated).bool()
-        dones = terminated | truncated
+        rewards, terminated, truncated, dones = self.step_outcome(result)
         success = self.success.read(result.infos, dones)
         if self.info_means.keys:
             self.info_means.add(result.infos)
@@ -174,6 +171,15 @@ class RunContext:
         if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
             self.emit_env_step(result, dones, rows)
         return rewards, terminated, truncated, dones
+
+    def step_outcome(self, result: Any, rows: slice = slice(None)
+                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """An env step's (rewards, terminated, truncated, dones) as device tensors, recorded nowhere (steps
+        outside training: a value warm start before the first epoch)."""
+        rewards = self.to_tensor(result.reward).float()
+        terminated = self.to_tensor(result.terminated).bool()
+        truncated = self.to_tensor(result.truncated).bool()
+        return rewards, terminated, truncated, terminated | truncated
 
     env_outcome = record_step  # the same method, for user algorithms that call it by this name
 
