@@ -12,7 +12,7 @@ import os
 import re
 
 PACKAGE = os.path.join(os.path.dirname(__file__), "..", "..", "rlchain")
-ALLOWED = {"algos/base/collector.py", "algos/base/stepper.py", "policy/play.py"}
+ALLOWED = {"algos/core/collector.py", "algos/core/stepper.py", "policy/play.py"}
 STEPS = {"step", "send", "recv"}
 ENV_NAME = re.compile(r"env", re.IGNORECASE)
 

@@ -14,10 +14,10 @@ import torch
 
 from rlchain.algos.apg.objective import discounted_segment_return
 from rlchain.algos.base.algorithm import AlgorithmBase
-from rlchain.algos.base.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError

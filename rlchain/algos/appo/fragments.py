@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader

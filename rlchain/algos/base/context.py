@@ -16,9 +16,9 @@ import numpy as np
 import torch
 
 from rlchain.algos.base.episodes import EpisodeTracker, game_outcome
-from rlchain.algos.base.safety import StopSignals, check_obs_shape
+from rlchain.algos.base.safety import StopSignals
 from rlchain.config.schema import Params
-from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.spec import EnvSpec, check_obs_shape, env_spec
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader

@@ -26,11 +26,11 @@ import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
-from rlchain.algos.base.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig

@@ -16,9 +16,9 @@ from typing import Any
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
-from rlchain.algos.base.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
 from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner

@@ -15,7 +15,7 @@ from typing import Any
 
 import torch
 
-from rlchain.algos.base.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.resolve import params_from_state
