@@ -17,7 +17,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent
-from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
@@ -81,7 +81,7 @@ class APG(AlgorithmBase):
         action = mu if self.cfg.deterministic_actions else mu + std * torch.randn_like(mu)
         return {"actions": action, "params": params}
 
-    def _record(self, result: Any, rows: slice) -> tuple[torch.Tensor, ...]:
+    def _record(self, result: Any, rows: slice) -> StepOutcome:
         """The episode statistics and callbacks see a detached copy of the step."""
         return self.ctx.record_step(dataclasses.replace(result, reward=result.reward.detach(),
                                                         obs=result.obs.detach()), rows)

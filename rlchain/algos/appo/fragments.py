@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
@@ -193,7 +193,7 @@ class FragmentRunner:
             steps["final_steps"].extend((step.t, int(r)) for r in rows)
             steps["final_obs"].append(torch.as_tensor(np.asarray(step.result.final_obs)[rows]))
 
-    def record(self, result: Any) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def record(self, result: Any) -> StepOutcome:
         """An env step's outcome for the runner: ``step_delay_s`` first (a straggler), then the episodes'
         returns, lengths and success and the info means; (rewards, terminated, truncated, dones) as CPU tensors."""
         if self.step_delay_s and self._killed.wait(self.step_delay_s):
@@ -205,7 +205,8 @@ class FragmentRunner:
         self._track(result, reward, done, steps["returns"], steps["lengths"], steps["successes"])
         if self._info_means.keys:
             self._info_means.add(getattr(result, "infos", None))
-        return torch.as_tensor(reward), torch.as_tensor(term), torch.as_tensor(trunc), torch.as_tensor(done)
+        return StepOutcome(torch.as_tensor(reward), torch.as_tensor(term), torch.as_tensor(trunc),
+                           torch.as_tensor(done))
 
     def _track(self, result: Any, reward: np.ndarray, done: np.ndarray, returns: list, lengths: list,
                successes: list) -> None:
@@ -261,5 +262,5 @@ class RunnerSide:
     def env_actions(self, actions: torch.Tensor) -> np.ndarray:
         return actions.numpy()
 
-    def record_step(self, result: Any, rows: slice) -> tuple[torch.Tensor, ...]:
+    def record_step(self, result: Any, rows: slice) -> StepOutcome:
         return self.runner.record(result)

@@ -29,7 +29,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 import torch
@@ -40,8 +40,16 @@ from rlchain.envs.spec import check_obs_shape
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.networks.rnn import zero_finished
 
-Outcome = tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]
-"""A step's (rewards, terminated, truncated, dones), as :meth:`RunContext.record_step` returns them."""
+
+class StepOutcome(NamedTuple):
+    """An env step's outcome as tensors on the training device, each (N,) (rewards (N,) or (N, value_size)):
+    what :meth:`RunContext.record_step` returns once the step is in the run's statistics."""
+
+    rewards: torch.Tensor
+    terminated: torch.Tensor
+    truncated: torch.Tensor
+    dones: torch.Tensor
+    """terminated | truncated"""
 
 
 class ActFn(Protocol):
@@ -68,7 +76,7 @@ class CollectedStep:
     """What the act step returned."""
     result: Any
     """The env's StepResult."""
-    outcome: Outcome | None
+    outcome: StepOutcome | None
     """The step's (rewards, terminated, truncated, dones) as recorded (None when the recording returns none)."""
     next_obs: Any
     """The observations after the step, as the collector carries them."""
@@ -107,7 +115,7 @@ class OnPolicyCollector:
 
     The hooks (each optional; the default in brackets): ``act`` (:class:`ActFn`) [the model's act step,
     with the central value's values and states], ``to_env`` (model-format actions -> what ``env.step``
-    takes) [``ctx.env_actions(model.dist.to_env(actions))``], ``record`` (``(result, rows) -> Outcome``
+    takes) [``ctx.env_actions(model.dist.to_env(actions))``], ``record`` (``(result, rows) -> StepOutcome``
     or None) [``ctx.record_step``], ``read_obs`` (the env's observations -> what the next step acts on)
     [``ctx.to_tensor``], ``on_step`` (called with every :class:`CollectedStep` once the step is recorded),
     ``differentiable`` [False: the model acts in eval mode; True: its mode is left as it is and nothing is
@@ -117,7 +125,7 @@ class OnPolicyCollector:
     def __init__(self, env: Any, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
                  use_masks: bool = False, pipeline_choice: PipelineChoice | None = None, horizon: int | None = None,
                  act: ActFn | None = None, to_env: Callable[[Any], Any] | None = None,
-                 record: Callable[[Any, slice], Outcome | None] | None = None,
+                 record: Callable[[Any, slice], StepOutcome | None] | None = None,
                  read_obs: Callable[[Any], Any] | None = None, on_step: Callable[[CollectedStep], None] | None = None,
                  differentiable: bool = False) -> None:
         self.env, self.model, self.ctx, self.cfg = env, model, ctx, cfg
@@ -294,7 +302,7 @@ class OnPolicyCollector:
                 state[:, rows] = new
             self.resets[rows] = dones
 
-    def _store_outcome(self, t: int, rows: slice, result: Any, outcome: Outcome, values: torch.Tensor,
+    def _store_outcome(self, t: int, rows: slice, result: Any, outcome: StepOutcome, values: torch.Tensor,
                        next_states: tuple) -> None:
         """Rewards (shaped, plus :attr:`reward_bonus`), terminations, dones and the time-outs' bootstrap
         values of step t into the storage."""

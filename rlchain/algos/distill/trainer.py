@@ -30,7 +30,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
-from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
@@ -219,7 +219,7 @@ class Distill(AlgorithmBase):
             steps["masks"].append(masks)
         return {"actions": torch.where(drives, t_action, s_action), "states": tuple(s_next or ()) + tuple(t_next or ())}
 
-    def _record(self, result: Any, rows: slice) -> tuple[torch.Tensor, ...]:
+    def _record(self, result: Any, rows: slice) -> StepOutcome:
         """The collector's recording: the step in the run's statistics, but for episodes not the student's
         alone (:meth:`_exclude_mixed`)."""
         self._exclude_mixed(result)
