@@ -184,20 +184,25 @@ def _decode(value: Any) -> Any:
 
 
 def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -> None:
-    """Load weights, naming the first parameter whose name or shape does not match."""
+    """Load weights, naming the first parameter whose name or shape does not match. ``state['keep_built']``:
+    tensors the checkpoint lacks on purpose (an imported file that never held them) keep the built model's."""
     own = model.state_dict()
     saved = state["model"]
-    missing = [k for k in own if k not in saved]
+    keep = set(state.get("keep_built") or ())
+    missing = [k for k in own if k not in saved and k not in keep]
     unexpected = [k for k in saved if k not in own]
     if missing or unexpected:
         detail = f"missing {missing[:3]}" if missing else f"unexpected {unexpected[:3]}"
-        raise CheckpointError(f"{path}: checkpoint does not match this model's network ({detail}); "
-                              f"was it trained with another config?")
+        hint = "was it trained with another config?"
+        if state.get("origin") == "rl_games" and any(re.search(r"mlp\.net\.\d+\.1\.", k) for k in missing):
+            hint = ("rl_games 1.6.5 builds no MLP normalization layers whatever network.normalization says: "
+                    "drop that key to play or resume its checkpoints")
+        raise CheckpointError(f"{path}: checkpoint does not match this model's network ({detail}); {hint}")
     for key, value in saved.items():
         if tuple(value.shape) != tuple(own[key].shape):
             raise CheckpointError(f"{path}: parameter '{key}' has shape {tuple(value.shape)} in the "
                                   f"checkpoint but {tuple(own[key].shape)} in this model")
-    model.load_state_dict(saved)
+    model.load_state_dict(saved, strict=not keep)
 
 
 def rng_state() -> dict[str, Any]:

@@ -3,15 +3,21 @@
 rl_games (1.6.5 and 2.0) saves ``{'model', 'epoch', 'frame', 'optimizer', 'last_mean_rewards', 'env_state'}``
 (PPO), its model's state dict named ``a2c_network.*`` with the normalizers ``running_mean_std.*`` (inputs) and
 ``value_mean_std.*`` (values), every key prefixed ``_orig_mod.`` when the model was compiled. rlchain names
-the same tensors ``network.*``, ``obs_norm.*`` and ``value_norm.*``; the MLP trunk's linear layers are
-``actor_trunk.mlp.net.<layer>.0`` where rl_games counts the modules of one Sequential (``actor_mlp.<2 * layer>``:
-linear, activation, linear, ...). The parameters come in the same order in both, so the
-optimizer's per-parameter state carries over by position.
+the same tensors ``network.*``, ``obs_norm.*`` and ``value_norm.*``. rl_games' trunks map to rlchain's
+``actor_trunk`` / ``critic_trunk``: the MLP's linear layers ``actor_mlp.<2 * layer>`` (one Sequential: linear,
+activation, linear, ...) are ``mlp.net.<layer>.0``; the convolutions ``actor_cnn.<i>`` are ``cnn.net.<i>`` (the
+same Sequential); the recurrent layer ``rnn.rnn`` (``a_rnn`` / ``c_rnn`` when separate) and its LayerNorm
+``layer_norm`` (``a_layer_norm`` / ``c_layer_norm``) are ``rnn.rnn`` and ``rnn.norm``. rl_games' optimizer
+holds the parameters in its modules' registration order, rlchain's in its own: the per-parameter state moves
+by name both ways.
 
 Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load
-returns. Networks converted: rl_games' ``actor_critic`` with plain MLP trunks (shared or separate), continuous
-(``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; another network (CNN, RNN) or an SAC
-checkpoint is a ValueError naming the first key that has no rlchain name.
+returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d / conv1d), MLP and rnn (lstm / gru,
+before or after the MLP, layer norm, concatenated input or output) trunks, shared or separate, continuous
+(``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; SAC checkpoints in
+:mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a ValueError naming the first key: normalization
+layers (``network.normalization``: rl_games 2.0 puts them after the activation, rlchain before it, and
+rlchain's cnn has none), D2RL and other networks.
 """
 
 from __future__ import annotations
@@ -19,7 +25,9 @@ from __future__ import annotations
 import re
 from typing import Any
 
-COMPILED_PREFIX = "_orig_mod."
+from rlchain.runs import rl_games_sac_checkpoint
+
+COMPILED_PREFIX = rl_games_sac_checkpoint.COMPILED_PREFIX
 ORIGIN = "rl_games"
 """``state['origin']`` of a converted checkpoint (it holds no RNG streams, episodes or env state)."""
 
@@ -27,6 +35,18 @@ _NORMALIZERS = {"running_mean_std": "obs_norm", "value_mean_std": "value_norm"}
 _NORM_STATS = {"running_mean": "mean", "running_var": "var", "count": "count"}
 _HEADS = ("sigma", "mu", "value", "logits")
 _TRUNKS = {"actor_mlp": "actor_trunk", "critic_mlp": "critic_trunk"}
+_CNNS = {"actor_cnn": "actor_trunk", "critic_cnn": "critic_trunk"}
+# rl_games' recurrent modules -> (rlchain trunk, module inside it); ``rnn`` / ``layer_norm`` when shared
+_RNNS = {"rnn": ("actor_trunk", "rnn.rnn"), "a_rnn": ("actor_trunk", "rnn.rnn"), "c_rnn": ("critic_trunk", "rnn.rnn"),
+         "layer_norm": ("actor_trunk", "rnn.norm"), "a_layer_norm": ("actor_trunk", "rnn.norm"),
+         "c_layer_norm": ("critic_trunk", "rnn.norm")}
+# rl_games' A2CBuilder registers its modules in this order (its optimizer's parameter order); the fixed sigma
+# vector (``a2c_network.sigma``, a parameter of the network itself) comes before them all
+_MODULE_ORDER = ("actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
+                 "a_layer_norm", "c_layer_norm", "value", "logits", "mu", "sigma")
+_BUFFERS = ("running_mean", "running_var", "num_batches_tracked")
+NORM_AFTER_ACTIVATION = ("is a normalization layer (network.normalization): rl_games 2.0 applies it after the "
+                         "activation, rlchain's mlp before it, so rlchain cannot compute this network")
 
 
 def strip_compiled(names: dict[str, Any]) -> dict[str, Any]:
@@ -42,10 +62,14 @@ def is_rl_games_checkpoint(state: Any) -> bool:
     if isinstance(model, dict):
         return any(key.replace(COMPILED_PREFIX, "").startswith(("a2c_network.", "running_mean_std."))
                    for key in model)
-    return "actor" in state and "critic" in state and "log_alpha" in state  # rl_games' SAC
+    return rl_games_sac_checkpoint.is_sac(state)
 
 
-def _trunk_names(keys: list[str], rl_prefix: str, ours: str, two_d: set[str]) -> dict[str, str]:
+def _dims(model: dict[str, Any], key: str) -> int:
+    return len(getattr(model.get(key), "shape", ()))
+
+
+def _trunk_names(keys: list[str], rl_prefix: str, ours: str, model: dict[str, Any]) -> dict[str, str]:
     """rl_games' Sequential ``actor_mlp.<2 * layer>.<p>`` (linear, activation, linear, ...) ->
     ``<ours>.mlp.net.<layer>.0.<p>``. A norm module (a 1-d weight) is refused: rl_games normalizes after the
     activation, rlchain before it, so the same weights would compute another function."""
@@ -53,10 +77,25 @@ def _trunk_names(keys: list[str], rl_prefix: str, ours: str, two_d: set[str]) ->
     for key in keys:
         match = re.fullmatch(rf"{re.escape(rl_prefix)}\.(\d+)\.(weight|bias)", key)
         index = int(match.group(1)) if match else -1
-        if match is None or index % 2 or f"{rl_prefix}.{index}.weight" not in two_d:
+        if match is not None and _dims(model, f"a2c_network.{rl_prefix}.{index}.weight") == 1:
+            raise ValueError(f"'a2c_network.{key}' {NORM_AFTER_ACTIVATION}")
+        if match is None or index % 2 or _dims(model, f"a2c_network.{rl_prefix}.{index}.weight") != 2:
             raise ValueError(f"'a2c_network.{key}' is not a linear layer of a plain MLP (rlchain converts MLP "
                              f"trunks without normalization layers)")
         out[key] = f"network.{ours}.mlp.net.{index // 2}.0.{match.group(2)}"
+    return out
+
+
+def _cnn_names(keys: list[str], rl_prefix: str, ours: str, model: dict[str, Any]) -> dict[str, str]:
+    """rl_games' ``actor_cnn.<i>.<p>`` (conv, activation, conv, ...) -> ``<ours>.cnn.net.<i>.<p>``: the same
+    Sequential. A normalization layer after a convolution (network.normalization) has no rlchain place."""
+    out: dict[str, str] = {}
+    for key in keys:
+        match = re.fullmatch(rf"{re.escape(rl_prefix)}\.(\d+)\.(weight|bias)", key)
+        if match is None or _dims(model, f"a2c_network.{rl_prefix}.{match.group(1)}.weight") < 3:
+            raise ValueError(f"'a2c_network.{key}' is not a convolution (rlchain's cnn has no normalization "
+                             f"layers: network.normalization with a cnn cannot be read)")
+        out[key] = f"network.{ours}.cnn.net.{match.group(1)}.{match.group(2)}"
     return out
 
 
@@ -64,17 +103,27 @@ def model_names_from_rl_games(model: dict[str, Any]) -> dict[str, str]:
     """rl_games model key -> rlchain model key (keys without ``_orig_mod.``), in rl_games' order."""
     names: dict[str, str] = {}
     network = [k[len("a2c_network."):] for k in model if k.startswith("a2c_network.")]
-    two_d = {k for k in network if k.endswith(".weight") and len(getattr(model[f"a2c_network.{k}"], "shape", ())) == 2}
     for rl_trunk, ours in _TRUNKS.items():
         keys = [k for k in network if k.startswith(rl_trunk + ".")]
-        names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, rl_trunk, ours, two_d).items()})
+        names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, rl_trunk, ours, model).items()})
+    for rl_cnn, ours in _CNNS.items():
+        keys = [k for k in network if k.startswith(rl_cnn + ".")]
+        names.update({f"a2c_network.{k}": v for k, v in _cnn_names(keys, rl_cnn, ours, model).items()})
     for key in network:
         if f"a2c_network.{key}" in names:
             continue
-        if key.split(".")[0] not in _HEADS:
+        module, _, rest = key.partition(".")
+        if module in _RNNS:
+            trunk, inner = _RNNS[module]
+            prefix = "rnn." if module.endswith("rnn") else ""  # LSTMWithDones / GRUWithDones hold ``rnn``
+            if not rest.startswith(prefix):
+                raise ValueError(f"'a2c_network.{key}' has no rlchain name")
+            names[f"a2c_network.{key}"] = f"network.{trunk}.{inner}.{rest[len(prefix):]}"
+        elif module in _HEADS:
+            names[f"a2c_network.{key}"] = f"network.{key}"
+        else:
             raise ValueError(f"'a2c_network.{key}' has no rlchain name (rlchain reads rl_games' actor_critic "
-                             f"with MLP trunks)")
-        names[f"a2c_network.{key}"] = f"network.{key}"
+                             f"with cnn, mlp and rnn trunks)")
     for key in model:
         head, _, stat = key.partition(".")
         if head in _NORMALIZERS:
@@ -86,16 +135,21 @@ def model_names_from_rl_games(model: dict[str, Any]) -> dict[str, str]:
     return {k: names[k] for k in model}
 
 
+def _is_parameter(key: str) -> bool:
+    """Whether a network key names a parameter (the optimizer's), not a buffer."""
+    return key.rsplit(".", 1)[-1] not in _BUFFERS
+
+
 def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     """An rl_games PPO checkpoint as rlchain's checkpoint dict: ``model`` renamed, ``epoch``, ``frames``,
     ``best_reward``, and ``rl_games_optimizer`` (rl_games' optimizer state and its parameters' rlchain names,
     in order) for :func:`optimizer_state`. ``origin`` says where it came from."""
     if "model" not in state:
-        raise ValueError("an rl_games SAC checkpoint (actor / critic / log_alpha); rlchain converts PPO ones")
+        return {"origin": ORIGIN, **rl_games_sac_checkpoint.from_rl_games(state)}
     model = strip_compiled(dict(state["model"]))
     names = model_names_from_rl_games(model)
-    # rl_games' optimizer holds the model's parameters: every a2c_network tensor, in the model's order
-    param_names = [names[k] for k in model if k.startswith("a2c_network.")]
+    # rl_games' optimizer holds the model's parameters: every a2c_network parameter, in the model's order
+    param_names = [names[k] for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
     best = state.get("last_mean_rewards", None)
     converted = {
         "origin": ORIGIN,
@@ -135,6 +189,7 @@ def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: 
 def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
     """rlchain model key -> rl_games model key (the inverse of :func:`model_names_from_rl_games`)."""
     out: dict[str, str] = {}
+    separate = any(key.startswith("network.critic_trunk.") for key in model)
     for key in model:
         head, _, rest = key.partition(".")
         if head in ("obs_norm", "value_norm"):
@@ -142,31 +197,75 @@ def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
             stat = next(k for k, v in _NORM_STATS.items() if v == rest)
             out[key] = f"{rl_head}.{stat}"
             continue
-        match = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.0\.(weight|bias)", key)
-        if match is not None:  # rl_games' Sequential per layer: linear, activation
-            trunk, layer, param = match.groups()
+        mlp = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.(\d+)\.(weight|bias)", key)
+        cnn = re.fullmatch(r"network\.(actor|critic)_trunk\.cnn\.net\.(\d+)\.(weight|bias)", key)
+        rnn = re.fullmatch(r"network\.(actor|critic)_trunk\.rnn\.(rnn|norm)\.(\w+)", key)
+        if mlp is not None and mlp.group(3) != "0":
+            raise ValueError(f"'{key}' {NORM_AFTER_ACTIVATION.replace('rlchain cannot', 'rl_games cannot')}")
+        if mlp is not None:  # rl_games' Sequential per layer: linear, activation
+            trunk, layer, _, param = mlp.groups()
             out[key] = f"a2c_network.{trunk}_mlp.{2 * int(layer)}.{param}"
+        elif cnn is not None:  # the same Sequential: conv, activation, ...
+            trunk, index, param = cnn.groups()
+            out[key] = f"a2c_network.{trunk}_cnn.{index}.{param}"
+        elif rnn is not None:
+            trunk, module, param = rnn.groups()
+            prefix = (trunk[0] + "_") if separate else ""
+            out[key] = f"a2c_network.{prefix}rnn.rnn.{param}" if module == "rnn" \
+                else f"a2c_network.{prefix}layer_norm.{param}"
         elif head == "network" and rest.split(".")[0] in _HEADS:
             out[key] = f"a2c_network.{rest}"
         else:
-            raise ValueError(f"'{key}' has no rl_games name (rl_games' actor_critic with MLP trunks is written)")
+            raise ValueError(f"'{key}' has no rl_games name (rl_games' actor_critic with cnn, mlp and rnn "
+                             f"trunks is written)")
     return out
 
 
+def _rl_games_rank(key: str) -> tuple[int, int]:
+    """Where rl_games' model puts ``key``: its normalizers, then the network's modules in registration order."""
+    head, _, rest = key.partition(".")
+    if head != "a2c_network":
+        return (0 if head == "value_mean_std" else 1, 0)
+    module = rest.split(".")[0]
+    if rest == "sigma":  # the fixed sigma: a parameter of the network itself, first
+        return (2, -1)
+    return (2, _MODULE_ORDER.index(module) if module in _MODULE_ORDER else len(_MODULE_ORDER))
+
+
+def _reordered_optimizer(optimizer: dict[str, Any], ours: list[str], theirs: list[str],
+                         names: dict[str, str]) -> dict[str, Any]:
+    """rlchain's optimizer state (parameters ``ours`` in order) with its per-parameter state in rl_games' order
+    (``theirs``, rl_games names; ``names``: ours -> theirs)."""
+    groups = optimizer.get("param_groups") or []
+    if len(groups) != 1 or len(groups[0]["params"]) != len(ours):
+        raise ValueError(f"the optimizer holds {sum(len(g['params']) for g in groups)} parameters in "
+                         f"{len(groups)} groups, the network {len(ours)} (rl_games has one group)")
+    position = {names[name]: i for i, name in enumerate(ours)}
+    saved_ids = groups[0]["params"]
+    per_param = optimizer.get("state", {})
+    state = {j: per_param[saved_ids[position[name]]] for j, name in enumerate(theirs)
+             if saved_ids[position[name]] in per_param}
+    return {"state": state, "param_groups": [{**groups[0], "params": list(range(len(theirs)))}]}
+
+
 def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
-    """An rlchain PPO checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore: ``model`` (``a2c_network.*``,
-    ``running_mean_std.*``, ``value_mean_std.*``), ``epoch``, ``frame``, ``optimizer``, ``last_mean_rewards``,
-    ``env_state``."""
+    """An rlchain PPO or SAC checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore. PPO: ``model``
+    (``a2c_network.*``, ``running_mean_std.*``, ``value_mean_std.*``, in rl_games' order), ``epoch``,
+    ``frame``, ``optimizer`` (its per-parameter state in rl_games' parameter order), ``last_mean_rewards``,
+    ``env_state``; SAC: see :func:`rlchain.runs.rl_games_sac_checkpoint.to_rl_games`."""
     model = dict(state["model"])
+    if rl_games_sac_checkpoint.is_rlchain_sac(model):
+        return rl_games_sac_checkpoint.to_rl_games(state)
     names = model_names_to_rl_games(model)
-    out: dict[str, Any] = {"model": {names[k]: v for k, v in model.items()},
+    order = sorted(model, key=lambda k: _rl_games_rank(names[k]))  # stable: a module's own order is kept
+    out: dict[str, Any] = {"model": {names[k]: model[k] for k in order},
                            "epoch": int(state.get("epoch", 0)), "frame": int(state.get("frames", 0))}
     agent = state.get("agent") or {}
     if isinstance(agent.get("optimizer"), dict):
-        out["optimizer"] = agent["optimizer"]  # the parameters are in rl_games' order already
-    best = state.get("best_reward")
-    out["last_mean_rewards"] = float(best) if best is not None and best == best and abs(best) != float("inf") \
-        else -1000000000.0
+        ours = [k for k in model if k.startswith("network.") and _is_parameter(k)]
+        theirs = [names[k] for k in order if k.startswith("network.") and _is_parameter(k)]
+        out["optimizer"] = _reordered_optimizer(agent["optimizer"], ours, theirs, names)
+    out["last_mean_rewards"] = rl_games_sac_checkpoint.best_reward(state)
     out["env_state"] = None
     return out
 

@@ -15,7 +15,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint, rl_games_layout
+from rlchain.runs import rl_games_checkpoint, rl_games_layout, rl_games_sac_checkpoint
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -115,8 +115,8 @@ class CheckpointSaver:
             self.save("last")
 
     def _from_rl_games(self, state: dict[str, Any], path: str) -> dict[str, Any]:
-        """A converted rl_games checkpoint completed for resume: its optimizer state on this agent's
-        parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
+        """A converted rl_games checkpoint completed for resume: its optimizer state (PPO's one, SAC's three) on
+        this agent's parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
         none), so the envs start new episodes."""
         agent = self.algorithm.agent.state_dict()
         if "rl_games_optimizer" in state and "optimizer" in agent:
@@ -126,6 +126,12 @@ class CheckpointSaver:
             except ValueError as exc:
                 raise ckpt.CheckpointError(f"{path}: {exc}") from None
             agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        if "rl_games_sac_optimizers" in state:
+            try:
+                agent = rl_games_sac_checkpoint.optimizer_states(state, agent)
+            except (KeyError, ValueError) as exc:
+                raise ckpt.CheckpointError(f"{path}: the rl_games SAC optimizers do not fit this agent: {exc}") \
+                    from None
         run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
                 "run_state": run_state, "live_config": {}}
