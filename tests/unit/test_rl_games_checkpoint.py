@@ -11,58 +11,122 @@ import pytest
 import torch
 
 from rlchain.rl_games.algos_torch import torch_ext
-from rlchain.rl_games.algos_torch.players import PpoPlayerContinuous, PpoPlayerDiscrete
+from rlchain.rl_games.algos_torch.players import PpoPlayerContinuous, PpoPlayerDiscrete, SACPlayer
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint as rlg
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
-from make_checkpoints import ACTIONS, CONFIGS, KINDS, OBS  # noqa: E402
+from make_checkpoints import ACTIONS, CONFIGS, KINDS, RNN_KINDS, is_continuous, obs_shape, player_actions  # noqa: E402
 
-CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS]
+# rl_games 2.0's MLP normalization layers have no rlchain counterpart (tested below as an error); rl_games 1.6.5
+# builds none, whatever the config says
+CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS if (tag, kind) != ("v20", "layer_norm")]
 
 
-def _player(kind):
+def _player(tag, kind):
     params = copy.deepcopy(CONFIGS[kind]["params"])
-    action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if kind != "discrete"
+    if kind == "layer_norm" and tag == "v165":
+        del params["network"]["normalization"]
+    action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if is_continuous(kind)
               else gymnasium.spaces.Discrete(ACTIONS))
-    params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, (OBS,)),
+    params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, obs_shape(kind)),
                                     "action_space": action}
-    cls = PpoPlayerContinuous if kind != "discrete" else PpoPlayerDiscrete
+    cls = SACPlayer if kind == "sac" else PpoPlayerContinuous if is_continuous(kind) else PpoPlayerDiscrete
     return cls(params)  # built as rl_games builds a player: one argument
 
 
 @pytest.mark.parametrize("tag,kind", CASES)
 def test_rlchain_plays_an_rl_games_checkpoint_as_rl_games_does(tag, kind):
-    player = _player(kind)
+    player = _player(tag, kind)
     player.restore(os.path.join(DATA, f"{tag}_{kind}.pth"))
     expected = torch.load(os.path.join(DATA, f"{tag}_{kind}_actions.pt"), weights_only=True)
-    player.get_batch_size(expected["obs"], 1)
-    with torch.no_grad():
-        actions = player.get_action(expected["obs"], is_deterministic=True)
-    assert torch.allclose(torch.as_tensor(actions).float().reshape(expected["actions"].shape),
-                          expected["actions"], atol=1e-5)
+    actions = player_actions(player, kind)  # from zero states, three steps in a row for an RNN
+    assert torch.allclose(actions.reshape(expected["actions"].shape), expected["actions"], atol=1e-5)
+
+
+def _rl_games_agent(state):
+    if "rl_games_sac_optimizers" in state:
+        return dict(state["rl_games_sac_optimizers"])
+    return {"optimizer": state["rl_games_optimizer"]["state_dict"]}
 
 
 @pytest.mark.parametrize("tag,kind", CASES)
 def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(tag, kind):
     path = os.path.join(DATA, f"{tag}_{kind}.pth")
     state = ckpt.load(path)
-    assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == (2, 64)
-    original = rlg.strip_compiled(torch_ext.load_checkpoint(path)["model"])
-    back = rlg.to_rl_games({**state, "agent": {"optimizer": state["rl_games_optimizer"]["state_dict"]}})
-    assert list(back["model"]) == list(original)
-    assert all(torch.equal(back["model"][k], original[k]) for k in original)
-    assert (back["epoch"], back["frame"]) == (2, 64)
+    counters = (4, 64) if kind == "sac" else (2, 64)
+    assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == counters
+    raw = torch_ext.load_checkpoint(path)
+    back = rlg.to_rl_games({**state, "agent": _rl_games_agent(state)})
+    parts = ("actor", "critic", "critic_target", "running_mean_std") if kind == "sac" else ("model",)
+    for part in parts:
+        original = rlg.strip_compiled(raw[part])
+        assert list(back[part]) == list(original)
+        assert all(torch.equal(back[part][k], original[k]) for k in original)
+    assert (back["epoch"], back["frame"]) == counters
+    if kind != "sac":  # the optimizer's per-parameter state goes back to each parameter's rl_games position
+        for i, moments in raw["optimizer"]["state"].items():
+            assert torch.equal(back["optimizer"]["state"][i]["exp_avg"], moments["exp_avg"])
+
+
+@pytest.mark.parametrize("kind", RNN_KINDS + ("cnn",))
+def test_recurrent_and_convolutional_layers_take_rlchain_trunk_names(kind):
+    names = rlg.model_names_from_rl_games(rlg.strip_compiled(torch_ext.load_checkpoint(
+        os.path.join(DATA, f"v20_{kind}.pth"))["model"]))
+    expected = {
+        "lstm": {"a2c_network.rnn.rnn.weight_ih_l0": "network.actor_trunk.rnn.rnn.weight_ih_l0",
+                 "a2c_network.actor_mlp.0.weight": "network.actor_trunk.mlp.net.0.0.weight"},
+        "gru_separate": {"a2c_network.c_rnn.rnn.bias_hh_l0": "network.critic_trunk.rnn.rnn.bias_hh_l0",
+                         "a2c_network.a_layer_norm.weight": "network.actor_trunk.rnn.norm.weight",
+                         "a2c_network.c_layer_norm.bias": "network.critic_trunk.rnn.norm.bias"},
+        "cnn": {"a2c_network.actor_cnn.0.weight": "network.actor_trunk.cnn.net.0.weight",
+                "a2c_network.actor_cnn.2.bias": "network.actor_trunk.cnn.net.2.bias"},
+    }[kind]
+    assert {k: names[k] for k in expected} == expected
+
+
+def test_an_rl_games_sac_checkpoint_maps_onto_rlchain_sac():
+    state = ckpt.load(os.path.join(DATA, "v20_sac.pth"))
+    model = state["model"]
+    assert {"network.actor.trunk.net.1.0.weight", "network.actor.head.weight", "network.critic.q2.1.bias",
+            "critic_target.q1.0.net.0.0.weight", "obs_norm.var", "log_alpha"} <= set(model)
+    assert model["network.actor.head.weight"].shape == (2 * ACTIONS, 8)
+    # rl_games 1.6.5 keeps no temperature: the model keeps the one its config starts from
+    assert ckpt.load(os.path.join(DATA, "v165_sac.pth"))["keep_built"] == ["log_alpha"]
 
 
 def test_an_rl_games_network_rlchain_does_not_convert_is_a_one_line_error(tmp_path):
     state = torch_ext.load_checkpoint(os.path.join(DATA, "v165_discrete.pth"))
-    state["model"]["a2c_network.rnn.rnn.weight_ih_l0"] = torch.zeros(4, 8)
-    torch_ext.save_checkpoint(str(tmp_path / "rnn"), state)
-    with pytest.raises(ckpt.CheckpointError, match=r"rnn\.pth: an rl_games checkpoint rlchain cannot read: "
-                                                   r"'a2c_network\.rnn\.rnn\.weight_ih_l0' has no rlchain name"):
-        ckpt.load(str(tmp_path / "rnn.pth"))
+    state["model"]["a2c_network.rnn.rnn.weight_xx_l0"] = torch.zeros(4, 8)
+    state["model"]["a2c_network.d2rl.0.weight"] = torch.zeros(4, 8)
+    torch_ext.save_checkpoint(str(tmp_path / "other"), state)
+    with pytest.raises(ckpt.CheckpointError, match=r"other\.pth: an rl_games checkpoint rlchain cannot read: "
+                                                   r"'a2c_network\.d2rl\.0\.weight' has no rlchain name"):
+        ckpt.load(str(tmp_path / "other.pth"))
+
+
+def test_rl_games_2_normalization_layers_are_a_one_line_error():
+    with pytest.raises(ckpt.CheckpointError, match=r"v20_layer_norm\.pth: an rl_games checkpoint rlchain cannot "
+                                                   r"read: 'a2c_network\.actor_mlp\.2\.weight' is a normalization "
+                                                   r"layer \(network\.normalization\): rl_games 2\.0 applies it after "
+                                                   r"the activation, rlchain's mlp before it"):
+        ckpt.load(os.path.join(DATA, "v20_layer_norm.pth"))
+
+
+def test_rl_games_1_6_5_normalization_config_says_to_drop_the_key():
+    player = _player("v20", "layer_norm")  # the config keeps network.normalization
+    with pytest.raises(ckpt.CheckpointError, match=r"rl_games 1\.6\.5 builds no MLP normalization layers "
+                                                   r"whatever network\.normalization says: drop that key"):
+        player.restore(os.path.join(DATA, "v165_layer_norm.pth"))
+
+
+def test_rlchain_normalization_layers_are_not_exported_for_rl_games():
+    state = ckpt.load(os.path.join(DATA, "v165_continuous.pth"))
+    state["model"]["network.actor_trunk.mlp.net.0.1.weight"] = torch.ones(8)
+    with pytest.raises(ValueError, match=r"'network\.actor_trunk\.mlp\.net\.0\.1\.weight' is a normalization "
+                                         r"layer .* rl_games cannot compute this network"):
+        rlg.to_rl_games(state)
 
 
 def test_torch_ext_save_and_load_checkpoint_round_trip(tmp_path):
