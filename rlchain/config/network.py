@@ -43,6 +43,9 @@ class MlpConfig:
     norm_only_first_layer: bool = option(False, "with normalization: only after the first layer")
     normalization: str | None = option(None, "layer_norm or batch_norm after hidden layers",
                                        choices=("layer_norm", "batch_norm"))
+    norm_after_activation: bool = option(False, "with normalization: linear, activation, norm (rl_games 2.0's "
+                                                "order, needed to read its checkpoints) instead of linear, norm, "
+                                                "activation")
 
 
 @dataclass(frozen=True)

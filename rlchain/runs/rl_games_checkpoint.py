@@ -25,7 +25,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from rlchain.runs import rl_games_sac_checkpoint
+from rlchain.runs import rl_games_mlp, rl_games_sac_checkpoint
 
 COMPILED_PREFIX = rl_games_sac_checkpoint.COMPILED_PREFIX
 ORIGIN = "rl_games"
@@ -45,8 +45,6 @@ _RNNS = {"rnn": ("actor_trunk", "rnn.rnn"), "a_rnn": ("actor_trunk", "rnn.rnn"),
 _MODULE_ORDER = ("actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
                  "a_layer_norm", "c_layer_norm", "value", "logits", "mu", "sigma")
 _BUFFERS = ("running_mean", "running_var", "num_batches_tracked")
-NORM_AFTER_ACTIVATION = ("is a normalization layer (network.normalization): rl_games 2.0 applies it after the "
-                         "activation, rlchain's mlp before it, so rlchain cannot compute this network")
 
 
 def strip_compiled(names: dict[str, Any]) -> dict[str, Any]:
@@ -70,19 +68,15 @@ def _dims(model: dict[str, Any], key: str) -> int:
 
 
 def _trunk_names(keys: list[str], rl_prefix: str, ours: str, model: dict[str, Any]) -> dict[str, str]:
-    """rl_games' Sequential ``actor_mlp.<2 * layer>.<p>`` (linear, activation, linear, ...) ->
-    ``<ours>.mlp.net.<layer>.0.<p>``. A norm module (a 1-d weight) is refused: rl_games normalizes after the
-    activation, rlchain before it, so the same weights would compute another function."""
+    """rl_games' Sequential ``actor_mlp.<i>.<p>`` (linear, activation[, norm], linear, ...) ->
+    ``<ours>.mlp.net.<layer>.<position>.<p>`` (see :mod:`rlchain.runs.rl_games_mlp`)."""
+    tensors = {k: model[f"a2c_network.{k}"] for k in keys}
+    where = rl_games_mlp.sequential_layers(tensors, rl_prefix, "a2c_network.")
     out: dict[str, str] = {}
     for key in keys:
-        match = re.fullmatch(rf"{re.escape(rl_prefix)}\.(\d+)\.(weight|bias)", key)
-        index = int(match.group(1)) if match else -1
-        if match is not None and _dims(model, f"a2c_network.{rl_prefix}.{index}.weight") == 1:
-            raise ValueError(f"'a2c_network.{key}' {NORM_AFTER_ACTIVATION}")
-        if match is None or index % 2 or _dims(model, f"a2c_network.{rl_prefix}.{index}.weight") != 2:
-            raise ValueError(f"'a2c_network.{key}' is not a linear layer of a plain MLP (rlchain converts MLP "
-                             f"trunks without normalization layers)")
-        out[key] = f"network.{ours}.mlp.net.{index // 2}.0.{match.group(2)}"
+        index, param = key[len(rl_prefix) + 1:].split(".", 1)
+        layer, position = where[int(index)]
+        out[key] = f"network.{ours}.mlp.net.{layer}.{position}.{param}"
     return out
 
 
@@ -189,6 +183,7 @@ def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: 
 def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
     """rlchain model key -> rl_games model key (the inverse of :func:`model_names_from_rl_games`)."""
     out: dict[str, str] = {}
+    blocks: dict[str, dict[tuple[int, int], int]] = {}  # per trunk: (layer, position) -> rl_games' index
     separate = any(key.startswith("network.critic_trunk.") for key in model)
     for key in model:
         head, _, rest = key.partition(".")
@@ -197,14 +192,15 @@ def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
             stat = next(k for k, v in _NORM_STATS.items() if v == rest)
             out[key] = f"{rl_head}.{stat}"
             continue
-        mlp = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.(\d+)\.(weight|bias)", key)
+        mlp = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.(\d+)\.(\w+)", key)
         cnn = re.fullmatch(r"network\.(actor|critic)_trunk\.cnn\.net\.(\d+)\.(weight|bias)", key)
         rnn = re.fullmatch(r"network\.(actor|critic)_trunk\.rnn\.(rnn|norm)\.(\w+)", key)
-        if mlp is not None and mlp.group(3) != "0":
-            raise ValueError(f"'{key}' {NORM_AFTER_ACTIVATION.replace('rlchain cannot', 'rl_games cannot')}")
-        if mlp is not None:  # rl_games' Sequential per layer: linear, activation
-            trunk, layer, _, param = mlp.groups()
-            out[key] = f"a2c_network.{trunk}_mlp.{2 * int(layer)}.{param}"
+        if mlp is not None:  # rl_games' one Sequential: linear, activation[, norm] per layer
+            trunk, layer, position, param = mlp.groups()
+            prefix = f"network.{trunk}_trunk.mlp.net."
+            if prefix not in blocks:
+                blocks[prefix] = rl_games_mlp.block_indices([k for k in model if k.startswith(prefix)], prefix)[0]
+            out[key] = f"a2c_network.{trunk}_mlp.{blocks[prefix][(int(layer), int(position))]}.{param}"
         elif cnn is not None:  # the same Sequential: conv, activation, ...
             trunk, index, param = cnn.groups()
             out[key] = f"a2c_network.{trunk}_cnn.{index}.{param}"

@@ -19,6 +19,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from rlchain.runs import rl_games_mlp
+
 COMPILED_PREFIX = "_orig_mod."
 NETWORKS = ("actor", "critic", "critic_target")
 OPTIMIZERS = {"actor_optimizer": "actor_opt", "critic_optimizer": "critic_opt", "log_alpha_optimizer": "alpha_opt"}
@@ -26,9 +28,8 @@ _NORM_STATS = {"running_mean": "mean", "running_var": "var", "count": "count"}
 _OURS = {"actor": "network.actor", "critic": "network.critic", "critic_target": "critic_target"}
 _MLPS = {"actor": ("trunk",), "critic": ("Q1", "Q2"), "critic_target": ("Q1", "Q2")}
 # rl_games' Sequential -> (its name, rlchain's hidden-layer prefix, rlchain's output-layer prefix) per network
-_CRITIC_MLPS = (("Q1", r"q1\.0\.net\.", r"q1\.1\."), ("Q2", r"q2\.0\.net\.", r"q2\.1\."))
-_RLCHAIN_MLPS = {"actor": (("trunk", r"trunk\.net\.", r"head\."),), "critic": _CRITIC_MLPS,
-                 "critic_target": _CRITIC_MLPS}
+_CRITIC_MLPS = (("Q1", "q1.0.net.", "q1.1."), ("Q2", "q2.0.net.", "q2.1."))
+_RLCHAIN_MLPS = {"actor": (("trunk", "trunk.net.", "head."),), "critic": _CRITIC_MLPS, "critic_target": _CRITIC_MLPS}
 
 
 def is_sac(state: Any) -> bool:
@@ -52,28 +53,22 @@ def _strip(names: dict[str, Any]) -> dict[str, Any]:
 
 
 def _mlp_names(part: str, seq: str, keys: list[str], tensors: dict[str, Any]) -> dict[str, str]:
-    """rl_games' Sequential ``<seq>.<i>.<p>`` of network ``part`` -> rlchain names: hidden linear layers
-    ``<2 * layer>`` and the last (output) linear layer."""
-    indices = sorted({int(m.group(1)) for k in keys if (m := re.fullmatch(rf"{seq}\.(\d+)\.(weight|bias)", k))})
-    last = indices[-1] if indices else -1
+    """rl_games' Sequential ``<seq>.<i>.<p>`` of network ``part`` (hidden blocks linear, activation[, norm], then
+    the output linear layer) -> rlchain names."""
+    where = rl_games_mlp.sequential_layers({k: tensors[k] for k in keys}, seq, f"{part}.")
+    last = max((layer for layer, _ in where.values()), default=-1)
     ours = _OURS[part]
     out: dict[str, str] = {}
     for key in keys:
-        match = re.fullmatch(rf"{seq}\.(\d+)\.(weight|bias)", key)
-        index = int(match.group(1)) if match else -1
-        shape = getattr(tensors.get(f"{seq}.{index}.weight"), "shape", ())
-        if match is not None and len(shape) == 1:
-            raise ValueError(f"'{part}.{key}' is a normalization layer (network.normalization): rl_games 2.0 "
-                             f"applies it after the activation, rlchain's mlp before it, so rlchain cannot "
-                             f"compute this network")
-        if match is None or index % 2 or len(shape) != 2:
-            raise ValueError(f"'{part}.{key}' is not a linear layer of rl_games' SAC MLP")
-        param = match.group(2)
+        index, param = key[len(seq) + 1:].split(".", 1)
+        layer, position = where[int(index)]
+        if layer == last and position != 0:
+            raise ValueError(f"'{part}.{key}' follows the output layer of rl_games' SAC MLP")
         if part == "actor":
-            out[key] = f"{ours}.head.{param}" if index == last else f"{ours}.trunk.net.{index // 2}.0.{param}"
+            out[key] = f"{ours}.head.{param}" if layer == last else f"{ours}.trunk.net.{layer}.{position}.{param}"
         else:
             q = seq.lower()
-            out[key] = f"{ours}.{q}.1.{param}" if index == last else f"{ours}.{q}.0.net.{index // 2}.0.{param}"
+            out[key] = f"{ours}.{q}.1.{param}" if layer == last else f"{ours}.{q}.0.net.{layer}.{position}.{param}"
     return out
 
 
@@ -144,6 +139,13 @@ def optimizer_states(converted: dict[str, Any], template: dict[str, Any]) -> dic
     return out
 
 
+def _rlchain_keys(model: dict[str, Any], part: str) -> list[str]:
+    """The keys of ``part``'s MLPs (inside ``_OURS[part]``) that :func:`to_rl_games` writes."""
+    prefix = _OURS[part] + "."
+    return [k[len(prefix):] for k in model if k.startswith(prefix) and
+            any(k[len(prefix):].startswith((hidden, output)) for _, hidden, output in _RLCHAIN_MLPS[part])]
+
+
 def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     """An rlchain SAC checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore (``SACAgent.restore``,
     ``SACPlayer.restore``): the three networks, ``running_mean_std`` when the input is normalized, ``log_alpha``,
@@ -153,22 +155,18 @@ def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     for part, ours in _OURS.items():
         keys = [k[len(ours) + 1:] for k in model if k.startswith(ours + ".")]
         for seq, hidden, output in _RLCHAIN_MLPS[part]:
-            layers = {int(m.group(1)) for k in keys if (m := re.fullmatch(rf"{hidden}(\d+)\.\d+\.\w+", k))}
+            index, end = rl_games_mlp.block_indices(keys, hidden, f"{ours}.")
             for key in keys:
-                inner = re.fullmatch(rf"{hidden}(\d+)\.(\d+)\.(weight|bias)", key)
-                last = re.fullmatch(rf"{output}(weight|bias)", key)
-                if inner is not None and inner.group(2) != "0":
-                    raise ValueError(f"'{ours}.{key}' is a normalization layer: rlchain's mlp applies it before "
-                                     f"the activation, rl_games 2.0 after it, so rl_games cannot compute this "
-                                     f"network")
+                inner = re.fullmatch(rf"{re.escape(hidden)}(\d+)\.(\d+)\.(\w+)", key)
                 if inner is not None:
-                    out[part][f"{seq}.{2 * int(inner.group(1))}.{inner.group(3)}"] = model[f"{ours}.{key}"]
-                elif last is not None:
-                    out[part][f"{seq}.{2 * len(layers)}.{last.group(1)}"] = model[f"{ours}.{key}"]
+                    position = index[(int(inner.group(1)), int(inner.group(2)))]
+                    out[part][f"{seq}.{position}.{inner.group(3)}"] = model[f"{ours}.{key}"]
+                elif key.startswith(output):
+                    out[part][f"{seq}.{end}.{key[len(output):]}"] = model[f"{ours}.{key}"]
     network_keys = [k for k in model if k.startswith(("network.", "critic_target."))]
-    if sum(len(v) for v in out.values()) != len(network_keys):  # a layer that is none of the above
-        unknown = [k for k in network_keys if not re.search(r"\.(trunk\.net\.\d+\.0|head|q[12]\.0\.net\.\d+\.0|"
-                                                            r"q[12]\.1)\.(weight|bias)$", k)]
+    if sum(len(v) for v in out.values()) != len(network_keys):  # a module that is none of the above
+        known = {f"{_OURS[part]}.{k}" for part in NETWORKS for k in _rlchain_keys(model, part)}
+        unknown = [k for k in network_keys if k not in known]
         raise ValueError(f"'{unknown[0] if unknown else network_keys[0]}' has no rl_games name (rl_games' SAC "
                          f"MLPs are written)")
     norm = {k.split(".", 1)[1]: v for k, v in model.items() if k.startswith("obs_norm.")}

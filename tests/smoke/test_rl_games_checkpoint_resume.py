@@ -18,7 +18,7 @@ DATA = os.path.join(ROOT, "tests", "data", "rl_games")
 
 
 @pytest.mark.parametrize("tag,kind", [("v165", "lstm"), ("v20", "gru_separate"), ("v20", "cnn"),
-                                      ("v165", "sac"), ("v20", "sac")])
+                                      ("v20", "layer_norm"), ("v165", "sac"), ("v20", "sac_layer_norm")])
 def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_path, monkeypatch,
                                                                  scoped_registries):
     pytest.importorskip("gym")
@@ -36,6 +36,8 @@ def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_
         env_configurations.register("tiny_env", {"vecenv_type": "TINY", "env_creator": lambda **kwargs: env_class(4)})
         cfg = copy.deepcopy(make_checkpoints.CONFIGS[kind])
         cfg["params"]["config"].update(train_dir=str(tmp_path), max_epochs=start["epoch"] + 1)
+        if "normalization" in cfg["params"]["network"]:  # rl_games 2.0's order
+            cfg["params"]["network"]["mlp"]["norm_after_activation"] = True
         runner = Runner()
         runner.load(cfg)
         result = runner.run({"train": True, "checkpoint": source})
@@ -56,7 +58,7 @@ def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_
     back = torch.load(out, weights_only=True)
     assert back["epoch"] == start["epoch"] + 1
     original = torch.load(source, weights_only=True)
-    if kind == "sac":  # rl_games' SAC layout: the three networks under their names, the three optimizers
+    if kind.startswith("sac"):  # rl_games' SAC layout: the three networks under their names, the three optimizers
         assert all(list(back[part]) == list(original[part]) for part in ("actor", "critic", "critic_target"))
         assert {"actor_optimizer", "critic_optimizer", "log_alpha_optimizer", "log_alpha"} <= set(back)
     else:

@@ -19,20 +19,28 @@ DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
 from make_checkpoints import ACTIONS, CONFIGS, KINDS, RNN_KINDS, is_continuous, obs_shape, player_actions  # noqa: E402
 
-# rl_games 2.0's MLP normalization layers have no rlchain counterpart (tested below as an error); rl_games 1.6.5
-# builds none, whatever the config says
-CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS if (tag, kind) != ("v20", "layer_norm")]
+CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS]
 
 
-def _player(tag, kind):
+def _params(tag, kind, as_written=False):
+    """The config the file was trained with, as rlchain reads it: rl_games 2.0 normalizes after the activation
+    (``mlp.norm_after_activation``), rl_games 1.6.5 builds no MLP normalization layers (the key dropped)."""
     params = copy.deepcopy(CONFIGS[kind]["params"])
-    if kind == "layer_norm" and tag == "v165":
-        del params["network"]["normalization"]
+    if "normalization" in params["network"] and not as_written:
+        if tag == "v165":
+            del params["network"]["normalization"]
+        else:
+            params["network"]["mlp"]["norm_after_activation"] = True
+    return params
+
+
+def _player(tag, kind, as_written=False):
+    params = _params(tag, kind, as_written)
     action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if is_continuous(kind)
               else gymnasium.spaces.Discrete(ACTIONS))
     params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, obs_shape(kind)),
                                     "action_space": action}
-    cls = SACPlayer if kind == "sac" else PpoPlayerContinuous if is_continuous(kind) else PpoPlayerDiscrete
+    cls = SACPlayer if kind.startswith("sac") else PpoPlayerContinuous if is_continuous(kind) else PpoPlayerDiscrete
     return cls(params)  # built as rl_games builds a player: one argument
 
 
@@ -55,17 +63,18 @@ def _rl_games_agent(state):
 def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(tag, kind):
     path = os.path.join(DATA, f"{tag}_{kind}.pth")
     state = ckpt.load(path)
-    counters = (4, 64) if kind == "sac" else (2, 64)
+    sac = kind.startswith("sac")
+    counters = (4, 64) if sac else (2, 64)
     assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == counters
     raw = torch_ext.load_checkpoint(path)
     back = rlg.to_rl_games({**state, "agent": _rl_games_agent(state)})
-    parts = ("actor", "critic", "critic_target", "running_mean_std") if kind == "sac" else ("model",)
+    parts = ("actor", "critic", "critic_target", "running_mean_std") if sac else ("model",)
     for part in parts:
         original = rlg.strip_compiled(raw[part])
         assert list(back[part]) == list(original)
         assert all(torch.equal(back[part][k], original[k]) for k in original)
     assert (back["epoch"], back["frame"]) == counters
-    if kind != "sac":  # the optimizer's per-parameter state goes back to each parameter's rl_games position
+    if not sac:  # the optimizer's per-parameter state goes back to each parameter's rl_games position
         for i, moments in raw["optimizer"]["state"].items():
             assert torch.equal(back["optimizer"]["state"][i]["exp_avg"], moments["exp_avg"])
 
@@ -106,26 +115,43 @@ def test_an_rl_games_network_rlchain_does_not_convert_is_a_one_line_error(tmp_pa
         ckpt.load(str(tmp_path / "other.pth"))
 
 
-def test_rl_games_2_normalization_layers_are_a_one_line_error():
-    with pytest.raises(ckpt.CheckpointError, match=r"v20_layer_norm\.pth: an rl_games checkpoint rlchain cannot "
-                                                   r"read: 'a2c_network\.actor_mlp\.2\.weight' is a normalization "
-                                                   r"layer \(network\.normalization\): rl_games 2\.0 applies it after "
-                                                   r"the activation, rlchain's mlp before it"):
-        ckpt.load(os.path.join(DATA, "v20_layer_norm.pth"))
+@pytest.mark.parametrize("kind", ["layer_norm", "sac_layer_norm"])
+def test_rl_games_2_normalization_layers_map_after_the_activation(kind):
+    model = ckpt.load(os.path.join(DATA, f"v20_{kind}.pth"))["model"]
+    norm = "network.actor_trunk.mlp.net.1.2.weight" if kind == "layer_norm" else "network.critic.q2.0.net.1.2.bias"
+    assert norm in model and model[norm].shape == (8,)
+
+
+def test_rl_games_2_normalization_without_norm_after_activation_says_to_set_it():
+    player = _player("v20", "layer_norm", as_written=True)
+    with pytest.raises(ckpt.CheckpointError, match=r"v20_layer_norm\.pth: checkpoint does not match .* normalizes "
+                                                   r"after the activation .*: set "
+                                                   r"network\.mlp\.norm_after_activation: True"):
+        player.restore(os.path.join(DATA, "v20_layer_norm.pth"))
 
 
 def test_rl_games_1_6_5_normalization_config_says_to_drop_the_key():
-    player = _player("v20", "layer_norm")  # the config keeps network.normalization
+    player = _player("v165", "layer_norm", as_written=True)  # the config keeps network.normalization
     with pytest.raises(ckpt.CheckpointError, match=r"rl_games 1\.6\.5 builds no MLP normalization layers "
                                                    r"whatever network\.normalization says: drop that key"):
         player.restore(os.path.join(DATA, "v165_layer_norm.pth"))
+
+
+def test_norm_after_activation_builds_rl_games_order():
+    from rlchain.config.schema import MlpConfig
+    from rlchain.networks.mlp import MLP
+
+    after = MLP(3, MlpConfig(units=[4], normalization="layer_norm", norm_after_activation=True)).net[0]
+    before = MLP(3, MlpConfig(units=[4], normalization="layer_norm")).net[0]
+    assert [type(m).__name__ for m in after] == ["Linear", "ELU", "LayerNorm"]
+    assert [type(m).__name__ for m in before] == ["Linear", "LayerNorm", "ELU"]
 
 
 def test_rlchain_normalization_layers_are_not_exported_for_rl_games():
     state = ckpt.load(os.path.join(DATA, "v165_continuous.pth"))
     state["model"]["network.actor_trunk.mlp.net.0.1.weight"] = torch.ones(8)
     with pytest.raises(ValueError, match=r"'network\.actor_trunk\.mlp\.net\.0\.1\.weight' is a normalization "
-                                         r"layer .* rl_games cannot compute this network"):
+                                         r"layer before the activation .* rl_games cannot compute this network"):
         rlg.to_rl_games(state)
 
 

@@ -10,10 +10,12 @@ Each run trains two epochs of PPO, continuous (``a2c_continuous``) and discrete 
 8-unit MLP, and continuous with separate actor and critic MLPs of two 8-unit layers, all with input and value
 normalization; PPO with an LSTM after the MLP (``lstm``), separate GRUs before the MLPs with a LayerNorm on
 their output (``gru_separate``), a conv2d encoder over channels-last images (``cnn``), the network-level
-``normalization: layer_norm`` (``layer_norm``), and SAC (``sac``); on a tiny batched torch env that reports
-OpenAI gym spaces (as Isaac Lab's wrapper does), and keeps rl_games' last checkpoint as ``<tag>_<kind>.pth``
-and the deterministic actions rl_games' player takes with it as ``<tag>_<kind>_actions.pt`` (three steps in a
-row for the recurrent kinds: ``actions`` is (steps, batch, ...)).
+``normalization: layer_norm`` (``layer_norm``; rl_games 1.6.5 builds no MLP norm layers for it, 2.0 does);
+and four epochs of SAC without and with that normalization (``sac``, ``sac_layer_norm``). The env is a tiny
+batched torch env that reports OpenAI gym spaces (as Isaac Lab's wrapper does). Each run keeps rl_games' last
+checkpoint as ``<tag>_<kind>.pth`` and the deterministic actions rl_games' player takes with it as
+``<tag>_<kind>_actions.pt`` (three steps in a row from zero states for the recurrent kinds: ``actions`` is
+(steps, batch, ...)). ``--kinds`` picks some. Real rl_games 1.6.5 and 2.0 wrote the files here.
 ``tests/unit/test_rl_games_checkpoint.py`` reads them with the same config (:data:`CONFIGS`).
 """
 
@@ -38,8 +40,8 @@ def config(kind: str) -> dict:
     """The rl_games config of ``kind`` these checkpoints were trained with: continuous, discrete, or
     separate (continuous, separate actor and critic MLPs of two layers), lstm, gru_separate, cnn, layer_norm,
     sac."""
-    if kind == "sac":
-        return sac_config()
+    if kind.startswith("sac"):
+        return sac_config(kind)
     continuous = kind != "discrete" and kind != "cnn"
     space = ({"continuous": {"mu_activation": "None", "sigma_activation": "None", "mu_init": {"name": "default"},
                              "sigma_init": {"name": "const_initializer", "val": 0}, "fixed_sigma": True}}
@@ -74,16 +76,20 @@ def config(kind: str) -> dict:
     }}
 
 
-def sac_config() -> dict:
-    """rl_games' SAC (``sac`` / ``soft_actor_critic``) with 8-unit twin critics and input normalization."""
+def sac_config(kind: str = "sac") -> dict:
+    """rl_games' SAC (``sac`` / ``soft_actor_critic``) with 8-unit twin critics and input normalization;
+    ``sac_layer_norm``: with rl_games 2.0's ``normalization: layer_norm`` (its MuJoCo SAC configs)."""
+    network = {"name": "soft_actor_critic", "separate": True, "space": {"continuous": {}},
+               "mlp": {"units": [8, 8], "activation": "relu", "initializer": {"name": "default"}},
+               "log_std_bounds": [-5, 2]}
+    if kind == "sac_layer_norm":
+        network["normalization"] = "layer_norm"
     return {"params": {
         "seed": 3,
         "algo": {"name": "sac"},
         "model": {"name": "soft_actor_critic"},
-        "network": {"name": "soft_actor_critic", "separate": True, "space": {"continuous": {}},
-                    "mlp": {"units": [8, 8], "activation": "relu", "initializer": {"name": "default"}},
-                    "log_std_bounds": [-5, 2]},
-        "config": {"name": "tiny_sac", "env_name": "tiny_env", "device": "cpu", "device_name": "cpu",
+        "network": network,
+        "config": {"name": f"tiny_{kind}", "env_name": "tiny_env", "device": "cpu", "device_name": "cpu",
                    "normalize_input": True,
                    "reward_shaper": {"scale_value": 1.0}, "max_epochs": 4, "num_steps_per_episode": 4,
                    "save_best_after": 1, "save_frequency": 1, "gamma": 0.99, "init_alpha": 1.0,
@@ -93,7 +99,7 @@ def sac_config() -> dict:
     }}
 
 
-KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "sac")
+KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "sac", "sac_layer_norm")
 RNN_KINDS = ("lstm", "gru_separate")
 CONFIGS = {kind: config(kind) for kind in KINDS}
 
