@@ -12,12 +12,13 @@ holds the parameters in its modules' registration order, rlchain's in its own: t
 by name both ways.
 
 Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load
-returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d / conv1d), MLP and rnn (lstm / gru,
+returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d; conv1d by the same names), MLP and rnn (lstm / gru,
 before or after the MLP, layer norm, concatenated input or output) trunks, shared or separate, continuous
-(``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; SAC checkpoints in
-:mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a ValueError naming the first key: normalization
-layers (``network.normalization``: rl_games 2.0 puts them after the activation, rlchain before it, and
-rlchain's cnn has none), D2RL and other networks.
+(``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; MLP normalization layers (rl_games 2.0's
+``network.normalization``: after the activation) onto rlchain's ``mlp.norm_after_activation`` blocks (see
+:mod:`rlchain.runs.rl_games_mlp`); SAC checkpoints in :mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused
+with a ValueError naming the first key: normalization layers inside a cnn (rlchain's has none), D2RL MLPs and
+other networks; the other way, rlchain's norm before the activation (rl_games cannot compute it).
 """
 
 from __future__ import annotations

@@ -10,8 +10,9 @@ ending in one output. rlchain's :class:`~rlchain.algos.off_policy.sac.SoftActorC
 ``q1.1``, ``critic_target`` the same, ``log_alpha``, ``obs_norm``. Each optimizer holds its network's
 parameters in the same order in both, so its state carries over by position.
 
-Normalization layers (rl_games 2.0's ``network.normalization``: after the activation, where rlchain's MLP puts
-them before it) and other layouts are a ValueError naming the first key that has no counterpart.
+rl_games 2.0's ``network.normalization`` adds a norm after each hidden activation: rlchain's
+``mlp.norm_after_activation`` blocks (see :mod:`rlchain.runs.rl_games_mlp`). Other layouts are a ValueError
+naming the first key that has no counterpart.
 """
 
 from __future__ import annotations
