@@ -132,6 +132,9 @@ class CheckpointSaver:
             except (KeyError, ValueError) as exc:
                 raise ckpt.CheckpointError(f"{path}: the rl_games SAC optimizers do not fit this agent: {exc}") \
                     from None
+        if state.get("rl_games_unread"):
+            log.warning(f"warning: {path}: rl_games' {', '.join(state['rl_games_unread'])} not read (rlchain starts "
+                        f"them anew)")
         run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
                 "run_state": run_state, "live_config": {}}

@@ -107,7 +107,6 @@ def test_an_rl_games_sac_checkpoint_maps_onto_rlchain_sac():
 
 def test_an_rl_games_network_rlchain_does_not_convert_is_a_one_line_error(tmp_path):
     state = torch_ext.load_checkpoint(os.path.join(DATA, "v165_discrete.pth"))
-    state["model"]["a2c_network.rnn.rnn.weight_xx_l0"] = torch.zeros(4, 8)
     state["model"]["a2c_network.d2rl.0.weight"] = torch.zeros(4, 8)
     torch_ext.save_checkpoint(str(tmp_path / "other"), state)
     with pytest.raises(ckpt.CheckpointError, match=r"other\.pth: an rl_games checkpoint rlchain cannot read: "
