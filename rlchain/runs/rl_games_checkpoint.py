@@ -12,13 +12,14 @@ holds the parameters in its modules' registration order, rlchain's in its own: t
 by name both ways.
 
 Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load
-returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d; conv1d by the same names), MLP and rnn (lstm / gru,
-before or after the MLP, layer norm, concatenated input or output) trunks, shared or separate, continuous
-(``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; MLP normalization layers (rl_games 2.0's
-``network.normalization``: after the activation) onto rlchain's ``mlp.norm_after_activation`` blocks (see
-:mod:`rlchain.runs.rl_games_mlp`); SAC checkpoints in :mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused
-with a ValueError naming the first key: normalization layers inside a cnn (rlchain's has none), D2RL MLPs and
-other networks; the other way, rlchain's norm before the activation (rl_games cannot compute it).
+returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d; conv1d by the same names), MLP and
+rnn (lstm / gru, before or after the MLP, layer norm, concatenated input or output) trunks, shared or separate,
+continuous (``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; MLP normalization layers
+(rl_games 2.0's ``network.normalization``: after the activation) onto rlchain's ``mlp.norm_after_activation``
+blocks (see :mod:`rlchain.runs.rl_games_mlp`); a central value (``assymetric_vf_nets`` and its optimizer) onto
+rlchain's ``central_value``; SAC checkpoints in :mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a
+ValueError naming the first key: normalization layers inside a cnn (rlchain's has none), D2RL MLPs and other
+networks; the other way, rlchain's norm before the activation (rl_games cannot compute it).
 """
 
 from __future__ import annotations
@@ -155,17 +156,47 @@ def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     }
     if isinstance(state.get("optimizer"), dict):
         converted["rl_games_optimizer"] = {"state_dict": state["optimizer"], "param_names": param_names}
-    for key in ("assymetric_vf_nets", "scaler", "pbt_params"):
+    if isinstance(state.get("assymetric_vf_nets"), dict):
+        converted["central_value"], cv_params = central_value_from_rl_games(state["assymetric_vf_nets"])
+        if isinstance(state.get("assymetric_vf_optimizer"), dict):
+            converted["rl_games_cv_optimizer"] = {"state_dict": state["assymetric_vf_optimizer"],
+                                                  "param_names": cv_params}
+    for key in ("scaler", "pbt_params"):
         if key in state and state[key] is not None:
             converted.setdefault("rl_games_unread", []).append(key)
     return converted
 
 
-def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: list[str]) -> dict[str, Any]:
+def central_value_from_rl_games(nets: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """rl_games' ``assymetric_vf_nets`` (its central value's state dict: ``model.a2c_network.*`` and the model's
+    normalizers) as rlchain's central value state dict (``network.trunk.*``, ``network.value.*``, ``obs_norm.*``,
+    ``value_norm.*``), and its parameters' names in rl_games' optimizer order."""
+    model = strip_compiled(dict(nets))
+    outside = [k for k in model if not k.startswith("model.")]
+    if outside:
+        raise ValueError(f"'assymetric_vf_nets.{outside[0]}' has no rlchain name")
+    inner = {k[len("model."):]: v for k, v in model.items()}
+    names = {k: _central_name(v) for k, v in model_names_from_rl_games(inner).items()}
+    head = [k for k in names if names[k].startswith("network.") and not names[k].startswith(("network.trunk.",
+                                                                                             "network.value."))]
+    if head:
+        raise ValueError(f"'assymetric_vf_nets.model.{head[0]}' has no rlchain name (a central value network has "
+                         f"one trunk and the value head)")
+    params = [names[k] for k in inner if k.startswith("a2c_network.") and _is_parameter(k)]
+    return {names[k]: v for k, v in inner.items()}, params
+
+
+def _central_name(name: str) -> str:
+    """An actor-critic name as the central value's: rlchain's critic network has one ``trunk``."""
+    return name.replace("network.actor_trunk.", "network.trunk.", 1)
+
+
+def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: list[str],
+                    key: str = "rl_games_optimizer") -> dict[str, Any]:
     """rl_games' optimizer state as the state dict of rlchain's optimizer ``template`` (its own
     ``state_dict()``), whose parameters are ``names`` in order: per-parameter state moved by name, the
     learning rate rl_games had; rlchain's other group settings kept."""
-    saved = converted["rl_games_optimizer"]
+    saved = converted[key]
     rl_state, rl_names = saved["state_dict"], saved["param_names"]
     position = {name: i for i, name in enumerate(rl_names)}
     missing = [n for n in names if n not in position]
@@ -262,10 +293,31 @@ def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
         ours = [k for k in model if k.startswith("network.") and _is_parameter(k)]
         theirs = [names[k] for k in order if k.startswith("network.") and _is_parameter(k)]
         out["optimizer"] = _reordered_optimizer(agent["optimizer"], ours, theirs, names)
+    if isinstance(state.get("central_value"), dict):
+        cv_agent = state.get("central_value_agent") or {}
+        out["assymetric_vf_nets"], cv_optimizer = _central_value_to_rl_games(state["central_value"],
+                                                                             cv_agent.get("optimizer"))
+        if cv_optimizer is not None:
+            out["assymetric_vf_optimizer"] = cv_optimizer
     out["last_mean_rewards"] = rl_games_sac_checkpoint.best_reward(state)
     out["env_state"] = None
     return out
 
 
-__all__ = ["ORIGIN", "from_rl_games", "is_rl_games_checkpoint", "model_names_from_rl_games",
-           "model_names_to_rl_games", "optimizer_state", "strip_compiled", "to_rl_games"]
+def _central_value_to_rl_games(model: dict[str, Any], optimizer: dict[str, Any] | None
+                               ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """rlchain's central value state dict (and its optimizer's state) as rl_games' ``assymetric_vf_nets``
+    (``model.*``, uncompiled names: rl_games compiles after it restores) and ``assymetric_vf_optimizer``."""
+    renamed = {k.replace("network.trunk.", "network.actor_trunk.", 1): k for k in model}
+    names = model_names_to_rl_games(dict.fromkeys(renamed))
+    order = sorted(renamed, key=lambda k: _rl_games_rank(names[k]))
+    nets = {f"model.{names[k]}": model[renamed[k]] for k in order}
+    if not isinstance(optimizer, dict):
+        return nets, None
+    ours = [k for k in renamed if k.startswith("network.") and _is_parameter(k)]
+    theirs = [names[k] for k in order if k.startswith("network.") and _is_parameter(k)]
+    return nets, _reordered_optimizer(optimizer, ours, theirs, names)
+
+
+__all__ = ["ORIGIN", "central_value_from_rl_games", "from_rl_games", "is_rl_games_checkpoint",
+           "model_names_from_rl_games", "model_names_to_rl_games", "optimizer_state", "strip_compiled", "to_rl_games"]

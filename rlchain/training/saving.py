@@ -126,6 +126,7 @@ class CheckpointSaver:
             except ValueError as exc:
                 raise ckpt.CheckpointError(f"{path}: {exc}") from None
             agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        state = self._rl_games_central_value(state, path)
         if "rl_games_sac_optimizers" in state:
             try:
                 agent = rl_games_sac_checkpoint.optimizer_states(state, agent)
@@ -138,6 +139,23 @@ class CheckpointSaver:
         run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
                 "run_state": run_state, "live_config": {}}
+
+    def _rl_games_central_value(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        """An rl_games central value (``assymetric_vf_nets``) with its optimizer state on this run's central
+        value agent (a fresh one when the file has none); the file's central value is ignored without one."""
+        cv_agent = getattr(self.algorithm, "cv_agent", None)
+        if "central_value" not in state or cv_agent is None:
+            return state
+        agent = cv_agent.state_dict()
+        if "rl_games_cv_optimizer" in state:
+            names = [n for n, p in self.algorithm.central_value.named_parameters() if p.requires_grad]
+            try:
+                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names,
+                                                                         key="rl_games_cv_optimizer")
+            except ValueError as exc:
+                raise ckpt.CheckpointError(f"{path}: central value: {exc}") from None
+            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        return {**state, "central_value_agent": agent}
 
     def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
         """Continue from a checkpoint: weights (``weights``: False when the model holds them already),

@@ -18,7 +18,8 @@ DATA = os.path.join(ROOT, "tests", "data", "rl_games")
 
 
 @pytest.mark.parametrize("tag,kind", [("v165", "lstm"), ("v20", "gru_separate"), ("v20", "cnn"),
-                                      ("v20", "layer_norm"), ("v165", "sac"), ("v20", "sac_layer_norm")])
+                                      ("v20", "layer_norm"), ("v165", "central_value"), ("v165", "sac"),
+                                      ("v20", "sac_layer_norm")])
 def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_path, monkeypatch,
                                                                  scoped_registries):
     pytest.importorskip("gym")
@@ -64,3 +65,8 @@ def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_
     else:
         assert list(back["model"]) == [k.replace("_orig_mod.", "") for k in original["model"]]
         assert len(back["optimizer"]["state"]) == len(original["optimizer"]["state"])
+    if kind == "central_value":  # the asymmetric critic trained on and went back under rl_games' names
+        assert not torch.equal(state["central_value"]["network.value.weight"],
+                               start["central_value"]["network.value.weight"])
+        assert list(back["assymetric_vf_nets"]) == [k.replace("_orig_mod.", "") for k in original["assymetric_vf_nets"]]
+        assert len(back["assymetric_vf_optimizer"]["state"]) == 4

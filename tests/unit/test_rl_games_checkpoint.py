@@ -79,6 +79,24 @@ def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(
             assert torch.equal(back["optimizer"]["state"][i]["exp_avg"], moments["exp_avg"])
 
 
+@pytest.mark.parametrize("tag", ["v165", "v20"])
+def test_an_rl_games_central_value_maps_onto_rlchain_and_back(tag):
+    path = os.path.join(DATA, f"{tag}_central_value.pth")
+    state = ckpt.load(path)
+    assert {"network.trunk.mlp.net.0.0.weight", "network.value.bias", "obs_norm.mean", "value_norm.var"} <= \
+        set(state["central_value"])
+    assert state["rl_games_cv_optimizer"]["param_names"][0] == "network.trunk.mlp.net.0.0.weight"
+    agent = {"optimizer": state["rl_games_optimizer"]["state_dict"]}
+    cv_agent = {"optimizer": state["rl_games_cv_optimizer"]["state_dict"]}
+    back = rlg.to_rl_games({**state, "agent": agent, "central_value_agent": cv_agent})
+    raw = torch_ext.load_checkpoint(path)
+    original = rlg.strip_compiled(raw["assymetric_vf_nets"])
+    assert list(back["assymetric_vf_nets"]) == list(original)  # uncompiled names: rl_games compiles after restoring
+    assert all(torch.equal(back["assymetric_vf_nets"][k], original[k]) for k in original)
+    assert torch.equal(back["assymetric_vf_optimizer"]["state"][2]["exp_avg"],
+                       raw["assymetric_vf_optimizer"]["state"][2]["exp_avg"])
+
+
 @pytest.mark.parametrize("kind", RNN_KINDS + ("cnn",))
 def test_recurrent_and_convolutional_layers_take_rlchain_trunk_names(kind):
     names = rlg.model_names_from_rl_games(rlg.strip_compiled(torch_ext.load_checkpoint(

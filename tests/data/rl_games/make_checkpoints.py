@@ -10,7 +10,8 @@ Each run trains two epochs of PPO, continuous (``a2c_continuous``) and discrete 
 8-unit MLP, and continuous with separate actor and critic MLPs of two 8-unit layers, all with input and value
 normalization; PPO with an LSTM after the MLP (``lstm``), separate GRUs before the MLPs with a LayerNorm on
 their output (``gru_separate``), a conv2d encoder over channels-last images (``cnn``), the network-level
-``normalization: layer_norm`` (``layer_norm``; rl_games 1.6.5 builds no MLP norm layers for it, 2.0 does);
+``normalization: layer_norm`` (``layer_norm``; rl_games 1.6.5 builds no MLP norm layers for it, 2.0 does), an
+asymmetric critic (``central_value_config``) on the env's states (``central_value``);
 and four epochs of SAC without and with that normalization (``sac``, ``sac_layer_norm``). The env is a tiny
 batched torch env that reports OpenAI gym spaces (as Isaac Lab's wrapper does). Each run keeps rl_games' last
 checkpoint as ``<tag>_<kind>.pth`` and the deterministic actions rl_games' player takes with it as
@@ -32,6 +33,7 @@ import numpy as np
 import torch
 
 OBS, ACTIONS, HORIZON = 3, 2, 16
+STATE = 6  # the central_value kind's critic input: the point and its square
 IMAGE = (6, 6, 2)  # the cnn kind's channels-last observations: the env's point tiled over the image
 RNN_STEPS = 3
 
@@ -59,6 +61,13 @@ def config(kind: str) -> dict:
                                     {"filters": 4, "kernel_size": 2, "strides": 2, "padding": 0}]}
     if kind == "layer_norm":
         network["normalization"] = "layer_norm"
+    extra = {}
+    if kind == "central_value":  # an asymmetric critic on the env's states, as Isaac Lab's and IsaacGymEnvs' do
+        extra["central_value_config"] = {
+            "minibatch_size": 16, "mini_epochs": 1, "learning_rate": 3e-4, "clip_value": True,
+            "normalize_input": True, "truncate_grads": True, "grad_norm": 1.0,
+            "network": {"name": "actor_critic", "central_value": True,
+                        "mlp": {"units": [8], "activation": "elu", "initializer": {"name": "default"}}}}
     return {"params": {
         "seed": 3,
         "algo": {"name": "a2c_continuous" if continuous else "a2c_discrete"},
@@ -72,7 +81,7 @@ def config(kind: str) -> dict:
                    "clip_value": True, "bounds_loss_coef": 0.0001, "grad_norm": 1.0, "truncate_grads": True,
                    "kl_threshold": 0.008, "max_epochs": 2, "save_frequency": 1, "save_best_after": 1,
                    "score_to_win": 10000, "seq_length": 4, "print_stats": False,
-                   "player": {"games_num": 2, "deterministic": True}},
+                   "player": {"games_num": 2, "deterministic": True}, **extra},
     }}
 
 
@@ -99,7 +108,8 @@ def sac_config(kind: str = "sac") -> dict:
     }}
 
 
-KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "sac", "sac_layer_norm")
+KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "central_value", "sac",
+         "sac_layer_norm")
 RNN_KINDS = ("lstm", "gru_separate")
 CONFIGS = {kind: config(kind) for kind in KINDS}
 
@@ -141,11 +151,20 @@ def make_env_class(kind: str):
             self.gen = torch.Generator().manual_seed(0)
 
             self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape, np.float32)
+            self.state_space = gym.spaces.Box(-np.inf, np.inf, (STATE,), np.float32) if kind == "central_value" \
+                else None
             self.action_space = (gym.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if continuous
                                  else gym.spaces.Discrete(ACTIONS))
 
         def get_env_info(self) -> dict:
-            return {"observation_space": self.observation_space, "action_space": self.action_space}
+            info = {"observation_space": self.observation_space, "action_space": self.action_space}
+            if self.state_space is not None:
+                info["state_space"] = self.state_space
+            return info
+
+        def _obs(self):
+            obs = observe(self.pos, shape)
+            return obs if self.state_space is None else {"obs": obs, "states": torch.cat([self.pos, self.pos ** 2], 1)}
 
         def get_number_of_agents(self) -> int:
             return 1
@@ -153,7 +172,7 @@ def make_env_class(kind: str):
         def reset(self):
             self.pos = torch.rand(self.n, OBS, generator=self.gen) * 2 - 1
             self.t.zero_()
-            return observe(self.pos, shape)
+            return self._obs()
 
         def step(self, actions):
             actions = torch.as_tensor(actions)
@@ -165,7 +184,7 @@ def make_env_class(kind: str):
             if dones.any():
                 self.pos[dones] = torch.rand(int(dones.sum()), OBS, generator=self.gen) * 2 - 1
                 self.t[dones] = 0
-            return observe(self.pos, shape), rewards, dones, {"time_outs": dones.clone()}
+            return self._obs(), rewards, dones, {"time_outs": dones.clone()}
 
     return TinyVecEnv
 
