@@ -14,18 +14,23 @@ by name both ways.
 Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load
 returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d; conv1d by the same names), MLP and
 rnn (lstm / gru, before or after the MLP, layer norm, concatenated input or output) trunks, shared or separate,
-continuous (``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; MLP normalization layers
-(rl_games 2.0's ``network.normalization``: after the activation) onto rlchain's ``mlp.norm_after_activation``
-blocks (see :mod:`rlchain.runs.rl_games_mlp`); a central value (``assymetric_vf_nets`` and its optimizer) onto
-rlchain's ``central_value``; SAC checkpoints in :mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a
-ValueError naming the first key: normalization layers inside a cnn (rlchain's has none), D2RL MLPs and other
-networks; the other way, rlchain's norm before the activation (rl_games cannot compute it).
+continuous (``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads (rl_games' ``logits.<i>`` per
+action dimension joined into rlchain's one ``logits``, split again on export when the file came from
+rl_games: an rlchain-trained checkpoint does not record the sizes);
+MLP normalization layers (rl_games 2.0's ``network.normalization``: after the activation) onto rlchain's
+``mlp.norm_after_activation`` blocks (see :mod:`rlchain.runs.rl_games_mlp`); a central value
+(``assymetric_vf_nets`` and its optimizer) onto rlchain's ``central_value``; SAC checkpoints in
+:mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a ValueError naming the first key: normalization
+layers inside a cnn (rlchain's has none), D2RL MLPs and other networks; the other way, rlchain's norm before
+the activation (rl_games cannot compute it).
 """
 
 from __future__ import annotations
 
 import re
 from typing import Any
+
+import torch
 
 from rlchain.runs import rl_games_mlp, rl_games_sac_checkpoint
 
@@ -143,6 +148,10 @@ def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     if "model" not in state:
         return {"origin": ORIGIN, **rl_games_sac_checkpoint.from_rl_games(state)}
     model = strip_compiled(dict(state["model"]))
+    optimizer = state.get("optimizer")
+    sizes = [int(model[f"a2c_network.logits.{i}.bias"].shape[0]) for i in range(len(model))
+             if f"a2c_network.logits.{i}.bias" in model]
+    model, optimizer = _joined_logits(model, optimizer if isinstance(optimizer, dict) else None)
     names = model_names_from_rl_games(model)
     # rl_games' optimizer holds the model's parameters: every a2c_network parameter, in the model's order
     param_names = [names[k] for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
@@ -154,8 +163,10 @@ def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
         "frames": int(state.get("frame", 0)),
         "best_reward": float(best) if best is not None else float("-inf"),
     }
-    if isinstance(state.get("optimizer"), dict):
-        converted["rl_games_optimizer"] = {"state_dict": state["optimizer"], "param_names": param_names}
+    if optimizer is not None:
+        converted["rl_games_optimizer"] = {"state_dict": optimizer, "param_names": param_names}
+    if sizes:  # written back per dimension by to_rl_games
+        converted["rl_games_logits_sizes"] = sizes
     if isinstance(state.get("assymetric_vf_nets"), dict):
         converted["central_value"], cv_params = central_value_from_rl_games(state["assymetric_vf_nets"])
         if isinstance(state.get("assymetric_vf_optimizer"), dict):
@@ -165,6 +176,48 @@ def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
         if key in state and state[key] is not None:
             converted.setdefault("rl_games_unread", []).append(key)
     return converted
+
+
+_LOGITS = re.compile(r"a2c_network\.logits\.(\d+)\.(weight|bias)")
+
+
+def _joined_logits(model: dict[str, Any], optimizer: dict[str, Any] | None
+                   ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """rl_games' multi-discrete head (one Linear per action dimension, ``logits.<i>``) as rlchain's one Linear
+    over all of them (``logits``, the dimensions' outputs in order), in the model and in its optimizer's
+    per-parameter state (moments concatenated the same way)."""
+    heads = sorted({int(m.group(1)) for k in model if (m := _LOGITS.fullmatch(k))})
+    if not heads:
+        return model, optimizer
+    joined: dict[str, Any] = {}
+    parts: dict[str, list[str]] = {}  # joined key -> the rl_games keys it holds
+    for key, value in model.items():
+        match = _LOGITS.fullmatch(key)
+        if match is None:
+            joined[key] = value
+            continue
+        name = f"a2c_network.logits.{match.group(2)}"
+        if name not in joined:
+            parts[name] = [f"a2c_network.logits.{i}.{match.group(2)}" for i in heads]
+            joined[name] = torch.cat([model[k] for k in parts[name]], 0)
+    if optimizer is None:
+        return joined, None
+    groups = optimizer.get("param_groups") or []
+    old = [k for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
+    if len(groups) != 1 or len(groups[0]["params"]) != len(old):
+        raise ValueError(f"the rl_games optimizer holds {sum(len(g['params']) for g in groups)} parameters in "
+                         f"{len(groups)} groups, the network {len(old)}")
+    ids = dict(zip(old, groups[0]["params"]))
+    per_param = optimizer.get("state", {})
+    new = [k for k in joined if k.startswith("a2c_network.") and _is_parameter(k)]
+    state: dict[int, Any] = {}
+    for j, key in enumerate(new):
+        pieces = [per_param[ids[k]] for k in parts.get(key, [key]) if ids[k] in per_param]
+        if not pieces:
+            continue
+        state[j] = {field: torch.cat([p[field] for p in pieces], 0)
+                    if torch.is_tensor(value) and value.dim() > 0 else value for field, value in pieces[0].items()}
+    return joined, {"state": state, "param_groups": [{**groups[0], "params": list(range(len(new)))}]}
 
 
 def central_value_from_rl_games(nets: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
@@ -284,6 +337,12 @@ def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     model = dict(state["model"])
     if rl_games_sac_checkpoint.is_rlchain_sac(model):
         return rl_games_sac_checkpoint.to_rl_games(state)
+    space = (((state.get("config") or {}).get("params") or {}).get("network") or {}).get("space") or {}
+    sizes = state.get("rl_games_logits_sizes")
+    if "multi_discrete" in space and not sizes:
+        raise ValueError("'network.logits' is one head over every action dimension: rl_games holds one per "
+                         "dimension, and the checkpoint does not record their sizes (multi-discrete is read, "
+                         "not written)")
     names = model_names_to_rl_games(model)
     order = sorted(model, key=lambda k: _rl_games_rank(names[k]))  # stable: a module's own order is kept
     out: dict[str, Any] = {"model": {names[k]: model[k] for k in order},
@@ -299,9 +358,51 @@ def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
                                                                              cv_agent.get("optimizer"))
         if cv_optimizer is not None:
             out["assymetric_vf_optimizer"] = cv_optimizer
+    if sizes:
+        out["model"], out["optimizer"] = _split_logits(out["model"], out.get("optimizer"), list(sizes))
+        out = {k: v for k, v in out.items() if v is not None}
     out["last_mean_rewards"] = rl_games_sac_checkpoint.best_reward(state)
     out["env_state"] = None
     return out
+
+
+def _split_logits(model: dict[str, Any], optimizer: dict[str, Any] | None, sizes: list[int]
+                  ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """The inverse of :func:`_joined_logits`: rlchain's one ``logits`` head back as rl_games' ``logits.<i>``
+    of ``sizes`` outputs each, in the model and its optimizer state (rl_games' order)."""
+    out: dict[str, Any] = {}
+    parts: dict[str, list[str]] = {}
+    for key, value in model.items():
+        match = re.fullmatch(r"a2c_network\.logits\.(weight|bias)", key)
+        if match is None:
+            out[key] = value
+            continue
+        parts[key] = [f"a2c_network.logits.{i}.{match.group(1)}" for i in range(len(sizes))]
+        for name, piece in zip(parts[key], torch.split(value, sizes, 0)):
+            out[name] = piece.clone()
+    def head(key: str) -> int:  # rl_games' ModuleList: logits.0.weight, logits.0.bias, logits.1.weight, ...
+        match = re.match(r"a2c_network\.logits\.(\d+)\.", key)
+        return int(match.group(1)) if match else 0
+
+    out = dict(sorted(out.items(), key=lambda kv: (_rl_games_rank(kv[0]), head(kv[0]))))
+    if optimizer is None:
+        return out, None
+    old = [k for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
+    new = [k for k in out if k.startswith("a2c_network.") and _is_parameter(k)]
+    per_param = optimizer.get("state", {})
+    pieces: dict[str, Any] = {}
+    for i, key in enumerate(old):
+        if i not in per_param:
+            continue
+        if key not in parts:
+            pieces[key] = per_param[i]
+            continue
+        split = {f: torch.split(v, sizes, 0) if torch.is_tensor(v) and v.dim() > 0 else None
+                 for f, v in per_param[i].items()}
+        for j, name in enumerate(parts[key]):
+            pieces[name] = {f: split[f][j].clone() if split[f] is not None else v for f, v in per_param[i].items()}
+    state = {j: pieces[name] for j, name in enumerate(new) if name in pieces}
+    return out, {"state": state, "param_groups": [{**optimizer["param_groups"][0], "params": list(range(len(new)))}]}
 
 
 def _central_value_to_rl_games(model: dict[str, Any], optimizer: dict[str, Any] | None

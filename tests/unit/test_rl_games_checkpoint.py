@@ -17,7 +17,10 @@ from rlchain.runs import rl_games_checkpoint as rlg
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
-from make_checkpoints import ACTIONS, CONFIGS, KINDS, RNN_KINDS, is_continuous, obs_shape, player_actions  # noqa: E402
+import make_checkpoints as made  # noqa: E402
+
+ACTIONS, CONFIGS, KINDS, MULTI, RNN_KINDS = made.ACTIONS, made.CONFIGS, made.KINDS, made.MULTI, made.RNN_KINDS
+is_continuous, obs_shape, player_actions = made.is_continuous, made.obs_shape, made.player_actions
 
 CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS]
 
@@ -37,6 +40,7 @@ def _params(tag, kind, as_written=False):
 def _player(tag, kind, as_written=False):
     params = _params(tag, kind, as_written)
     action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if is_continuous(kind)
+              else gymnasium.spaces.Tuple([gymnasium.spaces.Discrete(n) for n in MULTI]) if kind == "multi_discrete"
               else gymnasium.spaces.Discrete(ACTIONS))
     params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, obs_shape(kind)),
                                     "action_space": action}
@@ -190,3 +194,13 @@ def test_export_rl_games_writes_what_rl_games_reads(tmp_path):
     original = rlg.strip_compiled(torch_ext.load_checkpoint(os.path.join(DATA, "v20_continuous.pth"))["model"])
     assert set(written) >= {"model", "epoch", "frame", "last_mean_rewards"}
     assert all(torch.equal(written["model"][k], original[k]) for k in original) and written["epoch"] == 2
+
+
+def test_a_multi_discrete_head_is_joined_and_written_back_only_with_its_sizes():
+    state = ckpt.load(os.path.join(DATA, "v20_multi_discrete.pth"))
+    assert state["model"]["network.logits.weight"].shape == (sum(MULTI), 8)
+    assert state["rl_games_logits_sizes"] == list(MULTI)
+    trained = {k: v for k, v in state.items() if k != "rl_games_logits_sizes"}  # as rlchain saves it after training
+    trained["config"] = {"params": {"network": {"space": {"multi_discrete": {}}}}}
+    with pytest.raises(ValueError, match=r"'network\.logits' is one head over every action dimension"):
+        rlg.to_rl_games(trained)

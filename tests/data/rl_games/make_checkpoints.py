@@ -11,7 +11,8 @@ Each run trains two epochs of PPO, continuous (``a2c_continuous``) and discrete 
 normalization; PPO with an LSTM after the MLP (``lstm``), separate GRUs before the MLPs with a LayerNorm on
 their output (``gru_separate``), a conv2d encoder over channels-last images (``cnn``), the network-level
 ``normalization: layer_norm`` (``layer_norm``; rl_games 1.6.5 builds no MLP norm layers for it, 2.0 does), an
-asymmetric critic (``central_value_config``) on the env's states (``central_value``);
+asymmetric critic (``central_value_config``) on the env's states (``central_value``), a Tuple of two Discrete
+actions (``multi_discrete``);
 and four epochs of SAC without and with that normalization (``sac``, ``sac_layer_norm``). The env is a tiny
 batched torch env that reports OpenAI gym spaces (as Isaac Lab's wrapper does). Each run keeps rl_games' last
 checkpoint as ``<tag>_<kind>.pth`` and the deterministic actions rl_games' player takes with it as
@@ -38,16 +39,23 @@ IMAGE = (6, 6, 2)  # the cnn kind's channels-last observations: the env's point 
 RNN_STEPS = 3
 
 
+def is_continuous(kind: str) -> bool:
+    return kind not in ("discrete", "cnn", "multi_discrete")
+
+
+MULTI = (2, 3)  # the multi_discrete kind's actions: rl_games' Tuple of Discrete
+
+
 def config(kind: str) -> dict:
     """The rl_games config of ``kind`` these checkpoints were trained with: continuous, discrete, or
     separate (continuous, separate actor and critic MLPs of two layers), lstm, gru_separate, cnn, layer_norm,
     sac."""
     if kind.startswith("sac"):
         return sac_config(kind)
-    continuous = kind != "discrete" and kind != "cnn"
+    continuous = is_continuous(kind)
     space = ({"continuous": {"mu_activation": "None", "sigma_activation": "None", "mu_init": {"name": "default"},
                              "sigma_init": {"name": "const_initializer", "val": 0}, "fixed_sigma": True}}
-             if continuous else {"discrete": {}})
+             if continuous else {"multi_discrete": {}} if kind == "multi_discrete" else {"discrete": {}})
     network = {"name": "actor_critic", "separate": kind in ("separate", "gru_separate"), "space": space,
                "mlp": {"units": [8, 8] if kind in ("separate", "layer_norm") else [8], "activation": "elu",
                        "initializer": {"name": "default"}}}
@@ -71,7 +79,8 @@ def config(kind: str) -> dict:
     return {"params": {
         "seed": 3,
         "algo": {"name": "a2c_continuous" if continuous else "a2c_discrete"},
-        "model": {"name": "continuous_a2c_logstd" if continuous else "discrete_a2c"},
+        "model": {"name": "continuous_a2c_logstd" if continuous else
+                  "multi_discrete_a2c" if kind == "multi_discrete" else "discrete_a2c"},
         "network": network,
         "config": {"name": f"tiny_{kind}", "env_name": "tiny_env", "device": "cpu", "device_name": "cpu", "ppo": True,
                    "normalize_input": kind != "cnn", "normalize_value": True, "normalize_advantage": True,
@@ -108,14 +117,10 @@ def sac_config(kind: str = "sac") -> dict:
     }}
 
 
-KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "central_value", "sac",
-         "sac_layer_norm")
+KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "central_value",
+         "multi_discrete", "sac", "sac_layer_norm")
 RNN_KINDS = ("lstm", "gru_separate")
 CONFIGS = {kind: config(kind) for kind in KINDS}
-
-
-def is_continuous(kind: str) -> bool:
-    return kind not in ("discrete", "cnn")
 
 
 def obs_shape(kind: str) -> tuple[int, ...]:
@@ -154,7 +159,8 @@ def make_env_class(kind: str):
             self.state_space = gym.spaces.Box(-np.inf, np.inf, (STATE,), np.float32) if kind == "central_value" \
                 else None
             self.action_space = (gym.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if continuous
-                                 else gym.spaces.Discrete(ACTIONS))
+                                 else gym.spaces.Tuple([gym.spaces.Discrete(n) for n in MULTI])
+                                 if kind == "multi_discrete" else gym.spaces.Discrete(ACTIONS))
 
         def get_env_info(self) -> dict:
             info = {"observation_space": self.observation_space, "action_space": self.action_space}
@@ -176,7 +182,7 @@ def make_env_class(kind: str):
 
         def step(self, actions):
             actions = torch.as_tensor(actions)
-            push = actions[:, :1] if continuous else (actions.reshape(-1, 1).float() * 2 - 1)
+            push = actions[:, :1] if continuous else (actions.reshape(self.n, -1)[:, :1].float() * 2 - 1)
             self.pos = self.pos - 0.1 * push.clamp(-1, 1)
             self.t += 1
             rewards = -self.pos.norm(dim=1)
