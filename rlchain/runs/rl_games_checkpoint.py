@@ -11,18 +11,18 @@ same Sequential); the recurrent layer ``rnn.rnn`` (``a_rnn`` / ``c_rnn`` when se
 holds the parameters in its modules' registration order, rlchain's in its own: the per-parameter state moves
 by name both ways.
 
-Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load
-returns. Networks converted: rl_games' ``actor_critic`` with cnn (conv2d; conv1d by the same names), MLP and
-rnn (lstm / gru, before or after the MLP, layer norm, concatenated input or output) trunks, shared or separate,
-continuous (``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads (rl_games' ``logits.<i>`` per
-action dimension joined into rlchain's one ``logits``, split again on export when the file came from
-rl_games: an rlchain-trained checkpoint does not record the sizes);
-MLP normalization layers (rl_games 2.0's ``network.normalization``: after the activation) onto rlchain's
+Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load returns.
+Networks converted: rl_games' ``resnet_actor_critic`` (IMPALA stages, rnn, mlp) and ``actor_critic`` with cnn
+(conv2d; conv1d by the same names), MLP and rnn (lstm / gru, before or after the MLP, layer norm, concatenated
+input or output) trunks, shared or separate, continuous (``mu``, ``sigma``), discrete (``logits``) and multi-
+discrete heads (rl_games' ``logits.<i>`` per action dimension joined into rlchain's one ``logits``, split again
+on export when the file came from rl_games: an rlchain-trained checkpoint does not record the sizes); MLP
+normalization layers (rl_games 2.0's ``network.normalization``: after the activation) onto rlchain's
 ``mlp.norm_after_activation`` blocks (see :mod:`rlchain.runs.rl_games_mlp`); a central value
 (``assymetric_vf_nets`` and its optimizer) onto rlchain's ``central_value``; SAC checkpoints in
-:mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a ValueError naming the first key: normalization
-layers inside a cnn (rlchain's has none), D2RL MLPs and other networks; the other way, rlchain's norm before
-the activation (rl_games cannot compute it).
+:mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a ValueError naming the first key: normalization layers
+inside a cnn (rlchain's has none), D2RL MLPs and other networks; the other way, rlchain's norm before the
+activation (rl_games cannot compute it).
 """
 
 from __future__ import annotations
@@ -49,8 +49,12 @@ _RNNS = {"rnn": ("actor_trunk", "rnn.rnn"), "a_rnn": ("actor_trunk", "rnn.rnn"),
          "c_layer_norm": ("critic_trunk", "rnn.norm")}
 # rl_games' A2CBuilder registers its modules in this order (its optimizer's parameter order); the fixed sigma
 # vector (``a2c_network.sigma``, a parameter of the network itself) comes before them all
-_MODULE_ORDER = ("actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
-                 "a_layer_norm", "c_layer_norm", "value", "logits", "mu", "sigma")
+_MODULE_ORDER = ("cnn", "actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
+                 "a_layer_norm", "c_layer_norm", "mlp", "value", "logits", "mu", "sigma")
+# rl_games' resnet_actor_critic (``cnn`` IMPALA stages, then ``rnn`` and ``mlp``; never separate): a stage's
+# modules -> their place in rlchain's ImpalaStage (conv, max-pool, two residual blocks of act, conv, act, conv)
+_IMPALA = {"conv.conv": "0", "res_block1.conv1.conv": "2.net.1", "res_block1.conv2.conv": "2.net.3",
+           "res_block2.conv1.conv": "3.net.1", "res_block2.conv2.conv": "3.net.3"}
 _BUFFERS = ("running_mean", "running_var", "num_batches_tracked")
 
 
@@ -100,6 +104,15 @@ def _cnn_names(keys: list[str], rl_prefix: str, ours: str, model: dict[str, Any]
     return out
 
 
+def _impala_name(key: str) -> str:
+    """rl_games' resnet ``cnn.<stage>.<module>.<p>`` -> rlchain's ``network.actor_trunk.cnn.stages.<stage>...``."""
+    match = re.fullmatch(r"cnn\.(\d+)\.(.+)\.(weight|bias)", key)
+    if match is None or match.group(2) not in _IMPALA:
+        raise ValueError(f"'a2c_network.{key}' has no rlchain name (rlchain's IMPALA stages have no batch norm, "
+                         f"attention or zero-init scale)")
+    return f"network.actor_trunk.cnn.stages.{match.group(1)}.{_IMPALA[match.group(2)]}.{match.group(3)}"
+
+
 def model_names_from_rl_games(model: dict[str, Any]) -> dict[str, str]:
     """rl_games model key -> rlchain model key (keys without ``_orig_mod.``), in rl_games' order."""
     names: dict[str, str] = {}
@@ -107,6 +120,11 @@ def model_names_from_rl_games(model: dict[str, Any]) -> dict[str, str]:
     for rl_trunk, ours in _TRUNKS.items():
         keys = [k for k in network if k.startswith(rl_trunk + ".")]
         names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, rl_trunk, ours, model).items()})
+    resnet = [k for k in network if k.startswith("cnn.")]
+    names.update({f"a2c_network.{k}": _impala_name(k) for k in resnet})
+    if resnet:  # its MLP is ``mlp``, the trunk's
+        keys = [k for k in network if k.startswith("mlp.")]
+        names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, "mlp", "actor_trunk", model).items()})
     for rl_cnn, ours in _CNNS.items():
         keys = [k for k in network if k.startswith(rl_cnn + ".")]
         names.update({f"a2c_network.{k}": v for k, v in _cnn_names(keys, rl_cnn, ours, model).items()})
@@ -270,12 +288,21 @@ def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
     out: dict[str, str] = {}
     blocks: dict[str, dict[tuple[int, int], int]] = {}  # per trunk: (layer, position) -> rl_games' index
     separate = any(key.startswith("network.critic_trunk.") for key in model)
+    resnet = any(key.startswith("network.actor_trunk.cnn.stages.") for key in model)
     for key in model:
         head, _, rest = key.partition(".")
         if head in ("obs_norm", "value_norm"):
             rl_head = next(k for k, v in _NORMALIZERS.items() if v == head)
             stat = next(k for k, v in _NORM_STATS.items() if v == rest)
             out[key] = f"{rl_head}.{stat}"
+            continue
+        impala = re.fullmatch(r"network\.actor_trunk\.cnn\.stages\.(\d+)\.(.+)\.(weight|bias)", key)
+        if impala is not None:  # rl_games' resnet_actor_critic: its cnn, mlp and rnn are not the trunk's
+            stage, module, param = impala.groups()
+            theirs = next((k for k, v in _IMPALA.items() if v == module), None)
+            if theirs is None:
+                raise ValueError(f"'{key}' has no rl_games name")
+            out[key] = f"a2c_network.cnn.{stage}.{theirs}.{param}"
             continue
         mlp = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.(\d+)\.(\w+)", key)
         cnn = re.fullmatch(r"network\.(actor|critic)_trunk\.cnn\.net\.(\d+)\.(weight|bias)", key)
@@ -285,7 +312,8 @@ def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
             prefix = f"network.{trunk}_trunk.mlp.net."
             if prefix not in blocks:
                 blocks[prefix] = rl_games_mlp.block_indices([k for k in model if k.startswith(prefix)], prefix)[0]
-            out[key] = f"a2c_network.{trunk}_mlp.{blocks[prefix][(int(layer), int(position))]}.{param}"
+            rl_mlp = "mlp" if resnet else f"{trunk}_mlp"
+            out[key] = f"a2c_network.{rl_mlp}.{blocks[prefix][(int(layer), int(position))]}.{param}"
         elif cnn is not None:  # the same Sequential: conv, activation, ...
             trunk, index, param = cnn.groups()
             out[key] = f"a2c_network.{trunk}_cnn.{index}.{param}"

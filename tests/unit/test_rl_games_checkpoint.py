@@ -113,6 +113,10 @@ def test_recurrent_and_convolutional_layers_take_rlchain_trunk_names(kind):
                          "a2c_network.c_layer_norm.bias": "network.critic_trunk.rnn.norm.bias"},
         "cnn": {"a2c_network.actor_cnn.0.weight": "network.actor_trunk.cnn.net.0.weight",
                 "a2c_network.actor_cnn.2.bias": "network.actor_trunk.cnn.net.2.bias"},
+        "resnet_lstm": {"a2c_network.cnn.1.conv.conv.weight": "network.actor_trunk.cnn.stages.1.0.weight",
+                        "a2c_network.cnn.0.res_block2.conv1.conv.bias": "network.actor_trunk.cnn.stages.0.3.net.1.bias",
+                        "a2c_network.mlp.0.weight": "network.actor_trunk.mlp.net.0.0.weight",
+                        "a2c_network.rnn.rnn.bias_hh_l0": "network.actor_trunk.rnn.rnn.bias_hh_l0"},
     }[kind]
     assert {k: names[k] for k in expected} == expected
 

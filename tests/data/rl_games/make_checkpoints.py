@@ -9,7 +9,8 @@ Run it with rl_games installed, once per version, e.g. from a venv with ``torch=
 Each run trains two epochs of PPO, continuous (``a2c_continuous``) and discrete (``a2c_discrete``) with an
 8-unit MLP, and continuous with separate actor and critic MLPs of two 8-unit layers, all with input and value
 normalization; PPO with an LSTM after the MLP (``lstm``), separate GRUs before the MLPs with a LayerNorm on
-their output (``gru_separate``), a conv2d encoder over channels-last images (``cnn``), the network-level
+their output (``gru_separate``), a conv2d encoder over channels-last images (``cnn``), rl_games' IMPALA
+``resnet_actor_critic`` with an LSTM (``resnet_lstm``, discrete), the network-level
 ``normalization: layer_norm`` (``layer_norm``; rl_games 1.6.5 builds no MLP norm layers for it, 2.0 does), an
 asymmetric critic (``central_value_config``) on the env's states (``central_value``), a Tuple of two Discrete
 actions (``multi_discrete``);
@@ -40,7 +41,7 @@ RNN_STEPS = 3
 
 
 def is_continuous(kind: str) -> bool:
-    return kind not in ("discrete", "cnn", "multi_discrete")
+    return kind not in ("discrete", "cnn", "multi_discrete", "resnet_lstm")
 
 
 MULTI = (2, 3)  # the multi_discrete kind's actions: rl_games' Tuple of Discrete
@@ -69,6 +70,12 @@ def config(kind: str) -> dict:
                                     {"filters": 4, "kernel_size": 2, "strides": 2, "padding": 0}]}
     if kind == "layer_norm":
         network["normalization"] = "layer_norm"
+    if kind == "resnet_lstm":  # rl_games' IMPALA network (its Atari configs), with an LSTM after the MLP
+        network = {"name": "resnet_actor_critic", "separate": False, "space": space, "value_activation": "None",
+                   "cnn": {"permute_input": True, "conv_depths": [2, 2], "activation": "relu",
+                           "initializer": {"name": "default"}},
+                   "mlp": {"units": [8], "activation": "elu", "initializer": {"name": "default"}},
+                   "rnn": {"name": "lstm", "units": 8, "layers": 1}}
     extra = {}
     if kind == "central_value":  # an asymmetric critic on the env's states, as Isaac Lab's and IsaacGymEnvs' do
         extra["central_value_config"] = {
@@ -83,7 +90,8 @@ def config(kind: str) -> dict:
                   "multi_discrete_a2c" if kind == "multi_discrete" else "discrete_a2c"},
         "network": network,
         "config": {"name": f"tiny_{kind}", "env_name": "tiny_env", "device": "cpu", "device_name": "cpu", "ppo": True,
-                   "normalize_input": kind != "cnn", "normalize_value": True, "normalize_advantage": True,
+                   "normalize_input": kind not in ("cnn", "resnet_lstm"), "normalize_value": True,
+                   "normalize_advantage": True,
                    "reward_shaper": {"scale_value": 1.0}, "num_actors": 4, "horizon_length": 8,
                    "minibatch_size": 16, "mini_epochs": 1, "learning_rate": 3e-4, "lr_schedule": None,
                    "gamma": 0.99, "tau": 0.95, "e_clip": 0.2, "entropy_coef": 0.0, "critic_coef": 2,
@@ -117,14 +125,14 @@ def sac_config(kind: str = "sac") -> dict:
     }}
 
 
-KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "layer_norm", "central_value",
-         "multi_discrete", "sac", "sac_layer_norm")
-RNN_KINDS = ("lstm", "gru_separate")
+KINDS = ("continuous", "discrete", "separate", "lstm", "gru_separate", "cnn", "resnet_lstm", "layer_norm",
+         "central_value", "multi_discrete", "sac", "sac_layer_norm")
+RNN_KINDS = ("lstm", "gru_separate", "resnet_lstm")
 CONFIGS = {kind: config(kind) for kind in KINDS}
 
 
 def obs_shape(kind: str) -> tuple[int, ...]:
-    return IMAGE if kind == "cnn" else (OBS,)
+    return IMAGE if kind in ("cnn", "resnet_lstm") else (OBS,)
 
 
 def observe(pos: torch.Tensor, shape: tuple[int, ...]) -> torch.Tensor:
