@@ -175,10 +175,12 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         # --play: the evaluation's episode count and its deterministic actions
         "player": {"games_num": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
                    "deterministic": True},
-        "save_frequency": _epochs(trainer.get("save_freq", defaults["save_freq"]), frames_per_epoch),
+        "save_frequency_frames": max(0, int(trainer.get("save_freq", defaults["save_freq"]))),
+        "checkpoint_names": "embodichain",  # <exp>_step_<N>.pt, <exp>_best.pt
     }
     if name == "apg":  # EmbodiChain's differentiable trainer counts saves in updates (= segments here)
         config["save_frequency"] = int(trainer.get("save_frequency_updates", 0))
+        config["save_frequency_frames"] = 0
         config["deterministic_actions"] = bool(trainer.get("deterministic_actions", False))
     if "total_timesteps" in trainer:
         config["max_frames"] = int(trainer["total_timesteps"])
@@ -224,7 +226,7 @@ def _evaluation(trainer: dict, frames_per_epoch: int, defaults: dict, source: st
              "select_best": select.get((metric, mode), "evaluation")}
     if block["interval"] == 0:
         return {}
-    return {"evaluation": block}
+    return {"evaluation": block, "save_best_after": 0}  # theirs saves <exp>_best.pt from the first evaluation
 
 
 def _optimizer(cfg: dict, source: str) -> dict[str, Any]:

@@ -20,7 +20,7 @@ def tick(env, env_ids, **params):
     CALLS.append((type(env).__name__, env_ids, params))
 
 
-def layout(tmp_path, algo="ppo", gym_config="EmbodiChainPushStandIn"):
+def layout(tmp_path, algo="ppo", gym_config="EmbodiChainPushStandIn", save_freq=0):
     actor = {"type": "mlp", "network_cfg": {"hidden_sizes": [16], "activation": "tanh"}}
     policy = {"name": "actor_critic", "actor": actor, "critic": actor} if algo == "ppo" else \
         {"name": "actor_only", "actor": actor}
@@ -29,7 +29,7 @@ def layout(tmp_path, algo="ppo", gym_config="EmbodiChainPushStandIn"):
         cfg.update(group_size=4, kl_coef=0.01)
     trainer = {"exp_name": f"ec_{algo}", "gym_config": gym_config, "seed": 1, "device": "cpu", "num_envs": 8,
                "iterations": 2, "buffer_size": 16, "enable_eval": True, "eval_freq": 128, "num_eval_envs": 2,
-               "num_eval_episodes": 2, "save_freq": 0,
+               "num_eval_episodes": 2, "save_freq": save_freq,
                "events": {"train": {"tick": {"func": "tests.smoke.test_embodichain.tick", "interval_step": 8,
                                              "params": {"x": 1}}}}}
     path = tmp_path / "train_config.json"
@@ -53,6 +53,24 @@ def test_runs_with_their_tags_events_and_saved_config(tmp_path):
     assert len(CALLS) == 4 and CALLS[0] == ("PushStandIn", None, {"x": 1})  # 32 env steps, every 8th
     saved = glob.glob(os.path.join(result.run_dir, "*.yaml"))
     assert saved and "params" in yaml.safe_load(open(saved[0]))
+
+
+def test_checkpoints_carry_their_names_and_keys_and_play_and_resume(tmp_path):
+    import torch
+
+    from rlchain.runs import checkpoint as ckpt
+
+    path = layout(tmp_path, save_freq=100)  # 128 env steps an epoch: a save after epochs 1 and 2
+    result = Runner().load(path, [f"params.config.train_dir={tmp_path}/runs"]).train()
+    nn = os.path.join(result.run_dir, "nn")
+    assert sorted(os.listdir(nn)) == ["ec_ppo_best.pt", "ec_ppo_step_128.pt", "ec_ppo_step_256.pt"]
+    state = ckpt.load(os.path.join(nn, "ec_ppo_step_128.pt"))
+    assert state["global_step"] == 128 and state["optimizer"]["state"]
+    assert all(torch.equal(v, state["model"][k]) for k, v in state["policy"].items())
+    assert Runner().load(path).play(os.path.join(nn, "ec_ppo_best.pt"), games=2, quiet=True).games == 2
+    resumed = Runner().load(path, [f"params.config.train_dir={tmp_path}/again"]).train(
+        checkpoint=os.path.join(nn, "ec_ppo_step_128.pt"))
+    assert resumed.frames == 256 and "ec_ppo_step_256.pt" in os.listdir(os.path.join(resumed.run_dir, "nn"))
 
 
 def test_train_py_grpo(tmp_path):

@@ -49,8 +49,9 @@ def test_ppo_keys_keep_embodichain_meaning(tmp_path):
     assert cfg.critic_coef == 1.0  # vf_coef * MSE == 0.5 * critic_coef * MSE
     assert not cfg.clip_value and not cfg.normalize_input and not cfg.normalize_value and not cfg.value_bootstrap
     assert cfg.normalize_advantage and not cfg.clip_actions and cfg.grad_norm == 0.7 and cfg.truncate_grads
-    # 200 and 300 env steps with 8 envs x 16 steps = 128 per epoch: every 2nd and 3rd epoch
-    assert cfg.evaluation.interval == 2 and cfg.save_frequency == 3
+    # 200 env steps with 8 envs x 16 steps = 128 per epoch: every 2nd epoch; saves stay in env steps
+    assert cfg.evaluation.interval == 2 and cfg.save_best_after == 0
+    assert (cfg.save_frequency, cfg.save_frequency_frames, cfg.checkpoint_names) == (0, 300, "embodichain")
     assert (cfg.evaluation.games, cfg.evaluation.num_envs, cfg.evaluation.seed) == (4, 2, 10_003)
 
 
