@@ -104,6 +104,7 @@ def test_rlchain_benchmark_writes_its_report(tmp_path):
     report = json.loads((out / "report.json").read_text())
     (run,) = report["runs"]
     assert run["status"] == 0 and run["final_success_rate_stable"] is not None and run["peak_memory_mb"] > 0
+    assert run["peak_memory_kind"] == "cpu_rss" and run["gpu_peak_memory_mb"] is None
     assert run["steps_to_success_threshold"] is None  # two evaluations: never 3 in a row
     assert report["leaderboard"][0]["algorithm"] == "grpo"
     assert "| EmbodiChainCartPoleStandIn | grpo | 1 |" in (out / "report.md").read_text()
