@@ -327,9 +327,6 @@ def _mlp(module: Any, path: str, source: str) -> dict[str, Any]:
     _unknown(net, NETWORK_KEYS, f"{path}.network_cfg", source)
     if "hidden_sizes" not in net:
         raise ConfigError(source, f"{path}.network_cfg.hidden_sizes", "required key is missing")
-    if float(net.get("dropout_p", 0.0)):
-        raise ConfigError(source, f"{path}.network_cfg.dropout_p", "dropout is not implemented in rlchain's mlp; "
-                                                                   "remove it or set 0")
     return net
 
 
@@ -341,6 +338,30 @@ def _activation(value: Any, path: str, source: str) -> str:
     return ACTIVATIONS[key]
 
 
+def _gains(net: dict) -> list[float] | None:
+    """``orthogonal_init`` as a list of gains (one number: every layer), None when absent."""
+    gains = net.get("orthogonal_init")
+    if gains is None:
+        return None
+    return [float(g) for g in (gains if isinstance(gains, list) else [gains])]
+
+
+def _mlp_block(net: dict, path: str, source: str) -> dict[str, Any]:
+    """One ``network_cfg`` as rlchain's ``mlp`` block: units, activation, layer norm, dropout, the first
+    orthogonal gain for the hidden layers (rlchain's initializer has one gain per block)."""
+    mlp: dict[str, Any] = {"units": [int(u) for u in net["hidden_sizes"]],
+                           "activation": _activation(net.get("activation", "elu"), f"{path}.network_cfg.activation",
+                                                     source)}
+    if net.get("use_layernorm"):
+        mlp["normalization"] = "layer_norm"
+    if float(net.get("dropout_p") or 0.0):
+        mlp["dropout"] = float(net["dropout_p"])
+    gains = _gains(net)
+    if gains is not None:
+        mlp["initializer"] = {"name": "orthogonal_initializer", "gain": gains[0]}
+    return mlp
+
+
 def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
     kind = str(policy.get("name", "")).lower()
     if kind not in ("actor_critic", "actor_only"):
@@ -349,26 +370,19 @@ def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
         raise ConfigError(source, "policy.name", f"algorithm {algo} trains an {POLICY_FOR[algo]} policy, got "
                                                  f"{kind}")
     actor = _mlp(policy.get("actor"), "policy.actor", source)
-    mlp: dict[str, Any] = {"units": [int(u) for u in actor["hidden_sizes"]],
-                           "activation": _activation(actor.get("activation", "elu"), "policy.actor.network_cfg."
-                                                     "activation", source)}
-    if actor.get("use_layernorm"):
-        mlp["normalization"] = "layer_norm"
-    gains = actor.get("orthogonal_init")
-    mu_init: dict[str, Any] = {"name": "default"}
-    if gains is not None:
-        gains = [float(g) for g in (gains if isinstance(gains, list) else [gains])]
-        mlp["initializer"] = {"name": "orthogonal_initializer", "gain": gains[0]}
-        mu_init = {"name": "orthogonal_initializer", "gain": gains[-1]}
+    mlp = _mlp_block(actor, "policy.actor", source)
+    gains = _gains(actor)
+    mu_init: dict[str, Any] = {"name": "orthogonal_initializer", "gain": gains[-1]} if gains else {"name": "default"}
     separate = kind == "actor_critic"
+    network: dict[str, Any] = {"name": "actor_critic", "separate": separate}
     if separate:
-        critic = _mlp(policy.get("critic"), "policy.critic", source)
-        if [int(u) for u in critic["hidden_sizes"]] != mlp["units"] or \
-                _activation(critic.get("activation", "elu"), "policy.critic.network_cfg.activation", source) \
-                != mlp["activation"]:
-            raise ConfigError(source, "policy.critic.network_cfg", "rlchain's separate actor and critic share one "
-                                                                   "mlp block: give the critic the actor's "
-                                                                   "hidden_sizes and activation")
+        path = "policy.critic"
+        critic = _mlp(policy.get("critic"), path, source)
+        critic_mlp = _mlp_block(critic, path, source)
+        if critic_mlp != mlp:  # a critic of its own (sizes, activation, norm, dropout or init differ)
+            network["critic_mlp"] = critic_mlp
+        network["value_activation"] = _activation(critic.get("last_activation"), f"{path}.network_cfg."
+                                                  "last_activation", source)
     elif policy.get("critic") is not None:
         raise ConfigError(source, "policy.critic", "an actor_only policy has no critic; remove the block")
     space = {"continuous": {"mu_activation": _activation(actor.get("last_activation"), "policy.actor.network_cfg."
@@ -377,7 +391,7 @@ def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
                             "sigma_init": {"name": "const_initializer",
                                            "val": float(policy.get("initial_log_std", 0.0))},
                             "fixed_sigma": True, "logstd_bounds": LOG_STD_BOUNDS}}
-    network = {"name": "actor_critic", "separate": separate, "space": space, "mlp": mlp}
+    network.update(space=space, mlp=mlp)
     return {"name": "continuous_a2c_logstd"}, network
 
 

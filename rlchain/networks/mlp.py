@@ -24,6 +24,8 @@ class MLP(nn.Module):
             if cfg.normalization and (i == 0 or not cfg.norm_only_first_layer):
                 block.append(nn.LayerNorm(units) if cfg.normalization == "layer_norm" else nn.BatchNorm1d(units))
             block.append(activation(cfg.activation))
+            if cfg.dropout > 0:
+                block.append(nn.Dropout(cfg.dropout))
             layers.append(nn.Sequential(*block))
             size = units
         self.out_size = size

@@ -134,15 +134,49 @@ def test_distributed_is_multi_gpu_and_events_map(tmp_path):
                              {"func": "mypkg.events:tick", "phase": "train", "interval_step": 5, "params": {"x": 1}}]
 
 
-def test_other_optimizers_and_dropout_are_errors(tmp_path):
+def test_other_optimizers_are_errors(tmp_path):
     data = layout()
     data["algorithm"]["cfg"]["optimizer"]["name"] = "sgd"
     with pytest.raises(ConfigError, match="optimizer.name"):
         load_config(write(tmp_path, data))
+
+
+def test_a_critic_unlike_the_actor_is_built_as_its_own_network(tmp_path):
+    import gymnasium as gym
+    import torch
+
+    from rlchain.networks.actor_critic import ActorCriticBuilder
+
     data = layout()
-    data["policy"]["actor"]["network_cfg"]["dropout_p"] = 0.1
-    with pytest.raises(ConfigError, match="dropout"):
-        load_config(write(tmp_path, data))
+    data["policy"]["actor"]["network_cfg"].update(dropout_p=0.1)
+    data["policy"]["critic"] = {"type": "mlp", "network_cfg": {
+        "hidden_sizes": [64, 48, 8], "activation": "tanh", "use_layernorm": True, "last_activation": "relu",
+        "orthogonal_init": [1.0, 1.0, 1.0, 0.5]}}
+    net = load_config(write(tmp_path, data)).network
+    assert net.separate and net.mlp.units == [32, 32] and net.mlp.dropout == 0.1
+    critic = net.critic_mlp
+    assert (critic.units, critic.activation, critic.normalization, critic.dropout) == ([64, 48, 8], "tanh",
+                                                                                       "layer_norm", 0.0)
+    assert critic.initializer.gain == 1.0 and net.value_activation == "relu"
+    builder = ActorCriticBuilder()
+    builder.load(net)
+    model = builder.build("x", input_shape=(5,), actions_num=2, action_space=gym.spaces.Box(-1, 1, (2,)))
+    assert model.value.in_features == 8 and model.mu.in_features == 32
+    assert any(isinstance(m, torch.nn.Dropout) for m in model.actor_trunk.modules())
+    assert any(isinstance(m, torch.nn.LayerNorm) for m in model.critic_trunk.modules())
+    mu, _, value, _ = model({"obs": torch.zeros(3, 5)})
+    assert mu.shape == (3, 2) and value.shape == (3, 1) and (value >= 0).all()
+    same = load_config(write(tmp_path, layout())).network  # the actor's sizes: no critic block of its own
+    assert same.separate and same.critic_mlp is None
+
+
+def test_critic_mlp_needs_separate():
+    from rlchain.config.network_block import parse_network
+
+    block = {"name": "actor_critic", "separate": False, "critic_mlp": {"units": [8]}, "mlp": {"units": [8]}}
+    with pytest.raises(ConfigError, match=r"cfg.yaml: params.network.critic_mlp: a critic of its own needs "
+                                          r"separate: True"):
+        parse_network(block, "cfg.yaml")
 
 
 def test_best_eval_metric_success_rate(tmp_path):
