@@ -141,12 +141,8 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     if "device" not in env_config and "device" in inspect.signature(ENVS.get(env_name)).parameters:
         env_config["device"] = str(trainer.get("device", "cpu"))  # EmbodiChain's envs live on the sim device
     num_envs = int(trainer.get("num_envs", defaults["num_envs"]))
-    if "rollout_steps" in trainer:
-        if "buffer_size" in trainer:
-            raise ConfigError(source, "trainer.rollout_steps", "both rollout_steps (old name) and buffer_size "
-                                                              "given; keep buffer_size")
-        warn_once(source, "trainer.rollout_steps", "old name, read as buffer_size")
-    horizon = int(trainer.get("buffer_size", trainer.get("rollout_steps", defaults["buffer_size"])))
+    horizon = int(_renamed((trainer, "trainer.rollout_steps"), (trainer, "trainer.buffer_size"),
+                           defaults["buffer_size"], source))
     if name == "apg":
         horizon = int(trainer.get("segment_length", 16))
         if int(trainer.get("update_horizon", horizon)) != horizon:
@@ -202,6 +198,19 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     return {"params": params}
 
 
+def _renamed(old: tuple[dict, str], new: tuple[dict, str], default: Any, source: str) -> Any:
+    """A key of the old layout and its new place, each (block, dotted path): the new one's value, else the old
+    one's with a warning, else ``default``; both given is an error."""
+    (old_block, old_path), (new_block, new_path) = old, new
+    old_key, new_key = old_path.rsplit(".", 1)[1], new_path.rsplit(".", 1)[1]
+    if old_key not in old_block:
+        return new_block.get(new_key, default)
+    if new_key in new_block:
+        raise ConfigError(source, old_path, f"both {old_path} (old layout) and {new_path} given; keep {new_path}")
+    warn_once(source, old_path, f"old layout, read as {new_path}")
+    return old_block[old_key]
+
+
 def _epochs(steps: Any, frames_per_epoch: int) -> int:
     """An EmbodiChain frequency in env steps as whole epochs (at least 1; 0 stays off)."""
     steps = int(steps)
@@ -234,12 +243,8 @@ def _optimizer(cfg: dict, source: str) -> dict[str, Any]:
     if not isinstance(optimizer, dict):
         raise ConfigError(source, "algorithm.cfg.optimizer", f"expected a mapping, got {optimizer!r}")
     _unknown(optimizer, {"name", "learning_rate", "kwargs"}, "algorithm.cfg.optimizer", source)
-    if "learning_rate" in cfg:
-        if "learning_rate" in optimizer:
-            raise ConfigError(source, "algorithm.cfg.learning_rate", "both a flat learning_rate (old layout) and "
-                                                                     "optimizer.learning_rate; keep the latter")
-        warn_once(source, "algorithm.cfg.learning_rate", "old layout, read as optimizer.learning_rate")
-    lr = float(optimizer.get("learning_rate", cfg.get("learning_rate", DEFAULTS["learning_rate"])))
+    lr = float(_renamed((cfg, "algorithm.cfg.learning_rate"), (optimizer, "algorithm.cfg.optimizer.learning_rate"),
+                        DEFAULTS["learning_rate"], source))
     opt_name = str(optimizer.get("name", "adam")).lower()
     if opt_name != "adam":
         raise ConfigError(source, "algorithm.cfg.optimizer.name", f"{opt_name!r}: rlchain trains with Adam; "

@@ -68,6 +68,14 @@ def test_old_layout_rollout_steps_and_flat_learning_rate(tmp_path):
     with pytest.warns(UserWarning, match="old"):
         cfg = load_config(write(tmp_path, data)).config
     assert cfg.horizon_length == 16 and cfg.learning_rate == 1e-3
+    data["trainer"]["buffer_size"] = 32
+    with pytest.raises(ConfigError, match=r"trainer.rollout_steps: both trainer.rollout_steps \(old layout\) and "
+                                          r"trainer.buffer_size given; keep trainer.buffer_size"):
+        load_config(write(tmp_path, data))
+    data["trainer"].pop("rollout_steps")
+    data["algorithm"]["cfg"]["optimizer"] = {"learning_rate": 1e-4}
+    with pytest.raises(ConfigError, match=r"algorithm.cfg.learning_rate: both .* keep algorithm.cfg.optimizer"):
+        load_config(write(tmp_path, data))
 
 
 def test_network_and_policy(tmp_path):
