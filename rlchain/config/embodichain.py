@@ -31,9 +31,9 @@ TRAINER_KEYS = {
     "buffer_size", "rollout_steps", "enable_eval", "num_eval_envs", "num_eval_episodes", "eval_freq",
     "save_freq", "eval_seed", "best_eval_metric", "best_eval_mode", "use_wandb", "wandb_project_name", "events",
     "renderer", "distributed", "total_timesteps", "segment_length", "update_horizon", "deterministic_actions",
-    "save_frequency_updates",
+    "save_frequency_updates", "enable_rt",
 }
-SIM_ONLY_KEYS = ("headless", "gpu_id", "renderer")  # DexSim's window, GPU and renderer
+SIM_ONLY_KEYS = ("headless", "gpu_id", "renderer", "enable_rt")  # DexSim's window, GPU, renderer, ray tracing
 POLICY_KEYS = {"name", "actor", "critic", "initial_log_std", "action_dim"}
 MODULE_KEYS = {"type", "network_cfg"}
 NETWORK_KEYS = {"hidden_sizes", "activation", "last_activation", "use_layernorm", "dropout_p", "orthogonal_init"}

@@ -64,6 +64,7 @@ def test_yaml_and_json_read_the_same(tmp_path):
 def test_old_layout_rollout_steps_and_flat_learning_rate(tmp_path):
     data = layout()
     data["trainer"]["rollout_steps"] = data["trainer"].pop("buffer_size")
+    data["trainer"]["enable_rt"] = False  # the old layout's DexSim ray-tracing switch
     data["algorithm"]["cfg"]["learning_rate"] = data["algorithm"]["cfg"].pop("optimizer")["learning_rate"]
     with pytest.warns(UserWarning, match="old"):
         cfg = load_config(write(tmp_path, data)).config
