@@ -153,11 +153,23 @@ def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
     return out
 
 
+def _check_same_trunks(model: dict[str, Any]) -> None:
+    """rl_games' separate network builds the critic from the actor's mlp block: a critic trunk of other
+    layer sizes (rlchain's ``network.critic_mlp``) has no rl_games form."""
+    critic = {k: tuple(v.shape) for k, v in model.items() if k.startswith("network.critic_trunk.")}
+    actor = {k.replace("network.actor_trunk.", "network.critic_trunk.", 1): tuple(v.shape)
+             for k, v in model.items() if k.startswith("network.actor_trunk.")}
+    if critic and critic != actor:
+        raise ValueError("the critic's layers differ from the actor's (network.critic_mlp); rl_games' separate "
+                         "actor_critic gives both the one mlp block")
+
+
 def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     """An rlchain PPO checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore: ``model`` (``a2c_network.*``,
     ``running_mean_std.*``, ``value_mean_std.*``), ``epoch``, ``frame``, ``optimizer``, ``last_mean_rewards``,
     ``env_state``."""
     model = dict(state["model"])
+    _check_same_trunks(model)
     names = model_names_to_rl_games(model)
     out: dict[str, Any] = {"model": {names[k]: v for k, v in model.items()},
                            "epoch": int(state.get("epoch", 0)), "frame": int(state.get("frames", 0))}

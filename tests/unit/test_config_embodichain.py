@@ -202,3 +202,14 @@ def test_linear_lr_scheduler_end_factor(tmp_path):
 
 def test_is_embodichain():
     assert is_embodichain(layout()) and not is_embodichain({"params": {}})
+
+
+def test_a_critic_of_its_own_has_no_rl_games_export():
+    import torch
+
+    from rlchain.runs.rl_games_checkpoint import to_rl_games
+
+    model = {"network.actor_trunk.mlp.net.0.0.weight": torch.zeros(32, 5),
+             "network.critic_trunk.mlp.net.0.0.weight": torch.zeros(64, 5)}
+    with pytest.raises(ValueError, match="critic_mlp"):
+        to_rl_games({"model": model})
