@@ -224,15 +224,16 @@ def _evaluation(trainer: dict, frames_per_epoch: int, defaults: dict, source: st
     mode = trainer.get("best_eval_mode", "max")
     if mode not in ("max", "min"):
         raise ConfigError(source, "trainer.best_eval_mode", f"expected max or min, got {mode!r}")
-    select = {("eval/avg_reward", "max"): "evaluation", ("eval/success_rate", "max"): "evaluation_success"}
-    if (metric, mode) not in select:
-        warn_once(source, "trainer.best_eval_metric", f"{metric} ({mode}): rlchain's best checkpoint follows the "
-                  "highest evaluation mean reward (eval/avg_reward, max) or success rate (eval/success_rate, max)")
+    select = {"eval/avg_reward": "evaluation", "eval/success_rate": "evaluation_success",
+              "eval/avg_length": "evaluation_length"}
+    if metric not in select:
+        warn_once(source, "trainer.best_eval_metric", f"{metric}: rlchain's best checkpoint follows "
+                  f"{', '.join(select)}; it follows eval/avg_reward ({mode})")
     block = {"interval": _epochs(trainer.get("eval_freq", defaults["eval_freq"]), frames_per_epoch),
              "games": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
              "num_envs": int(trainer.get("num_eval_envs", defaults["num_eval_envs"])),
              "seed": int(trainer.get("eval_seed", int(trainer.get("seed", DEFAULTS["seed"])) + 10_000)),
-             "select_best": select.get((metric, mode), "evaluation")}
+             "select_best": select.get(metric, "evaluation"), "best_mode": mode}
     if block["interval"] == 0:
         return {}
     return {"evaluation": block, "save_best_after": 0}  # theirs saves <exp>_best.pt from the first evaluation

@@ -58,7 +58,10 @@ class EvaluationConfig:
                                           "evaluation mean reward, or evaluation_success: the evaluation success "
                                           "rate (ties: the higher evaluation reward; EmbodiChain's "
                                           "best_eval_metric eval/success_rate)",
-                              choices=("training", "evaluation", "evaluation_success"))
+                              choices=("training", "evaluation", "evaluation_success", "evaluation_length"))
+    best_mode: str = option("max", "rlchain: with an evaluation select_best, whether the highest or the lowest "
+                                   "score is the best (EmbodiChain's best_eval_mode; evaluation_length: mean "
+                                   "episode length)", choices=("max", "min"))
 
 
 @dataclass(frozen=True)

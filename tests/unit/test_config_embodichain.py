@@ -191,6 +191,20 @@ def test_critic_mlp_needs_separate():
 def test_best_eval_metric_success_rate(tmp_path):
     data = layout(best_eval_metric="eval/success_rate", best_eval_mode="max")
     assert load_config(write(tmp_path, data)).config.evaluation.select_best == "evaluation_success"
+    evaluation = load_config(write(tmp_path, layout(best_eval_metric="eval/avg_length", best_eval_mode="min"))
+                             ).config.evaluation
+    assert (evaluation.select_best, evaluation.best_mode) == ("evaluation_length", "min")
+
+
+def test_best_mode_min_keeps_the_lowest_score():
+    from types import SimpleNamespace
+
+    from rlchain.training.evaluation import _score, is_better
+
+    result = SimpleNamespace(mean_reward=1.0, mean_length=30.0, success_rate=0.5)
+    assert _score("evaluation_length", result) == 30.0 and _score("evaluation_success", result) == (0.5, 1.0)
+    assert is_better(30.0, None, "min") and is_better(20.0, 30.0, "min") and not is_better(40.0, 30.0, "min")
+    assert is_better(40.0, 30.0) and not is_better(30.0, 30.0) and not is_better(None, None)
 
 
 def test_linear_lr_scheduler_end_factor(tmp_path):
