@@ -7,12 +7,15 @@ import os
 import subprocess
 import sys
 
+import torch
 import yaml
 
 from rlchain import Runner
+from rlchain.training.events import Callback
 from tests.conftest import ROOT
 
 CALLS = []
+REFERENCES = []
 
 
 def tick(env, env_ids, **params):
@@ -56,8 +59,6 @@ def test_runs_with_their_tags_events_and_saved_config(tmp_path):
 
 
 def test_checkpoints_carry_their_names_and_keys_and_play_and_resume(tmp_path):
-    import torch
-
     from rlchain.runs import checkpoint as ckpt
 
     path = layout(tmp_path, save_freq=100)  # 128 env steps an epoch: a save after epochs 1 and 2
@@ -71,6 +72,29 @@ def test_checkpoints_carry_their_names_and_keys_and_play_and_resume(tmp_path):
     resumed = Runner().load(path, [f"params.config.train_dir={tmp_path}/again"]).train(
         checkpoint=os.path.join(nn, "ec_ppo_step_128.pt"))
     assert resumed.frames == 256 and "ec_ppo_step_256.pt" in os.listdir(os.path.join(resumed.run_dir, "nn"))
+
+
+class KeepReference(Callback):
+    """Test-only: keeps GRPO's frozen reference policy at the end of training."""
+
+    drives_trainer = True  # reads the algorithm
+
+    def on_train_end(self, trainer, result):
+        REFERENCES.append({k: v.clone() for k, v in trainer.algorithm.reference.state_dict().items()})
+
+
+def test_grpo_resume_keeps_the_reference_policy(tmp_path):
+    from rlchain.runs import checkpoint as ckpt
+
+    REFERENCES.clear()
+    path = layout(tmp_path, "grpo", "EmbodiChainCartPoleStandIn", save_freq=100)
+    first = Runner().load(path, [f"params.config.train_dir={tmp_path}/runs"]).train(callbacks=[KeepReference()])
+    step = os.path.join(first.run_dir, "nn", "ec_grpo_step_128.pt")
+    saved = ckpt.load(step)["grpo_reference"]
+    assert all(torch.equal(v, REFERENCES[0][k]) for k, v in saved.items())  # the initial policy, kept
+    Runner().load(path, [f"params.config.train_dir={tmp_path}/again"]).train(checkpoint=step,
+                                                                           callbacks=[KeepReference()])
+    assert all(torch.equal(v, REFERENCES[1][k]) for k, v in saved.items())
 
 
 def test_train_py_grpo(tmp_path):
