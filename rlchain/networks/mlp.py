@@ -25,6 +25,8 @@ class MLP(nn.Module):
             if cfg.normalization and (i == 0 or not cfg.norm_only_first_layer):
                 norm = nn.LayerNorm(units) if cfg.normalization == "layer_norm" else nn.BatchNorm1d(units)
                 block.insert(2 if cfg.norm_after_activation else 1, norm)
+            if cfg.dropout > 0:
+                block.append(nn.Dropout(cfg.dropout))
             layers.append(nn.Sequential(*block))
             size = units
         self.out_size = size

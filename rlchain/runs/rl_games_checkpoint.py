@@ -357,6 +357,17 @@ def _reordered_optimizer(optimizer: dict[str, Any], ours: list[str], theirs: lis
     return {"state": state, "param_groups": [{**groups[0], "params": list(range(len(theirs)))}]}
 
 
+def _check_same_trunks(model: dict[str, Any]) -> None:
+    """rl_games' separate network builds the critic from the actor's mlp block: a critic trunk of other
+    layer sizes (rlchain's ``network.critic_mlp``) has no rl_games form."""
+    critic = {k: tuple(v.shape) for k, v in model.items() if k.startswith("network.critic_trunk.")}
+    actor = {k.replace("network.actor_trunk.", "network.critic_trunk.", 1): tuple(v.shape)
+             for k, v in model.items() if k.startswith("network.actor_trunk.")}
+    if critic and critic != actor:
+        raise ValueError("the critic's layers differ from the actor's (network.critic_mlp); rl_games' separate "
+                         "actor_critic gives both the one mlp block")
+
+
 def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     """An rlchain PPO or SAC checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore. PPO: ``model``
     (``a2c_network.*``, ``running_mean_std.*``, ``value_mean_std.*``, in rl_games' order), ``epoch``,
@@ -371,6 +382,7 @@ def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
         raise ValueError("'network.logits' is one head over every action dimension: rl_games holds one per "
                          "dimension, and the checkpoint does not record their sizes (multi-discrete is read, "
                          "not written)")
+    _check_same_trunks(model)
     names = model_names_to_rl_games(model)
     order = sorted(model, key=lambda k: _rl_games_rank(names[k]))  # stable: a module's own order is kept
     out: dict[str, Any] = {"model": {names[k]: model[k] for k in order},

@@ -35,6 +35,7 @@ class CheckpointSaver:
         self.newest: tuple[str, int] | None = None  # (path, epoch) of the newest checkpoint this run wrote
         self.resumed_from: str | None = None  # the checkpoint this run started from
         self.failure: str | None = None  # why the latest write failed (None once one succeeds)
+        self.frames_seen = ctx.frames  # frames at the last periodic check (save_frequency_frames)
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
         """Everything exact resume needs: the learner now and the run's state at the last epoch
@@ -56,6 +57,8 @@ class CheckpointSaver:
         if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
             state["ranks"] = boundary["ranks"]
         state.update(algo.extra_state(kind))
+        if self.run is not None and self.run.layout == "embodichain":
+            state.update(embodichain_keys(state))
         get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum
         env_state = get_env_state() if callable(get_env_state) else None
         if env_state is not None:
@@ -68,6 +71,8 @@ class CheckpointSaver:
             return None
         if kind == "last" and self.run.layout == "rl_games":
             kind = "file:" + rl_games_layout.final_stem(self.ctx.params.config.name, self.ctx.epoch, self.last_reward)
+        if kind == "last" and self.run.layout == "embodichain":  # theirs: periodic and final files alike
+            kind = f"file:{self.ctx.params.config.name}_step_{self.ctx.frames}"
         bad = check_parameters(self.algorithm.model)
         if bad is not None:
             log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
@@ -110,9 +115,20 @@ class CheckpointSaver:
             self.best_reward = episodes["reward"]
             if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
                 self.save("best")
-        if cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
-            self.save(f"ep_{epoch}")
+        if self._periodic_due():
+            if self.run is None or self.run.layout != "embodichain":
+                self.save(f"ep_{epoch}")
             self.save("last")
+
+    def _periodic_due(self) -> bool:
+        """Whether this epoch writes the periodic checkpoint: every ``save_frequency`` epochs, or at the first
+        epoch end at or past each multiple of ``save_frequency_frames`` (EmbodiChain's save_freq rule)."""
+        cfg = self.ctx.cfg
+        seen, self.frames_seen = self.frames_seen, self.ctx.frames
+        if cfg.save_frequency > 0 and self.ctx.epoch % cfg.save_frequency == 0:
+            return True
+        every = cfg.save_frequency_frames
+        return every > 0 and self.ctx.frames // every > seen // every
 
     def _from_rl_games(self, state: dict[str, Any], path: str) -> dict[str, Any]:
         """A converted rl_games checkpoint completed for resume: its optimizer state (PPO's one, SAC's three) on
@@ -180,6 +196,18 @@ class CheckpointSaver:
         ctx.tracker.load_state_dict(state["episodes"])
         algo.restore_extra(state)
         self.point.restore(state)
+        self.frames_seen = ctx.frames
         set_env_state = getattr(ctx.env, "set_env_state", None)
         if "env_state" in state and callable(set_env_state):
             set_env_state(state["env_state"])
+
+
+def embodichain_keys(state: dict[str, Any]) -> dict[str, Any]:
+    """The keys EmbodiChain's trainer writes, beside rlchain's (the same tensors, stored once): ``global_step``
+    (env steps over all ranks), ``policy`` (rlchain's model state dict: rlchain's module names, not
+    EmbodiChain's), ``optimizer`` when the algorithm has one."""
+    out = {"global_step": int(state["frames"]), "policy": state["model"]}
+    agent = state.get("agent")
+    if isinstance(agent, dict) and "optimizer" in agent:
+        out["optimizer"] = agent["optimizer"]
+    return out
