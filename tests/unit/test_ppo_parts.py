@@ -106,7 +106,7 @@ def test_a_capturable_optimizers_state_loads_into_an_eager_one_and_back():
     assert graphed.optimizer.param_groups[0]["lr"] is graphed.lr_step
 
 
-def test_the_step_runner_says_which_way_it_runs():  # compiled: tests/smoke/test_compile_update.py
+def test_the_minibatch_step_says_which_way_it_runs():  # compiled: tests/smoke/test_compile_update.py
     cfg = _cfg()
-    assert PPOAgent(_model(), cfg, torch.device("cpu")).step_runner.mode == "eager"
-    assert PPOAgent(_model(), cfg, torch.device("cpu"), cuda_graph=True).step_runner.mode == "graphed"
+    assert PPOAgent(_model(), cfg, torch.device("cpu")).minibatch_step.mode == "eager"
+    assert PPOAgent(_model(), cfg, torch.device("cpu"), cuda_graph=True).minibatch_step.mode == "graphed"

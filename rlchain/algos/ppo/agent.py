@@ -2,9 +2,9 @@
 
 It turns a filled rollout into parameter updates: the minibatches and mini-epochs, the KL the adaptive lr
 follows. Its parts: the loss (:mod:`rlchain.algos.ppo.loss`), the optimizer and schedules
-(:mod:`rlchain.algos.ppo.optimizer`) and the step runner that runs a minibatch eagerly, compiled or as a CUDA
-graph (:mod:`rlchain.algos.ppo.step_runner`). There is no action-space branch here: the model's distribution
-handles that.
+(:mod:`rlchain.algos.ppo.optimizer`) and the minibatch step that runs eagerly, compiled or as a CUDA graph
+(:mod:`rlchain.algos.ppo.minibatch_step`). There is no action-space branch here: the model's distribution handles
+that.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from rlchain.algos.core.losses import normalize_advantages, policy_loss
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.loss import LossOutput, ppo_loss
+from rlchain.algos.ppo.minibatch_step import MinibatchStep
 from rlchain.algos.ppo.optimizer import ScheduledAdam
-from rlchain.algos.ppo.step_runner import StepRunner
 from rlchain.config.schema import PPOConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.parallel.communicator import SINGLE, Communicator
@@ -57,7 +57,7 @@ class PPOAgent:
         self.amp = self.amp_dtype is not None
         self.adam = ScheduledAdam(self.params, cfg, device, comm, capturable=self.graphed,
                                   grad_scaler=self.amp_dtype == torch.float16)
-        self.step_runner = StepRunner(self._losses, self.adam, comm, graphed=self.graphed)
+        self.minibatch_step = MinibatchStep(self._losses, self.adam, comm, graphed=self.graphed)
 
     # ----- the parts' public faces (rl_games' observers, the trainers, checkpoints) --------------
     @property
@@ -168,14 +168,14 @@ class PPOAgent:
 
     def compile_losses(self) -> None:
         """``compile_update``: from now on :meth:`_losses` runs as one compiled region with static shapes."""
-        self.step_runner.compile()
+        self.minibatch_step.compile()
 
     def _step(self, batch: Batch, reference: torch.Tensor | None = None) -> dict[str, float]:
-        """One minibatch update (the step runner's): losses, backward, clip, optimizer step."""
+        """One minibatch update (what MinibatchStep runs): losses, backward, clip, optimizer step."""
         cfg = self.cfg
         previous = batch.params if reference is None else reference.index_select(0, batch.index)
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
-        return self.step_runner(batch, self.adam.entropy_coef_tensor(), previous, reference, max_norm)
+        return self.minibatch_step(batch, self.adam.entropy_coef_tensor(), previous, reference, max_norm)
 
     def surrogate(self, old_log_probs: torch.Tensor, log_probs: torch.Tensor,
                   advantages: torch.Tensor) -> torch.Tensor:
@@ -208,7 +208,7 @@ class PPOAgent:
     def config_changed(self) -> None:
         """A value of ``cfg`` changed (population-based training): a captured step holds the old one as a
         constant, so it is recorded again."""
-        self.step_runner.reset()
+        self.minibatch_step.reset()
 
     def state_dict(self) -> dict:
         """Optimizer state, live lr and entropy coefficient (:meth:`ScheduledAdam.state_dict`)."""
@@ -217,7 +217,7 @@ class PPOAgent:
     def load_state_dict(self, state: dict) -> None:
         """Restore :meth:`state_dict`; new optimizer state tensors: a captured step is recorded again."""
         self.adam.load_state_dict(state)
-        self.step_runner.reset()
+        self.minibatch_step.reset()
 
 
 def shuffled_minibatches(order: str, continuous: bool) -> bool:

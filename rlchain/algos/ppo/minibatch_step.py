@@ -23,7 +23,7 @@ LossFn = Callable[[Batch, torch.Tensor, torch.Tensor], LossOutput]
 """(batch, entropy coefficient (0-d), KL reference (B, P)) -> :data:`rlchain.algos.ppo.loss.LossOutput`."""
 
 
-class StepRunner:
+class MinibatchStep:
     """One minibatch update through ``losses`` and ``adam``: :attr:`mode` says which way it runs.
 
     eager: the losses, backward, gradient averaging over ranks, unscaling (float16), clipping and Adam, with
