@@ -101,6 +101,13 @@ class PolicySteps:
         return result, done
 
 
+def game_quota(games: int | None, num_envs: int) -> list[int] | None:
+    """How many of the ``games`` each env plays: split evenly (the first envs take one more), so envs whose
+    episodes end sooner are not over-counted, which would bias the mean towards short episodes (quick
+    successes, early failures). None: no games limit."""
+    return None if games is None else [(games + i) // num_envs for i in reversed(range(num_envs))]
+
+
 GameHook = Callable[[int, float, int, "float | None"], None]
 ObsHook = Callable[[torch.Tensor, "torch.Tensor | None"], None]
 
@@ -110,7 +117,8 @@ def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
          on_game: GameHook | None = None, on_obs: ObsHook | None = None, render_sleep: float | None = None,
          success_key: str = "auto", success_mode: str = "any") -> PlayResult:
     """Play ``model`` on ``env`` (any VecEnv) until ``games`` episodes finished or ``steps`` env steps
-    were taken (whichever is given and comes first); returns the finished games' statistics.
+    were taken (whichever is given and comes first); returns the finished games' statistics. The games are
+    split evenly over the envs (:func:`game_quota`): an env past its share plays on uncounted.
 
     ``device``: where the model runs (default: its parameters' device). ``seed`` seeds the first
     ``reset``. ``on_game(index, reward, length, success)`` is called per finished game (success
@@ -127,6 +135,7 @@ def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
     episode_lengths: list[int] = []
     successes: list[float] = []
     success = EpisodeSuccess(env.num_envs, success_key, success_mode)
+    quota = game_quota(games, env.num_envs)
     was_training = model.training
     model.eval()
     taken = 0
@@ -153,7 +162,9 @@ def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
             returns += reward
             for i in game_over.nonzero().flatten().tolist():
                 won = success.pop(i)
-                if games is None or len(rewards) < games:
+                if quota is None or quota[i] > 0:
+                    if quota is not None:
+                        quota[i] -= 1
                     rewards.append(float(returns[i]))
                     episode_lengths.append(int(lengths[i]))
                     if won is not None:

@@ -1,5 +1,5 @@
-"""The one play() loop (rlchain/policy/play.py) that evaluation, the Player, video and export share
-(issue 19 part 4): games and steps limits, action masks, RNN state, the one-env recording adapter."""
+"""The one play() loop (rlchain/policy/play.py) that evaluation, the Player, video and export share:
+games and steps limits, games shared evenly over the envs, action masks, RNN state, the one-env recording adapter."""
 
 import os
 
@@ -13,7 +13,8 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.wrappers.one_env import OneEnv
 from rlchain.inference.player import Player
 from rlchain.models.build import build_env, build_model
-from rlchain.policy.play import play
+from rlchain.envs.vecenv import StepResult
+from rlchain.policy.play import game_quota, play
 from rlchain.training.evaluation import run_episodes
 from tests.conftest import CONFIGS
 
@@ -80,6 +81,34 @@ def test_rnn_state_is_zeroed_where_an_episode_ends():
     finally:
         env.close()
     assert zeroed == [True, False, False, True, False, False]  # 2 games of 3 steps
+
+
+class UnevenEpisodes:
+    """Two envs: env 0's episodes last 1 step and score 1, env 1's last 10 steps and score 10."""
+
+    num_envs = 2
+    observation_space = gym.spaces.Box(-1, 1, (4,), np.float32)
+    action_space = gym.spaces.Discrete(2)
+
+    def __init__(self):
+        self.t = 0
+
+    def reset(self, seed=None):
+        return np.zeros((2, 4), np.float32)
+
+    def step(self, actions):
+        self.t += 1
+        done = np.array([True, self.t % 10 == 0])
+        return StepResult(np.zeros((2, 4), np.float32), np.ones(2, np.float32), done, np.zeros(2, bool),
+                          None, {})
+
+
+def test_games_are_shared_evenly_so_short_episodes_are_not_over_counted():
+    assert game_quota(5, 3) == [2, 2, 1] and game_quota(2, 4) == [1, 1, 0, 0] and game_quota(None, 2) is None
+    _, model, _ = _model_and_env(CARTPOLE)
+    result = play(model, UnevenEpisodes(), 4)
+    assert sorted(result.rewards) == [1.0, 1.0, 10.0, 10.0]  # the first four to end: [1.0] * 4
+    assert result.mean_length == 5.5
 
 
 class CountingEnv(gym.Env):
