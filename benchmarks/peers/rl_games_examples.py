@@ -1,7 +1,7 @@
 """Run every rl_games example config through rlchain for one epoch and print a Markdown table.
 
     python benchmarks/peers/rl_games_examples.py --configs /path/to/site-packages/rl_games/configs \\
-        [--only atari,test] [--timeout 180] [--jobs 1] [--out benchmarks/peers/rl_games_examples.md]
+        [--only atari,test] [--skip smac] [--timeout 180] [--jobs 1] [--out benchmarks/peers/rl_games_examples.md]
 
 Each config runs as written (``runner.py --train --file X``) with only ``max_epochs=1``, a
 temporary ``train_dir`` and ``device: cpu`` added. The outcome is one of:
@@ -77,6 +77,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--configs", required=True, help="rl_games' configs folder")
     parser.add_argument("--only", default="", help="comma-separated sub-folders or file-name parts to keep")
+    parser.add_argument("--skip", default="", help="comma-separated sub-folders or file-name parts to leave out")
     parser.add_argument("--timeout", type=int, default=180)
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", default="")
@@ -85,6 +86,9 @@ def main() -> None:
     if args.only:
         keep = args.only.split(",")
         paths = [p for p in paths if any(k in os.path.relpath(p, args.configs) for k in keep)]
+    if args.skip:
+        drop = args.skip.split(",")
+        paths = [p for p in paths if not any(k in os.path.relpath(p, args.configs) for k in drop)]
     # Atari's convolutional epochs are the slowest on a CPU: queue them last so the quick outcomes come first.
     paths.sort(key=lambda p: (os.path.relpath(p, args.configs).startswith("atari"), p))
     rows, counts = {}, {}
