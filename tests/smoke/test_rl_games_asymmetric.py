@@ -1,7 +1,8 @@
 """The asymmetric path as Isaac Lab's rl_games wrapper drives it: an IVecEnv whose ``get_env_info`` has a
 ``state_space`` (OpenAI gym spaces) and whose observations are ``{"obs", "states"}``, with the agent config's
 ``central_value_config`` written as Isaac Lab's asymmetric tasks write it. Through rl_games' Python API the
-central value trains on ``states`` and the actor on ``obs``; the player acts on ``obs`` alone; a resume
+central value trains on ``states`` and the actor on ``obs``; the player acts on ``obs`` alone (and rl_games' play
+loop on the dicts); a resume
 brings the central value back."""
 
 import copy
@@ -140,6 +141,11 @@ def test_the_central_value_trains_on_states_plays_on_obs_and_resumes(tmp_path, r
     player.get_batch_size(obs, 1)
     actions = player.get_action(player.obs_to_torch(obs), is_deterministic=True)
     assert actions.shape == (NUM_ENVS, 1) and torch.isfinite(actions).all()
+
+    cfg["params"]["config"]["player"] = {"use_vecenv": True, "num_actors": NUM_ENVS, "games_num": 4}
+    runner.load(cfg)  # rl_games' own play loop on the same env: it takes the {"obs", "states"} dicts
+    played = runner.run({"train": False, "play": True, "checkpoint": str(last)})
+    assert played.games == 4
 
     cfg["params"]["config"]["max_epochs"] = 3
     runner.load(cfg)
