@@ -1,9 +1,8 @@
 """The asymmetric path as Isaac Lab's rl_games wrapper drives it: an IVecEnv whose ``get_env_info`` has a
 ``state_space`` (OpenAI gym spaces) and whose observations are ``{"obs", "states"}``, with the agent config's
 ``central_value_config`` written as Isaac Lab's asymmetric tasks write it. Through rl_games' Python API the
-central value trains on ``states`` and the actor on ``obs``; the player acts on ``obs`` alone (and rl_games' play
-loop on the dicts); a resume
-brings the central value back."""
+central value trains on ``states`` and the actor on ``obs``; the player acts on ``obs`` alone, rl_games' play
+loop on the dicts; a resume brings the central value back."""
 
 import copy
 
