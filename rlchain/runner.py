@@ -199,7 +199,7 @@ class Runner:
         check_writer_names(cfg.log_writers, params.source)  # before a run folder exists
         run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw) if main else None
         if run is not None:
-            run.layout = self.layout
+            run.layout = self.layout if self.layout != "rlchain" else cfg.checkpoint_names
         writers = make_writers(cfg.log_writers, run.root, params.source) if run is not None else []
         tracker = None
         if options.track and run is not None:  # a log writer like the others: wandb.log of the tagged scalars

@@ -5,7 +5,8 @@
 
 Each config is one (task, algorithm) pair: any rlchain or EmbodiChain config with in-training evaluation
 (``config.evaluation`` / ``trainer.enable_eval``). Every seed trains in its own process (``rlchain train``),
-so each run's peak resident memory is its own; the run's TensorBoard curves then give its metrics
+so each run's peak memory is its own (the GPU's peak allocation when it ran on CUDA, else its peak resident
+memory: rlchain.compare.peak_memory); the run's TensorBoard curves then give its metrics
 (rlchain.compare.protocol): final and stable success (last 3 evaluations), steps and seconds to the success
 threshold (first of 3 consecutive evaluations at or above it), final evaluation reward, training fps (env
 steps per second of the run) and env fps (``performance/step_fps``), peak memory. Writes ``report.md`` and
@@ -25,6 +26,7 @@ import time
 from typing import Any
 
 from rlchain.builtins import register_builtins
+from rlchain.compare.peak_memory import reported
 from rlchain.compare.protocol import aggregate, first_sustained, leaderboard, stable
 from rlchain.compare.runs import read_curves
 from rlchain.config.load import load_config
@@ -55,15 +57,32 @@ def describe(config: str, overrides: list[str]) -> tuple[str, str]:
     return params.config.env_name, ALGO_NAMES.get(params.algo.name, params.algo.name)
 
 
-def train_run(config: str, seed: int, train_dir: str, overrides: list[str]) -> tuple[int, float, float]:
-    """Train one seed in its own process: (exit status, wall seconds, peak resident memory in MB)."""
-    cmd = [sys.executable, "-m", "rlchain", "train", config, "--seed", str(seed),
-           f"params.config.train_dir={train_dir}", "params.config.print_stats=false", *overrides]
+def train_run(config: str, seed: int, train_dir: str, overrides: list[str]) -> tuple[int, float, dict[str, Any]]:
+    """Train one seed in its own process: (exit status, wall seconds, its memory record: see
+    :func:`memory_record`)."""
+    os.makedirs(train_dir, exist_ok=True)
+    peaks_file = os.path.join(train_dir, "peak_memory.json")
+    cmd = [sys.executable, "-m", "rlchain.compare.peak_memory", peaks_file, "--", "train", config, "--seed",
+           str(seed), f"params.config.train_dir={train_dir}", "params.config.print_stats=false", *overrides]
     start = time.time()
     proc = subprocess.Popen(cmd)
     _, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)
-    return proc.returncode, time.time() - start, usage.ru_maxrss / 1024.0  # Linux: kilobytes
+    seconds = time.time() - start
+    peaks: dict[str, Any] = {"cpu_peak_rss_mb": usage.ru_maxrss / 1024.0, "gpu_peak_memory_mb": None}  # Linux: KB
+    if os.path.isfile(peaks_file):  # absent when the process died before writing it
+        with open(peaks_file, encoding="utf-8") as fh:
+            peaks.update(json.load(fh))
+    return proc.returncode, seconds, memory_record(peaks)
+
+
+def memory_record(peaks: dict[str, Any]) -> dict[str, Any]:
+    """A run's memory fields: ``cpu_peak_rss_mb``, ``gpu_peak_memory_mb`` (None on a CPU run) and the one the
+    report shows, ``peak_memory_mb`` with ``peak_memory_kind`` (``gpu`` when the run used CUDA, else
+    ``cpu_rss``)."""
+    value, kind = reported(peaks)
+    return {"cpu_peak_rss_mb": peaks.get("cpu_peak_rss_mb"), "gpu_peak_memory_mb": peaks.get("gpu_peak_memory_mb"),
+            "peak_memory_mb": value, "peak_memory_kind": kind}
 
 
 def run_metrics(run_dir: str, threshold: float, window: int, sustain: int) -> dict[str, Any]:
@@ -99,13 +118,21 @@ def _fmt(value: Any, digits: int = 2) -> str:
     return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
 
 
+def _peak_cell(row: dict[str, Any]) -> str:
+    """The mean peak with what it measures: GPU (allocated on CUDA) or RSS (CPU resident set)."""
+    kind = {"gpu": "GPU", "cpu_rss": "RSS"}.get(row.get("peak_memory_kind", ""), row.get("peak_memory_kind", ""))
+    value = _fmt(row.get("peak_memory_mb_mean"), 0)
+    return f"{value} {kind}".strip() if value != "-" else "-"
+
+
 def markdown(rows: list[dict[str, Any]], board: list[dict[str, Any]], thresholds: dict[str, float]) -> str:
     """The report: per task and algorithm, then the leaderboard."""
     lines = ["# Benchmark report", "", "Stable success: mean of the last 3 evaluations. Steps / seconds to threshold: "
              "first of 3 consecutive evaluations at or above the task's threshold (mean over the runs that "
-             "reached it). IQM: interquartile mean over seeds with its 95% bootstrap interval.", "",
+             "reached it). IQM: interquartile mean over seeds with its 95% bootstrap interval. Peak memory: the "
+             "GPU's peak allocation (GPU) on CUDA runs, else the process's peak resident set (RSS).", "",
              "| task | algorithm | runs | threshold | stable success | IQM [95% CI] | reached | steps to threshold "
-             "| seconds to threshold | final reward | training fps | env fps | peak MB |",
+             "| seconds to threshold | final reward | training fps | env fps | peak memory MB |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         iqm = (f"{_fmt(r.get('stable_success_iqm'))} [{_fmt(r.get('stable_success_iqm_low'))}, "
@@ -118,7 +145,7 @@ def markdown(rows: list[dict[str, Any]], board: list[dict[str, Any]], thresholds
                      f"{_fmt(r.get('steps_to_success_threshold_mean'), 0)} | "
                      f"{_fmt(r.get('seconds_to_success_threshold_mean'), 0)} | {_fmt(r.get('final_reward_mean'))} | "
                      f"{_fmt(r.get('training_fps_mean'), 0)} | {_fmt(r.get('env_fps_mean'), 0)} | "
-                     f"{_fmt(r.get('peak_memory_mb_mean'), 0)} |")
+                     f"{_peak_cell(r)} |")
     lines += ["", "## Leaderboard (score: stable success averaged over tasks)", "",
               "| rank | algorithm | score | steps to threshold | tasks |", "|---|---|---|---|---|"]
     for b in board:
@@ -147,9 +174,9 @@ def main(argv: list[str] | None = None) -> int:
         thresholds[task] = threshold
         for seed in args.seeds:
             train_dir = os.path.join(args.out, "runs", f"{task}_{algorithm}_seed{seed}")
-            status, seconds, peak_mb = train_run(config, seed, train_dir, overrides)
+            status, seconds, memory = train_run(config, seed, train_dir, overrides)
             run: dict[str, Any] = {"task": task, "algorithm": algorithm, "seed": seed, "config": config,
-                                   "status": status, "seconds": seconds, "peak_memory_mb": peak_mb}
+                                   "status": status, "seconds": seconds, **memory}
             folders = sorted(glob.glob(os.path.join(train_dir, "*", "")))
             if status == 0 and folders:
                 run["run_dir"] = folders[-1]

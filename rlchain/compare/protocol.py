@@ -18,7 +18,7 @@ from typing import Any
 from rlchain.compare.stats import interval_estimate
 
 SCALARS = ("final_reward", "final_success_rate", "final_success_rate_stable", "training_fps", "env_fps",
-           "peak_memory_mb", "seconds")
+           "peak_memory_mb", "cpu_peak_rss_mb", "gpu_peak_memory_mb", "seconds")
 STEPS = ("steps_to_success_threshold", "seconds_to_success_threshold")
 
 
@@ -56,6 +56,9 @@ def aggregate(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             if values:
                 row[f"{key}_mean"] = mean(values)
                 row[f"{key}_std"] = pstdev(values) if len(values) > 1 else 0.0
+        kinds = {r["peak_memory_kind"] for r in items if r.get("peak_memory_kind")}
+        if kinds:  # what peak_memory_mb measures: gpu, cpu_rss, or mixed over the runs
+            row["peak_memory_kind"] = kinds.pop() if len(kinds) == 1 else "mixed"
         row["runs_reaching_threshold"] = sum(r.get("steps_to_success_threshold") is not None for r in items)
         scores = [float(r["final_success_rate_stable"]) for r in items
                   if isinstance(r.get("final_success_rate_stable"), (int, float))]

@@ -31,9 +31,9 @@ TRAINER_KEYS = {
     "buffer_size", "rollout_steps", "enable_eval", "num_eval_envs", "num_eval_episodes", "eval_freq",
     "save_freq", "eval_seed", "best_eval_metric", "best_eval_mode", "use_wandb", "wandb_project_name", "events",
     "renderer", "distributed", "total_timesteps", "segment_length", "update_horizon", "deterministic_actions",
-    "save_frequency_updates",
+    "save_frequency_updates", "enable_rt",
 }
-SIM_ONLY_KEYS = ("headless", "gpu_id", "renderer")  # DexSim's window, GPU and renderer
+SIM_ONLY_KEYS = ("headless", "gpu_id", "renderer", "enable_rt")  # DexSim's window, GPU, renderer, ray tracing
 POLICY_KEYS = {"name", "actor", "critic", "initial_log_std", "action_dim"}
 MODULE_KEYS = {"type", "network_cfg"}
 NETWORK_KEYS = {"hidden_sizes", "activation", "last_activation", "use_layernorm", "dropout_p", "orthogonal_init"}
@@ -141,12 +141,8 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     if "device" not in env_config and "device" in inspect.signature(ENVS.get(env_name)).parameters:
         env_config["device"] = str(trainer.get("device", "cpu"))  # EmbodiChain's envs live on the sim device
     num_envs = int(trainer.get("num_envs", defaults["num_envs"]))
-    if "rollout_steps" in trainer:
-        if "buffer_size" in trainer:
-            raise ConfigError(source, "trainer.rollout_steps", "both rollout_steps (old name) and buffer_size "
-                                                              "given; keep buffer_size")
-        warn_once(source, "trainer.rollout_steps", "old name, read as buffer_size")
-    horizon = int(trainer.get("buffer_size", trainer.get("rollout_steps", defaults["buffer_size"])))
+    horizon = int(_renamed((trainer, "trainer.rollout_steps"), (trainer, "trainer.buffer_size"),
+                           defaults["buffer_size"], source))
     if name == "apg":
         horizon = int(trainer.get("segment_length", 16))
         if int(trainer.get("update_horizon", horizon)) != horizon:
@@ -175,10 +171,12 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
         # --play: the evaluation's episode count and its deterministic actions
         "player": {"games_num": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
                    "deterministic": True},
-        "save_frequency": _epochs(trainer.get("save_freq", defaults["save_freq"]), frames_per_epoch),
+        "save_frequency_frames": max(0, int(trainer.get("save_freq", defaults["save_freq"]))),
+        "checkpoint_names": "embodichain",  # <exp>_step_<N>.pt, <exp>_best.pt
     }
     if name == "apg":  # EmbodiChain's differentiable trainer counts saves in updates (= segments here)
         config["save_frequency"] = int(trainer.get("save_frequency_updates", 0))
+        config["save_frequency_frames"] = 0
         config["deterministic_actions"] = bool(trainer.get("deterministic_actions", False))
     if "total_timesteps" in trainer:
         config["max_frames"] = int(trainer["total_timesteps"])
@@ -200,6 +198,19 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     return {"params": params}
 
 
+def _renamed(old: tuple[dict, str], new: tuple[dict, str], default: Any, source: str) -> Any:
+    """A key of the old layout and its new place, each (block, dotted path): the new one's value, else the old
+    one's with a warning, else ``default``; both given is an error."""
+    (old_block, old_path), (new_block, new_path) = old, new
+    old_key, new_key = old_path.rsplit(".", 1)[1], new_path.rsplit(".", 1)[1]
+    if old_key not in old_block:
+        return new_block.get(new_key, default)
+    if new_key in new_block:
+        raise ConfigError(source, old_path, f"both {old_path} (old layout) and {new_path} given; keep {new_path}")
+    warn_once(source, old_path, f"old layout, read as {new_path}")
+    return old_block[old_key]
+
+
 def _epochs(steps: Any, frames_per_epoch: int) -> int:
     """An EmbodiChain frequency in env steps as whole epochs (at least 1; 0 stays off)."""
     steps = int(steps)
@@ -213,18 +224,19 @@ def _evaluation(trainer: dict, frames_per_epoch: int, defaults: dict, source: st
     mode = trainer.get("best_eval_mode", "max")
     if mode not in ("max", "min"):
         raise ConfigError(source, "trainer.best_eval_mode", f"expected max or min, got {mode!r}")
-    select = {("eval/avg_reward", "max"): "evaluation", ("eval/success_rate", "max"): "evaluation_success"}
-    if (metric, mode) not in select:
-        warn_once(source, "trainer.best_eval_metric", f"{metric} ({mode}): rlchain's best checkpoint follows the "
-                  "highest evaluation mean reward (eval/avg_reward, max) or success rate (eval/success_rate, max)")
+    select = {"eval/avg_reward": "evaluation", "eval/success_rate": "evaluation_success",
+              "eval/avg_length": "evaluation_length"}
+    if metric not in select:
+        warn_once(source, "trainer.best_eval_metric", f"{metric}: rlchain's best checkpoint follows "
+                  f"{', '.join(select)}; it follows eval/avg_reward ({mode})")
     block = {"interval": _epochs(trainer.get("eval_freq", defaults["eval_freq"]), frames_per_epoch),
              "games": int(trainer.get("num_eval_episodes", defaults["num_eval_episodes"])),
              "num_envs": int(trainer.get("num_eval_envs", defaults["num_eval_envs"])),
              "seed": int(trainer.get("eval_seed", int(trainer.get("seed", DEFAULTS["seed"])) + 10_000)),
-             "select_best": select.get((metric, mode), "evaluation")}
+             "select_best": select.get(metric, "evaluation"), "best_mode": mode}
     if block["interval"] == 0:
         return {}
-    return {"evaluation": block}
+    return {"evaluation": block, "save_best_after": 0}  # theirs saves <exp>_best.pt from the first evaluation
 
 
 def _optimizer(cfg: dict, source: str) -> dict[str, Any]:
@@ -232,12 +244,8 @@ def _optimizer(cfg: dict, source: str) -> dict[str, Any]:
     if not isinstance(optimizer, dict):
         raise ConfigError(source, "algorithm.cfg.optimizer", f"expected a mapping, got {optimizer!r}")
     _unknown(optimizer, {"name", "learning_rate", "kwargs"}, "algorithm.cfg.optimizer", source)
-    if "learning_rate" in cfg:
-        if "learning_rate" in optimizer:
-            raise ConfigError(source, "algorithm.cfg.learning_rate", "both a flat learning_rate (old layout) and "
-                                                                     "optimizer.learning_rate; keep the latter")
-        warn_once(source, "algorithm.cfg.learning_rate", "old layout, read as optimizer.learning_rate")
-    lr = float(optimizer.get("learning_rate", cfg.get("learning_rate", DEFAULTS["learning_rate"])))
+    lr = float(_renamed((cfg, "algorithm.cfg.learning_rate"), (optimizer, "algorithm.cfg.optimizer.learning_rate"),
+                        DEFAULTS["learning_rate"], source))
     opt_name = str(optimizer.get("name", "adam")).lower()
     if opt_name != "adam":
         raise ConfigError(source, "algorithm.cfg.optimizer.name", f"{opt_name!r}: rlchain trains with Adam; "
@@ -325,9 +333,6 @@ def _mlp(module: Any, path: str, source: str) -> dict[str, Any]:
     _unknown(net, NETWORK_KEYS, f"{path}.network_cfg", source)
     if "hidden_sizes" not in net:
         raise ConfigError(source, f"{path}.network_cfg.hidden_sizes", "required key is missing")
-    if float(net.get("dropout_p", 0.0)):
-        raise ConfigError(source, f"{path}.network_cfg.dropout_p", "dropout is not implemented in rlchain's mlp; "
-                                                                   "remove it or set 0")
     return net
 
 
@@ -339,6 +344,30 @@ def _activation(value: Any, path: str, source: str) -> str:
     return ACTIVATIONS[key]
 
 
+def _gains(net: dict) -> list[float] | None:
+    """``orthogonal_init`` as a list of gains (one number: every layer), None when absent."""
+    gains = net.get("orthogonal_init")
+    if gains is None:
+        return None
+    return [float(g) for g in (gains if isinstance(gains, list) else [gains])]
+
+
+def _mlp_block(net: dict, path: str, source: str) -> dict[str, Any]:
+    """One ``network_cfg`` as rlchain's ``mlp`` block: units, activation, layer norm, dropout, the first
+    orthogonal gain for the hidden layers (rlchain's initializer has one gain per block)."""
+    mlp: dict[str, Any] = {"units": [int(u) for u in net["hidden_sizes"]],
+                           "activation": _activation(net.get("activation", "elu"), f"{path}.network_cfg.activation",
+                                                     source)}
+    if net.get("use_layernorm"):
+        mlp["normalization"] = "layer_norm"
+    if float(net.get("dropout_p") or 0.0):
+        mlp["dropout"] = float(net["dropout_p"])
+    gains = _gains(net)
+    if gains is not None:
+        mlp["initializer"] = {"name": "orthogonal_initializer", "gain": gains[0]}
+    return mlp
+
+
 def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
     kind = str(policy.get("name", "")).lower()
     if kind not in ("actor_critic", "actor_only"):
@@ -347,26 +376,19 @@ def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
         raise ConfigError(source, "policy.name", f"algorithm {algo} trains an {POLICY_FOR[algo]} policy, got "
                                                  f"{kind}")
     actor = _mlp(policy.get("actor"), "policy.actor", source)
-    mlp: dict[str, Any] = {"units": [int(u) for u in actor["hidden_sizes"]],
-                           "activation": _activation(actor.get("activation", "elu"), "policy.actor.network_cfg."
-                                                     "activation", source)}
-    if actor.get("use_layernorm"):
-        mlp["normalization"] = "layer_norm"
-    gains = actor.get("orthogonal_init")
-    mu_init: dict[str, Any] = {"name": "default"}
-    if gains is not None:
-        gains = [float(g) for g in (gains if isinstance(gains, list) else [gains])]
-        mlp["initializer"] = {"name": "orthogonal_initializer", "gain": gains[0]}
-        mu_init = {"name": "orthogonal_initializer", "gain": gains[-1]}
+    mlp = _mlp_block(actor, "policy.actor", source)
+    gains = _gains(actor)
+    mu_init: dict[str, Any] = {"name": "orthogonal_initializer", "gain": gains[-1]} if gains else {"name": "default"}
     separate = kind == "actor_critic"
+    network: dict[str, Any] = {"name": "actor_critic", "separate": separate}
     if separate:
-        critic = _mlp(policy.get("critic"), "policy.critic", source)
-        if [int(u) for u in critic["hidden_sizes"]] != mlp["units"] or \
-                _activation(critic.get("activation", "elu"), "policy.critic.network_cfg.activation", source) \
-                != mlp["activation"]:
-            raise ConfigError(source, "policy.critic.network_cfg", "rlchain's separate actor and critic share one "
-                                                                   "mlp block: give the critic the actor's "
-                                                                   "hidden_sizes and activation")
+        path = "policy.critic"
+        critic = _mlp(policy.get("critic"), path, source)
+        critic_mlp = _mlp_block(critic, path, source)
+        if critic_mlp != mlp:  # a critic of its own (sizes, activation, norm, dropout or init differ)
+            network["critic_mlp"] = critic_mlp
+        network["value_activation"] = _activation(critic.get("last_activation"), f"{path}.network_cfg."
+                                                  "last_activation", source)
     elif policy.get("critic") is not None:
         raise ConfigError(source, "policy.critic", "an actor_only policy has no critic; remove the block")
     space = {"continuous": {"mu_activation": _activation(actor.get("last_activation"), "policy.actor.network_cfg."
@@ -375,7 +397,7 @@ def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
                             "sigma_init": {"name": "const_initializer",
                                            "val": float(policy.get("initial_log_std", 0.0))},
                             "fixed_sigma": True, "logstd_bounds": LOG_STD_BOUNDS}}
-    network = {"name": "actor_critic", "separate": separate, "space": space, "mlp": mlp}
+    network.update(space=space, mlp=mlp)
     return {"name": "continuous_a2c_logstd"}, network
 
 

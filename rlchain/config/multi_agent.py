@@ -18,7 +18,8 @@ KEY = "params.config.multi_agent"
 RUN_LEVEL_KEYS = ("env_name", "env_config", "env_runners", "vecenv_type", "num_actors", "env_groups",
                   "horizon_length", "max_epochs", "max_frames", "score_to_win", "name", "device", "train_dir",
                   "full_experiment_name", "player", "evaluation", "callbacks", "save_best_after",
-                  "save_frequency", "games_to_track", "print_stats", "progress", "multi_gpu", "self_play_config",
+                  "save_frequency", "save_frequency_frames", "checkpoint_names", "games_to_track", "print_stats",
+                  "progress", "multi_gpu", "self_play_config",
                   "multi_agent", "central_value_config", "torch_compile", "compile_update", "cuda_graph", "divergence",
                   "seq_length", "bptt_length", "zero_rnn_on_done", "mixed_precision", "log_writers")
 """params.config keys that belong to the whole run (one rollout, one stop rule): a policy's

@@ -43,6 +43,12 @@ class MlpConfig:
     norm_only_first_layer: bool = option(False, "with normalization: only after the first layer")
     normalization: str | None = option(None, "layer_norm or batch_norm after hidden layers",
                                        choices=("layer_norm", "batch_norm"))
+    norm_after_activation: bool = option(False, "with normalization: linear, activation, norm (rl_games 2.0's "
+                                                "order, needed to read its checkpoints) instead of linear, norm, "
+                                                "activation")
+    dropout: float = option(0.0, "rlchain: dropout probability after each hidden activation (EmbodiChain's "
+                                 "dropout_p; active in training passes only); 0 = off",
+                            check=lambda p: None if 0.0 <= p < 1.0 else "expected 0 <= dropout < 1")
 
 
 @dataclass(frozen=True)
@@ -145,6 +151,9 @@ class NetworkConfig:
     separate: bool = option(False, "separate critic network with the same architecture")
     space: SpaceConfig = option(SpaceConfig(), "action head")
     mlp: MlpConfig = option(MlpConfig(), "fully connected layers")
+    critic_mlp: MlpConfig | None = option(None, "rlchain, with separate: True: the critic's own fully connected "
+                                                "layers (units, activation, normalization, dropout, initializer; "
+                                                "its value head takes its initializer); default: mlp's")
     cnn: CnnConfig | None = option(None, "convolutional encoder before the MLP")
     rnn: RnnConfig | None = option(None, "recurrent layer (lstm/gru)")
     normalization: str | None = option(None, "rl_games spelling at network level: layer_norm or batch_norm "

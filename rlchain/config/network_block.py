@@ -32,6 +32,8 @@ def parse_network(network: Any, source: str, path: str = "params.network") -> An
                   if getattr(parsed.space, k) is not None]
         if len(chosen) > 1:
             raise ConfigError(source, f"{path}.space", f"choose one action head, got {', '.join(chosen)}")
+    if getattr(parsed, "critic_mlp", None) is not None and not parsed.separate:
+        raise ConfigError(source, f"{path}.critic_mlp", "a critic of its own needs separate: True")
     return parsed
 
 

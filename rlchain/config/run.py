@@ -58,7 +58,10 @@ class EvaluationConfig:
                                           "evaluation mean reward, or evaluation_success: the evaluation success "
                                           "rate (ties: the higher evaluation reward; EmbodiChain's "
                                           "best_eval_metric eval/success_rate)",
-                              choices=("training", "evaluation", "evaluation_success"))
+                              choices=("training", "evaluation", "evaluation_success", "evaluation_length"))
+    best_mode: str = option("max", "rlchain: with an evaluation select_best, whether the highest or the lowest "
+                                   "score is the best (EmbodiChain's best_eval_mode; evaluation_length: mean "
+                                   "episode length)", choices=("max", "min"))
 
 
 @dataclass(frozen=True)
@@ -231,6 +234,14 @@ class RunConfig:
     save_best_after: int = option(100, "epochs before the best checkpoint is written", check=non_negative)
     save_frequency: int = option(0, "write a periodic checkpoint every N epochs (0 = off)",
                                  check=non_negative)
+    save_frequency_frames: int = option(0, "rlchain: write a periodic checkpoint at the first epoch end at or past "
+                                           "each multiple of N env frames (summed over ranks; EmbodiChain's "
+                                           "save_freq; 0 = off)", check=non_negative)
+    checkpoint_names: str = option("rlchain", "checkpoint file names in nn/: rlchain's (<name>.pth, "
+                                              "last_<name>.pth, <name>_ep_N.pth) or EmbodiChain's "
+                                              "(<name>_best.pt, <name>_step_<frames>.pt, which also hold its "
+                                              "global_step / policy / optimizer keys)",
+                                   choices=("rlchain", "embodichain"))
     games_to_track: int = option(100, "episodes in the running mean reward", check=positive)
     print_stats: bool = option(True, "print the progress line every epoch")
     progress: ProgressConfig = option(ProgressConfig(), "how the progress line is shown: a live status on a "

@@ -17,6 +17,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.errors import EnvError
+
 ATTR = "env_spec"
 """The attribute the spec is attached as."""
 
@@ -132,3 +134,15 @@ def _attach(env: Any) -> EnvSpec:
     except (AttributeError, TypeError):  # a frozen or slotted object: described again on each env_spec()
         pass
     return spec
+
+
+def check_obs_shape(obs: Any, num_envs: int, space: Any, where: str) -> None:
+    """Observations must be (num_envs, *space.shape); anything else is an EnvError at once."""
+    shape = tuple(getattr(obs, "shape", ()))
+    expected = (num_envs, *space.shape)
+    if shape != expected:
+        raise EnvError(f"{where}: observations have shape {shape}, expected {expected} "
+                       f"(num_envs x observation_space.shape)")
+    dtype = str(getattr(obs, "dtype", ""))
+    if "float" not in dtype and "uint8" not in dtype and "int" not in dtype:
+        raise EnvError(f"{where}: observations have dtype {dtype}, expected a numeric array")

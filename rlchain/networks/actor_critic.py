@@ -106,12 +106,17 @@ class ActorCriticNetwork(nn.Module):
                  value_size: int, continuous: bool, make_trunk: Callable[[], Trunk] | None = None) -> None:
         super().__init__()
         self.separate = cfg.separate
+        critic_mlp = getattr(cfg, "critic_mlp", None)  # separate only (parse_network checks)
+        make_critic = (lambda: Trunk(dataclasses.replace(cfg, mlp=critic_mlp), input_shape)) \
+            if critic_mlp is not None else None
         make_trunk = make_trunk or (lambda: Trunk(cfg, input_shape))
         self.actor_trunk = make_trunk()
-        self.critic_trunk = make_trunk() if cfg.separate else None
+        self.critic_trunk = (make_critic or make_trunk)() if cfg.separate else None
         out = self.actor_trunk.out_size
         init = cfg.mlp.initializer
-        self.value = linear(out, value_size, init)
+        # the value head sits on the critic's trunk when it has one of its own
+        self.value = linear(self.critic_trunk.out_size if critic_mlp is not None else out, value_size,
+                            critic_mlp.initializer if critic_mlp is not None else init)
         self.value_act = activation(cfg.value_activation)
         self.continuous = continuous
         if continuous:

@@ -81,7 +81,7 @@ def read_launch(environ: Mapping[str, str], multi_gpu: bool, source: str = "",
         return None
     if not algo_supports:
         raise ConfigError(source, KEY, f"'{algo}' does not support multi_gpu (torchrun) yet; PPO "
-                                       f"(a2c_continuous, a2c_discrete), appo and distill do")
+                                       f"(a2c_continuous, a2c_discrete), appo, distill and grpo do")
     missing = [name for name in LAUNCH_VARS if name not in environ]
     if missing:
         got = f" (only {', '.join(present)} set)" if present else ""

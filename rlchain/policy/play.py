@@ -72,6 +72,35 @@ class EpisodeSuccess:
         return result
 
 
+class PolicySteps:
+    """The play loop's step: ``env`` (reset with ``seed`` at the start) stepped with ``model``'s actions, one
+    step per :meth:`step`; the RNN states are carried (zeroed where an episode ended) and the action masks
+    fetched when the policy uses them (:class:`PolicyStepper`). :attr:`obs` holds the observations the next
+    step acts on. :func:`play` is built on it; so is a probe that only times the env with a policy acting
+    (rlchain.algos.ppo.env_layout)."""
+
+    def __init__(self, model: Any, env: Any, device: torch.device, deterministic: bool = True,
+                 seed: int | None = None) -> None:
+        self.model, self.env, self.device, self.deterministic = model, env, device, deterministic
+        self.spec = env_spec(env)
+        self.obs = torch.as_tensor(env.reset(seed=seed), device=device)
+        self.policy = PolicyStepper(model, env.num_envs, device)
+        self.use_masks = self.policy.uses_masks(self.spec)
+
+    def masks(self) -> torch.Tensor | None:
+        """The env's current action masks when the policy acts under masks, else None."""
+        return self.policy.masks_from(self.env) if self.use_masks else None
+
+    def step(self, masks: torch.Tensor | None = None) -> tuple[Any, torch.Tensor]:
+        """Act on :attr:`obs` (under ``masks``), step the env; returns (its StepResult, (N,) bool CPU dones)."""
+        actions = self.model.dist.to_env(self.policy.act(self.obs, deterministic=self.deterministic, masks=masks))
+        result = self.env.step(self.spec.to_env(actions))
+        done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
+        self.policy.done(done)
+        self.obs = torch.as_tensor(result.obs, device=self.device)
+        return result, done
+
+
 GameHook = Callable[[int, float, int, "float | None"], None]
 ObsHook = Callable[[torch.Tensor, "torch.Tensor | None"], None]
 
@@ -93,39 +122,32 @@ def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
     """
     if games is None and steps is None:
         raise ValueError("play needs games or steps")
-    spec = env_spec(env)
     device = device if device is not None else next(model.parameters()).device
-    dist = model.dist
-    obs = torch.as_tensor(env.reset(seed=seed), device=device)
-    returns = torch.zeros(env.num_envs, dtype=torch.float64)
-    lengths = torch.zeros(env.num_envs, dtype=torch.long)
     rewards: list[float] = []
     episode_lengths: list[int] = []
     successes: list[float] = []
     success = EpisodeSuccess(env.num_envs, success_key, success_mode)
     was_training = model.training
     model.eval()
-    policy = PolicyStepper(model, env.num_envs, device)
-    use_masks = policy.uses_masks(spec)
     taken = 0
     try:
+        loop = PolicySteps(model, env, device, deterministic, seed)
+        returns = torch.zeros(env.num_envs, dtype=torch.float64)
+        lengths = torch.zeros(env.num_envs, dtype=torch.long)
         while True:
             finished = (games is not None and len(rewards) >= games) or (steps is not None and taken >= steps)
             if finished and on_obs is None:
                 break
-            masks = policy.masks_from(env) if use_masks else None
+            masks = loop.masks()
             if on_obs is not None:
-                on_obs(obs, masks)
+                on_obs(loop.obs, masks)
             if finished:
                 break
-            actions = dist.to_env(policy.act(obs, deterministic=deterministic, masks=masks))
-            result = env.step(spec.to_env(actions))
+            result, done = loop.step(masks)
             taken += 1
             reward = torch.as_tensor(result.reward, dtype=torch.float64).cpu()
             reward = reward.sum(-1) if reward.dim() > 1 else reward
             lengths += 1
-            done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
-            policy.done(done)
             success.step(result.infos, done.numpy())
             reward, game_over = game_outcome(result, reward, done)  # whole games (Atari lives)
             returns += reward
@@ -142,7 +164,6 @@ def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
             if render_sleep is not None:
                 env.render()
                 time.sleep(render_sleep)
-            obs = torch.as_tensor(result.obs, device=device)
     finally:
         model.train(was_training)
     n = len(rewards)

@@ -184,20 +184,36 @@ def _decode(value: Any) -> Any:
 
 
 def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -> None:
-    """Load weights, naming the first parameter whose name or shape does not match."""
+    """Load weights, naming the first parameter whose name or shape does not match. ``state['keep_built']``:
+    tensors the checkpoint lacks on purpose (an imported file that never held them) keep the built model's."""
     own = model.state_dict()
     saved = state["model"]
-    missing = [k for k in own if k not in saved]
+    keep = set(state.get("keep_built") or ())
+    missing = [k for k in own if k not in saved and k not in keep]
     unexpected = [k for k in saved if k not in own]
     if missing or unexpected:
         detail = f"missing {missing[:3]}" if missing else f"unexpected {unexpected[:3]}"
-        raise CheckpointError(f"{path}: checkpoint does not match this model's network ({detail}); "
-                              f"was it trained with another config?")
+        hint = "was it trained with another config?"
+        if state.get("origin") == "rl_games":
+            hint = _rl_games_norm_hint(missing, unexpected) or hint
+        raise CheckpointError(f"{path}: checkpoint does not match this model's network ({detail}); {hint}")
     for key, value in saved.items():
         if tuple(value.shape) != tuple(own[key].shape):
             raise CheckpointError(f"{path}: parameter '{key}' has shape {tuple(value.shape)} in the "
                                   f"checkpoint but {tuple(own[key].shape)} in this model")
-    model.load_state_dict(saved)
+    model.load_state_dict(saved, strict=not keep)
+
+
+def _rl_games_norm_hint(missing: list[str], unexpected: list[str]) -> str:
+    """What to change when an rl_games checkpoint's MLP normalization layers differ from the model's."""
+    norm = r"(mlp|trunk|q[12]\.0)\.net\.\d+\.[12]\."
+    if any(re.search(norm, k) for k in unexpected):
+        return ("this rl_games checkpoint normalizes after the activation (network.normalization in rl_games "
+                "2.0): set network.mlp.norm_after_activation: True")
+    if any(re.search(norm, k) for k in missing):
+        return ("rl_games 1.6.5 builds no MLP normalization layers whatever network.normalization says: drop "
+                "that key to play or resume its checkpoints")
+    return ""
 
 
 def rng_state() -> dict[str, Any]:

@@ -3,15 +3,26 @@
 rl_games (1.6.5 and 2.0) saves ``{'model', 'epoch', 'frame', 'optimizer', 'last_mean_rewards', 'env_state'}``
 (PPO), its model's state dict named ``a2c_network.*`` with the normalizers ``running_mean_std.*`` (inputs) and
 ``value_mean_std.*`` (values), every key prefixed ``_orig_mod.`` when the model was compiled. rlchain names
-the same tensors ``network.*``, ``obs_norm.*`` and ``value_norm.*``; the MLP trunk's linear layers are
-``actor_trunk.mlp.net.<layer>.0`` where rl_games counts the modules of one Sequential (``actor_mlp.<2 * layer>``:
-linear, activation, linear, ...). The parameters come in the same order in both, so the
-optimizer's per-parameter state carries over by position.
+the same tensors ``network.*``, ``obs_norm.*`` and ``value_norm.*``. rl_games' trunks map to rlchain's
+``actor_trunk`` / ``critic_trunk``: the MLP's linear layers ``actor_mlp.<2 * layer>`` (one Sequential: linear,
+activation, linear, ...) are ``mlp.net.<layer>.0``; the convolutions ``actor_cnn.<i>`` are ``cnn.net.<i>`` (the
+same Sequential); the recurrent layer ``rnn.rnn`` (``a_rnn`` / ``c_rnn`` when separate) and its LayerNorm
+``layer_norm`` (``a_layer_norm`` / ``c_layer_norm``) are ``rnn.rnn`` and ``rnn.norm``. rl_games' optimizer
+holds the parameters in its modules' registration order, rlchain's in its own: the per-parameter state moves
+by name both ways.
 
-Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load
-returns. Networks converted: rl_games' ``actor_critic`` with plain MLP trunks (shared or separate), continuous
-(``mu``, ``sigma``), discrete (``logits``) and multi-discrete heads; another network (CNN, RNN) or an SAC
-checkpoint is a ValueError naming the first key that has no rlchain name.
+Only tensors, numbers and dicts are read or written: the functions work on what a ``weights_only`` load returns.
+Networks converted: rl_games' ``resnet_actor_critic`` (IMPALA stages, rnn, mlp) and ``actor_critic`` with cnn
+(conv2d; conv1d by the same names), MLP and rnn (lstm / gru, before or after the MLP, layer norm, concatenated
+input or output) trunks, shared or separate, continuous (``mu``, ``sigma``), discrete (``logits``) and multi-
+discrete heads (rl_games' ``logits.<i>`` per action dimension joined into rlchain's one ``logits``, split again
+on export when the file came from rl_games: an rlchain-trained checkpoint does not record the sizes); MLP
+normalization layers (rl_games 2.0's ``network.normalization``: after the activation) onto rlchain's
+``mlp.norm_after_activation`` blocks (see :mod:`rlchain.runs.rl_games_mlp`); a central value
+(``assymetric_vf_nets`` and its optimizer) onto rlchain's ``central_value``; SAC checkpoints in
+:mod:`rlchain.runs.rl_games_sac_checkpoint`. Refused with a ValueError naming the first key: normalization layers
+inside a cnn (rlchain's has none), D2RL MLPs and other networks; the other way, rlchain's norm before the
+activation (rl_games cannot compute it).
 """
 
 from __future__ import annotations
@@ -19,7 +30,11 @@ from __future__ import annotations
 import re
 from typing import Any
 
-COMPILED_PREFIX = "_orig_mod."
+import torch
+
+from rlchain.runs import rl_games_mlp, rl_games_sac_checkpoint
+
+COMPILED_PREFIX = rl_games_sac_checkpoint.COMPILED_PREFIX
 ORIGIN = "rl_games"
 """``state['origin']`` of a converted checkpoint (it holds no RNG streams, episodes or env state)."""
 
@@ -27,6 +42,20 @@ _NORMALIZERS = {"running_mean_std": "obs_norm", "value_mean_std": "value_norm"}
 _NORM_STATS = {"running_mean": "mean", "running_var": "var", "count": "count"}
 _HEADS = ("sigma", "mu", "value", "logits")
 _TRUNKS = {"actor_mlp": "actor_trunk", "critic_mlp": "critic_trunk"}
+_CNNS = {"actor_cnn": "actor_trunk", "critic_cnn": "critic_trunk"}
+# rl_games' recurrent modules -> (rlchain trunk, module inside it); ``rnn`` / ``layer_norm`` when shared
+_RNNS = {"rnn": ("actor_trunk", "rnn.rnn"), "a_rnn": ("actor_trunk", "rnn.rnn"), "c_rnn": ("critic_trunk", "rnn.rnn"),
+         "layer_norm": ("actor_trunk", "rnn.norm"), "a_layer_norm": ("actor_trunk", "rnn.norm"),
+         "c_layer_norm": ("critic_trunk", "rnn.norm")}
+# rl_games' A2CBuilder registers its modules in this order (its optimizer's parameter order); the fixed sigma
+# vector (``a2c_network.sigma``, a parameter of the network itself) comes before them all
+_MODULE_ORDER = ("cnn", "actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
+                 "a_layer_norm", "c_layer_norm", "mlp", "value", "logits", "mu", "sigma")
+# rl_games' resnet_actor_critic (``cnn`` IMPALA stages, then ``rnn`` and ``mlp``; never separate): a stage's
+# modules -> their place in rlchain's ImpalaStage (conv, max-pool, two residual blocks of act, conv, act, conv)
+_IMPALA = {"conv.conv": "0", "res_block1.conv1.conv": "2.net.1", "res_block1.conv2.conv": "2.net.3",
+           "res_block2.conv1.conv": "3.net.1", "res_block2.conv2.conv": "3.net.3"}
+_BUFFERS = ("running_mean", "running_var", "num_batches_tracked")
 
 
 def strip_compiled(names: dict[str, Any]) -> dict[str, Any]:
@@ -42,39 +71,78 @@ def is_rl_games_checkpoint(state: Any) -> bool:
     if isinstance(model, dict):
         return any(key.replace(COMPILED_PREFIX, "").startswith(("a2c_network.", "running_mean_std."))
                    for key in model)
-    return "actor" in state and "critic" in state and "log_alpha" in state  # rl_games' SAC
+    return rl_games_sac_checkpoint.is_sac(state)
 
 
-def _trunk_names(keys: list[str], rl_prefix: str, ours: str, two_d: set[str]) -> dict[str, str]:
-    """rl_games' Sequential ``actor_mlp.<2 * layer>.<p>`` (linear, activation, linear, ...) ->
-    ``<ours>.mlp.net.<layer>.0.<p>``. A norm module (a 1-d weight) is refused: rl_games normalizes after the
-    activation, rlchain before it, so the same weights would compute another function."""
+def _dims(model: dict[str, Any], key: str) -> int:
+    return len(getattr(model.get(key), "shape", ()))
+
+
+def _trunk_names(keys: list[str], rl_prefix: str, ours: str, model: dict[str, Any]) -> dict[str, str]:
+    """rl_games' Sequential ``actor_mlp.<i>.<p>`` (linear, activation[, norm], linear, ...) ->
+    ``<ours>.mlp.net.<layer>.<position>.<p>`` (see :mod:`rlchain.runs.rl_games_mlp`)."""
+    tensors = {k: model[f"a2c_network.{k}"] for k in keys}
+    where = rl_games_mlp.sequential_layers(tensors, rl_prefix, "a2c_network.")
+    out: dict[str, str] = {}
+    for key in keys:
+        index, param = key[len(rl_prefix) + 1:].split(".", 1)
+        layer, position = where[int(index)]
+        out[key] = f"network.{ours}.mlp.net.{layer}.{position}.{param}"
+    return out
+
+
+def _cnn_names(keys: list[str], rl_prefix: str, ours: str, model: dict[str, Any]) -> dict[str, str]:
+    """rl_games' ``actor_cnn.<i>.<p>`` (conv, activation, conv, ...) -> ``<ours>.cnn.net.<i>.<p>``: the same
+    Sequential. A normalization layer after a convolution (network.normalization) has no rlchain place."""
     out: dict[str, str] = {}
     for key in keys:
         match = re.fullmatch(rf"{re.escape(rl_prefix)}\.(\d+)\.(weight|bias)", key)
-        index = int(match.group(1)) if match else -1
-        if match is None or index % 2 or f"{rl_prefix}.{index}.weight" not in two_d:
-            raise ValueError(f"'a2c_network.{key}' is not a linear layer of a plain MLP (rlchain converts MLP "
-                             f"trunks without normalization layers)")
-        out[key] = f"network.{ours}.mlp.net.{index // 2}.0.{match.group(2)}"
+        if match is None or _dims(model, f"a2c_network.{rl_prefix}.{match.group(1)}.weight") < 3:
+            raise ValueError(f"'a2c_network.{key}' is not a convolution (rlchain's cnn has no normalization "
+                             f"layers: network.normalization with a cnn cannot be read)")
+        out[key] = f"network.{ours}.cnn.net.{match.group(1)}.{match.group(2)}"
     return out
+
+
+def _impala_name(key: str) -> str:
+    """rl_games' resnet ``cnn.<stage>.<module>.<p>`` -> rlchain's ``network.actor_trunk.cnn.stages.<stage>...``."""
+    match = re.fullmatch(r"cnn\.(\d+)\.(.+)\.(weight|bias)", key)
+    if match is None or match.group(2) not in _IMPALA:
+        raise ValueError(f"'a2c_network.{key}' has no rlchain name (rlchain's IMPALA stages have no batch norm, "
+                         f"attention or zero-init scale)")
+    return f"network.actor_trunk.cnn.stages.{match.group(1)}.{_IMPALA[match.group(2)]}.{match.group(3)}"
 
 
 def model_names_from_rl_games(model: dict[str, Any]) -> dict[str, str]:
     """rl_games model key -> rlchain model key (keys without ``_orig_mod.``), in rl_games' order."""
     names: dict[str, str] = {}
     network = [k[len("a2c_network."):] for k in model if k.startswith("a2c_network.")]
-    two_d = {k for k in network if k.endswith(".weight") and len(getattr(model[f"a2c_network.{k}"], "shape", ())) == 2}
     for rl_trunk, ours in _TRUNKS.items():
         keys = [k for k in network if k.startswith(rl_trunk + ".")]
-        names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, rl_trunk, ours, two_d).items()})
+        names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, rl_trunk, ours, model).items()})
+    resnet = [k for k in network if k.startswith("cnn.")]
+    names.update({f"a2c_network.{k}": _impala_name(k) for k in resnet})
+    if resnet:  # its MLP is ``mlp``, the trunk's
+        keys = [k for k in network if k.startswith("mlp.")]
+        names.update({f"a2c_network.{k}": v for k, v in _trunk_names(keys, "mlp", "actor_trunk", model).items()})
+    for rl_cnn, ours in _CNNS.items():
+        keys = [k for k in network if k.startswith(rl_cnn + ".")]
+        names.update({f"a2c_network.{k}": v for k, v in _cnn_names(keys, rl_cnn, ours, model).items()})
     for key in network:
         if f"a2c_network.{key}" in names:
             continue
-        if key.split(".")[0] not in _HEADS:
+        module, _, rest = key.partition(".")
+        if module in _RNNS:
+            trunk, inner = _RNNS[module]
+            prefix = "rnn." if module.endswith("rnn") else ""  # LSTMWithDones / GRUWithDones hold ``rnn``
+            if not rest.startswith(prefix):
+                raise ValueError(f"'a2c_network.{key}' has no rlchain name")
+            names[f"a2c_network.{key}"] = f"network.{trunk}.{inner}.{rest[len(prefix):]}"
+        elif module in _HEADS:
+            names[f"a2c_network.{key}"] = f"network.{key}"
+        else:
             raise ValueError(f"'a2c_network.{key}' has no rlchain name (rlchain reads rl_games' actor_critic "
-                             f"with MLP trunks)")
-        names[f"a2c_network.{key}"] = f"network.{key}"
+                             f"with cnn, mlp and rnn trunks)")
     for key in model:
         head, _, stat = key.partition(".")
         if head in _NORMALIZERS:
@@ -86,16 +154,25 @@ def model_names_from_rl_games(model: dict[str, Any]) -> dict[str, str]:
     return {k: names[k] for k in model}
 
 
+def _is_parameter(key: str) -> bool:
+    """Whether a network key names a parameter (the optimizer's), not a buffer."""
+    return key.rsplit(".", 1)[-1] not in _BUFFERS
+
+
 def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     """An rl_games PPO checkpoint as rlchain's checkpoint dict: ``model`` renamed, ``epoch``, ``frames``,
     ``best_reward``, and ``rl_games_optimizer`` (rl_games' optimizer state and its parameters' rlchain names,
     in order) for :func:`optimizer_state`. ``origin`` says where it came from."""
     if "model" not in state:
-        raise ValueError("an rl_games SAC checkpoint (actor / critic / log_alpha); rlchain converts PPO ones")
+        return {"origin": ORIGIN, **rl_games_sac_checkpoint.from_rl_games(state)}
     model = strip_compiled(dict(state["model"]))
+    optimizer = state.get("optimizer")
+    sizes = [int(model[f"a2c_network.logits.{i}.bias"].shape[0]) for i in range(len(model))
+             if f"a2c_network.logits.{i}.bias" in model]
+    model, optimizer = _joined_logits(model, optimizer if isinstance(optimizer, dict) else None)
     names = model_names_from_rl_games(model)
-    # rl_games' optimizer holds the model's parameters: every a2c_network tensor, in the model's order
-    param_names = [names[k] for k in model if k.startswith("a2c_network.")]
+    # rl_games' optimizer holds the model's parameters: every a2c_network parameter, in the model's order
+    param_names = [names[k] for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
     best = state.get("last_mean_rewards", None)
     converted = {
         "origin": ORIGIN,
@@ -104,19 +181,93 @@ def from_rl_games(state: dict[str, Any]) -> dict[str, Any]:
         "frames": int(state.get("frame", 0)),
         "best_reward": float(best) if best is not None else float("-inf"),
     }
-    if isinstance(state.get("optimizer"), dict):
-        converted["rl_games_optimizer"] = {"state_dict": state["optimizer"], "param_names": param_names}
-    for key in ("assymetric_vf_nets", "scaler", "pbt_params"):
+    if optimizer is not None:
+        converted["rl_games_optimizer"] = {"state_dict": optimizer, "param_names": param_names}
+    if sizes:  # written back per dimension by to_rl_games
+        converted["rl_games_logits_sizes"] = sizes
+    if isinstance(state.get("assymetric_vf_nets"), dict):
+        converted["central_value"], cv_params = central_value_from_rl_games(state["assymetric_vf_nets"])
+        if isinstance(state.get("assymetric_vf_optimizer"), dict):
+            converted["rl_games_cv_optimizer"] = {"state_dict": state["assymetric_vf_optimizer"],
+                                                  "param_names": cv_params}
+    for key in ("scaler", "pbt_params"):
         if key in state and state[key] is not None:
             converted.setdefault("rl_games_unread", []).append(key)
     return converted
 
 
-def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: list[str]) -> dict[str, Any]:
+_LOGITS = re.compile(r"a2c_network\.logits\.(\d+)\.(weight|bias)")
+
+
+def _joined_logits(model: dict[str, Any], optimizer: dict[str, Any] | None
+                   ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """rl_games' multi-discrete head (one Linear per action dimension, ``logits.<i>``) as rlchain's one Linear
+    over all of them (``logits``, the dimensions' outputs in order), in the model and in its optimizer's
+    per-parameter state (moments concatenated the same way)."""
+    heads = sorted({int(m.group(1)) for k in model if (m := _LOGITS.fullmatch(k))})
+    if not heads:
+        return model, optimizer
+    joined: dict[str, Any] = {}
+    parts: dict[str, list[str]] = {}  # joined key -> the rl_games keys it holds
+    for key, value in model.items():
+        match = _LOGITS.fullmatch(key)
+        if match is None:
+            joined[key] = value
+            continue
+        name = f"a2c_network.logits.{match.group(2)}"
+        if name not in joined:
+            parts[name] = [f"a2c_network.logits.{i}.{match.group(2)}" for i in heads]
+            joined[name] = torch.cat([model[k] for k in parts[name]], 0)
+    if optimizer is None:
+        return joined, None
+    groups = optimizer.get("param_groups") or []
+    old = [k for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
+    if len(groups) != 1 or len(groups[0]["params"]) != len(old):
+        raise ValueError(f"the rl_games optimizer holds {sum(len(g['params']) for g in groups)} parameters in "
+                         f"{len(groups)} groups, the network {len(old)}")
+    ids = dict(zip(old, groups[0]["params"]))
+    per_param = optimizer.get("state", {})
+    new = [k for k in joined if k.startswith("a2c_network.") and _is_parameter(k)]
+    state: dict[int, Any] = {}
+    for j, key in enumerate(new):
+        pieces = [per_param[ids[k]] for k in parts.get(key, [key]) if ids[k] in per_param]
+        if not pieces:
+            continue
+        state[j] = {field: torch.cat([p[field] for p in pieces], 0)
+                    if torch.is_tensor(value) and value.dim() > 0 else value for field, value in pieces[0].items()}
+    return joined, {"state": state, "param_groups": [{**groups[0], "params": list(range(len(new)))}]}
+
+
+def central_value_from_rl_games(nets: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """rl_games' ``assymetric_vf_nets`` (its central value's state dict: ``model.a2c_network.*`` and the model's
+    normalizers) as rlchain's central value state dict (``network.trunk.*``, ``network.value.*``, ``obs_norm.*``,
+    ``value_norm.*``), and its parameters' names in rl_games' optimizer order."""
+    model = strip_compiled(dict(nets))
+    outside = [k for k in model if not k.startswith("model.")]
+    if outside:
+        raise ValueError(f"'assymetric_vf_nets.{outside[0]}' has no rlchain name")
+    inner = {k[len("model."):]: v for k, v in model.items()}
+    names = {k: _central_name(v) for k, v in model_names_from_rl_games(inner).items()}
+    head = [k for k in names if names[k].startswith("network.") and not names[k].startswith(("network.trunk.",
+                                                                                             "network.value."))]
+    if head:
+        raise ValueError(f"'assymetric_vf_nets.model.{head[0]}' has no rlchain name (a central value network has "
+                         f"one trunk and the value head)")
+    params = [names[k] for k in inner if k.startswith("a2c_network.") and _is_parameter(k)]
+    return {names[k]: v for k, v in inner.items()}, params
+
+
+def _central_name(name: str) -> str:
+    """An actor-critic name as the central value's: rlchain's critic network has one ``trunk``."""
+    return name.replace("network.actor_trunk.", "network.trunk.", 1)
+
+
+def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: list[str],
+                    key: str = "rl_games_optimizer") -> dict[str, Any]:
     """rl_games' optimizer state as the state dict of rlchain's optimizer ``template`` (its own
     ``state_dict()``), whose parameters are ``names`` in order: per-parameter state moved by name, the
     learning rate rl_games had; rlchain's other group settings kept."""
-    saved = converted["rl_games_optimizer"]
+    saved = converted[key]
     rl_state, rl_names = saved["state_dict"], saved["param_names"]
     position = {name: i for i, name in enumerate(rl_names)}
     missing = [n for n in names if n not in position]
@@ -135,6 +286,9 @@ def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: 
 def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
     """rlchain model key -> rl_games model key (the inverse of :func:`model_names_from_rl_games`)."""
     out: dict[str, str] = {}
+    blocks: dict[str, dict[tuple[int, int], int]] = {}  # per trunk: (layer, position) -> rl_games' index
+    separate = any(key.startswith("network.critic_trunk.") for key in model)
+    resnet = any(key.startswith("network.actor_trunk.cnn.stages.") for key in model)
     for key in model:
         head, _, rest = key.partition(".")
         if head in ("obs_norm", "value_norm"):
@@ -142,34 +296,169 @@ def model_names_to_rl_games(model: dict[str, Any]) -> dict[str, str]:
             stat = next(k for k, v in _NORM_STATS.items() if v == rest)
             out[key] = f"{rl_head}.{stat}"
             continue
-        match = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.0\.(weight|bias)", key)
-        if match is not None:  # rl_games' Sequential per layer: linear, activation
-            trunk, layer, param = match.groups()
-            out[key] = f"a2c_network.{trunk}_mlp.{2 * int(layer)}.{param}"
+        impala = re.fullmatch(r"network\.actor_trunk\.cnn\.stages\.(\d+)\.(.+)\.(weight|bias)", key)
+        if impala is not None:  # rl_games' resnet_actor_critic: its cnn, mlp and rnn are not the trunk's
+            stage, module, param = impala.groups()
+            theirs = next((k for k, v in _IMPALA.items() if v == module), None)
+            if theirs is None:
+                raise ValueError(f"'{key}' has no rl_games name")
+            out[key] = f"a2c_network.cnn.{stage}.{theirs}.{param}"
+            continue
+        mlp = re.fullmatch(r"network\.(actor|critic)_trunk\.mlp\.net\.(\d+)\.(\d+)\.(\w+)", key)
+        cnn = re.fullmatch(r"network\.(actor|critic)_trunk\.cnn\.net\.(\d+)\.(weight|bias)", key)
+        rnn = re.fullmatch(r"network\.(actor|critic)_trunk\.rnn\.(rnn|norm)\.(\w+)", key)
+        if mlp is not None:  # rl_games' one Sequential: linear, activation[, norm] per layer
+            trunk, layer, position, param = mlp.groups()
+            prefix = f"network.{trunk}_trunk.mlp.net."
+            if prefix not in blocks:
+                blocks[prefix] = rl_games_mlp.block_indices([k for k in model if k.startswith(prefix)], prefix)[0]
+            rl_mlp = "mlp" if resnet else f"{trunk}_mlp"
+            out[key] = f"a2c_network.{rl_mlp}.{blocks[prefix][(int(layer), int(position))]}.{param}"
+        elif cnn is not None:  # the same Sequential: conv, activation, ...
+            trunk, index, param = cnn.groups()
+            out[key] = f"a2c_network.{trunk}_cnn.{index}.{param}"
+        elif rnn is not None:
+            trunk, module, param = rnn.groups()
+            prefix = (trunk[0] + "_") if separate else ""
+            out[key] = f"a2c_network.{prefix}rnn.rnn.{param}" if module == "rnn" \
+                else f"a2c_network.{prefix}layer_norm.{param}"
         elif head == "network" and rest.split(".")[0] in _HEADS:
             out[key] = f"a2c_network.{rest}"
         else:
-            raise ValueError(f"'{key}' has no rl_games name (rl_games' actor_critic with MLP trunks is written)")
+            raise ValueError(f"'{key}' has no rl_games name (rl_games' actor_critic with cnn, mlp and rnn "
+                             f"trunks is written)")
     return out
 
 
+def _rl_games_rank(key: str) -> tuple[int, int]:
+    """Where rl_games' model puts ``key``: its normalizers, then the network's modules in registration order."""
+    head, _, rest = key.partition(".")
+    if head != "a2c_network":
+        return (0 if head == "value_mean_std" else 1, 0)
+    module = rest.split(".")[0]
+    if rest == "sigma":  # the fixed sigma: a parameter of the network itself, first
+        return (2, -1)
+    return (2, _MODULE_ORDER.index(module) if module in _MODULE_ORDER else len(_MODULE_ORDER))
+
+
+def _reordered_optimizer(optimizer: dict[str, Any], ours: list[str], theirs: list[str],
+                         names: dict[str, str]) -> dict[str, Any]:
+    """rlchain's optimizer state (parameters ``ours`` in order) with its per-parameter state in rl_games' order
+    (``theirs``, rl_games names; ``names``: ours -> theirs)."""
+    groups = optimizer.get("param_groups") or []
+    if len(groups) != 1 or len(groups[0]["params"]) != len(ours):
+        raise ValueError(f"the optimizer holds {sum(len(g['params']) for g in groups)} parameters in "
+                         f"{len(groups)} groups, the network {len(ours)} (rl_games has one group)")
+    position = {names[name]: i for i, name in enumerate(ours)}
+    saved_ids = groups[0]["params"]
+    per_param = optimizer.get("state", {})
+    state = {j: per_param[saved_ids[position[name]]] for j, name in enumerate(theirs)
+             if saved_ids[position[name]] in per_param}
+    return {"state": state, "param_groups": [{**groups[0], "params": list(range(len(theirs)))}]}
+
+
+def _check_same_trunks(model: dict[str, Any]) -> None:
+    """rl_games' separate network builds the critic from the actor's mlp block: a critic trunk of other
+    layer sizes (rlchain's ``network.critic_mlp``) has no rl_games form."""
+    critic = {k: tuple(v.shape) for k, v in model.items() if k.startswith("network.critic_trunk.")}
+    actor = {k.replace("network.actor_trunk.", "network.critic_trunk.", 1): tuple(v.shape)
+             for k, v in model.items() if k.startswith("network.actor_trunk.")}
+    if critic and critic != actor:
+        raise ValueError("the critic's layers differ from the actor's (network.critic_mlp); rl_games' separate "
+                         "actor_critic gives both the one mlp block")
+
+
 def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
-    """An rlchain PPO checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore: ``model`` (``a2c_network.*``,
-    ``running_mean_std.*``, ``value_mean_std.*``), ``epoch``, ``frame``, ``optimizer``, ``last_mean_rewards``,
-    ``env_state``."""
+    """An rlchain PPO or SAC checkpoint dict as the dict rl_games 1.6.5 / 2.0 restore. PPO: ``model``
+    (``a2c_network.*``, ``running_mean_std.*``, ``value_mean_std.*``, in rl_games' order), ``epoch``,
+    ``frame``, ``optimizer`` (its per-parameter state in rl_games' parameter order), ``last_mean_rewards``,
+    ``env_state``; SAC: see :func:`rlchain.runs.rl_games_sac_checkpoint.to_rl_games`."""
     model = dict(state["model"])
+    if rl_games_sac_checkpoint.is_rlchain_sac(model):
+        return rl_games_sac_checkpoint.to_rl_games(state)
+    space = (((state.get("config") or {}).get("params") or {}).get("network") or {}).get("space") or {}
+    sizes = state.get("rl_games_logits_sizes")
+    if "multi_discrete" in space and not sizes:
+        raise ValueError("'network.logits' is one head over every action dimension: rl_games holds one per "
+                         "dimension, and the checkpoint does not record their sizes (multi-discrete is read, "
+                         "not written)")
+    _check_same_trunks(model)
     names = model_names_to_rl_games(model)
-    out: dict[str, Any] = {"model": {names[k]: v for k, v in model.items()},
+    order = sorted(model, key=lambda k: _rl_games_rank(names[k]))  # stable: a module's own order is kept
+    out: dict[str, Any] = {"model": {names[k]: model[k] for k in order},
                            "epoch": int(state.get("epoch", 0)), "frame": int(state.get("frames", 0))}
     agent = state.get("agent") or {}
     if isinstance(agent.get("optimizer"), dict):
-        out["optimizer"] = agent["optimizer"]  # the parameters are in rl_games' order already
-    best = state.get("best_reward")
-    out["last_mean_rewards"] = float(best) if best is not None and best == best and abs(best) != float("inf") \
-        else -1000000000.0
+        ours = [k for k in model if k.startswith("network.") and _is_parameter(k)]
+        theirs = [names[k] for k in order if k.startswith("network.") and _is_parameter(k)]
+        out["optimizer"] = _reordered_optimizer(agent["optimizer"], ours, theirs, names)
+    if isinstance(state.get("central_value"), dict):
+        cv_agent = state.get("central_value_agent") or {}
+        out["assymetric_vf_nets"], cv_optimizer = _central_value_to_rl_games(state["central_value"],
+                                                                             cv_agent.get("optimizer"))
+        if cv_optimizer is not None:
+            out["assymetric_vf_optimizer"] = cv_optimizer
+    if sizes:
+        out["model"], out["optimizer"] = _split_logits(out["model"], out.get("optimizer"), list(sizes))
+        out = {k: v for k, v in out.items() if v is not None}
+    out["last_mean_rewards"] = rl_games_sac_checkpoint.best_reward(state)
     out["env_state"] = None
     return out
 
 
-__all__ = ["ORIGIN", "from_rl_games", "is_rl_games_checkpoint", "model_names_from_rl_games",
-           "model_names_to_rl_games", "optimizer_state", "strip_compiled", "to_rl_games"]
+def _split_logits(model: dict[str, Any], optimizer: dict[str, Any] | None, sizes: list[int]
+                  ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """The inverse of :func:`_joined_logits`: rlchain's one ``logits`` head back as rl_games' ``logits.<i>``
+    of ``sizes`` outputs each, in the model and its optimizer state (rl_games' order)."""
+    out: dict[str, Any] = {}
+    parts: dict[str, list[str]] = {}
+    for key, value in model.items():
+        match = re.fullmatch(r"a2c_network\.logits\.(weight|bias)", key)
+        if match is None:
+            out[key] = value
+            continue
+        parts[key] = [f"a2c_network.logits.{i}.{match.group(1)}" for i in range(len(sizes))]
+        for name, piece in zip(parts[key], torch.split(value, sizes, 0)):
+            out[name] = piece.clone()
+    def head(key: str) -> int:  # rl_games' ModuleList: logits.0.weight, logits.0.bias, logits.1.weight, ...
+        match = re.match(r"a2c_network\.logits\.(\d+)\.", key)
+        return int(match.group(1)) if match else 0
+
+    out = dict(sorted(out.items(), key=lambda kv: (_rl_games_rank(kv[0]), head(kv[0]))))
+    if optimizer is None:
+        return out, None
+    old = [k for k in model if k.startswith("a2c_network.") and _is_parameter(k)]
+    new = [k for k in out if k.startswith("a2c_network.") and _is_parameter(k)]
+    per_param = optimizer.get("state", {})
+    pieces: dict[str, Any] = {}
+    for i, key in enumerate(old):
+        if i not in per_param:
+            continue
+        if key not in parts:
+            pieces[key] = per_param[i]
+            continue
+        split = {f: torch.split(v, sizes, 0) if torch.is_tensor(v) and v.dim() > 0 else None
+                 for f, v in per_param[i].items()}
+        for j, name in enumerate(parts[key]):
+            pieces[name] = {f: split[f][j].clone() if split[f] is not None else v for f, v in per_param[i].items()}
+    state = {j: pieces[name] for j, name in enumerate(new) if name in pieces}
+    return out, {"state": state, "param_groups": [{**optimizer["param_groups"][0], "params": list(range(len(new)))}]}
+
+
+def _central_value_to_rl_games(model: dict[str, Any], optimizer: dict[str, Any] | None
+                               ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """rlchain's central value state dict (and its optimizer's state) as rl_games' ``assymetric_vf_nets``
+    (``model.*``, uncompiled names: rl_games compiles after it restores) and ``assymetric_vf_optimizer``."""
+    renamed = {k.replace("network.trunk.", "network.actor_trunk.", 1): k for k in model}
+    names = model_names_to_rl_games(dict.fromkeys(renamed))
+    order = sorted(renamed, key=lambda k: _rl_games_rank(names[k]))
+    nets = {f"model.{names[k]}": model[renamed[k]] for k in order}
+    if not isinstance(optimizer, dict):
+        return nets, None
+    ours = [k for k in renamed if k.startswith("network.") and _is_parameter(k)]
+    theirs = [names[k] for k in order if k.startswith("network.") and _is_parameter(k)]
+    return nets, _reordered_optimizer(optimizer, ours, theirs, names)
+
+
+__all__ = ["ORIGIN", "central_value_from_rl_games", "from_rl_games", "is_rl_games_checkpoint",
+           "model_names_from_rl_games", "model_names_to_rl_games", "optimizer_state", "strip_compiled", "to_rl_games"]

@@ -18,7 +18,8 @@ class RunDir:
     root: str
     name: str
     layout: str = "rlchain"
-    """``rl_games``: checkpoint names as rl_games writes them (:mod:`rlchain.runs.rl_games_layout`)."""
+    """``rl_games``: checkpoint names as rl_games writes them (:mod:`rlchain.runs.rl_games_layout`);
+    ``embodichain``: as EmbodiChain's trainer does (``<name>_best.pt``, ``<name>_step_<frames>.pt``)."""
 
     @property
     def nn(self) -> str:
@@ -29,9 +30,13 @@ class RunDir:
         return os.path.join(self.root, "summaries")
 
     def checkpoint(self, kind: str = "best") -> str:
-        """best: nn/<name>.pth; last: nn/last_<name>.pth; ep_N: nn/<name>_ep_N.pth; file:STEM: nn/STEM.pth."""
+        """best: nn/<name>.pth; last: nn/last_<name>.pth; ep_N: nn/<name>_ep_N.pth; file:STEM: nn/STEM.pth.
+        In the ``embodichain`` layout best is nn/<name>_best.pt and file:STEM nn/STEM.pt."""
+        suffix = ".pt" if self.layout == "embodichain" else ".pth"
         if kind.startswith("file:"):
-            return os.path.join(self.nn, f"{kind[len('file:'):]}.pth")
+            return os.path.join(self.nn, f"{kind[len('file:'):]}{suffix}")
+        if kind == "best" and self.layout == "embodichain":
+            return os.path.join(self.nn, f"{self.name}_best.pt")
         if kind == "best":
             return os.path.join(self.nn, f"{self.name}.pth")
         if kind == "last":

@@ -59,7 +59,7 @@ class EvaluationCallback(Callback):
                      f"{result.mean_length:.1f}{won} over {result.games} games")
         ctx.emit("on_evaluation", result)
         score = _score(self.cfg.select_best, result)
-        if score is not None and (self.best is None or score > self.best):
+        if is_better(score, self.best, self.cfg.best_mode):
             self.best = score
             if state.epoch >= config.save_best_after:
                 ctx.save("best")
@@ -74,10 +74,19 @@ class EvaluationCallback(Callback):
             env.close()
 
 
+def is_better(score: Any, best: Any, mode: str = "max") -> bool:
+    """Whether ``score`` beats ``best`` (None: nothing yet) under ``mode`` (max or min); a None score never does."""
+    if score is None:
+        return False
+    return best is None or (score < best if mode == "min" else score > best)
+
+
 def _score(select_best: str, result: PlayResult) -> Any:
     """What ``select_best`` ranks evaluations by (None: evaluations do not pick the best checkpoint)."""
     if select_best == "evaluation":
         return result.mean_reward
+    if select_best == "evaluation_length":
+        return result.mean_length
     if select_best == "evaluation_success":
         return (result.success_rate if result.success_rate is not None else float("-inf"), result.mean_reward)
     return None

@@ -15,7 +15,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint, rl_games_layout
+from rlchain.runs import rl_games_checkpoint, rl_games_layout, rl_games_sac_checkpoint
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -35,6 +35,7 @@ class CheckpointSaver:
         self.newest: tuple[str, int] | None = None  # (path, epoch) of the newest checkpoint this run wrote
         self.resumed_from: str | None = None  # the checkpoint this run started from
         self.failure: str | None = None  # why the latest write failed (None once one succeeds)
+        self.frames_seen = ctx.frames  # frames at the last periodic check (save_frequency_frames)
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
         """Everything exact resume needs: the learner now and the run's state at the last epoch
@@ -56,6 +57,8 @@ class CheckpointSaver:
         if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
             state["ranks"] = boundary["ranks"]
         state.update(algo.extra_state(kind))
+        if self.run is not None and self.run.layout == "embodichain":
+            state.update(embodichain_keys(state))
         get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum
         env_state = get_env_state() if callable(get_env_state) else None
         if env_state is not None:
@@ -68,6 +71,8 @@ class CheckpointSaver:
             return None
         if kind == "last" and self.run.layout == "rl_games":
             kind = "file:" + rl_games_layout.final_stem(self.ctx.params.config.name, self.ctx.epoch, self.last_reward)
+        if kind == "last" and self.run.layout == "embodichain":  # theirs: periodic and final files alike
+            kind = f"file:{self.ctx.params.config.name}_step_{self.ctx.frames}"
         bad = check_parameters(self.algorithm.model)
         if bad is not None:
             log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
@@ -110,13 +115,24 @@ class CheckpointSaver:
             self.best_reward = episodes["reward"]
             if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
                 self.save("best")
-        if cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
-            self.save(f"ep_{epoch}")
+        if self._periodic_due():
+            if self.run is None or self.run.layout != "embodichain":
+                self.save(f"ep_{epoch}")
             self.save("last")
 
+    def _periodic_due(self) -> bool:
+        """Whether this epoch writes the periodic checkpoint: every ``save_frequency`` epochs, or at the first
+        epoch end at or past each multiple of ``save_frequency_frames`` (EmbodiChain's save_freq rule)."""
+        cfg = self.ctx.cfg
+        seen, self.frames_seen = self.frames_seen, self.ctx.frames
+        if cfg.save_frequency > 0 and self.ctx.epoch % cfg.save_frequency == 0:
+            return True
+        every = cfg.save_frequency_frames
+        return every > 0 and self.ctx.frames // every > seen // every
+
     def _from_rl_games(self, state: dict[str, Any], path: str) -> dict[str, Any]:
-        """A converted rl_games checkpoint completed for resume: its optimizer state on this agent's
-        parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
+        """A converted rl_games checkpoint completed for resume: its optimizer state (PPO's one, SAC's three) on
+        this agent's parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
         none), so the envs start new episodes."""
         agent = self.algorithm.agent.state_dict()
         if "rl_games_optimizer" in state and "optimizer" in agent:
@@ -126,9 +142,36 @@ class CheckpointSaver:
             except ValueError as exc:
                 raise ckpt.CheckpointError(f"{path}: {exc}") from None
             agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        state = self._rl_games_central_value(state, path)
+        if "rl_games_sac_optimizers" in state:
+            try:
+                agent = rl_games_sac_checkpoint.optimizer_states(state, agent)
+            except (KeyError, ValueError) as exc:
+                raise ckpt.CheckpointError(f"{path}: the rl_games SAC optimizers do not fit this agent: {exc}") \
+                    from None
+        if state.get("rl_games_unread"):
+            log.warning(f"warning: {path}: rl_games' {', '.join(state['rl_games_unread'])} not read (rlchain starts "
+                        f"them anew)")
         run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
                 "run_state": run_state, "live_config": {}}
+
+    def _rl_games_central_value(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        """An rl_games central value (``assymetric_vf_nets``) with its optimizer state on this run's central
+        value agent (a fresh one when the file has none); the file's central value is ignored without one."""
+        cv_agent = getattr(self.algorithm, "cv_agent", None)
+        if "central_value" not in state or cv_agent is None:
+            return state
+        agent = cv_agent.state_dict()
+        if "rl_games_cv_optimizer" in state:
+            names = [n for n, p in self.algorithm.central_value.named_parameters() if p.requires_grad]
+            try:
+                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names,
+                                                                         key="rl_games_cv_optimizer")
+            except ValueError as exc:
+                raise ckpt.CheckpointError(f"{path}: central value: {exc}") from None
+            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+        return {**state, "central_value_agent": agent}
 
     def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
         """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
@@ -153,6 +196,18 @@ class CheckpointSaver:
         ctx.tracker.load_state_dict(state["episodes"])
         algo.restore_extra(state)
         self.point.restore(state)
+        self.frames_seen = ctx.frames
         set_env_state = getattr(ctx.env, "set_env_state", None)
         if "env_state" in state and callable(set_env_state):
             set_env_state(state["env_state"])
+
+
+def embodichain_keys(state: dict[str, Any]) -> dict[str, Any]:
+    """The keys EmbodiChain's trainer writes, beside rlchain's (the same tensors, stored once): ``global_step``
+    (env steps over all ranks), ``policy`` (rlchain's model state dict: rlchain's module names, not
+    EmbodiChain's), ``optimizer`` when the algorithm has one."""
+    out = {"global_step": int(state["frames"]), "policy": state["model"]}
+    agent = state.get("agent")
+    if isinstance(agent, dict) and "optimizer" in agent:
+        out["optimizer"] = agent["optimizer"]
+    return out

@@ -39,6 +39,8 @@ class DumpState(Callback):
         state = {"model": trainer.model.state_dict(), "optimizer": trainer.algorithm.agent.optimizer.state_dict(),
                  "lr": trainer.algorithm.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
                  "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
+        if getattr(trainer.algorithm, "reference", None) is not None:  # GRPO's frozen initial policy
+            state["reference"] = trainer.algorithm.reference.state_dict()
         if getattr(trainer.algorithm, "central_value", None) is not None:
             state["central_value"] = trainer.algorithm.central_value.state_dict()
             state["cv_optimizer"] = trainer.algorithm.cv_agent.optimizer.state_dict()
@@ -198,6 +200,30 @@ def test_central_value_critic_stays_identical(tmp_path):
     states = load_dumps(dumps)
     assert "central_value" in states[0]
     assert_ranks_identical(states)
+
+
+@pytest.mark.timeout(180)
+def test_grpo_from_an_embodichain_config_with_distributed(tmp_path):
+    """GRPO through train.py --distributed with an EmbodiChain-layout config: each rank normalises its own
+    groups (8 envs per rank, groups of 4, so none straddles two ranks); gradients averaged, the frozen
+    reference policy is rank 0's on both ranks."""
+    actor = {"type": "mlp", "network_cfg": {"hidden_sizes": [16], "activation": "tanh"}}
+    config = {"trainer": {"exp_name": "ec_grpo", "gym_config": "EmbodiChainCartPoleStandIn", "seed": 1,
+                          "device": "cpu", "num_envs": 8, "iterations": 2, "buffer_size": 16, "save_freq": 0},
+              "policy": {"name": "actor_only", "actor": actor},
+              "algorithm": {"name": "grpo", "cfg": {"optimizer": {"name": "adam", "learning_rate": 1e-3},
+                                                    "n_epochs": 2, "batch_size": 64, "group_size": 4,
+                                                    "kl_coef": 0.01}}}
+    path = tmp_path / "train_config.json"
+    path.write_text(json.dumps(config))
+    out, dumps = torchrun(["--config", str(path), "--distributed", f"params.config.train_dir={tmp_path}/runs",
+                           CALLBACK, "params.torch_threads=1"], tmp_path, script=os.path.join(ROOT, "train.py"))
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    states = load_dumps(dumps)
+    assert_ranks_identical(states)
+    assert states[0]["frames"] == 2 * 16 * 8 * 2  # iterations x buffer_size x num_envs x ranks
+    for key, tensor in states[0]["reference"].items():
+        assert torch.equal(tensor, states[1]["reference"][key]), key
 
 
 @pytest.mark.timeout(240)

@@ -7,12 +7,15 @@ import os
 import subprocess
 import sys
 
+import torch
 import yaml
 
 from rlchain import Runner
+from rlchain.training.events import Callback
 from tests.conftest import ROOT
 
 CALLS = []
+REFERENCES = []
 
 
 def tick(env, env_ids, **params):
@@ -20,7 +23,7 @@ def tick(env, env_ids, **params):
     CALLS.append((type(env).__name__, env_ids, params))
 
 
-def layout(tmp_path, algo="ppo", gym_config="EmbodiChainPushStandIn"):
+def layout(tmp_path, algo="ppo", gym_config="EmbodiChainPushStandIn", save_freq=0):
     actor = {"type": "mlp", "network_cfg": {"hidden_sizes": [16], "activation": "tanh"}}
     policy = {"name": "actor_critic", "actor": actor, "critic": actor} if algo == "ppo" else \
         {"name": "actor_only", "actor": actor}
@@ -29,7 +32,7 @@ def layout(tmp_path, algo="ppo", gym_config="EmbodiChainPushStandIn"):
         cfg.update(group_size=4, kl_coef=0.01)
     trainer = {"exp_name": f"ec_{algo}", "gym_config": gym_config, "seed": 1, "device": "cpu", "num_envs": 8,
                "iterations": 2, "buffer_size": 16, "enable_eval": True, "eval_freq": 128, "num_eval_envs": 2,
-               "num_eval_episodes": 2, "save_freq": 0,
+               "num_eval_episodes": 2, "save_freq": save_freq,
                "events": {"train": {"tick": {"func": "tests.smoke.test_embodichain.tick", "interval_step": 8,
                                              "params": {"x": 1}}}}}
     path = tmp_path / "train_config.json"
@@ -53,6 +56,45 @@ def test_runs_with_their_tags_events_and_saved_config(tmp_path):
     assert len(CALLS) == 4 and CALLS[0] == ("PushStandIn", None, {"x": 1})  # 32 env steps, every 8th
     saved = glob.glob(os.path.join(result.run_dir, "*.yaml"))
     assert saved and "params" in yaml.safe_load(open(saved[0]))
+
+
+def test_checkpoints_carry_their_names_and_keys_and_play_and_resume(tmp_path):
+    from rlchain.runs import checkpoint as ckpt
+
+    path = layout(tmp_path, save_freq=100)  # 128 env steps an epoch: a save after epochs 1 and 2
+    result = Runner().load(path, [f"params.config.train_dir={tmp_path}/runs"]).train()
+    nn = os.path.join(result.run_dir, "nn")
+    assert sorted(os.listdir(nn)) == ["ec_ppo_best.pt", "ec_ppo_step_128.pt", "ec_ppo_step_256.pt"]
+    state = ckpt.load(os.path.join(nn, "ec_ppo_step_128.pt"))
+    assert state["global_step"] == 128 and state["optimizer"]["state"]
+    assert all(torch.equal(v, state["model"][k]) for k, v in state["policy"].items())
+    assert Runner().load(path).play(os.path.join(nn, "ec_ppo_best.pt"), games=2, quiet=True).games == 2
+    resumed = Runner().load(path, [f"params.config.train_dir={tmp_path}/again"]).train(
+        checkpoint=os.path.join(nn, "ec_ppo_step_128.pt"))
+    assert resumed.frames == 256 and "ec_ppo_step_256.pt" in os.listdir(os.path.join(resumed.run_dir, "nn"))
+
+
+class KeepReference(Callback):
+    """Test-only: keeps GRPO's frozen reference policy at the end of training."""
+
+    drives_trainer = True  # reads the algorithm
+
+    def on_train_end(self, trainer, result):
+        REFERENCES.append({k: v.clone() for k, v in trainer.algorithm.reference.state_dict().items()})
+
+
+def test_grpo_resume_keeps_the_reference_policy(tmp_path):
+    from rlchain.runs import checkpoint as ckpt
+
+    REFERENCES.clear()
+    path = layout(tmp_path, "grpo", "EmbodiChainCartPoleStandIn", save_freq=100)
+    first = Runner().load(path, [f"params.config.train_dir={tmp_path}/runs"]).train(callbacks=[KeepReference()])
+    step = os.path.join(first.run_dir, "nn", "ec_grpo_step_128.pt")
+    saved = ckpt.load(step)["grpo_reference"]
+    assert all(torch.equal(v, REFERENCES[0][k]) for k, v in saved.items())  # the initial policy, kept
+    Runner().load(path, [f"params.config.train_dir={tmp_path}/again"]).train(checkpoint=step,
+                                                                           callbacks=[KeepReference()])
+    assert all(torch.equal(v, REFERENCES[1][k]) for k, v in saved.items())
 
 
 def test_train_py_grpo(tmp_path):
@@ -86,6 +128,7 @@ def test_rlchain_benchmark_writes_its_report(tmp_path):
     report = json.loads((out / "report.json").read_text())
     (run,) = report["runs"]
     assert run["status"] == 0 and run["final_success_rate_stable"] is not None and run["peak_memory_mb"] > 0
+    assert run["peak_memory_kind"] == "cpu_rss" and run["gpu_peak_memory_mb"] is None
     assert run["steps_to_success_threshold"] is None  # two evaluations: never 3 in a row
     assert report["leaderboard"][0]["algorithm"] == "grpo"
     assert "| EmbodiChainCartPoleStandIn | grpo | 1 |" in (out / "report.md").read_text()

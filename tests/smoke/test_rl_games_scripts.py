@@ -268,7 +268,7 @@ def test_an_rl_games_checkpoint_resumes_under_the_launcher(tmp_path, monkeypatch
         from rl_games.common import env_configurations, vecenv
         from rl_games.torch_runner import Runner
 
-        env_class = make_checkpoints.make_env_class(True)
+        env_class = make_checkpoints.make_env_class("continuous")
         vecenv.register("TINY", lambda config_name, num_actors, **kwargs: env_class(num_actors))
         env_configurations.register("tiny_env", {"vecenv_type": "TINY", "env_creator": lambda **kwargs: env_class(4)})
         cfg = copy.deepcopy(make_checkpoints.CONFIGS["continuous"])

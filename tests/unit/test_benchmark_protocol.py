@@ -42,3 +42,33 @@ def test_leaderboard_ranks_by_stable_success_and_report_renders():
     assert [(b["rank"], b["algorithm"]) for b in board] == [(1, "grpo"), (2, "ppo")]
     text = markdown(rows, board, {"push": 0.6})
     assert "| push | ppo | 3 | 0.6 | 0.80 ± 0.08 |" in text and "| 1 | grpo | 0.95 |" in text
+
+
+def test_peak_memory_on_a_cpu_run_is_the_resident_set(tmp_path, monkeypatch):
+    import json
+
+    from rlchain.compare import peak_memory
+    from rlchain.compare.benchmark import memory_record
+
+    out = tmp_path / "peaks.json"
+    monkeypatch.setattr("sys.argv", ["x"])
+    assert peak_memory.main([str(out), "--", "list"]) == 0  # runs `rlchain list` in this process
+    peaks = json.loads(out.read_text())
+    assert peaks["cpu_peak_rss_mb"] > 10 and peaks["gpu_peak_memory_mb"] is None
+    record = memory_record(peaks)
+    assert record["peak_memory_kind"] == "cpu_rss" and record["peak_memory_mb"] == peaks["cpu_peak_rss_mb"]
+    assert memory_record({"cpu_peak_rss_mb": 900.0, "gpu_peak_memory_mb": 12.5})["peak_memory_mb"] == 12.5
+    rows = aggregate([{**r, **record} for r in runs()])
+    assert rows[1]["peak_memory_kind"] == "cpu_rss"
+    assert f"| {rows[1]['peak_memory_mb_mean']:.0f} RSS |" in markdown(rows, leaderboard(rows), {"push": 0.6})
+
+
+@pytest.mark.skipif(not __import__("torch").cuda.is_available(), reason="needs CUDA")
+def test_peak_memory_on_cuda_is_the_gpu_allocation():
+    import torch
+
+    from rlchain.compare.peak_memory import gpu_peak_mb
+
+    block = torch.empty(64 * 2**20, dtype=torch.uint8, device="cuda")  # 64 MB
+    assert gpu_peak_mb() >= 64
+    del block

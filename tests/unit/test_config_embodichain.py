@@ -49,8 +49,9 @@ def test_ppo_keys_keep_embodichain_meaning(tmp_path):
     assert cfg.critic_coef == 1.0  # vf_coef * MSE == 0.5 * critic_coef * MSE
     assert not cfg.clip_value and not cfg.normalize_input and not cfg.normalize_value and not cfg.value_bootstrap
     assert cfg.normalize_advantage and not cfg.clip_actions and cfg.grad_norm == 0.7 and cfg.truncate_grads
-    # 200 and 300 env steps with 8 envs x 16 steps = 128 per epoch: every 2nd and 3rd epoch
-    assert cfg.evaluation.interval == 2 and cfg.save_frequency == 3
+    # 200 env steps with 8 envs x 16 steps = 128 per epoch: every 2nd epoch; saves stay in env steps
+    assert cfg.evaluation.interval == 2 and cfg.save_best_after == 0
+    assert (cfg.save_frequency, cfg.save_frequency_frames, cfg.checkpoint_names) == (0, 300, "embodichain")
     assert (cfg.evaluation.games, cfg.evaluation.num_envs, cfg.evaluation.seed) == (4, 2, 10_003)
 
 
@@ -63,10 +64,19 @@ def test_yaml_and_json_read_the_same(tmp_path):
 def test_old_layout_rollout_steps_and_flat_learning_rate(tmp_path):
     data = layout()
     data["trainer"]["rollout_steps"] = data["trainer"].pop("buffer_size")
+    data["trainer"]["enable_rt"] = False  # the old layout's DexSim ray-tracing switch
     data["algorithm"]["cfg"]["learning_rate"] = data["algorithm"]["cfg"].pop("optimizer")["learning_rate"]
     with pytest.warns(UserWarning, match="old"):
         cfg = load_config(write(tmp_path, data)).config
     assert cfg.horizon_length == 16 and cfg.learning_rate == 1e-3
+    data["trainer"]["buffer_size"] = 32
+    with pytest.raises(ConfigError, match=r"trainer.rollout_steps: both trainer.rollout_steps \(old layout\) and "
+                                          r"trainer.buffer_size given; keep trainer.buffer_size"):
+        load_config(write(tmp_path, data))
+    data["trainer"].pop("rollout_steps")
+    data["algorithm"]["cfg"]["optimizer"] = {"learning_rate": 1e-4}
+    with pytest.raises(ConfigError, match=r"algorithm.cfg.learning_rate: both .* keep algorithm.cfg.optimizer"):
+        load_config(write(tmp_path, data))
 
 
 def test_network_and_policy(tmp_path):
@@ -133,20 +143,68 @@ def test_distributed_is_multi_gpu_and_events_map(tmp_path):
                              {"func": "mypkg.events:tick", "phase": "train", "interval_step": 5, "params": {"x": 1}}]
 
 
-def test_other_optimizers_and_dropout_are_errors(tmp_path):
+def test_other_optimizers_are_errors(tmp_path):
     data = layout()
     data["algorithm"]["cfg"]["optimizer"]["name"] = "sgd"
     with pytest.raises(ConfigError, match="optimizer.name"):
         load_config(write(tmp_path, data))
+
+
+def test_a_critic_unlike_the_actor_is_built_as_its_own_network(tmp_path):
+    import gymnasium as gym
+    import torch
+
+    from rlchain.networks.actor_critic import ActorCriticBuilder
+
     data = layout()
-    data["policy"]["actor"]["network_cfg"]["dropout_p"] = 0.1
-    with pytest.raises(ConfigError, match="dropout"):
-        load_config(write(tmp_path, data))
+    data["policy"]["actor"]["network_cfg"].update(dropout_p=0.1)
+    data["policy"]["critic"] = {"type": "mlp", "network_cfg": {
+        "hidden_sizes": [64, 48, 8], "activation": "tanh", "use_layernorm": True, "last_activation": "relu",
+        "orthogonal_init": [1.0, 1.0, 1.0, 0.5]}}
+    net = load_config(write(tmp_path, data)).network
+    assert net.separate and net.mlp.units == [32, 32] and net.mlp.dropout == 0.1
+    critic = net.critic_mlp
+    assert (critic.units, critic.activation, critic.normalization, critic.dropout) == ([64, 48, 8], "tanh",
+                                                                                       "layer_norm", 0.0)
+    assert critic.initializer.gain == 1.0 and net.value_activation == "relu"
+    builder = ActorCriticBuilder()
+    builder.load(net)
+    model = builder.build("x", input_shape=(5,), actions_num=2, action_space=gym.spaces.Box(-1, 1, (2,)))
+    assert model.value.in_features == 8 and model.mu.in_features == 32
+    assert any(isinstance(m, torch.nn.Dropout) for m in model.actor_trunk.modules())
+    assert any(isinstance(m, torch.nn.LayerNorm) for m in model.critic_trunk.modules())
+    mu, _, value, _ = model({"obs": torch.zeros(3, 5)})
+    assert mu.shape == (3, 2) and value.shape == (3, 1) and (value >= 0).all()
+    same = load_config(write(tmp_path, layout())).network  # the actor's sizes: no critic block of its own
+    assert same.separate and same.critic_mlp is None
+
+
+def test_critic_mlp_needs_separate():
+    from rlchain.config.network_block import parse_network
+
+    block = {"name": "actor_critic", "separate": False, "critic_mlp": {"units": [8]}, "mlp": {"units": [8]}}
+    with pytest.raises(ConfigError, match=r"cfg.yaml: params.network.critic_mlp: a critic of its own needs "
+                                          r"separate: True"):
+        parse_network(block, "cfg.yaml")
 
 
 def test_best_eval_metric_success_rate(tmp_path):
     data = layout(best_eval_metric="eval/success_rate", best_eval_mode="max")
     assert load_config(write(tmp_path, data)).config.evaluation.select_best == "evaluation_success"
+    evaluation = load_config(write(tmp_path, layout(best_eval_metric="eval/avg_length", best_eval_mode="min"))
+                             ).config.evaluation
+    assert (evaluation.select_best, evaluation.best_mode) == ("evaluation_length", "min")
+
+
+def test_best_mode_min_keeps_the_lowest_score():
+    from types import SimpleNamespace
+
+    from rlchain.training.evaluation import _score, is_better
+
+    result = SimpleNamespace(mean_reward=1.0, mean_length=30.0, success_rate=0.5)
+    assert _score("evaluation_length", result) == 30.0 and _score("evaluation_success", result) == (0.5, 1.0)
+    assert is_better(30.0, None, "min") and is_better(20.0, 30.0, "min") and not is_better(40.0, 30.0, "min")
+    assert is_better(40.0, 30.0) and not is_better(30.0, 30.0) and not is_better(None, None)
 
 
 def test_linear_lr_scheduler_end_factor(tmp_path):
@@ -158,3 +216,14 @@ def test_linear_lr_scheduler_end_factor(tmp_path):
 
 def test_is_embodichain():
     assert is_embodichain(layout()) and not is_embodichain({"params": {}})
+
+
+def test_a_critic_of_its_own_has_no_rl_games_export():
+    import torch
+
+    from rlchain.runs.rl_games_checkpoint import to_rl_games
+
+    model = {"network.actor_trunk.mlp.net.0.0.weight": torch.zeros(32, 5),
+             "network.critic_trunk.mlp.net.0.0.weight": torch.zeros(64, 5)}
+    with pytest.raises(ValueError, match="critic_mlp"):
+        to_rl_games({"model": model})

@@ -42,6 +42,17 @@ def test_groups_are_contiguous_and_independent():
         group_advantages(returns, torch.ones(1, 4), 3)
 
 
+def test_per_rank_groups_give_the_advantages_of_the_whole_batch():
+    """multi_gpu: each rank normalises its own envs' groups; with group_size dividing every rank's env count
+    that is the whole batch's computation, split by rank."""
+    torch.manual_seed(0)
+    returns, dones = torch.randn(5, 16), torch.rand(5, 16) < 0.2
+    mask = alive_mask(dones)
+    whole = group_advantages(returns, mask, 4)
+    ranks = [group_advantages(returns[:, r * 8:(r + 1) * 8], mask[:, r * 8:(r + 1) * 8], 4) for r in range(2)]
+    assert torch.allclose(torch.cat(ranks, dim=1), whole)
+
+
 def test_k3_kl_is_zero_at_equal_policies_and_positive_elsewhere():
     lp = torch.tensor([-1.0, -2.0])
     assert k3_kl(lp, lp).tolist() == [0.0, 0.0]

@@ -38,3 +38,13 @@ def test_no_built_in_algorithm_class_is_named_trainer():
     from rlchain.registry import ALGOS
 
     assert not [name for name in ALGOS.names() if ALGOS.get(name).__name__.endswith("Trainer")]
+
+
+@pytest.mark.parametrize("old_module, new_module, name", [
+    ("rlchain.algos.base.collector", "rlchain.algos.core.collector", "OnPolicyCollector"),
+    ("rlchain.algos.base.stepper", "rlchain.algos.core.stepper", "OffPolicyStepper"),
+])
+def test_a_moved_module_still_serves_its_names_with_a_warning(old_module, new_module, name):
+    target = getattr(importlib.import_module(new_module), name)
+    with pytest.warns(DeprecationWarning, match=rf"is renamed {new_module}.{name}"):
+        assert getattr(importlib.import_module(old_module), name) is target

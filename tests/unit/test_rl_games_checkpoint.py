@@ -11,58 +11,173 @@ import pytest
 import torch
 
 from rlchain.rl_games.algos_torch import torch_ext
-from rlchain.rl_games.algos_torch.players import PpoPlayerContinuous, PpoPlayerDiscrete
+from rlchain.rl_games.algos_torch.players import PpoPlayerContinuous, PpoPlayerDiscrete, SACPlayer
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint as rlg
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
-from make_checkpoints import ACTIONS, CONFIGS, KINDS, OBS  # noqa: E402
+import make_checkpoints as made  # noqa: E402
+
+ACTIONS, CONFIGS, KINDS, MULTI, RNN_KINDS = made.ACTIONS, made.CONFIGS, made.KINDS, made.MULTI, made.RNN_KINDS
+is_continuous, obs_shape, player_actions = made.is_continuous, made.obs_shape, made.player_actions
 
 CASES = [(tag, kind) for tag in ("v165", "v20") for kind in KINDS]
 
 
-def _player(kind):
+def _params(tag, kind, as_written=False):
+    """The config the file was trained with, as rlchain reads it: rl_games 2.0 normalizes after the activation
+    (``mlp.norm_after_activation``), rl_games 1.6.5 builds no MLP normalization layers (the key dropped)."""
     params = copy.deepcopy(CONFIGS[kind]["params"])
-    action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if kind != "discrete"
+    if "normalization" in params["network"] and not as_written:
+        if tag == "v165":
+            del params["network"]["normalization"]
+        else:
+            params["network"]["mlp"]["norm_after_activation"] = True
+    return params
+
+
+def _player(tag, kind, as_written=False):
+    params = _params(tag, kind, as_written)
+    action = (gymnasium.spaces.Box(-1.0, 1.0, (ACTIONS,), np.float32) if is_continuous(kind)
+              else gymnasium.spaces.Tuple([gymnasium.spaces.Discrete(n) for n in MULTI]) if kind == "multi_discrete"
               else gymnasium.spaces.Discrete(ACTIONS))
-    params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, (OBS,)),
+    params["config"]["env_info"] = {"observation_space": gymnasium.spaces.Box(-np.inf, np.inf, obs_shape(kind)),
                                     "action_space": action}
-    cls = PpoPlayerContinuous if kind != "discrete" else PpoPlayerDiscrete
+    cls = SACPlayer if kind.startswith("sac") else PpoPlayerContinuous if is_continuous(kind) else PpoPlayerDiscrete
     return cls(params)  # built as rl_games builds a player: one argument
 
 
 @pytest.mark.parametrize("tag,kind", CASES)
 def test_rlchain_plays_an_rl_games_checkpoint_as_rl_games_does(tag, kind):
-    player = _player(kind)
+    player = _player(tag, kind)
     player.restore(os.path.join(DATA, f"{tag}_{kind}.pth"))
     expected = torch.load(os.path.join(DATA, f"{tag}_{kind}_actions.pt"), weights_only=True)
-    player.get_batch_size(expected["obs"], 1)
-    with torch.no_grad():
-        actions = player.get_action(expected["obs"], is_deterministic=True)
-    assert torch.allclose(torch.as_tensor(actions).float().reshape(expected["actions"].shape),
-                          expected["actions"], atol=1e-5)
+    actions = player_actions(player, kind)  # from zero states, three steps in a row for an RNN
+    assert torch.allclose(actions.reshape(expected["actions"].shape), expected["actions"], atol=1e-5)
+
+
+def _rl_games_agent(state):
+    if "rl_games_sac_optimizers" in state:
+        return dict(state["rl_games_sac_optimizers"])
+    return {"optimizer": state["rl_games_optimizer"]["state_dict"]}
 
 
 @pytest.mark.parametrize("tag,kind", CASES)
 def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(tag, kind):
     path = os.path.join(DATA, f"{tag}_{kind}.pth")
     state = ckpt.load(path)
-    assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == (2, 64)
-    original = rlg.strip_compiled(torch_ext.load_checkpoint(path)["model"])
-    back = rlg.to_rl_games({**state, "agent": {"optimizer": state["rl_games_optimizer"]["state_dict"]}})
-    assert list(back["model"]) == list(original)
-    assert all(torch.equal(back["model"][k], original[k]) for k in original)
-    assert (back["epoch"], back["frame"]) == (2, 64)
+    sac = kind.startswith("sac")
+    counters = (4, 64) if sac else (2, 64)
+    assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == counters
+    raw = torch_ext.load_checkpoint(path)
+    back = rlg.to_rl_games({**state, "agent": _rl_games_agent(state)})
+    parts = ("actor", "critic", "critic_target", "running_mean_std") if sac else ("model",)
+    for part in parts:
+        original = rlg.strip_compiled(raw[part])
+        assert list(back[part]) == list(original)
+        assert all(torch.equal(back[part][k], original[k]) for k in original)
+    assert (back["epoch"], back["frame"]) == counters
+    if not sac:  # the optimizer's per-parameter state goes back to each parameter's rl_games position
+        for i, moments in raw["optimizer"]["state"].items():
+            assert torch.equal(back["optimizer"]["state"][i]["exp_avg"], moments["exp_avg"])
+
+
+@pytest.mark.parametrize("tag", ["v165", "v20"])
+def test_an_rl_games_central_value_maps_onto_rlchain_and_back(tag):
+    path = os.path.join(DATA, f"{tag}_central_value.pth")
+    state = ckpt.load(path)
+    assert {"network.trunk.mlp.net.0.0.weight", "network.value.bias", "obs_norm.mean", "value_norm.var"} <= \
+        set(state["central_value"])
+    assert state["rl_games_cv_optimizer"]["param_names"][0] == "network.trunk.mlp.net.0.0.weight"
+    agent = {"optimizer": state["rl_games_optimizer"]["state_dict"]}
+    cv_agent = {"optimizer": state["rl_games_cv_optimizer"]["state_dict"]}
+    back = rlg.to_rl_games({**state, "agent": agent, "central_value_agent": cv_agent})
+    raw = torch_ext.load_checkpoint(path)
+    original = rlg.strip_compiled(raw["assymetric_vf_nets"])
+    assert list(back["assymetric_vf_nets"]) == list(original)  # uncompiled names: rl_games compiles after restoring
+    assert all(torch.equal(back["assymetric_vf_nets"][k], original[k]) for k in original)
+    assert torch.equal(back["assymetric_vf_optimizer"]["state"][2]["exp_avg"],
+                       raw["assymetric_vf_optimizer"]["state"][2]["exp_avg"])
+
+
+@pytest.mark.parametrize("kind", RNN_KINDS + ("cnn",))
+def test_recurrent_and_convolutional_layers_take_rlchain_trunk_names(kind):
+    names = rlg.model_names_from_rl_games(rlg.strip_compiled(torch_ext.load_checkpoint(
+        os.path.join(DATA, f"v20_{kind}.pth"))["model"]))
+    expected = {
+        "lstm": {"a2c_network.rnn.rnn.weight_ih_l0": "network.actor_trunk.rnn.rnn.weight_ih_l0",
+                 "a2c_network.actor_mlp.0.weight": "network.actor_trunk.mlp.net.0.0.weight"},
+        "gru_separate": {"a2c_network.c_rnn.rnn.bias_hh_l0": "network.critic_trunk.rnn.rnn.bias_hh_l0",
+                         "a2c_network.a_layer_norm.weight": "network.actor_trunk.rnn.norm.weight",
+                         "a2c_network.c_layer_norm.bias": "network.critic_trunk.rnn.norm.bias"},
+        "cnn": {"a2c_network.actor_cnn.0.weight": "network.actor_trunk.cnn.net.0.weight",
+                "a2c_network.actor_cnn.2.bias": "network.actor_trunk.cnn.net.2.bias"},
+        "resnet_lstm": {"a2c_network.cnn.1.conv.conv.weight": "network.actor_trunk.cnn.stages.1.0.weight",
+                        "a2c_network.cnn.0.res_block2.conv1.conv.bias": "network.actor_trunk.cnn.stages.0.3.net.1.bias",
+                        "a2c_network.mlp.0.weight": "network.actor_trunk.mlp.net.0.0.weight",
+                        "a2c_network.rnn.rnn.bias_hh_l0": "network.actor_trunk.rnn.rnn.bias_hh_l0"},
+    }[kind]
+    assert {k: names[k] for k in expected} == expected
+
+
+def test_an_rl_games_sac_checkpoint_maps_onto_rlchain_sac():
+    state = ckpt.load(os.path.join(DATA, "v20_sac.pth"))
+    model = state["model"]
+    assert {"network.actor.trunk.net.1.0.weight", "network.actor.head.weight", "network.critic.q2.1.bias",
+            "critic_target.q1.0.net.0.0.weight", "obs_norm.var", "log_alpha"} <= set(model)
+    assert model["network.actor.head.weight"].shape == (2 * ACTIONS, 8)
+    # rl_games 1.6.5 keeps no temperature: the model keeps the one its config starts from
+    assert ckpt.load(os.path.join(DATA, "v165_sac.pth"))["keep_built"] == ["log_alpha"]
 
 
 def test_an_rl_games_network_rlchain_does_not_convert_is_a_one_line_error(tmp_path):
     state = torch_ext.load_checkpoint(os.path.join(DATA, "v165_discrete.pth"))
-    state["model"]["a2c_network.rnn.rnn.weight_ih_l0"] = torch.zeros(4, 8)
-    torch_ext.save_checkpoint(str(tmp_path / "rnn"), state)
-    with pytest.raises(ckpt.CheckpointError, match=r"rnn\.pth: an rl_games checkpoint rlchain cannot read: "
-                                                   r"'a2c_network\.rnn\.rnn\.weight_ih_l0' has no rlchain name"):
-        ckpt.load(str(tmp_path / "rnn.pth"))
+    state["model"]["a2c_network.d2rl.0.weight"] = torch.zeros(4, 8)
+    torch_ext.save_checkpoint(str(tmp_path / "other"), state)
+    with pytest.raises(ckpt.CheckpointError, match=r"other\.pth: an rl_games checkpoint rlchain cannot read: "
+                                                   r"'a2c_network\.d2rl\.0\.weight' has no rlchain name"):
+        ckpt.load(str(tmp_path / "other.pth"))
+
+
+@pytest.mark.parametrize("kind", ["layer_norm", "sac_layer_norm"])
+def test_rl_games_2_normalization_layers_map_after_the_activation(kind):
+    model = ckpt.load(os.path.join(DATA, f"v20_{kind}.pth"))["model"]
+    norm = "network.actor_trunk.mlp.net.1.2.weight" if kind == "layer_norm" else "network.critic.q2.0.net.1.2.bias"
+    assert norm in model and model[norm].shape == (8,)
+
+
+def test_rl_games_2_normalization_without_norm_after_activation_says_to_set_it():
+    player = _player("v20", "layer_norm", as_written=True)
+    with pytest.raises(ckpt.CheckpointError, match=r"v20_layer_norm\.pth: checkpoint does not match .* normalizes "
+                                                   r"after the activation .*: set "
+                                                   r"network\.mlp\.norm_after_activation: True"):
+        player.restore(os.path.join(DATA, "v20_layer_norm.pth"))
+
+
+def test_rl_games_1_6_5_normalization_config_says_to_drop_the_key():
+    player = _player("v165", "layer_norm", as_written=True)  # the config keeps network.normalization
+    with pytest.raises(ckpt.CheckpointError, match=r"rl_games 1\.6\.5 builds no MLP normalization layers "
+                                                   r"whatever network\.normalization says: drop that key"):
+        player.restore(os.path.join(DATA, "v165_layer_norm.pth"))
+
+
+def test_norm_after_activation_builds_rl_games_order():
+    from rlchain.config.schema import MlpConfig
+    from rlchain.networks.mlp import MLP
+
+    after = MLP(3, MlpConfig(units=[4], normalization="layer_norm", norm_after_activation=True)).net[0]
+    before = MLP(3, MlpConfig(units=[4], normalization="layer_norm")).net[0]
+    assert [type(m).__name__ for m in after] == ["Linear", "ELU", "LayerNorm"]
+    assert [type(m).__name__ for m in before] == ["Linear", "LayerNorm", "ELU"]
+
+
+def test_rlchain_normalization_layers_are_not_exported_for_rl_games():
+    state = ckpt.load(os.path.join(DATA, "v165_continuous.pth"))
+    state["model"]["network.actor_trunk.mlp.net.0.1.weight"] = torch.ones(8)
+    with pytest.raises(ValueError, match=r"'network\.actor_trunk\.mlp\.net\.0\.1\.weight' is a normalization "
+                                         r"layer before the activation .* rl_games cannot compute this network"):
+        rlg.to_rl_games(state)
 
 
 def test_torch_ext_save_and_load_checkpoint_round_trip(tmp_path):
@@ -83,3 +198,13 @@ def test_export_rl_games_writes_what_rl_games_reads(tmp_path):
     original = rlg.strip_compiled(torch_ext.load_checkpoint(os.path.join(DATA, "v20_continuous.pth"))["model"])
     assert set(written) >= {"model", "epoch", "frame", "last_mean_rewards"}
     assert all(torch.equal(written["model"][k], original[k]) for k in original) and written["epoch"] == 2
+
+
+def test_a_multi_discrete_head_is_joined_and_written_back_only_with_its_sizes():
+    state = ckpt.load(os.path.join(DATA, "v20_multi_discrete.pth"))
+    assert state["model"]["network.logits.weight"].shape == (sum(MULTI), 8)
+    assert state["rl_games_logits_sizes"] == list(MULTI)
+    trained = {k: v for k, v in state.items() if k != "rl_games_logits_sizes"}  # as rlchain saves it after training
+    trained["config"] = {"params": {"network": {"space": {"multi_discrete": {}}}}}
+    with pytest.raises(ValueError, match=r"'network\.logits' is one head over every action dimension"):
+        rlg.to_rl_games(trained)

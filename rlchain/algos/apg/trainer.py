@@ -17,6 +17,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
@@ -46,37 +47,50 @@ class APG(AlgorithmBase):
         self.agent = AdamAgent(model, self.cfg.learning_rate, self.cfg.weight_decay)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         self.stats: dict[str, float] = {}
+        self.segment: dict[str, list[torch.Tensor]] = {}
+        # a differentiable rollout: raw actions into the tensor env, observations and rewards keep their graph
+        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=_as_is,
+                                           record=self._record, read_obs=_as_is, on_step=self._on_step,
+                                           differentiable=True)
 
     def collect(self) -> bool:
-        """One segment: act, step, keep the graph; then the optimizer step and the cut."""
-        cfg, ctx, model, dist = self.cfg, self.ctx, self.model, self.model.dist
-        model.train()
-        obs = self.obs
-        rewards, dones, entropies = [], [], []
-        for _ in range(cfg.horizon_length):
-            if ctx.stop_requested():
-                return False
-            params, _, _ = model.evaluate(obs)
-            mu, std = params.chunk(2, -1)
-            action = mu if cfg.deterministic_actions else mu + std * torch.randn_like(mu)
-            result = self.env.step(action)
-            reward = result.reward
-            # the episode statistics and callbacks see a detached copy of the step
-            _, _, _, done = ctx.record_step(dataclasses.replace(result, reward=reward.detach(),
-                                                                obs=result.obs.detach()))
-            rewards.append(reward)
-            dones.append(done)
-            entropies.append(dist.entropy(params))
-            obs = result.obs
-        segment_return, _ = discounted_segment_return(rewards, dones, cfg.gamma)
-        entropy, _ = discounted_segment_return(entropies, dones, cfg.gamma)
+        """One segment (the on-policy collector, differentiable): act, step, keep the graph; then the optimizer
+        step and the cut."""
+        cfg = self.cfg
+        self.model.train()
+        self.segment = {"rewards": [], "dones": [], "entropies": []}
+        self.collector.obs = self.obs
+        if not self.collector.rollout():
+            return False
+        segment = self.segment
+        segment_return, _ = discounted_segment_return(segment["rewards"], segment["dones"], cfg.gamma)
+        entropy, _ = discounted_segment_return(segment["entropies"], segment["dones"], cfg.gamma)
         objective, mean_entropy = segment_return.mean(), entropy.mean()
         loss = -objective - cfg.entropy_coef * mean_entropy
         self.stats = self._step(loss)
         self.stats.update(objective=float(objective.detach()), entropy=float(mean_entropy.detach()),
                           loss=float(loss.detach()))
-        self.obs = self.env.detach_state()
+        self.segment = {}
+        self.obs = self.collector.obs = self.env.detach_state()
         return True
+
+    def _act(self, t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:
+        """The collector's act step: a reparameterised sample of the policy (or its mean), with its graph."""
+        params, _, _ = self.model.evaluate(obs)
+        mu, std = params.chunk(2, -1)
+        action = mu if self.cfg.deterministic_actions else mu + std * torch.randn_like(mu)
+        return {"actions": action, "params": params}
+
+    def _record(self, result: Any, rows: slice) -> StepOutcome:
+        """The episode statistics and callbacks see a detached copy of the step."""
+        return self.ctx.record_step(dataclasses.replace(result, reward=result.reward.detach(),
+                                                        obs=result.obs.detach()), rows)
+
+    def _on_step(self, step: CollectedStep) -> None:
+        """The segment keeps each step's rewards (with their graph), ends and policy entropy."""
+        self.segment["rewards"].append(step.result.reward)
+        self.segment["dones"].append(step.outcome[3])
+        self.segment["entropies"].append(self.model.dist.entropy(step.out["params"]))
 
     def _step(self, loss: torch.Tensor) -> dict[str, float]:
         agent, cfg = self.agent, self.cfg
@@ -119,3 +133,8 @@ class APG(AlgorithmBase):
         if name == "learning_rate":
             self.agent.set_lr(value)
         super().apply_hyperparam(name, value)
+
+
+def _as_is(x: Any) -> Any:
+    """APG's actions and observations pass between the policy and the tensor env as they are (with graph)."""
+    return x

@@ -18,7 +18,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.envs.spec import env_spec
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
+from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
 
@@ -85,6 +86,8 @@ class FragmentRunner:
         self._success = SuccessReader(getattr(recipe, "success_key", "auto"))
         self._success_flags = np.zeros((3, num_envs), dtype=bool)  # reported, hit at any step, hit at the last
         self._info_means = InfoMeans(getattr(recipe, "log_info_keys", ()))
+        self._steps_collector: OnPolicyCollector | None = None
+        self._steps: dict[str, list] = {}
 
     # ----- setup ----------------------------------------------------------------------------
     def build(self, seed: int | None, own_process: bool = False) -> dict:
@@ -131,55 +134,79 @@ class FragmentRunner:
 
     # ----- sampling -------------------------------------------------------------------------
     def sample(self, weights: dict | None = None, version: int | None = None) -> Fragment:
-        """``horizon`` steps of every env with the current policy (new ``weights`` first, when given)."""
+        """``horizon`` steps of every env with the current policy (new ``weights`` first, when given), stepped
+        by the on-policy collector with this runner's own bookkeeping (:class:`RunnerSide`)."""
         if weights is not None:
             self.load_weights(weights, version)
         began = time.monotonic()
         if self.obs is None:
             self.obs = torch.as_tensor(np.asarray(self.env.reset(seed=self._seed)))
-        t_len, model = self.horizon, self.model
-        obs_rows, actions, log_probs, params, rewards, terminated, truncated = [], [], [], [], [], [], []
-        final_steps, final_obs = [], []
-        ep_returns, ep_lengths, ep_successes = [], [], []
+        collector = self._collector()
+        steps = self._steps = {"obs": [], "actions": [], "log_probs": [], "params": [], "rewards": [],
+                               "terminated": [], "truncated": [], "final_steps": [], "final_obs": [],
+                               "returns": [], "lengths": [], "successes": []}
         version = self.version
-        for t in range(t_len):
-            if self._killed.is_set():
-                raise RunnerKilled(f"runner {self.worker} killed")
-            out = model.act(self.obs)
-            obs_rows.append(self.obs)
-            result = self.env.step(model.dist.to_env(out["actions"]).numpy())
-            if self.step_delay_s and self._killed.wait(self.step_delay_s):
-                raise RunnerKilled(f"runner {self.worker} killed")
-            reward = np.asarray(result.reward, dtype=np.float32)
-            term, trunc = np.asarray(result.terminated, dtype=bool), np.asarray(result.truncated, dtype=bool)
-            done = term | trunc
-            actions.append(out["actions"])
-            log_probs.append(out["log_probs"])
-            params.append(out["params"])
-            rewards.append(torch.as_tensor(reward))
-            terminated.append(torch.as_tensor(term))
-            truncated.append(torch.as_tensor(trunc))
-            self._track(result, reward, done, ep_returns, ep_lengths, ep_successes)
-            if self._info_means.keys:
-                self._info_means.add(getattr(result, "infos", None))
-            rows = np.flatnonzero(done)
-            if rows.size:
-                final = np.asarray(result.final_obs)[rows]
-                final_steps.extend((t, int(r)) for r in rows)
-                final_obs.append(torch.as_tensor(final))
-            self.obs = torch.as_tensor(np.asarray(result.obs))
-        obs_rows.append(self.obs)
+        collector.obs = self.obs
+        complete = collector.rollout()
+        self.obs = collector.obs
+        if not complete:
+            raise RunnerKilled(f"runner {self.worker} killed")
+        steps["obs"].append(self.obs)
         self.fragments_sampled += 1
         empty_final = torch.zeros((0, *self.obs.shape[1:]), dtype=self.obs.dtype)
+        final_obs = steps["final_obs"]
         return Fragment(
-            obs=torch.stack(obs_rows), actions=torch.stack(actions), log_probs=torch.stack(log_probs),
-            params=torch.stack(params), rewards=torch.stack(rewards), terminated=torch.stack(terminated),
-            truncated=torch.stack(truncated),
-            final_steps=torch.tensor(final_steps, dtype=torch.long).reshape(-1, 2),
+            obs=torch.stack(steps["obs"]), actions=torch.stack(steps["actions"]),
+            log_probs=torch.stack(steps["log_probs"]), params=torch.stack(steps["params"]),
+            rewards=torch.stack(steps["rewards"]), terminated=torch.stack(steps["terminated"]),
+            truncated=torch.stack(steps["truncated"]),
+            final_steps=torch.tensor(steps["final_steps"], dtype=torch.long).reshape(-1, 2),
             final_obs=torch.cat(final_obs).to(self.obs.dtype) if final_obs else empty_final,
-            version=version, worker=self.worker, episode_returns=ep_returns, episode_lengths=ep_lengths,
-            episode_successes=ep_successes, info_totals=self._info_means.totals() if self._info_means.keys else None,
+            version=version, worker=self.worker, episode_returns=steps["returns"], episode_lengths=steps["lengths"],
+            episode_successes=steps["successes"],
+            info_totals=self._info_means.totals() if self._info_means.keys else None,
             sample_seconds=time.monotonic() - began)
+
+    def _collector(self) -> OnPolicyCollector:
+        """The collector over this runner's envs and policy copy (rebuilt when either changed)."""
+        c = self._steps_collector
+        if c is None or c.env is not self.env or c.model is not self.model:
+            side = RunnerSide(self)
+            c = self._steps_collector = OnPolicyCollector(self.env, self.model, side, None, horizon=self.horizon,
+                                                          on_step=self._on_step)
+        return c
+
+    def _on_step(self, step: CollectedStep) -> None:
+        """A fragment row: what the policy saw and did, the env's answer, the true last observations of the
+        episodes that ended."""
+        steps, out = self._steps, step.out
+        rewards, terminated, truncated, dones = step.outcome
+        steps["obs"].append(step.obs)
+        steps["actions"].append(out["actions"])
+        steps["log_probs"].append(out["log_probs"])
+        steps["params"].append(out["params"])
+        steps["rewards"].append(rewards)
+        steps["terminated"].append(terminated)
+        steps["truncated"].append(truncated)
+        rows = np.flatnonzero(dones.numpy())
+        if rows.size:
+            steps["final_steps"].extend((step.t, int(r)) for r in rows)
+            steps["final_obs"].append(torch.as_tensor(np.asarray(step.result.final_obs)[rows]))
+
+    def record(self, result: Any) -> StepOutcome:
+        """An env step's outcome for the runner: ``step_delay_s`` first (a straggler), then the episodes'
+        returns, lengths and success and the info means; (rewards, terminated, truncated, dones) as CPU tensors."""
+        if self.step_delay_s and self._killed.wait(self.step_delay_s):
+            raise RunnerKilled(f"runner {self.worker} killed")
+        reward = np.asarray(result.reward, dtype=np.float32)
+        term, trunc = np.asarray(result.terminated, dtype=bool), np.asarray(result.truncated, dtype=bool)
+        done = term | trunc
+        steps = self._steps
+        self._track(result, reward, done, steps["returns"], steps["lengths"], steps["successes"])
+        if self._info_means.keys:
+            self._info_means.add(getattr(result, "infos", None))
+        return StepOutcome(torch.as_tensor(reward), torch.as_tensor(term), torch.as_tensor(trunc),
+                           torch.as_tensor(done))
 
     def _track(self, result: Any, reward: np.ndarray, done: np.ndarray, returns: list, lengths: list,
                successes: list) -> None:
@@ -212,3 +239,28 @@ class FragmentRunner:
         if self.env is not None:
             self.env.close()
             self.env = None
+
+
+class RunnerSide:
+    """What the on-policy collector asks of its run, on a runner: no RunContext there (the learner's is in
+    another thread or process), so the runner answers: CPU tensors, numpy actions, its own episode
+    bookkeeping (:meth:`FragmentRunner.record`), a kill as the stop signal."""
+
+    device = torch.device("cpu")
+    epoch = 0
+
+    def __init__(self, runner: FragmentRunner) -> None:
+        self.runner = runner
+        self.spec: EnvSpec = env_spec(runner.env)
+
+    def stop_requested(self) -> bool:
+        return self.runner.killed
+
+    def to_tensor(self, x: Any) -> torch.Tensor:
+        return torch.as_tensor(np.asarray(x))
+
+    def env_actions(self, actions: torch.Tensor) -> np.ndarray:
+        return actions.numpy()
+
+    def record_step(self, result: Any, rows: slice) -> StepOutcome:
+        return self.runner.record(result)

@@ -16,9 +16,10 @@ import numpy as np
 import torch
 
 from rlchain.algos.base.episodes import EpisodeTracker, game_outcome
-from rlchain.algos.base.safety import StopSignals, check_obs_shape
+from rlchain.algos.base.safety import StopSignals
+from rlchain.algos.core.collector import StepOutcome
 from rlchain.config.schema import Params
-from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.spec import EnvSpec, check_obs_shape, env_spec
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
@@ -156,16 +157,12 @@ class RunContext:
         """Tensor envs take device tensors; numpy backends take arrays."""
         return actions if self.spec.tensor_native else actions.cpu().numpy()
 
-    def record_step(self, result: Any, rows: slice = slice(None)
-                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def record_step(self, result: Any, rows: slice = slice(None)) -> StepOutcome:
         """Record an env step in the run -- episode statistics (finished episodes as whole games: Atari
         lives; episodes cut by a dead Ray worker dropped), task success, info means, ``on_env_step``
-        callbacks -- and return its (rewards, terminated, truncated, dones) as device tensors.
+        callbacks -- and return its (rewards, terminated, truncated, dones) as device tensors (a StepOutcome).
         ``rows``: the envs ``result`` is for (a pipelined rollout's env group; all by default)."""
-        rewards = self.to_tensor(result.reward).float()
-        terminated = self.to_tensor(result.terminated).bool()
-        truncated = self.to_tensor(result.truncated).bool()
-        dones = terminated | truncated
+        rewards, terminated, truncated, dones = self.step_outcome(result)
         success = self.success.read(result.infos, dones)
         if self.info_means.keys:
             self.info_means.add(result.infos)
@@ -173,7 +170,15 @@ class RunContext:
                           success=success)
         if self.events.step_callbacks:  # nothing more per step unless a callback asked for steps
             self.emit_env_step(result, dones, rows)
-        return rewards, terminated, truncated, dones
+        return StepOutcome(rewards, terminated, truncated, dones)
+
+    def step_outcome(self, result: Any, rows: slice = slice(None)) -> StepOutcome:
+        """An env step's (rewards, terminated, truncated, dones) as device tensors, recorded nowhere (steps
+        outside training: a value warm start before the first epoch)."""
+        rewards = self.to_tensor(result.reward).float()
+        terminated = self.to_tensor(result.terminated).bool()
+        truncated = self.to_tensor(result.truncated).bool()
+        return StepOutcome(rewards, terminated, truncated, terminated | truncated)
 
     env_outcome = record_step  # the same method, for user algorithms that call it by this name
 

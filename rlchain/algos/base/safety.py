@@ -9,7 +9,7 @@ from typing import Any
 
 import torch
 
-from rlchain.errors import DivergenceError, EnvError
+from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 
 log = get_logger(__name__)
@@ -87,18 +87,6 @@ def check_rollout(rewards: torch.Tensor, obs: torch.Tensor) -> str | None:
             step, env = (int(i) for i in bad.nonzero()[0])
             return f"the env returned a non-finite {name} (env {env}, step {step} of the rollout)"
     return None
-
-
-def check_obs_shape(obs: Any, num_envs: int, space: Any, where: str) -> None:
-    """Observations must be (num_envs, *space.shape); anything else is an EnvError at once."""
-    shape = tuple(getattr(obs, "shape", ()))
-    expected = (num_envs, *space.shape)
-    if shape != expected:
-        raise EnvError(f"{where}: observations have shape {shape}, expected {expected} "
-                       f"(num_envs x observation_space.shape)")
-    dtype = str(getattr(obs, "dtype", ""))
-    if "float" not in dtype and "uint8" not in dtype and "int" not in dtype:
-        raise EnvError(f"{where}: observations have dtype {dtype}, expected a numeric array")
 
 
 class DivergenceGuard:

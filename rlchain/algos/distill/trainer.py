@@ -30,6 +30,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
@@ -39,7 +40,6 @@ from rlchain.config.schema import Params
 from rlchain.deprecation import renamed
 from rlchain.envs.vecenv import DROPPED
 from rlchain.errors import DivergenceError
-from rlchain.networks.rnn import zero_finished
 
 
 def corrupt(obs: torch.Tensor, noise_std: float, dropout: float) -> torch.Tensor:
@@ -135,8 +135,12 @@ class Distill(AlgorithmBase):
         self.agent = AdamAgent(model, cfg.learning_rate, cfg.weight_decay)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         n, dev = self.num_envs, self.device
-        self.states: tuple = model.initial_state(n, dev)
-        self.teacher_states: tuple = self.teacher.model.initial_state(n, dev)
+        self.collector = OnPolicyCollector(env, model, ctx, cfg, use_masks=self.use_masks, act=self._act,
+                                           record=self._record, on_step=self._on_step)
+        self.student_states = len(model.initial_state(n, dev))
+        self.collector.rnn_states = self._initial_states()
+        self.beta_now = 1.0
+        self._steps: dict[str, list] = {}
         self.resets = torch.ones(n, dtype=torch.bool, device=dev)  # the first step starts an episode
         self.teacher_drives = torch.ones(n, dtype=torch.bool, device=dev)
         self.teacher_steps = torch.zeros(n, device=dev)  # steps the teacher acted in each running episode
@@ -146,6 +150,11 @@ class Distill(AlgorithmBase):
         self.batch: dict[str, Any] = {}
         self.dataset: deque[dict[str, Any]] = deque(maxlen=cfg.dataset_epochs)  # labelled rollouts kept
         self.delay = DelayLine(cfg.obs_groups.student_delay if cfg.obs_groups is not None else 0)
+
+    def _initial_states(self) -> tuple:
+        """Zero RNN states for every env: the student's, then the teacher's."""
+        n, dev = self.num_envs, self.device
+        return tuple(self.model.initial_state(n, dev)) + tuple(self.teacher.model.initial_state(n, dev))
 
     # -- the schedule --------------------------------------------------------------------------------------
     def beta(self) -> float:
@@ -163,50 +172,74 @@ class Distill(AlgorithmBase):
 
     # -- collect -------------------------------------------------------------------------------------------
     def collect(self) -> bool:
-        """One epoch of env steps: the teacher labels every state; the student or the teacher acts."""
-        cfg, model, teacher, ctx = self.cfg, self.model, self.teacher.model, self.ctx
+        """One epoch of env steps (the on-policy collector): the teacher labels every state; the student or
+        the teacher acts."""
+        self.beta_now = self.beta()
+        self._steps = {"obs": [], "labels": [], "resets": [], "masks": [], "match": []}
+        self.batch = {"states": tuple(s.clone() for s in self.states)}
+        self.collector.obs = self.obs  # where the envs stand: start() and resume set self.obs
+        complete = self.collector.rollout()
+        self.obs = self.collector.obs
+        if not complete:
+            return False
+        steps = self._steps
+        self.batch.update(obs=torch.stack(steps["obs"]), labels=torch.stack(steps["labels"]),
+                          resets=torch.stack(steps["resets"]),
+                          masks=torch.stack(steps["masks"]) if steps["masks"] else None, beta=self.beta_now,
+                          match=float(torch.stack(steps["match"]).mean()))
+        return True
+
+    def _act(self, t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:
+        """The collector's act step: who drives is drawn, the teacher labels the state on its clean view, the
+        student acts on its own (corrupted, delayed) view; the driver's action goes to the envs. ``states``:
+        the student's RNN states, then the teacher's."""
+        cfg, model, teacher = self.cfg, self.model, self.teacher.model
         groups = cfg.obs_groups
         noise, dropout = (groups.student_noise_std, groups.student_dropout) if groups is not None else (0.0, 0.0)
-        beta = self.beta()
-        model.eval()
-        obs_buf, labels, resets, masks_buf, match = [], [], [], [], []
-        self.batch = {"states": tuple(s.clone() for s in self.states)}
-        for _ in range(cfg.horizon_length):
-            if ctx.stop_requested():
-                return False
-            if cfg.mixing == "step":
-                self._draw(torch.ones_like(self.resets), beta)
-            else:
-                self._draw(self.resets, beta)
-            masks = ctx.to_tensor(self.env.get_action_mask()).bool() if self.use_masks else None
-            student_obs = self.delay.push(corrupt(self.obs, noise, dropout), self.resets)
-            with torch.no_grad():
-                t_params, _, t_states = teacher.evaluate(self.obs, self.teacher_states or None, action_masks=masks)
-                s_params, _, s_states = model.evaluate(student_obs, self.states or None, action_masks=masks)
-            dist = model.dist
-            t_action = dist.mode(t_params)
-            s_action = dist.mode(s_params) if cfg.student_deterministic else dist.sample(s_params)
-            drives = self.teacher_drives.view(-1, *([1] * (t_action.dim() - 1)))
-            action = torch.where(drives, t_action, s_action)
-            match.append((s_action == t_action).reshape(self.num_envs, -1).all(-1).float().mean()
-                         if not dist.continuous else (s_action - t_action).abs().mean())
-            obs_buf.append(student_obs)
-            labels.append(t_params)
-            resets.append(self.resets)
-            if masks is not None:
-                masks_buf.append(masks)
-            result = self.env.step(ctx.env_actions(dist.to_env(action)))
-            self._exclude_mixed(result)
-            rewards, _, _, dones = ctx.record_step(result)
-            self._track(rewards, dones)
-            self.obs = ctx.to_tensor(result.obs)
-            self.states = zero_finished(tuple(s_states or ()), dones)
-            self.teacher_states = zero_finished(tuple(t_states or ()), dones)
-            self.resets = dones
-        self.batch.update(obs=torch.stack(obs_buf), labels=torch.stack(labels), resets=torch.stack(resets),
-                          masks=torch.stack(masks_buf) if masks_buf else None, beta=beta,
-                          match=float(torch.stack(match).mean()))
-        return True
+        if cfg.mixing == "step":
+            self._draw(torch.ones_like(self.resets), self.beta_now)
+        else:
+            self._draw(self.resets, self.beta_now)
+        student_obs = self.delay.push(corrupt(obs, noise, dropout), self.resets)
+        s_states, t_states = states[:self.student_states], states[self.student_states:]
+        with torch.no_grad():
+            t_params, _, t_next = teacher.evaluate(obs, t_states or None, action_masks=masks)
+            s_params, _, s_next = model.evaluate(student_obs, s_states or None, action_masks=masks)
+        dist = model.dist
+        t_action = dist.mode(t_params)
+        s_action = dist.mode(s_params) if cfg.student_deterministic else dist.sample(s_params)
+        drives = self.teacher_drives.view(-1, *([1] * (t_action.dim() - 1)))
+        steps = self._steps
+        steps["match"].append((s_action == t_action).reshape(self.num_envs, -1).all(-1).float().mean()
+                              if not dist.continuous else (s_action - t_action).abs().mean())
+        steps["obs"].append(student_obs)
+        steps["labels"].append(t_params)
+        steps["resets"].append(self.resets)
+        if masks is not None:
+            steps["masks"].append(masks)
+        return {"actions": torch.where(drives, t_action, s_action), "states": tuple(s_next or ()) + tuple(t_next or ())}
+
+    def _record(self, result: Any, rows: slice) -> StepOutcome:
+        """The collector's recording: the step in the run's statistics, but for episodes not the student's
+        alone (:meth:`_exclude_mixed`)."""
+        self._exclude_mixed(result)
+        return self.ctx.record_step(result, rows)
+
+    def _on_step(self, step: CollectedStep) -> None:
+        """After each step: the per-side returns, and which rows start an episode next."""
+        rewards, _, _, dones = step.outcome
+        self._track(rewards, dones)
+        self.resets = dones
+
+    @property
+    def states(self) -> tuple:
+        """The student's RNN states (carried by the collector, before the teacher's)."""
+        return self.collector.rnn_states[:self.student_states]
+
+    @property
+    def teacher_states(self) -> tuple:
+        """The teacher's RNN states (carried by the collector, after the student's)."""
+        return self.collector.rnn_states[self.student_states:]
 
     def _exclude_mixed(self, result: Any) -> None:
         """Keep the Loop's episode statistics to the episodes the student played alone: the others ending
@@ -292,8 +325,7 @@ class Distill(AlgorithmBase):
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
         super().restart_episodes()
-        self.states = self.model.initial_state(self.num_envs, self.device)
-        self.teacher_states = self.teacher.model.initial_state(self.num_envs, self.device)
+        self.collector.rnn_states = self._initial_states()
         self.resets = torch.ones_like(self.resets)
         self.delay.line = None
         self.teacher_steps.zero_()

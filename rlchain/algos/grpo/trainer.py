@@ -2,7 +2,11 @@
 the clipped surrogate over the alive steps, a k3 KL to a frozen copy of the initial policy (EmbodiChain's
 algorithm). The rollout is PPO's (rlchain.algos.ppo.rollout); each one starts from fresh episodes
 (``reset_every_rollout``), optionally with every group's members on their leader's initial state
-(``shared_starts``)."""
+(``shared_starts``).
+
+Under multi_gpu (torchrun) each rank steps its own ``num_actors`` envs, so a group's members are always on
+one rank and each rank normalises its own groups, as EmbodiChain's distributed trainer does; the gradients
+are averaged over the ranks before clipping."""
 
 from __future__ import annotations
 
@@ -30,7 +34,7 @@ class GRPO(PPO):
                    "lr": "info/last_lr", "kl": "info/kl", "clip_frac": "info/clip_frac",
                    "grad_norm": "info/grad_norm", "alive_frac": "info/alive_frac"}
     tunable = ("learning_rate", "entropy_coef", "e_clip", "grad_norm", "mini_epochs", "gamma", "kl_coef")
-    supports_distributed = False
+    supports_distributed = True  # groups are per rank (see the module docstring)
     self_play = False
 
     @classmethod
@@ -48,11 +52,27 @@ class GRPO(PPO):
             raise ConfigError(params.source, "params.config.shared_starts",
                               f"True needs an env whose get_state() holds its batch as tensors (rlchain's tensor "
                               f"envs); {type(env).__name__} has none")
-        self.reference = None
-        if cfg.kl_coef > 0:  # the initial policy, frozen
-            self.reference = copy.deepcopy(model).eval()
-            for p in self.reference.parameters():
-                p.requires_grad_(False)
+        # the initial policy, frozen: copied at the first update (after torchrun's ranks took rank 0's
+        # weights) or restored from a checkpoint
+        self.reference: ActorCritic | None = None
+
+    def _freeze_reference(self) -> ActorCritic:
+        reference = copy.deepcopy(self.model).eval()
+        for p in reference.parameters():
+            p.requires_grad_(False)
+        return reference
+
+    def extra_state(self, kind: str) -> dict:
+        out = super().extra_state(kind)
+        if self.reference is not None:
+            out["grpo_reference"] = self.reference.state_dict()
+        return out
+
+    def restore_extra(self, state: dict) -> None:
+        super().restore_extra(state)
+        if self.cfg.kl_coef > 0 and "grpo_reference" in state:
+            self.reference = self._freeze_reference()
+            self.reference.load_state_dict(state["grpo_reference"])
 
     def collect(self) -> bool:
         """Fresh episodes for every env (shared within groups with ``shared_starts``), then PPO's rollout."""
@@ -68,6 +88,9 @@ class GRPO(PPO):
     def learn(self) -> dict[str, float]:
         """Group-relative advantages, then ``mini_epochs`` passes of masked clipped-surrogate minibatches."""
         cfg, storage, model = self.cfg, self.storage, self.model
+        if cfg.kl_coef > 0 and self.reference is None:
+            self.reference = self._freeze_reference()
+        comm = self.ctx.comm
         with torch.no_grad():
             rewards = storage.rewards.sum(-1)
             mask = alive_mask(storage.dones, cfg.truncate_at_first_done)
@@ -99,6 +122,8 @@ class GRPO(PPO):
                     loss = loss + cfg.kl_coef * ref_kl
                 agent.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
+                if comm.active:  # before clipping, so every rank steps with the same gradients
+                    comm.average_gradients(agent.params)
                 grad_norm = torch.nn.utils.clip_grad_norm_(agent.params, cfg.grad_norm) if cfg.truncate_grads \
                     else torch.zeros(())
                 agent.optimizer.step()

@@ -18,6 +18,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
 from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
@@ -68,6 +69,9 @@ class MultiPolicyPPO(AlgorithmBase):
         ctx.tracker = AgentEpisodes(rows, self.cfg.games_to_track, device)  # every agent's episodes
         self.agent = PolicyAgents(self.policies)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
+        # the env takes and gives per-agent dicts: the policies act, record and read them (no run-wide storage)
+        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=_as_is,
+                                           record=_no_record, read_obs=_as_is, on_step=self._on_step)
         self.snapshots = None
         if self.cfg.self_play_config is not None:
             self.snapshots = Snapshots(self.cfg.self_play_config, ma.snapshots, params.source)
@@ -81,35 +85,42 @@ class MultiPolicyPPO(AlgorithmBase):
 
     # ----- the Algorithm hooks --------------------------------------------------------------
     def collect(self) -> bool:
-        """horizon_length env steps; every trained policy's storage gets its agents' rows."""
-        for lr in self.policies:
-            lr.model.eval()
-        for t in range(self.cfg.horizon_length):
-            if self.ctx.stop_requested():
-                return False
-            actions, acted = {}, []
-            for lr in self.policies:
-                obs, active, masks = lr.gather(self.obs)
-                acted.append(active)
-                if lr.pool is not None:  # a self-play snapshot: each env's own
-                    with torch.no_grad():
-                        env_actions = lr.pool.act(obs, len(lr.agents), masks)
-                    actions.update(lr.split(lr.model.dist.to_env(env_actions).cpu().numpy()))
-                    continue
-                with torch.no_grad():
-                    out = lr.model.act(obs, action_masks=masks)
-                if lr.agent is not None:
-                    lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks)
-                    lr.active[t] = active
-                actions.update(lr.split(lr.model.dist.to_env(out["actions"]).cpu().numpy()))
-            result = self.env.step(actions)
-            self._observe(t, result, acted)
-            self.obs = result.obs
+        """horizon_length env steps (the on-policy collector); every trained policy's storage gets its agents'
+        rows."""
+        self.collector.obs = self.obs  # per-agent views, as the env gives them
+        complete = self.collector.rollout()
+        self.obs = self.collector.obs
+        if not complete:
+            return False
         for lr in self.policies:
             if lr.agent is not None:
                 with torch.no_grad():
                     lr.last_values = lr.model.value(lr.gather(self.obs)[0])
         return True
+
+    def _act(self, t: int, views: Any, states: tuple, env_masks: Any) -> dict[str, Any]:
+        """The collector's act step: every policy acts for its agents (a self-play snapshot for each env's
+        own); a trained policy's step t goes into its storage. ``out["actions"]``: the env's per-agent dict."""
+        actions, acted = {}, []
+        for lr in self.policies:
+            obs, active, masks = lr.gather(views)
+            acted.append(active)
+            if lr.pool is not None:  # a self-play snapshot: each env's own
+                with torch.no_grad():
+                    env_actions = lr.pool.act(obs, len(lr.agents), masks)
+                actions.update(lr.split(lr.model.dist.to_env(env_actions).cpu().numpy()))
+                continue
+            with torch.no_grad():
+                out = lr.model.act(obs, action_masks=masks)
+            if lr.agent is not None:
+                lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks)
+                lr.active[t] = active
+            actions.update(lr.split(lr.model.dist.to_env(out["actions"]).cpu().numpy()))
+        return {"actions": actions, "acted": acted}
+
+    def _on_step(self, step: CollectedStep) -> None:
+        """The collector's per-step hook: each policy's rewards and ends (:meth:`_observe`)."""
+        self._observe(step.t, step.result, step.out["acted"])
 
     def _observe(self, t: int, result: Any, acted: list[torch.Tensor]) -> None:
         """Rewards and ends of step t into each policy's storage and episode statistics."""
@@ -226,6 +237,16 @@ class MultiPolicyPPO(AlgorithmBase):
         for lr in self.policies:
             if lr.name in saved:
                 lr.tracker.load_state_dict(saved[lr.name])
+
+
+def _as_is(x: Any) -> Any:
+    """Per-agent actions and views pass between the policies and the env as they are."""
+    return x
+
+
+def _no_record(result: Any, rows: slice) -> None:
+    """Each policy records its agents' outcome itself (MultiPolicyPPO._observe): nothing run-wide here."""
+    return None
 
 
 def _check_supported(params: Params) -> None:

@@ -19,10 +19,10 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.base.stepper import OffPolicyStepper
 from rlchain.algos.core.replay import ReplayBuffer
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.schedules import set_lr
+from rlchain.algos.core.stepper import OffPolicyStepper
 from rlchain.algos.off_policy.dqn import DQNAgent, epsilon_at
 from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
 from rlchain.algos.off_policy.sac import SACAgent

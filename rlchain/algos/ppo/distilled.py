@@ -15,12 +15,12 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.resolve import params_from_state
 from rlchain.config.schema import Params
 from rlchain.models.build import build_model, model_view
-from rlchain.networks.rnn import zero_finished
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.distilled_checkpoint"
@@ -81,35 +81,43 @@ def value_head(model: Any) -> list[torch.nn.Parameter]:
 
 def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, steps: int = 25) -> float:
     """Regress ``trainer.model``'s value head on ``teacher``'s values over ``epochs`` rollouts of the student
-    acting (its own sampling, as PPO will), ``steps`` Adam steps on each; returns the last rollout's mean
-    squared error (normalized scale).
-    The frames are not counted: they happen before training starts."""
+    acting (its own sampling, as PPO will; the on-policy collector steps the envs), ``steps`` Adam steps on
+    each; returns the last rollout's mean squared error (normalized scale).
+    The frames are not counted and the episodes not recorded: they happen before training starts."""
     model, ctx, cfg = trainer.model, trainer.ctx, trainer.cfg
     params = value_head(model)
     opt = torch.optim.Adam(params, lr=lr)
     n = trainer.num_envs
-    states = model.initial_state(n, trainer.device)
-    t_states = teacher.initial_state(n, trainer.device)
-    resets = torch.ones(n, dtype=torch.bool, device=trainer.device)
-    obs = trainer.obs
+    own = len(model.initial_state(n, trainer.device))  # the student's RNN states, then the teacher's
+    rows: list[torch.Tensor] = []
+    targets: list[torch.Tensor] = []
+    starts: list[torch.Tensor] = []
+    resets = [torch.ones(n, dtype=torch.bool, device=trainer.device)]
+
+    def act(t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:
+        s_states, t_states = states[:own], states[own:]
+        with torch.no_grad():
+            out = model.act(obs, states=s_states or None)
+            t_value = teacher.value(obs, t_states or None)
+            _, _, t_next = teacher.evaluate(obs, t_states or None)
+        rows.append(obs)
+        targets.append(t_value)
+        starts.append(resets[0])
+        return {"actions": out["actions"], "states": tuple(out["states"] or ()) + tuple(t_next or ())}
+
+    def on_step(step: CollectedStep) -> None:
+        resets[0] = step.outcome[3]
+
+    collector = OnPolicyCollector(trainer.env, model, ctx, cfg, act=act, record=ctx.step_outcome, on_step=on_step)
+    collector.obs = trainer.obs
+    collector.rnn_states = (tuple(model.initial_state(n, trainer.device))
+                            + tuple(teacher.initial_state(n, trainer.device)))
     loss = torch.zeros(())
     for _ in range(epochs):
-        rows, targets, starts = [], [], []
-        first = tuple(s.clone() for s in states)
-        for _ in range(cfg.horizon_length):
-            with torch.no_grad():
-                out = model.act(obs, states=states or None)
-                t_value = teacher.value(obs, t_states or None)
-                _, _, t_next = teacher.evaluate(obs, t_states or None)
-            rows.append(obs)
-            targets.append(t_value)
-            starts.append(resets)
-            result = trainer.env.step(ctx.env_actions(model.dist.to_env(out["actions"])))
-            dones = ctx.to_tensor(result.terminated).bool() | ctx.to_tensor(result.truncated).bool()
-            obs = ctx.to_tensor(result.obs)
-            states = zero_finished(tuple(out["states"] or ()), dones)
-            t_states = zero_finished(tuple(t_next or ()), dones)
-            resets = dones
+        rows.clear(), targets.clear(), starts.clear()
+        first = tuple(s.clone() for s in collector.rnn_states[:own])
+        if not collector.rollout():  # a stop signal: training stops before its first epoch
+            break
         horizon = len(rows)
 
         def seq(x: list[torch.Tensor]) -> torch.Tensor:  # (T, N, ...) -> env by env rows

@@ -23,11 +23,9 @@ from __future__ import annotations
 
 import statistics
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 import torch
 
 from rlchain.config.schema import Params
@@ -35,6 +33,7 @@ from rlchain.envs.factory import build_env
 from rlchain.log import get_logger
 from rlchain.models.build import build_model
 from rlchain.parallel.device import resolve_device
+from rlchain.policy.play import PolicySteps
 
 log = get_logger(__name__)
 
@@ -76,15 +75,16 @@ def fastest(seconds: dict[Layout, list[float]], margin: float = MARGIN) -> Layou
 
 
 class _Stepper:
-    """Steps one layout's env with the policy's act step, the way the synchronous rollout does."""
+    """Steps one layout's env with the policy acting (the play loop's step, :class:`PolicySteps`), as a
+    synchronous rollout steps it, less the storage."""
 
-    def __init__(self, env: Any, layout: Layout, act: Callable[[Any], np.ndarray]) -> None:
-        self.env, self.layout, self.act = env, layout, act
-        self.obs = np.asarray(env.reset())
+    def __init__(self, env: Any, layout: Layout, model: Any, device: torch.device) -> None:
+        self.layout = layout
+        self.loop = PolicySteps(model, env, device, deterministic=False)
 
     def steps(self, count: int) -> None:
         for _ in range(count):
-            self.obs = np.asarray(self.env.step(self.act(self.obs)).obs)
+            self.loop.step(self.loop.masks())
 
 
 def measure_layouts(steppers: list[_Stepper], rounds: int = ROUNDS,
@@ -106,17 +106,11 @@ def _seconds_per_step(stepper: _Stepper, count: int) -> float:
     return (time.perf_counter() - start) / count
 
 
-def _policy_act(params: Params, env: Any, device: torch.device) -> Callable[[Any], np.ndarray]:
-    """A throwaway policy of the run's network: observations -> env actions, as the rollout's act step."""
+def _policy(params: Params, env: Any, device: torch.device) -> Any:
+    """A throwaway policy of the run's network (evaluation mode), for the timing."""
     model = build_model(params, env, device)
     model.eval()
-    states = tuple(model.initial_state(int(env.num_envs), device)) or None
-
-    def act(obs: Any) -> np.ndarray:
-        with torch.inference_mode():
-            out = model.act(torch.as_tensor(obs, device=device), states=states)
-            return model.dist.to_env(out["actions"]).cpu().numpy()
-    return act
+    return model
 
 
 def choose_env_layout(params: Params, env: Any, seed: int | None) -> Any:
@@ -127,8 +121,8 @@ def choose_env_layout(params: Params, env: Any, seed: int | None) -> Any:
     one = build_env(params, cfg.num_actors, seed, runners=True, groups=1)
     try:
         with torch.random.fork_rng(devices=[device] if device.type == "cuda" else []):
-            act = _policy_act(params, env, device)
-            seconds = measure_layouts([_Stepper(one, ONE_POOL, act), _Stepper(env, TWO_POOLS, act)])
+            model = _policy(params, env, device)
+            seconds = measure_layouts([_Stepper(one, ONE_POOL, model, device), _Stepper(env, TWO_POOLS, model, device)])
     except BaseException:
         one.close()
         raise

@@ -8,9 +8,9 @@ import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
-from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
+from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
 from rlchain.algos.core.storage import RolloutStorage, rollout_step_bytes

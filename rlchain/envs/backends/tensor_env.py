@@ -119,7 +119,8 @@ class TensorVecEnv:
             obs = obs.clone()
             obs[env_ids] = self._reset_idx(env_ids)
             self.episode_steps[env_ids] = 0
-        return StepResult(obs, reward, terminated, truncated, final_obs, {})
+        infos = {k: getattr(self, k) for k in self.info_attrs}
+        return StepResult(obs, reward, terminated, truncated, final_obs, infos)
 
     def get_state(self) -> dict[str, Any]:
         """The batch's state for exact resume: every tensor attribute (a subclass's physics state, the
@@ -141,6 +142,9 @@ class TensorVecEnv:
 
     state_attrs: tuple[str, ...] = ()
     """Non-tensor attributes that change while stepping (saved by :meth:`get_state`)."""
+
+    info_attrs: tuple[str, ...] = ()
+    """Attributes every step's info holds under their names (e.g. ``("success",)``: a subclass's flag)."""
 
     def has_action_mask(self) -> bool:
         """Whether :meth:`get_action_mask` is implemented: a subclass with masks overrides both."""

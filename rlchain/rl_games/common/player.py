@@ -180,8 +180,9 @@ class BasePlayer:
         batched = self.has_batch_dimension or obs.dim() > len(self.obs_shape)
         if not batched:
             obs = obs.unsqueeze(0)
-        states = tuple(self.states) if self.is_rnn and self.states else None
-        out = self.model.act(obs, deterministic=is_deterministic, states=states)
+        # a recurrent model takes its states; SAC's model has no ``states`` argument
+        rnn = {"states": tuple(self.states) if self.states else None} if self.is_rnn else {}
+        out = self.model.act(obs, deterministic=is_deterministic, **rnn)
         if self.is_rnn:
             self.states = list(out["states"])
         actions = self.model.dist.to_env(out["actions"])

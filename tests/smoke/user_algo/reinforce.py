@@ -17,9 +17,9 @@ from typing import Any
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
-from rlchain.algos.base.collector import OnPolicyCollector
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.fields import option, positive
 from rlchain.config.run import RunConfig

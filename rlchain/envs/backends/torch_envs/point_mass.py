@@ -12,18 +12,17 @@ actions across steps (APG); :meth:`TorchPointMass.detach_state` cuts the graph b
 
 from __future__ import annotations
 
-from typing import Any
-
 import gymnasium as gym
 import numpy as np
 import torch
 
 from rlchain.envs.backends.tensor_env import TensorVecEnv
-from rlchain.envs.vecenv import StepResult
 
 
 class TorchPointMass(TensorVecEnv):
     """N point masses; ``state`` (N, 6): position, velocity, goal. Actions float32 (N, 2) in [-1, 1]."""
+
+    info_attrs = ("success",)
 
     def __init__(self, num_envs: int, device: str | torch.device = "cpu", seed: int | None = None,
                  max_episode_steps: int | None = 100, success_threshold: float = 0.05,
@@ -54,11 +53,6 @@ class TorchPointMass(TensorVecEnv):
         self.success = (distance < self.success_threshold).detach()
         reward = -distance + self.success_bonus * self.success.float()
         return self.state.clone(), reward, self.success.clone()
-
-    def step(self, actions: Any) -> StepResult:
-        result = super().step(actions)
-        result.infos["success"] = self.success
-        return result
 
     def detach_state(self) -> torch.Tensor:
         """Cut the autograd graph (truncated backpropagation): the current observations, detached."""

@@ -1,0 +1,89 @@
+"""PPO's minibatch loss: one forward pass of the actor-critic, then the policy, value, entropy, bounds and
+auxiliary losses and the step's statistics.
+
+:func:`ppo_loss` has no side effects and no host syncs: it is the region ``compile_update`` compiles (with
+the backward pass AOTAutograd derives from it) and part of what ``cuda_graph`` captures. The per-sample
+terms it sums are the pure functions of :mod:`rlchain.algos.core.losses`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from contextlib import nullcontext
+
+import torch
+
+from rlchain.algos.core.losses import aux_loss_terms, value_loss
+from rlchain.algos.core.storage import Batch
+from rlchain.config.schema import PPOConfig
+from rlchain.models.actor_critic import ActorCritic
+
+STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")
+"""The statistics of a minibatch step, in the order of its statistics vector (auxiliary losses follow)."""
+
+Surrogate = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
+"""(rollout log-probs (B,), current log-probs (B,), advantages (B,)) -> per-sample policy loss (B,)."""
+
+LossOutput = tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor], torch.Tensor]
+"""(loss (0-d), detached statistics (6,), the network's auxiliary losses, the policy's params (B, P), detached)."""
+
+
+def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: torch.Tensor, reference: torch.Tensor,
+             surrogate: Surrogate, train_critic: bool = True, amp_dtype: torch.dtype | None = None,
+             device_type: str = "cpu", autocast_cache: bool = True) -> LossOutput:
+    """One minibatch's forward pass and losses.
+
+    Returns (loss, the detached statistics a_loss, c_loss, entropy, b_loss, clip_frac, kl as one (6,) vector,
+    the network's auxiliary losses by name, the policy's params (B, param_size), detached). ``reference``
+    (B, param_size) is the distribution the KL is measured against; ``entropy_coef`` a 0-d tensor, so a
+    scheduled coefficient does not recompile a compiled caller. ``train_critic`` False (a central value
+    network trains the values) leaves the value loss out. Under ``amp_dtype`` the network's forward pass runs
+    in autocast (its cache off with ``autocast_cache`` False, as a captured graph needs) and its outputs are
+    cast back to float32, so the log-probs, ratios, KL and losses are computed in float32 against the
+    rollout's float32 log-probs.
+    """
+    dist = model.dist
+    amp = amp_dtype is not None
+    autocast = torch.autocast(device_type, dtype=amp_dtype, cache_enabled=autocast_cache) if amp else nullcontext()
+    with autocast:
+        params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
+                                           batch.action_masks)
+        aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
+    if amp:
+        params, values = params.float(), values.float()
+        aux = {name: value.float() for name, value in aux.items()}
+    log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
+    entropy = entropy.mean()
+    a_loss = surrogate(batch.log_probs, log_probs, batch.advantages).mean()
+    if train_critic:
+        c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
+                            cfg.e_clip, cfg.clip_value).mean()
+    else:
+        c_loss = torch.zeros((), device=values.device)
+    loss = a_loss + 0.5 * cfg.critic_coef * c_loss - entropy_coef * entropy
+    b_loss = torch.zeros((), device=params.device)
+    if cfg.bounds_loss_coef:
+        b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
+        loss = loss + cfg.bounds_loss_coef * b_loss
+    for aux_loss in aux.values():
+        loss = loss + aux_loss
+    with torch.no_grad():
+        current = params.detach().float()
+        kl = dist.kl(reference, current).mean()
+        ratio = torch.exp(log_probs.detach() - batch.log_probs)
+        clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+    stats = torch.stack([a_loss.detach().float(), c_loss.detach().float(), entropy.detach().float(),
+                         b_loss.detach().float(), clip_frac, kl.float()])
+    return loss, stats, aux, current
+
+
+def stats_vector(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
+                 grad_norm: torch.Tensor) -> torch.Tensor:
+    """A step's statistics as one float32 vector in :data:`STEP_STATS` order, the auxiliary losses after."""
+    return torch.cat([stats, torch.stack([loss.detach().float(), grad_norm.detach().float(),
+                                          *(value.detach().float() for value in aux.values())])])
+
+
+def named_stats(values: list[float], aux_names: Iterable[str]) -> dict[str, float]:
+    """A step's statistics vector (read back) by name: :data:`STEP_STATS`, then ``losses/<name>``."""
+    return dict(zip((*STEP_STATS, *(f"losses/{name}" for name in aux_names)), values))
