@@ -15,7 +15,7 @@ from rlchain.algos.off_policy.sac import soft_actor_critic_model
 from rlchain.algos.off_policy.trainer import DQN, SAC
 from rlchain.algos.ppo.trainer import PPO
 from rlchain.envs import examples
-from rlchain.envs.backends import atari, torch_envs
+from rlchain.envs.backends import atari, mujoco_push, torch_envs
 from rlchain.envs.backends.mjlab_env import mjlab_env, mjlab_vecenv
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
 from rlchain.envs.factory import BuiltinVecEnv
@@ -70,7 +70,8 @@ def register_builtins() -> None:
     ALGOS.register("apg", APG, overwrite=True)
     for name, builder in BUILTIN_ENVS.items():
         ENVS.register(name, builder, overwrite=True)
-    for name, builder in {**atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS}.items():
+    for name, builder in {**atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS,
+                          **mujoco_push.ENV_BUILDERS}.items():
         ENVS.register(name, builder, overwrite=True)
     # gymnasium ids: Atari with the DeepMind preprocessing, the example envs
     gym_ids = {atari.ATARI_ID: (atari.make_atari_env, {"disable_env_checker": True}), **examples.GYM_ENVS}
