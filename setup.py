@@ -9,7 +9,8 @@ EXTRAS = {
     "playground": ["playground>=0.2,<0.3"],
     "atari": ["ale-py>=0.9", "opencv-python-headless"],  # ale-py ships the ROMs; opencv: AtariPreprocessing
     "mujoco": ["gymnasium[mujoco]>=1.0,<2"],
-    "onnx": ["onnx", "onnxruntime"],
+    # onnxscript: torch's default (dynamo) ONNX exporter, which rl_games' ONNX notebooks call
+    "onnx": ["onnx", "onnxruntime", "onnxscript"],
     "wandb": ["wandb"],
     "ray": ["ray[tune]>=2.9,<3"],  # [tune]: pandas, pyarrow for --tune with backend: ray
     "tune": ["optuna>=3"],

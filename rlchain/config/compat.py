@@ -52,10 +52,15 @@ NO_EFFECT_SPACE_KEYS = {
 NO_EFFECT_ACTION_SPACE_KEYS = {
     "scale": "rl_games' network builders never read it (actions are rescaled with clip_actions)",
 }
-# central_value_config keys rl_games' central value never reads (rl_games' mjlab configs carry them).
+# central_value_config keys rl_games' central value never reads (rl_games' mjlab configs and Isaac Lab's
+# asymmetric tasks carry them).
 NO_EFFECT_CENTRAL_VALUE_KEYS = {
     "kl_threshold": "rl_games' central value never reads it (its learning rate is fixed or linear)",
+    "schedule_type": "rl_games' central value never reads it (its learning rate is fixed or linear)",
 }
+# central_value_config.lr_schedule values rl_games reads as a constant learning rate (it only tests for
+# 'linear'; the actor's adaptive schedule does not reach the central value's optimizer).
+CONSTANT_CENTRAL_VALUE_SCHEDULES = ("adaptive",)
 # Initializer blocks (mu_init, sigma_init, initializer): rl_games 2.0's const_initializer reads `value`
 # beside `val`.
 INITIALIZER_BLOCKS = ("mu_init", "sigma_init", "initializer")
@@ -130,6 +135,10 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
     cv = out.get("central_value_config")
     if isinstance(cv, dict):
         cv = _drop_no_effect(cv, NO_EFFECT_CENTRAL_VALUE_KEYS, source, f"{path}.central_value_config")
+        if cv.get("lr_schedule") in CONSTANT_CENTRAL_VALUE_SCHEDULES:
+            warn_once(source, f"{path}.central_value_config.lr_schedule", f"'{cv['lr_schedule']}' read as a "
+                      "constant learning rate, as rl_games' central value reads it (only 'linear' changes it)")
+            cv["lr_schedule"] = None
         if isinstance(cv.get("network"), dict):
             cv["network"] = translate_network(cv["network"], source, f"{path}.central_value_config.network")
         out["central_value_config"] = cv

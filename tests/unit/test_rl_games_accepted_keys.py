@@ -68,3 +68,18 @@ def test_central_value_kl_threshold_is_a_warning():
     params, messages = _parse(cfg, "cv.yaml")
     assert params.config.central_value_config is not None
     assert any("params.config.central_value_config.kl_threshold: accepted" in m for m in messages)
+
+
+def test_central_value_schedule_keys_of_isaac_labs_asymmetric_tasks():
+    """schedule_type is never read there; lr_schedule 'adaptive' is a constant rate in rl_games' central value."""
+    cfg = copy.deepcopy(CONTINUOUS)
+    cfg["params"]["config"]["central_value_config"] = {"schedule_type": "standard", "lr_schedule": "adaptive",
+                                                       "learning_rate": 1e-3, "mini_epochs": 1, "minibatch_size": 16,
+                                                       "network": {"name": "actor_critic", "mlp": {"units": [8]}}}
+    params, messages = _parse(cfg, "cv.yaml")
+    assert params.config.central_value_config.lr_schedule is None
+    assert any("central_value_config.schedule_type: accepted" in m for m in messages)
+    assert any("central_value_config.lr_schedule: 'adaptive' read as a constant" in m for m in messages)
+    cfg["params"]["config"]["central_value_config"]["lr_schedule"] = "cosine"
+    with pytest.raises(ConfigError, match="lr_schedule"):
+        parse_params(cfg, "cv.yaml")

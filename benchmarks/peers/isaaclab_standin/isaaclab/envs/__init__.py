@@ -80,9 +80,12 @@ class CartpoleStandinEnv(DirectRLEnv):
         self.length[rows] = 0
         self.returns[rows] = 0.0
 
+    def _observations(self) -> dict:
+        return {"policy": self.state.clone()}
+
     def reset(self, seed: int | None = None, options: dict | None = None):
         self._reset_rows(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
-        return {"policy": self.state.clone()}, {}
+        return self._observations(), {}
 
     def step(self, actions: torch.Tensor):
         x, x_dot, theta, theta_dot = self.state.unbind(1)
@@ -106,9 +109,25 @@ class CartpoleStandinEnv(DirectRLEnv):
                              "Episode_Termination/time_out": truncated[done].float().mean()}
             self.finished += self.returns[done].tolist()
             self._reset_rows(done)
-        return {"policy": self.state.clone()}, reward, terminated, truncated, extras
+        return self._observations(), reward, terminated, truncated, extras
 
     def close(self) -> None:
         if self.finished:
             print(f"[stand-in] {len(self.finished)} episodes ended, mean return "
                   f"{sum(self.finished) / len(self.finished):.1f}")
+
+
+class CartpoleAsymStandinEnv(CartpoleStandinEnv):
+    """The cart-pole with a privileged ``critic`` group beside ``policy``, as Isaac Lab's asymmetric tasks:
+    the critic also sees the fraction of the episode's time limit used (5 values against the policy's 4),
+    so Isaac Lab's wrapper hands rl_games ``{"obs", "states"}`` and a ``state_space``."""
+
+    def __init__(self, cfg: DirectRLEnvCfg, render_mode: str | None = None, **kwargs) -> None:
+        super().__init__(cfg, render_mode)
+        self.single_observation_space = gym.spaces.Dict({
+            "policy": gym.spaces.Box(-np.inf, np.inf, (4,), np.float32),
+            "critic": gym.spaces.Box(-np.inf, np.inf, (5,), np.float32)})
+
+    def _observations(self) -> dict:
+        progress = (self.length.float() / self.max_episode_length).unsqueeze(1)
+        return {"policy": self.state.clone(), "critic": torch.cat([self.state, progress], 1)}
