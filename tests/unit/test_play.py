@@ -10,10 +10,10 @@ import torch
 
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
+from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.one_env import OneEnv
 from rlchain.inference.player import Player
 from rlchain.models.build import build_env, build_model
-from rlchain.envs.vecenv import StepResult
 from rlchain.policy.play import game_quota, play
 from rlchain.training.evaluation import run_episodes
 from tests.conftest import CONFIGS
