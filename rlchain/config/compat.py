@@ -145,9 +145,30 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
     return out
 
 
+ATARI_PRESETS = ("PongNoFrameskip-v4", "BreakoutNoFrameskip-v4", "MsPacmanNoFrameskip-v4")
+"""rl_games' Atari preset env names: channels-last frames in 1.6.5, channels-first in 2.0."""
+
+
 def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
-    """Drop rl_games' top-level no-op keys (``params.load_checkpoint`` ...) with a warning."""
-    return _drop_no_effect(params, NO_EFFECT_PARAMS_KEYS, source, "params")
+    """Drop rl_games' top-level no-op keys (``params.load_checkpoint`` ...) with a warning; an Atari preset
+    under a CNN with ``permute_input: False`` gets channels-first frames (:func:`_atari_channels`)."""
+    return _atari_channels(_drop_no_effect(params, NO_EFFECT_PARAMS_KEYS, source, "params"))
+
+
+def _atari_channels(params: dict[str, Any]) -> dict[str, Any]:
+    """rl_games 2.0 builds its Atari presets (``env_name: PongNoFrameskip-v4`` ...) with gymnasium's frame stack,
+    channels first, which its configs read with ``cnn.permute_input: False`` (1.6.5's presets are channels last,
+    read with the default True). A preset with ``permute_input: False`` and no ``env_config.channels_first``
+    asks rlchain's Atari env for channels-first frames, so such a 2.0 config runs as written."""
+    config, network = params.get("config"), params.get("network")
+    cnn = network.get("cnn") if isinstance(network, dict) else None
+    if not (isinstance(config, dict) and config.get("env_name") in ATARI_PRESETS and isinstance(cnn, dict)
+            and cnn.get("permute_input") is False):
+        return params
+    env_config = config.get("env_config") or {}
+    if not isinstance(env_config, dict) or "channels_first" in env_config:
+        return params
+    return {**params, "config": {**config, "env_config": {**env_config, "channels_first": True}}}
 
 
 def translate_model(model: Any, source: str) -> Any:

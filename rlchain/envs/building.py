@@ -33,6 +33,7 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.envs.backends.atari import atari_gym_env
 from rlchain.envs.backends.brax_env import brax_env
 from rlchain.envs.backends.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv, native_vector_class
@@ -156,11 +157,29 @@ def gymnasium_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = 
     return _gym_id_env(name, f"{CONFIG}.env_name", env_config, num_envs, seed, kind, render, groups)
 
 
-def atari_gymnasium_env(num_envs: int, seed: int | None, **env_config: Any) -> VecEnv:
-    """``env_name: atari_gymnasium`` (rl_games 2.0): not supported, one line saying what to use."""
-    raise _error(NAME, "atari_gymnasium (rl_games 2.0's channel-first Atari frame stack for permute_input: False) "
-                       "is not supported; use env_name atari_gym (rlchain's DeepMind wrappers, HWC frames) or "
-                       "envpool")
+def atari_gymnasium_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,
+                        render: bool = False, **env_config: Any) -> VecEnv:
+    """``env_name: atari_gymnasium`` (rl_games 2.0): the ALE id is ``env_config.env_name`` (``ALE/Pong-v5``),
+    with 2.0's preprocessing: noop reset, frame skip 4, 84x84 grayscale, a life loss ends the training episode,
+    no FIRE reset, 4 frames stacked channels first (its configs read them with ``permute_input: False``), the
+    id's own sticky actions. ``frameskip`` (2.0 passes 1 to ``gym.make``) must stay 1: the wrapper skips.
+    ``use_async`` (default True, as in rl_games) picks the async backend, False the sync one, when
+    ``vecenv_type`` is unset."""
+    if "env_name" not in env_config:
+        raise _error(f"{CONFIG}.env_name", "is required with env_name atari_gymnasium (an ALE id: ALE/Pong-v5)")
+    if env_config.pop("wrap_env", None) is not None:
+        raise _error(f"{CONFIG}.wrap_env", "is a Python callable of rl_games' GymnasiumVecEnv; use env_name "
+                                           "atari_gym with its options, or register the env")
+    frameskip = env_config.pop("frameskip", 1)
+    if frameskip != 1:
+        raise _error(f"{CONFIG}.frameskip", f"expected 1 (the preprocessing skips 4 frames), got {frameskip!r}")
+    use_async = env_config.pop("use_async", True)
+    if not isinstance(use_async, bool):
+        raise _error(f"{CONFIG}.use_async", f"expected true or false, got {use_async!r}")
+    if vecenv_type is None:
+        vecenv_type = "async" if use_async else "sync"
+    options = {"name": env_config.pop("env_name"), "fire_reset": False, "channels_first": True, **env_config}
+    return atari_gym_env(num_envs, seed, vecenv_type=vecenv_type, render=render, **options)
 
 
 def envpool_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,

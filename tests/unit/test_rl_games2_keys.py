@@ -175,7 +175,8 @@ def test_env_name_gymnasium_takes_env_config_env_name(base_config):
 @pytest.mark.parametrize("env_name,env_config,expect", [
     ("gymnasium", {}, "params.config.env_config.env_name: is required with env_name gymnasium"),
     ("gymnasium", {"env_name": "Pendulum-v1", "use_async": "yes"}, "use_async: expected true or false"),
-    ("atari_gymnasium", {"env_name": "ALE/Pong-v5"}, "atari_gymnasium (rl_games 2.0's channel-first"),
+    ("atari_gymnasium", {}, "params.config.env_config.env_name: is required with env_name atari_gymnasium"),
+    ("atari_gymnasium", {"env_name": "ALE/Pong-v5", "frameskip": 4}, "frameskip: expected 1"),
 ])
 def test_env_name_gymnasium_errors(base_config, env_name, env_config, expect):
     from rlchain.models.build import build_env
@@ -184,6 +185,28 @@ def test_env_name_gymnasium_errors(base_config, env_name, env_config, expect):
     with pytest.raises(ConfigError) as err:
         build_env(parse(base_config), 2, seed=1)
     assert expect in str(err.value) and "\n" not in str(err.value)
+
+
+def test_atari_gymnasium_and_a_channels_first_preset_give_2_0s_frames(base_config):
+    pytest.importorskip("ale_py")
+    from rlchain.models.build import build_env
+
+    base_config["params"]["config"].update(env_name="atari_gymnasium",
+                                           env_config={"env_name": "ALE/Pong-v5", "frameskip": 1,
+                                                       "use_async": False})
+    preset = copy.deepcopy(base_config)
+    preset["params"]["config"].update(env_name="PongNoFrameskip-v4", env_config={})
+    preset["params"]["network"]["cnn"] = {"type": "conv2d", "permute_input": False, "activation": "relu",
+                                          "initializer": {"name": "default"},
+                                          "convs": [{"filters": 8, "kernel_size": 8, "strides": 4, "padding": 0}]}
+    assert parse(preset).config.env_config == {"channels_first": True}
+    preset["params"]["network"]["cnn"]["permute_input"] = True  # 1.6.5's way: channels last, untouched
+    assert parse(preset).config.env_config == {}
+    env = build_env(parse(base_config), 1, seed=1)
+    try:
+        assert env.observation_space.shape == (4, 84, 84) and env.reset().shape == (1, 4, 84, 84)
+    finally:
+        env.close()
 
 
 def test_env_name_ray_builds_env_config_name_in_process(base_config):
