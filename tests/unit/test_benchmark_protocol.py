@@ -60,7 +60,7 @@ def test_peak_memory_on_a_cpu_run_is_the_resident_set(tmp_path, monkeypatch):
     assert memory_record({"cpu_peak_rss_mb": 900.0, "gpu_peak_memory_mb": 12.5})["peak_memory_mb"] == 12.5
     rows = aggregate([{**r, **record} for r in runs()])
     assert rows[1]["peak_memory_kind"] == "cpu_rss"
-    assert f"| {rows[1]['peak_memory_mb_mean']:.0f} RSS |" in markdown(rows, leaderboard(rows), {"push": 0.6})
+    assert f"| {rows[1]['peak_memory_mb_mean']:,.0f} RSS |" in markdown(rows, leaderboard(rows), {"push": 0.6})
 
 
 @pytest.mark.skipif(not __import__("torch").cuda.is_available(), reason="needs CUDA")

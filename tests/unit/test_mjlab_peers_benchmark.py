@@ -52,12 +52,17 @@ def test_bad_arguments_are_one_line_errors(capsys):
     assert "rl_games 2.0 source checkout" in capsys.readouterr().err
 
 
+SLEEPER = "import signal, time; signal.signal(signal.SIGINT, signal.default_int_handler); time.sleep(30)"
+"""A run that outlasts its budget and stops on SIGINT, as a Python trainer does (also when the test itself was
+started in the background, which leaves SIGINT ignored for its children)."""
+
+
 def test_a_run_past_its_time_budget_is_cut_and_keeps_its_points(tmp_path, monkeypatch):
     import sys
 
     args = mjlab_peers.parse_args(["--config", GO1, "--systems", "rlchain", "--timeout", "0.5"])
     monkeypatch.setattr(mjlab_peers, "rlchain_command",
-                        lambda *a: [sys.executable, "-c", "import time; time.sleep(30)"])
+                        lambda *a: [sys.executable, "-c", SLEEPER])
     monkeypatch.setattr(mjlab_peers, "points", lambda *a: [(0.1, 10, 1.0)])
     run = mjlab_peers.train("rlchain", args, {}, {"num_actors": 4}, str(tmp_path))
     assert run["returncode"] == 124 and run["points"] == [(0.1, 10, 1.0)] and run["seconds"] < 20
