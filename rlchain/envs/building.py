@@ -135,6 +135,20 @@ GYMNASIUM_KEYS = {"flatten_obs"}
 (flatten_obs: rlchain flattens Dict observations anyway)."""
 
 
+def gymnasium_vecenv_kind(env_config: dict[str, Any], vecenv_type: str | None) -> str:
+    """rl_games 2.0's GymnasiumVecEnv options, popped from ``env_config``: ``use_async`` (default True, as in
+    rl_games) picks async or sync when ``vecenv_type`` is unset (auto); ``wrap_env`` / ``env_creator`` are
+    Python callables, an error. Returns the vecenv kind."""
+    use_async = env_config.pop("use_async", True)
+    if not isinstance(use_async, bool):
+        raise _error(f"{CONFIG}.use_async", f"expected true or false, got {use_async!r}")
+    if env_config.pop("wrap_env", None) is not None or env_config.pop("env_creator", None) is not None:
+        raise _error(CONFIG, "wrap_env / env_creator are Python callables of rl_games' GymnasiumVecEnv; register "
+                             "the env with env_configurations.register instead")
+    kind = normalize_vecenv_type(vecenv_type)
+    return ("async" if use_async else "sync") if kind == "auto" else kind
+
+
 def gymnasium_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,
                   render: bool = False, groups: Any = 1, **env_config: Any) -> VecEnv:
     """``env_name: gymnasium`` (rl_games 2.0): the gymnasium id is ``env_config.env_name`` (MuJoCo's ``-v5``
@@ -143,17 +157,9 @@ def gymnasium_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = 
     if "env_name" not in env_config:
         raise _error(f"{CONFIG}.env_name", "is required with env_name gymnasium (a gymnasium id)")
     name = env_config.pop("env_name")
-    use_async = env_config.pop("use_async", True)
-    if not isinstance(use_async, bool):
-        raise _error(f"{CONFIG}.use_async", f"expected true or false, got {use_async!r}")
-    if env_config.pop("wrap_env", None) is not None or env_config.pop("env_creator", None) is not None:
-        raise _error(CONFIG, "wrap_env / env_creator are Python callables of rl_games' GymnasiumVecEnv; register "
-                             "the env with env_configurations.register instead")
+    kind = gymnasium_vecenv_kind(env_config, vecenv_type)
     for key in GYMNASIUM_KEYS:
         env_config.pop(key, None)
-    kind = normalize_vecenv_type(vecenv_type)
-    if kind == "auto":
-        kind = "async" if use_async else "sync"
     return _gym_id_env(name, f"{CONFIG}.env_name", env_config, num_envs, seed, kind, render, groups)
 
 
@@ -167,19 +173,12 @@ def atari_gymnasium_env(num_envs: int, seed: int | None, *, vecenv_type: str | N
     ``vecenv_type`` is unset."""
     if "env_name" not in env_config:
         raise _error(f"{CONFIG}.env_name", "is required with env_name atari_gymnasium (an ALE id: ALE/Pong-v5)")
-    if env_config.pop("wrap_env", None) is not None:
-        raise _error(f"{CONFIG}.wrap_env", "is a Python callable of rl_games' GymnasiumVecEnv; use env_name "
-                                           "atari_gym with its options, or register the env")
+    kind = gymnasium_vecenv_kind(env_config, vecenv_type)
     frameskip = env_config.pop("frameskip", 1)
     if frameskip != 1:
         raise _error(f"{CONFIG}.frameskip", f"expected 1 (the preprocessing skips 4 frames), got {frameskip!r}")
-    use_async = env_config.pop("use_async", True)
-    if not isinstance(use_async, bool):
-        raise _error(f"{CONFIG}.use_async", f"expected true or false, got {use_async!r}")
-    if vecenv_type is None:
-        vecenv_type = "async" if use_async else "sync"
     options = {"name": env_config.pop("env_name"), "fire_reset": False, "channels_first": True, **env_config}
-    return atari_gym_env(num_envs, seed, vecenv_type=vecenv_type, render=render, **options)
+    return atari_gym_env(num_envs, seed, vecenv_type=kind, render=render, **options)
 
 
 def envpool_env(num_envs: int, seed: int | None, *, vecenv_type: str | None = None,

@@ -209,6 +209,15 @@ def test_atari_gymnasium_and_a_channels_first_preset_give_2_0s_frames(base_confi
         env.close()
 
 
+def test_use_async_picks_the_backend_only_when_vecenv_type_is_unset():
+    from rlchain.envs.building import gymnasium_vecenv_kind
+
+    assert gymnasium_vecenv_kind({}, None) == "async" and gymnasium_vecenv_kind({"use_async": False}, "auto") == "sync"
+    assert gymnasium_vecenv_kind({"use_async": True}, "sync") == "sync"
+    with pytest.raises(ConfigError, match="use_async: expected true or false"):
+        gymnasium_vecenv_kind({"use_async": "no"}, None)
+
+
 def test_env_name_ray_builds_env_config_name_in_process(base_config):
     from rlchain.models.build import build_env
 
