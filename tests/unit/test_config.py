@@ -282,3 +282,19 @@ def test_tf_lstm_block_bad_input(base_config, network, expect):
     with pytest.raises(ConfigError) as err:
         parse(base_config)
     assert expect in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("block,key,value,expect", [
+    ("config", "checkpoint_names", "rl_games", "params.config.checkpoint_names: 'rl_games' is not one of"),
+    ("config", "save_frequency_frames", -1, "params.config.save_frequency_frames"),
+    ("network.mlp", "dropout", 1.5, "params.network.mlp.dropout: expected 0 <= dropout < 1"),
+    ("network.mlp", "norm_after_activation", "maybe", "params.network.mlp.norm_after_activation"),
+])
+def test_checkpoint_name_and_mlp_keys_reject_wrong_values_in_one_line(base_config, block, key, value, expect):
+    target = base_config["params"]
+    for part in block.split("."):
+        target = target[part]
+    target[key] = value
+    with pytest.raises(ConfigError) as err:
+        parse_params(base_config, "cfg.yaml")
+    assert expect in str(err.value) and "cfg.yaml" in str(err.value) and "\n" not in str(err.value)
