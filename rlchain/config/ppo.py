@@ -169,6 +169,15 @@ class PPOConfig(ActorCriticConfig):
             return dataclasses.replace(self, central_value_config=self._resolve_central_value(source))
         return self
 
+    def check_central_value_batch(self, source: str) -> None:
+        """The central value's minibatch must divide the batch. Checked when training (with
+        :func:`~rlchain.config.actor_critic.check_batch`), not at load: a player runs other env counts."""
+        cv = self.central_value_config
+        batch = self.num_actors * self.horizon_length
+        if cv is not None and batch % cv.minibatch_size:
+            raise ConfigError(source, "params.config.central_value_config.minibatch_size",
+                              f"batch num_actors*horizon_length = {batch} is not divisible by {cv.minibatch_size}")
+
     def _check_sequences(self, source: str) -> None:
         """An RNN trains on whole sequences: horizon and minibatch must hold whole seq_length blocks."""
         length = self.seq_length
@@ -195,10 +204,6 @@ class PPOConfig(ActorCriticConfig):
         if cv.minibatch_size_per_env is not None:
             cv = dataclasses.replace(cv, minibatch_size=self.num_actors * cv.minibatch_size_per_env)
         cv = dataclasses.replace(cv, minibatch_size=cv.minibatch_size or self.minibatch_size)
-        batch = self.num_actors * self.horizon_length
-        if batch % cv.minibatch_size:
-            raise ConfigError(source, f"{path}.minibatch_size", f"batch num_actors*horizon_length = {batch} is not "
-                              f"divisible by {cv.minibatch_size}")
         if typed and cv.network.rnn is not None:
             if cv.minibatch_size % self.seq_length or self.horizon_length % self.seq_length:
                 raise ConfigError(source, f"{path}.minibatch_size", f"a recurrent critic trains on sequences: "

@@ -134,14 +134,22 @@ def test_central_value_needs_a_state(tmp_path):
     ("params.network.central_value=True", "params.network.central_value: True makes a value-only critic"),
     ("params.config.central_value_config={network: {space: {discrete: }}}",
      "central_value_config.network.space: the central value network is a critic"),
-    ("params.config.central_value_config={network: {mlp: {units: [8]}}, minibatch_size: 300}",
-     "central_value_config.minibatch_size: batch num_actors*horizon_length = 512 is not divisible by 300"),
     ("params.config.central_value_config={network: {mlp: {units: [8]}}, learning_rat: 1}", "did you mean"),
 ])
 def test_central_value_config_errors(override, expect):
     with pytest.raises(ConfigError) as err:
         Runner().load(CONFIG, [override])
     assert expect in str(err.value)
+
+
+def test_central_value_minibatch_is_checked_when_training_not_when_playing(tmp_path):
+    override = "params.config.central_value_config={network: {mlp: {units: [8]}}, minibatch_size: 300}"
+    runner = Runner().load(CONFIG, [override, f"params.config.train_dir={tmp_path}"])  # a player may load it
+    with pytest.raises(ConfigError) as err:
+        runner.train()
+    assert "central_value_config.minibatch_size: batch num_actors*horizon_length = 512 is not divisible by 300" \
+        in str(err.value)
+    assert not os.listdir(tmp_path)  # before a run folder is made
 
 
 def test_actor_without_central_value_ignores_the_state(tmp_path):

@@ -72,6 +72,7 @@ class PPO(AlgorithmBase):
         """The minibatch must divide the batch, which counts the env's agents (multi-agent envs); the rollout
         storage must fit the training device's free memory."""
         check_batch(params.config, params.source, spec.num_agents)
+        params.config.check_central_value_batch(params.source)
         cfg = params.config
         if spec.observation_space is not None and spec.action_space is not None:
             rows = cfg.horizon_length * spec.num_envs
