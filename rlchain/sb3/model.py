@@ -125,7 +125,7 @@ class BaseModel:
     def _read_spaces(self) -> _Spaces:
         runner = self._runner()  # checks every argument now, as SB3 fails in the constructor
         params = runner.params
-        env = build_env(params, 1, 0)
+        env = build_env(params, self.n_envs if self.env_source.vec_env is not None else 1, 0)
         try:
             return _Spaces(env.observation_space, env.action_space)
         finally:
