@@ -111,3 +111,26 @@ def env_source(env: Any, algo: str) -> EnvSource:
     raise ConfigError(f"rlchain.{algo.upper()}", "env", f"expected a gymnasium id, a gymnasium env or vector env, a "
                                                         f"Stable-Baselines3 VecEnv, or a callable that makes an env; "
                                                         f"got {type(env).__name__}")
+
+
+def sb3_vec_env(env: Any, source: EnvSource, n_envs: int, seed: int | None) -> Any:
+    """A Stable-Baselines3 ``VecEnv`` of the env argument ``env`` (what SB3's ``model.get_env()`` returns): the
+    SB3 vec env itself when one was passed, else one SB3 builds as it would from that argument (``make_vec_env``
+    for an id or a callable; an env object in a ``Monitor`` and a ``DummyVecEnv``; a gymnasium vector env's
+    sub-envs or factories). Needs stable-baselines3 (imported here: it is optional)."""
+    if source.vec_env is not None:
+        return source.vec_env
+    try:
+        from stable_baselines3.common.env_util import make_vec_env
+        from stable_baselines3.common.monitor import Monitor
+        from stable_baselines3.common.vec_env import DummyVecEnv
+    except ImportError as exc:
+        raise ModuleNotFoundError("model.get_env() returns a Stable-Baselines3 VecEnv: pip install "
+                                  "stable-baselines3") from exc
+    if isinstance(env, gym.vector.SyncVectorEnv):
+        return DummyVecEnv([lambda e=e: Monitor(_Borrowed(e)) for e in env.envs])
+    if isinstance(env, gym.vector.AsyncVectorEnv):
+        return make_vec_env(env.env_fns[0], n_envs=env.num_envs, seed=seed)
+    if isinstance(env, gym.Env):
+        return DummyVecEnv([lambda: Monitor(_Borrowed(env))])
+    return make_vec_env(env, n_envs=n_envs, seed=seed)
