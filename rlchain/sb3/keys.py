@@ -15,6 +15,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION
 
 SOURCE = "rlchain.{algo}"  # where ConfigErrors say the bad argument came from
 
@@ -230,18 +231,22 @@ def run_name(algo: str, env_name: str) -> str:
 def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, given: dict[str, Any],
                  rlchain_keys: Iterable[str], policy_kwargs: dict[str, Any] | None = None,
                  total_timesteps: int | None = None, seed: int | None = None,
-                 run: dict[str, Any] | None = None) -> dict[str, Any]:
+                 run: dict[str, Any] | None = None, defaults: str = "sb3") -> dict[str, Any]:
     """The ``{'params': ...}`` config of ``algo`` (ppo, sac, dqn) on ``env_name`` with ``num_actors`` envs,
     after the user's arguments ``given`` (SB3 names, or the rlchain config keys ``rlchain_keys``).
-    ``run``: further ``params.config`` keys (train_dir, device, print_stats, ...). ValueError (a ConfigError
-    naming the argument) for an unknown or unmappable argument."""
+    ``defaults``: what arguments left out take, ``sb3`` (SB3's own: :mod:`rlchain.sb3.defaults`) or ``rlchain``
+    (the packaged examples' :data:`DEFAULTS`). ``run``: further ``params.config`` keys (train_dir, device,
+    print_stats, ...). ValueError (a ConfigError naming the argument) for an unknown or unmappable argument."""
     source = SOURCE.format(algo=algo.upper())
+    if defaults not in CHOICES:
+        raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {defaults!r}")
+    base = SB3_DEFAULTS if defaults == "sb3" else DEFAULTS
     family = "ppo_continuous" if algo == "ppo" and continuous else algo
-    network = copy.deepcopy(DEFAULTS[algo]["network"])
-    config = copy.deepcopy(DEFAULTS[algo]["config"])
+    network = copy.deepcopy(base[algo]["network"])
+    config = copy.deepcopy(base[algo]["config"])
     if family != algo:
-        _merge(network, DEFAULTS[family]["network"])
-        _merge(config, DEFAULTS[family]["config"])
+        _merge(network, base[family]["network"])
+        _merge(config, base[family]["config"])
     elif algo == "ppo":
         network["space"] = {"discrete": None}
     config.update({"name": run_name(algo, env_name), "env_name": env_name, "num_actors": num_actors})
@@ -258,8 +263,8 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
                 continue  # read together with other arguments below
             config.update(mapping(value) if callable(mapping) else {mapping: value})
         config.update(_updates(algo, given, num_actors))
-        if algo == "dqn" and "exploration_fraction" in given:
-            fraction = _number("exploration_fraction", given["exploration_fraction"])
+        if algo == "dqn" and ("exploration_fraction" in given or defaults == "sb3"):
+            fraction = _number("exploration_fraction", given.get("exploration_fraction", SB3_EXPLORATION_FRACTION))
             if total_timesteps is not None:
                 config["epsilon_decay_frames"] = max(1, int(fraction * total_timesteps))
         _merge(network, _policy_kwargs(algo, continuous, dict(policy_kwargs or {})))

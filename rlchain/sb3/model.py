@@ -28,6 +28,7 @@ from rlchain.runner import Runner
 from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
+from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.keys import NUM_ENVS, build_config
 from rlchain.training.events import Callback
 
@@ -88,7 +89,10 @@ class BaseModel:
         fixed = None if self.env_source is None else self.env_source.num_envs
         if fixed is not None and n_envs is not None and n_envs != fixed:
             raise ConfigError(source, "n_envs", f"{n_envs}, but {self.env_source.label} is {fixed} env(s)")
-        self.n_envs = fixed or n_envs or NUM_ENVS[self.algo]
+        self.defaults = hyperparameters.get("defaults", "sb3")  # kept in hyperparameters: save() keeps it
+        if self.defaults not in CHOICES:
+            raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {self.defaults!r}")
+        self.n_envs = fixed or n_envs or (SB3_NUM_ENVS if self.defaults == "sb3" else NUM_ENVS)[self.algo]
         self.seed = seed
         self.device = ("cuda:0" if torch.cuda.is_available() else "cpu") if device == "auto" else device
         self.verbose = verbose
@@ -116,8 +120,9 @@ class BaseModel:
         family = "a2c_continuous" if self.algo == "ppo" and continuous else \
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
-        return build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, self.hyperparameters,
-                            keys, self.policy_kwargs, total_timesteps, self.seed, run)
+        given = {k: v for k, v in self.hyperparameters.items() if k != "defaults"}
+        return build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
+                            keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
 
     @property
     def config(self) -> dict[str, Any]:
