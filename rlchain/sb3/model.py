@@ -27,8 +27,8 @@ from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
-from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
+from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config
 from rlchain.training.events import Callback
 
