@@ -78,8 +78,17 @@ def _lr_all(value: Any) -> dict[str, Any]:
 
 def _number(name: str, value: Any) -> float:
     if callable(value) or isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{name}: expected a number, got {value!r} (schedules: set lr_schedule, e.g. 'linear')")
+        raise ValueError(f"{name}: expected a number, got {value!r}")
     return float(value)
+
+
+def _whole(name: str, key: str) -> Any:
+    """The mapping of an SB3 argument that is a positive int, to the rlchain key ``key``."""
+    def mapping(value: Any) -> dict[str, int]:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name}: expected an int >= 1, got {value!r}")
+        return {key: value}
+    return mapping
 
 
 def _train_freq(value: Any) -> int:
@@ -111,7 +120,8 @@ def _clip_range_vf(value: Any) -> dict[str, Any]:
 
 PPO_KEYS: dict[str, Any] = {
     "learning_rate": lambda v: {"learning_rate": _number("learning_rate", v), "lr_schedule": None},
-    "n_steps": "horizon_length", "batch_size": "minibatch_size", "n_epochs": "mini_epochs", "gamma": "gamma",
+    "n_steps": _whole("n_steps", "horizon_length"), "batch_size": _whole("batch_size", "minibatch_size"),
+    "n_epochs": _whole("n_epochs", "mini_epochs"), "gamma": "gamma",
     "gae_lambda": "tau", "clip_range": lambda v: {"e_clip": _number("clip_range", v)},
     "clip_range_vf": _clip_range_vf, "normalize_advantage": "normalize_advantage", "ent_coef": "entropy_coef",
     "vf_coef": lambda v: {"critic_coef": 2 * _number("vf_coef", v)},  # rlchain's value loss is 0.5 * coef * mse

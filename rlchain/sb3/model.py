@@ -30,6 +30,7 @@ from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config
+from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.training.events import Callback
 
 FORMAT = "rlchain-sb3-1"
@@ -98,7 +99,12 @@ class BaseModel:
         self.verbose = verbose
         self.tensorboard_log = tensorboard_log
         self.policy_kwargs = dict(policy_kwargs or {})
-        self.hyperparameters = dict(hyperparameters)
+        try:
+            given, self._schedules = split_schedules(self.algo, hyperparameters)
+        except ValueError as exc:
+            key, _, message = str(exc).partition(": ")
+            raise ConfigError(source, key, message) from None
+        self.hyperparameters = given  # data only: a schedule's value at progress 1 (the callable: _schedules)
         self.num_timesteps = 0
         self._checkpoint: str | None = None  # the last run's last checkpoint: a later learn resumes it
         self._weights_changed = False
@@ -197,6 +203,8 @@ class BaseModel:
                             "reset_num_timesteps": reset_num_timesteps, "progress_bar": progress_bar}
             callbacks.append(SB3Callbacks(self, sb3, learn_locals))
         self._total_timesteps = self.num_timesteps + total
+        if self._schedules:
+            callbacks.append(ScheduleCallback(self.algo, self._schedules, self.num_timesteps, total))
         result = runner.train(checkpoint=self._checkpoint, seed=self.seed, callbacks=[_Bridge(self), *callbacks])
         self.num_timesteps = int(result.frames)
         self.run_dir = result.run_dir
