@@ -8,8 +8,9 @@ normalization, separate 64-64 tanh actor and critic with orthogonal initializati
 from rlchain's packaged examples instead (:data:`rlchain.sb3.keys.DEFAULTS`).
 
 What differs from SB3 and stays: advantages are normalized over the whole batch (SB3: per minibatch); the action
-heads keep torch's default initialization (SB3: orthogonal, gains 0.01 and 1); continuous actions are clipped and
-rescaled to the bounds as in rl_games (SB3 clips). DQN updates after every env step (SB3's ``train_freq=4``
+heads keep torch's default initialization (SB3: orthogonal, gains 0.01 and 1); PPO's continuous actions go to the
+env as the policy samples them (``clip_actions: False``; SB3 clips them to the bounds first: ``predict`` and an SB3
+vec env do here too, a gymnasium env clips them itself or not). DQN updates after every env step (SB3's ``train_freq=4``
 needs ``gradient_steps`` a multiple of it here).
 """
 
@@ -31,7 +32,7 @@ SB3_DEFAULTS: dict[str, dict[str, Any]] = {
                                                             "mu_init": {"name": "default"},
                                                             "sigma_init": {"name": "const_initializer", "val": 0},
                                                             "fixed_sigma": True}}},
-                       "config": {"bounds_loss_coef": 0.0}},
+                       "config": {"bounds_loss_coef": 0.0, "clip_actions": False}},
     "sac": {"network": {"name": "soft_actor_critic", "separate": True, "space": {"continuous": None},
                         "mlp": {"units": [256, 256], "activation": "relu", "initializer": {"name": "default"}},
                         "log_std_bounds": [-20, 2]},

@@ -215,9 +215,10 @@ def _policy_kwargs(algo: str, continuous: bool, policy_kwargs: dict[str, Any]) -
             _merge(network, _net_arch(algo, value))
         elif key == "activation_fn":
             _merge(network, {"mlp": {"activation": activation_name(value)}})
-        elif key == "log_std_init" and algo == "ppo" and continuous:
-            _merge(network, {"space": {"continuous": {"sigma_init": {"name": "const_initializer",
-                                                                     "val": _number(key, value)}}}})
+        elif key == "log_std_init" and algo == "ppo":  # as in SB3, no effect on discrete actions
+            if continuous:
+                _merge(network, {"space": {"continuous": {"sigma_init": {"name": "const_initializer",
+                                                                         "val": _number(key, value)}}}})
         else:
             raise ValueError(f"policy_kwargs: unknown key '{key}'{did_you_mean(key, POLICY_KWARGS)} "
                              f"(rlchain maps {', '.join(POLICY_KWARGS)}; any network block: network=...)")

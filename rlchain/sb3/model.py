@@ -22,7 +22,6 @@ import yaml
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
-from rlchain.envs.wrappers.spaces import flatten_dict_obs
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.runs import checkpoint as ckpt
@@ -30,6 +29,7 @@ from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config
+from rlchain.sb3.policy import SB3Policy
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.training.events import Callback
 
@@ -57,13 +57,15 @@ class _Bridge(Callback):
         self._own: torch.nn.Module | None = None
 
     def on_train_start(self, ctx: Any) -> None:
+        own = self.model.policy
         if self.model._weights_changed:
-            ctx.model.load_state_dict(self.model.policy.state_dict())
-        self._own, self.model.policy = self.model.policy, ctx.model
+            ctx.model.load_state_dict(own.net.state_dict())
+        self._own, self.model.policy = own, SB3Policy(ctx.model, own.algo, own.observation_space, own.action_space,
+                                                      own.network)
 
     def on_train_end(self, ctx: Any, result: Any) -> None:
         if self._own is not None:
-            self._own.load_state_dict(copy.deepcopy(ctx.model.state_dict()))
+            self._own.net.load_state_dict(copy.deepcopy(ctx.model.state_dict()))
         self.model._weights_changed = False
         self.close()
 
@@ -110,7 +112,7 @@ class BaseModel:
         self._weights_changed = False
         self._spaces: _Spaces | None = None
         self._loaded_config: dict[str, Any] | None = None  # load() without an env: the saved config
-        self.policy: torch.nn.Module | None = None
+        self.policy: SB3Policy | None = None
         if self.env_source is not None:
             self._spaces = self._read_spaces()
             self.policy = self._build_policy()
@@ -156,13 +158,17 @@ class BaseModel:
         finally:
             env.close()
 
-    def _build_policy(self) -> torch.nn.Module:
+    def _build_policy(self) -> SB3Policy:
         params = self._runner().params
         if self.seed is not None:
             torch.manual_seed(self.seed)
-        model = build_model(params, self._spaces, torch.device("cpu"))
-        model.eval()
-        return model
+        return self._wrap(build_model(params, self._spaces, torch.device("cpu")), self.config)
+
+    def _wrap(self, net: torch.nn.Module, config: dict[str, Any]) -> SB3Policy:
+        """``net`` (eval mode) as ``model.policy``: SB3's names, predict and save (:mod:`rlchain.sb3.policy`)."""
+        net.eval()
+        return SB3Policy(net, self.algo, self._spaces.observation_space, self._spaces.action_space,
+                         config["params"]["network"])
 
     # ----- training -----------------------------------------------------------------------------------
     def learn(self, total_timesteps: int, callback: Any = None, progress_bar: bool = False,
@@ -240,27 +246,7 @@ class BaseModel:
         None: MlpPolicy has no memory)."""
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
-        space = self._spaces.observation_space
-        if isinstance(observation, dict) and hasattr(space, "dict_space"):  # a Dict obs, flattened as in training
-            parts = {k: np.asarray(v, dtype=np.float32) for k, v in observation.items()}
-            first = next(iter(space.dict_space.spaces))
-            one = parts[first].shape == space.dict_space.spaces[first].shape
-            observation = flatten_dict_obs({k: v[None] if one else v for k, v in parts.items()}, space.dict_space)
-            observation = observation[0] if one else observation
-        obs = np.asarray(observation, dtype=np.float32)
-        single = obs.shape == tuple(space.shape)
-        policy = self.policy
-        device = next(policy.parameters()).device
-        batch = torch.as_tensor(obs[None] if single else obs.reshape(-1, *space.shape), device=device)
-        was_training = policy.training  # the live policy during learn (a callback's evaluation)
-        policy.eval()
-        try:
-            with torch.inference_mode():
-                actions = policy.dist.to_env(policy.act(batch, deterministic=deterministic)["actions"])
-        finally:
-            policy.train(was_training)
-        actions = actions.cpu().numpy()
-        return (actions[0] if single else actions), None
+        return self.policy.predict(observation, deterministic=deterministic)
 
     # ----- parameters and files -----------------------------------------------------------------------
     def get_parameters(self) -> dict[str, dict[str, torch.Tensor]]:
@@ -284,7 +270,7 @@ class BaseModel:
         state = {"format": FORMAT, "algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
                  "spaces": (self._spaces.observation_space, self._spaces.action_space),
-                 "config": self.config, "model": self.policy.state_dict(), "num_timesteps": self.num_timesteps}
+                 "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
         ckpt.save_atomic(state, path)
         return path
 
@@ -317,11 +303,9 @@ class BaseModel:
         model._weights_changed = True
         return model
 
-    def _build_policy_from(self, config: dict[str, Any]) -> torch.nn.Module:
+    def _build_policy_from(self, config: dict[str, Any]) -> SB3Policy:
         params = Runner().load(copy.deepcopy(config)).params if self.env_source is None else self._runner().params
-        model = build_model(params, self._spaces, torch.device("cpu"))
-        model.eval()
-        return model
+        return self._wrap(build_model(params, self._spaces, torch.device("cpu")), config)
 
     def get_env(self) -> Any:
         """The training env as a Stable-Baselines3 ``VecEnv`` (see :func:`rlchain.sb3.envs.sb3_vec_env`): what

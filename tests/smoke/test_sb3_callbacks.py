@@ -146,3 +146,31 @@ def test_bad_total_timesteps_is_one_line(tmp_path):
     model = rlchain.PPO("MlpPolicy", "CartPole-v1", **quiet(tmp_path))
     with pytest.raises(ValueError, match=r"^rlchain.PPO.learn: total_timesteps: expected a positive whole number"):
         model.learn("many")
+
+
+def test_policy_save_is_sb3s_policy_file(tmp_path):
+    from stable_baselines3.sac.policies import MlpPolicy
+
+    model = rlchain.SAC("MlpPolicy", "Pendulum-v1", **quiet(tmp_path))
+    path = str(tmp_path / "sac_policy")
+    model.policy.save(path)
+    saved = MlpPolicy.load(path)  # SB3's own class rebuilds it
+    env = model.get_env()
+    obs = env.reset()
+    np.testing.assert_allclose(saved.predict(obs, deterministic=True)[0],
+                               model.policy.predict(obs, deterministic=True)[0], atol=1e-6)
+    mean, _ = evaluate_policy(model.policy, env, n_eval_episodes=1)
+    assert mean < 0
+
+
+def test_learning_rate_schedule_follows_progress(tmp_path):
+    seen = []
+
+    class Watch(rlchain.training.events.Callback):
+        def on_epoch_end(self, ctx, stats, episodes):
+            seen.append(ctx.get_params()["learning_rate"])
+
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", n_steps=32, batch_size=32, learning_rate=lambda p: p * 1e-3,
+                        **quiet(tmp_path))
+    model.learn(128, callback=Watch())
+    assert seen[0] == pytest.approx(1e-3) and seen[-1] < seen[1] < seen[0]

@@ -4,7 +4,8 @@
 SB3's vec envs already reset an env in the step that ends its episode: ``obs`` is the next episode's
 first observation and ``infos[i]['terminal_observation']`` the ended one's last (rlchain's ``final_obs``);
 ``infos[i]['TimeLimit.truncated']`` marks a time-out, so ``truncated`` is that and ``terminated`` the other
-dones. The caller's object is stepped as it is: a ``VecNormalize`` in the stack normalizes observations and
+dones. Box actions are clipped to the action space before the step, as SB3's algorithms clip them. The
+caller's object is stepped as it is: a ``VecNormalize`` in the stack normalizes observations and
 rewards and updates its statistics while ``training`` is True, exactly as under SB3 (its ``save`` writes them
 as SB3 does); the episode statistics then count the unnormalized rewards (``get_original_reward``, this
 contract's ``game_reward``). The object is borrowed: ``close`` leaves it open for its owner.
@@ -73,6 +74,8 @@ class SB3VecEnv:
         self.action_space = float32_action_space(venv.action_space)
         self._normalize = vec_normalize_of(venv)
         self._seed = seed
+        space = venv.action_space
+        self._bounds = (space.low, space.high) if isinstance(space, gym.spaces.Box) else None
 
     def _obs(self, obs: Any) -> np.ndarray:
         if self._dict_space is not None:
@@ -91,6 +94,8 @@ class SB3VecEnv:
     def step(self, actions: np.ndarray) -> StepResult:
         """Step every env (SB3 resets finished ones in the same step); see the module docstring."""
         actions = cast_actions(actions, self._env_action_space, self.num_envs)
+        if self._bounds is not None:  # SB3's algorithms clip Box actions to the space before stepping
+            actions = np.clip(actions, *self._bounds)
         obs, reward, dones, infos = self.venv.step(actions)
         obs = self._obs(obs)
         if not obs.flags.writeable:
