@@ -8,7 +8,8 @@ rlchain                                 Stable-Baselines3
 ======================================  ==============================================================
 PPO ``network.actor_trunk.mlp.net.i.0``  ``mlp_extractor.policy_net.2i``
 PPO ``network.critic_trunk.mlp.net.i.0`` ``mlp_extractor.value_net.2i``
-PPO ``network.logits`` / ``network.mu``  ``action_net``; ``network.value``: ``value_net``; ``network.sigma``: ``log_std``
+PPO ``network.logits`` / ``network.mu``  ``action_net``
+PPO ``network.value`` / ``network.sigma`` ``value_net`` / ``log_std``
 SAC ``network.actor.trunk.net.i.0``     ``actor.latent_pi.2i``
 SAC ``network.actor.head`` (mu; log_std) ``actor.mu`` and ``actor.log_std`` (the head's two halves)
 SAC ``network.critic.qK.0.net.i.0``     ``critic.qf(K-1).2i``; ``network.critic.qK.1``: its last layer
