@@ -30,6 +30,7 @@ from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config
 from rlchain.sb3.policy import SB3Policy
+from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.training.events import Callback
 
@@ -116,6 +117,9 @@ class BaseModel:
         if self.env_source is not None:
             self._spaces = self._read_spaces()
             self.policy = self._build_policy()
+        self.replay_buffer: ReplayBufferView | None = None
+        if self.algo != "ppo" and self.env_source is not None:
+            self.replay_buffer = ReplayBufferView(self.config["params"]["config"]["replay_buffer_size"])
 
     # ----- the config -------------------------------------------------------------------------------
     def _config(self, total_timesteps: int | None = None) -> dict[str, Any]:
@@ -209,6 +213,8 @@ class BaseModel:
                             "reset_num_timesteps": reset_num_timesteps, "progress_bar": progress_bar}
             callbacks.append(SB3Callbacks(self, sb3, learn_locals))
         self._total_timesteps = self.num_timesteps + total
+        if self.replay_buffer is not None:
+            callbacks.append(ReplayCallback(self))
         if self._schedules:
             callbacks.append(ScheduleCallback(self.algo, self._schedules, self.num_timesteps, total))
         result = runner.train(checkpoint=self._checkpoint, seed=self.seed, callbacks=[_Bridge(self), *callbacks])
@@ -234,6 +240,17 @@ class BaseModel:
         if getattr(self, "_logger", None) is None:
             self._logger = SB3Logger()
         return self._logger
+
+    def save_replay_buffer(self, path: str) -> str:
+        """Write the replay buffer's contents (SAC, DQN; see :mod:`rlchain.sb3.replay`); returns the path."""
+        if self.replay_buffer is None:
+            raise ValueError(f"rlchain.{self.algo.upper()}: no replay buffer (an on-policy model, or no env)")
+        return save_replay(self.replay_buffer, path)
+
+    def load_replay_buffer(self, path: str) -> None:
+        """Read a replay buffer :meth:`save_replay_buffer` wrote; the next ``learn`` starts with it."""
+        capacity = self.config["params"]["config"]["replay_buffer_size"]
+        self.replay_buffer = load_replay(path, capacity)
 
     def dump_logs(self) -> None:
         """Write what callbacks recorded (SB3's ``dump_logs``)."""
@@ -301,6 +318,8 @@ class BaseModel:
         model.policy.load_state_dict(state["model"])
         model.num_timesteps = state["num_timesteps"]
         model._weights_changed = True
+        if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
+            model.replay_buffer = ReplayBufferView(model.config["params"]["config"]["replay_buffer_size"])
         return model
 
     def _build_policy_from(self, config: dict[str, Any]) -> SB3Policy:

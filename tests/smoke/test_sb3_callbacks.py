@@ -174,3 +174,22 @@ def test_learning_rate_schedule_follows_progress(tmp_path):
                         **quiet(tmp_path))
     model.learn(128, callback=Watch())
     assert seen[0] == pytest.approx(1e-3) and seen[-1] < seen[1] < seen[0]
+
+
+def test_replay_buffer_save_and_load(tmp_path):
+    model = rlchain.SAC("MlpPolicy", "Pendulum-v1", buffer_size=5000, learning_starts=50, batch_size=32,
+                        **quiet(tmp_path))
+    assert model.replay_buffer.size() == 0
+    model.learn(200)
+    assert model.replay_buffer.size() == 200 and model.replay_buffer.buffer_size == 5000
+    model.save(str(tmp_path / "sac"))
+    path = model.save_replay_buffer(str(tmp_path / "replay"))
+    assert path.endswith("replay.pkl")
+    loaded = rlchain.SAC.load(str(tmp_path / "sac"))
+    assert loaded.replay_buffer.size() == 0
+    loaded.load_replay_buffer(str(tmp_path / "replay"))
+    assert loaded.replay_buffer.size() == 200
+    again = rlchain.SAC.load(str(tmp_path / "sac"), env="Pendulum-v1")
+    again.load_replay_buffer(path)
+    again.learn(100)  # the run starts with the 200 saved transitions
+    assert again.replay_buffer.size() == 300
