@@ -15,7 +15,7 @@ from typing import Any
 
 import yaml
 
-from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
 from rlchain.config.embodichain import is_embodichain
 from rlchain.config.errors import ConfigError, did_you_mean
 from rlchain.config.load import (

@@ -41,9 +41,9 @@ def child(tree: str, case: str, sets: list[str], warmup: int, epochs: int) -> di
 
     from rlchain import Runner
     try:  # PPO's class, by its name in the tree being timed
-        from rlchain.algos.ppo.trainer import PPO
+        from rlchain.algos.ppo.ppo import PPO
     except ImportError:  # a tree from before the algorithms were named for what they are
-        from rlchain.algos.ppo.trainer import OnPolicyTrainer as PPO
+        from rlchain.algos.ppo.ppo import OnPolicyTrainer as PPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop

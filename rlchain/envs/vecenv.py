@@ -39,7 +39,7 @@ Shapes for ``num_envs = N``:
   slices that partition the N envs; ``send(g, actions)`` (actions for rows ``env_groups[g]``) starts
   group g's step and returns at once, ``recv(g)`` waits for it and returns that group's StepResult
   (same contract, rows of the group only). ``step`` still steps every env. The PPO rollout then
-  computes one group's actions while the other group steps (``algos/ppo/trainer.py``).
+  computes one group's actions while the other group steps (``algos/ppo/ppo.py``).
 - ``infos[DROPPED]`` (optional, (N,) bool): rows whose episode the backend cut without an ending (a
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``

@@ -230,16 +230,16 @@ def test_function_level_imports_are_for_optional_dependencies_only():
 def test_the_checks_bite():
     assert layer_violation("rlchain.algos.core.returns", "rlchain.training.loop")
     assert layer_violation("rlchain.models.normalization", "rlchain.training.loop")
-    assert layer_violation("rlchain.training.loop", "rlchain.algos.ppo.trainer")
+    assert layer_violation("rlchain.training.loop", "rlchain.algos.ppo.ppo")
     assert layer_violation("rlchain.envs.factory", "rlchain.models.actor_critic")
-    assert layer_violation("rlchain.inference.player", "rlchain.algos.appo.trainer")
+    assert layer_violation("rlchain.inference.player", "rlchain.algos.appo.appo")
     assert layer_violation("rlchain.training.loop", "rlchain.runner")
     assert layer_violation("rlchain.training.loop", "rlchain.rl_games.torch_runner")
     assert layer_violation("rlchain.cli", "rlchain.rl_games.common.vecenv")
     assert layer_violation("rlchain.rl_games.torch_runner", "rlchain.runner") is None  # the facade drives it
     assert layer_violation("rlchain.config.schema", "torch")
     assert layer_violation("rlchain.algos.core.storage", "rlchain.algos.ppo.agent")
-    assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.training.loop")
+    assert layer_violation("rlchain.algos.ppo.ppo", "rlchain.training.loop")
     assert layer_violation("rlchain.algos.multi_policy.snapshots", "rlchain.training.events")
     assert layer_violation("rlchain.algos.base.context", "rlchain.algos.ppo.agent")
     assert layer_violation("rlchain.runs.logging", "rlchain.training.events")
@@ -248,7 +248,7 @@ def test_the_checks_bite():
     assert layer_violation("rlchain.models.build", "rlchain.policy.stepper")
     assert layer_violation("rlchain.training.evaluation", "rlchain.policy.play") is None
     assert layer_violation("rlchain.algos.distill.teacher", "rlchain.policy.play") is None
-    assert layer_violation("rlchain.algos.ppo.trainer", "rlchain.algos.base.algorithm") is None
+    assert layer_violation("rlchain.algos.ppo.ppo", "rlchain.algos.base.algorithm") is None
     assert layer_violation("rlchain.training.loop", "rlchain.algos.base.algorithm") is None
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None

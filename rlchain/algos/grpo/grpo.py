@@ -18,7 +18,7 @@ import torch
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.grpo.advantages import alive_mask, discounted_returns, group_advantages, k3_kl
 from rlchain.algos.grpo.shared_starts import share_group_starts, supports_shared_starts
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.grpo import GRPOConfig
 from rlchain.config.schema import Params
