@@ -27,8 +27,8 @@ from rlchain.config.load import (
     parse_params,
 )
 from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
+from rlchain.config.params import Params
 from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
-from rlchain.config.schema import Params
 from rlchain.envs.spec import env_spec
 from rlchain.inference.export.onnx import export_from_cli
 from rlchain.inference.export.policies import export_policies

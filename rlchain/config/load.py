@@ -19,8 +19,9 @@ from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
+from rlchain.config.network import NetworkConfig, ResnetNetworkConfig
 from rlchain.config.network_block import check_planned, check_registered, network_name, parse_network
-from rlchain.config.schema import NamedBlock, NetworkConfig, Params, ResnetNetworkConfig
+from rlchain.config.params import NamedBlock, Params
 from rlchain.registry import ALGOS, MODELS, NETWORKS
 
 

@@ -20,7 +20,7 @@ from typing import Any
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.wrappers.one_env import OneEnv
 from rlchain.inference.player import Player
 from rlchain.log import get_logger

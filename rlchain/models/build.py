@@ -11,7 +11,8 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
-from rlchain.config.schema import NetworkConfig, Params
+from rlchain.config.network import NetworkConfig
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view

@@ -16,7 +16,7 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs import vecenv as _vecenv
 from rlchain.rl_games.algos_torch.players import PLAYERS
 from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver

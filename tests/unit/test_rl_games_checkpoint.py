@@ -163,7 +163,7 @@ def test_rl_games_1_6_5_normalization_config_says_to_drop_the_key():
 
 
 def test_norm_after_activation_builds_rl_games_order():
-    from rlchain.config.schema import MlpConfig
+    from rlchain.config.network import MlpConfig
     from rlchain.networks.mlp import MLP
 
     after = MLP(3, MlpConfig(units=[4], normalization="layer_norm", norm_after_activation=True)).net[0]

@@ -33,7 +33,7 @@ import torch
 
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec
 

@@ -18,7 +18,7 @@ import torch
 from rlchain.algos.base.episodes import EpisodeTracker, game_outcome
 from rlchain.algos.base.safety import StopSignals
 from rlchain.algos.core.collector import StepOutcome
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec, check_obs_shape, env_spec
 from rlchain.envs.vecenv import dropped_rows
 from rlchain.envs.wrappers.info_means import InfoMeans

@@ -21,7 +21,7 @@ from rlchain.algos.grpo.shared_starts import share_group_starts, supports_shared
 from rlchain.algos.ppo.ppo import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.grpo import GRPOConfig
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.models.actor_critic import ActorCritic
 

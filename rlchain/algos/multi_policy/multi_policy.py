@@ -26,8 +26,7 @@ from rlchain.algos.multi_policy.snapshots import Snapshots
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY
-from rlchain.config.schema import Params
-from rlchain.deprecation import renamed
+from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
@@ -263,9 +262,3 @@ def _check_supported(params: Params) -> None:
         if used:
             raise ConfigError(params.source, f"params.config.{key}", "is not supported with multi_agent yet; "
                                                                      "remove it (docs/multi_agent.md)")
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "MultiPolicyTrainer": ("MultiPolicyPPO", MultiPolicyPPO),
-})

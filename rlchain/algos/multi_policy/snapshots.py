@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import SelfPlayConfig
+from rlchain.config.ppo import SelfPlayConfig
 from rlchain.log import get_logger
 
 log = get_logger(__name__)

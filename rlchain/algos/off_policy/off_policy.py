@@ -26,7 +26,7 @@ from rlchain.algos.core.stepper import OffPolicyStepper
 from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
 from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import SACConfig
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.log import get_logger
 from rlchain.parallel.memory import check_fits
