@@ -22,7 +22,8 @@ from typing import Any
 import yaml
 
 from rlchain.config.compat import warn_once
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
 from rlchain.registry import ENVS
 
 TOP_KEYS = ("trainer", "policy", "algorithm")

@@ -26,7 +26,7 @@ ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.r
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"
-GROUND_FLOOR = ("rlchain.errors", "rlchain.log", "rlchain.registry")  # import nothing of rlchain
+GROUND_FLOOR = ("rlchain.errors", "rlchain.log", "rlchain.registry")  # import nothing of rlchain above them
 TORCH_MODULES = ("torch", "tensorboard", "jax", "numpy.typing")  # config/ stays importable without them
 OPTIONAL = re.compile(r"#\s*optional:\s*\S")
 
@@ -152,8 +152,8 @@ def layer_violation(importer: str, imported: str, families: tuple[str, ...] | No
     if _under(importer, "rlchain.parallel") and not _under(imported, "rlchain.parallel", "rlchain.config",
                                                            *GROUND_FLOOR):
         return "parallel/ is low: it imports only config/ and the ground floor"
-    if _under(importer, *GROUND_FLOOR):
-        return "the ground floor (errors, log, registry) imports nothing of rlchain"
+    if _under(importer, *GROUND_FLOOR) and not _under(imported, *GROUND_FLOOR):
+        return "the ground floor (errors, log, registry) imports nothing of rlchain above it"
     if _under(importer, "rlchain.training") and not _under(imported, ALGO_BASE) and \
             _under(imported, "rlchain.algos", "rlchain.inference", "rlchain.tuning", "rlchain.builtins"):
         return "training/ names no algorithm (and nothing of inference/, tuning or the built-ins)"
@@ -253,5 +253,7 @@ def test_the_checks_bite():
     assert layer_violation("rlchain.algos.distill.teacher", "rlchain.policy.play") is None
     assert layer_violation("rlchain.algos.ppo.ppo", "rlchain.algos.base.algorithm") is None
     assert layer_violation("rlchain.training.loop", "rlchain.algos.base.algorithm") is None
+    assert layer_violation("rlchain.registry", "rlchain.config.errors")
+    assert layer_violation("rlchain.registry", "rlchain.errors") is None  # the did-you-mean lives there
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
