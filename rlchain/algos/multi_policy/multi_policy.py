@@ -42,7 +42,7 @@ class MultiPolicyPPO(AlgorithmBase):
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """Features the single-policy trainer has and this one not yet; the minibatch against the batch."""
+        """Features single-policy PPO has and this one not yet; the minibatch against the batch."""
         _check_supported(params)
         check_batch(params.config, params.source, spec.num_agents)
 
@@ -249,7 +249,7 @@ def _no_record(result: Any, rows: slice) -> None:
 
 
 def _check_supported(params: Params) -> None:
-    """Features of the single-policy trainer multi_agent does not have yet: a one-line ConfigError."""
+    """Features of single-policy PPO multi_agent does not have yet: a one-line ConfigError."""
     cfg = params.config
     unsupported = [("central_value_config", cfg.central_value_config is not None),
                    ("evaluation.interval", cfg.evaluation.interval > 0),

@@ -38,7 +38,7 @@ class QModel(ObservationModel):
     """``network`` (obs -> Q (B, n)), ``target`` network, obs normalizer and the acting epsilon.
 
     ``act(obs, deterministic=True)`` is greedy; otherwise epsilon-greedy with the ``epsilon`` buffer
-    (the trainer sets it from its schedule; play uses ``play_epsilon``).
+    (DQN sets it from its schedule; play uses ``play_epsilon``).
     """
 
     flatten_obs = True
