@@ -343,3 +343,11 @@ def _check_callbacks(specs: list[str], source: str) -> None:
                                                 f"class takes none") from None
             except ValueError:  # no signature to read (a builtin): its construction says it, in one line
                 pass
+        elif inspect.isfunction(obj) or inspect.isbuiltin(obj):  # called as fn(ctx, stats, episodes)
+            try:
+                inspect.signature(obj).bind(None, None, None)
+            except TypeError as exc:
+                raise ConfigError(source, path, f"'{spec}' cannot be called as fn(ctx, stats, episodes) ({exc})") \
+                    from None
+            except ValueError:
+                pass

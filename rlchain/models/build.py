@@ -69,6 +69,8 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
 
     try:
         model = build_within_memory(build, device, params.source)
+    except ConfigError:
+        raise
     except ValueError as exc:
         key = f"params.config.obs_groups.{view.group}" if not view.whole and view.size else ""
         raise ConfigError(params.source, key, f"{'' if not key else 'the network cannot take this view: '}"
