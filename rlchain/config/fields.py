@@ -161,6 +161,8 @@ def _to_int(value: Any, path: str, source: str) -> int:
         raise ConfigError(source, path, f"expected an integer, got {value!r}") from None
     if not number.is_integer():
         raise ConfigError(source, path, f"expected an integer, got {value!r}")
+    if abs(number) > 2**53:  # past a float's exact integers: 1.0e+308 is no size anyone meant
+        raise ConfigError(source, path, f"expected an integer, got the float {value!r} (write an integer)")
     return int(number)
 
 

@@ -21,14 +21,14 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
+from rlchain.config.stored import as_data, check_env_id
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
-from rlchain.runs import checkpoint as ckpt
+from rlchain.sb3 import files
 from rlchain.sb3.envs import EnvSource, env_source
 from rlchain.sb3.keys import NUM_ENVS, build_config
 from rlchain.training.events import Callback
 
-FORMAT = "rlchain-sb3-1"
 POLICIES = ("MlpPolicy",)
 
 
@@ -196,7 +196,7 @@ class BaseModel:
         """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote); the next ``learn`` starts from them."""
         params = load_path_or_dict
         if isinstance(params, str):
-            params = {"policy": torch.load(_file(params), map_location="cpu", weights_only=False)["model"]}
+            params = {"policy": files.load_weights(_file(params))}
         self.policy.load_state_dict(params["policy"], strict=exact_match)
         self._weights_changed = True
 
@@ -206,23 +206,22 @@ class BaseModel:
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
-        state = {"format": FORMAT, "algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
+        state = {"algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
-                 "spaces": (self._spaces.observation_space, self._spaces.action_space),
                  "config": self.config, "model": self.policy.state_dict(), "num_timesteps": self.num_timesteps}
-        ckpt.save_atomic(state, path)
+        files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
         return path
 
     @classmethod
     def load(cls, path: str, env: Any = None, device: str = "auto", **kwargs: Any) -> BaseModel:
         """A model :meth:`save` wrote; ``env`` (default: the gymnasium id it was trained on, if any) is needed
-        only to train further. ``kwargs`` replace saved hyperparameters."""
-        state = torch.load(_file(path), map_location="cpu", weights_only=False)
-        if not isinstance(state, dict) or state.get("format") != FORMAT:
-            raise ValueError(f"{path}: not a model saved by rlchain.{cls.algo.upper()}.save "
-                             f"(for a training checkpoint use rlchain.Runner or `rlchain play`)")
-        if state["algo"] != cls.algo:
-            raise ValueError(f"{path}: a {state['algo'].upper()} model; load it with rlchain.{state['algo'].upper()}")
+        only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
+        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only."""
+        path = _file(path)
+        state = files.load_model(path, cls.algo)
+        stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
+        if env is None:
+            check_env_id(state["env_id"], path, "env_id")
         env = env if env is not None else state["env_id"]
         hyperparameters = {**state["hyperparameters"], **kwargs}
         model = cls.__new__(cls)
@@ -233,8 +232,8 @@ class BaseModel:
             model.env_source = env_source(env, cls.algo)
             model.n_envs = model.env_source.num_envs or state["n_envs"]
         model._spaces = _Spaces(*state["spaces"])
-        model._loaded_config = state["config"]
-        model.policy = model._build_policy_from(state["config"])
+        model._loaded_config = stored
+        model.policy = model._build_policy_from(stored)
         model.policy.load_state_dict(state["model"])
         model.num_timesteps = state["num_timesteps"]
         model._weights_changed = True
