@@ -132,16 +132,23 @@ def test_player_acts_on_one_or_a_batch_of_observations(base_config):
     assert torch.equal(same, player.get_action(batch, is_deterministic=True))  # the mode: no sampling
 
 
-def test_register_model_rejects_rl_games_model_classes(registries):
+def test_register_model_takes_rl_games_model_classes_and_rejects_other_objects(registries):
     from rlchain.registry import MODELS
+    from rlchain.rl_games.algos_torch import models
 
-    class RlGamesStyleModel:  # rl_games' BaseModel: built later with .build(config)
-        def __init__(self, network, **kwargs):
+    class MyModel(models.ModelA2CContinuousLogStd):  # rl_games' form: built later with .build(config)
+        pass
+
+    model_builder.register_model("rlg_style", lambda network, **kwargs: MyModel(network))
+    assert models.rlchain_preset(MyModel) == "continuous_a2c_logstd"
+
+    class NotAModel:
+        def __init__(self, network):
             self.network = network
 
-    model_builder.register_model("rlg_style", lambda **kwargs: RlGamesStyleModel(**kwargs))
-    with pytest.raises(ValueError, match="'rlg_style' returned a RlGamesStyleModel, not an rlchain ActorCritic"):
-        MODELS.get("rlg_style")(network=None)
+    model_builder.register_model("not_a_model", NotAModel)
+    with pytest.raises(ValueError, match="'not_a_model' returned a NotAModel, neither a subclass"):
+        MODELS.get("not_a_model")(network=None)
 
 
 def test_alias_resolves_rl_games_names_to_rlchain_and_uninstalls():
