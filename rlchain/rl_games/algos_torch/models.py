@@ -15,6 +15,7 @@ from typing import Any
 
 import torch
 import torch.nn as nn
+import torch.nn.functional as F
 from torch.distributions import Categorical, Normal
 
 from rlchain.rl_games.algos_torch.running_mean_std import RunningMeanStd, RunningMeanStdObs
@@ -166,10 +167,29 @@ class ModelA2CMultiDiscrete(BaseModel):
             return torch.stack([d.sample().long() for d in dist], -1)
 
 
+def apply_sigma_parametrization(raw: torch.Tensor, network: Any) -> tuple[torch.Tensor, torch.Tensor]:
+    """(std, log std) from the sigma head's raw output by ``network``'s rl_games 2.0 options: ``exp`` (raw is
+    the log std, clamped to ``logstd_bounds``, ``min_sigma`` added), ``softplus`` (softplus(raw) + min_sigma),
+    ``linear`` / ``scalar`` (raw is the std above a smooth floor max(min_sigma, 1e-3))."""
+    min_sigma = float(getattr(network, "min_sigma", 0.0))
+    kind = getattr(network, "sigma_parametrization", "exp")
+    if kind == "softplus":
+        sigma = F.softplus(raw) + min_sigma
+    elif kind in ("linear", "scalar"):
+        floor = max(min_sigma, 1e-3)
+        sigma = floor + F.softplus(raw - floor)
+    else:
+        bounds = getattr(network, "logstd_bounds", None)
+        if bounds is not None:
+            raw = raw.clamp(bounds[0], bounds[1])
+        if min_sigma <= 0:
+            return raw.exp(), raw
+        sigma = raw.exp() + min_sigma
+    return sigma, sigma.log()
+
+
 class ModelA2CContinuous(BaseModel):
     """Continuous actions, the network's ``sigma`` taken as the standard deviation."""
-
-    log_std = False
 
     def __init__(self, network: Any) -> None:
         BaseModel.__init__(self, "a2c")
@@ -180,7 +200,7 @@ class ModelA2CContinuous(BaseModel):
 
         def distribution(self, head: list, masks: Any) -> tuple[Any, dict]:
             mu, sigma = head
-            std = torch.exp(sigma) if self.log_std else sigma
+            std = apply_sigma_parametrization(sigma, self.a2c_network)[0] if self.log_std else sigma
             return Normal(mu, std), {"mus": mu, "sigmas": std}
 
         def log_prob(self, dist: Any, actions: torch.Tensor) -> torch.Tensor:
@@ -191,7 +211,8 @@ class ModelA2CContinuous(BaseModel):
 
 
 class ModelA2CContinuousLogStd(ModelA2CContinuous):
-    """Continuous actions, the network's ``sigma`` taken as the log standard deviation."""
+    """Continuous actions, the network's ``sigma`` mapped to the standard deviation by
+    :func:`apply_sigma_parametrization` (by default: taken as the log standard deviation)."""
 
     class Network(ModelA2CContinuous.Network):
         log_std = True
@@ -257,5 +278,5 @@ def rlchain_preset(model: Any) -> str | None:
 
 
 __all__ = ["BaseModel", "BaseModelNetwork", "ModelA2C", "ModelA2CMultiDiscrete", "ModelA2CContinuous",
-           "ModelA2CContinuousLogStd", "ModelCentralValue", "ModelSACContinuous", "RLCHAIN_PRESETS",
+           "ModelA2CContinuousLogStd", "ModelCentralValue", "apply_sigma_parametrization", "ModelSACContinuous", "RLCHAIN_PRESETS",
            "rlchain_preset"]

@@ -22,6 +22,7 @@ import torch.nn as nn
 from rlchain.networks import NetworkBuilder as _RlchainBuilder
 from rlchain.networks.layers import Linear
 from rlchain.rl_games.algos_torch.base_network import BaseNetwork
+from rlchain.rl_games.algos_torch.torch_ext import shape_whc_to_cwh
 
 
 class NetworkBuilder(_RlchainBuilder):
@@ -31,11 +32,6 @@ class NetworkBuilder(_RlchainBuilder):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-
-
-def shape_whc_to_cwh(shape: tuple[int, ...]) -> tuple[int, ...]:
-    """(H, W, C) -> (C, H, W) for a 3-d image shape; other shapes unchanged."""
-    return (shape[2], shape[0], shape[1]) if len(shape) == 3 else tuple(shape)
 
 
 class A2CBuilder(NetworkBuilder):
