@@ -183,8 +183,8 @@ def test_config_algo_observer_unless_one_is_given(base_config):
     base_config["params"]["config"]["algo_observer"] = "isaac"
     runner = Runner()
     runner.load(base_config)
-    assert runner.algo_observer is None  # the config's, added as a callback
-    assert runner._runner.params.config.callbacks == ["rlchain.rl_games.common.algo_observer:IsaacAlgoObserver"]
+    assert isinstance(runner.algo_observer, IsaacAlgoObserver)  # built from the config, as rl_games 2.0 does
+    assert runner._runner.params.config.callbacks == []  # called as the Runner's observer, not twice
     given = DefaultAlgoObserver()
     runner = Runner(given)
     runner.load(base_config)  # an observer passed to Runner wins, as in rl_games 2.0
@@ -192,6 +192,22 @@ def test_config_algo_observer_unless_one_is_given(base_config):
     base_config["params"]["config"]["stop_fn"] = "not callable"
     with pytest.raises(ValueError, match="params.config.stop_fn: expected a callable"):
         Runner().load(base_config)
+    base_config["params"]["config"].update(stop_fn=None, algo_observer="isac")
+    with pytest.raises(ValueError, match="params.config.algo_observer: expected one of default, isaac, got 'isac'"):
+        Runner().load(base_config)
+
+
+def test_partial_config_loads_and_binds_its_vecenv_type(base_config, scoped_registries):
+    from rlchain.registry import ENV_CONFIGURATIONS
+
+    runner = Runner()  # rl_games' tests load an algo and a config block only: nothing is built until run
+    runner.load_config({"algo": {"name": "a2c_continuous"},
+                        "config": {"env_name": "partial_test_env", "vecenv_type": "RAY", "reward_shaper": {}}})
+    assert runner.algo_name == "a2c_continuous" and ENV_CONFIGURATIONS["partial_test_env"] == {"vecenv_type": "RAY"}
+    with pytest.raises(ConfigError, match="params.model"):
+        runner.create_player()  # used: checked then, one line naming the missing block
+    runner.load(base_config)  # a whole config is checked at load, as a YAML is
+    assert runner._runner is not None
 
 
 def test_an_ivecenv_with_another_env_count_is_a_one_line_error():
