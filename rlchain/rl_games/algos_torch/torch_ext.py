@@ -91,10 +91,10 @@ def apply_masks(losses: list[torch.Tensor], mask: torch.Tensor | None = None
 
 
 def get_mean_var_with_masks(values: torch.Tensor, masks: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Mean and (biased) variance over the rows ``masks`` selects."""
+    """Mean and unbiased variance over the rows ``masks`` selects (finite for 0 or 1 selected rows)."""
     count = masks.sum()
-    mean = (values * masks).sum() / count
-    return mean, (((values - mean) ** 2) * masks).sum() / count
+    mean = (values * masks).sum() / count.clamp(min=1.0)
+    return mean, (((values - mean) ** 2) * masks).sum() / (count - 1.0).clamp(min=1.0)
 
 
 def policy_kl(p0_mu: torch.Tensor, p0_sigma: torch.Tensor, p1_mu: torch.Tensor, p1_sigma: torch.Tensor,
