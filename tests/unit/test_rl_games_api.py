@@ -223,3 +223,12 @@ def test_an_ivecenv_with_another_env_count_is_a_one_line_error():
     with pytest.raises(ValueError, match=r"returned 3 observation rows, expected num_actors \(1\) x agents \(1\)"):
         IVecEnvAdapter(Fixed(), 1)
     assert IVecEnvAdapter(Fixed(), 3).num_envs == 3
+
+
+@pytest.mark.parametrize("module", ["algos_torch.a2c_continuous", "algos_torch.a2c_discrete", "algos_torch.sac_agent",
+                                    "algos_torch.central_value", "common.a2c_common"])
+def test_rl_games_agent_modules_say_what_rlchain_offers(module):
+    sys.modules.pop(f"rlchain.rl_games.{module}", None)
+    with pytest.raises(ImportError, match=r"is rl_games' agent code, not offered by rlchain: rlchain trains") as err:
+        importlib.import_module(f"rlchain.rl_games.{module}")
+    assert "\n" not in str(err.value) and err.value.name == f"rl_games.{module}"

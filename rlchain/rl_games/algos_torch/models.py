@@ -278,5 +278,5 @@ def rlchain_preset(model: Any) -> str | None:
 
 
 __all__ = ["BaseModel", "BaseModelNetwork", "ModelA2C", "ModelA2CMultiDiscrete", "ModelA2CContinuous",
-           "ModelA2CContinuousLogStd", "ModelCentralValue", "apply_sigma_parametrization", "ModelSACContinuous", "RLCHAIN_PRESETS",
-           "rlchain_preset"]
+           "ModelA2CContinuousLogStd", "ModelCentralValue", "ModelSACContinuous", "apply_sigma_parametrization",
+           "RLCHAIN_PRESETS", "rlchain_preset"]

@@ -6,8 +6,6 @@ buffers ``running_mean``, ``running_var`` and ``count`` are named as in rl_games
 compile with ``torch.jit.script`` as rl_games' models script them.
 """
 
-from typing import Dict, List, Optional
-
 import torch
 import torch.nn as nn
 
@@ -21,18 +19,18 @@ class RunningMeanStd(nn.Module):
     def __init__(self, insize, epsilon: float = 1e-5, per_channel: bool = False, norm_only: bool = False) -> None:
         super().__init__()
         shape = (int(insize),) if isinstance(insize, int) else tuple(int(s) for s in insize)
-        self.insize: List[int] = list(shape)
+        self.insize: list[int] = list(shape)
         self.epsilon = float(epsilon)
         self.norm_only = norm_only
         self.clip: float = CLIP
         self.per_channel = per_channel
-        self.axis: List[int] = [0] + list(range(2, len(shape) + 1)) if per_channel else [0]
+        self.axis: list[int] = [0] + list(range(2, len(shape) + 1)) if per_channel else [0]
         size = (shape[0],) if per_channel else shape
         self.register_buffer("running_mean", torch.zeros(size, dtype=torch.float64))
         self.register_buffer("running_var", torch.ones(size, dtype=torch.float64))
         self.register_buffer("count", torch.ones((), dtype=torch.float64))
 
-    def update(self, x: torch.Tensor, mask: Optional[torch.Tensor] = None) -> None:
+    def update(self, x: torch.Tensor, mask: torch.Tensor | None = None) -> None:
         """Fold the batch ``x`` (rows selected by ``mask`` when given) into the statistics (parallel variance)."""
         with torch.no_grad():
             if mask is not None:
@@ -58,7 +56,7 @@ class RunningMeanStd(nn.Module):
             return stat.view(shape)
         return stat
 
-    def forward(self, input: torch.Tensor, denorm: bool = False, mask: Optional[torch.Tensor] = None) -> torch.Tensor:
+    def forward(self, input: torch.Tensor, denorm: bool = False, mask: torch.Tensor | None = None) -> torch.Tensor:
         if self.training and not denorm:
             self.update(input, mask)
         mean = self._stat(self.running_mean, input)
@@ -81,10 +79,10 @@ class RunningMeanStdObs(nn.Module):
         self.running_mean_std = nn.ModuleDict({key: RunningMeanStd(shape, epsilon, per_channel, norm_only)
                                                for key, shape in insize.items()})
 
-    def forward(self, input: Dict[str, torch.Tensor], denorm: bool = False) -> Dict[str, torch.Tensor]:
+    def forward(self, input: dict[str, torch.Tensor], denorm: bool = False) -> dict[str, torch.Tensor]:
         if len(input) != len(self.running_mean_std):
             raise ValueError("observation dict keys do not match the normalizer keys")
-        out: Dict[str, torch.Tensor] = {}
+        out: dict[str, torch.Tensor] = {}
         for key, module in self.running_mean_std.items():
             out[key] = module(input[key], denorm)
         return out

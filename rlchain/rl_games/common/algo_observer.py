@@ -145,7 +145,8 @@ class IsaacAlgoObserver(AlgoObserver):
                 self.ep_infos.append(infos[key])
         # one number per step (a float, an int or a 0-d tensor), not per-env rows such as time_outs
         direct = {k: s for k, v in infos.items()
-                  if (isinstance(v, (int, float, np.number)) or isinstance(v, (torch.Tensor, np.ndarray)) and v.ndim == 0)
+                  if (isinstance(v, (int, float, np.number))
+                      or isinstance(v, (torch.Tensor, np.ndarray)) and v.ndim == 0)
                   and (s := _scalar_of(v)) is not None}
         if direct:
             self.direct_info = direct
