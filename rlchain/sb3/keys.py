@@ -14,7 +14,8 @@ import re
 from collections.abc import Iterable
 from typing import Any
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
 from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION
 
 SOURCE = "rlchain.{algo}"  # where ConfigErrors say the bad argument came from

@@ -21,10 +21,11 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
+from rlchain.config.stored import as_data, check_env_id
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
-from rlchain.runs import checkpoint as ckpt
+from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
@@ -34,7 +35,6 @@ from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, sa
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.training.events import Callback
 
-FORMAT = "rlchain-sb3-1"
 POLICIES = ("MlpPolicy",)
 
 
@@ -274,7 +274,7 @@ class BaseModel:
         """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote); the next ``learn`` starts from them."""
         params = load_path_or_dict
         if isinstance(params, str):
-            params = {"policy": torch.load(_file(params), map_location="cpu", weights_only=False)["model"]}
+            params = {"policy": files.load_weights(_file(params))}
         self.policy.load_state_dict(params["policy"], strict=exact_match)
         self._weights_changed = True
 
@@ -284,23 +284,22 @@ class BaseModel:
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
-        state = {"format": FORMAT, "algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
+        state = {"algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
-                 "spaces": (self._spaces.observation_space, self._spaces.action_space),
                  "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
-        ckpt.save_atomic(state, path)
+        files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
         return path
 
     @classmethod
     def load(cls, path: str, env: Any = None, device: str = "auto", **kwargs: Any) -> BaseModel:
         """A model :meth:`save` wrote; ``env`` (default: the gymnasium id it was trained on, if any) is needed
-        only to train further. ``kwargs`` replace saved hyperparameters."""
-        state = torch.load(_file(path), map_location="cpu", weights_only=False)
-        if not isinstance(state, dict) or state.get("format") != FORMAT:
-            raise ValueError(f"{path}: not a model saved by rlchain.{cls.algo.upper()}.save "
-                             f"(for a training checkpoint use rlchain.Runner or `rlchain play`)")
-        if state["algo"] != cls.algo:
-            raise ValueError(f"{path}: a {state['algo'].upper()} model; load it with rlchain.{state['algo'].upper()}")
+        only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
+        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only."""
+        path = _file(path)
+        state = files.load_model(path, cls.algo)
+        stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
+        if env is None:
+            check_env_id(state["env_id"], path, "env_id")
         env = env if env is not None else state["env_id"]
         n_envs = kwargs.pop("n_envs", None) or state["n_envs"]  # SB3's load takes n_envs for a new env
         hyperparameters = {**state["hyperparameters"], **kwargs}
@@ -313,8 +312,8 @@ class BaseModel:
             model._env_arg = env
             model.n_envs = model.env_source.num_envs or n_envs
         model._spaces = _Spaces(*state["spaces"])
-        model._loaded_config = state["config"]
-        model.policy = model._build_policy_from(state["config"])
+        model._loaded_config = stored
+        model.policy = model._build_policy_from(stored)
         model.policy.load_state_dict(state["model"])
         model.num_timesteps = state["num_timesteps"]
         model._weights_changed = True
