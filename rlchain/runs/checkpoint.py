@@ -3,11 +3,13 @@ exact resume state, and clear errors for bad files."""
 
 from __future__ import annotations
 
+import io
 import os
 import pickle
 import random
 import re
 import threading
+import zipfile
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -150,6 +152,28 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
                               f"is corrupted (disk or copy); use another checkpoint")
     state.pop(digest.KEY, None)
     return _decode(state)
+
+
+def read_zip_member(path: str, member: str, map_location: str | torch.device = "cpu") -> Any:
+    """One torch-saved file inside a zip archive (a Stable-Baselines3 model's ``policy.pth``), read as data
+    (``weights_only``; never trusted: such archives come from elsewhere). A missing or unreadable member, or
+    one naming code, is a one-line CheckpointError."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            raw = archive.read(member)
+    except (OSError, KeyError, zipfile.BadZipFile) as exc:
+        raise CheckpointError(f"{path}: no readable '{member}' in the archive ({type(exc).__name__}: "
+                              f"{' '.join(str(exc).split())[:120]})") from None
+    _allow_data_types()
+    try:
+        return torch.load(io.BytesIO(raw), map_location=map_location, weights_only=True)
+    except pickle.UnpicklingError as exc:
+        match = re.search(r"GLOBAL ([\w.]+)", str(exc))
+        raise CheckpointError(f"{path}: '{member}' refused: it names "
+                              f"{repr(match.group(1)) if match else 'a type'}, which is not data") from None
+    except Exception as exc:
+        raise CheckpointError(f"{path}: '{member}' is not a readable torch file ({type(exc).__name__}: "
+                              f"{' '.join(str(exc).split())[:160]})") from None
 
 
 _DEQUE = "__rlchain_deque__"

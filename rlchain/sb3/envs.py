@@ -120,7 +120,7 @@ def sb3_vec_env(env: Any, source: EnvSource, n_envs: int, seed: int | None) -> A
     sub-envs or factories). Needs stable-baselines3 (imported here: it is optional)."""
     if source.vec_env is not None:
         return source.vec_env
-    try:
+    try:  # optional: stable-baselines3
         from stable_baselines3.common.env_util import make_vec_env
         from stable_baselines3.common.monitor import Monitor
         from stable_baselines3.common.vec_env import DummyVecEnv

@@ -23,6 +23,7 @@ from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
 from rlchain.config.stored import as_data, check_env_id
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
+from rlchain.inference.export.onnx import export_model_onnx, obs_dtype
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.sb3 import files
@@ -33,6 +34,7 @@ from rlchain.sb3.keys import NUM_ENVS, build_config
 from rlchain.sb3.policy import SB3Policy
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
+from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive
 from rlchain.training.events import Callback
 
 POLICIES = ("MlpPolicy",)
@@ -241,6 +243,13 @@ class BaseModel:
             self._logger = SB3Logger()
         return self._logger
 
+    def export_onnx(self, path: str) -> str:
+        """PPO: the deterministic policy as an ONNX graph (rlchain's exporter, checked with onnx); returns the path."""
+        if self.algo != "ppo":
+            raise ValueError(f"rlchain.{self.algo.upper()}.export_onnx: ONNX export is for PPO's actor-critic")
+        space = self._spaces.observation_space
+        return export_model_onnx(self.policy.net, tuple(space.shape), os.fspath(path), input_dtype=obs_dtype(space))
+
     def save_replay_buffer(self, path: str) -> str:
         """Write the replay buffer's contents (SAC, DQN; see :mod:`rlchain.sb3.replay`); returns the path."""
         if self.replay_buffer is None:
@@ -296,6 +305,8 @@ class BaseModel:
         only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
         :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only."""
         path = _file(path)
+        if is_sb3_archive(path):
+            return cls._load_archive(path, env, device, kwargs)
         state = files.load_model(path, cls.algo)
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
         if env is None:
@@ -319,6 +330,36 @@ class BaseModel:
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
             model.replay_buffer = ReplayBufferView(model.config["params"]["config"]["replay_buffer_size"])
+        return model
+
+    @classmethod
+    def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
+        """A model from Stable-Baselines3's ``.zip`` (read as data: :mod:`rlchain.sb3.zip_format`); SB3's own
+        settings and the weights, to play, fine-tune (``env=``) or export."""
+        archive = read_sb3_archive(path, cls.algo)
+        n_envs = kwargs.pop("n_envs", None) or archive.n_envs
+        model = cls.__new__(cls)
+        BaseModel.__init__(model, "MlpPolicy", None, n_envs=n_envs, seed=archive.seed, device=device,
+                           policy_kwargs=archive.policy_kwargs, **{**archive.hyperparameters, **kwargs})
+        model._spaces = _Spaces(archive.observation_space, archive.action_space)
+        model.env_source = EnvSource("sb3_archive", None, path)  # the config needs an env name
+        config = model._config()
+        model.env_source = None
+        if env is not None:
+            model.env_source, model._env_arg = env_source(env, cls.algo), env
+            model.n_envs = model.env_source.num_envs or n_envs
+            spaces = model._read_spaces()
+            if not _same_spaces(spaces, model._spaces):
+                raise ValueError(f"{path}: the model's spaces {model._spaces.observation_space} / "
+                                 f"{model._spaces.action_space} are not {model.env_source.label}'s")
+            config = model._config()
+        model._loaded_config = config
+        model.policy = model._build_policy_from(config)
+        model.policy.load_state_dict(archive.policy_state)
+        model.num_timesteps = archive.num_timesteps
+        model._weights_changed = True
+        if cls.algo != "ppo":
+            model.replay_buffer = ReplayBufferView(config["params"]["config"]["replay_buffer_size"])
         return model
 
     def _build_policy_from(self, config: dict[str, Any]) -> SB3Policy:
@@ -361,13 +402,22 @@ class BaseModel:
         return None if self.env_source is None else vec_normalize_of(self.env_source.vec_env)
 
 
+def _same_spaces(a: _Spaces, b: _Spaces) -> bool:
+    """The same shapes and kinds of observation and action spaces (bounds may differ in dtype)."""
+    return all(type(x) is type(y) and x.shape == y.shape and getattr(x, "n", None) == getattr(y, "n", None)
+               for x, y in ((a.observation_space, b.observation_space), (a.action_space, b.action_space)))
+
+
 def _file(path: str, must_exist: bool = True) -> str:
-    """``path``, or ``path.pth`` when it has no extension (SB3 adds ``.zip`` the same way)."""
+    """``path``, or ``path.pth`` when it has no extension (SB3 adds ``.zip`` the same way; loading finds an SB3
+    ``path.zip`` too)."""
     path = os.fspath(path)
     if os.path.splitext(path)[1]:
         return path
     if must_exist and os.path.exists(path) and not os.path.exists(path + ".pth"):
         return path
+    if must_exist and not os.path.exists(path + ".pth") and os.path.exists(path + ".zip"):
+        return path + ".zip"
     return path + ".pth"
 
 

@@ -1,0 +1,172 @@
+"""Stable-Baselines3's ``.zip`` model files, read as data: ``rlchain.PPO.load("ppo_cartpole.zip")``.
+
+An SB3 archive holds ``data`` (JSON: hyperparameters, and every object SB3 could not write as JSON as a
+cloudpickled ``:serialized:`` string beside its readable attributes), ``policy.pth`` (the policy's state dict)
+and the optimizers' states. Only the JSON's plain values and readable attributes and ``policy.pth`` (through
+:func:`rlchain.runs.checkpoint.read_zip_member`, ``weights_only``) are read; nothing cloudpickled is ever
+unpickled. The spaces are rebuilt from their JSON fields (``dtype``, ``_shape``, ``low``, ``high``, ``n``,
+``start``), a schedule from its constant value, the network's layer sizes from the weights' shapes.
+MlpPolicy only (PPO with separate actor and critic layers, SAC with 2 critics and no SDE, DQN).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import zipfile
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from rlchain.runs import checkpoint as ckpt
+from rlchain.sb3.names import is_sb3_named
+
+HYPERPARAMETERS = {
+    "ppo": ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range", "ent_coef",
+            "vf_coef", "max_grad_norm", "normalize_advantage"),
+    "sac": ("learning_rate", "buffer_size", "learning_starts", "batch_size", "tau", "gamma", "ent_coef"),
+    "dqn": ("learning_rate", "buffer_size", "learning_starts", "batch_size", "tau", "gamma", "target_update_interval",
+            "exploration_fraction", "exploration_initial_eps", "exploration_final_eps", "max_grad_norm"),
+}
+"""The SB3 arguments taken from an archive (numbers; a constant schedule's value) for training further."""
+
+DEFAULT_ACTIVATION = {"ppo": "Tanh", "sac": "ReLU", "dqn": "ReLU"}
+
+
+@dataclass(frozen=True)
+class SB3Archive:
+    """What rlchain takes from an SB3 archive."""
+
+    observation_space: gym.Space
+    action_space: gym.Space
+    hyperparameters: dict[str, Any]  # SB3 names -> numbers
+    policy_kwargs: dict[str, Any]  # net_arch (from the weights), activation_fn (a name)
+    policy_state: dict[str, Any]  # SB3-named tensors
+    num_timesteps: int
+    n_envs: int
+    seed: int | None
+
+
+def is_sb3_archive(path: str) -> bool:
+    """Whether ``path`` is a zip with SB3's ``data`` and ``policy.pth``."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return {"data", "policy.pth"} <= names
+
+
+def _array(text: Any, shape: tuple[int, ...], path: str, key: str) -> np.ndarray:
+    """A numpy array from its repr in the JSON (``'[-1. -1. -8.]'``)."""
+    if isinstance(text, (list, int, float)):
+        return np.asarray(text, dtype=np.float64).reshape(shape)
+    if not isinstance(text, str) or "..." in text:
+        raise ckpt.CheckpointError(f"{path}: {key} is not readable from the archive's JSON ({str(text)[:60]!r})")
+    values = np.array([float(v) for v in re.sub(r"[\[\]\n,]", " ", text).split()], dtype=np.float64)
+    if values.size == 1 and int(np.prod(shape)) != 1:
+        values = np.full(shape, values[0])
+    return values.reshape(shape)
+
+
+def _space(entry: Any, path: str, key: str) -> gym.Space:
+    """A Box, Discrete or MultiDiscrete space from its JSON fields."""
+    kind = str(entry.get(":type:", "")) if isinstance(entry, dict) else ""
+    try:
+        if kind.endswith(".Box'>"):
+            shape = tuple(int(v) for v in entry["_shape"])
+            dtype = np.dtype(entry["dtype"])
+            return gym.spaces.Box(_array(entry["low"], shape, path, f"{key}.low").astype(dtype),
+                                  _array(entry["high"], shape, path, f"{key}.high").astype(dtype), shape, dtype)
+        if kind.endswith(".Discrete'>"):
+            return gym.spaces.Discrete(int(entry["n"]), start=int(entry.get("start", 0)))
+        if kind.endswith(".MultiDiscrete'>"):
+            nvec = _array(entry["nvec"], tuple(int(v) for v in entry["_shape"]), path, f"{key}.nvec")
+            return gym.spaces.MultiDiscrete(nvec.astype(np.int64))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ckpt.CheckpointError(f"{path}: {key} is malformed in the archive ({type(exc).__name__}: "
+                                   f"{str(exc)[:80]})") from None
+    raise ckpt.CheckpointError(f"{path}: {key}: a {kind or type(entry).__name__} space; rlchain reads Box, "
+                               f"Discrete and MultiDiscrete from SB3 archives")
+
+
+def _number(value: Any) -> float | int | bool | str | None:
+    """A plain JSON value, or a constant schedule's value (``FloatSchedule(ConstantSchedule(val=0.2))``);
+    None for anything else (a serialized function)."""
+    if isinstance(value, (int, float, bool, str)):
+        return value
+    if isinstance(value, dict):
+        for field in ("value_schedule", "val"):
+            match = re.search(r"val=([-+0-9.eE]+)", str(value.get(field, "")))
+            if match:
+                return float(match.group(1))
+    return None
+
+
+def _layers(state: dict[str, Any], prefix: str) -> list[int]:
+    """Hidden layer sizes of the ``nn.Sequential`` at ``prefix`` (Linear at even positions)."""
+    found = sorted((int(m.group(1)), v.shape[0]) for k, v in state.items()
+                   if (m := re.fullmatch(re.escape(prefix) + r"\.(\d+)\.weight", k)))
+    return [size for _, size in found]
+
+
+def _architecture(algo: str, state: dict[str, Any], path: str) -> list[int]:
+    """The hidden layer sizes of the archive's MlpPolicy, checked to be one rlchain builds."""
+    if any(k.startswith(("features_extractor.", "pi_features_extractor.", "actor.features_extractor.")) and
+           not k.endswith("running_mean") for k in state):
+        raise ckpt.CheckpointError(f"{path}: the policy has a features extractor with weights (CnnPolicy?); "
+                                   f"rlchain reads MlpPolicy archives")
+    if algo == "ppo":
+        pi, vf = _layers(state, "mlp_extractor.policy_net"), _layers(state, "mlp_extractor.value_net")
+        if pi != vf or any(k.startswith("mlp_extractor.shared_net") for k in state):
+            raise ckpt.CheckpointError(f"{path}: actor layers {pi} and critic layers {vf} differ or share layers; "
+                                       f"rlchain's MlpPolicy has the same separate layers for both")
+        return pi
+    if algo == "sac":
+        pi, qf = _layers(state, "actor.latent_pi"), _layers(state, "critic.qf0")[:-1]
+        if "actor.log_std.weight" not in state or "critic.qf2.0.weight" in state or pi != qf:
+            raise ckpt.CheckpointError(f"{path}: rlchain reads SAC archives without SDE, with 2 critics and the "
+                                       f"same layers for actor and critics (actor {pi}, critic {qf})")
+        return pi
+    return _layers(state, "q_net.q_net")[:-1]
+
+
+def _activation(policy_kwargs: Any, algo: str) -> str:
+    """The torch.nn activation class name of ``policy_kwargs['activation_fn']`` read from its JSON attributes
+    (``'<function ReLU.forward at ...>'``), else SB3's default for ``algo``."""
+    entry = policy_kwargs.get("activation_fn") if isinstance(policy_kwargs, dict) else None
+    if isinstance(entry, dict):
+        for value in entry.values():
+            match = re.match(r"<function (\w+)\.forward", str(value))
+            if match:
+                return match.group(1)
+    return DEFAULT_ACTIVATION[algo]
+
+
+def read_sb3_archive(path: str, algo: str) -> SB3Archive:
+    """The :class:`SB3Archive` of an SB3 ``algo`` (ppo, sac, dqn) model file; one-line CheckpointErrors."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (OSError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
+        raise ckpt.CheckpointError(f"{path}: not a Stable-Baselines3 archive ({type(exc).__name__})") from None
+    state = ckpt.read_zip_member(path, "policy.pth")
+    if not isinstance(state, dict) or not is_sb3_named(algo, state):
+        raise ckpt.CheckpointError(f"{path}: its policy is not an SB3 {algo.upper()} MlpPolicy")
+    if data.get("use_sde"):
+        raise ckpt.CheckpointError(f"{path}: trained with use_sde, which rlchain does not have")
+    hyper = {k: v for k in HYPERPARAMETERS[algo] if (v := _number(data.get(k))) is not None}
+    kwargs = {"net_arch": _architecture(algo, state, path),
+              "activation_fn": _activation(data.get("policy_kwargs"), algo)}
+    if algo == "sac":  # SB3 keeps the learned entropy coefficient outside the policy
+        names = zipfile.ZipFile(path).namelist()
+        variables = ckpt.read_zip_member(path, "pytorch_variables.pth") if "pytorch_variables.pth" in names else {}
+        if isinstance(variables, dict) and "log_ent_coef" in variables:
+            state = {**state, "log_alpha": variables["log_ent_coef"].reshape(())}
+    seed = data.get("seed")
+    return SB3Archive(_space(data.get("observation_space"), path, "observation_space"),
+                      _space(data.get("action_space"), path, "action_space"), hyper, kwargs, state,
+                      int(data.get("num_timesteps") or 0), int(data.get("n_envs") or 1),
+                      int(seed) if isinstance(seed, int) else None)
