@@ -31,10 +31,10 @@ from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config
-from rlchain.sb3.policy import SB3Policy
+from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
-from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive
+from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
 from rlchain.training.events import Callback
 
 POLICIES = ("MlpPolicy",)
@@ -289,7 +289,14 @@ class BaseModel:
 
     def save(self, path: str) -> str:
         """Write the model (config, arguments, spaces, weights) to ``path``
-        (``.pth`` added when it has no extension); returns the path."""
+        (``.pth`` added when it has no extension); returns the path. A ``.zip`` path gets SB3's own archive
+        (written by stable-baselines3, which SB3's ``load`` reads; SB3's network layout only)."""
+        if os.fspath(path).endswith(".zip"):
+            mlp = self.config["params"]["network"]["mlp"]
+            return write_sb3_archive(os.fspath(path), self.algo, (self._spaces.observation_space,
+                                     self._spaces.action_space), self.hyperparameters, mlp["units"],
+                                     TORCH_ACTIVATIONS[str(mlp["activation"])], self.policy.state_dict(),
+                                     self.num_timesteps)
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None

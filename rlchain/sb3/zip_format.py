@@ -11,6 +11,7 @@ MlpPolicy only (PPO with separate actor and critic layers, SAC with 2 critics an
 
 from __future__ import annotations
 
+import inspect
 import json
 import re
 import zipfile
@@ -170,3 +171,42 @@ def read_sb3_archive(path: str, algo: str) -> SB3Archive:
                       _space(data.get("action_space"), path, "action_space"), hyper, kwargs, state,
                       int(data.get("num_timesteps") or 0), int(data.get("n_envs") or 1),
                       int(seed) if isinstance(seed, int) else None)
+
+
+class _SpacesEnv(gym.Env):
+    """An env that only has the spaces: what SB3's constructor needs to build a model to write."""
+
+    def __init__(self, observation_space: gym.Space, action_space: gym.Space) -> None:
+        self.observation_space, self.action_space = observation_space, action_space
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[Any, dict]:
+        return self.observation_space.sample(), {}
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        return self.observation_space.sample(), 0.0, True, False, {}
+
+
+def write_sb3_archive(path: str, algo: str, spaces: tuple[gym.Space, gym.Space], hyperparameters: dict[str, Any],
+                      net_arch: list[int], activation: type, policy_state: dict[str, Any], num_timesteps: int) -> str:
+    """SB3's own ``.zip`` of a model with SB3's MlpPolicy layout, written by SB3 (``model.save``) from the same
+    arguments and ``policy_state`` (SB3-named), so SB3's ``load`` reads it. Needs stable-baselines3."""
+    try:  # optional: stable-baselines3 writes its own format (its cloudpickled entries included)
+        import stable_baselines3
+        from stable_baselines3.common.vec_env import DummyVecEnv
+    except ImportError as exc:
+        raise ModuleNotFoundError(f"{path}: writing SB3's .zip layout needs stable-baselines3 (pip install "
+                                  f"stable-baselines3); save to a .pth path for rlchain's own file") from exc
+    cls = getattr(stable_baselines3, algo.upper())
+    accepted = set(inspect.signature(cls).parameters)
+    kwargs = {k: v for k, v in hyperparameters.items() if k in accepted and k not in ("policy", "env")}
+    env = DummyVecEnv([lambda: _SpacesEnv(*spaces)])
+    model = cls("MlpPolicy", env, device="cpu", policy_kwargs={"net_arch": list(net_arch), "activation_fn": activation},
+                **kwargs)
+    missing = set(model.policy.state_dict()) - set(policy_state)
+    if missing:
+        raise ValueError(f"{path}: the model's network is not SB3's MlpPolicy layout (no {sorted(missing)[0]}); "
+                         f"SB3's .zip needs SB3's defaults' network (defaults='sb3')")
+    model.policy.load_state_dict({k: v for k, v in policy_state.items() if k in model.policy.state_dict()})
+    model.num_timesteps = int(num_timesteps)
+    model.save(path)
+    return path

@@ -33,3 +33,20 @@ def test_an_archive_exports_to_onnx(tmp_path):
     path = model.export_onnx(str(tmp_path / "ppo_pendulum.onnx"))
     obs = np.random.default_rng(0).uniform(-1, 1, (8, 3)).astype(np.float32)
     assert verify_onnx(model.policy.net, path, obs) < 1e-5
+
+
+@pytest.mark.parametrize(("cls", "env_id"), [("PPO", "CartPole-v1"), ("PPO", "Pendulum-v1"), ("SAC", "Pendulum-v1"),
+                                             ("DQN", "CartPole-v1")])
+def test_save_to_zip_writes_sb3s_archive_that_both_load(tmp_path, cls, env_id):
+    sb3 = pytest.importorskip("stable_baselines3")
+    import gymnasium as gym
+
+    model = getattr(rlchain, cls)("MlpPolicy", env_id, verbose=0, seed=0, policy_kwargs={"net_arch": [16]})
+    path = model.save(str(tmp_path / "model.zip"))
+    obs = np.stack([gym.make(env_id).reset(seed=s)[0] for s in range(4)])
+    expected = model.predict(obs)[0]
+    by_sb3 = getattr(sb3, cls).load(path, device="cpu")
+    np.testing.assert_allclose(by_sb3.predict(obs, deterministic=True)[0].reshape(expected.shape), expected,
+                               atol=1e-5)
+    again = getattr(rlchain, cls).load(path)
+    np.testing.assert_allclose(again.predict(obs)[0], expected, atol=1e-5)
