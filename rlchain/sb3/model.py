@@ -37,7 +37,7 @@ from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
 from rlchain.training.events import Callback
 
-POLICIES = ("MlpPolicy",)
+POLICIES = ("MlpPolicy", "MultiInputPolicy")  # MultiInputPolicy: Dict observations, flattened per key
 
 
 class _Spaces:
@@ -146,10 +146,16 @@ class BaseModel:
         return self._config()
 
     def save_config(self, path: str, total_timesteps: int | None = None) -> str:
-        """Write :attr:`config` as YAML (with ``max_frames`` when ``total_timesteps`` is given): ``rlchain train
-        <path>`` runs it (for an env object or callable, register the env under its name first)."""
+        """Write :attr:`config` as YAML with ``max_frames`` = ``total_timesteps`` (default: the last ``learn``'s
+        total), so ``rlchain train <path>`` runs the same training and stops (for an env object or callable,
+        register the env under its name first)."""
+        total = total_timesteps if total_timesteps is not None else getattr(self, "_total_timesteps", None)
+        if total is None:
+            raise ValueError(f"rlchain.{self.algo.upper()}.save_config: total_timesteps: pass the frames to train "
+                             f"(the YAML's max_frames), or learn first")
+        total = _count(f"rlchain.{self.algo.upper()}.save_config", "total_timesteps", total)
         with open(path, "w") as f:
-            yaml.safe_dump(self._config(total_timesteps), f, sort_keys=False)
+            yaml.safe_dump(self._config(total), f, sort_keys=False)
         return path
 
     def _runner(self, total_timesteps: int | None = None) -> Runner:

@@ -72,6 +72,10 @@ def test_the_config_it_runs_is_an_rl_games_yaml(tmp_path):
     params = Runner().load(path).params
     assert params.algo.name == "sac" and params.config.replay_buffer_size == 5000
     assert params.config.batch_size == 64 and params.config.max_frames == 1000
+    with pytest.raises(ValueError, match=r"^rlchain.SAC.save_config: total_timesteps: pass the frames"):
+        model.save_config(str(tmp_path / "endless.yaml"))  # a YAML without max_frames would never stop
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", n_steps=32, batch_size=32, **quiet(tmp_path)).learn(64)
+    assert Runner().load(model.save_config(str(tmp_path / "ppo.yaml"))).params.config.max_frames == 64
 
 
 def test_unknown_argument_is_one_line(tmp_path):
