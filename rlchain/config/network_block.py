@@ -9,6 +9,7 @@ from typing import Any
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass
+from rlchain.config.multi_input import InputConfig, MultiInputNetworkConfig
 from rlchain.config.network import NetworkConfig, ResnetNetworkConfig
 from rlchain.registry import network_config_class
 
@@ -26,6 +27,14 @@ def parse_network(network: Any, source: str, path: str = "params.network") -> An
     if config_class is None:
         return network
     parsed = parse_dataclass(config_class, network, path, source)
+    if isinstance(parsed, MultiInputNetworkConfig):  # each key's encoder block, typed
+        inputs = {str(k): parse_dataclass(InputConfig, {} if v is None else v, f"{path}.inputs.{k}", source)
+                  for k, v in parsed.inputs.items()}
+        parsed = dataclasses.replace(parsed, inputs=inputs)
+        for key in ("cnn", "critic_mlp"):
+            if getattr(parsed, key) is not None:
+                raise ConfigError(source, f"{path}.{key}", f"not used by multi_input (each observation key's encoder "
+                                                           f"is in {path}.inputs); remove it")
     check_planned(parsed, path, source)
     if isinstance(parsed, (NetworkConfig, ResnetNetworkConfig)):
         chosen = [k for k in ("discrete", "multi_discrete", "continuous")
