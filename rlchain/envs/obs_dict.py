@@ -124,3 +124,11 @@ def as_obs_dict(obs: Mapping[str, Any], space: gym.spaces.Dict, device: torch.de
         value = value if isinstance(value, torch.Tensor) else torch.as_tensor(np.asarray(value))
         out[key] = value.to(device=device, dtype=dtype)
     return ObsDict(out, 1)
+
+
+def obs_as_tensor(obs: Any, device: torch.device | str) -> torch.Tensor | ObsDict:
+    """A batch of observations on ``device``: a dict (an ObsDict or a gymnasium Dict env's arrays) key by key,
+    each key's dtype kept, anything else through ``torch.as_tensor``."""
+    if isinstance(obs, dict):
+        return ObsDict({k: torch.as_tensor(v, device=device) for k, v in obs.items()}, getattr(obs, "batch_dims", 1))
+    return torch.as_tensor(obs, device=device)
