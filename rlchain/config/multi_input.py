@@ -29,8 +29,9 @@ class InputConfig:
     encoder: str = option("auto", "auto (cnn for an image of 3 dims, mlp otherwise), cnn, impala (IMPALA residual "
                                   "stages), mlp, flatten (the values as they are) or none (the key is not read)",
                           choices=ENCODERS)
-    permute_input: bool = option(False, "cnn / impala: the image is channels-last (H, W, C); rlchain's tensor "
-                                        "envs give channels-first (C, H, W)")
+    permute_input: bool | None = option(None, "cnn / impala: the image is channels-last (H, W, C) and is permuted "
+                                              "to (C, H, W); None: channels-last unless its first dim is its "
+                                              "smallest (SB3's rule; rlchain's tensor envs give (C, H, W))")
     convs: list[ConvSpec] = option(DEFAULT_CONVS, "cnn: the convolutions {filters, kernel_size, strides, padding}",
                                    check=lambda c: None if c else "needs at least one convolution")
     conv_depths: list[int] = option([16, 32, 32], "impala: output channels of each stage",

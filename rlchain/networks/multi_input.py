@@ -46,17 +46,18 @@ class ImageEncoder(nn.Module):
 
     def __init__(self, cfg: InputConfig, shape: tuple[int, ...], kind: str) -> None:
         super().__init__()
+        permute = channels_last(shape) if cfg.permute_input is None else cfg.permute_input
         if kind == "cnn":
-            self.convs: nn.Module = ConvEncoder(CnnConfig(type="conv2d", permute_input=cfg.permute_input,
+            self.convs: nn.Module = ConvEncoder(CnnConfig(type="conv2d", permute_input=permute,
                                                           activation=cfg.activation, convs=cfg.convs), shape)
         else:
-            self.convs = ImpalaEncoder(ResnetCnnConfig(permute_input=cfg.permute_input,
+            self.convs = ImpalaEncoder(ResnetCnnConfig(permute_input=permute,
                                                        conv_depths=cfg.conv_depths, activation=cfg.activation),
                                        shape)
         self.head = MLP(self.convs.out_size, MlpConfig(units=cfg.units[-1:], activation=cfg.activation))
         self.out_size = self.head.out_size
         self.shift = cfg.random_shift
-        self.permute = cfg.permute_input
+        self.permute = permute
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if self.shift and self.training:
@@ -76,6 +77,11 @@ class FlatEncoder(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.mlp(x.flatten(1))
+
+
+def channels_last(shape: tuple[int, ...]) -> bool:
+    """Whether an image of ``shape`` is (H, W, C): unless its first dim is its smallest (SB3's rule)."""
+    return int(np.argmin(shape)) != 0
 
 
 def encoder_kind(cfg: InputConfig, shape: tuple[int, ...]) -> str:

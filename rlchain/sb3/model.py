@@ -21,6 +21,7 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
+from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.runs import checkpoint as ckpt
@@ -29,7 +30,9 @@ from rlchain.sb3.keys import NUM_ENVS, build_config
 from rlchain.training.events import Callback
 
 FORMAT = "rlchain-sb3-1"
-POLICIES = ("MlpPolicy",)
+POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input"}
+"""SB3's policy names -> the rlchain network they map to (None: the algorithm's default network). MultiInputPolicy:
+Dict observations, an encoder per key (docs/robot_learning.md)."""
 
 
 class _Spaces:
@@ -70,6 +73,7 @@ class BaseModel:
         if policy not in POLICIES:
             raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}); "
                                                 f"other networks: the network block of an rlchain YAML")
+        self.policy_name = policy
         self.env_source: EnvSource | None = None if env is None else env_source(env, self.algo)
         fixed = None if self.env_source is None else self.env_source.num_envs
         if fixed is not None and n_envs is not None and n_envs != fixed:
@@ -102,8 +106,11 @@ class BaseModel:
         family = "a2c_continuous" if self.algo == "ppo" and continuous else \
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
-        return build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, self.hyperparameters,
-                            keys, self.policy_kwargs, total_timesteps, self.seed, run)
+        config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, self.hyperparameters,
+                              keys, self.policy_kwargs, total_timesteps, self.seed, run)
+        if POLICIES[self.policy_name] is not None:
+            config["params"]["network"]["name"] = POLICIES[self.policy_name]
+        return config
 
     @property
     def config(self) -> dict[str, Any]:
@@ -179,9 +186,21 @@ class BaseModel:
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
         space = self._spaces.observation_space
+        if isinstance(space, gym.spaces.Dict):  # MultiInputPolicy: {key: one observation or a batch}
+            return self._predict_dict(observation, space, deterministic)
         obs = np.asarray(observation, dtype=np.float32)
         single = obs.shape == tuple(space.shape)
         batch = torch.as_tensor(obs[None] if single else obs.reshape(-1, *space.shape))
+        with torch.inference_mode():
+            actions = self.policy.dist.to_env(self.policy.act(batch, deterministic=deterministic)["actions"])
+        actions = actions.cpu().numpy()
+        return (actions[0] if single else actions), None
+
+    def _predict_dict(self, observation: dict, space: gym.spaces.Dict, deterministic: bool) -> tuple[np.ndarray, Any]:
+        first = next(iter(space.spaces))
+        single = np.shape(observation[first]) == tuple(space[first].shape)
+        batch = as_obs_dict({k: np.asarray(observation[k])[None] if single else np.asarray(observation[k])
+                             for k in space.spaces}, space, "cpu")
         with torch.inference_mode():
             actions = self.policy.dist.to_env(self.policy.act(batch, deterministic=deterministic)["actions"])
         actions = actions.cpu().numpy()
@@ -206,7 +225,7 @@ class BaseModel:
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
-        state = {"format": FORMAT, "algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
+        state = {"format": FORMAT, "algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
                  "spaces": (self._spaces.observation_space, self._spaces.action_space),
                  "config": self.config, "model": self.policy.state_dict(), "num_timesteps": self.num_timesteps}
@@ -226,7 +245,7 @@ class BaseModel:
         env = env if env is not None else state["env_id"]
         hyperparameters = {**state["hyperparameters"], **kwargs}
         model = cls.__new__(cls)
-        BaseModel.__init__(model, "MlpPolicy", None, n_envs=state["n_envs"] if env is not None else None,
+        BaseModel.__init__(model, state.get("policy", "MlpPolicy"), None, n_envs=state["n_envs"] if env is not None else None,
                            seed=state["seed"], device=device, policy_kwargs=state["policy_kwargs"],
                            **hyperparameters)
         if env is not None:
