@@ -114,3 +114,24 @@ def test_multi_input_on_a_box_observation_says_what_it_needs():
     env = build_env(params, 2, 0)
     with pytest.raises((ConfigError, ValueError), match="multi_input needs Dict observations"):
         build_model(params, env, torch.device("cpu"))
+
+
+@pytest.mark.parametrize("extra", [[], ["params.network.rnn={name: gru, units: 16}", "params.config.seq_length=5"]])
+def test_onnx_export_takes_one_named_input_per_key(tmp_path, extra):
+    pytest.importorskip("onnxruntime")
+    from rlchain.inference.export.onnx import export_model_onnx, onnx_session, random_observations, verify_onnx
+
+    params = Runner().load(CONFIG, ["params.config.num_actors=4", *extra]).params
+    env = build_env(params, 4, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    model.update_normalizers(obs=env.reset())  # statistics that are not the identity
+    model.eval()
+    path = export_model_onnx(model, env.observation_space, str(tmp_path / "camera.onnx"))
+    session = onnx_session(path)
+    inputs = session.get_inputs()
+    assert [i.name for i in inputs][:2] == ["image", "proprio"]
+    assert inputs[0].type == "tensor(uint8)" and inputs[1].type == "tensor(float)"
+    random = random_observations(env.observation_space, 16)
+    assert verify_onnx(model, path, random, session, steps=3) < 1e-5
+    real = env.reset()
+    assert verify_onnx(model, path, {k: v.numpy() for k, v in real.items()}, session) < 1e-5
