@@ -41,6 +41,8 @@ def parse_network(network: Any, source: str, path: str = "params.network") -> An
                   if getattr(parsed.space, k) is not None]
         if len(chosen) > 1:
             raise ConfigError(source, f"{path}.space", f"choose one action head, got {', '.join(chosen)}")
+    if getattr(parsed, "history", None) is not None and parsed.rnn is not None:
+        raise ConfigError(source, f"{path}.history", "choose rnn or history, not both")
     if getattr(parsed, "critic_mlp", None) is not None and not parsed.separate:
         raise ConfigError(source, f"{path}.critic_mlp", "a critic of its own needs separate: True")
     return parsed
@@ -53,7 +55,8 @@ def network_name(network: Any) -> str:
 
 def has_rnn(network: Any) -> bool:
     """Whether a parsed network block is one of rlchain's with an ``rnn`` block."""
-    return isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and network.rnn is not None
+    return isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and \
+        (network.rnn is not None or getattr(network, "history", None) is not None)
 
 
 def check_registered(registry: Any, name: str, path: str, source: str) -> None:

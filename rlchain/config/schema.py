@@ -31,6 +31,7 @@ from rlchain.config.network import (
     ResnetCnnConfig,
     ResnetNetworkConfig,
     RnnConfig,
+    HistoryConfig,
     SpaceConfig,
 )
 from rlchain.config.ppo import CentralValueConfig, PPOConfig, SelfPlayConfig
@@ -48,7 +49,7 @@ __all__ = [
     "ACTIVATIONS", "INITIALIZERS", "ActorCriticConfig", "CentralValueConfig", "CnnConfig", "ContinuousSpaceConfig",
     "ConvSpec", "DiscreteSpaceConfig", "DivergenceConfig", "EnvRunnersConfig", "EvaluationConfig",
     "InitializerConfig", "MlpConfig", "MultiDiscreteSpaceConfig", "NamedBlock", "NetworkConfig", "Params",
-    "PlayerConfig", "ResnetCnnConfig", "ResnetNetworkConfig", "RewardShaperConfig", "RnnConfig", "RunConfig",
+    "PlayerConfig", "ResnetCnnConfig", "ResnetNetworkConfig", "RewardShaperConfig", "RnnConfig", "HistoryConfig", "RunConfig",
     "SelfPlayConfig", "SpaceConfig", "PPOConfig",
 ]
 
