@@ -134,3 +134,10 @@ def sb3_vec_env(env: Any, source: EnvSource, n_envs: int, seed: int | None) -> A
     if isinstance(env, gym.Env):
         return DummyVecEnv([lambda: Monitor(_Borrowed(env))])
     return make_vec_env(env, n_envs=n_envs, seed=seed)
+
+
+def same_spaces(a: Any, b: Any) -> bool:
+    """Whether ``a`` and ``b`` (each with ``observation_space`` and ``action_space``) have the same kinds and
+    shapes of spaces (bounds may differ in dtype)."""
+    return all(type(x) is type(y) and x.shape == y.shape and getattr(x, "n", None) == getattr(y, "n", None)
+               for x, y in ((a.observation_space, b.observation_space), (a.action_space, b.action_space)))

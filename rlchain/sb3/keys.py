@@ -10,6 +10,7 @@ rlchain config key (``horizon_length``, ``kl_threshold``, ...) as it is. Anythin
 from __future__ import annotations
 
 import copy
+import numbers
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -301,3 +302,9 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
         params["seed"] = int(seed)
     return {"params": params}
 
+
+def positive_count(source: str, name: str, value: Any) -> int:
+    """``value`` as a positive whole number of frames, else a one-line ConfigError."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or value < 1 or int(value) != value:
+        raise ConfigError(source, name, f"expected a positive whole number of env steps, got {value!r}")
+    return int(value)

@@ -23,21 +23,23 @@ from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
 from rlchain.config.stored import as_data, check_env_id
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
-from rlchain.inference.export.onnx import export_model_onnx, obs_dtype
+from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
-from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
-from rlchain.sb3.keys import NUM_ENVS, build_config
+from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
+from rlchain.sb3.keys import NUM_ENVS, build_config, positive_count
 from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
 from rlchain.training.events import Callback
 
-POLICIES = ("MlpPolicy", "MultiInputPolicy")  # MultiInputPolicy: Dict observations, flattened per key
+POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input"}
+"""SB3's policy names -> the rlchain network they map to (None: the algorithm's default network). MultiInputPolicy:
+Dict observations, an encoder per key (docs/robot_learning.md)."""
 
 
 class _Spaces:
@@ -89,6 +91,7 @@ class BaseModel:
         if policy not in POLICIES:
             raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}); "
                                                 f"other networks: the network block of an rlchain YAML")
+        self.policy_name = policy
         self.env_source: EnvSource | None = None if env is None else env_source(env, self.algo)
         self._env_arg = env  # the env argument as given: get_env() builds SB3's VecEnv of it
         self._vec_env: Any = None
@@ -135,8 +138,11 @@ class BaseModel:
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
         given = {k: v for k, v in self.hyperparameters.items() if k != "defaults"}
-        return build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
-                            keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
+                              keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        if POLICIES[self.policy_name] is not None:
+            config["params"]["network"]["name"] = POLICIES[self.policy_name]
+        return config
 
     @property
     def config(self) -> dict[str, Any]:
@@ -153,7 +159,7 @@ class BaseModel:
         if total is None:
             raise ValueError(f"rlchain.{self.algo.upper()}.save_config: total_timesteps: pass the frames to train "
                              f"(the YAML's max_frames), or learn first")
-        total = _count(f"rlchain.{self.algo.upper()}.save_config", "total_timesteps", total)
+        total = positive_count(f"rlchain.{self.algo.upper()}.save_config", "total_timesteps", total)
         with open(path, "w") as f:
             yaml.safe_dump(self._config(total), f, sort_keys=False)
         return path
@@ -198,7 +204,7 @@ class BaseModel:
         """
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no env; pass env= to load() to train")
-        total = _count(f"rlchain.{self.algo.upper()}.learn", "total_timesteps", total_timesteps)
+        total = positive_count(f"rlchain.{self.algo.upper()}.learn", "total_timesteps", total_timesteps)
         given = callback if isinstance(callback, (list, tuple)) else ([] if callback is None else [callback])
         sb3 = [cb for cb in given if is_sb3_callback(cb)]
         callbacks = [cb for cb in given if not is_sb3_callback(cb)]
@@ -253,8 +259,7 @@ class BaseModel:
         """PPO: the deterministic policy as an ONNX graph (rlchain's exporter, checked with onnx); returns the path."""
         if self.algo != "ppo":
             raise ValueError(f"rlchain.{self.algo.upper()}.export_onnx: ONNX export is for PPO's actor-critic")
-        space = self._spaces.observation_space
-        return export_model_onnx(self.policy.net, tuple(space.shape), os.fspath(path), input_dtype=obs_dtype(space))
+        return self.policy.export_onnx(os.fspath(path))
 
     def save_replay_buffer(self, path: str) -> str:
         """Write the replay buffer's contents (SAC, DQN; see :mod:`rlchain.sb3.replay`); returns the path."""
@@ -278,7 +283,26 @@ class BaseModel:
         None: MlpPolicy has no memory)."""
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
+        space = self._spaces.observation_space
+        if isinstance(space, gym.spaces.Dict) and POLICIES[self.policy_name] is not None:  # per-key network
+            return self._predict_dict(observation, space, deterministic)
         return self.policy.predict(observation, deterministic=deterministic)
+
+    def _predict_dict(self, observation: dict, space: gym.spaces.Dict, deterministic: bool) -> tuple[np.ndarray, Any]:
+        first = next(iter(space.spaces))
+        single = np.shape(observation[first]) == tuple(space[first].shape)
+        batch = as_obs_dict({k: np.asarray(observation[k])[None] if single else np.asarray(observation[k])
+                             for k in space.spaces}, space, "cpu")
+        net = self.policy.net
+        was_training = net.training
+        net.eval()
+        try:
+            with torch.inference_mode():
+                actions = net.dist.to_env(net.act(batch, deterministic=deterministic)["actions"])
+        finally:
+            net.train(was_training)
+        actions = actions.cpu().numpy()
+        return (actions[0] if single else actions), None
 
     # ----- parameters and files -----------------------------------------------------------------------
     def get_parameters(self) -> dict[str, dict[str, torch.Tensor]]:
@@ -306,7 +330,8 @@ class BaseModel:
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
-        state = {"algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
+        state = {"algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs,
+                 "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
                  "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
         files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
@@ -324,55 +349,46 @@ class BaseModel:
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
         if env is None:
             check_env_id(state["env_id"], path, "env_id")
-        env = env if env is not None else state["env_id"]
-        n_envs = kwargs.pop("n_envs", None) or state["n_envs"]  # SB3's load takes n_envs for a new env
-        hyperparameters = {**state["hyperparameters"], **kwargs}
-        model = cls.__new__(cls)
-        BaseModel.__init__(model, "MlpPolicy", None, n_envs=n_envs if env is not None else None,
-                           seed=state["seed"], device=device, policy_kwargs=state["policy_kwargs"],
-                           **hyperparameters)
-        if env is not None:
-            model.env_source = env_source(env, cls.algo)
-            model._env_arg = env
-            model.n_envs = model.env_source.num_envs or n_envs
-        model._spaces = _Spaces(*state["spaces"])
-        model._loaded_config = stored
-        model.policy = model._build_policy_from(stored)
-        model.policy.load_state_dict(state["model"])
-        model.num_timesteps = state["num_timesteps"]
-        model._weights_changed = True
-        if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
-            model.replay_buffer = ReplayBufferView(model.config["params"]["config"]["replay_buffer_size"])
-        return model
+        init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
+                "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
+        return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
+                            stored, state["model"], state["num_timesteps"])
 
     @classmethod
     def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
         """A model from Stable-Baselines3's ``.zip`` (read as data: :mod:`rlchain.sb3.zip_format`); SB3's own
         settings and the weights, to play, fine-tune (``env=``) or export."""
         archive = read_sb3_archive(path, cls.algo)
-        n_envs = kwargs.pop("n_envs", None) or archive.n_envs
+        init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
+                "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
+        return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space, archive.action_space),
+                            None, archive.policy_state, archive.num_timesteps)
+
+    @classmethod
+    def _restore(cls, path: str, policy: str, env: Any, stored_env: Any, init: dict[str, Any], spaces: tuple,
+                 config: dict[str, Any] | None, weights: dict[str, Any], num_timesteps: int) -> BaseModel:
+        """The model of a loaded file: its arguments ``init``, ``spaces``, ``config`` (None: the one its arguments
+        give) and ``weights``; trained further on ``env`` (else ``stored_env``), whose spaces must be the file's."""
         model = cls.__new__(cls)
-        BaseModel.__init__(model, "MlpPolicy", None, n_envs=n_envs, seed=archive.seed, device=device,
-                           policy_kwargs=archive.policy_kwargs, **{**archive.hyperparameters, **kwargs})
-        model._spaces = _Spaces(archive.observation_space, archive.action_space)
-        model.env_source = EnvSource("sb3_archive", None, path)  # the config needs an env name
-        config = model._config()
+        BaseModel.__init__(model, policy, None, **init)
+        model._spaces = _Spaces(*spaces)
+        if config is None:
+            model.env_source = EnvSource("sb3_archive", None, path)  # a config needs an env name
+            config = model._config()
         model.env_source = None
-        if env is not None:
-            model.env_source, model._env_arg = env_source(env, cls.algo), env
-            model.n_envs = model.env_source.num_envs or n_envs
-            spaces = model._read_spaces()
-            if not _same_spaces(spaces, model._spaces):
+        if env is not None or stored_env is not None:
+            model.env_source, model._env_arg = env_source(env or stored_env, cls.algo), env or stored_env
+            model.n_envs = model.env_source.num_envs or init["n_envs"]
+            if env is not None and not same_spaces(model._read_spaces(), model._spaces):
                 raise ValueError(f"{path}: the model's spaces {model._spaces.observation_space} / "
                                  f"{model._spaces.action_space} are not {model.env_source.label}'s")
-            config = model._config()
         model._loaded_config = config
         model.policy = model._build_policy_from(config)
-        model.policy.load_state_dict(archive.policy_state)
-        model.num_timesteps = archive.num_timesteps
+        model.policy.load_state_dict(weights)
+        model.num_timesteps = num_timesteps
         model._weights_changed = True
-        if cls.algo != "ppo":
-            model.replay_buffer = ReplayBufferView(config["params"]["config"]["replay_buffer_size"])
+        if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
+            model.replay_buffer = ReplayBufferView(model.config["params"]["config"]["replay_buffer_size"])
         return model
 
     def _build_policy_from(self, config: dict[str, Any]) -> SB3Policy:
@@ -415,12 +431,6 @@ class BaseModel:
         return None if self.env_source is None else vec_normalize_of(self.env_source.vec_env)
 
 
-def _same_spaces(a: _Spaces, b: _Spaces) -> bool:
-    """The same shapes and kinds of observation and action spaces (bounds may differ in dtype)."""
-    return all(type(x) is type(y) and x.shape == y.shape and getattr(x, "n", None) == getattr(y, "n", None)
-               for x, y in ((a.observation_space, b.observation_space), (a.action_space, b.action_space)))
-
-
 def _file(path: str, must_exist: bool = True) -> str:
     """``path``, or ``path.pth`` when it has no extension (SB3 adds ``.zip`` the same way; loading finds an SB3
     ``path.zip`` too)."""
@@ -432,11 +442,3 @@ def _file(path: str, must_exist: bool = True) -> str:
     if must_exist and not os.path.exists(path + ".pth") and os.path.exists(path + ".zip"):
         return path + ".zip"
     return path + ".pth"
-
-
-def _count(source: str, name: str, value: Any) -> int:
-    """``value`` as a positive whole number of frames, else a one-line ConfigError."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or value < 1 \
-            or int(value) != value:
-        raise ConfigError(source, name, f"expected a positive whole number of env steps, got {value!r}")
-    return int(value)

@@ -19,6 +19,7 @@ import torch
 from torch import nn
 
 from rlchain.envs.wrappers.spaces import flatten_dict_obs
+from rlchain.inference.export.onnx import export_model_onnx, obs_dtype
 from rlchain.sb3.names import from_sb3, is_sb3_named, to_sb3
 
 TORCH_ACTIVATIONS = {"tanh": nn.Tanh, "relu": nn.ReLU, "elu": nn.ELU, "selu": nn.SELU, "swish": nn.SiLU,
@@ -103,6 +104,11 @@ class SB3Policy(nn.Module):
     def set_training_mode(self, mode: bool) -> None:
         """SB3's name for ``train(mode)``."""
         self.net.train(mode)
+
+    def export_onnx(self, path: str) -> str:
+        """The deterministic policy (an actor-critic network) as an ONNX graph; returns the path."""
+        space = self.observation_space
+        return export_model_onnx(self.net, tuple(space.shape), path, input_dtype=obs_dtype(space))
 
     def save(self, path: str) -> None:
         """SB3's policy file: ``torch.save({'state_dict': ..., 'data': constructor arguments}, path)`` (SB3's
