@@ -18,19 +18,31 @@ FORMAT = "rlchain-sb3-replay-1"
 
 
 class ReplayBufferView:
-    """The contents of a replay buffer (``state``: rlchain's ``ReplayBuffer.state_dict()``), empty when None."""
+    """The contents of a replay buffer: ``state`` (rlchain's ``ReplayBuffer.state_dict()``, empty when None), or
+    while a run goes its ``live`` buffer (a callback's ``save_replay_buffer`` during ``learn`` saves it as it is)."""
 
-    def __init__(self, capacity: int, state: dict[str, Any] | None = None) -> None:
+    def __init__(self, capacity: int, state: dict[str, Any] | None = None, live: Any = None) -> None:
         self.buffer_size = int(capacity)
-        self.state = state
+        self._state = state
+        self.live = live
+
+    @property
+    def state(self) -> dict[str, Any] | None:
+        if self.live is not None:
+            return self.live.state_dict() if self.live.size else None
+        return self._state
 
     def size(self) -> int:
         """Transitions held (SB3's ``replay_buffer.size()``)."""
-        return 0 if self.state is None else int(self.state["size"])
+        if self.live is not None:
+            return int(self.live.size)
+        return 0 if self._state is None else int(self._state["size"])
 
     @property
     def pos(self) -> int:
-        return 0 if self.state is None else int(self.state["pos"])
+        if self.live is not None:
+            return int(self.live.pos)
+        return 0 if self._state is None else int(self._state["pos"])
 
     @property
     def full(self) -> bool:
@@ -74,9 +86,10 @@ class ReplayCallback(Callback):
         self.model = model
 
     def on_train_start(self, trainer: Any) -> None:
-        view = self.model.replay_buffer
-        if view is not None and view.state is not None and trainer.algorithm.buffer.size == 0:
-            trainer.algorithm.buffer.load_state_dict(view.state)
+        view, buffer = self.model.replay_buffer, trainer.algorithm.buffer
+        if view is not None and view.state is not None and buffer.size == 0:
+            buffer.load_state_dict(view.state)
+        self.model.replay_buffer = ReplayBufferView(buffer.capacity, live=buffer)
 
     def on_train_end(self, trainer: Any, result: Any) -> None:
         buffer = trainer.algorithm.buffer

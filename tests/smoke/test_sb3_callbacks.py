@@ -176,6 +176,17 @@ def test_learning_rate_schedule_follows_progress(tmp_path):
     assert seen[0] == pytest.approx(1e-3) and seen[-1] < seen[1] < seen[0]
 
 
+def test_checkpoint_callback_saves_the_live_replay_buffer(tmp_path):
+    logs = str(tmp_path / "logs")
+    checkpoint = CheckpointCallback(save_freq=100, save_path=logs, save_replay_buffer=True)
+    model = rlchain.SAC("MlpPolicy", "Pendulum-v1", buffer_size=1000, learning_starts=50, batch_size=16,
+                        **quiet(tmp_path))
+    model.learn(200, callback=checkpoint)
+    assert "rl_model_replay_buffer_100_steps.pkl" in os.listdir(logs)
+    model.load_replay_buffer(os.path.join(logs, "rl_model_replay_buffer_100_steps.pkl"))
+    assert model.replay_buffer.size() == 99  # as in SB3: on_step comes before the step is stored
+
+
 def test_replay_buffer_save_and_load(tmp_path):
     model = rlchain.SAC("MlpPolicy", "Pendulum-v1", buffer_size=5000, learning_starts=50, batch_size=32,
                         **quiet(tmp_path))
