@@ -10,7 +10,8 @@ never imported here) is driven by :class:`SB3Callbacks`, an rlchain callback, th
 - ``update_locals`` and ``on_step()`` after every vector step, with ``model.num_timesteps`` already counting it and
   ``self.locals`` holding ``new_obs``, ``rewards``, ``dones`` and ``infos`` (SB3's list of per-env dicts, with
   ``terminal_observation``, ``TimeLimit.truncated`` and a Monitor-style ``episode`` for finished envs). ``False``
-  stops the run after the current epoch (SB3 stops at once; rlchain finishes the epoch and writes a checkpoint);
+  stops the run at once, as SB3 does: the rollout in progress is not trained on (``on_rollout_end`` is not called),
+  and the last whole epoch's checkpoint is written;
 - ``on_training_end()`` when it ends.
 
 ``self.logger.record(key, value)`` / ``dump(step)`` go to rlchain's log writers (TensorBoard, wandb, ...) through
