@@ -11,7 +11,8 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
-from rlchain.config.schema import NetworkConfig, Params
+from rlchain.config.network import NetworkConfig
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
@@ -20,6 +21,7 @@ from rlchain.envs.wrappers.central_value import obs_state_split
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
+from rlchain.models.size import build_within_memory
 from rlchain.networks.base import instantiate
 from rlchain.parallel.device import resolve_device  # noqa: F401  (importable from here too)
 from rlchain.registry import MODELS, NETWORKS
@@ -57,13 +59,19 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
     actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
-    try:
+
+    def build() -> ActorCritic:
         network = instantiate(NETWORKS.get(_network_name(params.network)), params.network,
                               actions_num=actions_num, input_shape=tuple(obs_space.shape),
                               value_size=value_size, num_seqs=params.config.num_actors,
                               action_space=act_space, observation_space=declared)
-        model = factory(network=network, action_space=act_space, obs_shape=tuple(obs_space.shape),
-                        value_size=value_size, config=params.config, model_name=params.model.name)
+        return factory(network=network, action_space=act_space, obs_shape=tuple(obs_space.shape),
+                       value_size=value_size, config=params.config, model_name=params.model.name)
+
+    try:
+        model = build_within_memory(build, device, params.source)
+    except ConfigError:
+        raise
     except ValueError as exc:
         key = f"params.config.obs_groups.{view.group}" if not view.whole and view.size else ""
         raise ConfigError(params.source, key, f"{'' if not key else 'the network cannot take this view: '}"

@@ -16,7 +16,7 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs import vecenv as _vecenv
 from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.algos_torch.players import PLAYERS

@@ -8,7 +8,7 @@ import torch
 
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.fields import parse_dataclass
-from rlchain.config.schema import NetworkConfig, RnnConfig
+from rlchain.config.network import NetworkConfig, RnnConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical
 from rlchain.networks.actor_critic import ActorCriticNetwork

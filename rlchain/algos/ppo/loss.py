@@ -15,7 +15,7 @@ import torch
 
 from rlchain.algos.core.losses import aux_loss_terms, value_loss
 from rlchain.algos.core.storage import Batch
-from rlchain.config.schema import PPOConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.models.actor_critic import ActorCritic
 
 STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")

@@ -245,7 +245,7 @@ def default_output_path(checkpoint_path: str) -> str:
 def export_onnx(params: Any, checkpoint_path: str, output_path: str | None = None, opset: int = 17) -> str:
     """Build the config's model, load ``checkpoint_path`` into it and export it; returns the path.
 
-    ``params``: validated :class:`rlchain.config.schema.Params` (``Runner.load(...).params``). A bad
+    ``params``: validated :class:`rlchain.config.params.Params` (``Runner.load(...).params``). A bad
     checkpoint raises the same CheckpointError as play; missing onnx packages an ImportError.
     """
     _require("onnx")
