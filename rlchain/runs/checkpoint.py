@@ -31,6 +31,8 @@ from rlchain.runs.atomic import write_atomic
 log = get_logger(__name__)
 
 FORMAT = "rlchain-checkpoint-1"
+RLCHAIN_MODEL = "rlchain_model"
+"""Where a checkpoint written under rl_games' API keeps rlchain's model state (``model`` holds rl_games' layout)."""
 TRUST_HINT = ("unpickling it would run code from the file; if you trust the file, load it with "
               "--trust-checkpoint (params.config.trust_checkpoint: true)")
 
@@ -110,6 +112,8 @@ def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
     """Read a checkpoint written by rlchain as data (see :func:`read`); any other file is a one-line
     CheckpointError."""
     state = read(path, map_location, trusted)
+    if isinstance(state, dict) and state.get("format") == FORMAT and RLCHAIN_MODEL in state:
+        state = {**state, "model": state.pop(RLCHAIN_MODEL)}  # written under rl_games' API: rl_games' 'model' beside
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         if rl_games_checkpoint.is_rl_games_checkpoint(state):  # rl_games 1.6.5 / 2.0: read as rlchain's
             try:
