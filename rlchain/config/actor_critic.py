@@ -76,9 +76,10 @@ class ActorCriticConfig(RunConfig):
                                              "rsl_rl's empirical normalization, (x - mean) / (std + 1e-2), no clip, "
                                              "folded in at every env step (obs_normalizer_update auto)",
                                  choices=("rl_games", "rsl_rl"))
-    normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
-                                           status="planned")
-    adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")
+    normalize_rms_advantage: bool = option(False, "with normalize_advantage: normalize by moving averages of the "
+                                                  "advantages' mean and square (rl_games 2.0) instead of the batch's")
+    adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage: the moving averages' decay per epoch",
+                                     check=lambda m: None if 0.0 <= m < 1.0 else "expected 0 <= adv_rms_momentum < 1")
     freeze_critic: bool = option(False, "train the actor only", status="planned")
     epochs_between_resets: int = option(0, "reset all envs every N epochs", status="planned")
     value_bootstrap: bool = option(True, "on time-out bootstrap V(true final obs) instead of a terminal")

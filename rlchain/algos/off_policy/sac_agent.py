@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import math
+from contextlib import nullcontext
 from typing import Any
 
 import gymnasium as gym
@@ -13,6 +14,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.precision import sac_autocast_dtype
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import RunningMeanStd
@@ -118,6 +120,12 @@ class SACAgent:
         self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
         self._critic_params = list(net.critic.parameters())
         self._target_params = list(model.critic_target.parameters())
+        device = next(model.parameters()).device
+        self.amp_dtype = sac_autocast_dtype(getattr(cfg, "mixed_precision", False), device)
+
+    def _autocast(self) -> Any:
+        """The networks' forward passes of an update: bf16 autocast under ``mixed_precision`` on CUDA."""
+        return torch.autocast("cuda", dtype=self.amp_dtype) if self.amp_dtype is not None else nullcontext()
 
     @property
     def lr(self) -> float:
@@ -145,7 +153,9 @@ class SACAgent:
             tq1, tq2 = model.critic_target(next_obs, next_actions)
             next_v = torch.min(tq1, tq2) - alpha * next_logp
             target = batch["rewards"] + batch["discounts"] * (~batch["terminated"]).float() * next_v
-        q1, q2 = critic(obs, actions)
+        with self._autocast():  # the target above stays float32, as rl_games computes it
+            q1, q2 = critic(obs, actions)
+        q1, q2 = q1.float(), q2.float()
         weights = batch["weights"]
         critic_loss = (weights * ((q1 - target).square() + (q2 - target).square())).mean()
         self.critic_opt.zero_grad(set_to_none=True)
@@ -158,8 +168,10 @@ class SACAgent:
         stats = {"critic_loss": critic_loss.detach(), "q": q1.detach().mean()}
         if self.updates % cfg.policy_frequency == 0:
             critic.requires_grad_(False)
-            new_actions, logp = model.policy(obs)
-            nq1, nq2 = critic(obs, new_actions)
+            with self._autocast():
+                new_actions, logp = model.policy(obs)
+                nq1, nq2 = critic(obs, new_actions)
+            logp, nq1, nq2 = logp.float(), nq1.float(), nq2.float()
             actor_loss = (alpha * logp - torch.min(nq1, nq2)).mean()
             self.actor_opt.zero_grad(set_to_none=True)
             actor_loss.backward()
