@@ -28,11 +28,12 @@ class ActorCritic(ValueModel):
     def __init__(self, network: nn.Module, dist: Distribution, obs_shape: tuple[int, ...],
                  value_size: int, normalize_input: bool, normalize_value: bool,
                  use_action_masks: bool = False, value_normalizer_kind: str = "rl_games",
-                 obs_normalizer_kind: str = "rl_games") -> None:
+                 obs_normalizer_kind: str = "rl_games", obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
         self.network = network
         self.dist = dist
-        self.obs_norm = obs_normalizer(obs_shape, obs_normalizer_kind) if normalize_input else None
+        self.obs_norm = obs_normalizer(obs_shape, obs_normalizer_kind, tuple(obs_normalizer_exclude)) \
+            if normalize_input else None
         self.value_norm = value_normalizer(value_size, normalize_value, value_normalizer_kind)
         self.fold_values = value_normalizer_kind == "rl_games"
         self.use_action_masks = use_action_masks

@@ -23,6 +23,7 @@ from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
 from rlchain.config.stored import as_data, check_env_id
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
+from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.sb3 import files
@@ -34,7 +35,9 @@ from rlchain.sb3.policy import SB3Policy
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.training.events import Callback
 
-POLICIES = ("MlpPolicy",)
+POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input"}
+"""SB3's policy names -> the rlchain network they map to (None: the algorithm's default network). MultiInputPolicy:
+Dict observations, an encoder per key (docs/robot_learning.md)."""
 
 
 class _Spaces:
@@ -86,6 +89,7 @@ class BaseModel:
         if policy not in POLICIES:
             raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}); "
                                                 f"other networks: the network block of an rlchain YAML")
+        self.policy_name = policy
         self.env_source: EnvSource | None = None if env is None else env_source(env, self.algo)
         self._env_arg = env  # the env argument as given: get_env() builds SB3's VecEnv of it
         self._vec_env: Any = None
@@ -129,8 +133,11 @@ class BaseModel:
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
         given = {k: v for k, v in self.hyperparameters.items() if k != "defaults"}
-        return build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
-                            keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
+                              keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        if POLICIES[self.policy_name] is not None:
+            config["params"]["network"]["name"] = POLICIES[self.policy_name]
+        return config
 
     @property
     def config(self) -> dict[str, Any]:
@@ -246,7 +253,26 @@ class BaseModel:
         None: MlpPolicy has no memory)."""
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
+        space = self._spaces.observation_space
+        if isinstance(space, gym.spaces.Dict) and POLICIES[self.policy_name] is not None:  # per-key network
+            return self._predict_dict(observation, space, deterministic)
         return self.policy.predict(observation, deterministic=deterministic)
+
+    def _predict_dict(self, observation: dict, space: gym.spaces.Dict, deterministic: bool) -> tuple[np.ndarray, Any]:
+        first = next(iter(space.spaces))
+        single = np.shape(observation[first]) == tuple(space[first].shape)
+        batch = as_obs_dict({k: np.asarray(observation[k])[None] if single else np.asarray(observation[k])
+                             for k in space.spaces}, space, "cpu")
+        net = self.policy.net
+        was_training = net.training
+        net.eval()
+        try:
+            with torch.inference_mode():
+                actions = net.dist.to_env(net.act(batch, deterministic=deterministic)["actions"])
+        finally:
+            net.train(was_training)
+        actions = actions.cpu().numpy()
+        return (actions[0] if single else actions), None
 
     # ----- parameters and files -----------------------------------------------------------------------
     def get_parameters(self) -> dict[str, dict[str, torch.Tensor]]:
@@ -267,7 +293,8 @@ class BaseModel:
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
-        state = {"algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
+        state = {"algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs,
+                 "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
                  "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
         files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
@@ -287,7 +314,7 @@ class BaseModel:
         n_envs = kwargs.pop("n_envs", None) or state["n_envs"]  # SB3's load takes n_envs for a new env
         hyperparameters = {**state["hyperparameters"], **kwargs}
         model = cls.__new__(cls)
-        BaseModel.__init__(model, "MlpPolicy", None, n_envs=n_envs if env is not None else None,
+        BaseModel.__init__(model, state.get("policy", "MlpPolicy"), None, n_envs=n_envs if env is not None else None,
                            seed=state["seed"], device=device, policy_kwargs=state["policy_kwargs"],
                            **hyperparameters)
         if env is not None:
