@@ -111,9 +111,7 @@ def _refused_type(path: str, exc: Exception) -> str:
 def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> dict[str, Any]:
     """Read a checkpoint written by rlchain as data (see :func:`read`); any other file is a one-line
     CheckpointError."""
-    state = read(path, map_location, trusted)
-    if isinstance(state, dict) and state.get("format") == FORMAT and RLCHAIN_MODEL in state:
-        state = {**state, "model": state.pop(RLCHAIN_MODEL)}  # written under rl_games' API: rl_games' 'model' beside
+    state = own_state(read(path, map_location, trusted))
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         if rl_games_checkpoint.is_rl_games_checkpoint(state):  # rl_games 1.6.5 / 2.0: read as rlchain's
             try:
@@ -121,6 +119,14 @@ def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
             except ValueError as exc:
                 raise CheckpointError(f"{path}: an rl_games checkpoint rlchain cannot read: {exc}") from None
         raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
+    return state
+
+
+def own_state(state: Any) -> Any:
+    """An rlchain checkpoint written under rl_games' API (rl_games' ``model`` beside rlchain's ``rlchain_model``)
+    with rlchain's model state back under ``model``; any other object as it is."""
+    if isinstance(state, dict) and state.get("format") == FORMAT and RLCHAIN_MODEL in state:
+        state = {k: v for k, v in state.items() if k != RLCHAIN_MODEL} | {"model": state[RLCHAIN_MODEL]}
     return state
 
 

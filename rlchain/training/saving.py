@@ -182,6 +182,7 @@ class CheckpointSaver:
         episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
+        state = ckpt.own_state(state)  # one written under rl_games' API (get_full_state_weights too)
         if state.get("origin") == rl_games_checkpoint.ORIGIN:
             state = self._from_rl_games(state, path)
         if state.get("algo") not in (None, name):
@@ -239,7 +240,8 @@ def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
     out = dict(state)
     if "model" in theirs:
         out[ckpt.RLCHAIN_MODEL] = state["model"]
+    theirs["env_state"] = state.get("env_state")  # the env's own state, as rlchain keeps it (None without one)
     for key, value in theirs.items():
-        if key in ("model", "epoch", "env_state") or key not in state:  # the others are rlchain's own
+        if key in ("model", "epoch") or key not in state:  # the others are rlchain's own
             out[key] = value
     return out
