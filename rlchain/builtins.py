@@ -6,14 +6,15 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.algos.apg.trainer import APG
-from rlchain.algos.appo.trainer import APPO, IMPALA
-from rlchain.algos.distill.trainer import Distill
-from rlchain.algos.grpo.trainer import GRPO
-from rlchain.algos.off_policy.dqn import dqn_model
-from rlchain.algos.off_policy.sac import soft_actor_critic_model
-from rlchain.algos.off_policy.trainer import DQN, SAC
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.apg.apg import APG
+from rlchain.algos.appo.appo import APPO, IMPALA
+from rlchain.algos.distill.distill import Distill
+from rlchain.algos.grpo.grpo import GRPO
+from rlchain.algos.off_policy.dqn import DQN
+from rlchain.algos.off_policy.dqn_agent import dqn_model
+from rlchain.algos.off_policy.sac import SAC
+from rlchain.algos.off_policy.sac_agent import soft_actor_critic_model
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.envs import examples
 from rlchain.envs.backends import atari, mujoco_push, torch_envs
 from rlchain.envs.backends.mjlab_env import mjlab_env, mjlab_vecenv

@@ -15,9 +15,9 @@ from typing import Any
 
 import yaml
 
-from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
 from rlchain.config.embodichain import is_embodichain
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.config.load import (
     apply_overrides,
     check_seed,
@@ -27,9 +27,11 @@ from rlchain.config.load import (
     parse_params,
 )
 from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
+from rlchain.config.params import Params
 from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
-from rlchain.config.schema import Params
+from rlchain.config.stored import as_data
 from rlchain.envs.spec import env_spec
+from rlchain.errors import did_you_mean
 from rlchain.inference.export.onnx import export_from_cli
 from rlchain.inference.export.policies import export_policies
 from rlchain.inference.player import Player
@@ -121,13 +123,20 @@ class Runner:
         if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
             raise ckpt.CheckpointError(f"{path}: the checkpoint holds no config (no 'config' with 'params'); "
                                        f"pass the config it was trained with: --file cfg.yaml")
+        # the file's config is data: no module, callback, watched folder or trust from it (the user's
+        # overrides, applied after, may set them on purpose)
+        stored, dropped = as_data({"params": config["params"]}, path)
+        if dropped:
+            warnings.warn(f"{path}: the checkpoint's {', '.join(dropped)} not used (a checkpoint's config gives "
+                          f"shapes and hyperparameters only; pass your config with --file to use them)",
+                          stacklevel=2)
         if "config_format" not in state:  # rlchain before the frozen config: the input file's dict
-            return self.load(config, overrides)
+            return self.load(stored, overrides)
         if state["config_format"] != CONFIG_FORMAT:
             raise ckpt.CheckpointError(f"{path}: config format '{state['config_format']}' is not this "
                                        f"rlchain's '{CONFIG_FORMAT}'; pass the config it was trained with: "
                                        f"--file cfg.yaml")
-        raw = apply_overrides({"params": config["params"]}, overrides or [], path)
+        raw = apply_overrides(stored, overrides or [], path)
         import_user_modules(raw, path)
         self.params = on_available_device(params_from_state(raw["params"], path))
         self.raw = raw

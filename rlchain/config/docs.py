@@ -12,7 +12,7 @@ from rlchain.config import compat
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.multi_agent import PolicySpec
 from rlchain.config.multi_input import InputConfig
-from rlchain.config.schema import InitializerConfig
+from rlchain.config.network import InitializerConfig
 from rlchain.registry import ALGOS, NETWORKS, network_config_class
 
 # The top-level blocks come from the registries (:func:`roots`): each registered algorithm's ``params.config``

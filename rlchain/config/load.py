@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import inspect
 import json
 import os
 from typing import Any
@@ -19,8 +20,10 @@ from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
+from rlchain.config.network import NetworkConfig, ResnetNetworkConfig
 from rlchain.config.network_block import check_planned, check_registered, network_name, parse_network
-from rlchain.config.schema import NamedBlock, NetworkConfig, Params, ResnetNetworkConfig
+from rlchain.config.params import NamedBlock, Params
+from rlchain.errors import did_you_mean
 from rlchain.registry import ALGOS, MODELS, NETWORKS
 
 
@@ -79,17 +82,61 @@ def load_raw(path: str) -> dict[str, Any]:
     """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML, aliases refused)."""
     if not os.path.isfile(path):
         raise ConfigError(path, "", "config file not found")
-    with open(path, encoding="utf-8") as fh:
-        text = fh.read()
+    with open(path, "rb") as fh:
+        blob = fh.read()
+    try:
+        text = blob.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(path, "", f"not UTF-8 text (byte 0x{blob[exc.start]:02x} at offset {exc.start}); a "
+                                    f"config is a YAML or JSON text file") from None
+    depth = _nesting(text)
+    if depth > 4 * MAX_NESTING:  # before parsing, which recurses per level (brackets in strings count: a margin)
+        raise ConfigError(path, "", f"nested {depth} levels deep (brackets or braces); a config nests at most "
+                                    f"{MAX_NESTING}")
     try:
         data = json.loads(text) if path.endswith(".json") else yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506
     except _AliasFound as exc:
         raise ConfigError(path, "", str(exc)) from None
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         raise ConfigError(path, "", f"cannot parse file: {syntax_error(exc, text)}") from None
+    except RecursionError:  # nesting by indentation, which the bracket count does not see
+        raise ConfigError(path, "", f"nested too deeply; a config nests at most {MAX_NESTING} levels") from None
+    if _depth(data) > MAX_NESTING:
+        raise ConfigError(path, "", f"nested more than {MAX_NESTING} levels deep; a config nests at most "
+                                    f"{MAX_NESTING}")
     if not isinstance(data, dict):
         raise ConfigError(path, "", "expected a mapping with a top-level 'params' key")
     return data
+
+
+MAX_NESTING = 64
+"""Levels of lists and mappings a config may nest (rlchain's deepest block nests about 8)."""
+
+
+def _nesting(text: str) -> int:
+    """The deepest run of unclosed ``[`` / ``{`` in ``text`` (quotes not parsed: an over-estimate at worst
+    only for configs holding thousands of brackets inside strings)."""
+    depth = deepest = 0
+    for char in text:
+        if char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in "]}" and depth:
+            depth -= 1
+    return deepest
+
+
+def _depth(value: Any) -> int:
+    """How many lists / mappings deep ``value`` nests, counted without recursion."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        node, level = stack.pop()
+        if isinstance(node, (dict, list)):
+            if level > MAX_NESTING:
+                return level
+            deepest = max(deepest, level)
+            stack.extend((child, level + 1) for child in (node.values() if isinstance(node, dict) else node))
+    return deepest
 
 
 def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
@@ -151,9 +198,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
              "malloc"}
     for key in params:
         if key not in known:
-            import difflib
-            close = difflib.get_close_matches(key, sorted(known), n=1)
-            hint = f"; did you mean '{close[0]}'?" if close else f"; known keys: {', '.join(sorted(known))}"
+            hint = did_you_mean(key, sorted(known), n=1) or f"; known keys: {', '.join(sorted(known))}"
             raise ConfigError(source, f"params.{key}", f"unknown key{hint}")
     for key in ("algo", "model", "config"):
         if key not in params:
@@ -289,3 +334,20 @@ def _check_callbacks(specs: list[str], source: str) -> None:
             raise ConfigError(source, path, f"cannot import '{module_name}': {exc}") from None
         if not hasattr(module, attr):
             raise ConfigError(source, path, f"module '{module_name}' has no '{attr}'")
+        obj = getattr(module, attr)
+        if isinstance(obj, type):  # built with no arguments: say so now, not after the run folder exists
+            try:
+                inspect.signature(obj).bind()
+            except TypeError as exc:
+                raise ConfigError(source, path, f"'{spec}' cannot be built without arguments ({exc}); a callback "
+                                                f"class takes none") from None
+            except ValueError:  # no signature to read (a builtin): its construction says it, in one line
+                pass
+        elif inspect.isfunction(obj) or inspect.isbuiltin(obj):  # called as fn(ctx, stats, episodes)
+            try:
+                inspect.signature(obj).bind(None, None, None)
+            except TypeError as exc:
+                raise ConfigError(source, path, f"'{spec}' cannot be called as fn(ctx, stats, episodes) ({exc})") \
+                    from None
+            except ValueError:
+                pass

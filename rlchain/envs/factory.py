@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.building import (
     RL_GAMES_ENVPOOL_KEYS,
     VECENV_TYPES,

@@ -11,7 +11,8 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
-from rlchain.config.schema import NetworkConfig, Params
+from rlchain.config.network import NetworkConfig
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
 from rlchain.envs.obs_dict import is_dict_space
@@ -21,6 +22,7 @@ from rlchain.envs.wrappers.central_value import obs_state_split
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
+from rlchain.models.size import build_within_memory
 from rlchain.networks.base import instantiate
 from rlchain.parallel.device import resolve_device  # noqa: F401  (importable from here too)
 from rlchain.registry import MODELS, NETWORKS
@@ -64,14 +66,20 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     per_key = is_dict_space(obs_space) and getattr(builder, "takes_dict_obs", False)
     flatten = is_dict_space(obs_space) and not per_key
     shape = (int(gym.spaces.flatdim(obs_space)),) if flatten else None if per_key else tuple(obs_space.shape)
-    try:
+
+    def build() -> ActorCritic:
         network = instantiate(builder, params.network,
                               actions_num=actions_num, input_shape=obs_space if per_key else shape,
                               value_size=value_size, num_seqs=params.config.num_actors,
                               action_space=act_space, observation_space=declared)
-        model = factory(network=network, action_space=act_space, obs_shape=obs_space if per_key else shape,
-                        value_size=value_size, config=params.config, model_name=params.model.name)
+        return factory(network=network, action_space=act_space, obs_shape=obs_space if per_key else shape,
+                       value_size=value_size, config=params.config, model_name=params.model.name)
+
+    try:
+        model = build_within_memory(build, device, params.source)
         model.flatten_dict = flatten
+    except ConfigError:
+        raise
     except ValueError as exc:
         key = f"params.config.obs_groups.{view.group}" if not view.whole and view.size else ""
         raise ConfigError(params.source, key, f"{'' if not key else 'the network cannot take this view: '}"

@@ -10,7 +10,6 @@ import torch
 import torch.nn as nn
 
 from rlchain.envs.obs_dict import ObsDict
-
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import merge_moments
 

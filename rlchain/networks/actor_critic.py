@@ -11,7 +11,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import NetworkConfig
+from rlchain.config.network import NetworkConfig
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.cnn import ConvEncoder
 from rlchain.networks.history import HistoryLayer

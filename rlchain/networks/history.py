@@ -18,7 +18,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import HistoryConfig
+from rlchain.config.network import HistoryConfig
 
 States = tuple[torch.Tensor, ...]
 

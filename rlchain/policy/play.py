@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import game_outcome
 from rlchain.envs.obs_dict import obs_as_tensor
 from rlchain.envs.spec import env_spec
+from rlchain.envs.vecenv import game_outcome
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.policy.stepper import PolicyStepper
 

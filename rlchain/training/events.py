@@ -26,6 +26,7 @@ import importlib
 import time
 from typing import Any, ClassVar
 
+from rlchain.config.errors import ConfigError
 from rlchain.log import get_logger
 from rlchain.training.callback_context import CallbackContext, ObserverAlgo
 
@@ -185,13 +186,18 @@ def as_callback(obj: Any) -> Callback:
     raise TypeError(f"{obj!r} is not a callback: subclass rlchain.training.events.Callback")
 
 
-def load_callback(spec: str) -> Callback:
-    """``module:Name`` from the config: a class is instantiated without arguments."""
+def load_callback(spec: str, source: str = "<config>", key: str = "params.config.callbacks") -> Callback:
+    """``module:Name`` from the config: a class is instantiated without arguments. One that cannot be
+    imported, constructed or used as a callback is a one-line ConfigError naming ``key``."""
     module_name, _, attr = spec.partition(":")
     if not attr:
-        raise ValueError(f"callback '{spec}' must look like 'package.module:Name'")
-    obj = getattr(importlib.import_module(module_name), attr)
-    return as_callback(obj() if isinstance(obj, type) else obj)
+        raise ConfigError(source, key, f"callback '{spec}' must look like 'package.module:Name'")
+    try:
+        obj = getattr(importlib.import_module(module_name), attr)
+        return as_callback(obj() if isinstance(obj, type) else obj)
+    except Exception as exc:  # the user's class: any constructor error is theirs to fix, said in one line
+        raise ConfigError(source, key, f"cannot use '{spec}' as a callback ({type(exc).__name__}: "
+                                       f"{' '.join(str(exc).split())[:160]})") from None
 
 
 def handles_env_steps(callback: Callback) -> bool:

@@ -21,7 +21,7 @@ import torch
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import describe, make_context, to_device
 from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterrupted, check_parameters
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError, EnvError
@@ -89,7 +89,8 @@ class Loop:
         self.last_stats: dict[str, float] = {}  # the last epoch's metrics and episode means (TrainingState)
         self.last_episodes: dict[str, float] | None = None
         self._closed = False
-        self.events = CallbackList([load_callback(name) for name in cfg.callbacks])
+        self.events = CallbackList([load_callback(name, params.source, f"params.config.callbacks[{i}]")
+                                    for i, name in enumerate(cfg.callbacks)])
         # the other ranks (torchrun): the algorithm's agents and the episode statistics sync through it
         comm = comm if comm is not None else communicator.current()
         self.ctx = make_context(params, env, device, seed, comm, logger, self.events)

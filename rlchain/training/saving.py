@@ -78,10 +78,11 @@ class CheckpointSaver:
             log.warning(f"warning: not saving the {kind} checkpoint: {bad} is not finite")
             return None
         path = self.run.checkpoint(kind)
+        state = self.state_dict(kind)
         try:
-            ckpt.save_atomic(self.state_dict(kind), path)
-        except OSError as exc:
-            self.failure = f"writing {path} failed: {exc.strerror or exc}"
+            ckpt.save_atomic(state, path)
+        except Exception as exc:  # storage faults of any type: OSError, torch's zip writer's RuntimeError, ...
+            self.failure = f"writing {path} failed: {storage_error(exc)}"
             log.warning(f"warning: checkpoint {self.failure}; {self.kept()}")
             return None
         self.failure = None
@@ -211,3 +212,12 @@ def embodichain_keys(state: dict[str, Any]) -> dict[str, Any]:
     if isinstance(agent, dict) and "optimizer" in agent:
         out["optimizer"] = agent["optimizer"]
     return out
+
+
+def storage_error(exc: BaseException) -> str:
+    """A failed write in words on one line: the OS's reason, else the type and message (torch's zip writer
+    raises RuntimeError('... unexpected pos ...') on a full disk)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    text = " ".join(str(exc).split())[:200]
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

@@ -46,10 +46,11 @@ MUTATIONS = {
     "config.reward_shaper": ["x", {"scale_value": "x"}, {"nokey": 1}],
     "config.normalize_input": ["maybe", 5],
     "config.score_to_win": ["x", NAN],
-    "network.mlp.units": [[], [0], [-1], "x"],
+    "network.mlp.units": [[], [0], [-1], "x", [64, 1.0e308], [1000000000000, 64]],
     "network.mlp.activation": ["nosuch", 5],
     "algo.name": ["nosuch", 5],
     "model.name": ["nosuch"],
+    "config.callbacks": [["subprocess:Popen"], ["os:getcwd"], ["nosuchmodule:X"], "x"],
     "config.nosuchkey": [1],
     "nosuch": [1],
 }
@@ -77,6 +78,10 @@ TEXTS = {
     "binary": "\x00\x01\x02\xff garbage",
     "tabs": "params:\n\tconfig: {}\n",
     "unclosed": "params: {config: [1, 2\n",
+    "random bytes": bytes(range(256)) * 4,  # not UTF-8
+    "deep yaml": "params: " + "[" * 5000,
+    "deep json": "[" * 100_000,  # written as cfg.json
+    "deep yaml by indent": "params:\n" + "".join("  " * i + f"k{i}:\n" for i in range(1, 400)),
 }
 
 
@@ -102,9 +107,10 @@ def set_key(raw, key, value):
 
 
 def mutated_file(tmp_path, key, value, base=BASE):
-    path = tmp_path / "cfg.yaml"
+    path = tmp_path / ("cfg.json" if "json" in str(value) else "cfg.yaml")
     if key is None:
-        path.write_text(TEXTS[value], encoding="utf-8")
+        text = TEXTS[value]
+        path.write_bytes(text if isinstance(text, bytes) else text.encode("utf-8"))
         return path
     with open(base, encoding="utf-8") as fh:
         raw = yaml.safe_load(fh)

@@ -6,6 +6,7 @@ that raises ENOSPC) ends the run non-zero with the reason on its stop line inste
 import errno
 import logging
 import os
+import re
 import signal
 
 import pytest
@@ -68,8 +69,9 @@ def test_a_planted_nn_symlink_is_refused(tmp_path):
         create_run_dir(str(tmp_path / "runs"), "x", "exp", {})
 
 
-def full_disk(monkeypatch, after=0):
-    """torch.save writes some bytes then fails as a full disk does, from the (after+1)-th call on."""
+def full_disk(monkeypatch, after=0, error=None):
+    """torch.save writes some bytes then fails as a full disk does, from the (after+1)-th call on; ``error``:
+    what it raises (default: OSError ENOSPC)."""
     calls = {"n": 0}
     real = torch.save
 
@@ -78,7 +80,7 @@ def full_disk(monkeypatch, after=0):
         if calls["n"] <= after:
             return real(obj, fh, *args, **kwargs)
         fh.write(b"\0" * 100)
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        raise error or OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     monkeypatch.setattr(torch, "save", save)
 
 
@@ -105,6 +107,21 @@ def test_a_full_disk_after_some_saves_names_the_newest_kept(tmp_path, monkeypatc
     with pytest.raises(ckpt.CheckpointError, match=r"the newest checkpoint is .*last_cartpole\.pth \(epoch 1\)"):
         Runner().load(CARTPOLE, [*SMALL, "params.config.max_epochs=3", "params.config.save_frequency=1",
                                  f"params.config.train_dir={tmp_path}"]).train()
+    assert leftovers(tmp_path) == []
+
+
+def test_the_zip_writers_full_disk_error_is_one_stop_line_naming_the_newest_kept(tmp_path, monkeypatch, capsys):
+    # what torch's zip writer raises when the disk fills mid-file: a RuntimeError, not an OSError
+    error = RuntimeError("[enforce fail at inline_container.cc:603] . unexpected pos 4096 vs 4032")
+    full_disk(monkeypatch, after=2, error=error)
+    code = main(["--train", "--file", CARTPOLE, *SMALL, "params.config.max_epochs=3", "params.config.save_frequency=1",
+                 f"params.config.train_dir={tmp_path}"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    lines = [x for x in err.splitlines() if x.strip() and not x.startswith("warning:")]
+    assert len(lines) == 1 and lines[0].startswith("checkpoint error: stopped: max_epochs 3 reached"), err
+    assert "RuntimeError: [enforce fail at inline_container.cc:603] . unexpected pos" in lines[0]
+    assert re.search(r"the newest checkpoint is \S*last_cartpole\.pth \(epoch 1\)", lines[0]), lines[0]
     assert leftovers(tmp_path) == []
 
 

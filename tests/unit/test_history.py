@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain.config import ConfigError, parse_params
-from rlchain.config.schema import HistoryConfig
+from rlchain.config.network import HistoryConfig
 from rlchain.networks.history import HistoryLayer
 from tests.conftest import BASE
 

@@ -10,10 +10,10 @@ import torch
 
 from rlchain import Runner
 from rlchain.config import ConfigError, parse_params
+from rlchain.config.multi_input import InputConfig
 from rlchain.envs.obs_dict import ObsDict
 from rlchain.models.build import build_env, build_model
 from rlchain.networks.multi_input import MultiInputEncoder, random_shift
-from rlchain.config.multi_input import InputConfig
 from tests.conftest import CONFIGS
 
 CONFIG = f"{CONFIGS}/ppo_camera_reach.yaml"

@@ -15,13 +15,13 @@ from typing import Any, Protocol
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import EpisodeTracker, game_outcome
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.algos.base.safety import StopSignals
 from rlchain.algos.core.collector import StepOutcome
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.obs_dict import ObsDict
 from rlchain.envs.spec import EnvSpec, check_obs_shape, env_spec
-from rlchain.envs.vecenv import dropped_rows
+from rlchain.envs.vecenv import dropped_rows, game_outcome
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.errors import EnvError

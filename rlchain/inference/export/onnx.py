@@ -55,6 +55,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.obs_dict import ObsDict, is_dict_space, obs_as_tensor
 from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the parity inputs)
     HUGE_BOUND,
     RANDOM_OBS_BOUND,
@@ -63,7 +64,6 @@ from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the p
     random_masks,
     random_observations,
 )
-from rlchain.envs.obs_dict import ObsDict, is_dict_space, obs_as_tensor
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.normalization import dict_as_float
 from rlchain.policy.load import load_policy
@@ -274,7 +274,7 @@ def default_output_path(checkpoint_path: str) -> str:
 def export_onnx(params: Any, checkpoint_path: str, output_path: str | None = None, opset: int = 17) -> str:
     """Build the config's model, load ``checkpoint_path`` into it and export it; returns the path.
 
-    ``params``: validated :class:`rlchain.config.schema.Params` (``Runner.load(...).params``). A bad
+    ``params``: validated :class:`rlchain.config.params.Params` (``Runner.load(...).params``). A bad
     checkpoint raises the same CheckpointError as play; missing onnx packages an ImportError.
     """
     _require("onnx")

@@ -68,5 +68,5 @@ ENV_BUILDERS = {"TorchCartPole-v0": build_torch_cartpole, "TorchPendulum-v0": bu
 """``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""
 
 __all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "TorchPointMass", "TorchPush2D",
-           "TorchCameraReach", "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8", "build_torch_point_mass",
-           "build_torch_push2d", "build_torch_camera_reach"]
+           "TorchCameraReach", "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8",
+           "build_torch_point_mass", "build_torch_push2d", "build_torch_camera_reach"]

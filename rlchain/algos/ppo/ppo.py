@@ -22,8 +22,8 @@ from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, prob
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params, PPOConfig
-from rlchain.deprecation import renamed
+from rlchain.config.params import Params
+from rlchain.config.ppo import PPOConfig
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
@@ -180,7 +180,8 @@ class PPO(AlgorithmBase):
         if self.obs is None:
             return None
         obs = self.obs.detach().clone()
-        return {"obs": dict(obs) if isinstance(obs, dict) else obs, "rnn_states": tuple(s.detach().clone() for s in self.rnn_states),
+        return {"obs": dict(obs) if isinstance(obs, dict) else obs,
+                "rnn_states": tuple(s.detach().clone() for s in self.rnn_states),
                 "resets": self.resets.detach().clone()}
 
     def load_position(self, position: dict[str, Any]) -> None:
@@ -382,9 +383,3 @@ def obs_per_minibatch(mode: str, continuous: bool) -> bool:
     """``obs_normalizer_update`` resolved: True when each minibatch of the update's first pass folds its
     observations in (minibatch, or auto with continuous actions), False for the whole rollout at once."""
     return mode == "minibatch" or (mode == "auto" and continuous)
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "OnPolicyTrainer": ("PPO", PPO),
-})
