@@ -96,7 +96,7 @@ def load_raw(path: str) -> dict[str, Any]:
     except _AliasFound as exc:
         raise ConfigError(path, "", str(exc)) from None
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
-        raise ConfigError(path, "", f"cannot parse file: {syntax_error(exc, text)}") from None
+        raise ConfigError(path, "", f"cannot parse file: {syntax_error(exc, text)}", lines=True) from None
     except RecursionError:  # nesting by indentation, which the bracket count does not see
         raise ConfigError(path, "", f"nested too deeply; a config nests at most {MAX_NESTING} levels") from None
     if _depth(data) > MAX_NESTING:
