@@ -23,8 +23,10 @@ EXTRAS = {
     "docs": ["mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     # nbclient, nbformat, ipykernel: tests/smoke/test_notebooks.py runs notebooks/ top to bottom;
     # the docs packages: tests/unit/test_docs_site.py builds the site
-    # gym: OpenAI gym 0.26 (what Isaac Lab's rl-games extra installs), for the tests of its spaces
+    # gym: OpenAI gym 0.26 (what Isaac Lab's rl-games extra installs), for the tests of its spaces;
+    # stable-baselines3: the tests of rlchain.sb3 with SB3's own vec envs, callbacks and .zip files
     "test": ["pytest>=7", "pytest-timeout", "ruff", "nbclient", "nbformat", "ipykernel", "gym==0.26.2",
+             "stable-baselines3>=2.3,<3",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots (matplotlib is a core dependency now; kept for old commands)
     # mjlab (env_name: mjlab, vecenv_type: MJLAB): Isaac Lab's manager-based API on MuJoCo Warp. It pins

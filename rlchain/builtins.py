@@ -6,14 +6,15 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.algos.apg.trainer import APG
-from rlchain.algos.appo.trainer import APPO, IMPALA
-from rlchain.algos.distill.trainer import Distill
-from rlchain.algos.grpo.trainer import GRPO
-from rlchain.algos.off_policy.dqn import dqn_model
-from rlchain.algos.off_policy.sac import soft_actor_critic_model
-from rlchain.algos.off_policy.trainer import DQN, SAC
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.apg.apg import APG
+from rlchain.algos.appo.appo import APPO, IMPALA
+from rlchain.algos.distill.distill import Distill
+from rlchain.algos.grpo.grpo import GRPO
+from rlchain.algos.off_policy.dqn import DQN
+from rlchain.algos.off_policy.dqn_agent import dqn_model
+from rlchain.algos.off_policy.sac import SAC
+from rlchain.algos.off_policy.sac_agent import soft_actor_critic_model
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.envs import examples
 from rlchain.envs.backends import atari, mujoco_push, torch_envs
 from rlchain.envs.backends.mjlab_env import mjlab_env, mjlab_vecenv
@@ -23,6 +24,7 @@ from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
 from rlchain.networks.example_networks import TestNetAuxLossBuilder, TestNetBuilder
+from rlchain.networks.multi_input import MultiInputBuilder
 from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
 from rlchain.networks.sac_network import QNetworkBuilder, SACNetworkBuilder
 from rlchain.registry import ALGOS, ENVS, MODELS, NETWORKS, VECENVS, WRITERS
@@ -40,7 +42,8 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
     kind = getattr(config, "value_normalizer", "rl_games")  # a user algorithm's config class may not have the key
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input,
                        getattr(config, "normalize_value", False), use_action_masks=masks, value_normalizer_kind=kind,
-                       obs_normalizer_kind=getattr(config, "obs_normalizer", "rl_games"))
+                       obs_normalizer_kind=getattr(config, "obs_normalizer", "rl_games"),
+                       obs_normalizer_exclude=tuple(getattr(config, "obs_normalizer_exclude", ())))
 
 
 def register_builtins() -> None:
@@ -48,6 +51,7 @@ def register_builtins() -> None:
     for name in ("discrete_a2c", "multi_discrete_a2c", "continuous_a2c_logstd", "continuous_a2c"):
         MODELS.register(name, actor_critic_model, overwrite=True)
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
+    NETWORKS.register("multi_input", MultiInputBuilder, overwrite=True)
 
     # rl_games' test networks; a user package may register its own under these names (as in rl_games)
     NETWORKS.register("testnet", TestNetBuilder, overwrite=True, replaceable=True)

@@ -1,4 +1,8 @@
-"""Run-time errors shared across layers (config errors live in rlchain.config.errors)."""
+"""Run-time errors shared across layers (config errors live in rlchain.config.errors), and the one
+did-you-mean that every "unknown name" message carries (config keys, registries, env options)."""
+
+import difflib
+from collections.abc import Iterable
 
 
 class DivergenceError(RuntimeError):
@@ -23,3 +27,15 @@ def first_non_finite(named: dict[str, float]) -> str | None:
         if value != value or value in (float("inf"), float("-inf")):
             return f"{name} = {value}"
     return None
+
+
+def closest(name: object, candidates: Iterable[object], n: int = 3) -> list[str]:
+    """Up to ``n`` of ``candidates`` closest to ``name`` (case-insensitive, best first), as written."""
+    by_lower = {str(c).lower(): str(c) for c in candidates}
+    return [by_lower[c] for c in difflib.get_close_matches(str(name).lower(), list(by_lower), n=n, cutoff=0.6)]
+
+
+def did_you_mean(name: object, candidates: Iterable[object], n: int = 3) -> str:
+    """"; did you mean 'X', 'Y'?" for the closest candidates (:func:`closest`), or ''."""
+    close = closest(name, candidates, n)
+    return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""

@@ -37,9 +37,10 @@ def register_model(name: str, factory: Any, overwrite: bool = False) -> Any:
     return MODELS.register(name, factory, overwrite=overwrite)
 
 
-def register_algo(name: str, trainer_cls: Any, overwrite: bool = False) -> Any:
-    """Make ``params.algo.name: <name>`` train with ``trainer_cls``."""
-    return ALGOS.register(name, trainer_cls, overwrite=overwrite)
+def register_algo(name: str, algorithm_cls: Any, overwrite: bool = False) -> Any:
+    """Make ``params.algo.name: <name>`` train with ``algorithm_cls`` (a class following
+    :class:`rlchain.algos.base.algorithm.Algorithm`, which the Loop holds)."""
+    return ALGOS.register(name, algorithm_cls, overwrite=overwrite)
 
 
 __all__ = ["register_network", "register_model", "register_algo", "NETWORKS", "MODELS", "ALGOS",

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import contextlib
-import difflib
 from collections.abc import Callable, Iterator
 from typing import Any
+
+from rlchain.errors import did_you_mean
 
 _builtins: list[Callable[[], None]] = []  # registers rlchain's own entries; run on the first lookup
 
@@ -105,8 +106,7 @@ class Registry:
     def unknown_message(self, name: str) -> str:
         """A one-line explanation of a failed lookup, with the closest registered names."""
         ensure_builtins()
-        close = difflib.get_close_matches(str(name), list(self._items), n=3)
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        hint = did_you_mean(name, self._items)
         known = ", ".join(sorted(self._items))
         return f"unknown {self.kind} '{name}'{hint} (registered: {known})"
 

@@ -15,9 +15,9 @@ from typing import Any
 
 import yaml
 
-from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
 from rlchain.config.embodichain import is_embodichain
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.config.load import (
     apply_overrides,
     check_seed,
@@ -27,10 +27,11 @@ from rlchain.config.load import (
     parse_params,
 )
 from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolve_config
+from rlchain.config.params import Params
 from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
-from rlchain.config.schema import Params
 from rlchain.config.stored import as_data
 from rlchain.envs.spec import env_spec
+from rlchain.errors import did_you_mean
 from rlchain.inference.export.onnx import export_from_cli
 from rlchain.inference.export.policies import export_policies
 from rlchain.inference.player import Player

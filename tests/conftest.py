@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.models.build import build_env, build_model
 from rlchain.registry import scoped_registrations
 from rlchain.runs.logging import TrainLogger
@@ -73,7 +73,7 @@ def signal_state_is_restored():
 
 def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) -> tuple[list[dict], PPO]:
     """Same-seed PPO epochs of ``config`` on a CPU, driven by hand (rollout, then learn): each update's stats and
-    the trainer (rlchain.algos.ppo.trainer.PPO), its env closed."""
+    the trainer (rlchain.algos.ppo.ppo.PPO), its env closed."""
     params = Runner().load(config, overrides).params
     torch.manual_seed(0)
     env = build_env(params, num_envs, 0)

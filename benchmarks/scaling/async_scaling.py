@@ -43,7 +43,7 @@ if __package__ in (None, ""):  # run by path: this checkout's rlchain and benchm
 from benchmarks.common import cpu_model  # noqa: E402
 from rlchain.algos.appo.local_runners import LocalRunners  # noqa: E402
 from rlchain.config.load import parse_params  # noqa: E402
-from rlchain.config.schema import EnvRunnersConfig  # noqa: E402
+from rlchain.config.run import EnvRunnersConfig  # noqa: E402
 from rlchain.envs.factory import make_vec_env  # noqa: E402
 from rlchain.envs.ray.ray_env import worker_slices  # noqa: E402
 from rlchain.envs.ray.ray_worker import EnvRecipe  # noqa: E402

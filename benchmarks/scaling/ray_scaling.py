@@ -35,7 +35,7 @@ if __package__ in (None, ""):  # run by path: this checkout's rlchain and benchm
     sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
-from rlchain.config.schema import EnvRunnersConfig  # noqa: E402
+from rlchain.config.run import EnvRunnersConfig  # noqa: E402
 from rlchain.envs.factory import make_vec_env  # noqa: E402
 
 

@@ -40,10 +40,13 @@ def child(tree: str, case: str, sets: list[str], warmup: int, epochs: int) -> di
         raise SystemExit(f"epoch_cpu.py: {tree}'s throughput.py imported {rlchain.__file__}, not that tree's rlchain")
 
     from rlchain import Runner
-    try:  # PPO's class, by its name in the tree being timed
-        from rlchain.algos.ppo.trainer import PPO
-    except ImportError:  # a tree from before the algorithms were named for what they are
-        from rlchain.algos.ppo.trainer import OnPolicyTrainer as PPO
+    try:  # PPO's class, by its name and file in the tree being timed
+        from rlchain.algos.ppo.ppo import PPO
+    except ImportError:  # a tree from before the files were named for what they hold
+        try:
+            from rlchain.algos.ppo.trainer import PPO
+        except ImportError:  # a tree from before the algorithms were named for what they are
+            from rlchain.algos.ppo.trainer import OnPolicyTrainer as PPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop

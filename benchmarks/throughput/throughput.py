@@ -79,7 +79,7 @@ if __package__ in (None, ""):  # run by path: this checkout's rlchain first (tre
     sys.path.insert(0, ROOT)
 
 from rlchain import Runner  # noqa: E402
-from rlchain.algos.ppo.trainer import PPO  # noqa: E402
+from rlchain.algos.ppo.ppo import PPO  # noqa: E402
 from rlchain.models.build import build_env, build_model, resolve_device  # noqa: E402
 from rlchain.parallel.memory import tune_malloc  # noqa: E402
 from rlchain.parallel.threads import ThreadPlan, for_env, plan_threads  # noqa: E402

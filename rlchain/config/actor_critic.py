@@ -76,6 +76,11 @@ class ActorCriticConfig(RunConfig):
                                              "rsl_rl's empirical normalization, (x - mean) / (std + 1e-2), no clip, "
                                              "folded in at every env step (obs_normalizer_update auto)",
                                  choices=("rl_games", "rsl_rl"))
+    obs_normalizer_exclude: list[str] = option([], "rlchain, Dict observations kept per key: keys normalize_input "
+                                                   "leaves as they are (uint8 images are only scaled to [0, 1] "
+                                                   "anyway; every other key gets its own running mean/std)",
+                                               check=lambda keys: None if all(isinstance(k, str) and k for k in keys)
+                                               else "expected a list of observation key names")
     normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
                                            status="planned")
     adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")

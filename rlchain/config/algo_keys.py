@@ -11,12 +11,12 @@ a did-you-mean suggestion (:func:`rlchain.config.fields.parse_dataclass`).
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from typing import Any
 
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
 from rlchain.config.ppo import PPOConfig
+from rlchain.errors import closest
 from rlchain.registry import ALGOS
 
 
@@ -56,10 +56,10 @@ def drop_other_algo_keys(config: dict[str, Any], algo: str, source: str, path: s
 def _check_typo(key: Any, own: set[str], algo: str, source: str, path: str) -> None:
     """A key in no algorithm's class that is close to none of this algo's keys but to another algo's
     (``taux`` with appo): the error suggests that key; otherwise the parser's did-you-mean applies."""
-    if difflib.get_close_matches(str(key), sorted(own), n=1, cutoff=0.6):
+    if closest(key, sorted(own), n=1):
         return
     others = sorted({k for name in ALGOS.names() for k in _keys(config_class_of(name))} - own)
-    close = difflib.get_close_matches(str(key), others, n=1, cutoff=0.6)
+    close = closest(key, others, n=1)
     if close:
         raise ConfigError(source, f"{path}.{key}", f"unknown key; did you mean '{close[0]}'? (a key of algo "
                                                    f"{', '.join(owners_of(close[0]))}, ignored by algo {algo})")

@@ -11,7 +11,8 @@ import typing
 from rlchain.config import compat
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.multi_agent import PolicySpec
-from rlchain.config.schema import InitializerConfig
+from rlchain.config.multi_input import InputConfig
+from rlchain.config.network import InitializerConfig
 from rlchain.registry import ALGOS, NETWORKS, network_config_class
 
 # The top-level blocks come from the registries (:func:`roots`): each registered algorithm's ``params.config``
@@ -22,6 +23,8 @@ from rlchain.registry import ALGOS, NETWORKS, network_config_class
 EXTRA_ROOTS = [
     ("params.config.multi_agent.policies.<name> (one policy of config.multi_agent; docs/multi_agent.md)",
      "params.config.multi_agent.policies.<name>", PolicySpec, "multi_agent"),
+    ("params.network.inputs.<key> (builder multi_input: the encoder of one observation key; "
+     "docs/robot_learning.md)", "params.network.inputs.<key>", InputConfig, "multi_input"),
 ]
 
 
@@ -227,7 +230,7 @@ def render() -> str:
         hints = typing.get_type_hints(cls)
         for f in dataclasses.fields(cls):
             tp = str(hints[f.name]).replace("typing.", "").replace("<class '", "").replace("'>", "")
-            tp = re.sub(r"rlchain\.config\.(schema|multi_agent|network|run|actor_critic|ppo)\.", "", tp)
+            tp = re.sub(r"rlchain\.config\.(schema|multi_agent|multi_input|network|run|actor_critic|ppo)\.", "", tp)
             tp = tp.replace(" | ", " or ")
             doc = f.metadata.get("doc", "")
             choices = f.metadata.get("choices")

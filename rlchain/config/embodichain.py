@@ -9,12 +9,14 @@ a state-independent log-std clamped to [-5, 2], frequencies in env steps turned 
 up), steps counted as ``iterations * buffer_size * num_envs`` (per process). A key EmbodiChain ignores
 silently is an error here, with a did-you-mean. Old layouts (``rollout_steps``, a flat
 ``algorithm.cfg.learning_rate``) read with a warning. See docs/embodichain.md.
+
+The keys and defaults are in :mod:`~rlchain.config.embodichain_keys`, the policy block's translation in
+:mod:`~rlchain.config.embodichain_policy`, the task's in :mod:`~rlchain.config.embodichain_task`.
 """
 
 from __future__ import annotations
 
 import inspect
-import json
 import math
 import os
 from typing import Any
@@ -22,45 +24,25 @@ from typing import Any
 import yaml
 
 from rlchain.config.compat import warn_once
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.embodichain_keys import (
+    ALGO_CFG,
+    ALGORITHM_KEYS,
+    CAMERA_EVENTS,
+    DEFAULTS,
+    ENT_DEFAULT,
+    LEARNING_ENV_DEFAULTS,
+    POLICY_KEYS,
+    RLCHAIN_ALGO,
+    SIM_ONLY_KEYS,
+    TOP_KEYS,
+    TRAINER_KEYS,
+    reject_unknown,
+)
+from rlchain.config.embodichain_policy import policy_blocks
+from rlchain.config.embodichain_task import resolve_env
+from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
 from rlchain.registry import ENVS
-
-TOP_KEYS = ("trainer", "policy", "algorithm")
-TRAINER_KEYS = {
-    "exp_name", "gym_config", "learning_env", "seed", "device", "headless", "gpu_id", "num_envs", "iterations",
-    "buffer_size", "rollout_steps", "enable_eval", "num_eval_envs", "num_eval_episodes", "eval_freq",
-    "save_freq", "eval_seed", "best_eval_metric", "best_eval_mode", "use_wandb", "wandb_project_name", "events",
-    "renderer", "distributed", "total_timesteps", "segment_length", "update_horizon", "deterministic_actions",
-    "save_frequency_updates", "enable_rt",
-}
-SIM_ONLY_KEYS = ("headless", "gpu_id", "renderer", "enable_rt")  # DexSim's window, GPU, renderer, ray tracing
-POLICY_KEYS = {"name", "actor", "critic", "initial_log_std", "action_dim"}
-MODULE_KEYS = {"type", "network_cfg"}
-NETWORK_KEYS = {"hidden_sizes", "activation", "last_activation", "use_layernorm", "dropout_p", "orthogonal_init"}
-ALGORITHM_KEYS = {"name", "cfg"}
-COMMON_CFG = {"optimizer", "lr_scheduler", "batch_size", "gamma", "gae_lambda", "max_grad_norm", "device",
-              "learning_rate"}
-ALGO_CFG = {
-    "ppo": COMMON_CFG | {"n_epochs", "clip_coef", "ent_coef", "vf_coef"},
-    "grpo": COMMON_CFG | {"n_epochs", "clip_coef", "ent_coef", "kl_coef", "group_size", "eps",
-                          "reset_every_rollout", "truncate_at_first_done", "shared_starts"},
-    "apg": COMMON_CFG | {"ent_coef", "skip_nonfinite_updates"},
-}
-RLCHAIN_ALGO = {"ppo": "a2c_continuous", "grpo": "grpo", "apg": "apg"}
-POLICY_FOR = {"ppo": "actor_critic", "grpo": "actor_only", "apg": "actor_only"}
-ACTIVATIONS = {"relu": "relu", "elu": "elu", "tanh": "tanh", "sigmoid": "sigmoid", "selu": "selu",
-               "gelu": "gelu", "silu": "swish", "swish": "swish", "softplus": "softplus", "none": "None",
-               "identity": "None"}
-CAMERA_EVENTS = ("record_camera_data", "record_camera_data_async")
-# EmbodiChain's defaults where a key is absent (train.py, utils/config.py, algo/*.py); a learning_env run
-# (its _train_learning_env) has its own for a few trainer keys
-DEFAULTS = {"seed": 1, "iterations": 250, "buffer_size": 2048, "eval_freq": 10000, "save_freq": 50000,
-            "num_eval_episodes": 5, "num_eval_envs": 4, "num_envs": 64, "learning_rate": 3e-4, "batch_size": 64,
-            "gamma": 0.99, "gae_lambda": 0.95, "max_grad_norm": 0.5, "n_epochs": 10, "clip_coef": 0.2,
-            "vf_coef": 0.5}
-LEARNING_ENV_DEFAULTS = {"buffer_size": 256, "eval_freq": 0, "save_freq": 0, "num_eval_envs": 16}
-ENT_DEFAULT = {"ppo": 0.01, "grpo": 0.0, "apg": 0.0}
-LOG_STD_BOUNDS = [-5.0, 2.0]
 
 
 def is_embodichain(raw: Any) -> bool:
@@ -95,13 +77,6 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
     return out
 
 
-def _unknown(keys: Any, known: set[str], path: str, source: str) -> None:
-    for key in keys:
-        if key not in known:
-            hint = did_you_mean(key, known) or f"; known keys: {', '.join(sorted(known))}"
-            raise ConfigError(source, f"{path}.{key}", f"unknown key (EmbodiChain ignores it silently){hint}")
-
-
 def _block(raw: dict, key: str, source: str, path: str = "") -> dict:
     value = raw.get(key)
     where = f"{path}.{key}" if path else key
@@ -121,9 +96,9 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     trainer = _block(raw, "trainer", source)
     policy = _block(raw, "policy", source)
     algorithm = _block(raw, "algorithm", source)
-    _unknown(trainer, TRAINER_KEYS, "trainer", source)
-    _unknown(policy, POLICY_KEYS, "policy", source)
-    _unknown(algorithm, ALGORITHM_KEYS, "algorithm", source)
+    reject_unknown(trainer, TRAINER_KEYS, "trainer", source)
+    reject_unknown(policy, POLICY_KEYS, "policy", source)
+    reject_unknown(algorithm, ALGORITHM_KEYS, "algorithm", source)
     name = str(algorithm.get("name", "")).lower()
     if name not in ALGO_CFG:
         raise ConfigError(source, "algorithm.name", f"expected one of {', '.join(ALGO_CFG)}, got "
@@ -131,7 +106,7 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     cfg = algorithm.get("cfg") or {}
     if not isinstance(cfg, dict):
         raise ConfigError(source, "algorithm.cfg", f"expected a mapping, got {cfg!r}")
-    _unknown(cfg, ALGO_CFG[name], "algorithm.cfg", source)
+    reject_unknown(cfg, ALGO_CFG[name], "algorithm.cfg", source)
     for key in SIM_ONLY_KEYS:
         if key in trainer:
             warn_once(source, f"trainer.{key}", "a DexSim simulator setting; no effect on rlchain's envs")
@@ -192,7 +167,7 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
     events = _events(trainer.get("events"), bool(trainer.get("enable_eval")), source)
     if events:
         config["events"] = events
-    model, network = _policy(policy, name, source)
+    model, network = policy_blocks(policy, name, source)
     params = {"seed": int(trainer.get("seed", DEFAULTS["seed"])), "algo": {"name": RLCHAIN_ALGO[name]},
               "model": model, "network": network, "config": config}
     return {"params": params}
@@ -243,7 +218,7 @@ def _optimizer(cfg: dict, source: str) -> dict[str, Any]:
     optimizer = cfg.get("optimizer") or {}
     if not isinstance(optimizer, dict):
         raise ConfigError(source, "algorithm.cfg.optimizer", f"expected a mapping, got {optimizer!r}")
-    _unknown(optimizer, {"name", "learning_rate", "kwargs"}, "algorithm.cfg.optimizer", source)
+    reject_unknown(optimizer, {"name", "learning_rate", "kwargs"}, "algorithm.cfg.optimizer", source)
     lr = float(_renamed((cfg, "algorithm.cfg.learning_rate"), (optimizer, "algorithm.cfg.optimizer.learning_rate"),
                         DEFAULTS["learning_rate"], source))
     opt_name = str(optimizer.get("name", "adam")).lower()
@@ -323,98 +298,20 @@ def _algo_keys(name: str, cfg: dict, batch: int, source: str) -> dict[str, Any]:
     return out
 
 
-def _mlp(module: Any, path: str, source: str) -> dict[str, Any]:
-    if not isinstance(module, dict):
-        raise ConfigError(source, path, f"expected a mapping with type and network_cfg, got {module!r}")
-    _unknown(module, MODULE_KEYS, path, source)
-    if str(module.get("type", "")).lower() != "mlp":
-        raise ConfigError(source, f"{path}.type", f"expected mlp, got {module.get('type')!r}")
-    net = module.get("network_cfg") or {}
-    _unknown(net, NETWORK_KEYS, f"{path}.network_cfg", source)
-    if "hidden_sizes" not in net:
-        raise ConfigError(source, f"{path}.network_cfg.hidden_sizes", "required key is missing")
-    return net
-
-
-def _activation(value: Any, path: str, source: str) -> str:
-    key = "none" if value is None else str(value).lower()
-    if key not in ACTIVATIONS:
-        raise ConfigError(source, path, f"{value!r}: expected one of {', '.join(sorted(ACTIVATIONS))}"
-                                        f"{did_you_mean(key, ACTIVATIONS)}")
-    return ACTIVATIONS[key]
-
-
-def _gains(net: dict) -> list[float] | None:
-    """``orthogonal_init`` as a list of gains (one number: every layer), None when absent."""
-    gains = net.get("orthogonal_init")
-    if gains is None:
-        return None
-    return [float(g) for g in (gains if isinstance(gains, list) else [gains])]
-
-
-def _mlp_block(net: dict, path: str, source: str) -> dict[str, Any]:
-    """One ``network_cfg`` as rlchain's ``mlp`` block: units, activation, layer norm, dropout, the first
-    orthogonal gain for the hidden layers (rlchain's initializer has one gain per block)."""
-    mlp: dict[str, Any] = {"units": [int(u) for u in net["hidden_sizes"]],
-                           "activation": _activation(net.get("activation", "elu"), f"{path}.network_cfg.activation",
-                                                     source)}
-    if net.get("use_layernorm"):
-        mlp["normalization"] = "layer_norm"
-    if float(net.get("dropout_p") or 0.0):
-        mlp["dropout"] = float(net["dropout_p"])
-    gains = _gains(net)
-    if gains is not None:
-        mlp["initializer"] = {"name": "orthogonal_initializer", "gain": gains[0]}
-    return mlp
-
-
-def _policy(policy: dict, algo: str, source: str) -> tuple[dict, dict]:
-    kind = str(policy.get("name", "")).lower()
-    if kind not in ("actor_critic", "actor_only"):
-        raise ConfigError(source, "policy.name", f"expected actor_critic or actor_only, got {policy.get('name')!r}")
-    if kind != POLICY_FOR[algo]:
-        raise ConfigError(source, "policy.name", f"algorithm {algo} trains an {POLICY_FOR[algo]} policy, got "
-                                                 f"{kind}")
-    actor = _mlp(policy.get("actor"), "policy.actor", source)
-    mlp = _mlp_block(actor, "policy.actor", source)
-    gains = _gains(actor)
-    mu_init: dict[str, Any] = {"name": "orthogonal_initializer", "gain": gains[-1]} if gains else {"name": "default"}
-    separate = kind == "actor_critic"
-    network: dict[str, Any] = {"name": "actor_critic", "separate": separate}
-    if separate:
-        path = "policy.critic"
-        critic = _mlp(policy.get("critic"), path, source)
-        critic_mlp = _mlp_block(critic, path, source)
-        if critic_mlp != mlp:  # a critic of its own (sizes, activation, norm, dropout or init differ)
-            network["critic_mlp"] = critic_mlp
-        network["value_activation"] = _activation(critic.get("last_activation"), f"{path}.network_cfg."
-                                                  "last_activation", source)
-    elif policy.get("critic") is not None:
-        raise ConfigError(source, "policy.critic", "an actor_only policy has no critic; remove the block")
-    space = {"continuous": {"mu_activation": _activation(actor.get("last_activation"), "policy.actor.network_cfg."
-                                                                                        "last_activation", source),
-                            "sigma_activation": "None", "mu_init": mu_init,
-                            "sigma_init": {"name": "const_initializer",
-                                           "val": float(policy.get("initial_log_std", 0.0))},
-                            "fixed_sigma": True, "logstd_bounds": LOG_STD_BOUNDS}}
-    network.update(space=space, mlp=mlp)
-    return {"name": "continuous_a2c_logstd"}, network
-
-
 def _events(events: Any, enable_eval: bool, source: str) -> list[dict[str, Any]]:
     """``trainer.events.{train,eval}.<name>`` -> ``config.events`` entries (rlchain.training.env_events)."""
     if not events:
         return []
     if not isinstance(events, dict):
         raise ConfigError(source, "trainer.events", f"expected a mapping of train / eval, got {events!r}")
-    _unknown(events, {"train", "eval"}, "trainer.events", source)
+    reject_unknown(events, {"train", "eval"}, "trainer.events", source)
     out = []
     for phase, entries in events.items():
         for event, spec in (entries or {}).items():
             path = f"trainer.events.{phase}.{event}"
             if not isinstance(spec, dict) or "func" not in spec:
                 raise ConfigError(source, path, "expected {func, mode, interval_step, params}")
-            _unknown(spec, {"func", "mode", "interval_step", "params"}, path, source)
+            reject_unknown(spec, {"func", "mode", "interval_step", "params"}, path, source)
             mode = spec.get("mode", "interval")
             if mode != "interval":
                 raise ConfigError(source, f"{path}.mode", f"{mode!r}: rlchain runs interval events")
@@ -435,57 +332,3 @@ def _events(events: Any, enable_eval: bool, source: str) -> list[dict[str, Any]]
     return out
 
 
-def resolve_env(trainer: dict, source: str) -> tuple[str, dict[str, Any]]:
-    """``trainer.learning_env`` ({name, cfg} or a name) or ``trainer.gym_config`` (a registered env name, or a
-    gym_config file whose ``id`` names one) -> (rlchain env_name, env_config)."""
-    if "learning_env" in trainer and "gym_config" in trainer:
-        raise ConfigError(source, "trainer.learning_env", "both learning_env and gym_config given; keep one")
-    if "learning_env" in trainer:
-        block = trainer["learning_env"]
-        name, cfg = (block, {}) if isinstance(block, str) else (block.get("name"), dict(block.get("cfg") or {}))
-        return _registered(str(name), "trainer.learning_env", source, None), cfg
-    if "gym_config" not in trainer:
-        raise ConfigError(source, "trainer.gym_config", "required key is missing (or give trainer.learning_env)")
-    value = str(trainer["gym_config"])
-    if value in ENVS:
-        return value, {}
-    path = _find_file(value, source)
-    if path is None:
-        if value.endswith((".json", ".yaml", ".yml")):
-            raise ConfigError(source, "trainer.gym_config", f"file {value} not found (looked in the working "
-                                                            "folder and above the config); or name a registered "
-                                                            f"env{did_you_mean(value, ENVS.names())}")
-        return _registered(value, "trainer.gym_config", source, None), {}
-    with open(path, encoding="utf-8") as fh:
-        data = json.load(fh) if path.endswith(".json") else yaml.safe_load(fh)
-    if not isinstance(data, dict) or "id" not in data:
-        raise ConfigError(path, "id", "a gym_config file names its task under 'id'")
-    return _registered(str(data["id"]), "trainer.gym_config", source, path), {}
-
-
-def _find_file(value: str, source: str) -> str | None:
-    """``value`` relative to the working folder, else to each folder above the config file (EmbodiChain's
-    paths are relative to its repository root)."""
-    if os.path.isfile(value):
-        return value
-    folder = os.path.dirname(os.path.abspath(source)) if source and os.path.exists(source) else None
-    while folder:
-        candidate = os.path.join(folder, value)
-        if os.path.isfile(candidate):
-            return candidate
-        parent = os.path.dirname(folder)
-        folder = None if parent == folder else parent
-    return None
-
-
-def _registered(name: str, key: str, source: str, gym_config: str | None) -> str:
-    if name in ENVS:
-        return name
-    lower = {n.lower(): n for n in ENVS.names()}
-    if name.lower() in lower:  # EmbodiChain looks names up case-insensitively
-        return lower[name.lower()]
-    where = f" (the id in {gym_config})" if gym_config else ""
-    raise ConfigError(source, key, f"task '{name}'{where} is not a registered env: EmbodiChain's DexSim tasks "
-                                   "do not install here. Register a stand-in with @rlchain.envs.backends."
-                                   f"embodichain_env.register_env('{name}'), or point {key} at a registered "
-                                   f"env{did_you_mean(name, ENVS.names())}")

@@ -1,8 +1,6 @@
-"""The one exception type for bad configuration, always a single readable line, and the
-did-you-mean hint that such lines carry."""
+"""The one exception type for bad configuration, always a single readable line (its did-you-mean hint:
+:func:`rlchain.errors.did_you_mean`)."""
 
-import difflib
-from typing import Any
 
 
 class ConfigError(ValueError):
@@ -24,9 +22,3 @@ def one_line(text: str, keep_breaks: bool = False) -> str:
     return "".join(c if c.isprintable() or (keep_breaks and c == "\n") else c.encode("unicode_escape").decode("ascii")
                    for c in text)
 
-
-def did_you_mean(name: str, candidates: Any) -> str:
-    """'; did you mean 'X', 'Y'?' for the closest candidates (case-insensitive), or ''."""
-    by_lower = {str(c).lower(): str(c) for c in candidates}
-    close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=3, cutoff=0.6)
-    return f"; did you mean {', '.join(repr(by_lower[c]) for c in close)}?" if close else ""

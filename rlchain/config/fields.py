@@ -7,13 +7,13 @@ allowed choices and the implementation status used by ``docs/config.md``.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import types
 import typing
 from typing import Any, Union
 
 from rlchain.config.errors import ConfigError
+from rlchain.errors import closest, did_you_mean
 
 NONE_STRINGS = {"none", "null", "~"}
 
@@ -68,8 +68,7 @@ def parse_dataclass(cls: type, data: Any, path: str, source: str) -> Any:
     unknown = [k for k in data if k not in fields]
     if unknown:
         key = unknown[0]
-        close = difflib.get_close_matches(str(key), list(fields), n=1, cutoff=0.6)
-        hint = f"; did you mean '{close[0]}'?" if close else f"; known keys: {', '.join(sorted(fields))}"
+        hint = did_you_mean(key, fields, n=1) or f"; known keys: {', '.join(sorted(fields))}"
         raise ConfigError(source, _join(path, key), f"unknown key{hint}")
     kwargs = {}
     for name, f in fields.items():
@@ -121,7 +120,7 @@ def parse_value(tp: Any, value: Any, path: str, source: str, meta: typing.Mappin
         raise TypeError(f"unsupported schema type {tp} at {path}")
     choices = meta.get("choices")
     if choices is not None and out is not None and out not in choices:
-        close = difflib.get_close_matches(str(out), [str(c) for c in choices], n=1)
+        close = closest(out, choices, n=1)
         hint = f" (did you mean '{close[0]}'?)" if close else ""
         shown = ", ".join("None" if c is None else str(c) for c in choices)
         raise ConfigError(source, path, f"'{out}' is not one of: {shown}{hint}")

@@ -20,8 +20,10 @@ from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_multi_agent
+from rlchain.config.network import NetworkConfig, ResnetNetworkConfig
 from rlchain.config.network_block import check_planned, check_registered, network_name, parse_network
-from rlchain.config.schema import NamedBlock, NetworkConfig, Params, ResnetNetworkConfig
+from rlchain.config.params import NamedBlock, Params
+from rlchain.errors import did_you_mean
 from rlchain.registry import ALGOS, MODELS, NETWORKS
 
 
@@ -196,9 +198,7 @@ def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:
              "malloc"}
     for key in params:
         if key not in known:
-            import difflib
-            close = difflib.get_close_matches(key, sorted(known), n=1)
-            hint = f"; did you mean '{close[0]}'?" if close else f"; known keys: {', '.join(sorted(known))}"
+            hint = did_you_mean(key, sorted(known), n=1) or f"; known keys: {', '.join(sorted(known))}"
             raise ConfigError(source, f"params.{key}", f"unknown key{hint}")
     for key in ("algo", "model", "config"):
         if key not in params:

@@ -12,6 +12,7 @@ from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import option
+from rlchain.errors import did_you_mean
 
 KEY = "params.config.multi_agent"
 
@@ -112,7 +113,5 @@ def check_multi_agent(ma: MultiAgentConfig, source: str) -> list[str]:
 
 
 def _unknown(name: str, names: list[str]) -> str:
-    import difflib
-    close = difflib.get_close_matches(str(name), names, n=1)
-    hint = f"; did you mean '{close[0]}'?" if close else ""
+    hint = did_you_mean(name, names, n=1)
     return f"unknown policy '{name}' (policies: {', '.join(names)}){hint}"

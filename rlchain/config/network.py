@@ -89,6 +89,19 @@ class RnnConfig:
 
 
 @dataclass(frozen=True)
+class HistoryConfig:
+    """``network.history``: a causal transformer over the last ``length`` steps' encoded observations, in the
+    recurrent layer's place (after the MLP); training uses sequences of ``config.seq_length``, the window of
+    past steps is carried like an RNN's state (rlchain/networks/history.py)."""
+
+    length: int = option(16, "steps in the window, the current one included",
+                         check=lambda n: None if n >= 2 else "expected a window of at least 2 steps")
+    layers: int = option(1, "transformer blocks", check=positive)
+    heads: int = option(2, "attention heads (dim must divide by it)", check=positive)
+    dim: int = option(64, "token width: each step's features are projected to it", check=positive)
+
+
+@dataclass(frozen=True)
 class DiscreteSpaceConfig:
     """``space.discrete``: a categorical head over ``Discrete(n)``."""
 
@@ -156,6 +169,8 @@ class NetworkConfig:
                                                 "its value head takes its initializer); default: mlp's")
     cnn: CnnConfig | None = option(None, "convolutional encoder before the MLP")
     rnn: RnnConfig | None = option(None, "recurrent layer (lstm/gru)")
+    history: HistoryConfig | None = option(None, "rlchain: a causal transformer over the last steps in place of "
+                                                 "the rnn: {length, layers, heads, dim}")
     normalization: str | None = option(None, "rl_games spelling at network level: layer_norm or batch_norm "
                                              "after MLP hidden layers", choices=("layer_norm", "batch_norm"))
     central_value: bool = option(False, "this network is a value-only critic (only inside "

@@ -9,6 +9,7 @@ from typing import Any
 from rlchain.config import compat
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass
+from rlchain.config.multi_input import InputConfig, MultiInputNetworkConfig
 from rlchain.config.network import NetworkConfig, ResnetNetworkConfig
 from rlchain.registry import network_config_class
 
@@ -29,12 +30,22 @@ def parse_network(network: Any, source: str, path: str = "params.network") -> An
     if config_class is None:
         return network
     parsed = parse_dataclass(config_class, network, path, source)
+    if isinstance(parsed, MultiInputNetworkConfig):  # each key's encoder block, typed
+        inputs = {str(k): parse_dataclass(InputConfig, {} if v is None else v, f"{path}.inputs.{k}", source)
+                  for k, v in parsed.inputs.items()}
+        parsed = dataclasses.replace(parsed, inputs=inputs)
+        for key in ("cnn", "critic_mlp"):
+            if getattr(parsed, key) is not None:
+                raise ConfigError(source, f"{path}.{key}", f"not used by multi_input (each observation key's encoder "
+                                                           f"is in {path}.inputs); remove it")
     check_planned(parsed, path, source)
     if isinstance(parsed, (NetworkConfig, ResnetNetworkConfig)):
         chosen = [k for k in ("discrete", "multi_discrete", "continuous")
                   if getattr(parsed.space, k) is not None]
         if len(chosen) > 1:
             raise ConfigError(source, f"{path}.space", f"choose one action head, got {', '.join(chosen)}")
+    if getattr(parsed, "history", None) is not None and parsed.rnn is not None:
+        raise ConfigError(source, f"{path}.history", "choose rnn or history, not both")
     if getattr(parsed, "critic_mlp", None) is not None and not parsed.separate:
         raise ConfigError(source, f"{path}.critic_mlp", "a critic of its own needs separate: True")
     return parsed
@@ -47,7 +58,8 @@ def network_name(network: Any) -> str:
 
 def has_rnn(network: Any) -> bool:
     """Whether a parsed network block is one of rlchain's with an ``rnn`` block."""
-    return isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and network.rnn is not None
+    return isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and \
+        (network.rnn is not None or getattr(network, "history", None) is not None)
 
 
 def check_registered(registry: Any, name: str, path: str, source: str) -> None:

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import os
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
 
 PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # .../rlchain
 CONFIGS_DIR = os.path.join(PACKAGE_DIR, "configs")

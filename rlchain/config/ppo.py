@@ -17,7 +17,6 @@ from rlchain.config.multi_agent import MultiAgentConfig
 from rlchain.config.network import NetworkConfig
 from rlchain.config.network_block import check_registered, has_rnn, network_name, parse_network
 from rlchain.config.obs_groups import ObsGroupsConfig
-from rlchain.deprecation import renamed
 from rlchain.registry import NETWORKS
 
 
@@ -210,9 +209,3 @@ class PPOConfig(ActorCriticConfig):
                                   f"minibatch_size {cv.minibatch_size} and horizon_length {self.horizon_length} "
                                   f"must divide by seq_length {self.seq_length}")
         return cv
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "TrainConfig": ("PPOConfig", PPOConfig),
-})

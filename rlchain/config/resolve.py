@@ -1,6 +1,6 @@
 """After parsing: :func:`resolve` makes one process's run context, and checkpoints store the config as data.
 
-Parsing gives a frozen :class:`~rlchain.config.schema.Params`, the same on every process of a run.
+Parsing gives a frozen :class:`~rlchain.config.params.Params`, the same on every process of a run.
 What differs per process (the seed, and under torchrun the rank's device, its ``env_config`` seed
 and whether it prints) goes into a :class:`ProcessContext` made once by :func:`resolve`; nothing
 assigns to the parsed config afterwards. Checkpoints store the resolved config as plain data
@@ -20,8 +20,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.load import check_malloc
 from rlchain.config.network_block import parse_network
-from rlchain.config.schema import NamedBlock, Params
-from rlchain.deprecation import renamed
+from rlchain.config.params import NamedBlock, Params
 from rlchain.registry import ALGOS
 
 CONFIG_FORMAT = "rlchain-config-2"
@@ -143,8 +142,3 @@ def params_from_state(data: Any, source: str) -> Params:
         malloc=parse_value(str, data.get("malloc", "keep"), "params.malloc", source, {"check": check_malloc}),
         source=source,
         policies=None if policies is None else {name: params_from_state(p, source) for name, p in policies.items()})
-
-
-# the old name, importable with a DeprecationWarning for one release (the algorithm's RunContext is
-# rlchain.algos.base.context.RunContext)
-__getattr__ = renamed(__name__, {"RunContext": ("ProcessContext", ProcessContext)})

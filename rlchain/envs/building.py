@@ -32,7 +32,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.atari import atari_gym_env
 from rlchain.envs.backends.brax_env import brax_env
 from rlchain.envs.backends.envpool_env import EnvpoolVecEnv, envpool_config_keys, envpool_tasks
@@ -43,6 +43,7 @@ from rlchain.envs.backends.rl_games_vecenv import make_registered_vecenv
 from rlchain.envs.vecenv import VecEnv, resolve_vecenv_type
 from rlchain.envs.wrappers.multi_agent import make_multi_agent_env
 from rlchain.envs.wrappers.reward_action_obs import RewardActionObs
+from rlchain.errors import did_you_mean
 from rlchain.registry import ENVS
 
 VECENV_TYPES = ("auto", "sync", "async", "native", "envpool", "ray")

@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.building import (
     RL_GAMES_ENVPOOL_KEYS,
     VECENV_TYPES,
@@ -28,6 +28,8 @@ from rlchain.envs.building import (
 from rlchain.envs.ray.ray_env import make_ray_vec_env
 from rlchain.envs.spec import attach_spec
 from rlchain.envs.vecenv import VecEnv
+from rlchain.envs.wrappers.dict_obs import FlatDictBox, PerKeyObs
+from rlchain.registry import NETWORKS
 
 
 def make_vec_env(env_name: str, env_config: dict | None, num_envs: int, seed: int | None,
@@ -82,7 +84,22 @@ def build_env(params: Params, num_envs: int, seed: int | None, render: bool = Fa
     if not runners and str(vecenv_type).lower() == "ray":
         vecenv_type = None
     try:
-        return make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
-                            env_runners=env_runners, groups=groups)
+        env = make_vec_env(cfg.env_name, merged, num_envs, seed, vecenv_type, render=render,
+                           env_runners=env_runners, groups=groups)
+        return keep_keys_apart(env) if takes_dict_obs(params) else env
     except ValueError as exc:
         raise ConfigError(params.source, "", str(exc)) from None
+
+
+def takes_dict_obs(params: Params) -> bool:
+    """Whether the config's network takes Dict observations per key (its builder's ``takes_dict_obs``)."""
+    network = params.network
+    name = network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
+    return name in NETWORKS and bool(getattr(NETWORKS.get(name), "takes_dict_obs", False))
+
+
+def keep_keys_apart(env: Any) -> Any:
+    """``env``, its Dict observations split back per key when a backend flattened them (:class:`PerKeyObs`)."""
+    if isinstance(getattr(env, "observation_space", None), FlatDictBox):
+        return attach_spec(PerKeyObs(env))
+    return env

@@ -16,8 +16,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.envs.wrappers.central_value import ObsStateBox
+from rlchain.errors import did_you_mean
 
 
 @dataclass(frozen=True)

@@ -137,7 +137,15 @@ def _attach(env: Any) -> EnvSpec:
 
 
 def check_obs_shape(obs: Any, num_envs: int, space: Any, where: str) -> None:
-    """Observations must be (num_envs, *space.shape); anything else is an EnvError at once."""
+    """Observations must be (num_envs, *space.shape); anything else is an EnvError at once. Dict
+    observations kept per key (an ObsDict under a Dict space) are checked key by key."""
+    if isinstance(obs, dict) and isinstance(space, gym.spaces.Dict):
+        missing = [k for k in space.spaces if k not in obs]
+        if missing:
+            raise EnvError(f"{where}: Dict observations lack the keys {missing} of the observation space")
+        for key, sub in space.spaces.items():
+            check_obs_shape(obs[key], num_envs, sub, f"{where} ['{key}']")
+        return
     shape = tuple(getattr(obs, "shape", ()))
     expected = (num_envs, *space.shape)
     if shape != expected:

@@ -12,7 +12,7 @@ Shapes for ``num_envs = N``:
 - ``game_reward`` / ``game_over`` (optional, (N,) float32 / bool, None when absent): for envs whose
   training episode is not the whole game (Atari with episodic life: ``terminated`` at each lost
   life) or whose ``reward`` is clipped, the game's own reward and the end of the whole game. Episode
-  statistics, ``score_to_win`` and the Player count games with them (see training/episodes.py).
+  statistics, ``score_to_win`` and the Player count games with them (:func:`game_outcome`).
 - ``observation_space`` / ``action_space``: the single-env gymnasium spaces.
 - tensor envs set ``is_tensor_env = True`` and ``device``: ``step`` then takes a torch tensor of
   actions on that device and every StepResult field is a tensor on it (no numpy round trip).
@@ -39,7 +39,7 @@ Shapes for ``num_envs = N``:
   slices that partition the N envs; ``send(g, actions)`` (actions for rows ``env_groups[g]``) starts
   group g's step and returns at once, ``recv(g)`` waits for it and returns that group's StepResult
   (same contract, rows of the group only). ``step`` still steps every env. The PPO rollout then
-  computes one group's actions while the other group steps (``algos/ppo/trainer.py``).
+  computes one group's actions while the other group steps (``algos/ppo/ppo.py``).
 - ``infos[DROPPED]`` (optional, (N,) bool): rows whose episode the backend cut without an ending (a
   Ray worker died). They come as truncated; episode statistics forget the partial episode instead of
   recording it (see ``rlchain/envs/ray/ray_env.py``). ``log_stats()`` (optional) -> ``{tag: value}``
@@ -70,6 +70,7 @@ from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
+import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
@@ -98,6 +99,19 @@ class StepResult:
 def dropped_rows(result: StepResult) -> Any:
     """The (N,) bool ``infos[DROPPED]`` mask of a step, or None when the backend sets none."""
     return result.infos.get(DROPPED) if isinstance(result.infos, dict) else None
+
+
+def game_outcome(result: Any, rewards: torch.Tensor, dones: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(game rewards (N,), game ends (N,) bool) of a StepResult, on the device of ``rewards``.
+
+    ``rewards`` / ``dones`` are the training reward and episode end of the step; they are returned
+    unchanged unless the env sets ``result.game_reward`` / ``result.game_over``.
+    """
+    if getattr(result, "game_reward", None) is not None:
+        rewards = torch.as_tensor(result.game_reward, device=rewards.device).to(rewards.dtype).reshape(-1)
+    if getattr(result, "game_over", None) is not None:
+        dones = torch.as_tensor(result.game_over, device=dones.device).bool().reshape(-1)
+    return rewards, dones
 
 
 class VecEnv(Protocol):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.policy.load import load_policy
 from rlchain.policy.play import PlayResult, play
 

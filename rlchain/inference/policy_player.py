@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.models.build import policy_agents

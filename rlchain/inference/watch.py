@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.inference.player import Player
 from rlchain.policy.load import load_weights
 from rlchain.policy.play import PlayResult, play

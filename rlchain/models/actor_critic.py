@@ -6,6 +6,7 @@ that choose the distribution (see :func:`rlchain.models.distributions.make_distr
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import torch
@@ -27,16 +28,18 @@ class ActorCritic(ValueModel):
     def __init__(self, network: nn.Module, dist: Distribution, obs_shape: tuple[int, ...],
                  value_size: int, normalize_input: bool, normalize_value: bool,
                  use_action_masks: bool = False, value_normalizer_kind: str = "rl_games",
-                 obs_normalizer_kind: str = "rl_games") -> None:
+                 obs_normalizer_kind: str = "rl_games", obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
         self.network = network
         self.dist = dist
-        self.obs_norm = obs_normalizer(obs_shape, obs_normalizer_kind) if normalize_input else None
+        self.obs_norm = obs_normalizer(obs_shape, obs_normalizer_kind, tuple(obs_normalizer_exclude)) \
+            if normalize_input else None
         self.value_norm = value_normalizer(value_size, normalize_value, value_normalizer_kind)
         self.fold_values = value_normalizer_kind == "rl_games"
         self.use_action_masks = use_action_masks
         is_rnn = getattr(network, "is_rnn", None)
         self.is_rnn = bool(is_rnn()) if callable(is_rnn) else False
+        self.sized_states = self.is_rnn and _takes_arguments(network.get_default_rnn_state)
         self.num_states = len(self.initial_state(1)) if self.is_rnn else 0
         self.bptt_length: int | None = None  # truncated BPTT inside training sequences (config.bptt_length)
 
@@ -47,15 +50,17 @@ class ActorCritic(ValueModel):
 
     def evaluate(self, obs: torch.Tensor, states: tuple[torch.Tensor, ...] | None = None,
                  resets: torch.Tensor | None = None, seq_length: int = 1,
-                 action_masks: torch.Tensor | None = None
+                 action_masks: torch.Tensor | None = None, actions: torch.Tensor | None = None
                  ) -> tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, ...] | None]:
         """The full forward pass: (dist params (B, P), value (B, value_size), new RNN states).
 
         For an RNN, obs rows come in ``seq_length`` blocks per sequence (see RecurrentLayer),
         ``states`` are the states entering each sequence and ``resets`` (B,) marks episode starts.
-        ``action_masks`` (B, mask_size) bool restricts the distribution to valid actions.
+        ``action_masks`` (B, mask_size) bool restricts the distribution to valid actions. The network's input
+        dict also carries rl_games' ``is_train`` (a gradient is being taken) and ``prev_actions`` (``actions``,
+        the batch's actions in a training pass; None otherwise).
         """
-        inputs: dict = {"obs": self.preprocess(obs)}
+        inputs: dict = {"obs": self.preprocess(obs), "is_train": torch.is_grad_enabled(), "prev_actions": actions}
         if self.is_rnn:  # states may carry a central value's after the model's own: take ours
             states = tuple(states[:self.num_states]) if states else self.initial_state(obs.shape[0] // seq_length,
                                                                                        obs.device)
@@ -79,7 +84,11 @@ class ActorCritic(ValueModel):
         """Zero RNN states for ``batch`` envs, each (layers, batch, units); empty without an RNN."""
         if not self.is_rnn:
             return ()
-        return tuple(self.network.get_default_rnn_state(batch, device))
+        if self.sized_states:
+            return tuple(self.network.get_default_rnn_state(batch, device))
+        # rl_games' get_default_rnn_state() takes no arguments: zeros of its layout, sized for ``batch``
+        return tuple(torch.zeros(s.shape[0], batch, *s.shape[2:], dtype=s.dtype, device=device)
+                     for s in self.network.get_default_rnn_state())
 
     @torch.inference_mode()
     def act(self, obs: torch.Tensor, deterministic: bool = False, states: tuple | None = None,
@@ -105,3 +114,12 @@ class ActorCritic(ValueModel):
         value = raw_sigma(float(sigma)) if callable(raw_sigma) else sigma
         with torch.no_grad():
             param.fill_(float(value))
+
+
+def _takes_arguments(method: Any) -> bool:
+    """Whether ``method`` accepts (batch, device): rlchain's get_default_rnn_state does, rl_games' takes none."""
+    try:
+        params = inspect.signature(method).parameters.values()
+    except (TypeError, ValueError):
+        return True
+    return any(p.kind in (p.VAR_POSITIONAL, p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.envs.obs_dict import ObsDict
+from rlchain.models.normalization import RunningMeanStd, dict_as_float
 
 
 def as_float(obs: torch.Tensor) -> torch.Tensor:
@@ -25,6 +26,9 @@ class ObservationModel(nn.Module):
 
     flatten_obs = False
     obs_slice: slice | tuple[int, ...] | None = None
+    flatten_dict: bool = False
+    """Dict observations kept per key (an ObsDict) are concatenated into one float vector for a network that
+    takes a flat input (images scaled to [0, 1] first); a multi-input network gets them per key."""
     obs_group: str | None = None
     """The ``obs_groups`` group this model reads (set when the config names groups; export then takes the view)."""
     obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
@@ -35,6 +39,8 @@ class ObservationModel(nn.Module):
         With a normalizer the uint8 scaling folds into it (one pass over the frames, not five).
         """
         obs = self.view(obs)
+        if isinstance(obs, ObsDict):  # kept per key: images scaled, vectors normalized each by its own statistics
+            return self.obs_norm.normalize(obs) if self.obs_norm is not None else dict_as_float(obs)
         if self.obs_norm is None:
             return self._features(obs)
         scale = 1.0 / 255.0 if obs.dtype == torch.uint8 else 1.0
@@ -43,6 +49,8 @@ class ObservationModel(nn.Module):
 
     def view(self, obs: torch.Tensor) -> torch.Tensor:
         """This model's part of the env's flat observations (B, total) -> (B, view): its ``obs_slice``."""
+        if isinstance(obs, ObsDict):  # a network that wants one flat vector gets the keys concatenated
+            return dict_as_float(obs).flatten(1) if self.flatten_dict else obs
         if self.obs_slice is None:
             return obs
         if isinstance(self.obs_slice, slice):

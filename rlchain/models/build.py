@@ -11,9 +11,11 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
-from rlchain.config.schema import NetworkConfig, Params
+from rlchain.config.network import NetworkConfig
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
+from rlchain.envs.obs_dict import is_dict_space
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.central_value import obs_state_split
@@ -58,17 +60,24 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
     actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
+    builder = NETWORKS.get(_network_name(params.network))
+    # Dict observations kept per key: a multi-input network takes them as they are, any other one the keys
+    # concatenated into one flat vector (the model does it, the storage still keeps every key's dtype)
+    per_key = is_dict_space(obs_space) and getattr(builder, "takes_dict_obs", False)
+    flatten = is_dict_space(obs_space) and not per_key
+    shape = (int(gym.spaces.flatdim(obs_space)),) if flatten else None if per_key else tuple(obs_space.shape)
 
     def build() -> ActorCritic:
-        network = instantiate(NETWORKS.get(_network_name(params.network)), params.network,
-                              actions_num=actions_num, input_shape=tuple(obs_space.shape),
+        network = instantiate(builder, params.network,
+                              actions_num=actions_num, input_shape=obs_space if per_key else shape,
                               value_size=value_size, num_seqs=params.config.num_actors,
                               action_space=act_space, observation_space=declared)
-        return factory(network=network, action_space=act_space, obs_shape=tuple(obs_space.shape),
+        return factory(network=network, action_space=act_space, obs_shape=obs_space if per_key else shape,
                        value_size=value_size, config=params.config, model_name=params.model.name)
 
     try:
         model = build_within_memory(build, device, params.source)
+        model.flatten_dict = flatten
     except ConfigError:
         raise
     except ValueError as exc:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import NetworkConfig
+from rlchain.config.network import NetworkConfig
 from rlchain.errors import NetworkError
 from rlchain.models.base import ValueModel, value_normalizer
 from rlchain.models.normalization import obs_normalizer

@@ -217,7 +217,8 @@ class MultiCategorical(Distribution):
         self._start = torch.tensor(start, dtype=torch.long) if any(start) else None
 
     def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
-        return out[0], out[1]
+        logits = out[0]  # rl_games' networks return a list of (B, n_k) logits, rlchain's one (B, sum n_k)
+        return (torch.cat(list(logits), -1) if isinstance(logits, (list, tuple)) else logits), out[1]
 
     def _padded(self, flat: torch.Tensor, fill: float | bool) -> torch.Tensor:
         """(B, sum(nvec)) -> (B, K, width), padding entries = ``fill``."""

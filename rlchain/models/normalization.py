@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import gymnasium as gym
+import numpy as np
 import torch
 import torch.nn as nn
 
+from rlchain.envs.obs_dict import ObsDict
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import merge_moments
 
@@ -108,8 +111,46 @@ OBS_NORMALIZERS = ("rl_games", "rsl_rl")
 rsl_rl = (x - mean) / (std + 1e-2), no clip (rsl_rl's EmpiricalNormalization)."""
 
 
-def obs_normalizer(shape: tuple[int, ...], kind: str = "rl_games") -> RunningMeanStd:
-    """The observation normalizer ``kind`` (one of :data:`OBS_NORMALIZERS`) for observations of ``shape``."""
+def obs_normalizer(shape: tuple[int, ...] | gym.spaces.Dict, kind: str = "rl_games",
+                   exclude: tuple[str, ...] = ()) -> RunningMeanStd | DictNormalizer:
+    """The observation normalizer ``kind`` (one of :data:`OBS_NORMALIZERS`) for observations of ``shape``;
+    for a Dict space kept per key a :class:`DictNormalizer` (``exclude``: keys left as they are)."""
     if kind not in OBS_NORMALIZERS:
         raise ValueError(f"obs_normalizer must be one of {', '.join(OBS_NORMALIZERS)}, got {kind!r}")
+    if isinstance(shape, gym.spaces.Dict):
+        return DictNormalizer(shape, kind, exclude)
     return EmpiricalNormalization(shape) if kind == "rsl_rl" else RunningMeanStd(shape)
+
+
+def dict_as_float(obs: ObsDict) -> ObsDict:
+    """Every key as float32: uint8 images scaled to [0, 1], other keys cast (no copy when float32)."""
+    return ObsDict({k: v.float() / 255.0 if v.dtype == torch.uint8 else v.float() for k, v in obs.items()},
+                   obs.batch_dims)
+
+
+class DictNormalizer(nn.Module):
+    """Input normalization of Dict observations, key by key: a uint8 image is scaled to [0, 1] (a running
+    mean/std per pixel would spend a pass over every frame to learn what /255 already gives), every other
+    key gets its own running mean/std of ``kind``, keys in ``exclude`` are only cast to float."""
+
+    def __init__(self, space: gym.spaces.Dict, kind: str = "rl_games", exclude: tuple[str, ...] = ()) -> None:
+        super().__init__()
+        unknown = [k for k in exclude if k not in space.spaces]
+        if unknown:
+            raise ValueError(f"params.config.obs_normalizer_exclude: {unknown} are not keys of the observations "
+                             f"({', '.join(space.spaces)})")
+        self.norms = nn.ModuleDict({key: obs_normalizer(tuple(sub.shape), kind) for key, sub in space.spaces.items()
+                                    if key not in exclude and np.dtype(sub.dtype) != np.uint8})
+
+    def normalize(self, obs: ObsDict, scale: float = 1.0) -> ObsDict:
+        """Float observations, each normalized key by its own statistics (``scale`` unused: images are /255)."""
+        out = dict_as_float(obs)
+        for key, norm in self.norms.items():
+            out[key] = norm.normalize(out[key])
+        return out
+
+    @torch.no_grad()
+    def update(self, obs: ObsDict, transform: Callable | None = None) -> None:
+        """Fold a batch (rows, ...) of every normalized key into its statistics (``transform`` unused)."""
+        for key, norm in self.norms.items():
+            norm.update(obs[key].float())

@@ -11,9 +11,10 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import NetworkConfig
+from rlchain.config.network import NetworkConfig
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.cnn import ConvEncoder
+from rlchain.networks.history import HistoryLayer
 from rlchain.networks.layers import activation, initialize, linear
 from rlchain.networks.mlp import MLP
 from rlchain.networks.rnn import RecurrentLayer, States
@@ -44,10 +45,17 @@ class Trunk(nn.Module):
         if cfg.normalization is not None and mlp_cfg.normalization is None:
             mlp_cfg = dataclasses.replace(mlp_cfg, normalization=cfg.normalization)
         rnn = cfg.rnn
+        history = getattr(cfg, "history", None)
+        if history is not None:  # the window transformer in the recurrent layer's place, after the MLP
+            self.before_mlp = self.concat_input = self.concat_output = False
+            self.mlp = MLP(in_size, mlp_cfg)
+            self.rnn: RecurrentLayer | HistoryLayer | None = HistoryLayer(self.mlp.out_size + extra_size, history)
+            self.out_size = self.rnn.out_size
+            return
         self.before_mlp = rnn is not None and rnn.before_mlp
         self.concat_input = rnn is not None and rnn.concat_input and not rnn.before_mlp
         self.concat_output = rnn is not None and rnn.concat_output
-        self.rnn: RecurrentLayer | None = None
+        self.rnn = None
         if rnn is None:
             self.mlp = MLP(in_size + extra_size, mlp_cfg)
             self.out_size = self.mlp.out_size

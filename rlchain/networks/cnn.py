@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import CnnConfig
+from rlchain.config.network import CnnConfig
 from rlchain.networks.layers import activation, initialize
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import ResnetCnnConfig
+from rlchain.config.network import ResnetCnnConfig
 from rlchain.networks.layers import activation, initialize
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import MlpConfig
+from rlchain.config.network import MlpConfig
 from rlchain.networks.layers import activation, linear
 
 

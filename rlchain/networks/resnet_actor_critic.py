@@ -19,7 +19,7 @@ import gymnasium as gym
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import ResnetNetworkConfig
+from rlchain.config.network import ResnetNetworkConfig
 from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.impala import ImpalaEncoder

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import RnnConfig
+from rlchain.config.network import RnnConfig
 
 States = tuple[torch.Tensor, ...]  # (h,) for GRU, (h, c) for LSTM; each (layers, B, units)
 

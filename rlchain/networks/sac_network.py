@@ -14,8 +14,8 @@ import numpy as np
 import torch
 import torch.nn as nn
 
+from rlchain.config.network import MlpConfig
 from rlchain.config.off_policy import DQNNetworkConfig, SACNetworkConfig
-from rlchain.config.schema import MlpConfig
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.layers import linear
 from rlchain.networks.mlp import MLP

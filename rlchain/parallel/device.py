@@ -13,8 +13,8 @@ import warnings
 import torch
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.params import Params
 from rlchain.config.resolve import with_config
-from rlchain.config.schema import Params
 
 
 def resolve_device(name: str) -> torch.device:

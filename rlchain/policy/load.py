@@ -10,7 +10,7 @@ from typing import Any
 
 import torch
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.models.build import apply_sigma, build_model
 from rlchain.parallel.device import resolve_device

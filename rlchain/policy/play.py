@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import game_outcome
+from rlchain.envs.obs_dict import obs_as_tensor
 from rlchain.envs.spec import env_spec
+from rlchain.envs.vecenv import game_outcome
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.policy.stepper import PolicyStepper
 
@@ -83,7 +84,7 @@ class PolicySteps:
                  seed: int | None = None) -> None:
         self.model, self.env, self.device, self.deterministic = model, env, device, deterministic
         self.spec = env_spec(env)
-        self.obs = torch.as_tensor(env.reset(seed=seed), device=device)
+        self.obs = obs_as_tensor(env.reset(seed=seed), device)
         self.policy = PolicyStepper(model, env.num_envs, device)
         self.use_masks = self.policy.uses_masks(self.spec)
 
@@ -97,7 +98,7 @@ class PolicySteps:
         result = self.env.step(self.spec.to_env(actions))
         done = (torch.as_tensor(result.terminated) | torch.as_tensor(result.truncated)).cpu()
         self.policy.done(done)
-        self.obs = torch.as_tensor(result.obs, device=self.device)
+        self.obs = obs_as_tensor(result.obs, self.device)
         return result, done
 
 

@@ -16,15 +16,23 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs import vecenv as _vecenv
+from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.algos_torch.players import PLAYERS
-from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver
+from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver, IsaacAlgoObserver
 from rlchain.rl_games.common.object_factory import ObjectFactory
 from rlchain.rl_games.common.player import BasePlayer
 from rlchain.runner import Runner as _RlchainRunner
 from rlchain.training.callback_context import ObserverAlgo
 from rlchain.training.events import Callback
+
+REQUIRED_BLOCKS = ("algo", "model", "network", "config")
+"""The ``params`` blocks a run needs; rl_games' ``load_config`` takes a config without some (its tests build
+such), and so does this Runner: the config is then checked when first used (``run``, ``create_player``)."""
+
+CONFIG_OBSERVERS = {"default": DefaultAlgoObserver, "isaac": IsaacAlgoObserver}
+"""rl_games 2.0's ``config.algo_observer`` names -> the observer the Runner builds (an injected one wins)."""
 
 SCRIPT_KEYS = ("env",)
 """Top-level ``params`` keys a launch script reads and rl_games' runner ignores (Isaac Lab's ``params.env``)."""
@@ -56,6 +64,14 @@ def _copy_keeping_objects(config: dict[str, Any]) -> dict[str, Any]:
     out = copy.deepcopy(stripped)
     out["params"]["config"].update(objects)
     return out
+
+
+def _register_vecenv_type(config: dict[str, Any]) -> None:
+    """rl_games 2.0: a config's ``vecenv_type`` binds its ``env_name`` in ``env_configurations.configurations``
+    (when the name is not registered yet), so the env is built by that vector env."""
+    vecenv_type, env_name = config.get("vecenv_type"), config.get("env_name")
+    if vecenv_type and isinstance(env_name, str) and env_name not in ENV_CONFIGURATIONS:
+        ENV_CONFIGURATIONS[env_name] = {"vecenv_type": vecenv_type}
 
 
 def _vec_env_creator(env: Any) -> Any:
@@ -150,25 +166,36 @@ class Runner:
                 name = f"rl_games_vec_env_{id(self.objects['vec_env'])}"
                 _vecenv.register(name, _vec_env_creator(self.objects["vec_env"]), overwrite=True)
                 config["vecenv_type"] = name
+            config.update(self.objects)  # where rl_games' agents and players read them; not validated
             self.stop_fn = config.pop("stop_fn", None)  # a callable: a callback here, not a config value
             if self.stop_fn is not None and not callable(self.stop_fn):
                 raise ValueError(f"params.config.stop_fn: expected a callable(algo) -> bool, got {self.stop_fn!r}")
-            if "algo_observer" in config:  # rl_games 2.0: the config names the observer unless one was given
-                if self._observer_injected:
-                    config.pop("algo_observer")
-                else:
-                    self.algo_observer = None  # the config's (a callback rlchain adds)
-        self._runner = _RlchainRunner().load({"params": params})
-        self._runner.layout = "rl_games"  # rl_games' checkpoint names, tags and frame axis
-        if self.objects:  # back into the config dict, where rl_games' agents and players read them
-            params["config"].update(self.objects)
+            name = config.pop("algo_observer", None)  # rl_games 2.0: the config names the observer ...
+            if name and not self._observer_injected:  # ... unless one was given
+                if name not in CONFIG_OBSERVERS:
+                    raise ValueError(f"params.config.algo_observer: expected one of {', '.join(CONFIG_OBSERVERS)}, "
+                                     f"got {name!r}")
+                self.algo_observer = CONFIG_OBSERVERS[name]()
+            _register_vecenv_type(config)
         self.params = params
-        self.algo_name = params["algo"]["name"]
-        self.seed = self._parsed().seed
+        self.algo_name = (params.get("algo") or {}).get("name")
+        self._runner = None
+        self.seed = params.get("seed")
+        if all(key in params for key in REQUIRED_BLOCKS):  # a whole config: checked now, as a YAML is
+            self._parsed()
 
     def _parsed(self) -> Params:
-        if self._runner is None or self._runner.params is None:
+        """The validated config; a partial one (rl_games builds nothing until ``run``) is checked here, at first use."""
+        if self.params is None:
             raise RuntimeError("call Runner.load(config) first")
+        if self._runner is None:
+            params = {k: v for k, v in self.params.items()}
+            if isinstance(params.get("config"), dict):
+                params["config"] = {k: v for k, v in params["config"].items() if k not in OBJECT_KEYS}
+            runner = _RlchainRunner().load({"params": params})
+            runner.layout = "rl_games"  # rl_games' checkpoint names, tags and frame axis
+            self._runner = runner
+            self.seed = runner.params.seed
         return self._runner.params
 
     def run(self, args: dict[str, Any]) -> Any:

@@ -5,7 +5,7 @@ rl_games (1.6.5 and 2.0) saves its SAC as ``{'actor', 'critic', 'critic_target',
 ``last_mean_rewards`` (1.6.5 keeps no temperature: its resume starts from ``init_alpha``, and so does rlchain's
 from such a file). Each network is a state dict of one Sequential per MLP: the actor ``trunk.<2 * layer>``
 (linear, activation, ...) ending in the ``2 * actions`` output layer, the twin critics ``Q1`` / ``Q2`` likewise
-ending in one output. rlchain's :class:`~rlchain.algos.off_policy.sac.SoftActorCritic` holds the same function:
+ending in one output. rlchain's :class:`~rlchain.algos.off_policy.sac_agent.SoftActorCritic` holds the same function:
 ``network.actor.trunk.mlp`` layers ``net.<layer>.0`` and ``head``, ``network.critic.q1.0.net.<layer>.0`` and
 ``q1.1``, ``critic_target`` the same, ``log_alpha``, ``obs_norm``. Each optimizer holds its network's
 parameters in the same order in both, so its state carries over by position.

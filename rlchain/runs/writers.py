@@ -34,8 +34,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.config.run import ProgressConfig
+from rlchain.errors import did_you_mean
 from rlchain.log import get_logger, set_live_status
 from rlchain.registry import WRITERS
 from rlchain.runs.atomic import open_append

@@ -4,7 +4,9 @@ A gymnasium id is used as it is. A callable (``lambda: gym.make(...)``), a gymna
 gymnasium ``SyncVectorEnv`` / ``AsyncVectorEnv`` object is registered in :data:`rlchain.registry.ENVS`
 under a fresh name whose builder steps those envs with rlchain's gymnasium backend. An env object is
 one env (rlchain steps it, never closes it: it stays the caller's); a vector env object's sub-envs are
-stepped by rlchain with same-step resets.
+stepped by rlchain with same-step resets. A Stable-Baselines3 ``VecEnv`` (DummyVecEnv, SubprocVecEnv,
+VecNormalize, ``make_vec_env``'s output) is stepped as it is, through
+:class:`rlchain.envs.backends.sb3_vecenv.SB3VecEnv`, and stays the caller's (``model.get_env()`` returns it).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import gymnasium as gym
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
+from rlchain.envs.backends.sb3_vecenv import SB3VecEnv, is_sb3_vecenv, sb3_env_id
 from rlchain.registry import ENVS
 
 _COUNTER = itertools.count(1)
@@ -30,6 +33,7 @@ class EnvSource:
     env_name: str
     num_envs: int | None  # None: the caller picks (n_envs or the family's default)
     label: str  # the env in messages: 'CartPole-v1', 'a gymnasium env object (CartPole-v1)', ...
+    vec_env: Any = None  # an SB3 VecEnv the caller passed (stepped as it is), else None
 
 
 class _Borrowed(gym.Wrapper):
@@ -64,10 +68,29 @@ def _register(label: str, factories: list[Callable[[], gym.Env]], fixed: bool) -
     return name
 
 
+def _register_sb3(label: str, venv: Any) -> str:
+    """A fresh ENVS name whose builder steps the SB3 vec env ``venv`` (exactly its ``num_envs``)."""
+    name = f"python_env_{next(_COUNTER)}"
+
+    def build(num_envs: int, seed: int | None, **env_config: Any) -> SB3VecEnv:
+        if env_config:
+            raise ConfigError("", "params.config.env_config", f"{label} takes no env_config keys")
+        if num_envs != venv.num_envs:
+            raise ConfigError("", "params.config.num_actors", f"{num_envs} envs asked of {label}, which is "
+                                                              f"{venv.num_envs}")
+        return SB3VecEnv(venv, seed=seed)
+
+    ENVS.register(name, build)
+    return name
+
+
 def env_source(env: Any, algo: str) -> EnvSource:
     """The :class:`EnvSource` of the SB3-style ``env`` argument (see the module docstring)."""
     if isinstance(env, str):
         return EnvSource(env, None, env)
+    if is_sb3_vecenv(env):
+        label = f"a Stable-Baselines3 {type(env).__name__} ({sb3_env_id(env)} x {env.num_envs})"
+        return EnvSource(_register_sb3(label, env), int(env.num_envs), label, vec_env=env)
     if isinstance(env, gym.vector.SyncVectorEnv):
         label = f"a gymnasium SyncVectorEnv ({_id_of(env.envs[0])} x {env.num_envs})"
         objects = list(env.envs)
@@ -85,5 +108,29 @@ def env_source(env: Any, algo: str) -> EnvSource:
     if callable(env):
         label = f"the env factory {getattr(env, '__name__', type(env).__name__)}"
         return EnvSource(_register(label, [env], fixed=False), None, label)
-    raise ConfigError(f"rlchain.{algo.upper()}", "env", f"expected a gymnasium id, a gymnasium env or vector env, or "
-                                                        f"a callable that makes an env; got {type(env).__name__}")
+    raise ConfigError(f"rlchain.{algo.upper()}", "env", f"expected a gymnasium id, a gymnasium env or vector env, a "
+                                                        f"Stable-Baselines3 VecEnv, or a callable that makes an env; "
+                                                        f"got {type(env).__name__}")
+
+
+def sb3_vec_env(env: Any, source: EnvSource, n_envs: int, seed: int | None) -> Any:
+    """A Stable-Baselines3 ``VecEnv`` of the env argument ``env`` (what SB3's ``model.get_env()`` returns): the
+    SB3 vec env itself when one was passed, else one SB3 builds as it would from that argument (``make_vec_env``
+    for an id or a callable; an env object in a ``Monitor`` and a ``DummyVecEnv``; a gymnasium vector env's
+    sub-envs or factories). Needs stable-baselines3 (imported here: it is optional)."""
+    if source.vec_env is not None:
+        return source.vec_env
+    try:
+        from stable_baselines3.common.env_util import make_vec_env
+        from stable_baselines3.common.monitor import Monitor
+        from stable_baselines3.common.vec_env import DummyVecEnv
+    except ImportError as exc:
+        raise ModuleNotFoundError("model.get_env() returns a Stable-Baselines3 VecEnv: pip install "
+                                  "stable-baselines3") from exc
+    if isinstance(env, gym.vector.SyncVectorEnv):
+        return DummyVecEnv([lambda e=e: Monitor(_Borrowed(e)) for e in env.envs])
+    if isinstance(env, gym.vector.AsyncVectorEnv):
+        return make_vec_env(env.env_fns[0], n_envs=env.num_envs, seed=seed)
+    if isinstance(env, gym.Env):
+        return DummyVecEnv([lambda: Monitor(_Borrowed(env))])
+    return make_vec_env(env, n_envs=n_envs, seed=seed)

@@ -14,7 +14,9 @@ import re
 from collections.abc import Iterable
 from typing import Any
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
+from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION
 
 SOURCE = "rlchain.{algo}"  # where ConfigErrors say the bad argument came from
 
@@ -77,8 +79,17 @@ def _lr_all(value: Any) -> dict[str, Any]:
 
 def _number(name: str, value: Any) -> float:
     if callable(value) or isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{name}: expected a number, got {value!r} (schedules: set lr_schedule, e.g. 'linear')")
+        raise ValueError(f"{name}: expected a number, got {value!r}")
     return float(value)
+
+
+def _whole(name: str, key: str) -> Any:
+    """The mapping of an SB3 argument that is a positive int, to the rlchain key ``key``."""
+    def mapping(value: Any) -> dict[str, int]:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name}: expected an int >= 1, got {value!r}")
+        return {key: value}
+    return mapping
 
 
 def _train_freq(value: Any) -> int:
@@ -110,7 +121,8 @@ def _clip_range_vf(value: Any) -> dict[str, Any]:
 
 PPO_KEYS: dict[str, Any] = {
     "learning_rate": lambda v: {"learning_rate": _number("learning_rate", v), "lr_schedule": None},
-    "n_steps": "horizon_length", "batch_size": "minibatch_size", "n_epochs": "mini_epochs", "gamma": "gamma",
+    "n_steps": _whole("n_steps", "horizon_length"), "batch_size": _whole("batch_size", "minibatch_size"),
+    "n_epochs": _whole("n_epochs", "mini_epochs"), "gamma": "gamma",
     "gae_lambda": "tau", "clip_range": lambda v: {"e_clip": _number("clip_range", v)},
     "clip_range_vf": _clip_range_vf, "normalize_advantage": "normalize_advantage", "ent_coef": "entropy_coef",
     "vf_coef": lambda v: {"critic_coef": 2 * _number("vf_coef", v)},  # rlchain's value loss is 0.5 * coef * mse
@@ -204,9 +216,10 @@ def _policy_kwargs(algo: str, continuous: bool, policy_kwargs: dict[str, Any]) -
             _merge(network, _net_arch(algo, value))
         elif key == "activation_fn":
             _merge(network, {"mlp": {"activation": activation_name(value)}})
-        elif key == "log_std_init" and algo == "ppo" and continuous:
-            _merge(network, {"space": {"continuous": {"sigma_init": {"name": "const_initializer",
-                                                                     "val": _number(key, value)}}}})
+        elif key == "log_std_init" and algo == "ppo":  # as in SB3, no effect on discrete actions
+            if continuous:
+                _merge(network, {"space": {"continuous": {"sigma_init": {"name": "const_initializer",
+                                                                         "val": _number(key, value)}}}})
         else:
             raise ValueError(f"policy_kwargs: unknown key '{key}'{did_you_mean(key, POLICY_KWARGS)} "
                              f"(rlchain maps {', '.join(POLICY_KWARGS)}; any network block: network=...)")
@@ -230,18 +243,22 @@ def run_name(algo: str, env_name: str) -> str:
 def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, given: dict[str, Any],
                  rlchain_keys: Iterable[str], policy_kwargs: dict[str, Any] | None = None,
                  total_timesteps: int | None = None, seed: int | None = None,
-                 run: dict[str, Any] | None = None) -> dict[str, Any]:
+                 run: dict[str, Any] | None = None, defaults: str = "sb3") -> dict[str, Any]:
     """The ``{'params': ...}`` config of ``algo`` (ppo, sac, dqn) on ``env_name`` with ``num_actors`` envs,
     after the user's arguments ``given`` (SB3 names, or the rlchain config keys ``rlchain_keys``).
-    ``run``: further ``params.config`` keys (train_dir, device, print_stats, ...). ValueError (a ConfigError
-    naming the argument) for an unknown or unmappable argument."""
+    ``defaults``: what arguments left out take, ``sb3`` (SB3's own: :mod:`rlchain.sb3.defaults`) or ``rlchain``
+    (the packaged examples' :data:`DEFAULTS`). ``run``: further ``params.config`` keys (train_dir, device,
+    print_stats, ...). ValueError (a ConfigError naming the argument) for an unknown or unmappable argument."""
     source = SOURCE.format(algo=algo.upper())
+    if defaults not in CHOICES:
+        raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {defaults!r}")
+    base = SB3_DEFAULTS if defaults == "sb3" else DEFAULTS
     family = "ppo_continuous" if algo == "ppo" and continuous else algo
-    network = copy.deepcopy(DEFAULTS[algo]["network"])
-    config = copy.deepcopy(DEFAULTS[algo]["config"])
+    network = copy.deepcopy(base[algo]["network"])
+    config = copy.deepcopy(base[algo]["config"])
     if family != algo:
-        _merge(network, DEFAULTS[family]["network"])
-        _merge(config, DEFAULTS[family]["config"])
+        _merge(network, base[family]["network"])
+        _merge(config, base[family]["config"])
     elif algo == "ppo":
         network["space"] = {"discrete": None}
     config.update({"name": run_name(algo, env_name), "env_name": env_name, "num_actors": num_actors})
@@ -258,8 +275,8 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
                 continue  # read together with other arguments below
             config.update(mapping(value) if callable(mapping) else {mapping: value})
         config.update(_updates(algo, given, num_actors))
-        if algo == "dqn" and "exploration_fraction" in given:
-            fraction = _number("exploration_fraction", given["exploration_fraction"])
+        if algo == "dqn" and ("exploration_fraction" in given or defaults == "sb3"):
+            fraction = _number("exploration_fraction", given.get("exploration_fraction", SB3_EXPLORATION_FRACTION))
             if total_timesteps is not None:
                 config["epsilon_decay_frames"] = max(1, int(fraction * total_timesteps))
         _merge(network, _policy_kwargs(algo, continuous, dict(policy_kwargs or {})))

@@ -22,14 +22,22 @@ import yaml
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
 from rlchain.config.stored import as_data, check_env_id
+from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
+from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env, build_model
 from rlchain.runner import Runner
 from rlchain.sb3 import files
-from rlchain.sb3.envs import EnvSource, env_source
+from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
+from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
+from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config
+from rlchain.sb3.policy import SB3Policy
+from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.training.events import Callback
 
-POLICIES = ("MlpPolicy",)
+POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input"}
+"""SB3's policy names -> the rlchain network they map to (None: the algorithm's default network). MultiInputPolicy:
+Dict observations, an encoder per key (docs/robot_learning.md)."""
 
 
 class _Spaces:
@@ -43,19 +51,30 @@ class _Spaces:
 
 
 class _Bridge(Callback):
-    """Hands the model's weights to the run when they changed since the last run, and takes the trained
-    weights back when it ends."""
+    """Hands the model's weights to the run when they changed since the last run; while the run goes,
+    ``model.policy`` is the policy being trained (callbacks' ``predict`` and ``save`` see the live weights); when
+    it ends the trained weights are copied back into the model's own policy."""
 
     def __init__(self, model: BaseModel) -> None:
         self.model = model
+        self._own: torch.nn.Module | None = None
 
     def on_train_start(self, ctx: Any) -> None:
+        own = self.model.policy
         if self.model._weights_changed:
-            ctx.model.load_state_dict(self.model.policy.state_dict())
+            ctx.model.load_state_dict(own.net.state_dict())
+        self._own, self.model.policy = own, SB3Policy(ctx.model, own.algo, own.observation_space, own.action_space,
+                                                      own.network)
 
     def on_train_end(self, ctx: Any, result: Any) -> None:
-        self.model.policy.load_state_dict(copy.deepcopy(ctx.model.state_dict()))
+        if self._own is not None:
+            self._own.net.load_state_dict(copy.deepcopy(ctx.model.state_dict()))
         self.model._weights_changed = False
+        self.close()
+
+    def close(self) -> None:
+        if self._own is not None:
+            self.model.policy, self._own = self._own, None
 
 
 class BaseModel:
@@ -70,23 +89,34 @@ class BaseModel:
         if policy not in POLICIES:
             raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}); "
                                                 f"other networks: the network block of an rlchain YAML")
+        self.policy_name = policy
         self.env_source: EnvSource | None = None if env is None else env_source(env, self.algo)
+        self._env_arg = env  # the env argument as given: get_env() builds SB3's VecEnv of it
+        self._vec_env: Any = None
         fixed = None if self.env_source is None else self.env_source.num_envs
         if fixed is not None and n_envs is not None and n_envs != fixed:
             raise ConfigError(source, "n_envs", f"{n_envs}, but {self.env_source.label} is {fixed} env(s)")
-        self.n_envs = fixed or n_envs or NUM_ENVS[self.algo]
+        self.defaults = hyperparameters.get("defaults", "sb3")  # kept in hyperparameters: save() keeps it
+        if self.defaults not in CHOICES:
+            raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {self.defaults!r}")
+        self.n_envs = fixed or n_envs or (SB3_NUM_ENVS if self.defaults == "sb3" else NUM_ENVS)[self.algo]
         self.seed = seed
         self.device = ("cuda:0" if torch.cuda.is_available() else "cpu") if device == "auto" else device
         self.verbose = verbose
         self.tensorboard_log = tensorboard_log
         self.policy_kwargs = dict(policy_kwargs or {})
-        self.hyperparameters = dict(hyperparameters)
+        try:
+            given, self._schedules = split_schedules(self.algo, hyperparameters)
+        except ValueError as exc:
+            key, _, message = str(exc).partition(": ")
+            raise ConfigError(source, key, message) from None
+        self.hyperparameters = given  # data only: a schedule's value at progress 1 (the callable: _schedules)
         self.num_timesteps = 0
         self._checkpoint: str | None = None  # the last run's last checkpoint: a later learn resumes it
         self._weights_changed = False
         self._spaces: _Spaces | None = None
         self._loaded_config: dict[str, Any] | None = None  # load() without an env: the saved config
-        self.policy: torch.nn.Module | None = None
+        self.policy: SB3Policy | None = None
         if self.env_source is not None:
             self._spaces = self._read_spaces()
             self.policy = self._build_policy()
@@ -102,8 +132,12 @@ class BaseModel:
         family = "a2c_continuous" if self.algo == "ppo" and continuous else \
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
-        return build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, self.hyperparameters,
-                            keys, self.policy_kwargs, total_timesteps, self.seed, run)
+        given = {k: v for k, v in self.hyperparameters.items() if k != "defaults"}
+        config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
+                              keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        if POLICIES[self.policy_name] is not None:
+            config["params"]["network"]["name"] = POLICIES[self.policy_name]
+        return config
 
     @property
     def config(self) -> dict[str, Any]:
@@ -125,19 +159,23 @@ class BaseModel:
     def _read_spaces(self) -> _Spaces:
         runner = self._runner()  # checks every argument now, as SB3 fails in the constructor
         params = runner.params
-        env = build_env(params, 1, 0)
+        env = build_env(params, self.n_envs if self.env_source.vec_env is not None else 1, 0)
         try:
             return _Spaces(env.observation_space, env.action_space)
         finally:
             env.close()
 
-    def _build_policy(self) -> torch.nn.Module:
+    def _build_policy(self) -> SB3Policy:
         params = self._runner().params
         if self.seed is not None:
             torch.manual_seed(self.seed)
-        model = build_model(params, self._spaces, torch.device("cpu"))
-        model.eval()
-        return model
+        return self._wrap(build_model(params, self._spaces, torch.device("cpu")), self.config)
+
+    def _wrap(self, net: torch.nn.Module, config: dict[str, Any]) -> SB3Policy:
+        """``net`` (eval mode) as ``model.policy``: SB3's names, predict and save (:mod:`rlchain.sb3.policy`)."""
+        net.eval()
+        return SB3Policy(net, self.algo, self._spaces.observation_space, self._spaces.action_space,
+                         config["params"]["network"])
 
     # ----- training -----------------------------------------------------------------------------------
     def learn(self, total_timesteps: int, callback: Any = None, progress_bar: bool = False,
@@ -145,15 +183,25 @@ class BaseModel:
               tb_log_name: str | None = None) -> BaseModel:
         """Train for ``total_timesteps`` env frames (rounded up to whole epochs) on rlchain's loop.
 
-        ``callback``: an rlchain :class:`~rlchain.training.events.Callback`, a function ``fn(ctx, stats,
-        episodes)`` called after every epoch (``ctx.request_stop(reason)`` stops the run), or a list of them.
-        ``progress_bar=True`` shows rlchain's live status line. A later call resumes this run from its last
-        checkpoint; ``reset_num_timesteps`` and ``log_interval`` are accepted for SB3's signature only.
+        ``callback``: Stable-Baselines3 callbacks (``BaseCallback`` subclasses, ``EvalCallback``, ``CallbackList``,
+        ..., run as SB3 runs them: :mod:`rlchain.sb3.callbacks`), an rlchain
+        :class:`~rlchain.training.events.Callback`, a function ``fn(ctx, stats, episodes)`` called after every
+        epoch, or a list of them. ``progress_bar=True`` shows rlchain's live status line.
+        ``reset_num_timesteps=True`` (SB3's default) starts a new run from the current weights with the count at 0;
+        False resumes the last run from its checkpoint (optimizer, normalizers and counters) and trains
+        ``total_timesteps`` more. ``log_interval`` is accepted for SB3's signature (rlchain logs every epoch).
         """
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no env; pass env= to load() to train")
-        total = int(total_timesteps)
-        callbacks = callback if isinstance(callback, (list, tuple)) else ([] if callback is None else [callback])
+        total = _count(f"rlchain.{self.algo.upper()}.learn", "total_timesteps", total_timesteps)
+        given = callback if isinstance(callback, (list, tuple)) else ([] if callback is None else [callback])
+        sb3 = [cb for cb in given if is_sb3_callback(cb)]
+        callbacks = [cb for cb in given if not is_sb3_callback(cb)]
+        if reset_num_timesteps and self._checkpoint is not None:
+            self._checkpoint = None  # a new run from the model's weights, as SB3 keeps its policy
+            self._weights_changed = True
+        if reset_num_timesteps:
+            self.num_timesteps = 0
         overrides = []
         if progress_bar:
             overrides.append("params.config.progress.live=True")
@@ -161,15 +209,42 @@ class BaseModel:
             overrides.append(f"params.config.name={tb_log_name}")
         runner = Runner().load(self._config(self.num_timesteps + total), overrides)
         if self.verbose > 0 and self._checkpoint is None:
-            print(f"rlchain: {type(self).__name__} runs this config (model.save_config('cfg.yaml'), then "
-                  f"`rlchain train cfg.yaml`):\n{yaml.safe_dump(self._config(total), sort_keys=False)}", flush=True)
+            self._say_config(total)
+        if sb3:
+            learn_locals = {"total_timesteps": self.num_timesteps + total, "callback": callback,
+                            "log_interval": log_interval, "tb_log_name": tb_log_name,
+                            "reset_num_timesteps": reset_num_timesteps, "progress_bar": progress_bar}
+            callbacks.append(SB3Callbacks(self, sb3, learn_locals))
+        self._total_timesteps = self.num_timesteps + total
+        if self._schedules:
+            callbacks.append(ScheduleCallback(self.algo, self._schedules, self.num_timesteps, total))
         result = runner.train(checkpoint=self._checkpoint, seed=self.seed, callbacks=[_Bridge(self), *callbacks])
         self.num_timesteps = int(result.frames)
         self.run_dir = result.run_dir
+        self.logger.dir = result.run_dir
         last = os.path.join(result.run_dir, "nn", f"last_{runner.params.config.name}.pth")
         self._checkpoint = last if os.path.isfile(last) else None
         self.result = result
         return self
+
+    def _say_config(self, total: int) -> None:
+        """verbose 1: one line saying what runs (as SB3 says its device); verbose 2: the whole YAML too."""
+        cfg = self._config(total)["params"]["config"]
+        print(f"rlchain: {type(self).__name__} on {self.env_source.label}, {cfg['num_actors']} env(s), device "
+              f"{self.device} (model.save_config('cfg.yaml') writes the YAML it runs)", flush=True)
+        if self.verbose > 1:
+            print(yaml.safe_dump(self._config(total), sort_keys=False), flush=True)
+
+    @property
+    def logger(self) -> SB3Logger:
+        """SB3's ``logger`` for callbacks: ``record`` / ``dump`` go to the run's log writers."""
+        if getattr(self, "_logger", None) is None:
+            self._logger = SB3Logger()
+        return self._logger
+
+    def dump_logs(self) -> None:
+        """Write what callbacks recorded (SB3's ``dump_logs``)."""
+        self.logger.dump(self.num_timesteps)
 
     # ----- acting -------------------------------------------------------------------------------------
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
@@ -179,11 +254,23 @@ class BaseModel:
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
         space = self._spaces.observation_space
-        obs = np.asarray(observation, dtype=np.float32)
-        single = obs.shape == tuple(space.shape)
-        batch = torch.as_tensor(obs[None] if single else obs.reshape(-1, *space.shape))
-        with torch.inference_mode():
-            actions = self.policy.dist.to_env(self.policy.act(batch, deterministic=deterministic)["actions"])
+        if isinstance(space, gym.spaces.Dict) and POLICIES[self.policy_name] is not None:  # per-key network
+            return self._predict_dict(observation, space, deterministic)
+        return self.policy.predict(observation, deterministic=deterministic)
+
+    def _predict_dict(self, observation: dict, space: gym.spaces.Dict, deterministic: bool) -> tuple[np.ndarray, Any]:
+        first = next(iter(space.spaces))
+        single = np.shape(observation[first]) == tuple(space[first].shape)
+        batch = as_obs_dict({k: np.asarray(observation[k])[None] if single else np.asarray(observation[k])
+                             for k in space.spaces}, space, "cpu")
+        net = self.policy.net
+        was_training = net.training
+        net.eval()
+        try:
+            with torch.inference_mode():
+                actions = net.dist.to_env(net.act(batch, deterministic=deterministic)["actions"])
+        finally:
+            net.train(was_training)
         actions = actions.cpu().numpy()
         return (actions[0] if single else actions), None
 
@@ -206,9 +293,10 @@ class BaseModel:
         path = _file(path, must_exist=False)
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
-        state = {"algo": self.algo, "env_id": keep, "n_envs": self.n_envs, "seed": self.seed,
+        state = {"algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs,
+                 "seed": self.seed,
                  "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
-                 "config": self.config, "model": self.policy.state_dict(), "num_timesteps": self.num_timesteps}
+                 "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
         files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
         return path
 
@@ -223,14 +311,16 @@ class BaseModel:
         if env is None:
             check_env_id(state["env_id"], path, "env_id")
         env = env if env is not None else state["env_id"]
+        n_envs = kwargs.pop("n_envs", None) or state["n_envs"]  # SB3's load takes n_envs for a new env
         hyperparameters = {**state["hyperparameters"], **kwargs}
         model = cls.__new__(cls)
-        BaseModel.__init__(model, "MlpPolicy", None, n_envs=state["n_envs"] if env is not None else None,
+        BaseModel.__init__(model, state.get("policy", "MlpPolicy"), None, n_envs=n_envs if env is not None else None,
                            seed=state["seed"], device=device, policy_kwargs=state["policy_kwargs"],
                            **hyperparameters)
         if env is not None:
             model.env_source = env_source(env, cls.algo)
-            model.n_envs = model.env_source.num_envs or state["n_envs"]
+            model._env_arg = env
+            model.n_envs = model.env_source.num_envs or n_envs
         model._spaces = _Spaces(*state["spaces"])
         model._loaded_config = stored
         model.policy = model._build_policy_from(stored)
@@ -239,15 +329,44 @@ class BaseModel:
         model._weights_changed = True
         return model
 
-    def _build_policy_from(self, config: dict[str, Any]) -> torch.nn.Module:
+    def _build_policy_from(self, config: dict[str, Any]) -> SB3Policy:
         params = Runner().load(copy.deepcopy(config)).params if self.env_source is None else self._runner().params
-        model = build_model(params, self._spaces, torch.device("cpu"))
-        model.eval()
-        return model
+        return self._wrap(build_model(params, self._spaces, torch.device("cpu")), config)
 
     def get_env(self) -> Any:
-        """The env argument's rlchain name (a gymnasium id, or the name its env object was registered under)."""
-        return None if self.env_source is None else self.env_source.env_name
+        """The training env as a Stable-Baselines3 ``VecEnv`` (see :func:`rlchain.sb3.envs.sb3_vec_env`): what
+        ``evaluate_policy(model, model.get_env())`` and callbacks' ``training_env`` take. None without an env."""
+        if self.env_source is None:
+            return None
+        if getattr(self, "_vec_env", None) is None:
+            self._vec_env = sb3_vec_env(self._env_arg, self.env_source, self.n_envs, self.seed)
+        return self._vec_env
+
+    def set_env(self, env: Any, force_reset: bool = True) -> None:
+        """Train on ``env`` from now on (its spaces must be the model's); the next ``learn`` starts a new run."""
+        source = env_source(env, self.algo)
+        n_envs = source.num_envs or self.n_envs
+        old, self.env_source, self._env_arg, self.n_envs = (self.env_source, self._env_arg, self.n_envs), source, \
+            env, n_envs
+        try:
+            spaces = self._read_spaces()
+        except Exception:
+            self.env_source, self._env_arg, self.n_envs = old
+            raise
+        if (spaces.observation_space, spaces.action_space) != (self._spaces.observation_space,
+                                                               self._spaces.action_space):
+            self.env_source, self._env_arg, self.n_envs = old
+            raise ValueError(f"rlchain.{self.algo.upper()}.set_env: {source.label} has spaces "
+                             f"{spaces.observation_space} / {spaces.action_space}, the model "
+                             f"{self._spaces.observation_space} / {self._spaces.action_space}")
+        self._vec_env = None
+        if self._checkpoint is not None:
+            self._checkpoint = None
+            self._weights_changed = True
+
+    def get_vec_normalize_env(self) -> Any:
+        """The ``VecNormalize`` of an SB3 vec env the model trains on, or None."""
+        return None if self.env_source is None else vec_normalize_of(self.env_source.vec_env)
 
 
 def _file(path: str, must_exist: bool = True) -> str:
@@ -258,3 +377,11 @@ def _file(path: str, must_exist: bool = True) -> str:
     if must_exist and os.path.exists(path) and not os.path.exists(path + ".pth"):
         return path
     return path + ".pth"
+
+
+def _count(source: str, name: str, value: Any) -> int:
+    """``value`` as a positive whole number of frames, else a one-line ConfigError."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or value < 1 \
+            or int(value) != value:
+        raise ConfigError(source, name, f"expected a positive whole number of env steps, got {value!r}")
+    return int(value)

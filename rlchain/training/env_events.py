@@ -10,7 +10,9 @@ from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.log import get_logger
+from rlchain.policy.recording import gym_id_of
 from rlchain.training.events import Callback
+from rlchain.training.video_callback import VideoCallback
 
 log = get_logger(__name__)
 
@@ -71,7 +73,6 @@ def event_callbacks(events: list[Any], evaluation_on: bool, params: Any) -> list
             if not evaluation_on:
                 continue
             try:
-                from rlchain.inference.video import VideoCallback, gym_id_of  # optional: moviepy
                 gym_id_of(params)  # a gymnasium env renders; a tensor env does not
                 out.append(VideoCallback(event.interval_step, event.params.get("save_path")))
             except (ImportError, ConfigError) as exc:

@@ -21,7 +21,7 @@ import torch
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import describe, make_context, to_device
 from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterrupted, check_parameters
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.errors import DivergenceError, EnvError

@@ -26,7 +26,7 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import SelfPlayConfig
+from rlchain.config.ppo import SelfPlayConfig
 from rlchain.envs.spec import env_spec
 from rlchain.log import get_logger
 from rlchain.training.events import Callback

@@ -1,4 +1,5 @@
-"""The SB3-shaped API reaches the scores rlchain's configs reach: PPO on CartPole, SAC on Pendulum."""
+"""The SB3-shaped API reaches the scores rlchain's configs reach (``defaults="rlchain"``): PPO on CartPole, SAC on
+Pendulum."""
 
 import gymnasium as gym
 import numpy as np
@@ -27,13 +28,15 @@ def evaluate(model, env_id, episodes):
 
 def test_ppo_cartpole_50k_reaches_475(tmp_path):
     torch.set_num_threads(1)
-    model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=5, verbose=0, tensorboard_log=str(tmp_path))
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=5, verbose=0, tensorboard_log=str(tmp_path),
+                        defaults="rlchain")
     model.learn(total_timesteps=50_000)
     assert evaluate(model, "CartPole-v1", 10) >= 475
 
 
 def test_sac_pendulum_learns(tmp_path):
     torch.set_num_threads(1)
-    model = rlchain.SAC("MlpPolicy", "Pendulum-v1", seed=5, verbose=0, tensorboard_log=str(tmp_path))
+    model = rlchain.SAC("MlpPolicy", "Pendulum-v1", seed=5, verbose=0, tensorboard_log=str(tmp_path),
+                        defaults="rlchain")
     model.learn(total_timesteps=8_000)
     assert evaluate(model, "Pendulum-v1", 5) > -400  # random actions: about -1200

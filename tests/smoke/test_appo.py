@@ -9,10 +9,10 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.appo.appo import APPO
 from rlchain.algos.appo.local_runners import LocalRunners
-from rlchain.algos.appo.trainer import APPO
 from rlchain.config.load import parse_params
-from rlchain.config.schema import EnvRunnersConfig
+from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.ray.ray_env import worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.errors import EnvError

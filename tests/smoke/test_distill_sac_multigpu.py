@@ -86,7 +86,7 @@ def test_sac_teacher_bad_pairings_are_one_line_errors(tmp_path):
 def test_sac_teacher_with_another_action_size_is_a_one_line_error():
     from types import SimpleNamespace
 
-    from rlchain.algos.distill.trainer import _check_sac_student
+    from rlchain.algos.distill.distill import _check_sac_student
     teacher = SimpleNamespace(dist=SimpleNamespace(dim=1))
     with pytest.raises(ConfigError, match=r"teacher_checkpoint: the SAC teacher acts with 1 continuous actions, "
                                           r"the student has 6 continuous ones"):

@@ -6,7 +6,7 @@ import os
 import pytest
 
 import rlchain.algos.base.algorithm as algorithm_base
-import rlchain.algos.ppo.trainer as ppo_trainer
+import rlchain.algos.ppo.ppo as ppo_trainer
 import tests.smoke.broken_envs  # noqa: F401  (registers the broken envs)
 from rlchain import Runner
 from rlchain.config import ConfigError

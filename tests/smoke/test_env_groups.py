@@ -114,7 +114,7 @@ def test_auto_trains_like_one_group_whichever_layout_wins(tmp_path, monkeypatch,
         env = choose(params, env, seed)
         built.append(len(env.pools))
         return env
-    monkeypatch.setattr("rlchain.algos.ppo.trainer.choose_env_layout", recording)
+    monkeypatch.setattr("rlchain.algos.ppo.ppo.choose_env_layout", recording)
     one = envpool_cartpole(tmp_path, 1, "params.config.max_epochs=8").train()
     auto = envpool_cartpole(tmp_path, "auto", "params.config.max_epochs=8").train()
     assert built == [picked.pools]
@@ -125,7 +125,7 @@ def test_auto_trains_like_one_group_whichever_layout_wins(tmp_path, monkeypatch,
 def test_layout_probe_leaves_the_random_state_and_the_seeds_alone(tmp_path):
     """The probe steps the envs with a throwaway policy: the torch random state is as before, and the first
     seeded reset restarts every env from the run's seed."""
-    from rlchain.algos.ppo.trainer import PPO
+    from rlchain.algos.ppo.ppo import PPO
     from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
     params = envpool_cartpole(tmp_path, "auto").params
     torch.manual_seed(11)

@@ -294,6 +294,6 @@ def test_get_set_params_during_training(tmp_path, capsys):
     assert seen[1:] == [(2, pytest.approx(1e-4), 0.01)]
     assert "set entropy_coef" not in capsys.readouterr().out
     with pytest.raises(KeyError, match="cannot set gamma_typo"):
-        from rlchain.algos.ppo.trainer import PPO
+        from rlchain.algos.ppo.ppo import PPO
         from rlchain.training.live_params import check_tunable
         check_tunable({"gamma_typo": 1}, PPO.tunable)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rlchain import Runner, env_configurations
-from rlchain.config.schema import EnvRunnersConfig
+from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.ray.ray_env import WorkerLost
 from rlchain.training.events import Callback

@@ -30,8 +30,10 @@ def test_gymnasium_env_object_trains_and_stays_open(tmp_path):
     obs, _ = env.reset(seed=0)
     action, state = model.predict(obs)
     assert env.action_space.contains(int(action)) and state is None
-    model.learn(64)  # a later learn resumes the run from its last checkpoint
+    model.learn(64, reset_num_timesteps=False)  # resumes the run from its last checkpoint
     assert model.num_timesteps == 192
+    model.learn(64)  # SB3's default: a new run from the current weights, the count from 0
+    assert model.num_timesteps == 64
 
 
 def test_callable_and_vector_env(tmp_path):

@@ -72,7 +72,7 @@ def test_resume_restores_state_exactly(tmp_path):
     params = runner2.params
     env = build_env(params, params.config.num_actors, 0)
     model = build_model(params, env, resolve_device("cpu"))
-    from rlchain.algos.ppo.trainer import PPO
+    from rlchain.algos.ppo.ppo import PPO
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
     trainer = Loop(params, PPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,

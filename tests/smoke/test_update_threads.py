@@ -13,7 +13,7 @@ CONFIGS = os.path.join(os.path.dirname(__file__), "..", "..", "rlchain", "config
 
 @pytest.mark.parametrize("config, agent_module, agent_class", [
     ("ppo_cartpole.yaml", "rlchain.algos.ppo.agent", "PPOAgent"),
-    ("sac_pendulum.yaml", "rlchain.algos.off_policy.sac", "SACAgent"),
+    ("sac_pendulum.yaml", "rlchain.algos.off_policy.sac_agent", "SACAgent"),
 ])
 def test_training_updates_run_with_update_threads(tmp_path, monkeypatch, config, agent_module, agent_class):
     """A real run: the agent's update sees update_threads, the rollout the rollout count."""

@@ -10,8 +10,9 @@ pytest.importorskip("moviepy", reason="pip install rlchain[video]")
 pytest.importorskip("pygame", reason="pip install rlchain[video]")
 
 from rlchain.config.errors import ConfigError  # noqa: E402
-from rlchain.inference.video import VideoCallback, record_episodes  # noqa: E402
+from rlchain.inference.video import record_episodes  # noqa: E402
 from rlchain.runner import Runner  # noqa: E402
+from rlchain.training.video_callback import VideoCallback  # noqa: E402
 
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 

@@ -12,9 +12,9 @@ from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import load_config, parse_params
+from rlchain.config.ppo import PPOConfig
 from rlchain.config.resolve import config_state, params_from_state
 from rlchain.config.run import RunConfig
-from rlchain.config.schema import PPOConfig
 from rlchain.registry import ALGOS
 from tests.conftest import ROOT
 

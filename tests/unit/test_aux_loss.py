@@ -107,7 +107,7 @@ def test_aux_losses_are_logged_with_rl_games_tag_names():
     logger = TrainLogger(None, print_stats=False, writers=[Recorder()])
     stats = {"a_loss": 0.1, "c_loss": 0.2, "entropy": 0.3, "b_loss": 0.0, "lr": 1e-3, "kl": 0.01,
              "clip_frac": 0.0, "grad_norm": 1.0, "losses/aux_dist_loss": 0.5}
-    from rlchain.algos.ppo.trainer import PPO
+    from rlchain.algos.ppo.ppo import PPO
     from rlchain.training.loop import tag_metrics
 
     metrics = tag_metrics(stats, PPO.metric_tags)

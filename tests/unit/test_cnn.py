@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain.config.load import parse_params
-from rlchain.config.schema import CnnConfig, ConvSpec, DiscreteSpaceConfig, NetworkConfig, SpaceConfig
+from rlchain.config.network import CnnConfig, ConvSpec, DiscreteSpaceConfig, NetworkConfig, SpaceConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
 from rlchain.networks.actor_critic import ActorCriticBuilder
@@ -72,7 +72,7 @@ def test_obs_dims_must_match_the_conv_type(kind, shape):
 
 
 def test_initializer_and_activation_are_applied():
-    from rlchain.config.schema import InitializerConfig
+    from rlchain.config.network import InitializerConfig
 
     enc = encoder((1, 16, 16), convs=[ConvSpec(filters=2, kernel_size=3)], activation="relu",
                   initializer=InitializerConfig(name="const_initializer", val=0.5))

@@ -8,7 +8,7 @@ import pytest
 from rlchain.config import ConfigError, compat, load_config, parse_params
 from rlchain.config.compat import RlchainDeprecationWarning
 from rlchain.config.load import apply_overrides
-from rlchain.config.schema import NetworkConfig
+from rlchain.config.network import NetworkConfig
 
 
 def parse(cfg):
@@ -157,7 +157,7 @@ def test_shipped_configs_parse():
 
 
 def test_central_value_network_block_typed_or_a_registered_networks_own(base_config):
-    from rlchain.config.schema import NetworkConfig
+    from rlchain.config.network import NetworkConfig
 
     base_config["params"]["config"]["central_value_config"] = {"network": {"mlp": {"units": [8]}}}
     assert isinstance(parse(base_config).config.central_value_config.network, NetworkConfig)

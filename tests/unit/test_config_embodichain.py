@@ -221,7 +221,7 @@ def test_is_embodichain():
 def test_a_critic_of_its_own_has_no_rl_games_export():
     import torch
 
-    from rlchain.runs.rl_games_checkpoint import to_rl_games
+    from rlchain.runs.rl_games_export import to_rl_games
 
     model = {"network.actor_trunk.mlp.net.0.0.weight": torch.zeros(32, 5),
              "network.critic_trunk.mlp.net.0.0.weight": torch.zeros(64, 5)}

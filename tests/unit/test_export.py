@@ -13,7 +13,7 @@ pytest.importorskip("onnx")
 ort = pytest.importorskip("onnxruntime")
 
 from rlchain import Runner  # noqa: E402
-from rlchain.config.schema import DiscreteSpaceConfig, MlpConfig, NetworkConfig, SpaceConfig  # noqa: E402
+from rlchain.config.network import DiscreteSpaceConfig, MlpConfig, NetworkConfig, SpaceConfig  # noqa: E402
 from rlchain.inference.export.onnx import (  # noqa: E402
     env_observations,
     export_from_cli,

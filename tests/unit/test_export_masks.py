@@ -12,7 +12,7 @@ ort = pytest.importorskip("onnxruntime")
 
 from rlchain import Runner  # noqa: E402
 from rlchain.config.fields import parse_dataclass  # noqa: E402
-from rlchain.config.schema import NetworkConfig  # noqa: E402
+from rlchain.config.network import NetworkConfig  # noqa: E402
 from rlchain.inference.export.onnx import (  # noqa: E402
     OnnxPolicy,
     env_rollout,

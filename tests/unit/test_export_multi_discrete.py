@@ -41,7 +41,7 @@ def test_multi_discrete_onnx_parity(tmp_path, overrides):
 def test_equal_sizes_multi_discrete_onnx_parity(tmp_path):
     import gymnasium as gym
 
-    from rlchain.config.schema import MlpConfig, MultiDiscreteSpaceConfig, NetworkConfig, SpaceConfig
+    from rlchain.config.network import MlpConfig, MultiDiscreteSpaceConfig, NetworkConfig, SpaceConfig
     from rlchain.models.actor_critic import ActorCritic
     from rlchain.models.distributions import make_distribution
     from rlchain.networks.actor_critic import ActorCriticBuilder

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain.config.fields import parse_dataclass
-from rlchain.config.schema import NetworkConfig
+from rlchain.config.network import NetworkConfig
 from rlchain.inference.export.onnx import OnnxPolicy, export_model_onnx, onnx_session, random_observations, verify_onnx
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical, DiagGaussian

@@ -3,7 +3,7 @@
 import torch
 import torch.nn as nn
 
-from rlchain.config.schema import InitializerConfig
+from rlchain.config.network import InitializerConfig
 from rlchain.networks.layers import NARROW_INPUTS, Linear, linear
 
 

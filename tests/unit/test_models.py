@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from rlchain.algos.core.storage import RolloutStorage
-from rlchain.config.schema import MlpConfig, NetworkConfig
+from rlchain.config.network import MlpConfig, NetworkConfig
 from rlchain.models.normalization import RunningMeanStd
 from rlchain.networks.actor_critic import ActorCriticBuilder
 from rlchain.networks.mlp import MLP
@@ -97,7 +97,7 @@ def test_mlp_d2rl_shapes():
 
 def test_actor_critic_network_outputs():
     builder = ActorCriticBuilder()
-    from rlchain.config.schema import ContinuousSpaceConfig, SpaceConfig
+    from rlchain.config.network import ContinuousSpaceConfig, SpaceConfig
     cfg = NetworkConfig(space=SpaceConfig(continuous=ContinuousSpaceConfig()))
     builder.load(cfg)
     net = builder.build("n", action_space=gym.spaces.Box(-1, 1, (3,)), input_shape=(4,), actions_num=3,

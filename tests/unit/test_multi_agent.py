@@ -10,7 +10,7 @@ import torch
 
 from rlchain import Runner
 from rlchain.algos.base.episodes import EpisodeTracker
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv

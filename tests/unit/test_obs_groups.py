@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
-from rlchain.algos.distill.trainer import corrupt
+from rlchain.algos.distill.distill import corrupt
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass
 from rlchain.config.obs_groups import ObsGroupsConfig
@@ -113,7 +113,7 @@ def test_corrupt_adds_noise_and_drops_readings():
 
 
 def test_the_aggregated_dataset_puts_rollouts_side_by_side():
-    from rlchain.algos.distill.trainer import _concat_envs
+    from rlchain.algos.distill.distill import _concat_envs
     a = {"obs": torch.zeros(4, 2, 3), "labels": torch.zeros(4, 2, 5), "resets": torch.zeros(4, 2, dtype=torch.bool),
          "masks": None, "states": (torch.zeros(1, 2, 8), torch.zeros(1, 2, 8))}
     b = {k: (v + 1 if isinstance(v, torch.Tensor) and v.dtype != torch.bool else v) for k, v in a.items()}
@@ -126,7 +126,7 @@ def test_the_aggregated_dataset_puts_rollouts_side_by_side():
 
 
 def test_the_delay_line_gives_the_observation_of_k_steps_ago_and_restarts_with_episodes():
-    from rlchain.algos.distill.trainer import DelayLine
+    from rlchain.algos.distill.distill import DelayLine
     line = DelayLine(2)
     no = torch.zeros(2, dtype=torch.bool)
     out = [line.push(torch.tensor([[float(t)], [10.0 + t]]), torch.tensor([t == 0, t == 0]) | no)[:, 0].tolist()

@@ -72,7 +72,7 @@ def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_f
 
 
 def test_auto_is_minibatch_for_continuous_actions_only():
-    from rlchain.algos.ppo.trainer import obs_per_minibatch
+    from rlchain.algos.ppo.ppo import obs_per_minibatch
 
     assert [obs_per_minibatch("auto", c) for c in (True, False)] == [True, False]
     assert [obs_per_minibatch("rollout", c) for c in (True, False)] == [False, False]

@@ -193,7 +193,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
             "losses/runners/c_loss", "info/runners/last_lr", "rewards/step"} <= tags
     assert "losses/a_loss" not in tags  # two policies: no unprefixed loss to mix them up in
     # resume: the learner state is exactly the checkpoint's
-    from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+    from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop
@@ -220,7 +220,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
 
 
 def test_inactive_steps_never_reach_the_storage_statistics(tmp_path):
-    from rlchain.algos.multi_policy.trainer import MultiPolicyPPO
+    from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
     from rlchain.models.build import build_env, build_model
     from rlchain.runs.logging import TrainLogger
     from rlchain.training.loop import Loop

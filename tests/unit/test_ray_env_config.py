@@ -9,7 +9,7 @@ import torch
 
 from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.config import ConfigError, parse_params
-from rlchain.config.schema import EnvRunnersConfig
+from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.ray.ray_env import merge_infos, worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe, EnvWorker, per_env_infos

@@ -11,7 +11,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass
 from rlchain.config.load import parse_params
-from rlchain.config.schema import ResnetCnnConfig, ResnetNetworkConfig
+from rlchain.config.network import ResnetCnnConfig, ResnetNetworkConfig
 from rlchain.envs.wrappers.dict_obs import FlatDictBox
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical

@@ -5,7 +5,7 @@ exploit) loads the weights of the checkpoint it is given."""
 import torch
 
 from rlchain import Runner
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.envs.factory import build_env
 from rlchain.models.build import build_model
 from rlchain.runs import checkpoint as ckpt

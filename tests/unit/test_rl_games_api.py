@@ -132,16 +132,23 @@ def test_player_acts_on_one_or_a_batch_of_observations(base_config):
     assert torch.equal(same, player.get_action(batch, is_deterministic=True))  # the mode: no sampling
 
 
-def test_register_model_rejects_rl_games_model_classes(registries):
+def test_register_model_takes_rl_games_model_classes_and_rejects_other_objects(registries):
     from rlchain.registry import MODELS
+    from rlchain.rl_games.algos_torch import models
 
-    class RlGamesStyleModel:  # rl_games' BaseModel: built later with .build(config)
-        def __init__(self, network, **kwargs):
+    class MyModel(models.ModelA2CContinuousLogStd):  # rl_games' form: built later with .build(config)
+        pass
+
+    model_builder.register_model("rlg_style", lambda network, **kwargs: MyModel(network))
+    assert models.rlchain_preset(MyModel) == "continuous_a2c_logstd"
+
+    class NotAModel:
+        def __init__(self, network):
             self.network = network
 
-    model_builder.register_model("rlg_style", lambda **kwargs: RlGamesStyleModel(**kwargs))
-    with pytest.raises(ValueError, match="'rlg_style' returned a RlGamesStyleModel, not an rlchain ActorCritic"):
-        MODELS.get("rlg_style")(network=None)
+    model_builder.register_model("not_a_model", NotAModel)
+    with pytest.raises(ValueError, match="'not_a_model' returned a NotAModel, neither a subclass"):
+        MODELS.get("not_a_model")(network=None)
 
 
 def test_alias_resolves_rl_games_names_to_rlchain_and_uninstalls():
@@ -176,8 +183,8 @@ def test_config_algo_observer_unless_one_is_given(base_config):
     base_config["params"]["config"]["algo_observer"] = "isaac"
     runner = Runner()
     runner.load(base_config)
-    assert runner.algo_observer is None  # the config's, added as a callback
-    assert runner._runner.params.config.callbacks == ["rlchain.rl_games.common.algo_observer:IsaacAlgoObserver"]
+    assert isinstance(runner.algo_observer, IsaacAlgoObserver)  # built from the config, as rl_games 2.0 does
+    assert runner._runner.params.config.callbacks == []  # called as the Runner's observer, not twice
     given = DefaultAlgoObserver()
     runner = Runner(given)
     runner.load(base_config)  # an observer passed to Runner wins, as in rl_games 2.0
@@ -185,6 +192,22 @@ def test_config_algo_observer_unless_one_is_given(base_config):
     base_config["params"]["config"]["stop_fn"] = "not callable"
     with pytest.raises(ValueError, match="params.config.stop_fn: expected a callable"):
         Runner().load(base_config)
+    base_config["params"]["config"].update(stop_fn=None, algo_observer="isac")
+    with pytest.raises(ValueError, match="params.config.algo_observer: expected one of default, isaac, got 'isac'"):
+        Runner().load(base_config)
+
+
+def test_partial_config_loads_and_binds_its_vecenv_type(base_config, scoped_registries):
+    from rlchain.registry import ENV_CONFIGURATIONS
+
+    runner = Runner()  # rl_games' tests load an algo and a config block only: nothing is built until run
+    runner.load_config({"algo": {"name": "a2c_continuous"},
+                        "config": {"env_name": "partial_test_env", "vecenv_type": "RAY", "reward_shaper": {}}})
+    assert runner.algo_name == "a2c_continuous" and ENV_CONFIGURATIONS["partial_test_env"] == {"vecenv_type": "RAY"}
+    with pytest.raises(ConfigError, match="params.model"):
+        runner.create_player()  # used: checked then, one line naming the missing block
+    runner.load(base_config)  # a whole config is checked at load, as a YAML is
+    assert runner._runner is not None
 
 
 def test_an_ivecenv_with_another_env_count_is_a_one_line_error():
@@ -200,3 +223,12 @@ def test_an_ivecenv_with_another_env_count_is_a_one_line_error():
     with pytest.raises(ValueError, match=r"returned 3 observation rows, expected num_actors \(1\) x agents \(1\)"):
         IVecEnvAdapter(Fixed(), 1)
     assert IVecEnvAdapter(Fixed(), 3).num_envs == 3
+
+
+@pytest.mark.parametrize("module", ["algos_torch.a2c_continuous", "algos_torch.a2c_discrete", "algos_torch.sac_agent",
+                                    "algos_torch.central_value", "common.a2c_common"])
+def test_rl_games_agent_modules_say_what_rlchain_offers(module):
+    sys.modules.pop(f"rlchain.rl_games.{module}", None)
+    with pytest.raises(ImportError, match=r"is rl_games' agent code, not offered by rlchain: rlchain trains") as err:
+        importlib.import_module(f"rlchain.rl_games.{module}")
+    assert "\n" not in str(err.value) and err.value.name == f"rl_games.{module}"

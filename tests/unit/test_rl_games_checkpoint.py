@@ -14,6 +14,7 @@ from rlchain.rl_games.algos_torch import torch_ext
 from rlchain.rl_games.algos_torch.players import PpoPlayerContinuous, PpoPlayerDiscrete, SACPlayer
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint as rlg
+from rlchain.runs import rl_games_export
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
@@ -71,7 +72,7 @@ def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(
     counters = (4, 64) if sac else (2, 64)
     assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == counters
     raw = torch_ext.load_checkpoint(path)
-    back = rlg.to_rl_games({**state, "agent": _rl_games_agent(state)})
+    back = rl_games_export.to_rl_games({**state, "agent": _rl_games_agent(state)})
     parts = ("actor", "critic", "critic_target", "running_mean_std") if sac else ("model",)
     for part in parts:
         original = rlg.strip_compiled(raw[part])
@@ -92,7 +93,7 @@ def test_an_rl_games_central_value_maps_onto_rlchain_and_back(tag):
     assert state["rl_games_cv_optimizer"]["param_names"][0] == "network.trunk.mlp.net.0.0.weight"
     agent = {"optimizer": state["rl_games_optimizer"]["state_dict"]}
     cv_agent = {"optimizer": state["rl_games_cv_optimizer"]["state_dict"]}
-    back = rlg.to_rl_games({**state, "agent": agent, "central_value_agent": cv_agent})
+    back = rl_games_export.to_rl_games({**state, "agent": agent, "central_value_agent": cv_agent})
     raw = torch_ext.load_checkpoint(path)
     original = rlg.strip_compiled(raw["assymetric_vf_nets"])
     assert list(back["assymetric_vf_nets"]) == list(original)  # uncompiled names: rl_games compiles after restoring
@@ -163,7 +164,7 @@ def test_rl_games_1_6_5_normalization_config_says_to_drop_the_key():
 
 
 def test_norm_after_activation_builds_rl_games_order():
-    from rlchain.config.schema import MlpConfig
+    from rlchain.config.network import MlpConfig
     from rlchain.networks.mlp import MLP
 
     after = MLP(3, MlpConfig(units=[4], normalization="layer_norm", norm_after_activation=True)).net[0]
@@ -177,7 +178,7 @@ def test_rlchain_normalization_layers_are_not_exported_for_rl_games():
     state["model"]["network.actor_trunk.mlp.net.0.1.weight"] = torch.ones(8)
     with pytest.raises(ValueError, match=r"'network\.actor_trunk\.mlp\.net\.0\.1\.weight' is a normalization "
                                          r"layer before the activation .* rl_games cannot compute this network"):
-        rlg.to_rl_games(state)
+        rl_games_export.to_rl_games(state)
 
 
 def test_torch_ext_save_and_load_checkpoint_round_trip(tmp_path):
@@ -207,4 +208,4 @@ def test_a_multi_discrete_head_is_joined_and_written_back_only_with_its_sizes():
     trained = {k: v for k, v in state.items() if k != "rl_games_logits_sizes"}  # as rlchain saves it after training
     trained["config"] = {"params": {"network": {"space": {"multi_discrete": {}}}}}
     with pytest.raises(ValueError, match=r"'network\.logits' is one head over every action dimension"):
-        rlg.to_rl_games(trained)
+        rl_games_export.to_rl_games(trained)

@@ -8,7 +8,7 @@ import torch
 
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.fields import parse_dataclass
-from rlchain.config.schema import NetworkConfig, RnnConfig
+from rlchain.config.network import NetworkConfig, RnnConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical
 from rlchain.networks.actor_critic import ActorCriticNetwork
@@ -184,13 +184,19 @@ def test_rnn_config_errors(tmp_path):
 
 
 def test_masked_velocity_env_hides_velocities():
-    # rlchain.builtins (run when rlchain is imported) registered the id
+    # rlchain.builtins registers the id; rl_games' shape: velocities zeroed
+    from rlchain.registry import ensure_builtins
+
+    ensure_builtins()
     env = gym.make("CartPoleMaskedVelocity-v1")
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (2,) and env.observation_space.shape == (2,)
+    assert obs.shape == (4,) and env.observation_space.shape == (4,)
     full = gym.make("CartPole-v1")
     full_obs, _ = full.reset(seed=0)
-    assert obs.tolist() == pytest.approx(full_obs[[0, 2]].tolist())
+    obs, *_ = env.step(1)
+    full_obs, *_ = full.step(1)
+    assert obs[[1, 3]].tolist() == [0.0, 0.0] and full_obs[1] != 0.0
+    assert obs[[0, 2]].tolist() == pytest.approx(full_obs[[0, 2]].tolist())
 
 
 @pytest.mark.parametrize("name", ["lstm", "gru"])

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.off_policy.dqn import DQNAgent, QModel, epsilon_at
-from rlchain.algos.off_policy.sac import SACAgent, SoftActorCritic
+from rlchain.algos.off_policy.dqn_agent import DQNAgent, QModel, epsilon_at
+from rlchain.algos.off_policy.sac_agent import SACAgent, SoftActorCritic
+from rlchain.config.network import MlpConfig
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
-from rlchain.config.schema import MlpConfig
 from rlchain.networks.sac_network import QNetwork, SACNetwork
 
 BOX = gym.spaces.Box(low=np.array([-2.0, 0.0], dtype=np.float32), high=np.array([2.0, 1.0], dtype=np.float32))

@@ -24,11 +24,33 @@ def test_ppo_names_map_to_rl_games_keys():
     assert cfg["clip_value"] is False
 
 
-def test_defaults_fit_the_env_count():
-    cfg = ppo({}, num_actors=3)["config"]
+def test_rlchain_defaults_fit_the_env_count():
+    cfg = ppo({}, num_actors=3, defaults="rlchain")["config"]
     batch = 3 * cfg["horizon_length"]
     assert batch >= 512 and batch % cfg["minibatch_size"] == 0 and cfg["minibatch_size"] <= 256
-    assert ppo({}, num_actors=32)["config"]["horizon_length"] == 16
+    assert ppo({}, num_actors=32, defaults="rlchain")["config"]["horizon_length"] == 16
+
+
+def test_sb3_defaults_are_sb3s_algorithm():
+    params = ppo({}, num_actors=1)
+    cfg = params["config"]
+    assert (cfg["horizon_length"], cfg["minibatch_size"], cfg["mini_epochs"]) == (2048, 64, 10)
+    assert (cfg["learning_rate"], cfg["lr_schedule"], cfg["gamma"], cfg["tau"]) == (3e-4, None, 0.99, 0.95)
+    assert cfg["critic_coef"] == 1.0 and cfg["grad_norm"] == 0.5 and cfg["clip_value"] is False  # vf_coef 0.5
+    assert "reward_shaper" not in cfg and cfg["normalize_input"] is False and cfg["normalize_value"] is False
+    assert params["network"]["separate"] is True and params["network"]["mlp"]["units"] == [64, 64]
+    continuous = ppo({}, num_actors=1, continuous=True)
+    assert continuous["config"]["normalize_input"] is False and continuous["config"]["bounds_loss_coef"] == 0.0
+    assert "continuous" in continuous["network"]["space"]
+    sac = build_config("sac", "Pendulum-v1", 1, True, {}, [])["params"]["config"]
+    assert (sac["batch_size"], sac["replay_buffer_size"], sac["num_warmup_frames"]) == (256, 1_000_000, 100)
+    dqn = build_config("dqn", "CartPole-v1", 1, False, {}, [], total_timesteps=50_000)["params"]["config"]
+    assert dqn["epsilon_decay_frames"] == 5_000 and dqn["double_dqn"] is False and dqn["target_tau"] == 1.0
+
+
+def test_defaults_takes_sb3_or_rlchain():
+    with pytest.raises(ConfigError, match=r"^rlchain.PPO: defaults: expected one of sb3, rlchain, got 'sb2'"):
+        ppo({}, defaults="sb2")
 
 
 def test_rlchain_keys_pass_through_and_policy_kwargs_map():

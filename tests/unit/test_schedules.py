@@ -129,7 +129,7 @@ def test_agent_state_carries_entropy_coef(base_config):
 
 
 def test_logger_writes_entropy_coef():
-    from rlchain.algos.ppo.trainer import PPO
+    from rlchain.algos.ppo.ppo import PPO
     from rlchain.runs.writers import Writer
     from rlchain.training.loop import tag_metrics
 

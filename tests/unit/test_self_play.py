@@ -12,7 +12,7 @@ from rlchain import Runner
 from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import parse_params
-from rlchain.config.schema import SelfPlayConfig
+from rlchain.config.ppo import SelfPlayConfig
 from rlchain.envs.examples.duel import DuelVecEnv, RandomPolicy, SafePolicy, distances, play_duel
 from rlchain.models.build import build_model
 from rlchain.training.events import Callback

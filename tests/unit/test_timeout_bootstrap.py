@@ -4,7 +4,7 @@ V(the state before the last step), as rl_games adds ``gamma * V(s_t)`` to the la
 import pytest
 import torch
 
-import rlchain.algos.ppo.trainer as on_policy
+import rlchain.algos.ppo.ppo as on_policy
 from rlchain import Runner
 from rlchain.algos.core.returns import gae
 

@@ -1,1 +1,1 @@
-"""APPO and IMPALA: the trainer, V-trace fragments, the runner pool and its local and Ray runners."""
+"""APPO and IMPALA: the algorithm, V-trace fragments, the runner pool and its local and Ray runners."""

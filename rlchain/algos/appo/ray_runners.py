@@ -26,7 +26,7 @@ import torch
 
 from rlchain.algos.appo.fragments import FragmentRunner
 from rlchain.algos.appo.runner_pool import RunnerPool
-from rlchain.config.schema import EnvRunnersConfig
+from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.ray.ray_cluster import connect, one_line
 from rlchain.envs.ray.ray_env import WorkerLost
 from rlchain.log import get_logger

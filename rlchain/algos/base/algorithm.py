@@ -20,8 +20,8 @@ class and one registration line::
 
     model_builder.register_algo("my_algo", MyAlgorithm)   # user code (rlchain/builtins.py for a built-in)
 
-PPO (:mod:`rlchain.algos.ppo.trainer`), SAC and DQN (:mod:`rlchain.algos.off_policy.trainer`), APPO and
-IMPALA (:mod:`rlchain.algos.appo.trainer`) and multi-policy PPO are built this way; the Loop never names a
+PPO (:mod:`rlchain.algos.ppo.ppo`), SAC and DQN (:mod:`rlchain.algos.off_policy.off_policy`), APPO and
+IMPALA (:mod:`rlchain.algos.appo.appo`) and multi-policy PPO are built this way; the Loop never names a
 loss. An algorithm that brings its own env runners returns them from ``build_training_env``.
 """
 
@@ -33,7 +33,7 @@ import torch
 
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec
 

@@ -15,12 +15,13 @@ from typing import Any, Protocol
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import EpisodeTracker, game_outcome
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.algos.base.safety import StopSignals
 from rlchain.algos.core.collector import StepOutcome
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
+from rlchain.envs.obs_dict import ObsDict
 from rlchain.envs.spec import EnvSpec, check_obs_shape, env_spec
-from rlchain.envs.vecenv import dropped_rows
+from rlchain.envs.vecenv import dropped_rows, game_outcome
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.errors import EnvError
@@ -211,6 +212,8 @@ def to_device(x: Any, device: torch.device) -> torch.Tensor:
     copy, so the transfer does not stage through pageable memory; torch's caching host allocator
     reuses the pinned blocks once their copy is done. On CPU the array is shared, not copied.
     """
+    if isinstance(x, dict):  # Dict observations kept per key: each key converted, its dtype kept
+        return ObsDict({k: to_device(v, device) for k, v in x.items()}, getattr(x, "batch_dims", 1))
     if device.type == "cuda" and isinstance(x, np.ndarray) and x.dtype != np.object_:
         x = np.ascontiguousarray(x) if x.flags.writeable else np.array(x)  # from_numpy wants writable
         host = torch.from_numpy(x)

@@ -2,7 +2,8 @@
 
 What counts as one game: normally an episode (``terminated | truncated``) and its raw reward. An
 env that reports ``StepResult.game_reward`` / ``game_over`` (Atari with episodic life or clipped
-rewards) is counted by whole games and their unclipped score instead: :func:`game_outcome`.
+rewards) is counted by whole games and their unclipped score instead:
+:func:`rlchain.envs.vecenv.game_outcome`.
 """
 
 from __future__ import annotations
@@ -11,19 +12,6 @@ from collections import deque
 from typing import Any
 
 import torch
-
-
-def game_outcome(result: Any, rewards: torch.Tensor, dones: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """(game rewards (N,), game ends (N,) bool) of a StepResult, on the device of ``rewards``.
-
-    ``rewards`` / ``dones`` are the training reward and episode end of the step; they are returned
-    unchanged unless the env sets ``result.game_reward`` / ``result.game_over``.
-    """
-    if getattr(result, "game_reward", None) is not None:
-        rewards = torch.as_tensor(result.game_reward, device=rewards.device).to(rewards.dtype).reshape(-1)
-    if getattr(result, "game_over", None) is not None:
-        dones = torch.as_tensor(result.game_over, device=dones.device).bool().reshape(-1)
-    return rewards, dones
 
 
 class EpisodeTracker:

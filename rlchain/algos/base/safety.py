@@ -79,7 +79,9 @@ def check_parameters(module: torch.nn.Module) -> str | None:
 
 def check_rollout(rewards: torch.Tensor, obs: torch.Tensor) -> str | None:
     """Report the first non-finite reward or observation of a rollout (T, N, ...) with env and step."""
-    for name, data in (("reward", rewards), ("observation", obs)):
+    parts = [("reward", rewards)]
+    parts += [(f"observation '{k}'", v) for k, v in obs.items()] if isinstance(obs, dict) else [("observation", obs)]
+    for name, data in parts:
         if not data.is_floating_point():
             continue
         bad = ~torch.isfinite(data.reshape(data.shape[0], data.shape[1], -1)).all(-1)

@@ -4,7 +4,7 @@ A target MLP with fixed random weights and a predictor MLP embed the (optionally
 intrinsic reward of a state is ``weight * ||predictor(s) - target(s)||_2`` and the predictor is trained to
 regress the target on the states seen, so the reward fades where the policy has been. The config block is
 :class:`rlchain.config.exploration.RndConfig`; PPO adds the reward in its rollout and trains the predictor after
-its update (rlchain/algos/ppo/trainer.py).
+its update (rlchain/algos/ppo/ppo.py).
 """
 
 from __future__ import annotations

@@ -20,9 +20,9 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.off_policy import SACConfig
 from rlchain.config.packaged import resolve_checkpoint
+from rlchain.config.params import Params
 from rlchain.config.ppo import PPOConfig
 from rlchain.config.resolve import params_from_state
-from rlchain.config.schema import Params
 from rlchain.models.build import model_view
 from rlchain.policy.load import load_policy
 from rlchain.runs import checkpoint as ckpt

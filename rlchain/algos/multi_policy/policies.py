@@ -11,7 +11,7 @@ import torch
 from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.multi_policy.masked import MaskedPPOAgent
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.runs.checkpoint import CheckpointError
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import SelfPlayConfig
+from rlchain.config.ppo import SelfPlayConfig
 from rlchain.log import get_logger
 
 log = get_logger(__name__)
@@ -39,26 +39,26 @@ class Snapshots:
         self.updates = 0
         self.first_env = 0  # start of the window of envs the next refresh goes to
 
-    def start(self, trainer: Any) -> None:
+    def start(self, algo: Any) -> None:
         for trained in self.seen:
-            self.seen[trained] = trainer.learner(trained).tracker.games
+            self.seen[trained] = algo.learner(trained).tracker.games
         for frozen, trained in self.snapshots.items():
-            learner = trainer.learner(frozen)
-            learner.pool = SnapshotPool(learner.model, trainer.num_envs)
-            if trainer.ctx.epoch == 0:  # the opponent starts as the learner's starting self, everywhere
-                learner.pool.refresh(trainer.model[trained], list(range(trainer.num_envs)))
+            learner = algo.learner(frozen)
+            learner.pool = SnapshotPool(learner.model, algo.num_envs)
+            if algo.ctx.epoch == 0:  # the opponent starts as the learner's starting self, everywhere
+                learner.pool.refresh(algo.model[trained], list(range(algo.num_envs)))
 
-    def refresh(self, trainer: Any, frozen: str, trained: str) -> list[int]:
+    def refresh(self, algo: Any, frozen: str, trained: str) -> list[int]:
         """The trained policy's weights into the frozen one, for the next window of envs."""
-        count = min(self.cfg.env_update_num, trainer.num_envs)
-        env_ids = [(self.first_env + k) % trainer.num_envs for k in range(count)]
-        self.first_env = (self.first_env + 1) % trainer.num_envs
-        trainer.learner(frozen).pool.refresh(trainer.model[trained], env_ids)
+        count = min(self.cfg.env_update_num, algo.num_envs)
+        env_ids = [(self.first_env + k) % algo.num_envs for k in range(count)]
+        self.first_env = (self.first_env + 1) % algo.num_envs
+        algo.learner(frozen).pool.refresh(algo.model[trained], env_ids)
         return env_ids
 
-    def end_epoch(self, trainer: Any) -> None:
+    def end_epoch(self, algo: Any) -> None:
         for frozen, trained in self.snapshots.items():
-            tracker = trainer.learner(trained).tracker
+            tracker = algo.learner(trained).tracker
             new = min(tracker.games - self.seen[trained], len(tracker.finished_returns))
             self.seen[trained] = tracker.games
             returns = list(tracker.finished_returns)[len(tracker.finished_returns) - new:] if new > 0 else []
@@ -67,16 +67,16 @@ class Snapshots:
             if len(scores) < self.cfg.games_to_check:
                 continue
             score = float(np.mean(scores))
-            trainer.ctx.logger.scalar(f"selfplay/{trained}/score", score, trainer.ctx.frames)
+            algo.ctx.logger.scalar(f"selfplay/{trained}/score", score, algo.ctx.frames)
             if score > self.cfg.update_score:
-                env_ids = self.refresh(trainer, frozen, trained)
+                env_ids = self.refresh(algo, frozen, trained)
                 self.updates += 1
                 scores.clear()
-                trainer.ctx.logger.scalar("selfplay/updates", self.updates, trainer.ctx.frames)
-                if trainer.cfg.print_stats:
+                algo.ctx.logger.scalar("selfplay/updates", self.updates, algo.ctx.frames)
+                if algo.cfg.print_stats:
                     where = f"env(s) {env_ids}" if len(env_ids) <= 4 else f"{len(env_ids)} envs"
                     log.info(f"self-play: {trained} scored {score:.3f} > {self.cfg.update_score}: {frozen} in {where} "
-                             f"is now its snapshot of epoch {trainer.ctx.epoch} (update {self.updates})")
+                             f"is now its snapshot of epoch {algo.ctx.epoch} (update {self.updates})")
 
 
 class SnapshotPool:

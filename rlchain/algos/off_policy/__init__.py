@@ -1,1 +1,1 @@
-"""Off-policy algorithms: SAC, DQN, hindsight relabelling (HER) and their trainer."""
+"""Off-policy algorithms: the replay loop, SAC, DQN and hindsight relabelling (HER)."""

@@ -1,203 +1,28 @@
-"""Soft actor-critic: the ``soft_actor_critic`` model (tanh-squashed Gaussian policy, twin critics,
-target critics, temperature) and the SAC update."""
+"""SAC (algo ``sac``): the off-policy loop of :mod:`~rlchain.algos.off_policy.off_policy` with the
+:class:`~rlchain.algos.off_policy.sac_agent.SACAgent` (a squashed-Gaussian actor, twin critics, a learned
+temperature)."""
 
 from __future__ import annotations
 
-import copy
-import math
-from typing import Any
-
-import gymnasium as gym
-import numpy as np
-import torch
-import torch.nn as nn
-import torch.nn.functional as F
-
-from rlchain.algos.core.schedules import scale_lr
-from rlchain.models.base import ObservationModel
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.algos.off_policy.off_policy import OffPolicyAlgorithm
+from rlchain.algos.off_policy.sac_agent import SACAgent
+from rlchain.config.off_policy import SACConfig
 
 
-class SquashedActions:
-    """The model's ``dist`` as the Player sees it: actions live in [-1, 1]; ``to_env`` rescales."""
+class SAC(OffPolicyAlgorithm):
+    """Algo ``sac``."""
 
-    def __init__(self, space: gym.spaces.Box, clip_actions: bool) -> None:
-        self.action_shape = tuple(space.shape)
-        self.dim = int(np.prod(space.shape))
-        self.action_dtype = torch.float32
-        low = np.asarray(space.low, dtype=np.float64).reshape(-1)
-        high = np.asarray(space.high, dtype=np.float64).reshape(-1)
-        self.rescale = clip_actions and bool(np.isfinite(low).all() and np.isfinite(high).all())
-        self._low = torch.as_tensor(low, dtype=torch.float32)
-        self._high = torch.as_tensor(high, dtype=torch.float32)
+    config_class = SACConfig
+    metric_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
+                   "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q",
+                   "alpha": "info/alpha", **OffPolicyAlgorithm.SHARED_TAGS}
+    console_fields = tuple((name, name + " {:.3g}") for name in
+                           ("actor_loss", "critic_loss", "alpha_loss", "entropy", "q", "alpha"))
+    tunable = ("actor_lr", "critic_lr", "alpha_lr", "gamma", "critic_tau", "batch_size", "num_updates_per_step",
+               "policy_frequency")
 
-    def to_env(self, actions: torch.Tensor) -> torch.Tensor:
-        """[-1, 1] -> [low, high] (identity for unbounded spaces or clip_actions: False)."""
-        if not self.rescale:
-            return actions
-        low, high = self._low.to(actions.device), self._high.to(actions.device)
-        return low + (actions.clamp(-1.0, 1.0) + 1.0) * 0.5 * (high - low)
+    def make_agent(self) -> SACAgent:
+        return SACAgent(self.model, self.cfg)
 
-    def mode(self, mean: torch.Tensor) -> torch.Tensor:
-        """The deterministic action for a pre-squash mean: tanh(mean)."""
-        return torch.tanh(mean)
-
-    def random(self, n: int, device: torch.device) -> torch.Tensor:
-        """Uniform actions in [-1, 1] (warmup)."""
-        return torch.rand((n, *self.action_shape), device=device) * 2.0 - 1.0
-
-
-class SoftActorCritic(ObservationModel):
-    """network (``actor`` + ``critic``), ``critic_target``, ``log_alpha`` and the obs normalizer."""
-
-    flatten_obs = True
-
-    def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...],
-                 normalize_input: bool, init_alpha: float, clip_actions: bool = True,
-                 log_std_bounds: list[float] | None = None) -> None:
-        super().__init__()
-        if not hasattr(network, "actor") or not hasattr(network, "critic"):
-            raise ValueError("params.network: soft_actor_critic needs a network with `actor` and `critic` "
-                             "(use network name soft_actor_critic)")
-        self.network = network
-        if log_std_bounds is not None:
-            network.actor.log_std_bounds = (float(log_std_bounds[0]), float(log_std_bounds[1]))
-        self.critic_target = copy.deepcopy(network.critic)
-        self.critic_target.requires_grad_(False)
-        self.log_alpha = nn.Parameter(torch.tensor(math.log(init_alpha), dtype=torch.float32))
-        self.dist = SquashedActions(action_space, clip_actions)
-        self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
-
-    @property
-    def alpha(self) -> torch.Tensor:
-        return self.log_alpha.exp()
-
-    def policy(self, obs: torch.Tensor, deterministic: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
-        """Preprocessed obs -> (actions in [-1, 1], log-prob (B,)); deterministic = tanh(mean)."""
-        mu, log_std = self.network.actor(obs)
-        if deterministic:
-            return torch.tanh(mu), torch.zeros(mu.shape[0], device=mu.device)
-        std = log_std.exp()
-        u = mu + std * torch.randn_like(mu)
-        actions = torch.tanh(u)
-        log_prob = (-0.5 * ((u - mu) / std).square() - log_std - 0.5 * math.log(2 * math.pi)).sum(-1)
-        # log|d tanh(u)/du| = 2 (log 2 - u - softplus(-2u)), numerically stable
-        log_prob = log_prob - (2.0 * (math.log(2.0) - u - F.softplus(-2.0 * u))).sum(-1)
-        return actions, log_prob
-
-    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """obs -> (mean (B, A), value (B, 1)) in the ActorCritic protocol that export uses:
-        ``dist.mode(mean)`` is the deterministic action, value = min(Q1, Q2) at that action."""
-        x = self.preprocess(obs)
-        mu, _ = self.network.actor(x)
-        q1, q2 = self.network.critic(x, torch.tanh(mu))
-        return mu, torch.min(q1, q2).unsqueeze(-1)
-
-    @torch.inference_mode()
-    def act(self, obs: torch.Tensor, deterministic: bool = False) -> dict[str, torch.Tensor]:
-        actions, log_prob = self.policy(self.preprocess(obs), deterministic)
-        return {"actions": actions, "log_probs": log_prob}
-
-    def override_sigma(self, sigma: float) -> None:
-        raise ValueError("--sigma is not supported by soft_actor_critic (its std depends on the state)")
-
-
-class SACAgent:
-    """One SAC gradient step per :meth:`update` call (critic every call, actor + alpha every
-    ``policy_frequency`` calls), then a Polyak update of the target critics."""
-
-    def __init__(self, model: SoftActorCritic, cfg: Any) -> None:
-        self.model, self.cfg = model, cfg
-        net = model.network
-        self.actor_opt = torch.optim.Adam(net.actor.parameters(), lr=cfg.actor_lr)
-        self.critic_opt = torch.optim.Adam(net.critic.parameters(), lr=cfg.critic_lr)
-        self.alpha_opt = torch.optim.Adam([model.log_alpha], lr=cfg.alpha_lr)
-        dim = model.dist.dim
-        self.target_entropy = float(cfg.target_entropy) if cfg.target_entropy is not None else -float(dim)
-        self.updates = 0
-        self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
-        self._critic_params = list(net.critic.parameters())
-        self._target_params = list(model.critic_target.parameters())
-
-    @property
-    def lr(self) -> float:
-        return self.actor_opt.param_groups[0]["lr"]
-
-    def optimizers(self) -> dict[str, torch.optim.Optimizer]:
-        """Each optimizer under the config key of its learning rate (get/set_params)."""
-        return {"actor_lr": self.actor_opt, "critic_lr": self.critic_opt, "alpha_lr": self.alpha_opt}
-
-    def scale_lr(self, factor: float) -> None:
-        """Multiply the actor, critic and temperature learning rates (divergence rollback)."""
-        for opt in (self.actor_opt, self.critic_opt, self.alpha_opt):
-            scale_lr(opt, factor)
-
-    def update(self, batch: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
-        """One step on a replay minibatch; returns (stats as 0-d tensors, |TD error| per sample)."""
-        model, cfg = self.model, self.cfg
-        critic = model.network.critic
-        obs = model.preprocess(batch["obs"])
-        next_obs = model.preprocess(batch["next_obs"])
-        actions = batch["actions"]
-        alpha = model.alpha.detach()
-        with torch.no_grad():
-            next_actions, next_logp = model.policy(next_obs)
-            tq1, tq2 = model.critic_target(next_obs, next_actions)
-            next_v = torch.min(tq1, tq2) - alpha * next_logp
-            target = batch["rewards"] + batch["discounts"] * (~batch["terminated"]).float() * next_v
-        q1, q2 = critic(obs, actions)
-        weights = batch["weights"]
-        critic_loss = (weights * ((q1 - target).square() + (q2 - target).square())).mean()
-        self.critic_opt.zero_grad(set_to_none=True)
-        critic_loss.backward()
-        if cfg.grad_norm is not None:
-            nn.utils.clip_grad_norm_(self._critic_params, cfg.grad_norm)
-        self.critic_opt.step()
-        td = 0.5 * ((q1 - target).abs() + (q2 - target).abs()).detach()
-
-        stats = {"critic_loss": critic_loss.detach(), "q": q1.detach().mean()}
-        if self.updates % cfg.policy_frequency == 0:
-            critic.requires_grad_(False)
-            new_actions, logp = model.policy(obs)
-            nq1, nq2 = critic(obs, new_actions)
-            actor_loss = (alpha * logp - torch.min(nq1, nq2)).mean()
-            self.actor_opt.zero_grad(set_to_none=True)
-            actor_loss.backward()
-            if cfg.grad_norm is not None:
-                nn.utils.clip_grad_norm_(model.network.actor.parameters(), cfg.grad_norm)
-            self.actor_opt.step()
-            critic.requires_grad_(True)
-            self.last["actor_loss"] = actor_loss.detach()
-            self.last["entropy"] = -logp.detach().mean()
-            if cfg.learnable_temperature:
-                alpha_loss = -(model.log_alpha * (logp.detach() + self.target_entropy)).mean()
-                self.alpha_opt.zero_grad(set_to_none=True)
-                alpha_loss.backward()
-                self.alpha_opt.step()
-                self.last["alpha_loss"] = alpha_loss.detach()
-        stats.update(self.last)
-        with torch.no_grad():
-            torch._foreach_lerp_(self._target_params, self._critic_params, cfg.critic_tau)
-        self.updates += 1
-        return stats, td
-
-    def state_dict(self) -> dict[str, Any]:
-        return {"actor_opt": self.actor_opt.state_dict(), "critic_opt": self.critic_opt.state_dict(),
-                "alpha_opt": self.alpha_opt.state_dict(), "updates": self.updates}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.actor_opt.load_state_dict(state["actor_opt"])
-        self.critic_opt.load_state_dict(state["critic_opt"])
-        self.alpha_opt.load_state_dict(state["alpha_opt"])
-        self.updates = int(state["updates"])
-
-
-def soft_actor_critic_model(network: nn.Module, action_space: gym.Space, obs_shape: tuple, value_size: int,
-                            config: Any, model_name: str) -> SoftActorCritic:
-    """MODELS factory ``soft_actor_critic``."""
-    if not isinstance(action_space, gym.spaces.Box):
-        raise ValueError(f"params.model.name: soft_actor_critic needs continuous (Box) actions, the env has "
-                         f"{action_space}")
-    return SoftActorCritic(network, action_space, obs_shape, getattr(config, "normalize_input", False),
-                           getattr(config, "init_alpha", 1.0), getattr(config, "clip_actions", True),
-                           getattr(config, "log_std_bounds", None))
+    def extra_stats(self) -> dict[str, float]:
+        return {"alpha": float(self.model.alpha.detach())}

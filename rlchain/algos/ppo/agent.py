@@ -20,7 +20,7 @@ from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.loss import LossOutput, ppo_loss
 from rlchain.algos.ppo.minibatch_step import MinibatchStep
 from rlchain.algos.ppo.optimizer import ScheduledAdam
-from rlchain.config.schema import PPOConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.parallel.communicator import SINGLE, Communicator
 

@@ -10,7 +10,7 @@ from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.losses import value_loss
 from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.storage import RolloutStorage
-from rlchain.config.schema import CentralValueConfig
+from rlchain.config.ppo import CentralValueConfig
 from rlchain.errors import DivergenceError
 from rlchain.models.central_value import CentralValue
 from rlchain.parallel.communicator import SINGLE, Communicator

@@ -18,8 +18,8 @@ import torch
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
+from rlchain.config.params import Params
 from rlchain.config.resolve import params_from_state
-from rlchain.config.schema import Params
 from rlchain.models.build import build_model, model_view
 from rlchain.runs import checkpoint as ckpt
 

@@ -28,7 +28,7 @@ from typing import Any
 
 import torch
 
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.log import get_logger
 from rlchain.models.build import build_model

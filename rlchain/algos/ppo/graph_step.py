@@ -43,7 +43,7 @@ GRAPHING_COMPILE_MODES = ("reduce-overhead", "max-autotune")
 
 def resolve_cuda_graph(cfg: Any, network: torch.nn.Module, is_rnn: bool, device: torch.device, distributed: bool,
                        source: str) -> bool:
-    """Whether the PPO trainer captures its steps as CUDA graphs, from ``cuda_graph`` (True, False, auto).
+    """Whether PPO captures its steps as CUDA graphs, from ``cuda_graph`` (True, False, auto).
 
     The graphs need a CUDA device, a feed-forward network without ``get_aux_loss()``, no float16 grad
     scaler, one process and no torch.compile mode that records graphs itself. ``auto`` (the default) turns

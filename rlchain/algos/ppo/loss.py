@@ -15,7 +15,7 @@ import torch
 
 from rlchain.algos.core.losses import aux_loss_terms, value_loss
 from rlchain.algos.core.storage import Batch
-from rlchain.config.schema import PPOConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.models.actor_critic import ActorCritic
 
 STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")
@@ -47,7 +47,7 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     autocast = torch.autocast(device_type, dtype=amp_dtype, cache_enabled=autocast_cache) if amp else nullcontext()
     with autocast:
         params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
-                                           batch.action_masks)
+                                           batch.action_masks, batch.actions)
         aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
     if amp:
         params, values = params.float(), values.float()

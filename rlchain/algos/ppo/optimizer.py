@@ -12,7 +12,7 @@ from rlchain.algos.core.schedules import (
     scheduled_entropy_coef,
     set_lr,
 )
-from rlchain.config.schema import PPOConfig
+from rlchain.config.ppo import PPOConfig
 from rlchain.parallel.communicator import SINGLE, Communicator
 
 

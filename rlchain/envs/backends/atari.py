@@ -28,7 +28,6 @@ opencv for the resize).
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
 import gymnasium as gym
@@ -38,6 +37,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.reward_action_obs import RewardActionObs
+from rlchain.errors import did_you_mean
 
 INSTALL_HINT = "Atari needs ale-py and opencv: pip install rlchain[atari]"
 ATARI_ID = "rlchain/AtariDeepMind-v0"
@@ -189,8 +189,7 @@ def atari_options(env_config: dict) -> dict:
     valid = {"name", *WRAPPER_OPTIONS, *ALE_OPTIONS}
     for key in options:
         if key not in valid:
-            close = difflib.get_close_matches(key, sorted(valid), n=3)
-            hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            hint = did_you_mean(key, sorted(valid))
             raise ConfigError("", f"{CONFIG}.{key}",
                               f"not an atari_gym option{hint} (valid: {', '.join(sorted(valid))})")
     return options

@@ -87,7 +87,7 @@ class EnvpoolVecEnv:
     ``groups`` > 1 splits the envs into that many envpool pools of equal size (rows
     ``env_groups[g]``, env i still seeded ``seed + i``) that step in the background:
     :meth:`send` starts group g's step and returns at once, :meth:`recv` waits for it. A pipelined
-    rollout (``algos/ppo/trainer.py``) computes one group's actions while envpool's threads step
+    rollout (``algos/ppo/ppo.py``) computes one group's actions while envpool's threads step
     the other, so env stepping overlaps policy inference. :meth:`step` still steps all of them.
 
     ``action_repeat`` > 1 applies each action for that many env steps (:mod:`rlchain.envs.wrappers.action_repeat`).

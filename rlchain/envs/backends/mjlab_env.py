@@ -35,10 +35,11 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.tensor_env import resolve_env_device
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.central_value import ObsStateBox
+from rlchain.errors import did_you_mean
 
 INSTALL_HINT = "mjlab is not installed: pip install rlchain[mjlab] (or pip install mjlab)"
 OPTIONS = ("task_name", "device", "play", "random_episode_start")

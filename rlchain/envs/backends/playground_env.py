@@ -25,8 +25,9 @@ import math
 import subprocess
 from typing import Any
 
-from rlchain.config.errors import ConfigError, did_you_mean
+from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.jax_batch import JaxBatchVecEnv
+from rlchain.errors import did_you_mean
 
 INSTALL_HINT = "MuJoCo Playground is not installed: pip install rlchain[playground] (or pip install playground)"
 OPTIONS = ("episode_length", "action_repeat", "impl", "config_overrides", "device")

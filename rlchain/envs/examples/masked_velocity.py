@@ -1,7 +1,8 @@
 """CartPole without velocities (rl_games' ``CartPoleMaskedVelocity-v1``): a memory task.
 
-Only cart position and pole angle are observed, so a policy must infer both velocities from
-past observations: an RNN solves it, a feedforward policy on the same config cannot.
+The cart and pole velocities are zeroed (the observation keeps CartPole's four entries, as rl_games masks
+them, so its checkpoints load), so a policy must infer both velocities from past observations: an RNN solves
+it, a feedforward policy on the same config cannot.
 """
 
 from __future__ import annotations
@@ -9,17 +10,15 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
+VELOCITY_MASK = np.array([1.0, 0.0, 1.0, 0.0], dtype=np.float32)
+"""1 keeps an entry (cart position, pole angle), 0 zeroes it (the two velocities)."""
+
 
 class MaskVelocity(gym.ObservationWrapper):
-    """Keep observation entries 0 (cart position) and 2 (pole angle) of CartPole's four."""
-
-    def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
-        low, high = env.observation_space.low, env.observation_space.high
-        self.observation_space = gym.spaces.Box(low[[0, 2]], high[[0, 2]], dtype=np.float32)
+    """CartPole's observation with entries 1 (cart velocity) and 3 (pole angular velocity) zeroed."""
 
     def observation(self, observation: np.ndarray) -> np.ndarray:
-        return np.asarray(observation, dtype=np.float32)[[0, 2]]
+        return np.asarray(observation, dtype=np.float32) * VELOCITY_MASK
 
 
 def make_cartpole_masked_velocity(**kwargs) -> gym.Env:

@@ -13,7 +13,7 @@ import socket
 from typing import Any
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import EnvRunnersConfig
+from rlchain.config.run import EnvRunnersConfig
 
 ADDRESS = "params.config.env_runners.address"
 

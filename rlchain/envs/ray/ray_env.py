@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import EnvRunnersConfig
+from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.ray.ray_cluster import connect, one_line
 from rlchain.envs.ray.ray_worker import EnvRecipe, EnvWorker
 from rlchain.envs.vecenv import DROPPED, StepResult

@@ -18,9 +18,16 @@ carries the Dict (``dict_space``) for the network (e.g. rl_games' ``use_dict_obs
 
 With ``normalize_input`` the running mean/std is per flat dimension, i.e. per entry of every key.
 The asymmetric-critic layout ``{'obs', 'state'}`` (``use_central_value``) is not flattened here.
+
+A network that takes the keys apart (``multi_input``) gets them per key again: :class:`PerKeyObs` splits
+the flat observations back into ``{key: array}`` in each key's dtype before they reach the trainer, which
+keeps them per key from there (rlchain/envs/obs_dict.py).
 """
 
 from __future__ import annotations
+
+import dataclasses
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -75,3 +82,45 @@ def split_flat_obs(obs: torch.Tensor, space: gym.spaces.Dict) -> dict[str, torch
         start += size
     return out
 
+
+
+class PerKeyObs:
+    """A VecEnv whose Dict observations some backend flattened (its space a :class:`FlatDictBox`), handed on
+    per key again: ``observation_space`` is the Dict, ``reset`` / ``step`` give ``{key: (N, *shape)}``
+    arrays (tensors for a tensor env) in each key's dtype, so a multi-input network gets them apart and the
+    rollout stores a uint8 image as uint8 (the flat float32 vector lives only for the step; 0..255 is exact
+    in it). Everything else is the wrapped env's. Env groups are not pipelined through it."""
+
+    env_groups = None
+
+    def __init__(self, env: Any) -> None:
+        self.env = env
+        self.observation_space = env.observation_space.dict_space
+        if not all(isinstance(s, gym.spaces.Box) for s in self.observation_space.spaces.values()):
+            raise ValueError(f"Dict observations kept per key need Box entries, the env has {self.observation_space}")
+
+    def __getattr__(self, name: str) -> Any:
+        if name == "env":  # not set yet (unpickling): no recursion
+            raise AttributeError(name)
+        return getattr(self.env, name)
+
+    def split(self, obs: Any) -> dict[str, Any]:
+        """Flat (N, D) observations -> {key: (N, *shape)} in each key's dtype."""
+        flat = obs if isinstance(obs, torch.Tensor) else torch.as_tensor(np.asarray(obs))
+        out = split_flat_obs(flat, self.observation_space)
+        for key, sub in self.observation_space.spaces.items():
+            if np.dtype(sub.dtype) == np.uint8:
+                out[key] = out[key].round().to(torch.uint8)
+            elif out[key].dtype != torch.float32:
+                out[key] = out[key].float()
+        return out if isinstance(obs, torch.Tensor) else {k: v.numpy() for k, v in out.items()}
+
+    def reset(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
+        return self.split(self.env.reset(*args, **kwargs))
+
+    def step(self, actions: Any) -> Any:
+        result = self.env.step(actions)
+        return dataclasses.replace(result, obs=self.split(result.obs), final_obs=self.split(result.final_obs))
+
+    def close(self) -> None:
+        self.env.close()

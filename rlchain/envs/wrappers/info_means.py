@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from rlchain.config.errors import did_you_mean
+from rlchain.errors import did_you_mean
 from rlchain.log import get_logger
 
 log = get_logger(__name__)

@@ -23,6 +23,8 @@ HUGE_BOUND = 1e6
 
 def random_observations(space: gym.Space, n: int, seed: int = 0) -> np.ndarray:
     """``n`` observations drawn uniformly inside ``space``'s bounds, unbounded sides made finite."""
+    if isinstance(space, gym.spaces.Dict):  # kept per key: {key: (n, *shape)} in each key's dtype
+        return {k: random_observations(s, n, seed + i) for i, (k, s) in enumerate(space.spaces.items())}
     rng = np.random.default_rng(seed)
     if isinstance(space, gym.spaces.Box):
         shape = (n, *space.shape)
@@ -62,12 +64,15 @@ def env_rollout(model: Any, env: Any, steps: int, seed: int = 0) -> tuple[np.nda
     seen, masks = [], []
 
     def record(obs: torch.Tensor, mask: torch.Tensor | None) -> None:
-        seen.append(obs.cpu())
+        seen.append(obs.to("cpu"))
         if mask is not None:
             masks.append(mask.cpu())
 
     play(model, env, None, deterministic=True, seed=seed, steps=steps, on_obs=record)
-    return torch.cat(seen).numpy(), (torch.cat(masks).numpy() if masks else None)
+    masks_out = torch.cat(masks).numpy() if masks else None
+    if seen and isinstance(seen[0], dict):  # Dict observations kept per key
+        return {k: torch.cat([s[k] for s in seen]).numpy() for k in seen[0]}, masks_out
+    return torch.cat(seen).numpy(), masks_out
 
 
 def env_observations(model: Any, env: Any, steps: int, seed: int = 0) -> np.ndarray:

@@ -32,7 +32,11 @@ The exported graph is the deterministic policy as the Player runs it::
   and onnxruntime takes numpy bool arrays as they are (cast a 0/1 array with ``.astype(bool)``).
   Policies without masks have no such input.
 
-Input order: ``obs``, then the RNN states (if any), then ``action_mask`` (if any); outputs:
+- Dict observations kept per key (a ``multi_input`` network): one input per key in place of ``obs``, named
+  after the key (``image``, ``proprio``, ...) in the space's order, each in its own dtype (uint8 images are
+  scaled inside the graph, vector keys normalized there as in training).
+
+Input order: ``obs`` (or the Dict's keys), then the RNN states (if any), then ``action_mask`` (if any); outputs:
 ``action``, ``value``, then the next RNN states. Feed by name (:class:`OnnxPolicy` holds the names).
 The batch axis is dynamic (axis 1 of the states). Requires ``pip install rlchain[onnx]`` (onnx + onnxruntime).
 """
@@ -51,6 +55,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.obs_dict import ObsDict, is_dict_space, obs_as_tensor
 from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the parity inputs)
     HUGE_BOUND,
     RANDOM_OBS_BOUND,
@@ -60,6 +65,7 @@ from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the p
     random_observations,
 )
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.normalization import dict_as_float
 from rlchain.policy.load import load_policy
 
 INSTALL_HINT = "pip install rlchain[onnx]"
@@ -89,9 +95,10 @@ class OnnxPolicy(nn.Module):
     mask_dtype: torch.dtype = torch.bool
     """bool: what ``get_action_mask()`` returns; onnxruntime takes numpy bool arrays as they are."""
 
-    def __init__(self, model: ActorCritic) -> None:
+    def __init__(self, model: ActorCritic, obs_keys: tuple[str, ...] = ()) -> None:
         super().__init__()
         self.model = model
+        self.obs_keys = tuple(obs_keys)  # Dict observations: one graph input per key
         initial = model.initial_state(1, torch.device("cpu")) if getattr(model, "is_rnn", False) else ()
         self.state_names = tuple(f"rnn_state_{i}" for i in range(len(initial)))
         self.uses_masks = bool(getattr(model, "use_action_masks", False))
@@ -100,7 +107,7 @@ class OnnxPolicy(nn.Module):
     @property
     def input_names(self) -> list[str]:
         """The graph's inputs in order: ``obs``, the RNN states (if any), ``action_mask`` (if used)."""
-        return ["obs", *self.state_names, *([self.mask_name] if self.uses_masks else [])]
+        return [*(self.obs_keys or ["obs"]), *self.state_names, *([self.mask_name] if self.uses_masks else [])]
 
     @property
     def output_names(self) -> list[str]:
@@ -108,7 +115,11 @@ class OnnxPolicy(nn.Module):
         return ["action", "value", *(f"{s}_out" for s in self.state_names)]
 
     def forward(self, obs: torch.Tensor, *inputs: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        """``inputs``: the RNN states in ``state_names`` order, then the action mask when used."""
+        """``inputs``: the other keys' observations (Dict), the RNN states in ``state_names`` order, then the
+        action mask when used."""
+        if self.obs_keys:
+            keys = len(self.obs_keys)
+            obs, inputs = ObsDict(dict(zip(self.obs_keys, (obs, *inputs[:keys - 1])))), inputs[keys - 1:]
         states = inputs[:len(self.state_names)]
         if self.state_names:
             params, value, new_states = self.model.evaluate(obs, states)
@@ -128,7 +139,8 @@ class OnnxPolicy(nn.Module):
         """(obs, zero states, all-True mask): example inputs for tracing, in ``input_names`` order."""
         batch = obs.shape[0]
         mask = (torch.ones(batch, self.mask_size, dtype=self.mask_dtype),) if self.uses_masks else ()
-        return (obs, *self.initial_state(batch), *mask)
+        keys = tuple(obs[k] for k in self.obs_keys) if self.obs_keys else (obs,)
+        return (*keys, *self.initial_state(batch), *mask)
 
 
 def obs_dtype(space: gym.Space) -> torch.dtype:
@@ -137,16 +149,22 @@ def obs_dtype(space: gym.Space) -> torch.dtype:
     return torch.uint8 if dtype is not None and np.dtype(dtype) == np.uint8 else torch.float32
 
 
-def export_model_onnx(model: ActorCritic, obs_shape: tuple[int, ...], output_path: str, opset: int = 17,
-                      input_dtype: torch.dtype = torch.float32) -> str:
+def export_model_onnx(model: ActorCritic, obs_shape: tuple[int, ...] | gym.spaces.Dict, output_path: str,
+                      opset: int = 17, input_dtype: torch.dtype = torch.float32) -> str:
     """Export ``model``'s deterministic policy (see the module docstring) to ``output_path``.
 
-    ``input_dtype``: torch.uint8 for image observations (the graph scales them), else float32.
+    ``input_dtype``: torch.uint8 for image observations (the graph scales them), else float32. ``obs_shape``
+    a Dict space: one input per key, each in its space's dtype.
     The model is copied to the CPU in eval mode; the caller's model is not changed. Returns the path.
     """
     _require("onnx")
-    policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
-    dummy = policy.dummy_inputs(torch.zeros((2, *obs_shape), dtype=input_dtype))
+    keys = tuple(obs_shape.spaces) if isinstance(obs_shape, gym.spaces.Dict) else ()
+    policy = OnnxPolicy(copy.deepcopy(model).cpu().eval(), keys)
+    if keys:
+        dummy = policy.dummy_inputs(ObsDict({k: torch.zeros((2, *s.shape), dtype=obs_dtype(s))
+                                             for k, s in obs_shape.spaces.items()}))
+    else:
+        dummy = policy.dummy_inputs(torch.zeros((2, *obs_shape), dtype=input_dtype))
     folder = os.path.dirname(os.path.abspath(output_path))
     os.makedirs(folder, exist_ok=True)
     states = set(policy.state_names) | {f"{s}_out" for s in policy.state_names}
@@ -184,10 +202,15 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
     :func:`random_masks` (``seed``), on both sides.
     """
     session = session or onnx_session(onnx_path)
+    inputs = {i.name: i for i in session.get_inputs()}
+    keys = tuple(obs_batch) if isinstance(obs_batch, dict) else ()
+    arrays = {k: np.ascontiguousarray(torch.as_tensor(np.asarray(v) if not isinstance(v, torch.Tensor) else v)
+                                      .cpu().numpy()).astype(np.uint8 if inputs[k].type == "tensor(uint8)"
+                                                             else np.float32)
+              for k, v in (obs_batch.items() if keys else [("obs", obs_batch)])}
     graph_input = session.get_inputs()[0]
-    np_dtype = np.uint8 if graph_input.type == "tensor(uint8)" else np.float32
-    obs = np.ascontiguousarray(torch.as_tensor(obs_batch).cpu().numpy()).astype(np_dtype)
-    policy = OnnxPolicy(copy.deepcopy(model).cpu().eval())
+    obs = arrays[keys[0] if keys else "obs"]
+    policy = OnnxPolicy(copy.deepcopy(model).cpu().eval(), keys)
     mask_feed: dict = {}
     if policy.uses_masks:
         masks = random_masks(model.dist, obs.shape[0], seed) if masks is None else masks
@@ -197,10 +220,11 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
     onnx_states = [s.numpy() for s in torch_states]
     diff = 0.0
     for _ in range(steps if policy.state_names else 1):
-        feed = {graph_input.name: obs, **dict(zip(policy.state_names, onnx_states)), **mask_feed}
+        feed = {**(arrays if keys else {graph_input.name: obs}), **dict(zip(policy.state_names, onnx_states)),
+                **mask_feed}
         onnx_out = session.run(policy.output_names, feed)
         with torch.no_grad():
-            torch_out = policy(torch.from_numpy(obs), *torch_states, *torch_mask)
+            torch_out = policy(*(torch.from_numpy(a) for a in arrays.values()), *torch_states, *torch_mask)
         for got, want in zip(onnx_out, torch_out):
             want = want.numpy()
             if got.shape != want.shape:
@@ -225,6 +249,11 @@ def exported_view(model: ActorCritic, space: gym.Space) -> tuple[ActorCritic, tu
     ``obs_groups.policy``) is exported on its view alone -- the graph's ``obs`` is the group's features in the
     group's order, so a deployment feeds only what the student sees. Returns (the model to export, the
     graph's obs shape, its dtype, a function mapping the env's observations to the graph's input)."""
+    if is_dict_space(space) and not getattr(model, "flatten_dict", False):  # one input per key
+        return model, space, torch.float32, lambda obs: obs
+    if is_dict_space(space):  # a flat-input network on a Dict: the graph takes the keys concatenated
+        size = int(gym.spaces.flatdim(space))
+        return model, (size,), torch.float32, lambda obs: dict_as_float(obs_as_tensor(obs, "cpu")).flatten(1).numpy()
     if getattr(model, "obs_group", None) is None or model.obs_slice is None:
         return model, tuple(space.shape), obs_dtype(space), lambda obs: obs
     alone = copy.deepcopy(model)
@@ -245,7 +274,7 @@ def default_output_path(checkpoint_path: str) -> str:
 def export_onnx(params: Any, checkpoint_path: str, output_path: str | None = None, opset: int = 17) -> str:
     """Build the config's model, load ``checkpoint_path`` into it and export it; returns the path.
 
-    ``params``: validated :class:`rlchain.config.schema.Params` (``Runner.load(...).params``). A bad
+    ``params``: validated :class:`rlchain.config.params.Params` (``Runner.load(...).params``). A bad
     checkpoint raises the same CheckpointError as play; missing onnx packages an ImportError.
     """
     _require("onnx")
@@ -285,6 +314,7 @@ def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = No
                                   seed=seed)
         real, real_masks = env_rollout(model, env, env_steps, seed)  # the env's observations, the model playing
         real_diff = verify_onnx(graph_model, output, take(real), session, masks=real_masks)
+        rows = len(next(iter(real.values()))) if isinstance(real, dict) else len(real)
     finally:
         with contextlib.suppress(Exception):
             env.close()
@@ -292,7 +322,7 @@ def export_from_cli(runner: Any, checkpoint: str | None, output: str | None = No
     print(f"exported ONNX policy to {output}{view}", flush=True)
     masked = " (with action masks)" if getattr(model, "use_action_masks", False) else ""
     print(f"onnxruntime parity{masked}: max abs diff {random_diff:.2e} on {num_random} random observations, "
-          f"{real_diff:.2e} on {len(real)} env observations", flush=True)
+          f"{real_diff:.2e} on {rows} env observations", flush=True)
     if max(random_diff, real_diff) > 1e-4:
         warnings.warn(f"ONNX output differs from PyTorch by {max(random_diff, real_diff):.2e}", stacklevel=2)
     return output

@@ -1,4 +1,5 @@
-"""The parts of rl_games' ``torch_ext`` that observers and scripts use: ``AverageMeter`` and checkpoint I/O."""
+"""The parts of rl_games' ``torch_ext`` that observers, scripts and user networks use: ``AverageMeter``,
+checkpoint I/O, shape and masking helpers."""
 
 from __future__ import annotations
 
@@ -71,3 +72,40 @@ def save_checkpoint(filename: str, state: dict[str, Any]) -> None:
 
 
 __all__ = ["AverageMeter", "load_checkpoint", "save_checkpoint"]
+
+
+def shape_whc_to_cwh(shape: tuple[int, ...]) -> tuple[int, ...]:
+    """(H, W, C) -> (C, H, W) for a 3-d image shape; other shapes unchanged."""
+    return (shape[2], shape[0], shape[1]) if len(shape) == 3 else tuple(shape)
+
+
+def apply_masks(losses: list[torch.Tensor], mask: torch.Tensor | None = None
+                ) -> tuple[list[torch.Tensor], torch.Tensor | None]:
+    """Each loss (B, 1) averaged over the rows ``mask`` (B,) keeps (rl_games 2.0: divided by the valid count,
+    at least 1), or over all rows; returns (losses, the valid count or None)."""
+    if mask is None:
+        return [loss.mean() for loss in losses], None
+    mask = mask.unsqueeze(1)
+    count = mask.sum().clamp(min=1.0)
+    return [(loss * mask).sum() / count for loss in losses], count
+
+
+def get_mean_var_with_masks(values: torch.Tensor, masks: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean and unbiased variance over the rows ``masks`` selects (finite for 0 or 1 selected rows)."""
+    count = masks.sum()
+    mean = (values * masks).sum() / count.clamp(min=1.0)
+    return mean, (((values - mean) ** 2) * masks).sum() / (count - 1.0).clamp(min=1.0)
+
+
+def policy_kl(p0_mu: torch.Tensor, p0_sigma: torch.Tensor, p1_mu: torch.Tensor, p1_sigma: torch.Tensor,
+              reduce: bool = True) -> torch.Tensor:
+    """KL(p1 || p0) of diagonal Gaussians summed over the action dims, as rl_games measures it (mean over rows
+    when ``reduce``)."""
+    kl = (torch.log(p1_sigma / p0_sigma + 1e-5)
+          + (p0_sigma ** 2 + (p1_mu - p0_mu) ** 2) / (2.0 * (p1_sigma ** 2 + 1e-5)) - 0.5).sum(-1)
+    return kl.mean() if reduce else kl
+
+
+def explained_variance(y_pred: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    """1 - Var[y - y_pred] / Var[y]."""
+    return 1 - (y - y_pred).var() / y.var().clamp_min(1e-8)

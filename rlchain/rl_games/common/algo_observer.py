@@ -42,10 +42,11 @@ class AlgoObserver:
 
 
 def _scalar_of(value: Any) -> float | None:
-    """``value`` as a float when it is one number (int, float, 0-d or one-element tensor/array)."""
-    if isinstance(value, bool):
+    """``value`` as a float when it is one number (int, float, numpy scalar, 0-d or one-element tensor/array);
+    None for booleans and anything else."""
+    if isinstance(value, (bool, np.bool_)):
         return None
-    if isinstance(value, (int, float)):
+    if isinstance(value, (int, float, np.number)):
         return float(value)
     if isinstance(value, torch.Tensor) and value.numel() == 1:
         return float(value.reshape(()).item())
@@ -54,39 +55,64 @@ def _scalar_of(value: Any) -> float | None:
     return None
 
 
+def _as_array(value: Any) -> np.ndarray:
+    """A score of any type rl_games accepts (a number, a numpy scalar or array of any dtype, bools included,
+    a torch tensor, a list) as a float32 numpy array."""
+    if isinstance(value, torch.Tensor):
+        value = value.detach().cpu().numpy()
+    return np.asarray(value).astype(np.float32)
+
+
+def _game_result(info: dict) -> Any:
+    """rl_games' game result of an info dict: ``scores``, else ``battle_won``, else None."""
+    if "scores" in info:
+        return info["scores"]
+    return info.get("battle_won", None)
+
+
 class DefaultAlgoObserver(AlgoObserver):
     """Game scores: the ``scores`` (or ``battle_won``) info of finished episodes, averaged over the last
-    ``games_to_track`` games and written as ``scores/mean``, ``scores/iter``, ``scores/time``."""
+    ``games_to_track`` games and written as ``scores/mean``, ``scores/iter``, ``scores/time``.
+
+    As rl_games counts them: dict infos give one entry per finished row (``row // num_agents``, rows past the
+    array dropped; with envpool's ``lives``, the envs with no lives left); a list of per-env dicts gives each
+    finished env's entry; NaN fillers are skipped.
+    """
 
     def after_init(self, algo: Any) -> None:
         self.algo = algo
         self.writer = algo.writer
         self.game_scores = AverageMeter(1, algo.games_to_track).to(algo.ppo_device)
 
-    def _score(self, info: Any, index: int | None) -> float | None:
-        for key in ("scores", "battle_won"):
-            if key in info:
-                value = info[key]
-                if index is not None:
-                    if len(value) <= index:
-                        return None
-                    value = value[index]
-                return _scalar_of(value)
-        return None
-
-    def process_infos(self, infos: Any, done_indices: torch.Tensor) -> None:
-        if not infos:
+    def process_infos(self, infos: Any, done_indices: Any) -> None:
+        if infos is None or len(infos) == 0:
             return
         agents = max(1, int(getattr(self.algo, "num_agents", 1)))
-        rows = [int(i) for i in done_indices.reshape(-1).tolist()]
-        scores: list[float] = []
+        rows = np.asarray(_as_array(done_indices), dtype=np.int64).reshape(-1)
         if isinstance(infos, dict):
-            scores = [s for r in rows if (s := self._score(infos, r // agents)) is not None]
-        elif isinstance(infos, (list, tuple)) and infos and isinstance(infos[0], dict):
-            scores = [s for r in rows if r // agents < len(infos) and (s := self._score(infos[r // agents], None))
-                      is not None]
-        if scores:
-            self.game_scores.update(torch.tensor(scores, dtype=torch.float32).unsqueeze(1))
+            if "lives" in infos:  # envpool: the envs whose last life ended
+                rows = np.flatnonzero(_as_array(infos["lives"]).reshape(-1) == 0)
+            result = _game_result(infos)
+            if result is None or rows.size == 0:
+                return
+            result = _as_array(result)
+            if result.size == 0:
+                return
+            if result.ndim == 0:
+                entries = np.full(rows.size, float(result), np.float32)
+            else:
+                result = result.reshape(len(result), -1)[:, 0]
+                index = rows // agents
+                entries = result[index[index < len(result)]]
+        elif isinstance(infos, (list, tuple)) and isinstance(infos[0], dict):
+            parts = [_as_array(res).reshape(-1) for row in rows if row // agents < len(infos)
+                     and (res := _game_result(infos[row // agents])) is not None]
+            entries = np.concatenate(parts) if parts else np.zeros(0, np.float32)
+        else:
+            return
+        entries = entries[np.isfinite(entries)]
+        if entries.size:
+            self.game_scores.update(torch.from_numpy(np.ascontiguousarray(entries)).unsqueeze(1))
 
     def after_clear_stats(self) -> None:
         self.game_scores.clear()
@@ -119,7 +145,8 @@ class IsaacAlgoObserver(AlgoObserver):
                 self.ep_infos.append(infos[key])
         # one number per step (a float, an int or a 0-d tensor), not per-env rows such as time_outs
         direct = {k: s for k, v in infos.items()
-                  if (isinstance(v, (int, float)) or isinstance(v, torch.Tensor) and v.dim() == 0)
+                  if (isinstance(v, (int, float, np.number))
+                      or isinstance(v, (torch.Tensor, np.ndarray)) and v.ndim == 0)
                   and (s := _scalar_of(v)) is not None}
         if direct:
             self.direct_info = direct
@@ -129,7 +156,7 @@ class IsaacAlgoObserver(AlgoObserver):
 
     def after_print_stats(self, frame: int, epoch_num: int, total_time: float) -> None:
         if self.ep_infos:
-            for key in self.ep_infos[0]:
+            for key in sorted(set().union(*self.ep_infos)):  # reports may carry different keys
                 parts = [torch.as_tensor(info[key], dtype=torch.float32).reshape(-1).cpu()
                          for info in self.ep_infos if key in info]
                 values = torch.cat(parts) if parts else torch.zeros(0)

@@ -26,7 +26,7 @@ import numpy as np
 import torch
 
 from rlchain.config.load import parse_params
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
 from rlchain.models.build import apply_sigma, build_model

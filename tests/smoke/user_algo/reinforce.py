@@ -22,8 +22,8 @@ from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.fields import option, positive
+from rlchain.config.params import Params
 from rlchain.config.run import RunConfig
-from rlchain.config.schema import Params
 
 
 @dataclass(frozen=True)

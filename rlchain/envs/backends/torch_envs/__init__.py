@@ -6,7 +6,9 @@
 - ``TorchPointMass-v0``: a damped 2-D point mass to a goal, Box(2), 100-step limit, info ``success``
   (differentiable, like the pendulum: APG);
 - ``TorchPush2D-v0``: a planar push-cube with EmbodiChain's push_cube starts, reward terms and success
-  test (cube within 0.1 m of the goal), Box(2), 100-step limit.
+  test (cube within 0.1 m of the goal), Box(2), 100-step limit;
+- ``TorchCameraReach-v0``: a planar reach whose goal is only in a (1, 24, 24) uint8 camera image beside the
+  robot's proprioception (a Dict observation kept per key), Box(2), 25-step episodes, info ``success``.
 
 Use them as ``params.config.env_name``; ``env_config.device`` (default cpu) picks where the
 batch lives and should match ``params.config.device``. Other ``env_config`` keys:
@@ -21,6 +23,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rlchain.envs.backends.tensor_env import TensorVecEnv
+from rlchain.envs.backends.torch_envs.camera_reach import TorchCameraReach
 from rlchain.envs.backends.torch_envs.cartpole import TorchCartPole
 from rlchain.envs.backends.torch_envs.pendulum import TorchPendulum
 from rlchain.envs.backends.torch_envs.point_mass import TorchPointMass
@@ -57,12 +60,13 @@ build_torch_pendulum = _builder(TorchPendulum, "TorchPendulum-v0")
 build_torch_reacher8 = _builder(TorchReacher, "TorchReacher8-v0", num_links=8)
 build_torch_point_mass = _builder(TorchPointMass, "TorchPointMass-v0")
 build_torch_push2d = _builder(TorchPush2D, "TorchPush2D-v0")
+build_torch_camera_reach = _builder(TorchCameraReach, "TorchCameraReach-v0")
 
 ENV_BUILDERS = {"TorchCartPole-v0": build_torch_cartpole, "TorchPendulum-v0": build_torch_pendulum,
                 "TorchReacher8-v0": build_torch_reacher8, "TorchPointMass-v0": build_torch_point_mass,
-                "TorchPush2D-v0": build_torch_push2d}
+                "TorchPush2D-v0": build_torch_push2d, "TorchCameraReach-v0": build_torch_camera_reach}
 """``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (rlchain.builtins registers them)."""
 
 __all__ = ["TensorVecEnv", "TorchCartPole", "TorchPendulum", "TorchReacher", "TorchPointMass", "TorchPush2D",
-           "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8", "build_torch_point_mass",
-           "build_torch_push2d"]
+           "TorchCameraReach", "build_torch_cartpole", "build_torch_pendulum", "build_torch_reacher8",
+           "build_torch_point_mass", "build_torch_push2d", "build_torch_camera_reach"]

@@ -26,8 +26,7 @@ from rlchain.algos.multi_policy.snapshots import Snapshots
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY
-from rlchain.config.schema import Params
-from rlchain.deprecation import renamed
+from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
@@ -43,7 +42,7 @@ class MultiPolicyPPO(AlgorithmBase):
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """Features the single-policy trainer has and this one not yet; the minibatch against the batch."""
+        """Features single-policy PPO has and this one not yet; the minibatch against the batch."""
         _check_supported(params)
         check_batch(params.config, params.source, spec.num_agents)
 
@@ -250,7 +249,7 @@ def _no_record(result: Any, rows: slice) -> None:
 
 
 def _check_supported(params: Params) -> None:
-    """Features of the single-policy trainer multi_agent does not have yet: a one-line ConfigError."""
+    """Features of single-policy PPO multi_agent does not have yet: a one-line ConfigError."""
     cfg = params.config
     unsupported = [("central_value_config", cfg.central_value_config is not None),
                    ("evaluation.interval", cfg.evaluation.interval > 0),
@@ -263,9 +262,3 @@ def _check_supported(params: Params) -> None:
         if used:
             raise ConfigError(params.source, f"params.config.{key}", "is not supported with multi_agent yet; "
                                                                      "remove it (docs/multi_agent.md)")
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "MultiPolicyTrainer": ("MultiPolicyPPO", MultiPolicyPPO),
-})

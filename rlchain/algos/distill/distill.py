@@ -35,9 +35,8 @@ from rlchain.algos.core.schedules import linear_decay
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
+from rlchain.config.params import Params
 from rlchain.config.resolve import config_state
-from rlchain.config.schema import Params
-from rlchain.deprecation import renamed
 from rlchain.envs.vecenv import DROPPED
 from rlchain.errors import DivergenceError
 
@@ -352,9 +351,3 @@ class Distill(AlgorithmBase):
         """Restore the per-side returns (the teacher comes from teacher_checkpoint, as at the start)."""
         for side, values in state.get("distill", {}).items():
             self.finished[side].extend(values)
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "DistillTrainer": ("Distill", Distill),
-})

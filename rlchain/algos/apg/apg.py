@@ -21,7 +21,7 @@ from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepO
 from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.errors import DivergenceError
 
 

@@ -13,7 +13,7 @@ from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.algos.core.returns import gae, next_values_from_rollout
 from rlchain.algos.core.rnd import RandomNetworkDistillation, parts_to_indices
-from rlchain.algos.core.storage import RolloutStorage, rollout_step_bytes
+from rlchain.algos.core.storage import RolloutStorage, obs_buffer_layout, rollout_step_bytes
 from rlchain.algos.core.symmetry import MirrorLoss, augmented_storage, resolve_mirror
 from rlchain.algos.ppo.agent import PPOAgent, shuffled_minibatches
 from rlchain.algos.ppo.central_value import CentralValueAgent
@@ -22,8 +22,8 @@ from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, prob
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import Params, PPOConfig
-from rlchain.deprecation import renamed
+from rlchain.config.params import Params
+from rlchain.config.ppo import PPOConfig
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.errors import DivergenceError
@@ -122,8 +122,7 @@ class PPO(AlgorithmBase):
         # RNN states carried through the rollout: the model's, then the central value's
         collector.rnn_states = collector.initial_states()
         self.storage = RolloutStorage(
-            cfg.horizon_length, self.num_envs, tuple(obs_space.shape),
-            torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+            cfg.horizon_length, self.num_envs, *obs_buffer_layout(obs_space),
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
             state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
@@ -180,12 +179,14 @@ class PPO(AlgorithmBase):
         """The next observations, RNN states and their episode-start flags (copies); None before ``start``."""
         if self.obs is None:
             return None
-        return {"obs": self.obs.detach().clone(), "rnn_states": tuple(s.detach().clone() for s in self.rnn_states),
+        obs = self.obs.detach().clone()
+        return {"obs": dict(obs) if isinstance(obs, dict) else obs,
+                "rnn_states": tuple(s.detach().clone() for s in self.rnn_states),
                 "resets": self.resets.detach().clone()}
 
     def load_position(self, position: dict[str, Any]) -> None:
         """Put back :meth:`position_state` on the training device."""
-        self.obs = position["obs"].to(self.device)
+        self.obs = self.ctx.to_tensor(position["obs"])  # a Dict kept per key comes back as a plain dict
         self.rnn_states = tuple(s.to(self.device) for s in position["rnn_states"])
         self.resets = position["resets"].to(self.device)
 
@@ -382,9 +383,3 @@ def obs_per_minibatch(mode: str, continuous: bool) -> bool:
     """``obs_normalizer_update`` resolved: True when each minibatch of the update's first pass folds its
     observations in (minibatch, or auto with continuous actions), False for the whole rollout at once."""
     return mode == "minibatch" or (mode == "auto" and continuous)
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "OnPolicyTrainer": ("PPO", PPO),
-})

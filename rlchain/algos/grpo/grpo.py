@@ -18,10 +18,10 @@ import torch
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.grpo.advantages import alive_mask, discounted_returns, group_advantages, k3_kl
 from rlchain.algos.grpo.shared_starts import share_group_starts, supports_shared_starts
-from rlchain.algos.ppo.trainer import PPO
+from rlchain.algos.ppo.ppo import PPO
 from rlchain.config.errors import ConfigError
 from rlchain.config.grpo import GRPOConfig
-from rlchain.config.schema import Params
+from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.models.actor_critic import ActorCritic
 

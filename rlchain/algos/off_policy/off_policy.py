@@ -23,13 +23,10 @@ from rlchain.algos.core.replay import ReplayBuffer
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.stepper import OffPolicyStepper
-from rlchain.algos.off_policy.dqn import DQNAgent, epsilon_at
 from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
-from rlchain.algos.off_policy.sac import SACAgent
 from rlchain.config.errors import ConfigError
-from rlchain.config.off_policy import DQNConfig, SACConfig
-from rlchain.config.schema import Params
-from rlchain.deprecation import renamed
+from rlchain.config.off_policy import SACConfig
+from rlchain.config.params import Params
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.log import get_logger
 from rlchain.parallel.memory import check_fits
@@ -219,50 +216,6 @@ class OffPolicyAlgorithm(AlgorithmBase):
                         f"written): it refills from empty, {self.cfg.batch_size} transitions before learning goes on")
 
 
-class SAC(OffPolicyAlgorithm):
-    """Algo ``sac``."""
-
-    config_class = SACConfig
-    metric_tags = {"actor_loss": "losses/actor_loss", "critic_loss": "losses/critic_loss",
-                   "alpha_loss": "losses/alpha_loss", "entropy": "losses/entropy", "q": "info/q",
-                   "alpha": "info/alpha", **OffPolicyAlgorithm.SHARED_TAGS}
-    console_fields = tuple((name, name + " {:.3g}") for name in
-                           ("actor_loss", "critic_loss", "alpha_loss", "entropy", "q", "alpha"))
-    tunable = ("actor_lr", "critic_lr", "alpha_lr", "gamma", "critic_tau", "batch_size", "num_updates_per_step",
-               "policy_frequency")
-
-    def make_agent(self) -> SACAgent:
-        return SACAgent(self.model, self.cfg)
-
-    def extra_stats(self) -> dict[str, float]:
-        return {"alpha": float(self.model.alpha.detach())}
-
-
-class DQN(OffPolicyAlgorithm):
-    """Algo ``dqn``."""
-
-    config_class = DQNConfig
-    metric_tags = {"td_loss": "losses/td_loss", "q": "info/q", "epsilon": "info/epsilon",
-                   **OffPolicyAlgorithm.SHARED_TAGS}
-    console_fields = tuple((name, name + " {:.3g}") for name in ("td_loss", "q", "epsilon"))
-    tunable = ("learning_rate", "gamma", "target_tau", "target_update_frequency", "batch_size",
-               "num_updates_per_step", "epsilon_end")
-
-    def make_agent(self) -> DQNAgent:
-        return DQNAgent(self.model, self.cfg)
-
-    def epsilon(self) -> float:
-        cfg = self.cfg
-        return epsilon_at(self.ctx.frames - cfg.num_warmup_frames, cfg.epsilon_start, cfg.epsilon_end,
-                          cfg.epsilon_decay_frames)
-
-    def explore(self, obs: torch.Tensor) -> torch.Tensor:
-        return self.model.act(obs, epsilon=self.epsilon())["actions"]
-
-    def extra_stats(self) -> dict[str, float]:
-        return {"epsilon": self.epsilon()}
-
-
 def replay_bytes(state: dict[str, Any]) -> int:
     """Bytes of the tensors and arrays of a replay buffer's state_dict (about its size on disk)."""
     total = 0
@@ -293,10 +246,3 @@ def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:
         return shape_rewards(raw, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
     return reward
 
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "OffPolicyTrainer": ("OffPolicyAlgorithm", OffPolicyAlgorithm),
-    "SACTrainer": ("SAC", SAC),
-    "DQNTrainer": ("DQN", DQN),
-})

@@ -4,7 +4,7 @@ Defaults live in the config classes once, each module one concept: :mod:`~rlchai
 (``params.network``), :mod:`~rlchain.config.run` (the keys every algorithm reads), :mod:`~rlchain.config.
 actor_critic` (keys of the algorithms trained by the PPO agent), :mod:`~rlchain.config.ppo` (PPO),
 :mod:`~rlchain.config.appo` (appo, impala), :mod:`~rlchain.config.off_policy` (sac, dqn). This module holds
-the whole ``params`` block (:class:`Params`) and re-exports the classes under their old import path.
+the whole ``params`` block (:class:`Params`) that holds them.
 ``docs/config.md`` is generated from the docstrings (``python -m rlchain.config.docs``) and a test keeps it
 in sync.
 """
@@ -14,43 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import option
-from rlchain.config.network import (
-    ACTIVATIONS,
-    INITIALIZERS,
-    CnnConfig,
-    ContinuousSpaceConfig,
-    ConvSpec,
-    DiscreteSpaceConfig,
-    InitializerConfig,
-    MlpConfig,
-    MultiDiscreteSpaceConfig,
-    NetworkConfig,
-    ResnetCnnConfig,
-    ResnetNetworkConfig,
-    RnnConfig,
-    SpaceConfig,
-)
-from rlchain.config.ppo import CentralValueConfig, PPOConfig, SelfPlayConfig
-from rlchain.config.run import (
-    DivergenceConfig,
-    EnvRunnersConfig,
-    EvaluationConfig,
-    PlayerConfig,
-    RewardShaperConfig,
-    RunConfig,
-)
-from rlchain.deprecation import renamed
+from rlchain.config.run import RunConfig
 
-__all__ = [
-    "ACTIVATIONS", "INITIALIZERS", "ActorCriticConfig", "CentralValueConfig", "CnnConfig", "ContinuousSpaceConfig",
-    "ConvSpec", "DiscreteSpaceConfig", "DivergenceConfig", "EnvRunnersConfig", "EvaluationConfig",
-    "InitializerConfig", "MlpConfig", "MultiDiscreteSpaceConfig", "NamedBlock", "NetworkConfig", "Params",
-    "PlayerConfig", "ResnetCnnConfig", "ResnetNetworkConfig", "RewardShaperConfig", "RnnConfig", "RunConfig",
-    "SelfPlayConfig", "SpaceConfig", "PPOConfig",
-]
+__all__ = ["NamedBlock", "Params"]
 
 C = TypeVar("C")
 
@@ -87,8 +55,3 @@ class Params:
                           f"{type(self.config).__name__}; this needs a {cls.__name__} (the params.config of "
                           f"another algorithm)")
 
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "TrainConfig": ("PPOConfig", PPOConfig),
-})

@@ -36,8 +36,8 @@ from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
-from rlchain.config.schema import EnvRunnersConfig, Params
-from rlchain.deprecation import renamed
+from rlchain.config.params import Params
+from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.ray.ray_env import worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.envs.spec import EnvSpec
@@ -295,10 +295,3 @@ def runner_mode(cfg: APPOConfig) -> str:
         address = cfg.env_runners.address if cfg.env_runners is not None else None
         mode = "ray" if address or os.environ.get("RAY_ADDRESS") else "local"
     return mode
-
-
-# the old names, importable with a DeprecationWarning for one release
-__getattr__ = renamed(__name__, {
-    "APPOTrainer": ("APPO", APPO),
-    "ImpalaTrainer": ("IMPALA", IMPALA),
-})

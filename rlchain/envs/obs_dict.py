@@ -1,0 +1,134 @@
+"""Dict observations kept per key: :class:`ObsDict`, a dict of tensors that share leading batch dims.
+
+An env with a ``Dict`` observation space (a camera image beside proprioception) can hand the trainer
+its observations as an ObsDict instead of one flattened float vector. Each key keeps its own shape and
+dtype (uint8 images stay uint8 in the rollout storage), and the batch operations the rollout, the
+storage and the minibatches use act on every key at once: indexing rows (``obs[rows]``, ``obs[idx] =
+other``), ``index_select``, ``reshape`` / ``transpose`` of the batch dims, ``clone``, ``detach``, ``to``.
+
+``shape`` is the batch shape only (``(N,)`` for one step of N envs, ``(T, N)`` for a rollout), so code
+written for a flat tensor that reads ``obs.shape[0]`` or reshapes the leading dims keeps working; a
+string index reads a key (``obs['image']``). Spaces: :func:`is_dict_space` tells which Dict spaces
+stay per key, :func:`dict_zeros` preallocates buffers for one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
+
+
+class ObsDict(dict):
+    """{key: tensor (*batch, *key_shape)}; ``batch_dims`` leading dims are shared by every key."""
+
+    def __init__(self, items: Mapping[str, torch.Tensor] | None = None, batch_dims: int = 1) -> None:
+        super().__init__(items or {})
+        self.batch_dims = int(batch_dims)
+
+    # ----- what a flat tensor's callers read ----------------------------------------------------
+    @property
+    def shape(self) -> torch.Size:
+        """The shared batch shape (not a key's full shape)."""
+        first = next(iter(self.values()))
+        return first.shape[:self.batch_dims]
+
+    @property
+    def device(self) -> torch.device:
+        return next(iter(self.values())).device
+
+    def dim(self) -> int:
+        return self.batch_dims
+
+    # ----- batch operations, applied to every key -----------------------------------------------
+    def _map(self, fn: Any, batch_dims: int | None = None) -> ObsDict:
+        return ObsDict({k: fn(v) for k, v in self.items()}, self.batch_dims if batch_dims is None else batch_dims)
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, str):
+            return super().__getitem__(index)
+        probe = torch.empty(self.shape, device="meta")[index]  # how many batch dims the index leaves
+        return self._map(lambda v: v[index], probe.dim())
+
+    def __setitem__(self, index: Any, value: Any) -> None:
+        if isinstance(index, str):
+            super().__setitem__(index, value)
+            return
+        for key, buffer in self.items():
+            buffer[index] = value[key]
+
+    def clone(self) -> ObsDict:
+        return self._map(torch.clone)
+
+    def detach(self) -> ObsDict:
+        return self._map(torch.Tensor.detach)
+
+    def to(self, *args: Any, **kwargs: Any) -> ObsDict:
+        """Every key moved (a dtype argument would cast images too: only devices are meant here)."""
+        return self._map(lambda v: v.to(*args, **kwargs))
+
+    def index_select(self, dim: int, index: torch.Tensor) -> ObsDict:
+        if not 0 <= dim < self.batch_dims:
+            raise IndexError(f"ObsDict.index_select: dim {dim} is not a batch dim (batch dims {self.batch_dims})")
+        return self._map(lambda v: v.index_select(dim, index))
+
+    def reshape(self, *shape: Any) -> ObsDict:
+        """New batch dims (``shape`` counts only them; ``-1`` allowed); every key keeps its own shape."""
+        batch = tuple(shape[0]) if len(shape) == 1 and isinstance(shape[0], (tuple, list, torch.Size)) else shape
+        return self._map(lambda v: v.reshape(*batch, *v.shape[self.batch_dims:]), len(batch))
+
+    def transpose(self, dim0: int, dim1: int) -> ObsDict:
+        if max(dim0, dim1) >= self.batch_dims:
+            raise IndexError("ObsDict.transpose: only batch dims")
+        return self._map(lambda v: v.transpose(dim0, dim1))
+
+    def flatten(self, start_dim: int = 0, end_dim: int = -1) -> torch.Tensor:
+        """Each key's values flattened per batch row and concatenated (keys in order): the flat vector."""
+        if start_dim != self.batch_dims:
+            raise ValueError("ObsDict.flatten: only the per-row flattening (start_dim = batch dims)")
+        return torch.cat([v.flatten(self.batch_dims).float() for v in self.values()], -1)
+
+    def numel(self) -> int:
+        return sum(v.numel() for v in self.values())
+
+
+def is_dict_space(space: Any) -> bool:
+    """A Dict space whose entries are Boxes, other than the central-value ``{'obs', 'state'}`` layout."""
+    return (isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS
+            and all(isinstance(s, gym.spaces.Box) for s in space.spaces.values()))
+
+
+def torch_dtype(space: gym.spaces.Box) -> torch.dtype:
+    """uint8 for a uint8 Box (images stay bytes), float32 for every other one."""
+    return torch.uint8 if np.dtype(space.dtype) == np.uint8 else torch.float32
+
+
+def dict_zeros(batch: tuple[int, ...], space: gym.spaces.Dict, device: torch.device | str = "cpu") -> ObsDict:
+    """Zero buffers (*batch, *shape) for every key of ``space``, each in its :func:`torch_dtype`."""
+    return ObsDict({k: torch.zeros((*batch, *s.shape), dtype=torch_dtype(s), device=device)
+                    for k, s in space.spaces.items()}, len(batch))
+
+
+def as_obs_dict(obs: Mapping[str, Any], space: gym.spaces.Dict, device: torch.device | str) -> ObsDict:
+    """A batch of Dict observations ({key: (N, *shape)} arrays or tensors) as an ObsDict on ``device``,
+    each key in its space's dtype (uint8 stays uint8), in the space's key order."""
+    out = {}
+    for key, sub in space.spaces.items():
+        value = obs[key]
+        dtype = torch_dtype(sub)
+        value = value if isinstance(value, torch.Tensor) else torch.as_tensor(np.asarray(value))
+        out[key] = value.to(device=device, dtype=dtype)
+    return ObsDict(out, 1)
+
+
+def obs_as_tensor(obs: Any, device: torch.device | str) -> torch.Tensor | ObsDict:
+    """A batch of observations on ``device``: a dict (an ObsDict or a gymnasium Dict env's arrays) key by key,
+    each key's dtype kept, anything else through ``torch.as_tensor``."""
+    if isinstance(obs, dict):
+        return ObsDict({k: torch.as_tensor(v, device=device) for k, v in obs.items()}, getattr(obs, "batch_dims", 1))
+    return torch.as_tensor(obs, device=device)

@@ -1,0 +1,141 @@
+"""The ``multi_input`` network: an encoder per observation key, fused, then the actor-critic trunk and heads.
+
+Dict observations arrive per key (an :class:`~rlchain.envs.obs_dict.ObsDict`, images as floats in [0, 1],
+vectors normalized by the model). Each key goes through its own encoder (``network.inputs.<key>``: a CNN
+or IMPALA stages for an image, an MLP or nothing for a vector; ``none`` leaves the key out, so an
+actor and a critic can read different keys), the features are concatenated in the space's key order and
+the result feeds :class:`~rlchain.networks.actor_critic.Trunk` (``mlp``, optional ``rnn``) and the heads.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+
+from rlchain.config.multi_input import InputConfig, MultiInputNetworkConfig
+from rlchain.config.network import CnnConfig, MlpConfig, ResnetCnnConfig
+from rlchain.envs.obs_dict import is_dict_space
+from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
+from rlchain.networks.base import NetworkBuilder
+from rlchain.networks.cnn import ConvEncoder
+from rlchain.networks.impala import ImpalaEncoder
+from rlchain.networks.mlp import MLP
+
+
+def random_shift(images: torch.Tensor, pad: int) -> torch.Tensor:
+    """DrQ's augmentation: each image (B, C, H, W) padded by ``pad`` pixels (edges replicated) and cropped
+    back to (H, W) at its own random integer offset in [0, 2 pad]."""
+    b, _, h, w = images.shape
+    padded = F.pad(images, (pad, pad, pad, pad), mode="replicate")
+    dy = torch.randint(0, 2 * pad + 1, (b, 1, 1), device=images.device)
+    dx = torch.randint(0, 2 * pad + 1, (b, 1, 1), device=images.device)
+    rows = (torch.arange(h, device=images.device).view(1, h, 1) + dy).expand(b, h, w)
+    cols = (torch.arange(w, device=images.device).view(1, 1, w) + dx).expand(b, h, w)
+    flat = (rows * (w + 2 * pad) + cols).view(b, 1, h * w).expand(-1, images.shape[1], -1)
+    return padded.flatten(2).gather(2, flat).view_as(images)
+
+
+class ImageEncoder(nn.Module):
+    """(B, C, H, W) floats -> (B, out_size): convolutions (cnn or impala), then optionally a linear layer
+    with activation to ``units[-1]`` features; ``random_shift`` augments in training passes only."""
+
+    def __init__(self, cfg: InputConfig, shape: tuple[int, ...], kind: str) -> None:
+        super().__init__()
+        permute = channels_last(shape) if cfg.permute_input is None else cfg.permute_input
+        if kind == "cnn":
+            self.convs: nn.Module = ConvEncoder(CnnConfig(type="conv2d", permute_input=permute,
+                                                          activation=cfg.activation, convs=cfg.convs), shape)
+        else:
+            self.convs = ImpalaEncoder(ResnetCnnConfig(permute_input=permute,
+                                                       conv_depths=cfg.conv_depths, activation=cfg.activation),
+                                       shape)
+        self.head = MLP(self.convs.out_size, MlpConfig(units=cfg.units[-1:], activation=cfg.activation))
+        self.out_size = self.head.out_size
+        self.shift = cfg.random_shift
+        self.permute = permute
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if self.shift and self.training:
+            x = random_shift(x.permute(0, 3, 1, 2), self.shift).permute(0, 2, 3, 1) if self.permute \
+                else random_shift(x, self.shift)
+        return self.head(self.convs(x))
+
+
+class FlatEncoder(nn.Module):
+    """(B, *shape) -> (B, out_size): the values flattened, through an MLP of ``units`` (none for flatten)."""
+
+    def __init__(self, cfg: InputConfig, shape: tuple[int, ...], kind: str) -> None:
+        super().__init__()
+        size = int(np.prod(shape))
+        self.mlp = MLP(size, MlpConfig(units=list(cfg.units) if kind == "mlp" else [], activation=cfg.activation))
+        self.out_size = self.mlp.out_size
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.mlp(x.flatten(1))
+
+
+def channels_last(shape: tuple[int, ...]) -> bool:
+    """Whether an image of ``shape`` is (H, W, C): unless its first dim is its smallest (SB3's rule)."""
+    return int(np.argmin(shape)) != 0
+
+
+def encoder_kind(cfg: InputConfig, shape: tuple[int, ...]) -> str:
+    """The encoder ``cfg.encoder`` names, ``auto`` resolved: cnn for an image (3 dims), mlp otherwise."""
+    if cfg.encoder == "auto":
+        return "cnn" if len(shape) == 3 else "mlp"
+    return cfg.encoder
+
+
+class MultiInputEncoder(nn.Module):
+    """ObsDict {key: (B, *shape)} -> (B, out_size): each read key through its encoder, concatenated in the
+    space's key order. ``keys`` lists the keys read (those whose encoder is not ``none``)."""
+
+    def __init__(self, space: gym.spaces.Dict, inputs: dict[str, InputConfig], path: str = "params.network") -> None:
+        super().__init__()
+        unknown = [k for k in inputs if k not in space.spaces]
+        if unknown:
+            raise ValueError(f"{path}.inputs: {', '.join(unknown)} not a key of the observations "
+                             f"({', '.join(space.spaces)})")
+        self.encoders = nn.ModuleDict()
+        for key, sub in space.spaces.items():
+            cfg = inputs.get(key, InputConfig())
+            shape = tuple(sub.shape)
+            kind = encoder_kind(cfg, shape)
+            if kind == "none":
+                continue
+            if kind in ("cnn", "impala"):
+                if len(shape) != 3:
+                    raise ValueError(f"{path}.inputs.{key}.encoder: {kind} needs an image (C, H, W), '{key}' has "
+                                     f"shape {shape}")
+                self.encoders[key] = ImageEncoder(cfg, shape, kind)
+            else:
+                self.encoders[key] = FlatEncoder(cfg, shape, kind)
+        if not self.encoders:
+            raise ValueError(f"{path}.inputs: every key is encoder none; the network reads nothing")
+        self.keys = tuple(self.encoders)
+        self.out_size = sum(e.out_size for e in self.encoders.values())
+
+    def forward(self, obs: Any) -> torch.Tensor:
+        return torch.cat([encoder(obs[key]) for key, encoder in self.encoders.items()], -1)
+
+
+class MultiInputBuilder(NetworkBuilder):
+    """Builder registered as ``multi_input``: Dict observations kept per key (``takes_dict_obs``)."""
+
+    config_class = MultiInputNetworkConfig
+    takes_dict_obs = True
+
+    def build(self, name: str, **kwargs: Any) -> nn.Module:
+        cfg: MultiInputNetworkConfig = self.params
+        space = kwargs.get("observation_space")
+        if not is_dict_space(space):
+            raise ValueError(f"params.network.name: multi_input needs Dict observations (an image, a vector ...), "
+                             f"the env gives {space}")
+        continuous = is_continuous(cfg, kwargs["action_space"])
+        return ActorCriticNetwork(cfg, (), kwargs["actions_num"], kwargs.get("value_size", 1), continuous,
+                                  make_trunk=lambda: Trunk(cfg, (), encoder=MultiInputEncoder(space, cfg.inputs)))

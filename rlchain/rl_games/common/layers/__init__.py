@@ -1,0 +1,1 @@
+"""rl_games' ``common.layers``: the recurrent layers its networks build (``recurrent``)."""

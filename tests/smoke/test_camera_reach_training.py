@@ -1,0 +1,87 @@
+"""The camera task's multi_input config trains a couple of epochs with the image stored as uint8, plays
+back, and resumes bit-identically (the next observations, an ObsDict, saved in the checkpoint); a gymnasium
+Dict env trains through rlchain.PPO('MultiInputPolicy', env)."""
+
+import os
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+import rlchain
+from rlchain import Runner
+from rlchain.training.events import Callback
+from tests.conftest import CONFIGS
+from tests.smoke.test_exact_resume import check_split
+
+pytestmark = pytest.mark.smoke
+CONFIG = os.path.join(CONFIGS, "ppo_camera_reach.yaml")
+SMALL = ["params.config.num_actors=8", "params.config.minibatch_size=100", "params.config.mini_epochs=1"]
+
+
+def test_camera_config_trains_with_uint8_images_and_plays(tmp_path):
+    seen = []
+
+    class Storage(Callback):
+        drives_trainer = True  # test instrument: reads the rollout storage's buffers
+
+        def on_epoch_end(self, trainer, stats, episodes):
+            obs = trainer.algorithm.storage.obs
+            seen.append((obs["image"].dtype, obs["image"].shape, obs["proprio"].dtype))
+
+    over = [*SMALL, "params.config.max_epochs=2", f"params.config.train_dir={tmp_path}/runs",
+            "params.config.print_stats=false"]
+    result = Runner().load(CONFIG, over).train(callbacks=[Storage()])
+    assert result.epoch == 2
+    assert seen[-1] == (torch.uint8, (25, 8, 1, 24, 24), torch.float32)
+    last = os.path.join(result.run_dir, "nn", "last_camera_reach.pth")
+    played = Runner().load(CONFIG, ["params.config.player.games_num=4"]).play(last, games=4, quiet=True)
+    assert played.games == 4 and played.mean_length == 25
+
+
+def test_camera_config_resume_is_bit_identical(tmp_path):
+    check_split(tmp_path, "ppo_camera_reach.yaml", SMALL, 2)
+
+
+class ImageSide(gym.Env):
+    """A gymnasium Dict env: an (8, 8, 3) uint8 image lit on one side and a vector; reward 1 for naming the side."""
+
+    def __init__(self):
+        self.observation_space = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (8, 8, 3), np.uint8),
+                                                  "vec": gym.spaces.Box(-1, 1, (2,), np.float32)})
+        self.action_space = gym.spaces.Discrete(2)
+
+    def _obs(self):
+        image = np.zeros((8, 8, 3), np.uint8)
+        image[:, 0 if self.side == 0 else 7] = 255
+        return {"image": image, "vec": np.zeros(2, np.float32)}
+
+    def reset(self, seed=None, options=None):
+        super().reset(seed=seed)
+        self.t, self.side = 0, int(self.np_random.integers(2))
+        return self._obs(), {}
+
+    def step(self, action):
+        reward = float(int(action) == self.side)
+        self.t, self.side = self.t + 1, int(self.np_random.integers(2))
+        return self._obs(), reward, False, self.t >= 20, {}
+
+
+def test_sb3_multi_input_policy_trains_on_a_gymnasium_dict_env(tmp_path):
+    model = rlchain.PPO("MultiInputPolicy", ImageSide, n_envs=4, n_steps=64, learning_rate=1e-3, seed=0, verbose=0,
+                        tensorboard_log=str(tmp_path))
+    model.learn(6000)
+    env = ImageSide()
+    obs, _ = env.reset(seed=1)
+    hits = 0
+    for _ in range(40):
+        action, _ = model.predict(obs)
+        obs, reward, *_ = env.step(action)
+        hits += reward
+    assert hits >= 36  # random: 20
+    path = model.save(str(tmp_path / "mi"))
+    loaded = rlchain.PPO.load(path)
+    assert loaded.policy_name == "MultiInputPolicy"
+    batch = {k: np.stack([v, v]) for k, v in obs.items()}
+    assert np.array_equal(loaded.predict(batch)[0], model.predict(batch)[0])

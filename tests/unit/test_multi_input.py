@@ -1,0 +1,137 @@
+"""The multi_input network: an encoder per observation key (chosen by shape or named), fused into the
+actor-critic trunk; its config keys reject wrong values in one line naming the key."""
+
+import copy
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+from rlchain import Runner
+from rlchain.config import ConfigError, parse_params
+from rlchain.config.multi_input import InputConfig
+from rlchain.envs.obs_dict import ObsDict
+from rlchain.models.build import build_env, build_model
+from rlchain.networks.multi_input import MultiInputEncoder, random_shift
+from tests.conftest import CONFIGS
+
+CONFIG = f"{CONFIGS}/ppo_camera_reach.yaml"
+SPACE = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (1, 24, 24), np.uint8),
+                         "proprio": gym.spaces.Box(-np.inf, np.inf, (4,), np.float32)})
+
+
+def _raw():
+    import yaml
+    with open(CONFIG, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def _obs(n=3):
+    return ObsDict({"image": torch.rand(n, 1, 24, 24), "proprio": torch.randn(n, 4)})
+
+
+def test_encoders_by_shape_and_by_name():
+    auto = MultiInputEncoder(SPACE, {})
+    assert type(auto.encoders["image"]).__name__ == "ImageEncoder"
+    assert type(auto.encoders["proprio"]).__name__ == "FlatEncoder"
+    assert auto(_obs()).shape == (3, auto.out_size)
+    named = MultiInputEncoder(SPACE, {"image": InputConfig(encoder="impala", conv_depths=[8], units=[]),
+                                      "proprio": InputConfig(encoder="none")})
+    assert named.keys == ("image",) and named(_obs()).shape[0] == 3
+
+
+def test_model_on_the_camera_task_acts_on_dict_observations():
+    params = Runner().load(CONFIG, ["params.config.num_actors=4"]).params
+    env = build_env(params, 4, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    obs = env.reset()
+    out = model.act(obs)
+    assert out["actions"].shape == (4, 2) and out["values"].shape == (4, 1)
+    model.update_normalizers(obs=obs)  # the proprio statistics move, the image has none (scaled /255)
+    assert set(model.obs_norm.norms) == {"proprio"}
+    assert model.obs_norm.norms["proprio"].count > 1
+
+
+def test_actor_critic_network_gets_the_keys_flattened():
+    params = Runner().load(CONFIG, ["params.network={name: actor_critic, space: {continuous: {}}, mlp: {units: [8]}}"]
+                           ).params
+    env = build_env(params, 2, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    assert model.flatten_dict
+    assert model.act(env.reset())["actions"].shape == (2, 2)
+
+
+def test_random_shift_moves_images_by_at_most_pad_pixels():
+    image = torch.zeros(16, 1, 8, 8)
+    image[:, :, 4, 4] = 1.0
+    shifted = random_shift(image, 2)
+    assert shifted.shape == image.shape
+    where = shifted.view(16, -1).argmax(1)
+    assert ((where // 8 - 4).abs() <= 2).all() and ((where % 8 - 4).abs() <= 2).all()
+
+
+@pytest.mark.parametrize("path, value, message", [
+    (("network", "inputs", "image", "encoder"), "resnet", "params.network.inputs.image.encoder: 'resnet' is not one"),
+    (("network", "inputs", "image", "random_shift"), -1, "params.network.inputs.image.random_shift"),
+    (("network", "inputs", "image", "units"), [0], "params.network.inputs.image.units"),
+    (("network", "inputs", "image", "conv_depths"), [], "params.network.inputs.image.conv_depths"),
+    (("network", "inputs", "image", "convs"), [], "params.network.inputs.image.convs"),
+    (("network", "inputs", "image", "activation"), "rleu", "params.network.inputs.image.activation"),
+    (("network", "inputs", "image", "permute_input"), "maybe", "params.network.inputs.image.permute_input"),
+    (("network", "inputs", "image", "kernel"), 3, "params.network.inputs.image.kernel"),
+    (("network", "inputs"), [1], "params.network.inputs: expected a mapping"),
+    (("network", "cnn"), {"convs": [{"filters": 4, "kernel_size": 3}]}, "params.network.cnn: not used by multi_input"),
+    (("config", "obs_normalizer_exclude"), "proprio", "params.config.obs_normalizer_exclude"),
+    (("config", "obs_normalizer_exclude"), [""], "params.config.obs_normalizer_exclude"),
+])
+def test_wrong_values_are_one_line_errors_naming_the_key(path, value, message):
+    raw = copy.deepcopy(_raw())
+    block = raw["params"]
+    for key in path[:-1]:
+        block = block[key]
+    block[path[-1]] = value
+    with pytest.raises(ConfigError) as err:
+        parse_params(raw, "cfg.yaml")
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("override, message", [
+    ("params.network.inputs.camera={encoder: cnn}", "params.network.inputs: camera not a key of the observations"),
+    ("params.network.inputs.proprio.encoder=cnn", "params.network.inputs.proprio.encoder: cnn needs an image"),
+    ("params.config.obs_normalizer_exclude=[joints]", "params.config.obs_normalizer_exclude: ['joints'] are not keys"),
+])
+def test_keys_that_do_not_fit_the_env_are_one_line_errors(override, message):
+    params = Runner().load(CONFIG, ["params.config.num_actors=2", override]).params
+    env = build_env(params, 2, 0)
+    with pytest.raises((ConfigError, ValueError)) as err:
+        build_model(params, env, torch.device("cpu"))
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_multi_input_on_a_box_observation_says_what_it_needs():
+    params = Runner().load(CONFIG, ["params.config.env_config.observation=proprio"]).params
+    env = build_env(params, 2, 0)
+    with pytest.raises((ConfigError, ValueError), match="multi_input needs Dict observations"):
+        build_model(params, env, torch.device("cpu"))
+
+
+@pytest.mark.parametrize("extra", [[], ["params.network.rnn={name: gru, units: 16}", "params.config.seq_length=5"]])
+def test_onnx_export_takes_one_named_input_per_key(tmp_path, extra):
+    pytest.importorskip("onnxruntime")
+    from rlchain.inference.export.onnx import export_model_onnx, onnx_session, random_observations, verify_onnx
+
+    params = Runner().load(CONFIG, ["params.config.num_actors=4", *extra]).params
+    env = build_env(params, 4, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    model.update_normalizers(obs=env.reset())  # statistics that are not the identity
+    model.eval()
+    path = export_model_onnx(model, env.observation_space, str(tmp_path / "camera.onnx"))
+    session = onnx_session(path)
+    inputs = session.get_inputs()
+    assert [i.name for i in inputs][:2] == ["image", "proprio"]
+    assert inputs[0].type == "tensor(uint8)" and inputs[1].type == "tensor(float)"
+    random = random_observations(env.observation_space, 16)
+    assert verify_onnx(model, path, random, session, steps=3) < 1e-5
+    real = env.reset()
+    assert verify_onnx(model, path, {k: v.numpy() for k, v in real.items()}, session) < 1e-5
