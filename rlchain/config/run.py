@@ -169,8 +169,10 @@ def plain_name(value: Any) -> str | None:
         return "must be a non-empty name"
     if value.startswith("."):
         return "must not start with '.': it is a name, not a path"
-    if "/" in value or "\\" in value or ".." in value or "\0" in value:
+    if "/" in value or "\\" in value or ".." in value:
         return "must be a plain name without '/', '\\' or '..': it is a name, not a path"
+    if not value.isprintable():  # a newline, tab, NUL or other control character: a folder no shell shows right
+        return f"must be printable: {value!r} holds a control character (newline, tab, ...)"
     return None
 
 
