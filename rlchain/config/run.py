@@ -255,7 +255,8 @@ class RunConfig:
     trust_checkpoint: bool = option(False, "rlchain: load the checkpoints this run reads (--checkpoint, a "
                                            "distillation teacher, watched ones) with full pickle, which runs any "
                                            "code stored in them; only for files you trust (same as "
-                                           "--trust-checkpoint; see docs/reliability.md, Trusting files)")
+                                           "--trust-checkpoint; never read from a checkpoint's stored config; "
+                                           "see docs/reliability.md, Trusting files)")
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")

@@ -49,7 +49,8 @@ def test_a_run_name_with_a_control_character_is_a_config_error(tmp_path, value):
 
 def test_train_dir_null_is_a_config_error_not_a_folder_named_none(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(["--train", "--file", CARTPOLE, *SMALL, "params.config.max_epochs=1", "params.config.train_dir=null"]) == 2
+    assert main(["--train", "--file", CARTPOLE, *SMALL, "params.config.max_epochs=1",
+                 "params.config.train_dir=null"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith("params.config.train_dir: expected a string, got null (leave the key out for its default)"), err
     assert not (tmp_path / "None").exists()
