@@ -151,6 +151,8 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
         parts = key.strip().split(".")
         if parts[0] != "params":
             parts = ["params", *parts]
+        if _nesting(text) > MAX_NESTING:
+            raise ConfigError(source, key.strip(), f"the value nests more than {MAX_NESTING} levels deep")
         try:
             value = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506
         except _AliasFound as exc:

@@ -247,3 +247,9 @@ def test_random_configs_are_a_run_or_one_clean_line(tmp_path):
         assert problem is None, f"RLCHAIN_FUZZ_SEED={seed}, case {done} ({label[:300]}): {problem}"
         done += 1
     assert done >= 5, f"RLCHAIN_FUZZ_SEED={seed}: only {done} cases in 20 s"
+
+
+def test_a_deeply_nested_override_is_one_line(capsys):
+    assert main(["--train", "--file", BASE, "params.network.mlp.units=" + "[" * 5000]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("params.network.mlp.units: the value nests more than 64 levels deep") and "\n" not in err
