@@ -11,6 +11,7 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
+from rlchain.config.multi_input import MultiInputNetworkConfig
 from rlchain.config.network import NetworkConfig
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
@@ -98,6 +99,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     if cv is None:
         return None
     space = env.observation_space
+    if is_dict_space(space):  # Dict observations kept per key: a multi_input critic reads the keys it names
+        return _dict_central_value(params, cv, space, value_size_of(env), device)
     groups = getattr(params.config, "obs_groups", None)
     if obs_state_split(space) is None and getattr(groups, "critic", None) is None:
         raise ConfigError(params.source, "params.config.central_value_config", "the env has no central-value "
@@ -106,25 +109,49 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     view = model_view(params, space, "critic")
     state_shape = (view.size,)
     value_size = value_size_of(env)
-    try:
+    key = "params.config.central_value_config.network"
+
+    def build() -> CentralValue:
         if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
-            model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
-                                 params.config.normalize_value,
-                                 value_normalizer_kind=params.config.value_normalizer,
-                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
-        else:  # a registered network, given its block and rl_games' critic kwargs
-            block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
-            network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
-                                  "params.config.central_value_config.network", actions_num=value_size,
-                                  input_shape=state_shape, value_size=value_size,
-                                  num_seqs=params.config.num_actors, observation_space=view.space)
-            model = CentralValue(None, state_shape, value_size, cv.normalize_input,
-                                 params.config.normalize_value, network=network,
-                                 value_normalizer_kind=params.config.value_normalizer,
-                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+            return CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
+                                params.config.normalize_value,
+                                value_normalizer_kind=params.config.value_normalizer,
+                                obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+        # a registered network, given its block and rl_games' critic kwargs
+        block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
+        network = instantiate(NETWORKS.get(_network_name(cv.network)), block, key, actions_num=value_size,
+                              input_shape=state_shape, value_size=value_size,
+                              num_seqs=params.config.num_actors, observation_space=view.space)
+        return CentralValue(None, state_shape, value_size, cv.normalize_input,
+                            params.config.normalize_value, network=network,
+                            value_normalizer_kind=params.config.value_normalizer,
+                            obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+
+    try:
+        model = build_within_memory(build, device, params.source, key)
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        raise ConfigError(params.source, key, str(exc)) from None
+    model.obs_slice = view.selector()
+    return model.to(device)
+
+
+def _dict_central_value(params: Params, cv: Any, space: gym.spaces.Dict, value_size: int,
+                        device: torch.device) -> CentralValue:
+    """The asymmetric critic on Dict observations kept per key: a ``multi_input`` network whose ``inputs`` pick
+    its keys (privileged state the actor's network leaves out with ``encoder: none``)."""
+    if not isinstance(cv.network, MultiInputNetworkConfig):
+        raise ConfigError(params.source, "params.config.central_value_config.network.name",
+                          f"the observations are a Dict kept per key ({', '.join(space.spaces)}): the central "
+                          f"value's network must be multi_input, its inputs naming the keys it reads")
+    try:
+        model = CentralValue(cv.network, space, value_size, cv.normalize_input, params.config.normalize_value,
+                             value_normalizer_kind=params.config.value_normalizer,
+                             obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
+                             obs_normalizer_exclude=tuple(getattr(params.config, "obs_normalizer_exclude", ())))
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
-    model.obs_slice = view.selector()
     return model.to(device)
 
 
