@@ -120,8 +120,10 @@ def test_eval_checkpoint_and_stop_callbacks_write_sb3s_files(tmp_path):
 def test_sb3_vec_envs_train_and_get_env_returns_them(tmp_path):
     venv = VecNormalize(make_vec_env("Pendulum-v1", n_envs=2, seed=0))
     model = rlchain.PPO("MlpPolicy", venv, n_steps=16, batch_size=32, **quiet(tmp_path))
-    model.learn(64)
+    checkpoint = CheckpointCallback(save_freq=32, save_path=str(tmp_path / "ck"), save_vecnormalize=True)
+    model.learn(64, callback=checkpoint)
     assert model.get_env() is venv and model.get_vec_normalize_env() is venv
+    assert "rl_model_vecnormalize_64_steps.pkl" in os.listdir(tmp_path / "ck")
     assert venv.obs_rms.count > 64  # SB3's statistics were updated by rlchain's steps
     venv.save(str(tmp_path / "vec_normalize.pkl"))  # and saved as SB3 saves them
     assert VecNormalize.load(str(tmp_path / "vec_normalize.pkl"), make_vec_env("Pendulum-v1")).obs_rms.count > 64
