@@ -63,6 +63,9 @@ class ActorCriticConfig(RunConfig):
                                            "entropy_coef to 1e-4 alongside the lr (logged as info/entropy_coef); "
                                            "no effect with another lr_schedule (a warning), as in rl_games")
     normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
+    advantage_normalization: str = option("batch", "rlchain, with normalize_advantage: batch = over the whole "
+                                                   "batch once (rl_games); minibatch = over each minibatch "
+                                                   "(Stable-Baselines3)", choices=("batch", "minibatch"))
     normalize_value: bool = option(False, "running mean/std normalization of value targets (value_normalizer "
                                           "says which statistics)")
     value_normalizer: str = option("rl_games", "with normalize_value: rl_games = statistics of the rollout's value "

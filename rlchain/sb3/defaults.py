@@ -7,11 +7,11 @@ SB3 trains the algorithm SB3 trains: PPO with 2,048-step rollouts of one env, 10
 normalization, separate 64-64 tanh actor and critic with orthogonal initialization. ``defaults="rlchain"`` starts
 from rlchain's packaged examples instead (:data:`rlchain.sb3.keys.DEFAULTS`).
 
-What differs from SB3 and stays: advantages are normalized over the whole batch (SB3: per minibatch); the action
-heads keep torch's default initialization (SB3: orthogonal, gains 0.01 and 1); PPO's continuous actions go to the
-env as the policy samples them (``clip_actions: False``; SB3 clips them to the bounds first: ``predict`` and an SB3
-vec env do here too, a gymnasium env clips them itself or not). DQN updates after every env step (SB3's ``train_freq=4``
-needs ``gradient_steps`` a multiple of it here).
+Advantages are normalized per minibatch, as SB3 does (``advantage_normalization: minibatch``). What differs from
+SB3 and stays: the action heads keep torch's default initialization (SB3: orthogonal, gains 0.01 and 1); PPO's
+continuous actions go to the env as the policy samples them (``clip_actions: False``; SB3 clips them to the
+bounds first: ``predict`` and an SB3 vec env do here too, a gymnasium env clips them itself or not). DQN updates
+after every env step (SB3's ``train_freq=4`` needs ``gradient_steps`` a multiple of it here).
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ _ORTHOGONAL = {"name": "orthogonal_initializer", "gain": 2 ** 0.5}
 SB3_DEFAULTS: dict[str, dict[str, Any]] = {
     "ppo": {"network": {"name": "actor_critic", "separate": True,
                         "mlp": {"units": [64, 64], "activation": "tanh", "initializer": _ORTHOGONAL}},
-            "config": {"normalize_advantage": True, "normalize_input": False, "normalize_value": False,
+            "config": {"normalize_advantage": True, "advantage_normalization": "minibatch", "normalize_input": False,
+                       "normalize_value": False,
                        "value_bootstrap": True, "gamma": 0.99, "tau": 0.95, "learning_rate": 3e-4,
                        "lr_schedule": None, "grad_norm": 0.5, "truncate_grads": True, "entropy_coef": 0.0,
                        "e_clip": 0.2, "clip_value": False, "horizon_length": 2048, "minibatch_size": 64,

@@ -298,3 +298,12 @@ def test_checkpoint_name_and_mlp_keys_reject_wrong_values_in_one_line(base_confi
     with pytest.raises(ConfigError) as err:
         parse_params(base_config, "cfg.yaml")
     assert expect in str(err.value) and "cfg.yaml" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_advantage_normalization_rejects_a_wrong_value_in_one_line(base_config):
+    base_config["params"]["config"]["advantage_normalization"] = "episode"
+    with pytest.raises(ConfigError) as err:
+        parse_params(base_config, "cfg.yaml")
+    message = str(err.value)
+    assert "params.config.advantage_normalization: 'episode' is not one of" in message and "cfg.yaml" in message
+    assert "\n" not in message

@@ -2,6 +2,7 @@
 (adaptive lr, portable checkpoint state), and which way the step runner runs."""
 
 import copy
+import dataclasses
 
 import gymnasium as gym
 import pytest
@@ -72,6 +73,19 @@ def test_the_loss_is_its_terms_summed_by_hand(train_critic):
     assert float(stats[5]) == pytest.approx(float(model.dist.kl(batch.params, params.detach()).mean()), rel=1e-5)
     loss.backward()  # a loss to train on; the value head only when it trains the critic
     assert model.network.mu.weight.grad is not None and (model.network.value.weight.grad is not None) == train_critic
+
+
+def test_minibatch_advantage_normalization_normalizes_in_the_loss():
+    model = _model()
+    batch = _batch(model)
+    surrogate = lambda old, new, adv: policy_loss(old, new, adv, 0.2)  # noqa: E731
+    coef = torch.tensor(0.0)
+    per_minibatch = ppo_loss(model, _cfg(advantage_normalization="minibatch"), batch, coef, batch.params, surrogate,
+                             False)[0]
+    adv = batch.advantages
+    normalized = dataclasses.replace(batch, advantages=(adv - adv.mean()) / (adv.std() + 1e-8))
+    by_hand = ppo_loss(model, _cfg(), normalized, coef, batch.params, surrogate, False)[0]
+    torch.testing.assert_close(per_minibatch, by_hand)  # the batch mode leaves the loss's advantages as given
 
 
 def test_the_statistics_vector_reads_back_by_name():

@@ -141,11 +141,12 @@ class PPOAgent:
 
     def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
         """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
-        normalized over the whole batch once when ``normalize_advantage``."""
+        normalized over the whole batch once when ``normalize_advantage`` (``advantage_normalization:
+        minibatch``: in each minibatch's loss instead)."""
         advantages = storage.advantages.sum(-1)
         if self.advantage_stats is not None:
             return self.advantage_stats.normalize(advantages)
-        if self.cfg.normalize_advantage:
+        if self.cfg.normalize_advantage and self.cfg.advantage_normalization == "batch":
             advantages = normalize_advantages(advantages)
         return advantages
 

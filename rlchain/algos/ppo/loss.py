@@ -13,7 +13,7 @@ from contextlib import nullcontext
 
 import torch
 
-from rlchain.algos.core.losses import aux_loss_terms, value_loss
+from rlchain.algos.core.losses import aux_loss_terms, normalize_advantages, value_loss
 from rlchain.algos.core.storage import Batch
 from rlchain.config.ppo import PPOConfig
 from rlchain.models.actor_critic import ActorCritic
@@ -54,7 +54,10 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
         aux = {name: value.float() for name, value in aux.items()}
     log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
     entropy = entropy.mean()
-    a_loss = surrogate(batch.log_probs, log_probs, batch.advantages).mean()
+    advantages = batch.advantages
+    if cfg.normalize_advantage and cfg.advantage_normalization == "minibatch" and advantages.numel() > 1:
+        advantages = normalize_advantages(advantages)  # Stable-Baselines3's: per minibatch
+    a_loss = surrogate(batch.log_probs, log_probs, advantages).mean()
     if train_critic:
         c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
                             cfg.e_clip, cfg.clip_value).mean()
