@@ -8,7 +8,8 @@ Modes:
   row-wise right after the step (see ``_SAME_STEP_RESETTERS``).
 - ``sync``: ``SyncVectorEnv`` with ``AutoresetMode.SAME_STEP``, one process.
 - ``async``: ``AsyncVectorEnv`` with ``AutoresetMode.SAME_STEP``, one subprocess per env.
-- ``auto``: ``native`` when available for this id and kwargs (and not rendering), else ``sync``.
+- ``auto``: ``native`` when available for this id and kwargs (and not rendering, and more than one env), else
+  ``sync``.
 
 Action masks: sub-envs' ``has_action_mask()`` / ``get_action_mask()`` are queried with the vector
 env's ``call`` (native: the vector env's own methods); Dict observations are flattened per sub-env
@@ -107,8 +108,8 @@ class GymnasiumVecEnv:
         if mode == "native" and (native is None or render):
             why = "rendering needs sync" if render else "no same-step native vector env for these kwargs"
             raise ValueError(f"'{env_id}' can't use the native gymnasium vector env: {why}")
-        if mode == "auto":
-            mode = "native" if native is not None and not render else "sync"
+        if mode == "auto":  # one env: the plain env steps in half the native vector env's time (CartPole)
+            mode = "native" if native is not None and not render and num_envs > 1 else "sync"
         if render:
             kwargs["render_mode"] = "human"
         self.mode = mode
