@@ -28,10 +28,10 @@ def _epochs() -> tuple[list[dict[str, float]], object]:
 
 def test_the_graph_path_learns_what_the_eager_path_does(monkeypatch):
     eager, eager_ppo = _epochs()
-    assert not eager_ppo.agent.graphed and eager_ppo.graphed_act is None
+    assert not eager_ppo.agent.graphed and eager_ppo.collector.graphed_act is None
     _forced(monkeypatch)
     graphed, ppo = _epochs()
-    assert ppo.agent.graphed and ppo.graphed_act is not None
+    assert ppo.agent.graphed and ppo.collector.graphed_act is not None
     for a, b in zip(eager, graphed):
         for key in KEYS:
             assert b[key] == pytest.approx(a[key], rel=1e-4, abs=1e-6), key

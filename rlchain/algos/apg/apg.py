@@ -59,7 +59,7 @@ class APG(AlgorithmBase):
         cfg = self.cfg
         self.model.train()
         self.segment = {"rewards": [], "dones": [], "entropies": []}
-        self.collector.obs = self.obs
+        self.collector.place(self.obs)
         if not self.collector.rollout():
             return False
         segment = self.segment
@@ -71,7 +71,8 @@ class APG(AlgorithmBase):
         self.stats.update(objective=float(objective.detach()), entropy=float(mean_entropy.detach()),
                           loss=float(loss.detach()))
         self.segment = {}
-        self.obs = self.collector.obs = self.env.detach_state()
+        self.obs = self.env.detach_state()
+        self.collector.place(self.obs)
         return True
 
     def _act(self, t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:

@@ -146,7 +146,7 @@ class FragmentRunner:
                                "terminated": [], "truncated": [], "final_steps": [], "final_obs": [],
                                "returns": [], "lengths": [], "successes": []}
         version = self.version
-        collector.obs = self.obs
+        collector.place(self.obs)
         complete = collector.rollout()
         self.obs = collector.obs
         if not complete:

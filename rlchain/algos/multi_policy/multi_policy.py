@@ -86,7 +86,7 @@ class MultiPolicyPPO(AlgorithmBase):
     def collect(self) -> bool:
         """horizon_length env steps (the on-policy collector); every trained policy's storage gets its agents'
         rows."""
-        self.collector.obs = self.obs  # per-agent views, as the env gives them
+        self.collector.place(self.obs)  # per-agent views, as the env gives them
         complete = self.collector.rollout()
         self.obs = self.collector.obs
         if not complete:

@@ -109,9 +109,8 @@ def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, 
         resets[0] = step.outcome[3]
 
     collector = OnPolicyCollector(trainer.env, model, ctx, cfg, act=act, record=ctx.step_outcome, on_step=on_step)
-    collector.obs = trainer.obs
-    collector.rnn_states = (tuple(model.initial_state(n, trainer.device))
-                            + tuple(teacher.initial_state(n, trainer.device)))
+    collector.place(trainer.collector.obs, (tuple(model.initial_state(n, trainer.device))
+                                            + tuple(teacher.initial_state(n, trainer.device))))
     loss = torch.zeros(())
     for _ in range(epochs):
         rows.clear(), targets.clear(), starts.clear()
@@ -133,6 +132,6 @@ def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, 
             opt.step()
         model.eval()
     model.zero_grad(set_to_none=True)
-    trainer.reset_states()
-    trainer.obs = ctx.reset_envs()  # fresh episodes: the statistics start with training
+    trainer.collector.reset_states()
+    trainer.collector.place(ctx.reset_envs())  # fresh episodes: the statistics start with training
     return float(loss.detach())
