@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.ppo import trainer as ppo_trainer
+from rlchain.algos.ppo import ppo as ppo_module
 from tests.conftest import CONFIGS, ppo_epochs
 
 pytestmark = pytest.mark.smoke
@@ -18,7 +18,7 @@ CONFIG = os.path.join(CONFIGS, "ppo_torch_pendulum.yaml")  # continuous: kl_refe
 
 
 def _forced(monkeypatch):
-    monkeypatch.setattr(ppo_trainer, "resolve_cuda_graph", lambda *args: True)
+    monkeypatch.setattr(ppo_module, "resolve_cuda_graph", lambda *args: True)
 
 
 def _epochs() -> tuple[list[dict[str, float]], object]:
