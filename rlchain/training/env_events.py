@@ -9,6 +9,7 @@ import importlib
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
 from rlchain.policy.recording import gym_id_of
 from rlchain.training.events import Callback
@@ -28,7 +29,7 @@ def _function(spec: str, source: str) -> Any:
     return fn
 
 
-def _user_env(env: Any) -> Any:
+def _user_env(env: VecEnv) -> Any:
     """The EmbodiChain-contract env behind rlchain's adapter (rlchain.envs.backends.embodichain_env), else env."""
     return env.__dict__.get("env", env) if type(env).__name__ == "EmbodiChainVecEnv" else env
 

@@ -24,6 +24,7 @@ from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterr
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger, train_hint
 from rlchain.parallel import communicator
@@ -75,7 +76,7 @@ def _view(path: str, doc: str) -> property:
 class Loop:
     """The training loop of one run: it builds ``algorithm(params, env, model, ctx)`` and drives it."""
 
-    def __init__(self, params: Params, algorithm: AlgorithmFactory, env: Any, model: torch.nn.Module,
+    def __init__(self, params: Params, algorithm: AlgorithmFactory, env: VecEnv, model: torch.nn.Module,
                  device: torch.device, run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
                  comm: Communicator | None = None, checked: bool = False, resuming: bool = False) -> None:
         """``checked``: the caller ran ``algorithm.check_config`` on this env already (the Runner does, before

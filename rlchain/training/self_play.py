@@ -28,6 +28,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.ppo import SelfPlayConfig
 from rlchain.envs.spec import env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
 from rlchain.training.events import Callback
 
@@ -62,7 +63,7 @@ class SelfPlayCallback(Callback):
 
     drives_trainer = True  # reads the episode tracker's finished games
 
-    def __init__(self, cfg: SelfPlayConfig, env: Any, source: str = "") -> None:
+    def __init__(self, cfg: SelfPlayConfig, env: VecEnv, source: str = "") -> None:
         spec = env_spec(env)
         if not spec.self_play:
             raise ConfigError(source, KEY, "needs an env with set_opponent(policy, env_ids) (for example "

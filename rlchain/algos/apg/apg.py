@@ -22,6 +22,7 @@ from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 
 
@@ -34,7 +35,7 @@ class APG(AlgorithmBase):
     console_fields = (("objective", "objective {:.3g}"), ("grad_norm", "grad {:.3g}"))
     tunable = ("learning_rate", "entropy_coef", "grad_norm", "gamma")
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         if not ctx.spec.tensor_native or not callable(getattr(env, "detach_state", None)):
             raise ConfigError(params.source, "params.config.env_name",

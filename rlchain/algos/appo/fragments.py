@@ -20,6 +20,7 @@ import torch
 
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
 
@@ -74,7 +75,7 @@ class FragmentRunner:
                  step_delay_s: float = 0.0) -> None:
         self.recipe, self.worker, self.start, self.num_envs, self.horizon = recipe, worker, start, num_envs, horizon
         self.step_delay_s = step_delay_s
-        self.env: Any = None
+        self.env: VecEnv | None = None
         self.model: torch.nn.Module | None = None
         self.version = -1
         self.obs: torch.Tensor | None = None

@@ -36,6 +36,7 @@ from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
 
 
 @runtime_checkable
@@ -142,7 +143,7 @@ class AlgorithmBase:
     # the learner of the epoch boundary); an algorithm without it finishes its update first
     interruptible_update: ClassVar[bool] = False
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         self.params, self.env, self.model, self.ctx = params, env, model, ctx
         self.cfg = ctx.cfg
         self.device = ctx.device

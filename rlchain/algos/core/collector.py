@@ -37,7 +37,7 @@ import torch
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import ALL
 from rlchain.envs.spec import check_obs_shape
-from rlchain.envs.vecenv import dropped_rows
+from rlchain.envs.vecenv import VecEnv, dropped_rows
 from rlchain.networks.rnn import zero_finished
 
 
@@ -126,7 +126,7 @@ class OnPolicyCollector:
     :meth:`place` and :meth:`reset_states`.
     """
 
-    def __init__(self, env: Any, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
+    def __init__(self, env: VecEnv, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
                  use_masks: bool = False, pipeline_choice: PipelineChoice | None = None, horizon: int | None = None,
                  act: ActFn | None = None, to_env: Callable[[Any], Any] | None = None,
                  record: Callable[[Any, slice], StepOutcome | None] | None = None,

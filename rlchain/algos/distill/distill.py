@@ -37,7 +37,7 @@ from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
 from rlchain.config.resolve import config_state
-from rlchain.envs.vecenv import DROPPED
+from rlchain.envs.vecenv import DROPPED, VecEnv
 from rlchain.errors import DivergenceError
 
 
@@ -109,7 +109,7 @@ class Distill(AlgorithmBase):
     tunable = ("learning_rate",)
     supports_distributed = True  # multi_gpu: gradients averaged over the ranks, the student's normalizer pooled
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg: DistillConfig = self.cfg
         self.teacher = load_teacher(params, env, self.device)

@@ -11,7 +11,6 @@ are averaged over the ranks before clipping."""
 from __future__ import annotations
 
 import copy
-from typing import Any
 
 import torch
 
@@ -24,6 +23,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.grpo import GRPOConfig
 from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
 
@@ -45,7 +45,7 @@ class GRPO(PPO):
         if spec.num_agents != 1:
             raise ConfigError(params.source, "params.algo.name", "grpo trains single-agent envs")
 
-    def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: ActorCritic, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg = self.cfg
         if model.is_rnn:

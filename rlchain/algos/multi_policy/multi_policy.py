@@ -28,6 +28,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY
 from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
 
@@ -46,7 +47,7 @@ class MultiPolicyPPO(AlgorithmBase):
         _check_supported(params)
         check_batch(params.config, params.source, spec.num_agents)
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.ModuleDict, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.ModuleDict, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         device = self.device
         if ctx.comm.active:

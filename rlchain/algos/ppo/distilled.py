@@ -20,13 +20,14 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.params import Params
 from rlchain.config.resolve import params_from_state
+from rlchain.envs.vecenv import VecEnv
 from rlchain.models.build import build_model, model_view
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.distilled_checkpoint"
 
 
-def load_distilled(params: Params, env: Any, model: Any, device: torch.device) -> Any:
+def load_distilled(params: Params, env: VecEnv, model: Any, device: torch.device) -> Any:
     """Load the distilled student into ``model``; returns the frozen teacher (a model) when
     ``distilled_value`` is ``teacher``, else None. One-line ConfigErrors naming the key."""
     cfg, source = params.config, params.source

@@ -26,6 +26,7 @@ from rlchain.config.params import Params
 from rlchain.config.ppo import PPOConfig
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
@@ -83,7 +84,7 @@ class PPO(AlgorithmBase):
             env.close()
             raise
 
-    def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: ActorCritic, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
@@ -291,7 +292,7 @@ class PPO(AlgorithmBase):
         return self.cfg.horizon_length * (self.num_envs // ctx.num_agents) * ctx.world_size
 
 
-def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
+def _check_action_masks(use_action_masks: bool, env: VecEnv, source: str) -> bool:
     """With use_action_masks the env must provide masks; a one-line ConfigError otherwise."""
     if not use_action_masks:
         return False
@@ -311,7 +312,7 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
 
 
-def _value_size(env: Any) -> int:
+def _value_size(env: VecEnv) -> int:
     return env_spec(env).value_size
 
 
