@@ -208,11 +208,9 @@ def handles_env_steps(callback: Callback) -> bool:
 class EnvStatsCallback(Callback):
     """Writes an env backend's counters, ``env.log_stats()`` (e.g. ``env/dropped_episodes``), every epoch."""
 
-    drives_trainer = True  # reads the training env itself
-
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        for tag, value in trainer.env.log_stats().items():
-            trainer.logger.scalar(tag, float(value), trainer.frames)
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        for tag, value in ctx.training_env.log_stats().items():
+            ctx.scalar(tag, float(value))
 
 
 class CallbackList:
