@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import torch
 
@@ -47,6 +47,19 @@ __all__ = ["Loop", "TrainResult", "AlgorithmFactory", "tag_metrics", "to_device"
 log = get_logger(__name__)
 
 AlgorithmFactory = type[Algorithm]
+
+
+@runtime_checkable
+class InterruptibleUpdate(Protocol):
+    """Optional part of an :class:`~rlchain.algos.base.algorithm.Algorithm`: with ``interruptible_update`` True
+    its ``update`` may raise UpdateInterrupted between minibatches on a stop signal (PPO); the Loop then puts
+    back the learners (:meth:`learners`) of the epoch boundary. An algorithm without it finishes its update."""
+
+    interruptible_update: ClassVar[bool]
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """(model, agent) pairs the update trains."""
+        ...
 """What is registered as an algo: its class, built as ``cls(params, env, model, ctx)``."""
 
 
@@ -244,7 +257,7 @@ class Loop:
         An algorithm that leaves its update on a stop signal (``interruptible_update``) gets the learner of
         the epoch boundary back, so the checkpoint then written resumes exactly."""
         algo = self.algorithm
-        interruptible = getattr(algo, "interruptible_update", False) and not self.ctx.comm.active
+        interruptible = isinstance(algo, InterruptibleUpdate) and algo.interruptible_update and not self.ctx.comm.active
         if interruptible:
             self.backup.capture(algo.learners())
         try:

@@ -7,7 +7,7 @@ resuming from it (:meth:`~CheckpointSaver.restore`). The file itself (atomic wri
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import RunContext
@@ -23,6 +23,19 @@ from rlchain.version import __version__
 
 log = get_logger(__name__)
 
+
+@runtime_checkable
+class CheckpointState(Protocol):
+    """Optional part of an :class:`~rlchain.algos.base.algorithm.Algorithm`: what its checkpoints carry beyond
+    the model, the agent and the counters (PPO: the central value, RND; SAC: the replay buffer)."""
+
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """What a checkpoint of ``kind`` (best, last, ep_N) carries beyond the model, the agent and the counters."""
+        ...
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`extra_state` added."""
+        ...
 
 class CheckpointSaver:
     """The checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
@@ -56,7 +69,8 @@ class CheckpointSaver:
         }
         if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
             state["ranks"] = boundary["ranks"]
-        state.update(algo.extra_state(kind))
+        if isinstance(algo, CheckpointState):
+            state.update(algo.extra_state(kind))
         if self.run is not None and self.run.layout == "embodichain":
             state.update(embodichain_keys(state))
         get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum
@@ -195,7 +209,8 @@ class CheckpointSaver:
                 algo.apply_hyperparam(key, value)
         self.best_reward = float(state["best_reward"])
         ctx.tracker.load_state_dict(state["episodes"])
-        algo.restore_extra(state)
+        if isinstance(algo, CheckpointState):
+            algo.restore_extra(state)
         self.point.restore(state)
         self.frames_seen = ctx.frames
         set_env_state = getattr(ctx.env, "set_env_state", None)
