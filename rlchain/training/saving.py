@@ -15,7 +15,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint, rl_games_layout, rl_games_sac_checkpoint
+from rlchain.runs import rl_games_checkpoint, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -149,44 +149,23 @@ class CheckpointSaver:
         """A converted rl_games checkpoint completed for resume: its optimizer state (PPO's one, SAC's three) on
         this agent's parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
         none), so the envs start new episodes."""
-        agent = self.algorithm.agent.state_dict()
-        if "rl_games_optimizer" in state and "optimizer" in agent:
-            names = [n for n, p in self.algorithm.model.named_parameters() if p.requires_grad]
-            try:
-                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names)
-            except ValueError as exc:
-                raise ckpt.CheckpointError(f"{path}: {exc}") from None
-            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
-        state = self._rl_games_central_value(state, path)
-        if "rl_games_sac_optimizers" in state:
-            try:
-                agent = rl_games_sac_checkpoint.optimizer_states(state, agent)
-            except (KeyError, ValueError) as exc:
-                raise ckpt.CheckpointError(f"{path}: the rl_games SAC optimizers do not fit this agent: {exc}") \
-                    from None
+        algo = self.algorithm
+        cv_agent = getattr(algo, "cv_agent", None)  # PPO's central value, its file's optimizer put on it
+        cv = cv_agent is not None and "central_value" in state
+        try:
+            agent, cv_state = rl_games_checkpoint.resume_agent_states(
+                state, algo.agent.state_dict(), _trainable_names(algo.model),
+                cv_agent.state_dict() if cv else None, _trainable_names(algo.central_value) if cv else None)
+        except ValueError as exc:
+            raise ckpt.CheckpointError(f"{path}: {exc}") from None
+        if cv_state is not None:
+            state = {**state, "central_value_agent": cv_state}
         if state.get("rl_games_unread"):
             log.warning(f"warning: {path}: rl_games' {', '.join(state['rl_games_unread'])} not read (rlchain starts "
                         f"them anew)")
         run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
                 "run_state": run_state, "live_config": {}}
-
-    def _rl_games_central_value(self, state: dict[str, Any], path: str) -> dict[str, Any]:
-        """An rl_games central value (``assymetric_vf_nets``) with its optimizer state on this run's central
-        value agent (a fresh one when the file has none); the file's central value is ignored without one."""
-        cv_agent = getattr(self.algorithm, "cv_agent", None)
-        if "central_value" not in state or cv_agent is None:
-            return state
-        agent = cv_agent.state_dict()
-        if "rl_games_cv_optimizer" in state:
-            names = [n for n, p in self.algorithm.central_value.named_parameters() if p.requires_grad]
-            try:
-                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names,
-                                                                         key="rl_games_cv_optimizer")
-            except ValueError as exc:
-                raise ckpt.CheckpointError(f"{path}: central value: {exc}") from None
-            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
-        return {**state, "central_value_agent": agent}
 
     def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
         """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
@@ -236,3 +215,8 @@ def storage_error(exc: BaseException) -> str:
         return exc.strerror
     text = " ".join(str(exc).split())[:200]
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _trainable_names(model: Any) -> list[str]:
+    """The names of ``model``'s trainable parameters, in order (an optimizer's parameter order)."""
+    return [name for name, p in model.named_parameters() if p.requires_grad]

@@ -21,7 +21,8 @@ from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.params import Params
 from rlchain.config.resolve import params_from_state
 from rlchain.envs.vecenv import VecEnv
-from rlchain.models.build import build_model, model_view
+from rlchain.models.build import model_view
+from rlchain.policy.load import load_policy
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.distilled_checkpoint"
@@ -63,9 +64,8 @@ def load_distilled(params: Params, env: VecEnv, model: Any, device: torch.device
                                                                    f"from a SAC teacher (no state value): use scratch")
     trained = model_view(teacher_params, space).indices  # the view the teacher was trained on
     teacher_groups = dataclasses.replace(groups, teacher=list(trained) if trained else None)
-    teacher = build_model(teacher_params, env, device, group="teacher", groups=teacher_groups)
-    ckpt.load_model_state(teacher, teacher_state, path)
-    teacher.eval()
+    teacher = load_policy(teacher_params, path, device=device, env=env, state=teacher_state, group="teacher",
+                          groups=teacher_groups).model  # in eval mode
     for p in teacher.parameters():
         p.requires_grad_(False)
     return teacher
