@@ -244,8 +244,9 @@ class FragmentRunner:
 
 class RunnerSide:
     """What the on-policy collector asks of its run, on a runner: no RunContext there (the learner's is in
-    another thread or process), so the runner answers: CPU tensors, numpy actions, its own episode
-    bookkeeping (:meth:`FragmentRunner.record`), a kill as the stop signal."""
+    another thread or process), so the runner answers: CPU tensors, its own episode
+    bookkeeping (:meth:`FragmentRunner.record`), a kill as the stop signal; actions in the form the runner's env
+    takes (its spec's ``to_env``)."""
 
     device = torch.device("cpu")
     epoch = 0
@@ -259,9 +260,6 @@ class RunnerSide:
 
     def to_tensor(self, x: Any) -> torch.Tensor:
         return torch.as_tensor(np.asarray(x))
-
-    def env_actions(self, actions: torch.Tensor) -> np.ndarray:
-        return actions.numpy()
 
     def record_step(self, result: Any, rows: slice) -> StepOutcome:
         return self.runner.record(result)

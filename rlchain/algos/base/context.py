@@ -154,10 +154,6 @@ class RunContext:
         """``x`` as a tensor on the training device (:func:`to_device`)."""
         return to_device(x, self.device)
 
-    def env_actions(self, actions: torch.Tensor) -> Any:
-        """Tensor envs take device tensors; numpy backends take arrays."""
-        return actions if self.spec.tensor_native else actions.cpu().numpy()
-
     def record_step(self, result: Any, rows: slice = slice(None)) -> StepOutcome:
         """Record an env step in the run -- episode statistics (finished episodes as whole games: Atari
         lives; episodes cut by a dead Ray worker dropped), task success, info means, ``on_env_step``

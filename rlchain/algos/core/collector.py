@@ -115,7 +115,7 @@ class OnPolicyCollector:
 
     The hooks (each optional; the default in brackets): ``act`` (:class:`ActFn`) [the model's act step,
     with the central value's values and states], ``to_env`` (model-format actions -> what ``env.step``
-    takes) [``ctx.env_actions(model.dist.to_env(actions))``], ``record`` (``(result, rows) -> StepOutcome``
+    takes) [``ctx.spec.to_env(model.dist.to_env(actions))``], ``record`` (``(result, rows) -> StepOutcome``
     or None) [``ctx.record_step``], ``read_obs`` (the env's observations -> what the next step acts on)
     [``ctx.to_tensor``], ``on_step`` (called with every :class:`CollectedStep` once the step is recorded),
     ``differentiable`` [False: the model acts in eval mode; True: its mode is left as it is and nothing is
@@ -192,7 +192,7 @@ class OnPolicyCollector:
 
     def env_format(self, actions: torch.Tensor) -> Any:
         """The default env format of model-format ``actions``: the distribution's, on the env's side."""
-        return self.ctx.env_actions(self.model.dist.to_env(actions))
+        return self.ctx.spec.to_env(self.model.dist.to_env(actions))
 
     def _action_masks(self) -> torch.Tensor | None:
         """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""

@@ -31,7 +31,7 @@ class OffPolicyStepper:
         """Step every env with ``actions`` (the model's format) from ``obs``; returns the next observations."""
         ctx, model = self.ctx, self.model
         rs = self.cfg.reward_shaper
-        result = self.env.step(ctx.env_actions(model.dist.to_env(actions)))
+        result = self.env.step(ctx.spec.to_env(model.dist.to_env(actions)))
         rewards, terminated, truncated, dones = ctx.record_step(result)
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
