@@ -3,13 +3,11 @@ gym_config file whose ``id`` names one) -> rlchain's ``env_name`` and ``env_conf
 
 from __future__ import annotations
 
-import json
 import os
 from typing import Any
 
-import yaml
-
 from rlchain.config.errors import ConfigError
+from rlchain.config.text import read_data
 from rlchain.errors import did_you_mean
 from rlchain.registry import ENVS
 
@@ -35,8 +33,7 @@ def resolve_env(trainer: dict, source: str) -> tuple[str, dict[str, Any]]:
                                                             "folder and above the config); or name a registered "
                                                             f"env{did_you_mean(value, ENVS.names())}")
         return _registered(value, "trainer.gym_config", source, None), {}
-    with open(path, encoding="utf-8") as fh:
-        data = json.load(fh) if path.endswith(".json") else yaml.safe_load(fh)
+    data = read_data(path)
     if not isinstance(data, dict) or "id" not in data:
         raise ConfigError(path, "id", "a gym_config file names its task under 'id'")
     return _registered(str(data["id"]), "trainer.gym_config", source, path), {}

@@ -113,6 +113,8 @@ def parse_value(tp: Any, value: Any, path: str, source: str, meta: typing.Mappin
     elif tp is str:
         if isinstance(value, (dict, list)):
             raise ConfigError(source, path, f"expected a string, got {value!r}")
+        if value is None:  # str(None) would be the folder / name 'None'
+            raise ConfigError(source, path, "expected a string, got null (leave the key out for its default)")
         out = str(value)
     elif tp is Any:
         out = value

@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
-import json
 import os
 from typing import Any
 
@@ -23,6 +22,7 @@ from rlchain.config.multi_agent import KEY, RUN_LEVEL_KEYS, PolicySpec, check_mu
 from rlchain.config.network import NetworkConfig, ResnetNetworkConfig
 from rlchain.config.network_block import check_planned, check_registered, network_name, parse_network
 from rlchain.config.params import NamedBlock, Params
+from rlchain.config.text import MAX_NESTING, AliasFound, NoAliasLoader, nesting, read_data
 from rlchain.errors import did_you_mean
 from rlchain.registry import ALGOS, MODELS, NETWORKS
 
@@ -30,28 +30,6 @@ from rlchain.registry import ALGOS, MODELS, NETWORKS
 def check_malloc(value: str) -> str | None:
     """``params.malloc``: keep or default (rlchain.parallel.memory)."""
     return None if value in ("keep", "default") else f"expected keep or default, got {value!r}"
-
-
-def syntax_error(exc: Exception, text: str) -> str:
-    """A YAML / JSON syntax error as ``line L, column C: problem``, then the offending line and a caret under
-    the column (the parser's own message, flattened, when it gives no position)."""
-    if isinstance(exc, json.JSONDecodeError):
-        line, column, problem = exc.lineno, exc.colno, exc.msg
-    else:
-        mark = getattr(exc, "problem_mark", None)
-        if mark is None:
-            return " ".join(str(exc).split())
-        line, column = mark.line + 1, mark.column + 1
-        context = getattr(exc, "context", None)
-        problem = f"{getattr(exc, 'problem', None) or 'syntax error'}" + (f" ({context})" if context else "")
-    lines = text.splitlines()
-    where = f"line {line}, column {column}: {problem}"
-    if line > len(lines):
-        return f"{where} (at the end of the file)"
-    shown = lines[line - 1] if line > 0 else ""
-    if not shown.strip():
-        return where  # a blank line and a caret under it would say nothing more
-    return f"{where}\n    {shown}\n    {' ' * (column - 1)}^"
 
 
 SEED_RANGE = 2**32
@@ -62,81 +40,14 @@ def check_seed(value: int) -> str | None:
     return None if 0 <= value < SEED_RANGE else "must be in 0 .. 2**32 - 1"
 
 
-class _NoAliasLoader(yaml.SafeLoader):
-    """YAML without aliases (``*name``): a config has no need for them, and nested aliases expand
-    exponentially (a few lines can describe more data than memory holds)."""
-
-    def compose_node(self, parent: Any, index: Any) -> Any:
-        if self.check_event(yaml.AliasEvent):
-            event = self.peek_event()
-            raise _AliasFound(f"line {event.start_mark.line + 1}: YAML alias *{event.anchor} is not allowed in a "
-                              f"config (write the value out, or use a key.path=value override)")
-        return super().compose_node(parent, index)
-
-
-class _AliasFound(Exception):
-    pass
-
-
 def load_raw(path: str) -> dict[str, Any]:
     """Read a YAML or JSON config file into a dict (``.json`` is JSON, anything else YAML, aliases refused)."""
     if not os.path.isfile(path):
         raise ConfigError(path, "", "config file not found")
-    with open(path, "rb") as fh:
-        blob = fh.read()
-    try:
-        text = blob.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ConfigError(path, "", f"not UTF-8 text (byte 0x{blob[exc.start]:02x} at offset {exc.start}); a "
-                                    f"config is a YAML or JSON text file") from None
-    depth = _nesting(text)
-    if depth > 4 * MAX_NESTING:  # before parsing, which recurses per level (brackets in strings count: a margin)
-        raise ConfigError(path, "", f"nested {depth} levels deep (brackets or braces); a config nests at most "
-                                    f"{MAX_NESTING}")
-    try:
-        data = json.loads(text) if path.endswith(".json") else yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506
-    except _AliasFound as exc:
-        raise ConfigError(path, "", str(exc)) from None
-    except (json.JSONDecodeError, yaml.YAMLError) as exc:
-        raise ConfigError(path, "", f"cannot parse file: {syntax_error(exc, text)}") from None
-    except RecursionError:  # nesting by indentation, which the bracket count does not see
-        raise ConfigError(path, "", f"nested too deeply; a config nests at most {MAX_NESTING} levels") from None
-    if _depth(data) > MAX_NESTING:
-        raise ConfigError(path, "", f"nested more than {MAX_NESTING} levels deep; a config nests at most "
-                                    f"{MAX_NESTING}")
+    data = read_data(path)
     if not isinstance(data, dict):
         raise ConfigError(path, "", "expected a mapping with a top-level 'params' key")
     return data
-
-
-MAX_NESTING = 64
-"""Levels of lists and mappings a config may nest (rlchain's deepest block nests about 8)."""
-
-
-def _nesting(text: str) -> int:
-    """The deepest run of unclosed ``[`` / ``{`` in ``text`` (quotes not parsed: an over-estimate at worst
-    only for configs holding thousands of brackets inside strings)."""
-    depth = deepest = 0
-    for char in text:
-        if char in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif char in "]}" and depth:
-            depth -= 1
-    return deepest
-
-
-def _depth(value: Any) -> int:
-    """How many lists / mappings deep ``value`` nests, counted without recursion."""
-    deepest, stack = 0, [(value, 1)]
-    while stack:
-        node, level = stack.pop()
-        if isinstance(node, (dict, list)):
-            if level > MAX_NESTING:
-                return level
-            deepest = max(deepest, level)
-            stack.extend((child, level + 1) for child in (node.values() if isinstance(node, dict) else node))
-    return deepest
 
 
 def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
@@ -151,9 +62,11 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
         parts = key.strip().split(".")
         if parts[0] != "params":
             parts = ["params", *parts]
+        if nesting(text) > MAX_NESTING:
+            raise ConfigError(source, key.strip(), f"the value nests more than {MAX_NESTING} levels deep")
         try:
-            value = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506
-        except _AliasFound as exc:
+            value = yaml.load(text, Loader=NoAliasLoader)  # noqa: S506
+        except AliasFound as exc:
             raise ConfigError(source, key.strip(), str(exc)) from None
         except yaml.YAMLError:
             value = text

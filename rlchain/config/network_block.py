@@ -23,7 +23,10 @@ def parse_network(network: Any, source: str, path: str = "params.network") -> An
     if not isinstance(network, dict):
         raise ConfigError(source, path, f"expected a mapping, got {network!r}")
     network = compat.translate_network(network, source, path)
-    config_class = network_config_class(network.get("name", "actor_critic"))
+    name = network.get("name", "actor_critic")
+    if not isinstance(name, str):
+        raise ConfigError(source, f"{path}.name", f"expected a network name (a string), got {name!r}")
+    config_class = network_config_class(name)
     if config_class is None:
         return network
     parsed = parse_dataclass(config_class, network, path, source)

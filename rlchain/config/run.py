@@ -169,8 +169,10 @@ def plain_name(value: Any) -> str | None:
         return "must be a non-empty name"
     if value.startswith("."):
         return "must not start with '.': it is a name, not a path"
-    if "/" in value or "\\" in value or ".." in value or "\0" in value:
+    if "/" in value or "\\" in value or ".." in value:
         return "must be a plain name without '/', '\\' or '..': it is a name, not a path"
+    if not value.isprintable():  # a newline, tab, NUL or other control character: a folder no shell shows right
+        return f"must be printable: {value!r} holds a control character (newline, tab, ...)"
     return None
 
 
@@ -253,7 +255,8 @@ class RunConfig:
     trust_checkpoint: bool = option(False, "rlchain: load the checkpoints this run reads (--checkpoint, a "
                                            "distillation teacher, watched ones) with full pickle, which runs any "
                                            "code stored in them; only for files you trust (same as "
-                                           "--trust-checkpoint; see docs/reliability.md, Trusting files)")
+                                           "--trust-checkpoint; never read from a checkpoint's stored config; "
+                                           "see docs/reliability.md, Trusting files)")
     player: PlayerConfig = option(PlayerConfig(), "settings for --play")
     evaluation: EvaluationConfig = option(EvaluationConfig(), "in-training evaluation (rlchain)")
     callbacks: list[str] = option([], "callbacks to load, each 'package.module:Name' (rlchain)")

@@ -28,11 +28,13 @@ def as_data(raw: dict[str, Any], source: str) -> tuple[dict[str, Any], list[str]
     """``raw`` (``{'params': ...}`` from a checkpoint) without the keys that name code, folders or trust, and
     the key paths dropped (for one warning line). An env name that would import a module (``pkg:Env-v0``)
     is a one-line ConfigError: the checkpoint cannot say which env to build without the user's config."""
-    out = copy.deepcopy(raw)
+    params = raw.get("params") if isinstance(raw, dict) else None
+    if not isinstance(params, dict):  # another layout (EmbodiChain's) would be translated, events and all
+        raise ConfigError(source, "params", "the stored config has no 'params' block; pass the config it was "
+                                            "trained with (--file)")
+    out = {"params": copy.deepcopy(params)}  # only the rl_games-style block: nothing else is read
     dropped: list[str] = []
-    params = out.get("params") if isinstance(out, dict) else None
-    if isinstance(params, dict):
-        _strip_params(params, "params", dropped, source)
+    _strip_params(out["params"], "params", dropped, source)
     return out, dropped
 
 

@@ -106,24 +106,30 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     view = model_view(params, space, "critic")
     state_shape = (view.size,)
     value_size = value_size_of(env)
-    try:
+    key = "params.config.central_value_config.network"
+
+    def build() -> CentralValue:
         if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
-            model = CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
-                                 params.config.normalize_value,
-                                 value_normalizer_kind=params.config.value_normalizer,
-                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
-        else:  # a registered network, given its block and rl_games' critic kwargs
-            block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
-            network = instantiate(NETWORKS.get(_network_name(cv.network)), block,
-                                  "params.config.central_value_config.network", actions_num=value_size,
-                                  input_shape=state_shape, value_size=value_size,
-                                  num_seqs=params.config.num_actors, observation_space=view.space)
-            model = CentralValue(None, state_shape, value_size, cv.normalize_input,
-                                 params.config.normalize_value, network=network,
-                                 value_normalizer_kind=params.config.value_normalizer,
-                                 obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+            return CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
+                                params.config.normalize_value,
+                                value_normalizer_kind=params.config.value_normalizer,
+                                obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+        # a registered network, given its block and rl_games' critic kwargs
+        block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
+        network = instantiate(NETWORKS.get(_network_name(cv.network)), block, key, actions_num=value_size,
+                              input_shape=state_shape, value_size=value_size,
+                              num_seqs=params.config.num_actors, observation_space=view.space)
+        return CentralValue(None, state_shape, value_size, cv.normalize_input,
+                            params.config.normalize_value, network=network,
+                            value_normalizer_kind=params.config.value_normalizer,
+                            obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+
+    try:
+        model = build_within_memory(build, device, params.source, key)
+    except ConfigError:
+        raise
     except ValueError as exc:
-        raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
+        raise ConfigError(params.source, key, str(exc)) from None
     model.obs_slice = view.selector()
     return model.to(device)
 

@@ -8,6 +8,7 @@ import pickle
 import random
 import re
 import threading
+import zipfile
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -103,6 +104,25 @@ def _refused_type(path: str, exc: Exception) -> str:
         return ""
 
 
+def _reason(path: str, exc: Exception) -> str:
+    """Why torch could not read ``path``, in a few words: never torch's advice to load with
+    ``weights_only=False`` (running the file's code is the user's call, made with --trust-checkpoint)."""
+    with open(path, "rb") as fh:
+        head = fh.read(2)
+    if not zipfile.is_zipfile(path):  # torch.save's format since torch 1.6; before: a protocol-2 pickle
+        if head[:1] != b"\x80":
+            return "neither a zip archive (torch.save) nor a pickle: not a checkpoint, or the start of it is lost"
+        if head != b"\x80\x02":
+            return (f"a plain Python pickle (protocol {head[1]}), not a file torch.save wrote; rlchain reads "
+                    f"checkpoints as data only")
+    text = str(exc)
+    inner = re.search(r"WeightsUnpickler error:(.*?)(Check the documentation|$)", text, re.S)
+    if inner or "weights_only" in text:
+        text = inner.group(1) if inner else "torch's data-only reader refused it"
+    text = " ".join(text.split())[:200]
+    return f"{type(exc).__name__}: {text}" if text else f"{type(exc).__name__}, no further detail"
+
+
 def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> dict[str, Any]:
     """Read a checkpoint written by rlchain as data (see :func:`read`); any other file is a one-line
     CheckpointError."""
@@ -125,6 +145,9 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
     with it is an error naming it."""
     if not os.path.isfile(path):
         raise CheckpointError(f"{path}: checkpoint not found")
+    if os.path.getsize(path) == 0:
+        raise CheckpointError(f"{path}: the file is empty (0 bytes), not a checkpoint: a write that never finished? "
+                              f"use another checkpoint")
     trust = is_trusted() if trusted is None else trusted
     try:
         if trust:
@@ -137,11 +160,9 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
         if name:
             raise CheckpointError(f"{path}: refused: it names the type '{name}', which is not checkpoint data "
                                   f"(tensors, arrays, numbers, strings, containers); {TRUST_HINT}") from None
-        raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
-                              f"{' '.join(str(exc).split())[:200]})") from None
+        raise CheckpointError(f"{path}: not a readable checkpoint ({_reason(path, exc)})") from None
     except Exception as exc:  # torch raises many types for a corrupt file
-        raise CheckpointError(f"{path}: not a readable checkpoint ({type(exc).__name__}: "
-                              f"{' '.join(str(exc).split())[:200]})") from None
+        raise CheckpointError(f"{path}: not a readable checkpoint ({_reason(path, exc)})") from None
     if not isinstance(state, dict):
         return state
     bad = digest.first_mismatch(state)

@@ -64,8 +64,41 @@ def decode_space(data: Any, path: str) -> gym.Space:
     raise ckpt.CheckpointError(f"{path}: not a stored space: {str(kind or type(data).__name__)[:60]}")
 
 
+ACTIVATION = "__torch_activation__"
+
+
+def encode_value(value: Any) -> Any:
+    """``value`` (policy_kwargs, hyperparameters) with torch's activation classes (SB3's
+    ``activation_fn=nn.ReLU``) stored by name; other values as they are."""
+    if isinstance(value, type) and issubclass(value, torch.nn.Module) \
+            and value.__module__ == torch.nn.modules.activation.__name__:
+        return {ACTIVATION: value.__name__}
+    if isinstance(value, dict):
+        return {k: encode_value(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(encode_value(v) for v in value)
+    return value
+
+
+def decode_value(value: Any, path: str) -> Any:
+    """:func:`encode_value` undone: a stored name is looked up among torch's activation classes only."""
+    if isinstance(value, dict) and set(value) == {ACTIVATION}:
+        module = torch.nn.modules.activation
+        cls = getattr(module, str(value[ACTIVATION]), None)
+        if not (isinstance(cls, type) and issubclass(cls, torch.nn.Module) and cls.__module__ == module.__name__):
+            raise ckpt.CheckpointError(f"{path}: '{str(value[ACTIVATION])[:60]}' is not a torch activation")
+        return cls
+    if isinstance(value, dict):
+        return {k: decode_value(v, path) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(decode_value(v, path) for v in value)
+    return value
+
+
 def save_model(state: dict[str, Any], spaces: tuple[gym.Space, gym.Space], path: str) -> None:
     """Write ``state`` (plain values and the policy's state_dict) and ``spaces`` atomically, with checksums."""
+    state = {**state, "policy_kwargs": encode_value(state.get("policy_kwargs")),
+             "hyperparameters": encode_value(state.get("hyperparameters"))}
     ckpt.save_atomic({**state, "format": FORMAT, "spaces": [encode_space(s) for s in spaces]}, path)
 
 
@@ -82,7 +115,9 @@ def load_model(path: str, algo: str) -> dict[str, Any]:
     spaces = state.get("spaces")
     if not isinstance(spaces, (list, tuple)) or len(spaces) != 2:
         raise ckpt.CheckpointError(f"{path}: no observation and action spaces stored")
-    return {**state, "spaces": tuple(decode_space(s, path) for s in spaces)}
+    return {**state, "spaces": tuple(decode_space(s, path) for s in spaces),
+            "policy_kwargs": decode_value(state.get("policy_kwargs"), path),
+            "hyperparameters": decode_value(state.get("hyperparameters"), path)}
 
 
 def load_weights(path: str) -> dict[str, torch.Tensor]:

@@ -142,3 +142,26 @@ def test_sb3_file_is_data_and_its_stored_trust_and_env_are_not_followed(tmp_path
     ckpt.save_atomic(state, path)
     with pytest.raises(ConfigError, match="env_id: 'rlchain_door_payload:Evil-v0' would import"):
         rlchain.SAC.load(path)
+
+
+def test_a_stored_config_in_another_layout_is_not_translated(tmp_path):
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=1, verbose=0, tensorboard_log=str(tmp_path / "runs"))
+    path = model.save(str(tmp_path / "ppo"))
+    state = ckpt.read(path)
+    state["config"] = {"trainer": {"events": {"train": {"x": {"func": "rlchain_door_payload:run"}}}}}  # EmbodiChain's
+    ckpt.save_atomic(state, path)
+    with pytest.raises(ConfigError, match="the stored config has no 'params' block"):
+        rlchain.PPO.load(path)
+
+
+def test_sb3_activation_fn_is_stored_by_name_and_read_back_from_torch_only(tmp_path):
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", policy_kwargs={"activation_fn": torch.nn.ReLU, "net_arch": [8]},
+                        verbose=0, tensorboard_log=str(tmp_path / "runs"))
+    path = model.save(str(tmp_path / "relu"))
+    assert rlchain.PPO.load(path).policy_kwargs["activation_fn"] is torch.nn.ReLU
+    state = ckpt.read(path)
+    assert state["policy_kwargs"]["activation_fn"] == {"__torch_activation__": "ReLU"}  # a name, not a class
+    state["policy_kwargs"]["activation_fn"] = {"__torch_activation__": "Module"}
+    ckpt.save_atomic(state, path)
+    with pytest.raises(ckpt.CheckpointError, match="'Module' is not a torch activation"):
+        rlchain.PPO.load(path)

@@ -161,3 +161,30 @@ def test_a_checkpoint_without_checksums_still_loads(tmp_path):
     path = str(tmp_path / "old.pth")
     torch.save({"format": ckpt.FORMAT, "model": {"w": torch.ones(2)}}, path)  # as rlchain wrote before
     assert torch.equal(ckpt.load(path)["model"]["w"], torch.ones(2))
+
+
+def test_every_shipped_checkpoint_carries_checksums():
+    from rlchain.runs import digest
+
+    shipped = sorted(glob.glob(os.path.join(ROOT, "rlchain", "checkpoints", "*.pth")))
+    assert shipped
+    for path in shipped:
+        raw = torch.load(path, map_location="cpu", weights_only=False)  # our own files: read raw to see the key
+        stored = raw.get(digest.KEY)
+        assert isinstance(stored, dict) and stored.get("algorithm") == digest.ALGORITHM, \
+            f"{path} has no checksums: rewrite it with rlchain.runs.checkpoint.save_atomic"
+        assert set(stored["tensors"]) == {p for p, _ in digest.tensors(raw)}, path
+
+
+def test_a_flipped_exponent_bit_in_a_shipped_checkpoint_is_one_line(tmp_path, capsys):
+    source = os.path.join(ROOT, "rlchain", "checkpoints", "cartpole.pth")
+    weight = next(v for v in ckpt.load(source)["model"].values() if v.numel() >= 64)
+    raw = bytearray(open(source, "rb").read())
+    at = bytes(raw).find(weight.numpy().tobytes())
+    assert at > 0
+    raw[at + 4 * 7 + 3] ^= 0x40  # an exponent bit: a weight of ~1e37, as the audit planted
+    path = tmp_path / "cartpole.pth"
+    path.write_bytes(raw)
+    assert main(["--play", "--checkpoint", str(path), "--games", "1", "params.config.device=cpu"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "does not match the checksum saved with it" in err, err

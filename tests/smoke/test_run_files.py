@@ -37,6 +37,32 @@ def test_a_run_name_that_is_a_path_is_a_config_error(tmp_path, key, value):
     assert "\n" not in str(exc.value)
 
 
+@pytest.mark.parametrize("value", ["ab\ncd", "a\tb", "a\rb", "a\x1bb", "a\x00b"])
+def test_a_run_name_with_a_control_character_is_a_config_error(tmp_path, value):
+    for key in ("name", "full_experiment_name"):
+        with pytest.raises(ConfigError, match=rf"params\.config\.{key}: must be printable") as exc:
+            Runner().load({"params": {**yaml_params(), "config": {**yaml_params()["config"], key: value,
+                                                                  "train_dir": str(tmp_path)}}})
+        assert "\n" not in str(exc.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_train_dir_null_is_a_config_error_not_a_folder_named_none(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["--train", "--file", CARTPOLE, *SMALL, "params.config.max_epochs=1",
+                 "params.config.train_dir=null"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("params.config.train_dir: expected a string, got null (leave the key out for its default)"), err
+    assert not (tmp_path / "None").exists()
+
+
+def yaml_params():
+    import yaml
+
+    with open(CARTPOLE, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)["params"]
+
+
 def test_the_run_folder_is_checked_inside_train_dir(tmp_path):
     with pytest.raises(OSError, match="not a folder directly inside train_dir"):
         create_run_dir(str(tmp_path / "runs"), "x", "../outside", {})

@@ -88,3 +88,33 @@ def test_the_folder_is_fsynced_after_the_rename(tmp_path, monkeypatch):
                                                         real(fd)))
     write_atomic(str(tmp_path / "f"), lambda fh: fh.write(b"x"))
     assert synced[-1] == str(tmp_path)  # the file first, then its folder (the rename's entry)
+
+
+class _Code:
+    def __reduce__(self):
+        return print, ("ran",)
+
+
+@pytest.mark.parametrize("protocol", [4, 5])
+def test_a_plain_pickle_is_named_without_torch_s_advice(tmp_path, protocol):
+    import pickle
+
+    for name, value in (("data", {"a": 1}), ("code", {"a": _Code()})):
+        path = tmp_path / f"{name}.pkl"
+        path.write_bytes(pickle.dumps(value, protocol=protocol))
+        with pytest.raises(ckpt.CheckpointError) as exc:
+            ckpt.read(str(path))
+        text = str(exc.value)
+        assert f"a plain Python pickle (protocol {protocol})" in text and "\n" not in text, text
+        assert "weights_only" not in text and "arbitrary code" not in text, text
+
+
+def test_an_empty_file_and_junk_say_so_plainly(tmp_path):
+    empty, junk = tmp_path / "empty.pth", tmp_path / "junk.pth"
+    empty.write_bytes(b"")
+    junk.write_bytes(b"hello world")
+    with pytest.raises(ckpt.CheckpointError, match=r"empty.pth: the file is empty \(0 bytes\)") as exc:
+        ckpt.read(str(empty))
+    assert "EOFError" not in str(exc.value)
+    with pytest.raises(ckpt.CheckpointError, match="neither a zip archive .* nor a pickle"):
+        ckpt.read(str(junk))

@@ -17,7 +17,7 @@ UNPICKLERS = {"torch": {"load"}, "pickle": {"load", "loads", "Unpickler"}, "clou
               "dill": {"load", "loads"}, "joblib": {"load"}, "numpy": {"load"}, "np": {"load"}, "marshal": {"loads"}}
 UNSAFE_YAML = {"unsafe_load", "full_load", "unsafe_load_all", "full_load_all", "Loader", "UnsafeLoader",
                "FullLoader", "load_all"}
-SAFE_LOADERS = {"SafeLoader", "CSafeLoader", "BaseLoader", "_NoAliasLoader"}
+SAFE_LOADERS = {"SafeLoader", "CSafeLoader", "BaseLoader", "NoAliasLoader"}
 # every site that unpickles bytes that are not a file: they come from rlchain's own Ray worker processes
 PICKLE_IPC = {
     "rlchain/envs/ray/ray_worker.py": "actions sent by the rlchain process that started the worker",
@@ -104,9 +104,9 @@ def test_files_are_unpickled_by_the_checkpoint_module_only():
 
 
 def test_the_listed_sites_still_exist_and_the_yaml_loader_is_safe():
-    from rlchain.config.load import _NoAliasLoader
+    from rlchain.config.text import NoAliasLoader
 
-    assert issubclass(_NoAliasLoader, yaml.SafeLoader)
+    assert issubclass(NoAliasLoader, yaml.SafeLoader)
     for rel in [*PICKLE_IPC, *IMPORT_SITES]:
         with open(os.path.join(ROOT, rel), encoding="utf-8") as fh:
             kinds = {kind for kind, _, _ in findings(ast.parse(fh.read(), rel))}
