@@ -41,8 +41,9 @@ class Callback:
     :class:`~rlchain.training.callback_context.CallbackContext`."""
 
     drives_trainer: ClassVar[bool] = False
-    """rlchain's own callbacks that steer the trainer itself (self-play opponents, the Ray Tune
-    stepper's checkpoint exchange, env backend counters) set it: they get the trainer, not a context."""
+    """True: the callback gets the Loop itself, not a context. No callback of rlchain's sets it (the context's
+    methods are what self-play, the Ray Tune stepper, env events and backend counters use); it is kept for
+    test instruments that read the loop's internals."""
 
     def on_train_start(self, ctx: CallbackContext) -> None:
         """Before the first rollout (after a resume restored its state)."""
