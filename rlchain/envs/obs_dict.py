@@ -52,8 +52,9 @@ class ObsDict(dict):
     def __getitem__(self, index: Any) -> Any:
         if isinstance(index, str):
             return super().__getitem__(index)
-        probe = torch.empty(self.shape, device="meta")[index]  # how many batch dims the index leaves
-        return self._map(lambda v: v[index], probe.dim())
+        out = {k: v[index] for k, v in self.items()}
+        first, picked = next(iter(self.values())), next(iter(out.values()))
+        return ObsDict(out, picked.dim() - (first.dim() - self.batch_dims))  # the batch dims the index leaves
 
     def __setitem__(self, index: Any, value: Any) -> None:
         if isinstance(index, str):

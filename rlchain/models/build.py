@@ -11,6 +11,7 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
+from rlchain.config.multi_input import MultiInputNetworkConfig
 from rlchain.config.network import NetworkConfig
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
@@ -98,6 +99,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     if cv is None:
         return None
     space = env.observation_space
+    if is_dict_space(space):  # Dict observations kept per key: a multi_input critic reads the keys it names
+        return _dict_central_value(params, cv, space, value_size_of(env), device)
     groups = getattr(params.config, "obs_groups", None)
     if obs_state_split(space) is None and getattr(groups, "critic", None) is None:
         raise ConfigError(params.source, "params.config.central_value_config", "the env has no central-value "
@@ -131,6 +134,24 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     except ValueError as exc:
         raise ConfigError(params.source, key, str(exc)) from None
     model.obs_slice = view.selector()
+    return model.to(device)
+
+
+def _dict_central_value(params: Params, cv: Any, space: gym.spaces.Dict, value_size: int,
+                        device: torch.device) -> CentralValue:
+    """The asymmetric critic on Dict observations kept per key: a ``multi_input`` network whose ``inputs`` pick
+    its keys (privileged state the actor's network leaves out with ``encoder: none``)."""
+    if not isinstance(cv.network, MultiInputNetworkConfig):
+        raise ConfigError(params.source, "params.config.central_value_config.network.name",
+                          f"the observations are a Dict kept per key ({', '.join(space.spaces)}): the central "
+                          f"value's network must be multi_input, its inputs naming the keys it reads")
+    try:
+        model = CentralValue(cv.network, space, value_size, cv.normalize_input, params.config.normalize_value,
+                             value_normalizer_kind=params.config.value_normalizer,
+                             obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
+                             obs_normalizer_exclude=tuple(getattr(params.config, "obs_normalizer_exclude", ())))
+    except ValueError as exc:
+        raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     return model.to(device)
 
 

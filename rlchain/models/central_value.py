@@ -3,6 +3,7 @@ the built-in ``actor_critic`` trunk with a value head, or a registered network (
 
 from __future__ import annotations
 
+import gymnasium as gym
 import torch
 import torch.nn as nn
 
@@ -12,14 +13,19 @@ from rlchain.models.base import ValueModel, value_normalizer
 from rlchain.models.normalization import obs_normalizer
 from rlchain.networks.actor_critic import Trunk
 from rlchain.networks.layers import activation, linear
+from rlchain.networks.multi_input import MultiInputEncoder
 
 
 class CentralValueNetwork(nn.Module):
     """state (B, *state_shape) -> value (B, value_size): a trunk (cnn, mlp) and a linear value head."""
 
-    def __init__(self, cfg: NetworkConfig, state_shape: tuple[int, ...], value_size: int) -> None:
+    def __init__(self, cfg: NetworkConfig, state_shape: tuple[int, ...] | gym.spaces.Dict, value_size: int) -> None:
         super().__init__()
-        self.trunk = Trunk(cfg, state_shape)
+        if isinstance(state_shape, gym.spaces.Dict):  # multi_input: its own encoder per key it reads
+            encoder = MultiInputEncoder(state_shape, cfg.inputs, "params.config.central_value_config.network")
+            self.trunk = Trunk(cfg, (), encoder=encoder)
+        else:
+            self.trunk = Trunk(cfg, state_shape)
         self.value = linear(self.trunk.out_size, value_size, cfg.mlp.initializer)
         self.value_act = activation(cfg.value_activation)
 
@@ -75,12 +81,14 @@ class CentralValue(ValueModel):
 
     def __init__(self, cfg: NetworkConfig | None, state_shape: tuple[int, ...], value_size: int,
                  normalize_input: bool, normalize_value: bool, network: nn.Module | None = None,
-                 value_normalizer_kind: str = "rl_games", obs_normalizer_kind: str = "rl_games") -> None:
+                 value_normalizer_kind: str = "rl_games", obs_normalizer_kind: str = "rl_games",
+                 obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None)."""
         super().__init__()
         self.network = CentralValueNetwork(cfg, state_shape, value_size) if network is None \
             else RegisteredCriticNetwork(network, value_size)
-        self.obs_norm = obs_normalizer(state_shape, obs_normalizer_kind) if normalize_input else None
+        self.obs_norm = obs_normalizer(state_shape, obs_normalizer_kind, obs_normalizer_exclude) \
+            if normalize_input else None
         self.value_norm = value_normalizer(value_size, normalize_value, value_normalizer_kind)
         self.fold_values = value_normalizer_kind == "rl_games"
 

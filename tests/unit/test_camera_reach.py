@@ -49,7 +49,8 @@ def test_proprio_observation_is_a_box_for_the_vector_only_baseline():
     assert env.reset().shape == (4, 4)
 
 
-@pytest.mark.parametrize("key, value", [("observation", "pixels"), ("image_size", 4), ("max_episode_steps", None)])
+@pytest.mark.parametrize("key, value", [("observation", "pixels"), ("image_size", 4), ("max_episode_steps", None),
+                                        ("privileged", "yes")])
 def test_wrong_env_config_values_name_the_key(key, value):
     with pytest.raises((ConfigError, ValueError), match=f"env_config.{key}"):
         make_vec_env("TorchCameraReach-v0", {key: value}, 2, 0, None)

@@ -81,3 +81,40 @@ def test_history_with_rnn_or_dim_not_dividing_by_heads_is_an_error():
         parse_params(raw, "cfg.yaml")
     with pytest.raises(ValueError, match="params.network.history.dim: 6 must divide by heads"):
         HistoryLayer(3, HistoryConfig(dim=6, heads=4))
+
+
+def test_onnx_export_takes_the_window_and_matches_torch_over_an_episode(tmp_path):
+    pytest.importorskip("onnxruntime")
+    import numpy as np
+
+    from rlchain import Runner
+    from rlchain.inference.export.onnx import OnnxPolicy, export_model_onnx, onnx_session
+    from rlchain.models.build import build_env, build_model
+    from tests.conftest import CONFIGS
+
+    params = Runner().load(f"{CONFIGS}/ppo_cartpole_masked_velocity_history.yaml").params
+    env = build_env(params, 1, 0)
+    torch.manual_seed(0)
+    model = build_model(params, env, torch.device("cpu")).eval()
+    model.update_normalizers(obs=torch.randn(64, *env.observation_space.shape))
+    path = export_model_onnx(model, env.observation_space.shape, str(tmp_path / "history.onnx"))
+    session = onnx_session(path)
+    policy = OnnxPolicy(model)
+    assert [i.name for i in session.get_inputs()] == ["obs", "rnn_state_0", "rnn_state_1"]
+    window = session.get_inputs()[1].shape
+    assert window[0] == 7 and window[2] == 32  # the last length - 1 steps' tokens
+    obs, states, onnx_states, diff, steps = env.reset(), policy.initial_state(1), None, 0.0, 0
+    onnx_states = [s.numpy() for s in states]
+    done = False
+    while not done and steps < 500:
+        with torch.no_grad():
+            action, value, *states = policy(torch.as_tensor(obs, dtype=torch.float32), *states)
+        got = session.run(None, {"obs": np.asarray(obs, np.float32), "rnn_state_0": onnx_states[0],
+                                 "rnn_state_1": onnx_states[1]})
+        for a, b in zip(got, (action, value, *states)):
+            diff = max(diff, float(np.abs(a.astype(np.float64) - b.numpy().astype(np.float64)).max()))
+        onnx_states = got[2:]
+        result = env.step(action.numpy())
+        obs, done, steps = result.obs, bool(result.terminated[0] or result.truncated[0]), steps + 1
+    env.close()
+    assert steps >= 8 and diff < 1e-5, (steps, diff)  # past the window's length: the window slides

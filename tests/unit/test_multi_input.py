@@ -135,3 +135,34 @@ def test_onnx_export_takes_one_named_input_per_key(tmp_path, extra):
     assert verify_onnx(model, path, random, session, steps=3) < 1e-5
     real = env.reset()
     assert verify_onnx(model, path, {k: v.numpy() for k, v in real.items()}, session) < 1e-5
+
+
+ASYMMETRIC = ["params.config.num_actors=4", "params.config.env_config.privileged=True",
+              "params.network.inputs.goal={encoder: none}",
+              "params.config.central_value_config={network: {name: multi_input, inputs: {image: {encoder: none}, "
+              "goal: {encoder: mlp, units: [8]}}, mlp: {units: [16]}}}"]
+
+
+def test_central_value_reads_its_own_keys():
+    from rlchain.models.build import build_central_value
+
+    params = Runner().load(CONFIG, ASYMMETRIC).params
+    env = build_env(params, 4, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    critic = build_central_value(params, env, torch.device("cpu"))
+    assert model.network.actor_trunk.cnn.keys == ("image", "proprio")  # the actor never reads the goal
+    assert critic.network.trunk.cnn.keys == ("goal", "proprio")  # the critic reads the privileged goal
+    obs = env.reset()
+    assert critic.value(obs).shape == (4, 1)
+    critic.update_normalizers(obs=obs)
+    assert set(critic.obs_norm.norms) == {"goal", "proprio"}
+
+
+def test_central_value_on_dict_observations_needs_multi_input():
+    from rlchain.models.build import build_central_value
+
+    over = [*ASYMMETRIC[:3], "params.config.central_value_config={network: {name: actor_critic, mlp: {units: [8]}}}"]
+    params = Runner().load(CONFIG, over).params
+    env = build_env(params, 4, 0)
+    with pytest.raises(ConfigError, match="central_value_config.network.name: the observations are a Dict"):
+        build_central_value(params, env, torch.device("cpu"))

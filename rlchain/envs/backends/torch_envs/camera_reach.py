@@ -14,7 +14,8 @@ know the goal: its best is a fixed point (the centre), which succeeds about 2.8%
 
 ``observation``: ``dict`` (default) gives ``{'image': uint8 (1, S, S), 'proprio': float32 (4,)}`` as an
 :class:`~rlchain.envs.obs_dict.ObsDict`; ``proprio`` gives only the proprioception as a Box (4,), for
-the vector-only baseline.
+the vector-only baseline. ``privileged: True`` adds ``'goal'`` (2,) float32, the goal's position, to the Dict:
+privileged state for an asymmetric critic (``central_value_config``) that the actor's network leaves out.
 """
 
 from __future__ import annotations
@@ -37,23 +38,28 @@ class TorchCameraReach(TensorVecEnv):
 
     def __init__(self, num_envs: int, device: str | torch.device = "cpu", seed: int | None = None,
                  max_episode_steps: int | None = 25, success_threshold: float = 0.15, step_size: float = 0.15,
-                 image_size: int = 24, observation: str = "dict") -> None:
+                 image_size: int = 24, observation: str = "dict", privileged: bool = False) -> None:
         if observation not in OBSERVATIONS:
             raise ValueError(f"params.config.env_config.observation: expected one of {', '.join(OBSERVATIONS)}, "
                              f"got {observation!r}")
         if int(image_size) < 8:
             raise ValueError(f"params.config.env_config.image_size: expected an int >= 8, got {image_size!r}")
+        if not isinstance(privileged, bool) or (privileged and observation != "dict"):
+            raise ValueError(f"params.config.env_config.privileged: expected True or False (True needs observation "
+                             f"dict), got {privileged!r}")
         if max_episode_steps is None:
             raise ValueError("params.config.env_config.max_episode_steps: TorchCameraReach-v0 needs a time limit "
                              "(success is judged when the episode ends)")
         super().__init__(num_envs, device, seed, max_episode_steps)
         self.success_threshold, self.step_size = float(success_threshold), float(step_size)
-        self.image_size, self.observation = int(image_size), observation
+        self.image_size, self.observation, self.privileged = int(image_size), observation, privileged
         size = self.image_size
         proprio = gym.spaces.Box(-np.inf, np.inf, (4,), np.float32)
         image = gym.spaces.Box(0, 255, (1, size, size), np.uint8)
-        self.observation_space = (gym.spaces.Dict({"image": image, "proprio": proprio}) if observation == "dict"
-                                  else proprio)
+        keys = {"image": image, "proprio": proprio}
+        if privileged:
+            keys["goal"] = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.observation_space = gym.spaces.Dict(keys) if observation == "dict" else proprio
         self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.state = torch.zeros(self.num_envs, 6, device=self.device)
         self.success = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
@@ -79,7 +85,10 @@ class TorchCameraReach(TensorVecEnv):
         proprio = torch.cat((state[:, 0:2], state[:, 4:6]), 1)
         if self.observation == "proprio":
             return proprio
-        return ObsDict({"image": self.render_image(state), "proprio": proprio})
+        obs = ObsDict({"image": self.render_image(state), "proprio": proprio})
+        if self.privileged:
+            obs["goal"] = state[:, 2:4].clone()
+        return obs
 
     def _reset_idx(self, env_ids: torch.Tensor) -> torch.Tensor | ObsDict:
         k = env_ids.numel()
