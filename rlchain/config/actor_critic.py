@@ -81,9 +81,10 @@ class ActorCriticConfig(RunConfig):
                                                    "anyway; every other key gets its own running mean/std)",
                                                check=lambda keys: None if all(isinstance(k, str) and k for k in keys)
                                                else "expected a list of observation key names")
-    normalize_rms_advantage: bool = option(False, "running-stat advantage normalization",
-                                           status="planned")
-    adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage", status="planned")
+    normalize_rms_advantage: bool = option(False, "with normalize_advantage: normalize by moving averages of the "
+                                                  "advantages' mean and square (rl_games 2.0) instead of the batch's")
+    adv_rms_momentum: float = option(0.5, "with normalize_rms_advantage: the moving averages' decay per epoch",
+                                     check=lambda m: None if 0.0 <= m < 1.0 else "expected 0 <= adv_rms_momentum < 1")
     freeze_critic: bool = option(False, "train the actor only", status="planned")
     epochs_between_resets: int = option(0, "reset all envs every N epochs", status="planned")
     value_bootstrap: bool = option(True, "on time-out bootstrap V(true final obs) instead of a terminal")

@@ -25,10 +25,15 @@ except ImportError:  # numpy 1.x
     from numpy.core import multiarray as _multiarray
 
 from rlchain.envs.backends.pettingzoo_env import AgentObs
+from rlchain.log import get_logger
 from rlchain.runs import digest, rl_games_checkpoint
 from rlchain.runs.atomic import write_atomic
 
+log = get_logger(__name__)
+
 FORMAT = "rlchain-checkpoint-1"
+RLCHAIN_MODEL = "rlchain_model"
+"""Where a checkpoint written under rl_games' API keeps rlchain's model state (``model`` holds rl_games' layout)."""
 TRUST_HINT = ("unpickling it would run code from the file; if you trust the file, load it with "
               "--trust-checkpoint (params.config.trust_checkpoint: true)")
 
@@ -126,7 +131,7 @@ def _reason(path: str, exc: Exception) -> str:
 def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | None = None) -> dict[str, Any]:
     """Read a checkpoint written by rlchain as data (see :func:`read`); any other file is a one-line
     CheckpointError."""
-    state = read(path, map_location, trusted)
+    state = own_state(read(path, map_location, trusted))
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         if rl_games_checkpoint.is_rl_games_checkpoint(state):  # rl_games 1.6.5 / 2.0: read as rlchain's
             try:
@@ -134,6 +139,14 @@ def load(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
             except ValueError as exc:
                 raise CheckpointError(f"{path}: an rl_games checkpoint rlchain cannot read: {exc}") from None
         raise CheckpointError(f"{path}: not an rlchain checkpoint (no '{FORMAT}' marker)")
+    return state
+
+
+def own_state(state: Any) -> Any:
+    """An rlchain checkpoint written under rl_games' API (rl_games' ``model`` beside rlchain's ``rlchain_model``)
+    with rlchain's model state back under ``model``; any other object as it is."""
+    if isinstance(state, dict) and state.get("format") == FORMAT and RLCHAIN_MODEL in state:
+        state = {k: v for k, v in state.items() if k != RLCHAIN_MODEL} | {"model": state[RLCHAIN_MODEL]}
     return state
 
 
@@ -212,6 +225,11 @@ def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -
     keep = set(state.get("keep_built") or ())
     missing = [k for k in own if k not in saved and k not in keep]
     unexpected = [k for k in saved if k not in own]
+    if missing and not unexpected and state.get("origin") == "rl_games" and _drop_unbuilt_norms(model, missing):
+        log.warning(f"{path}: rl_games 1.6.5 builds no MLP normalization layers whatever network.normalization "
+                    f"says; its checkpoint has none, so the model is built without them")
+        own = model.state_dict()
+        missing = [k for k in own if k not in saved and k not in keep]
     if missing or unexpected:
         detail = f"missing {missing[:3]}" if missing else f"unexpected {unexpected[:3]}"
         hint = "was it trained with another config?"
@@ -225,9 +243,28 @@ def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -
     model.load_state_dict(saved, strict=not keep)
 
 
+MLP_NORM = r"(mlp|trunk|q[12]\.0)\.net\.\d+\.[12]\."
+"""A normalization layer inside one of rlchain's MLP layers (the Sequential linear, norm/activation, ...)."""
+
+
+def _drop_unbuilt_norms(model: torch.nn.Module, missing: list[str]) -> bool:
+    """When every ``missing`` key belongs to an MLP LayerNorm / BatchNorm (an rl_games 1.6.5 file whose config
+    names ``normalization``, which 1.6.5 ignores), replace those layers by identities, as 1.6.5 builds the
+    network; returns whether it did."""
+    paths = {key.rsplit(".", 1)[0] for key in missing}
+    norms = (torch.nn.LayerNorm, torch.nn.BatchNorm1d)
+    if not all(re.search(MLP_NORM, key) for key in missing) \
+            or not all(isinstance(model.get_submodule(p), norms) for p in paths):
+        return False
+    for module_path in paths:
+        parent, _, name = module_path.rpartition(".")
+        setattr(model.get_submodule(parent), name, torch.nn.Identity())
+    return True
+
+
 def _rl_games_norm_hint(missing: list[str], unexpected: list[str]) -> str:
     """What to change when an rl_games checkpoint's MLP normalization layers differ from the model's."""
-    norm = r"(mlp|trunk|q[12]\.0)\.net\.\d+\.[12]\."
+    norm = MLP_NORM
     if any(re.search(norm, k) for k in unexpected):
         return ("this rl_games checkpoint normalizes after the activation (network.normalization in rl_games "
                 "2.0): set network.mlp.norm_after_activation: True")

@@ -15,7 +15,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint, rl_games_layout
+from rlchain.runs import rl_games_checkpoint, rl_games_export, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -77,6 +77,8 @@ class CheckpointSaver:
         env_state = get_env_state() if callable(get_env_state) else None
         if env_state is not None:
             state["env_state"] = env_state
+        if self.run is not None and self.run.layout == "rl_games":
+            state = rl_games_keys(state)
         return state
 
     def save(self, kind: str) -> str | None:
@@ -173,6 +175,7 @@ class CheckpointSaver:
         episodes in progress when the checkpoint has them."""
         ctx, algo = self.ctx, self.algorithm
         name = ctx.params.algo.name
+        state = ckpt.own_state(state)  # one written under rl_games' API (get_full_state_weights too)
         if state.get("origin") == rl_games_checkpoint.ORIGIN:
             state = self._from_rl_games(state, path)
         if state.get("algo") not in (None, name):
@@ -215,6 +218,27 @@ def storage_error(exc: BaseException) -> str:
         return exc.strerror
     text = " ".join(str(exc).split())[:200]
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
+    """``state`` with the keys rl_games writes beside rlchain's (under rl_games' API), so rl_games' own code reads
+    the file without an export: ``model`` in rl_games' layout (rlchain's moves to ``rlchain_model``, where
+    :func:`rlchain.runs.checkpoint.load` takes it back), ``optimizer``, ``frame``, ``last_mean_rewards``, and
+    the rest of ``--export rl_games`` (SAC's networks and optimizers, the central value's). A network rl_games'
+    layout cannot hold (one of your own, D2RL, ...) gets the counters only, and keeps rlchain's ``model``."""
+    try:
+        theirs = rl_games_export.to_rl_games(state)
+    except (ValueError, KeyError):
+        theirs = {"frame": int(state["frames"])}
+    theirs.setdefault("last_mean_rewards", state.get("best_reward"))
+    out = dict(state)
+    if "model" in theirs:
+        out[ckpt.RLCHAIN_MODEL] = state["model"]
+    theirs["env_state"] = state.get("env_state")  # the env's own state, as rlchain keeps it (None without one)
+    for key, value in theirs.items():
+        if key in ("model", "epoch") or key not in state:  # the others are rlchain's own
+            out[key] = value
+    return out
 
 
 def _trainable_names(model: Any) -> list[str]:

@@ -19,7 +19,8 @@ DATA = os.path.join(ROOT, "tests", "data", "rl_games")
 
 @pytest.mark.parametrize("tag,kind", [("v165", "lstm"), ("v20", "gru_separate"), ("v20", "cnn"),
                                       ("v165", "resnet_lstm"), ("v20", "layer_norm"), ("v165", "central_value"),
-                                      ("v165", "sac"), ("v20", "sac_layer_norm")])
+                                      ("v165", "sac"), ("v20", "sac_layer_norm"),
+                                      ("v165", "layer_norm")])
 def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_path, monkeypatch,
                                                                  scoped_registries):
     pytest.importorskip("gym")

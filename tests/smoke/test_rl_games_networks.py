@@ -46,6 +46,8 @@ FORMS = {
     "lambda_a2c": ("ppo_cartpole.yaml", {"name": "lambda_a2c", "space": {"discrete": {}}, "mlp": MLP,
                                          "rnn": {"name": "lstm", "units": 16, "layers": 1}}),
     "plain_module": ("ppo_cartpole.yaml", {"name": "plain_module"}),
+    "rlg_sac": ("sac_pendulum.yaml", {"name": "rlg_sac", "separate": True, "mlp": {**MLP, "activation": "relu"},
+                                      "log_std_bounds": [-5, 2]}),
 }
 
 
@@ -54,9 +56,13 @@ def _config(tmp_path, form):
     with open(os.path.join(CONFIGS, base)) as f:
         cfg = yaml.safe_load(f)
     cfg["params"]["network"] = network
-    cfg["params"]["config"].update(max_epochs=2, train_dir=str(tmp_path / "runs"), save_best_after=0,
-                                   score_to_win=100000, num_actors=8, minibatch_size=64 if form != "lambda_a2c"
-                                   else 128, player={"games_num": 2, "deterministic": True})
+    cfg["params"]["config"].update(max_epochs=2, train_dir=str(tmp_path / "runs"), score_to_win=100000,
+                                   player={"games_num": 2, "deterministic": True})
+    if form == "rlg_sac":
+        cfg["params"]["config"].update(num_warmup_frames=100, num_steps_per_episode=50)
+        return cfg
+    cfg["params"]["config"].update(save_best_after=0, num_actors=8,
+                                   minibatch_size=64 if form != "lambda_a2c" else 128)
     if form == "lambda_a2c":
         cfg["params"]["config"].update(seq_length=4, horizon_length=16)
     return cfg

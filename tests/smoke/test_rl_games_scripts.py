@@ -98,6 +98,11 @@ def test_isaac_style_scripts_train_resume_and_play(tmp_path):
     assert {"Episode/Episode_Reward/alive", "Episode/Episode_Termination/pole_fell", "rewards/step"} <= tags
     last = _last(first)
     assert os.path.basename(last).startswith("last_cartpole_direct_ep_2_rew__")
+    import torch
+
+    raw = torch.load(last, weights_only=False)  # rl_games' keys beside rlchain's: its own code reads them
+    assert {"model", "optimizer", "epoch", "frame", "last_mean_rewards", "rlchain_model", "format"} <= set(raw)
+    assert any(k.startswith("a2c_network.") for k in raw["model"]) and raw["epoch"] == 2 and raw["frame"] > 0
     out = launch([train, "--num_envs", "128", "--max_iterations", "3", "--log_root", logs, "--checkpoint", last],
                  tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]

@@ -103,10 +103,10 @@ def test_unimplemented_feature_is_an_error(base_config):
     with pytest.raises(ConfigError, match=r"params.config.epochs_between_resets: not implemented in rlchain yet"):
         parse(base_config)
     base_config["params"]["config"].pop("epochs_between_resets")
-    base_config["params"]["config"]["normalize_rms_advantage"] = True
-    with pytest.raises(ConfigError, match=r"params.config.normalize_rms_advantage: not implemented"):
+    base_config["params"]["config"]["freeze_critic"] = True
+    with pytest.raises(ConfigError, match=r"params.config.freeze_critic: not implemented"):
         parse(base_config)
-    base_config["params"]["config"]["normalize_rms_advantage"] = False
+    base_config["params"]["config"]["freeze_critic"] = False
     base_config["params"]["config"]["phasic_policy_gradients"] = {"a": 1}
     with pytest.raises(ConfigError, match=r"phasic policy gradients"):
         parse(base_config)

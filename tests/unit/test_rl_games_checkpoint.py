@@ -156,11 +156,16 @@ def test_rl_games_2_normalization_without_norm_after_activation_says_to_set_it()
         player.restore(os.path.join(DATA, "v20_layer_norm.pth"))
 
 
-def test_rl_games_1_6_5_normalization_config_says_to_drop_the_key():
+def test_rl_games_1_6_5_normalization_config_is_ignored_with_one_warning(caplog):
     player = _player("v165", "layer_norm", as_written=True)  # the config keeps network.normalization
-    with pytest.raises(ckpt.CheckpointError, match=r"rl_games 1\.6\.5 builds no MLP normalization layers "
-                                                   r"whatever network\.normalization says: drop that key"):
+    with caplog.at_level("WARNING", logger="rlchain"):
         player.restore(os.path.join(DATA, "v165_layer_norm.pth"))
+    lines = [r.getMessage() for r in caplog.records if "1.6.5 builds no MLP normalization" in r.getMessage()]
+    assert len(lines) == 1 and "\n" not in lines[0] and "v165_layer_norm.pth" in lines[0]
+    assert not any(isinstance(m, torch.nn.LayerNorm) for m in player.model.modules())  # as 1.6.5 built it
+    expected = torch.load(os.path.join(DATA, "v165_layer_norm_actions.pt"), weights_only=True)
+    actions = player_actions(player, "layer_norm")  # rl_games 1.6.5's own player's actions on this file
+    assert torch.allclose(actions.reshape(expected["actions"].shape), expected["actions"], atol=1e-5)
 
 
 def test_norm_after_activation_builds_rl_games_order():

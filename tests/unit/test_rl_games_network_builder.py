@@ -135,3 +135,14 @@ def test_register_network_takes_rl_games_callables(scoped_registries):
                       action_space=gym.spaces.MultiDiscrete([3, 2]), observation_space=None)
     assert isinstance(net, network_builder.A2CBuilder.Network) and len(net.logits) == 2  # per-dimension heads
     assert "how_to" in model_builder.NetworkBuilder().network_factory._builders
+
+
+def test_sac_player_rescales_squashed_actions_per_dimension():
+    from types import SimpleNamespace
+
+    from rlchain.rl_games.algos_torch.players import SACPlayer
+
+    player = SACPlayer.__new__(SACPlayer)  # only the action space matters here
+    player.action_space = SimpleNamespace(low=np.array([-0.4, 0.0], np.float32), high=np.array([0.4, 2.0], np.float32))
+    out = player.rescale_actions(torch.tensor([[1.0, -1.0], [0.5, 0.25], [-2.0, 2.0]]))
+    assert torch.allclose(out, torch.tensor([[0.4, 0.0], [0.2, 1.25], [-0.4, 2.0]]))

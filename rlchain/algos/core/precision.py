@@ -42,3 +42,17 @@ def autocast_dtype(value: Any, device: torch.device, bf16_cpu: bool | None = Non
         _log.warning("mixed_precision: bf16 asks for bfloat16, but this CPU has no native bf16 (AVX512-BF16 "
                      "or AMX): the update runs in float32")
     return None
+
+
+def sac_autocast_dtype(value: Any, device: torch.device) -> torch.dtype | None:
+    """SAC's ``mixed_precision`` (rl_games 2.0): bfloat16 autocast of the critic and actor updates on a CUDA GPU
+    with bf16, no grad scaler; elsewhere (a CPU, a GPU without bf16) one warning and float32."""
+    if not value:
+        return None
+    if device.type == "cuda" and torch.cuda.is_bf16_supported():
+        return torch.bfloat16
+    if "sac" not in _warned:
+        _warned.add("sac")
+        where = "a CPU" if device.type != "cuda" else "this GPU (no bf16)"
+        _log.warning(f"mixed_precision: SAC autocasts to bfloat16 on CUDA GPUs only; on {where} it runs in float32")
+    return None

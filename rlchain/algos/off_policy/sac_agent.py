@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import math
+from contextlib import nullcontext
 from typing import Any
 
 import gymnasium as gym
@@ -13,9 +14,26 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.precision import sac_autocast_dtype
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import RunningMeanStd
+
+
+def actor_params(actor: nn.Module, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(mu, log_std), each (B, A), of an actor: rlchain's returns them; rl_games' returns its tanh-squashed Normal,
+    whose base distribution holds them."""
+    out = actor(obs)
+    if isinstance(out, tuple):
+        return out
+    base = getattr(out, "base_dist", out)
+    return base.loc, base.scale.log()
+
+
+def q_values(critic: nn.Module, obs: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """A twin critic's (q1, q2), each (B,) (rl_games' critics return (B, 1))."""
+    q1, q2 = critic(obs, actions)
+    return q1.reshape(q1.shape[0]), q2.reshape(q2.shape[0])
 
 
 class SquashedActions:
@@ -74,7 +92,7 @@ class SoftActorCritic(ObservationModel):
 
     def policy(self, obs: torch.Tensor, deterministic: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
         """Preprocessed obs -> (actions in [-1, 1], log-prob (B,)); deterministic = tanh(mean)."""
-        mu, log_std = self.network.actor(obs)
+        mu, log_std = actor_params(self.network.actor, obs)
         if deterministic:
             return torch.tanh(mu), torch.zeros(mu.shape[0], device=mu.device)
         std = log_std.exp()
@@ -89,8 +107,8 @@ class SoftActorCritic(ObservationModel):
         """obs -> (mean (B, A), value (B, 1)) in the ActorCritic protocol that export uses:
         ``dist.mode(mean)`` is the deterministic action, value = min(Q1, Q2) at that action."""
         x = self.preprocess(obs)
-        mu, _ = self.network.actor(x)
-        q1, q2 = self.network.critic(x, torch.tanh(mu))
+        mu, _ = actor_params(self.network.actor, x)
+        q1, q2 = q_values(self.network.critic, x, torch.tanh(mu))
         return mu, torch.min(q1, q2).unsqueeze(-1)
 
     @torch.inference_mode()
@@ -118,6 +136,12 @@ class SACAgent:
         self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
         self._critic_params = list(net.critic.parameters())
         self._target_params = list(model.critic_target.parameters())
+        device = next(model.parameters()).device
+        self.amp_dtype = sac_autocast_dtype(getattr(cfg, "mixed_precision", False), device)
+
+    def _autocast(self) -> Any:
+        """The networks' forward passes of an update: bf16 autocast under ``mixed_precision`` on CUDA."""
+        return torch.autocast("cuda", dtype=self.amp_dtype) if self.amp_dtype is not None else nullcontext()
 
     @property
     def lr(self) -> float:
@@ -142,10 +166,12 @@ class SACAgent:
         alpha = model.alpha.detach()
         with torch.no_grad():
             next_actions, next_logp = model.policy(next_obs)
-            tq1, tq2 = model.critic_target(next_obs, next_actions)
+            tq1, tq2 = q_values(model.critic_target, next_obs, next_actions)
             next_v = torch.min(tq1, tq2) - alpha * next_logp
             target = batch["rewards"] + batch["discounts"] * (~batch["terminated"]).float() * next_v
-        q1, q2 = critic(obs, actions)
+        with self._autocast():  # the target above stays float32, as rl_games computes it
+            q1, q2 = q_values(critic, obs, actions)
+        q1, q2 = q1.float(), q2.float()
         weights = batch["weights"]
         critic_loss = (weights * ((q1 - target).square() + (q2 - target).square())).mean()
         self.critic_opt.zero_grad(set_to_none=True)
@@ -158,8 +184,10 @@ class SACAgent:
         stats = {"critic_loss": critic_loss.detach(), "q": q1.detach().mean()}
         if self.updates % cfg.policy_frequency == 0:
             critic.requires_grad_(False)
-            new_actions, logp = model.policy(obs)
-            nq1, nq2 = critic(obs, new_actions)
+            with self._autocast():
+                new_actions, logp = model.policy(obs)
+                nq1, nq2 = q_values(critic, obs, new_actions)
+            logp, nq1, nq2 = logp.float(), nq1.float(), nq2.float()
             actor_loss = (alpha * logp - torch.min(nq1, nq2)).mean()
             self.actor_opt.zero_grad(set_to_none=True)
             actor_loss.backward()

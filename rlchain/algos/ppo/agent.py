@@ -20,6 +20,7 @@ from typing import ClassVar
 import torch
 
 from rlchain.algos.base.safety import UpdateInterrupted
+from rlchain.algos.core.advantage_stats import MovingAdvantageStats
 from rlchain.algos.core.losses import normalize_advantages, policy_loss
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.storage import Batch, RolloutStorage
@@ -73,6 +74,9 @@ class PPOAgent(ScheduledAdam):
         self.graphed = GraphedStep(self._sync_free_step, self.zero_grad) if cuda_graph else None
         self._aux_names: tuple[str, ...] = ()
         self._max_norm = float("inf")  # the graphed step's clip (a Python constant in the graph)
+        # rl_games 2.0: advantages normalized by moving statistics instead of the batch's own
+        self.advantage_stats = MovingAdvantageStats(cfg.adv_rms_momentum, device) \
+            if cfg.normalize_advantage and cfg.normalize_rms_advantage else None
 
     @property
     def mode(self) -> str:
@@ -164,6 +168,8 @@ class PPOAgent(ScheduledAdam):
         """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
         normalized over the whole batch once when ``normalize_advantage``."""
         advantages = storage.advantages.sum(-1)
+        if self.advantage_stats is not None:
+            return self.advantage_stats.normalize(advantages)
         if self.cfg.normalize_advantage:
             advantages = normalize_advantages(advantages)
         return advantages
@@ -234,8 +240,20 @@ class PPOAgent(ScheduledAdam):
         if self.graphed is not None:
             self.graphed.reset()
 
+    def state_dict(self) -> dict:
+        """Optimizer state, live lr and entropy coefficient (:meth:`ScheduledAdam.state_dict`), and the moving
+        advantage statistics under rl_games' ``advantage_mean_std`` when ``normalize_rms_advantage``."""
+        state = super().state_dict()
+        if self.advantage_stats is not None:
+            state["advantage_mean_std"] = self.advantage_stats.state_dict()
+        return state
+
     def load_state_dict(self, state: dict) -> None:
         """Restore :meth:`state_dict`; new optimizer state tensors: a captured step is recorded again."""
+        state = dict(state)
+        advantage_stats = state.pop("advantage_mean_std", None)
+        if self.advantage_stats is not None and advantage_stats is not None:
+            self.advantage_stats.load_state_dict(advantage_stats)
         super().load_state_dict(state)
         self.config_changed()
 

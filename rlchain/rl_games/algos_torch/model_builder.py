@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from rlchain import model_builder as _model_builder
 from rlchain.models.distributions import multi_discrete_dims
 from rlchain.registry import MODELS
@@ -29,7 +31,8 @@ def rl_games_build_kwargs(kwargs: dict) -> dict:
     dims = multi_discrete_dims(kwargs["action_space"]) if kwargs.get("action_space") is not None else None
     if dims is not None:
         kwargs = {**kwargs, "actions_num": list(dims[0])}
-    return kwargs
+    # SAC's builders read the flat sizes
+    return {"obs_dim": int(np.prod(kwargs["input_shape"])), "action_dim": kwargs["actions_num"], **kwargs}
 
 
 def network_factory(target: Any) -> Any:
@@ -79,6 +82,7 @@ class NetworkBuilder:
         self.network_factory = ObjectFactory()
         self.network_factory.set_builders(NETWORK_REGISTRY)
         self.network_factory.register_builder("actor_critic", lambda **kwargs: network_builder.A2CBuilder())
+        self.network_factory.register_builder("soft_actor_critic", lambda **kwargs: network_builder.SACBuilder())
 
     def load(self, params: dict) -> Any:
         network = self.network_factory.create(params["name"])

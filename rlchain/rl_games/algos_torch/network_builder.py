@@ -22,6 +22,7 @@ import torch.nn as nn
 from rlchain.networks import NetworkBuilder as _RlchainBuilder
 from rlchain.networks.layers import Linear
 from rlchain.rl_games.algos_torch.base_network import BaseNetwork
+from rlchain.rl_games.algos_torch.sac_helper import SquashedNormal
 from rlchain.rl_games.algos_torch.torch_ext import shape_whc_to_cwh
 
 
@@ -272,4 +273,101 @@ class A2CBuilder(NetworkBuilder):
                 self.permute_input = self.cnn.get("permute_input", True)
 
 
-__all__ = ["NetworkBuilder", "A2CBuilder"]
+class DiagGaussianActor(BaseNetwork):
+    """SAC's actor: an MLP to (mu, log_std) per action; ``forward(obs)`` returns the tanh-squashed Normal with
+    log_std squashed into ``log_std_bounds`` by a tanh (rl_games' soft bound)."""
+
+    def __init__(self, output_dim: int, log_std_bounds: Any, **mlp_args: Any) -> None:
+        super().__init__()
+        self.log_std_bounds = log_std_bounds
+        trunk = self._build_mlp(**mlp_args)
+        last = [m for m in trunk.modules() if isinstance(m, nn.Linear)][-1].out_features
+        self.trunk = nn.Sequential(*trunk.children(), nn.Linear(last, output_dim))
+
+    def forward(self, obs: torch.Tensor) -> SquashedNormal:
+        mu, log_std = self.trunk(obs).chunk(2, dim=-1)
+        low, high = self.log_std_bounds
+        log_std = low + 0.5 * (high - low) * (torch.tanh(log_std) + 1)
+        return SquashedNormal(mu, log_std.exp())
+
+
+class DoubleQCritic(BaseNetwork):
+    """SAC's twin critics: ``forward(obs, action)`` -> (q1, q2), each (B, output_dim)."""
+
+    def __init__(self, output_dim: int, **mlp_args: Any) -> None:
+        super().__init__()
+        self.Q1 = self._head(output_dim, mlp_args)
+        self.Q2 = self._head(output_dim, mlp_args)
+
+    def _head(self, output_dim: int, mlp_args: dict) -> nn.Sequential:
+        trunk = self._build_mlp(**mlp_args)
+        last = [m for m in trunk.modules() if isinstance(m, nn.Linear)][-1].out_features
+        return nn.Sequential(*trunk.children(), nn.Linear(last, output_dim))
+
+    def forward(self, obs: torch.Tensor, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = torch.cat([obs, action], dim=-1)
+        return self.Q1(x), self.Q2(x)
+
+
+class SACBuilder(NetworkBuilder):
+    """rl_games' ``soft_actor_critic`` network builder: ``Network`` holds ``actor``, ``critic`` and
+    ``critic_target`` (build kwargs ``obs_dim``, ``action_dim``; rlchain passes them)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        NetworkBuilder.__init__(self)
+
+    def load(self, params: Any) -> None:
+        self.params = params
+
+    def build(self, name: str, **kwargs: Any) -> nn.Module:
+        return SACBuilder.Network(self.params, **kwargs)
+
+    class Network(BaseNetwork):
+        def __init__(self, params: Any, **kwargs: Any) -> None:
+            kwargs.pop("actions_num", None)
+            kwargs.pop("input_shape", None)
+            obs_dim, action_dim = kwargs.pop("obs_dim"), kwargs.pop("action_dim")
+            self.num_seqs = kwargs.pop("num_seqs", 1)
+            BaseNetwork.__init__(self)
+            self.load(params)
+            mlp_args = {"units": self.units, "activation": self.activation, "norm_func_name": self.normalization,
+                        "dense_func": nn.Linear, "d2rl": self.is_d2rl,
+                        "norm_only_first_layer": self.norm_only_first_layer}
+            self.actor = self._build_actor(2 * action_dim, self.log_std_bounds, input_size=obs_dim, **mlp_args)
+            if self.separate:
+                self.critic = self._build_critic(1, input_size=obs_dim + action_dim, **mlp_args)
+                self.critic_target = self._build_critic(1, input_size=obs_dim + action_dim, **mlp_args)
+                self.critic_target.load_state_dict(self.critic.state_dict())
+            mlp_init = self.init_factory.create(**self.initializer)
+            for module in self.modules():
+                if isinstance(module, nn.Linear):
+                    mlp_init(module.weight)
+                    if module.bias is not None:
+                        nn.init.zeros_(module.bias)
+
+        def _build_critic(self, output_dim: int, **mlp_args: Any) -> nn.Module:
+            return DoubleQCritic(output_dim, **mlp_args)
+
+        def _build_actor(self, output_dim: int, log_std_bounds: Any, **mlp_args: Any) -> nn.Module:
+            return DiagGaussianActor(output_dim, log_std_bounds, **mlp_args)
+
+        def forward(self, obs_dict: dict) -> Any:
+            return self.actor(obs_dict["obs"])
+
+        def is_separate_critic(self) -> bool:
+            return self.separate
+
+        def load(self, params: Any) -> None:
+            self.separate = params.get("separate", True)
+            mlp = params["mlp"]
+            self.units = mlp["units"]
+            self.activation = mlp["activation"]
+            self.initializer = mlp["initializer"]
+            self.is_d2rl = mlp.get("d2rl", False)
+            self.norm_only_first_layer = mlp.get("norm_only_first_layer", False)
+            self.value_activation = params.get("value_activation", "None")
+            self.normalization = params.get("normalization", None)
+            self.log_std_bounds = params.get("log_std_bounds", None)
+
+
+__all__ = ["NetworkBuilder", "A2CBuilder", "SACBuilder", "DiagGaussianActor", "DoubleQCritic"]

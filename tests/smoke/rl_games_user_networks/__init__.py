@@ -6,6 +6,7 @@
   ``activations_factory``, ``init_factory``, ``_calc_input_size``).
 - ``lambda_a2c``: HOW_TO's registration, ``register_network(name, lambda **kwargs: A2CBuilder())``.
 - ``plain_module``: a builder whose ``build`` returns a plain ``nn.Module`` (no ``is_rnn``, no ``get_aux_loss``).
+- ``rlg_sac``: rl_games' ``SACBuilder`` (actor returning a tanh-squashed Normal, twin critics of (B, 1)).
 """
 
 import torch
@@ -97,3 +98,4 @@ model_builder.register_network("recon_head", ReconHeadBuilder)
 model_builder.register_network("small_base", SmallBaseBuilder)
 model_builder.register_network("lambda_a2c", lambda **kwargs: network_builder.A2CBuilder())
 model_builder.register_network("plain_module", PlainBuilder)
+model_builder.register_network("rlg_sac", network_builder.SACBuilder)
