@@ -72,7 +72,7 @@ def signal_state_is_restored():
 
 
 def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) -> tuple[list[dict], PPO]:
-    """Same-seed PPO epochs of ``config`` on a CPU, driven by hand (rollout, then learn): each update's stats and
+    """Same-seed PPO epochs of ``config`` on a CPU, driven by hand (collect, then update): each update's stats and
     the trainer (rlchain.algos.ppo.ppo.PPO), its env closed."""
     params = Runner().load(config, overrides).params
     torch.manual_seed(0)
@@ -80,10 +80,10 @@ def ppo_epochs(config: str, overrides: list[str], num_envs: int, epochs: int) ->
     model = build_model(params, env, torch.device("cpu"))
     ppo = Loop(params, PPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 0,
                {}).algorithm
-    ppo.obs = torch.as_tensor(env.reset(seed=0))
+    ppo.collector.place(torch.as_tensor(env.reset(seed=0)))
     out = []
     for _ in range(epochs):
-        ppo.rollout()
-        out.append(ppo.learn())
+        ppo.collect()
+        out.append(ppo.update())
     env.close()
     return out, ppo

@@ -66,19 +66,23 @@ def child(tree: str, case: str, sets: list[str], warmup: int, epochs: int) -> di
     model = build_model(params, env, device)
     loop = Loop(params, PPO, env, model, device, None, TrainLogger(None, False), 0, raw)
     ppo = loop.algorithm
-    ppo.obs = torch.as_tensor(env.reset(seed=0), device=device)
+    obs = torch.as_tensor(env.reset(seed=0), device=device)
+    if hasattr(getattr(ppo, "collector", None), "place"):
+        ppo.collector.place(obs)
+    else:  # a tree from before PPO's collector held where the envs stand
+        ppo.obs = obs
     start = time.perf_counter()
     for _ in range(warmup):
-        ppo.rollout()
-        ppo.learn()
+        ppo.collect()
+        ppo.update()
     warmup_s = time.perf_counter() - start
     cpu = {"rollout": 0.0, "update": 0.0}
     wall = 0.0
     for _ in range(epochs):
         w0, c0 = time.perf_counter(), time.process_time()
-        ppo.rollout()
+        ppo.collect()
         c1 = time.process_time()
-        ppo.learn()
+        ppo.update()
         c2 = time.process_time()
         wall += time.perf_counter() - w0
         cpu["rollout"] += c1 - c0

@@ -244,13 +244,13 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
         loop = Loop(params, PPO, env, model, device, None, TrainLogger(None, False), 0, runner.raw)
         loop.threads = plan
         ppo, ctx = loop.algorithm, loop.ctx  # the algorithm the loop holds, and the run context it gets
-        ppo.obs = torch.as_tensor(env.reset(seed=0), device=device)
+        ppo.collector.place(torch.as_tensor(env.reset(seed=0), device=device))
         start = time.perf_counter()
-        ppo.rollout()
+        ppo.collector.rollout()
         with ctx.update_phase():
-            ppo.learn()  # warm-up (and compilation)
-        while len(ctx.spec.groups or ()) > 1 and ppo.pipeline_choice.decided is None:  # auto, two pools: trials
-            ppo.rollout()
+            ppo.update()  # warm-up (and compilation)
+        while len(ctx.spec.groups or ()) > 1 and ppo.collector.pipeline_choice.decided is None:  # auto, 2 pools
+            ppo.collector.rollout()
         if backend == "envpool":
             groups = layout_label(env, ppo, params.config.env_groups == "auto")
         if plan is not None and plan.adaptive and (params.config.compile_update or params.config.torch_compile):
@@ -258,18 +258,18 @@ def measure(backend: str, env_name: str, num_envs: int, config: str, seconds: fl
             # at any count from 1 up to its own: compile them all here, not inside the timed window
             for count in range(1, max(plan.rollout, plan.update) + 1):
                 torch.set_num_threads(count)
-                ppo.rollout()
-                ppo.learn()
+                ppo.collector.rollout()
+                ppo.update()
             plan.apply()
         sync(device)
         warmup_s = time.perf_counter() - start
         batch = params.config.horizon_length * num_envs
-        rollout_sps = timed(ppo.rollout, batch, seconds, device)
+        rollout_sps = timed(ppo.collector.rollout, batch, seconds, device)
 
         def train_epoch() -> None:
-            ppo.rollout()
+            ppo.collector.rollout()
             with ctx.update_phase():
-                ppo.learn()
+                ppo.update()
 
         train_sps = timed(train_epoch, batch, seconds, device)
     finally:
@@ -333,7 +333,7 @@ def layout_label(env: Any, ppo: Any, auto: bool) -> str:
     """The envpool layout measured: 1 (one pool), Nt (N pools stepped together), Np (N pools pipelined);
     prefixed a where ``env_groups: auto`` chose it."""
     pools = len(getattr(env, "pools", ())) or 1
-    label = "1" if pools == 1 else f"{pools}{'p' if ppo.pipeline_choice.decided else 't'}"
+    label = "1" if pools == 1 else f"{pools}{'p' if ppo.collector.pipeline_choice.decided else 't'}"
     return f"a{label}" if auto else label
 
 

@@ -12,6 +12,7 @@ import torch
 
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
+from rlchain.envs.vecenv import VecEnv
 from rlchain.models.build import apply_sigma, build_model
 from rlchain.parallel.device import resolve_device
 from rlchain.runs import checkpoint as ckpt
@@ -23,7 +24,7 @@ class LoadedPolicy:
     ``device``, the ``env`` it was built for, and the checkpoint ``state`` read (None without one)."""
 
     model: torch.nn.Module
-    env: Any
+    env: VecEnv
     device: torch.device
     state: dict[str, Any] | None
     owns_env: bool = True
@@ -35,7 +36,7 @@ class LoadedPolicy:
 
 
 def load_policy(params: Params, checkpoint: str | None = None, *, device: str | torch.device | None = None,
-                env: Any = None, num_envs: int = 1, seed: int | None = None, render: bool = False,
+                env: VecEnv | None = None, num_envs: int = 1, seed: int | None = None, render: bool = False,
                 env_config: dict | None = None, sigma: float | None = None, state: dict[str, Any] | None = None,
                 group: str | None = None, groups: Any = None, eval_mode: bool = True) -> LoadedPolicy:
     """The model of ``params`` with ``checkpoint``'s weights, on ``env`` or on ``num_envs`` envs built here.

@@ -23,7 +23,7 @@ import torch
 
 from rlchain.envs.obs_dict import obs_as_tensor
 from rlchain.envs.spec import env_spec
-from rlchain.envs.vecenv import game_outcome
+from rlchain.envs.vecenv import VecEnv, game_outcome
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.policy.stepper import PolicyStepper
 
@@ -80,7 +80,7 @@ class PolicySteps:
     step acts on. :func:`play` is built on it; so is a probe that only times the env with a policy acting
     (rlchain.algos.ppo.env_layout)."""
 
-    def __init__(self, model: Any, env: Any, device: torch.device, deterministic: bool = True,
+    def __init__(self, model: Any, env: VecEnv, device: torch.device, deterministic: bool = True,
                  seed: int | None = None) -> None:
         self.model, self.env, self.device, self.deterministic = model, env, device, deterministic
         self.spec = env_spec(env)
@@ -113,7 +113,7 @@ GameHook = Callable[[int, float, int, "float | None"], None]
 ObsHook = Callable[[torch.Tensor, "torch.Tensor | None"], None]
 
 
-def play(model: Any, env: Any, games: int | None, deterministic: bool = True, *,
+def play(model: Any, env: VecEnv, games: int | None, deterministic: bool = True, *,
          device: torch.device | None = None, seed: int | None = None, steps: int | None = None,
          on_game: GameHook | None = None, on_obs: ObsHook | None = None, render_sleep: float | None = None,
          success_key: str = "auto", success_mode: str = "any") -> PlayResult:
@@ -206,7 +206,7 @@ def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any],
     return actions
 
 
-def step_policies(env: Any, models: Any, plan: dict[str, list[str]], device: torch.device, deterministic: bool,
+def step_policies(env: VecEnv, models: Any, plan: dict[str, list[str]], device: torch.device, deterministic: bool,
                   seed: int | None,
                   on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
                   ) -> Iterator[Any]:

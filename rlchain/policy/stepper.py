@@ -8,6 +8,7 @@ import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.networks.rnn import zero_finished
 
 
@@ -42,11 +43,11 @@ class PolicyStepper:
                               "masks (has_action_mask() / get_action_mask())")
         return True
 
-    def masks_from(self, env: Any) -> torch.Tensor:
+    def masks_from(self, env: VecEnv) -> torch.Tensor:
         """The env's current (B, mask_size) bool action masks on the model's device."""
         return torch.as_tensor(env.get_action_mask(), device=self.device).bool()
 
-    def act(self, obs: torch.Tensor, env: Any = None, deterministic: bool = True,
+    def act(self, obs: torch.Tensor, env: VecEnv | None = None, deterministic: bool = True,
             masks: torch.Tensor | None = None) -> torch.Tensor:
         """Raw actions (B, ...) for ``obs`` under ``masks``; without them, masks come from
         ``env.get_action_mask()`` when the model uses masks and an env is given."""

@@ -83,18 +83,16 @@ class TrainInfoCallback(Callback):
     """rl_games' ``vec_env.set_train_info(frames, algo)`` at the start of every epoch, for an rl_games
     IVecEnv that has it (curricula)."""
 
-    drives_trainer = True
+    def on_train_start(self, ctx: Any) -> None:
+        self._tell(ctx)
 
-    def on_train_start(self, loop: Any) -> None:
-        self._tell(loop)
+    def on_epoch_end(self, ctx: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        self._tell(ctx)
 
-    def on_epoch_end(self, loop: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        self._tell(loop)
-
-    def _tell(self, loop: Any) -> None:
-        tell = getattr(loop.env, "set_train_info", None)  # the adapter hands it on to the IVecEnv
+    def _tell(self, ctx: Any) -> None:
+        tell = getattr(ctx.training_env, "set_train_info", None)  # the adapter hands it on to the IVecEnv
         if callable(tell):
-            tell(loop.frames, ObserverAlgo(loop.events.context, in_epoch=True))  # before the epoch's rollout
+            tell(ctx.state.frames, ObserverAlgo(ctx, in_epoch=True))  # before the epoch's rollout
 
 
 class StopFnCallback(Callback):

@@ -284,5 +284,36 @@ def optimizer_state(converted: dict[str, Any], template: dict[str, Any], names: 
     return {"state": state, "param_groups": groups}
 
 
+def resume_agent_states(converted: dict[str, Any], agent: dict[str, Any], names: list[str],
+                        cv_agent: dict[str, Any] | None = None, cv_names: list[str] | None = None
+                        ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """rl_games' optimizer layouts on this run's agents, for a resume from a converted checkpoint: PPO's one
+    optimizer on ``agent`` (a state dict; its trainable parameters ``names``), the central value's
+    (``assymetric_vf_nets``) on ``cv_agent`` (``cv_names``; only when the file has a central value and the run
+    one), SAC's three (:func:`rlchain.runs.rl_games_sac_checkpoint.optimizer_states`); each ``lr`` the one
+    rl_games had. Returns (agent, central value agent or None); a layout that does not fit raises ValueError
+    saying which part."""
+    agent = dict(agent)
+    if "rl_games_optimizer" in converted and "optimizer" in agent:
+        agent["optimizer"] = optimizer_state(converted, agent["optimizer"], names)
+        agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
+    if "central_value" not in converted or cv_agent is None:
+        cv_agent = None
+    elif "rl_games_cv_optimizer" in converted:
+        cv_agent = dict(cv_agent)
+        try:
+            cv_agent["optimizer"] = optimizer_state(converted, cv_agent["optimizer"], cv_names or [],
+                                                    key="rl_games_cv_optimizer")
+        except ValueError as exc:
+            raise ValueError(f"central value: {exc}") from None
+        cv_agent["lr"] = float(cv_agent["optimizer"]["param_groups"][0]["lr"])
+    if "rl_games_sac_optimizers" in converted:
+        try:
+            agent = rl_games_sac_checkpoint.optimizer_states(converted, agent)
+        except (KeyError, ValueError) as exc:
+            raise ValueError(f"the rl_games SAC optimizers do not fit this agent: {exc}") from None
+    return agent, cv_agent
+
+
 __all__ = ["ORIGIN", "central_value_from_rl_games", "from_rl_games", "is_rl_games_checkpoint",
-           "model_names_from_rl_games", "optimizer_state", "strip_compiled"]
+           "model_names_from_rl_games", "optimizer_state", "resume_agent_states", "strip_compiled"]

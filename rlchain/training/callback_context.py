@@ -24,7 +24,9 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.base.episodes import EpisodeTracker
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
 
 EMITTABLE = ("on_evaluation", "on_stats_cleared")
 """Events a callback may announce to the other callbacks through :meth:`CallbackContext.emit`."""
@@ -131,6 +133,67 @@ class CallbackContext:
         mask size, tensor or numpy stepping, groups."""
         return self._trainer.env_spec
 
+    # ----- what callbacks that drive the run need (env events, backend counters, self-play, tuning, rl_games) ----
+    @property
+    def training_env(self) -> VecEnv:
+        """The training env itself: what an env event is called with, what reports backend counters and takes
+        self-play's opponents."""
+        return self._trainer.env
+
+    @property
+    def episode_tracker(self) -> EpisodeTracker:
+        """The run's episode statistics, live (self-play scores the finished games)."""
+        return self._trainer.ctx.tracker
+
+    @property
+    def agent(self) -> Any:
+        """The algorithm's agent (``optimizer``, ``lr``: what rl_games' observers read); None without one."""
+        return getattr(self._trainer.algorithm, "agent", None)
+
+    @property
+    def raw_config(self) -> dict:
+        """The configuration as written (rl_games' ``algo.config`` and a moved run's folder read it)."""
+        return self._trainer.raw_config
+
+    def scalar(self, tag: str, value: float) -> None:
+        """Write one scalar at the run's frames to every log writer."""
+        self._trainer.logger.scalar(tag, float(value), self._trainer.frames)
+
+    def frames_per_epoch(self) -> int:
+        """Env frames one epoch adds (every rank's)."""
+        return int(self._trainer.frames_per_epoch())
+
+    def full_state(self) -> dict[str, Any]:
+        """Everything exact resume needs, as a ``last`` checkpoint holds it."""
+        return self._trainer.state_dict("last")
+
+    def load_full_state(self, state: dict[str, Any], source: str, keep_counters: bool = False) -> None:
+        """Load :meth:`full_state` (read from ``source``) into the running training; the envs start fresh episodes.
+        ``keep_counters`` keeps this run's epoch and frame counters."""
+        trainer = self._trainer
+        epoch, frames = trainer.epoch, trainer.frames
+        trainer.restore(state, source)
+        if keep_counters:
+            trainer.ctx.epoch, trainer.ctx.frames = epoch, frames
+        trainer.restart_episodes()
+
+    def snapshot(self) -> None:
+        """The learner as it is now is the one a divergence rollback returns to."""
+        self._trainer.snapshot()
+
+    def move_run(self, run: Any, logger: Any) -> Any:
+        """Log and checkpoint into ``run`` (a RunDir) through ``logger`` from now on; returns the logger it
+        replaces (the caller closes it)."""
+        trainer = self._trainer
+        old = trainer.logger
+        trainer.logger, trainer.run = logger, run
+        return old
+
+    @property
+    def run_dir(self) -> Any:
+        """The run folder (a RunDir), None when the run writes none."""
+        return self._trainer.run
+
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would."""
         self._trainer.request_stop(reason)
@@ -201,7 +264,7 @@ class ObserverAlgo:
 
     @property
     def device(self) -> torch.device:
-        return self._context._trainer.device
+        return self._context.state.device
 
     ppo_device = device
 
@@ -212,24 +275,24 @@ class ObserverAlgo:
     @property
     def epoch_num(self) -> int:
         """rl_games' epoch counter: the epochs completed, plus the one running while ``in_epoch``."""
-        return int(self._context._trainer.epoch) + (1 if self.in_epoch else 0)
+        return int(self._context.state.epoch) + (1 if self.in_epoch else 0)
 
     @property
     def frame(self) -> int:
-        return int(self._context._trainer.frames)
+        return int(self._context.state.frames)
 
     @property
     def num_actors(self) -> int:
-        return int(self._context._trainer.num_envs)
+        return int(self._context.training_env.num_envs)
 
     @property
     def num_agents(self) -> int:
-        return int(self._context._trainer.num_agents)
+        return int(self._context.env_spec.num_agents)
 
     @property
     def config(self) -> dict:
         """The run's ``params.config`` block as written (rl_games' ``algo.config`` dict)."""
-        raw = self._context._trainer.raw_config
+        raw = self._context.raw_config
         return raw.get("params", raw).get("config", {}) if isinstance(raw, dict) else {}
 
     @property
@@ -244,31 +307,24 @@ class ObserverAlgo:
     @property
     def optimizer(self) -> Any:
         """The policy's optimizer (None for an algorithm without one)."""
-        agent = getattr(self._context._trainer.algorithm, "agent", None)
-        return getattr(agent, "optimizer", None)
+        return getattr(self._context.agent, "optimizer", None)
 
     @property
     def last_lr(self) -> float:
         """The learning rate now: the agent's ``lr`` (the adaptive schedule's), else the optimizer's."""
-        agent = getattr(self._context._trainer.algorithm, "agent", None)
-        lr = getattr(agent, "lr", None)
+        lr = getattr(self._context.agent, "lr", None)
         if lr is None and self.optimizer is not None:
             lr = self.optimizer.param_groups[0]["lr"]
         return float(lr) if lr is not None else 0.0
 
     def get_full_state_weights(self) -> dict[str, Any]:
         """Everything exact resume needs, as a checkpoint holds it (rl_games' name)."""
-        return self._context._trainer.state_dict("last")
+        return self._context.full_state()
 
     def set_full_state_weights(self, weights: dict[str, Any], set_epoch: bool = True) -> None:
         """Load what :meth:`get_full_state_weights` returned into the running training; the envs start fresh
         episodes. ``set_epoch=False`` keeps this run's epoch and frame counters."""
-        trainer = self._context._trainer
-        epoch, frames = trainer.epoch, trainer.frames
-        trainer.restore(weights, "<full state weights>")
-        if not set_epoch:
-            trainer.ctx.epoch, trainer.ctx.frames = epoch, frames
-        trainer.restart_episodes()
+        self._context.load_full_state(weights, "<full state weights>", keep_counters=not set_epoch)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):

@@ -9,8 +9,10 @@ import importlib
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
 from rlchain.policy.recording import gym_id_of
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 from rlchain.training.video_callback import VideoCallback
 
@@ -28,7 +30,7 @@ def _function(spec: str, source: str) -> Any:
     return fn
 
 
-def _user_env(env: Any) -> Any:
+def _user_env(env: VecEnv) -> Any:
     """The EmbodiChain-contract env behind rlchain's adapter (rlchain.envs.backends.embodichain_env), else env."""
     return env.__dict__.get("env", env) if type(env).__name__ == "EmbodiChainVecEnv" else env
 
@@ -36,31 +38,27 @@ def _user_env(env: Any) -> Any:
 class TrainEvent(Callback):
     """Calls ``fn(env, env_ids=None, **params)`` every ``interval_step`` training env steps."""
 
-    drives_trainer = True
-
     def __init__(self, fn: Any, every: int, params: dict) -> None:
         self.fn, self.every, self.params, self.steps = fn, every, params, 0
 
-    def on_env_step(self, trainer: Any, result: Any, done_indices: Any, rows: slice) -> None:
+    def on_env_step(self, ctx: CallbackContext, result: Any, done_indices: Any, rows: slice) -> None:
         if rows.start not in (None, 0):  # a pipelined rollout calls once per env group: count the step once
             return
         self.steps += 1
         if self.steps % self.every == 0:
-            self.fn(_user_env(trainer.env), None, **self.params)
+            self.fn(_user_env(ctx.training_env), None, **self.params)
 
 
 class EvalEvent(Callback):
     """Calls ``fn(env, env_ids=None, **params)`` after every ``interval_step``-th in-training evaluation."""
 
-    drives_trainer = True
-
     def __init__(self, fn: Any, every: int, params: dict) -> None:
         self.fn, self.every, self.params, self.count = fn, every, params, 0
 
-    def on_evaluation(self, trainer: Any, result: Any) -> None:
+    def on_evaluation(self, ctx: CallbackContext, result: Any) -> None:
         self.count += 1
         if self.count % self.every == 0:
-            self.fn(_user_env(trainer.env), None, **self.params)
+            self.fn(_user_env(ctx.training_env), None, **self.params)
 
 
 def event_callbacks(events: list[Any], evaluation_on: bool, params: Any) -> list[Callback]:

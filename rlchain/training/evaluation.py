@@ -8,6 +8,7 @@ from typing import Any
 
 import torch
 
+from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
 from rlchain.policy.play import EpisodeSuccess, PlayResult, play
 from rlchain.training.callback_context import CallbackContext
@@ -18,7 +19,7 @@ log = get_logger(__name__)
 __all__ = ["EpisodeSuccess", "EvaluationCallback", "PlayResult", "run_episodes"]
 
 
-def run_episodes(model: Any, env: Any, games: int, deterministic: bool, device: torch.device,
+def run_episodes(model: Any, env: VecEnv, games: int, deterministic: bool, device: torch.device,
                  seed: int | None = None, on_game: Callable[[int, float, int, float | None], None] | None = None,
                  render_sleep: float | None = None, success_key: str = "auto",
                  success_mode: str = "any") -> PlayResult:

@@ -41,8 +41,9 @@ class Callback:
     :class:`~rlchain.training.callback_context.CallbackContext`."""
 
     drives_trainer: ClassVar[bool] = False
-    """rlchain's own callbacks that steer the trainer itself (self-play opponents, the Ray Tune
-    stepper's checkpoint exchange, env backend counters) set it: they get the trainer, not a context."""
+    """True: the callback gets the Loop itself, not a context. No callback of rlchain's sets it (the context's
+    methods are what self-play, the Ray Tune stepper, env events and backend counters use); it is kept for
+    test instruments that read the loop's internals."""
 
     def on_train_start(self, ctx: CallbackContext) -> None:
         """Before the first rollout (after a resume restored its state)."""
@@ -208,11 +209,9 @@ def handles_env_steps(callback: Callback) -> bool:
 class EnvStatsCallback(Callback):
     """Writes an env backend's counters, ``env.log_stats()`` (e.g. ``env/dropped_episodes``), every epoch."""
 
-    drives_trainer = True  # reads the training env itself
-
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        for tag, value in trainer.env.log_stats().items():
-            trainer.logger.scalar(tag, float(value), trainer.frames)
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        for tag, value in ctx.training_env.log_stats().items():
+            ctx.scalar(tag, float(value))
 
 
 class CallbackList:

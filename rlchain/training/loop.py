@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import torch
 
@@ -24,6 +24,7 @@ from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterr
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError, EnvError
 from rlchain.log import get_logger, train_hint
 from rlchain.parallel import communicator
@@ -46,6 +47,19 @@ __all__ = ["Loop", "TrainResult", "AlgorithmFactory", "tag_metrics", "to_device"
 log = get_logger(__name__)
 
 AlgorithmFactory = type[Algorithm]
+
+
+@runtime_checkable
+class InterruptibleUpdate(Protocol):
+    """Optional part of an :class:`~rlchain.algos.base.algorithm.Algorithm`: with ``interruptible_update`` True
+    its ``update`` may raise UpdateInterrupted between minibatches on a stop signal (PPO); the Loop then puts
+    back the learners (:meth:`learners`) of the epoch boundary. An algorithm without it finishes its update."""
+
+    interruptible_update: ClassVar[bool]
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """(model, agent) pairs the update trains."""
+        ...
 """What is registered as an algo: its class, built as ``cls(params, env, model, ctx)``."""
 
 
@@ -75,7 +89,7 @@ def _view(path: str, doc: str) -> property:
 class Loop:
     """The training loop of one run: it builds ``algorithm(params, env, model, ctx)`` and drives it."""
 
-    def __init__(self, params: Params, algorithm: AlgorithmFactory, env: Any, model: torch.nn.Module,
+    def __init__(self, params: Params, algorithm: AlgorithmFactory, env: VecEnv, model: torch.nn.Module,
                  device: torch.device, run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
                  comm: Communicator | None = None, checked: bool = False, resuming: bool = False) -> None:
         """``checked``: the caller ran ``algorithm.check_config`` on this env already (the Runner does, before
@@ -243,7 +257,7 @@ class Loop:
         An algorithm that leaves its update on a stop signal (``interruptible_update``) gets the learner of
         the epoch boundary back, so the checkpoint then written resumes exactly."""
         algo = self.algorithm
-        interruptible = getattr(algo, "interruptible_update", False) and not self.ctx.comm.active
+        interruptible = isinstance(algo, InterruptibleUpdate) and algo.interruptible_update and not self.ctx.comm.active
         if interruptible:
             self.backup.capture(algo.learners())
         try:

@@ -19,7 +19,7 @@ before (fresh episodes), and the resume says so in one line naming the env.
 from __future__ import annotations
 
 import copy
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import RunContext
@@ -35,6 +35,21 @@ def env_label(ctx: RunContext) -> str:
     return f"{ctx.cfg.env_name} ({type(ctx.env).__name__})"
 
 
+
+@runtime_checkable
+class ResumePosition(Protocol):
+    """Optional part of an :class:`~rlchain.algos.base.algorithm.Algorithm`: where it stands in the envs'
+    episodes between epochs, checkpointed with the envs' state for exact resume (its ``start`` puts it back
+    through ``load_position``)."""
+
+    def position_state(self) -> dict[str, Any] | None:
+        """The observations it acts on next, RNN states, ... (copies); None before ``start``."""
+        ...
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state`."""
+        ...
+
 class ResumePoint:
     """The state of the last epoch boundary that checkpoints carry beyond the learner (module docstring)."""
 
@@ -49,10 +64,10 @@ class ResumePoint:
         torchrun every rank's part is gathered (a collective: every rank calls this at the same point);
         ``gather=False`` (a rollback, which one rank may do alone) keeps this rank's part only."""
         ctx = self.ctx
-        own_position = getattr(self.algorithm, "position_state", None)  # AlgorithmBase has it; a bare protocol may not
-        position = own_position() if callable(own_position) else None
+        has_position = isinstance(self.algorithm, ResumePosition)  # AlgorithmBase has it; the core protocol not
+        position = self.algorithm.position_state() if has_position else None
         env_state = self._env_state() if position is not None else None
-        missing = (self.env_missing if position is not None else "training had not started" if callable(own_position)
+        missing = (self.env_missing if position is not None else "training had not started" if has_position
                    else f"{type(self.algorithm).__name__} has no position_state")
         tracker = ctx.tracker
         own = {"rng": ckpt.rng_state(), "episodes": copy.deepcopy(tracker.state_dict()),

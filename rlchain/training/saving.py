@@ -7,7 +7,7 @@ resuming from it (:meth:`~CheckpointSaver.restore`). The file itself (atomic wri
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from rlchain.algos.base.algorithm import Algorithm
 from rlchain.algos.base.context import RunContext
@@ -15,7 +15,7 @@ from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint, rl_games_export, rl_games_layout, rl_games_sac_checkpoint
+from rlchain.runs import rl_games_checkpoint, rl_games_export, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -23,6 +23,19 @@ from rlchain.version import __version__
 
 log = get_logger(__name__)
 
+
+@runtime_checkable
+class CheckpointState(Protocol):
+    """Optional part of an :class:`~rlchain.algos.base.algorithm.Algorithm`: what its checkpoints carry beyond
+    the model, the agent and the counters (PPO: the central value, RND; SAC: the replay buffer)."""
+
+    def extra_state(self, kind: str) -> dict[str, Any]:
+        """What a checkpoint of ``kind`` (best, last, ep_N) carries beyond the model, the agent and the counters."""
+        ...
+
+    def restore_extra(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`extra_state` added."""
+        ...
 
 class CheckpointSaver:
     """The checkpoints of one run: the algorithm's model, agent and extra state plus the run's counters."""
@@ -56,7 +69,8 @@ class CheckpointSaver:
         }
         if "ranks" in boundary:  # torchrun: each rank's RNG, episodes and envs, in rank order
             state["ranks"] = boundary["ranks"]
-        state.update(algo.extra_state(kind))
+        if isinstance(algo, CheckpointState):
+            state.update(algo.extra_state(kind))
         if self.run is not None and self.run.layout == "embodichain":
             state.update(embodichain_keys(state))
         get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum
@@ -137,44 +151,23 @@ class CheckpointSaver:
         """A converted rl_games checkpoint completed for resume: its optimizer state (PPO's one, SAC's three) on
         this agent's parameters and its learning rate; this run's RNG streams and episode statistics (rl_games keeps
         none), so the envs start new episodes."""
-        agent = self.algorithm.agent.state_dict()
-        if "rl_games_optimizer" in state and "optimizer" in agent:
-            names = [n for n, p in self.algorithm.model.named_parameters() if p.requires_grad]
-            try:
-                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names)
-            except ValueError as exc:
-                raise ckpt.CheckpointError(f"{path}: {exc}") from None
-            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
-        state = self._rl_games_central_value(state, path)
-        if "rl_games_sac_optimizers" in state:
-            try:
-                agent = rl_games_sac_checkpoint.optimizer_states(state, agent)
-            except (KeyError, ValueError) as exc:
-                raise ckpt.CheckpointError(f"{path}: the rl_games SAC optimizers do not fit this agent: {exc}") \
-                    from None
+        algo = self.algorithm
+        cv_agent = getattr(algo, "cv_agent", None)  # PPO's central value, its file's optimizer put on it
+        cv = cv_agent is not None and "central_value" in state
+        try:
+            agent, cv_state = rl_games_checkpoint.resume_agent_states(
+                state, algo.agent.state_dict(), _trainable_names(algo.model),
+                cv_agent.state_dict() if cv else None, _trainable_names(algo.central_value) if cv else None)
+        except ValueError as exc:
+            raise ckpt.CheckpointError(f"{path}: {exc}") from None
+        if cv_state is not None:
+            state = {**state, "central_value_agent": cv_state}
         if state.get("rl_games_unread"):
             log.warning(f"warning: {path}: rl_games' {', '.join(state['rl_games_unread'])} not read (rlchain starts "
                         f"them anew)")
         run_state = {**self.point._no_run_state(), "env_missing": "an rl_games checkpoint keeps none"}
         return {**state, "agent": agent, "episodes": self.ctx.tracker.state_dict(), "rng": ckpt.rng_state(),
                 "run_state": run_state, "live_config": {}}
-
-    def _rl_games_central_value(self, state: dict[str, Any], path: str) -> dict[str, Any]:
-        """An rl_games central value (``assymetric_vf_nets``) with its optimizer state on this run's central
-        value agent (a fresh one when the file has none); the file's central value is ignored without one."""
-        cv_agent = getattr(self.algorithm, "cv_agent", None)
-        if "central_value" not in state or cv_agent is None:
-            return state
-        agent = cv_agent.state_dict()
-        if "rl_games_cv_optimizer" in state:
-            names = [n for n, p in self.algorithm.central_value.named_parameters() if p.requires_grad]
-            try:
-                agent["optimizer"] = rl_games_checkpoint.optimizer_state(state, agent["optimizer"], names,
-                                                                         key="rl_games_cv_optimizer")
-            except ValueError as exc:
-                raise ckpt.CheckpointError(f"{path}: central value: {exc}") from None
-            agent["lr"] = float(agent["optimizer"]["param_groups"][0]["lr"])
-        return {**state, "central_value_agent": agent}
 
     def restore(self, state: dict[str, Any], path: str, weights: bool = True) -> None:
         """Continue from a checkpoint: weights (``weights``: False when the model holds them already),
@@ -198,7 +191,8 @@ class CheckpointSaver:
                 algo.apply_hyperparam(key, value)
         self.best_reward = float(state["best_reward"])
         ctx.tracker.load_state_dict(state["episodes"])
-        algo.restore_extra(state)
+        if isinstance(algo, CheckpointState):
+            algo.restore_extra(state)
         self.point.restore(state)
         self.frames_seen = ctx.frames
         set_env_state = getattr(ctx.env, "set_env_state", None)
@@ -245,3 +239,8 @@ def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
         if key in ("model", "epoch") or key not in state:  # the others are rlchain's own
             out[key] = value
     return out
+
+
+def _trainable_names(model: Any) -> list[str]:
+    """The names of ``model``'s trainable parameters, in order (an optimizer's parameter order)."""
+    return [name for name, p in model.named_parameters() if p.requires_grad]

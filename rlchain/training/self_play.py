@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import copy
 from collections import deque
-from typing import Any
 
 import numpy as np
 import torch
@@ -28,7 +27,9 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.ppo import SelfPlayConfig
 from rlchain.envs.spec import env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
 log = get_logger(__name__)
@@ -60,9 +61,7 @@ class FrozenPolicy:
 class SelfPlayCallback(Callback):
     """Replaces the env's opponent by the current policy whenever it wins often enough."""
 
-    drives_trainer = True  # reads the episode tracker's finished games
-
-    def __init__(self, cfg: SelfPlayConfig, env: Any, source: str = "") -> None:
+    def __init__(self, cfg: SelfPlayConfig, env: VecEnv, source: str = "") -> None:
         spec = env_spec(env)
         if not spec.self_play:
             raise ConfigError(source, KEY, "needs an env with set_opponent(policy, env_ids) (for example "
@@ -79,49 +78,47 @@ class SelfPlayCallback(Callback):
         self.epochs_since_update = 0
         self._games_seen = 0
 
-    def on_train_start(self, trainer: Any) -> None:
-        self._games_seen = trainer.tracker.games
+    def on_train_start(self, ctx: CallbackContext) -> None:
+        self._games_seen = ctx.episode_tracker.games
         self._drain()
-        if trainer.epoch > 0:  # resumed: the opponent was not saved, the resumed policy stands in
-            self.env.set_opponent(FrozenPolicy(trainer.model, self.cfg.deterministic), None)
+        if ctx.state.epoch > 0:  # resumed: the opponent was not saved, the resumed policy stands in
+            self.env.set_opponent(FrozenPolicy(ctx.model, self.cfg.deterministic), None)
 
-    def on_epoch_end(self, trainer: Any, stats: dict, episodes: dict | None) -> None:
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict, episodes: dict | None) -> None:
         self.epochs_since_update += 1
-        self.scores.extend(self._new_scores(trainer))
+        self.scores.extend(self._new_scores(ctx))
         if len(self.scores) < self.cfg.games_to_check:
             return
         score = float(np.mean(self.scores))
-        trainer.logger.scalar("selfplay/score", score, trainer.frames)
+        ctx.scalar("selfplay/score", score)
         if score > self.cfg.update_score:
-            self.update(trainer, score)
+            self.update(ctx, score)
 
-    def update(self, trainer: Any, score: float) -> list[int]:
-        """Load a frozen copy of ``trainer.model`` into the next window of envs; returns their indices."""
+    def update(self, ctx: CallbackContext, score: float) -> list[int]:
+        """Load a frozen copy of the policy into the next window of envs; returns their indices."""
         count = min(self.cfg.env_update_num, self.num_actors)
         env_ids = [(self.first_env + k) % self.num_actors for k in range(count)]
-        self.env.set_opponent(FrozenPolicy(trainer.model, self.cfg.deterministic), env_ids)
+        self.env.set_opponent(FrozenPolicy(ctx.model, self.cfg.deterministic), env_ids)
         self.first_env = (self.first_env + 1) % self.num_actors
         self.updates += 1
         # rl_games' tag (its spelling): epochs since the previous update
-        trainer.logger.scalar("selfplay/iters_update_weigths", self.epochs_since_update, trainer.frames)
-        trainer.logger.scalar("selfplay/updates", self.updates, trainer.frames)
-        if trainer.cfg.print_stats:
+        ctx.scalar("selfplay/iters_update_weigths", self.epochs_since_update)
+        ctx.scalar("selfplay/updates", self.updates)
+        if ctx.params.config.print_stats:
             where = f"env(s) {env_ids}" if len(env_ids) <= 4 else f"{len(env_ids)} envs"
             log.info(f"self-play: mean score {score:.3f} > {self.cfg.update_score} over {len(self.scores)} games: "
-                     f"the opponent of {where} is now the policy of epoch {trainer.epoch} (update {self.updates})")
+                     f"the opponent of {where} is now the policy of epoch {ctx.state.epoch} (update {self.updates})")
         self.scores.clear()
         self.epochs_since_update = 0
         self._drain()
-        events = getattr(trainer, "events", None)
-        if events is not None:  # rl_games clears its game statistics here (AlgoObserver.after_clear_stats)
-            events.emit("on_stats_cleared")
+        ctx.emit("on_stats_cleared")  # rl_games clears its game statistics here (AlgoObserver.after_clear_stats)
         return env_ids
 
-    def _new_scores(self, trainer: Any) -> list[float]:
+    def _new_scores(self, ctx: CallbackContext) -> list[float]:
         """Scores of the games finished since the last call."""
         if self.cfg.check_scores:
             return [float(s) for s in np.asarray(self.env.pop_scores()).reshape(-1)]
-        tracker = trainer.tracker
+        tracker = ctx.episode_tracker
         new = min(tracker.games - self._games_seen, len(tracker.finished_returns))
         self._games_seen = tracker.games
         return list(tracker.finished_returns)[len(tracker.finished_returns) - new:] if new > 0 else []

@@ -20,7 +20,7 @@ from rlchain.runs import checkpoint as ckpt
 from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import create_run_dir
 from rlchain.runs.writers import make_writers
-from rlchain.training.callback_context import training_state
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
 
@@ -41,15 +41,14 @@ class EpochReport:
 class EpochStepper(Callback):
     """Drives ``runner.train(checkpoint)`` one epoch at a time (see the module docstring)."""
 
-    drives_trainer = True  # saves, loads and moves the parked run
-
     def __init__(self, runner: Any, checkpoint: str | None = None, live: dict[str, float] | None = None,
                  seed: int | None = None) -> None:
         self.runner = runner
         self.checkpoint = checkpoint  # resume from it when the thread starts
         self.live = dict(live or {})  # set_params at the start (over a checkpoint's restored values)
         self.seed = seed
-        self.trainer: Any = None
+        self.context: CallbackContext | None = None  # the run's, from its start on
+        self._moved_logger: TrainLogger | None = None  # the logger of a moved run (this stepper closes it)
         self.result: Any = None  # the TrainResult once the run ended
         self.parked = False
         self._thread: threading.Thread | None = None
@@ -85,42 +84,41 @@ class EpochStepper(Callback):
 
     def save(self, path: str) -> None:
         """Write the parked run's checkpoint (exact resume state) to ``path``."""
-        if self.trainer is None or not (self.parked or self.result is not None):
+        if self.context is None or not (self.parked or self.result is not None):
             raise RuntimeError("the run can be saved only between epochs")
-        ckpt.save_atomic(self.trainer.state_dict("last"), path)
+        ckpt.save_atomic(self.context.full_state(), path)
 
     def load(self, path: str) -> None:
         """Load a checkpoint into the parked run (weights, optimizer, counters); the envs keep
         running and start fresh episodes, so the next rewards are the loaded policy's."""
-        if self.trainer is None:
+        context = self.context
+        if context is None:
             self.checkpoint = path
             return
         if not self.parked:
             raise RuntimeError("a checkpoint can be loaded only between epochs")
-        trainer = self.trainer
-        with ckpt.trusting(trainer.cfg.trust_checkpoint):
+        with ckpt.trusting(context.params.config.trust_checkpoint):
             state = ckpt.load(path)
-        trainer.restore(state, path)
-        trainer.restart_episodes()
-        trainer.snapshot()  # the divergence guard rolls back to the loaded learner, not the old one
+        context.load_full_state(state, path)
+        context.snapshot()  # the divergence guard rolls back to the loaded learner, not the old one
 
     def set_params(self, values: dict[str, float]) -> None:
         """Change live hyperparameters from the next epoch on (before the start: at the start)."""
         self.live.update(values)
-        if self.trainer is not None:
-            self.trainer.set_params(**values)
+        if self.context is not None:
+            self.context.set_params(**values)
 
     def move_run(self, experiment: str) -> None:
         """Log and checkpoint the parked run under another run folder of the same train_dir (an
         actor Ray reuses for another trial keeps its envs but writes that trial's TensorBoard)."""
-        trainer = self.trainer
-        if trainer is None or trainer.run is None:
+        context = self.context
+        if context is None or context.run_dir is None:
             return
-        cfg = trainer.cfg
-        run = create_run_dir(cfg.train_dir, cfg.name, experiment, trainer.raw_config)
-        trainer.logger.close()
-        trainer.logger = TrainLogger(run.summaries, cfg.print_stats, writers=make_writers(cfg.log_writers, run.root))
-        trainer.run = run
+        cfg = context.params.config
+        run = create_run_dir(cfg.train_dir, cfg.name, experiment, context.raw_config)
+        logger = TrainLogger(run.summaries, cfg.print_stats, writers=make_writers(cfg.log_writers, run.root))
+        context.move_run(run, logger).close()
+        self._moved_logger = logger
 
     def shutdown(self, timeout: float = 60.0) -> None:
         """Stop the run after the parked epoch (it saves its last checkpoint) and wait for it."""
@@ -129,8 +127,8 @@ class EpochStepper(Callback):
         if self.parked:
             self._resume("stop")
         self._thread.join(timeout)
-        if self.trainer is not None and self.trainer.run is not None:
-            self.trainer.logger.close()  # a moved run's logger (the Runner closes the one it made)
+        if self._moved_logger is not None:
+            self._moved_logger.close()  # a moved run's logger (the Runner closes the one it made)
 
     # ----- the training thread's side --------------------------------------------------------
     def _resume(self, command: str) -> None:
@@ -146,23 +144,23 @@ class EpochStepper(Callback):
             return
         self._events.put(("end", result))
 
-    def on_train_start(self, trainer: Any) -> None:
-        self.trainer = trainer
+    def on_train_start(self, ctx: CallbackContext) -> None:
+        self.context = ctx
         self._resumed_at = time.time()  # the first epoch's time leaves out building the run
         if self.live:
-            trainer.set_params(**self.live)
+            ctx.set_params(**self.live)
 
-    def on_epoch_end(self, trainer: Any, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
-        state = training_state(trainer)
+    def on_epoch_end(self, ctx: CallbackContext, stats: dict[str, float], episodes: dict[str, float] | None) -> None:
+        state = ctx.state
         report = EpochReport(
             epoch=state.epoch, frames=state.frames,
             mean_reward=None if episodes is None else float(episodes["reward"]),
             mean_length=None if episodes is None else float(episodes.get("length", 0.0)),
             best_reward=state.best_reward, stats={k: float(v) for k, v in stats.items()},
-            params={k: float(v) for k, v in trainer.get_params().items()
+            params={k: float(v) for k, v in ctx.get_params().items()
                     if isinstance(v, (int, float)) and not isinstance(v, bool)},
             seconds=time.time() - self._resumed_at)
         self.parked = True
         self._events.put(("epoch", report))
         if self._commands.get() == "stop":
-            trainer.request_stop("ray tune")
+            ctx.request_stop("ray tune")

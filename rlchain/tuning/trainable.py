@@ -122,9 +122,9 @@ class RlchainTrainable(tune.Trainable):
 
     def save_checkpoint(self, checkpoint_dir: str) -> None:
         path = os.path.join(checkpoint_dir, CHECKPOINT)
-        if self.stepper is not None and self.stepper.trainer is not None:
+        if self.stepper is not None and self.stepper.context is not None:
             self.stepper.save(path)
-            epoch = self.stepper.trainer.epoch
+            epoch = self.stepper.context.state.epoch
         elif self.stepper is not None and self.stepper.checkpoint:  # restored, not stepped yet
             shutil.copyfile(self.stepper.checkpoint, path)
             epoch = self.lineage[-1][0] if self.lineage else 0
@@ -210,8 +210,8 @@ class RlchainTrainable(tune.Trainable):
         return str(name or os.path.basename(str(getattr(self, "_logdir", "") or "")))
 
     def _frames_per_epoch(self) -> int:
-        trainer = self.stepper.trainer if self.stepper is not None else None
-        return int(trainer.frames_per_epoch()) if trainer is not None else 0
+        context = self.stepper.context if self.stepper is not None else None
+        return int(context.frames_per_epoch()) if context is not None else 0
 
     def _close(self) -> None:
         if self.stepper is not None:

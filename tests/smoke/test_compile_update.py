@@ -16,7 +16,7 @@ def _epochs(compiled: bool, epochs: int = 2) -> list[dict[str, float]]:
     overrides = ["params.config.num_actors=256", "params.config.minibatch_size=1024", "params.config.print_stats=false",
                  f"params.config.compile_update={compiled}"]
     out, ppo = ppo_epochs(os.path.join(CONFIGS, "ppo_torch_cartpole.yaml"), overrides, 256, epochs)
-    assert ppo.agent.minibatch_step.mode == ("compiled" if compiled else "eager")  # the compiled region ran, or not
+    assert ppo.agent.mode == ("compiled" if compiled else "eager")  # the compiled region ran, or not
     return out
 
 

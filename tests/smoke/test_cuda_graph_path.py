@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.algos.ppo import trainer as ppo_trainer
+from rlchain.algos.ppo import ppo as ppo_module
 from tests.conftest import CONFIGS, ppo_epochs
 
 pytestmark = pytest.mark.smoke
@@ -18,7 +18,7 @@ CONFIG = os.path.join(CONFIGS, "ppo_torch_pendulum.yaml")  # continuous: kl_refe
 
 
 def _forced(monkeypatch):
-    monkeypatch.setattr(ppo_trainer, "resolve_cuda_graph", lambda *args: True)
+    monkeypatch.setattr(ppo_module, "resolve_cuda_graph", lambda *args: True)
 
 
 def _epochs() -> tuple[list[dict[str, float]], object]:
@@ -28,10 +28,10 @@ def _epochs() -> tuple[list[dict[str, float]], object]:
 
 def test_the_graph_path_learns_what_the_eager_path_does(monkeypatch):
     eager, eager_ppo = _epochs()
-    assert not eager_ppo.agent.graphed and eager_ppo.graphed_act is None
+    assert not eager_ppo.agent.graphed and eager_ppo.collector.graphed_act is None
     _forced(monkeypatch)
     graphed, ppo = _epochs()
-    assert ppo.agent.graphed and ppo.graphed_act is not None
+    assert ppo.agent.graphed and ppo.collector.graphed_act is not None
     for a, b in zip(eager, graphed):
         for key in KEYS:
             assert b[key] == pytest.approx(a[key], rel=1e-4, abs=1e-6), key

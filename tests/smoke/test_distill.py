@@ -118,7 +118,7 @@ def test_cli_export_checks_parity_on_the_view(distilled, tmp_path, capsys):
 
 @pytest.mark.parametrize("value", ["scratch", "teacher"])
 def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, monkeypatch, value):
-    from rlchain.algos.ppo import trainer as ppo_trainer
+    from rlchain.algos.ppo import ppo as ppo_module
     from rlchain.training.events import Callback
     _, last, _ = distilled
     runner = Runner().load(FINETUNE, [f"params.config.distilled_checkpoint={last}",
@@ -126,14 +126,14 @@ def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, 
                                       "params.config.distilled_value_epochs=1", "params.config.num_actors=8",
                                       "params.config.minibatch_size=128", *small(tmp_path, 1)])
     seen = {}
-    real = ppo_trainer.warm_start_value
+    real = ppo_module.warm_start_value
 
     def warm_start(trainer, teacher, epochs):  # records the model right after the value head's regression
         mse = real(trainer, teacher, epochs)
         seen["warm"] = {k: v.clone() for k, v in trainer.model.state_dict().items()}
         return mse
 
-    monkeypatch.setattr(ppo_trainer, "warm_start_value", warm_start)
+    monkeypatch.setattr(ppo_module, "warm_start_value", warm_start)
 
     class Start(Callback):
         drives_trainer = True  # test instrument: the model PPO starts from

@@ -76,10 +76,10 @@ def test_env_groups_values_and_layout_labels():
     assert throughput.parse_groups("auto") == "auto" and throughput.parse_groups("2") == 2
     with pytest.raises(SystemExit, match="bad --env-groups value 'two'"):
         throughput.parse_groups("two")
-    ppo = SimpleNamespace(pipeline_choice=SimpleNamespace(decided=True))
+    ppo = SimpleNamespace(collector=SimpleNamespace(pipeline_choice=SimpleNamespace(decided=True)))
     two, one = SimpleNamespace(pools=[0, 1]), SimpleNamespace(pools=[0])
     assert throughput.layout_label(two, ppo, auto=True) == "a2p" and throughput.layout_label(one, ppo, True) == "a1"
-    ppo.pipeline_choice.decided = False
+    ppo.collector.pipeline_choice.decided = False
     assert throughput.layout_label(two, ppo, auto=False) == "2t"
 
 

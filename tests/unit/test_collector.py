@@ -35,9 +35,10 @@ def context(stop_after: int | None = None) -> SimpleNamespace:
         terminated = torch.as_tensor(result.terminated)
         return result.reward.detach(), terminated, torch.as_tensor(result.truncated), terminated
 
-    return SimpleNamespace(device=torch.device("cpu"), epoch=0, spec=SimpleNamespace(groups=None), recorded=calls,
+    return SimpleNamespace(device=torch.device("cpu"), epoch=0, spec=SimpleNamespace(groups=None, to_env=lambda a: a),
+                           recorded=calls,
                            stop_requested=lambda: stop_after is not None and len(calls) >= stop_after,
-                           to_tensor=torch.as_tensor, env_actions=lambda a: a, record_step=record_step)
+                           to_tensor=torch.as_tensor, record_step=record_step)
 
 
 def test_own_act_step_and_per_step_hook_carry_states_and_zero_them_at_episode_ends():

@@ -116,11 +116,11 @@ def test_checkpoints_load_both_ways_and_a_load_captures_again():
     eager.load_state_dict(copy.deepcopy(state))
     eager.update(_rollout(eager), 0.0)
     assert isinstance(eager.optimizer.param_groups[0]["lr"], float)
-    graphed.minibatch_step.graphed.graph = "captured"  # stands for a recorded graph: a load must drop it
+    graphed.graphed.graph = "captured"  # stands for a recorded graph: a load must drop it
     graphed.load_state_dict(eager.state_dict())
-    assert graphed.minibatch_step.graphed.graph is None and graphed.optimizer.param_groups[0]["capturable"] is True
-    assert graphed.optimizer.param_groups[0]["lr"] is graphed.adam.lr_step
-    assert graphed.lr == pytest.approx(eager.lr) and float(graphed.adam.lr_live) == pytest.approx(eager.lr)
+    assert graphed.graphed.graph is None and graphed.optimizer.param_groups[0]["capturable"] is True
+    assert graphed.optimizer.param_groups[0]["lr"] is graphed.lr_step
+    assert graphed.lr == pytest.approx(eager.lr) and float(graphed.lr_live) == pytest.approx(eager.lr)
     graphed.update(_rollout(graphed), 0.0)
 
 
@@ -206,14 +206,14 @@ def test_cuda_graph_refuses_what_it_cannot_capture(tmp_path, config, override, e
 @CUDA
 def test_on_cuda_the_captured_step_trains_what_the_eager_step_does():
     _, graphed = _same_update("cuda")
-    assert graphed.minibatch_step.graphed.captures == 1 and graphed.minibatch_step.graphed.graph is not None
+    assert graphed.graphed.captures == 1 and graphed.graphed.graph is not None
 
 
 @CUDA
 def test_on_cuda_a_non_finite_replay_raises_and_a_load_captures_again():
     agent = _agent("cuda", True)
     agent.update(_rollout(agent), 0.0)  # 8 minibatch steps: warmed up and captured
-    assert agent.minibatch_step.graphed.captures == 1
+    assert agent.graphed.captures == 1
     before = [p.detach().clone() for p in agent.params]
     with pytest.raises(DivergenceError):
         agent.update(_rollout(agent, nan=True), 0.0)
@@ -221,7 +221,7 @@ def test_on_cuda_a_non_finite_replay_raises_and_a_load_captures_again():
     agent.load_state_dict(agent.state_dict())
     agent.update(_rollout(agent), 0.0)
     agent.update(_rollout(agent), 0.0)
-    assert agent.minibatch_step.graphed.captures == 2
+    assert agent.graphed.captures == 2
     assert all(torch.isfinite(p).all() for p in agent.params)
 
 
@@ -274,6 +274,6 @@ def test_on_cuda_a_step_that_cannot_be_captured_runs_eagerly_with_a_warning(capl
 
 def test_a_changed_hyperparameter_drops_the_captured_step():
     agent = _agent("cpu", True)
-    agent.minibatch_step.graphed.graph = "captured"  # stands for a recorded graph holding e_clip as a constant
+    agent.graphed.graph = "captured"  # stands for a recorded graph holding e_clip as a constant
     agent.config_changed()
-    assert agent.minibatch_step.graphed.graph is None
+    assert agent.graphed.graph is None

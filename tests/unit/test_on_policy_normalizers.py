@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.ppo import agent as agent_module
 from rlchain.algos.ppo.agent import PPOAgent
 from tests.conftest import BASE
 
@@ -45,12 +46,12 @@ def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_f
     # statistics; minibatch k of the first mini-epoch is normalized with statistics that hold minibatches 1..k;
     # the later passes use the whole rollout's
     seen, counts = [], []
-    real_step = PPOAgent._step
+    real_loss = agent_module.ppo_loss
 
-    def step(self, batch, reference):
-        norm = self.model.obs_norm
+    def loss(model, cfg, batch, *args, **kwargs):  # the minibatch's forward pass and losses
+        norm = model.obs_norm
         seen.append((norm.count.item(), norm.mean.clone(), batch.obs.double().mean(0)))
-        return real_step(self, batch, reference)
+        return real_loss(model, cfg, batch, *args, **kwargs)
 
     real_update = PPOAgent.update
 
@@ -58,7 +59,7 @@ def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_f
         counts.append((self.model.obs_norm.count.item(), obs_per_minibatch))
         return real_update(self, storage, progress, obs_per_minibatch)
 
-    monkeypatch.setattr(PPOAgent, "_step", step)
+    monkeypatch.setattr(agent_module, "ppo_loss", loss)
     monkeypatch.setattr(PPOAgent, "update", update)
     config = {**BASE["params"]["config"], "normalize_input": True, "max_epochs": 2, "mini_epochs": 2,
               "minibatch_size": 16, "obs_normalizer_update": "minibatch", "train_dir": str(tmp_path),

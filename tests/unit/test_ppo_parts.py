@@ -59,7 +59,7 @@ def _batch(model):
 def test_the_loss_is_its_terms_summed_by_hand(train_critic):
     cfg, model = _cfg(bounds_loss_coef=0.01), _model()
     batch, coef = _batch(model), torch.tensor(0.05)
-    surrogate = lambda old, new, adv: policy_loss(old, new, adv, cfg.e_clip)  # noqa: E731
+    surrogate = policy_loss
     loss, stats, aux, current = ppo_loss(model, cfg, batch, coef, batch.params, surrogate, train_critic)
     params, values, _ = model.evaluate(batch.obs, (), None, 1, None)
     log_probs, entropy = model.dist.log_prob_and_entropy(params, batch.actions)
@@ -78,7 +78,7 @@ def test_the_loss_is_its_terms_summed_by_hand(train_critic):
 def test_minibatch_advantage_normalization_normalizes_in_the_loss():
     model = _model()
     batch = _batch(model)
-    surrogate = lambda old, new, adv: policy_loss(old, new, adv, 0.2)  # noqa: E731
+    surrogate = policy_loss
     coef = torch.tensor(0.0)
     per_minibatch = ppo_loss(model, _cfg(advantage_normalization="minibatch"), batch, coef, batch.params, surrogate,
                              False)[0]
@@ -122,5 +122,5 @@ def test_a_capturable_optimizers_state_loads_into_an_eager_one_and_back():
 
 def test_the_minibatch_step_says_which_way_it_runs():  # compiled: tests/smoke/test_compile_update.py
     cfg = _cfg()
-    assert PPOAgent(_model(), cfg, torch.device("cpu")).minibatch_step.mode == "eager"
-    assert PPOAgent(_model(), cfg, torch.device("cpu"), cuda_graph=True).minibatch_step.mode == "graphed"
+    assert PPOAgent(_model(), cfg, torch.device("cpu")).mode == "eager"
+    assert PPOAgent(_model(), cfg, torch.device("cpu"), cuda_graph=True).mode == "graphed"

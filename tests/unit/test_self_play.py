@@ -52,9 +52,11 @@ class ScoringEnv:
 
 def fake_trainer(env, epoch=0):
     model = build_model(parse_params(duel_raw(), "<test>"), DuelVecEnv(1), torch.device("cpu"))
-    return types.SimpleNamespace(model=model, epoch=epoch, frames=0, logger=Logger(), env=env,
-                                 tracker=EpisodeTracker(env.num_envs, 100, torch.device("cpu")),
-                                 cfg=types.SimpleNamespace(print_stats=False))
+    logger = Logger()  # a CallbackContext's face: what self-play reads and writes of the run
+    return types.SimpleNamespace(model=model, state=types.SimpleNamespace(epoch=epoch, frames=0), logger=logger,
+                                 scalar=lambda tag, value: logger.scalar(tag, value, 0), emit=lambda event: None,
+                                 episode_tracker=EpisodeTracker(env.num_envs, 100, torch.device("cpu")),
+                                 params=types.SimpleNamespace(config=types.SimpleNamespace(print_stats=False)))
 
 
 def callback(env, **changes):
@@ -104,12 +106,12 @@ def test_episode_rewards_are_the_score_without_check_scores():
     env = ScoringEnv(num_envs=2)
     trainer = fake_trainer(env)
     cb = callback(env, check_scores=False, update_score=0.0, games_to_check=3)
-    trainer.tracker.step(torch.tensor([-1.0, 1.0]), torch.tensor([True, True]))
+    trainer.episode_tracker.step(torch.tensor([-1.0, 1.0]), torch.tensor([True, True]))
     cb.on_train_start(trainer)  # games before the start are not counted
-    trainer.tracker.step(torch.tensor([1.0, -1.0]), torch.tensor([True, True]))
+    trainer.episode_tracker.step(torch.tensor([1.0, -1.0]), torch.tensor([True, True]))
     cb.on_epoch_end(trainer, {}, None)
     assert list(cb.scores) == [1.0, -1.0] and env.updates == []
-    trainer.tracker.step(torch.tensor([0.0, 1.0]), torch.tensor([False, True]))
+    trainer.episode_tracker.step(torch.tensor([0.0, 1.0]), torch.tensor([False, True]))
     cb.on_epoch_end(trainer, {}, None)  # 1, -1, 1 -> 1/3 > 0
     assert len(env.updates) == 1
 

@@ -169,12 +169,12 @@ def test_stepper_exploit_and_explore_for_every_algorithm(tmp_path, config, overr
         assert first.epoch == 1 and name in first.params
         stepper.save(str(tmp_path / "donor.pth"))
         assert stepper.next_epoch().epoch == 2
-        env = stepper.trainer.env
+        env = stepper.context.training_env
         stepper.load(str(tmp_path / "donor.pth"))
         stepper.set_params({name: value})
         after = stepper.next_epoch()
         assert after.epoch == 2 and after.frames == 2 * first.frames  # resumed from epoch 1
-        assert after.params[name] == pytest.approx(value) and stepper.trainer.env is env  # same envs
+        assert after.params[name] == pytest.approx(value) and stepper.context.training_env is env  # same envs
     finally:
         stepper.shutdown()
     assert stepper.result is None or stepper.result.epoch >= 2

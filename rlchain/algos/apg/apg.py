@@ -22,6 +22,7 @@ from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 
 
@@ -34,7 +35,7 @@ class APG(AlgorithmBase):
     console_fields = (("objective", "objective {:.3g}"), ("grad_norm", "grad {:.3g}"))
     tunable = ("learning_rate", "entropy_coef", "grad_norm", "gamma")
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         if not ctx.spec.tensor_native or not callable(getattr(env, "detach_state", None)):
             raise ConfigError(params.source, "params.config.env_name",
@@ -59,7 +60,7 @@ class APG(AlgorithmBase):
         cfg = self.cfg
         self.model.train()
         self.segment = {"rewards": [], "dones": [], "entropies": []}
-        self.collector.obs = self.obs
+        self.collector.place(self.obs)
         if not self.collector.rollout():
             return False
         segment = self.segment
@@ -71,7 +72,8 @@ class APG(AlgorithmBase):
         self.stats.update(objective=float(objective.detach()), entropy=float(mean_entropy.detach()),
                           loss=float(loss.detach()))
         self.segment = {}
-        self.obs = self.collector.obs = self.env.detach_state()
+        self.obs = self.env.detach_state()
+        self.collector.place(self.obs)
         return True
 
     def _act(self, t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:

@@ -20,6 +20,7 @@ import torch
 
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
 
@@ -74,7 +75,7 @@ class FragmentRunner:
                  step_delay_s: float = 0.0) -> None:
         self.recipe, self.worker, self.start, self.num_envs, self.horizon = recipe, worker, start, num_envs, horizon
         self.step_delay_s = step_delay_s
-        self.env: Any = None
+        self.env: VecEnv | None = None
         self.model: torch.nn.Module | None = None
         self.version = -1
         self.obs: torch.Tensor | None = None
@@ -146,7 +147,7 @@ class FragmentRunner:
                                "terminated": [], "truncated": [], "final_steps": [], "final_obs": [],
                                "returns": [], "lengths": [], "successes": []}
         version = self.version
-        collector.obs = self.obs
+        collector.place(self.obs)
         complete = collector.rollout()
         self.obs = collector.obs
         if not complete:
@@ -243,8 +244,9 @@ class FragmentRunner:
 
 class RunnerSide:
     """What the on-policy collector asks of its run, on a runner: no RunContext there (the learner's is in
-    another thread or process), so the runner answers: CPU tensors, numpy actions, its own episode
-    bookkeeping (:meth:`FragmentRunner.record`), a kill as the stop signal."""
+    another thread or process), so the runner answers: CPU tensors, its own episode
+    bookkeeping (:meth:`FragmentRunner.record`), a kill as the stop signal; actions in the form the runner's env
+    takes (its spec's ``to_env``)."""
 
     device = torch.device("cpu")
     epoch = 0
@@ -258,9 +260,6 @@ class RunnerSide:
 
     def to_tensor(self, x: Any) -> torch.Tensor:
         return torch.as_tensor(np.asarray(x))
-
-    def env_actions(self, actions: torch.Tensor) -> np.ndarray:
-        return actions.numpy()
 
     def record_step(self, result: Any, rows: slice) -> StepOutcome:
         return self.runner.record(result)

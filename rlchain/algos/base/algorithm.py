@@ -36,13 +36,20 @@ from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
 
 
 @runtime_checkable
 class Algorithm(Protocol):
-    """The hooks the Loop drives. ``model``, ``agent`` (``state_dict``/``load_state_dict``: the
-    optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls back. A class
-    attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent)."""
+    """The required core: the hooks the Loop drives every run. ``model``, ``agent`` (``state_dict``/
+    ``load_state_dict``: the optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls
+    back. A class attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent).
+
+    Optional parts, each declared where the loop reads it and found by its methods: what a checkpoint carries
+    beyond the model and the agent (:class:`rlchain.training.saving.CheckpointState`: ``extra_state`` /
+    ``restore_extra``), where the algorithm stands in the envs' episodes (:class:`rlchain.training.resume.
+    ResumePosition`: ``position_state``, put back by the algorithm's own ``start``) and an update a stop signal
+    may interrupt (:class:`rlchain.training.loop.InterruptibleUpdate`). :class:`AlgorithmBase` has all three."""
 
     metric_tags: ClassVar[dict[str, str]]
     """Metric name (a key of :meth:`update`'s result) -> TensorBoard tag. Keys that already look like
@@ -110,19 +117,6 @@ class Algorithm(Protocol):
     def apply_hyperparam(self, name: str, value: float) -> None:
         """Change one of :attr:`tunable` (called by the Loop between epochs)."""
 
-    def position_state(self) -> dict[str, Any] | None:
-        """Where the algorithm stands in the envs' episodes between epochs (the observations it acts on
-        next, RNN states): checkpointed with the envs' state for exact resume. None before ``start``."""
-
-    def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state` (``start`` after a restore with the envs' state)."""
-
-    def extra_state(self, kind: str) -> dict[str, Any]:
-        """What a checkpoint of ``kind`` carries beyond the model, the agent and the counters."""
-
-    def restore_extra(self, state: dict[str, Any]) -> None:
-        """Restore what :meth:`extra_state` added."""
-
     def close(self) -> None:
         """Release what the algorithm opened (not the training env: its builder closes it)."""
 
@@ -142,7 +136,7 @@ class AlgorithmBase:
     # the learner of the epoch boundary); an algorithm without it finishes its update first
     interruptible_update: ClassVar[bool] = False
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         self.params, self.env, self.model, self.ctx = params, env, model, ctx
         self.cfg = ctx.cfg
         self.device = ctx.device

@@ -21,7 +21,7 @@ from rlchain.algos.core.collector import StepOutcome
 from rlchain.config.params import Params
 from rlchain.envs.obs_dict import ObsDict
 from rlchain.envs.spec import EnvSpec, check_obs_shape, env_spec
-from rlchain.envs.vecenv import dropped_rows, game_outcome
+from rlchain.envs.vecenv import VecEnv, dropped_rows, game_outcome
 from rlchain.envs.wrappers.info_means import InfoMeans
 from rlchain.envs.wrappers.success import SuccessReader
 from rlchain.errors import EnvError
@@ -55,7 +55,7 @@ class RunContext:
 
     params: Params
     cfg: Any
-    env: Any
+    env: VecEnv
     device: torch.device
     seed: int
     comm: Communicator
@@ -154,10 +154,6 @@ class RunContext:
         """``x`` as a tensor on the training device (:func:`to_device`)."""
         return to_device(x, self.device)
 
-    def env_actions(self, actions: torch.Tensor) -> Any:
-        """Tensor envs take device tensors; numpy backends take arrays."""
-        return actions if self.spec.tensor_native else actions.cpu().numpy()
-
     def record_step(self, result: Any, rows: slice = slice(None)) -> StepOutcome:
         """Record an env step in the run -- episode statistics (finished episodes as whole games: Atari
         lives; episodes cut by a dead Ray worker dropped), task success, info means, ``on_env_step``
@@ -195,7 +191,7 @@ class RunContext:
         self.events.emit_env_step(result, done_indices, rows)
 
 
-def make_context(params: Params, env: Any, device: torch.device, seed: int, comm: Communicator,
+def make_context(params: Params, env: VecEnv, device: torch.device, seed: int, comm: Communicator,
                  logger: ScalarLogger, events: StepEvents) -> RunContext:
     """The context of a fresh run on ``env``: counters at zero, episode statistics empty."""
     cfg = params.config

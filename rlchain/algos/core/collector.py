@@ -37,7 +37,7 @@ import torch
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.storage import ALL
 from rlchain.envs.spec import check_obs_shape
-from rlchain.envs.vecenv import dropped_rows
+from rlchain.envs.vecenv import VecEnv, dropped_rows
 from rlchain.networks.rnn import zero_finished
 
 
@@ -115,19 +115,25 @@ class OnPolicyCollector:
 
     The hooks (each optional; the default in brackets): ``act`` (:class:`ActFn`) [the model's act step,
     with the central value's values and states], ``to_env`` (model-format actions -> what ``env.step``
-    takes) [``ctx.env_actions(model.dist.to_env(actions))``], ``record`` (``(result, rows) -> StepOutcome``
+    takes) [``ctx.spec.to_env(model.dist.to_env(actions))``], ``record`` (``(result, rows) -> StepOutcome``
     or None) [``ctx.record_step``], ``read_obs`` (the env's observations -> what the next step acts on)
     [``ctx.to_tensor``], ``on_step`` (called with every :class:`CollectedStep` once the step is recorded),
     ``differentiable`` [False: the model acts in eval mode; True: its mode is left as it is and nothing is
-    detached, for a loss backpropagated through the rollout].
+    detached, for a loss backpropagated through the rollout]. PPO's extras: ``graphed_act`` (the act step
+    as a CUDA graph), ``reward_bonus`` (an intrinsic reward of each step's next observations),
+    ``fold_obs_each_step`` (the input statistics fold each step in), ``carries_states`` (start from zero RNN
+    states; else the owner sets them with :meth:`place`). An owner moves the envs' position with
+    :meth:`place` and :meth:`reset_states`.
     """
 
-    def __init__(self, env: Any, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
+    def __init__(self, env: VecEnv, model: Any, ctx: Any, cfg: Any, *, storage: Any = None, central_value: Any = None,
                  use_masks: bool = False, pipeline_choice: PipelineChoice | None = None, horizon: int | None = None,
                  act: ActFn | None = None, to_env: Callable[[Any], Any] | None = None,
                  record: Callable[[Any, slice], StepOutcome | None] | None = None,
                  read_obs: Callable[[Any], Any] | None = None, on_step: Callable[[CollectedStep], None] | None = None,
-                 differentiable: bool = False) -> None:
+                 differentiable: bool = False, graphed_act: Any = None,
+                 reward_bonus: Callable[[Any], torch.Tensor] | None = None, fold_obs_each_step: bool = False,
+                 carries_states: bool = False) -> None:
         self.env, self.model, self.ctx, self.cfg = env, model, ctx, cfg
         self.storage, self.central_value, self.use_masks = storage, central_value, use_masks
         self.pipeline_choice: PipelineChoice = pipeline_choice or AlwaysPipelined()
@@ -138,19 +144,20 @@ class OnPolicyCollector:
         self.read_obs = read_obs or ctx.to_tensor
         self.on_step = on_step
         self.differentiable = differentiable
-        self.graphed_act: Any = None
+        self.graphed_act = graphed_act
         """``cuda_graph``: the act step captured as a CUDA graph (rlchain.algos.ppo.graph_step.GraphedAct)."""
-        self.num_envs, self.device = env.num_envs, ctx.device
-        self.obs: Any = None
-        self.rnn_states: tuple[torch.Tensor, ...] = ()
-        self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
-        self.last_values: torch.Tensor | None = None
-        self.reward_bonus: Any = None
+        self.reward_bonus = reward_bonus
         """Optional: (next observations of a step's rows) -> (rows, 1) rewards added to the shaped env reward
         (PPO's ``rnd``)."""
-        self.fold_obs_each_step = False
+        self.fold_obs_each_step = fold_obs_each_step
         """Fold each step's next observations into the model's (and central value's) input statistics as they
         come (``obs_normalizer_update: step``, rsl_rl's timing)."""
+        self.num_envs, self.device = env.num_envs, ctx.device
+        self.obs: Any = None
+        # carries_states: start from the model's (and central value's) zero RNN states; else () until set
+        self.rnn_states: tuple[torch.Tensor, ...] = self.initial_states() if carries_states else ()
+        self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
+        self.last_values: torch.Tensor | None = None
 
     def initial_states(self) -> tuple[torch.Tensor, ...]:
         """Zero RNN states for every env: the model's, then the central value's."""
@@ -158,6 +165,16 @@ class OnPolicyCollector:
         if self.central_value is not None:
             states += self.central_value.initial_state(self.num_envs, self.device)
         return states
+
+    def place(self, obs: Any, rnn_states: tuple[torch.Tensor, ...] | None = None,
+              resets: torch.Tensor | None = None) -> None:
+        """Where the envs stand before the next rollout: their observations (after a reset or a restore), and
+        when given the RNN states and their episode-start flags (a restored position)."""
+        self.obs = obs
+        if rnn_states is not None:
+            self.rnn_states = rnn_states
+        if resets is not None:
+            self.resets = resets
 
     def reset_states(self) -> None:
         """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
@@ -175,7 +192,7 @@ class OnPolicyCollector:
 
     def env_format(self, actions: torch.Tensor) -> Any:
         """The default env format of model-format ``actions``: the distribution's, on the env's side."""
-        return self.ctx.env_actions(self.model.dist.to_env(actions))
+        return self.ctx.spec.to_env(self.model.dist.to_env(actions))
 
     def _action_masks(self) -> torch.Tensor | None:
         """(N, mask_size) bool masks of valid actions from the env, when use_action_masks is on."""

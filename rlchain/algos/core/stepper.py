@@ -14,6 +14,7 @@ from typing import Any
 import torch
 
 from rlchain.algos.core.returns import shape_rewards
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 
 
@@ -22,7 +23,7 @@ class OffPolicyStepper:
     next_obs, terminated, truncated)``); ``cfg`` (the run's config) gives ``reward_shaper``. Multi-column
     rewards are summed."""
 
-    def __init__(self, env: Any, model: Any, ctx: Any, cfg: Any, buffer: Any) -> None:
+    def __init__(self, env: VecEnv, model: Any, ctx: Any, cfg: Any, buffer: Any) -> None:
         self.env, self.model, self.ctx, self.cfg, self.buffer = env, model, ctx, cfg, buffer
         self.num_envs = env.num_envs
 
@@ -30,7 +31,7 @@ class OffPolicyStepper:
         """Step every env with ``actions`` (the model's format) from ``obs``; returns the next observations."""
         ctx, model = self.ctx, self.model
         rs = self.cfg.reward_shaper
-        result = self.env.step(ctx.env_actions(model.dist.to_env(actions)))
+        result = self.env.step(ctx.spec.to_env(model.dist.to_env(actions)))
         rewards, terminated, truncated, dones = ctx.record_step(result)
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)

@@ -37,7 +37,7 @@ from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
 from rlchain.config.resolve import config_state
-from rlchain.envs.vecenv import DROPPED
+from rlchain.envs.vecenv import DROPPED, VecEnv
 from rlchain.errors import DivergenceError
 
 
@@ -109,7 +109,7 @@ class Distill(AlgorithmBase):
     tunable = ("learning_rate",)
     supports_distributed = True  # multi_gpu: gradients averaged over the ranks, the student's normalizer pooled
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg: DistillConfig = self.cfg
         self.teacher = load_teacher(params, env, self.device)
@@ -137,7 +137,7 @@ class Distill(AlgorithmBase):
         self.collector = OnPolicyCollector(env, model, ctx, cfg, use_masks=self.use_masks, act=self._act,
                                            record=self._record, on_step=self._on_step)
         self.student_states = len(model.initial_state(n, dev))
-        self.collector.rnn_states = self._initial_states()
+        self.collector.place(None, self._initial_states())
         self.beta_now = 1.0
         self._steps: dict[str, list] = {}
         self.resets = torch.ones(n, dtype=torch.bool, device=dev)  # the first step starts an episode
@@ -176,7 +176,7 @@ class Distill(AlgorithmBase):
         self.beta_now = self.beta()
         self._steps = {"obs": [], "labels": [], "resets": [], "masks": [], "match": []}
         self.batch = {"states": tuple(s.clone() for s in self.states)}
-        self.collector.obs = self.obs  # where the envs stand: start() and resume set self.obs
+        self.collector.place(self.obs)  # where the envs stand: start() and resume set self.obs
         complete = self.collector.rollout()
         self.obs = self.collector.obs
         if not complete:
@@ -324,7 +324,7 @@ class Distill(AlgorithmBase):
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
         super().restart_episodes()
-        self.collector.rnn_states = self._initial_states()
+        self.collector.place(self.obs, self._initial_states())
         self.resets = torch.ones_like(self.resets)
         self.delay.line = None
         self.teacher_steps.zero_()

@@ -23,6 +23,7 @@ from rlchain.config.packaged import resolve_checkpoint
 from rlchain.config.params import Params
 from rlchain.config.ppo import PPOConfig
 from rlchain.config.resolve import params_from_state
+from rlchain.envs.vecenv import VecEnv
 from rlchain.models.build import model_view
 from rlchain.policy.load import load_policy
 from rlchain.runs import checkpoint as ckpt
@@ -39,7 +40,7 @@ class Teacher:
     path: str
 
 
-def load_teacher(params: Params, env: Any, device: torch.device) -> Teacher:
+def load_teacher(params: Params, env: VecEnv, device: torch.device) -> Teacher:
     """The teacher of ``params.config.teacher_checkpoint`` on ``env``, frozen (eval mode, no gradients)."""
     cfg, source = params.config, params.source
     path, _ = resolve_checkpoint(cfg.teacher_checkpoint)  # as --checkpoint: a path, nn/<x>.pth or a packaged name

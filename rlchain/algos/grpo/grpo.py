@@ -1,6 +1,6 @@
 """GRPO on PPO's rollout and storage: no critic; group-relative advantages of per-step discounted returns,
 the clipped surrogate over the alive steps, a k3 KL to a frozen copy of the initial policy (EmbodiChain's
-algorithm). The rollout is PPO's (rlchain.algos.ppo.rollout); each one starts from fresh episodes
+algorithm). The rollout is PPO's (its OnPolicyCollector); each one starts from fresh episodes
 (``reset_every_rollout``), optionally with every group's members on their leader's initial state
 (``shared_starts``).
 
@@ -11,11 +11,11 @@ are averaged over the ranks before clipping."""
 from __future__ import annotations
 
 import copy
-from typing import Any
 
 import torch
 
 from rlchain.algos.base.context import RunContext
+from rlchain.algos.base.safety import check_rollout
 from rlchain.algos.grpo.advantages import alive_mask, discounted_returns, group_advantages, k3_kl
 from rlchain.algos.grpo.shared_starts import share_group_starts, supports_shared_starts
 from rlchain.algos.ppo.ppo import PPO
@@ -23,6 +23,8 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.grpo import GRPOConfig
 from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
+from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
 
 
@@ -43,7 +45,7 @@ class GRPO(PPO):
         if spec.num_agents != 1:
             raise ConfigError(params.source, "params.algo.name", "grpo trains single-agent envs")
 
-    def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: ActorCritic, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg = self.cfg
         if model.is_rnn:
@@ -77,17 +79,23 @@ class GRPO(PPO):
     def collect(self) -> bool:
         """Fresh episodes for every env (shared within groups with ``shared_starts``), then PPO's rollout."""
         cfg = self.cfg
+        collector = self.collector
         if cfg.reset_every_rollout and self.ctx.epoch > 0 or cfg.shared_starts:
             self.ctx.tracker.reset_running()
-            self.obs = self.ctx.reset_envs()
-            self.reset_states()
+            obs = self.ctx.reset_envs()
+            collector.reset_states()
             if cfg.shared_starts:
-                self.obs = share_group_starts(self.env, self.obs, cfg.group_size)
-        return self.rollout()
+                obs = share_group_starts(self.env, obs, cfg.group_size)
+            collector.place(obs)
+        return collector.rollout()
 
-    def learn(self) -> dict[str, float]:
-        """Group-relative advantages, then ``mini_epochs`` passes of masked clipped-surrogate minibatches."""
+    def update(self) -> dict[str, float]:
+        """Group-relative advantages, then ``mini_epochs`` passes of masked clipped-surrogate minibatches; the
+        rollout then counts as frames."""
         cfg, storage, model = self.cfg, self.storage, self.model
+        bad = check_rollout(storage.rewards, storage.obs)
+        if bad is not None:
+            raise DivergenceError(bad)
         if cfg.kl_coef > 0 and self.reference is None:
             self.reference = self._freeze_reference()
         comm = self.ctx.comm
@@ -139,4 +147,5 @@ class GRPO(PPO):
         stats.update(lr=agent.lr, entropy_coef=agent.entropy_coef, alive_frac=float(mask.mean()))
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
+        self.ctx.frames += self.frames_per_epoch()
         return stats

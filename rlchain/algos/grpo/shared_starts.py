@@ -11,8 +11,10 @@ from typing import Any
 
 import torch
 
+from rlchain.envs.vecenv import VecEnv
 
-def supports_shared_starts(env: Any) -> bool:
+
+def supports_shared_starts(env: VecEnv) -> bool:
     """Whether the env's state is a batch of tensors this module can copy rows of."""
     try:
         state = env.get_state()
@@ -26,7 +28,7 @@ def leader_rows(num_envs: int, group_size: int, device: Any = None) -> torch.Ten
     return torch.arange(num_envs, device=device) // group_size * group_size
 
 
-def share_group_starts(env: Any, obs: torch.Tensor, group_size: int) -> torch.Tensor:
+def share_group_starts(env: VecEnv, obs: torch.Tensor, group_size: int) -> torch.Tensor:
     """Give every env its group leader's state (in the env) and observation (returned, (N, ...))."""
     n = obs.shape[0]
     state = env.get_state()

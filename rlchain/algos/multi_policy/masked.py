@@ -11,12 +11,14 @@ reach the loss, the advantage normalization and the normalizers.
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import Any
 
 import torch
 
 from rlchain.algos.core.losses import normalize_advantages
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.agent import PPOAgent
+from rlchain.config.ppo import PPOConfig
 
 
 def masked_gae(rewards: torch.Tensor, values: torch.Tensor, final_values: torch.Tensor,
@@ -67,10 +69,12 @@ def active_minibatches(storage: RolloutStorage, active: torch.Tensor, minibatch_
 
 
 class MaskedPPOAgent(PPOAgent):
-    """:class:`PPOAgent` that learns from the active steps only (``self.active``, (T, N) bool, set
-    before each :meth:`update`)."""
+    """:class:`PPOAgent` that learns from the active steps only: ``active``, the (T, N) bool mask its policy's
+    rollout fills in place (None: every step)."""
 
-    active: torch.Tensor | None = None
+    def __init__(self, model: Any, cfg: PPOConfig, device: torch.device, active: torch.Tensor | None = None) -> None:
+        super().__init__(model, cfg, device)
+        self.active = active
 
     def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
         advantages = storage.advantages.sum(-1)

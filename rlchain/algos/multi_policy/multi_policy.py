@@ -28,6 +28,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY
 from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
 
@@ -46,7 +47,7 @@ class MultiPolicyPPO(AlgorithmBase):
         _check_supported(params)
         check_batch(params.config, params.source, spec.num_agents)
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.ModuleDict, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.ModuleDict, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         device = self.device
         if ctx.comm.active:
@@ -86,7 +87,7 @@ class MultiPolicyPPO(AlgorithmBase):
     def collect(self) -> bool:
         """horizon_length env steps (the on-policy collector); every trained policy's storage gets its agents'
         rows."""
-        self.collector.obs = self.obs  # per-agent views, as the env gives them
+        self.collector.place(self.obs)  # per-agent views, as the env gives them
         complete = self.collector.rollout()
         self.obs = self.collector.obs
         if not complete:
@@ -158,7 +159,19 @@ class MultiPolicyPPO(AlgorithmBase):
                 raise DivergenceError(f"policy {lr.name}: {bad}")
             if not bool(lr.active.any()):
                 continue
-            for key, value in self._learn(lr).items():
+            cfg, model = lr.cfg, lr.model
+            with torch.no_grad():  # GAE over the active steps, then the policy's normalizers fold them in
+                adv, returns = masked_gae(storage.rewards, storage.values, storage.final_values, lr.last_values,
+                                          lr.active, storage.terminated, storage.dones, cfg.gamma, cfg.tau)
+                storage.advantages.copy_(adv)
+                storage.returns.copy_(returns)
+                storage.final_values.zero_()
+                flat = lr.active.reshape(-1)
+                model.update_normalizers(obs=storage.obs.reshape(-1, *storage.obs.shape[2:])[flat],
+                                         returns=returns.reshape(-1, returns.shape[-1])[flat],
+                                         values=storage.values.reshape(-1, storage.values.shape[-1])[flat])
+            model.train()
+            for key, value in lr.agent.update(storage, self.progress()).items():
                 if key in STAT_TAGS:
                     stats[STAT_TAGS[key].format(lr.name)] = value
                     if len(self.policies) == 1:  # one shared policy: rl_games' own tags too
@@ -169,22 +182,6 @@ class MultiPolicyPPO(AlgorithmBase):
     @staticmethod
     def plain_tag(key: str) -> str:
         return STAT_TAGS[key].replace("{}/", "")
-
-    def _learn(self, lr: PolicyLearner) -> dict[str, float]:
-        cfg, storage, model = lr.cfg, lr.storage, lr.model
-        with torch.no_grad():
-            adv, returns = masked_gae(storage.rewards, storage.values, storage.final_values, lr.last_values,
-                                      lr.active, storage.terminated, storage.dones, cfg.gamma, cfg.tau)
-            storage.advantages.copy_(adv)
-            storage.returns.copy_(returns)
-            storage.final_values.zero_()
-            flat = lr.active.reshape(-1)
-            model.update_normalizers(obs=storage.obs.reshape(-1, *storage.obs.shape[2:])[flat],
-                                     returns=returns.reshape(-1, returns.shape[-1])[flat],
-                                     values=storage.values.reshape(-1, storage.values.shape[-1])[flat])
-        model.train()
-        lr.agent.active = lr.active
-        return lr.agent.update(storage, self.progress())
 
     def frames_per_epoch(self) -> int:
         """Env steps per epoch (a turn-based env's step is one move)."""

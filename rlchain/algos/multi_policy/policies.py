@@ -41,9 +41,8 @@ class PolicyLearner:
         self.name, self.params, self.cfg, self.agents, self.model = name, params, cfg, agents, model
         self.num_envs, self.rows, self.device = num_envs, num_envs * len(agents), device
         self.use_masks = bool(cfg.use_action_masks)
-        self.agent = MaskedPPOAgent(model, cfg, device) if train else None
         self.tracker = AgentEpisodes(self.rows, games_to_track, device)
-        self.storage = self.active = None
+        self.storage = self.active = self.agent = None
         self.last_values: torch.Tensor | None = None
         self.pool: Any = None  # a frozen self-play snapshot: past snapshots env by env (snapshots.py)
         if train:
@@ -52,6 +51,7 @@ class PolicyLearner:
                                           dist.action_shape, dist.action_dtype, dist.param_size, 1, device,
                                           mask_size=dist.param_size if self.use_masks else 0)
             self.active = torch.zeros((cfg.horizon_length, self.rows), dtype=torch.bool, device=device)
+            self.agent = MaskedPPOAgent(model, cfg, device, active=self.active)  # learns from the active steps
 
     def gather(self, views: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         """(obs (R, D), active (R,), masks (R, n) or None) of this policy's rows from the env's views."""

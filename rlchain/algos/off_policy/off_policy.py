@@ -27,6 +27,7 @@ from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
 from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import SACConfig
 from rlchain.config.params import Params
+from rlchain.envs.vecenv import VecEnv
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.log import get_logger
 from rlchain.parallel.memory import check_fits
@@ -40,7 +41,7 @@ class OffPolicyAlgorithm(AlgorithmBase):
     config_class: type = SACConfig
     SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
 
-    def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
+    def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg = self.cfg
         self.agent = self.make_agent()

@@ -20,10 +20,10 @@ class CentralValueAgent:
     """Its own Adam optimizer, minibatches and mini-epochs; clipped value loss as the PPO critic's."""
 
     def __init__(self, model: CentralValue, cfg: CentralValueConfig, device: torch.device,
-                 comm: Communicator = SINGLE) -> None:
+                 comm: Communicator = SINGLE, should_stop: Callable[[], bool] | None = None) -> None:
         self.model, self.cfg, self.device, self.comm = model, cfg, device, comm
         self.lr = cfg.learning_rate
-        self.should_stop: Callable[[], bool] | None = None  # checked between minibatches (a stop signal)
+        self.should_stop = should_stop  # checked between minibatches (a stop signal)
         self.params = [p for p in model.parameters() if p.requires_grad]
         self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=1e-8, weight_decay=cfg.weight_decay)
 

@@ -20,13 +20,15 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.params import Params
 from rlchain.config.resolve import params_from_state
-from rlchain.models.build import build_model, model_view
+from rlchain.envs.vecenv import VecEnv
+from rlchain.models.build import model_view
+from rlchain.policy.load import load_policy
 from rlchain.runs import checkpoint as ckpt
 
 KEY = "params.config.distilled_checkpoint"
 
 
-def load_distilled(params: Params, env: Any, model: Any, device: torch.device) -> Any:
+def load_distilled(params: Params, env: VecEnv, model: Any, device: torch.device) -> Any:
     """Load the distilled student into ``model``; returns the frozen teacher (a model) when
     ``distilled_value`` is ``teacher``, else None. One-line ConfigErrors naming the key."""
     cfg, source = params.config, params.source
@@ -62,9 +64,8 @@ def load_distilled(params: Params, env: Any, model: Any, device: torch.device) -
                                                                    f"from a SAC teacher (no state value): use scratch")
     trained = model_view(teacher_params, space).indices  # the view the teacher was trained on
     teacher_groups = dataclasses.replace(groups, teacher=list(trained) if trained else None)
-    teacher = build_model(teacher_params, env, device, group="teacher", groups=teacher_groups)
-    ckpt.load_model_state(teacher, teacher_state, path)
-    teacher.eval()
+    teacher = load_policy(teacher_params, path, device=device, env=env, state=teacher_state, group="teacher",
+                          groups=teacher_groups).model  # in eval mode
     for p in teacher.parameters():
         p.requires_grad_(False)
     return teacher
@@ -109,9 +110,8 @@ def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, 
         resets[0] = step.outcome[3]
 
     collector = OnPolicyCollector(trainer.env, model, ctx, cfg, act=act, record=ctx.step_outcome, on_step=on_step)
-    collector.obs = trainer.obs
-    collector.rnn_states = (tuple(model.initial_state(n, trainer.device))
-                            + tuple(teacher.initial_state(n, trainer.device)))
+    collector.place(trainer.collector.obs, (tuple(model.initial_state(n, trainer.device))
+                                            + tuple(teacher.initial_state(n, trainer.device))))
     loss = torch.zeros(())
     for _ in range(epochs):
         rows.clear(), targets.clear(), starts.clear()
@@ -133,6 +133,6 @@ def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, 
             opt.step()
         model.eval()
     model.zero_grad(set_to_none=True)
-    trainer.reset_states()
-    trainer.obs = ctx.reset_envs()  # fresh episodes: the statistics start with training
+    trainer.collector.reset_states()
+    trainer.collector.place(ctx.reset_envs())  # fresh episodes: the statistics start with training
     return float(loss.detach())

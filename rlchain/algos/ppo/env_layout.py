@@ -30,6 +30,7 @@ import torch
 
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
+from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
 from rlchain.models.build import build_model
 from rlchain.parallel.device import resolve_device
@@ -61,7 +62,7 @@ ONE_POOL = Layout("one pool", 1)
 TWO_POOLS = Layout("two pools", 2)
 
 
-def probed(env: Any, params: Params) -> bool:
+def probed(env: VecEnv, params: Params) -> bool:
     """Whether ``env`` (built under ``env_groups: auto``) is one whose layout :func:`choose_env_layout` measures:
     envpool envs that auto split into groups."""
     return params.config.env_groups == "auto" and len(getattr(env, "env_groups", None) or ()) > 1
@@ -78,7 +79,7 @@ class _Stepper:
     """Steps one layout's env with the policy acting (the play loop's step, :class:`PolicySteps`), as a
     synchronous rollout steps it, less the storage."""
 
-    def __init__(self, env: Any, layout: Layout, model: Any, device: torch.device) -> None:
+    def __init__(self, env: VecEnv, layout: Layout, model: Any, device: torch.device) -> None:
         self.layout = layout
         self.loop = PolicySteps(model, env, device, deterministic=False)
 
@@ -106,14 +107,14 @@ def _seconds_per_step(stepper: _Stepper, count: int) -> float:
     return (time.perf_counter() - start) / count
 
 
-def _policy(params: Params, env: Any, device: torch.device) -> Any:
+def _policy(params: Params, env: VecEnv, device: torch.device) -> Any:
     """A throwaway policy of the run's network (evaluation mode), for the timing."""
     model = build_model(params, env, device)
     model.eval()
     return model
 
 
-def choose_env_layout(params: Params, env: Any, seed: int | None) -> Any:
+def choose_env_layout(params: Params, env: VecEnv, seed: int | None) -> Any:
     """The training env for ``env_groups: auto``: ``env`` (two envpool pools) or a one-pool env of the same
     envs, whichever :func:`measure_layouts` finds faster (see :func:`fastest`); the other is closed."""
     cfg = params.config

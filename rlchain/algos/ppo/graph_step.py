@@ -8,7 +8,7 @@ and cuBLAS workspaces, on a side stream as torch.cuda.graphs asks) the step is r
 static buffers and then replayed: per minibatch the host copies the batch into those buffers, launches
 one graph and reads back the step's statistics.
 
-What the step does is :meth:`rlchain.algos.ppo.minibatch_step.MinibatchStep.sync_free_step`, the same losses as the
+What the step does is :meth:`rlchain.algos.ppo.agent.PPOAgent._sync_free_step`, the same losses as the
 eager step but without host syncs: a non-finite loss or gradient does not raise inside the graph, it zeroes
 the gradients and the learning rate for that step (the parameters stay as they were) and the statistics read
 back after the replay raise the DivergenceError there. Anything that replaces the optimizer's state tensors (a

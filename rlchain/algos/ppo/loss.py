@@ -21,8 +21,9 @@ from rlchain.models.actor_critic import ActorCritic
 STEP_STATS = ("a_loss", "c_loss", "entropy", "b_loss", "clip_frac", "kl", "loss", "grad_norm")
 """The statistics of a minibatch step, in the order of its statistics vector (auxiliary losses follow)."""
 
-Surrogate = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
-"""(rollout log-probs (B,), current log-probs (B,), advantages (B,)) -> per-sample policy loss (B,)."""
+Surrogate = Callable[[torch.Tensor, torch.Tensor, torch.Tensor, float, bool], torch.Tensor]
+"""(rollout log-probs (B,), current log-probs (B,), advantages (B,), e_clip, smooth clamp) -> per-sample policy
+loss (B,): :func:`rlchain.algos.core.losses.policy_loss`, PPO's clipped surrogate (IMPALA's has no clip)."""
 
 LossOutput = tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor], torch.Tensor]
 """(loss (0-d), detached statistics (6,), the network's auxiliary losses, the policy's params (B, P), detached)."""
@@ -57,7 +58,7 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     advantages = batch.advantages
     if cfg.normalize_advantage and cfg.advantage_normalization == "minibatch" and advantages.numel() > 1:
         advantages = normalize_advantages(advantages)  # Stable-Baselines3's: per minibatch
-    a_loss = surrogate(batch.log_probs, log_probs, advantages).mean()
+    a_loss = surrogate(batch.log_probs, log_probs, advantages, cfg.e_clip, cfg.use_smooth_clamp).mean()
     if train_critic:
         c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
                             cfg.e_clip, cfg.clip_value).mean()

@@ -26,6 +26,7 @@ from rlchain.config.params import Params
 from rlchain.config.ppo import PPOConfig
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
+from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
@@ -36,18 +37,6 @@ from rlchain.parallel.memory import check_fits
 from rlchain.runs import checkpoint as ckpt
 
 log = get_logger(__name__)
-
-
-def _collector_attr(name: str, doc: str) -> property:
-    """A property of PPO that reads and sets ``self.collector.<name>``."""
-
-    def get(self: PPO) -> Any:
-        return getattr(self.collector, name)
-
-    def set_(self: PPO, value: Any) -> None:
-        setattr(self.collector, name, value)
-
-    return property(get, set_, doc=doc)
 
 
 class PPO(AlgorithmBase):
@@ -95,135 +84,70 @@ class PPO(AlgorithmBase):
             env.close()
             raise
 
-    def __init__(self, params: Params, env: Any, model: ActorCritic, ctx: RunContext) -> None:
-        # the collector first: it holds where the envs stand (obs, RNN states), which AlgorithmBase sets
-        self.collector = OnPolicyCollector(env, model, ctx, ctx.cfg)
+    def __init__(self, params: Params, env: VecEnv, model: ActorCritic, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
         graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
-        self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed)
-        self.agent.should_stop = self._stop_requested
-        if cfg.compile_update:
-            _check_compile_update(model, params.source)
-            self.agent.compile_losses()
         with communicator.building_with(ctx.comm):  # its normalizers fold every rank's batches
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
-            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm)
-            self.cv_agent.should_stop = self._stop_requested
-            self.agent.train_critic = False
+            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm,
+                                              should_stop=self._stop_requested)
+        self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed,
+                              train_critic=self.central_value is None, should_stop=self._stop_requested)
+        if cfg.compile_update:
+            _check_compile_update(model, params.source)
+            self.agent.compile()
         obs_space = env.observation_space
         self.use_masks = _check_action_masks(cfg.use_action_masks, env, params.source)
-        collector = self.collector
-        collector.central_value, collector.use_masks = self.central_value, self.use_masks
-        collector.pipeline_choice = PipelineChoice(auto=cfg.env_groups == "auto")
         # RNN states carried through the rollout: the model's, then the central value's
-        collector.rnn_states = collector.initial_states()
+        state_shapes = tuple(tuple(s.shape) for s in model.initial_state(self.num_envs, device))
+        if self.central_value is not None:
+            state_shapes += tuple(tuple(s.shape) for s in self.central_value.initial_state(self.num_envs, device))
         self.storage = RolloutStorage(
             cfg.horizon_length, self.num_envs, *obs_buffer_layout(obs_space),
             model.dist.action_shape, model.dist.action_dtype, model.dist.param_size,
             _value_size(env), device, mask_size=model.dist.param_size if self.use_masks else 0,
-            state_shapes=tuple(tuple(s.shape) for s in self.rnn_states))
-        collector.storage = self.storage
+            state_shapes=state_shapes)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
-        # cuda_graph: the act step as a graph too, for a feed-forward policy without masks or central value
-        plain = not model.is_rnn and not self.use_masks and self.central_value is None
-        collector.graphed_act = GraphedAct(model.act) if self.agent.graphed and plain else None
         # a fresh run starts from the distilled student; a resumed one holds its checkpoint's weights already
         fresh = cfg.distilled_checkpoint and not ctx.resuming
         self.distilled_teacher = load_distilled(params, env, model, device) if fresh else None
         # rsl_rl's extras: empirical normalization's timing, the RND intrinsic reward, the mirror loss
         self.fold_obs_each_step = obs_each_step(cfg.obs_normalizer_update, cfg.obs_normalizer)
-        collector.fold_obs_each_step = self.fold_obs_each_step
         self.rnd = build_rnd(params, model, obs_space, device)
-        collector.reward_bonus = self.intrinsic_reward if self.rnd is not None else None
         self.mirror_loss = build_mirror_loss(params, model, obs_space, env.action_space)
         self._rnd_reward_sum, self._rnd_reward_rows = 0.0, 0
+        # cuda_graph: the act step as a graph too, for a feed-forward policy without masks or central value
+        plain = not model.is_rnn and not self.use_masks and self.central_value is None
+        self.collector = OnPolicyCollector(
+            env, model, ctx, cfg, storage=self.storage, central_value=self.central_value, use_masks=self.use_masks,
+            pipeline_choice=PipelineChoice(auto=cfg.env_groups == "auto"),
+            graphed_act=GraphedAct(model.act) if graphed and plain else None,
+            reward_bonus=self.intrinsic_reward if self.rnd is not None else None,
+            fold_obs_each_step=self.fold_obs_each_step, carries_states=True)
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
+    def start(self) -> None:
+        """Reset the envs, or put them back where a restored checkpoint left them."""
+        if not self.resume_position():
+            self.collector.place(self.ctx.reset_envs())
+
     def collect(self) -> bool:
-        """A rollout of horizon_length steps into the storage; False when a stop signal came. A fresh run
-        from a distilled student with ``distilled_value: teacher`` first regresses its value head."""
+        """A rollout of horizon_length steps into the storage (the collector); False when a stop signal came.
+        A fresh run from a distilled student with ``distilled_value: teacher`` first regresses its value head."""
         if self.distilled_teacher is not None:
             if self.ctx.epoch == 0:
                 mse = warm_start_value(self, self.distilled_teacher, self.cfg.distilled_value_epochs)
                 log.info(f"value head regressed on the distilled teacher's values: mse {mse:.4g}")
             self.distilled_teacher = None  # once (a resumed run has its trained value head)
-        return self.rollout()
-
-    def update(self) -> dict[str, float]:
-        """GAE, normalizers and the PPO update on the rollout, which then counts as frames."""
-        bad = check_rollout(self.storage.rewards, self.storage.obs)
-        if bad is not None:
-            raise DivergenceError(bad)
-        stats = self.learn()
-        self.ctx.frames += self.frames_per_epoch()
-        return stats
-
-    def _stop_requested(self) -> bool:
-        """A stop signal came (checked between minibatches). Under torchrun the update always finishes: the
-        ranks would leave it at different minibatches and wait for each other in the gradient all-reduce."""
-        signals = self.ctx.signals
-        return signals is not None and signals.by_signal and not self.ctx.comm.active
-
-    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
-        """The actor-critic and PPO agent, and the central value with its own agent when there is one."""
-        pairs = [(self.model, self.agent)]
-        if self.central_value is not None:
-            pairs.append((self.central_value, self.cv_agent))
-        return pairs
-
-    def position_state(self) -> dict[str, Any] | None:
-        """The next observations, RNN states and their episode-start flags (copies); None before ``start``."""
-        if self.obs is None:
-            return None
-        obs = self.obs.detach().clone()
-        return {"obs": dict(obs) if isinstance(obs, dict) else obs,
-                "rnn_states": tuple(s.detach().clone() for s in self.rnn_states),
-                "resets": self.resets.detach().clone()}
-
-    def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state` on the training device."""
-        self.obs = self.ctx.to_tensor(position["obs"])  # a Dict kept per key comes back as a plain dict
-        self.rnn_states = tuple(s.to(self.device) for s in position["rnn_states"])
-        self.resets = position["resets"].to(self.device)
-
-    def restart_episodes(self) -> None:
-        """After a rollback: fresh episodes, zero RNN states."""
-        super().restart_episodes()
-        self.reset_states()
-
-    def hyperparams(self) -> dict[str, float]:
-        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
-        return {**super().hyperparams(), **self.agent.live_hyperparams()}
-
-    def apply_hyperparam(self, name: str, value: float) -> None:
-        if not self.agent.set_hyperparam(name, value):
-            super().apply_hyperparam(name, value)
-            self.agent.config_changed()  # cuda_graph: the captured step holds e_clip, critic_coef, ...
-
-    def reset_states(self) -> None:
-        """Fresh episodes everywhere: zero RNN states, every row starts an episode."""
-        self.collector.reset_states()
-
-    def rollout(self) -> bool:
-        """Step the envs for horizon_length steps into the storage (the collector); False if a stop signal
-        came."""
         return self.collector.rollout()
 
-    # where the envs stand, held by the collector (read and set here by start, resume and callers)
-    obs = _collector_attr("obs", "The observations the next rollout acts on (None before ``start``).")
-    rnn_states = _collector_attr("rnn_states", "RNN states carried through the rollout: the model's, then the "
-                                               "central value's.")
-    resets = _collector_attr("resets", "Which env rows start an episode at the next step.")
-    last_values = _collector_attr("last_values", "Values of the observations after the last rollout (raw scale).")
-    pipeline_choice = _collector_attr("pipeline_choice", "Over env groups: pipelined or stepped together.")
-    graphed_act = _collector_attr("graphed_act", "cuda_graph: the act step as a CUDA graph, else None.")
-
-    def learn(self) -> dict[str, float]:
-        """GAE on the rollout, normalizer updates, then the PPO update.
+    def update(self) -> dict[str, float]:
+        """GAE on the rollout, normalizer updates, the PPO update (PPOAgent.update: the minibatch loop and the
+        loss), the extras' own updates (RND, mirror loss, central value); the rollout then counts as frames.
 
         Every normalizer folds this rollout in before the update (the observations, with
         ``obs_normalizer_update: minibatch``, minibatch by minibatch in the update's first pass), so the
@@ -232,9 +156,12 @@ class PPO(AlgorithmBase):
         slows learning per frame; docs/ppo_parity.md.)
         """
         cfg, storage, model = self.cfg, self.storage, self.model
+        bad = check_rollout(storage.rewards, storage.obs)
+        if bad is not None:
+            raise DivergenceError(bad)
         flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
         with torch.no_grad():
-            next_values = next_values_from_rollout(storage.values, self.last_values,
+            next_values = next_values_from_rollout(storage.values, self.collector.last_values,
                                                    storage.final_values, storage.dones)
             adv, returns = gae(storage.rewards, storage.values, next_values, storage.terminated,
                                storage.dones, cfg.gamma, cfg.tau)
@@ -270,7 +197,52 @@ class PPO(AlgorithmBase):
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
                                               shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
+        self.ctx.frames += self.frames_per_epoch()
         return stats
+
+    def _stop_requested(self) -> bool:
+        """A stop signal came (checked between minibatches). Under torchrun the update always finishes: the
+        ranks would leave it at different minibatches and wait for each other in the gradient all-reduce."""
+        signals = self.ctx.signals
+        return signals is not None and signals.by_signal and not self.ctx.comm.active
+
+    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
+        """The actor-critic and PPO agent, and the central value with its own agent when there is one."""
+        pairs = [(self.model, self.agent)]
+        if self.central_value is not None:
+            pairs.append((self.central_value, self.cv_agent))
+        return pairs
+
+    def position_state(self) -> dict[str, Any] | None:
+        """The next observations, RNN states and their episode-start flags (copies); None before ``start``."""
+        collector = self.collector
+        if collector.obs is None:
+            return None
+        obs = collector.obs.detach().clone()
+        return {"obs": dict(obs) if isinstance(obs, dict) else obs,
+                "rnn_states": tuple(s.detach().clone() for s in collector.rnn_states),
+                "resets": collector.resets.detach().clone()}
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state` on the training device."""
+        self.collector.place(self.ctx.to_tensor(position["obs"]),  # a Dict kept per key comes back as a plain dict
+                             tuple(s.to(self.device) for s in position["rnn_states"]),
+                             position["resets"].to(self.device))
+
+    def restart_episodes(self) -> None:
+        """After a rollback: fresh episodes, zero RNN states."""
+        self.ctx.tracker.reset_running()
+        self.collector.place(self.ctx.reset_envs())
+        self.collector.reset_states()
+
+    def hyperparams(self) -> dict[str, float]:
+        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
+        return {**super().hyperparams(), **self.agent.live_hyperparams()}
+
+    def apply_hyperparam(self, name: str, value: float) -> None:
+        if not self.agent.set_hyperparam(name, value):
+            super().apply_hyperparam(name, value)
+            self.agent.config_changed()  # cuda_graph: the captured step holds e_clip, critic_coef, ...
 
     def intrinsic_reward(self, obs: Any) -> torch.Tensor:
         """``rnd``: the (B, 1) intrinsic rewards of a step's next observations (their statistics folded in
@@ -320,7 +292,7 @@ class PPO(AlgorithmBase):
         return self.cfg.horizon_length * (self.num_envs // ctx.num_agents) * ctx.world_size
 
 
-def _check_action_masks(use_action_masks: bool, env: Any, source: str) -> bool:
+def _check_action_masks(use_action_masks: bool, env: VecEnv, source: str) -> bool:
     """With use_action_masks the env must provide masks; a one-line ConfigError otherwise."""
     if not use_action_masks:
         return False
@@ -340,7 +312,7 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
 
 
-def _value_size(env: Any) -> int:
+def _value_size(env: VecEnv) -> int:
     return env_spec(env).value_size
 
 

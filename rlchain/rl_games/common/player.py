@@ -29,7 +29,7 @@ from rlchain.config.load import parse_params
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
-from rlchain.models.build import apply_sigma, build_model
+from rlchain.models.build import apply_sigma
 from rlchain.parallel.device import resolve_device
 from rlchain.policy.load import load_policy, load_weights
 from rlchain.policy.play import play
@@ -78,8 +78,7 @@ class BasePlayer:
                           else self.observation_space.shape)
         shape = SimpleNamespace(observation_space=self.observation_space, action_space=self.action_space,
                                 value_size=self.value_size)
-        self.model = build_model(parsed, shape, self.device)
-        self.model.eval()
+        self.model = load_policy(parsed, device=self.device, env=shape).model  # no weights yet: restore() loads them
         # rl_games' model names its ONNX recipe reads: norm_obs (input normalization) and a2c_network (the
         # network with rl_games' forward(input_dict) contract); plain attributes, not extra state_dict keys
         object.__setattr__(self.model, "norm_obs", self.model.preprocess)
