@@ -72,19 +72,28 @@ def _array(text: Any, shape: tuple[int, ...], path: str, key: str) -> np.ndarray
     return values.reshape(shape)
 
 
+def _shape(entry: dict[str, Any]) -> tuple[int, ...]:
+    """A space's shape: ``_shape`` (a list; gymnasium) or ``shape`` (the text ``'[4]'``; the gym of SB3 < 2,
+    which rl-baselines3-zoo's published models were saved with)."""
+    shape = entry["_shape"] if "_shape" in entry else entry["shape"]
+    if isinstance(shape, str):
+        shape = [int(v) for v in re.sub(r"[\[\]()]", " ", shape).replace(",", " ").split()]
+    return tuple(int(v) for v in shape)
+
+
 def _space(entry: Any, path: str, key: str) -> gym.Space:
     """A Box, Discrete or MultiDiscrete space from its JSON fields."""
     kind = str(entry.get(":type:", "")) if isinstance(entry, dict) else ""
     try:
         if kind.endswith(".Box'>"):
-            shape = tuple(int(v) for v in entry["_shape"])
+            shape = _shape(entry)
             dtype = np.dtype(entry["dtype"])
             return gym.spaces.Box(_array(entry["low"], shape, path, f"{key}.low").astype(dtype),
                                   _array(entry["high"], shape, path, f"{key}.high").astype(dtype), shape, dtype)
         if kind.endswith(".Discrete'>"):
             return gym.spaces.Discrete(int(entry["n"]), start=int(entry.get("start", 0)))
         if kind.endswith(".MultiDiscrete'>"):
-            nvec = _array(entry["nvec"], tuple(int(v) for v in entry["_shape"]), path, f"{key}.nvec")
+            nvec = _array(entry["nvec"], _shape(entry), path, f"{key}.nvec")
             return gym.spaces.MultiDiscrete(nvec.astype(np.int64))
     except (KeyError, TypeError, ValueError) as exc:
         raise ckpt.CheckpointError(f"{path}: {key} is malformed in the archive ({type(exc).__name__}: "
