@@ -21,6 +21,12 @@ def _check_lr(x: float) -> str | None:
     return None if x > 0 else "must be > 0"
 
 
+def _check_mean_clip(c: float | None) -> str | None:
+    if c is not None and (isinstance(c, bool) or not isinstance(c, (int, float)) or not c > 0):
+        return "must be a number > 0, or null for no clip"
+    return None
+
+
 def _check_bounds(b: list[float]) -> str | None:
     if len(b) != 2 or not b[0] < b[1]:
         return "must be [low, high] with low < high"
@@ -158,6 +164,9 @@ class SACNetworkConfig:
     space: SpaceConfig = option(SpaceConfig(), "action head (continuous)")
     mlp: MlpConfig = option(MlpConfig(units=[256, 256], activation="relu"), "actor and critic hidden layers")
     log_std_bounds: list[float] = option([-5.0, 2.0], "[min, max] of the policy log-std", check=_check_bounds)
+    mean_clip: float | None = option(None, "clip the policy's pre-tanh mean to [-mean_clip, mean_clip] (SB3's "
+                                           "SAC actor with gSDE: clip_mean 2); null: no clip",
+                                     check=_check_mean_clip)
     normalization: str | None = option(None, "rl_games 2.0's network-level spelling: layer_norm or batch_norm after "
                                              "the hidden layers of the actor and both critics (as mlp.normalization)",
                                        choices=("layer_norm", "batch_norm"))

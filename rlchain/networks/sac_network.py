@@ -24,14 +24,18 @@ from rlchain.networks.mlp import MLP
 class SACActor(nn.Module):
     """obs (B, obs_dim) -> (mu, log_std), each (B, A); log_std squashed into ``log_std_bounds``."""
 
-    def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, log_std_bounds: list[float]) -> None:
+    def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, log_std_bounds: list[float],
+                 mean_clip: float | None = None) -> None:
         super().__init__()
         self.trunk = MLP(obs_dim, mlp)
         self.head = linear(self.trunk.out_size, 2 * actions_num, mlp.initializer)
         self.log_std_bounds = (float(log_std_bounds[0]), float(log_std_bounds[1]))
+        self.mean_clip = None if mean_clip is None else float(mean_clip)
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         mu, log_std = self.head(self.trunk(obs)).chunk(2, dim=-1)
+        if self.mean_clip is not None:  # SB3's Hardtanh on the gSDE actor's mean
+            mu = mu.clamp(-self.mean_clip, self.mean_clip)
         low, high = self.log_std_bounds
         log_std = low + 0.5 * (high - low) * (torch.tanh(log_std) + 1.0)  # rl_games' soft bound
         return mu, log_std
@@ -61,7 +65,7 @@ class SACNetwork(nn.Module):
         mlp = cfg.mlp
         if cfg.normalization is not None and mlp.normalization is None:  # rl_games 2.0: actor and critics
             mlp = dataclasses.replace(mlp, normalization=cfg.normalization)
-        self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds)
+        self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds, cfg.mean_clip)
         self.critic = TwinQCritic(obs_dim, actions_num, mlp)
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:

@@ -166,7 +166,7 @@ DQN_KEYS: dict[str, Any] = {
 
 KEYS = {"ppo": PPO_KEYS, "sac": SAC_KEYS, "dqn": DQN_KEYS}
 
-POLICY_KWARGS = ("net_arch", "activation_fn", "log_std_init")
+POLICY_KWARGS = ("net_arch", "activation_fn", "log_std_init", "clip_mean")
 
 
 def _updates(algo: str, given: dict[str, Any], num_actors: int) -> dict[str, Any]:
@@ -221,6 +221,10 @@ def _policy_kwargs(algo: str, continuous: bool, policy_kwargs: dict[str, Any]) -
             if continuous:
                 _merge(network, {"space": {"continuous": {"sigma_init": {"name": "const_initializer",
                                                                          "val": _number(key, value)}}}})
+        elif key == "clip_mean" and algo == "sac":  # SB3 clips the gSDE actor's mean; here the mean of any SAC
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
+                raise ValueError(f"policy_kwargs.clip_mean: expected a number >= 0 (0: no clip), got {value!r}")
+            _merge(network, {"mean_clip": float(value) if value > 0 else None})
         else:
             raise ValueError(f"policy_kwargs: unknown key '{key}'{did_you_mean(key, POLICY_KWARGS)} "
                              f"(rlchain maps {', '.join(POLICY_KWARGS)}; any network block: network=...)")

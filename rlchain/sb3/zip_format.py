@@ -6,7 +6,9 @@ and the optimizers' states. Only the JSON's plain values and readable attributes
 :func:`rlchain.runs.checkpoint.read_zip_member`, ``weights_only``) are read; nothing cloudpickled is ever
 unpickled. The spaces are rebuilt from their JSON fields (``dtype``, ``_shape``, ``low``, ``high``, ``n``,
 ``start``), a schedule from its constant value, the network's layer sizes from the weights' shapes.
-MlpPolicy only (PPO with separate actor and critic layers, SAC with 2 critics and no SDE, DQN).
+MlpPolicy only (PPO with separate actor and critic layers, SAC with 2 critics, DQN). A SAC trained with gSDE
+(``use_sde``) plays its mean as SB3 does (the clip of its mean kept); its noise becomes rlchain's Gaussian.
+Archives of SB3 < 2 (old ``gym`` spaces, as rl-baselines3-zoo's published models) read the same way.
 """
 
 from __future__ import annotations
@@ -20,8 +22,10 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import torch
 
 from rlchain.runs import checkpoint as ckpt
+from rlchain.sb3.defaults import SB3_DEFAULTS
 from rlchain.sb3.names import is_sb3_named
 
 HYPERPARAMETERS = {
@@ -34,6 +38,9 @@ HYPERPARAMETERS = {
 """The SB3 arguments taken from an archive (numbers; a constant schedule's value) for training further."""
 
 DEFAULT_ACTIVATION = {"ppo": "Tanh", "sac": "ReLU", "dqn": "ReLU"}
+SDE_CLIP_MEAN = 2.0  # SB3's default clip_mean of the gSDE SAC actor
+SDE_LOG_STD_BOUNDS = tuple(float(b) for b in SB3_DEFAULTS["sac"]["network"]["log_std_bounds"])
+"""The log-std bounds of the SAC a loaded archive builds (its log-std head goes through rlchain's soft bound)."""
 
 
 @dataclass(frozen=True)
@@ -137,10 +144,27 @@ def _architecture(algo: str, state: dict[str, Any], path: str) -> list[int]:
     if algo == "sac":
         pi, qf = _layers(state, "actor.latent_pi"), _layers(state, "critic.qf0")[:-1]
         if "actor.log_std.weight" not in state or "critic.qf2.0.weight" in state or pi != qf:
-            raise ckpt.CheckpointError(f"{path}: rlchain reads SAC archives without SDE, with 2 critics and the "
+            raise ckpt.CheckpointError(f"{path}: rlchain reads SAC archives with 2 critics and the "
                                        f"same layers for actor and critics (actor {pi}, critic {qf})")
         return pi
     return _layers(state, "q_net.q_net")[:-1]
+
+
+def _sde_actor(state: dict[str, Any], path: str) -> dict[str, Any]:
+    """A gSDE SAC actor's tensors as a plain SAC actor's: the mean layer ``actor.mu.0`` (before SB3's Hardtanh)
+    becomes ``actor.mu``; the gSDE noise matrix ``actor.log_std`` (latent, actions) becomes a state-independent
+    log-std head (zero weights, bias its mean over the latent units, through rlchain's soft bound). The mean,
+    hence the deterministic action, is SB3's exactly; exploration noise when training further is rlchain's."""
+    if "actor.mu.0.weight" not in state or getattr(state.get("actor.log_std"), "ndim", 0) != 2:
+        raise ckpt.CheckpointError(f"{path}: a use_sde SAC archive without actor.mu.0 and a 2-d actor.log_std")
+    out = {k: v for k, v in state.items() if k != "actor.log_std" and not k.startswith("actor.mu.")}
+    weight, bias = state["actor.mu.0.weight"], state["actor.mu.0.bias"]
+    out["actor.mu.weight"], out["actor.mu.bias"] = weight, bias
+    low, high = SDE_LOG_STD_BOUNDS
+    target = state["actor.log_std"].float().mean(0).clamp(low + 1e-3, high - 1e-3)
+    out["actor.log_std.weight"] = weight.new_zeros(weight.shape)
+    out["actor.log_std.bias"] = torch.atanh(2 * (target - low) / (high - low) - 1).to(bias.dtype)
+    return out
 
 
 def _activation(policy_kwargs: Any, algo: str) -> str:
@@ -165,11 +189,20 @@ def read_sb3_archive(path: str, algo: str) -> SB3Archive:
     state = ckpt.read_zip_member(path, "policy.pth")
     if not isinstance(state, dict) or not is_sb3_named(algo, state):
         raise ckpt.CheckpointError(f"{path}: its policy is not an SB3 {algo.upper()} MlpPolicy")
-    if data.get("use_sde"):
-        raise ckpt.CheckpointError(f"{path}: trained with use_sde, which rlchain does not have")
+    sde = bool(data.get("use_sde"))
+    if sde and algo != "sac":
+        raise ckpt.CheckpointError(f"{path}: a {algo.upper()} trained with use_sde; rlchain reads gSDE archives of "
+                                   f"SAC only")
+    if sde:
+        state = _sde_actor(state, path)
     hyper = {k: v for k in HYPERPARAMETERS[algo] if (v := _number(data.get(k))) is not None}
     kwargs = {"net_arch": _architecture(algo, state, path),
               "activation_fn": _activation(data.get("policy_kwargs"), algo)}
+    if sde:  # SB3's gSDE actor ends its mean with Hardtanh(-clip_mean, clip_mean)
+        clip = _number((data.get("policy_kwargs") or {}).get("clip_mean")) if isinstance(
+            data.get("policy_kwargs"), dict) else None
+        kwargs["clip_mean"] = float(clip) if isinstance(clip, (int, float)) and not isinstance(clip, bool) \
+            else SDE_CLIP_MEAN
     if algo == "sac":  # SB3 keeps the learned entropy coefficient outside the policy
         names = zipfile.ZipFile(path).namelist()
         variables = ckpt.read_zip_member(path, "pytorch_variables.pth") if "pytorch_variables.pth" in names else {}
