@@ -1,6 +1,7 @@
 """SAC and DQN models and updates: squashed Gaussian, deterministic play, targets, epsilon schedule."""
 
 import math
+import os
 
 import gymnasium as gym
 import numpy as np
@@ -9,10 +10,13 @@ import torch
 
 from rlchain.algos.off_policy.dqn_agent import DQNAgent, QModel, epsilon_at
 from rlchain.algos.off_policy.sac_agent import SACAgent, SoftActorCritic
+from rlchain.config import ConfigError, parse_params
+from rlchain.config.load import load_raw
 from rlchain.config.network import MlpConfig
 from rlchain.config.off_policy import DQNConfig, DQNNetworkConfig, SACConfig, SACNetworkConfig
 from rlchain.networks.sac_network import QNetwork, SACNetwork
 
+CONFIGS = os.path.join(os.path.dirname(__file__), os.pardir, os.pardir, "rlchain", "configs")
 BOX = gym.spaces.Box(low=np.array([-2.0, 0.0], dtype=np.float32), high=np.array([2.0, 1.0], dtype=np.float32))
 
 
@@ -68,6 +72,19 @@ def test_sac_log_std_bounds_from_network_and_config():
     model2 = SoftActorCritic(net, BOX, (3,), False, 1.0, log_std_bounds=[-2.0, -1.0])
     _, log_std = model2.network.actor(torch.randn(100, 3) * 100)
     assert log_std.min() >= -2.0 and log_std.max() <= -1.0
+
+
+def test_sac_mean_clip_clips_the_pre_tanh_mean():
+    torch.manual_seed(0)
+    net = SACNetwork(SACNetworkConfig(mlp=MlpConfig(units=[8]), mean_clip=0.5), (3,), 2)
+    mu, _ = net.actor(torch.randn(100, 3) * 100)
+    assert mu.abs().max().item() == pytest.approx(0.5)
+    cfg = load_raw(os.path.join(CONFIGS, "sac_pendulum.yaml"))
+    cfg["params"]["network"]["mean_clip"] = -1
+    with pytest.raises(ConfigError) as err:
+        parse_params(cfg, "sac.yaml")
+    assert "sac.yaml" in str(err.value) and "params.network.mean_clip" in str(err.value)
+    assert "must be a number > 0, or null for no clip" in str(err.value) and "\n" not in str(err.value)
 
 
 def test_sac_actions_rescaled_to_space():

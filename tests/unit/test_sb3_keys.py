@@ -97,6 +97,18 @@ def test_off_policy_names():
         build_config("sac", "Pendulum-v1", 1, True, {"train_freq": 4, "gradient_steps": 1}, [])
 
 
+def test_sac_clip_mean_is_the_networks_mean_clip():
+    sac = build_config("sac", "Pendulum-v1", 1, True, {}, [], policy_kwargs={"clip_mean": 2.0})["params"]
+    assert sac["network"]["mean_clip"] == 2.0
+    assert build_config("sac", "Pendulum-v1", 1, True, {}, [], policy_kwargs={"clip_mean": 0})["params"][
+        "network"]["mean_clip"] is None  # SB3: 0 is no clip
+    with pytest.raises(ConfigError, match=r"^rlchain.SAC: policy_kwargs.clip_mean: expected a number >= 0 "
+                                          r"\(0: no clip\), got 'big'$"):
+        build_config("sac", "Pendulum-v1", 1, True, {}, [], policy_kwargs={"clip_mean": "big"})
+    with pytest.raises(ValueError, match="policy_kwargs: unknown key 'clip_mean'"):
+        ppo({}, policy_kwargs={"clip_mean": 2.0})
+
+
 def test_names():
     assert run_name("ppo", "CartPole-v1") == "ppo_cartpole" and run_name("sac", "ALE/Pong-v5") == "sac_pong"
     assert activation_name(type("Tanh", (), {})) == "tanh"

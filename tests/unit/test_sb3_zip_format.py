@@ -64,3 +64,45 @@ def test_archives_naming_code_or_of_another_algorithm_are_refused(tmp_path):
         rlchain.DQN.load(path)
     with pytest.raises(CheckpointError, match="not an SB3 PPO MlpPolicy"):
         rlchain.PPO.load(os.path.join(DATA, "dqn_cartpole.zip"))
+
+
+def _rewrite_data(src, dst, change):
+    """A copy of archive ``src`` at ``dst`` with its ``data`` JSON passed through ``change``."""
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(dst, "w") as b:
+        for name in a.namelist():
+            b.writestr(name, json.dumps(change(json.loads(a.read(name)))) if name == "data" else a.read(name))
+    return dst
+
+
+def test_spaces_saved_by_sb3_before_2_are_read(tmp_path):
+    def old_gym(data):  # SB3 1.x with gym: 'shape' as text, no '_shape'
+        for key in ("observation_space", "action_space"):
+            space = data[key]
+            space["shape"] = str(list(space.pop("_shape", []))).replace(",", "")
+        return data
+    path = _rewrite_data(os.path.join(DATA, "ppo_pendulum.zip"), str(tmp_path / "old.zip"), old_gym)
+    archive, new = read_sb3_archive(path, "ppo"), read_sb3_archive(os.path.join(DATA, "ppo_pendulum.zip"), "ppo")
+    assert archive.observation_space == new.observation_space and archive.action_space == new.action_space
+
+
+def test_gsde_sac_plays_its_clipped_mean_as_sb3(tmp_path):
+    sb3 = pytest.importorskip("stable_baselines3")
+    torch.manual_seed(0)
+    model = sb3.SAC("MlpPolicy", "Pendulum-v1", use_sde=True, seed=0, device="cpu",
+                    policy_kwargs={"net_arch": [16], "log_std_init": -2})
+    with torch.no_grad():  # a mean beyond SB3's clip_mean (2) for some observations: the clip must be kept
+        model.actor.mu[0].weight.mul_(40.0)
+    model.save(tmp_path / "sde")
+    obs = np.stack([gym.make("Pendulum-v1").reset(seed=s)[0] for s in range(64)]).astype(np.float32)
+    latent = model.actor.latent_pi(torch.as_tensor(obs))
+    assert model.actor.mu[0](latent).abs().max() > 2.5
+    expected, _ = model.predict(obs, deterministic=True)
+    loaded = rlchain.SAC.load(str(tmp_path / "sde.zip"))
+    actions, _ = loaded.predict(obs, deterministic=True)
+    np.testing.assert_allclose(actions, expected, atol=1e-5)
+    assert episode_return(loaded, "Pendulum-v1", 3) == pytest.approx(episode_return(model, "Pendulum-v1", 3),
+                                                                     abs=1e-2)
+    ppo = _rewrite_data(os.path.join(DATA, "ppo_pendulum.zip"), str(tmp_path / "ppo_sde.zip"),
+                        lambda data: {**data, "use_sde": True})
+    with pytest.raises(CheckpointError, match=r"ppo_sde.zip: a PPO trained with use_sde; rlchain reads gSDE"):
+        rlchain.PPO.load(ppo)
