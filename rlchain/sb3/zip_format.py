@@ -205,9 +205,10 @@ def read_sb3_archive(path: str, algo: str) -> SB3Archive:
             else SDE_CLIP_MEAN
     if algo == "sac":  # SB3 keeps the learned entropy coefficient outside the policy
         names = zipfile.ZipFile(path).namelist()
-        variables = ckpt.read_zip_member(path, "pytorch_variables.pth") if "pytorch_variables.pth" in names else {}
+        member = next((m for m in ("pytorch_variables.pth", "tensors.pth") if m in names), None)  # tensors: SB3 < 1
+        variables = ckpt.read_zip_member(path, member) if member else {}
         if isinstance(variables, dict) and "log_ent_coef" in variables:
-            state = {**state, "log_alpha": variables["log_ent_coef"].reshape(())}
+            state = {**state, "log_alpha": variables["log_ent_coef"].detach().reshape(())}
     seed = data.get("seed")
     return SB3Archive(_space(data.get("observation_space"), path, "observation_space"),
                       _space(data.get("action_space"), path, "action_space"), hyper, kwargs, state,

@@ -85,6 +85,15 @@ def test_spaces_saved_by_sb3_before_2_are_read(tmp_path):
     assert archive.observation_space == new.observation_space and archive.action_space == new.action_space
 
 
+def test_sac_entropy_coefficient_of_sb3_before_1_is_read(tmp_path):
+    src, path = os.path.join(DATA, "sac_pendulum.zip"), str(tmp_path / "old_sac.zip")
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(path, "w") as b:  # SB3 < 1 named it tensors.pth
+        for name in a.namelist():
+            b.writestr("tensors.pth" if name == "pytorch_variables.pth" else name, a.read(name))
+    new, old = read_sb3_archive(src, "sac"), read_sb3_archive(path, "sac")
+    assert float(old.policy_state["log_alpha"]) == float(new.policy_state["log_alpha"])
+
+
 def test_gsde_sac_plays_its_clipped_mean_as_sb3(tmp_path):
     sb3 = pytest.importorskip("stable_baselines3")
     torch.manual_seed(0)
