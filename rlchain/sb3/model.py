@@ -31,7 +31,7 @@ from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config, positive_count
-from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy
+from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy, eval_actions
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
@@ -292,16 +292,8 @@ class BaseModel:
         first = next(iter(space.spaces))
         single = np.shape(observation[first]) == tuple(space[first].shape)
         batch = as_obs_dict({k: np.asarray(observation[k])[None] if single else np.asarray(observation[k])
-                             for k in space.spaces}, space, "cpu")
-        net = self.policy.net
-        was_training = net.training
-        net.eval()
-        try:
-            with torch.inference_mode():
-                actions = net.dist.to_env(net.act(batch, deterministic=deterministic)["actions"])
-        finally:
-            net.train(was_training)
-        actions = actions.cpu().numpy()
+                             for k in space.spaces}, space, next(self.policy.net.parameters()).device)
+        actions = eval_actions(self.policy.net, batch, deterministic)
         return (actions[0] if single else actions), None
 
     # ----- parameters and files -----------------------------------------------------------------------

@@ -50,6 +50,13 @@ def predict_actions(net: nn.Module, space: Any, observation: Any, deterministic:
     single = obs.shape == tuple(space.shape)
     device = next(net.parameters()).device
     batch = torch.as_tensor(obs[None] if single else obs.reshape(-1, *space.shape), device=device)
+    actions = eval_actions(net, batch, deterministic)
+    return actions[0] if single else actions
+
+
+def eval_actions(net: nn.Module, batch: Any, deterministic: bool) -> np.ndarray:
+    """The env actions of ``net`` for a batch of observations (a tensor or a per-key ObsDict), with ``net`` in
+    eval mode for the call and put back (the live policy during ``learn``)."""
     was_training = net.training
     net.eval()
     try:
@@ -57,8 +64,7 @@ def predict_actions(net: nn.Module, space: Any, observation: Any, deterministic:
             actions = net.dist.to_env(net.act(batch, deterministic=deterministic)["actions"])
     finally:
         net.train(was_training)
-    actions = actions.cpu().numpy()
-    return actions[0] if single else actions
+    return actions.cpu().numpy()
 
 
 class SB3Policy(nn.Module):
