@@ -120,6 +120,19 @@ class BaseNetwork(nn.Module):
         for name, func in INITIALIZERS.items():
             self.init_factory.register_builder(name, _initializer(func))
 
+    def _load_mlp_block(self, params: Any, separate: bool) -> None:
+        """The network-block keys every rl_games network reads (``separate`` defaulting to ``separate``, the
+        ``mlp`` block, ``value_activation``, ``normalization``) into the attributes rl_games names them by."""
+        self.separate = params.get("separate", separate)
+        mlp = params["mlp"]
+        self.units = mlp["units"]
+        self.activation = mlp["activation"]
+        self.initializer = mlp["initializer"]
+        self.is_d2rl = mlp.get("d2rl", False)
+        self.norm_only_first_layer = mlp.get("norm_only_first_layer", False)
+        self.value_activation = params.get("value_activation", "None")
+        self.normalization = params.get("normalization", None)
+
     def is_separate_critic(self) -> bool:
         return False
 

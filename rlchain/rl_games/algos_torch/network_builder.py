@@ -234,15 +234,7 @@ class A2CBuilder(NetworkBuilder):
 
         def load(self, params: Any) -> None:
             """Read the network block into the attributes the constructor and ``forward`` use."""
-            self.separate = params.get("separate", False)
-            mlp = params["mlp"]
-            self.units = mlp["units"]
-            self.activation = mlp["activation"]
-            self.initializer = mlp["initializer"]
-            self.is_d2rl = mlp.get("d2rl", False)
-            self.norm_only_first_layer = mlp.get("norm_only_first_layer", False)
-            self.value_activation = params.get("value_activation", "None")
-            self.normalization = params.get("normalization", None)
+            self._load_mlp_block(params, separate=False)
             self.has_rnn = "rnn" in params
             self.has_space = "space" in params
             self.central_value = params.get("central_value", False)
@@ -358,15 +350,7 @@ class SACBuilder(NetworkBuilder):
             return self.separate
 
         def load(self, params: Any) -> None:
-            self.separate = params.get("separate", True)
-            mlp = params["mlp"]
-            self.units = mlp["units"]
-            self.activation = mlp["activation"]
-            self.initializer = mlp["initializer"]
-            self.is_d2rl = mlp.get("d2rl", False)
-            self.norm_only_first_layer = mlp.get("norm_only_first_layer", False)
-            self.value_activation = params.get("value_activation", "None")
-            self.normalization = params.get("normalization", None)
+            self._load_mlp_block(params, separate=True)
             self.log_std_bounds = params.get("log_std_bounds", None)
 
 
