@@ -214,3 +214,21 @@ def test_a_multi_discrete_head_is_joined_and_written_back_only_with_its_sizes():
     trained["config"] = {"params": {"network": {"space": {"multi_discrete": {}}}}}
     with pytest.raises(ValueError, match=r"'network\.logits' is one head over every action dimension"):
         rl_games_export.to_rl_games(trained)
+
+
+@pytest.mark.parametrize("tag", ["v165", "v20"])
+def test_sac_player_holds_rl_games_sac_model(tag):
+    player = _player(tag, "sac")
+    player.restore(os.path.join(DATA, f"{tag}_sac.pth"))
+    model, obs = player.model, made.fixed_obs("sac")
+    dist = model.actor(model.norm_obs(obs))  # rl_games 2.0's SAC player test reads the model this way
+    expected = torch.load(os.path.join(DATA, f"{tag}_sac_actions.pt"), weights_only=True)["actions"]
+    assert torch.allclose(player.rescale_actions(dist.mean), expected.reshape(dist.mean.shape), atol=1e-5)
+    assert torch.equal(model({"obs": model.norm_obs(obs)}).mean, dist.mean) and not model.is_rnn()
+    for part in ("critic", "critic_target"):
+        q1, q2 = getattr(model, part)(model.norm_obs(obs), dist.mean)
+        assert q1.shape == q2.shape == (len(obs), 1)  # as rl_games' critics return them
+    parts, policy = model.sac_network, player.policy  # rlchain's modules, restored once for both
+    assert (parts.actor, parts.critic, parts.critic_target) == (policy.network.actor, policy.network.critic,
+                                                                policy.critic_target)
+    assert player.actions_num == ACTIONS and torch.equal(player.action_bias, torch.zeros(ACTIONS))

@@ -78,17 +78,24 @@ class BasePlayer:
                           else self.observation_space.shape)
         shape = SimpleNamespace(observation_space=self.observation_space, action_space=self.action_space,
                                 value_size=self.value_size)
-        self.model = load_policy(parsed, device=self.device, env=shape).model  # no weights yet: restore() loads them
-        # rl_games' model names its ONNX recipe reads: norm_obs (input normalization) and a2c_network (the
-        # network with rl_games' forward(input_dict) contract); plain attributes, not extra state_dict keys
-        object.__setattr__(self.model, "norm_obs", self.model.preprocess)
-        object.__setattr__(self.model, "a2c_network", self.model.network)
-        self.is_rnn = bool(getattr(self.model, "is_rnn", False))
-        self.normalize_input = getattr(self.model, "obs_norm", None) is not None
+        # rlchain's model, which acts and takes the weights (no weights yet: restore() loads them); ``model`` is
+        # the same modules under rl_games' names for the algorithm (see rl_games_model)
+        self.policy = load_policy(parsed, device=self.device, env=shape).model
+        self.is_rnn = bool(getattr(self.policy, "is_rnn", False))
+        self.normalize_input = getattr(self.policy, "obs_norm", None) is not None
+        self.model = self.rl_games_model(self.policy)
         self.states: list[torch.Tensor] | None = None
         self.batch_size = 1
         self.has_batch_dimension = False
         self.is_tensor_obses = False
+
+    def rl_games_model(self, policy: torch.nn.Module) -> torch.nn.Module:
+        """``player.model`` as rl_games' PPO players hold it: rlchain's model with the names rl_games' ONNX recipe
+        reads, ``norm_obs`` (input normalization) and ``a2c_network`` (the network with rl_games'
+        ``forward(input_dict)`` contract); plain attributes, not extra state_dict keys."""
+        object.__setattr__(policy, "norm_obs", policy.preprocess)
+        object.__setattr__(policy, "a2c_network", policy.network)
+        return policy
 
     def _env_info(self) -> dict[str, Any]:
         """The spaces as rl_games finds them: the env_configurations entry's env, else rlchain's env."""
@@ -112,19 +119,19 @@ class BasePlayer:
     # ----- weights ------------------------------------------------------------------------------------
     def restore(self, fn: str) -> None:
         """Load the policy of an rlchain checkpoint (a mismatched one is a one-line CheckpointError)."""
-        load_weights(self.model, fn, self.device)
+        load_weights(self.policy, fn, self.device)
 
     def get_weights(self) -> dict[str, Any]:
         """``{'model': state_dict}`` (normalizers included)."""
-        return {"model": self.model.state_dict()}
+        return {"model": self.policy.state_dict()}
 
     def set_weights(self, weights: dict[str, Any]) -> None:
         """Load what :meth:`get_weights` returned."""
-        self.model.load_state_dict(weights["model"])
+        self.policy.load_state_dict(weights["model"])
 
     def override_sigma(self, sigma: float) -> None:
         """A fixed sigma set to ``sigma`` (``run({'sigma': ...})``)."""
-        apply_sigma(self.model, sigma)
+        apply_sigma(self.policy, sigma)
 
     # ----- stepping -----------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -134,7 +141,7 @@ class BasePlayer:
     def init_rnn(self) -> None:
         """Zero RNN states for ``batch_size`` envs (``states``: a list of (layers, batch, units) tensors)."""
         if self.is_rnn:
-            self.states = [s.clone() for s in self.model.initial_state(self.batch_size, self.device)]
+            self.states = [s.clone() for s in self.policy.initial_state(self.batch_size, self.device)]
 
     def get_batch_size(self, obses: Any, batch_size: int) -> int:
         """The batch of ``obses`` (its first dim when it has one beyond the observation's shape), kept as
@@ -181,10 +188,10 @@ class BasePlayer:
             obs = obs.unsqueeze(0)
         # a recurrent model takes its states; SAC's model has no ``states`` argument
         rnn = {"states": tuple(self.states) if self.states else None} if self.is_rnn else {}
-        out = self.model.act(obs, deterministic=is_deterministic, **rnn)
+        out = self.policy.act(obs, deterministic=is_deterministic, **rnn)
         if self.is_rnn:
             self.states = list(out["states"])
-        actions = self.model.dist.to_env(out["actions"])
+        actions = self.policy.dist.to_env(out["actions"])
         return actions if batched else actions.squeeze(0)
 
     def get_masked_action(self, obs: Any, mask: Any, is_deterministic: bool = False) -> torch.Tensor:
@@ -194,10 +201,10 @@ class BasePlayer:
         obs = obs if batched else obs.unsqueeze(0)
         masks = torch.as_tensor(mask, device=self.device).bool().reshape(obs.shape[0], -1)
         states = tuple(self.states) if self.is_rnn and self.states else None
-        out = self.model.act(obs, deterministic=is_deterministic, states=states, action_masks=masks)
+        out = self.policy.act(obs, deterministic=is_deterministic, states=states, action_masks=masks)
         if self.is_rnn:
             self.states = list(out["states"])
-        actions = self.model.dist.to_env(out["actions"])
+        actions = self.policy.dist.to_env(out["actions"])
         return actions if batched else actions.squeeze(0)
 
     def run(self) -> Any:
@@ -208,7 +215,7 @@ class BasePlayer:
                         env_config=pc.env_config)
         try:  # the model as training built it for this env ([obs | state] rows of a central-value env)
             model = load_policy(self.parsed, device=self.device, env=env, eval_mode=False).model
-            model.load_state_dict(self.model.state_dict())
+            model.load_state_dict(self.policy.state_dict())
             result = play(model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
         finally:
             env.close()
