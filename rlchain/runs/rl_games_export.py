@@ -138,6 +138,69 @@ def to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def own_network_to_rl_games(state: dict[str, Any]) -> dict[str, Any]:
+    """An rlchain checkpoint of a network written the rl_games way (a user's ``A2CBuilder`` / ``BaseNetwork``
+    subclass or ``SACBuilder``, whose modules carry rl_games' own names) as the dict rl_games restores.
+
+    PPO: ``model`` with the network under ``a2c_network.`` and the normalizers as ``value_mean_std.*`` /
+    ``running_mean_std.*`` (rl_games' order: normalizers first, then the network in its own order), ``epoch``,
+    ``frame``, ``optimizer`` (one group over the network's parameters, in their order, as rl_games builds it).
+    SAC (``algo: sac``): ``actor``, ``critic``, ``critic_target``, ``running_mean_std``, ``log_alpha``, the three
+    optimizers and the counters, as :func:`rlchain.runs.rl_games_sac_checkpoint.to_rl_games` writes them."""
+    model = dict(state["model"])
+    if state.get("algo") == "sac":
+        return _own_sac_to_rl_games(state, model)
+    names: dict[str, str] = {}
+    for key in model:
+        head, _, rest = key.partition(".")
+        if head == "network":
+            names[key] = f"a2c_network.{rest}"
+        else:
+            names[key] = _normalizer_name(key)
+    order = sorted(model, key=lambda k: _rl_games_rank(names[k])[0])  # stable: the network keeps its own order
+    out: dict[str, Any] = {"model": {names[k]: model[k] for k in order},
+                           "epoch": int(state.get("epoch", 0)), "frame": int(state.get("frames", 0))}
+    optimizer = (state.get("agent") or {}).get("optimizer")
+    if isinstance(optimizer, dict):
+        ours = [k for k in model if k.startswith("network.") and is_parameter(k)]
+        out["optimizer"] = _reordered_optimizer(optimizer, ours, [names[k] for k in ours], names)
+    out["last_mean_rewards"] = rl_games_sac_checkpoint.best_reward(state)
+    return out
+
+
+def _normalizer_name(key: str) -> str:
+    """rl_games' name of an rlchain normalizer's statistic (``obs_norm.mean`` -> ``running_mean_std.running_mean``);
+    any other key is a ValueError: rl_games' model has no place for it."""
+    head, _, rest = key.partition(".")
+    if head not in NORMALIZERS.values() or rest not in NORM_STATS.values():
+        raise ValueError(f"'{key}' is outside the network and its normalizers: rl_games' model has no place for it")
+    rl_head = next(k for k, v in NORMALIZERS.items() if v == head)
+    return f"{rl_head}.{next(k for k, v in NORM_STATS.items() if v == rest)}"
+
+
+def _own_sac_to_rl_games(state: dict[str, Any], model: dict[str, Any]) -> dict[str, Any]:
+    """The SAC half of :func:`own_network_to_rl_games`: each network's state dict under its rl_games key."""
+    parts = {"network.actor.": "actor", "network.critic.": "critic", "critic_target.": "critic_target"}
+    out: dict[str, Any] = {part: {} for part in parts.values()}
+    for key, value in model.items():
+        prefix = next((p for p in parts if key.startswith(p)), None)
+        if key.startswith("network.critic_target."):  # the builder's own copy: rlchain's SAC trains the model's
+            continue
+        if prefix is not None:
+            out[parts[prefix]][key[len(prefix):]] = value
+        elif key == "log_alpha":
+            out["log_alpha"] = value.detach().clone()
+        else:
+            out.setdefault("running_mean_std", {})[_normalizer_name(key).split(".", 1)[1]] = value
+    out["epoch"], out["frame"] = int(state.get("epoch", 0)), int(state.get("frames", 0))
+    agent = state.get("agent") or {}
+    for theirs, ours in rl_games_sac_checkpoint.OPTIMIZERS.items():
+        if isinstance(agent.get(ours), dict):
+            out[theirs] = agent[ours]
+    out["last_mean_rewards"] = rl_games_sac_checkpoint.best_reward(state)
+    return out
+
+
 def _split_logits(model: dict[str, Any], optimizer: dict[str, Any] | None, sizes: list[int]
                   ) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """The inverse of rl_games_checkpoint's ``_joined_logits``: rlchain's one ``logits`` head back as rl_games'
@@ -192,4 +255,4 @@ def _central_value_to_rl_games(model: dict[str, Any], optimizer: dict[str, Any] 
     return nets, _reordered_optimizer(optimizer, ours, theirs, names)
 
 
-__all__ = ["model_names_to_rl_games", "to_rl_games"]
+__all__ = ["model_names_to_rl_games", "to_rl_games", "own_network_to_rl_games"]

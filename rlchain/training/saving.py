@@ -14,6 +14,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
+from rlchain.registry import NETWORKS
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint, rl_games_export, rl_games_layout
 from rlchain.runs.run_dir import RunDir
@@ -227,7 +228,8 @@ def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
     the rest of ``--export rl_games`` (SAC's networks and optimizers, the central value's). A network rl_games'
     layout cannot hold (one of your own, D2RL, ...) gets the counters only, and keeps rlchain's ``model``."""
     try:
-        theirs = rl_games_export.to_rl_games(state)
+        theirs = (rl_games_export.own_network_to_rl_games(state) if _network_written_the_rl_games_way(state)
+                  else rl_games_export.to_rl_games(state))
     except (ValueError, KeyError):
         theirs = {"frame": int(state["frames"])}
     theirs.setdefault("last_mean_rewards", state.get("best_reward"))
@@ -239,6 +241,17 @@ def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
         if key in ("model", "epoch") or key not in state:  # the others are rlchain's own
             out[key] = value
     return out
+
+
+def _network_written_the_rl_games_way(state: dict[str, Any]) -> bool:
+    """Whether the checkpoint's network was built by a builder registered through rl_games' ``register_network``
+    (its modules named as rl_games names them) for one of rl_games' algorithms; rlchain's own networks are renamed
+    by the export."""
+    params = (state.get("config") or {}).get("params") or {}
+    name = (params.get("network") or {}).get("name")
+    if state.get("algo") not in ("a2c_continuous", "a2c_discrete", "sac") or name not in NETWORKS:
+        return False
+    return getattr(NETWORKS.get(name), "rl_games_target", None) is not None
 
 
 def _trainable_names(model: Any) -> list[str]:
