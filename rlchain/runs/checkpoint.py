@@ -34,6 +34,10 @@ log = get_logger(__name__)
 
 FORMAT = "rlchain-checkpoint-1"
 RLCHAIN_MODEL = "rlchain_model"
+NORMS_DROPPED = "mlp_norms_dropped"
+"""A checkpoint key (and the attribute :func:`load_model_state` sets on the model it loads): the model was built
+without its config's MLP normalization layers, continuing an rl_games 1.6.5 run (1.6.5 never builds them); a
+checkpoint that says so is loaded the same way again."""
 """Where a checkpoint written under rl_games' API keeps rlchain's model state (``model`` holds rl_games' layout)."""
 TRUST_HINT = ("unpickling it would run code from the file; if you trust the file, load it with "
               "--trust-checkpoint (params.config.trust_checkpoint: true)")
@@ -248,9 +252,13 @@ def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -
     keep = set(state.get("keep_built") or ())
     missing = [k for k in own if k not in saved and k not in keep]
     unexpected = [k for k in saved if k not in own]
-    if missing and not unexpected and state.get("origin") == "rl_games" and _drop_unbuilt_norms(model, missing):
+    continues_165 = state.get("origin") == "rl_games" or bool(state.get(NORMS_DROPPED))
+    if missing and not unexpected and continues_165 and drop_unbuilt_norms(model, missing):
+        which = ("its checkpoint has" if state.get("origin") == "rl_games"
+                 else "this run continues one, whose files have")
         log.warning(f"{path}: rl_games 1.6.5 builds no MLP normalization layers whatever network.normalization "
-                    f"says; its checkpoint has none, so the model is built without them")
+                    f"says; {which} none, so the model is built without them")
+        setattr(model, NORMS_DROPPED, True)  # the checkpoints this model is saved to say so
         own = model.state_dict()
         missing = [k for k in own if k not in saved and k not in keep]
     if missing or unexpected:
@@ -270,7 +278,7 @@ MLP_NORM = r"(mlp|trunk|q[12]\.0)\.net\.\d+\.[12]\."
 """A normalization layer inside one of rlchain's MLP layers (the Sequential linear, norm/activation, ...)."""
 
 
-def _drop_unbuilt_norms(model: torch.nn.Module, missing: list[str]) -> bool:
+def drop_unbuilt_norms(model: torch.nn.Module, missing: list[str]) -> bool:
     """When every ``missing`` key belongs to an MLP LayerNorm / BatchNorm (an rl_games 1.6.5 file whose config
     names ``normalization``, which 1.6.5 ignores), replace those layers by identities, as 1.6.5 builds the
     network; returns whether it did."""

@@ -72,6 +72,8 @@ class CheckpointSaver:
             state["ranks"] = boundary["ranks"]
         if isinstance(algo, CheckpointState):
             state.update(algo.extra_state(kind))
+        if getattr(algo.model, ckpt.NORMS_DROPPED, False):  # the config's normalization was not built: reload so
+            state[ckpt.NORMS_DROPPED] = True
         if self.run is not None and self.run.layout == "embodichain":
             state.update(embodichain_keys(state))
         get_env_state = getattr(ctx.env, "get_env_state", None)  # optional (rl_games' IVecEnv): a curriculum

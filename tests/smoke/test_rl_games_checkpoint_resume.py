@@ -43,6 +43,19 @@ def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_
         runner = Runner()
         runner.load(cfg)
         result = runner.run({"train": True, "checkpoint": source})
+        if (tag, kind) == ("v165", "layer_norm"):  # 1.6.5 built no norm layers: the run's own file says so
+            first = sorted(glob.glob(os.path.join(str(tmp_path), "**", "*.pth"), recursive=True),
+                           key=os.path.getmtime)[-1]
+            assert ckpt.load(first)[ckpt.NORMS_DROPPED]
+            cfg["params"]["config"]["max_epochs"] = start["epoch"] + 2  # and resumes with the same config
+            runner = Runner()
+            runner.load(cfg)
+            result = runner.run({"train": True, "checkpoint": first})
+            cfg["params"]["config"]["player"] = {"games_num": 2}  # and plays with it
+            runner = Runner()
+            runner.load(cfg)
+            assert runner.run({"play": True, "checkpoint": first}).games == 2
+            start["epoch"] += 1  # the checks below: of this second run
     finally:
         alias.uninstall()
         sys.modules.pop("make_checkpoints", None)

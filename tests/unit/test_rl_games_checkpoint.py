@@ -232,3 +232,24 @@ def test_sac_player_holds_rl_games_sac_model(tag):
     assert (parts.actor, parts.critic, parts.critic_target) == (policy.network.actor, policy.network.critic,
                                                                 policy.critic_target)
     assert player.actions_num == ACTIONS and torch.equal(player.action_bias, torch.zeros(ACTIONS))
+
+
+def test_a_checkpoint_continuing_a_1_6_5_run_reloads_with_the_same_config(tmp_path, caplog):
+    player = _player("v165", "layer_norm", as_written=True)
+    player.restore(os.path.join(DATA, "v165_layer_norm.pth"))
+    assert getattr(player.policy, ckpt.NORMS_DROPPED)  # the model remembers, so the run's checkpoints say so
+    for marked in (True, False):
+        path = str(tmp_path / f"marked_{marked}.pth")
+        state = {"format": ckpt.FORMAT, "model": player.policy.state_dict()}
+        ckpt.save_atomic({**state, ckpt.NORMS_DROPPED: True} if marked else state, path)
+        again = _player("v165", "layer_norm", as_written=True)
+        if not marked:
+            with pytest.raises(ckpt.CheckpointError, match="missing"):
+                again.restore(path)
+            continue
+        caplog.clear()
+        with caplog.at_level("WARNING", logger="rlchain"):
+            again.restore(path)
+        lines = [r.getMessage() for r in caplog.records if "1.6.5 builds no MLP normalization" in r.getMessage()]
+        assert len(lines) == 1 and "this run continues one" in lines[0] and path in lines[0]
+        assert not any(isinstance(m, torch.nn.LayerNorm) for m in again.policy.modules())

@@ -35,6 +35,7 @@ from rlchain.policy.load import load_policy, load_weights
 from rlchain.policy.play import play
 from rlchain.registry import ENV_CONFIGURATIONS
 from rlchain.rl_games.common import env_configurations, vecenv
+from rlchain.runs import checkpoint as ckpt
 
 
 def parse_player_params(params: dict[str, Any]) -> Params:
@@ -215,7 +216,10 @@ class BasePlayer:
                         env_config=pc.env_config)
         try:  # the model as training built it for this env ([obs | state] rows of a central-value env)
             model = load_policy(self.parsed, device=self.device, env=env, eval_mode=False).model
-            model.load_state_dict(self.policy.state_dict())
+            weights = self.policy.state_dict()
+            if getattr(self.policy, ckpt.NORMS_DROPPED, False):  # built as rl_games 1.6.5 built the restored file
+                ckpt.drop_unbuilt_norms(model, [k for k in model.state_dict() if k not in weights])
+            model.load_state_dict(weights)
             result = play(model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
         finally:
             env.close()
