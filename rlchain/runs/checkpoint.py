@@ -269,9 +269,34 @@ def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -
         raise CheckpointError(f"{path}: checkpoint does not match this model's network ({detail}); {hint}")
     for key, value in saved.items():
         if tuple(value.shape) != tuple(own[key].shape):
+            changed = _changed_env_inputs(state, tuple(value.shape), tuple(own[key].shape))
+            if changed is not None:
+                raise CheckpointError(f"{path}: {changed}")
             raise CheckpointError(f"{path}: parameter '{key}' has shape {tuple(value.shape)} in the "
                                   f"checkpoint but {tuple(own[key].shape)} in this model")
     model.load_state_dict(saved, strict=not keep)
+
+
+CHANGED_ENV_INPUTS = {
+    "CartPoleMaskedVelocity-v1": (2, 4, "CartPole's four entries with both velocities zeroed, as rl_games masks "
+                                 "them (it was: cart position and pole angle only); retrain on it, or play this "
+                                 "file on an env of your own that keeps entries 0 and 2"),
+}
+"""Example envs whose observation changed: env name -> (inputs before, inputs now, what the env is now and what
+to do). A checkpoint of the old shape is refused with that line: it is not widened on load (no shims)."""
+
+
+def _changed_env_inputs(state: dict[str, Any], saved: tuple[int, ...], own: tuple[int, ...]) -> str | None:
+    """The reason a tensor of shape ``saved`` does not fit the model (``own``) when the checkpoint was trained
+    on an example env whose observation has changed since (:data:`CHANGED_ENV_INPUTS`), else None."""
+    config = ((state.get("config") or {}).get("params") or {}).get("config") or {}
+    env_name = config.get("env_name") if isinstance(config, dict) else None
+    if env_name not in CHANGED_ENV_INPUTS or not saved or not own:
+        return None
+    before, now, what = CHANGED_ENV_INPUTS[env_name]
+    if (saved[-1], own[-1]) != (before, now):
+        return None
+    return f"trained on {env_name} when it observed {before} inputs; the env now observes {now}: {what}"
 
 
 MLP_NORM = r"(mlp|trunk|q[12]\.0)\.net\.\d+\.[12]\."

@@ -118,3 +118,16 @@ def test_an_empty_file_and_junk_say_so_plainly(tmp_path):
     assert "EOFError" not in str(exc.value)
     with pytest.raises(ckpt.CheckpointError, match="neither a zip archive .* nor a pickle"):
         ckpt.read(str(junk))
+
+
+@pytest.mark.parametrize("env_name", ["CartPoleMaskedVelocity-v1", "CartPole-v1"])
+def test_a_checkpoint_of_the_old_two_input_masked_cartpole_says_what_changed(env_name):
+    model = torch.nn.Sequential(torch.nn.Linear(4, 8), torch.nn.Linear(8, 2))  # built for today's four inputs
+    old = torch.nn.Sequential(torch.nn.Linear(2, 8), torch.nn.Linear(8, 2))
+    state = {"model": old.state_dict(), "config": {"params": {"config": {"env_name": env_name}}}}
+    expected = (r"^old\.pth: trained on CartPoleMaskedVelocity-v1 when it observed 2 inputs; the env now observes "
+                r"4: .*velocities zeroed.*retrain on it, or play this file on an env of your own that keeps entries "
+                r"0 and 2$") if env_name.startswith("CartPoleMasked") else r"parameter '0\.weight' has shape \(8, 2\)"
+    with pytest.raises(ckpt.CheckpointError, match=expected) as info:
+        ckpt.load_model_state(model, state, "old.pth")
+    assert "\n" not in str(info.value)
