@@ -9,10 +9,10 @@
         agent.init_rnn()
     actions = agent.get_action(agent.obs_to_torch(obs), is_deterministic=agent.is_deterministic)
 
-The model is rlchain's (built from the config's network block, as training built it); ``restore`` reads an
-rlchain checkpoint. The env's spaces come from the ``env_configurations`` entry of ``env_name`` (its
-``env_creator``, or its vector env with ``player.use_vecenv``), as rl_games finds them, else from the env
-rlchain builds for the config. :meth:`run` plays ``player.games_num`` games itself (``runner.run({'play':
+``policy`` is rlchain's model (built from the config's network block, as training built it), ``model`` the same
+modules under rl_games' names (for SAC, rl_games' SAC model); ``restore`` reads an rlchain checkpoint. The env's
+spaces come from the ``env_configurations`` entry of ``env_name`` (its ``env_creator``, or its vector env with
+``player.use_vecenv``), as rl_games finds them, else from the env rlchain builds for the config. :meth:`run` plays ``player.games_num`` games itself (``runner.run({'play':
 True})``).
 """
 
