@@ -12,8 +12,8 @@
 ``policy`` is rlchain's model (built from the config's network block, as training built it), ``model`` the same
 modules under rl_games' names (for SAC, rl_games' SAC model); ``restore`` reads an rlchain checkpoint. The env's
 spaces come from the ``env_configurations`` entry of ``env_name`` (its ``env_creator``, or its vector env with
-``player.use_vecenv``), as rl_games finds them, else from the env rlchain builds for the config. :meth:`run` plays ``player.games_num`` games itself (``runner.run({'play':
-True})``).
+``player.use_vecenv``), as rl_games finds them, else from the env rlchain builds for the config. :meth:`run`
+plays ``player.games_num`` games itself (``runner.run({'play': True})``).
 """
 
 from __future__ import annotations
