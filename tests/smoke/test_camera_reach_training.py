@@ -1,7 +1,9 @@
 """The camera task's multi_input config trains a couple of epochs with the image stored as uint8, plays
 back, and resumes bit-identically (the next observations, an ObsDict, saved in the checkpoint); a gymnasium
-Dict env trains through rlchain.PPO('MultiInputPolicy', env)."""
+Dict env trains through rlchain.PPO('MultiInputPolicy', env) and, through a YAML, resumes bit-identically
+too (its sub-envs' state, the per-key normalizer, the carried observation dict)."""
 
+import logging
 import os
 
 import gymnasium as gym
@@ -66,6 +68,18 @@ class ImageSide(gym.Env):
         reward = float(int(action) == self.side)
         self.t, self.side = self.t + 1, int(self.np_random.integers(2))
         return self._obs(), reward, False, self.t >= 20, {}
+
+
+def test_gymnasium_dict_env_multi_input_resume_is_bit_identical(tmp_path, caplog):
+    if "ImageSideTest-v0" not in gym.registry:
+        gym.register("ImageSideTest-v0", entry_point=ImageSide)
+    over = ["params.config.env_name=ImageSideTest-v0", "params.config.vecenv_type=sync",
+            "params.network.name=multi_input", "params.network.mlp.units=[16]", "params.config.num_actors=2",
+            "params.config.horizon_length=16", "params.config.minibatch_size=32", "params.config.normalize_input=true"]
+    with caplog.at_level(logging.WARNING, logger="rlchain"):
+        half = check_split(tmp_path, "ppo_cartpole.yaml", over, 2)
+    assert half["run_state"]["env"] is not None and set(half["run_state"]["position"]["obs"]) == {"image", "vec"}
+    assert not [r for r in caplog.records if r.getMessage().startswith(("resume:", "warning:"))]
 
 
 def test_sb3_multi_input_policy_trains_on_a_gymnasium_dict_env(tmp_path):

@@ -33,6 +33,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.envs.spec import declares_state
+
 CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
 
 
@@ -124,3 +126,21 @@ class PerKeyObs:
 
     def close(self) -> None:
         self.env.close()
+
+
+class StatefulPerKeyObs(PerKeyObs):
+    """:class:`PerKeyObs` over an env that gives its state (``get_state`` / ``set_state``, exact resume): the
+    wrapper holds no state of its own, so the wrapped env's is the whole of it. A separate class because the
+    env spec reads the state methods from the class, and a :class:`PerKeyObs` over an env without them must
+    not claim them."""
+
+    def get_state(self) -> Any:
+        return self.env.get_state()
+
+    def set_state(self, state: Any) -> None:
+        self.env.set_state(state)
+
+
+def per_key_obs(env: Any) -> PerKeyObs:
+    """``env`` (its observation space a :class:`FlatDictBox`) handed on per key, its state methods kept."""
+    return StatefulPerKeyObs(env) if declares_state(env) else PerKeyObs(env)
