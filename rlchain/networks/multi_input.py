@@ -91,8 +91,9 @@ class DiscreteIndex(nn.Module):
 
     def __init__(self, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> None:
         super().__init__()
-        sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64).reshape(-1)
+        sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64)
         starts = np.broadcast_to(np.asarray(space.start, np.int64), sizes.shape).reshape(-1)
+        sizes = sizes.reshape(-1)
         offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
         self.register_buffer("shift", torch.as_tensor(offsets - starts), persistent=False)
         self.total, self.components = int(sizes.sum()), int(sizes.size)
