@@ -99,7 +99,11 @@ def takes_dict_obs(params: Params) -> bool:
 
 
 def keep_keys_apart(env: Any) -> Any:
-    """``env``, its Dict observations split back per key when a backend flattened them (``PerKeyObs``)."""
+    """``env``, its Dict observations split back per key when a backend flattened them (``PerKeyObs``). A backend
+    whose observations have keys only on request (mjlab's observation groups) lays them out per key first
+    through its ``keep_keys_apart()``."""
+    if callable(getattr(type(env), "keep_keys_apart", None)):
+        env = env.keep_keys_apart()
     if isinstance(getattr(env, "observation_space", None), FlatDictBox):
         return attach_spec(per_key_obs(env))
     return env

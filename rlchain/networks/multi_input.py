@@ -82,7 +82,7 @@ class FlatEncoder(nn.Module):
         if self.one_hot is not None:  # the sum of one-hots of the components' rows in the shared table
             hot = torch.zeros(x.shape[0], self.one_hot.total, device=x.device)
             return self.mlp(hot.scatter_(1, self.one_hot(x), 1.0))
-        return self.mlp(x.flatten(1))
+        return self.mlp(x.reshape(x.shape[0], -1))  # a scalar key (B,) too
 
 
 class DiscreteIndex(nn.Module):

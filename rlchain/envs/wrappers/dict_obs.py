@@ -33,7 +33,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.obs_dict import is_dict_space, is_discrete
+from rlchain.envs.obs_dict import ObsDict, is_dict_space, is_discrete
 from rlchain.envs.spec import declares_state
 
 CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
@@ -101,7 +101,7 @@ def from_one_hot(flat: torch.Tensor, space: gym.spaces.Discrete | gym.spaces.Mul
 class PerKeyObs:
     """A VecEnv whose Dict observations some backend flattened (its space a :class:`FlatDictBox`), handed on
     per key again: ``observation_space`` is the Dict, ``reset`` / ``step`` give ``{key: (N, *shape)}``
-    arrays (tensors for a tensor env) in each key's dtype (a Discrete key's int64 value, not its one-hot), so a
+    arrays (an ObsDict for a tensor env) in each key's dtype (a Discrete key's int64 value, not its one-hot), so a
     multi-input network gets them apart and the rollout stores a uint8 image as uint8 (the flat float32 vector
     lives only for the step; 0..255 is exact in it). Everything else is the wrapped env's. Env groups are not
     pipelined through it."""
@@ -132,7 +132,7 @@ class PerKeyObs:
                 out[key] = out[key].round().to(torch.uint8)
             elif out[key].dtype != torch.float32:
                 out[key] = out[key].float()
-        return out if isinstance(obs, torch.Tensor) else {k: v.numpy() for k, v in out.items()}
+        return ObsDict(out) if isinstance(obs, torch.Tensor) else {k: v.numpy() for k, v in out.items()}
 
     def reset(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
         return self.split(self.env.reset(*args, **kwargs))
