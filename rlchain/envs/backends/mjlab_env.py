@@ -18,9 +18,10 @@ observation; with a ``critic`` group the observation is ``[actor | critic]`` in 
 :class:`~rlchain.envs.wrappers.central_value.ObsStateBox`, so the actor reads ``obs`` (the actor group) and
 ``central_value_config``'s critic ``state`` (the critic group), the asymmetric critic rl_games' mjlab configs
 train. A ``multi_input`` network gets the groups per key instead (:meth:`MjlabVecEnv.keep_keys_apart`: keys
-``actor`` and ``critic``, or ``actor/<term>`` for a group that keeps its terms apart). Time-outs are ``truncated`` (bootstrapped with ``value_bootstrap``) unless the task is finite-horizon,
-where mjlab itself treats them as terminal. mjlab's episode log (``Episode_Reward/*``, ``Episode_Termination/*``,
-``Curriculum/*``, ``Metrics/*``) is in ``infos['episode']`` at the steps where envs reset (rl_games' isaac
+``actor`` and ``critic``, or ``actor/<term>`` for a group that keeps its terms apart). Time-outs are
+``truncated`` (bootstrapped with ``value_bootstrap``) unless the task is finite-horizon, where mjlab itself
+treats them as terminal. mjlab's episode log (``Episode_Reward/*``, ``Episode_Termination/*``, ``Curriculum/*``,
+``Metrics/*``) is in ``infos['episode']`` at the steps where envs reset (rl_games' isaac
 observer writes it as ``Episode/<key>``; ``log_info_keys`` can name its keys) and is written every epoch under
 its own names, as rsl_rl writes it, through :meth:`MjlabVecEnv.log_stats`. Install: ``pip install
 rlchain[mjlab]`` (its own environment: mjlab pins mujoco 3.11, the other extras mujoco 4).
