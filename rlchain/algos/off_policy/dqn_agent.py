@@ -12,7 +12,7 @@ import torch.nn.functional as F
 
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.models.normalization import obs_normalizer
 
 
 class DiscreteActions:
@@ -43,14 +43,14 @@ class QModel(ObservationModel):
 
     flatten_obs = True
 
-    def __init__(self, network: nn.Module, n: int, obs_shape: tuple[int, ...], normalize_input: bool,
+    def __init__(self, network: nn.Module, n: int, obs_shape: tuple[int, ...] | gym.spaces.Dict, normalize_input: bool,
                  play_epsilon: float = 0.0) -> None:
         super().__init__()
         self.network = network
         self.target = copy.deepcopy(network)
         self.target.requires_grad_(False)
         self.dist = DiscreteActions(n)
-        self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
+        self.obs_norm = obs_normalizer(obs_shape) if normalize_input else None  # per key for a Dict
         self.epsilon = float(play_epsilon)  # not saved: a checkpoint plays with the config's play_epsilon
 
     def q_values(self, obs: torch.Tensor) -> torch.Tensor:

@@ -17,7 +17,7 @@ import torch.nn.functional as F
 from rlchain.algos.core.precision import sac_autocast_dtype
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.models.normalization import obs_normalizer
 
 
 def actor_params(actor: nn.Module, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -70,7 +70,7 @@ class SoftActorCritic(ObservationModel):
 
     flatten_obs = True
 
-    def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...],
+    def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...] | gym.spaces.Dict,
                  normalize_input: bool, init_alpha: float, clip_actions: bool = True,
                  log_std_bounds: list[float] | None = None) -> None:
         super().__init__()
@@ -84,7 +84,7 @@ class SoftActorCritic(ObservationModel):
         self.critic_target.requires_grad_(False)
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_alpha), dtype=torch.float32))
         self.dist = SquashedActions(action_space, clip_actions)
-        self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
+        self.obs_norm = obs_normalizer(obs_shape) if normalize_input else None  # per key for a Dict
 
     @property
     def alpha(self) -> torch.Tensor:
