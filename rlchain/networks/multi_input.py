@@ -141,6 +141,8 @@ class MultiInputBuilder(NetworkBuilder):
         if kwargs.get("model_name") in OFF_POLICY_MODELS:  # SAC / DQN: their own heads on the same encoders
             return multi_input_off_policy(cfg, kwargs["model_name"], lambda: MultiInputEncoder(space, cfg.inputs),
                                           kwargs["actions_num"])
+        if cfg.dueling is not None:
+            raise ValueError("params.network.dueling: a DQN head; only model dqn reads it (remove it)")
         continuous = is_continuous(cfg, kwargs["action_space"])
         return ActorCriticNetwork(cfg, (), kwargs["actions_num"], kwargs.get("value_size", 1), continuous,
                                   make_trunk=lambda: Trunk(cfg, (), encoder=MultiInputEncoder(space, cfg.inputs)))

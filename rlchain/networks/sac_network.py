@@ -155,6 +155,9 @@ def multi_input_off_policy(cfg: Any, model_name: str, make_encoder: Callable[[],
         raise ValueError(f"params.network: multi_input with model {model_name} takes no rnn or history "
                          f"(off-policy networks are feed-forward)")
     if model_name == "soft_actor_critic":
+        if cfg.dueling is not None:
+            raise ValueError("params.network.dueling: a DQN head; model soft_actor_critic has none (remove it)")
         sac = SACNetworkConfig(mlp=cfg.mlp, normalization=cfg.normalization)
         return SACNetwork(sac, (), actions_num, make_encoder)
-    return QNetwork(DQNNetworkConfig(mlp=cfg.mlp), (), actions_num, make_encoder())
+    dueling = True if cfg.dueling is None else cfg.dueling
+    return QNetwork(DQNNetworkConfig(mlp=cfg.mlp, dueling=dueling), (), actions_num, make_encoder())

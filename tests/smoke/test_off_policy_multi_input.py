@@ -130,7 +130,7 @@ def test_dqn_resume_restores_the_per_key_replay_buffer(tmp_path):
 @pytest.mark.parametrize("cls, env", [(rlchain.SAC, ImageSideBox), (rlchain.DQN, ImageSide)], ids=["sac", "dqn"])
 def test_sb3_multi_input_policy_off_policy(tmp_path, cls, env):
     model = cls("MultiInputPolicy", env, n_envs=2, learning_starts=16, batch_size=16, buffer_size=256, seed=0,
-                verbose=0, policy_kwargs={"net_arch": [16]}, tensorboard_log=str(tmp_path))
+                num_steps_per_episode=16, verbose=0, policy_kwargs={"net_arch": [16]}, tensorboard_log=str(tmp_path))
     model.learn(64)
     obs, _ = env().reset(seed=1)
     action, _ = model.predict(obs, deterministic=True)
