@@ -63,6 +63,7 @@ class ImageSideBox(ImageSide):
 
 
 gym.register("ImageSideDictTest-v0", entry_point=ImageSide)
+gym.register("ImageSideBoxDictTest-v0", entry_point=ImageSideBox)
 
 DQN_DICT = {"params": {
     "seed": 5, "algo": {"name": "dqn"}, "model": {"name": "dqn"},
@@ -125,6 +126,18 @@ def test_dqn_resume_restores_the_per_key_replay_buffer(tmp_path):
         assert after["obs"][key].dtype == before["obs"][key].dtype
         assert torch.equal(after["obs"][key][:n], before["obs"][key])
         assert torch.equal(after["next_obs"][key][:n], before["next_obs"][key])
+
+
+def test_a_flat_network_on_a_dict_env_keeps_the_flat_replay_buffer(tmp_path):
+    # soft_actor_critic's network is not multi_input: the keys arrive concatenated, stored as one float32 vector
+    config = {"params": {**SAC_CAMERA["params"], "network": {"name": "soft_actor_critic", "mlp": {"units": [16]}},
+                         "config": {**SAC_CAMERA["params"]["config"], "env_name": "ImageSideBoxDictTest-v0",
+                                    "env_config": {}, "num_actors": 2, "max_epochs": 1, "print_stats": False,
+                                    "train_dir": str(tmp_path)}}}
+    replay = Replay()
+    Runner().load(config).train(callbacks=[replay])
+    obs = replay.buffer.obs
+    assert isinstance(obs, torch.Tensor) and obs.dtype == torch.float32 and obs.shape[1:] == (8 * 8 * 3 + 2,)
 
 
 @pytest.mark.parametrize("cls, env", [(rlchain.SAC, ImageSideBox), (rlchain.DQN, ImageSide)], ids=["sac", "dqn"])
