@@ -152,3 +152,7 @@ def test_sb3_multi_input_policy_off_policy(tmp_path, cls, env):
     model.save(tmp_path / "model")
     again = cls.load(tmp_path / "model", env=env)
     assert np.allclose(again.predict(obs, deterministic=True)[0], action)
+    model.save_replay_buffer(tmp_path / "replay")  # per key, read back as data
+    again.load_replay_buffer(tmp_path / "replay")
+    assert again.replay_buffer.size() == model.replay_buffer.size() > 0
+    assert again.replay_buffer.state["obs"]["image"].dtype == torch.uint8
