@@ -257,3 +257,20 @@ def test_sac_onnx_export_takes_one_named_input_per_key(tmp_path):
     assert [i.name for i in session.get_inputs()][:2] == ["image", "proprio"]
     real = env.reset()
     assert verify_onnx(model, path, {k: v.numpy() for k, v in real.items()}, session) < 1e-5
+
+
+@pytest.mark.parametrize("value, message", [
+    ("proprio", "params.config.obs_normalizer_exclude: expected a list"),
+    ("[joints]", "params.config.obs_normalizer_exclude: ['joints'] are not keys"),
+])
+def test_sac_obs_normalizer_exclude_wrong_values(value, message):
+    with pytest.raises((ConfigError, ValueError)) as err:
+        params = Runner().load(CONFIG, [*SAC_NETWORK, f"params.config.obs_normalizer_exclude={value}"]).params
+        build_model(params, build_env(params, 2, 0), torch.device("cpu"))
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_sac_obs_normalizer_exclude_leaves_the_key_as_it_is():
+    params = Runner().load(CONFIG, [*SAC_NETWORK, "params.config.obs_normalizer_exclude=[proprio]"]).params
+    model = build_model(params, build_env(params, 2, 0), torch.device("cpu"))
+    assert len(model.obs_norm.norms) == 0
