@@ -10,6 +10,7 @@ import yaml
 
 import rlchain
 from rlchain import Runner
+from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from tests.smoke.test_exact_resume import check_split, last
@@ -138,6 +139,16 @@ def test_a_flat_network_on_a_dict_env_keeps_the_flat_replay_buffer(tmp_path):
     Runner().load(config).train(callbacks=[replay])
     obs = replay.buffer.obs
     assert isinstance(obs, torch.Tensor) and obs.dtype == torch.float32 and obs.shape[1:] == (8 * 8 * 3 + 2,)
+
+
+def test_hindsight_replay_with_multi_input_is_a_one_line_error(tmp_path):
+    config = {"params": {**SAC_CAMERA["params"], "network": {"name": "multi_input", "mlp": {"units": [16]}},
+                         "config": {**SAC_CAMERA["params"]["config"], "env_name": "ImageSideBoxDictTest-v0",
+                                    "env_config": {}, "num_actors": 1, "replay": {"her": {}},
+                                    "train_dir": str(tmp_path)}}}
+    with pytest.raises(ConfigError) as err:
+        Runner().load(config).train()
+    assert "params.config.replay.her" in str(err.value) and "\n" not in str(err.value)
 
 
 @pytest.mark.parametrize("cls, env", [(rlchain.SAC, ImageSideBox), (rlchain.DQN, ImageSide)], ids=["sac", "dqn"])
