@@ -1,6 +1,8 @@
 """SAC and DQN with the multi_input network on Dict observations: a couple of epochs with the image stored as
-uint8 in the replay buffer, play, and a resume with the replay buffer saved that is bit-identical to a straight
-run; SB3's SAC / DQN("MultiInputPolicy", env) on a gymnasium Dict env."""
+uint8 in the replay buffer, play, resume with the replay buffer saved (SAC on the tensor camera env bit-identical
+to a straight run; DQN on a gymnasium env without get_state restores its buffer); SB3's SAC / DQN
+("MultiInputPolicy", env) on a gymnasium Dict env; a flat network on a Dict env keeps the flat float32 buffer;
+hindsight replay with multi_input is a one-line error."""
 
 import gymnasium as gym
 import numpy as np
