@@ -12,11 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from rlchain.config.fields import non_negative, option
+from rlchain.config.fields import non_negative, option, positive
 from rlchain.config.network import ACTIVATIONS, ConvSpec, NetworkConfig
 
-ENCODERS = ("auto", "cnn", "impala", "mlp", "flatten", "none")
-"""auto: cnn for an image (3 dims), mlp for anything else; none: the key is not read by this network."""
+ENCODERS = ("auto", "cnn", "impala", "mlp", "flatten", "embedding", "none")
+"""auto: embedding for a Discrete / MultiDiscrete key, cnn for an image (3 dims), mlp for anything else; none: the
+key is not read by this network."""
 
 DEFAULT_CONVS = [ConvSpec(filters=16, kernel_size=3, strides=2, padding=1),
                  ConvSpec(filters=32, kernel_size=3, strides=2, padding=1)]
@@ -27,8 +28,10 @@ DEFAULT_CONVS = [ConvSpec(filters=16, kernel_size=3, strides=2, padding=1),
 class InputConfig:
     """One entry of ``network.inputs``: how the observation key of that name is encoded."""
 
-    encoder: str = option("auto", "auto (cnn for an image of 3 dims, mlp otherwise), cnn, impala (IMPALA residual "
-                                  "stages), mlp, flatten (the values as they are) or none (the key is not read)",
+    encoder: str = option("auto", "auto (embedding for a Discrete / MultiDiscrete key, cnn for an image of 3 dims, "
+                                  "mlp otherwise), cnn, impala (IMPALA residual stages), mlp, flatten (the values as "
+                                  "they are; a Discrete key one-hot), embedding (a learned vector per value of a "
+                                  "Discrete / MultiDiscrete key) or none (the key is not read)",
                           choices=ENCODERS)
     permute_input: bool | None = option(None, "cnn / impala: the image is channels-last (H, W, C) and is permuted "
                                               "to (C, H, W); None: channels-last unless its first dim is its "
@@ -42,6 +45,8 @@ class InputConfig:
                                     "features after the convolutions ([] for none)",
                               check=lambda u: None if all(x > 0 for x in u) else "every unit count must be > 0")
     activation: str = option("relu", "the encoder's activation", choices=ACTIVATIONS)
+    dim: int = option(16, "embedding: the size of the vector each value maps to (a MultiDiscrete key: per "
+                          "component, concatenated)", check=positive)
     random_shift: int = option(0, "cnn / impala: DrQ's augmentation, pad the image by this many pixels (edge "
                                   "replicated) and crop it back at a random offset, in training passes only; 0 = off",
                                check=non_negative)
@@ -56,6 +61,6 @@ class MultiInputNetworkConfig(NetworkConfig):
 
     name: str = option("multi_input", "registered network builder")
     inputs: dict[str, Any] = option({}, "observation key -> {encoder, permute_input, convs, conv_depths, units, "
-                                        "activation, random_shift}; a key not named gets encoder auto")
+                                        "activation, dim, random_shift}; a key not named gets encoder auto")
     dueling: bool | None = option(None, "model dqn only: dueling head, Q = V + A - mean(A) (null: True, as the dqn "
                                         "network)")

@@ -28,7 +28,7 @@ from rlchain.envs.building import (
 from rlchain.envs.ray.ray_env import make_ray_vec_env
 from rlchain.envs.spec import attach_spec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.envs.wrappers.dict_obs import FlatDictBox, PerKeyObs
+from rlchain.envs.wrappers.dict_obs import FlatDictBox, per_key_obs
 from rlchain.registry import NETWORKS
 
 
@@ -99,7 +99,11 @@ def takes_dict_obs(params: Params) -> bool:
 
 
 def keep_keys_apart(env: Any) -> Any:
-    """``env``, its Dict observations split back per key when a backend flattened them (:class:`PerKeyObs`)."""
+    """``env``, its Dict observations split back per key when a backend flattened them (``PerKeyObs``). A backend
+    whose observations have keys only on request (mjlab's observation groups) lays them out per key first
+    through its ``keep_keys_apart()``."""
+    if callable(getattr(type(env), "keep_keys_apart", None)):
+        env = env.keep_keys_apart()
     if isinstance(getattr(env, "observation_space", None), FlatDictBox):
-        return attach_spec(PerKeyObs(env))
+        return attach_spec(per_key_obs(env))
     return env

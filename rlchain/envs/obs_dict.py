@@ -9,7 +9,9 @@ other``), ``index_select``, ``reshape`` / ``transpose`` of the batch dims, ``clo
 ``shape`` is the batch shape only (``(N,)`` for one step of N envs, ``(T, N)`` for a rollout), so code
 written for a flat tensor that reads ``obs.shape[0]`` or reshapes the leading dims keeps working; a
 string index reads a key (``obs['image']``). Spaces: :func:`is_dict_space` tells which Dict spaces
-stay per key, :func:`dict_zeros` preallocates buffers for one.
+stay per key, :func:`dict_zeros` preallocates buffers for one. A Discrete (or MultiDiscrete) key is kept
+as its integer value (int64, shape ``(*batch,)`` or ``(*batch, *nvec.shape)``), never one-hot and never
+normalized: a multi-input network looks it up in an embedding.
 """
 
 from __future__ import annotations
@@ -89,23 +91,42 @@ class ObsDict(dict):
         return self._map(lambda v: v.transpose(dim0, dim1))
 
     def flatten(self, start_dim: int = 0, end_dim: int = -1) -> torch.Tensor:
-        """Each key's values flattened per batch row and concatenated (keys in order): the flat vector."""
+        """Each key's values flattened per batch row and concatenated (keys in order): the flat vector
+        (an integer key's values as numbers, not one-hot)."""
         if start_dim != self.batch_dims:
             raise ValueError("ObsDict.flatten: only the per-row flattening (start_dim = batch dims)")
-        return torch.cat([v.flatten(self.batch_dims).float() for v in self.values()], -1)
+        return torch.cat([v.reshape(*v.shape[:self.batch_dims], -1).float() for v in self.values()], -1)
 
     def numel(self) -> int:
         return sum(v.numel() for v in self.values())
 
 
+DISCRETE_SPACES = (gym.spaces.Discrete, gym.spaces.MultiDiscrete)
+"""Entries kept as integers (int64: an embedding's index, the env's own value, ``start`` included)."""
+
+
 def is_dict_space(space: Any) -> bool:
-    """A Dict space whose entries are Boxes, other than the central-value ``{'obs', 'state'}`` layout."""
+    """A Dict space whose entries are Boxes, Discretes or MultiDiscretes, other than the central-value
+    ``{'obs', 'state'}`` layout."""
     return (isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS
-            and all(isinstance(s, gym.spaces.Box) for s in space.spaces.values()))
+            and all(isinstance(s, (gym.spaces.Box, *DISCRETE_SPACES)) for s in space.spaces.values()))
 
 
-def torch_dtype(space: gym.spaces.Box) -> torch.dtype:
-    """uint8 for a uint8 Box (images stay bytes), float32 for every other one."""
+def is_discrete(space: gym.Space) -> bool:
+    """A Discrete or MultiDiscrete entry: stored as int64, never normalized, encoded by an embedding."""
+    return isinstance(space, DISCRETE_SPACES)
+
+
+def flat_size(space: gym.spaces.Dict) -> int:
+    """Values per row of :meth:`ObsDict.flatten` (what a flat-input network gets): every key's element count,
+    an integer key counting its values (1 for a Discrete), not a one-hot."""
+    return sum(int(np.prod(sub.shape)) for sub in space.spaces.values())
+
+
+def torch_dtype(space: gym.Space) -> torch.dtype:
+    """uint8 for a uint8 Box (images stay bytes), int64 for a Discrete / MultiDiscrete, float32 otherwise."""
+    if is_discrete(space):
+        return torch.int64
     return torch.uint8 if np.dtype(space.dtype) == np.uint8 else torch.float32
 
 

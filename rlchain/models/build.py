@@ -16,7 +16,7 @@ from rlchain.config.network import NetworkConfig
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
-from rlchain.envs.obs_dict import is_dict_space
+from rlchain.envs.obs_dict import flat_size, is_dict_space
 from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.central_value import obs_state_split
@@ -66,7 +66,7 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     # concatenated into one flat vector (the model does it, the storage still keeps every key's dtype)
     per_key = is_dict_space(obs_space) and getattr(builder, "takes_dict_obs", False)
     flatten = is_dict_space(obs_space) and not per_key
-    shape = (int(gym.spaces.flatdim(obs_space)),) if flatten else None if per_key else tuple(obs_space.shape)
+    shape = (flat_size(obs_space),) if flatten else None if per_key else tuple(obs_space.shape)
 
     # a network taking the keys apart builds its model's heads (actor-critic, SAC or DQN): it gets the model's name
     model_name = {"model_name": params.model.name} if per_key else {}

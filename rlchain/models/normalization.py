@@ -5,11 +5,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import gymnasium as gym
-import numpy as np
 import torch
 import torch.nn as nn
 
-from rlchain.envs.obs_dict import ObsDict
+from rlchain.envs.obs_dict import ObsDict, torch_dtype
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import merge_moments
 
@@ -123,15 +122,17 @@ def obs_normalizer(shape: tuple[int, ...] | gym.spaces.Dict, kind: str = "rl_gam
 
 
 def dict_as_float(obs: ObsDict) -> ObsDict:
-    """Every key as float32: uint8 images scaled to [0, 1], other keys cast (no copy when float32)."""
-    return ObsDict({k: v.float() / 255.0 if v.dtype == torch.uint8 else v.float() for k, v in obs.items()},
-                   obs.batch_dims)
+    """Every key as float32: uint8 images scaled to [0, 1], other keys cast (no copy when float32); int64 keys
+    (Discrete / MultiDiscrete values, an embedding's indices) are left as they are."""
+    return ObsDict({k: v if v.dtype == torch.int64 else v.float() / 255.0 if v.dtype == torch.uint8 else v.float()
+                    for k, v in obs.items()}, obs.batch_dims)
 
 
 class DictNormalizer(nn.Module):
     """Input normalization of Dict observations, key by key: a uint8 image is scaled to [0, 1] (a running
     mean/std per pixel would spend a pass over every frame to learn what /255 already gives), every other
-    key gets its own running mean/std of ``kind``, keys in ``exclude`` are only cast to float."""
+    key gets its own running mean/std of ``kind``, keys in ``exclude`` are only cast to float, and a Discrete /
+    MultiDiscrete key keeps its integer values (an embedding's indices have no mean to take)."""
 
     def __init__(self, space: gym.spaces.Dict, kind: str = "rl_games", exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
@@ -140,7 +141,7 @@ class DictNormalizer(nn.Module):
             raise ValueError(f"params.config.obs_normalizer_exclude: {unknown} are not keys of the observations "
                              f"({', '.join(space.spaces)})")
         self.norms = nn.ModuleDict({key: obs_normalizer(tuple(sub.shape), kind) for key, sub in space.spaces.items()
-                                    if key not in exclude and np.dtype(sub.dtype) != np.uint8})
+                                    if key not in exclude and torch_dtype(sub) == torch.float32})
 
     def normalize(self, obs: ObsDict, scale: float = 1.0) -> ObsDict:
         """Float observations, each normalized key by its own statistics (``scale`` unused: images are /255)."""

@@ -1,10 +1,11 @@
 """The ``multi_input`` network: an encoder per observation key, fused, then the actor-critic trunk and heads.
 
 Dict observations arrive per key (an :class:`~rlchain.envs.obs_dict.ObsDict`, images as floats in [0, 1],
-vectors normalized by the model). Each key goes through its own encoder (``network.inputs.<key>``: a CNN
-or IMPALA stages for an image, an MLP or nothing for a vector; ``none`` leaves the key out, so an
-actor and a critic can read different keys), the features are concatenated in the space's key order and
-the result feeds :class:`~rlchain.networks.actor_critic.Trunk` (``mlp``, optional ``rnn``) and the heads.
+vectors normalized by the model, Discrete values as int64). Each key goes through its own encoder
+(``network.inputs.<key>``: a CNN or IMPALA stages for an image, an MLP or nothing for a vector, an embedding
+for a Discrete / MultiDiscrete key; ``none`` leaves the key out, so an actor and a critic can read different
+keys), the features are concatenated in the space's key order and the result feeds
+:class:`~rlchain.networks.actor_critic.Trunk` (``mlp``, optional ``rnn``) and the heads.
 For the off-policy models (SAC, DQN) the same encoders feed their own networks (networks/sac_network.py).
 """
 
@@ -20,7 +21,7 @@ import torch.nn.functional as F
 
 from rlchain.config.multi_input import InputConfig, MultiInputNetworkConfig
 from rlchain.config.network import CnnConfig, MlpConfig, ResnetCnnConfig
-from rlchain.envs.obs_dict import is_dict_space
+from rlchain.envs.obs_dict import is_dict_space, is_discrete
 from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.cnn import ConvEncoder
@@ -69,16 +70,53 @@ class ImageEncoder(nn.Module):
 
 
 class FlatEncoder(nn.Module):
-    """(B, *shape) -> (B, out_size): the values flattened, through an MLP of ``units`` (none for flatten)."""
+    """(B, *shape) -> (B, out_size): the values flattened, through an MLP of ``units`` (none for flatten). A
+    Discrete / MultiDiscrete key is one-hot first (gymnasium's flattening of it, SB3's preprocessing)."""
 
-    def __init__(self, cfg: InputConfig, shape: tuple[int, ...], kind: str) -> None:
+    def __init__(self, cfg: InputConfig, space: gym.Space, kind: str) -> None:
         super().__init__()
-        size = int(np.prod(shape))
+        self.one_hot = DiscreteIndex(space) if is_discrete(space) else None
+        size = self.one_hot.total if self.one_hot is not None else int(np.prod(space.shape))
         self.mlp = MLP(size, MlpConfig(units=list(cfg.units) if kind == "mlp" else [], activation=cfg.activation))
         self.out_size = self.mlp.out_size
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.mlp(x.flatten(1))
+        if self.one_hot is not None:  # the sum of one-hots of the components' rows in the shared table
+            hot = torch.zeros(x.shape[0], self.one_hot.total, device=x.device)
+            return self.mlp(hot.scatter_(1, self.one_hot(x), 1.0))
+        return self.mlp(x.reshape(x.shape[0], -1))  # a scalar key (B,) too
+
+
+class DiscreteIndex(nn.Module):
+    """(B,) or (B, *nvec.shape) integer values -> (B, components) rows of one table shared by the components:
+    each component's value minus its ``start``, offset by the sizes of the components before it."""
+
+    def __init__(self, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> None:
+        super().__init__()
+        sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64)
+        starts = np.broadcast_to(np.asarray(space.start, np.int64), sizes.shape).reshape(-1)
+        sizes = sizes.reshape(-1)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        self.register_buffer("shift", torch.as_tensor(offsets - starts), persistent=False)
+        self.total, self.components = int(sizes.sum()), int(sizes.size)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return x.reshape(x.shape[0], self.components).long() + self.shift
+
+
+class EmbeddingEncoder(nn.Module):
+    """(B,) or (B, *nvec.shape) integer values -> (B, components * dim): a learned ``dim``-vector per value of
+    each component (one table, the components' rows apart), concatenated. The values are the env's own
+    (``start`` included), stored as int64 and never normalized."""
+
+    def __init__(self, cfg: InputConfig, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> None:
+        super().__init__()
+        self.index = DiscreteIndex(space)
+        self.table = nn.Embedding(self.index.total, cfg.dim)
+        self.out_size = self.index.components * cfg.dim
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.table(self.index(x)).flatten(1)
 
 
 def channels_last(shape: tuple[int, ...]) -> bool:
@@ -86,10 +124,11 @@ def channels_last(shape: tuple[int, ...]) -> bool:
     return int(np.argmin(shape)) != 0
 
 
-def encoder_kind(cfg: InputConfig, shape: tuple[int, ...]) -> str:
-    """The encoder ``cfg.encoder`` names, ``auto`` resolved: cnn for an image (3 dims), mlp otherwise."""
+def encoder_kind(cfg: InputConfig, space: gym.Space) -> str:
+    """The encoder ``cfg.encoder`` names, ``auto`` resolved: embedding for a Discrete / MultiDiscrete key, cnn
+    for an image (3 dims), mlp otherwise."""
     if cfg.encoder == "auto":
-        return "cnn" if len(shape) == 3 else "mlp"
+        return "embedding" if is_discrete(space) else "cnn" if len(space.shape) == 3 else "mlp"
     return cfg.encoder
 
 
@@ -107,16 +146,21 @@ class MultiInputEncoder(nn.Module):
         for key, sub in space.spaces.items():
             cfg = inputs.get(key, InputConfig())
             shape = tuple(sub.shape)
-            kind = encoder_kind(cfg, shape)
+            kind = encoder_kind(cfg, sub)
             if kind == "none":
                 continue
             if kind in ("cnn", "impala"):
-                if len(shape) != 3:
+                if len(shape) != 3 or is_discrete(sub):
                     raise ValueError(f"{path}.inputs.{key}.encoder: {kind} needs an image (C, H, W), '{key}' has "
-                                     f"shape {shape}")
+                                     f"shape {shape}" + (f" ({type(sub).__name__})" if is_discrete(sub) else ""))
                 self.encoders[key] = ImageEncoder(cfg, shape, kind)
+            elif kind == "embedding":
+                if not is_discrete(sub):
+                    raise ValueError(f"{path}.inputs.{key}.encoder: embedding needs a Discrete or MultiDiscrete "
+                                     f"key, '{key}' is {sub}")
+                self.encoders[key] = EmbeddingEncoder(cfg, sub)
             else:
-                self.encoders[key] = FlatEncoder(cfg, shape, kind)
+                self.encoders[key] = FlatEncoder(cfg, sub, kind)
         if not self.encoders:
             raise ValueError(f"{path}.inputs: every key is encoder none; the network reads nothing")
         self.keys = tuple(self.encoders)

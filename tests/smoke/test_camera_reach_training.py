@@ -1,7 +1,9 @@
 """The camera task's multi_input config trains a couple of epochs with the image stored as uint8, plays
 back, and resumes bit-identically (the next observations, an ObsDict, saved in the checkpoint); a gymnasium
-Dict env trains through rlchain.PPO('MultiInputPolicy', env)."""
+Dict env trains through rlchain.PPO('MultiInputPolicy', env) and, through a YAML, resumes bit-identically
+too (its sub-envs' state, the per-key normalizer, the carried observation dict with a Discrete key)."""
 
+import logging
 import os
 
 import gymnasium as gym
@@ -66,6 +68,32 @@ class ImageSide(gym.Env):
         reward = float(int(action) == self.side)
         self.t, self.side = self.t + 1, int(self.np_random.integers(2))
         return self._obs(), reward, False, self.t >= 20, {}
+
+
+class ImageSideRoom(ImageSide):
+    """ImageSide with a Discrete key beside the image and the vector: the step count modulo 3 (start 1)."""
+
+    def __init__(self):
+        super().__init__()
+        self.observation_space = gym.spaces.Dict({**self.observation_space.spaces,
+                                                  "room": gym.spaces.Discrete(3, start=1)})
+
+    def _obs(self):
+        return {**super()._obs(), "room": 1 + self.t % 3}
+
+
+def test_gymnasium_dict_env_multi_input_resume_is_bit_identical(tmp_path, caplog):
+    if "ImageSideRoomTest-v0" not in gym.registry:
+        gym.register("ImageSideRoomTest-v0", entry_point=ImageSideRoom)
+    over = ["params.config.env_name=ImageSideRoomTest-v0", "params.config.vecenv_type=sync",
+            "params.network.name=multi_input", "params.network.mlp.units=[16]", "params.config.num_actors=2",
+            "params.config.horizon_length=16", "params.config.minibatch_size=32", "params.config.normalize_input=true"]
+    with caplog.at_level(logging.WARNING, logger="rlchain"):
+        half = check_split(tmp_path, "ppo_cartpole.yaml", over, 2)
+    position = half["run_state"]["position"]["obs"]
+    assert half["run_state"]["env"] is not None and set(position) == {"image", "room", "vec"}
+    assert position["room"].dtype == torch.int64 and position["image"].dtype == torch.uint8
+    assert not [r for r in caplog.records if r.getMessage().startswith(("resume:", "warning:"))]
 
 
 def test_sb3_multi_input_policy_trains_on_a_gymnasium_dict_env(tmp_path):

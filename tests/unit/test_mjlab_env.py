@@ -240,3 +240,40 @@ def test_an_mjlab_policy_exports_to_onnx_on_the_whole_observation_or_the_actor_g
                           str(tmp_path / f"{name}.onnx"))
         sizes[name] = onnx.load(out).graph.input[0].type.tensor_type.shape.dim[1].dim_value
     assert sizes == {"whole": ACTOR + CRITIC, "actor": ACTOR}
+
+
+class TermsKeptApart(FakeManagerBasedRlEnv):
+    """The actor group with its terms kept apart (mjlab's ``concatenate_terms: False``): ``joints`` (2) and
+    ``phase`` (1), the same values as the concatenated group."""
+
+    def _obs(self):
+        obs = super()._obs()
+        actor = obs["actor"]
+        return {**obs, "actor": {"joints": actor[:, :2], "phase": actor[:, 2:]}}
+
+
+PER_KEY = {"name": "multi_input", "inputs": {"critic": {"encoder": "none"}}, "mlp": {"units": [8]},
+           "space": CONFIG["params"]["network"]["space"]}
+
+
+@pytest.mark.parametrize("terms", [False, True])
+def test_a_multi_input_network_gets_the_observation_groups_per_key(fake_mjlab, monkeypatch, terms):
+    if terms:
+        monkeypatch.setattr(mjlab_env, "build_mjlab_env", lambda *a, **k: TermsKeptApart(4))
+    config = copy.deepcopy(CONFIG)
+    config["params"]["network"] = copy.deepcopy(PER_KEY)
+    config["params"]["config"]["central_value_config"]["network"] = {
+        "name": "multi_input", "inputs": {"critic": {"encoder": "mlp", "units": [8]}}, "mlp": {"units": [8]}}
+    params = Runner().load(config).params
+    env = build_env(params, 4, 3, runners=True)
+    actor_keys = ("actor/joints", "actor/phase") if terms else ("actor",)
+    assert tuple(env.observation_space.spaces) == (*actor_keys, "critic") and not env.use_central_value
+    obs = env.reset()
+    assert obs["critic"][1].tolist() == [100, 1, 2, 3, 4]
+    assert torch.cat([obs[k].reshape(4, -1) for k in actor_keys], -1)[1].tolist() == [0, 1, 1]
+    model = build_model(params, env, torch.device("cpu"))
+    central_value = build_central_value(params, env, torch.device("cpu"))
+    assert model.network.actor_trunk.cnn.keys == actor_keys  # the actor never reads the critic group
+    assert central_value.network.trunk.cnn.keys == (*actor_keys, "critic")
+    assert model.act(obs)["actions"].shape == (4, ACTIONS) and central_value.value(obs, ()).shape == (4, 1)
+    env.close()

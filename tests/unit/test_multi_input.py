@@ -274,3 +274,109 @@ def test_sac_obs_normalizer_exclude_leaves_the_key_as_it_is():
     params = Runner().load(CONFIG, [*SAC_NETWORK, "params.config.obs_normalizer_exclude=[proprio]"]).params
     model = build_model(params, build_env(params, 2, 0), torch.device("cpu"))
     assert len(model.obs_norm.norms) == 0
+
+
+KEYED = gym.spaces.Dict({"pos": gym.spaces.Box(-1, 1, (3,), np.float32), "room": gym.spaces.Discrete(4, start=1),
+                         "cell": gym.spaces.MultiDiscrete([3, 5])})
+
+
+class Rooms(gym.Env):
+    """A gymnasium Dict env with a vector, a Discrete key (start 1) and a MultiDiscrete key; 10-step episodes."""
+
+    observation_space = KEYED
+    action_space = gym.spaces.Discrete(2)
+
+    def reset(self, seed=None, options=None):
+        super().reset(seed=seed)
+        self.t = 0
+        return self.observation_space.sample(), {}
+
+    def step(self, action):
+        self.t += 1
+        return self.observation_space.sample(), float(action), False, self.t >= 10, {}
+
+
+def _rooms(extra=()):
+    if "RoomsTest-v0" not in gym.registry:
+        gym.register("RoomsTest-v0", entry_point=Rooms)
+    over = ["params.config.env_name=RoomsTest-v0", "params.network.name=multi_input", "params.network.mlp.units=[8]",
+            "params.config.num_actors=3", "params.config.normalize_input=true", "params.config.vecenv_type=sync",
+            *extra]
+    params = Runner().load(f"{CONFIGS}/ppo_cartpole.yaml", over).params
+    env = build_env(params, 3, 0)
+    return params, env, build_model(params, env, torch.device("cpu"))
+
+
+def test_discrete_keys_get_an_embedding_of_their_values():
+    from rlchain.networks.multi_input import EmbeddingEncoder
+
+    enc = MultiInputEncoder(KEYED, {"cell": InputConfig(dim=3)})
+    assert {k: type(e).__name__ for k, e in enc.encoders.items()} == {
+        "pos": "FlatEncoder", "room": "EmbeddingEncoder", "cell": "EmbeddingEncoder"}
+    room, cell = enc.encoders["room"], enc.encoders["cell"]
+    assert room.out_size == 16 and cell.out_size == 2 * 3 and enc.out_size == 64 + 16 + 6
+    assert room.table.num_embeddings == 4 and cell.table.num_embeddings == 3 + 5
+    # the env's values (start 1) pick rows 0..3; a MultiDiscrete's components their own rows of one table
+    assert torch.equal(room(torch.tensor([1, 4])), room.table.weight[[0, 3]])
+    assert torch.equal(cell(torch.tensor([[2, 0], [0, 4]])), cell.table.weight[[2, 3, 0, 7]].reshape(2, 6))
+    obs = ObsDict({"pos": torch.randn(5, 3), "room": torch.randint(1, 5, (5,)), "cell": torch.randint(0, 3, (5, 2))})
+    assert enc(obs).shape == (5, enc.out_size)
+    assert isinstance(room, EmbeddingEncoder)
+    one_hot = MultiInputEncoder(KEYED, {"room": InputConfig(encoder="flatten"), "cell": InputConfig(encoder="none")})
+    assert torch.equal(one_hot.encoders["room"](torch.tensor([1, 3])), torch.eye(4)[[0, 2]])
+
+
+def test_a_gymnasium_env_s_discrete_keys_reach_the_network_as_integers_never_normalized():
+    params, env, model = _rooms()
+    assert type(env).__name__ == "StatefulPerKeyObs" and env.observation_space == KEYED
+    obs = env.reset()
+    assert obs["room"].dtype == np.int64 and obs["room"].shape == (3,) and obs["cell"].shape == (3, 2)
+    assert ((obs["room"] >= 1) & (obs["room"] <= 4)).all()  # the env's values, start included (not the one-hot)
+    from rlchain.algos.core.storage import obs_buffer_layout, rollout_step_bytes
+    from rlchain.envs.obs_dict import dict_zeros, obs_as_tensor
+
+    layout, _ = obs_buffer_layout(env.observation_space)
+    assert dict_zeros((2, 3), layout)["room"].dtype == torch.int64
+    assert rollout_step_bytes(KEYED, env.action_space, 1) - rollout_step_bytes(
+        gym.spaces.Dict({"pos": KEYED["pos"]}), env.action_space, 1) == 3 * 8  # room + cell: three int64
+    batch = obs_as_tensor(obs, "cpu")
+    model.update_normalizers(obs=batch)
+    assert set(model.obs_norm.norms) == {"pos"}
+    seen = model.obs_norm.normalize(batch)
+    assert torch.equal(seen["room"], batch["room"]) and seen["room"].dtype == torch.int64
+    assert model.act(batch)["actions"].shape == (3,)
+    env.close()
+
+
+def test_a_flat_network_reads_discrete_keys_as_numbers():
+    _, env, model = _rooms(["params.network.name=actor_critic"])
+    assert type(env).__name__ == "GymnasiumVecEnv" and env.observation_space.shape == (3 + 4 + 8,)  # gym's one-hot
+    assert model.act(torch.as_tensor(env.reset()))["actions"].shape == (3,)
+    env.close()
+
+
+def test_onnx_export_takes_a_discrete_key_as_an_int64_input(tmp_path):
+    pytest.importorskip("onnxruntime")
+    from rlchain.inference.export.onnx import export_model_onnx, onnx_session, random_observations, verify_onnx
+
+    _, env, model = _rooms()
+    model.eval()
+    path = export_model_onnx(model, env.observation_space, str(tmp_path / "rooms.onnx"))
+    session = onnx_session(path)
+    types = {i.name: i.type for i in session.get_inputs()}
+    assert types == {"pos": "tensor(float)", "room": "tensor(int64)", "cell": "tensor(int64)"}
+    assert verify_onnx(model, path, random_observations(env.observation_space, 16), session) < 1e-5
+    assert verify_onnx(model, path, env.reset(), session) < 1e-5
+    env.close()
+
+
+@pytest.mark.parametrize("inputs, message", [
+    ("{pos: {encoder: embedding}}", "params.network.inputs.pos.encoder: embedding needs a Discrete or MultiDiscrete"),
+    ("{room: {encoder: cnn}}", "params.network.inputs.room.encoder: cnn needs an image"),
+    ("{room: {dim: 0}}", "params.network.inputs.room.dim"),
+    ("{room: {dim: four}}", "params.network.inputs.room.dim"),
+])
+def test_embedding_keys_reject_wrong_values_in_one_line(inputs, message):
+    with pytest.raises((ConfigError, ValueError)) as err:
+        _rooms([f"params.network.inputs={inputs}"])
+    assert message in str(err.value) and "\n" not in str(err.value)

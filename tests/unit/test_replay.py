@@ -192,5 +192,6 @@ def test_dict_n_step_and_state_dict_round_trip():
 
 def test_obs_row_bytes_per_key_and_flat():
     assert obs_row_bytes(DICT_SPACE) == 16 + 8
+    assert obs_row_bytes(gym.spaces.Dict({**DICT_SPACE.spaces, "room": gym.spaces.Discrete(4)})) == 16 + 8 + 8
     assert obs_row_bytes(gym.spaces.Box(0, 255, (1, 4, 4), np.uint8)) == 16
     assert obs_row_bytes(gym.spaces.Box(-1, 1, (3,), np.float32)) == 12

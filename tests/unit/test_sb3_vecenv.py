@@ -73,3 +73,21 @@ def test_close_leaves_the_callers_vec_env_open():
     venv = _venv()
     SB3VecEnv(venv).close()
     assert venv.reset().shape == (2, 1)
+
+
+def test_a_dict_observation_space_is_split_back_per_key_for_a_multi_input_network():
+    from rlchain.envs.factory import keep_keys_apart
+
+    space = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (2, 2, 1), np.uint8), "mode": gym.spaces.Discrete(3)})
+
+    class Keyed(Counter):
+        observation_space = space
+
+        def reset(self, seed=None, options=None):
+            super().reset(seed=seed)
+            return {"image": np.full((2, 2, 1), 7, np.uint8), "mode": 2}, {}
+
+    env = keep_keys_apart(SB3VecEnv(sb3_vec_env.DummyVecEnv([lambda: Keyed(True)] * 2)))
+    assert env.observation_space == space
+    obs = env.reset()
+    assert obs["mode"].tolist() == [2, 2] and obs["image"].dtype == np.uint8 and (obs["image"] == 7).all()

@@ -371,3 +371,46 @@ def test_push2d_pushes_the_cube_and_scores_embodichain_terms():
     terms = env.last_terms
     expected = sum(WEIGHTS[k] * terms[k] for k in WEIGHTS)
     assert torch.allclose(result.reward, expected) and not result.infos["success"].any()
+
+
+class TorchRooms(TensorVecEnv):
+    """A tensor env with a Dict observation: a position (2,) and a Discrete room (start 1) as int64; 3-step
+    episodes."""
+
+    observation_space = gym.spaces.Dict({"pos": gym.spaces.Box(-1, 1, (2,), np.float32),
+                                         "room": gym.spaces.Discrete(3, start=1)})
+    action_space = gym.spaces.Discrete(2)
+
+    def __init__(self, num_envs=4):
+        super().__init__(num_envs, "cpu", 0, max_episode_steps=3)
+
+    def _obs(self, k):
+        from rlchain.envs.obs_dict import ObsDict
+
+        room = torch.randint(1, 4, (k,), generator=self.generator)
+        return ObsDict({"pos": torch.rand(k, 2, generator=self.generator), "room": room})
+
+    def _reset_idx(self, env_ids):
+        return self._obs(env_ids.numel())
+
+    def _step_physics(self, actions):
+        return self._obs(self.num_envs), actions.float(), torch.zeros(self.num_envs, dtype=torch.bool)
+
+
+def test_a_tensor_env_s_dict_reaches_multi_input_per_key_with_its_discrete_key_an_integer():
+    from rlchain import Runner
+    from rlchain.envs.obs_dict import dict_zeros
+    from rlchain.models.build import build_model
+    from tests.conftest import CONFIGS
+
+    params = Runner().load(f"{CONFIGS}/ppo_cartpole.yaml", ["params.network.name=multi_input",
+                                                              "params.network.mlp.units=[8]"]).params
+    env = TorchRooms()
+    model = build_model(params, env, torch.device("cpu"))
+    assert type(model.network.actor_trunk.cnn.encoders["room"]).__name__ == "EmbeddingEncoder"
+    rollout = dict_zeros((4, 4), env.observation_space)  # the rollout storage's buffers
+    obs = env.reset()
+    for t in range(4):  # an episode ends at step 3: its rows reset inside the step, their room still an int64
+        rollout[t] = obs
+        obs = env.step(model.act(obs)["actions"]).obs
+    assert rollout["room"].dtype == torch.int64 and bool(((rollout["room"] >= 1) & (rollout["room"] <= 3)).all())

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space
+from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space, torch_dtype
 
 ALL = slice(None)
 """Every env row: the default ``rows`` of :meth:`RolloutStorage.add` / ``add_outcome``."""
@@ -60,6 +60,9 @@ def rollout_step_bytes(obs_space: Any, action_space: Any, value_size: int) -> in
     obs = 0
     for part in parts:
         shape = getattr(part, "shape", None)
+        if is_dict_space(obs_space):  # each key in its own dtype (torch_dtype): uint8, int64 or float32
+            obs += int(np.prod(shape)) * torch_dtype(part).itemsize
+            continue
         size = int(np.prod(shape)) if shape else gym.spaces.flatdim(part)
         obs += size * (1 if getattr(part, "dtype", None) == np.uint8 else 4)
     act = gym.spaces.flatdim(action_space)

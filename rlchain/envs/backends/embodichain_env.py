@@ -5,7 +5,9 @@
 - ``reset(seed=None) -> (obs, info)`` and ``step(actions) -> (obs, reward, terminated, truncated, info)``,
   every tensor batched (N, ...) on ``device``; finished rows reset in the same step, and no final
   observation is given (``obs`` of a finished row is already the next episode's first);
-- ``obs`` a tensor or a (nested) dict of tensors, flattened in sorted-key order as EmbodiChain does;
+- ``obs`` a tensor or a (nested) dict of tensors, flattened in sorted-key order as EmbodiChain does (a dict's
+  keys stay named, ``robot/qpos`` for a nested one: a ``multi_input`` network gets them apart again, an image
+  as uint8, through ``PerKeyObs``);
 - ``info`` with optional ``success`` / ``fail`` (N,) bool, ``elapsed_steps``, ``metrics`` {name: (N,)} and
   ``rewards`` {term: (N,)} (each reward term unweighted).
 
@@ -30,6 +32,7 @@ import torch
 
 from rlchain.envs.backends.tensor_env import resolve_env_device
 from rlchain.envs.vecenv import StepResult
+from rlchain.envs.wrappers.dict_obs import FlatDictBox
 from rlchain.registry import ENVS
 
 CONFIG = "params.config.env_config"
@@ -43,6 +46,22 @@ def flatten_obs(obs: Any) -> torch.Tensor:
         parts = [flatten_obs(obs[key]) for key in sorted(obs)]
         return torch.cat([p.float() for p in parts], dim=-1)
     raise TypeError(f"observation of type {type(obs).__name__}: expected a tensor or a dict of tensors")
+
+
+def dict_space_of(obs: dict, prefix: str = "") -> list[tuple[str, gym.spaces.Box]]:
+    """The (key, Box) entries of a nested dict observation in :func:`flatten_obs`'s order, a nested key's name its
+    path joined by ``/`` (``robot/qpos``); a Box of one row's shape, uint8 (0..255) for a uint8 tensor, float32
+    otherwise: the layout of a :class:`~rlchain.envs.wrappers.dict_obs.FlatDictBox`."""
+    entries: list[tuple[str, gym.spaces.Box]] = []
+    for key in sorted(obs):
+        value, name = obs[key], f"{prefix}{key}"
+        if isinstance(value, dict):
+            entries += dict_space_of(value, f"{name}/")
+        elif value.dtype == torch.uint8:
+            entries.append((name, gym.spaces.Box(0, 255, tuple(value.shape[1:]), np.uint8)))
+        else:
+            entries.append((name, gym.spaces.Box(-np.inf, np.inf, tuple(value.shape[1:]), np.float32)))
+    return entries
 
 
 class EmbodiChainVecEnv:
@@ -64,8 +83,10 @@ class EmbodiChainVecEnv:
 
     def _flat(self, obs: Any) -> torch.Tensor:
         flat = flatten_obs(obs).float()
-        if self.observation_space is None:  # a dict space: its shape from the first observation
-            self.observation_space = gym.spaces.Box(-np.inf, np.inf, (flat.shape[-1],), np.float32)
+        if self.observation_space is None:  # a dict space: its keys and shapes from the first observation
+            self.observation_space = (FlatDictBox(gym.spaces.Dict(dict_space_of(obs)), np.float32)
+                                      if isinstance(obs, dict)
+                                      else gym.spaces.Box(-np.inf, np.inf, (flat.shape[-1],), np.float32))
         return flat
 
     def describe_shapes(self) -> None:
@@ -148,4 +169,4 @@ def register_env(name: str, factory: Callable[..., Any] | None = None, *, overwr
     return decorator if factory is None else decorator(factory)
 
 
-__all__ = ["EmbodiChainVecEnv", "contract_builder", "flatten_obs", "register_env"]
+__all__ = ["EmbodiChainVecEnv", "contract_builder", "dict_space_of", "flatten_obs", "register_env"]

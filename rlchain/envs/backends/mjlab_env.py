@@ -17,9 +17,11 @@ What the trainer sees: mjlab's ``actor`` observation group (``policy`` in Isaac 
 observation; with a ``critic`` group the observation is ``[actor | critic]`` in an
 :class:`~rlchain.envs.wrappers.central_value.ObsStateBox`, so the actor reads ``obs`` (the actor group) and
 ``central_value_config``'s critic ``state`` (the critic group), the asymmetric critic rl_games' mjlab configs
-train. Time-outs are ``truncated`` (bootstrapped with ``value_bootstrap``) unless the task is finite-horizon,
-where mjlab itself treats them as terminal. mjlab's episode log (``Episode_Reward/*``, ``Episode_Termination/*``,
-``Curriculum/*``, ``Metrics/*``) is in ``infos['episode']`` at the steps where envs reset (rl_games' isaac
+train. A ``multi_input`` network gets the groups per key instead (:meth:`MjlabVecEnv.keep_keys_apart`: keys
+``actor`` and ``critic``, or ``actor/<term>`` for a group that keeps its terms apart). Time-outs are
+``truncated`` (bootstrapped with ``value_bootstrap``) unless the task is finite-horizon, where mjlab itself
+treats them as terminal. mjlab's episode log (``Episode_Reward/*``, ``Episode_Termination/*``, ``Curriculum/*``,
+``Metrics/*``) is in ``infos['episode']`` at the steps where envs reset (rl_games' isaac
 observer writes it as ``Episode/<key>``; ``log_info_keys`` can name its keys) and is written every epoch under
 its own names, as rsl_rl writes it, through :meth:`MjlabVecEnv.log_stats`. Install: ``pip install
 rlchain[mjlab]`` (its own environment: mjlab pins mujoco 3.11, the other extras mujoco 4).
@@ -39,6 +41,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.tensor_env import resolve_env_device
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.central_value import ObsStateBox
+from rlchain.envs.wrappers.dict_obs import FlatDictBox
 from rlchain.errors import did_you_mean
 
 INSTALL_HINT = "mjlab is not installed: pip install rlchain[mjlab] (or pip install mjlab)"
@@ -77,6 +80,15 @@ def build_mjlab_env(task_name: str, num_envs: int, seed: int | None, device: str
     return env_class(cfg=cfg, device=device)
 
 
+def _entries(value: Any, name: str) -> list[tuple[str, gym.spaces.Box]]:
+    """The keys one observation group gives per key, in :func:`_flat`'s order: the group itself (``actor``) when
+    it is one tensor, else each term as ``group/term`` (``actor/joint_pos``; a group of ``concatenate_terms:
+    False``), a float32 Box of one row's shape."""
+    if isinstance(value, dict):
+        return [entry for k, v in value.items() for entry in _entries(v, f"{name}/{k}")]
+    return [(name, gym.spaces.Box(-np.inf, np.inf, tuple(value.shape[1:]), np.float32))]
+
+
 def _flat(value: Any, group: str) -> torch.Tensor:
     """One observation group as (N, features) float32: a concatenated group as it is, a dict of terms in order."""
     if isinstance(value, torch.Tensor):
@@ -100,7 +112,10 @@ class MjlabVecEnv:
         if self.actor_key is None:
             raise ValueError(f"the mjlab task has no '{ACTOR_GROUPS[0]}' (or '{ACTOR_GROUPS[1]}') observation group; "
                              f"its groups: {', '.join(obs)}")
-        self.use_central_value = CRITIC_GROUP in obs
+        self.has_critic = self.use_central_value = CRITIC_GROUP in obs
+        # the entries per key (keep_keys_apart): the actor group's, then the critic group's
+        self._keyed = _entries(obs[self.actor_key], self.actor_key) + (
+            _entries(obs[CRITIC_GROUP], CRITIC_GROUP) if self.has_critic else [])
         actor_size = _flat(obs[self.actor_key], self.actor_key).shape[-1]
         actor_space = gym.spaces.Box(-np.inf, np.inf, (actor_size,), np.float32)
         if self.use_central_value:
@@ -119,10 +134,20 @@ class MjlabVecEnv:
         self._log_sums: dict[str, float] = {}
         self._log_counts: dict[str, int] = {}
 
+    def keep_keys_apart(self) -> MjlabVecEnv:
+        """For a network that takes the observations per key (``multi_input``): the observation space becomes a
+        :class:`~rlchain.envs.wrappers.dict_obs.FlatDictBox` of the actor group's entries and the critic group's
+        (:func:`_entries`), which ``PerKeyObs`` hands on per key; the critic group is then a key like the others
+        (a ``multi_input`` central value reads it, the actor leaves it out with ``encoder: none``), not the
+        ``[obs | state]`` layout. The flat rows are the same values in the same order. Returns this env."""
+        self.observation_space = FlatDictBox(gym.spaces.Dict(self._keyed), np.float32)
+        self.use_central_value = False
+        return self
+
     def _obs_of(self, obs: dict) -> torch.Tensor:
         """The rows the trainer reads: the actor group, then the critic group when there is one."""
         actor = _flat(obs[self.actor_key], self.actor_key)
-        if not self.use_central_value:
+        if not self.has_critic:
             return actor
         return torch.cat([actor, _flat(obs[CRITIC_GROUP], CRITIC_GROUP)], -1)
 

@@ -33,6 +33,9 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.envs.obs_dict import ObsDict, is_dict_space, is_discrete
+from rlchain.envs.spec import declares_state
+
 CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
 
 
@@ -84,20 +87,33 @@ def split_flat_obs(obs: torch.Tensor, space: gym.spaces.Dict) -> dict[str, torch
 
 
 
+def from_one_hot(flat: torch.Tensor, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> torch.Tensor:
+    """gymnasium's one-hot flattening of a Discrete / MultiDiscrete entry (N, sum of sizes) -> its values, int64
+    (N,) or (N, *nvec.shape), ``start`` added back."""
+    if isinstance(space, gym.spaces.Discrete):
+        return flat.argmax(-1) + int(space.start)
+    sizes = [int(n) for n in np.asarray(space.nvec).reshape(-1)]
+    values = torch.stack([part.argmax(-1) for part in flat.split(sizes, -1)], -1)
+    start = torch.as_tensor(np.asarray(space.start, np.int64).reshape(-1), device=flat.device)
+    return (values + start).reshape(flat.shape[0], *space.nvec.shape)
+
+
 class PerKeyObs:
     """A VecEnv whose Dict observations some backend flattened (its space a :class:`FlatDictBox`), handed on
     per key again: ``observation_space`` is the Dict, ``reset`` / ``step`` give ``{key: (N, *shape)}``
-    arrays (tensors for a tensor env) in each key's dtype, so a multi-input network gets them apart and the
-    rollout stores a uint8 image as uint8 (the flat float32 vector lives only for the step; 0..255 is exact
-    in it). Everything else is the wrapped env's. Env groups are not pipelined through it."""
+    arrays (an ObsDict for a tensor env) in each key's dtype (a Discrete key's int64 value, not its one-hot), so a
+    multi-input network gets them apart and the rollout stores a uint8 image as uint8 (the flat float32 vector
+    lives only for the step; 0..255 is exact in it). Everything else is the wrapped env's. Env groups are not
+    pipelined through it."""
 
     env_groups = None
 
     def __init__(self, env: Any) -> None:
         self.env = env
         self.observation_space = env.observation_space.dict_space
-        if not all(isinstance(s, gym.spaces.Box) for s in self.observation_space.spaces.values()):
-            raise ValueError(f"Dict observations kept per key need Box entries, the env has {self.observation_space}")
+        if not is_dict_space(self.observation_space):
+            raise ValueError(f"Dict observations kept per key need Box, Discrete or MultiDiscrete entries, the env "
+                             f"has {self.observation_space}")
 
     def __getattr__(self, name: str) -> Any:
         if name == "env":  # not set yet (unpickling): no recursion
@@ -105,15 +121,18 @@ class PerKeyObs:
         return getattr(self.env, name)
 
     def split(self, obs: Any) -> dict[str, Any]:
-        """Flat (N, D) observations -> {key: (N, *shape)} in each key's dtype."""
+        """Flat (N, D) observations -> {key: (N, *shape)} in each key's dtype (a one-hot Discrete key back to its
+        int64 value)."""
         flat = obs if isinstance(obs, torch.Tensor) else torch.as_tensor(np.asarray(obs))
         out = split_flat_obs(flat, self.observation_space)
         for key, sub in self.observation_space.spaces.items():
-            if np.dtype(sub.dtype) == np.uint8:
+            if is_discrete(sub):
+                out[key] = from_one_hot(out[key], sub)
+            elif np.dtype(sub.dtype) == np.uint8:
                 out[key] = out[key].round().to(torch.uint8)
             elif out[key].dtype != torch.float32:
                 out[key] = out[key].float()
-        return out if isinstance(obs, torch.Tensor) else {k: v.numpy() for k, v in out.items()}
+        return ObsDict(out) if isinstance(obs, torch.Tensor) else {k: v.numpy() for k, v in out.items()}
 
     def reset(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
         return self.split(self.env.reset(*args, **kwargs))
@@ -124,3 +143,21 @@ class PerKeyObs:
 
     def close(self) -> None:
         self.env.close()
+
+
+class StatefulPerKeyObs(PerKeyObs):
+    """:class:`PerKeyObs` over an env that gives its state (``get_state`` / ``set_state``, exact resume): the
+    wrapper holds no state of its own, so the wrapped env's is the whole of it. A separate class because the
+    env spec reads the state methods from the class, and a :class:`PerKeyObs` over an env without them must
+    not claim them."""
+
+    def get_state(self) -> Any:
+        return self.env.get_state()
+
+    def set_state(self, state: Any) -> None:
+        self.env.set_state(state)
+
+
+def per_key_obs(env: Any) -> PerKeyObs:
+    """``env`` (its observation space a :class:`FlatDictBox`) handed on per key, its state methods kept."""
+    return StatefulPerKeyObs(env) if declares_state(env) else PerKeyObs(env)

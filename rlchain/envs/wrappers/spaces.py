@@ -13,6 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from rlchain.envs.obs_dict import DISCRETE_SPACES
 from rlchain.envs.wrappers.action_masks import ActionMaskProxy
 from rlchain.envs.wrappers.central_value import concat_obs_state_env
 from rlchain.envs.wrappers.dict_obs import FlatDictBox, flatten_dict_env
@@ -28,7 +29,7 @@ def float32_obs_space(space: gym.Space) -> gym.Space:
     :func:`flatten_dict_obs` produces. Other spaces are returned unchanged.
     """
     if isinstance(space, gym.spaces.Dict):  # flattened in key order; the parts stay named (dict_space)
-        if all(isinstance(s, gym.spaces.Box) for s in space.spaces.values()):
+        if keyed_entries(space):  # Box, Discrete and MultiDiscrete entries: gymnasium's layout (one-hot)
             return FlatDictBox(space, np.float32)
         size = sum(int(np.prod(s.shape)) for s in space.spaces.values())
         return gym.spaces.Box(-np.inf, np.inf, (size,), np.float32)
@@ -53,8 +54,31 @@ def float32_action_space(space: gym.Space) -> gym.Space:
 
 
 def flatten_dict_obs(obs: dict[str, np.ndarray], space: gym.spaces.Dict) -> np.ndarray:
-    """Concatenate a batched dict observation {key: (N, ...)} into (N, total) in space key order."""
-    return np.concatenate([np.asarray(obs[k]).reshape(len(obs[k]), -1) for k in space.spaces], axis=1)
+    """Concatenate a batched dict observation {key: (N, ...)} into (N, total) in space key order: for a Dict of
+    Box, Discrete and MultiDiscrete entries gymnasium's layout (``gym.spaces.flatten``: a Discrete one-hot, the
+    :class:`FlatDictBox` :func:`float32_obs_space` declares), else every entry's values raveled."""
+    one_hot = keyed_entries(space)
+    return np.concatenate([batch_one_hot(np.asarray(obs[k]), sub) if one_hot and isinstance(sub, DISCRETE_SPACES)
+                           else np.asarray(obs[k]).reshape(len(obs[k]), -1) for k, sub in space.spaces.items()],
+                          axis=1)
+
+
+def keyed_entries(space: gym.spaces.Dict) -> bool:
+    """Every entry a Box, Discrete or MultiDiscrete: the Dicts flattened in gymnasium's layout, which a
+    :class:`FlatDictBox` declares and ``PerKeyObs`` splits back per key."""
+    return all(isinstance(s, (gym.spaces.Box, *DISCRETE_SPACES)) for s in space.spaces.values())
+
+
+def batch_one_hot(values: np.ndarray, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> np.ndarray:
+    """(N,) or (N, *nvec.shape) integer values -> (N, sum of sizes) float32 one-hots, as ``gym.spaces.flatten``
+    lays out one value (``start`` subtracted)."""
+    sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64)
+    starts = np.broadcast_to(np.asarray(space.start, np.int64), sizes.shape).reshape(-1)
+    sizes = sizes.reshape(-1)
+    rows = values.reshape(len(values), -1).astype(np.int64) - starts + np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    out = np.zeros((len(values), int(sizes.sum())), np.float32)
+    np.put_along_axis(out, rows, 1.0, axis=1)
+    return out
 
 
 def cast_obs(obs: np.ndarray) -> np.ndarray:

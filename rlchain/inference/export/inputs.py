@@ -38,7 +38,8 @@ def random_observations(space: gym.Space, n: int, seed: int = 0) -> np.ndarray:
         high = np.where(high_ok, high, low + span)
         return rng.uniform(low, high, size=shape).astype(np.float32)
     space.seed(seed)
-    return np.stack([np.asarray(space.sample(), dtype=np.float32) for _ in range(n)])
+    dtype = np.int64 if isinstance(space, (gym.spaces.Discrete, gym.spaces.MultiDiscrete)) else np.float32
+    return np.stack([np.asarray(space.sample(), dtype=dtype) for _ in range(n)])
 
 
 def random_masks(dist: Any, n: int, seed: int = 0) -> np.ndarray:

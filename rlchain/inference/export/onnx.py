@@ -34,7 +34,8 @@ The exported graph is the deterministic policy as the Player runs it::
 
 - Dict observations kept per key (a ``multi_input`` network): one input per key in place of ``obs``, named
   after the key (``image``, ``proprio``, ...) in the space's order, each in its own dtype (uint8 images are
-  scaled inside the graph, vector keys normalized there as in training).
+  scaled inside the graph, vector keys normalized there as in training; a Discrete key is an int64 input,
+  the env's value, looked up in the embedding inside the graph).
 
 Input order: ``obs`` (or the Dict's keys), then the RNN states (if any), then ``action_mask`` (if any); outputs:
 ``action``, ``value``, then the next RNN states. Feed by name (:class:`OnnxPolicy` holds the names).
@@ -55,7 +56,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs.obs_dict import ObsDict, is_dict_space, obs_as_tensor
+from rlchain.envs.obs_dict import ObsDict, flat_size, is_dict_space, obs_as_tensor, torch_dtype
 from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the parity inputs)
     HUGE_BOUND,
     RANDOM_OBS_BOUND,
@@ -154,14 +155,16 @@ def export_model_onnx(model: ActorCritic, obs_shape: tuple[int, ...] | gym.space
     """Export ``model``'s deterministic policy (see the module docstring) to ``output_path``.
 
     ``input_dtype``: torch.uint8 for image observations (the graph scales them), else float32. ``obs_shape``
-    a Dict space: one input per key, each in its space's dtype.
+    a Dict space: one input per key, each in its space's dtype (int64 for a Discrete / MultiDiscrete key).
     The model is copied to the CPU in eval mode; the caller's model is not changed. Returns the path.
     """
     _require("onnx")
     keys = tuple(obs_shape.spaces) if isinstance(obs_shape, gym.spaces.Dict) else ()
     policy = OnnxPolicy(copy.deepcopy(model).cpu().eval(), keys)
     if keys:
-        dummy = policy.dummy_inputs(ObsDict({k: torch.zeros((2, *s.shape), dtype=obs_dtype(s))
+        # a Discrete key's lowest value is its start (0 may be no value of it: the embedding would fail)
+        dummy = policy.dummy_inputs(ObsDict({k: torch.zeros((2, *s.shape), dtype=torch_dtype(s))
+                                             + torch.as_tensor(getattr(s, "start", 0), dtype=torch_dtype(s))
                                              for k, s in obs_shape.spaces.items()}))
     else:
         dummy = policy.dummy_inputs(torch.zeros((2, *obs_shape), dtype=input_dtype))
@@ -191,6 +194,10 @@ def onnx_session(onnx_path: str) -> Any:
     return ort.InferenceSession(onnx_path, providers=["CPUExecutionProvider"])
 
 
+ONNX_NUMPY = {"tensor(uint8)": np.uint8, "tensor(int64)": np.int64}
+"""A graph input's type -> the numpy dtype it is fed in (float32 for any other)."""
+
+
 def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any = None,
                 steps: int = 3, masks: Any = None, seed: int = 0) -> float:
     """Max abs difference between onnxruntime and PyTorch (every output) on ``obs_batch``.
@@ -205,8 +212,7 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
     inputs = {i.name: i for i in session.get_inputs()}
     keys = tuple(obs_batch) if isinstance(obs_batch, dict) else ()
     arrays = {k: np.ascontiguousarray(torch.as_tensor(np.asarray(v) if not isinstance(v, torch.Tensor) else v)
-                                      .cpu().numpy()).astype(np.uint8 if inputs[k].type == "tensor(uint8)"
-                                                             else np.float32)
+                                      .cpu().numpy()).astype(ONNX_NUMPY.get(inputs[k].type, np.float32))
               for k, v in (obs_batch.items() if keys else [("obs", obs_batch)])}
     graph_input = session.get_inputs()[0]
     obs = arrays[keys[0] if keys else "obs"]
@@ -252,7 +258,7 @@ def exported_view(model: ActorCritic, space: gym.Space) -> tuple[ActorCritic, tu
     if is_dict_space(space) and not getattr(model, "flatten_dict", False):  # one input per key
         return model, space, torch.float32, lambda obs: obs
     if is_dict_space(space):  # a flat-input network on a Dict: the graph takes the keys concatenated
-        size = int(gym.spaces.flatdim(space))
+        size = flat_size(space)
         return model, (size,), torch.float32, lambda obs: dict_as_float(obs_as_tensor(obs, "cpu")).flatten(1).numpy()
     if getattr(model, "obs_group", None) is None or model.obs_slice is None:
         return model, tuple(space.shape), obs_dtype(space), lambda obs: obs
