@@ -21,7 +21,7 @@ from typing import Any
 import gymnasium as gym
 import torch
 
-from rlchain.algos.distill.teacher_keys import PATH, TeacherInput, teacher_keys
+from rlchain.algos.distill.teacher_keys import PATH, TeacherInput, check_encoded, teacher_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.off_policy import SACConfig
@@ -116,19 +116,23 @@ def per_key_teacher(params: Params, teacher_params: Params, state: dict[str, Any
     trained = getattr(getattr(own, "obs_groups", None), getattr(own, "model_group", "teacher"), None)
     keys = teacher_keys(space, chosen, trained, source, path)
     select = TeacherInput(keys, takes_dict_obs(teacher_params))
+    if select.per_key:
+        check_encoded(state["model"], keys, space, chosen is not None, source, path)
     view = PolicyView(select.space(space), env.action_space, env_spec(env).mask_size, value_size_of(env))
     where = PATH if chosen is not None else KEY
-    what = f"the keys {', '.join(keys)} of this run's observations ({', '.join(space.spaces)})"
+    view_space = view.observation_space
+    what = (f"the keys {', '.join(keys)} of this run's observations ({', '.join(space.spaces)})" if select.per_key
+            else f"the keys {', '.join(keys)} concatenated ({view_space.shape[0]} features)")
+    hint = "" if chosen is not None else f"; name the keys it reads in {PATH}"
     try:
         model = load_policy(teacher_params, path, state=state, env=view, device=device,
                             groups=ObsGroupsConfig()).model
     except ckpt.CheckpointError as exc:
-        raise ConfigError(source, where, f"the teacher does not load on {what}"
-                                         f"{'' if select.per_key else ' concatenated'} and the action space "
-                                         f"{env.action_space}: {exc}") from None
+        raise ConfigError(source, where, f"the teacher does not load on {what} with the action space "
+                                         f"{env.action_space}: {exc}{hint}") from None
     except (ConfigError, ValueError) as exc:
         raise ConfigError(source, where, f"the teacher in {path} cannot read {what}: "
-                                         f"{getattr(exc, 'message', exc)}") from None
+                                         f"{getattr(exc, 'message', exc)}{hint}") from None
     return Teacher(frozen(model, isinstance(own, SACConfig)), teacher_params, path, select)
 
 

@@ -14,6 +14,7 @@ their values concatenated in the order named, which must be the layout it was tr
 
 from __future__ import annotations
 
+import re
 from collections import OrderedDict
 
 import gymnasium as gym
@@ -54,6 +55,25 @@ def teacher_keys(space: gym.spaces.Dict, chosen: list | None, trained: list | No
                                         f"observation, not keys of this run's Dict observations ({', '.join(keys)}): "
                                         f"name the keys it reads")
     return tuple(keys)
+
+
+ENCODER = re.compile(r"\.encoders\.([^.]+)\.")
+
+
+def check_encoded(weights: dict, keys: tuple[str, ...], space: gym.spaces.Dict, chosen: bool, source: str,
+                  teacher: str) -> None:
+    """A multi_input teacher's ``weights`` name the keys it encodes (``...encoders.<key>...``): each must be among
+    the ``keys`` it is given, else a one-line :class:`ConfigError` (``obs_groups.teacher`` when ``chosen``)."""
+    encoded = sorted({m.group(1) for name in weights for m in [ENCODER.search(name)] if m})
+    lacking = [k for k in encoded if k not in keys]
+    if not lacking:
+        return
+    if chosen:
+        raise ConfigError(source, PATH, f"leaves out {', '.join(lacking)}, which the teacher in {teacher} reads "
+                                        f"(it encodes {', '.join(encoded)})")
+    raise ConfigError(source, "params.config.teacher_checkpoint",
+                      f"the teacher in {teacher} reads {', '.join(lacking)} (it encodes {', '.join(encoded)}), "
+                      f"which this run's observations ({', '.join(space.spaces)}) lack")
 
 
 class TeacherInput:
