@@ -2,7 +2,8 @@
 
 A Dict observation (a camera image beside proprioception) is kept per key; ``inputs`` says how each key is
 encoded (a key it does not name gets ``encoder: auto``). The encoders' features are concatenated and go
-through ``mlp`` (and ``rnn``) and the actor-critic heads exactly as in ``actor_critic``. SB3's
+through ``mlp`` (and ``rnn``) and the actor-critic heads exactly as in ``actor_critic``; with the
+``soft_actor_critic`` or ``dqn`` model they feed SAC's actor and critics or DQN's Q-network instead. SB3's
 ``MultiInputPolicy`` maps here.
 """
 
@@ -61,3 +62,5 @@ class MultiInputNetworkConfig(NetworkConfig):
     name: str = option("multi_input", "registered network builder")
     inputs: dict[str, Any] = option({}, "observation key -> {encoder, permute_input, convs, conv_depths, units, "
                                         "activation, dim, random_shift}; a key not named gets encoder auto")
+    dueling: bool | None = option(None, "model dqn only: dueling head, Q = V + A - mean(A) (null: True, as the dqn "
+                                        "network)")

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.fields import non_negative, option, positive, unit_interval, variant
 from rlchain.config.network import MlpConfig, SpaceConfig
 from rlchain.config.ppo import PPOConfig
@@ -76,6 +77,7 @@ class OffPolicyConfig(RunConfig):
     priority_beta: float = option(0.4, "prioritized replay: initial importance-sampling exponent, annealed "
                                        "to 1 over max_frames (or max_epochs)", check=unit_interval)
     replay: ReplayConfig = option(ReplayConfig(), "replay buffer extensions (rlchain): her")
+    obs_normalizer_exclude: list[str] = variant(ActorCriticConfig, "obs_normalizer_exclude")
     save_replay_buffer: bool = option(False, "store the replay buffer's contents in every checkpoint "
                                              "(exact resume of off-policy runs; large files, the size is printed)")
     mixed_precision: bool = variant(RunConfig, "mixed_precision", doc="autocast on CUDA",

@@ -68,11 +68,14 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     flatten = is_dict_space(obs_space) and not per_key
     shape = (flat_size(obs_space),) if flatten else None if per_key else tuple(obs_space.shape)
 
+    # a network taking the keys apart builds its model's heads (actor-critic, SAC or DQN): it gets the model's name
+    model_name = {"model_name": params.model.name} if per_key else {}
+
     def build() -> ActorCritic:
         network = instantiate(builder, params.network,
                               actions_num=actions_num, input_shape=obs_space if per_key else shape,
                               value_size=value_size, num_seqs=params.config.num_actors,
-                              action_space=act_space, observation_space=declared)
+                              action_space=act_space, observation_space=declared, **model_name)
         return factory(network=network, action_space=act_space, obs_shape=obs_space if per_key else shape,
                        value_size=value_size, config=params.config, model_name=params.model.name)
 

@@ -6,6 +6,7 @@ vectors normalized by the model, Discrete values as int64). Each key goes throug
 for a Discrete / MultiDiscrete key; ``none`` leaves the key out, so an actor and a critic can read different
 keys), the features are concatenated in the space's key order and the result feeds
 :class:`~rlchain.networks.actor_critic.Trunk` (``mlp``, optional ``rnn``) and the heads.
+For the off-policy models (SAC, DQN) the same encoders feed their own networks (networks/sac_network.py).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.cnn import ConvEncoder
 from rlchain.networks.impala import ImpalaEncoder
 from rlchain.networks.mlp import MLP
+from rlchain.networks.sac_network import OFF_POLICY_MODELS, multi_input_off_policy
 
 
 def random_shift(images: torch.Tensor, pad: int) -> torch.Tensor:
@@ -180,6 +182,11 @@ class MultiInputBuilder(NetworkBuilder):
         if not is_dict_space(space):
             raise ValueError(f"params.network.name: multi_input needs Dict observations (an image, a vector ...), "
                              f"the env gives {space}")
+        if kwargs.get("model_name") in OFF_POLICY_MODELS:  # SAC / DQN: their own heads on the same encoders
+            return multi_input_off_policy(cfg, kwargs["model_name"], lambda: MultiInputEncoder(space, cfg.inputs),
+                                          kwargs["actions_num"])
+        if cfg.dueling is not None:
+            raise ValueError("params.network.dueling: a DQN head; only model dqn reads it (remove it)")
         continuous = is_continuous(cfg, kwargs["action_space"])
         return ActorCriticNetwork(cfg, (), kwargs["actions_num"], kwargs.get("value_size", 1), continuous,
                                   make_trunk=lambda: Trunk(cfg, (), encoder=MultiInputEncoder(space, cfg.inputs)))

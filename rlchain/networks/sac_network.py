@@ -2,11 +2,17 @@
 
 Both follow the builder contract of :mod:`rlchain.networks.base` and read rl_games' network block
 keys (``mlp.units / activation / initializer``, ``log_std_bounds``; ``dueling`` for DQN).
+
+With Dict observations kept per key (``network.name: multi_input``, :func:`multi_input_off_policy`) the
+actor, the critic and the Q-network each read the observations through an ``encoder`` of their own (an
+encoder per key, :class:`~rlchain.networks.multi_input.MultiInputEncoder`); the twin critics share theirs.
+Without one they read a flat vector, as always.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -22,17 +28,21 @@ from rlchain.networks.mlp import MLP
 
 
 class SACActor(nn.Module):
-    """obs (B, obs_dim) -> (mu, log_std), each (B, A); log_std squashed into ``log_std_bounds``."""
+    """obs (B, obs_dim) -> (mu, log_std), each (B, A); log_std squashed into ``log_std_bounds``.
+    ``encoder`` (an ``out_size`` module, e.g. per-key encoders of an ObsDict) runs before the MLP when given."""
 
     def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, log_std_bounds: list[float],
-                 mean_clip: float | None = None) -> None:
+                 mean_clip: float | None = None, encoder: nn.Module | None = None) -> None:
         super().__init__()
-        self.trunk = MLP(obs_dim, mlp)
+        self.encoder = encoder
+        self.trunk = MLP(obs_dim if encoder is None else encoder.out_size, mlp)
         self.head = linear(self.trunk.out_size, 2 * actions_num, mlp.initializer)
         self.log_std_bounds = (float(log_std_bounds[0]), float(log_std_bounds[1]))
         self.mean_clip = None if mean_clip is None else float(mean_clip)
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        if self.encoder is not None:
+            obs = self.encoder(obs)
         mu, log_std = self.head(self.trunk(obs)).chunk(2, dim=-1)
         if self.mean_clip is not None:  # SB3's Hardtanh on the gSDE actor's mean
             mu = mu.clamp(-self.mean_clip, self.mean_clip)
@@ -42,34 +52,42 @@ class SACActor(nn.Module):
 
 
 class TwinQCritic(nn.Module):
-    """(obs (B, obs_dim), actions (B, A)) -> (q1, q2), each (B,)."""
+    """(obs (B, obs_dim), actions (B, A)) -> (q1, q2), each (B,); ``encoder`` (shared by both Qs) first when given."""
 
-    def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig) -> None:
+    def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, encoder: nn.Module | None = None) -> None:
         super().__init__()
+        self.encoder = encoder
+        obs_dim = obs_dim if encoder is None else encoder.out_size
         self.q1 = nn.Sequential(MLP(obs_dim + actions_num, mlp))
         self.q1.append(linear(self.q1[0].out_size, 1, mlp.initializer))
         self.q2 = nn.Sequential(MLP(obs_dim + actions_num, mlp))
         self.q2.append(linear(self.q2[0].out_size, 1, mlp.initializer))
 
     def forward(self, obs: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        x = torch.cat([obs, actions], dim=-1)
+        x = torch.cat([obs if self.encoder is None else self.encoder(obs), actions], dim=-1)
         return self.q1(x).squeeze(-1), self.q2(x).squeeze(-1)
 
 
 class SACNetwork(nn.Module):
-    """``actor`` and ``critic`` (twin Q) submodules; ``forward`` is rl_games' ``(mu, log_std, None, None)``."""
+    """``actor`` and ``critic`` (twin Q) submodules; ``forward`` is rl_games' ``(mu, log_std, None, None)``.
+    ``make_encoder`` (Dict observations kept per key): the actor and the critic each get one it builds."""
 
-    def __init__(self, cfg: SACNetworkConfig, input_shape: tuple[int, ...], actions_num: int) -> None:
+    def __init__(self, cfg: SACNetworkConfig, input_shape: tuple[int, ...], actions_num: int,
+                 make_encoder: Callable[[], nn.Module] | None = None) -> None:
         super().__init__()
         obs_dim = int(np.prod(input_shape))
         mlp = cfg.mlp
         if cfg.normalization is not None and mlp.normalization is None:  # rl_games 2.0: actor and critics
             mlp = dataclasses.replace(mlp, normalization=cfg.normalization)
-        self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds, cfg.mean_clip)
-        self.critic = TwinQCritic(obs_dim, actions_num, mlp)
+        per_key = make_encoder is not None
+        self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds, cfg.mean_clip,
+                              make_encoder() if per_key else None)
+        self.critic = TwinQCritic(obs_dim, actions_num, mlp, make_encoder() if per_key else None)
+        self.per_key = per_key
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:
-        mu, log_std = self.actor(input_dict["obs"].flatten(1))
+        obs = input_dict["obs"]
+        mu, log_std = self.actor(obs if self.per_key else obs.flatten(1))
         return mu, log_std, None, None
 
     def is_rnn(self) -> bool:
@@ -89,18 +107,21 @@ class SACNetworkBuilder(NetworkBuilder):
 
 
 class QNetwork(nn.Module):
-    """obs (B, *input_shape) -> Q-values (B, actions_num); dueling: V + A - mean(A)."""
+    """obs (B, *input_shape) -> Q-values (B, actions_num); dueling: V + A - mean(A). ``encoder`` (Dict
+    observations kept per key) reads the observations before the MLP when given."""
 
-    def __init__(self, cfg: DQNNetworkConfig, input_shape: tuple[int, ...], actions_num: int) -> None:
+    def __init__(self, cfg: DQNNetworkConfig, input_shape: tuple[int, ...], actions_num: int,
+                 encoder: nn.Module | None = None) -> None:
         super().__init__()
-        self.trunk = MLP(int(np.prod(input_shape)), cfg.mlp)
+        self.encoder = encoder
+        self.trunk = MLP(int(np.prod(input_shape)) if encoder is None else encoder.out_size, cfg.mlp)
         size = self.trunk.out_size
         self.dueling = cfg.dueling
         self.advantage = linear(size, actions_num, cfg.mlp.initializer)
         self.state_value = linear(size, 1, cfg.mlp.initializer) if cfg.dueling else None
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
-        h = self.trunk(obs.flatten(1))
+        h = self.trunk(obs.flatten(1) if self.encoder is None else self.encoder(obs))
         adv = self.advantage(h)
         if self.state_value is None:
             return adv
@@ -119,3 +140,24 @@ class QNetworkBuilder(NetworkBuilder):
         if not isinstance(kwargs["action_space"], gym.spaces.Discrete):
             raise ValueError(f"params.network: dqn needs Discrete actions, the env has {kwargs['action_space']}")
         return QNetwork(self.params, tuple(kwargs["input_shape"]), kwargs["actions_num"])
+
+
+OFF_POLICY_MODELS = ("soft_actor_critic", "dqn")
+"""Model presets whose network ``multi_input`` builds with :func:`multi_input_off_policy`."""
+
+
+def multi_input_off_policy(cfg: Any, model_name: str, make_encoder: Callable[[], nn.Module],
+                           actions_num: int) -> nn.Module:
+    """The ``multi_input`` network of an off-policy model: ``soft_actor_critic``'s actor and twin critic (an
+    encoder each) or ``dqn``'s Q-network, their hidden layers from ``cfg.mlp``; ``log_std_bounds`` comes from
+    the config (or its default [-5, 2]) and DQN's head is dueling."""
+    if cfg.rnn is not None or cfg.history is not None:
+        raise ValueError(f"params.network: multi_input with model {model_name} takes no rnn or history "
+                         f"(off-policy networks are feed-forward)")
+    if model_name == "soft_actor_critic":
+        if cfg.dueling is not None:
+            raise ValueError("params.network.dueling: a DQN head; model soft_actor_critic has none (remove it)")
+        sac = SACNetworkConfig(mlp=cfg.mlp, normalization=cfg.normalization)
+        return SACNetwork(sac, (), actions_num, make_encoder)
+    dueling = True if cfg.dueling is None else cfg.dueling
+    return QNetwork(DQNNetworkConfig(mlp=cfg.mlp, dueling=dueling), (), actions_num, make_encoder())

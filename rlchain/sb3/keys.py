@@ -307,6 +307,21 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
     return {"params": params}
 
 
+def multi_input_block(algo: str, params: dict[str, Any], name: str) -> None:
+    """``params``' network renamed ``name`` (MultiInputPolicy's multi_input), in place; SAC's log-std bounds move
+    to ``config.log_std_bounds`` (the same bounds; multi_input has no such network key). SB3's ``clip_mean``
+    (a gSDE actor) has no multi_input counterpart: a ConfigError naming it."""
+    network, config = params["network"], params["config"]
+    network["name"] = name
+    if algo == "sac":
+        bounds = network.pop("log_std_bounds", None)
+        if bounds is not None:
+            config.setdefault("log_std_bounds", bounds)
+        if network.pop("mean_clip", None) is not None:
+            raise ConfigError(SOURCE.format(algo=algo.upper()), "policy_kwargs.clip_mean",
+                              "not supported with MultiInputPolicy (a gSDE actor); remove it")
+
+
 def positive_count(source: str, name: str, value: Any) -> int:
     """``value`` as a positive whole number of frames, else a one-line ConfigError."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or value < 1 or int(value) != value:

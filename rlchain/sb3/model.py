@@ -30,7 +30,7 @@ from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
-from rlchain.sb3.keys import NUM_ENVS, build_config, positive_count
+from rlchain.sb3.keys import NUM_ENVS, build_config, multi_input_block, positive_count
 from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy, eval_actions
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
@@ -141,7 +141,7 @@ class BaseModel:
         config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
                               keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
         if POLICIES[self.policy_name] is not None:
-            config["params"]["network"]["name"] = POLICIES[self.policy_name]
+            multi_input_block(self.algo, config["params"], POLICIES[self.policy_name])
         return config
 
     @property

@@ -168,6 +168,114 @@ def test_central_value_on_dict_observations_needs_multi_input():
         build_central_value(params, env, torch.device("cpu"))
 
 
+SAC_NETWORK = ["params.algo.name=sac", "params.model.name=soft_actor_critic", "params.config={name: camera_sac, "
+               "env_name: TorchCameraReach-v0, env_config: {device: cpu}, device: cpu, normalize_input: True}",
+               "params.network.mlp={units: [16], activation: relu}", "params.network.space={continuous: {}}"]
+DQN_SPACE = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (8, 8, 3), np.uint8),
+                             "vec": gym.spaces.Box(-1, 1, (2,), np.float32)})
+
+
+class _DictSpaces:
+    """What build_model reads of an env: the spaces (a Dict kept per key) and the count."""
+
+    num_envs = 1
+
+    def __init__(self, observation_space, action_space):
+        self.observation_space, self.action_space = observation_space, action_space
+
+
+def _dqn_params(network=""):
+    raw = {"params": {"algo": {"name": "dqn"}, "model": {"name": "dqn"},
+                      "network": {"name": "multi_input", "mlp": {"units": [16]}},
+                      "config": {"name": "side", "env_name": "CartPole-v1", "normalize_input": True}}}
+    if network:
+        raw["params"]["network"].update(network)
+    return parse_params(raw, "cfg.yaml")
+
+
+def test_sac_gets_an_encoder_for_the_actor_and_one_for_the_twin_critics():
+    params = Runner().load(CONFIG, SAC_NETWORK).params
+    env = build_env(params, 3, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    net = model.network
+    assert isinstance(net.actor.encoder, MultiInputEncoder) and isinstance(net.critic.encoder, MultiInputEncoder)
+    assert net.actor.encoder is not net.critic.encoder
+    assert model.critic_target.encoder is not net.critic.encoder  # the target critic has its own (Polyak) copy
+    obs = env.reset()
+    assert model.act(obs)["actions"].shape == (3, 2)
+    model.update_normalizers(obs=obs)
+    assert set(model.obs_norm.norms) == {"proprio"}  # the image is scaled, the proprioception normalized
+    # the critic's loss reaches the critic's encoder only
+    x = model.preprocess(obs)
+    q1, q2 = net.critic(x, torch.zeros(3, 2))
+    (q1 + q2).sum().backward()
+    assert all(p.grad is None for p in net.actor.parameters())
+    assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in net.critic.encoder.parameters())
+
+
+@pytest.mark.parametrize("dueling, heads", [(None, True), (False, False)])
+def test_dqn_q_network_on_per_key_encoders(dueling, heads):
+    params = _dqn_params({} if dueling is None else {"dueling": dueling})
+    model = build_model(params, _DictSpaces(DQN_SPACE, gym.spaces.Discrete(3)), torch.device("cpu"))
+    assert isinstance(model.network.encoder, MultiInputEncoder)
+    assert (model.network.state_value is not None) == heads
+    obs = ObsDict({"image": torch.randint(0, 256, (5, 8, 8, 3), dtype=torch.uint8), "vec": torch.rand(5, 2)})
+    out = model.act(obs, deterministic=True)
+    assert out["actions"].shape == (5,) and out["q"].shape == (5, 3)
+
+
+@pytest.mark.parametrize("network, message", [
+    ({"dueling": "maybe"}, "params.network.dueling"),
+    ({"rnn": {"name": "gru", "units": 8}}, "takes no rnn or history"),
+])
+def test_dqn_wrong_network_values_are_one_line_errors(network, message):
+    with pytest.raises((ConfigError, ValueError)) as err:
+        build_model(_dqn_params(network), _DictSpaces(DQN_SPACE, gym.spaces.Discrete(3)), torch.device("cpu"))
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("extra", [SAC_NETWORK, []], ids=["sac", "ppo"])
+def test_dueling_outside_dqn_is_a_one_line_error(extra):
+    params = Runner().load(CONFIG, [*extra, "params.network.dueling=True"]).params
+    env = build_env(params, 2, 0)
+    with pytest.raises((ConfigError, ValueError)) as err:
+        build_model(params, env, torch.device("cpu"))
+    assert "params.network.dueling" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_sac_onnx_export_takes_one_named_input_per_key(tmp_path):
+    pytest.importorskip("onnxruntime")
+    from rlchain.inference.export.onnx import export_model_onnx, onnx_session, verify_onnx
+
+    params = Runner().load(CONFIG, SAC_NETWORK).params
+    env = build_env(params, 4, 0)
+    model = build_model(params, env, torch.device("cpu"))
+    model.update_normalizers(obs=env.reset())
+    model.eval()
+    path = export_model_onnx(model, env.observation_space, str(tmp_path / "camera_sac.onnx"))
+    session = onnx_session(path)
+    assert [i.name for i in session.get_inputs()][:2] == ["image", "proprio"]
+    real = env.reset()
+    assert verify_onnx(model, path, {k: v.numpy() for k, v in real.items()}, session) < 1e-5
+
+
+@pytest.mark.parametrize("value, message", [
+    ("proprio", "params.config.obs_normalizer_exclude: expected a list"),
+    ("[joints]", "params.config.obs_normalizer_exclude: ['joints'] are not keys"),
+])
+def test_sac_obs_normalizer_exclude_wrong_values(value, message):
+    with pytest.raises((ConfigError, ValueError)) as err:
+        params = Runner().load(CONFIG, [*SAC_NETWORK, f"params.config.obs_normalizer_exclude={value}"]).params
+        build_model(params, build_env(params, 2, 0), torch.device("cpu"))
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_sac_obs_normalizer_exclude_leaves_the_key_as_it_is():
+    params = Runner().load(CONFIG, [*SAC_NETWORK, "params.config.obs_normalizer_exclude=[proprio]"]).params
+    model = build_model(params, build_env(params, 2, 0), torch.device("cpu"))
+    assert len(model.obs_norm.norms) == 0
+
+
 KEYED = gym.spaces.Dict({"pos": gym.spaces.Box(-1, 1, (3,), np.float32), "room": gym.spaces.Discrete(4, start=1),
                          "cell": gym.spaces.MultiDiscrete([3, 5])})
 

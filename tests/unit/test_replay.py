@@ -1,10 +1,13 @@
-"""Replay buffer against hand-computed values: terminal vs truncated, n-step returns, sum-tree sampling."""
+"""Replay buffer against hand-computed values: terminal vs truncated, n-step returns, sum-tree sampling;
+Dict observations stored per key in their own dtype."""
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.core.replay import ReplayBuffer, SumTree
+from rlchain.algos.core.replay import ReplayBuffer, SumTree, obs_row_bytes
+from rlchain.envs.obs_dict import ObsDict
 
 
 def make(n_step=1, num_envs=1, gamma=0.5, capacity=16, **kw):
@@ -137,3 +140,58 @@ def test_state_dict_round_trip():
     add(buf, 5, 5.0, 6)
     add(other, 5, 5.0, 6)   # the pending n-step window came along too
     assert torch.equal(other.rewards, buf.rewards)
+
+
+DICT_SPACE = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (1, 4, 4), np.uint8),
+                              "vec": gym.spaces.Box(-1, 1, (2,), np.float32)})
+
+
+def dict_obs(value, n=2):
+    return ObsDict({"image": torch.full((n, 1, 4, 4), value, dtype=torch.uint8),
+                    "vec": torch.full((n, 2), value / 10.0)})
+
+
+def add_dict(buf, value, next_value, term=False, n=2):
+    buf.add(dict_obs(value, n), torch.zeros(n, dtype=torch.long), torch.full((n,), float(value)),
+            dict_obs(next_value, n), torch.full((n,), term), torch.zeros(n, dtype=torch.bool))
+
+
+def test_dict_observations_stored_per_key_in_their_dtype_and_sampled_back():
+    buf = ReplayBuffer(8, DICT_SPACE, (), "cpu", num_envs=2, action_dtype=torch.long)
+    assert buf.obs["image"].dtype == torch.uint8 and buf.next_obs["image"].dtype == torch.uint8
+    assert buf.obs["vec"].dtype == torch.float32 and buf.obs["image"].shape == (8, 1, 4, 4)
+    for value in (200, 201, 202):
+        add_dict(buf, value, value + 50)
+    batch = buf.sample(16, generator=torch.Generator().manual_seed(0))
+    obs, nxt = batch["obs"], batch["next_obs"]
+    assert isinstance(obs, ObsDict) and obs.shape == (16,) and obs["image"].dtype == torch.uint8
+    # every sampled row is the transition stored at its index: image value v, vec v / 10, next image v + 50
+    value = batch["rewards"].long()
+    assert torch.equal(obs["image"].flatten(1), value[:, None].expand(16, 16).to(torch.uint8))
+    assert torch.equal(nxt["image"][:, 0, 0, 0], (value + 50).to(torch.uint8))
+    assert torch.allclose(obs["vec"], (value.float() / 10.0)[:, None].expand(16, 2))
+
+
+def test_dict_n_step_and_state_dict_round_trip():
+    buf = ReplayBuffer(8, DICT_SPACE, (), "cpu", num_envs=2, action_dtype=torch.long, n_step=2, gamma=0.5)
+    add_dict(buf, 1, 2)
+    add_dict(buf, 2, 3, term=True)   # the first transition's n-step next_obs is this step's, then it stops
+    add_dict(buf, 4, 5)
+    assert len(buf) == 4 and buf.next_obs["image"][:2, 0, 0, 0].tolist() == [3, 3]
+    assert buf.rewards[:2].tolist() == [1.0 + 0.5 * 2.0] * 2
+    state = buf.state_dict()
+    assert type(state["obs"]) is dict and type(state["pending"][0]["obs"]) is dict  # plain: weights_only loads it
+    other = ReplayBuffer(8, DICT_SPACE, (), "cpu", num_envs=2, action_dtype=torch.long, n_step=2, gamma=0.5)
+    other.load_state_dict(state)
+    for key in ("image", "vec"):
+        assert torch.equal(other.obs[key], buf.obs[key]) and torch.equal(other.next_obs[key], buf.next_obs[key])
+    add_dict(buf, 6, 7)
+    add_dict(other, 6, 7)  # the pending window (an ObsDict again) came along
+    assert torch.equal(other.next_obs["image"], buf.next_obs["image"])
+
+
+def test_obs_row_bytes_per_key_and_flat():
+    assert obs_row_bytes(DICT_SPACE) == 16 + 8
+    assert obs_row_bytes(gym.spaces.Dict({**DICT_SPACE.spaces, "room": gym.spaces.Discrete(4)})) == 16 + 8 + 8
+    assert obs_row_bytes(gym.spaces.Box(0, 255, (1, 4, 4), np.uint8)) == 16
+    assert obs_row_bytes(gym.spaces.Box(-1, 1, (3,), np.float32)) == 12

@@ -3,7 +3,7 @@
 import pytest
 
 from rlchain.config.errors import ConfigError
-from rlchain.sb3.keys import activation_name, build_config, run_name
+from rlchain.sb3.keys import activation_name, build_config, multi_input_block, run_name
 
 PPO_KEYS = ["horizon_length", "minibatch_size", "kl_threshold", "num_actors", "learning_rate"]
 
@@ -114,3 +114,16 @@ def test_names():
     assert activation_name(type("Tanh", (), {})) == "tanh"
     with pytest.raises(ValueError, match="no rl_games activation"):
         activation_name("Mish")
+
+
+def test_multi_input_block_for_sac_and_dqn():
+    sac = build_config("sac", "Env-v0", 1, True, {}, [])["params"]
+    multi_input_block("sac", sac, "multi_input")
+    assert sac["network"]["name"] == "multi_input" and "log_std_bounds" not in sac["network"]
+    assert sac["config"]["log_std_bounds"] == [-20, 2]  # SB3's bounds, now the config's key
+    dqn = build_config("dqn", "Env-v0", 1, False, {}, [])["params"]
+    multi_input_block("dqn", dqn, "multi_input")
+    assert dqn["network"]["name"] == "multi_input" and dqn["network"]["dueling"] is False  # SB3's DQN head
+    gsde = build_config("sac", "Env-v0", 1, True, {}, [], policy_kwargs={"clip_mean": 2.0})["params"]
+    with pytest.raises(ConfigError, match="policy_kwargs.clip_mean: not supported with MultiInputPolicy"):
+        multi_input_block("sac", gsde, "multi_input")

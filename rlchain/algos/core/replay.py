@@ -7,14 +7,21 @@ is the true next observation (the env's ``final_obs`` where an episode ended) an
 With ``n_step > 1`` the buffer keeps the last n vectorized steps per env and stores
 ``reward = sum_k gamma^k r_{t+k}`` up to the first step that ended the episode, with
 ``next_obs``/``terminated`` of that step and ``discount = gamma^(steps used)``.
+
+Dict observations kept per key (``obs_shape`` a gymnasium Dict space) are stored per key in each key's
+dtype (a uint8 camera image stays uint8 in ``obs`` and ``next_obs``) and sampled back as an
+:class:`~rlchain.envs.obs_dict.ObsDict`; flat observations keep one tensor of ``obs_dtype``.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch
+
+from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space, torch_dtype
 
 
 class SumTree:
@@ -62,10 +69,23 @@ class SumTree:
         return np.minimum(nodes - self.size, self.capacity - 1)
 
 
-class ReplayBuffer:
-    """Circular buffer of transitions from ``num_envs`` envs, all tensors on ``device``."""
+def obs_row_bytes(space: gym.Space) -> int:
+    """Bytes one observation of ``space`` takes in a replay buffer: for a Dict kept per key each key in its own
+    dtype (uint8, int64 or float32: :func:`torch_dtype`), else its flat size (1 byte a uint8 value, 4 otherwise)."""
+    if is_dict_space(space):
+        return sum(int(np.prod(sub.shape)) * torch_dtype(sub).itemsize for sub in space.spaces.values())
+    shape = getattr(space, "shape", None)
+    size = int(np.prod(shape)) if shape else gym.spaces.flatdim(space)
+    return size * (1 if getattr(space, "dtype", None) == np.uint8 else 4)
 
-    def __init__(self, capacity: int, obs_shape: tuple[int, ...], action_shape: tuple[int, ...],
+
+class ReplayBuffer:
+    """Circular buffer of transitions from ``num_envs`` envs, all tensors on ``device``.
+
+    ``obs_shape``: a shape (``obs`` and ``next_obs`` one tensor each of ``obs_dtype``) or a gymnasium Dict
+    space (one buffer per key in the space's dtype, an :class:`ObsDict`; ``obs_dtype`` unused)."""
+
+    def __init__(self, capacity: int, obs_shape: tuple[int, ...] | gym.spaces.Dict, action_shape: tuple[int, ...],
                  device: torch.device | str = "cpu", num_envs: int = 1, obs_dtype: torch.dtype = torch.float32,
                  action_dtype: torch.dtype = torch.float32, n_step: int = 1, gamma: float = 0.99,
                  prioritized: bool = False, alpha: float = 0.6, beta: float = 0.4, eps: float = 1e-6) -> None:
@@ -73,8 +93,13 @@ class ReplayBuffer:
         self.n_step, self.gamma = int(n_step), float(gamma)
         self.prioritized, self.alpha, self.beta, self.eps = prioritized, float(alpha), float(beta), float(eps)
         c, dev = self.capacity, self.device
-        self.obs = torch.zeros((c, *obs_shape), dtype=obs_dtype, device=dev)
-        self.next_obs = torch.zeros((c, *obs_shape), dtype=obs_dtype, device=dev)
+        self.per_key = is_dict_space(obs_shape)
+        if self.per_key:
+            self.obs: torch.Tensor | ObsDict = dict_zeros((c,), obs_shape, dev)
+            self.next_obs: torch.Tensor | ObsDict = dict_zeros((c,), obs_shape, dev)
+        else:
+            self.obs = torch.zeros((c, *obs_shape), dtype=obs_dtype, device=dev)
+            self.next_obs = torch.zeros((c, *obs_shape), dtype=obs_dtype, device=dev)
         self.actions = torch.zeros((c, *action_shape), dtype=action_dtype, device=dev)
         self.rewards = torch.zeros(c, dtype=torch.float32, device=dev)
         self.terminated = torch.zeros(c, dtype=torch.bool, device=dev)
@@ -129,8 +154,12 @@ class ReplayBuffer:
                terminated: torch.Tensor, truncated: torch.Tensor, discounts: torch.Tensor) -> None:
         n = obs.shape[0]
         idx = (torch.arange(n, device=self.device) + self.pos) % self.capacity
-        self.obs[idx] = obs.to(self.obs.dtype)
-        self.next_obs[idx] = next_obs.to(self.next_obs.dtype)
+        if self.per_key:  # each key's buffer casts on assignment (a uint8 image stays uint8)
+            self.obs[idx] = obs
+            self.next_obs[idx] = next_obs
+        else:
+            self.obs[idx] = obs.to(self.obs.dtype)
+            self.next_obs[idx] = next_obs.to(self.next_obs.dtype)
         self.actions[idx] = actions.to(self.actions.dtype)
         self.rewards[idx] = rewards
         self.terminated[idx] = terminated
@@ -184,11 +213,12 @@ class ReplayBuffer:
 
     # ----- checkpoints --------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:
+        """Plain tensors and dicts of tensors on the CPU (a checkpoint loads them with weights_only)."""
         n = self.size
         state = {"pos": self.pos, "size": n, "max_priority": self.max_priority, "capacity": self.capacity,
-                 "pending": [{k: v.cpu() for k, v in s.items()} for s in self._pending]}
+                 "pending": [{k: _to_cpu(v) for k, v in s.items()} for s in self._pending]}
         for name in ("obs", "next_obs", "actions", "rewards", "terminated", "truncated", "discounts"):
-            state[name] = getattr(self, name)[:n].cpu()
+            state[name] = _to_cpu(getattr(self, name)[:n])
         if self.tree is not None:
             state["priorities"] = self.tree.leaves(n).copy()
         return state
@@ -198,12 +228,22 @@ class ReplayBuffer:
             raise ValueError(f"replay buffer capacity {state['capacity']} in the checkpoint, {self.capacity} now")
         n = int(state["size"])
         for name in ("obs", "next_obs", "actions", "rewards", "terminated", "truncated", "discounts"):
-            getattr(self, name)[:n] = state[name].to(self.device)
+            getattr(self, name)[:n] = _to_device(state[name], self.device)
         self.pos, self.size, self.max_priority = int(state["pos"]), n, float(state["max_priority"])
-        self._pending = [{k: v.to(self.device) for k, v in s.items()} for s in state["pending"]]
+        self._pending = [{k: _to_device(v, self.device) for k, v in s.items()} for s in state["pending"]]
         if self.tree is not None:
             self.tree.tree[:] = 0
             if "priorities" in state:
                 self.tree.update(np.arange(n), state["priorities"])
             else:
                 self.tree.update(np.arange(n), np.full(n, self.max_priority ** self.alpha))
+
+
+def _to_cpu(x: torch.Tensor | ObsDict) -> torch.Tensor | dict[str, torch.Tensor]:
+    """A tensor on the CPU; an ObsDict as a plain dict of CPU tensors (what weights_only loads)."""
+    return {k: v.cpu() for k, v in x.items()} if isinstance(x, dict) else x.cpu()
+
+
+def _to_device(x: torch.Tensor | dict[str, torch.Tensor], device: torch.device) -> torch.Tensor | ObsDict:
+    """The inverse of :func:`_to_cpu`: a dict of tensors comes back as an ObsDict."""
+    return ObsDict({k: v.to(device) for k, v in x.items()}) if isinstance(x, dict) else x.to(device)

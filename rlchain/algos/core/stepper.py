@@ -14,6 +14,7 @@ from typing import Any
 import torch
 
 from rlchain.algos.core.returns import shape_rewards
+from rlchain.envs.obs_dict import ObsDict
 from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
 
@@ -37,15 +38,22 @@ class OffPolicyStepper:
             rewards = rewards.sum(-1)
         shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
         next_obs = ctx.to_tensor(result.obs)
-        if not bool(torch.isfinite(shaped).all()) or (next_obs.is_floating_point()
-                                                      and not bool(torch.isfinite(next_obs).all())):
+        if not bool(torch.isfinite(shaped).all()) or not all_finite(next_obs):
             raise DivergenceError("the env returned a non-finite reward or observation")
         real_next = next_obs
         if bool(dones.any()):
             real_next = next_obs.clone()
             rows = dones.nonzero().squeeze(-1)
-            real_next[rows] = ctx.to_tensor(result.final_obs)[rows].to(next_obs.dtype)
+            final = ctx.to_tensor(result.final_obs)[rows]
+            # per key, each buffer casts on assignment; a flat tensor is cast to the observations' dtype
+            real_next[rows] = final if isinstance(final, ObsDict) else final.to(next_obs.dtype)
         self.buffer.add(obs, actions, shaped, real_next, terminated, truncated)
         model.update_normalizers(obs=next_obs)
         ctx.frames += self.num_envs
         return next_obs
+
+
+def all_finite(obs: torch.Tensor | ObsDict) -> bool:
+    """Whether every floating-point value of ``obs`` (every key of an ObsDict) is finite."""
+    parts = obs.values() if isinstance(obs, ObsDict) else (obs,)
+    return all(bool(torch.isfinite(p).all()) for p in parts if p.is_floating_point())

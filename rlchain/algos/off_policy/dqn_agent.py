@@ -12,7 +12,7 @@ import torch.nn.functional as F
 
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.models.normalization import obs_normalizer
 
 
 class DiscreteActions:
@@ -43,14 +43,15 @@ class QModel(ObservationModel):
 
     flatten_obs = True
 
-    def __init__(self, network: nn.Module, n: int, obs_shape: tuple[int, ...], normalize_input: bool,
-                 play_epsilon: float = 0.0) -> None:
+    def __init__(self, network: nn.Module, n: int, obs_shape: tuple[int, ...] | gym.spaces.Dict, normalize_input: bool,
+                 play_epsilon: float = 0.0, obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
         self.network = network
         self.target = copy.deepcopy(network)
         self.target.requires_grad_(False)
         self.dist = DiscreteActions(n)
-        self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
+        # a Dict kept per key: images scaled, every other key not excluded by its own statistics
+        self.obs_norm = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
         self.epsilon = float(play_epsilon)  # not saved: a checkpoint plays with the config's play_epsilon
 
     def q_values(self, obs: torch.Tensor) -> torch.Tensor:
@@ -150,4 +151,4 @@ def dqn_model(network: nn.Module, action_space: gym.Space, obs_shape: tuple, val
     if not isinstance(action_space, gym.spaces.Discrete):
         raise ValueError(f"params.model.name: dqn needs Discrete actions, the env has {action_space}")
     return QModel(network, int(action_space.n), obs_shape, getattr(config, "normalize_input", False),
-                  getattr(config, "play_epsilon", 0.0))
+                  getattr(config, "play_epsilon", 0.0), tuple(getattr(config, "obs_normalizer_exclude", ())))

@@ -13,13 +13,12 @@ import time
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.replay import ReplayBuffer
+from rlchain.algos.core.replay import ReplayBuffer, obs_row_bytes
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.stepper import OffPolicyStepper
@@ -27,6 +26,7 @@ from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
 from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import SACConfig
 from rlchain.config.params import Params
+from rlchain.envs.obs_dict import is_dict_space
 from rlchain.envs.vecenv import VecEnv
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.log import get_logger
@@ -58,9 +58,7 @@ class OffPolicyAlgorithm(AlgorithmBase):
         cfg, obs_space = params.config, spec.observation_space
         if obs_space is None or spec.action_space is None:
             return
-        shape = getattr(obs_space, "shape", None)
-        obs = int(np.prod(shape)) if shape else gym.spaces.flatdim(obs_space)
-        obs *= 1 if obs_space.dtype == np.uint8 else 4
+        obs = obs_row_bytes(obs_space)
         per = 2 * obs + 4 * gym.spaces.flatdim(spec.action_space) + 11  # obs, next obs, action; reward .. flags
         check_fits(cfg.replay_buffer_size * per, cfg.device, params.source, "params.config.replay_buffer_size",
                    f"the replay buffer ({cfg.replay_buffer_size} transitions)")
@@ -71,14 +69,19 @@ class OffPolicyAlgorithm(AlgorithmBase):
     def make_buffer(self) -> ReplayBuffer:
         """The replay buffer the config asks for: uniform / prioritized / n-step, or with hindsight goals."""
         cfg, obs_space = self.cfg, self.env.observation_space
-        args = (cfg.replay_buffer_size, tuple(obs_space.shape), tuple(self.model.dist.action_shape))
+        per_key = is_dict_space(obs_space)  # Dict observations kept per key: a buffer per key, in its dtype
+        args = (cfg.replay_buffer_size, obs_space if per_key else tuple(obs_space.shape),
+                tuple(self.model.dist.action_shape))
         kwargs = dict(device=self.device, num_envs=self.num_envs,
-                      obs_dtype=torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
+                      obs_dtype=torch.uint8 if not per_key and obs_space.dtype == "uint8" else torch.float32,
                       action_dtype=self.model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
                       prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
         her = cfg.replay.her
         if her is None:
             return ReplayBuffer(*args, **kwargs)
+        if per_key:
+            raise ConfigError(self.params.source, "params.config.replay.her", "hindsight replay relabels the flat "
+                              "observation: use a network that takes it flat (not multi_input) with a goal env")
         try:
             layout = goal_layout(obs_space)
             reward_fn = goal_reward_fn(env_compute_reward(self.env), cfg.reward_shaper, self.device)
@@ -137,6 +140,11 @@ class OffPolicyAlgorithm(AlgorithmBase):
             return
         self.obs = self.ctx.reset_envs()
         self.model.update_normalizers(obs=self.obs)
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """The checkpoint's next observations on the training device (a Dict kept per key, saved as a plain
+        dict, comes back as an ObsDict)."""
+        self.obs = self.ctx.to_tensor(position["obs"])
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes everywhere."""
@@ -221,7 +229,9 @@ def replay_bytes(state: dict[str, Any]) -> int:
     """Bytes of the tensors and arrays of a replay buffer's state_dict (about its size on disk)."""
     total = 0
     for value in state.values():
-        if isinstance(value, list):
+        if isinstance(value, dict):  # Dict observations kept per key
+            total += replay_bytes(value)
+        elif isinstance(value, list):
             total += sum(replay_bytes(v) for v in value if isinstance(v, dict))
         elif hasattr(value, "nbytes"):
             total += int(value.nbytes)

@@ -17,7 +17,7 @@ import torch.nn.functional as F
 from rlchain.algos.core.precision import sac_autocast_dtype
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
-from rlchain.models.normalization import RunningMeanStd
+from rlchain.models.normalization import obs_normalizer
 
 
 def actor_params(actor: nn.Module, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -70,9 +70,9 @@ class SoftActorCritic(ObservationModel):
 
     flatten_obs = True
 
-    def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...],
+    def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...] | gym.spaces.Dict,
                  normalize_input: bool, init_alpha: float, clip_actions: bool = True,
-                 log_std_bounds: list[float] | None = None) -> None:
+                 log_std_bounds: list[float] | None = None, obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
         if not hasattr(network, "actor") or not hasattr(network, "critic"):
             raise ValueError("params.network: soft_actor_critic needs a network with `actor` and `critic` "
@@ -84,7 +84,8 @@ class SoftActorCritic(ObservationModel):
         self.critic_target.requires_grad_(False)
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_alpha), dtype=torch.float32))
         self.dist = SquashedActions(action_space, clip_actions)
-        self.obs_norm = RunningMeanStd(obs_shape) if normalize_input else None
+        # a Dict kept per key: images scaled, every other key not excluded by its own statistics
+        self.obs_norm = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
 
     @property
     def alpha(self) -> torch.Tensor:
@@ -228,4 +229,5 @@ def soft_actor_critic_model(network: nn.Module, action_space: gym.Space, obs_sha
                          f"{action_space}")
     return SoftActorCritic(network, action_space, obs_shape, getattr(config, "normalize_input", False),
                            getattr(config, "init_alpha", 1.0), getattr(config, "clip_actions", True),
-                           getattr(config, "log_std_bounds", None))
+                           getattr(config, "log_std_bounds", None),
+                           tuple(getattr(config, "obs_normalizer_exclude", ())))
