@@ -2,7 +2,8 @@
 image and the proprioception, the goal left out) from a state teacher, a couple of epochs each. The flat
 teacher (ppo_camera_reach_state.yaml) reads the keys obs_groups.teacher names, concatenated; a multi_input
 teacher reads its own keys per key. The student's observations are stored per key (the image as uint8), it
-plays alone, and wrong teacher / student key combinations are one-line errors naming the key."""
+plays and exports alone (no goal input), and wrong teacher / student key combinations are one-line errors
+naming the key."""
 
 import glob
 import os
@@ -13,6 +14,7 @@ import torch
 from rlchain import Runner
 from rlchain.algos.distill.distill import Distill
 from rlchain.config.errors import ConfigError
+from rlchain.inference.export.onnx import export_from_cli, onnx_session
 from rlchain.inference.player import Player
 from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS
@@ -44,7 +46,8 @@ def distill(tmp_path, teacher, epochs=1, extra=()):
                                    f"params.config.teacher_checkpoint={teacher}", *small(tmp_path, epochs, extra)])
 
 
-def test_a_camera_student_from_a_state_teacher_stores_per_key_and_plays_alone(teachers, tmp_path, monkeypatch):
+def test_a_camera_student_from_a_state_teacher_stores_per_key_plays_and_exports_alone(teachers, tmp_path, monkeypatch,
+                                                                                    capsys):
     seen = {}
     real = Distill.update
 
@@ -68,6 +71,10 @@ def test_a_camera_student_from_a_state_teacher_stores_per_key_and_plays_alone(te
         assert player.play(games=1, quiet=True).games == 1  # the student alone, without the teacher
     finally:
         player.close()
+    out = str(tmp_path / "student.onnx")  # parity on env observations that carry the goal too
+    export_from_cli(runner, last, out, num_random=4, num_envs=2, env_steps=2)
+    assert float(capsys.readouterr().out.split("max abs diff ")[1].split(" ")[0]) < 1e-4
+    assert [i.name for i in onnx_session(out).get_inputs()] == ["image", "proprio"]  # no goal input
 
 
 def test_a_multi_input_teacher_reads_its_own_keys(teachers, tmp_path):
