@@ -2,7 +2,7 @@
 image and the proprioception, the goal left out) from a state teacher, a couple of epochs each. The flat
 teacher (ppo_camera_reach_state.yaml) reads the keys obs_groups.teacher names, concatenated; a multi_input
 teacher reads its own keys per key. The student's observations are stored per key (the image as uint8), it
-plays and exports alone (no goal input), and wrong teacher / student key combinations are one-line errors
+plays and exports alone (no goal input), resumes, and wrong teacher / student key combinations are one-line errors
 naming the key."""
 
 import glob
@@ -56,8 +56,8 @@ def test_a_camera_student_from_a_state_teacher_stores_per_key_plays_and_exports_
         return real(self)
 
     monkeypatch.setattr(Distill, "update", update)
-    runner = distill(tmp_path, teachers[0], 2, ["params.config.obs_groups={teacher: [proprio, goal], "
-                                                "student_noise_std: 0.05, student_delay: 1}"])
+    groups = "params.config.obs_groups={teacher: [proprio, goal], student_noise_std: 0.05, student_delay: 1}"
+    runner = distill(tmp_path, teachers[0], 2, [groups])
     result = runner.train()
     assert result.epoch == 2 and result.frames == 2 * 4 * 16
     assert seen["obs"]["image"].dtype == torch.uint8 and seen["obs"]["image"].shape == (16, 4, 1, 24, 24)
@@ -75,6 +75,8 @@ def test_a_camera_student_from_a_state_teacher_stores_per_key_plays_and_exports_
     export_from_cli(runner, last, out, num_random=4, num_envs=2, env_steps=2)
     assert float(capsys.readouterr().out.split("max abs diff ")[1].split(" ")[0]) < 1e-4
     assert [i.name for i in onnx_session(out).get_inputs()] == ["image", "proprio"]  # no goal input
+    resumed = distill(tmp_path, teachers[0], 3, [groups]).train(checkpoint=last)  # the saved Dict, per key again
+    assert resumed.epoch == 3 and resumed.frames == 3 * 4 * 16
 
 
 def test_a_multi_input_teacher_reads_its_own_keys(teachers, tmp_path):

@@ -32,7 +32,15 @@ from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
-from rlchain.algos.distill.student_obs import DelayLine, cat_envs, corrupt, env_rows, merge_steps, stack_steps
+from rlchain.algos.distill.student_obs import (
+    DelayLine,
+    cat_envs,
+    corrupt,
+    env_rows,
+    merge_steps,
+    per_key,
+    stack_steps,
+)
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
@@ -297,6 +305,11 @@ class Distill(AlgorithmBase):
         self.teacher_steps.zero_()
         self.student_steps.zero_()
         self.returns.zero_()
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """The saved observations, Dict ones per key again (a checkpoint keeps them as a plain dict)."""
+        super().load_position(position)
+        self.obs = per_key(self.obs)
 
     def hyperparams(self) -> dict[str, float]:
         """The live learning rate."""
