@@ -45,8 +45,9 @@ class ObsGroupsConfig:
     Parts: Dict keys (``obs`` / ``state`` of an rl_games central-value env), indices or "start:stop"
     slices of the flat observation. See docs/distillation.md."""
 
-    teacher: Any = option(None, "the teacher's view (distill) and PPO's when policy is teacher",
-                          check=check_parts)
+    teacher: Any = option(None, "the teacher's view (distill) and PPO's when policy is teacher; on Dict "
+                                "observations kept per key (a multi_input student) the keys the teacher reads, "
+                                "a flat teacher getting them concatenated in this order", check=check_parts)
     student: Any = option(None, "the student's view (distill; PPO's when policy is student)", check=check_parts)
     critic: Any = option(None, "what central_value_config's critic sees (default: the env's state)",
                          check=check_parts)

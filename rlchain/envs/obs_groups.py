@@ -88,6 +88,10 @@ def resolve_view(space: gym.Space, parts: list | None, group: str, path: str, so
     if len(shape) != 1:
         if parts is None:
             return ObsView(group, (), space, 0)  # images etc.: only the whole observation
+        if isinstance(space, gym.spaces.Dict):  # kept per key: the network's own inputs choose the keys
+            raise ConfigError(source, path, f"the observations are a Dict kept per key ({', '.join(space.spaces)}): "
+                                            f"a multi_input network picks the keys it reads itself "
+                                            f"(params.network.inputs.<key>.encoder: none leaves one out)")
         raise ConfigError(source, path, f"observation groups need a flat observation; this env's is {space}")
     total = int(shape[0])
     if parts is None:

@@ -49,6 +49,14 @@ def test_proprio_observation_is_a_box_for_the_vector_only_baseline():
     assert env.reset().shape == (4, 4)
 
 
+def test_state_observation_is_the_proprio_then_the_goal_for_a_state_teacher():
+    state = TorchCameraReach(4, seed=3, observation="state")
+    seen = TorchCameraReach(4, seed=3, observation="dict", privileged=True)
+    flat, keyed = state.reset(), seen.reset()
+    assert state.observation_space.shape == (6,) and flat.shape == (4, 6)
+    assert torch.equal(flat, torch.cat((keyed["proprio"], keyed["goal"]), 1))  # distill: teacher [proprio, goal]
+
+
 @pytest.mark.parametrize("key, value", [("observation", "pixels"), ("image_size", 4), ("max_episode_steps", None),
                                         ("privileged", "yes")])
 def test_wrong_env_config_values_name_the_key(key, value):

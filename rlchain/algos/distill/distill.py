@@ -32,6 +32,15 @@ from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
+from rlchain.algos.distill.student_obs import (
+    DelayLine,
+    cat_envs,
+    corrupt,
+    env_rows,
+    merge_steps,
+    per_key,
+    stack_steps,
+)
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
 from rlchain.config.distill import DistillConfig
 from rlchain.config.errors import ConfigError
@@ -39,19 +48,6 @@ from rlchain.config.params import Params
 from rlchain.config.resolve import config_state
 from rlchain.envs.vecenv import DROPPED, VecEnv
 from rlchain.errors import DivergenceError
-
-
-def corrupt(obs: torch.Tensor, noise_std: float, dropout: float) -> torch.Tensor:
-    """``obs`` with Gaussian noise (``noise_std``) added and each element zeroed with probability ``dropout``
-    (a new tensor; ``obs`` itself when both are 0)."""
-    if noise_std <= 0.0 and dropout <= 0.0:
-        return obs
-    out = obs.float()
-    if noise_std > 0.0:
-        out = out + noise_std * torch.randn_like(out)
-    if dropout > 0.0:
-        out = out * (torch.rand_like(out) >= dropout).to(out.dtype)
-    return out
 
 
 def _check_sac_student(source: str, dist: Any, teacher: SACTeacher) -> None:
@@ -68,33 +64,12 @@ def _concat_envs(batches: list[dict[str, Any]]) -> dict[str, Any]:
     states along their batch axis 1)."""
     if len(batches) == 1:
         return batches[0]
-    out: dict[str, Any] = {}
-    for key in ("obs", "labels", "resets"):
+    out: dict[str, Any] = {"obs": cat_envs([b["obs"] for b in batches])}  # per key for Dict observations
+    for key in ("labels", "resets"):
         out[key] = torch.cat([b[key] for b in batches], 1)
     out["masks"] = torch.cat([b["masks"] for b in batches], 1) if batches[0]["masks"] is not None else None
     out["states"] = tuple(torch.cat(parts, 1) for parts in zip(*(b["states"] for b in batches)))
     return out
-
-
-class DelayLine:
-    """The student's view ``delay`` steps late (a slow sensor): :meth:`push` takes this step's observations
-    (N, ...) and returns the ones of ``delay`` steps ago; an env whose episode starts (``starts`` (N,) bool)
-    has its line filled with its first observation."""
-
-    def __init__(self, delay: int) -> None:
-        self.delay = delay
-        self.line: torch.Tensor | None = None  # (delay + 1, N, ...), oldest first
-
-    def push(self, obs: torch.Tensor, starts: torch.Tensor) -> torch.Tensor:
-        """This step's observations in, those of ``delay`` steps ago out (``obs`` itself when delay is 0)."""
-        if self.delay == 0:
-            return obs
-        if self.line is None:
-            self.line = obs.unsqueeze(0).repeat(self.delay + 1, *([1] * obs.dim())).clone()
-        self.line = torch.cat([self.line[1:], obs.unsqueeze(0)], 0)
-        if bool(starts.any()):
-            self.line[:, starts] = obs[starts].unsqueeze(0)
-        return self.line[0]
 
 
 class Distill(AlgorithmBase):
@@ -182,7 +157,7 @@ class Distill(AlgorithmBase):
         if not complete:
             return False
         steps = self._steps
-        self.batch.update(obs=torch.stack(steps["obs"]), labels=torch.stack(steps["labels"]),
+        self.batch.update(obs=stack_steps(steps["obs"]), labels=torch.stack(steps["labels"]),
                           resets=torch.stack(steps["resets"]),
                           masks=torch.stack(steps["masks"]) if steps["masks"] else None, beta=self.beta_now,
                           match=float(torch.stack(steps["match"]).mean()))
@@ -202,7 +177,7 @@ class Distill(AlgorithmBase):
         student_obs = self.delay.push(corrupt(obs, noise, dropout), self.resets)
         s_states, t_states = states[:self.student_states], states[self.student_states:]
         with torch.no_grad():
-            t_params, _, t_next = teacher.evaluate(obs, t_states or None, action_masks=masks)
+            t_params, _, t_next = teacher.evaluate(self.teacher.select(obs), t_states or None, action_masks=masks)
             s_params, _, s_next = model.evaluate(student_obs, s_states or None, action_masks=masks)
         dist = model.dist
         t_action = dist.mode(t_params)
@@ -273,10 +248,10 @@ class Distill(AlgorithmBase):
         rollouts."""
         cfg, model, b, comm = self.cfg, self.model, self.batch, self.ctx.comm
         # this rollout's statistics, as PPO (under torchrun the normalizer folds every rank's: built with comm)
-        model.update_normalizers(obs=b["obs"].flatten(0, 1))
+        model.update_normalizers(obs=merge_steps(b["obs"]))
         self.dataset.append({k: b[k] for k in ("obs", "labels", "resets", "masks", "states")})
         data = _concat_envs(list(self.dataset))
-        horizon, n = data["obs"].shape[:2]
+        horizon, n = data["labels"].shape[:2]
         model.train()
         per = n // cfg.minibatches
         losses = []
@@ -307,8 +282,8 @@ class Distill(AlgorithmBase):
         """The behaviour loss on the whole rollouts of ``envs``: rows env by env (sequence-major for an RNN)."""
         model = self.model
 
-        def rows(x: torch.Tensor) -> torch.Tensor:  # (T, N, ...) -> (n_envs * T, ...), env by env
-            return x[:, envs].transpose(0, 1).flatten(0, 1)
+        def rows(x: Any) -> Any:  # (T, N, ...) -> (n_envs * T, ...), env by env
+            return env_rows(x, envs)
 
         states = tuple(s[:, envs] for s in data["states"]) if data["states"] else None
         masks = rows(data["masks"]) if data["masks"] is not None else None
@@ -330,6 +305,11 @@ class Distill(AlgorithmBase):
         self.teacher_steps.zero_()
         self.student_steps.zero_()
         self.returns.zero_()
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """The saved observations, Dict ones per key again (a checkpoint keeps them as a plain dict)."""
+        super().load_position(position)
+        self.obs = per_key(self.obs)
 
     def hyperparams(self) -> dict[str, float]:
         """The live learning rate."""

@@ -5,17 +5,23 @@ trained on), so the teacher is rebuilt from it, not from the student's YAML. Wha
 one-line :class:`ConfigError` naming the key: a checkpoint of another algorithm or with another action
 space (``params.config.teacher_checkpoint``), observation parts other than the ones it was trained on
 (``params.config.obs_groups.teacher``).
+
+Dict observations kept per key (a camera student's ``multi_input`` network) give the teacher the keys of
+:func:`teacher_keys` (its privileged state): a ``multi_input`` teacher gets them per key, a flat teacher
+their values concatenated in that order (:mod:`rlchain.algos.distill.teacher_keys`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
 import torch
 
+from rlchain.algos.distill.teacher_keys import PATH, TeacherInput, check_encoded, teacher_keys
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.off_policy import SACConfig
@@ -23,8 +29,11 @@ from rlchain.config.packaged import resolve_checkpoint
 from rlchain.config.params import Params
 from rlchain.config.ppo import PPOConfig
 from rlchain.config.resolve import params_from_state
+from rlchain.envs.factory import takes_dict_obs
+from rlchain.envs.obs_dict import is_dict_space
+from rlchain.envs.spec import env_spec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.models.build import model_view
+from rlchain.models.build import PolicyView, model_view, value_size_of
 from rlchain.policy.load import load_policy
 from rlchain.runs import checkpoint as ckpt
 
@@ -33,11 +42,13 @@ KEY = "params.config.teacher_checkpoint"
 
 @dataclass
 class Teacher:
-    """The frozen teacher model, the Params it was trained with and its checkpoint's path."""
+    """The frozen teacher model, the Params it was trained with, its checkpoint's path and ``select``: the
+    teacher's input made of the run's observations (the identity but on Dict observations kept per key)."""
 
     model: Any
     params: Params
     path: str
+    select: Callable[[Any], Any] = field(default=lambda obs: obs)
 
 
 def load_teacher(params: Params, env: VecEnv, device: torch.device) -> Teacher:
@@ -59,8 +70,14 @@ def load_teacher(params: Params, env: VecEnv, device: torch.device) -> Teacher:
     if is_sac and not isinstance(env.action_space, gym.spaces.Box):
         raise ConfigError(source, KEY, f"the SAC teacher in {path} acts in a continuous (Box) action space; this "
                                        f"env's is {env.action_space}")
-    groups = cfg.obs_groups or ObsGroupsConfig()
     space = env.observation_space
+    if is_dict_space(space):  # Dict observations kept per key: the teacher reads some of the keys
+        return per_key_teacher(params, teacher_params, state, path, env, device)
+    if takes_dict_obs(teacher_params):
+        raise ConfigError(source, KEY, f"the teacher in {path} reads Dict observations per key (network "
+                                       f"multi_input), this run's observations are flat ({space}): give the student "
+                                       f"a multi_input network too, so that the env keeps the keys apart")
+    groups = cfg.obs_groups or ObsGroupsConfig()
     try:  # the parts the teacher was trained on, on this env
         trained = model_view(teacher_params, space)
     except ConfigError as exc:
@@ -86,11 +103,44 @@ def load_teacher(params: Params, env: VecEnv, device: torch.device) -> Teacher:
         raise ConfigError(source, KEY, f"the teacher in {path} ({teacher_params.model.name}) does not fit this "
                                        f"env's action space {env.action_space}: "
                                        f"{getattr(exc, 'message', exc)}") from None
+    return Teacher(frozen(model, is_sac), teacher_params, path)
+
+
+def per_key_teacher(params: Params, teacher_params: Params, state: dict[str, Any], path: str, env: VecEnv,
+                    device: torch.device) -> Teacher:
+    """The teacher on Dict observations kept per key: built for the keys it reads (:func:`teacher_keys`), per
+    key (multi_input) or flattened, its weights loaded; what does not fit is a one-line ConfigError."""
+    source, space = params.source, env.observation_space
+    chosen = (params.config.obs_groups or ObsGroupsConfig()).teacher
+    own = teacher_params.config
+    trained = getattr(getattr(own, "obs_groups", None), getattr(own, "model_group", "teacher"), None)
+    keys = teacher_keys(space, chosen, trained, source, path)
+    select = TeacherInput(keys, takes_dict_obs(teacher_params))
+    if select.per_key:
+        check_encoded(state["model"], keys, space, chosen is not None, source, path)
+    view = PolicyView(select.space(space), env.action_space, env_spec(env).mask_size, value_size_of(env))
+    where = PATH if chosen is not None else KEY
+    view_space = view.observation_space
+    what = (f"the keys {', '.join(keys)} of this run's observations ({', '.join(space.spaces)})" if select.per_key
+            else f"the keys {', '.join(keys)} concatenated ({view_space.shape[0]} features)")
+    hint = "" if chosen is not None else f"; name the keys it reads in {PATH}"
+    try:
+        model = load_policy(teacher_params, path, state=state, env=view, device=device,
+                            groups=ObsGroupsConfig()).model
+    except ckpt.CheckpointError as exc:
+        raise ConfigError(source, where, f"the teacher does not load on {what} with the action space "
+                                         f"{env.action_space}: {exc}{hint}") from None
+    except (ConfigError, ValueError) as exc:
+        raise ConfigError(source, where, f"the teacher in {path} cannot read {what}: "
+                                         f"{getattr(exc, 'message', exc)}{hint}") from None
+    return Teacher(frozen(model, isinstance(own, SACConfig)), teacher_params, path, select)
+
+
+def frozen(model: Any, is_sac: bool) -> Any:
+    """``model`` without gradients, a SAC one behind :class:`SACTeacher`."""
     for p in model.parameters():
         p.requires_grad_(False)
-    if is_sac:
-        model = SACTeacher(model)
-    return Teacher(model, teacher_params, path)
+    return SACTeacher(model) if is_sac else model
 
 
 class SACTeacher(torch.nn.Module):

@@ -212,7 +212,8 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
     inputs = {i.name: i for i in session.get_inputs()}
     keys = tuple(obs_batch) if isinstance(obs_batch, dict) else ()
     arrays = {k: np.ascontiguousarray(torch.as_tensor(np.asarray(v) if not isinstance(v, torch.Tensor) else v)
-                                      .cpu().numpy()).astype(ONNX_NUMPY.get(inputs[k].type, np.float32))
+                                      .cpu().numpy()).astype(ONNX_NUMPY.get(getattr(inputs.get(k), "type", ""),
+                                                                            np.float32))
               for k, v in (obs_batch.items() if keys else [("obs", obs_batch)])}
     graph_input = session.get_inputs()[0]
     obs = arrays[keys[0] if keys else "obs"]
@@ -226,7 +227,9 @@ def verify_onnx(model: ActorCritic, onnx_path: str, obs_batch: Any, session: Any
     onnx_states = [s.numpy() for s in torch_states]
     diff = 0.0
     for _ in range(steps if policy.state_names else 1):
-        feed = {**(arrays if keys else {graph_input.name: obs}), **dict(zip(policy.state_names, onnx_states)),
+        # a key the network leaves out (encoder: none) is no graph input: torch.onnx prunes unused inputs
+        obs_feed = {k: a for k, a in arrays.items() if k in inputs} if keys else {graph_input.name: obs}
+        feed = {**obs_feed, **dict(zip(policy.state_names, onnx_states)),
                 **mask_feed}
         onnx_out = session.run(policy.output_names, feed)
         with torch.no_grad():

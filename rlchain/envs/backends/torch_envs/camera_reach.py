@@ -14,7 +14,9 @@ know the goal: its best is a fixed point (the centre), which succeeds about 2.8%
 
 ``observation``: ``dict`` (default) gives ``{'image': uint8 (1, S, S), 'proprio': float32 (4,)}`` as an
 :class:`~rlchain.envs.obs_dict.ObsDict`; ``proprio`` gives only the proprioception as a Box (4,), for
-the vector-only baseline. ``privileged: True`` adds ``'goal'`` (2,) float32, the goal's position, to the Dict:
+the vector-only baseline; ``state`` gives the proprioception and the goal's position as a Box (6,) (in that
+order: a state teacher for distillation reads the Dict's keys ``[proprio, goal]`` concatenated the same way).
+``privileged: True`` adds ``'goal'`` (2,) float32, the goal's position, to the Dict:
 privileged state for an asymmetric critic (``central_value_config``) that the actor's network leaves out.
 """
 
@@ -27,7 +29,7 @@ import torch
 from rlchain.envs.backends.tensor_env import TensorVecEnv
 from rlchain.envs.obs_dict import ObsDict
 
-OBSERVATIONS = ("dict", "proprio")
+OBSERVATIONS = ("dict", "proprio", "state")
 
 
 class TorchCameraReach(TensorVecEnv):
@@ -59,7 +61,9 @@ class TorchCameraReach(TensorVecEnv):
         keys = {"image": image, "proprio": proprio}
         if privileged:
             keys["goal"] = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self.observation_space = gym.spaces.Dict(keys) if observation == "dict" else proprio
+        state = gym.spaces.Box(-np.inf, np.inf, (6,), np.float32)
+        self.observation_space = gym.spaces.Dict(keys) if observation == "dict" else \
+            state if observation == "state" else proprio
         self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.state = torch.zeros(self.num_envs, 6, device=self.device)
         self.success = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
@@ -85,6 +89,8 @@ class TorchCameraReach(TensorVecEnv):
         proprio = torch.cat((state[:, 0:2], state[:, 4:6]), 1)
         if self.observation == "proprio":
             return proprio
+        if self.observation == "state":  # privileged: the goal beside the robot's own state
+            return torch.cat((proprio, state[:, 2:4]), 1)
         obs = ObsDict({"image": self.render_image(state), "proprio": proprio})
         if self.privileged:
             obs["goal"] = state[:, 2:4].clone()
