@@ -61,6 +61,7 @@ class MultiInputNetworkConfig(NetworkConfig):
 
     name: str = option("multi_input", "registered network builder")
     inputs: dict[str, Any] = option({}, "observation key -> {encoder, permute_input, convs, conv_depths, units, "
-                                        "activation, dim, random_shift}; a key not named gets encoder auto")
+                                        "activation, dim, random_shift}; a key not named gets encoder auto; a key "
+                                        "set to encoder none may be absent from the observations")
     dueling: bool | None = option(None, "model dqn only: dueling head, Q = V + A - mean(A) (null: True, as the dqn "
                                         "network)")

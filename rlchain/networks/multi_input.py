@@ -138,7 +138,9 @@ class MultiInputEncoder(nn.Module):
 
     def __init__(self, space: gym.spaces.Dict, inputs: dict[str, InputConfig], path: str = "params.network") -> None:
         super().__init__()
-        unknown = [k for k in inputs if k not in space.spaces]
+        # a key the network reads must be there; one set to encoder none may be absent (the same inputs block
+        # can serve an env, or an actor and a critic, that lack it)
+        unknown = [k for k, cfg in inputs.items() if k not in space.spaces and cfg.encoder != "none"]
         if unknown:
             raise ValueError(f"{path}.inputs: {', '.join(unknown)} not a key of the observations "
                              f"({', '.join(space.spaces)})")

@@ -1,6 +1,7 @@
 """A trained policy from its checkpoint: the env it plays on (built here unless given) and its model with
 the checkpoint's weights. The Player, watch, video, ONNX export, the multi-policy player and export, the
-distill teacher and rl_games' player all load a policy through :func:`load_policy` / :func:`load_weights`.
+distill teacher, rl_games' player and the SB3 face's models all load a policy through :func:`load_policy` /
+:func:`load_weights`.
 """
 
 from __future__ import annotations

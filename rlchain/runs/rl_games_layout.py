@@ -1,18 +1,25 @@
-"""rl_games' file names and TensorBoard extras, for runs started through rl_games' API (``rlchain.rl_games``).
+"""rl_games' file names, checkpoint keys and TensorBoard extras, for runs started through rl_games' API
+(``rlchain.rl_games``).
 
 rl_games writes, in ``<train_dir>/<run>/nn``: the best checkpoint ``<name>.pth``; every ``save_frequency``
 epochs (once games have finished) ``last_<name>_ep_<N>_rew_<R>.pth``; when the run stops
 ``last_<name>_ep_<N>_rew_<A>.pth`` with ``A`` the reward as numpy prints a one-element array, brackets
 turned to underscores (``_81.18142_``, ``-inf`` before any game ended). Its epoch scalars sit at the frames
 counted before the epoch, and it adds ``shaped_rewards/*``, ``performance/step_inference_fps`` and
-``info/e_clip`` to the tags rlchain writes.
+``info/e_clip`` to the tags rlchain writes. Each checkpoint carries rl_games' keys beside rlchain's
+(:func:`rl_games_keys`), so rl_games' own code reads it as written.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from rlchain.registry import NETWORKS
+from rlchain.runs import checkpoint as ckpt
+from rlchain.runs import rl_games_export
 
 
 def periodic_stem(name: str, epoch: int, reward: float) -> str:
@@ -48,4 +55,37 @@ class RlGamesTags:
         return out
 
 
-__all__ = ["RlGamesTags", "final_stem", "periodic_stem"]
+def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
+    """``state`` with the keys rl_games writes beside rlchain's (under rl_games' API), so rl_games' own code reads
+    the file without an export: ``model`` in rl_games' layout (rlchain's moves to ``rlchain_model``, where
+    :func:`rlchain.runs.checkpoint.load` takes it back), ``optimizer``, ``frame``, ``last_mean_rewards``, and
+    the rest of ``--export rl_games`` (SAC's networks and optimizers, the central value's). A network rl_games'
+    layout cannot hold (one of your own, D2RL, ...) gets the counters only, and keeps rlchain's ``model``."""
+    try:
+        theirs = (rl_games_export.own_network_to_rl_games(state) if _network_written_the_rl_games_way(state)
+                  else rl_games_export.to_rl_games(state))
+    except (ValueError, KeyError):
+        theirs = {"frame": int(state["frames"])}
+    theirs.setdefault("last_mean_rewards", state.get("best_reward"))
+    out = dict(state)
+    if "model" in theirs:
+        out[ckpt.RLCHAIN_MODEL] = state["model"]
+    theirs["env_state"] = state.get("env_state")  # the env's own state, as rlchain keeps it (None without one)
+    for key, value in theirs.items():
+        if key in ("model", "epoch") or key not in state:  # the others are rlchain's own
+            out[key] = value
+    return out
+
+
+def _network_written_the_rl_games_way(state: dict[str, Any]) -> bool:
+    """Whether the checkpoint's network was built by a builder registered through rl_games' ``register_network``
+    (its modules named as rl_games names them) for one of rl_games' algorithms; rlchain's own networks are renamed
+    by the export."""
+    params = (state.get("config") or {}).get("params") or {}
+    name = (params.get("network") or {}).get("name")
+    if state.get("algo") not in ("a2c_continuous", "a2c_discrete", "sac") or name not in NETWORKS:
+        return False
+    return getattr(NETWORKS.get(name), "rl_games_target", None) is not None
+
+
+__all__ = ["RlGamesTags", "final_stem", "periodic_stem", "rl_games_keys"]

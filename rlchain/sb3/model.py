@@ -24,7 +24,8 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.stored import as_data, check_env_id
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
 from rlchain.envs.obs_dict import as_obs_dict
-from rlchain.models.build import build_env, build_model
+from rlchain.models.build import build_env
+from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
@@ -176,15 +177,16 @@ class BaseModel:
         finally:
             env.close()
 
-    def _build_policy(self) -> SB3Policy:
-        params = self._runner().params
-        if self.seed is not None:
+    def _build_policy(self, config: dict[str, Any] | None = None) -> SB3Policy:
+        """``model.policy``: the network of ``config`` (default: this model's, its first weights from ``seed``; a
+        loaded file's keeps them unseeded) built on the CPU by :func:`~rlchain.policy.load.load_policy` for the
+        model's spaces, in eval mode, with SB3's names, predict and save (:mod:`rlchain.sb3.policy`)."""
+        new = config is None
+        config = self.config if new else config
+        params = self._runner().params if self.env_source is not None else Runner().load(copy.deepcopy(config)).params
+        if new and self.seed is not None:
             torch.manual_seed(self.seed)
-        return self._wrap(build_model(params, self._spaces, torch.device("cpu")), self.config)
-
-    def _wrap(self, net: torch.nn.Module, config: dict[str, Any]) -> SB3Policy:
-        """``net`` (eval mode) as ``model.policy``: SB3's names, predict and save (:mod:`rlchain.sb3.policy`)."""
-        net.eval()
+        net = load_policy(params, device=torch.device("cpu"), env=self._spaces).model
         return SB3Policy(net, self.algo, self._spaces.observation_space, self._spaces.action_space,
                          config["params"]["network"])
 
@@ -375,17 +377,13 @@ class BaseModel:
                 raise ValueError(f"{path}: the model's spaces {model._spaces.observation_space} / "
                                  f"{model._spaces.action_space} are not {model.env_source.label}'s")
         model._loaded_config = config
-        model.policy = model._build_policy_from(config)
+        model.policy = model._build_policy(config)
         model.policy.load_state_dict(weights)
         model.num_timesteps = num_timesteps
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
             model.replay_buffer = ReplayBufferView(model.config["params"]["config"]["replay_buffer_size"])
         return model
-
-    def _build_policy_from(self, config: dict[str, Any]) -> SB3Policy:
-        params = Runner().load(copy.deepcopy(config)).params if self.env_source is None else self._runner().params
-        return self._wrap(build_model(params, self._spaces, torch.device("cpu")), config)
 
     def get_env(self) -> Any:
         """The training env as a Stable-Baselines3 ``VecEnv`` (see :func:`rlchain.sb3.envs.sb3_vec_env`): what

@@ -14,9 +14,8 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import check_parameters
 from rlchain.config.resolve import CONFIG_FORMAT, config_state
 from rlchain.log import get_logger
-from rlchain.registry import NETWORKS
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_checkpoint, rl_games_export, rl_games_layout
+from rlchain.runs import rl_games_checkpoint, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
 from rlchain.training.resume import ResumePoint
@@ -81,7 +80,7 @@ class CheckpointSaver:
         if env_state is not None:
             state["env_state"] = env_state
         if self.run is not None and self.run.layout == "rl_games":
-            state = rl_games_keys(state)
+            state = rl_games_layout.rl_games_keys(state)
         return state
 
     def save(self, kind: str) -> str | None:
@@ -221,39 +220,6 @@ def storage_error(exc: BaseException) -> str:
         return exc.strerror
     text = " ".join(str(exc).split())[:200]
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
-    """``state`` with the keys rl_games writes beside rlchain's (under rl_games' API), so rl_games' own code reads
-    the file without an export: ``model`` in rl_games' layout (rlchain's moves to ``rlchain_model``, where
-    :func:`rlchain.runs.checkpoint.load` takes it back), ``optimizer``, ``frame``, ``last_mean_rewards``, and
-    the rest of ``--export rl_games`` (SAC's networks and optimizers, the central value's). A network rl_games'
-    layout cannot hold (one of your own, D2RL, ...) gets the counters only, and keeps rlchain's ``model``."""
-    try:
-        theirs = (rl_games_export.own_network_to_rl_games(state) if _network_written_the_rl_games_way(state)
-                  else rl_games_export.to_rl_games(state))
-    except (ValueError, KeyError):
-        theirs = {"frame": int(state["frames"])}
-    theirs.setdefault("last_mean_rewards", state.get("best_reward"))
-    out = dict(state)
-    if "model" in theirs:
-        out[ckpt.RLCHAIN_MODEL] = state["model"]
-    theirs["env_state"] = state.get("env_state")  # the env's own state, as rlchain keeps it (None without one)
-    for key, value in theirs.items():
-        if key in ("model", "epoch") or key not in state:  # the others are rlchain's own
-            out[key] = value
-    return out
-
-
-def _network_written_the_rl_games_way(state: dict[str, Any]) -> bool:
-    """Whether the checkpoint's network was built by a builder registered through rl_games' ``register_network``
-    (its modules named as rl_games names them) for one of rl_games' algorithms; rlchain's own networks are renamed
-    by the export."""
-    params = (state.get("config") or {}).get("params") or {}
-    name = (params.get("network") or {}).get("name")
-    if state.get("algo") not in ("a2c_continuous", "a2c_discrete", "sac") or name not in NETWORKS:
-        return False
-    return getattr(NETWORKS.get(name), "rl_games_target", None) is not None
 
 
 def _trainable_names(model: Any) -> list[str]:

@@ -41,6 +41,16 @@ def test_encoders_by_shape_and_by_name():
     assert named.keys == ("image",) and named(_obs()).shape[0] == 3
 
 
+def test_a_missing_key_is_accepted_only_when_the_network_does_not_read_it():
+    unread = MultiInputEncoder(SPACE, {"camera": InputConfig(encoder="none")})
+    assert unread.keys == ("image", "proprio") and unread(_obs()).shape == (3, unread.out_size)
+    for encoder in ("auto", "cnn", "mlp", "flatten"):
+        with pytest.raises(ValueError) as err:
+            MultiInputEncoder(SPACE, {"camera": InputConfig(encoder=encoder)})
+        assert "params.network.inputs: camera not a key of the observations" in str(err.value)
+        assert "\n" not in str(err.value)
+
+
 def test_model_on_the_camera_task_acts_on_dict_observations():
     params = Runner().load(CONFIG, ["params.config.num_actors=4"]).params
     env = build_env(params, 4, 0)

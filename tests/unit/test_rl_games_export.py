@@ -1,5 +1,5 @@
 """rlchain checkpoints as rl_games' dicts (rlchain.runs.rl_games_export) for networks written the rl_games way, and
-the keys a checkpoint under rl_games' API carries beside rlchain's (rlchain.training.saving.rl_games_keys)."""
+the keys a checkpoint under rl_games' API carries beside rlchain's (rlchain.runs.rl_games_layout.rl_games_keys)."""
 
 import gymnasium as gym
 import pytest
@@ -7,7 +7,7 @@ import torch
 
 from rlchain.rl_games.algos_torch import model_builder, models, network_builder
 from rlchain.runs import rl_games_export
-from rlchain.training.saving import rl_games_keys
+from rlchain.runs.rl_games_layout import rl_games_keys
 
 BLOCK = {"name": "own_a2c", "separate": False, "space": {"discrete": {}},
          "mlp": {"units": [8], "activation": "elu", "initializer": {"name": "default"}}}

@@ -9,7 +9,6 @@ from rlchain.algos.distill.student_obs import (
     corrupt,
     env_rows,
     merge_steps,
-    per_key,
     stack_steps,
 )
 from rlchain.envs.obs_dict import ObsDict
@@ -47,11 +46,3 @@ def test_stored_per_key_in_their_dtypes():
     assert merge_steps(steps)["image"].shape == (6, 1, 4, 4)
     flat = torch.zeros(3, 2, 5)
     assert stack_steps([flat[0], flat[1]]).shape == (2, 2, 5) and env_rows(flat, torch.tensor([1])).shape == (3, 5)
-
-
-def test_a_saved_plain_dict_comes_back_per_key():
-    saved = {"image": torch.zeros(2, 1, 4, 4, dtype=torch.uint8), "proprio": torch.zeros(2, 3)}
-    back = per_key(saved)
-    assert isinstance(back, ObsDict) and back.shape == (2,) and per_key(back) is back
-    flat = torch.zeros(2, 3)
-    assert per_key(flat) is flat

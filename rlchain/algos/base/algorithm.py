@@ -35,6 +35,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
+from rlchain.envs.obs_dict import ObsDict
 from rlchain.envs.spec import EnvSpec
 from rlchain.envs.vecenv import VecEnv
 
@@ -172,11 +173,11 @@ class AlgorithmBase:
 
     def position_state(self) -> dict[str, Any] | None:
         """The observations the next epoch acts on (a copy); None before ``start``."""
-        return None if self.obs is None else {"obs": _copy(self.obs)}
+        return None if self.obs is None else {"obs": position_copy(self.obs)}
 
     def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state`: the observations, on the training device."""
-        self.obs = _to(position["obs"], self.device)
+        """Put back :meth:`position_state`: the observations, on the training device (Dict ones per key)."""
+        self.obs = position_on(position["obs"], self.device)
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
         """(rollout, update) seconds: the time in collect and in update, as they are."""
@@ -229,23 +230,25 @@ class AlgorithmBase:
         return None
 
 
-def _copy(x: Any) -> Any:
-    """A detached copy of a tensor, or of each tensor of a tuple / dict (anything else as it is)."""
+def position_copy(x: Any) -> Any:
+    """A detached copy of a tensor, or of each tensor of a tuple / dict (anything else as it is), as a checkpoint
+    keeps it: an ObsDict becomes a plain dict, since a checkpoint is read back as plain data types only."""
     if isinstance(x, torch.Tensor):
         return x.detach().clone()
     if isinstance(x, (tuple, list)):
-        return type(x)(_copy(v) for v in x)
+        return type(x)(position_copy(v) for v in x)
     if isinstance(x, dict):
-        return {k: _copy(v) for k, v in x.items()}
+        return {k: position_copy(v) for k, v in x.items()}
     return x
 
 
-def _to(x: Any, device: torch.device) -> Any:
-    """A tensor (or tuple / dict of them) on ``device``."""
+def position_on(x: Any, device: torch.device) -> Any:
+    """:func:`position_copy`'s result back on ``device``: a tensor moved, a tuple / list element by element, and
+    a dict -- Dict observations saved per key -- back as an :class:`ObsDict` of (N, ...) tensors."""
     if isinstance(x, torch.Tensor):
         return x.to(device)
     if isinstance(x, (tuple, list)):
-        return type(x)(_to(v, device) for v in x)
+        return type(x)(position_on(v, device) for v in x)
     if isinstance(x, dict):
-        return {k: _to(v, device) for k, v in x.items()}
+        return ObsDict({k: position_on(v, device) for k, v in x.items()}, getattr(x, "batch_dims", 1))
     return x

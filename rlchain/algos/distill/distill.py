@@ -38,7 +38,6 @@ from rlchain.algos.distill.student_obs import (
     corrupt,
     env_rows,
     merge_steps,
-    per_key,
     stack_steps,
 )
 from rlchain.algos.distill.teacher import SACTeacher, load_teacher
@@ -305,11 +304,6 @@ class Distill(AlgorithmBase):
         self.teacher_steps.zero_()
         self.student_steps.zero_()
         self.returns.zero_()
-
-    def load_position(self, position: dict[str, Any]) -> None:
-        """The saved observations, Dict ones per key again (a checkpoint keeps them as a plain dict)."""
-        super().load_position(position)
-        self.obs = per_key(self.obs)
 
     def hyperparams(self) -> dict[str, float]:
         """The live learning rate."""

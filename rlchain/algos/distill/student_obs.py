@@ -16,12 +16,6 @@ from rlchain.envs.obs_dict import ObsDict
 Obs = Any  # torch.Tensor | ObsDict
 
 
-def per_key(obs: Obs) -> Obs:
-    """Observations as the env gives them: a plain dict of (N, ...) tensors (a checkpoint's saved position)
-    back as an ObsDict, anything else as it is."""
-    return ObsDict(obs, 1) if isinstance(obs, dict) and not isinstance(obs, ObsDict) else obs
-
-
 def corrupt(obs: Obs, noise_std: float, dropout: float) -> Obs:
     """``obs`` with Gaussian noise (``noise_std``) added and each element zeroed with probability ``dropout``
     (a new tensor; ``obs`` itself when both are 0). Of an ObsDict only the float keys are corrupted: an

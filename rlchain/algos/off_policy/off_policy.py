@@ -141,11 +141,6 @@ class OffPolicyAlgorithm(AlgorithmBase):
         self.obs = self.ctx.reset_envs()
         self.model.update_normalizers(obs=self.obs)
 
-    def load_position(self, position: dict[str, Any]) -> None:
-        """The checkpoint's next observations on the training device (a Dict kept per key, saved as a plain
-        dict, comes back as an ObsDict)."""
-        self.obs = self.ctx.to_tensor(position["obs"])
-
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes everywhere."""
         self.ctx.tracker.reset_running()

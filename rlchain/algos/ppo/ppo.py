@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.algorithm import AlgorithmBase, position_copy, position_on
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import OnPolicyCollector
@@ -218,16 +218,14 @@ class PPO(AlgorithmBase):
         collector = self.collector
         if collector.obs is None:
             return None
-        obs = collector.obs.detach().clone()
-        return {"obs": dict(obs) if isinstance(obs, dict) else obs,
-                "rnn_states": tuple(s.detach().clone() for s in collector.rnn_states),
-                "resets": collector.resets.detach().clone()}
+        return {"obs": position_copy(collector.obs), "rnn_states": position_copy(tuple(collector.rnn_states)),
+                "resets": position_copy(collector.resets)}
 
     def load_position(self, position: dict[str, Any]) -> None:
         """Put back :meth:`position_state` on the training device."""
-        self.collector.place(self.ctx.to_tensor(position["obs"]),  # a Dict kept per key comes back as a plain dict
-                             tuple(s.to(self.device) for s in position["rnn_states"]),
-                             position["resets"].to(self.device))
+        self.collector.place(position_on(position["obs"], self.device),
+                             position_on(tuple(position["rnn_states"]), self.device),
+                             position_on(position["resets"], self.device))
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
