@@ -14,7 +14,8 @@ A page runs in a fresh working directory (runner.py, train.py and nn/ copied; rl
 benchmarks/, tests/ linked), its blocks in page order. Commands are shortened the same way
 everywhere: training gets ``params.config.max_epochs=1`` appended (after the page's own
 overrides, so it wins), ``--play`` gets ``params.config.player.games_num=2`` (a ``--games N``
-flag still wins), ``--tune SEARCH`` runs a copy of the search with 2 trials of 2 epochs, and
+flag still wins), ``--tune SEARCH`` runs a copy of the search with 2 trials of 2 epochs, a
+``.learn(N)`` in a bash command (``python -c "...learn(50_000)..."``) learns ``SHORT_LEARN`` steps, and
 ``<run>`` is the newest run folder under ``runs/``. ``rlchain ...`` commands get the same
 shortening (``rlchain train``/``play``/``tune`` as ``--train``/``--play``/``--tune``, also after
 ``python -m`` / ``torchrun -m``); a leading ``rlchain`` runs the console script of the venv the
@@ -51,6 +52,9 @@ KINDS = {"run", "skip", "file", "output"}
 MARKER = re.compile(r"^<!--\s*test:\s*(\w+)\s*(.*?)\s*-->$")
 FENCE = re.compile(r"^(```+|~~~+)\s*([\w+-]*)")
 COMMAND_TIMEOUT = 300  # seconds for one command; the page's test has pytest's own limit
+STOP_GRACE = 5  # seconds a stopped server or watcher has to exit after SIGINT before it is killed
+SHORT_LEARN = 2048  # steps of an SB3-style ``.learn(N)`` in a bash command
+LEARN_CALL = re.compile(r"\.learn\(\s*(?:total_timesteps\s*=\s*)?[\d_]+")
 COPIED = ("runner.py", "train.py", "nn")  # a command may write next to them: copies, not links
 LINKED = ("rlchain", "benchmarks", "tests", "notebooks", "examples")
 
@@ -144,6 +148,8 @@ def test_rlchain_commands_are_shortened_like_runner_py(tmp_path):
     assert shorten("rlchain export onnx -c cartpole", str(tmp_path)) == f"{launcher} export onnx -c cartpole"
     assert shorten("torchrun --nproc_per_node=2 -m rlchain train ppo_cartpole", str(tmp_path)) == \
         "torchrun --nproc_per_node=2 -m rlchain train ppo_cartpole params.config.max_epochs=1"
+    learn = "python -c \"import rlchain; rlchain.PPO('MlpPolicy', 'CartPole-v1').learn(50_000).save('x')\""
+    assert f".learn({SHORT_LEARN}).save" in shorten(learn, str(tmp_path))
     tuned = shlex.split(shorten("rlchain tune tune_cartpole", str(tmp_path)))
     with open(tuned[-1], encoding="utf-8") as fh:
         assert yaml.safe_load(fh)["trials"] == 2
@@ -206,6 +212,7 @@ def shorten(command: str, ws: str) -> str:
             tokens.append("params.config.max_epochs=1")
         elif "--play" in tokens or "-p" in tokens:
             tokens.append("params.config.player.games_num=2")
+    tokens = [LEARN_CALL.sub(f".learn({SHORT_LEARN}", t) for t in tokens]
     if any("<run>" in t for t in tokens):
         run = newest_run(ws)
         tokens = [t.replace("<run>", run) for t in tokens]
@@ -244,7 +251,7 @@ def run_until_stopped(argv: list[str], ws: str, env: dict, seconds: float) -> tu
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGINT)  # the session this test started: the command and its children
         try:
-            out, _ = proc.communicate(timeout=20)
+            out, _ = proc.communicate(timeout=STOP_GRACE)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             out, _ = proc.communicate()
