@@ -84,6 +84,7 @@ def test_plain_stream_prints_every_epoch_line_as_before():
 
 def test_live_status_throttles_epoch_lines_and_prints_the_last(monkeypatch):
     monkeypatch.setenv("TERM", "xterm")
+    monkeypatch.setenv("COLUMNS", "200")  # wide enough for the whole status line, whatever runs the tests
     monkeypatch.delenv(progress.ENV_VAR, raising=False)
     out = Terminal()
     monkeypatch.setattr("sys.stdout", out)  # rlchain's log messages go to the stdout of the moment
@@ -125,6 +126,7 @@ def test_the_config_block_reaches_the_console_writer(monkeypatch):
     from rlchain.runs.logging import TrainLogger
 
     monkeypatch.setenv("TERM", "xterm")
+    monkeypatch.setenv("COLUMNS", "200")  # wide enough for the whole status line, whatever runs the tests
     monkeypatch.delenv(progress.ENV_VAR, raising=False)
     raw = {"params": {"algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
                       "network": {"name": "actor_critic", "mlp": {"units": [8]}, "space": {"discrete": {}}},
