@@ -5,11 +5,10 @@ import os
 import pytest
 
 from rlchain import Runner
-from tests.conftest import CONFIGS, ROOT
+from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.slow
 CONFIG = os.path.join(CONFIGS, "ppo_cartpole_masked_velocity_rnn.yaml")
-RL_GAMES_CONFIG = os.path.join(ROOT, "benchmarks", "rl_games_configs", "ppo_cartpole_masked_velocity_rnn.yaml")
 
 
 ONE_THREAD = ["params.torch_threads=1", "params.update_threads=1"]
@@ -34,13 +33,3 @@ def test_feedforward_cannot_solve_masked_velocity_cartpole(tmp_path):
     result = _train(tmp_path, "params.network.rnn=None", "params.config.max_epochs=150")
     assert result.best_reward < 200, result
 
-
-def test_rl_games_own_masked_velocity_lstm_yaml_reaches_350(tmp_path):
-    """rl_games' own YAML as written (2-layer LSTM with layer norm, lr 1e-4, 16 envs x 256 steps), one torch
-    thread so the load cannot change the run: 350, far above what a feedforward policy reaches (under 200,
-    above), within 800k frames. Measured with one thread, seeds 5 / 1 / 2: 350 at 545k / 524k / 553k frames,
-    450 at 1.0M / 1.3M / more; the frame cap keeps a stalled or unlearning run from passing."""
-    overrides = [f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false", "params.seed=5",
-                 *ONE_THREAD, "params.config.score_to_win=350", "params.config.max_frames=800000"]
-    result = Runner().load(RL_GAMES_CONFIG, overrides).train()
-    assert result.mean_reward >= 350, result
