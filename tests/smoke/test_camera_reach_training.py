@@ -15,6 +15,7 @@ import rlchain
 from rlchain import Runner
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS
+from tests.smoke.dict_envs import ImageSide
 from tests.smoke.test_exact_resume import check_split
 
 pytestmark = pytest.mark.smoke
@@ -44,30 +45,6 @@ def test_camera_config_trains_with_uint8_images_and_plays(tmp_path):
 
 def test_camera_config_resume_is_bit_identical(tmp_path):
     check_split(tmp_path, "ppo_camera_reach.yaml", SMALL, 2)
-
-
-class ImageSide(gym.Env):
-    """A gymnasium Dict env: an (8, 8, 3) uint8 image lit on one side and a vector; reward 1 for naming the side."""
-
-    def __init__(self):
-        self.observation_space = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (8, 8, 3), np.uint8),
-                                                  "vec": gym.spaces.Box(-1, 1, (2,), np.float32)})
-        self.action_space = gym.spaces.Discrete(2)
-
-    def _obs(self):
-        image = np.zeros((8, 8, 3), np.uint8)
-        image[:, 0 if self.side == 0 else 7] = 255
-        return {"image": image, "vec": np.zeros(2, np.float32)}
-
-    def reset(self, seed=None, options=None):
-        super().reset(seed=seed)
-        self.t, self.side = 0, int(self.np_random.integers(2))
-        return self._obs(), {}
-
-    def step(self, action):
-        reward = float(int(action) == self.side)
-        self.t, self.side = self.t + 1, int(self.np_random.integers(2))
-        return self._obs(), reward, False, self.t >= 20, {}
 
 
 class ImageSideRoom(ImageSide):

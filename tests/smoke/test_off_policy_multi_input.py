@@ -14,6 +14,7 @@ import rlchain
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.training.events import Callback
+from tests.smoke.dict_envs import ImageSideStep
 from tests.smoke.test_exact_resume import check_split, last
 
 pytestmark = pytest.mark.smoke
@@ -29,34 +30,8 @@ SAC_CAMERA = {"params": {
                "replay_buffer_size": 256, "save_replay_buffer": True, "player": {"games_num": 2}}}}
 
 
-class ImageSide(gym.Env):
-    """A gymnasium Dict env: an (8, 8, 3) uint8 image lit on one side, a vector and a Discrete step counter;
-    reward 1 for naming the side."""
-
-    def __init__(self):
-        self.observation_space = gym.spaces.Dict({"image": gym.spaces.Box(0, 255, (8, 8, 3), np.uint8),
-                                                  "vec": gym.spaces.Box(-1, 1, (2,), np.float32),
-                                                  "step": gym.spaces.Discrete(11)})
-        self.action_space = gym.spaces.Discrete(2)
-
-    def _obs(self):
-        image = np.zeros((8, 8, 3), np.uint8)
-        image[:, 0 if self.side == 0 else 7] = 255
-        return {"image": image, "vec": np.full(2, 0.5, np.float32), "step": self.t}
-
-    def reset(self, seed=None, options=None):
-        super().reset(seed=seed)
-        self.t, self.side = 0, int(self.np_random.integers(2))
-        return self._obs(), {}
-
-    def step(self, action):
-        reward = float(int(action) == self.side)
-        self.t, self.side = self.t + 1, int(self.np_random.integers(2))
-        return self._obs(), reward, False, self.t >= 10, {}
-
-
-class ImageSideBox(ImageSide):
-    """ImageSide with a Box action (-1 or 1 names the side): for SAC."""
+class ImageSideBox(ImageSideStep):
+    """ImageSideStep with a Box action (-1 or 1 names the side): for SAC."""
 
     def __init__(self):
         super().__init__()
@@ -66,7 +41,7 @@ class ImageSideBox(ImageSide):
         return super().step(int(float(np.asarray(action).reshape(-1)[0]) > 0))
 
 
-gym.register("ImageSideDictTest-v0", entry_point=ImageSide)
+gym.register("ImageSideDictTest-v0", entry_point=ImageSideStep)
 gym.register("ImageSideBoxDictTest-v0", entry_point=ImageSideBox)
 
 DQN_DICT = {"params": {
@@ -132,7 +107,7 @@ def test_a_flat_network_on_a_dict_env_keeps_the_flat_replay_buffer(tmp_path):
     Runner().load(config).train(callbacks=[replay])
     obs = replay.buffer.obs
     assert isinstance(obs, torch.Tensor) and obs.dtype == torch.float32
-    assert obs.shape[1:] == (gym.spaces.flatdim(ImageSide().observation_space),)  # gymnasium's flat layout
+    assert obs.shape[1:] == (gym.spaces.flatdim(ImageSideStep().observation_space),)  # gymnasium's flat layout
 
 
 def test_hindsight_replay_with_multi_input_is_a_one_line_error(tmp_path):
@@ -145,7 +120,7 @@ def test_hindsight_replay_with_multi_input_is_a_one_line_error(tmp_path):
     assert "params.config.replay.her" in str(err.value) and "\n" not in str(err.value)
 
 
-@pytest.mark.parametrize("cls, env", [(rlchain.SAC, ImageSideBox), (rlchain.DQN, ImageSide)], ids=["sac", "dqn"])
+@pytest.mark.parametrize("cls, env", [(rlchain.SAC, ImageSideBox), (rlchain.DQN, ImageSideStep)], ids=["sac", "dqn"])
 def test_sb3_multi_input_policy_off_policy(tmp_path, cls, env):
     model = cls("MultiInputPolicy", env, n_envs=2, learning_starts=16, batch_size=16, buffer_size=256, seed=0,
                 num_steps_per_episode=16, verbose=0, policy_kwargs={"net_arch": [16]}, tensorboard_log=str(tmp_path))
