@@ -130,6 +130,17 @@ def torch_dtype(space: gym.Space) -> torch.dtype:
     return torch.uint8 if np.dtype(space.dtype) == np.uint8 else torch.float32
 
 
+def obs_row_bytes(space: gym.Space) -> int:
+    """Bytes one observation of ``space`` takes in a rollout or replay buffer: for a Dict kept per key each key
+    in its own dtype (uint8, int64 or float32: :func:`torch_dtype`), else its flat size (1 byte a uint8 value, 4
+    otherwise)."""
+    if is_dict_space(space):
+        return sum(int(np.prod(sub.shape)) * torch_dtype(sub).itemsize for sub in space.spaces.values())
+    shape = getattr(space, "shape", None)
+    size = int(np.prod(shape)) if shape else gym.spaces.flatdim(space)
+    return size * (1 if getattr(space, "dtype", None) == np.uint8 else 4)
+
+
 def dict_zeros(batch: tuple[int, ...], space: gym.spaces.Dict, device: torch.device | str = "cpu") -> ObsDict:
     """Zero buffers (*batch, *shape) for every key of ``space``, each in its :func:`torch_dtype`."""
     return ObsDict({k: torch.zeros((*batch, *s.shape), dtype=torch_dtype(s), device=device)

@@ -34,11 +34,11 @@ log = get_logger(__name__)
 
 FORMAT = "rlchain-checkpoint-1"
 RLCHAIN_MODEL = "rlchain_model"
+"""Where a checkpoint written under rl_games' API keeps rlchain's model state (``model`` holds rl_games' layout)."""
 NORMS_DROPPED = "mlp_norms_dropped"
 """A checkpoint key (and the attribute :func:`load_model_state` sets on the model it loads): the model was built
 without its config's MLP normalization layers, continuing an rl_games 1.6.5 run (1.6.5 never builds them); a
 checkpoint that says so is loaded the same way again."""
-"""Where a checkpoint written under rl_games' API keeps rlchain's model state (``model`` holds rl_games' layout)."""
 TRUST_HINT = ("unpickling it would run code from the file; if you trust the file, load it with "
               "--trust-checkpoint (params.config.trust_checkpoint: true)")
 

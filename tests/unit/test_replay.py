@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.algos.core.replay import ReplayBuffer, SumTree, obs_row_bytes
-from rlchain.envs.obs_dict import ObsDict
+from rlchain.algos.core.replay import ReplayBuffer, SumTree
+from rlchain.envs.obs_dict import ObsDict, obs_row_bytes
 
 
 def make(n_step=1, num_envs=1, gamma=0.5, capacity=16, **kw):

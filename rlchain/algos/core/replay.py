@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space, torch_dtype
+from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space
 
 
 class SumTree:
@@ -67,16 +67,6 @@ class SumTree:
             values = np.where(go_right, values - left_sum, values)
             nodes = np.where(go_right, left + 1, left)
         return np.minimum(nodes - self.size, self.capacity - 1)
-
-
-def obs_row_bytes(space: gym.Space) -> int:
-    """Bytes one observation of ``space`` takes in a replay buffer: for a Dict kept per key each key in its own
-    dtype (uint8, int64 or float32: :func:`torch_dtype`), else its flat size (1 byte a uint8 value, 4 otherwise)."""
-    if is_dict_space(space):
-        return sum(int(np.prod(sub.shape)) * torch_dtype(sub).itemsize for sub in space.spaces.values())
-    shape = getattr(space, "shape", None)
-    size = int(np.prod(shape)) if shape else gym.spaces.flatdim(space)
-    return size * (1 if getattr(space, "dtype", None) == np.uint8 else 4)
 
 
 class ReplayBuffer:

@@ -12,10 +12,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 import torch
 
-from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space, torch_dtype
+from rlchain.envs.obs_dict import ObsDict, dict_zeros, is_dict_space, obs_row_bytes
 
 ALL = slice(None)
 """Every env row: the default ``rows`` of :meth:`RolloutStorage.add` / ``add_outcome``."""
@@ -56,17 +55,9 @@ def obs_buffer_layout(obs_space: Any) -> tuple[Any, torch.dtype]:
 def rollout_step_bytes(obs_space: Any, action_space: Any, value_size: int) -> int:
     """Bytes one step of one env row takes in :class:`RolloutStorage` (masks and RNN states left out): the
     estimate a run checks against free memory before the storage is built."""
-    parts = obs_space.spaces.values() if is_dict_space(obs_space) else (obs_space,)
-    obs = 0
-    for part in parts:
-        shape = getattr(part, "shape", None)
-        if is_dict_space(obs_space):  # each key in its own dtype (torch_dtype): uint8, int64 or float32
-            obs += int(np.prod(shape)) * torch_dtype(part).itemsize
-            continue
-        size = int(np.prod(shape)) if shape else gym.spaces.flatdim(part)
-        obs += size * (1 if getattr(part, "dtype", None) == np.uint8 else 4)
     act = gym.spaces.flatdim(action_space)
-    return obs + 4 * (3 * act + 1 + 5 * value_size) + 3  # actions, params; log prob; values .. returns; flags
+    # the observation; actions, params; log prob; values .. returns; flags
+    return obs_row_bytes(obs_space) + 4 * (3 * act + 1 + 5 * value_size) + 3
 
 
 class RolloutStorage:

@@ -18,7 +18,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.replay import ReplayBuffer, obs_row_bytes
+from rlchain.algos.core.replay import ReplayBuffer
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.stepper import OffPolicyStepper
@@ -26,7 +26,7 @@ from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
 from rlchain.config.errors import ConfigError
 from rlchain.config.off_policy import SACConfig
 from rlchain.config.params import Params
-from rlchain.envs.obs_dict import is_dict_space
+from rlchain.envs.obs_dict import is_dict_space, obs_row_bytes
 from rlchain.envs.vecenv import VecEnv
 from rlchain.envs.wrappers.goal_env import env_compute_reward
 from rlchain.log import get_logger
