@@ -105,11 +105,16 @@ DISCRETE_SPACES = (gym.spaces.Discrete, gym.spaces.MultiDiscrete)
 """Entries kept as integers (int64: an embedding's index, the env's own value, ``start`` included)."""
 
 
+def keyed_entries(space: gym.spaces.Dict) -> bool:
+    """Every entry of the Dict a Box, Discrete or MultiDiscrete: the Dicts that can be kept per key (and that are
+    flattened in gymnasium's layout, a Discrete one-hot, when a backend flattens them)."""
+    return all(isinstance(s, (gym.spaces.Box, *DISCRETE_SPACES)) for s in space.spaces.values())
+
+
 def is_dict_space(space: Any) -> bool:
-    """A Dict space whose entries are Boxes, Discretes or MultiDiscretes, other than the central-value
-    ``{'obs', 'state'}`` layout."""
-    return (isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS
-            and all(isinstance(s, (gym.spaces.Box, *DISCRETE_SPACES)) for s in space.spaces.values()))
+    """A Dict space whose entries are Boxes, Discretes or MultiDiscretes (:func:`keyed_entries`), other than the
+    central-value ``{'obs', 'state'}`` layout."""
+    return isinstance(space, gym.spaces.Dict) and set(space.spaces) != CENTRAL_VALUE_KEYS and keyed_entries(space)
 
 
 def is_discrete(space: gym.Space) -> bool:

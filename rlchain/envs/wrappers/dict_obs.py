@@ -33,10 +33,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.obs_dict import ObsDict, is_dict_space, is_discrete
+from rlchain.envs.obs_dict import CENTRAL_VALUE_KEYS, ObsDict, is_dict_space, is_discrete
 from rlchain.envs.spec import declares_state
-
-CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
 
 
 def should_flatten(space: gym.Space) -> bool:

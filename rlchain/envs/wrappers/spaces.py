@@ -13,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from rlchain.envs.obs_dict import DISCRETE_SPACES
+from rlchain.envs.obs_dict import DISCRETE_SPACES, keyed_entries
 from rlchain.envs.wrappers.action_masks import ActionMaskProxy
 from rlchain.envs.wrappers.central_value import concat_obs_state_env
 from rlchain.envs.wrappers.dict_obs import FlatDictBox, flatten_dict_env
@@ -61,12 +61,6 @@ def flatten_dict_obs(obs: dict[str, np.ndarray], space: gym.spaces.Dict) -> np.n
     return np.concatenate([batch_one_hot(np.asarray(obs[k]), sub) if one_hot and isinstance(sub, DISCRETE_SPACES)
                            else np.asarray(obs[k]).reshape(len(obs[k]), -1) for k, sub in space.spaces.items()],
                           axis=1)
-
-
-def keyed_entries(space: gym.spaces.Dict) -> bool:
-    """Every entry a Box, Discrete or MultiDiscrete: the Dicts flattened in gymnasium's layout, which a
-    :class:`FlatDictBox` declares and ``PerKeyObs`` splits back per key."""
-    return all(isinstance(s, (gym.spaces.Box, *DISCRETE_SPACES)) for s in space.spaces.values())
 
 
 def batch_one_hot(values: np.ndarray, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> np.ndarray:
