@@ -122,6 +122,16 @@ def is_discrete(space: gym.Space) -> bool:
     return isinstance(space, DISCRETE_SPACES)
 
 
+def discrete_layout(space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sizes, starts, offsets), int64, one entry per component (1 for a Discrete): how many values each takes,
+    its first value (``start``), and where its one-hot (or its rows of a shared table) begins in gymnasium's
+    flattened layout (the sizes of the components before it)."""
+    sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64)
+    starts = np.broadcast_to(np.asarray(space.start, np.int64), sizes.shape).reshape(-1)
+    sizes = sizes.reshape(-1)
+    return sizes, starts, np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+
+
 def flat_size(space: gym.spaces.Dict) -> int:
     """Values per row of :meth:`ObsDict.flatten` (what a flat-input network gets): every key's element count,
     an integer key counting its values (1 for a Discrete), not a one-hot."""

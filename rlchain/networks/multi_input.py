@@ -21,7 +21,7 @@ import torch.nn.functional as F
 
 from rlchain.config.multi_input import InputConfig, MultiInputNetworkConfig
 from rlchain.config.network import CnnConfig, MlpConfig, ResnetCnnConfig
-from rlchain.envs.obs_dict import is_dict_space, is_discrete
+from rlchain.envs.obs_dict import discrete_layout, is_dict_space, is_discrete
 from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.cnn import ConvEncoder
@@ -93,10 +93,7 @@ class DiscreteIndex(nn.Module):
 
     def __init__(self, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> None:
         super().__init__()
-        sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64)
-        starts = np.broadcast_to(np.asarray(space.start, np.int64), sizes.shape).reshape(-1)
-        sizes = sizes.reshape(-1)
-        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        sizes, starts, offsets = discrete_layout(space)
         self.register_buffer("shift", torch.as_tensor(offsets - starts), persistent=False)
         self.total, self.components = int(sizes.sum()), int(sizes.size)
 

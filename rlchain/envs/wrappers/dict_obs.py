@@ -33,7 +33,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from rlchain.envs.obs_dict import CENTRAL_VALUE_KEYS, ObsDict, is_dict_space, is_discrete
+from rlchain.envs.obs_dict import CENTRAL_VALUE_KEYS, ObsDict, discrete_layout, is_dict_space, is_discrete
 from rlchain.envs.spec import declares_state
 
 
@@ -90,10 +90,9 @@ def from_one_hot(flat: torch.Tensor, space: gym.spaces.Discrete | gym.spaces.Mul
     (N,) or (N, *nvec.shape), ``start`` added back."""
     if isinstance(space, gym.spaces.Discrete):
         return flat.argmax(-1) + int(space.start)
-    sizes = [int(n) for n in np.asarray(space.nvec).reshape(-1)]
-    values = torch.stack([part.argmax(-1) for part in flat.split(sizes, -1)], -1)
-    start = torch.as_tensor(np.asarray(space.start, np.int64).reshape(-1), device=flat.device)
-    return (values + start).reshape(flat.shape[0], *space.nvec.shape)
+    sizes, starts, _ = discrete_layout(space)
+    values = torch.stack([part.argmax(-1) for part in flat.split(sizes.tolist(), -1)], -1)
+    return (values + torch.as_tensor(starts, device=flat.device)).reshape(flat.shape[0], *space.nvec.shape)
 
 
 class PerKeyObs:

@@ -13,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from rlchain.envs.obs_dict import DISCRETE_SPACES, keyed_entries
+from rlchain.envs.obs_dict import DISCRETE_SPACES, discrete_layout, keyed_entries
 from rlchain.envs.wrappers.action_masks import ActionMaskProxy
 from rlchain.envs.wrappers.central_value import concat_obs_state_env
 from rlchain.envs.wrappers.dict_obs import FlatDictBox, flatten_dict_env
@@ -66,10 +66,8 @@ def flatten_dict_obs(obs: dict[str, np.ndarray], space: gym.spaces.Dict) -> np.n
 def batch_one_hot(values: np.ndarray, space: gym.spaces.Discrete | gym.spaces.MultiDiscrete) -> np.ndarray:
     """(N,) or (N, *nvec.shape) integer values -> (N, sum of sizes) float32 one-hots, as ``gym.spaces.flatten``
     lays out one value (``start`` subtracted)."""
-    sizes = np.asarray(space.n if isinstance(space, gym.spaces.Discrete) else space.nvec, np.int64)
-    starts = np.broadcast_to(np.asarray(space.start, np.int64), sizes.shape).reshape(-1)
-    sizes = sizes.reshape(-1)
-    rows = values.reshape(len(values), -1).astype(np.int64) - starts + np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    sizes, starts, offsets = discrete_layout(space)
+    rows = values.reshape(len(values), -1).astype(np.int64) - starts + offsets
     out = np.zeros((len(values), int(sizes.sum())), np.float32)
     np.put_along_axis(out, rows, 1.0, axis=1)
     return out
