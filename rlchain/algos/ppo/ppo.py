@@ -88,7 +88,7 @@ class PPO(AlgorithmBase):
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
-        graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
+        graphed = resolve_cuda_graph(cfg, model.a2c_network, model.is_rnn, device, ctx.comm.active, params.source)
         with communicator.building_with(ctx.comm):  # its normalizers fold every rank's batches
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
@@ -305,7 +305,7 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
     if model.is_rnn:
         raise ConfigError(source, "params.config.compile_update",
                           "False for an RNN network (sequence minibatches are not compiled); set it false")
-    if callable(getattr(model.network, "get_aux_loss", None)):
+    if callable(getattr(model.a2c_network, "get_aux_loss", None)):
         raise ConfigError(source, "params.config.compile_update",
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
 
