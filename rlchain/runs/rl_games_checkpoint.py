@@ -142,7 +142,13 @@ def resume_agent_states(converted: dict[str, Any], agent: dict[str, Any], names:
 
 def _check_rl_games_computes(model: dict[str, Any]) -> None:
     """A ValueError naming the first tensor rl_games' actor-critic cannot hold: one outside its model, or a norm
-    layer right after a linear layer (rlchain's default order; rl_games normalizes after the activation)."""
+    layer right after a linear layer (rlchain's default order; rl_games normalizes after the activation); or a
+    critic MLP unlike the actor's (rl_games' separate network builds both from the one mlp block)."""
+    actor = {k.replace(".actor_mlp.", ".critic_mlp.", 1): v.shape for k, v in model.items() if ".actor_mlp." in k}
+    critic = {k: v.shape for k, v in model.items() if ".critic_mlp." in k}
+    if critic and critic != actor:
+        raise ValueError("the critic's layers differ from the actor's (network.critic_mlp); rl_games' separate "
+                         "actor_critic gives both the one mlp block")
     for key, value in model.items():
         if not key.startswith(PPO_PREFIXES):
             raise ValueError(f"'{key}' is outside the network and its normalizers: rl_games' model has no place "

@@ -160,8 +160,8 @@ def test_central_value_reads_its_own_keys():
     env = build_env(params, 4, 0)
     model = build_model(params, env, torch.device("cpu"))
     critic = build_central_value(params, env, torch.device("cpu"))
-    assert model.network.actor_trunk.cnn.keys == ("image", "proprio")  # the actor never reads the goal
-    assert critic.network.trunk.cnn.keys == ("goal", "proprio")  # the critic reads the privileged goal
+    assert model.a2c_network.actor_cnn.keys == ("image", "proprio")  # the actor never reads the goal
+    assert critic.a2c_network.actor_cnn.keys == ("goal", "proprio")  # the critic reads the privileged goal
     obs = env.reset()
     assert critic.value(obs).shape == (4, 1)
     critic.update_normalizers(obs=obs)
@@ -214,7 +214,8 @@ def test_sac_gets_an_encoder_for_the_actor_and_one_for_the_twin_critics():
     obs = env.reset()
     assert model.act(obs)["actions"].shape == (3, 2)
     model.update_normalizers(obs=obs)
-    assert set(model.running_mean_std.running_mean_std) == {"proprio"}  # the image is scaled, the proprioception normalized
+    # the image is scaled, the proprioception normalized
+    assert set(model.running_mean_std.running_mean_std) == {"proprio"}
     # the critic's loss reaches the critic's encoder only
     x = model.preprocess(obs)
     q1, q2 = net.critic(x, torch.zeros(3, 2))
@@ -352,7 +353,7 @@ def test_a_gymnasium_env_s_discrete_keys_reach_the_network_as_integers_never_nor
     batch = obs_as_tensor(obs, "cpu")
     model.update_normalizers(obs=batch)
     assert set(model.running_mean_std.running_mean_std) == {"pos"}
-    seen = model.obs_norm.normalize(batch)
+    seen = model.running_mean_std.normalize(batch)
     assert torch.equal(seen["room"], batch["room"]) and seen["room"].dtype == torch.int64
     assert model.act(batch)["actions"].shape == (3,)
     env.close()
