@@ -30,11 +30,12 @@ class ActorCritic(ValueModel):
                  use_action_masks: bool = False, value_normalizer_kind: str = "rl_games",
                  obs_normalizer_kind: str = "rl_games", obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
-        self.a2c_network = network
-        self.dist = dist
+        # rl_games' model: its normalizers, then the network (the state dict in rl_games' order)
+        self.value_mean_std = value_normalizer(value_size, normalize_value, value_normalizer_kind)
         self.running_mean_std = obs_normalizer(obs_shape, obs_normalizer_kind, tuple(obs_normalizer_exclude)) \
             if normalize_input else None
-        self.value_mean_std = value_normalizer(value_size, normalize_value, value_normalizer_kind)
+        self.a2c_network = network
+        self.dist = dist
         self.fold_values = value_normalizer_kind == "rl_games"
         self.use_action_masks = use_action_masks
         is_rnn = getattr(network, "is_rnn", None)

@@ -38,11 +38,13 @@ class CentralValue(ValueModel):
         if network is not None and callable(getattr(network, "is_rnn", None)) and network.is_rnn():
             raise ValueError("a registered recurrent critic network is not supported; use actor_critic with "
                              "an rnn block")
-        self.a2c_network = critic_network(cfg, state_shape, value_size) if network is None else network
+        network = critic_network(cfg, state_shape, value_size) if network is None else network
         self.value_size = value_size
+        # rl_games' model: its normalizers, then the network (the state dict in rl_games' order)
+        self.value_mean_std = value_normalizer(value_size, normalize_value, value_normalizer_kind)
         self.running_mean_std = obs_normalizer(state_shape, obs_normalizer_kind, obs_normalizer_exclude) \
             if normalize_input else None
-        self.value_mean_std = value_normalizer(value_size, normalize_value, value_normalizer_kind)
+        self.a2c_network = network
         self.fold_values = value_normalizer_kind == "rl_games"
 
     @property

@@ -57,8 +57,8 @@ def test_central_value_trains_saves_resumes_and_plays(tmp_path):
     state = ckpt.load(last)
     assert "central_value" in state and "central_value_agent" in state
     # the actor reads 2 numbers (obs), the critic 4 (state)
-    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
-    assert state["central_value"]["network.trunk.mlp.net.0.0.weight"].shape[1] == 4
+    assert state["model"]["a2c_network.actor_mlp.0.weight"].shape[1] == 2
+    assert state["central_value"]["a2c_network.actor_mlp.0.weight"].shape[1] == 4
     resumed = Runner().load(CONFIG, overrides(tmp_path, 3, f"params.config.central_value_config={CV}")).train(
         checkpoint=last)
     assert resumed.epoch == 3
@@ -156,8 +156,8 @@ def test_actor_without_central_value_ignores_the_state(tmp_path):
     """A {'obs','state'} env without central_value_config: the actor still reads only 'obs'."""
     result = Runner().load(CONFIG, overrides(tmp_path, 1)).train()
     state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
-    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
-    assert torch.isfinite(state["model"]["network.value.weight"]).all()
+    assert state["model"]["a2c_network.actor_mlp.0.weight"].shape[1] == 2
+    assert torch.isfinite(state["model"]["a2c_network.value.weight"]).all()
 
 
 @pytest.mark.parametrize("actor_rnn", [False, True])
@@ -198,4 +198,4 @@ def test_multi_head_values(tmp_path):
     assert seen["values"] == (32, 4, 2)
     assert bool((seen["rewards"][..., 1] != 0).any())  # the distance head gets its own rewards
     state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
-    assert state["model"]["network.value.weight"].shape[0] == 2
+    assert state["model"]["a2c_network.value.weight"].shape[0] == 2
