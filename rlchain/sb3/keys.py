@@ -68,7 +68,7 @@ def rlchain_num_envs(algo: str) -> int:
     return int(_example(algo)["config"]["num_actors"])
 
 
-def ppo_frames_per_epoch() -> int:
+def _ppo_frames_per_epoch() -> int:
     """The frames of one PPO epoch of the packaged example; the default horizon_length is this / num_actors
     (at least 16)."""
     config = _example("ppo")["config"]
@@ -304,7 +304,7 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
         raise ConfigError(source, key, message) from None
     if algo == "ppo":
         if config.get("horizon_length") is None:
-            config["horizon_length"] = max(16, -(-ppo_frames_per_epoch() // num_actors))
+            config["horizon_length"] = max(16, -(-_ppo_frames_per_epoch() // num_actors))
         if "minibatch_size" not in given:  # the largest that divides the batch, as rlchain requires
             batch = num_actors * config["horizon_length"]
             config["minibatch_size"] = max(d for d in range(1, min(config["minibatch_size"], batch) + 1)
