@@ -159,8 +159,7 @@ class APPO(AlgorithmBase):
         received, ctx = self._received, self.ctx
         if ctx.comm.active:  # every rank counts every rank's frames, so all stop at the same max_frames
             received = round(ctx.comm.mean(float(received)) * ctx.world_size)
-        ctx.frames += received
-        self._epoch_frames = received
+        self._epoch_frames = received  # what the Loop counts
         now = time.monotonic()
         stats.update(policy_lag=sum(self._lags) / max(len(self._lags), 1), queue_size=self.pool.queue_size(),
                      sample_throughput=self._received / max(now - self._mark, 1e-9),

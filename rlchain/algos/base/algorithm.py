@@ -15,7 +15,8 @@ class and one registration line::
         def __init__(self, params, env, model, ctx):  # build the agent, its storage, its DivergenceGuard
             ...
         def collect(self) -> bool: ...                # one epoch of env steps (False: a stop signal came)
-        def update(self) -> dict[str, float] | None: ...  # learn, count ctx.frames; None: nothing learnt
+        def update(self) -> dict[str, float] | None: ...  # learn; None: nothing learnt
+
         def frames_per_epoch(self) -> int: ...
 
     model_builder.register_algo("my_algo", MyAlgorithm)   # user code (rlchain/builtins.py for a built-in)
@@ -33,6 +34,7 @@ import torch
 
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.adam_agent import Agent
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.obs_dict import ObsDict
@@ -42,9 +44,10 @@ from rlchain.envs.vecenv import VecEnv
 
 @runtime_checkable
 class Algorithm(Protocol):
-    """The required core: the hooks the Loop drives every run. ``model``, ``agent`` (``state_dict``/
-    ``load_state_dict``: the optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls
-    back. A class attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent).
+    """The required core: the hooks the Loop drives every run. ``model``, ``agent`` (the
+    :class:`~rlchain.algos.core.adam_agent.Agent` contract: ``state_dict`` / ``load_state_dict`` of the optimizer
+    and live values, ``lr``, ``scale_lr``) and ``divergence`` are what the Loop checkpoints and rolls back.
+    A class attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent).
 
     Optional parts, each declared where the loop reads it and found by its methods: what a checkpoint carries
     beyond the model and the agent (:class:`rlchain.training.saving.CheckpointState`: ``extra_state`` /
@@ -70,9 +73,13 @@ class Algorithm(Protocol):
 
     envs_idle_in_update: ClassVar[bool]
     """Whether the envs wait during :meth:`update` (its gradient steps then take ``update_threads``)."""
+
+    counts_frames_while_collecting: ClassVar[bool]
+    """Whether the algorithm adds each env step to ``ctx.frames`` as it collects (the off-policy stepper);
+    otherwise the Loop adds :meth:`frames_per_epoch` once :meth:`update` returned the epoch's metrics."""
     ctx: RunContext
     model: torch.nn.Module
-    agent: Any
+    agent: Agent
     divergence: DivergenceGuard | None
 
     @classmethod
@@ -91,11 +98,12 @@ class Algorithm(Protocol):
         the learner must not have changed: a stop checkpoint holds the last epoch boundary)."""
 
     def update(self) -> dict[str, float] | None:
-        """Learn from what :meth:`collect` gathered and count its frames into ``ctx.frames``;
-        returns the epoch's metrics, or None when there was nothing to count."""
+        """Learn from what :meth:`collect` gathered; returns the epoch's metrics, or None when there was nothing
+        to count (the epoch then does not count, nor do its frames)."""
 
     def frames_per_epoch(self) -> int:
-        """Env frames one epoch adds (the fps of the console line and the TensorBoard tags)."""
+        """Env frames one epoch adds: what the Loop counts into ``ctx.frames`` after :meth:`update` (unless
+        :attr:`counts_frames_while_collecting`), the fps of the console line and the TensorBoard tags."""
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
         """(rollout, update) seconds of the epoch from the time spent in collect and in update."""
@@ -133,6 +141,7 @@ class AlgorithmBase:
     supports_distributed: ClassVar[bool] = False
     self_play: ClassVar[bool] = False
     envs_idle_in_update: ClassVar[bool] = True
+    counts_frames_while_collecting: ClassVar[bool] = False
     # update() may raise UpdateInterrupted between minibatches on a stop signal (the Loop then puts back
     # the learner of the epoch boundary); an algorithm without it finishes its update first
     interruptible_update: ClassVar[bool] = False

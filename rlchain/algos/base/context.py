@@ -68,7 +68,8 @@ class RunContext:
     epoch: int = 0
     """Epochs completed (the loop counts them)."""
     frames: int = 0
-    """Env frames so far over all ranks (the algorithm counts them, in ``update`` or while collecting)."""
+    """Env frames so far over all ranks (the Loop counts an epoch's after its update; an algorithm that
+    ``counts_frames_while_collecting`` counts them itself)."""
     signals: StopSignals | None = None
     threads: ThreadPlan | None = None
     live_config: dict[str, Any] = field(default_factory=dict)

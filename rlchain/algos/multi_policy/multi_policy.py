@@ -176,7 +176,6 @@ class MultiPolicyPPO(AlgorithmBase):
                     stats[STAT_TAGS[key].format(lr.name)] = value
                     if len(self.policies) == 1:  # one shared policy: rl_games' own tags too
                         stats[self.plain_tag(key)] = value
-        self.ctx.frames += self.frames_per_epoch()
         return stats
 
     @staticmethod

@@ -40,6 +40,7 @@ class OffPolicyAlgorithm(AlgorithmBase):
 
     config_class: type = SACConfig
     SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
+    counts_frames_while_collecting = True  # the stepper counts each env step (warmup and epsilon read ctx.frames)
 
     def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)

@@ -58,10 +58,9 @@ class PPO(AlgorithmBase):
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs); the rollout
-        storage must fit the training device's free memory."""
+        """The minibatches (the actor's, the central value's) must divide the batch, which counts the env's agents
+        (multi-agent envs); the rollout storage must fit the training device's free memory."""
         check_batch(params.config, params.source, spec.num_agents)
-        params.config.check_central_value_batch(params.source)
         cfg = params.config
         if spec.observation_space is not None and spec.action_space is not None:
             rows = cfg.horizon_length * spec.num_envs
@@ -93,7 +92,7 @@ class PPO(AlgorithmBase):
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
-            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm,
+            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, ctx.comm,
                                               should_stop=self._stop_requested)
         self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed,
                               train_critic=self.central_value is None, should_stop=self._stop_requested)
@@ -147,7 +146,7 @@ class PPO(AlgorithmBase):
 
     def update(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, the PPO update (PPOAgent.update: the minibatch loop and the
-        loss), the extras' own updates (RND, mirror loss, central value); the rollout then counts as frames.
+        loss), the extras' own updates (RND, mirror loss, central value).
 
         Every normalizer folds this rollout in before the update (the observations, with
         ``obs_normalizer_update: minibatch``, minibatch by minibatch in the update's first pass), so the
@@ -197,7 +196,6 @@ class PPO(AlgorithmBase):
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
                                               shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
-        self.ctx.frames += self.frames_per_epoch()
         return stats
 
     def _stop_requested(self) -> bool:
