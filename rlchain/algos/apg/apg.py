@@ -61,7 +61,6 @@ class APG(AlgorithmBase):
         cfg = self.cfg
         self.model.train()
         self.segment = {"rewards": [], "dones": [], "entropies": []}
-        self.collector.place(self.obs)
         if not self.collector.rollout():
             return False
         segment = self.segment
@@ -73,8 +72,7 @@ class APG(AlgorithmBase):
         self.stats.update(objective=float(objective.detach()), entropy=float(mean_entropy.detach()),
                           loss=float(loss.detach()))
         self.segment = {}
-        self.obs = self.env.detach_state()
-        self.collector.place(self.obs)
+        self.collector.place(self.env.detach_state())
         return True
 
     def _act(self, t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:
@@ -118,11 +116,11 @@ class APG(AlgorithmBase):
 
     def start(self) -> None:
         super().start()
-        self.obs = self.obs.detach()
+        self.collector.place(self.collector.obs.detach())
 
     def restart_episodes(self) -> None:
         super().restart_episodes()
-        self.obs = self.obs.detach()
+        self.collector.place(self.collector.obs.detach())
 
     def hyperparams(self) -> dict[str, float]:
         return {**super().hyperparams(), "learning_rate": self.agent.lr}

@@ -35,6 +35,7 @@ import torch
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import Agent
+from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.obs_dict import ObsDict
@@ -153,7 +154,8 @@ class AlgorithmBase:
         self.num_envs = env.num_envs
         self.agent: Any = None
         self.divergence: DivergenceGuard | None = None
-        self.obs: Any = None
+        # an on-policy algorithm's collector: where the envs stand (the next observations, RNN states) lives there
+        self.collector: OnPolicyCollector | None = None
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
@@ -166,10 +168,10 @@ class AlgorithmBase:
         return build_env(params, params.config.num_actors, seed, runners=True)
 
     def start(self) -> None:
-        """Reset the envs (``self.obs``: their first observations), or after a restore that carried the
-        envs' state put them back where the checkpoint left them."""
+        """Reset the envs (their first observations placed in the collector), or after a restore that carried
+        the envs' state put them back where the checkpoint left them."""
         if not self.resume_position():
-            self.obs = self.ctx.reset_envs()
+            self.collector.place(self.ctx.reset_envs())
 
     def resume_position(self) -> bool:
         """After a restore with the envs' state: restore them and this algorithm's position; False when
@@ -181,12 +183,22 @@ class AlgorithmBase:
         return True
 
     def position_state(self) -> dict[str, Any] | None:
-        """The observations the next epoch acts on (a copy); None before ``start``."""
-        return None if self.obs is None else {"obs": position_copy(self.obs)}
+        """The observations the next epoch acts on and, when the collector carries them, the RNN states and
+        their episode-start flags (copies); None before ``start`` or without a collector."""
+        collector = self.collector
+        if collector is None or collector.obs is None:
+            return None
+        if not collector.carries_states:
+            return {"obs": position_copy(collector.obs)}
+        return {"obs": position_copy(collector.obs), "rnn_states": position_copy(tuple(collector.rnn_states)),
+                "resets": position_copy(collector.resets)}
 
     def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state`: the observations, on the training device (Dict ones per key)."""
-        self.obs = position_on(position["obs"], self.device)
+        """Put back :meth:`position_state` on the training device (Dict observations per key)."""
+        device = self.device
+        states = position_on(tuple(position["rnn_states"]), device) if "rnn_states" in position else None
+        resets = position_on(position["resets"], device) if "resets" in position else None
+        self.collector.place(position_on(position["obs"], device), states, resets)
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
         """(rollout, update) seconds: the time in collect and in update, as they are."""
@@ -201,9 +213,10 @@ class AlgorithmBase:
         return True
 
     def restart_episodes(self) -> None:
-        """Drop the running episodes' statistics and reset the envs."""
+        """Drop the running episodes' statistics, reset the envs, zero the RNN states."""
         self.ctx.tracker.reset_running()
-        self.obs = self.ctx.reset_envs()
+        self.collector.place(self.ctx.reset_envs())
+        self.collector.reset_states()
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
         """The model and its agent."""

@@ -150,10 +150,7 @@ class Distill(AlgorithmBase):
         self.beta_now = self.beta()
         self._steps = {"obs": [], "labels": [], "resets": [], "masks": [], "match": []}
         self.batch = {"states": tuple(s.clone() for s in self.states)}
-        self.collector.place(self.obs)  # where the envs stand: start() and resume set self.obs
-        complete = self.collector.rollout()
-        self.obs = self.collector.obs
-        if not complete:
+        if not self.collector.rollout():
             return False
         steps = self._steps
         self.batch.update(obs=stack_steps(steps["obs"]), labels=torch.stack(steps["labels"]),
@@ -291,7 +288,7 @@ class Distill(AlgorithmBase):
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
         super().restart_episodes()
-        self.collector.place(self.obs, self._initial_states())
+        self.collector.place(self.collector.obs, self._initial_states())
         self.resets = torch.ones_like(self.resets)
         self.delay.line = None
         self.teacher_steps.zero_()

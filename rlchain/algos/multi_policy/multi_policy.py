@@ -87,15 +87,12 @@ class MultiPolicyPPO(AlgorithmBase):
     def collect(self) -> bool:
         """horizon_length env steps (the on-policy collector); every trained policy's storage gets its agents'
         rows."""
-        self.collector.place(self.obs)  # per-agent views, as the env gives them
-        complete = self.collector.rollout()
-        self.obs = self.collector.obs
-        if not complete:
+        if not self.collector.rollout():  # per-agent views, as the env gives them
             return False
         for lr in self.policies:
             if lr.agent is not None:
                 with torch.no_grad():
-                    lr.last_values = lr.model.value(lr.gather(self.obs)[0])
+                    lr.last_values = lr.model.value(lr.gather(self.collector.obs)[0])
         return True
 
     def _act(self, t: int, views: Any, states: tuple, env_masks: Any) -> dict[str, Any]:
@@ -189,13 +186,13 @@ class MultiPolicyPPO(AlgorithmBase):
     # ----- per-agent observations, per-policy statistics ---------------------------------------
     def start(self) -> None:
         """Reset the envs (per-agent observations, as the env gives them); self-play snapshots start."""
-        self.obs = self.ctx.reset_raw()
+        self.collector.place(self.ctx.reset_raw())
         if self.snapshots is not None:
             self.snapshots.start(self)
 
     def restart_episodes(self) -> None:
         self.ctx.tracker.reset_running()
-        self.obs = self.ctx.reset_raw()
+        self.collector.place(self.ctx.reset_raw())
         for lr in self.policies:
             lr.tracker.reset_running()
 

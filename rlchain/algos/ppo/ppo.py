@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.algorithm import AlgorithmBase, position_copy, position_on
+from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import OnPolicyCollector
@@ -129,11 +129,6 @@ class PPO(AlgorithmBase):
             fold_obs_each_step=self.fold_obs_each_step, carries_states=True)
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
-    def start(self) -> None:
-        """Reset the envs, or put them back where a restored checkpoint left them."""
-        if not self.resume_position():
-            self.collector.place(self.ctx.reset_envs())
-
     def collect(self) -> bool:
         """A rollout of horizon_length steps into the storage (the collector); False when a stop signal came.
         A fresh run from a distilled student with ``distilled_value: teacher`` first regresses its value head."""
@@ -210,26 +205,6 @@ class PPO(AlgorithmBase):
         if self.central_value is not None:
             pairs.append((self.central_value, self.cv_agent))
         return pairs
-
-    def position_state(self) -> dict[str, Any] | None:
-        """The next observations, RNN states and their episode-start flags (copies); None before ``start``."""
-        collector = self.collector
-        if collector.obs is None:
-            return None
-        return {"obs": position_copy(collector.obs), "rnn_states": position_copy(tuple(collector.rnn_states)),
-                "resets": position_copy(collector.resets)}
-
-    def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state` on the training device."""
-        self.collector.place(position_on(position["obs"], self.device),
-                             position_on(tuple(position["rnn_states"]), self.device),
-                             position_on(position["resets"], self.device))
-
-    def restart_episodes(self) -> None:
-        """After a rollback: fresh episodes, zero RNN states."""
-        self.ctx.tracker.reset_running()
-        self.collector.place(self.ctx.reset_envs())
-        self.collector.reset_states()
 
     def hyperparams(self) -> dict[str, float]:
         """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""

@@ -57,11 +57,8 @@ class Reinforce(AlgorithmBase):
                                  torch.float32, dist.action_shape, dist.action_dtype, dist.param_size, 1, self.device)
         self.collector = OnPolicyCollector(env, model, ctx, cfg, storage=storage)
 
-    def collect(self) -> bool:
-        self.collector.obs = self.obs  # where the envs stand: start() and resume set self.obs
-        complete = self.collector.rollout()
-        self.obs = self.collector.obs
-        return complete
+    def collect(self) -> bool:  # where the envs stand lives in the collector (AlgorithmBase's start places it)
+        return self.collector.rollout()
 
     def update(self) -> dict[str, float]:
         cfg, model, rollout = self.cfg, self.model, self.collector.storage
