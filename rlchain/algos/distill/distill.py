@@ -104,7 +104,6 @@ class Distill(AlgorithmBase):
                               f"{self.loss_kind} needs the teacher's action distribution; a SAC teacher labels "
                               f"with its deterministic action: use mse or huber (or auto)")
         self.use_masks = bool(getattr(model, "use_action_masks", False))
-        model.bptt_length = cfg.bptt_length
         self.agent = AdamAgent(model, cfg.learning_rate, cfg.weight_decay, ctx.comm)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         n, dev = self.num_envs, self.device

@@ -68,7 +68,6 @@ class PPOAgent(ScheduledAdam):
         self.model, self.cfg, self.device = model, cfg, device
         self.train_critic = train_critic
         self.should_stop = should_stop
-        model.bptt_length = cfg.bptt_length
         self.losses = ppo_loss  # compile() swaps in the compiled region
         self._compile_pending = False
         # cuda_graph (resolved by rlchain.algos.ppo.graph_step.resolve_cuda_graph): the step as a captured graph
