@@ -45,7 +45,8 @@ def actor_critic_model(network: Any, action_space: Any, obs_shape: tuple, value_
     return ActorCritic(network, dist, obs_shape, value_size, config.normalize_input,
                        getattr(config, "normalize_value", False), use_action_masks=masks, value_normalizer_kind=kind,
                        obs_normalizer_kind=getattr(config, "obs_normalizer", "rl_games"),
-                       obs_normalizer_exclude=tuple(getattr(config, "obs_normalizer_exclude", ())))
+                       obs_normalizer_exclude=tuple(getattr(config, "obs_normalizer_exclude", ())),
+                       bptt_length=getattr(config, "bptt_length", None))
 
 
 def register_builtins() -> None:

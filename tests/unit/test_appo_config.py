@@ -8,7 +8,7 @@ import os
 import pytest
 
 from rlchain.config import compat
-from rlchain.config.actor_critic import ActorCriticConfig
+from rlchain.config.actor_critic import ActorCriticConfig, check_batch
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import load_config, parse_params
@@ -147,10 +147,20 @@ def test_a_checkpoint_config_with_another_algos_key_is_an_error_naming_it():
     ({"appo": {"learner_queue_size": 0}}, "appo.learner_queue_size", "must be > 0"),
     ({"appo": {"runners": "threads"}}, "appo.runners", "local"),
     ({"appo": {"max_lag": 2}}, "appo.max_lag", "did you mean 'max_policy_lag'"),
-    ({"minibatch_size": 48}, "minibatch_size", "does not divide the batch num_actors*horizon_length = 64"),
-    ({"minibatch_size": 128}, "minibatch_size", "is larger than the batch"),
 ])
 def test_bad_appo_values(config, key, words):
     with pytest.raises(ConfigError) as err:
         parse(**config)
     assert f"params.config.{key}" in str(err.value) and words in str(err.value)
+
+
+@pytest.mark.parametrize("minibatch_size,words", [
+    (48, "batch num_actors*horizon_length = 64 is not divisible by minibatch_size 48"),
+    (128, "minibatch_size 128 is larger than the batch num_actors*horizon_length = 64"),
+])
+def test_minibatch_against_the_learner_batch_once_the_env_is_known(minibatch_size, words):
+    """Accepted at load (a multi-agent env could make it divide), refused by the one batch check."""
+    params = parse(minibatch_size=minibatch_size)
+    with pytest.raises(ConfigError) as err:
+        check_batch(params.config, params.source)
+    assert "params.config.minibatch_size" in str(err.value) and words in str(err.value)
