@@ -39,18 +39,11 @@ class ProcessContext:
     rank: int = 0
     world_size: int = 1
 
-    @property
-    def device(self) -> str:
-        return self.params.config.device
-
-    @property
-    def print_stats(self) -> bool:
-        return self.params.config.print_stats
-
     def as_dict(self) -> dict[str, Any]:
         """The per-process values as plain data (stored in checkpoints beside the config)."""
-        return {"seed": self.seed, "rank": self.rank, "world_size": self.world_size, "device": self.device,
-                "print_stats": self.print_stats}
+        cfg = self.params.config
+        return {"seed": self.seed, "rank": self.rank, "world_size": self.world_size, "device": cfg.device,
+                "print_stats": cfg.print_stats}
 
 
 def resolve(params: Params, seed: int | None, group: Any = None) -> ProcessContext:
