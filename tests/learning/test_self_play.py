@@ -23,7 +23,7 @@ class KeepPolicy(Callback):
         self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))
 
 
-@pytest.mark.timeout(90)
+@pytest.mark.timeout(180)  # two learning tests share the 2 cores (pytest -n 2)
 def test_self_play_beats_random_and_heuristic(tmp_path):
     keep = KeepPolicy()
     Runner().load(os.path.join(CONFIGS, "ppo_duel_self_play.yaml"),
