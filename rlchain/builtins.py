@@ -27,6 +27,7 @@ from rlchain.networks.example_networks import TestNetAuxLossBuilder, TestNetBuil
 from rlchain.networks.multi_input import MultiInputBuilder
 from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
 from rlchain.networks.sac_network import QNetworkBuilder, SACNetworkBuilder
+from rlchain.networks.sb3_policy import SB3PolicyBuilder
 from rlchain.registry import ALGOS, ENVS, MODELS, NETWORKS, VECENVS, WRITERS
 from rlchain.runs.writers import CSVWriter
 
@@ -52,6 +53,7 @@ def register_builtins() -> None:
         MODELS.register(name, actor_critic_model, overwrite=True)
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
     NETWORKS.register("multi_input", MultiInputBuilder, overwrite=True)
+    NETWORKS.register("sb3_policy", SB3PolicyBuilder, overwrite=True)  # SB3 users' extractors and policy classes
 
     # rl_games' test networks; a user package may register its own under these names (as in rl_games)
     NETWORKS.register("testnet", TestNetBuilder, overwrite=True, replaceable=True)

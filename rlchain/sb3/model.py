@@ -25,6 +25,7 @@ from rlchain.config.stored import as_data, check_env_id
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
 from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
+from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
 from rlchain.sb3 import files
@@ -33,14 +34,18 @@ from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config, multi_input_block, positive_count
 from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy, eval_actions
+from rlchain.sb3.policy_block import needs_sb3_network, sb3_network_block, stored_policy_kwargs
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
 from rlchain.training.events import Callback
 
-POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input"}
+POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input", "CnnPolicy": "sb3_policy"}
 """SB3's policy names -> the rlchain network they map to (None: the algorithm's default network). MultiInputPolicy:
-Dict observations, an encoder per key (docs/robot_learning.md)."""
+Dict observations, an encoder per key (docs/robot_learning.md); CnnPolicy: SB3's NatureCNN
+(:mod:`rlchain.networks.sb3_policy`, as a policy class or a ``features_extractor_class``)."""
+
+PER_KEY_NETWORKS = ("multi_input", "sb3_policy")  # networks that take Dict observations per key
 
 
 class _Spaces:
@@ -89,10 +94,14 @@ class BaseModel:
                  device: str = "auto", verbose: int = 1, tensorboard_log: str | None = None,
                  policy_kwargs: dict[str, Any] | None = None, **hyperparameters: Any) -> None:
         source = f"rlchain.{self.algo.upper()}"
-        if policy not in POLICIES:
-            raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}); "
-                                                f"other networks: the network block of an rlchain YAML")
-        self.policy_name = policy
+        if isinstance(policy, str) and policy not in POLICIES and "." in policy:  # a stored policy class's name
+            policy = resolve(policy, "policy")
+        if isinstance(policy, str) and policy not in POLICIES:
+            raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}, or "
+                                                f"an ActorCriticPolicy subclass); other networks: the network "
+                                                f"block of an rlchain YAML")
+        self.policy_name = policy if isinstance(policy, str) else remember(policy)
+        self.policy_class = policy  # a name of POLICIES, or a policy class
         self.env_source: EnvSource | None = None if env is None else env_source(env, self.algo)
         self._env_arg = env  # the env argument as given: get_env() builds SB3's VecEnv of it
         self._vec_env: Any = None
@@ -139,9 +148,16 @@ class BaseModel:
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
         given = {k: v for k, v in self.hyperparameters.items() if k != "defaults"}
+        own = needs_sb3_network(self.algo, self.policy_class, self.policy_kwargs)
         config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
-                              keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
-        if POLICIES[self.policy_name] is not None:
+                              keys, {} if own else self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        if own:
+            try:
+                config["params"]["network"] = sb3_network_block(self.algo, self.policy_class, self.policy_kwargs)
+            except ValueError as exc:
+                key, _, message = str(exc).partition(": ")
+                raise ConfigError(f"rlchain.{self.algo.upper()}", key, message) from None
+        elif POLICIES[self.policy_name] is not None:
             multi_input_block(self.algo, config["params"], POLICIES[self.policy_name])
         return config
 
@@ -189,6 +205,41 @@ class BaseModel:
         net = load_policy(params, device=torch.device("cpu"), env=self._spaces).model
         return SB3Policy(net, self.algo, self._spaces.observation_space, self._spaces.action_space,
                          config["params"]["network"])
+
+    # ----- SB3's attributes ------------------------------------------------------------------------------
+    @property
+    def learning_rate(self) -> Any:
+        """The learning rate as given (a number or ``fn(progress_remaining)``), else the one the config trains
+        with (SAC: the actor's)."""
+        if "learning_rate" in self._schedules:
+            return self._schedules["learning_rate"]
+        if "learning_rate" in self.hyperparameters:
+            return self.hyperparameters["learning_rate"]
+        cfg = self.config["params"]["config"]
+        return cfg.get("learning_rate", cfg.get("actor_lr"))
+
+    @property
+    def gamma(self) -> float:
+        """The discount factor the config trains with."""
+        return float(self.config["params"]["config"]["gamma"])
+
+    @property
+    def env(self) -> Any:
+        """SB3's ``model.env``: the training env as an SB3 ``VecEnv`` (:meth:`get_env`)."""
+        return self.get_env()
+
+    @property
+    def observation_space(self) -> Any:
+        return None if self._spaces is None else self._spaces.observation_space
+
+    @property
+    def action_space(self) -> Any:
+        return None if self._spaces is None else self._spaces.action_space
+
+    @property
+    def actor(self) -> Any:
+        """SAC: SB3's ``model.actor`` (``model.policy.actor``)."""
+        return self.policy.actor
 
     # ----- training -----------------------------------------------------------------------------------
     def learn(self, total_timesteps: int, callback: Any = None, progress_bar: bool = False,
@@ -286,7 +337,7 @@ class BaseModel:
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
         space = self._spaces.observation_space
-        if isinstance(space, gym.spaces.Dict) and POLICIES[self.policy_name] is not None:  # per-key network
+        if isinstance(space, gym.spaces.Dict) and self.config["params"]["network"].get("name") in PER_KEY_NETWORKS:
             return self._predict_dict(observation, space, deterministic)
         return self.policy.predict(observation, deterministic=deterministic)
 
@@ -326,7 +377,7 @@ class BaseModel:
             and self.env_source.env_name in gym.registry else None
         state = {"algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs,
                  "seed": self.seed,
-                 "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
+                 "policy_kwargs": stored_policy_kwargs(self.policy_kwargs), "hyperparameters": self.hyperparameters,
                  "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
         files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
         return path

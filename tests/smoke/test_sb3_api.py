@@ -82,5 +82,7 @@ def test_unknown_argument_is_one_line(tmp_path):
     with pytest.raises(ValueError, match=r"^rlchain.DQN: exploration_fractio: unknown argument; did you mean "
                                          r"'exploration_fraction'"):
         rlchain.DQN("MlpPolicy", "CartPole-v1", exploration_fractio=0.1)
-    with pytest.raises(ValueError, match="'CnnPolicy' is not supported"):
-        rlchain.PPO("CnnPolicy", "CartPole-v1")
+    with pytest.raises(ValueError, match="NatureCNN needs image observations"):
+        rlchain.PPO("CnnPolicy", "CartPole-v1")  # CnnPolicy is SB3's NatureCNN: images only, as in SB3
+    with pytest.raises(ValueError, match="'TdPolicy' is not supported"):
+        rlchain.PPO("TdPolicy", "CartPole-v1")
