@@ -33,6 +33,14 @@ from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
 from rlchain.sb3.keys import NUM_ENVS, build_config, multi_input_block, positive_count
+from rlchain.sb3.model_zip import (
+    format_system_info,
+    has_model,
+    read_model,
+    saved_system_info,
+    system_info,
+    write_model_zip,
+)
 from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy, eval_actions
 from rlchain.sb3.policy_block import needs_sb3_network, sb3_network_block, stored_policy_kwargs
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
@@ -358,21 +366,34 @@ class BaseModel:
         """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote); the next ``learn`` starts from them."""
         params = load_path_or_dict
         if isinstance(params, str):
-            params = {"policy": files.load_weights(_file(params))}
+            path = _file(params)
+            params = {"policy": read_model(path, files.load_weights) if has_model(path) else files.load_weights(path)}
         self.policy.load_state_dict(params["policy"], strict=exact_match)
         self._weights_changed = True
 
     def save(self, path: str) -> str:
-        """Write the model (config, arguments, spaces, weights) to ``path``
-        (``.pth`` added when it has no extension); returns the path. A ``.zip`` path gets SB3's own archive
-        (written by stable-baselines3, which SB3's ``load`` reads; SB3's network layout only)."""
-        if os.fspath(path).endswith(".zip"):
-            mlp = self.config["params"]["network"]["mlp"]
-            return write_sb3_archive(os.fspath(path), self.algo, (self._spaces.observation_space,
-                                     self._spaces.action_space), self.hyperparameters, mlp["units"],
-                                     TORCH_ACTIVATIONS[str(mlp["activation"])], self.policy.state_dict(),
-                                     self.num_timesteps)
+        """Write the model (config, arguments, spaces, weights); returns the path. Without an extension, or with
+        ``.zip``, as SB3 does: ``path.zip``, SB3's archive layout holding rlchain's model file
+        (:mod:`rlchain.sb3.model_zip`; written by stable-baselines3 when it is installed and the network has
+        SB3's MlpPolicy layout, so SB3's ``load`` reads it too). A ``.pth`` path: rlchain's model file alone."""
         path = _file(path, must_exist=False)
+        if path.endswith(".zip"):
+            network = self.config["params"]["network"]
+            mlp = network.get("mlp") or {}
+            sb3_layout = network.get("name") in ("actor_critic", "soft_actor_critic", "dqn") and \
+                "critic_mlp" not in network and str(mlp.get("activation")) in TORCH_ACTIVATIONS
+
+            def write_sb3(target: str) -> str:
+                return write_sb3_archive(target, self.algo, (self._spaces.observation_space,
+                                         self._spaces.action_space), self.hyperparameters, mlp["units"],
+                                         TORCH_ACTIVATIONS[str(mlp["activation"])], self.policy.state_dict(),
+                                         self.num_timesteps)
+            return write_model_zip(path, self._save_own, write_sb3 if sb3_layout else None,
+                                   self.policy.state_dict(), self.num_timesteps)
+        return self._save_own(path)
+
+    def _save_own(self, path: str) -> str:
+        """rlchain's model file (plain data, :mod:`rlchain.sb3.files`) at ``path``."""
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
         state = {"algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs,
@@ -383,14 +404,23 @@ class BaseModel:
         return path
 
     @classmethod
-    def load(cls, path: str, env: Any = None, device: str = "auto", **kwargs: Any) -> BaseModel:
-        """A model :meth:`save` wrote; ``env`` (default: the gymnasium id it was trained on, if any) is needed
-        only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
-        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only."""
+    def load(cls, path: str, env: Any = None, device: str = "auto", print_system_info: bool = False,
+             **kwargs: Any) -> BaseModel:
+        """A model :meth:`save` wrote (or SB3 saved); ``env`` (default: the gymnasium id it was trained on, if any)
+        is needed only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
+        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only.
+        ``print_system_info``: print the system the archive was saved on and this one, as SB3 does."""
         path = _file(path)
-        if is_sb3_archive(path):
+        if print_system_info:
+            saved = saved_system_info(path)
+            print("== CURRENT SYSTEM INFO ==\n" + format_system_info(system_info()), flush=True)
+            print("== SAVED MODEL SYSTEM INFO ==\n" + (saved or "(none stored in this file)\n"), flush=True)
+        if has_model(path):
+            state = read_model(path, lambda own: files.load_model(own, cls.algo))
+        elif is_sb3_archive(path):
             return cls._load_archive(path, env, device, kwargs)
-        state = files.load_model(path, cls.algo)
+        else:
+            state = files.load_model(path, cls.algo)
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
         if env is None:
             check_env_id(state["env_id"], path, "env_id")
@@ -473,13 +503,12 @@ class BaseModel:
 
 
 def _file(path: str, must_exist: bool = True) -> str:
-    """``path``, or ``path.pth`` when it has no extension (SB3 adds ``.zip`` the same way; loading finds an SB3
-    ``path.zip`` too)."""
+    """``path``, or ``path.zip`` when it has no extension, as SB3 adds it (loading finds ``path.zip``, then
+    ``path.pth``, then ``path`` itself)."""
     path = os.fspath(path)
-    if os.path.splitext(path)[1]:
-        return path
-    if must_exist and os.path.exists(path) and not os.path.exists(path + ".pth"):
-        return path
-    if must_exist and not os.path.exists(path + ".pth") and os.path.exists(path + ".zip"):
-        return path + ".zip"
-    return path + ".pth"
+    if os.path.splitext(path)[1] or not must_exist:
+        return path if os.path.splitext(path)[1] else path + ".zip"
+    for candidate in (path + ".zip", path + ".pth", path):
+        if os.path.exists(candidate):
+            return candidate
+    return path + ".zip"

@@ -69,14 +69,35 @@ def eval_actions(net: nn.Module, batch: Any, deterministic: bool) -> np.ndarray:
 
 class SACActorView(nn.Module):
     """SB3's SAC ``actor`` over rlchain's SAC model: ``forward(obs, deterministic)`` -> actions in [-1, 1] (the
-    model's input normalization and image scaling included)."""
+    model's image scaling and input normalization included). It holds the actor network and the normalizer only,
+    so tracing it (SB3's export guide: ONNX, ``torch.jit.trace``) sees nothing of the critics."""
 
     def __init__(self, model: nn.Module) -> None:
         super().__init__()
-        self.model = model
+        self.actor = model.network.actor
+        self.obs_norm = model.obs_norm
+        self._model = [model]  # not a submodule: the stochastic path and Dict observations use it
+
+    @property
+    def model(self) -> nn.Module:
+        return self._model[0]
 
     def forward(self, obs: torch.Tensor, deterministic: bool = False) -> torch.Tensor:
-        return self.model.policy(self.model.preprocess(obs), deterministic)[0]
+        head = getattr(self.actor, "head", None)
+        if not deterministic or not isinstance(obs, torch.Tensor) or not isinstance(head, nn.Linear):
+            return self.model.policy(self.model.preprocess(obs), deterministic)[0]
+        x = obs.float() / 255.0 if obs.dtype == torch.uint8 else obs.float()
+        x = x.flatten(1)
+        if self.obs_norm is not None:
+            x = self.obs_norm.normalize(x)
+        actor = self.actor
+        x = actor.encoder(x) if getattr(actor, "encoder", None) is not None else x
+        # tanh(mean), the mean read by slicing the head's rows (mean, then log-std): ONNX exporters handle a slice
+        # where torch.chunk's Split may not convert to older opsets
+        mu = actor.head(actor.trunk(x))[..., :head.out_features // 2]
+        if actor.mean_clip is not None:
+            mu = mu.clamp(-actor.mean_clip, actor.mean_clip)
+        return torch.tanh(mu)
 
 
 class SB3Policy(nn.Module):
