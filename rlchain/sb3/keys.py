@@ -196,17 +196,23 @@ def _updates(algo: str, given: dict[str, Any], num_actors: int) -> dict[str, Any
 
 
 def _net_arch(algo: str, value: Any) -> dict[str, Any]:
+    critic = None
     if isinstance(value, dict):
-        parts = [list(v) for v in value.values()]
-        if any(p != parts[0] for p in parts):
-            raise ValueError(f"policy_kwargs.net_arch: {value!r}: rlchain gives the actor and the critic the same "
-                             f"hidden layers; give one list")
-        value = parts[0] if parts else []
+        other = "vf" if algo == "ppo" else "qf"
+        unknown = set(value) - {"pi", other}
+        if unknown:
+            raise ValueError(f"policy_kwargs.net_arch: {value!r}: expected the keys pi and {other}")
+        pi, critic = list(value.get("pi", [])), list(value.get(other, []))
+        if pi != critic and algo != "ppo":  # SAC's separate sizes build the sb3_policy network (policy_block.py)
+            raise ValueError(f"policy_kwargs.net_arch: {value!r}: {algo.upper()}'s network takes one list")
+        value, critic = pi, (critic if critic != pi else None)
     if not isinstance(value, (list, tuple)) or not all(isinstance(u, int) and u > 0 for u in value):
         raise ValueError(f"policy_kwargs.net_arch: expected a list of layer sizes, got {value!r}")
     network: dict[str, Any] = {"mlp": {"units": list(value)}}
     if algo == "ppo":
         network["separate"] = True  # SB3's actor and critic share no layers
+    if critic is not None:  # the critic's own sizes (its activation: the actor's, set in build_config)
+        network["critic_mlp"] = {"units": critic}
     return network
 
 
@@ -297,6 +303,8 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
             if total_timesteps is not None:
                 config["epsilon_decay_frames"] = max(1, int(fraction * total_timesteps))
         _merge(network, _policy_kwargs(algo, continuous, dict(policy_kwargs or {})))
+        if "critic_mlp" in network:  # the critic's MLP as the actor's but for its sizes
+            network["critic_mlp"] = {**copy.deepcopy(network["mlp"]), "units": network["critic_mlp"]["units"]}
     except ConfigError:
         raise
     except ValueError as exc:

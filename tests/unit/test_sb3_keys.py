@@ -79,6 +79,12 @@ def test_rlchain_keys_pass_through_and_policy_kwargs_map():
     assert params["network"]["separate"] is True
 
 
+def test_separate_actor_and_critic_sizes_give_the_critic_its_own_mlp():
+    params = ppo({}, policy_kwargs={"net_arch": {"pi": [64, 64], "vf": [32]}, "activation_fn": "ReLU"})
+    assert params["network"]["mlp"]["units"] == [64, 64]
+    assert params["network"]["critic_mlp"]["units"] == [32] and params["network"]["critic_mlp"]["activation"] == "relu"
+
+
 def test_continuous_ppo_and_log_std_init():
     params = ppo({}, continuous=True, policy_kwargs={"log_std_init": -0.5})
     assert params["algo"]["name"] == "a2c_continuous"
@@ -89,7 +95,7 @@ def test_continuous_ppo_and_log_std_init():
     ({"n_step": 8}, None, "n_step: unknown argument; did you mean 'n_steps'?"),
     ({"target_kl": 0.01}, None, "target_kl: has no rlchain counterpart"),
     ({"learning_rate": lambda p: 1e-3}, None, "learning_rate: expected a number"),
-    ({}, {"net_arch": {"pi": [64], "vf": [32]}}, "the same hidden layers"),
+    ({}, {"net_arch": {"pi": [64], "qf": [32]}}, "expected the keys pi and vf"),
     ({}, {"netarch": [64]}, "did you mean 'net_arch'?"),
 ])
 def test_bad_arguments_are_one_line_errors(given, policy_kwargs, says):
