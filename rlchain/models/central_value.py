@@ -32,9 +32,12 @@ class CentralValue(ValueModel):
     def __init__(self, cfg: NetworkConfig | None, state_shape: tuple[int, ...], value_size: int,
                  normalize_input: bool, normalize_value: bool, network: nn.Module | None = None,
                  value_normalizer_kind: str = "rl_games", obs_normalizer_kind: str = "rl_games",
-                 obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
-        """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None)."""
+                 obs_normalizer_exclude: tuple[str, ...] = (),
+                 obs_slice: slice | tuple[int, ...] | None = None) -> None:
+        """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None). ``obs_slice``: the
+        critic's part of the env's flat observations (its ``obs_groups.critic`` view, the state part)."""
         super().__init__()
+        self.obs_slice = obs_slice
         if network is not None and callable(getattr(network, "is_rnn", None)) and network.is_rnn():
             raise ValueError("a registered recurrent critic network is not supported; use actor_critic with "
                              "an rnn block")

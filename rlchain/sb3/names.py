@@ -6,6 +6,7 @@ rlchain's MLPs (rl_games' layout) do: the positions carry over. The tables:
 =========================================  ==============================================================
 rlchain                                    Stable-Baselines3
 =========================================  ==============================================================
+PPO ``a2c_network.policy.X`` (sb3_policy)  ``X`` (a user's ActorCriticPolicy: its own names)
 PPO ``a2c_network.actor_mlp.i``             ``mlp_extractor.policy_net.i``
 PPO ``a2c_network.critic_mlp.i``            ``mlp_extractor.value_net.i``
 PPO ``a2c_network.logits`` / ``.mu``        ``action_net``
@@ -28,7 +29,8 @@ from typing import Any
 
 import torch
 
-_PPO = [(r"a2c_network\.actor_mlp\.(\d+)\.(\w+)", "mlp_extractor.policy_net.{i}.{w}"),
+_PPO = [(r"a2c_network\.policy\.(.+)", "{w}"),  # the sb3_policy network: an ActorCriticPolicy's own names
+        (r"a2c_network\.actor_mlp\.(\d+)\.(\w+)", "mlp_extractor.policy_net.{i}.{w}"),
         (r"a2c_network\.critic_mlp\.(\d+)\.(\w+)", "mlp_extractor.value_net.{i}.{w}"),
         (r"a2c_network\.(?:logits|mu)\.(\w+)", "action_net.{w}"), (r"a2c_network\.value\.(\w+)", "value_net.{w}"),
         (r"a2c_network\.sigma", "log_std")]
