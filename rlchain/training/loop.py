@@ -203,6 +203,7 @@ class Loop:
             raise
         if stats is None:
             return None
+        self.ctx.frames += 0 if algo.counts_frames_while_collecting else algo.frames_per_epoch()
         bad = check_parameters(algo.model)
         if bad is not None:
             raise DivergenceError(f"{bad} became non-finite in the update")

@@ -21,7 +21,7 @@ class KeepPolicy(Callback):
         self.policy = FrozenPolicy(ctx.model, deterministic=True)
 
 
-@pytest.mark.timeout(90)
+@pytest.mark.timeout(180)  # two learning tests share the 2 cores (pytest -n 2)
 def test_self_play_beats_random_and_heuristic(tmp_path, monkeypatch):
     keep, kept = KeepPolicy(), keep_self_play(monkeypatch)
     Runner().load(os.path.join(CONFIGS, "ppo_duel_self_play.yaml"),

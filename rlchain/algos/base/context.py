@@ -15,7 +15,7 @@ from typing import Any, Protocol
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import EpisodeTracker
+from rlchain.algos.base.episodes import AgentEpisodes, EpisodeTracker
 from rlchain.algos.base.safety import StopSignals
 from rlchain.algos.core.collector import StepOutcome
 from rlchain.config.params import Params
@@ -68,7 +68,8 @@ class RunContext:
     epoch: int = 0
     """Epochs completed (the loop counts them)."""
     frames: int = 0
-    """Env frames so far over all ranks (the algorithm counts them, in ``update`` or while collecting)."""
+    """Env frames so far over all ranks (the Loop counts an epoch's after its update; an algorithm that
+    ``counts_frames_while_collecting`` counts them itself)."""
     signals: StopSignals | None = None
     threads: ThreadPlan | None = None
     live_config: dict[str, Any] = field(default_factory=dict)
@@ -190,8 +191,12 @@ def make_context(params: Params, env: VecEnv, device: torch.device, seed: int, c
                  resuming: bool = False) -> RunContext:
     """The context of a fresh run on ``env``: counters at zero, episode statistics empty."""
     cfg = params.config
+    if getattr(params, "policies", None) is not None:  # multi-policy PPO: every agent's episodes, agent-major rows
+        tracker = AgentEpisodes(env.num_envs * len(env.agent_ids), cfg.games_to_track, device)
+    else:
+        tracker = EpisodeTracker(env.num_envs, cfg.games_to_track, device, cfg.success_mode)
     return RunContext(params=params, cfg=cfg, env=env, device=device, seed=seed, comm=comm, logger=logger,
-                      events=events, tracker=EpisodeTracker(env.num_envs, cfg.games_to_track, device, cfg.success_mode),
+                      events=events, tracker=tracker,
                       success=SuccessReader(cfg.success_key), info_means=InfoMeans(cfg.log_info_keys),
                       spec=env_spec(env), threads=threads, resuming=resuming)
 
