@@ -6,6 +6,7 @@ rlchain's MLP blocks are (Linear, activation) sub-sequentials (``net.0.0``, ``ne
 ======================================  ==============================================================
 rlchain                                 Stable-Baselines3
 ======================================  ==============================================================
+PPO ``network.policy.X`` (sb3_policy)     ``X`` (a user's ActorCriticPolicy: its own names)
 PPO ``network.actor_trunk.mlp.net.i.0``  ``mlp_extractor.policy_net.2i``
 PPO ``network.critic_trunk.mlp.net.i.0`` ``mlp_extractor.value_net.2i``
 PPO ``network.logits`` / ``network.mu``  ``action_net``
@@ -28,7 +29,8 @@ from typing import Any
 
 import torch
 
-_PPO = [(r"network\.actor_trunk\.mlp\.net\.(\d+)\.0\.(\w+)", "mlp_extractor.policy_net.{2i}.{w}"),
+_PPO = [(r"network\.policy\.(.+)", "{w}"),  # the sb3_policy network: an ActorCriticPolicy's own names
+        (r"network\.actor_trunk\.mlp\.net\.(\d+)\.0\.(\w+)", "mlp_extractor.policy_net.{2i}.{w}"),
         (r"network\.critic_trunk\.mlp\.net\.(\d+)\.0\.(\w+)", "mlp_extractor.value_net.{2i}.{w}"),
         (r"network\.(?:logits|mu)\.(\w+)", "action_net.{w}"), (r"network\.value\.(\w+)", "value_net.{w}"),
         (r"network\.sigma", "log_std")]

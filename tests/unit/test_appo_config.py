@@ -133,13 +133,12 @@ def test_rl_games_cartpole_yaml_loads_as_appo_and_impala(monkeypatch):
         assert params.config.horizon_length == 32 and params.config.learning_rate == 2e-4
 
 
-def test_a_checkpoint_of_the_shared_class_reads_back_quietly(recwarn):
-    """Checkpoints written while appo's class held PPO's keys store them at their defaults."""
+def test_a_checkpoint_config_with_another_algos_key_is_an_error_naming_it():
+    """A checkpoint's config is this rlchain's resolved config: a key of another algorithm is not read back."""
     state = config_state(parse("impala"))["params"]
-    state["config"].update(tau=0.95, env_groups="auto", seq_length=4, mini_epochs=1, e_clip=0.2)
-    params = params_from_state(state, "old.pth")
-    assert isinstance(params.config, ImpalaConfig) and params.config.mini_epochs == 1
-    assert not [w for w in recwarn if "params.config" in str(w.message)]
+    state["config"].update(tau=0.95)
+    with pytest.raises(ConfigError, match=r"old.pth.*params.config.tau"):
+        params_from_state(state, "old.pth")
 
 
 @pytest.mark.parametrize("config,key,words", [
