@@ -23,11 +23,11 @@ import torch
 from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.advantage_stats import MovingAdvantageStats
 from rlchain.algos.core.losses import normalize_advantages, policy_loss
-from rlchain.algos.core.optimizer_step import check_finite
+from rlchain.algos.core.optimizer_step import check_finite, optimizer_step
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
-from rlchain.algos.ppo.loss import Surrogate, named_stats, ppo_loss, read_stats, stats_vector
+from rlchain.algos.ppo.loss import Surrogate, named_stats, ppo_loss, stats_vector
 from rlchain.algos.ppo.optimizer import ScheduledAdam
 from rlchain.config.ppo import PPOConfig
 from rlchain.log import get_logger
@@ -135,7 +135,9 @@ class PPOAgent(ScheduledAdam):
                                   f"{time.perf_counter() - start:.1f} s")
                     if reference is not None:  # the next pass measures the KL against the policy this one saw
                         reference.index_copy_(0, batch.index, current)
-                    stats = self.step(loss, max_norm, partial(read_stats, loss, stats_t, aux))
+                    stats = optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm,
+                                           comm=self.comm, scaler=self.scaler, what="the PPO update",
+                                           stats=partial(read_stats, loss, stats_t, aux))
                     del stats["loss"]
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value
@@ -245,6 +247,12 @@ class PPOAgent(ScheduledAdam):
             self.advantage_stats.load_state_dict(advantage_stats)
         super().load_state_dict(state)
         self.config_changed()
+
+
+def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
+               grad_norm: torch.Tensor) -> dict[str, float]:
+    """An eager step's statistics read back by name (its one host sync)."""
+    return named_stats(stats_vector(loss, stats, aux, grad_norm).tolist(), aux)
 
 
 def shuffled_minibatches(order: str, continuous: bool) -> bool:
