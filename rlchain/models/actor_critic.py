@@ -28,7 +28,8 @@ class ActorCritic(ValueModel):
     def __init__(self, network: nn.Module, dist: Distribution, obs_shape: tuple[int, ...],
                  value_size: int, normalize_input: bool, normalize_value: bool,
                  use_action_masks: bool = False, value_normalizer_kind: str = "rl_games",
-                 obs_normalizer_kind: str = "rl_games", obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
+                 obs_normalizer_kind: str = "rl_games", obs_normalizer_exclude: tuple[str, ...] = (),
+                 bptt_length: int | None = None) -> None:
         super().__init__()
         self.network = network
         self.dist = dist
@@ -41,7 +42,7 @@ class ActorCritic(ValueModel):
         self.is_rnn = bool(is_rnn()) if callable(is_rnn) else False
         self.sized_states = self.is_rnn and _takes_arguments(network.get_default_rnn_state)
         self.num_states = len(self.initial_state(1)) if self.is_rnn else 0
-        self.bptt_length: int | None = None  # truncated BPTT inside training sequences (config.bptt_length)
+        self.bptt_length = bptt_length  # truncated BPTT inside training sequences (config.bptt_length)
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """obs (B, *obs_shape) -> (dist params (B, P), value (B, value_size)); stateless, no masks."""

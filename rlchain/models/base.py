@@ -33,6 +33,12 @@ class ObservationModel(nn.Module):
     """The ``obs_groups`` group this model reads (set when the config names groups; export then takes the view)."""
     obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
 
+    def read_view(self, obs_slice: slice | tuple[int, ...] | None, obs_group: str | None, flatten_dict: bool) -> None:
+        """The part of the env's observations this model reads, given by the builder that made it
+        (:func:`rlchain.models.build.build_model`, before anything uses the model): ``obs_slice``, the
+        ``obs_groups`` group it names (``obs_group``) and whether Dict observations are concatenated for it."""
+        self.obs_slice, self.obs_group, self.flatten_dict = obs_slice, obs_group, flatten_dict
+
     def preprocess(self, obs: torch.Tensor) -> torch.Tensor:
         """The network input: this model's part of obs, as float, [0, 1] for uint8, normalized when on.
 

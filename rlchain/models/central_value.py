@@ -82,9 +82,12 @@ class CentralValue(ValueModel):
     def __init__(self, cfg: NetworkConfig | None, state_shape: tuple[int, ...], value_size: int,
                  normalize_input: bool, normalize_value: bool, network: nn.Module | None = None,
                  value_normalizer_kind: str = "rl_games", obs_normalizer_kind: str = "rl_games",
-                 obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
-        """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None)."""
+                 obs_normalizer_exclude: tuple[str, ...] = (),
+                 obs_slice: slice | tuple[int, ...] | None = None) -> None:
+        """The built-in critic from ``cfg``, or ``network``: a registered one (cfg None). ``obs_slice``: the
+        critic's part of the env's flat observations (its ``obs_groups.critic`` view, the state part)."""
         super().__init__()
+        self.obs_slice = obs_slice
         self.network = CentralValueNetwork(cfg, state_shape, value_size) if network is None \
             else RegisteredCriticNetwork(network, value_size)
         self.obs_norm = obs_normalizer(state_shape, obs_normalizer_kind, obs_normalizer_exclude) \

@@ -21,7 +21,6 @@ import torch.nn as nn
 
 from rlchain.config.network import ResnetNetworkConfig
 from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
-from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.impala import ImpalaEncoder
 
 EXTRA_KEYS = (("reward", "require_rewards"), ("last_action", "require_last_actions"))
@@ -85,13 +84,11 @@ class ResnetActorCriticNetwork(ActorCriticNetwork):
         return image, torch.cat([obs[:, cols] for cols in self.extra_columns], -1)
 
 
-class ResnetActorCriticBuilder(NetworkBuilder):
-    """Builder registered as ``resnet_actor_critic``."""
+def resnet_actor_critic_network(cfg: ResnetNetworkConfig, **kwargs: Any) -> nn.Module:
+    """The network registered as ``resnet_actor_critic`` (its block parses into ``config_class``)."""
+    continuous = is_continuous(cfg, kwargs["action_space"])
+    return ResnetActorCriticNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"],
+                                    kwargs.get("value_size", 1), continuous, kwargs.get("observation_space"))
 
-    config_class = ResnetNetworkConfig
 
-    def build(self, name: str, **kwargs: Any) -> nn.Module:
-        cfg: ResnetNetworkConfig = self.params
-        continuous = is_continuous(cfg, kwargs["action_space"])
-        return ResnetActorCriticNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"],
-                                        kwargs.get("value_size", 1), continuous, kwargs.get("observation_space"))
+resnet_actor_critic_network.config_class = ResnetNetworkConfig

@@ -22,7 +22,6 @@ import torch.nn as nn
 
 from rlchain.config.network import MlpConfig
 from rlchain.config.off_policy import DQNNetworkConfig, SACNetworkConfig
-from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.layers import linear
 from rlchain.networks.mlp import MLP
 
@@ -94,16 +93,15 @@ class SACNetwork(nn.Module):
         return False
 
 
-class SACNetworkBuilder(NetworkBuilder):
-    """Builder registered as ``soft_actor_critic``."""
+def sac_network(cfg: SACNetworkConfig, **kwargs: Any) -> nn.Module:
+    """The network registered as ``soft_actor_critic``."""
+    if not isinstance(kwargs["action_space"], gym.spaces.Box):
+        raise ValueError(f"params.network: soft_actor_critic needs continuous (Box) actions, the env has "
+                         f"{kwargs['action_space']}")
+    return SACNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"])
 
-    config_class = SACNetworkConfig
 
-    def build(self, name: str, **kwargs: Any) -> nn.Module:
-        if not isinstance(kwargs["action_space"], gym.spaces.Box):
-            raise ValueError(f"params.network: soft_actor_critic needs continuous (Box) actions, the env has "
-                             f"{kwargs['action_space']}")
-        return SACNetwork(self.params, tuple(kwargs["input_shape"]), kwargs["actions_num"])
+sac_network.config_class = SACNetworkConfig
 
 
 class QNetwork(nn.Module):
@@ -131,15 +129,14 @@ class QNetwork(nn.Module):
         return False
 
 
-class QNetworkBuilder(NetworkBuilder):
-    """Builder registered as ``dqn``."""
+def q_network(cfg: DQNNetworkConfig, **kwargs: Any) -> nn.Module:
+    """The network registered as ``dqn``."""
+    if not isinstance(kwargs["action_space"], gym.spaces.Discrete):
+        raise ValueError(f"params.network: dqn needs Discrete actions, the env has {kwargs['action_space']}")
+    return QNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"])
 
-    config_class = DQNNetworkConfig
 
-    def build(self, name: str, **kwargs: Any) -> nn.Module:
-        if not isinstance(kwargs["action_space"], gym.spaces.Discrete):
-            raise ValueError(f"params.network: dqn needs Discrete actions, the env has {kwargs['action_space']}")
-        return QNetwork(self.params, tuple(kwargs["input_shape"]), kwargs["actions_num"])
+q_network.config_class = DQNNetworkConfig
 
 
 OFF_POLICY_MODELS = ("soft_actor_critic", "dqn")

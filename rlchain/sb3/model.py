@@ -32,7 +32,7 @@ from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
-from rlchain.sb3.keys import NUM_ENVS, build_config, multi_input_block, positive_count
+from rlchain.sb3.keys import build_config, multi_input_block, positive_count, rlchain_num_envs
 from rlchain.sb3.logger import SB3Logger
 from rlchain.sb3.model_zip import (
     format_system_info,
@@ -120,7 +120,8 @@ class BaseModel:
         self.defaults = hyperparameters.get("defaults", "sb3")  # kept in hyperparameters: save() keeps it
         if self.defaults not in CHOICES:
             raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {self.defaults!r}")
-        self.n_envs = fixed or n_envs or (SB3_NUM_ENVS if self.defaults == "sb3" else NUM_ENVS)[self.algo]
+        default_envs = SB3_NUM_ENVS[self.algo] if self.defaults == "sb3" else rlchain_num_envs(self.algo)
+        self.n_envs = fixed or n_envs or default_envs
         self.seed = seed
         self.device = ("cuda:0" if torch.cuda.is_available() else "cpu") if device == "auto" else device
         self.verbose = verbose

@@ -17,11 +17,10 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain import Runner
+from rlchain import Runner, env_configurations
 from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.vecenv import StepResult
-from rlchain.registry import ENVS
 from tests.conftest import CONFIGS, ROOT
 
 pytestmark = pytest.mark.smoke
@@ -152,7 +151,8 @@ class LivesEnv:
 
 @pytest.fixture
 def lives_env():
-    ENVS.register("test_lives_env", lambda num_envs, seed, **kw: LivesEnv(num_envs, seed), overwrite=True)
+    build = lambda num_envs, seed, **kw: LivesEnv(num_envs, seed)  # noqa: E731
+    env_configurations.register("test_lives_env", {"vecenv_creator": build}, overwrite=True)
     yield "test_lives_env"
 
 

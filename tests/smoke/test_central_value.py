@@ -147,8 +147,8 @@ def test_central_value_minibatch_is_checked_when_training_not_when_playing(tmp_p
     runner = Runner().load(CONFIG, [override, f"params.config.train_dir={tmp_path}"])  # a player may load it
     with pytest.raises(ConfigError) as err:
         runner.train()
-    assert "central_value_config.minibatch_size: batch num_actors*horizon_length = 512 is not divisible by 300" \
-        in str(err.value)
+    assert ("central_value_config.minibatch_size: batch num_actors*horizon_length = 512 is not divisible by "
+            "minibatch_size 300") in str(err.value)
     assert not os.listdir(tmp_path)  # before a run folder is made
 
 

@@ -136,10 +136,8 @@ def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, 
     monkeypatch.setattr(ppo_module, "warm_start_value", warm_start)
 
     class Start(Callback):
-        drives_trainer = True  # test instrument: the model PPO starts from
-
-        def on_train_start(self, trainer):
-            seen["start"] = {k: v.clone() for k, v in trainer.algorithm.model.state_dict().items()}
+        def on_train_start(self, ctx):
+            seen["start"] = {k: v.clone() for k, v in ctx.algorithm.model.state_dict().items()}
 
     runner.train(callbacks=[Start()])
     student = ckpt.load(last)["model"]

@@ -29,21 +29,19 @@ CALLBACK = 'params.config.callbacks=["tests.smoke.test_distributed:DumpState"]'
 class DumpState(Callback):
     """Test-only: each rank writes its final model, optimizer and counters to $RLCHAIN_TEST_DIST_DUMP."""
 
-    drives_trainer = True  # test instrument: reads the optimizers
-
-    def on_train_end(self, trainer, result):
+    def on_train_end(self, ctx, result):
         folder = os.environ.get(DUMP_ENV)
         if not folder:
             return
-        rank = trainer.comm.rank
-        state = {"model": trainer.model.state_dict(), "optimizer": trainer.algorithm.agent.optimizer.state_dict(),
-                 "lr": trainer.algorithm.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
-                 "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
-        if getattr(trainer.algorithm, "reference", None) is not None:  # GRPO's frozen initial policy
-            state["reference"] = trainer.algorithm.reference.state_dict()
-        if getattr(trainer.algorithm, "central_value", None) is not None:
-            state["central_value"] = trainer.algorithm.central_value.state_dict()
-            state["cv_optimizer"] = trainer.algorithm.cv_agent.optimizer.state_dict()
+        rank = ctx.state.rank
+        state = {"model": ctx.model.state_dict(), "optimizer": ctx.algorithm.agent.optimizer.state_dict(),
+                 "lr": ctx.algorithm.agent.lr, "epoch": ctx.state.epoch, "frames": ctx.state.frames,
+                 "best_reward": ctx.state.best_reward, "seed": ctx.state.seed, "run_dir": result.run_dir}
+        if getattr(ctx.algorithm, "reference", None) is not None:  # GRPO's frozen initial policy
+            state["reference"] = ctx.algorithm.reference.state_dict()
+        if getattr(ctx.algorithm, "central_value", None) is not None:
+            state["central_value"] = ctx.algorithm.central_value.state_dict()
+            state["cv_optimizer"] = ctx.algorithm.cv_agent.optimizer.state_dict()
         torch.save(state, os.path.join(folder, f"rank{rank}.pt"))
 
 

@@ -204,7 +204,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
     trainer = Loop(params, MultiPolicyPPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
                    runner.raw)
     trainer.restore(state, path)
-    again = trainer.state_dict()
+    again = trainer.checkpoints.state_dict()
     for key, value in state["model"].items():
         assert torch.equal(again["model"][key], value), key
     for name in ("runners", "late"):

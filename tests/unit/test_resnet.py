@@ -16,7 +16,7 @@ from rlchain.envs.wrappers.dict_obs import FlatDictBox
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical
 from rlchain.networks.impala import ImpalaEncoder
-from rlchain.networks.resnet_actor_critic import ResnetActorCriticBuilder
+from rlchain.networks.resnet_actor_critic import resnet_actor_critic_network
 
 IMAGE = (4, 84, 84)
 ACTIONS = 6
@@ -37,13 +37,11 @@ def dict_space(image=IMAGE, actions=ACTIONS):
 
 
 def build(cfg, space, action_space=None):
-    builder = ResnetActorCriticBuilder()
-    builder.load(cfg)
     torch.manual_seed(0)
     action_space = action_space or gym.spaces.Discrete(ACTIONS)
     actions = int(np.prod(action_space.shape)) if isinstance(action_space, gym.spaces.Box) else ACTIONS
-    return builder.build("n", action_space=action_space, actions_num=actions, input_shape=space.shape,
-                         observation_space=space, value_size=1)
+    return resnet_actor_critic_network(cfg, action_space=action_space, actions_num=actions, input_shape=space.shape,
+                                       observation_space=space, value_size=1)
 
 
 def flat_obs(batch, reward, action, seed=0):

@@ -31,6 +31,24 @@ def test_rlchain_defaults_fit_the_env_count():
     assert ppo({}, num_actors=32, defaults="rlchain")["config"]["horizon_length"] == 16
 
 
+def test_rlchain_defaults_are_the_packaged_examples_settings():
+    """defaults='rlchain' reads rlchain/configs/<example>.yaml: its settings, not its env and run keys."""
+    from rlchain.config.packaged import config_names
+    from rlchain.config.text import read_data
+
+    for algo, continuous, example in (("ppo", False, "ppo_cartpole"), ("ppo", True, "ppo_pendulum"),
+                                      ("sac", True, "sac_pendulum"), ("dqn", False, "dqn_cartpole")):
+        params = build_config(algo, "Env-v0", 4, continuous, {}, [], defaults="rlchain")["params"]
+        packaged = read_data(config_names()[example])["params"]
+        assert params["network"] == packaged["network"], example
+        assert params["config"]["gamma"] == packaged["config"]["gamma"]
+        assert params["config"]["save_best_after"] == packaged["config"]["save_best_after"]
+        assert params["config"]["env_name"] == "Env-v0" and params["config"]["num_actors"] == 4
+        assert "score_to_win" not in params["config"] and "player" not in params["config"]
+    sac = build_config("sac", "Env-v0", 4, True, {}, [], defaults="rlchain")["params"]["config"]
+    assert sac["actor_lr"] == 3e-4 and isinstance(sac["actor_lr"], float)  # the YAML's '3e-4', a number
+
+
 def test_sb3_defaults_are_sb3s_algorithm():
     params = ppo({}, num_actors=1)
     cfg = params["config"]

@@ -318,7 +318,7 @@ def test_numpy_actions_and_shape_errors():
 def test_registered_builders_and_config_errors(base_config):
     for name in NAMES:
         assert name in ENVS
-    env = ENVS.get("TorchReacher8-v0")(5, 0, device="cpu", max_episode_steps=50)
+    env = ENVS["TorchReacher8-v0"]["vecenv_creator"](5, 0, device="cpu", max_episode_steps=50)
     assert env.max_episode_steps == 50 and env.action_space.shape == (8,)
     with pytest.raises(ValueError, match="env_config.foo: not an option of TorchPendulum-v0"):
         make_vec_env("TorchPendulum-v0", {"foo": 1}, 2, 0, None)

@@ -10,6 +10,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import obs_normalizer
@@ -120,11 +121,7 @@ class DQNAgent:
         else:
             per_sample = (q - target).square()
         loss = (batch["weights"] * per_sample).mean()
-        self.opt.zero_grad(set_to_none=True)
-        loss.backward()
-        if cfg.grad_norm is not None:
-            nn.utils.clip_grad_norm_(self._online, cfg.grad_norm)
-        self.opt.step()
+        optimizer_step(self.opt, loss, params=self._online, max_norm=cfg.grad_norm)
         self.updates += 1
         if self.updates % cfg.target_update_frequency == 0:
             with torch.no_grad():

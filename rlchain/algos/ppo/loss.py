@@ -91,3 +91,9 @@ def stats_vector(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.T
 def named_stats(values: list[float], aux_names: Iterable[str]) -> dict[str, float]:
     """A step's statistics vector (read back) by name: :data:`STEP_STATS`, then ``losses/<name>``."""
     return dict(zip((*STEP_STATS, *(f"losses/{name}" for name in aux_names)), values))
+
+
+def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
+               grad_norm: torch.Tensor) -> dict[str, float]:
+    """An eager step's statistics read back by name (its one host sync)."""
+    return named_stats(stats_vector(loss, stats, aux, grad_norm).tolist(), aux)

@@ -33,7 +33,7 @@ from rlchain.models.build import apply_sigma
 from rlchain.parallel.device import resolve_device
 from rlchain.policy.load import load_policy, load_weights
 from rlchain.policy.play import play
-from rlchain.registry import ENV_CONFIGURATIONS
+from rlchain.registry import ENVS
 from rlchain.rl_games.common import env_configurations, vecenv
 from rlchain.runs import checkpoint as ckpt
 
@@ -103,7 +103,7 @@ class BasePlayer:
         if self.config.get("vec_env") is not None:  # rl_games: the env given in the config
             self.env = self.config["vec_env"]
             return env_configurations.get_env_info(self.env)
-        entry = ENV_CONFIGURATIONS.get(self.env_name) or {}
+        entry = ENVS.get(self.env_name) if self.env_name in ENVS else {}
         if self.player_config.get("use_vecenv", False) and "vecenv_type" in entry:
             self.env = vecenv.create_vec_env(self.env_name, self.parsed.config.player.num_actors, **self.env_config)
             return env_configurations.get_env_info(self.env)
