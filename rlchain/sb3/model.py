@@ -29,10 +29,11 @@ from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
 from rlchain.sb3 import files
-from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
+from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
 from rlchain.sb3.keys import build_config, multi_input_block, positive_count, rlchain_num_envs
+from rlchain.sb3.logger import SB3Logger
 from rlchain.sb3.model_zip import (
     format_system_info,
     has_model,
@@ -262,7 +263,9 @@ class BaseModel:
         epoch, or a list of them. ``progress_bar=True`` shows rlchain's live status line.
         ``reset_num_timesteps=True`` (SB3's default) starts a new run from the current weights with the count at 0;
         False resumes the last run from its checkpoint (optimizer, normalizers and counters) and trains
-        ``total_timesteps`` more. ``log_interval`` is accepted for SB3's signature (rlchain logs every epoch).
+        ``total_timesteps`` more. ``log_interval``: how often what SB3 callbacks ``logger.record`` is dumped
+        (SB3's: PPO every that many iterations, default 1; SAC / DQN every that many episodes, default 4);
+        rlchain's tags: every epoch.
         """
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no env; pass env= to load() to train")
