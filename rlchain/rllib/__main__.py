@@ -12,7 +12,9 @@ import os
 import runpy
 import sys
 
+from rlchain.config.errors import ConfigError
 from rlchain.rllib.alias import FaceImportError, install
+from rlchain.runs.checkpoint import CheckpointError
 from rlchain.version import __version__
 
 USAGE = "usage: python -m rlchain.rllib SCRIPT [ARGS...]  (runs SCRIPT with rlchain standing in for RLlib)"
@@ -36,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
         runpy.run_path(script, run_name="__main__")
     except FaceImportError as exc:
         print(f"{script}: ImportError: {exc}", file=sys.stderr)
+        return 1
+    except (ConfigError, CheckpointError) as exc:  # already one line naming the key / file
+        print(f"{script}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 1
     except ImportError as exc:
         if exc.name and exc.name.startswith(("ray.rllib", "rlchain.rllib")):
