@@ -51,6 +51,8 @@ class RLlibAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def find_spec(self, fullname: str, path: object = None, target: object = None
                   ) -> importlib.machinery.ModuleSpec | None:
+        if fullname == TUNE_CONFIG_MODULE:
+            return _with_config_registration(fullname, path)
         name = target_name(fullname)
         if name is None:
             return None
@@ -71,6 +73,31 @@ class RLlibAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def exec_module(self, module: ModuleType) -> None:
         module.__spec__ = self._own_spec
+
+
+TUNE_CONFIG_MODULE = "ray.tune.tune"
+"""Ray Tune's module whose ``_Config`` (configs with ``to_dict``) a Tuner's ``param_space`` is checked against."""
+
+
+def _with_config_registration(fullname: str, path: object) -> importlib.machinery.ModuleSpec | None:
+    """Ray Tune's own module, which registers the face's AlgorithmConfig as a Tune ``_Config`` once loaded (so
+    ``tune.Tuner("PPO", param_space=config)`` reads ``config.to_dict()``, as for RLlib's configs)."""
+    spec = importlib.machinery.PathFinder.find_spec(fullname, path)
+    if spec is None or spec.loader is None:
+        return spec
+    loader = spec.loader
+
+    class _Registering(importlib.abc.Loader):
+        def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType | None:
+            return loader.create_module(spec)
+
+        def exec_module(self, module: ModuleType) -> None:
+            loader.exec_module(module)
+            from rlchain.rllib.config import AlgorithmConfig
+            module._Config.register(AlgorithmConfig)
+
+    spec.loader = _Registering()
+    return spec
 
 
 def install() -> RLlibAlias:

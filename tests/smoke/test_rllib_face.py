@@ -35,3 +35,13 @@ def test_bad_input_ends_in_one_line(script, message, tmp_path):
     out = _run(script, tmp_path)
     assert out.returncode == 1
     assert out.stderr.strip().count("\n") == 0 and message in out.stderr, out.stderr
+
+
+@pytest.mark.slow
+def test_tuner_runs_ppo_by_name_on_real_ray_tune(tmp_path):
+    """tune.Tuner("PPO", param_space=config) with a grid search: two trials on Ray Tune, each the face's PPO
+    (a minute or more: Ray starts its processes)."""
+    pytest.importorskip("ray.tune")
+    out = _run("tune_ppo.py", tmp_path)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip().endswith("OK")
