@@ -102,6 +102,7 @@ class RLModuleView:
         mu, std = params.chunk(2, dim=-1)  # rlchain's Gaussian params are cat(mu, std)
         return torch.cat([mu, torch.log(std)], -1)
 
+    @torch.no_grad()
     def act(self, obs: Any, explore: bool) -> Any:
         """One action for one observation (numpy / int), sampled or the mode."""
         params, _ = self.model(self._obs({"obs": np.asarray(obs)[None]}))

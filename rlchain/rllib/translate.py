@@ -3,9 +3,9 @@
 What maps (PPO; docs/rllib.md has the table):
 
 - ``train_batch_size`` env steps per ``train()``: rlchain's epoch is ``num_actors * horizon_length`` frames, with
-  ``num_actors = max(1, num_env_runners) * num_envs_per_env_runner`` and the horizon the smallest that holds
-  ``train_batch_size`` and splits into whole ``minibatch_size`` minibatches (RLlib's 4000 / 128 -> 4096 with 2
-  envs: rlchain's minibatches are whole).
+  ``num_actors = max(1, num_env_runners) * num_envs_per_env_runner``; rlchain's minibatches are whole, so the
+  batch is split into the whole number of minibatches nearest ``minibatch_size`` (RLlib's 4000 / 128: 32 of 125),
+  or, where the envs do not divide it, the horizon is rounded up to whole minibatches (:func:`batch_shape`).
 - ``num_epochs`` -> ``mini_epochs``; ``minibatch_size`` -> ``minibatch_size``; ``lr`` -> a constant
   ``learning_rate``; ``gamma``; ``lambda_`` -> ``tau`` (``use_gae=False``: 1.0, the discounted return minus the
   value, as RLlib's); ``clip_param`` -> ``e_clip``; ``vf_clip_param`` -> ``value_loss_clip``; ``vf_loss_coeff``
@@ -85,6 +85,22 @@ def num_envs(config: Any) -> int:
     return runners * max(1, int(settings.get("num_envs_per_env_runner") or 1))
 
 
+def batch_shape(batch: int, envs: int, minibatch: int) -> tuple[int, int]:
+    """(steps per env per epoch, minibatch size) for ``train_batch_size`` ``batch`` on ``envs`` envs.
+
+    rlchain's minibatches are whole. When ``batch`` splits over the envs and into a whole number of minibatches
+    near ``minibatch`` in size (RLlib's 4000 in 32 of 125 for its 128), the epoch is exactly ``batch`` env steps,
+    as RLlib samples; else the horizon is the smallest that holds ``batch`` in whole minibatches of ``minibatch``.
+    """
+    if batch % envs == 0:
+        counts = {max(1, batch // minibatch), max(1, -(-batch // minibatch))}
+        fits = [n for n in counts if batch % n == 0]
+        if fits:
+            n = min(fits, key=lambda n: abs(batch // n - minibatch))
+            return batch // envs, batch // n
+    return horizon(batch, envs, minibatch), minibatch
+
+
 def horizon(batch: int, envs: int, minibatch: int) -> int:
     """Steps per env per epoch: the smallest that gives at least ``batch`` frames in whole minibatches."""
     step = minibatch // math.gcd(minibatch, envs)  # horizon multiple of this: envs * horizon % minibatch == 0
@@ -132,7 +148,7 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     minibatch = _positive(config, "minibatch_size")
     if minibatch > batch:
         minibatch = batch
-    steps = horizon(batch, envs, minibatch)
+    steps, minibatch = batch_shape(batch, envs, minibatch)
     grad_clip = s.get("grad_clip")
     kl_on = bool(s.get("use_kl_loss")) and float(s.get("kl_coeff") or 0.0) > 0
     lr = s.get("lr")

@@ -45,3 +45,25 @@ def test_tuner_runs_ppo_by_name_on_real_ray_tune(tmp_path):
     out = _run("tune_ppo.py", tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]
     assert out.stdout.strip().endswith("OK")
+
+
+def test_continuous_actions_train_and_infer_in_process(tmp_path, monkeypatch):
+    """The one-line swap (no launcher) on Pendulum: a Gaussian policy, RLlib's action_dist_inputs layout
+    (means then log-stds), actions inside the env's bounds."""
+    import torch
+
+    from rlchain.rllib.algorithms.ppo import PPOConfig
+
+    monkeypatch.chdir(tmp_path)
+    algo = (PPOConfig().environment("Pendulum-v1").env_runners(num_env_runners=1)
+            .training(train_batch_size=256, minibatch_size=64, num_epochs=1).build_algo())
+    try:
+        result = algo.train()
+        assert result["num_env_steps_sampled_lifetime"] == 256
+        assert result["learners"]["default_policy"]["vf_loss"] <= 10.0  # vf_clip_param clamps each sample's loss
+        inputs = algo.get_module().forward_inference({"obs": torch.zeros(3, 3)})["action_dist_inputs"]
+        assert inputs.shape == (3, 2)
+        action = algo.compute_single_action([1.0, 0.0, 0.0], explore=False)
+        assert action.shape == (1,) and -2.0 <= float(action[0]) <= 2.0
+    finally:
+        algo.stop()

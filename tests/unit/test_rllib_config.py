@@ -75,8 +75,8 @@ def test_model_config_from_default_model_config_and_old_model_dict():
 def test_translation_maps_rllibs_meaning():
     c = PPOConfig().training(lr=3e-4, num_epochs=6, vf_loss_coeff=0.01, grad_clip=0.5, use_gae=False)
     cfg = _params(c)["config"]
-    # 2 envs, 4000 steps in minibatches of 128: the horizon holds >= 4000 in whole minibatches (4096)
-    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"], cfg["mini_epochs"]) == (2, 2048, 128, 6)
+    # 2 envs, 4000 steps: exactly RLlib's batch, in 32 whole minibatches of 125 (the count nearest 4000 / 128)
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"], cfg["mini_epochs"]) == (2, 2000, 125, 6)
     assert cfg["critic_coef"] == pytest.approx(0.02)  # rlchain's value loss is 0.5 * critic_coef * MSE
     assert (cfg["kl_loss_coef"], cfg["kl_loss_target"], cfg["value_loss_clip"]) == (0.2, 0.01, 10.0)
     assert (cfg["e_clip"], cfg["tau"], cfg["learning_rate"], cfg["lr_schedule"]) == (0.3, 1.0, 3e-4, None)
@@ -91,6 +91,15 @@ def test_translation_maps_rllibs_meaning():
 def test_horizon_holds_the_batch_in_whole_minibatches(batch, envs, minibatch, steps):
     assert translate.horizon(batch, envs, minibatch) == steps
     assert envs * steps >= batch and envs * steps % minibatch == 0
+
+
+@pytest.mark.parametrize("batch, envs, minibatch, shape", [(4000, 2, 128, (2000, 125)), (4000, 64, 128, (64, 128)),
+                                                           (1000, 4, 100, (250, 100)), (4000, 3, 128, (1408, 128)),
+                                                           (256, 1, 64, (256, 64)), (100, 1, 500, (100, 100))])
+def test_batch_shape_keeps_rllibs_batch_when_it_splits(batch, envs, minibatch, shape):
+    steps, size = translate.batch_shape(batch, envs, minibatch)
+    assert (steps, size) == shape
+    assert (envs * steps) % size == 0
 
 
 @pytest.mark.parametrize("build, key", [
