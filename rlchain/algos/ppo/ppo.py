@@ -46,7 +46,8 @@ class PPO(AlgorithmBase):
     config_class = PPOConfig
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
-                   "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
+                   "entropy_coef": "info/entropy_coef", "kl_coef": "info/kl_coef", "clip_frac": "info/clip_frac",
+                   "grad_norm": "info/grad_norm",
                    "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr", "rnd_loss": "losses/rnd_loss",
                    "rnd_reward": "rewards/intrinsic", "mirror_loss": "losses/mirror_loss"}
     console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"))
