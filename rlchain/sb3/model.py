@@ -21,8 +21,9 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
-from rlchain.config.stored import as_data, check_env_id
+from rlchain.config.stored import as_data
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
+from rlchain.envs.known import GYM, check_listed
 from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
 from rlchain.policy.load import load_policy
@@ -341,8 +342,8 @@ class BaseModel:
             return cls._load_archive(path, env, device, kwargs)
         state = files.load_model(path, cls.algo)
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
-        if env is None:
-            check_env_id(state["env_id"], path, "env_id")
+        if env is None and state["env_id"] is not None:  # a name from the file: looked up, never imported
+            check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
         return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],

@@ -92,7 +92,8 @@ def test_a_stored_env_id_that_imports_a_module_is_refused(tmp_path):
         params["config"]["env_name"] = "rlchain_door_payload:Evil-v0"
 
     path = data_only(tmp_path, "env.pth", importing)
-    with pytest.raises(ConfigError, match=r"params.config.env_name: 'rlchain_door_payload:Evil-v0' would import"):
+    with pytest.raises(ConfigError, match=r"params.config.env_name: 'rlchain_door_payload:Evil-v0' is not an env "
+                                          r"gymnasium lists"):
         Runner().load_from_checkpoint(path)
 
 
@@ -140,7 +141,7 @@ def test_sb3_file_is_data_and_its_stored_trust_and_env_are_not_followed(tmp_path
     assert "trust_checkpoint" not in loaded.config["params"]["config"]
     state["env_id"] = "rlchain_door_payload:Evil-v0"
     ckpt.save_atomic(state, path)
-    with pytest.raises(ConfigError, match="env_id: 'rlchain_door_payload:Evil-v0' would import"):
+    with pytest.raises(ConfigError, match="env_id: 'rlchain_door_payload:Evil-v0' is not an env gymnasium lists"):
         rlchain.SAC.load(path)
 
 
