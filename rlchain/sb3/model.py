@@ -28,6 +28,7 @@ from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
+from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
@@ -305,10 +306,20 @@ class BaseModel:
         return {"policy": {k: v.detach().clone() for k, v in self.policy.state_dict().items()}}
 
     def set_parameters(self, load_path_or_dict: str | dict[str, Any], exact_match: bool = True) -> None:
-        """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote); the next ``learn`` starts from them."""
+        """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote, or SB3's ``.zip`` of this algorithm, read as
+        data); the next ``learn`` starts from them."""
         params = load_path_or_dict
-        if isinstance(params, str):
-            params = {"policy": files.load_weights(_file(params))}
+        if isinstance(params, (str, os.PathLike)):
+            path = _file(os.fspath(params))
+            weights = read_sb3_archive(path, self.algo).policy_state if is_sb3_archive(path) \
+                else files.load_weights(path)
+            try:
+                self.policy.load_state_dict(weights, strict=exact_match)
+            except RuntimeError as exc:  # torch's message spans lines: its first says what does not fit
+                raise ckpt.CheckpointError(f"{path}: its weights do not fit this model ("
+                                           f"{' '.join(str(exc).split())[:200]})") from None
+            self._weights_changed = True
+            return
         self.policy.load_state_dict(params["policy"], strict=exact_match)
         self._weights_changed = True
 
