@@ -405,6 +405,9 @@ class Loop:
         head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
         line = (f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward {mean:.2f}, "
                 f"best {self.best_reward:.2f}{success}")
+        failures = self.checkpoints.failures_line()
+        if failures:
+            log.warning(failures)
         lost = self.run is not None and last is None and self.checkpoints.failure is not None
         if lost:
             line += (f"; the final checkpoint was not written ({self.checkpoints.failure}); "
