@@ -98,10 +98,10 @@ def records(path: str) -> Iterator[tuple[int, bytes]]:
             if masked_crc32c(header[:8]) != crc:
                 raise CompareError(f"{path}: the record at byte {offset} has a damaged length (its CRC does not "
                                    f"match): not a TensorBoard event file, or a damaged one")
-            left = size - offset - 16
-            if length > min(left, RECORD_LIMIT):
+            left = size - offset - 12  # after the header: the data and its CRC (4 bytes)
+            if length + 4 > left or length > RECORD_LIMIT:
                 raise CompareError(f"{path}: the record at byte {offset} claims {length} bytes, the file has {left} "
-                                   f"left (at most {RECORD_LIMIT >> 20} MiB read): a "
+                                   f"after its header (at most {RECORD_LIMIT >> 20} MiB read): a "
                                    f"damaged event file, or one still being written (try again when it is done)")
             data = fh.read(length)
             fh.read(4)
