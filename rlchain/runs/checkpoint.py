@@ -27,7 +27,7 @@ except ImportError:  # numpy 1.x
 
 from rlchain.envs.backends.pettingzoo_env import AgentObs
 from rlchain.log import get_logger
-from rlchain.runs import digest, rl_games_checkpoint
+from rlchain.runs import archive, digest, rl_games_checkpoint
 from rlchain.runs.atomic import write_atomic
 
 log = get_logger(__name__)
@@ -180,6 +180,10 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
                                   f"(tensors, arrays, numbers, strings, containers); {TRUST_HINT}") from None
         raise CheckpointError(f"{path}: not a readable checkpoint ({_reason(path, exc)})") from None
     except Exception as exc:  # torch raises many types for a corrupt file
+        if is_sb3_layout(path):
+            raise CheckpointError(f"{path}: a Stable-Baselines3 model archive (data, policy.pth), not a checkpoint "
+                                  f"rlchain writes: load it with rlchain.PPO.load(path) (or SAC / DQN), which "
+                                  f"reads it as data") from None
         raise CheckpointError(f"{path}: not a readable checkpoint ({_reason(path, exc)})") from None
     if not isinstance(state, dict):
         return state
@@ -191,16 +195,25 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
     return _decode(state)
 
 
-def read_zip_member(path: str, member: str, map_location: str | torch.device = "cpu") -> Any:
-    """One torch-saved file inside a zip archive (a Stable-Baselines3 model's ``policy.pth``), read as data
-    (``weights_only``; never trusted: such archives come from elsewhere). A missing or unreadable member, or
-    one naming code, is a one-line CheckpointError."""
+def is_sb3_layout(path: str) -> bool:
+    """Whether ``path`` is a zip with Stable-Baselines3's ``data`` and ``policy.pth`` (its model archive)."""
     try:
         with zipfile.ZipFile(path) as archive:
-            raw = archive.read(member)
-    except (OSError, KeyError, zipfile.BadZipFile) as exc:
-        raise CheckpointError(f"{path}: no readable '{member}' in the archive ({type(exc).__name__}: "
-                              f"{' '.join(str(exc).split())[:120]})") from None
+            return {"data", "policy.pth"} <= set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def read_zip_member(path: str, member: str, map_location: str | torch.device = "cpu") -> Any:
+    """One torch-saved file inside a zip archive (a Stable-Baselines3 model's ``policy.pth``), read as data
+    (``weights_only``; never trusted: such archives come from elsewhere) and within bounds
+    (:mod:`rlchain.runs.archive`: a plain file, at most :data:`~rlchain.runs.archive.WEIGHTS_LIMIT` inflated). A
+    missing, oversized, linked or unreadable member, or one naming code, is a one-line CheckpointError."""
+    try:
+        raw = archive.read_member(path, member, archive.WEIGHTS_LIMIT)
+        archive.check_torch_records(raw, path, member, archive.WEIGHTS_LIMIT)
+    except archive.ArchiveError as exc:
+        raise CheckpointError(str(exc)) from None
     _allow_data_types()
     try:
         return torch.load(io.BytesIO(raw), map_location=map_location, weights_only=True)

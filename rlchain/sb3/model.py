@@ -21,13 +21,15 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
-from rlchain.config.stored import as_data, check_env_id
+from rlchain.config.stored import as_data
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
+from rlchain.envs.known import GYM, check_listed
 from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
 from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
+from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
@@ -367,11 +369,24 @@ class BaseModel:
         return {"policy": {k: v.detach().clone() for k, v in self.policy.state_dict().items()}}
 
     def set_parameters(self, load_path_or_dict: str | dict[str, Any], exact_match: bool = True) -> None:
-        """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote); the next ``learn`` starts from them."""
+        """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote, or SB3's ``.zip`` of this algorithm, read as
+        data); the next ``learn`` starts from them."""
         params = load_path_or_dict
-        if isinstance(params, str):
-            path = _file(params)
-            params = {"policy": read_model(path, files.load_weights) if has_model(path) else files.load_weights(path)}
+        if isinstance(params, (str, os.PathLike)):
+            path = _file(os.fspath(params))
+            if has_model(path):
+                weights = read_model(path, files.load_weights)
+            elif is_sb3_archive(path):
+                weights = read_sb3_archive(path, self.algo).policy_state
+            else:
+                weights = files.load_weights(path)
+            try:
+                self.policy.load_state_dict(weights, strict=exact_match)
+            except RuntimeError as exc:  # torch's message spans lines: its first says what does not fit
+                raise ckpt.CheckpointError(f"{path}: its weights do not fit this model ("
+                                           f"{' '.join(str(exc).split())[:200]})") from None
+            self._weights_changed = True
+            return
         self.policy.load_state_dict(params["policy"], strict=exact_match)
         self._weights_changed = True
 
@@ -426,8 +441,8 @@ class BaseModel:
         else:
             state = files.load_model(path, cls.algo)
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
-        if env is None:
-            check_env_id(state["env_id"], path, "env_id")
+        if env is None and state["env_id"] is not None:  # a name from the file: looked up, never imported
+            check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
         return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
