@@ -23,6 +23,7 @@ CASES = {  # name -> (packaged config, overrides)
     "ppo_mlp": ("ppo_cartpole", []),
     "ppo_lstm": ("ppo_cartpole_masked_velocity_rnn", []),
     "ppo_continuous": ("ppo_pendulum", []),
+    "sac": ("sac_pendulum", []),
     "ppo_central_value": ("ppo_cartpole", [
         "params.config.env_name=ObsStateCartPoleSameSeed-v0", "params.config.normalize_value=True",
         "params.config.central_value_config={network: {name: actor_critic, central_value: True, "
@@ -78,8 +79,16 @@ def train(tree: str, config: str, overrides: list[str], out: str) -> str:
     return done.stdout.strip().splitlines()[-1]
 
 
-def renamed(key: str) -> str:
-    """A before-side model key as the after side names it (MLPs without norm layers: two modules a layer)."""
+def renamed(key: str, sac_hidden: int = 0) -> str:
+    """A before-side model key as the after side names it (MLPs without norm layers: two modules a layer);
+    ``sac_hidden``: the hidden layers of a SAC model's MLPs (its output layers join their Sequential)."""
+    if sac_hidden:
+        key = re.sub(r"actor\.trunk\.net\.(\d+)\.0\.", lambda m: f"actor.trunk.{2 * int(m.group(1))}.", key)
+        key = key.replace("actor.head.", f"actor.trunk.{2 * sac_hidden}.")
+        key = re.sub(r"q([12])\.0\.net\.(\d+)\.0\.", lambda m: f"Q{m.group(1)}.{2 * int(m.group(2))}.", key)
+        key = re.sub(r"q([12])\.1\.", lambda m: f"Q{m.group(1)}.{2 * sac_hidden}.", key)
+        return re.sub(r"^obs_norm\.(mean|var)$", r"running_mean_std.running_\1", key).replace("obs_norm.",
+                                                                                              "running_mean_std.")
     key = re.sub(r"^network\.", "a2c_network.", key)
     key = re.sub(r"^obs_norm\.", "running_mean_std.", key)
     key = re.sub(r"^value_norm\.", "value_mean_std.", key)
@@ -92,6 +101,12 @@ def renamed(key: str) -> str:
     return key
 
 
+def sac_hidden(model: dict) -> int:
+    """The hidden layers of a before-side SAC model's MLPs (0: not SAC)."""
+    found = [int(m.group(1)) for k in model if (m := re.search(r"actor\.trunk\.net\.(\d+)\.0\.weight$", k))]
+    return max(found) + 1 if found else 0
+
+
 def differences(before, after, path: str = "") -> list[str]:
     """Where two loaded checkpoints differ (model dicts compared after :func:`renamed`)."""
     import numpy as np
@@ -99,9 +114,10 @@ def differences(before, after, path: str = "") -> list[str]:
 
     if isinstance(before, dict) and isinstance(after, dict):
         if path.endswith(("model", "central_value")) and all(isinstance(k, str) for k in before):
-            before = {renamed(k): v for k, v in before.items()}
+            before = {renamed(k, sac_hidden(before)): v for k, v in before.items()}
         if path.endswith("checksums.tensors"):  # the tensor checksums, keyed by "<part>.<tensor key>"
-            before = {(part + "." + renamed(rest) if part in ("model", "central_value") else k): v
+            n = sac_hidden({k.partition(".")[2]: None for k in before if k.startswith("model.")})
+            before = {(part + "." + renamed(rest, n) if part in ("model", "central_value") else k): v
                       for k, v in before.items() for part, _, rest in [k.partition(".")]}
         out = [f"{path}: keys {sorted(set(map(str, before)) ^ set(map(str, after)))[:4]}"] \
             if set(before) != set(after) else []
