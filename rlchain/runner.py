@@ -115,8 +115,7 @@ class Runner:
         return self
 
     def load_from_checkpoint(self, path: str, overrides: list[str] | None = None) -> Runner:
-        """Use the config stored inside a checkpoint (for --play without --file): the resolved config of
-        a current checkpoint, or the input config of one written before the config was frozen.
+        """Use the resolved config stored inside a checkpoint (for --play without --file).
         A shipped checkpoint's name (``cartpole``) works."""
         path = locate_checkpoint(path)[0]
         state = ckpt.load(path)
@@ -131,10 +130,9 @@ class Runner:
             warnings.warn(f"{path}: the checkpoint's {', '.join(dropped)} not used (a checkpoint's config gives "
                           f"shapes and hyperparameters only; pass your config with --file to use them)",
                           stacklevel=2)
-        if "config_format" not in state:  # rlchain before the frozen config: the input file's dict
-            check_stored_env(apply_overrides(stored, overrides or [], path)["params"].get("config"), path,
-                             stored_by(stored, overrides or []))
-            return self.load(stored, overrides)
+        if "config_format" not in state:  # a pre-release rlchain stored its input file's dict
+            raise ckpt.CheckpointError(f"{path}: the checkpoint has no 'config_format' (written by a pre-release "
+                                       f"rlchain); pass the config it was trained with: --file cfg.yaml")
         if state["config_format"] != CONFIG_FORMAT:
             raise ckpt.CheckpointError(f"{path}: config format '{state['config_format']}' is not this "
                                        f"rlchain's '{CONFIG_FORMAT}'; pass the config it was trained with: "

@@ -35,6 +35,13 @@ def env_label(ctx: RunContext) -> str:
     return f"{ctx.cfg.env_name} ({type(ctx.env).__name__})"
 
 
+def check_run_state(state: dict[str, Any], path: str) -> None:
+    """A checkpoint to resume from holds the state of its epoch boundary (``run_state``); one written by a
+    pre-release rlchain does not, and is refused in one line before anything is loaded."""
+    if "run_state" not in state:
+        raise ckpt.CheckpointError(f"{path}: the checkpoint has no 'run_state' (written by a pre-release rlchain); "
+                                   f"start a new run, or pass a checkpoint written by this rlchain")
+
 
 @runtime_checkable
 class ResumePosition(Protocol):
@@ -105,10 +112,10 @@ class ResumePoint:
             state = {**state, **ranks[ctx.comm.rank]}
             ctx.tracker.load_state_dict(state["episodes"])
         ckpt.set_rng_state(state["rng"])
-        run_state = state.get("run_state")
+        run_state = state["run_state"]
         # until the first epoch, a checkpoint of this run holds the restored boundary as it was saved
         self.boundary = {"epoch": ctx.epoch, "frames": ctx.frames, "rng": state["rng"],
-                         "episodes": state["episodes"], "run_state": run_state or self._no_run_state()}
+                         "episodes": state["episodes"], "run_state": run_state}
         if ranks is not None and self.rank_restored:
             self.boundary["ranks"] = ranks
         if ctx.comm.active and not self.rank_restored:
@@ -119,9 +126,7 @@ class ResumePoint:
                         f"the learner and counters are restored, this rank's random streams are reseeded")
             return
         why = None
-        if run_state is None:
-            why = "the checkpoint holds no env state (written by an older rlchain)"
-        elif run_state["env"] is None:
+        if run_state["env"] is None:
             why = f"the checkpoint holds no env state ({run_state.get('env_missing')})"
         elif not ctx.spec.state:
             why = f"this env cannot take a saved state (no get_state / set_state; saved from {run_state['env_label']})"
@@ -132,8 +137,8 @@ class ResumePoint:
         ctx.resume_state = run_state
 
     def _no_run_state(self) -> dict[str, Any]:
-        """The run_state of a checkpoint that had none (an older rlchain): no env state, nothing running."""
-        return {"env": None, "env_missing": "written by an older rlchain", "env_label": env_label(self.ctx),
+        """The run_state of a checkpoint that keeps none (an rl_games one): no env state, nothing running."""
+        return {"env": None, "env_missing": "the checkpoint keeps none", "env_label": env_label(self.ctx),
                 "running": self.ctx.tracker.running_state(), "position": None}
 
     def after_start(self) -> None:

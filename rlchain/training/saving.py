@@ -18,7 +18,7 @@ from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint, rl_games_layout
 from rlchain.runs.run_dir import RunDir
 from rlchain.training.events import CallbackList
-from rlchain.training.resume import ResumePoint
+from rlchain.training.resume import ResumePoint, check_run_state
 from rlchain.version import __version__
 
 log = get_logger(__name__)
@@ -193,6 +193,7 @@ class CheckpointSaver:
         state = ckpt.own_state(state)  # one written under rl_games' API (get_full_state_weights too)
         if state.get("origin") == rl_games_checkpoint.ORIGIN:
             state = self._from_rl_games(state, path)
+        check_run_state(state, path)
         if state.get("algo") not in (None, name):
             raise ckpt.CheckpointError(f"{path}: checkpoint was trained with algo '{state['algo']}', "
                                        f"the config says '{name}'")

@@ -52,7 +52,7 @@ def refused(exc_info, path):
 
 
 def test_every_shipped_checkpoint_loads_as_data():
-    assert len(SHIPPED) >= 7
+    assert len(SHIPPED) >= 6  # the six files under rlchain/checkpoints
     for path in SHIPPED:
         assert ckpt.load(path)["format"] == ckpt.FORMAT
 

@@ -20,10 +20,9 @@ import torch
 from rlchain import Runner
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
-from tests.conftest import CONFIGS, ROOT
+from tests.conftest import CONFIGS
 
 pytestmark = pytest.mark.smoke
-OLD_PPO = os.path.join(ROOT, "tests", "data", "ppo_cartpole_7e59869.pth")
 CARTPOLE = ("ppo_cartpole.yaml", ["params.network.mlp.units=[16]", "params.config.num_actors=4",
                                   "params.config.minibatch_size=32"])
 TIMING = ("seconds", "fps", "time")
@@ -220,16 +219,6 @@ def test_an_env_without_state_resumes_as_before_with_one_line(tmp_path, caplog):
                      "(the env has no get_state / set_state); the learner, counters, random streams and "
                      "finished-episode statistics are restored"]
     assert resumed.epoch == 3
-
-
-def test_an_old_checkpoint_resumes_as_before_with_one_line(tmp_path, caplog):
-    overrides = ["params.network.mlp.units=[8]", "params.config.num_actors=4", "params.config.minibatch_size=32"]
-    with caplog.at_level(logging.WARNING, logger="rlchain"):
-        result, _ = train(tmp_path, "old", "ppo_cartpole.yaml", overrides, 3, checkpoint=OLD_PPO)
-    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("resume:")]
-    assert len(lines) == 1 and "CartPole-v1 (GymnasiumVecEnv) starts new episodes: the checkpoint holds no env " \
-                               "state (written by an older rlchain)" in lines[0]
-    assert result.epoch == 3
 
 
 class Handle:

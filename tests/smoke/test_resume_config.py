@@ -1,6 +1,6 @@
-"""Checkpoints and the frozen config: a checkpoint stores the resolved config; checkpoints written
-before (main at 7e59869, tests/data/*_7e59869.pth) still play and resume; one without a config fails in one
-line; live hyperparameters belong to the run and survive a resume."""
+"""Checkpoints and the frozen config: a checkpoint stores the resolved config; one without a config, with
+another config format, or in a pre-release rlchain's layout (no config_format / run_state) fails in one line;
+live hyperparameters belong to the run and survive a resume."""
 
 import copy
 import os
@@ -9,39 +9,16 @@ import pytest
 import torch
 
 from rlchain import Runner
-from rlchain.config.resolve import CONFIG_FORMAT
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from tests.conftest import BASE, CONFIGS, ROOT
 
 pytestmark = pytest.mark.smoke
-DATA = os.path.join(ROOT, "tests", "data")
-OLD_PPO = os.path.join(DATA, "ppo_cartpole_7e59869.pth")  # ppo_cartpole.yaml, mlp [8], 4 envs, 2 epochs
-OLD_SAC = os.path.join(DATA, "sac_pendulum_7e59869.pth")  # sac_pendulum.yaml, mlp [8], 2 envs, 2 epochs
-
-
-def test_old_checkpoints_play_without_a_file():
-    ppo = ckpt.load(OLD_PPO)
-    assert "config_format" not in ppo and "params" in ppo["config"]  # the input dict, as main wrote it
-    runner = Runner().load_from_checkpoint(OLD_PPO)
-    assert runner.params.network.mlp.units == [8] and runner.params.config.num_actors == 4
-    assert runner.play(OLD_PPO, games=1, quiet=True).games == 1
-    sac = Runner().load_from_checkpoint(OLD_SAC, ["params.config.player.games_num=1"])
-    assert sac.params.algo.name == "sac" and sac.play(OLD_SAC, games=1, quiet=True).games == 1
-
-
-def test_old_checkpoint_resumes(tmp_path):
-    overrides = ["params.network.mlp.units=[8]", "params.config.num_actors=4", "params.config.minibatch_size=32",
-                 "params.config.max_epochs=3", f"params.config.train_dir={tmp_path}", "params.config.print_stats=false",
-                 "params.config.score_to_win=100000"]
-    result = Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml"), overrides).train(checkpoint=OLD_PPO)
-    assert result.epoch == 3 and result.frames == 3 * 4 * 16
-    state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
-    assert state["config_format"] == CONFIG_FORMAT and state["epoch"] == 3
+SHIPPED = os.path.join(ROOT, "rlchain", "checkpoints", "cartpole.pth")  # ppo_cartpole.yaml, current format
 
 
 def _write(tmp_path, name, drop=(), **changes):
-    state = ckpt.load(OLD_PPO)
+    state = ckpt.load(SHIPPED)
     for key in drop:
         state.pop(key)
     state.update(changes)
@@ -61,6 +38,23 @@ def test_a_checkpoint_without_the_expected_config_is_one_line(tmp_path):
         with pytest.raises(ckpt.CheckpointError, match=match) as info:
             Runner().load_from_checkpoint(path)
         assert "\n" not in str(info.value)
+
+
+def test_a_pre_release_checkpoint_is_refused_in_one_line(tmp_path):
+    """rlchain before its release wrote the input file's dict (no config_format) and no run_state: such a file
+    neither plays without a config nor resumes; each refusal names the file and the missing entry."""
+    no_format = _write(tmp_path, "no_format.pth", drop=["config_format"])
+    with pytest.raises(ckpt.CheckpointError, match=r"no_format.pth: the checkpoint has no 'config_format' \(written "
+                                                  r"by a pre-release rlchain\); pass the config it was trained with"):
+        Runner().load_from_checkpoint(no_format)
+    no_run_state = _write(tmp_path, "no_run_state.pth", drop=["run_state"])
+    overrides = ["params.config.max_epochs=126", f"params.config.train_dir={tmp_path}",
+                 "params.config.print_stats=false"]
+    with pytest.raises(ckpt.CheckpointError, match=r"no_run_state.pth: the checkpoint has no 'run_state' \(written "
+                                                  r"by a pre-release rlchain\)") as info:
+        Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml"), overrides).train(checkpoint=no_run_state)
+    assert "\n" not in str(info.value)
+    assert Runner().load_from_checkpoint(no_run_state).play(no_run_state, games=1, quiet=True).games == 1
 
 
 class Watch(Callback):
