@@ -26,7 +26,14 @@ CASES = {  # name -> (packaged config, overrides)
     "ppo_central_value": ("ppo_cartpole", [
         "params.config.env_name=ObsStateCartPoleSameSeed-v0", "params.config.normalize_value=True",
         "params.config.central_value_config={network: {name: actor_critic, central_value: True, "
-        "mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"]),
+        "mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2, lr_schedule: linear}"]),
+    "sac": ("sac_pendulum", ["params.config.num_warmup_frames=40", "params.config.batch_size=32"]),
+    "dqn": ("dqn_cartpole", ["params.config.num_warmup_frames=40", "params.config.batch_size=32"]),
+    "grpo": ("grpo_torch_cartpole", ["params.config.num_actors=16", "params.config.horizon_length=32",
+                                     "params.config.minibatch_size=128"]),
+    "multi_policy": ("ppo_pz_simple_tag", ["params.config.num_actors=2", "params.config.minibatch_size=100"]),
+    "distill": ("distill_cartpole_lstm", ["params.config.num_actors=8", "params.config.horizon_length=16"]),
+    "apg": ("apg_point_mass", ["params.config.num_actors=8", "params.config.horizon_length=10"]),
 }
 EPOCHS = 3
 
@@ -70,9 +77,12 @@ print(os.path.join(result.run_dir, "nn"))
 def train(tree: str, config: str, overrides: list[str], out: str) -> str:
     """The nn folder of ``config`` trained for EPOCHS epochs in ``tree``."""
     env = {**os.environ, "PYTHONPATH": os.path.abspath(tree), "OMP_NUM_THREADS": "1"}
-    args = [*overrides, f"params.config.max_epochs={EPOCHS}", "params.config.save_frequency=0"]
-    done = subprocess.run([sys.executable, "-c", TRAIN, config, out, json.dumps(args)], env=env, cwd=out,
-                          capture_output=True, text=True)
+    # one torch thread for every phase: on a CPU the thread plan otherwise follows the machine's load, and an
+    # LSTM's sums with it (the same tree, twice, then differs); the tree's cwd finds a teacher's nn/cartpole.pth
+    args = [*overrides, f"params.config.max_epochs={EPOCHS}", "params.config.save_frequency=0",
+            "params.torch_threads=1"]
+    done = subprocess.run([sys.executable, "-c", TRAIN, os.path.join(tree, "rlchain", "configs", config + ".yaml"),
+                           out, json.dumps(args)], env=env, cwd=tree, capture_output=True, text=True)
     if done.returncode:
         raise RuntimeError(f"{tree}: {config} failed:\n{done.stderr[-3000:]}")
     return done.stdout.strip().splitlines()[-1]
