@@ -88,8 +88,19 @@ def train(tree: str, config: str, overrides: list[str], out: str) -> str:
     return done.stdout.strip().splitlines()[-1]
 
 
-def renamed(key: str) -> str:
-    """A before-side model key as the after side names it (MLPs without norm layers: two modules a layer)."""
+OFF_POLICY = ("sac", "dqn")
+"""Cases whose model is not an actor-critic: only the input normalizer took rl_games' name."""
+
+
+def renamed(key: str, actor_critic: bool = True) -> str:
+    """A before-side model key as the after side names it (MLPs without norm layers: two modules a layer); a
+    multi-policy model's keys keep their ``<policy>.`` prefix."""
+    policy = re.match(r"^(\w+)\.(?=(network|obs_norm|value_norm)\.)", key)
+    if policy is not None:
+        return policy.group(0) + renamed(key[policy.end():], actor_critic)
+    if not actor_critic:
+        key = re.sub(r"^obs_norm\.", "running_mean_std.", key)
+        return re.sub(r"^running_mean_std\.(mean|var)$", r"running_mean_std.running_\1", key)
     key = re.sub(r"^network\.", "a2c_network.", key)
     key = re.sub(r"^obs_norm\.", "running_mean_std.", key)
     key = re.sub(r"^value_norm\.", "value_mean_std.", key)
@@ -102,27 +113,28 @@ def renamed(key: str) -> str:
     return key
 
 
-def differences(before, after, path: str = "") -> list[str]:
+def differences(before, after, path: str = "", actor_critic: bool = True) -> list[str]:
     """Where two loaded checkpoints differ (model dicts compared after :func:`renamed`)."""
     import numpy as np
     import torch
 
     if isinstance(before, dict) and isinstance(after, dict):
         if path.endswith(("model", "central_value")) and all(isinstance(k, str) for k in before):
-            before = {renamed(k): v for k, v in before.items()}
+            before = {renamed(k, actor_critic): v for k, v in before.items()}
         if path.endswith("checksums.tensors"):  # the tensor checksums, keyed by "<part>.<tensor key>"
-            before = {(part + "." + renamed(rest) if part in ("model", "central_value") else k): v
+            before = {(part + "." + renamed(rest, actor_critic) if part in ("model", "central_value") else k): v
                       for k, v in before.items() for part, _, rest in [k.partition(".")]}
         out = [f"{path}: keys {sorted(set(map(str, before)) ^ set(map(str, after)))[:4]}"] \
             if set(before) != set(after) else []
         for key in before:
             if key in after and key != "digest":
-                out += differences(before[key], after[key], f"{path}.{key}")
+                out += differences(before[key], after[key], f"{path}.{key}", actor_critic)
         return out
     if isinstance(before, (list, tuple)) and isinstance(after, (list, tuple)):
         if len(before) != len(after):
             return [f"{path}: length {len(before)} vs {len(after)}"]
-        return [d for i, (b, a) in enumerate(zip(before, after)) for d in differences(b, a, f"{path}[{i}]")]
+        return [d for i, (b, a) in enumerate(zip(before, after))
+                for d in differences(b, a, f"{path}[{i}]", actor_critic)]
     if torch.is_tensor(before) and torch.is_tensor(after):
         same = before.dtype == after.dtype and before.shape == after.shape and torch.equal(before, after)
         return [] if same else [f"{path}: tensors differ"]
@@ -153,7 +165,8 @@ def main() -> None:
             nn_dir = train(tree, config, overrides, out)
             last = sorted(f for f in os.listdir(nn_dir) if f.startswith("last_"))[-1]
             files.append(torch.load(os.path.join(nn_dir, last), map_location="cpu", weights_only=False))
-        diff = [d for d in differences(*files) if "config" not in d.split(":")[0].split(".")[:2]]
+        diff = [d for d in differences(*files, actor_critic=name not in OFF_POLICY)
+                if "config" not in d.split(":")[0].split(".")[:2]]
         tensors = sum(1 for k in files[1]["model"])
         failed |= bool(diff)
         print(f"{name} ({config}, {EPOCHS} epochs): {'IDENTICAL' if not diff else 'DIFFERENT'} "
