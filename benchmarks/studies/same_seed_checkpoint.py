@@ -88,8 +88,20 @@ def train(tree: str, config: str, overrides: list[str], out: str) -> str:
     return done.stdout.strip().splitlines()[-1]
 
 
+LAYERS = 2  # hidden layers of the off-policy model being compared (read from its keys)
 OFF_POLICY = ("sac", "dqn")
-"""Cases whose model is not an actor-critic: only the input normalizer took rl_games' name."""
+"""Cases whose model is SAC's or DQN's: rl_games' SAC layout (one Sequential a trunk, ``Q1`` / ``Q2``)."""
+
+
+def renamed_off_policy(key: str, layers: int) -> str:
+    """A before-side SAC / DQN key as the after side names it (``layers`` hidden layers: the head after them)."""
+    key = re.sub(r"^obs_norm\.", "running_mean_std.", key)
+    key = re.sub(r"^running_mean_std\.(mean|var)$", r"running_mean_std.running_\1", key)
+    key = re.sub(r"\.trunk\.net\.(\d+)\.(\d+)\.", lambda m: f".trunk.{2 * int(m[1]) + int(m[2])}.", key)
+    key = re.sub(r"\.actor\.head\.", f".actor.trunk.{2 * layers}.", key)
+    key = re.sub(r"\.(q[12])\.0\.net\.(\d+)\.(\d+)\.", lambda m: f".{m[1].upper()}.{2 * int(m[2]) + int(m[3])}.",
+                 key)
+    return re.sub(r"\.(q[12])\.1\.", lambda m: f".{m[1].upper()}.{2 * layers}.", key)
 
 
 def renamed(key: str, actor_critic: bool = True) -> str:
@@ -99,8 +111,7 @@ def renamed(key: str, actor_critic: bool = True) -> str:
     if policy is not None:
         return policy.group(0) + renamed(key[policy.end():], actor_critic)
     if not actor_critic:
-        key = re.sub(r"^obs_norm\.", "running_mean_std.", key)
-        return re.sub(r"^running_mean_std\.(mean|var)$", r"running_mean_std.running_\1", key)
+        return renamed_off_policy(key, LAYERS)
     key = re.sub(r"^network\.", "a2c_network.", key)
     key = re.sub(r"^obs_norm\.", "running_mean_std.", key)
     key = re.sub(r"^value_norm\.", "value_mean_std.", key)
@@ -113,6 +124,15 @@ def renamed(key: str, actor_critic: bool = True) -> str:
     return key
 
 
+def _model_part(key: str) -> tuple[str, str]:
+    """A checksum key split into its model's part (``model.``, ``central_value.``, a distill checkpoint's
+    ``teacher.model.``) and the tensor key; ("", key) for any other part."""
+    for part in ("model.", "central_value.", "teacher.model."):
+        if key.startswith(part):
+            return part, key[len(part):]
+    return "", key
+
+
 def differences(before, after, path: str = "", actor_critic: bool = True) -> list[str]:
     """Where two loaded checkpoints differ (model dicts compared after :func:`renamed`)."""
     import numpy as np
@@ -120,10 +140,13 @@ def differences(before, after, path: str = "", actor_critic: bool = True) -> lis
 
     if isinstance(before, dict) and isinstance(after, dict):
         if path.endswith(("model", "central_value")) and all(isinstance(k, str) for k in before):
+            global LAYERS
+            LAYERS = 1 + max((int(m[1]) for k in before for m in [re.search(r"net\.(\d+)\.\d+\.", k)] if m),
+                             default=0)
             before = {renamed(k, actor_critic): v for k, v in before.items()}
         if path.endswith("checksums.tensors"):  # the tensor checksums, keyed by "<part>.<tensor key>"
-            before = {(part + "." + renamed(rest, actor_critic) if part in ("model", "central_value") else k): v
-                      for k, v in before.items() for part, _, rest in [k.partition(".")]}
+            before = {(part + renamed(rest, actor_critic) if part else k): v for k, v in before.items()
+                      for part, rest in [_model_part(k)]}
         out = [f"{path}: keys {sorted(set(map(str, before)) ^ set(map(str, after)))[:4]}"] \
             if set(before) != set(after) else []
         for key in before:
@@ -144,6 +167,8 @@ def differences(before, after, path: str = "", actor_critic: bool = True) -> lis
         return [f"{path}: {type(before).__name__} vs {type(after).__name__}"]
     if isinstance(before, float) and before != before and after != after:
         return []
+    if hasattr(before, "__dataclass_fields__"):  # e.g. multi-policy's per-agent views: field by field
+        return differences(vars(before), vars(after), path, actor_critic)
     skip = path.endswith((".run_dir", ".time", ".wall_time", ".created", ".train_dir", ".duration"))
     return [] if skip or before == after else [f"{path}: {before!r} vs {after!r}"]
 
@@ -166,7 +191,7 @@ def main() -> None:
             last = sorted(f for f in os.listdir(nn_dir) if f.startswith("last_"))[-1]
             files.append(torch.load(os.path.join(nn_dir, last), map_location="cpu", weights_only=False))
         diff = [d for d in differences(*files, actor_critic=name not in OFF_POLICY)
-                if "config" not in d.split(":")[0].split(".")[:2]]
+                if "config" not in d.split(":")[0].split(".")[:3]]
         tensors = sum(1 for k in files[1]["model"])
         failed |= bool(diff)
         print(f"{name} ({config}, {EPOCHS} epochs): {'IDENTICAL' if not diff else 'DIFFERENT'} "
