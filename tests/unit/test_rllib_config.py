@@ -134,3 +134,23 @@ def test_rllib_checkpoints_are_refused_without_unpickling(tmp_path):
     ours.mkdir()
     (ours / CHECKPOINT_FILE).write_bytes(b"")
     assert checkpoint_file(ours) == str(ours / CHECKPOINT_FILE)
+
+
+def test_dqn_config_maps_onto_rlchains_dqn():
+    from rlchain.rllib.algorithms.dqn import DQNConfig
+
+    c = (DQNConfig().env_runners(num_env_runners=2, num_envs_per_env_runner=2)
+         .training(train_batch_size=64, training_intensity=128, n_step=3, epsilon=[(0, 1.0), (5000, 0.02)],
+                   target_network_update_freq=800, replay_buffer_config={"type": "EpisodeReplayBuffer",
+                                                                         "capacity": 20000}))
+    assert c.lr == 5e-4 and c.dueling and c.double_q and c.hiddens == [256]
+    params = translate.dqn_config(c, "CartPole-v1", {})["params"]
+    cfg = params["config"]
+    # 4 envs; 2 updates per env step (intensity 128 / batch 64): 8 per vector step; target every 800 env steps
+    assert (cfg["num_actors"], cfg["num_updates_per_step"], cfg["target_update_frequency"]) == (4, 8, 1600)
+    assert (cfg["epsilon_start"], cfg["epsilon_end"], cfg["epsilon_decay_frames"]) == (1.0, 0.02, 5000)
+    assert cfg["n_step"] == 3 and cfg["replay_buffer_size"] == 20000 and not cfg["prioritized_replay"]
+    assert cfg["num_steps_per_episode"] == 250  # min_sample_timesteps_per_iteration 1000 over 4 envs
+    assert params["network"]["mlp"]["units"] == [256, 256, 256] and params["network"]["dueling"]
+    with pytest.raises(ConfigError, match="num_atoms.*distributional"):
+        translate.dqn_config(DQNConfig().training(num_atoms=51), "CartPole-v1", {})
