@@ -179,15 +179,6 @@ class PPOConfig(ActorCriticConfig):
             return dataclasses.replace(self, central_value_config=self._resolve_central_value(source))
         return self
 
-    def check_central_value_batch(self, source: str) -> None:
-        """The central value's minibatch must divide the batch. Checked when training (with
-        :func:`~rlchain.config.actor_critic.check_batch`), not at load: a player runs other env counts."""
-        cv = self.central_value_config
-        batch = self.num_actors * self.horizon_length
-        if cv is not None and batch % cv.minibatch_size:
-            raise ConfigError(source, "params.config.central_value_config.minibatch_size",
-                              f"batch num_actors*horizon_length = {batch} is not divisible by {cv.minibatch_size}")
-
     def _check_sequences(self, source: str) -> None:
         """An RNN trains on whole sequences: horizon and minibatch must hold whole seq_length blocks."""
         length = self.seq_length

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
+from functools import partial
 from typing import ClassVar
 
 import torch
@@ -22,13 +23,13 @@ import torch
 from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.advantage_stats import MovingAdvantageStats
 from rlchain.algos.core.losses import normalize_advantages, policy_loss
+from rlchain.algos.core.optimizer_step import check_finite, optimizer_step
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
 from rlchain.algos.ppo.loss import Surrogate, adapted_kl_coef, named_stats, ppo_loss, stats_vector
 from rlchain.algos.ppo.optimizer import ScheduledAdam
 from rlchain.config.ppo import PPOConfig
-from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.parallel.communicator import SINGLE, Communicator
@@ -67,11 +68,10 @@ class PPOAgent(ScheduledAdam):
         self.model, self.cfg, self.device = model, cfg, device
         self.train_critic = train_critic
         self.should_stop = should_stop
-        model.bptt_length = cfg.bptt_length
         self.losses = ppo_loss  # compile() swaps in the compiled region
         self._compile_pending = False
         # cuda_graph (resolved by rlchain.algos.ppo.graph_step.resolve_cuda_graph): the step as a captured graph
-        self.graphed = GraphedStep(self._sync_free_step, self.zero_grad) if cuda_graph else None
+        self.graphed = GraphedStep(self._sync_free_step, self.clear_grads) if cuda_graph else None
         self._aux_names: tuple[str, ...] = ()
         self._max_norm = float("inf")  # the graphed step's clip (a Python constant in the graph)
         # rl_games 2.0: advantages normalized by moving statistics instead of the batch's own
@@ -139,17 +139,9 @@ class PPOAgent(ScheduledAdam):
                                   f"{time.perf_counter() - start:.1f} s")
                     if reference is not None:  # the next pass measures the KL against the policy this one saw
                         reference.index_copy_(0, batch.index, current)
-                    self.zero_grad()
-                    self.backward(loss)
-                    if self.comm.active:  # before unscaling and clipping, so every rank sees the same grads
-                        self.comm.average_gradients(self.params)
-                    self.unscale()
-                    grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-                    stats = named_stats(stats_vector(loss, stats_t, aux, grad_norm).tolist(), aux)
-                    bad = first_non_finite(stats)
-                    if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself
-                        raise DivergenceError(f"{bad} in the PPO update")
-                    self.step()
+                    stats = optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm,
+                                           comm=self.comm, scaler=self.scaler, what="the PPO update",
+                                           stats=partial(read_stats, loss, stats_t, aux))
                     del stats["loss"]
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value
@@ -237,9 +229,7 @@ class PPOAgent(ScheduledAdam):
         if reference is not None:
             reference.index_copy_(0, batch.index, current)
         stats = named_stats(values.tolist(), self._aux_names)
-        bad = first_non_finite(stats)
-        if bad is not None:  # the step left the parameters as they were
-            raise DivergenceError(f"{bad} in the PPO update")
+        check_finite(stats, "the PPO update")  # a non-finite step left the parameters as they were
         del stats["loss"]
         return stats
 
@@ -272,6 +262,12 @@ class PPOAgent(ScheduledAdam):
             self.advantage_stats.load_state_dict(advantage_stats)
         super().load_state_dict(state)
         self.config_changed()
+
+
+def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
+               grad_norm: torch.Tensor) -> dict[str, float]:
+    """An eager step's statistics read back by name (its one host sync)."""
+    return named_stats(stats_vector(loss, stats, aux, grad_norm).tolist(), aux)
 
 
 def shuffled_minibatches(order: str, continuous: bool) -> bool:
