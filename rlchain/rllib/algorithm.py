@@ -15,7 +15,7 @@ import math
 import os
 import tempfile
 import time
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import yaml
@@ -84,8 +84,19 @@ class _Functions(RLlibCallback):
             setattr(self, name, lambda *a, _fns=fns, **k: [f(*a, **k) for f in _fns])
 
 
+ALGORITHMS: dict[str, type] = {}
+"""The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
+
+
 class Algorithm:
-    """One RLlib algorithm (PPO) trained by rlchain; see the module docstring."""
+    """One RLlib algorithm (PPO, DQN) trained by rlchain; see the module docstring."""
+
+    algo_name: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.algo_name:
+            ALGORITHMS[cls.algo_name] = cls
 
     def __init__(self, config: Any = None, env: Any = None, logger_creator: Any = None, **kwargs: Any) -> None:
         if config is None or not hasattr(config, "_settings"):
@@ -349,8 +360,11 @@ class Algorithm:
         checkpoint_file(path)  # refuses RLlib's own checkpoints first
         with open(os.path.join(path, CONFIG_FILE)) as f:
             stored = json.load(f)
-        from rlchain.rllib.algorithms.registry import config_class
-        config = config_class(stored.get("algo", "PPO"))()
+        name = stored.get("algo", "PPO")
+        if name not in ALGORITHMS:
+            raise ConfigError(path, "algo", f"'{name}' is not an algorithm of the face "
+                                            f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
+        config = ALGORITHMS[name].get_default_config()
         data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
         env = data.get("env")
         if not isinstance(env, str):

@@ -13,7 +13,9 @@ import gymnasium as gym
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
+from rlchain.errors import did_you_mean
 from rlchain.registry import ENVS
+from rlchain.rllib.multi_agent import MultiAgentEnv
 
 _COUNTER = itertools.count(1)
 
@@ -63,12 +65,10 @@ def env_maker(env: Any, env_config: dict[str, Any], runners: int, per_runner: in
         if creator is not None:
             return (lambda index: creator(context(index))), f"the registered env '{env}'"
         if env not in gym.registry:
-            from rlchain.errors import did_you_mean
             raise ConfigError("AlgorithmConfig.environment()", "env", f"'{env}' is neither a gymnasium id nor a name "
                               f"registered with ray.tune.registry.register_env{did_you_mean(env, gym.registry)}")
         return (lambda index: gym.make(env, **env_config)), env
     if isinstance(env, type):
-        from rlchain.rllib.multi_agent import MultiAgentEnv
         if issubclass(env, MultiAgentEnv):
             raise ConfigError("AlgorithmConfig.environment()", "env", f"{env.__name__} is a MultiAgentEnv: not "
                               f"offered by the face; rlchain trains PettingZoo envs with several policies "

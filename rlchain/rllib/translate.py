@@ -24,6 +24,7 @@ import math
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
 
 ACTIVATIONS = {"tanh": "tanh", "relu": "relu", "elu": "elu", "swish": "swish", "silu": "swish", "gelu": "gelu",
@@ -64,7 +65,6 @@ def check_supported(config: Any) -> None:
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: {why}")
     unknown = set(model) - set(K.DEFAULT_MODEL) - set(K.OLD_MODEL_KEYS)
     if unknown:
-        from rlchain.errors import did_you_mean
         key = sorted(unknown)[0]
         raise _bad(config, f"model_config.{key}", f"not an RLlib model key{did_you_mean(key, K.DEFAULT_MODEL)}")
     if settings.get("grad_clip") is not None and settings.get("grad_clip_by") != "global_norm":
