@@ -1,7 +1,7 @@
 """RLlib's env argument as an env rlchain steps: a gymnasium id (``env_config`` as ``gym.make`` keywords, as
 RLlib does), a name registered with ``ray.tune.registry.register_env`` (its creator gets an :class:`EnvContext`),
-or an env class (built with an :class:`EnvContext`). Each becomes a fresh name in :data:`rlchain.registry.ENVS`
-whose builder steps that many copies with rlchain's gymnasium backend."""
+or an env class (built with an :class:`EnvContext`). Each becomes a fresh name registered with rlchain's
+``env_configurations`` whose builder steps that many copies with rlchain's gymnasium backend."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from typing import Any
 
 import gymnasium as gym
 
+from rlchain import env_configurations
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.errors import did_you_mean
-from rlchain.registry import ENVS
 from rlchain.rllib.multi_agent import MultiAgentEnv
 
 _COUNTER = itertools.count(1)
@@ -79,7 +79,7 @@ def env_maker(env: Any, env_config: dict[str, Any], runners: int, per_runner: in
 
 
 def register(make: Callable[[int], gym.Env], label: str) -> str:
-    """A fresh ENVS name whose builder steps ``make(0..n-1)`` with rlchain's gymnasium backend."""
+    """A fresh env name whose builder steps ``make(0..n-1)`` with rlchain's gymnasium backend."""
     name = f"rllib_env_{next(_COUNTER)}"
 
     def build(num_envs: int, seed: int | None, *, vecenv_type: str | None = None, render: bool = False,
@@ -89,5 +89,5 @@ def register(make: Callable[[int], gym.Env], label: str) -> str:
         return GymnasiumVecEnv(name, num_envs, mode="sync", seed=seed,
                                env_fns=[lambda i=i: make(i) for i in range(num_envs)])
 
-    ENVS.register(name, build)
+    env_configurations.register(name, {"vecenv_creator": build})
     return name
