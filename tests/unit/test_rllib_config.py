@@ -154,3 +154,34 @@ def test_dqn_config_maps_onto_rlchains_dqn():
     assert params["network"]["mlp"]["units"] == [256, 256, 256] and params["network"]["dueling"]
     with pytest.raises(ConfigError, match="num_atoms.*distributional"):
         translate.dqn_config(DQNConfig().training(num_atoms=51), "CartPole-v1", {})
+
+
+def test_unoffered_algorithms_and_multi_agent_envs_are_one_line():
+    from rlchain.rllib import envs
+    from rlchain.rllib.algorithms.sac import SACConfig
+    from rlchain.rllib.env.multi_agent_env import MultiAgentEnv
+
+    with pytest.raises(ConfigError, match="SAC is not trained by the face yet.*rlchain/configs") as info:
+        SACConfig().environment("Pendulum-v1").build_algo()
+    assert "\n" not in str(info.value)
+
+    class TwoAgents(MultiAgentEnv):
+        pass
+
+    with pytest.raises(ConfigError, match="TwoAgents is a MultiAgentEnv.*PettingZoo") as info:
+        envs.env_maker(TwoAgents, {}, 0, 1)
+    assert "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="'CartPol-v1' is neither a gymnasium id.*did you mean 'CartPole-v1'"):
+        envs.env_maker("CartPol-v1", {}, 0, 1)
+
+
+def test_env_context_carries_env_config_and_where_the_env_runs():
+    from rlchain.rllib import envs
+
+    made = []
+    with pytest.raises(ConfigError, match="expected a gymnasium id, a registered env name or an env class"):
+        envs.env_maker(lambda ctx: ctx, {"size": 3}, 2, 2)  # as RLlib: a name or a class, not a function
+    make, _ = envs.env_maker(type("E", (), {"__init__": lambda self, ctx: made.append(ctx)}), {"size": 3}, 2, 2)
+    make(3)
+    ctx = made[-1]
+    assert dict(ctx) == {"size": 3} and (ctx.worker_index, ctx.vector_index, ctx.num_workers) == (2, 1, 2)
