@@ -15,7 +15,7 @@ import math
 import os
 import tempfile
 import time
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import yaml
@@ -84,8 +84,19 @@ class _Functions(RLlibCallback):
             setattr(self, name, lambda *a, _fns=fns, **k: [f(*a, **k) for f in _fns])
 
 
+ALGORITHMS: dict[str, type] = {}
+"""The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
+
+
 class Algorithm:
-    """One RLlib algorithm (PPO) trained by rlchain; see the module docstring."""
+    """One RLlib algorithm (PPO, DQN) trained by rlchain; see the module docstring."""
+
+    algo_name: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.algo_name:
+            ALGORITHMS[cls.algo_name] = cls
 
     def __init__(self, config: Any = None, env: Any = None, logger_creator: Any = None, **kwargs: Any) -> None:
         if config is None or not hasattr(config, "_settings"):
@@ -93,10 +104,10 @@ class Algorithm:
         if env is not None:
             config = config.copy().environment(env)
         self.config = config
-        if config.algo_name != "PPO":
+        if config.algo_name not in ("PPO", "DQN"):
             raise ConfigError(f"{type(config).__name__}", "build_algo", f"{config.algo_name} is not trained by the "
-                              f"face yet: PPOConfig trains on rlchain's PPO; rlchain's own YAMLs train SAC, DQN, "
-                              f"APPO and IMPALA (rlchain/configs/)")
+                              f"face yet: PPOConfig and DQNConfig train on rlchain's PPO and DQN; rlchain's own "
+                              f"YAMLs train SAC, APPO and IMPALA (rlchain/configs/)")
         config.validate()
         config.freeze()
         settings = config._settings
@@ -125,12 +136,16 @@ class Algorithm:
             and envs.tune_registered(settings["env"]) is None
         env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
         continuous = isinstance(self.action_space, gym.spaces.Box)
-        if not isinstance(self.action_space, (gym.spaces.Box, gym.spaces.Discrete)):
+        allowed = (gym.spaces.Discrete,) if config.algo_name == "DQN" else (gym.spaces.Box, gym.spaces.Discrete)
+        if not isinstance(self.action_space, allowed):
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
-                              f"mapped by the face (Discrete or Box)")
+                              f"mapped by the face for {config.algo_name} "
+                              f"({' or '.join(a.__name__ for a in allowed)})")
         gpu = (settings.get("num_gpus_per_learner") or 0) > 0 or (settings.get("num_gpus") or 0) > 0
-        run = {"name": _run_name(settings["env"]), "device": "cuda:0" if gpu else "cpu", "print_stats": False}
-        self.rlchain_config = translate.ppo_config(config, env_name, continuous, run)
+        run = {"name": _run_name(config.algo_name, settings["env"]), "device": "cuda:0" if gpu else "cpu",
+               "print_stats": False}
+        self.rlchain_config = translate.dqn_config(config, env_name, run) if config.algo_name == "DQN" \
+            else translate.ppo_config(config, env_name, continuous, run)
         self.runner = Runner().load(self.rlchain_config)
         extra = []
         if any(type(cb).on_episode_end is not RLlibCallback.on_episode_end
@@ -186,17 +201,21 @@ class Algorithm:
         length = nan if report.mean_length is None else report.mean_length
         ctx = self._stepper.context
         frames = int(report.frames)
-        per_iter = int(self.rlchain_config["params"]["config"]["num_actors"]
-                       * self.rlchain_config["params"]["config"]["horizon_length"])
+        cfg = self.rlchain_config["params"]["config"]
+        per_iter = int(cfg["num_actors"] * cfg.get("horizon_length", cfg.get("num_steps_per_episode", 1)))
         episode_custom = self._env_runner_metrics.reduce()
         env_runners = {"episode_return_mean": ret, "episode_len_mean": length,
                        "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
                        "num_episodes_lifetime": int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
                        **nested(episode_custom)}
-        learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-                   "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-                   "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-                   "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+        if self.config.algo_name == "DQN":
+            learner = {"qf_loss": stats.get("td_loss", nan), "qf_mean": stats.get("q", nan),
+                       "curr_epsilon": stats.get("epsilon", nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
+        else:
+            learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
+                       "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
+                       "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+                       "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
         if "kl_coef" in stats:
             learner["curr_kl_coeff"] = stats["kl_coef"]
         return {
@@ -341,8 +360,11 @@ class Algorithm:
         checkpoint_file(path)  # refuses RLlib's own checkpoints first
         with open(os.path.join(path, CONFIG_FILE)) as f:
             stored = json.load(f)
-        from rlchain.rllib.algorithms.registry import config_class
-        config = config_class(stored.get("algo", "PPO"))()
+        name = stored.get("algo", "PPO")
+        if name not in ALGORITHMS:
+            raise ConfigError(path, "algo", f"'{name}' is not an algorithm of the face "
+                                            f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
+        config = ALGORITHMS[name].get_default_config()
         data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
         env = data.get("env")
         if not isinstance(env, str):
@@ -412,8 +434,8 @@ def _deep_update(into: dict[str, Any], new: dict[str, Any]) -> None:
             into[key] = value
 
 
-def _run_name(env: Any) -> str:
+def _run_name(algo: str, env: Any) -> str:
     import re
     base = env if isinstance(env, str) else getattr(env, "__name__", "env")
     base = re.sub(r"-v\d+$", "", base.rsplit("/", 1)[-1])
-    return "rllib_ppo_" + (re.sub(r"[^a-z0-9]+", "_", base.lower()).strip("_") or "env")
+    return f"rllib_{algo.lower()}_" + (re.sub(r"[^a-z0-9]+", "_", base.lower()).strip("_") or "env")
