@@ -176,7 +176,22 @@ ATARI_PRESETS = ("PongNoFrameskip-v4", "BreakoutNoFrameskip-v4", "MsPacmanNoFram
 def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
     """Drop rl_games' top-level no-op keys (``params.load_checkpoint`` ...) with a warning; an Atari preset
     under a CNN with ``permute_input: False`` gets channels-first frames (:func:`_atari_channels`)."""
+    if isinstance(params.get("pbt"), dict):
+        params = _pbt_section(params, source)
     return _atari_channels(_drop_no_effect(params, NO_EFFECT_PARAMS_KEYS, source, "params"))
+
+
+def _pbt_section(params: dict[str, Any], source: str) -> dict[str, Any]:
+    """rl_games 2.0's ``params.pbt`` (DexPBT, read by its PbtAlgoObserver): disabled, dropped with a warning;
+    enabled, an error naming rlchain's population-based training (Ray Tune's PBT)."""
+    out = dict(params)
+    section = out.pop("pbt")
+    if section.get("enabled"):
+        raise ConfigError(source, "params.pbt.enabled", "rl_games' re-exec PBT is not offered; rlchain's "
+                          "population-based training is Ray Tune's PBT: --tune SEARCH.yaml with backend: ray "
+                          "(docs/tuning.md)")
+    warn_once(source, "params.pbt", "accepted for rl_games compatibility, no effect: enabled is False")
+    return out
 
 
 def _atari_channels(params: dict[str, Any]) -> dict[str, Any]:
