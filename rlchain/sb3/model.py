@@ -34,6 +34,7 @@ from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
+from rlchain.sb3.her import is_her
 from rlchain.sb3.keys import build_config, multi_input_block, positive_count, rlchain_num_envs
 from rlchain.sb3.logger import SB3Logger
 from rlchain.sb3.model_zip import (
@@ -134,6 +135,8 @@ class BaseModel:
         except ValueError as exc:
             key, _, message = str(exc).partition(": ")
             raise ConfigError(source, key, message) from None
+        if is_her(given.get("replay_buffer_class")):
+            given["replay_buffer_class"] = "HerReplayBuffer"  # kept by name: the model's arguments stay data
         self.hyperparameters = given  # data only: a schedule's value at progress 1 (the callable: _schedules)
         self.num_timesteps = 0
         self._checkpoint: str | None = None  # the last run's last checkpoint: a later learn resumes it
@@ -169,7 +172,8 @@ class BaseModel:
             except ValueError as exc:
                 key, _, message = str(exc).partition(": ")
                 raise ConfigError(f"rlchain.{self.algo.upper()}", key, message) from None
-        elif POLICIES[self.policy_name] is not None:
+        elif POLICIES[self.policy_name] is not None and "replay" not in config["params"]["config"]:
+            # (hindsight replay reads a goal Dict flattened with its parts named: the algorithm's own network)
             multi_input_block(self.algo, config["params"], POLICIES[self.policy_name])
         return config
 
@@ -473,9 +477,12 @@ class BaseModel:
         if env is not None or stored_env is not None:
             model.env_source, model._env_arg = env_source(env or stored_env, cls.algo), env or stored_env
             model.n_envs = model.env_source.num_envs or init["n_envs"]
-            if env is not None and not same_spaces(model._read_spaces(), model._spaces):
+            read = model._read_spaces() if env is not None else None
+            if read is not None and not same_spaces(read, model._spaces):
                 raise ValueError(f"{path}: the model's spaces {model._spaces.observation_space} / "
                                  f"{model._spaces.action_space} are not {model.env_source.label}'s")
+            if read is not None:
+                model._spaces = read  # the env's own: a flattened Dict keeps its parts (predict takes the Dict)
         model._loaded_config = config
         model.policy = model._build_policy(config)
         model.policy.load_state_dict(weights)
