@@ -80,7 +80,7 @@ MUTANTS = (
            "rlchain/models/normalization.py",
            "self.mean += delta * n / total",
            "self.mean += delta * self.count / total",
-           ("tests/unit/test_normalization.py",),
+           ("tests/unit/test_normalization.py", "tests/unit/test_running_mean_std.py"),
            ("tests/learning/test_learning.py::test_ppo_pendulum_reaches_minus_250",)),
     Mutant("checkpoint_optimizer", "a restored checkpoint keeps a fresh optimizer (Adam moments lost)",
            "rlchain/algos/ppo/optimizer.py",
