@@ -49,7 +49,7 @@ def installed(*modules: str) -> pytest.MarkDecorator:
 
 @pytest.fixture
 def scoped_registries():
-    """What the test registers (algos, models, networks, envs, vecenv types, log writers, env_configurations)
+    """What the test registers (algos, models, networks, envs, vecenv types, log writers)
     is gone after it; what it replaced or unregistered is back."""
     with scoped_registrations():
         yield

@@ -15,6 +15,7 @@ import numpy as np
 import torch
 
 from rlchain.runs import checkpoint as ckpt
+from rlchain.sb3.zip_format import count
 
 FORMAT = "rlchain-sb3-1"
 SPACE = "__space__"
@@ -115,6 +116,13 @@ def load_model(path: str, algo: str) -> dict[str, Any]:
     spaces = state.get("spaces")
     if not isinstance(spaces, (list, tuple)) or len(spaces) != 2:
         raise ckpt.CheckpointError(f"{path}: no observation and action spaces stored")
+    for key, low, high, default in (("num_timesteps", 0, 2**62, 0), ("n_envs", 1, 1 << 16, 1),
+                                    ("seed", -(2**63), 2**63 - 1, None)):
+        state[key] = count(state.get(key), path, key, low, high, default)
+    if not isinstance(state.get("env_id"), (str, type(None))):
+        raise ckpt.CheckpointError(f"{path}: env_id: expected a gymnasium id or nothing, got "
+                                   f"{type(state.get('env_id')).__name__}")
+    state.setdefault("env_id", None)
     return {**state, "spaces": tuple(decode_space(s, path) for s in spaces),
             "policy_kwargs": decode_value(state.get("policy_kwargs"), path),
             "hyperparameters": decode_value(state.get("hyperparameters"), path)}
