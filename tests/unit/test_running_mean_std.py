@@ -13,6 +13,6 @@ def test_batches_folded_in_give_the_moments_of_their_concatenation():
     for batch in batches:
         rms.update(batch)
     every = torch.cat(batches)
-    torch.testing.assert_close(rms.mean, every.mean(0))
-    torch.testing.assert_close(rms.var, every.var(0, unbiased=False))
+    torch.testing.assert_close(rms.running_mean, every.mean(0))
+    torch.testing.assert_close(rms.running_var, every.var(0, unbiased=False))
     assert float(rms.count) == pytest.approx(len(every))
