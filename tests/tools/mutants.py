@@ -111,7 +111,7 @@ MUTANTS = (
            "rlchain/algos/off_policy/sac_agent.py",
            "torch._foreach_lerp_(self._target_params, self._critic_params, cfg.critic_tau)",
            "torch._foreach_lerp_(self._target_params, self._critic_params, 1.0 - cfg.critic_tau)",
-           ("tests/unit/test_sac_dqn.py",),
+           ("tests/unit/test_sac_dqn.py", "tests/unit/test_sac_target_update.py"),
            ("tests/learning/test_off_policy_learning.py::test_sac_pendulum_reaches_minus_250_within_20k_steps",)),
 )
 
