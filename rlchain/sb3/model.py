@@ -9,9 +9,11 @@ normalizers and counters included) and trains ``total_timesteps`` more frames.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import os
+from collections.abc import Iterator
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -357,8 +359,9 @@ class BaseModel:
             check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
-        return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
-                            stored, state["model"], state["num_timesteps"])
+        with _named_by(path):
+            return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
+                                stored, state["model"], state["num_timesteps"])
 
     @classmethod
     def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
@@ -367,8 +370,9 @@ class BaseModel:
         archive = read_sb3_archive(path, cls.algo)
         init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
                 "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
-        return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space, archive.action_space),
-                            None, archive.policy_state, archive.num_timesteps)
+        with _named_by(path):
+            return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space,
+                                archive.action_space), None, archive.policy_state, archive.num_timesteps)
 
     @classmethod
     def _restore(cls, path: str, policy: str, env: Any, stored_env: Any, init: dict[str, Any], spaces: tuple,
@@ -390,7 +394,11 @@ class BaseModel:
                                  f"{model._spaces.action_space} are not {model.env_source.label}'s")
         model._loaded_config = config
         model.policy = model._build_policy(config)
-        model.policy.load_state_dict(weights)
+        try:
+            model.policy.load_state_dict(weights)
+        except RuntimeError as exc:  # the file's spaces and weights disagree (torch's message spans lines)
+            raise ckpt.CheckpointError(f"{path}: its weights do not fit the network its spaces give ("
+                                       f"{' '.join(str(exc).split())[:200]})") from None
         model.num_timesteps = num_timesteps
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
@@ -431,6 +439,18 @@ class BaseModel:
     def get_vec_normalize_env(self) -> Any:
         """The ``VecNormalize`` of an SB3 vec env the model trains on, or None."""
         return None if self.env_source is None else vec_normalize_of(self.env_source.vec_env)
+
+
+@contextlib.contextmanager
+def _named_by(path: str) -> Iterator[None]:
+    """A config error while a loaded file's values (or the caller's keywords beside them) build the model names
+    the file, not the model class."""
+    try:
+        yield
+    except ConfigError as exc:
+        if exc.source == path:
+            raise
+        raise ConfigError(path, exc.path, exc.message) from None
 
 
 def _file(path: str, must_exist: bool = True) -> str:
