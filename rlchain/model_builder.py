@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from rlchain.registry import ALGOS, ENVS, MODELS, NETWORK_CONFIGS, NETWORKS, VECENVS
+from rlchain.registry import ALGOS, MODELS, NETWORK_CONFIGS, NETWORKS
 
 
 def register_network(name: str, builder: Any, overwrite: bool = False, config_class: type | None = None) -> Any:
@@ -43,5 +43,4 @@ def register_algo(name: str, algorithm_cls: Any, overwrite: bool = False) -> Any
     return ALGOS.register(name, algorithm_cls, overwrite=overwrite)
 
 
-__all__ = ["register_network", "register_model", "register_algo", "NETWORKS", "MODELS", "ALGOS",
-           "ENVS", "VECENVS"]
+__all__ = ["register_network", "register_model", "register_algo", "NETWORKS", "MODELS", "ALGOS"]

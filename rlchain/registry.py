@@ -110,6 +110,9 @@ class Registry:
         known = ", ".join(sorted(self._items))
         return f"unknown {self.kind} '{name}'{hint} (registered: {known})"
 
+    def __getitem__(self, name: str) -> Any:  # rl_games reads its tables as dicts: configurations[name]
+        return self.get(name)
+
     def __contains__(self, name: object) -> bool:
         ensure_builtins()
         return name in self._items
@@ -128,13 +131,12 @@ ALGOS = Registry("algo")
 MODELS = Registry("model")
 NETWORKS = Registry("network")
 ENVS = Registry("env")
+"""``params.config.env_name`` name -> its entry, the dict given to ``rlchain.env_configurations.register``
+(``env_creator`` / ``vecenv_creator`` / ``vecenv_type``); rl_games' ``env_configurations.configurations``."""
 VECENVS = Registry("vecenv_type")
 """``params.config.vecenv_type`` name -> rl_games-style creator ``(config_name, num_actors, **env_config)``."""
 WRITERS = Registry("log writer")
 """``params.config.log_writers`` name -> writer class ``(run_dir) -> Writer`` (rlchain/runs/writers.py)."""
-
-ENV_CONFIGURATIONS: dict[str, dict] = {}
-"""rl_games' ``env_configurations.configurations``: env name -> the dict given to ``register``."""
 
 NETWORK_CONFIGS: dict[str, type] = {}
 """network name -> the dataclass its block parses into, given to ``register_network(config_class=...)``."""
@@ -144,21 +146,20 @@ REGISTRIES = (ALGOS, MODELS, NETWORKS, ENVS, VECENVS, WRITERS)
 
 @contextlib.contextmanager
 def scoped_registrations() -> Iterator[None]:
-    """Every registry, ``ENV_CONFIGURATIONS`` and ``NETWORK_CONFIGS`` as they were once the block ends.
+    """Every registry and ``NETWORK_CONFIGS`` as they were once the block ends.
 
     For tests (rlchain's and a user's) that register their own envs, networks or writers.
     """
     ensure_builtins()
-    saved = [(table, dict(table)) for table in (ENV_CONFIGURATIONS, NETWORK_CONFIGS)]
+    saved = dict(NETWORK_CONFIGS)
     with contextlib.ExitStack() as stack:
         for registry in REGISTRIES:
             stack.enter_context(registry.scoped())
         try:
             yield
         finally:
-            for table, items in saved:
-                table.clear()
-                table.update(items)
+            NETWORK_CONFIGS.clear()
+            NETWORK_CONFIGS.update(saved)
 
 
 def network_config_class(name: str) -> type | None:

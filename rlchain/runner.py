@@ -210,9 +210,8 @@ class Runner:
         cfg = params.config
         main = group is None or group.is_main  # under torchrun only rank 0 writes folders, logs and checkpoints
         check_writer_names(cfg.log_writers, params.source)  # before a run folder exists
-        run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw) if main else None
-        if run is not None:
-            run.layout = self.layout if self.layout != "rlchain" else cfg.checkpoint_names
+        layout = self.layout if self.layout != "rlchain" else cfg.checkpoint_names
+        run = create_run_dir(cfg.train_dir, cfg.name, cfg.full_experiment_name, self.raw, layout) if main else None
         writers = make_writers(cfg.log_writers, run.root, params.source) if run is not None else []
         tracker = None
         if options.track and run is not None:  # a log writer like the others: wandb.log of the tagged scalars
@@ -221,16 +220,14 @@ class Runner:
             writers.append(tracker)
         ok = False
         logger = TrainLogger(run.summaries if run is not None else None, cfg.print_stats, writers=writers,
-                             progress=cfg.progress)
-        if self.layout == "rl_games":
-            logger.rl_games = rl_games_tags(cfg)
+                             progress=cfg.progress, rl_games=rl_games_tags(cfg) if self.layout == "rl_games" else None)
         trainer = None
         try:
             extra = {"comm": group} if group is not None else {}  # the Communicator its agents sync through
             with communicator.building_with(group or communicator.SINGLE):  # Loop.create: no leak on failure
                 trainer = Loop.create(params, built.algorithm, built.env, model, built.device, run, logger,
-                                      built.seed, self.raw, checked=True, resuming=state is not None, **extra)
-            trainer.threads = built.threads
+                                      built.seed, self.raw, checked=True, resuming=state is not None,
+                                      threads=built.threads, **extra)
             if state is not None:
                 trainer.restore(state, checkpoint)
             if options.sigma is not None:
@@ -239,7 +236,7 @@ class Runner:
                 trainer.join_ranks()
             trainer.events.extend(options.callbacks)
             if cfg.print_stats:
-                verb, origin = ("resuming", f" from {checkpoint} at epoch {trainer.epoch}") if state \
+                verb, origin = ("resuming", f" from {checkpoint} at epoch {trainer.ctx.epoch}") if state \
                     else ("training", "")
                 log.info(f"rlchain: {verb} {params.algo.name} on {cfg.env_name}{origin} ({built.env.num_envs} envs, "
                          f"device {built.device}, seed {built.seed}) -> {run.root}")

@@ -2,7 +2,9 @@
 
 import copy
 import os
+import resource
 import sys
+import time
 
 import pytest
 import torch
@@ -37,7 +39,7 @@ BASE = {
 
 @pytest.fixture
 def scoped_registries():
-    """What the test registers (algos, models, networks, envs, vecenv types, log writers, env_configurations)
+    """What the test registers (algos, models, networks, envs, vecenv types, log writers)
     is gone after it; what it replaced or unregistered is back."""
     with scoped_registrations():
         yield
@@ -47,6 +49,46 @@ def scoped_registries():
 def base_config():
     """A fresh small valid CartPole config dict."""
     return copy.deepcopy(BASE)
+
+
+@pytest.fixture(autouse=True)
+def one_thread_for_learning_tests(request, monkeypatch):
+    """A learning test (marked slow) trains and plays on one torch thread, rollout and update alike, unless its
+    config names its own counts: the thread plan otherwise follows the machine's load (the update takes the
+    cores idle at the time), and with it the float rounding, so a same-seed run could pass on an idle machine
+    and fail on a busy one. Pinned, two learning tests run side by side (pytest -n 2) as they run alone."""
+    if request.node.get_closest_marker("slow") is None:
+        yield
+        return
+    import rlchain.runner
+    from rlchain.parallel.threads import set_threads
+
+    def pinned(torch_threads, update_threads, device, *args, **kwargs):
+        return set_threads(torch_threads or 1, update_threads or 1, device, *args, **kwargs)
+
+    monkeypatch.setattr(rlchain.runner, "set_threads", pinned)
+    torch.set_num_threads(1)
+    yield
+
+
+_TIMES = os.environ.get("RLCHAIN_TEST_TIMES")
+"""A file to append each test's wall and CPU seconds to, as it ends: the budget of a run on a loaded machine,
+where wall time says more about the other programs than about the test (CPU time: this process and the
+children it waited for; a test on two threads counts both)."""
+
+
+def _cpu() -> float:
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+if _TIMES:
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        wall, cpu = time.perf_counter(), _cpu()
+        yield
+        with open(_TIMES, "a") as f:
+            f.write(f"{time.perf_counter() - wall:.2f}\t{_cpu() - cpu:.2f}\t{item.nodeid}\n")
 
 
 def _signal_state() -> tuple:

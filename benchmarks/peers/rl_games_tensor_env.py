@@ -20,14 +20,14 @@ VECENV_TYPE = "RLCHAIN_TENSOR"
 
 def make_env(env_name: str, num_actors: int, **env_config: Any) -> Any:
     """The rlchain tensor env ``env_name`` with ``num_actors`` rows (``env_config``: device, seed, the env's
-    own keys), built by the builder rlchain's ENVS registry holds for it."""
+    own keys), built by the vecenv_creator of its entry in rlchain's env table (registry.ENVS)."""
     if REPO not in sys.path:
         sys.path.insert(0, REPO)
     import rlchain.envs.backends.torch_envs  # noqa: F401  (registers the tensor envs)
     from rlchain.registry import ENVS
 
     seed = env_config.pop("seed", None)
-    return ENVS.get(env_name)(num_actors, seed, **env_config)
+    return ENVS[env_name]["vecenv_creator"](num_actors, seed, **env_config)
 
 
 def register(env_name: str) -> None:

@@ -156,16 +156,22 @@ ROLLOUT_MIN_BYTES = 16  # the least one step of one env takes in the rollout sto
 
 
 def check_batch(config: ActorCriticConfig, source: str, agents: int = 1) -> None:
-    """minibatch_size must divide the batch num_actors * horizon_length * ``agents`` (agents per env).
+    """The one check that a minibatch divides the batch num_actors * horizon_length * ``agents`` (agents per env):
+    ``minibatch_size``, and the central value's (``central_value_config.minibatch_size``) when there is one.
 
     At load time the env is unknown, so the algorithm runs this once the env is built (its
     ``check_config``), with its agent count, before a run folder is created.
     """
     batch = config.num_actors * config.horizon_length * agents
     what = "num_actors*horizon_length" + (f"*agents ({agents} per env)" if agents > 1 else "")
-    if config.minibatch_size > batch:
-        raise ConfigError(source, "params.config.minibatch_size",
-                          f"minibatch_size {config.minibatch_size} is larger than the batch {what} = {batch}")
-    if batch % config.minibatch_size != 0:
-        raise ConfigError(source, "params.config.minibatch_size",
-                          f"batch {what} = {batch} is not divisible by minibatch_size {config.minibatch_size}")
+    central_value = getattr(config, "central_value_config", None)
+    sizes = [("minibatch_size", config.minibatch_size)]
+    if central_value is not None:
+        sizes.append(("central_value_config.minibatch_size", central_value.minibatch_size))
+    for key, size in sizes:
+        if size > batch:
+            raise ConfigError(source, f"params.config.{key}", f"minibatch_size {size} is larger than the batch "
+                                                              f"{what} = {batch}")
+        if batch % size != 0:
+            raise ConfigError(source, f"params.config.{key}", f"batch {what} = {batch} is not divisible by "
+                                                              f"minibatch_size {size}")

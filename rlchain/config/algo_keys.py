@@ -33,8 +33,8 @@ def owners_of(key: str) -> list[str]:
 def drop_other_algo_keys(config: dict[str, Any], algo: str, source: str, path: str = "params.config",
                          warn: bool = True) -> dict[str, Any]:
     """``config`` (a raw ``params.config`` mapping) without the keys that belong to another algorithm than
-    ``algo``, each with a one-line warning when ``warn`` (a checkpoint written before the classes were split
-    holds every key of the old shared class: read back quietly). Unknown keys stay for the parser's error."""
+    ``algo``, each with a one-line warning when ``warn`` (False: warned about already). Unknown keys stay for
+    the parser's error."""
     cls = config_class_of(algo)
     own = _keys(cls)
     out = dict(config)

@@ -81,8 +81,7 @@ class VTraceConfig(ActorCriticConfig):
     """Why this algorithm ignores a key of another algorithm (added to the warning)."""
 
     def validate(self) -> tuple[str, str] | None:
-        """Every runner holds the same number of envs, so every fragment has the same shape; the learner
-        batch (``num_actors * horizon_length``) divides into minibatches."""
+        """Every runner holds the same number of envs, so every fragment has the same shape."""
         appo = self.appo
         if appo.max_policy_lag < appo.broadcast_interval - 1:  # every fragment would be too old: no progress
             return "appo.max_policy_lag", (f"{appo.max_policy_lag} is below broadcast_interval - 1 = "
@@ -92,12 +91,7 @@ class VTraceConfig(ActorCriticConfig):
         if runners is not None and runners.num_workers is not None and self.num_actors % runners.num_workers:
             return "env_runners.num_workers", (f"num_actors {self.num_actors} does not divide by {runners.num_workers} "
                                                f"workers: appo/impala runners need equal env slices")
-        batch = self.num_actors * self.horizon_length
-        if self.minibatch_size is not None and (self.minibatch_size > batch or batch % self.minibatch_size):
-            what = "is larger than" if self.minibatch_size > batch else "does not divide"
-            return "minibatch_size", (f"minibatch_size {self.minibatch_size} {what} the batch "
-                                      f"num_actors*horizon_length = {batch}")
-        return None
+        return None  # the minibatch against the batch: check_batch, once the env's agents are known
 
 
 @dataclass(frozen=True)

@@ -113,7 +113,8 @@ def translate(raw: dict[str, Any], source: str) -> dict[str, Any]:
 
     defaults = {**DEFAULTS, **(LEARNING_ENV_DEFAULTS if "learning_env" in trainer else {})}
     env_name, env_config = resolve_env(trainer, source)
-    if "device" not in env_config and "device" in inspect.signature(ENVS.get(env_name)).parameters:
+    builder = ENVS.get(env_name).get("vecenv_creator")
+    if "device" not in env_config and builder is not None and "device" in inspect.signature(builder).parameters:
         env_config["device"] = str(trainer.get("device", "cpu"))  # EmbodiChain's envs live on the sim device
     num_envs = int(trainer.get("num_envs", defaults["num_envs"]))
     horizon = int(_renamed((trainer, "trainer.rollout_steps"), (trainer, "trainer.buffer_size"),

@@ -15,7 +15,7 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
-from rlchain.config.algo_keys import config_class_of, drop_other_algo_keys
+from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import parse_dataclass, parse_value
 from rlchain.config.load import check_malloc
@@ -39,18 +39,11 @@ class ProcessContext:
     rank: int = 0
     world_size: int = 1
 
-    @property
-    def device(self) -> str:
-        return self.params.config.device
-
-    @property
-    def print_stats(self) -> bool:
-        return self.params.config.print_stats
-
     def as_dict(self) -> dict[str, Any]:
         """The per-process values as plain data (stored in checkpoints beside the config)."""
-        return {"seed": self.seed, "rank": self.rank, "world_size": self.world_size, "device": self.device,
-                "print_stats": self.print_stats}
+        cfg = self.params.config
+        return {"seed": self.seed, "rank": self.rank, "world_size": self.world_size, "device": cfg.device,
+                "print_stats": cfg.print_stats}
 
 
 def resolve(params: Params, seed: int | None, group: Any = None) -> ProcessContext:
@@ -122,12 +115,7 @@ def params_from_state(data: Any, source: str) -> Params:
     model = parse_dataclass(NamedBlock, data["model"], "params.model", source)
     if algo.name not in ALGOS:
         raise ConfigError(source, "params.algo.name", ALGOS.unknown_message(algo.name))
-    # a checkpoint written before each algorithm had its own config class holds the keys of PPO's (appo's
-    # tau, impala's e_clip ...) at their defaults: they belong to another algorithm, read back quietly
-    stored = data["config"]
-    if isinstance(stored, dict):
-        stored = drop_other_algo_keys(stored, algo.name, source, warn=False)
-    config = parse_dataclass(config_class_of(algo.name), stored, "params.config", source)
+    config = parse_dataclass(config_class_of(algo.name), data["config"], "params.config", source)
     cv = getattr(config, "central_value_config", None)  # PPO's asymmetric critic
     if cv is not None:
         network = parse_network(cv.network, source, "params.config.central_value_config.network")

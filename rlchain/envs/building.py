@@ -6,15 +6,17 @@ runners and the :class:`~rlchain.envs.spec.EnvSpec`) and each Ray env worker
 
 ``env_name`` is resolved in this order:
 
-1. a name in :data:`rlchain.registry.ENVS` -- a builder ``(num_envs, seed, **env_config) -> VecEnv``
-   (it also gets ``vecenv_type=`` / ``render=`` / ``groups=`` when its signature names them). Built in:
+1. a name registered with :func:`rlchain.env_configurations.register` (:data:`rlchain.registry.ENVS`) whose
+   entry has a ``vecenv_creator`` ``(num_envs, seed, **env_config) -> VecEnv`` (it also gets
+   ``vecenv_type=`` / ``render=`` / ``groups=`` when its signature names them). Built in:
    ``openai_gym`` and ``ray`` (gymnasium id in ``env_config.name``; ``vecenv_type: RAY`` puts ``ray``'s on Ray
    workers, as any env's), ``gymnasium`` (rl_games 2.0: gymnasium id in
    ``env_config.env_name``), ``envpool`` (task id in
    ``env_config.env_name``), ``brax`` (a brax.envs name in ``env_config.env_name``, a tensor env),
    ``playground`` (a MuJoCo Playground registry name in ``env_config.env_name``, a tensor env)
    and ``pettingzoo``;
-2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments.
+2. a gymnasium id, ``env_config`` being ``gym.make`` keyword arguments (an entry with an ``env_creator`` is
+   registered with gymnasium under its name).
 
 ``vecenv_type`` is looked up in :data:`rlchain.registry.VECENVS` (:func:`rlchain.envs.vecenv.register`):
 the built-in names (``rlchain.envs.factory.BuiltinVecEnv``, registered in :mod:`rlchain.builtins`) carry a
@@ -110,8 +112,8 @@ def build_local_env(env_name: str, env_config: dict | None, num_envs: int, seed:
     if kind not in VECENV_TYPES:  # a user-registered vecenv_type
         _no_groups(groups, f"vecenv_type '{kind}'")
         return make_registered_vecenv(resolve_vecenv_type(kind)[1], env_name, num_envs, seed, render, config)
-    if env_name in ENVS:
-        builder = ENVS.get(env_name)
+    builder = ENVS.get(env_name).get("vecenv_creator") if env_name in ENVS else None
+    if builder is not None:
         params = inspect.signature(builder).parameters
         extra = {k: v for k, v in (("vecenv_type", kind), ("render", render), ("groups", groups))
                  if k in params}
@@ -270,7 +272,7 @@ BUILTIN_ENVS = {"openai_gym": openai_gym_env, "envpool": envpool_env, "gymnasium
                 "brax": brax_env,  # imports jax/brax only when built
                 "playground": playground_env,  # imports mujoco_playground only when built
                 "pettingzoo": pettingzoo_env}  # imports pettingzoo (and the env's package) only when built
-"""The env builders :mod:`rlchain.builtins` registers in :data:`rlchain.registry.ENVS`."""
+"""The ``vecenv_creator`` of the envs :mod:`rlchain.builtins` registers with ``env_configurations.register``."""
 
 VECENV_ALIASES = {"gymnasium": "auto", "brax": "auto"}
 """Other built-in ``vecenv_type`` names: rl_games' BRAX (the brax env is its own batch) and ``gymnasium``."""

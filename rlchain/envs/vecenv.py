@@ -73,7 +73,7 @@ import numpy as np
 import torch
 
 from rlchain.config.errors import ConfigError
-from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
+from rlchain.registry import ENVS, VECENVS
 
 DROPPED = "dropped"
 
@@ -168,7 +168,7 @@ def resolve_vecenv_type(vecenv_type: str | None, env_name: str | None = None) ->
     entry (its ``RAY`` reads as auto: Ray workers are the YAML's choice), else ``auto``. An unknown name is a
     one-line ConfigError with the registered names and a did-you-mean."""
     if vecenv_type is None:
-        entry = ENV_CONFIGURATIONS.get(env_name, {}) if env_name else {}
+        entry = ENVS.get(env_name) if env_name in ENVS else {}
         vecenv_type = entry.get("vecenv_type")
         if vecenv_type is None or str(vecenv_type).lower() == "ray":
             vecenv_type = "auto"

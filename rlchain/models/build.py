@@ -21,6 +21,7 @@ from rlchain.envs.obs_groups import ObsView, group_parts, resolve_view
 from rlchain.envs.spec import env_spec
 from rlchain.envs.wrappers.central_value import obs_state_split
 from rlchain.models.actor_critic import ActorCritic
+from rlchain.models.base import ObservationModel
 from rlchain.models.central_value import CentralValue
 from rlchain.models.distributions import actions_num as action_head_size
 from rlchain.models.size import build_within_memory
@@ -81,17 +82,19 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
 
     try:
         model = build_within_memory(build, device, params.source)
-        model.flatten_dict = flatten
     except ConfigError:
         raise
     except ValueError as exc:
         key = f"params.config.obs_groups.{view.group}" if not view.whole and view.size else ""
         raise ConfigError(params.source, key, f"{'' if not key else 'the network cannot take this view: '}"
                                               f"{exc}") from None
-    if not view.whole and view.size:
-        model.obs_slice = view.selector()
-        if getattr(params.config, "obs_groups", None) is not None or groups is not None:
-            model.obs_group = view.group
+    # the part of the observations the model reads: the registered factory's signature (rl_games') has no place
+    # for it, so the builder completes the model with it, once, before anything uses the model (a duck-typed
+    # user model, not an ObservationModel, reads its observations its own way)
+    if isinstance(model, ObservationModel):
+        named = getattr(params.config, "obs_groups", None) is not None or groups is not None
+        part = bool(not view.whole and view.size)
+        model.read_view(view.selector() if part else None, view.group if part and named else None, flatten)
     return model.to(device)
 
 
@@ -119,7 +122,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
             return CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
                                 params.config.normalize_value,
                                 value_normalizer_kind=params.config.value_normalizer,
-                                obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+                                obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
+                                obs_slice=view.selector())
         # a registered network, given its block and rl_games' critic kwargs
         block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
         network = instantiate(NETWORKS.get(_network_name(cv.network)), block, key, actions_num=value_size,
@@ -128,7 +132,8 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
         return CentralValue(None, state_shape, value_size, cv.normalize_input,
                             params.config.normalize_value, network=network,
                             value_normalizer_kind=params.config.value_normalizer,
-                            obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"))
+                            obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
+                            obs_slice=view.selector())
 
     try:
         model = build_within_memory(build, device, params.source, key)
@@ -136,7 +141,6 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
         raise
     except ValueError as exc:
         raise ConfigError(params.source, key, str(exc)) from None
-    model.obs_slice = view.selector()
     return model.to(device)
 
 

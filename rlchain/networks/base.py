@@ -1,7 +1,8 @@
 """The network-builder contract, the same shape as rl_games' so user builders port over.
 
-A builder is registered with ``rlchain.model_builder.register_network(name, BuilderClass)``.
-rlchain calls ``builder = BuilderClass(); builder.load(params_network); builder.build(name, **kwargs)``
+A builder is registered with ``rlchain.model_builder.register_network(name, builder)``: a function (or a
+network class) ``builder(params_network, **kwargs) -> nn.Module``, or a class with rl_games' shape, which rlchain
+calls as ``b = BuilderClass(); b.load(params_network); b.build(name, **kwargs)``; either way
 with kwargs ``actions_num``, ``input_shape``, ``value_size``, ``num_seqs``, ``action_space`` and
 ``observation_space`` (the env's own space: for Dict observations, which arrive flattened, the Dict,
 so the network can split them by key with ``rlchain.envs.wrappers.dict_obs.split_flat_obs``).
@@ -120,14 +121,15 @@ IGNORED_KEYS = ("name", "central_value")  # read by rlchain itself / added by rl
 
 
 def instantiate(builder: Any, params: Any, path: str = "params.network", **kwargs: Any) -> nn.Module:
-    """Build a module from a registered builder: a NetworkBuilder-like class or a plain function.
+    """Build a module from a registered builder: a NetworkBuilder-like class (``load`` / ``build``) or a
+    callable ``builder(block, **kwargs)`` (a function, a network class).
 
     A plain-dict block (a builder without ``config_class``) is checked after the build: keys the
     builder never read are a warning that names them (``path`` is the block's place in the config).
     """
     tracked = ReadKeys(params) if type(params) is dict else None
     block = tracked if tracked is not None else params
-    if isinstance(builder, type):
+    if isinstance(builder, type) and callable(getattr(builder, "build", None)):
         obj = builder()
         obj.load(block)
         module = obj.build("network", **kwargs)

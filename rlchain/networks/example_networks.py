@@ -13,7 +13,8 @@ from the last hidden layer. Its ``get_aux_loss()`` returns ``{'aux_dist_loss': M
 last forward pass, which PPO adds to its loss and logs as ``losses/aux_dist_loss``: the
 template for a user network with auxiliary losses.
 
-rlchain hands every network flat observations; these builders get the env's Dict space as the
+Each class is registered as it is (built as ``TestNet(params_network, **kwargs)``). rlchain hands every
+network flat observations; these networks get the env's Dict space as the
 ``observation_space`` keyword and take each key's columns back out of the flat vector.
 """
 
@@ -25,8 +26,6 @@ import gymnasium as gym
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
-
-from rlchain.networks.base import NetworkBuilder
 
 AUX_TARGET = "aux_target"
 
@@ -119,24 +118,6 @@ class TestNetAuxLoss(TestNet):
         x = self.features(obs)
         self.aux_dist_loss = F.mse_loss(self.aux_loss_linear(x), obs[:, self.columns[AUX_TARGET]])
         return self.heads(x)
-
-
-class TestNetBuilder(NetworkBuilder):
-    """Registered as ``testnet``."""
-
-    __test__ = False
-
-    def build(self, name: str, **kwargs: Any) -> nn.Module:
-        return TestNet(self.params, **kwargs)
-
-
-class TestNetAuxLossBuilder(NetworkBuilder):
-    """Registered as ``testnet_aux_loss``."""
-
-    __test__ = False
-
-    def build(self, name: str, **kwargs: Any) -> nn.Module:
-        return TestNetAuxLoss(self.params, **kwargs)
 
 
 def _get(params: Any, key: str, default: Any) -> Any:

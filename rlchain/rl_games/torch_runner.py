@@ -16,9 +16,10 @@ from __future__ import annotations
 import copy
 from typing import Any
 
+from rlchain import env_configurations
 from rlchain.config.params import Params
 from rlchain.envs import vecenv as _vecenv
-from rlchain.registry import ENV_CONFIGURATIONS
+from rlchain.registry import ENVS
 from rlchain.rl_games.algos_torch.players import PLAYERS
 from rlchain.rl_games.common.algo_observer import AlgoObserver, DefaultAlgoObserver, IsaacAlgoObserver
 from rlchain.rl_games.common.object_factory import ObjectFactory
@@ -70,8 +71,8 @@ def _register_vecenv_type(config: dict[str, Any]) -> None:
     """rl_games 2.0: a config's ``vecenv_type`` binds its ``env_name`` in ``env_configurations.configurations``
     (when the name is not registered yet), so the env is built by that vector env."""
     vecenv_type, env_name = config.get("vecenv_type"), config.get("env_name")
-    if vecenv_type and isinstance(env_name, str) and env_name not in ENV_CONFIGURATIONS:
-        ENV_CONFIGURATIONS[env_name] = {"vecenv_type": vecenv_type}
+    if vecenv_type and isinstance(env_name, str) and env_name not in ENVS:
+        env_configurations.register(env_name, {"vecenv_type": vecenv_type})
 
 
 def _vec_env_creator(env: Any) -> Any:

@@ -24,7 +24,8 @@ class TrainLogger:
     the last epoch's, for callbacks."""
 
     def __init__(self, summaries_dir: str | None, print_stats: bool = True, stream: Any = None,
-                 writers: list[Writer] | None = None, progress: ProgressConfig | None = None) -> None:
+                 writers: list[Writer] | None = None, progress: ProgressConfig | None = None,
+                 rl_games: RlGamesTags | None = None) -> None:
         self.tensorboard = TensorBoardWriter(summaries_dir) if summaries_dir is not None else None
         self.print_stats = print_stats
         self.stream = stream or sys.stdout
@@ -35,8 +36,8 @@ class TrainLogger:
         self.start = time.time()
         self.frames = self.epochs = 0
         self.last_scalars: dict[str, float] = {}
-        self.rl_games: RlGamesTags | None = None
-        """Set for runs through rl_games' API: rl_games' extra tags, scalars at the frames before the epoch."""
+        self.rl_games = rl_games
+        """Given for runs through rl_games' API: rl_games' extra tags, scalars at the frames before the epoch."""
 
     @property
     def writer(self) -> Any:

@@ -44,8 +44,10 @@ class RunDir:
         return os.path.join(self.nn, f"{self.name}_{kind}.pth")
 
 
-def create_run_dir(train_dir: str, name: str, experiment: str | None, raw_config: dict) -> RunDir:
-    """Make the folders (failing early with a clear message) and store the config used.
+def create_run_dir(train_dir: str, name: str, experiment: str | None, raw_config: dict,
+                   layout: str = "rlchain") -> RunDir:
+    """Make the folders (failing early with a clear message) and store the config used; ``layout``: the
+    checkpoint names (:attr:`RunDir.layout`).
 
     The run folder must lie inside ``train_dir`` (the config's name checks keep it so; this is the last
     guard), its ``nn`` and ``summaries`` must be real folders (not symlinks planted to send files
@@ -69,4 +71,4 @@ def create_run_dir(train_dir: str, name: str, experiment: str | None, raw_config
         write_text_atomic(os.path.join(root, "config.yaml"), yaml.safe_dump(raw_config, sort_keys=False))
     except OSError as exc:
         raise OSError(f"cannot create run folder '{root}': {exc.strerror or exc}") from None
-    return RunDir(root=root, name=name)
+    return RunDir(root=root, name=name, layout=layout)

@@ -30,14 +30,13 @@ def _import_wandb() -> Any:
 
 
 class WandbRun:
-    """The started wandb run; ``finish()`` ends it.
-
-    Other attributes (``id``, ``dir``, ``url``, ``config``, ...) are the wandb run's.
+    """The started wandb run; ``finish()`` ends it (once). ``wandb_run`` is wandb's own run object
+    (``log``, ``id``, ``dir``, ``url``, ``config``, ...).
     """
 
     def __init__(self, wandb: Any, run: Any) -> None:
         self._wandb = wandb
-        self.run = run
+        self.wandb_run = run
         self.finished = False
 
     def finish(self, exit_code: int | None = None) -> None:
@@ -45,10 +44,7 @@ class WandbRun:
         if self.finished:
             return
         self.finished = True
-        self.run.finish(exit_code=exit_code)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.run, name)
+        self.wandb_run.finish(exit_code=exit_code)
 
     def __enter__(self) -> WandbRun:
         return self

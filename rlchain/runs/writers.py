@@ -239,7 +239,7 @@ class WandbWriter(Writer):
         self.exit_code: int | None = None
 
     def write(self, scalars: Mapping[str, float], step: Step) -> None:
-        self.run.log({**scalars, "global_step": step.frames})
+        self.run.wandb_run.log({**scalars, "global_step": step.frames})
 
     def close(self) -> None:
         self.run.finish(exit_code=self.exit_code)

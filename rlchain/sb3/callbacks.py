@@ -15,95 +15,29 @@ never imported here) is driven by :class:`SB3Callbacks`, an rlchain callback, th
 - ``on_training_end()`` when it ends.
 
 ``self.logger.record(key, value)`` / ``dump(step)`` go to rlchain's log writers (TensorBoard, wandb, ...) through
-:class:`SB3Logger`. A run without SB3 callbacks gets no :class:`SB3Callbacks` and pays nothing per step.
+:class:`~rlchain.sb3.logger.SB3Logger`, dumped at SB3's log interval (``learn``'s ``log_interval``: PPO every
+that many iterations, default 1; SAC and DQN every that many finished episodes, default 4). A run without SB3
+callbacks gets no :class:`SB3Callbacks` and pays nothing per step.
 """
 
 from __future__ import annotations
 
 import time
-from collections import defaultdict
 from typing import Any
 
 import numpy as np
 
+from rlchain.sb3.logger import SB3Logger  # noqa: F401  (importable from here too)
 from rlchain.training.events import Callback
 
 STOP_REASON = "a Stable-Baselines3 callback returned False"
+LOG_INTERVAL = {"ppo": 1, "sac": 4, "dqn": 4}
+"""SB3's default ``log_interval`` of ``learn``: iterations (on-policy) or episodes (off-policy) between dumps."""
 
 
 def is_sb3_callback(obj: Any) -> bool:
     """Whether ``obj`` has SB3's callback protocol (``init_callback``, ``on_step``, ``update_locals``)."""
     return all(callable(getattr(obj, name, None)) for name in ("init_callback", "on_step", "update_locals"))
-
-
-class SB3Logger:
-    """The part of SB3's ``Logger`` callbacks use: ``record`` / ``record_mean`` collect values, ``dump(step)``
-    writes the numeric ones to the run's log writers (those excluded from ``tensorboard`` are skipped) and
-    clears them. Outside a run ``dump`` only clears. ``name_to_value`` holds what was recorded since the last dump.
-    """
-
-    def __init__(self, folder: str | None = None) -> None:
-        self.name_to_value: dict[str, Any] = defaultdict(float)
-        self.name_to_count: dict[str, int] = defaultdict(int)
-        self.name_to_excluded: dict[str, tuple[str, ...]] = {}
-        self.level = 20
-        self.dir = folder
-        self.output_formats: list[Any] = []
-        self.writer: Any = None  # the run's ScalarWriter while a run is going
-
-    def record(self, key: str, value: Any, exclude: str | tuple[str, ...] | None = None) -> None:
-        """Keep ``value`` under ``key`` until the next :meth:`dump`."""
-        self.name_to_value[key] = value
-        self.name_to_excluded[key] = (exclude,) if isinstance(exclude, str) else tuple(exclude or ())
-
-    def record_mean(self, key: str, value: float | None, exclude: str | tuple[str, ...] | None = None) -> None:
-        """Keep the running mean of the values recorded under ``key`` until the next :meth:`dump`."""
-        if value is None:
-            return
-        old, count = self.name_to_value[key], self.name_to_count[key]
-        self.name_to_value[key] = old * count / (count + 1) + value / (count + 1)
-        self.name_to_count[key] = count + 1
-        self.name_to_excluded[key] = (exclude,) if isinstance(exclude, str) else tuple(exclude or ())
-
-    def dump(self, step: int = 0) -> None:
-        """Write the recorded numbers at ``step`` (env frames) and forget them."""
-        if self.writer is not None:
-            for key, value in self.name_to_value.items():
-                if "tensorboard" in self.name_to_excluded.get(key, ()):
-                    continue
-                if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-                    self.writer.add_scalar(key, float(value), int(step))
-        self.name_to_value.clear()
-        self.name_to_count.clear()
-        self.name_to_excluded.clear()
-
-    def get_dir(self) -> str | None:
-        """The run folder (None before the first run)."""
-        return self.dir
-
-    def set_level(self, level: int) -> None:
-        """SB3's verbosity level (kept; rlchain logs through its own writers)."""
-        self.level = level
-
-    def log(self, *args: Any, level: int = 20) -> None:
-        """Print ``args`` when ``level`` is at least the logger's."""
-        if level >= self.level:
-            print(*args, flush=True)
-
-    def debug(self, *args: Any) -> None:
-        self.log(*args, level=10)
-
-    def info(self, *args: Any) -> None:
-        self.log(*args, level=20)
-
-    def warn(self, *args: Any) -> None:
-        self.log(*args, level=30)
-
-    def error(self, *args: Any) -> None:
-        self.log(*args, level=40)
-
-    def close(self) -> None:
-        """Nothing to close: the run owns the writers."""
 
 
 class _Episodes:
@@ -139,6 +73,9 @@ class SB3Callbacks(Callback):
         self._in_rollout = False
         self._stopped = False
         self._episodes: _Episodes | None = None
+        given = self.learn_locals.get("log_interval")
+        self.log_interval = int(given) if given is not None else LOG_INTERVAL[getattr(model, "algo", "ppo")]
+        self._iterations = self._episode_count = 0
 
     def on_train_start(self, ctx: Any) -> None:
         self.model.logger.writer = ctx.writer
@@ -168,6 +105,11 @@ class SB3Callbacks(Callback):
                 self._stopped = True
                 ctx.request_stop(STOP_REASON)
                 return
+        if getattr(self.model, "algo", "ppo") != "ppo":  # off-policy: SB3 dumps every log_interval episodes
+            for _ in range(int(dones.sum())):
+                self._episode_count += 1
+                if self.log_interval > 0 and self._episode_count % self.log_interval == 0:
+                    self.model.logger.dump(self.model.num_timesteps)
 
     def _infos(self, result: Any, rewards: np.ndarray, dones: np.ndarray, truncated: np.ndarray) -> list[dict]:
         """SB3's per-env info dicts: the SB3 vec env's own, else built from the step (see the module docstring)."""
@@ -191,6 +133,10 @@ class SB3Callbacks(Callback):
             self._in_rollout = False
             for cb in self.callbacks:
                 cb.on_rollout_end()
+            self._iterations += 1  # on-policy: SB3 dumps every log_interval iterations, after the rollout
+            if getattr(self.model, "algo", "ppo") == "ppo" and self.log_interval > 0 and \
+                    self._iterations % self.log_interval == 0:
+                self.model.logger.dump(self.model.num_timesteps)
 
     def on_train_end(self, ctx: Any, result: Any) -> None:
         for cb in self.callbacks:

@@ -5,7 +5,7 @@ SB3 trains the algorithm SB3 trains: PPO with 2,048-step rollouts of one env, 10
 ``learning_rate`` 3e-4 constant, ``vf_coef`` 0.5 (rlchain's ``critic_coef`` 1.0: its value loss is halved),
 ``max_grad_norm`` 0.5, no value clipping (``clip_range_vf=None``), no reward scaling, no input or value
 normalization, separate 64-64 tanh actor and critic with orthogonal initialization. ``defaults="rlchain"`` starts
-from rlchain's packaged examples instead (:data:`rlchain.sb3.keys.DEFAULTS`).
+from rlchain's packaged examples instead (:func:`rlchain.sb3.keys.packaged_defaults`).
 
 Advantages are normalized per minibatch, as SB3 does (``advantage_normalization: minibatch``). What differs from
 SB3 and stays: the action heads keep torch's default initialization (SB3: orthogonal, gains 0.01 and 1); PPO's

@@ -1,7 +1,7 @@
 """The ``env`` argument of the SB3-style API as an ``env_name`` rlchain builds.
 
 A gymnasium id is used as it is. A callable (``lambda: gym.make(...)``), a gymnasium env object or a
-gymnasium ``SyncVectorEnv`` / ``AsyncVectorEnv`` object is registered in :data:`rlchain.registry.ENVS`
+gymnasium ``SyncVectorEnv`` / ``AsyncVectorEnv`` object is registered with ``env_configurations.register``
 under a fresh name whose builder steps those envs with rlchain's gymnasium backend. An env object is
 one env (rlchain steps it, never closes it: it stays the caller's); a vector env object's sub-envs are
 stepped by rlchain with same-step resets. A Stable-Baselines3 ``VecEnv`` (DummyVecEnv, SubprocVecEnv,
@@ -18,10 +18,10 @@ from typing import Any
 
 import gymnasium as gym
 
+from rlchain import env_configurations
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.envs.backends.sb3_vecenv import SB3VecEnv, is_sb3_vecenv, sb3_env_id
-from rlchain.registry import ENVS
 
 _COUNTER = itertools.count(1)
 
@@ -49,7 +49,7 @@ def _id_of(env: Any) -> str:
 
 
 def _register(label: str, factories: list[Callable[[], gym.Env]], fixed: bool) -> str:
-    """A fresh ENVS name whose builder steps ``factories`` (cycled when more envs are asked for, unless
+    """A fresh env name whose builder steps ``factories`` (cycled when more envs are asked for, unless
     ``fixed``: env objects are exactly as many as given)."""
     name = f"python_env_{next(_COUNTER)}"
 
@@ -64,12 +64,12 @@ def _register(label: str, factories: list[Callable[[], gym.Env]], fixed: bool) -
         fns = [factories[i % len(factories)] for i in range(num_envs)]
         return GymnasiumVecEnv(name, num_envs, mode=mode, seed=seed, env_fns=fns)
 
-    ENVS.register(name, build)
+    env_configurations.register(name, {"vecenv_creator": build})
     return name
 
 
 def _register_sb3(label: str, venv: Any) -> str:
-    """A fresh ENVS name whose builder steps the SB3 vec env ``venv`` (exactly its ``num_envs``)."""
+    """A fresh env name whose builder steps the SB3 vec env ``venv`` (exactly its ``num_envs``)."""
     name = f"python_env_{next(_COUNTER)}"
 
     def build(num_envs: int, seed: int | None, **env_config: Any) -> SB3VecEnv:
@@ -80,7 +80,7 @@ def _register_sb3(label: str, venv: Any) -> str:
                                                               f"{venv.num_envs}")
         return SB3VecEnv(venv, seed=seed)
 
-    ENVS.register(name, build)
+    env_configurations.register(name, {"vecenv_creator": build})
     return name
 
 

@@ -10,12 +10,15 @@ rlchain config key (``horizon_length``, ``kl_threshold``, ...) as it is. Anythin
 from __future__ import annotations
 
 import copy
+import functools
 import numbers
 import re
 from collections.abc import Iterable
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.packaged import config_names
+from rlchain.config.text import read_data
 from rlchain.errors import did_you_mean
 from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION
 
@@ -25,45 +28,52 @@ ACTIVATIONS = {"tanh": "tanh", "relu": "relu", "elu": "elu", "selu": "selu", "si
                "gelu": "gelu", "softplus": "softplus", "sigmoid": "sigmoid", "identity": "None"}
 """torch.nn activation class names (lower case) -> rl_games' activation names."""
 
-_PPO_NETWORK = {"name": "actor_critic", "separate": False, "mlp": {"units": [64, 64], "activation": "tanh",
-                                                                   "initializer": {"name": "default"}}}
-_CONTINUOUS_SPACE = {"continuous": {"mu_activation": "None", "sigma_activation": "None",
-                                    "mu_init": {"name": "default"},
-                                    "sigma_init": {"name": "const_initializer", "val": 0}, "fixed_sigma": True}}
+PACKAGED = {"ppo": "ppo_cartpole", "ppo_continuous": "ppo_pendulum", "sac": "sac_pendulum", "dqn": "dqn_cartpole"}
+"""Family -> the packaged example (``rlchain/configs/<name>.yaml``) whose settings ``defaults="rlchain"`` takes."""
 
-DEFAULTS: dict[str, dict[str, Any]] = {
-    "ppo": {"network": _PPO_NETWORK,
-            "config": {"reward_shaper": {"scale_value": 0.1}, "normalize_advantage": True, "normalize_input": False,
-                       "normalize_value": False, "value_bootstrap": True, "gamma": 0.99, "tau": 0.95,
-                       "learning_rate": 1e-3, "lr_schedule": "adaptive", "kl_threshold": 0.016, "grad_norm": 1.0,
-                       "truncate_grads": True, "entropy_coef": 0.0, "e_clip": 0.2, "clip_value": True,
-                       "horizon_length": None, "minibatch_size": 256, "mini_epochs": 4, "critic_coef": 2,
-                       "save_best_after": 5}},
-    "ppo_continuous": {"network": {**_PPO_NETWORK, "space": _CONTINUOUS_SPACE,
-                                   "mlp": {**_PPO_NETWORK["mlp"], "activation": "elu"}},
-                       "config": {"normalize_input": True, "normalize_value": True, "gamma": 0.95,
-                                  "mini_epochs": 8, "bounds_loss_coef": 0.001}},
-    "sac": {"network": {"name": "soft_actor_critic", "separate": True, "space": {"continuous": None},
-                        "mlp": {"units": [128, 128], "activation": "relu", "initializer": {"name": "default"}},
-                        "log_std_bounds": [-5, 2]},
-            "config": {"normalize_input": False, "gamma": 0.99, "init_alpha": 1.0, "alpha_lr": 3e-4,
-                       "actor_lr": 3e-4, "critic_lr": 1e-3, "critic_tau": 0.005, "learnable_temperature": True,
-                       "batch_size": 128, "num_steps_per_episode": 50, "num_updates_per_step": 2,
-                       "policy_frequency": 1, "num_warmup_frames": 1000, "replay_buffer_size": 100_000,
-                       "save_best_after": 10}},
-    "dqn": {"network": {"name": "dqn", "dueling": True, "space": {"discrete": None},
-                        "mlp": {"units": [128, 128], "activation": "relu", "initializer": {"name": "default"}}},
-            "config": {"gamma": 0.99, "learning_rate": 5e-4, "double_dqn": True, "n_step": 3, "batch_size": 128,
-                       "num_steps_per_episode": 100, "num_updates_per_step": 1, "num_warmup_frames": 2000,
-                       "replay_buffer_size": 50_000, "target_update_frequency": 1, "target_tau": 0.01,
-                       "epsilon_start": 1.0, "epsilon_end": 0.02, "epsilon_decay_frames": 20_000, "loss": "huber",
-                       "grad_norm": 10, "save_best_after": 10}},
-}
+EXAMPLE_KEYS = ("name", "env_name", "device", "num_actors", "horizon_length", "max_epochs", "max_frames",
+                "score_to_win", "games_to_track", "player")
+"""``params.config`` keys of a packaged example that belong to its env and run, not to the family's settings:
+the SB3 face sets them from its own arguments (or leaves them at rlchain's defaults)."""
 
-NUM_ENVS = {"ppo": 32, "sac": 4, "dqn": 4}
-"""Envs stepped together when the env argument does not fix the count and ``n_envs`` is not given."""
+_YAML_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")  # YAML 1.1 reads 1e-3 as a string
 
-PPO_FRAMES_PER_EPOCH = 512  # the default horizon_length is this / num_actors (at least 16)
+
+def _numbers(value: Any) -> Any:
+    """``value`` with YAML 1.1's exponent strings (``3e-4``) as floats, nested blocks included."""
+    if isinstance(value, dict):
+        return {k: _numbers(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_numbers(v) for v in value]
+    return float(value) if isinstance(value, str) and _YAML_FLOAT.fullmatch(value) else value
+
+
+@functools.cache
+def _example(family: str) -> dict[str, Any]:
+    """The ``params`` of the packaged example of ``family`` (see :data:`PACKAGED`), read once."""
+    return _numbers(read_data(config_names()[PACKAGED[family]])["params"])
+
+
+def packaged_defaults(family: str) -> dict[str, Any]:
+    """``{'network': ..., 'config': ...}``: the settings of ``family``'s packaged example without the keys of
+    its env and run (:data:`EXAMPLE_KEYS`); a fresh copy."""
+    params = copy.deepcopy(_example(family))
+    config = {k: v for k, v in params["config"].items() if k not in EXAMPLE_KEYS}
+    return {"network": params["network"], "config": config}
+
+
+def rlchain_num_envs(algo: str) -> int:
+    """Envs stepped together with ``defaults="rlchain"`` when the env argument does not fix the count and
+    ``n_envs`` is not given: the ``num_actors`` of the algo's packaged example."""
+    return int(_example(algo)["config"]["num_actors"])
+
+
+def _ppo_frames_per_epoch() -> int:
+    """The frames of one PPO epoch of the packaged example; the default horizon_length is this / num_actors
+    (at least 16)."""
+    config = _example("ppo")["config"]
+    return int(config["num_actors"]) * int(config["horizon_length"])
+
 
 ALGO_NAMES = {"ppo": ("a2c_discrete", "discrete_a2c"), "ppo_continuous": ("a2c_continuous", "continuous_a2c_logstd"),
               "sac": ("sac", "soft_actor_critic"), "dqn": ("dqn", "dqn")}
@@ -186,17 +196,23 @@ def _updates(algo: str, given: dict[str, Any], num_actors: int) -> dict[str, Any
 
 
 def _net_arch(algo: str, value: Any) -> dict[str, Any]:
+    critic = None
     if isinstance(value, dict):
-        parts = [list(v) for v in value.values()]
-        if any(p != parts[0] for p in parts):
-            raise ValueError(f"policy_kwargs.net_arch: {value!r}: rlchain gives the actor and the critic the same "
-                             f"hidden layers; give one list")
-        value = parts[0] if parts else []
+        other = "vf" if algo == "ppo" else "qf"
+        unknown = set(value) - {"pi", other}
+        if unknown:
+            raise ValueError(f"policy_kwargs.net_arch: {value!r}: expected the keys pi and {other}")
+        pi, critic = list(value.get("pi", [])), list(value.get(other, []))
+        if pi != critic and algo != "ppo":  # SAC's separate sizes build the sb3_policy network (policy_block.py)
+            raise ValueError(f"policy_kwargs.net_arch: {value!r}: {algo.upper()}'s network takes one list")
+        value, critic = pi, (critic if critic != pi else None)
     if not isinstance(value, (list, tuple)) or not all(isinstance(u, int) and u > 0 for u in value):
         raise ValueError(f"policy_kwargs.net_arch: expected a list of layer sizes, got {value!r}")
     network: dict[str, Any] = {"mlp": {"units": list(value)}}
     if algo == "ppo":
         network["separate"] = True  # SB3's actor and critic share no layers
+    if critic is not None:  # the critic's own sizes (its activation: the actor's, set in build_config)
+        network["critic_mlp"] = {"units": critic}
     return network
 
 
@@ -252,20 +268,22 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
     """The ``{'params': ...}`` config of ``algo`` (ppo, sac, dqn) on ``env_name`` with ``num_actors`` envs,
     after the user's arguments ``given`` (SB3 names, or the rlchain config keys ``rlchain_keys``).
     ``defaults``: what arguments left out take, ``sb3`` (SB3's own: :mod:`rlchain.sb3.defaults`) or ``rlchain``
-    (the packaged examples' :data:`DEFAULTS`). ``run``: further ``params.config`` keys (train_dir, device,
+    (the packaged examples': :func:`packaged_defaults`). ``run``: further ``params.config`` keys (train_dir, device,
     print_stats, ...). ValueError (a ConfigError naming the argument) for an unknown or unmappable argument."""
     source = SOURCE.format(algo=algo.upper())
     if defaults not in CHOICES:
         raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {defaults!r}")
-    base = SB3_DEFAULTS if defaults == "sb3" else DEFAULTS
     family = "ppo_continuous" if algo == "ppo" and continuous else algo
-    network = copy.deepcopy(base[algo]["network"])
-    config = copy.deepcopy(base[algo]["config"])
-    if family != algo:
-        _merge(network, base[family]["network"])
-        _merge(config, base[family]["config"])
-    elif algo == "ppo":
-        network["space"] = {"discrete": None}
+    if defaults == "rlchain":
+        network, config = packaged_defaults(family).values()
+    else:
+        network = copy.deepcopy(SB3_DEFAULTS[algo]["network"])
+        config = copy.deepcopy(SB3_DEFAULTS[algo]["config"])
+        if family != algo:
+            _merge(network, SB3_DEFAULTS[family]["network"])
+            _merge(config, SB3_DEFAULTS[family]["config"])
+        elif algo == "ppo":
+            network["space"] = {"discrete": None}
     config.update({"name": run_name(algo, env_name), "env_name": env_name, "num_actors": num_actors})
     table, rlchain_keys = KEYS[algo], set(rlchain_keys)
     try:
@@ -285,6 +303,8 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
             if total_timesteps is not None:
                 config["epsilon_decay_frames"] = max(1, int(fraction * total_timesteps))
         _merge(network, _policy_kwargs(algo, continuous, dict(policy_kwargs or {})))
+        if "critic_mlp" in network:  # the critic's MLP as the actor's but for its sizes
+            network["critic_mlp"] = {**copy.deepcopy(network["mlp"]), "units": network["critic_mlp"]["units"]}
     except ConfigError:
         raise
     except ValueError as exc:
@@ -292,7 +312,7 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
         raise ConfigError(source, key, message) from None
     if algo == "ppo":
         if config.get("horizon_length") is None:
-            config["horizon_length"] = max(16, -(-PPO_FRAMES_PER_EPOCH // num_actors))
+            config["horizon_length"] = max(16, -(-_ppo_frames_per_epoch() // num_actors))
         if "minibatch_size" not in given:  # the largest that divides the batch, as rlchain requires
             batch = num_actors * config["horizon_length"]
             config["minibatch_size"] = max(d for d in range(1, min(config["minibatch_size"], batch) + 1)

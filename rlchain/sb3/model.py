@@ -28,23 +28,37 @@ from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
 from rlchain.envs.known import GYM, check_listed
 from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
+from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
 from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3 import files
-from rlchain.sb3.callbacks import SB3Callbacks, SB3Logger, is_sb3_callback
+from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
-from rlchain.sb3.keys import NUM_ENVS, build_config, multi_input_block, positive_count
+from rlchain.sb3.keys import build_config, multi_input_block, positive_count, rlchain_num_envs
+from rlchain.sb3.logger import SB3Logger
+from rlchain.sb3.model_zip import (
+    format_system_info,
+    has_model,
+    read_model,
+    saved_system_info,
+    system_info,
+    write_model_zip,
+)
 from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy, eval_actions
+from rlchain.sb3.policy_block import needs_sb3_network, sb3_network_block, stored_policy_kwargs
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
 from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
 from rlchain.training.events import Callback
 
-POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input"}
+POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input", "CnnPolicy": "sb3_policy"}
 """SB3's policy names -> the rlchain network they map to (None: the algorithm's default network). MultiInputPolicy:
-Dict observations, an encoder per key (docs/robot_learning.md)."""
+Dict observations, an encoder per key (docs/robot_learning.md); CnnPolicy: SB3's NatureCNN
+(:mod:`rlchain.networks.sb3_policy`, as a policy class or a ``features_extractor_class``)."""
+
+PER_KEY_NETWORKS = ("multi_input", "sb3_policy")  # networks that take Dict observations per key
 
 
 class _Spaces:
@@ -93,10 +107,14 @@ class BaseModel:
                  device: str = "auto", verbose: int = 1, tensorboard_log: str | None = None,
                  policy_kwargs: dict[str, Any] | None = None, **hyperparameters: Any) -> None:
         source = f"rlchain.{self.algo.upper()}"
-        if policy not in POLICIES:
-            raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}); "
-                                                f"other networks: the network block of an rlchain YAML")
-        self.policy_name = policy
+        if isinstance(policy, str) and policy not in POLICIES and "." in policy:  # a stored policy class's name
+            policy = resolve(policy, "policy")
+        if isinstance(policy, str) and policy not in POLICIES:
+            raise ConfigError(source, "policy", f"'{policy}' is not supported (choices: {', '.join(POLICIES)}, or "
+                                                f"an ActorCriticPolicy subclass); other networks: the network "
+                                                f"block of an rlchain YAML")
+        self.policy_name = policy if isinstance(policy, str) else remember(policy)
+        self.policy_class = policy  # a name of POLICIES, or a policy class
         self.env_source: EnvSource | None = None if env is None else env_source(env, self.algo)
         self._env_arg = env  # the env argument as given: get_env() builds SB3's VecEnv of it
         self._vec_env: Any = None
@@ -106,7 +124,8 @@ class BaseModel:
         self.defaults = hyperparameters.get("defaults", "sb3")  # kept in hyperparameters: save() keeps it
         if self.defaults not in CHOICES:
             raise ConfigError(source, "defaults", f"expected one of {', '.join(CHOICES)}, got {self.defaults!r}")
-        self.n_envs = fixed or n_envs or (SB3_NUM_ENVS if self.defaults == "sb3" else NUM_ENVS)[self.algo]
+        default_envs = SB3_NUM_ENVS[self.algo] if self.defaults == "sb3" else rlchain_num_envs(self.algo)
+        self.n_envs = fixed or n_envs or default_envs
         self.seed = seed
         self.device = ("cuda:0" if torch.cuda.is_available() else "cpu") if device == "auto" else device
         self.verbose = verbose
@@ -143,9 +162,16 @@ class BaseModel:
             {"ppo": "a2c_discrete", "sac": "sac", "dqn": "dqn"}[self.algo]
         keys = [f.name for f in dataclasses.fields(config_class_of(family))]
         given = {k: v for k, v in self.hyperparameters.items() if k != "defaults"}
+        own = needs_sb3_network(self.algo, self.policy_class, self.policy_kwargs)
         config = build_config(self.algo, self.env_source.env_name, self.n_envs, continuous, given,
-                              keys, self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
-        if POLICIES[self.policy_name] is not None:
+                              keys, {} if own else self.policy_kwargs, total_timesteps, self.seed, run, self.defaults)
+        if own:
+            try:
+                config["params"]["network"] = sb3_network_block(self.algo, self.policy_class, self.policy_kwargs)
+            except ValueError as exc:
+                key, _, message = str(exc).partition(": ")
+                raise ConfigError(f"rlchain.{self.algo.upper()}", key, message) from None
+        elif POLICIES[self.policy_name] is not None:
             multi_input_block(self.algo, config["params"], POLICIES[self.policy_name])
         return config
 
@@ -194,6 +220,41 @@ class BaseModel:
         return SB3Policy(net, self.algo, self._spaces.observation_space, self._spaces.action_space,
                          config["params"]["network"])
 
+    # ----- SB3's attributes ------------------------------------------------------------------------------
+    @property
+    def learning_rate(self) -> Any:
+        """The learning rate as given (a number or ``fn(progress_remaining)``), else the one the config trains
+        with (SAC: the actor's)."""
+        if "learning_rate" in self._schedules:
+            return self._schedules["learning_rate"]
+        if "learning_rate" in self.hyperparameters:
+            return self.hyperparameters["learning_rate"]
+        cfg = self.config["params"]["config"]
+        return cfg.get("learning_rate", cfg.get("actor_lr"))
+
+    @property
+    def gamma(self) -> float:
+        """The discount factor the config trains with."""
+        return float(self.config["params"]["config"]["gamma"])
+
+    @property
+    def env(self) -> Any:
+        """SB3's ``model.env``: the training env as an SB3 ``VecEnv`` (:meth:`get_env`)."""
+        return self.get_env()
+
+    @property
+    def observation_space(self) -> Any:
+        return None if self._spaces is None else self._spaces.observation_space
+
+    @property
+    def action_space(self) -> Any:
+        return None if self._spaces is None else self._spaces.action_space
+
+    @property
+    def actor(self) -> Any:
+        """SAC: SB3's ``model.actor`` (``model.policy.actor``)."""
+        return self.policy.actor
+
     # ----- training -----------------------------------------------------------------------------------
     def learn(self, total_timesteps: int, callback: Any = None, progress_bar: bool = False,
               reset_num_timesteps: bool = True, log_interval: int | None = None,
@@ -206,7 +267,9 @@ class BaseModel:
         epoch, or a list of them. ``progress_bar=True`` shows rlchain's live status line.
         ``reset_num_timesteps=True`` (SB3's default) starts a new run from the current weights with the count at 0;
         False resumes the last run from its checkpoint (optimizer, normalizers and counters) and trains
-        ``total_timesteps`` more. ``log_interval`` is accepted for SB3's signature (rlchain logs every epoch).
+        ``total_timesteps`` more. ``log_interval``: how often what SB3 callbacks ``logger.record`` is dumped
+        (SB3's: PPO every that many iterations, default 1; SAC / DQN every that many episodes, default 4);
+        rlchain's tags: every epoch.
         """
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no env; pass env= to load() to train")
@@ -290,7 +353,7 @@ class BaseModel:
         if self.policy is None:
             raise ValueError(f"rlchain.{self.algo.upper()}: no policy yet; construct with an env or load()")
         space = self._spaces.observation_space
-        if isinstance(space, gym.spaces.Dict) and POLICIES[self.policy_name] is not None:  # per-key network
+        if isinstance(space, gym.spaces.Dict) and self.config["params"]["network"].get("name") in PER_KEY_NETWORKS:
             return self._predict_dict(observation, space, deterministic)
         return self.policy.predict(observation, deterministic=deterministic)
 
@@ -313,8 +376,12 @@ class BaseModel:
         params = load_path_or_dict
         if isinstance(params, (str, os.PathLike)):
             path = _file(os.fspath(params))
-            weights = read_sb3_archive(path, self.algo).policy_state if is_sb3_archive(path) \
-                else files.load_weights(path)
+            if has_model(path):
+                weights = read_model(path, files.load_weights)
+            elif is_sb3_archive(path):
+                weights = read_sb3_archive(path, self.algo).policy_state
+            else:
+                weights = files.load_weights(path)
             try:
                 self.policy.load_state_dict(weights, strict=exact_match)
             except RuntimeError as exc:  # torch's message spans lines: its first says what does not fit
@@ -326,34 +393,55 @@ class BaseModel:
         self._weights_changed = True
 
     def save(self, path: str) -> str:
-        """Write the model (config, arguments, spaces, weights) to ``path``
-        (``.pth`` added when it has no extension); returns the path. A ``.zip`` path gets SB3's own archive
-        (written by stable-baselines3, which SB3's ``load`` reads; SB3's network layout only)."""
-        if os.fspath(path).endswith(".zip"):
-            mlp = self.config["params"]["network"]["mlp"]
-            return write_sb3_archive(os.fspath(path), self.algo, (self._spaces.observation_space,
-                                     self._spaces.action_space), self.hyperparameters, mlp["units"],
-                                     TORCH_ACTIVATIONS[str(mlp["activation"])], self.policy.state_dict(),
-                                     self.num_timesteps)
+        """Write the model (config, arguments, spaces, weights); returns the path. Without an extension, or with
+        ``.zip``, as SB3 does: ``path.zip``, SB3's archive layout holding rlchain's model file
+        (:mod:`rlchain.sb3.model_zip`; written by stable-baselines3 when it is installed and the network has
+        SB3's MlpPolicy layout, so SB3's ``load`` reads it too). A ``.pth`` path: rlchain's model file alone."""
         path = _file(path, must_exist=False)
+        if path.endswith(".zip"):
+            network = self.config["params"]["network"]
+            mlp = network.get("mlp") or {}
+            sb3_layout = network.get("name") in ("actor_critic", "soft_actor_critic", "dqn") and \
+                "critic_mlp" not in network and str(mlp.get("activation")) in TORCH_ACTIVATIONS
+
+            def write_sb3(target: str) -> str:
+                return write_sb3_archive(target, self.algo, (self._spaces.observation_space,
+                                         self._spaces.action_space), self.hyperparameters, mlp["units"],
+                                         TORCH_ACTIVATIONS[str(mlp["activation"])], self.policy.state_dict(),
+                                         self.num_timesteps)
+            return write_model_zip(path, self._save_own, write_sb3 if sb3_layout else None,
+                                   self.policy.state_dict(), self.num_timesteps)
+        return self._save_own(path)
+
+    def _save_own(self, path: str) -> str:
+        """rlchain's model file (plain data, :mod:`rlchain.sb3.files`) at ``path``."""
         keep = self.env_source.env_name if self.env_source and self.env_source.num_envs is None \
             and self.env_source.env_name in gym.registry else None
         state = {"algo": self.algo, "policy": self.policy_name, "env_id": keep, "n_envs": self.n_envs,
                  "seed": self.seed,
-                 "policy_kwargs": self.policy_kwargs, "hyperparameters": self.hyperparameters,
+                 "policy_kwargs": stored_policy_kwargs(self.policy_kwargs), "hyperparameters": self.hyperparameters,
                  "config": self.config, "model": self.policy.net.state_dict(), "num_timesteps": self.num_timesteps}
         files.save_model(state, (self._spaces.observation_space, self._spaces.action_space), path)
         return path
 
     @classmethod
-    def load(cls, path: str, env: Any = None, device: str = "auto", **kwargs: Any) -> BaseModel:
-        """A model :meth:`save` wrote; ``env`` (default: the gymnasium id it was trained on, if any) is needed
-        only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
-        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only."""
+    def load(cls, path: str, env: Any = None, device: str = "auto", print_system_info: bool = False,
+             **kwargs: Any) -> BaseModel:
+        """A model :meth:`save` wrote (or SB3 saved); ``env`` (default: the gymnasium id it was trained on, if any)
+        is needed only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
+        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only.
+        ``print_system_info``: print the system the archive was saved on and this one, as SB3 does."""
         path = _file(path)
-        if is_sb3_archive(path):
+        if print_system_info:
+            saved = saved_system_info(path)
+            print("== CURRENT SYSTEM INFO ==\n" + format_system_info(system_info()), flush=True)
+            print("== SAVED MODEL SYSTEM INFO ==\n" + (saved or "(none stored in this file)\n"), flush=True)
+        if has_model(path):
+            state = read_model(path, lambda own: files.load_model(own, cls.algo))
+        elif is_sb3_archive(path):
             return cls._load_archive(path, env, device, kwargs)
-        state = files.load_model(path, cls.algo)
+        else:
+            state = files.load_model(path, cls.algo)
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
         if env is None and state["env_id"] is not None:  # a name from the file: looked up, never imported
             check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
@@ -454,13 +542,12 @@ def _named_by(path: str) -> Iterator[None]:
 
 
 def _file(path: str, must_exist: bool = True) -> str:
-    """``path``, or ``path.pth`` when it has no extension (SB3 adds ``.zip`` the same way; loading finds an SB3
-    ``path.zip`` too)."""
+    """``path``, or ``path.zip`` when it has no extension, as SB3 adds it (loading finds ``path.zip``, then
+    ``path.pth``, then ``path`` itself)."""
     path = os.fspath(path)
-    if os.path.splitext(path)[1]:
-        return path
-    if must_exist and os.path.exists(path) and not os.path.exists(path + ".pth"):
-        return path
-    if must_exist and not os.path.exists(path + ".pth") and os.path.exists(path + ".zip"):
-        return path + ".zip"
-    return path + ".pth"
+    if os.path.splitext(path)[1] or not must_exist:
+        return path if os.path.splitext(path)[1] else path + ".zip"
+    for candidate in (path + ".zip", path + ".pth", path):
+        if os.path.exists(candidate):
+            return candidate
+    return path + ".zip"

@@ -67,6 +67,40 @@ def eval_actions(net: nn.Module, batch: Any, deterministic: bool) -> np.ndarray:
     return actions.cpu().numpy()
 
 
+class SACActorView(nn.Module):
+    """SB3's SAC ``actor`` over rlchain's SAC model: ``forward(obs, deterministic)`` -> actions in [-1, 1] (the
+    model's image scaling and input normalization included). It holds the actor network and the normalizer only,
+    so tracing it (SB3's export guide: ONNX, ``torch.jit.trace``) sees nothing of the critics."""
+
+    def __init__(self, model: nn.Module) -> None:
+        super().__init__()
+        self.actor = model.network.actor
+        self.obs_norm = model.running_mean_std
+        self._model = [model]  # not a submodule: the stochastic path and Dict observations use it
+
+    @property
+    def model(self) -> nn.Module:
+        return self._model[0]
+
+    def forward(self, obs: torch.Tensor, deterministic: bool = False) -> torch.Tensor:
+        trunk = getattr(self.actor, "trunk", None)
+        head = trunk[-1] if isinstance(trunk, nn.Sequential) and len(trunk) else None  # the (mean, log-std) layer
+        if not deterministic or not isinstance(obs, torch.Tensor) or not isinstance(head, nn.Linear):
+            return self.model.policy(self.model.preprocess(obs), deterministic)[0]
+        x = obs.float() / 255.0 if obs.dtype == torch.uint8 else obs.float()
+        x = x.flatten(1)
+        if self.obs_norm is not None:
+            x = self.obs_norm.normalize(x)
+        actor = self.actor
+        x = actor.encoder(x) if getattr(actor, "encoder", None) is not None else x
+        # tanh(mean), the mean read by slicing the output layer's rows (mean, then log-std): ONNX exporters handle a
+        # slice where torch.chunk's Split may not convert to older opsets
+        mu = actor.trunk(x)[..., :head.out_features // 2]
+        if actor.mean_clip is not None:
+            mu = mu.clamp(-actor.mean_clip, actor.mean_clip)
+        return torch.tanh(mu)
+
+
 class SB3Policy(nn.Module):
     """See the module docstring. ``network`` is the config's network block (for ``save``'s ``data``)."""
 
@@ -94,9 +128,37 @@ class SB3Policy(nn.Module):
                           **from_sb3(self.algo, state_dict, current)}
         return self.net.load_state_dict(state_dict, strict=strict, assign=assign)
 
-    def forward(self, obs: torch.Tensor, deterministic: bool = False) -> torch.Tensor:
-        """Actions for a batch of observations (SB3's ``policy(obs)`` returns actions)."""
+    def forward(self, obs: torch.Tensor, deterministic: bool = False) -> Any:
+        """SB3's ``policy(obs, deterministic)``: PPO ``(actions, values, log_prob)``; SAC the actions in [-1, 1]
+        (before rescaling to the bounds); DQN the greedy (or epsilon) actions. Traceable (``torch.onnx.export``
+        of a module calling it, as SB3's export guide does)."""
+        if self.algo == "ppo":
+            params, value, _ = self.net.evaluate(obs)
+            dist = self.net.dist
+            actions = dist.mode(params) if deterministic else dist.sample(params)
+            return actions, self.net.denorm_value(value), dist.log_prob(params, actions)
+        if self.algo == "sac":
+            return self.net.policy(self.net.preprocess(obs), deterministic)[0]
         return self.net.act(obs, deterministic=deterministic)["actions"]
+
+    @property
+    def actor(self) -> nn.Module:
+        """SAC: SB3's ``policy.actor``, called as ``actor(obs, deterministic=True)`` -> actions in [-1, 1]."""
+        if self.algo != "sac":
+            raise AttributeError(f"{self.algo.upper()}'s policy has no actor (SAC's has)")
+        return SACActorView(self.net)
+
+    def __getattr__(self, name: str) -> Any:
+        """An attribute of a user's policy class (``features_extractor``, ``mlp_extractor``, ``action_net``, ...)
+        when the network is one (the sb3_policy network's ``policy``)."""
+        try:
+            return super().__getattr__(name)
+        except AttributeError:
+            inner = getattr(self._modules.get("net"), "network", None)
+            policy = getattr(inner, "policy", None) if isinstance(inner, nn.Module) else None
+            if isinstance(policy, nn.Module) and hasattr(policy, name):
+                return getattr(policy, name)
+            raise
 
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
                 deterministic: bool = False) -> tuple[np.ndarray, Any]:

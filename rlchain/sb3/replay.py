@@ -12,6 +12,7 @@ import os
 from typing import Any
 
 from rlchain.runs import checkpoint as ckpt
+from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 
 FORMAT = "rlchain-sb3-replay-1"
@@ -78,19 +79,17 @@ def load_replay(path: str, capacity: int) -> ReplayBufferView:
 
 class ReplayCallback(Callback):
     """Puts the model's replay buffer contents into the run's buffer at the start, and takes them back at the
-    end (it reads the algorithm's buffer: an rlchain callback that drives the trainer)."""
-
-    drives_trainer = True
+    end (the buffer is the run's algorithm's: ``ctx.algorithm.buffer``)."""
 
     def __init__(self, model: Any) -> None:
         self.model = model
 
-    def on_train_start(self, trainer: Any) -> None:
-        view, buffer = self.model.replay_buffer, trainer.algorithm.buffer
+    def on_train_start(self, ctx: CallbackContext) -> None:
+        view, buffer = self.model.replay_buffer, ctx.algorithm.buffer
         if view is not None and view.state is not None and buffer.size == 0:
             buffer.load_state_dict(view.state)
         self.model.replay_buffer = ReplayBufferView(buffer.capacity, live=buffer)
 
-    def on_train_end(self, trainer: Any, result: Any) -> None:
-        buffer = trainer.algorithm.buffer
+    def on_train_end(self, ctx: CallbackContext, result: Any) -> None:
+        buffer = ctx.algorithm.buffer
         self.model.replay_buffer = ReplayBufferView(buffer.capacity, buffer.state_dict())

@@ -9,9 +9,8 @@
 
 Every method gets the run's :class:`~rlchain.training.callback_context.CallbackContext` first: a typed
 :class:`~rlchain.training.callback_context.TrainingState` (``ctx.state``), ``request_stop``, ``save``,
-``get_params`` / ``set_params`` and read-only handles (model, writer, params, env_spec), not the
-trainer (older callbacks' reads of trainer attributes still work for one release, with a
-DeprecationWarning). A plain function ``fn(ctx, stats, episodes)`` is an ``on_epoch_end`` callback.
+``get_params`` / ``set_params`` and the run's parts (model, writer, params, env_spec, the algorithm),
+read directly. A plain function ``fn(ctx, stats, episodes)`` is an ``on_epoch_end`` callback.
 An rl_games ``AlgoObserver`` (before_init / after_init / process_infos / after_steps /
 after_print_stats / after_clear_stats) is adapted: :class:`AlgoObserverCallback`. Built-in
 in-training evaluation is one of these callbacks.
@@ -24,7 +23,7 @@ from __future__ import annotations
 
 import importlib
 import time
-from typing import Any, ClassVar
+from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.log import get_logger
@@ -39,11 +38,6 @@ EVENTS = ("on_train_start", "on_env_step", "on_rollout_end", "on_epoch_end", "on
 class Callback:
     """Override the events you need; every method is a no-op by default. ``ctx`` is the run's
     :class:`~rlchain.training.callback_context.CallbackContext`."""
-
-    drives_trainer: ClassVar[bool] = False
-    """True: the callback gets the Loop itself, not a context. No callback of rlchain's sets it (the context's
-    methods are what self-play, the Ray Tune stepper, env events and backend counters use); it is kept for
-    test instruments that read the loop's internals."""
 
     def on_train_start(self, ctx: CallbackContext) -> None:
         """Before the first rollout (after a resume restored its state)."""
@@ -133,7 +127,7 @@ class AlgoObserverCallback(Callback):
         self.start = time.time()
         algo = self.algo = ObserverAlgo(ctx)
         # as before the context: the whole config as loaded, and the run folder
-        self._call("before_init", ctx.params.config.name, ctx._trainer.raw_config, algo.experiment_dir)
+        self._call("before_init", ctx.params.config.name, ctx.raw_config, algo.experiment_dir)
         self._call("after_init", algo)
         algo.in_epoch = True  # the first epoch's rollout: rl_games' epoch_num is 1 by then
 
@@ -152,9 +146,8 @@ class AlgoObserverCallback(Callback):
         if algo is not None:
             algo.in_epoch = False  # epoch_num: the epochs completed, as rl_games prints them
         frames = state.frames
-        run = getattr(ctx._trainer, "run", None)
-        if getattr(run, "layout", None) == "rl_games":  # rl_games passes the frames counted before the epoch
-            frames = max(0, frames - int(ctx._trainer.frames_per_epoch()))
+        if getattr(ctx.run_dir, "layout", None) == "rl_games":  # rl_games passes the frames counted before the epoch
+            frames = max(0, frames - ctx.frames_per_epoch())
         self._call("after_print_stats", frames, state.epoch, time.time() - self.start)
         self._printed_epoch = state.epoch
         if self._clear_pending:
@@ -215,8 +208,8 @@ class EnvStatsCallback(Callback):
 
 
 class CallbackList:
-    """Dispatches each event to every callback in order, with the run's context first (the trainer
-    for callbacks that :attr:`~Callback.drives_trainer`): :meth:`bind` sets them.
+    """Dispatches each event to every callback in order, with the run's context first (:meth:`bind`
+    sets it once the loop has built the run's parts).
 
     ``step_callbacks`` are the callbacks that handle ``on_env_step``: the trainers test it (an
     empty list) before doing any per-step work for them.
@@ -225,16 +218,13 @@ class CallbackList:
     def __init__(self, callbacks: list[Any] | None = None) -> None:
         self.callbacks: list[Callback] = []
         self.step_callbacks: list[Callback] = []
-        self.trainer: Any = None
         self.context: CallbackContext | None = None
         for callback in callbacks or []:
             self.add(callback)
 
-    def bind(self, trainer: Any) -> CallbackContext:
-        """The run whose events these are; returns the context callbacks get."""
-        self.trainer = trainer
-        self.context = CallbackContext(trainer)
-        return self.context
+    def bind(self, context: CallbackContext) -> None:
+        """The context of the run whose events these are: what every callback gets first."""
+        self.context = context
 
     def add(self, callback: Any) -> None:
         callback = as_callback(callback)
@@ -249,18 +239,14 @@ class CallbackList:
     def __iter__(self):
         return iter(self.callbacks)
 
-    def _first(self, callback: Callback) -> Any:
-        """What ``callback`` gets as its first argument."""
-        return self.trainer if callback.drives_trainer else self.context
-
     def emit(self, event: str, *args: Any) -> None:
         """``event(context, *args)`` on every callback."""
         for callback in self.callbacks:
-            getattr(callback, event)(self._first(callback), *args)
+            getattr(callback, event)(self.context, *args)
 
     def emit_env_step(self, result: Any, done_indices: Any, rows: slice) -> None:
         for callback in self.step_callbacks:
-            callback.on_env_step(self._first(callback), result, done_indices, rows)
+            callback.on_env_step(self.context, result, done_indices, rows)
 
     def close(self) -> None:
         """``close()`` every callback, even when one fails (reported, not raised: the run's

@@ -33,6 +33,7 @@ from rlchain.parallel.threads import ThreadPlan
 from rlchain.runs.checkpoint import CheckpointError, seed_everything
 from rlchain.runs.logging import TrainLogger
 from rlchain.runs.run_dir import RunDir
+from rlchain.training.callback_context import CallbackContext, RunRecord
 from rlchain.training.env_events import event_callbacks
 from rlchain.training.evaluation import EvaluationCallback
 from rlchain.training.events import CallbackList, EnvStatsCallback, load_callback
@@ -76,41 +77,30 @@ class TrainResult:
     seconds: float
 
 
-def _view(path: str, doc: str) -> property:
-    """A read-only property of the loop that reads ``self.<path>`` (the run context's, the algorithm's)."""
-    head, _, attr = path.rpartition(".")
-
-    def read(self: Loop) -> Any:
-        return getattr(getattr(self, head) if head else self, attr)
-    read.__doc__ = doc
-    return property(read)
-
-
 class Loop:
     """The training loop of one run: it builds ``algorithm(params, env, model, ctx)`` and drives it."""
 
     def __init__(self, params: Params, algorithm: AlgorithmFactory, env: VecEnv, model: torch.nn.Module,
                  device: torch.device, run: RunDir | None, logger: TrainLogger, seed: int, raw_config: dict,
-                 comm: Communicator | None = None, checked: bool = False, resuming: bool = False) -> None:
+                 comm: Communicator | None = None, checked: bool = False, resuming: bool = False,
+                 threads: ThreadPlan | None = None) -> None:
         """``checked``: the caller ran ``algorithm.check_config`` on this env already (the Runner does, before
         the model is built); ``resuming``: ``model`` holds the weights of the checkpoint :meth:`restore`
-        will be given (the algorithm loads no others into it, and restore does not load them again)."""
+        will be given (the algorithm loads no others into it, and restore does not load them again);
+        ``threads``: CPU threads per phase (the Runner's plan)."""
         cfg = params.config
         if not checked:
             algorithm.check_config(params, env_spec(env))  # before anything opens (PPO: its minibatch)
         self.params, self.env, self.model, self.raw_config = params, env, model, raw_config
-        self.started = time.time()  # when train() started
-        self.last_stats: dict[str, float] = {}  # the last epoch's metrics and episode means (TrainingState)
-        self.last_episodes: dict[str, float] | None = None
+        self.record = RunRecord()  # when train() started, the last epoch's results (callbacks' state)
         self._closed = False
         self.events = CallbackList([load_callback(name, params.source, f"params.config.callbacks[{i}]")
                                     for i, name in enumerate(cfg.callbacks)])
         # the other ranks (torchrun): the algorithm's agents and the episode statistics sync through it
         comm = comm if comm is not None else communicator.current()
-        self.ctx = make_context(params, env, device, seed, comm, logger, self.events)
-        self.ctx.resuming = resuming
+        self.ctx = make_context(params, env, device, seed, comm, logger, self.events, threads=threads,
+                                resuming=resuming)
         self._weights_loaded = resuming  # the first restore (the Runner's) finds them in the model already
-        self.events.bind(self)  # callbacks get a CallbackContext of this run
         if self.ctx.spec.stats:  # backend counters (Ray: env/dropped_episodes)
             self.events.add(EnvStatsCallback())
         if cfg.evaluation.interval > 0:
@@ -126,65 +116,8 @@ class Loop:
         self.checkpoints = CheckpointSaver(self.ctx, self.algorithm, run, self.events)
         self.backup = LearnerBackup()  # the learner when an update starts (undone on a stop signal)
         self.live = LiveParams(self.ctx, self.algorithm)
-
-    # ----- the run's state (callbacks, tuning and the Runner read it here) ----------------------
-    cfg = _view("ctx.cfg", "The run's config (live: set_params replaces it).")
-    device = _view("ctx.device", "The training device.")
-    seed = _view("ctx.seed", "The run's seed (this rank's).")
-    comm = _view("ctx.comm", "The Communicator the ranks sync through (torchrun).")
-    tracker = _view("ctx.tracker", "The episode statistics.")
-    env_spec = _view("ctx.spec", "The training env's EnvSpec.")
-    num_envs = _view("ctx.num_envs", "Envs of the training env.")
-    num_agents = _view("ctx.num_agents", "Rows per env (rl_games' num_agents).")
-    world_size = _view("ctx.world_size", "Processes training together.")
-    signals = _view("ctx.signals", "The stop signals while train() runs.")
-    divergence = _view("algorithm.divergence", "The algorithm's divergence guard.")
-    best_reward = _view("checkpoints.best_reward", "The best mean reward so far.")
-
-    @property
-    def epoch(self) -> int:
-        """Epochs completed."""
-        return self.ctx.epoch
-
-    @epoch.setter
-    def epoch(self, value: int) -> None:
-        self.ctx.epoch = value
-
-    @property
-    def frames(self) -> int:
-        """Env frames so far, over all ranks."""
-        return self.ctx.frames
-
-    @frames.setter
-    def frames(self, value: int) -> None:
-        self.ctx.frames = value
-
-    @property
-    def logger(self) -> TrainLogger:
-        """The run's TrainLogger."""
-        return self.ctx.logger
-
-    @logger.setter
-    def logger(self, value: TrainLogger) -> None:  # Ray Tune moves a parked run to another folder
-        self.ctx.logger = value
-
-    @property
-    def run(self) -> RunDir | None:
-        """The run folder (None: no output, or a torchrun rank but 0)."""
-        return self.checkpoints.run
-
-    @run.setter
-    def run(self, value: RunDir | None) -> None:
-        self.checkpoints.run = value
-
-    @property
-    def threads(self) -> ThreadPlan | None:
-        """CPU threads per phase, set by the Runner."""
-        return self.ctx.threads
-
-    @threads.setter
-    def threads(self, value: ThreadPlan | None) -> None:
-        self.ctx.threads = value
+        self.events.bind(CallbackContext(self.ctx, self.algorithm, model, self.checkpoints, self.live, self.events,
+                                         self.record, raw_config))  # what every callback gets
 
     # ----- the loop -------------------------------------------------------------------------
     def train(self) -> TrainResult:
@@ -196,7 +129,7 @@ class Loop:
         rollback``) without ever saving non-finite parameters. A final checkpoint that cannot be written
         raises CheckpointError.
         """
-        start = self.started = time.time()
+        start = self.record.started = time.time()
         algo, ctx = self.algorithm, self.ctx
         stop = self._limit_reached()  # a resumed run already at max_epochs / max_frames trains no further
         with StopSignals() as signals:
@@ -204,7 +137,7 @@ class Loop:
             algo.start()
             self.checkpoints.point.after_start()
             self.checkpoints.point.capture()  # epoch boundary: what a stop during the first epoch saves
-            self.snapshot()
+            self._snapshot()
             self.events.emit("on_train_start")
             while stop is None:
                 self.live.apply_pending()
@@ -233,12 +166,12 @@ class Loop:
                 self._log(stats, episodes, rollout_s, update_s)
                 self.checkpoints.after_epoch(episodes)
                 if algo.snapshot_due():
-                    self.snapshot()
-                self.last_stats, self.last_episodes = stats, episodes
+                    self._snapshot()
+                self.record.stats, self.record.episodes = stats, episodes
                 algo.end_epoch(stats, episodes)
                 self.events.emit("on_epoch_end", stats, episodes)
                 stop = self._stop_reason(episodes)
-            last = self.save("last")
+            last = self.checkpoints.save("last")
         return self._finish(stop, start, last)
 
     def _guarded_collect(self) -> bool:
@@ -248,9 +181,10 @@ class Loop:
         except (EnvError, DivergenceError, KeyboardInterrupt):
             raise
         except Exception as exc:
-            path = self.save("last")
-            saved = f"; last completed epoch {self.epoch} saved to {path}" if path else ""
-            raise EnvError(f"env step failed at epoch {self.epoch + 1}: {describe(exc)}{saved}") from exc
+            path = self.checkpoints.save("last")
+            epoch = self.ctx.epoch
+            saved = f"; last completed epoch {epoch} saved to {path}" if path else ""
+            raise EnvError(f"env step failed at epoch {epoch + 1}: {describe(exc)}{saved}") from exc
 
     def _guarded_update(self) -> dict[str, float] | None:
         """``update`` (under the update's thread count while the envs wait); non-finite parameters diverge.
@@ -269,6 +203,7 @@ class Loop:
             raise
         if stats is None:
             return None
+        self.ctx.frames += 0 if algo.counts_frames_while_collecting else algo.frames_per_epoch()
         bad = check_parameters(algo.model)
         if bad is not None:
             raise DivergenceError(f"{bad} became non-finite in the update")
@@ -281,50 +216,23 @@ class Loop:
         if guard is None:
             raise exc
         try:
-            guard.handle(exc, self.epoch)
+            guard.handle(exc, self.ctx.epoch)
         except DivergenceError:
-            self.save("last")  # the restored, finite parameters (a non-finite model is never saved)
+            self.checkpoints.save("last")  # the restored, finite parameters (a non-finite model is never saved)
             raise
-        self.restart_episodes()
+        self.checkpoints.restart_episodes()
 
-    def snapshot(self) -> None:
+    def _snapshot(self) -> None:
         """The divergence guard's in-memory copy of the learner (what a rollback restores)."""
         if self.algorithm.divergence is not None:
-            self.algorithm.divergence.snapshot(self.epoch)
+            self.algorithm.divergence.snapshot(self.ctx.epoch)
 
-    def restart_episodes(self) -> None:
-        """After a rollback or a checkpoint loaded into the running envs (PBT's exploit): every env starts
-        a fresh episode (a loaded checkpoint's env state is not used), which is the new epoch boundary."""
-        self.ctx.resume_state = None
-        self.algorithm.restart_episodes()
-        self.checkpoints.point.capture(gather=False)  # no collective: under torchrun a rank may roll back alone
-
-    def frames_per_epoch(self) -> int:
-        """Env frames one epoch adds (the algorithm's)."""
-        return self.algorithm.frames_per_epoch()
-
-    # ----- checkpoints, live parameters -------------------------------------------------------
-    def state_dict(self, kind: str = "last") -> dict[str, Any]:
-        """Everything exact resume needs."""
-        return self.checkpoints.state_dict(kind)
-
-    def save(self, kind: str) -> str | None:
-        """Write a checkpoint of ``kind`` (best, last, ep_N); its path, or None when none was written."""
-        return self.checkpoints.save(kind)
-
+    # ----- checkpoints ------------------------------------------------------------------------
     def restore(self, state: dict[str, Any], path: str) -> None:
         """Continue from a checkpoint: weights (unless the model was built holding this checkpoint's:
         the first restore of a run made with ``resuming``), optimizer(s), lr, normalizers, counters, RNG."""
         self.checkpoints.restore(state, path, weights=not self._weights_loaded)
         self._weights_loaded = False  # a later restore (PBT's exploit, a tuning trial) loads its weights
-
-    def get_params(self) -> dict[str, float]:
-        """The training parameters population-based training may change (see :meth:`set_params`)."""
-        return self.live.get_params()
-
-    def set_params(self, **changes: float) -> None:
-        """Change training parameters; they apply from the next epoch (thread-safe) and are logged."""
-        self.live.set_params(**changes)
 
     # ----- the run around the loop ------------------------------------------------------------
     def close(self) -> None:
@@ -352,11 +260,6 @@ class Loop:
             raise
         return loop
 
-    def request_stop(self, reason: str) -> None:
-        """Stop after the current epoch with a checkpoint, as a signal would (for callbacks)."""
-        if self.ctx.signals is not None:
-            self.ctx.signals.request(reason)
-
     def join_ranks(self) -> None:
         """Under torchrun, once the run is built (and resumed): every rank takes rank 0's parameters,
         buffers and optimizer state; after a resume from a checkpoint without every rank's own state
@@ -367,57 +270,59 @@ class Loop:
             return
         for model, agent in self.algorithm.learners():
             comm.broadcast_learner(model, agent)
-        if self.epoch > 0 and not comm.is_main and not self.checkpoints.point.rank_restored:
-            seed_everything(comm.rank_seed + self.epoch)  # a checkpoint without every rank's own streams
+        epoch = self.ctx.epoch
+        if epoch > 0 and not comm.is_main and not self.checkpoints.point.rank_restored:
+            seed_everything(comm.rank_seed + epoch)  # a checkpoint without every rank's own streams
 
     def _limit_reached(self) -> str | None:
         """At the start: the stop a run resumed at or past its max_epochs / max_frames has reached already."""
-        cfg = self.cfg
-        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
-            return f"max_epochs {cfg.max_epochs} reached (the checkpoint is at epoch {self.epoch}; nothing to train)"
-        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
-            return f"max_frames {cfg.max_frames} reached (the checkpoint is at frame {self.frames}; nothing to train)"
+        cfg, epoch, frames = self.ctx.cfg, self.ctx.epoch, self.ctx.frames
+        if cfg.max_epochs > 0 and epoch >= cfg.max_epochs:
+            return f"max_epochs {cfg.max_epochs} reached (the checkpoint is at epoch {epoch}; nothing to train)"
+        if cfg.max_frames > 0 and frames >= cfg.max_frames:
+            return f"max_frames {cfg.max_frames} reached (the checkpoint is at frame {frames}; nothing to train)"
         return None
 
     def _stop_reason(self, episodes: dict | None) -> str | None:
-        cfg = self.cfg
+        ctx = self.ctx
+        cfg = ctx.cfg
         if episodes is not None and episodes["reward"] >= cfg.score_to_win:
             return f"score_to_win {cfg.score_to_win} reached"
         if episodes is not None and episodes.get("success", -1.0) >= cfg.success_to_win:
             return f"success_to_win {cfg.success_to_win} reached"
-        if cfg.max_epochs > 0 and self.epoch >= cfg.max_epochs:
+        if cfg.max_epochs > 0 and ctx.epoch >= cfg.max_epochs:
             return f"max_epochs {cfg.max_epochs} reached"
-        if cfg.max_frames > 0 and self.frames >= cfg.max_frames:
+        if cfg.max_frames > 0 and ctx.frames >= cfg.max_frames:
             return f"max_frames {cfg.max_frames} reached"
-        if self.signals is not None and self.signals.requested:
-            return self.signals.stop_reason()
+        if ctx.signals is not None and ctx.signals.requested:
+            return ctx.signals.stop_reason()
         return None
 
     def _finish(self, stop: str, start: float, last: str | None) -> TrainResult:
         """Report the stop, emit on_train_end and build the result. A final checkpoint that could not be
         written ends the run with a CheckpointError (non-zero exit) whose line is the stop line and why."""
-        self.logger.flush()
-        mean = self.tracker.mean_return() if self.tracker.has_data else float("nan")
-        if self.ctx.comm.world_size > 1 and self.last_episodes is not None:  # every rank's games, as `best` is
-            mean = self.last_episodes["reward"]
+        ctx, saver = self.ctx, self.checkpoints
+        tracker, run, best = ctx.tracker, saver.run, saver.best_reward
+        ctx.logger.flush()
+        mean = tracker.mean_return() if tracker.has_data else float("nan")
+        if ctx.comm.world_size > 1 and self.record.episodes is not None:  # every rank's games, as `best` is
+            mean = self.record.episodes["reward"]
         interrupted = stop.startswith("interrupted")
-        success = f", success rate {self.tracker.success_rate():.2f}" if self.tracker.has_success else ""
+        success = f", success rate {tracker.success_rate():.2f}" if tracker.has_success else ""
         head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
-        line = (f"{head} at epoch {self.epoch}, frames {self.frames}, mean reward {mean:.2f}, "
-                f"best {self.best_reward:.2f}{success}")
-        failures = self.checkpoints.failures_line()
+        line = (f"{head} at epoch {ctx.epoch}, frames {ctx.frames}, mean reward {mean:.2f}, "
+                f"best {best:.2f}{success}")
+        failures = saver.failures_line()
         if failures:
             log.warning(failures)
-        lost = self.run is not None and last is None and self.checkpoints.failure is not None
+        lost = run is not None and last is None and saver.failure is not None
         if lost:
-            line += (f"; the final checkpoint was not written ({self.checkpoints.failure}); "
-                     f"{self.checkpoints.kept()}")
-        if (self.cfg.print_stats or interrupted) and not (lost and not interrupted):
+            line += f"; the final checkpoint was not written ({saver.failure}); {saver.kept()}"
+        if (ctx.cfg.print_stats or interrupted) and not (lost and not interrupted):
             log.info(line)
         if interrupted and last:
             log.info(f"resume with: {train_hint(self.params.source, last)}")
-        result = TrainResult(self.epoch, self.frames, mean, self.best_reward, stop,
-                             self.run.root if self.run else "", time.time() - start)
+        result = TrainResult(ctx.epoch, ctx.frames, mean, best, stop, run.root if run else "", time.time() - start)
         self.events.emit("on_train_end", result)
         if lost and not interrupted:  # an interrupted run exits non-zero already (130), its line says what is kept
             raise CheckpointError(line)
@@ -425,12 +330,13 @@ class Loop:
 
     def _log(self, stats: dict[str, float], episodes: dict | None, rollout_s: float, update_s: float) -> None:
         """The epoch's TensorBoard scalars and console line: the metrics under the algorithm's ``metric_tags``."""
-        algo = self.algorithm
+        algo, ctx = self.algorithm, self.ctx
+        cfg, best = ctx.cfg, self.checkpoints.best_reward
         timing = {"batch": algo.frames_per_epoch(), "rollout": rollout_s, "update": update_s}
         console = [fmt.format(stats[name]) for name, fmt in algo.console_fields if name in stats]
-        best = self.best_reward if episodes is None else max(self.best_reward, episodes["reward"])  # with this epoch
-        self.logger.epoch(self.epoch, self.cfg.max_epochs, self.frames, tag_metrics(stats, algo.metric_tags),
-                          episodes, best, timing, console, self.cfg.max_frames, self.cfg.score_to_win)
+        best = best if episodes is None else max(best, episodes["reward"])  # with this epoch
+        ctx.logger.epoch(ctx.epoch, cfg.max_epochs, ctx.frames, tag_metrics(stats, algo.metric_tags),
+                         episodes, best, timing, console, cfg.max_frames, cfg.score_to_win)
 
 
 def tag_metrics(stats: dict[str, float], tags: dict[str, str]) -> dict[str, float]:

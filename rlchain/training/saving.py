@@ -214,6 +214,13 @@ class CheckpointSaver:
         if "env_state" in state and callable(set_env_state):
             set_env_state(state["env_state"])
 
+    def restart_episodes(self) -> None:
+        """After a rollback or a checkpoint loaded into the running envs (PBT's exploit): every env starts
+        a fresh episode (a loaded checkpoint's env state is not used), which is the new epoch boundary."""
+        self.ctx.resume_state = None
+        self.algorithm.restart_episodes()
+        self.point.capture(gather=False)  # no collective: under torchrun a rank may roll back alone
+
 
 def embodichain_keys(state: dict[str, Any]) -> dict[str, Any]:
     """The keys EmbodiChain's trainer writes, beside rlchain's (the same tensors, stored once): ``global_step``

@@ -10,7 +10,7 @@ from tests.conftest import CONFIGS
 pytestmark = pytest.mark.slow
 
 
-@pytest.mark.timeout(120)
+@pytest.mark.timeout(240)  # two learning tests share the 2 cores (pytest -n 2)
 def test_cooperative_agents_learn_to_meet(tmp_path):
     runner = Runner().load(os.path.join(CONFIGS, "ppo_test_cooperative.yaml"),
                            [f"params.config.train_dir={tmp_path}", "params.config.print_stats=false"])

@@ -48,7 +48,7 @@ def starting_models(params, seed):
     return models
 
 
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(600)
 def test_simple_spread_shared_policy_beats_random_play(tmp_path):
     runner = Runner().load(os.path.join(CONFIGS, "ppo_pz_simple_spread.yaml"),
                            [f"params.config.train_dir={tmp_path}", "params.config.print_stats=false"])
@@ -93,7 +93,7 @@ def _gain(params, policy, trained, start, games=384):
     return after[0] - before[0], float(np.hypot(after[1], before[1]))
 
 
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(600)
 def test_simple_tag_predators_trained_with_the_prey_beat_their_starting_selves(tmp_path):
     """The shipped config trains both policies (120 epochs): the predators' final model catches the starting
     prey more often than their starting model does. Start vs start: predators +3 to +5.5 per agent-episode
@@ -106,7 +106,7 @@ def test_simple_tag_predators_trained_with_the_prey_beat_their_starting_selves(t
     assert gain >= 3.0 and gain >= 2.5 * se, (gain, se)
 
 
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(600)
 def test_simple_tag_prey_trained_alone_beats_its_starting_self_and_the_predators_stay(tmp_path):
     """``policies_to_train: [prey]``: 60 epochs of the prey alone against the frozen starting predators. The
     prey's final model loses fewer points to them than its starting one (start vs start: -15.5 to -17.5 per

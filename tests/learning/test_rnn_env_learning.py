@@ -16,12 +16,12 @@ def train(tmp_path, *extra):
     return Runner().load(config, overrides).train()
 
 
-@pytest.mark.timeout(150)
+@pytest.mark.timeout(300)  # two learning tests share the 2 cores (pytest -n 2)
 def test_rnn_remembers_the_goal(tmp_path):
     assert train(tmp_path).mean_reward >= 0.95  # success rate over the last 200 episodes
 
 
-@pytest.mark.timeout(90)
+@pytest.mark.timeout(180)  # two learning tests share the 2 cores (pytest -n 2)
 def test_feedforward_cannot(tmp_path):
     result = train(tmp_path, "params.network.rnn=None", "params.config.max_epochs=100")
     assert result.mean_reward < 0.4, result  # measured ~0.15: its path cannot depend on the goal

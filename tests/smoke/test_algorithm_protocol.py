@@ -44,10 +44,8 @@ def test_a_user_algorithm_trains_logs_and_resumes_through_the_loop(tmp_path, mon
     seen, loops = [], []
 
     class IsAlgorithm(Callback):
-        drives_trainer = True  # test instrument: the trainer itself
-
-        def on_train_start(self, trainer):
-            loops.append(isinstance(trainer.algorithm, Algorithm) and not isinstance(trainer.algorithm, Loop))
+        def on_train_start(self, ctx):
+            loops.append(isinstance(ctx.algorithm, Algorithm) and not isinstance(ctx.algorithm, Loop))
 
     result = reinforce(tmp_path, epochs=3).train(callbacks=[IsAlgorithm(), lambda ctx, stats, episodes: seen.append(
         (ctx.state.algo, ctx.state.epoch, ctx.state.frames, sorted(stats), dict(ctx.state.stats) == stats))])
@@ -94,23 +92,21 @@ def test_multi_gpu_for_an_algorithm_without_it_is_a_one_line_error(tmp_path, mon
 
 @pytest.mark.parametrize("config,changes,check", [
     ("sac_pendulum.yaml", {"actor_lr": 1e-5, "critic_tau": 0.01},
-     lambda t: (t.algorithm.agent.actor_opt.param_groups[0]["lr"], t.cfg.critic_tau) == (1e-5, 0.01)),
+     lambda t: (t.algorithm.agent.actor_opt.param_groups[0]["lr"], t.algorithm.cfg.critic_tau) == (1e-5, 0.01)),
     ("dqn_cartpole.yaml", {"learning_rate": 2e-5, "gamma": 0.9},
-     lambda t: (t.algorithm.agent.opt.param_groups[0]["lr"], t.cfg.gamma, t.algorithm.buffer.gamma) == (2e-5, 0.9,
-                                                                                                  0.9)),
+     lambda t: (t.algorithm.agent.opt.param_groups[0]["lr"], t.algorithm.cfg.gamma,
+                t.algorithm.buffer.gamma) == (2e-5, 0.9, 0.9)),
 ])
 def test_sac_and_dqn_get_and_set_params(tmp_path, config, changes, check):
     seen = []
 
     class Tweak(Callback):
-        drives_trainer = True  # test instrument: checks the optimizers and buffer the change reached
-
-        def on_epoch_end(self, trainer, stats, episodes):
-            if trainer.epoch == 1:
-                assert set(changes) <= set(trainer.get_params())
-                trainer.set_params(**changes)
+        def on_epoch_end(self, ctx, stats, episodes):
+            if ctx.state.epoch == 1:
+                assert set(changes) <= set(ctx.get_params())
+                ctx.set_params(**changes)
             else:
-                seen.append((check(trainer), {k: trainer.get_params()[k] for k in changes}))
+                seen.append((check(ctx), {k: ctx.get_params()[k] for k in changes}))
 
     Runner().load(os.path.join(CONFIGS, config), small(tmp_path, 2, ["params.config.num_warmup_frames=0"])).train(
         callbacks=[Tweak()])

@@ -112,20 +112,18 @@ def test_full_queue_stops_the_runners(tmp_path):
 class KillRunner(Callback):
     """Kill runner ``index`` at the given epochs (its thread dies mid-fragment); remember the restarts."""
 
-    drives_trainer = True  # test instrument: reaches the runners through the trainer's pool
-
     def __init__(self, index, epochs):
         self.index, self.epochs, self.restarts = index, epochs, None
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        if trainer.epoch in self.epochs:
-            pool = trainer.algorithm.pool
+    def on_epoch_end(self, ctx, stats, episodes):
+        if ctx.state.epoch in self.epochs:
+            pool = ctx.algorithm.pool
             pool.kill(self.index)
             pool.threads[self.index].join(timeout=10)
             assert not pool.threads[self.index].is_alive()
 
-    def on_train_end(self, trainer, result):
-        self.restarts = list(trainer.algorithm.pool.restarts)
+    def on_train_end(self, ctx, result):
+        self.restarts = list(ctx.algorithm.pool.restarts)
 
 
 @pytest.mark.timeout(120)

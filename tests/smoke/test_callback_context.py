@@ -1,11 +1,10 @@
 """Callbacks get a CallbackContext (typed state, request_stop, save, set_params, model / writer / env
-spec), not the trainer; old callbacks' trainer attribute reads still work with a DeprecationWarning;
-rl_games AlgoObservers' after_init(algo) gets the attributes observers read of rl_games' algo."""
+spec / algorithm), the run's parts read directly, never the loop; rl_games AlgoObservers' after_init(algo)
+gets the attributes observers read of rl_games' algo."""
 
 import dataclasses
 import math
 import os
-import warnings
 
 import pytest
 import torch
@@ -76,36 +75,16 @@ def test_callbacks_get_a_typed_state_and_their_actions(tmp_path):
         inspect.ctx.emit("on_train_end", result)
 
 
-class OldStyle(Callback):
-    """A callback written for the trainer: reads and sets its attributes."""
-
-    def __init__(self):
-        self.seen = []
-
-    def on_epoch_end(self, trainer, stats, episodes):
-        self.seen.append((trainer.epoch, trainer.frames, trainer.cfg.name, type(trainer.agent).__name__))
-        trainer.marked = trainer.epoch
-
-
-def test_old_callbacks_reading_the_trainer_still_work_with_a_deprecation_warning(tmp_path):
-    old = OldStyle()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        Runner().load(CARTPOLE, small(tmp_path, epochs=2, extra=QUIET)).train(callbacks=[old])
-    assert old.seen == [(1, 512, "cartpole", "PPOAgent"), (2, 1024, "cartpole", "PPOAgent")]
-    messages = [str(w.message) for w in caught if issubclass(w.category, DeprecationWarning)]
-    named = sorted(m.split("'")[1] for m in messages if "CallbackContext, not the trainer" in m)
-    # once each; the agent is one of the context's own handles (rl_games' observers read its optimizer)
-    assert named == ["trainer.cfg", "trainer.epoch", "trainer.frames", "trainer.marked"]
-    assert all(w.filename == __file__ for w in caught if "CallbackContext" in str(w.message))  # points at the callback
-
-
-def test_a_context_attribute_the_trainer_lacks_is_an_attribute_error():
-    ctx = CallbackContext(type("Trainer", (), {"epoch": 1})())
-    with pytest.raises(AttributeError, match="a callback context has no attribute 'nope'"):
-        ctx.nope  # noqa: B018
-    with pytest.warns(DeprecationWarning, match=r"'trainer.epoch' is deprecated"):
-        assert ctx.epoch == 1
+def test_the_context_reads_the_runs_parts_and_forwards_nothing(tmp_path):
+    inspect = Inspect()
+    Runner().load(CARTPOLE, small(tmp_path, epochs=3, extra=QUIET)).train(callbacks=[inspect])
+    ctx = inspect.ctx
+    assert type(ctx.algorithm).__name__ == "PPO" and ctx.agent is ctx.algorithm.agent
+    assert ctx.model is ctx.algorithm.model and ctx.training_env.num_envs == ctx.env_spec.num_envs == 32
+    assert ctx.frames_per_epoch() == 512 and ctx.run_dir.root == ctx.state.experiment_dir
+    assert ctx.full_state()["epoch"] == 2 and set(ctx.get_params()) >= {"learning_rate"}
+    for name in ("epoch", "frames", "cfg", "trainer", "_trainer"):  # the loop's attributes are not the context's
+        assert not hasattr(ctx, name), name
 
 
 class ReadsAlgo:

@@ -27,10 +27,8 @@ def test_camera_config_trains_with_uint8_images_and_plays(tmp_path):
     seen = []
 
     class Storage(Callback):
-        drives_trainer = True  # test instrument: reads the rollout storage's buffers
-
-        def on_epoch_end(self, trainer, stats, episodes):
-            obs = trainer.algorithm.storage.obs
+        def on_epoch_end(self, ctx, stats, episodes):
+            obs = ctx.algorithm.storage.obs
             seen.append((obs["image"].dtype, obs["image"].shape, obs["proprio"].dtype))
 
     over = [*SMALL, "params.config.max_epochs=2", f"params.config.train_dir={tmp_path}/runs",

@@ -101,7 +101,7 @@ def test_a_stored_env_id_that_imports_a_module_is_refused(tmp_path):
 def sb3_payload(tmp_path):
     """A file rlchain.PPO.save wrote, with a payload added; returns (path, marker)."""
     model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=1, verbose=0, tensorboard_log=str(tmp_path / "runs"))
-    path = model.save(str(tmp_path / "model"))
+    path = model.save(str(tmp_path / "model.pth"))
     marker = str(tmp_path / "payload_ran")
     state = ckpt.read(path)
     torch.save({**state, "note": Payload(marker)}, path)
@@ -130,7 +130,7 @@ def test_sb3_set_parameters_refuses_a_payload(sb3_payload, tmp_path):
 
 def test_sb3_file_is_data_and_its_stored_trust_and_env_are_not_followed(tmp_path):
     model = rlchain.SAC("MlpPolicy", "Pendulum-v1", seed=1, verbose=0, tensorboard_log=str(tmp_path / "runs"))
-    path = model.save(str(tmp_path / "sac"))
+    path = model.save(str(tmp_path / "sac.pth"))
     state = ckpt.read(path)  # loads with weights_only: no pickled space or class inside
     assert state["spaces"][0]["__space__"] == "Box"
     state["config"]["params"]["config"]["trust_checkpoint"] = True
@@ -147,7 +147,7 @@ def test_sb3_file_is_data_and_its_stored_trust_and_env_are_not_followed(tmp_path
 
 def test_a_stored_config_in_another_layout_is_not_translated(tmp_path):
     model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=1, verbose=0, tensorboard_log=str(tmp_path / "runs"))
-    path = model.save(str(tmp_path / "ppo"))
+    path = model.save(str(tmp_path / "ppo.pth"))
     state = ckpt.read(path)
     state["config"] = {"trainer": {"events": {"train": {"x": {"func": "rlchain_door_payload:run"}}}}}  # EmbodiChain's
     ckpt.save_atomic(state, path)
@@ -158,7 +158,7 @@ def test_a_stored_config_in_another_layout_is_not_translated(tmp_path):
 def test_sb3_activation_fn_is_stored_by_name_and_read_back_from_torch_only(tmp_path):
     model = rlchain.PPO("MlpPolicy", "CartPole-v1", policy_kwargs={"activation_fn": torch.nn.ReLU, "net_arch": [8]},
                         verbose=0, tensorboard_log=str(tmp_path / "runs"))
-    path = model.save(str(tmp_path / "relu"))
+    path = model.save(str(tmp_path / "relu.pth"))
     assert rlchain.PPO.load(path).policy_kwargs["activation_fn"] is torch.nn.ReLU
     state = ckpt.read(path)
     assert state["policy_kwargs"]["activation_fn"] == {"__torch_activation__": "ReLU"}  # a name, not a class

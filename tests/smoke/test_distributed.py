@@ -29,21 +29,19 @@ CALLBACK = 'params.config.callbacks=["tests.smoke.test_distributed:DumpState"]'
 class DumpState(Callback):
     """Test-only: each rank writes its final model, optimizer and counters to $RLCHAIN_TEST_DIST_DUMP."""
 
-    drives_trainer = True  # test instrument: reads the optimizers
-
-    def on_train_end(self, trainer, result):
+    def on_train_end(self, ctx, result):
         folder = os.environ.get(DUMP_ENV)
         if not folder:
             return
-        rank = trainer.comm.rank
-        state = {"model": trainer.model.state_dict(), "optimizer": trainer.algorithm.agent.optimizer.state_dict(),
-                 "lr": trainer.algorithm.agent.lr, "epoch": trainer.epoch, "frames": trainer.frames,
-                 "best_reward": trainer.best_reward, "seed": trainer.seed, "run_dir": result.run_dir}
-        if getattr(trainer.algorithm, "reference", None) is not None:  # GRPO's frozen initial policy
-            state["reference"] = trainer.algorithm.reference.state_dict()
-        if getattr(trainer.algorithm, "central_value", None) is not None:
-            state["central_value"] = trainer.algorithm.central_value.state_dict()
-            state["cv_optimizer"] = trainer.algorithm.cv_agent.optimizer.state_dict()
+        rank = ctx.state.rank
+        state = {"model": ctx.model.state_dict(), "optimizer": ctx.algorithm.agent.optimizer.state_dict(),
+                 "lr": ctx.algorithm.agent.lr, "epoch": ctx.state.epoch, "frames": ctx.state.frames,
+                 "best_reward": ctx.state.best_reward, "seed": ctx.state.seed, "run_dir": result.run_dir}
+        if getattr(ctx.algorithm, "reference", None) is not None:  # GRPO's frozen initial policy
+            state["reference"] = ctx.algorithm.reference.state_dict()
+        if getattr(ctx.algorithm, "central_value", None) is not None:
+            state["central_value"] = ctx.algorithm.central_value.state_dict()
+            state["cv_optimizer"] = ctx.algorithm.cv_agent.optimizer.state_dict()
         torch.save(state, os.path.join(folder, f"rank{rank}.pt"))
 
 
@@ -158,9 +156,9 @@ def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
     assert_ranks_identical(states)
     model = states[0]["model"]
     # each normalizer folded both ranks' batches (16 envs x 64 steps per rank and epoch)
-    assert model["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+    assert model["running_mean_std.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
     # value_normalizer: rl_games folds each sample's value prediction and its return: twice the count
-    assert model["value_norm.count"].item() == pytest.approx(2 * 3 * 2 * 16 * 64, abs=1e-3)
+    assert model["value_mean_std.count"].item() == pytest.approx(2 * 3 * 2 * 16 * 64, abs=1e-3)
 
 
 @pytest.mark.timeout(180)
@@ -172,7 +170,7 @@ def test_appo_learner_is_data_parallel(tmp_path):
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     states = load_dumps(dumps)
     assert_ranks_identical(states)
-    assert states[0]["model"]["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+    assert states[0]["model"]["running_mean_std.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
     assert states[0]["frames"] >= 3 * 2 * 16 * 64
 
 
@@ -235,7 +233,7 @@ def test_aux_loss_network_stays_identical(tmp_path):
         "params.config.minibatch_size=64")], tmp_path)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     states = load_dumps(dumps)
-    assert "network.aux_loss_linear.weight" in states[0]["model"]
+    assert "a2c_network.aux_loss_linear.weight" in states[0]["model"]
     assert_ranks_identical(states)
 
 

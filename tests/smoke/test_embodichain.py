@@ -77,10 +77,8 @@ def test_checkpoints_carry_their_names_and_keys_and_play_and_resume(tmp_path):
 class KeepReference(Callback):
     """Test-only: keeps GRPO's frozen reference policy at the end of training."""
 
-    drives_trainer = True  # reads the algorithm
-
-    def on_train_end(self, trainer, result):
-        REFERENCES.append({k: v.clone() for k, v in trainer.algorithm.reference.state_dict().items()})
+    def on_train_end(self, ctx, result):
+        REFERENCES.append({k: v.clone() for k, v in ctx.algorithm.reference.state_dict().items()})
 
 
 def test_grpo_resume_keeps_the_reference_policy(tmp_path):

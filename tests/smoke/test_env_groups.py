@@ -61,16 +61,14 @@ def test_stop_request_mid_rollout_drains_groups_and_saves(tmp_path):
     class StopAfterRecvs(Callback):
         """Asks the trainer to stop after 5 group results, in the middle of the first rollout."""
 
-        drives_trainer = True  # test instrument: wraps the training env's recv
-
-        def on_train_start(self, trainer):
-            env, recv, count = trainer.env, trainer.env.recv, [0]
+        def on_train_start(self, ctx):
+            env, recv, count = ctx.training_env, ctx.training_env.recv, [0]
             assert len(env.env_groups) == 2
 
             def counting(group):
                 count[0] += 1
                 if count[0] == 5:
-                    trainer.request_stop("test")
+                    ctx.request_stop("test")
                 return recv(group)
             env.recv = counting
 

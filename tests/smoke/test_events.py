@@ -13,9 +13,9 @@ from rlchain.algos.base.context import RunContext
 from rlchain.config import ConfigError
 from rlchain.envs.vecenv import DROPPED, StepResult
 from rlchain.training.events import AlgoObserverCallback, Callback, CallbackList
-from rlchain.training.self_play import SelfPlayCallback
 from tests.conftest import CONFIGS
 from tests.smoke.test_train_play_resume import small
+from tests.unit.test_self_play import keep_self_play
 
 pytestmark = pytest.mark.smoke
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
@@ -181,23 +181,17 @@ def test_algo_observer_in_off_policy_training(tmp_path):
     assert observer.calls == expected_calls(seed=8, num_envs=4, steps_per_epoch=7, epochs=2)
 
 
-def test_after_clear_stats_follows_self_play_updates(tmp_path):
+def test_after_clear_stats_follows_self_play_updates(tmp_path, monkeypatch):
     observer = StepObserver()
-
-    class KeepSelfPlay(Callback):
-        drives_trainer = True  # test instrument: finds the self-play callback among the trainer's
-
-        def on_train_end(self, trainer, result):
-            self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))
-
-    keep = KeepSelfPlay()
+    kept = keep_self_play(monkeypatch)
     Runner().load(os.path.join(CONFIGS, "ppo_duel_self_play.yaml"), [
         f"params.config.train_dir={tmp_path}", "params.config.max_epochs=3", "params.config.print_stats=false",
         "params.config.num_actors=4", "params.config.minibatch_size=64",
         "params.config.self_play_config.games_to_check=1", "params.config.self_play_config.update_score=-1",
-        "params.config.self_play_config.env_update_num=1"]).train(callbacks=[observer, keep])
-    assert keep.self_play.updates >= 1
-    assert observer.calls.count("after_clear_stats") == keep.self_play.updates
+        "params.config.self_play_config.env_update_num=1"]).train(callbacks=[observer])
+    (self_play,) = kept
+    assert self_play.updates >= 1
+    assert observer.calls.count("after_clear_stats") == self_play.updates
     # as in rl_games, an epoch's statistics are printed before self-play clears them
     for i, call in enumerate(observer.calls):
         if call == "after_clear_stats":

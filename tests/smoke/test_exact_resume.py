@@ -37,7 +37,7 @@ class Record(Callback):
 
     def on_epoch_end(self, ctx, stats, episodes):
         kept = {k: v for k, v in stats.items() if not any(t in k for t in TIMING)}
-        self.epochs[ctx.epoch] = (kept, dict(episodes) if episodes else None)
+        self.epochs[ctx.state.epoch] = (kept, dict(episodes) if episodes else None)
 
     def on_env_step(self, ctx, result, done_indices, rows):
         self.steps += 1
@@ -146,18 +146,16 @@ class SigtermInUpdate(Record):
     stop check, which runs before every minibatch); counts the minibatches run after it and the seconds
     from the signal to the end of the run."""
 
-    drives_trainer = True  # test instrument: wraps the agent's stop check
-
     def __init__(self, epoch, agent="agent"):
         super().__init__()
         self.epoch, self.agent, self.checks, self.after, self.sent = epoch, agent, 0, 0, None
 
-    def on_train_start(self, trainer):
-        agent = getattr(trainer.algorithm, self.agent)
+    def on_train_start(self, ctx):
+        agent = getattr(ctx.algorithm, self.agent)
         check = agent.should_stop
 
         def counted():
-            if trainer.epoch == self.epoch:
+            if ctx.state.epoch == self.epoch:
                 self.checks += 1
                 if self.checks == 3:
                     self.sent = time.monotonic()
@@ -167,11 +165,11 @@ class SigtermInUpdate(Record):
             return check()
         agent.should_stop = counted
 
-    def on_epoch_end(self, trainer, stats, episodes):
+    def on_epoch_end(self, ctx, stats, episodes):
         kept = {k: v for k, v in stats.items() if not any(t in k for t in TIMING)}
-        self.epochs[trainer.epoch] = (kept, dict(episodes) if episodes else None)
+        self.epochs[ctx.state.epoch] = (kept, dict(episodes) if episodes else None)
 
-    def on_train_end(self, trainer, result):
+    def on_train_end(self, ctx, result):
         self.seconds = time.monotonic() - self.sent if self.sent else None
 
 

@@ -66,10 +66,8 @@ def test_sac_resume_with_replay_buffer(tmp_path):
     captured = {}
 
     class BufferSize(Callback):
-        drives_trainer = True  # test instrument: reads the replay buffer
-
-        def on_epoch_end(self, trainer, stats, episodes):
-            captured.setdefault("size", len(trainer.algorithm.buffer))
+        def on_epoch_end(self, ctx, stats, episodes):
+            captured.setdefault("size", len(ctx.algorithm.buffer))
 
     runner.train(checkpoint=last, callbacks=[BufferSize()])
     assert captured["size"] == 400

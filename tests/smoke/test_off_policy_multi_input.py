@@ -54,13 +54,11 @@ DQN_DICT = {"params": {
 
 
 class Replay(Callback):
-    drives_trainer = True  # test instrument: reads the replay buffer
-
     def __init__(self):
         self.buffer = None
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        self.buffer = trainer.algorithm.buffer
+    def on_epoch_end(self, ctx, stats, episodes):
+        self.buffer = ctx.algorithm.buffer
 
 
 def write(tmp_path, config):

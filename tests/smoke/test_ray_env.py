@@ -170,15 +170,13 @@ def ray_ppo_config(tmp_path, epochs, **runner_keys):
 class KillWorker(Callback):
     """Kills worker 1's process at the end of the given epochs; remembers the env for the checks."""
 
-    drives_trainer = True  # test instrument: reaches the Ray workers through the training env
-
     def __init__(self, epochs):
         self.epochs, self.env, self.killed = epochs, None, 0
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        self.env = trainer.env
-        if trainer.epoch in self.epochs:
-            os.kill(trainer.env.worker_pids()[1], signal.SIGKILL)
+    def on_epoch_end(self, ctx, stats, episodes):
+        self.env = ctx.training_env
+        if ctx.state.epoch in self.epochs:
+            os.kill(ctx.training_env.worker_pids()[1], signal.SIGKILL)
             self.killed += 1
 
 
@@ -223,17 +221,15 @@ def _wait_dead(ray, worker, seconds=30.0):
 class KillAppoRunner(Callback):
     """SIGKILLs appo Ray runner 1's process at the end of the given epochs; remembers the restarts."""
 
-    drives_trainer = True  # test instrument: reaches the Ray runners through the trainer's pool
-
     def __init__(self, epochs):
         self.epochs, self.restarts, self.lost = epochs, None, None
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        if trainer.epoch in self.epochs:
-            os.kill(trainer.algorithm.pool.worker_pids()[1], signal.SIGKILL)
+    def on_epoch_end(self, ctx, stats, episodes):
+        if ctx.state.epoch in self.epochs:
+            os.kill(ctx.algorithm.pool.worker_pids()[1], signal.SIGKILL)
 
-    def on_train_end(self, trainer, result):
-        self.restarts, self.lost = list(trainer.algorithm.pool.restarts), trainer.algorithm.pool.lost_fragments
+    def on_train_end(self, ctx, result):
+        self.restarts, self.lost = list(ctx.algorithm.pool.restarts), ctx.algorithm.pool.lost_fragments
 
 
 @pytest.mark.timeout(180)

@@ -54,7 +54,7 @@ def test_save_load_predict_round_trip(tmp_path, cls, env_id):
     env = gym.make(env_id)
     obs = np.stack([env.reset(seed=s)[0] for s in range(8)])
     path = model.save(str(tmp_path / "model"))
-    assert path.endswith("model.pth")
+    assert path.endswith("model.zip")  # SB3's name for a path without an extension
     loaded = getattr(rlchain, cls).load(str(tmp_path / "model"))
     np.testing.assert_array_equal(loaded.predict(obs)[0], model.predict(obs)[0])
     single, _ = loaded.predict(obs[0])
@@ -82,5 +82,7 @@ def test_unknown_argument_is_one_line(tmp_path):
     with pytest.raises(ValueError, match=r"^rlchain.DQN: exploration_fractio: unknown argument; did you mean "
                                          r"'exploration_fraction'"):
         rlchain.DQN("MlpPolicy", "CartPole-v1", exploration_fractio=0.1)
-    with pytest.raises(ValueError, match="'CnnPolicy' is not supported"):
-        rlchain.PPO("CnnPolicy", "CartPole-v1")
+    with pytest.raises(ValueError, match="NatureCNN needs image observations"):
+        rlchain.PPO("CnnPolicy", "CartPole-v1")  # CnnPolicy is SB3's NatureCNN: images only, as in SB3
+    with pytest.raises(ValueError, match="'TdPolicy' is not supported"):
+        rlchain.PPO("TdPolicy", "CartPole-v1")

@@ -35,10 +35,8 @@ def test_tensor_config_trains_saves_and_plays(tmp_path, config, env_name, num_en
     seen = []
 
     class Devices(Callback):
-        drives_trainer = True  # test instrument: reads the env's and the rollout storage's devices
-
-        def on_epoch_end(self, trainer, stats, episodes):
-            seen.append((trainer.env_spec.tensor_native, trainer.env.device, trainer.algorithm.storage.obs.device))
+        def on_epoch_end(self, ctx, stats, episodes):
+            seen.append((ctx.env_spec.tensor_native, ctx.training_env.device, ctx.algorithm.storage.obs.device))
 
     result = runner.train(callbacks=[Devices()])
     assert result.epoch == 2 and result.frames == 2 * cfg.horizon_length * num_envs

@@ -59,9 +59,9 @@ def test_resume_restores_state_exactly(tmp_path):
 
     captured = {}
 
-    def grab(trainer, stats, episodes):
+    def grab(ctx, stats, episodes):
         if "state" not in captured:
-            captured["state"] = trainer.state_dict()
+            captured["state"] = ctx.full_state()
 
     class Stop(Exception):
         pass
@@ -79,7 +79,7 @@ def test_resume_restores_state_exactly(tmp_path):
                    runner2.raw)
     trainer.restore(saved, path)
     env.close()
-    state = trainer.state_dict()
+    state = trainer.checkpoints.state_dict()
     for key, value in saved["model"].items():
         assert torch.equal(state["model"][key], value), key
     assert state["agent"]["lr"] == saved["agent"]["lr"]
@@ -89,8 +89,8 @@ def test_resume_restores_state_exactly(tmp_path):
     opt_saved = saved["agent"]["optimizer"]["state"]
     opt_now = state["agent"]["optimizer"]["state"]
     assert all(torch.equal(opt_saved[k]["exp_avg"], opt_now[k]["exp_avg"]) for k in opt_saved)
-    assert model.obs_norm is not None and torch.equal(state["model"]["obs_norm.mean"],
-                                                      saved["model"]["obs_norm.mean"])
+    assert model.running_mean_std is not None and torch.equal(state["model"]["running_mean_std.running_mean"],
+                                                      saved["model"]["running_mean_std.running_mean"])
 
 
 def test_same_seed_same_run(tmp_path):
@@ -173,19 +173,17 @@ def test_resume_keeps_the_entropy_schedule(tmp_path):
     from tests.conftest import BASE
 
     class Record(Callback):
-        drives_trainer = True  # test instrument: reads the agent's live entropy coefficient and lr
-
         def __init__(self, stop_at=None):
             self.seen, self.stop_at, self.start = [], stop_at, None
 
-        def on_train_start(self, trainer):
-            self.start = trainer.algorithm.agent.entropy_coef
+        def on_train_start(self, ctx):
+            self.start = ctx.algorithm.agent.entropy_coef
 
-        def on_epoch_end(self, trainer, stats, episodes):
-            agent = trainer.algorithm.agent
-            self.seen.append((trainer.epoch, agent.entropy_coef, agent.lr, stats["entropy_coef"]))
-            if trainer.epoch == self.stop_at:
-                trainer.request_stop("test")
+        def on_epoch_end(self, ctx, stats, episodes):
+            agent = ctx.algorithm.agent
+            self.seen.append((ctx.state.epoch, agent.entropy_coef, agent.lr, stats["entropy_coef"]))
+            if ctx.state.epoch == self.stop_at:
+                ctx.request_stop("test")
 
     def run(folder, record, checkpoint=None):
         cfg = copy.deepcopy(BASE)

@@ -116,7 +116,7 @@ def test_wandb_dir_defaults_to_the_run_folder(offline_env, monkeypatch):
     monkeypatch.delenv("WANDB_DIR")
     summaries = tmp_path / "runs" / "pendulum_02" / "summaries"
     with start_wandb("rlchain-test", None, {"params": {}}, "pendulum_02", str(summaries)) as tracker:
-        assert tracker.id  # the wandb run's attributes are reachable
+        assert tracker.wandb_run.id  # the wandb run's attributes are reachable
     assert glob.glob(str(tmp_path / "runs" / "pendulum_02" / "wandb" / "offline-run-*"))
 
 

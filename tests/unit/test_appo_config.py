@@ -8,7 +8,7 @@ import os
 import pytest
 
 from rlchain.config import compat
-from rlchain.config.actor_critic import ActorCriticConfig
+from rlchain.config.actor_critic import ActorCriticConfig, check_batch
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import load_config, parse_params
@@ -133,13 +133,12 @@ def test_rl_games_cartpole_yaml_loads_as_appo_and_impala(monkeypatch):
         assert params.config.horizon_length == 32 and params.config.learning_rate == 2e-4
 
 
-def test_a_checkpoint_of_the_shared_class_reads_back_quietly(recwarn):
-    """Checkpoints written while appo's class held PPO's keys store them at their defaults."""
+def test_a_checkpoint_config_with_another_algos_key_is_an_error_naming_it():
+    """A checkpoint's config is this rlchain's resolved config: a key of another algorithm is not read back."""
     state = config_state(parse("impala"))["params"]
-    state["config"].update(tau=0.95, env_groups="auto", seq_length=4, mini_epochs=1, e_clip=0.2)
-    params = params_from_state(state, "old.pth")
-    assert isinstance(params.config, ImpalaConfig) and params.config.mini_epochs == 1
-    assert not [w for w in recwarn if "params.config" in str(w.message)]
+    state["config"].update(tau=0.95)
+    with pytest.raises(ConfigError, match=r"old.pth.*params.config.tau"):
+        params_from_state(state, "old.pth")
 
 
 @pytest.mark.parametrize("config,key,words", [
@@ -148,10 +147,20 @@ def test_a_checkpoint_of_the_shared_class_reads_back_quietly(recwarn):
     ({"appo": {"learner_queue_size": 0}}, "appo.learner_queue_size", "must be > 0"),
     ({"appo": {"runners": "threads"}}, "appo.runners", "local"),
     ({"appo": {"max_lag": 2}}, "appo.max_lag", "did you mean 'max_policy_lag'"),
-    ({"minibatch_size": 48}, "minibatch_size", "does not divide the batch num_actors*horizon_length = 64"),
-    ({"minibatch_size": 128}, "minibatch_size", "is larger than the batch"),
 ])
 def test_bad_appo_values(config, key, words):
     with pytest.raises(ConfigError) as err:
         parse(**config)
     assert f"params.config.{key}" in str(err.value) and words in str(err.value)
+
+
+@pytest.mark.parametrize("minibatch_size,words", [
+    (48, "batch num_actors*horizon_length = 64 is not divisible by minibatch_size 48"),
+    (128, "minibatch_size 128 is larger than the batch num_actors*horizon_length = 64"),
+])
+def test_minibatch_against_the_learner_batch_once_the_env_is_known(minibatch_size, words):
+    """Accepted at load (a multi-agent env could make it divide), refused by the one batch check."""
+    params = parse(minibatch_size=minibatch_size)
+    with pytest.raises(ConfigError) as err:
+        check_batch(params.config, params.source)
+    assert "params.config.minibatch_size" in str(err.value) and words in str(err.value)

@@ -81,17 +81,18 @@ class FakeGroup:
 def test_resolve_makes_the_per_process_context_and_leaves_the_parsed_config_alone():
     params = parse(device="cuda:0", env_config={"seed": 5, "device": "cuda:0"})
     single = resolve(params, 3)
-    assert single == ProcessContext(params, 3) and single.params is params and single.print_stats
+    assert single == ProcessContext(params, 3) and single.params is params and single.params.config.print_stats
     assert isinstance(resolve(params, None).seed, int)  # drawn when none is given
 
     rank1 = resolve(params, 7, FakeGroup(1, device="cuda:1"))
     assert rank1.seed == 7 + RANK_SEED_STRIDE and rank1.rank == 1 and rank1.world_size == 2
-    assert rank1.device == "cuda:1" and rank1.print_stats is False
+    assert rank1.params.config.device == "cuda:1" and rank1.params.config.print_stats is False
     assert rank1.params.config.env_config == {"seed": 5 + RANK_SEED_STRIDE, "device": "cuda:1"}
     assert rank1.as_dict() == {"seed": 7 + RANK_SEED_STRIDE, "rank": 1, "world_size": 2, "device": "cuda:1",
                                "print_stats": False}
     rank0 = resolve(params, 7, FakeGroup(0))  # gloo: no device of its own; rank 0 prints
-    assert rank0.device == "cuda:0" and rank0.print_stats and rank0.params.config.env_config["seed"] == 5
+    cfg0 = rank0.params.config
+    assert cfg0.device == "cuda:0" and cfg0.print_stats and cfg0.env_config["seed"] == 5
     # the parsed value is untouched
     assert params.config.device == "cuda:0" and params.config.print_stats
     assert params.config.env_config == {"seed": 5, "device": "cuda:0"}

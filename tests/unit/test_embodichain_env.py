@@ -16,7 +16,7 @@ def test_nested_dict_flattened_in_sorted_key_order():
 
 
 def test_registered_contract_env_steps_as_a_tensor_vecenv():
-    env = ENVS.get("EmbodiChainPushStandIn")(4, 0, device="cpu")
+    env = ENVS["EmbodiChainPushStandIn"]["vecenv_creator"](4, 0, device="cpu")
     obs = env.reset(seed=1)
     assert obs.shape == (4, 12) and env.observation_space.shape == (12,) and env.is_tensor_env
     result = env.step(torch.zeros(4, 2))
@@ -45,11 +45,11 @@ def test_register_env_decorator_and_unknown_cfg_key():
                     torch.ones(n, dtype=torch.bool), {})
 
     try:
-        env = ENVS.get("TinyContractEnv")(3, None, scale=2.0)
+        env = ENVS["TinyContractEnv"]["vecenv_creator"](3, None, scale=2.0)
         env.reset()
         assert env.step(torch.ones(3, 1)).reward.tolist() == [2.0, 2.0, 2.0]
         try:
-            ENVS.get("TinyContractEnv")(3, None, scael=2.0)
+            ENVS["TinyContractEnv"]["vecenv_creator"](3, None, scael=2.0)
         except ValueError as exc:
             assert "scael" in str(exc)
         else:
@@ -91,7 +91,7 @@ def test_nested_dict_observations_reach_a_multi_input_network_per_key():
             "params.network.mlp.units=[8]", "params.network.inputs.camera={encoder: cnn, units: [8]}",
             "params.config.num_actors=2"]
     params = Runner().load(f"{CONFIGS}/ppo_pendulum.yaml", over).params
-    flat = ENVS.get("NestedDictContractEnv")(2, 0, device="cpu")
+    flat = ENVS["NestedDictContractEnv"]["vecenv_creator"](2, 0, device="cpu")
     assert flat.reset().shape == (2, 16 + 1 + 3)  # a flat network's input is as before: sorted keys, floats
     env = build_env(params, 2, 0)
     assert tuple(env.observation_space.spaces) == ("camera", "robot/phase", "robot/qpos")
@@ -99,5 +99,5 @@ def test_nested_dict_observations_reach_a_multi_input_network_per_key():
     assert obs["camera"].dtype == torch.uint8 and bool((obs["camera"] == 200).all())
     assert obs["robot/qpos"][1].tolist() == [1, 1, 1] and torch.equal(obs["robot/phase"], torch.tensor([0.0, 0.1]))
     model = build_model(params, env, torch.device("cpu"))
-    assert model.network.actor_trunk.cnn.keys == ("camera", "robot/phase", "robot/qpos")
+    assert model.a2c_network.actor_cnn.keys == ("camera", "robot/phase", "robot/qpos")
     assert model.act(obs)["actions"].shape == (2, 2)

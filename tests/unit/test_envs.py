@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from rlchain import env_configurations
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends import envpool_env
 from rlchain.envs.backends.envpool_env import EnvpoolVecEnv
@@ -158,14 +159,14 @@ def test_envpool_name_resolution():
 
 
 def test_registered_env_builder(scoped_registries):
-    """A name in ENVS is called as builder(num_envs, seed, **env_config)."""
+    """An entry's vecenv_creator is called as builder(num_envs, seed, **env_config)."""
     calls = []
 
     def builder(num_envs, seed, **env_config):
         calls.append((num_envs, seed, env_config))
         return "env"
 
-    ENVS.register("my_env", builder)
+    env_configurations.register("my_env", {"vecenv_creator": builder})
     assert make_vec_env("my_env", {"a": 1}, 4, 2, None) == "env"
     assert calls == [(4, 2, {"a": 1})]
 

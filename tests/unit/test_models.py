@@ -5,13 +5,14 @@ import numpy as np
 import pytest
 import torch
 
+from rlchain import env_configurations
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.network import MlpConfig, NetworkConfig
 from rlchain.models.normalization import RunningMeanStd
 from rlchain.networks.actor_critic import ActorCriticBuilder
 from rlchain.networks.mlp import MLP
 from rlchain.registry import (
-    ENV_CONFIGURATIONS,
+    ENVS,
     NETWORKS,
     VECENVS,
     WRITERS,
@@ -81,13 +82,13 @@ def test_registry_scoped_undoes_registrations_replacements_and_removals():
 
 
 def test_scoped_registrations_restores_every_table():
-    before = (NETWORKS.names(), VECENVS.names(), WRITERS.names(), dict(ENV_CONFIGURATIONS))
+    before = (NETWORKS.names(), VECENVS.names(), WRITERS.names(), ENVS.names())
     with scoped_registrations():
         NETWORKS.register("scoped_net", object)
         VECENVS.register("scoped_vec", object)
         WRITERS.unregister(WRITERS.names()[0])
-        ENV_CONFIGURATIONS["scoped_env"] = {}
-    assert (NETWORKS.names(), VECENVS.names(), WRITERS.names(), dict(ENV_CONFIGURATIONS)) == before
+        env_configurations.register("scoped_env", {"vecenv_type": "scoped_vec"})
+    assert (NETWORKS.names(), VECENVS.names(), WRITERS.names(), ENVS.names()) == before
 
 
 def test_mlp_d2rl_shapes():

@@ -215,7 +215,7 @@ def _trainer(raw):
 def test_minibatch_is_checked_against_the_batch_with_agents():
     # 4 actors * 8 steps = 32 env steps; the cooperative env has 2 agents: a batch of 64 rows
     trainer = _trainer(_cooperative_config(minibatch_size=64))
-    assert trainer.num_envs == 8 and trainer.algorithm.storage.obs.shape[:2] == (8, 8)
+    assert trainer.ctx.num_envs == 8 and trainer.algorithm.storage.obs.shape[:2] == (8, 8)
     trainer.env.close()
     with pytest.raises(ConfigError, match=r"batch num_actors\*horizon_length\*agents \(2 per env\) = 64 is not "
                                           r"divisible by minibatch_size 48"):

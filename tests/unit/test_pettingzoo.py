@@ -204,7 +204,7 @@ def test_two_policies_train_with_their_own_state_and_resume_exactly(tmp_path):
     trainer = Loop(params, MultiPolicyPPO, env, model, torch.device("cpu"), None, TrainLogger(None, False), 3,
                    runner.raw)
     trainer.restore(state, path)
-    again = trainer.state_dict()
+    again = trainer.checkpoints.state_dict()
     for key, value in state["model"].items():
         assert torch.equal(again["model"][key], value), key
     for name in ("runners", "late"):
@@ -256,7 +256,7 @@ def test_frozen_policies_keep_their_weights(tmp_path):
     assert set(states[0]["agent"]) == {"runners"}  # a frozen policy has no optimizer
     late = [k for k in states[0]["model"] if k.startswith("late.")]
     assert late and all(torch.equal(states[0]["model"][k], states[1]["model"][k]) for k in late)
-    runners = [k for k in states[0]["model"] if k.startswith("runners.network")]
+    runners = [k for k in states[0]["model"] if k.startswith("runners.a2c_network")]
     assert any(not torch.equal(states[0]["model"][k], states[1]["model"][k]) for k in runners)
 
 

@@ -62,34 +62,46 @@ def test_from_the_loop_to_the_clipped_loss_is_at_most_four_frames(tmp_path, name
 
 
 def _attributes_set_on_collaborators(path: str) -> list[str]:
-    """``<name>.<part>.<attr> = ...`` assignments (an attribute set on a collaborator: ``self.collector.obs``,
-    ``learner.agent.active``)."""
+    """``<name>.<part>.<attr> = ...`` and ``<name>.<attr> = ...`` assignments, ``<name>`` not ``self`` / ``cls``
+    (an attribute set on a collaborator: ``self.collector.obs``, ``learner.agent.active``, ``model.bptt_length``,
+    ``ctx.tracker``)."""
     found = []
     for node in ast.walk(ast.parse(open(path).read())):
         targets = node.targets if isinstance(node, ast.Assign) else [node.target] \
             if isinstance(node, (ast.AugAssign, ast.AnnAssign)) else []
         for target in targets:
             for item in target.elts if isinstance(target, ast.Tuple) else [target]:
-                if (isinstance(item, ast.Attribute) and isinstance(item.value, ast.Attribute)
-                        and isinstance(item.value.value, ast.Name)):
-                    owner = item.value.value.id
-                    found.append(f"{os.path.relpath(path, ROOT)}:{item.lineno}: {owner}.{item.value.attr}.{item.attr}")
+                if not isinstance(item, ast.Attribute):
+                    continue
+                owner = item.value
+                if isinstance(owner, ast.Attribute) and isinstance(owner.value, ast.Name):
+                    name = f"{owner.value.id}.{owner.attr}.{item.attr}"
+                elif isinstance(owner, ast.Name) and owner.id not in ("self", "cls"):
+                    name = f"{owner.id}.{item.attr}"
+                else:
+                    continue
+                found.append(f"{os.path.relpath(path, ROOT)}:{item.lineno}: {name}")
     return found
 
 
-# the run's frame counter (the Algorithm protocol: update() counts its frames into ctx.frames); live values
-# population-based training changes between epochs, each in the part that reads it; a delay line emptied at a
-# rollback; SAC's model setting the config's log_std_bounds on the network it was given (a network builder's
-# key rl_games reads from the algo's config, left as it is)
-ALLOWED = {"self.ctx.frames", "self.schedule.kl_threshold", "self.buffer.gamma", "self.delay.line",
-           "network.actor.log_std_bounds"}
+# the run's frame counter, which the off-policy stepper advances as it collects (counts_frames_while_collecting); live
+# values population-based training changes between epochs, each in the part that reads it (the parts whose
+# config is the run's old one, the adaptive schedule's threshold, the replay's n-step gamma); a delay line emptied at
+# a rollback; SAC's model setting the config's log_std_bounds on the network it was given (a network builder's key
+# rl_games reads from the algo's config, left as it is); objects a function builds and returns (the mirrored copy
+# of a rollout) or changes by its job (a module's forward compiled in place); the model's observation view, which
+# ObservationModel.read_view sets for the builder, since rl_games' factory signature has no place for it
+ALLOWED = {"ctx.frames", "part.cfg", "self.schedule.kl_threshold", "self.buffer.gamma", "self.delay.line",
+           "network.actor.log_std_bounds", "out.num_envs", "out.obs", "out.actions", "out.params",
+           "out.action_masks", "out.states", "out.resets", "module.forward"}
 
 
-def test_no_algorithm_sets_an_attribute_on_a_collaborator():
+def test_no_algorithm_or_model_sets_an_attribute_on_a_collaborator():
     found = []
-    for folder, _, names in os.walk(os.path.join(ROOT, "rlchain", "algos")):
-        for name in sorted(names):
-            if name.endswith(".py"):
-                found += [hit for hit in _attributes_set_on_collaborators(os.path.join(folder, name))
-                          if hit.split(": ")[-1] not in ALLOWED]
+    for part in ("algos", "models"):
+        for folder, _, names in os.walk(os.path.join(ROOT, "rlchain", part)):
+            for name in sorted(names):
+                if name.endswith(".py"):
+                    found += [hit for hit in _attributes_set_on_collaborators(os.path.join(folder, name))
+                              if hit.split(": ")[-1] not in ALLOWED]
     assert not found, found

@@ -26,7 +26,7 @@ def _loop(resuming):
 def test_the_first_restore_keeps_the_preloaded_weights_and_a_later_one_loads_its_own(monkeypatch):
     loop, env = _loop(resuming=True)
     try:
-        state = loop.state_dict("last")
+        state = loop.checkpoints.state_dict("last")
         loads = []
         real = ckpt.load_model_state
         monkeypatch.setattr(ckpt, "load_model_state", lambda *args: (loads.append(args[2]), real(*args)))
@@ -44,7 +44,7 @@ def test_a_loop_built_without_the_weights_loads_them_on_restore(monkeypatch):
         loads = []
         real = ckpt.load_model_state
         monkeypatch.setattr(ckpt, "load_model_state", lambda *args: (loads.append(args[2]), real(*args)))
-        loop.restore(loop.state_dict("last"), "trial.pth")
+        loop.restore(loop.checkpoints.state_dict("last"), "trial.pth")
         assert loads == ["trial.pth"]
     finally:
         env.close()

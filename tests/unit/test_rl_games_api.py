@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from rlchain.config import ConfigError
-from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
+from rlchain.registry import ENVS, VECENVS
 from rlchain.rl_games import alias
 from rlchain.rl_games.__main__ import main as launcher_main
 from rlchain.rl_games.algos_torch import model_builder
@@ -38,8 +38,8 @@ def test_vecenv_and_env_configurations_fill_rlchains_registries(registries):
     assert VECENVS.get("ApiTestWrapper") is creator
     env_configurations.register("api_test_env", {"vecenv_type": "ApiTestWrapper", "env_creator": lambda **kw: None})
     env_configurations.register("api_test_env", {"vecenv_type": "ApiTestWrapper", "env_creator": lambda **kw: None})
-    assert env_configurations.configurations is ENV_CONFIGURATIONS
-    assert ENV_CONFIGURATIONS["api_test_env"]["vecenv_type"] == "ApiTestWrapper"
+    assert env_configurations.configurations is ENVS  # one table, rlchain's own envs in it too
+    assert ENVS["api_test_env"]["vecenv_type"] == "ApiTestWrapper" and "openai_gym" in ENVS
     assert vecenv.create_vec_env("api_test_env", 8, a=1) == ("made", "api_test_env", 8, {"a": 1})
     with pytest.raises(ValueError, match="'nope' has no env_configurations entry"):
         vecenv.create_vec_env("nope", 8)
@@ -198,12 +198,10 @@ def test_config_algo_observer_unless_one_is_given(base_config):
 
 
 def test_partial_config_loads_and_binds_its_vecenv_type(base_config, scoped_registries):
-    from rlchain.registry import ENV_CONFIGURATIONS
-
     runner = Runner()  # rl_games' tests load an algo and a config block only: nothing is built until run
     runner.load_config({"algo": {"name": "a2c_continuous"},
                         "config": {"env_name": "partial_test_env", "vecenv_type": "RAY", "reward_shaper": {}}})
-    assert runner.algo_name == "a2c_continuous" and ENV_CONFIGURATIONS["partial_test_env"] == {"vecenv_type": "RAY"}
+    assert runner.algo_name == "a2c_continuous" and ENVS["partial_test_env"] == {"vecenv_type": "RAY"}
     with pytest.raises(ConfigError, match="params.model"):
         runner.create_player()  # used: checked then, one line naming the missing block
     runner.load(base_config)  # a whole config is checked at load, as a YAML is

@@ -31,6 +31,24 @@ def test_rlchain_defaults_fit_the_env_count():
     assert ppo({}, num_actors=32, defaults="rlchain")["config"]["horizon_length"] == 16
 
 
+def test_rlchain_defaults_are_the_packaged_examples_settings():
+    """defaults='rlchain' reads rlchain/configs/<example>.yaml: its settings, not its env and run keys."""
+    from rlchain.config.packaged import config_names
+    from rlchain.config.text import read_data
+
+    for algo, continuous, example in (("ppo", False, "ppo_cartpole"), ("ppo", True, "ppo_pendulum"),
+                                      ("sac", True, "sac_pendulum"), ("dqn", False, "dqn_cartpole")):
+        params = build_config(algo, "Env-v0", 4, continuous, {}, [], defaults="rlchain")["params"]
+        packaged = read_data(config_names()[example])["params"]
+        assert params["network"] == packaged["network"], example
+        assert params["config"]["gamma"] == packaged["config"]["gamma"]
+        assert params["config"]["save_best_after"] == packaged["config"]["save_best_after"]
+        assert params["config"]["env_name"] == "Env-v0" and params["config"]["num_actors"] == 4
+        assert "score_to_win" not in params["config"] and "player" not in params["config"]
+    sac = build_config("sac", "Env-v0", 4, True, {}, [], defaults="rlchain")["params"]["config"]
+    assert sac["actor_lr"] == 3e-4 and isinstance(sac["actor_lr"], float)  # the YAML's '3e-4', a number
+
+
 def test_sb3_defaults_are_sb3s_algorithm():
     params = ppo({}, num_actors=1)
     cfg = params["config"]
@@ -61,6 +79,12 @@ def test_rlchain_keys_pass_through_and_policy_kwargs_map():
     assert params["network"]["separate"] is True
 
 
+def test_separate_actor_and_critic_sizes_give_the_critic_its_own_mlp():
+    params = ppo({}, policy_kwargs={"net_arch": {"pi": [64, 64], "vf": [32]}, "activation_fn": "ReLU"})
+    assert params["network"]["mlp"]["units"] == [64, 64]
+    assert params["network"]["critic_mlp"]["units"] == [32] and params["network"]["critic_mlp"]["activation"] == "relu"
+
+
 def test_continuous_ppo_and_log_std_init():
     params = ppo({}, continuous=True, policy_kwargs={"log_std_init": -0.5})
     assert params["algo"]["name"] == "a2c_continuous"
@@ -71,7 +95,7 @@ def test_continuous_ppo_and_log_std_init():
     ({"n_step": 8}, None, "n_step: unknown argument; did you mean 'n_steps'?"),
     ({"target_kl": 0.01}, None, "target_kl: has no rlchain counterpart"),
     ({"learning_rate": lambda p: 1e-3}, None, "learning_rate: expected a number"),
-    ({}, {"net_arch": {"pi": [64], "vf": [32]}}, "the same hidden layers"),
+    ({}, {"net_arch": {"pi": [64], "qf": [32]}}, "expected the keys pi and vf"),
     ({}, {"netarch": [64]}, "did you mean 'net_arch'?"),
 ])
 def test_bad_arguments_are_one_line_errors(given, policy_kwargs, says):

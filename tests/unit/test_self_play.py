@@ -15,7 +15,6 @@ from rlchain.config.load import parse_params
 from rlchain.config.ppo import SelfPlayConfig
 from rlchain.envs.examples.duel import DuelVecEnv, RandomPolicy, SafePolicy, distances, play_duel
 from rlchain.models.build import build_model
-from rlchain.training.events import Callback
 from rlchain.training.self_play import FrozenPolicy, SelfPlayCallback
 from tests.conftest import BASE, CONFIGS
 
@@ -215,19 +214,28 @@ def test_heuristic_and_perfect_play():
     assert play_duel(RandomPolicy(3, 5), "heuristic", 2000, seed=3) < 0.25  # exact value 0.18
 
 
+def keep_self_play(monkeypatch) -> list[SelfPlayCallback]:
+    """The self-play callbacks the loops built from now on (the loop adds its own; callbacks do not see it)."""
+    import rlchain.training.loop as loop_module
+
+    kept = []
+
+    class Kept(SelfPlayCallback):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            kept.append(self)
+
+    monkeypatch.setattr(loop_module, "SelfPlayCallback", Kept)
+    return kept
+
+
 @pytest.mark.smoke
-def test_duel_config_trains_with_updates_and_plays(tmp_path):
-    class Keep(Callback):
-        drives_trainer = True  # test instrument: finds the self-play callback among the trainer's
-
-        def on_train_end(self, trainer, result):
-            self.self_play = next(c for c in trainer.events if isinstance(c, SelfPlayCallback))
-
-    keep = Keep()
+def test_duel_config_trains_with_updates_and_plays(tmp_path, monkeypatch):
+    kept = keep_self_play(monkeypatch)
     runner = Runner().load(os.path.join(CONFIGS, "ppo_duel_self_play.yaml"), [
         f"params.config.train_dir={tmp_path}", "params.config.max_epochs=3", "params.config.print_stats=false",
         "params.config.self_play_config.games_to_check=20", "params.config.self_play_config.update_score=-1"])
-    result = runner.train(callbacks=[keep])
-    assert result.epoch == 3 and keep.self_play.updates == 3  # 512 steps make > 20 games every epoch
+    result = runner.train()
+    assert result.epoch == 3 and [k.updates for k in kept] == [3]  # 512 steps make > 20 games every epoch
     played = runner.play(os.path.join(result.run_dir, "nn", "last_duel_self_play.pth"), games=20, quiet=True)
     assert played.games == 20 and set(played.rewards) <= {-1.0, 1.0}  # against the env's random opponent

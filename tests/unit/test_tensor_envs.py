@@ -318,7 +318,7 @@ def test_numpy_actions_and_shape_errors():
 def test_registered_builders_and_config_errors(base_config):
     for name in NAMES:
         assert name in ENVS
-    env = ENVS.get("TorchReacher8-v0")(5, 0, device="cpu", max_episode_steps=50)
+    env = ENVS["TorchReacher8-v0"]["vecenv_creator"](5, 0, device="cpu", max_episode_steps=50)
     assert env.max_episode_steps == 50 and env.action_space.shape == (8,)
     with pytest.raises(ValueError, match="env_config.foo: not an option of TorchPendulum-v0"):
         make_vec_env("TorchPendulum-v0", {"foo": 1}, 2, 0, None)
@@ -407,7 +407,7 @@ def test_a_tensor_env_s_dict_reaches_multi_input_per_key_with_its_discrete_key_a
                                                               "params.network.mlp.units=[8]"]).params
     env = TorchRooms()
     model = build_model(params, env, torch.device("cpu"))
-    assert type(model.network.actor_trunk.cnn.encoders["room"]).__name__ == "EmbeddingEncoder"
+    assert type(model.a2c_network.actor_cnn.encoders["room"]).__name__ == "EmbeddingEncoder"
     rollout = dict_zeros((4, 4), env.observation_space)  # the rollout storage's buffers
     obs = env.reset()
     for t in range(4):  # an episode ends at step 3: its rows reset inside the step, their room still an int64

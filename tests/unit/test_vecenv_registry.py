@@ -11,7 +11,7 @@ from rlchain.envs import vecenv
 from rlchain.envs.backends.rl_games_vecenv import IVecEnvAdapter
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.vecenv import resolve_vecenv_type
-from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
+from rlchain.registry import VECENVS
 
 
 class CountVecEnv:
@@ -51,7 +51,6 @@ class CountVecEnv:
 @pytest.fixture
 def registered(scoped_registries):
     """A clean slot for test names in VECENVS and env_configurations."""
-    ENV_CONFIGURATIONS.pop("Count-test", None)
     yield
 
 

@@ -8,6 +8,7 @@ go on across segments, finished ones auto-reset inside the env's step."""
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 from typing import Any
 
 import torch
@@ -16,9 +17,8 @@ from rlchain.algos.apg.objective import discounted_segment_return
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.adam_agent import AdamAgent
+from rlchain.algos.core.adam_agent import AdamAgent, loss_stats
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
-from rlchain.algos.core.schedules import linear_decay
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
@@ -45,7 +45,8 @@ class APG(AlgorithmBase):
         if not model.dist.continuous or model.is_rnn:
             raise ConfigError(params.source, "params.model.name", "APG trains feed-forward continuous policies "
                                                                   "(continuous_a2c_logstd)")
-        self.agent = AdamAgent(model, self.cfg.learning_rate, self.cfg.weight_decay)
+        self.agent = AdamAgent(model, self.cfg.learning_rate, self.cfg.weight_decay, ctx.comm, self.cfg.lr_schedule,
+                               self.cfg.min_lr)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         self.stats: dict[str, float] = {}
         self.segment: dict[str, list[torch.Tensor]] = {}
@@ -60,7 +61,6 @@ class APG(AlgorithmBase):
         cfg = self.cfg
         self.model.train()
         self.segment = {"rewards": [], "dones": [], "entropies": []}
-        self.collector.place(self.obs)
         if not self.collector.rollout():
             return False
         segment = self.segment
@@ -72,8 +72,7 @@ class APG(AlgorithmBase):
         self.stats.update(objective=float(objective.detach()), entropy=float(mean_entropy.detach()),
                           loss=float(loss.detach()))
         self.segment = {}
-        self.obs = self.env.detach_state()
-        self.collector.place(self.obs)
+        self.collector.place(self.env.detach_state())
         return True
 
     def _act(self, t: int, obs: torch.Tensor, states: tuple, masks: torch.Tensor | None) -> dict[str, Any]:
@@ -95,26 +94,21 @@ class APG(AlgorithmBase):
         self.segment["entropies"].append(self.model.dist.entropy(step.out["params"]))
 
     def _step(self, loss: torch.Tensor) -> dict[str, float]:
+        """The segment's optimizer step; a non-finite loss or gradient skips it (``skip_nonfinite_updates``) or
+        raises DivergenceError."""
         agent, cfg = self.agent, self.cfg
-        agent.optimizer.zero_grad(set_to_none=True)
-        finite = bool(torch.isfinite(loss))
-        if finite:
-            loss.backward()
-            finite = all(p.grad is None or bool(torch.isfinite(p.grad).all()) for p in agent.params)
-        if not finite:
+        try:
+            step = agent.step(loss, cfg.grad_norm if cfg.truncate_grads else float("inf"),
+                              partial(loss_stats, loss), "the APG segment's step")
+        except DivergenceError:
             if not cfg.skip_nonfinite_updates:
-                raise DivergenceError(f"APG: the segment's loss or gradient is not finite (loss {float(loss)})")
-            agent.optimizer.zero_grad(set_to_none=True)
+                raise
             return {"grad_norm": float("nan"), "skipped_update": 1.0, "lr": agent.lr}
-        grad_norm = torch.nn.utils.clip_grad_norm_(agent.params, cfg.grad_norm if cfg.truncate_grads else 1e12)
-        agent.optimizer.step()
-        if cfg.lr_schedule == "linear":
-            agent.set_lr(linear_decay(cfg.learning_rate, cfg.min_lr, self.progress()))
-        return {"grad_norm": float(grad_norm), "skipped_update": 0.0, "lr": agent.lr}
+        agent.apply_progress(self.progress())
+        return {"grad_norm": step["grad_norm"], "skipped_update": 0.0, "lr": agent.lr}
 
     def update(self) -> dict[str, float]:
-        """The segment's step was taken in :meth:`collect`; count its frames and report it."""
-        self.ctx.frames += self.frames_per_epoch()
+        """The segment's step was taken in :meth:`collect`; report it."""
         return dict(self.stats)
 
     def frames_per_epoch(self) -> int:
@@ -122,11 +116,11 @@ class APG(AlgorithmBase):
 
     def start(self) -> None:
         super().start()
-        self.obs = self.obs.detach()
+        self.collector.place(self.collector.obs.detach())
 
     def restart_episodes(self) -> None:
         super().restart_episodes()
-        self.obs = self.obs.detach()
+        self.collector.place(self.collector.obs.detach())
 
     def hyperparams(self) -> dict[str, float]:
         return {**super().hyperparams(), "learning_rate": self.agent.lr}

@@ -15,6 +15,7 @@ with their own policy copy and queue them. One epoch of the learner (``collect``
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from typing import Any, ClassVar
@@ -81,8 +82,8 @@ class APPO(AlgorithmBase):
         except ConfigError as exc:
             raise ConfigError(params.source, exc.path, exc.message) from None
         vecenv = None if cfg.vecenv_type is None or str(cfg.vecenv_type).lower() == "ray" else cfg.vecenv_type
-        recipe = EnvRecipe.capture(cfg.env_name, cfg.env_config, vecenv or "auto")
-        recipe.success_key, recipe.log_info_keys = cfg.success_key, tuple(cfg.log_info_keys)
+        recipe = dataclasses.replace(EnvRecipe.capture(cfg.env_name, cfg.env_config, vecenv or "auto"),
+                                     success_key=cfg.success_key, log_info_keys=tuple(cfg.log_info_keys))
         args = (recipe, slices, seed, cfg.horizon_length, cfg.appo.learner_queue_size, runners.max_restarts,
                 cfg.appo.fragment_timeout_s, cls.step_delays)
         try:
@@ -159,8 +160,7 @@ class APPO(AlgorithmBase):
         received, ctx = self._received, self.ctx
         if ctx.comm.active:  # every rank counts every rank's frames, so all stop at the same max_frames
             received = round(ctx.comm.mean(float(received)) * ctx.world_size)
-        ctx.frames += received
-        self._epoch_frames = received
+        self._epoch_frames = received  # what the Loop counts
         now = time.monotonic()
         stats.update(policy_lag=sum(self._lags) / max(len(self._lags), 1), queue_size=self.pool.queue_size(),
                      sample_throughput=self._received / max(now - self._mark, 1e-9),
@@ -220,7 +220,7 @@ class APPO(AlgorithmBase):
             storage.values.copy_(values[:t_len])
             storage.returns.copy_(out.vs)
             storage.advantages.copy_(self.advantages(out))
-            storage.filled = t_len
+            storage.written(t_len)
         self._rho = float(out.rhos.mean())
 
     def advantages(self, out: Any) -> torch.Tensor:

@@ -15,7 +15,8 @@ class and one registration line::
         def __init__(self, params, env, model, ctx):  # build the agent, its storage, its DivergenceGuard
             ...
         def collect(self) -> bool: ...                # one epoch of env steps (False: a stop signal came)
-        def update(self) -> dict[str, float] | None: ...  # learn, count ctx.frames; None: nothing learnt
+        def update(self) -> dict[str, float] | None: ...  # learn; None: nothing learnt
+
         def frames_per_epoch(self) -> int: ...
 
     model_builder.register_algo("my_algo", MyAlgorithm)   # user code (rlchain/builtins.py for a built-in)
@@ -33,6 +34,8 @@ import torch
 
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.adam_agent import Agent
+from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.obs_dict import ObsDict
@@ -42,9 +45,10 @@ from rlchain.envs.vecenv import VecEnv
 
 @runtime_checkable
 class Algorithm(Protocol):
-    """The required core: the hooks the Loop drives every run. ``model``, ``agent`` (``state_dict``/
-    ``load_state_dict``: the optimizer, lr, ...) and ``divergence`` are what the Loop checkpoints and rolls
-    back. A class attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent).
+    """The required core: the hooks the Loop drives every run. ``model``, ``agent`` (the
+    :class:`~rlchain.algos.core.adam_agent.Agent` contract: ``state_dict`` / ``load_state_dict`` of the optimizer
+    and live values, ``lr``, ``scale_lr``) and ``divergence`` are what the Loop checkpoints and rolls back.
+    A class attribute ``config_class`` names its ``params.config`` dataclass (PPOConfig when absent).
 
     Optional parts, each declared where the loop reads it and found by its methods: what a checkpoint carries
     beyond the model and the agent (:class:`rlchain.training.saving.CheckpointState`: ``extra_state`` /
@@ -70,9 +74,13 @@ class Algorithm(Protocol):
 
     envs_idle_in_update: ClassVar[bool]
     """Whether the envs wait during :meth:`update` (its gradient steps then take ``update_threads``)."""
+
+    counts_frames_while_collecting: ClassVar[bool]
+    """Whether the algorithm adds each env step to ``ctx.frames`` as it collects (the off-policy stepper);
+    otherwise the Loop adds :meth:`frames_per_epoch` once :meth:`update` returned the epoch's metrics."""
     ctx: RunContext
     model: torch.nn.Module
-    agent: Any
+    agent: Agent
     divergence: DivergenceGuard | None
 
     @classmethod
@@ -91,11 +99,12 @@ class Algorithm(Protocol):
         the learner must not have changed: a stop checkpoint holds the last epoch boundary)."""
 
     def update(self) -> dict[str, float] | None:
-        """Learn from what :meth:`collect` gathered and count its frames into ``ctx.frames``;
-        returns the epoch's metrics, or None when there was nothing to count."""
+        """Learn from what :meth:`collect` gathered; returns the epoch's metrics, or None when there was nothing
+        to count (the epoch then does not count, nor do its frames)."""
 
     def frames_per_epoch(self) -> int:
-        """Env frames one epoch adds (the fps of the console line and the TensorBoard tags)."""
+        """Env frames one epoch adds: what the Loop counts into ``ctx.frames`` after :meth:`update` (unless
+        :attr:`counts_frames_while_collecting`), the fps of the console line and the TensorBoard tags."""
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
         """(rollout, update) seconds of the epoch from the time spent in collect and in update."""
@@ -133,6 +142,7 @@ class AlgorithmBase:
     supports_distributed: ClassVar[bool] = False
     self_play: ClassVar[bool] = False
     envs_idle_in_update: ClassVar[bool] = True
+    counts_frames_while_collecting: ClassVar[bool] = False
     # update() may raise UpdateInterrupted between minibatches on a stop signal (the Loop then puts back
     # the learner of the epoch boundary); an algorithm without it finishes its update first
     interruptible_update: ClassVar[bool] = False
@@ -144,7 +154,8 @@ class AlgorithmBase:
         self.num_envs = env.num_envs
         self.agent: Any = None
         self.divergence: DivergenceGuard | None = None
-        self.obs: Any = None
+        # an on-policy algorithm's collector: where the envs stand (the next observations, RNN states) lives there
+        self.collector: OnPolicyCollector | None = None
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
@@ -157,10 +168,10 @@ class AlgorithmBase:
         return build_env(params, params.config.num_actors, seed, runners=True)
 
     def start(self) -> None:
-        """Reset the envs (``self.obs``: their first observations), or after a restore that carried the
-        envs' state put them back where the checkpoint left them."""
+        """Reset the envs (their first observations placed in the collector), or after a restore that carried
+        the envs' state put them back where the checkpoint left them."""
         if not self.resume_position():
-            self.obs = self.ctx.reset_envs()
+            self.collector.place(self.ctx.reset_envs())
 
     def resume_position(self) -> bool:
         """After a restore with the envs' state: restore them and this algorithm's position; False when
@@ -172,12 +183,22 @@ class AlgorithmBase:
         return True
 
     def position_state(self) -> dict[str, Any] | None:
-        """The observations the next epoch acts on (a copy); None before ``start``."""
-        return None if self.obs is None else {"obs": position_copy(self.obs)}
+        """The observations the next epoch acts on and, when the collector carries them, the RNN states and
+        their episode-start flags (copies); None before ``start`` or without a collector."""
+        collector = self.collector
+        if collector is None or collector.obs is None:
+            return None
+        if not collector.carries_states:
+            return {"obs": position_copy(collector.obs)}
+        return {"obs": position_copy(collector.obs), "rnn_states": position_copy(tuple(collector.rnn_states)),
+                "resets": position_copy(collector.resets)}
 
     def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state`: the observations, on the training device (Dict ones per key)."""
-        self.obs = position_on(position["obs"], self.device)
+        """Put back :meth:`position_state` on the training device (Dict observations per key)."""
+        device = self.device
+        states = position_on(tuple(position["rnn_states"]), device) if "rnn_states" in position else None
+        resets = position_on(position["resets"], device) if "resets" in position else None
+        self.collector.place(position_on(position["obs"], device), states, resets)
 
     def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
         """(rollout, update) seconds: the time in collect and in update, as they are."""
@@ -192,9 +213,10 @@ class AlgorithmBase:
         return True
 
     def restart_episodes(self) -> None:
-        """Drop the running episodes' statistics and reset the envs."""
+        """Drop the running episodes' statistics, reset the envs, zero the RNN states."""
         self.ctx.tracker.reset_running()
-        self.obs = self.ctx.reset_envs()
+        self.collector.place(self.ctx.reset_envs())
+        self.collector.reset_states()
 
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
         """The model and its agent."""

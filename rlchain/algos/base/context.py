@@ -15,7 +15,7 @@ from typing import Any, Protocol
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import EpisodeTracker
+from rlchain.algos.base.episodes import AgentEpisodes, EpisodeTracker
 from rlchain.algos.base.safety import StopSignals
 from rlchain.algos.core.collector import StepOutcome
 from rlchain.config.params import Params
@@ -68,7 +68,8 @@ class RunContext:
     epoch: int = 0
     """Epochs completed (the loop counts them)."""
     frames: int = 0
-    """Env frames so far over all ranks (the algorithm counts them, in ``update`` or while collecting)."""
+    """Env frames so far over all ranks (the Loop counts an epoch's after its update; an algorithm that
+    ``counts_frames_while_collecting`` counts them itself)."""
     signals: StopSignals | None = None
     threads: ThreadPlan | None = None
     live_config: dict[str, Any] = field(default_factory=dict)
@@ -79,21 +80,15 @@ class RunContext:
     resume_state: dict[str, Any] | None = None
     """After a restore from a checkpoint holding the envs' state: that state and the algorithm's
     position in its episodes, until :meth:`resume_envs` puts them back (the algorithm's ``start``)."""
+    num_envs: int = field(init=False)
+    """Envs of the training env."""
+    num_agents: int = field(init=False)
+    """Rows per env (rl_games' ``algo.num_agents``)."""
+    world_size: int = field(init=False)
+    """Processes training together (torchrun); frame counters count all of them."""
 
-    @property
-    def num_envs(self) -> int:
-        """Envs of the training env."""
-        return self.env.num_envs
-
-    @property
-    def num_agents(self) -> int:
-        """Rows per env (rl_games' ``algo.num_agents``)."""
-        return self.spec.num_agents
-
-    @property
-    def world_size(self) -> int:
-        """Processes training together (torchrun); frame counters count all of them."""
-        return self.comm.world_size
+    def __post_init__(self) -> None:  # the run's fixed sizes, read from the env, its spec and the ranks once
+        self.num_envs, self.num_agents, self.world_size = self.env.num_envs, self.spec.num_agents, self.comm.world_size
 
     def stop_requested(self) -> bool:
         """Whether a stop signal (SIGINT/SIGTERM, a callback's request) came: end the epoch early."""
@@ -192,13 +187,18 @@ class RunContext:
 
 
 def make_context(params: Params, env: VecEnv, device: torch.device, seed: int, comm: Communicator,
-                 logger: ScalarLogger, events: StepEvents) -> RunContext:
+                 logger: ScalarLogger, events: StepEvents, threads: ThreadPlan | None = None,
+                 resuming: bool = False) -> RunContext:
     """The context of a fresh run on ``env``: counters at zero, episode statistics empty."""
     cfg = params.config
+    if getattr(params, "policies", None) is not None:  # multi-policy PPO: every agent's episodes, agent-major rows
+        tracker = AgentEpisodes(env.num_envs * len(env.agent_ids), cfg.games_to_track, device)
+    else:
+        tracker = EpisodeTracker(env.num_envs, cfg.games_to_track, device, cfg.success_mode)
     return RunContext(params=params, cfg=cfg, env=env, device=device, seed=seed, comm=comm, logger=logger,
-                      events=events, tracker=EpisodeTracker(env.num_envs, cfg.games_to_track, device, cfg.success_mode),
+                      events=events, tracker=tracker,
                       success=SuccessReader(cfg.success_key), info_means=InfoMeans(cfg.log_info_keys),
-                      spec=env_spec(env))
+                      spec=env_spec(env), threads=threads, resuming=resuming)
 
 
 def to_device(x: Any, device: torch.device) -> torch.Tensor:

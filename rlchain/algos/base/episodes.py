@@ -196,3 +196,19 @@ class EpisodeTracker:
         self._games = int(state["games"])
         self._finished_successes.clear()
         self._finished_successes.extend(state.get("successes", []))  # absent in older checkpoints
+
+
+class AgentEpisodes(EpisodeTracker):
+    """Episode returns per agent row; an episode's length counts the agent's own (active) steps."""
+
+    def agent_step(self, rewards: torch.Tensor, dones: torch.Tensor, active: torch.Tensor) -> None:
+        """rewards (R,), dones (R,) bool (the agent ended at this step), active (R,) bool (it acted)."""
+        self.returns += rewards
+        self.lengths += active.long()
+        if dones.any():
+            idx = dones.nonzero().squeeze(-1)
+            self.finished_returns.extend(self.returns[idx].tolist())
+            self.finished_lengths.extend(self.lengths[idx].tolist())
+            self.games += int(idx.numel())
+            self.returns[idx] = 0.0
+            self.lengths[idx] = 0

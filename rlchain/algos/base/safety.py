@@ -94,8 +94,8 @@ def check_rollout(rewards: torch.Tensor, obs: torch.Tensor) -> str | None:
 class DivergenceGuard:
     """Keeps the last good learner state (when rollback is on) and decides what a NaN/inf means.
 
-    ``cfg`` is the ``divergence`` block; ``model`` and ``agent`` expose state_dict/load_state_dict,
-    the agent also ``scale_lr``.
+    ``cfg`` is the ``divergence`` block; ``model`` exposes state_dict/load_state_dict, ``agent`` keeps the
+    :class:`~rlchain.algos.core.adam_agent.Agent` contract (state_dict/load_state_dict, ``lr``, ``scale_lr``).
     """
 
     def __init__(self, cfg: Any, model: Any, agent: Any) -> None:

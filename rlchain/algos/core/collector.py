@@ -155,6 +155,7 @@ class OnPolicyCollector:
         self.num_envs, self.device = env.num_envs, ctx.device
         self.obs: Any = None
         # carries_states: start from the model's (and central value's) zero RNN states; else () until set
+        self.carries_states = carries_states
         self.rnn_states: tuple[torch.Tensor, ...] = self.initial_states() if carries_states else ()
         self.resets = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self.last_values: torch.Tensor | None = None

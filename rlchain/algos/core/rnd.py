@@ -14,6 +14,7 @@ from typing import Any
 import torch
 import torch.nn as nn
 
+from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.models.normalization import EmpiricalNormalization
 
 
@@ -93,9 +94,7 @@ class RandomNetworkDistillation(nn.Module):
             x = self.state(obs)
             goal = self.target(x)
         loss = nn.functional.mse_loss(self.predictor(x), goal)
-        self.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.optimizer.step()
+        optimizer_step(self.optimizer, loss)
         return float(loss.detach())
 
     def train_on(self, obs: torch.Tensor, minibatch_size: int, passes: int,

@@ -121,6 +121,10 @@ class RolloutStorage:
             self.resets[t, rows] = resets
         self.filled = t + 1
 
+    def written(self, steps: int) -> None:
+        """The first ``steps`` steps were written in place, whole (APPO's learner batch from its fragments)."""
+        self.filled = steps
+
     def add_outcome(self, t: int, rewards: torch.Tensor, terminated: torch.Tensor,
                     dones: torch.Tensor, rows: slice = ALL) -> None:
         """Record the env's answer to step t: shaped rewards (rows, V) and done flags (rows,)."""

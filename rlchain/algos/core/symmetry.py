@@ -26,6 +26,8 @@ from typing import Any
 
 import torch
 
+from rlchain.algos.core.optimizer_step import optimizer_step
+
 GO1_JOINTS = tuple(f"{leg}_{part}_joint" for leg in ("FR", "FL", "RR", "RL") for part in ("hip", "thigh", "calf"))
 """mjlab's Go1 joint (and action) order."""
 G1_JOINTS = tuple(
@@ -168,9 +170,7 @@ class MirrorLoss:
         losses = []
         for start in range(0, obs.shape[0], minibatch_size):
             loss = self.loss(obs[order[start:start + minibatch_size]])
-            self.optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            self.optimizer.step()
+            optimizer_step(self.optimizer, loss)
             losses.append(float(loss.detach()))
         return sum(losses) / max(len(losses), 1)
 

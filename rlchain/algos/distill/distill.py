@@ -20,6 +20,7 @@ also holds the teacher's weights and config (``teacher``), and ``--play`` / ``--
 from __future__ import annotations
 
 from collections import deque
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -28,7 +29,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.adam_agent import AdamAgent
+from rlchain.algos.core.adam_agent import AdamAgent, loss_stats
 from rlchain.algos.core.behavior import behavior_loss, resolve_loss
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
 from rlchain.algos.core.schedules import linear_decay
@@ -46,7 +47,6 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
 from rlchain.config.resolve import config_state
 from rlchain.envs.vecenv import DROPPED, VecEnv
-from rlchain.errors import DivergenceError
 
 
 def _check_sac_student(source: str, dist: Any, teacher: SACTeacher) -> None:
@@ -104,8 +104,7 @@ class Distill(AlgorithmBase):
                               f"{self.loss_kind} needs the teacher's action distribution; a SAC teacher labels "
                               f"with its deterministic action: use mse or huber (or auto)")
         self.use_masks = bool(getattr(model, "use_action_masks", False))
-        model.bptt_length = cfg.bptt_length
-        self.agent = AdamAgent(model, cfg.learning_rate, cfg.weight_decay)
+        self.agent = AdamAgent(model, cfg.learning_rate, cfg.weight_decay, ctx.comm)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         n, dev = self.num_envs, self.device
         self.collector = OnPolicyCollector(env, model, ctx, cfg, use_masks=self.use_masks, act=self._act,
@@ -150,10 +149,7 @@ class Distill(AlgorithmBase):
         self.beta_now = self.beta()
         self._steps = {"obs": [], "labels": [], "resets": [], "masks": [], "match": []}
         self.batch = {"states": tuple(s.clone() for s in self.states)}
-        self.collector.place(self.obs)  # where the envs stand: start() and resume set self.obs
-        complete = self.collector.rollout()
-        self.obs = self.collector.obs
-        if not complete:
+        if not self.collector.rollout():
             return False
         steps = self._steps
         self.batch.update(obs=stack_steps(steps["obs"]), labels=torch.stack(steps["labels"]),
@@ -259,17 +255,10 @@ class Distill(AlgorithmBase):
             for k in range(cfg.minibatches):
                 envs = order[k * per:(k + 1) * per]
                 loss = self._minibatch_loss(data, envs, horizon)
-                if not bool(torch.isfinite(loss)):
-                    raise DivergenceError(f"the behaviour loss is {float(loss)}")
-                self.agent.optimizer.zero_grad(set_to_none=True)
-                loss.backward()
-                if comm.active:  # multi_gpu: every rank steps with the ranks' mean gradient, as PPO
-                    comm.average_gradients(self.agent.params)
-                if cfg.truncate_grads:
-                    torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_norm)
-                self.agent.optimizer.step()
-                losses.append(float(loss.detach()))
-        self.ctx.frames += self.frames_per_epoch()
+                # multi_gpu: every rank steps with the ranks' mean gradient, as PPO
+                step = self.agent.step(loss, cfg.grad_norm if cfg.truncate_grads else None,
+                                       partial(loss_stats, loss), "the distillation update")
+                losses.append(step["loss"])
         out = {"behavior_loss": comm.mean(float(np.mean(losses))), "teacher_action_prob": b["beta"],
                "lr": self.agent.lr, "action_match": b["match"]}
         for side in ("teacher", "student"):
@@ -298,7 +287,7 @@ class Distill(AlgorithmBase):
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes, zero RNN states."""
         super().restart_episodes()
-        self.collector.place(self.obs, self._initial_states())
+        self.collector.place(self.collector.obs, self._initial_states())
         self.resets = torch.ones_like(self.resets)
         self.delay.line = None
         self.teacher_steps.zero_()

@@ -11,11 +11,14 @@ are averaged over the ranks before clipping."""
 from __future__ import annotations
 
 import copy
+from functools import partial
 
 import torch
 
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import check_rollout
+from rlchain.algos.core.losses import policy_loss
+from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.algos.grpo.advantages import alive_mask, discounted_returns, group_advantages, k3_kl
 from rlchain.algos.grpo.shared_starts import share_group_starts, supports_shared_starts
 from rlchain.algos.ppo.ppo import PPO
@@ -90,8 +93,7 @@ class GRPO(PPO):
         return collector.rollout()
 
     def update(self) -> dict[str, float]:
-        """Group-relative advantages, then ``mini_epochs`` passes of masked clipped-surrogate minibatches; the
-        rollout then counts as frames."""
+        """Group-relative advantages, then ``mini_epochs`` passes of masked clipped-surrogate minibatches."""
         cfg, storage, model = self.cfg, self.storage, self.model
         bad = check_rollout(storage.rewards, storage.obs)
         if bad is not None:
@@ -115,10 +117,7 @@ class GRPO(PPO):
                 denom = weight.sum().clamp(min=1.0)
                 params, _, _ = model.evaluate(batch.obs)
                 log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
-                ratio = torch.exp(log_probs - batch.log_probs)
-                surrogate = torch.min(ratio * batch.advantages,
-                                      ratio.clamp(1.0 - cfg.e_clip, 1.0 + cfg.e_clip) * batch.advantages)
-                a_loss = -(surrogate * weight).sum() / denom
+                a_loss = (policy_loss(batch.log_probs, log_probs, batch.advantages, cfg.e_clip) * weight).sum() / denom
                 mean_entropy = (entropy * weight).sum() / denom
                 loss = a_loss - agent.entropy_coef * mean_entropy
                 ref_kl = torch.zeros((), device=loss.device)
@@ -128,24 +127,27 @@ class GRPO(PPO):
                         ref_log_probs = dist.log_prob(ref_params, batch.actions)
                     ref_kl = (k3_kl(log_probs, ref_log_probs) * weight).sum() / denom
                     loss = loss + cfg.kl_coef * ref_kl
-                agent.optimizer.zero_grad(set_to_none=True)
-                loss.backward()
-                if comm.active:  # before clipping, so every rank steps with the same gradients
-                    comm.average_gradients(agent.params)
-                grad_norm = torch.nn.utils.clip_grad_norm_(agent.params, cfg.grad_norm) if cfg.truncate_grads \
-                    else torch.zeros(())
-                agent.optimizer.step()
                 with torch.no_grad():
                     kl = dist.kl(batch.params, params.detach()).mean()
-                    clip_frac = ((ratio.detach() - 1.0).abs() > cfg.e_clip).float().mean()
-                for key, value in (("a_loss", a_loss), ("entropy", mean_entropy), ("ref_kl", ref_kl), ("kl", kl),
-                                   ("clip_frac", clip_frac), ("grad_norm", grad_norm)):
-                    sums[key] += float(value.detach())
+                    ratio = torch.exp(log_probs.detach() - batch.log_probs)
+                    clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+                step = optimizer_step(agent.optimizer, loss, params=agent.params, comm=comm, what="the GRPO update",
+                                      max_norm=cfg.grad_norm if cfg.truncate_grads else None,
+                                      stats=partial(_read_stats, a_loss, mean_entropy, ref_kl, kl, clip_frac))
+                for key, value in step.items():
+                    sums[key] += value
                 count += 1
         agent.apply_progress(self.progress())
         stats = {key: value / max(count, 1) for key, value in sums.items()}
         stats.update(lr=agent.lr, entropy_coef=agent.entropy_coef, alive_frac=float(mask.mean()))
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
-        self.ctx.frames += self.frames_per_epoch()
         return stats
+
+
+def _read_stats(a_loss: torch.Tensor, entropy: torch.Tensor, ref_kl: torch.Tensor, kl: torch.Tensor,
+                clip_frac: torch.Tensor, grad_norm: torch.Tensor | None) -> dict[str, float]:
+    """A GRPO step's statistics, read back with one host sync (grad_norm 0 when the gradients are not clipped)."""
+    values = torch.stack([a_loss.detach(), entropy.detach(), ref_kl.detach(), kl, clip_frac,
+                          torch.zeros_like(kl) if grad_norm is None else grad_norm.detach()]).tolist()
+    return dict(zip(("a_loss", "entropy", "ref_kl", "kl", "clip_frac", "grad_norm"), values))

@@ -21,7 +21,7 @@ from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.returns import shape_rewards
 from rlchain.algos.multi_policy.masked import masked_gae
-from rlchain.algos.multi_policy.policies import AgentEpisodes, PolicyAgents, PolicyLearner
+from rlchain.algos.multi_policy.policies import PolicyAgents, PolicyLearner
 from rlchain.algos.multi_policy.snapshots import Snapshots
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
@@ -65,8 +65,6 @@ class MultiPolicyPPO(AlgorithmBase):
             self.policies.append(PolicyLearner(name, policy, agents, model[name],
                                                env.observation_spaces[agents[0]].shape, env.num_envs,
                                                name in to_train, device, self.cfg.games_to_track))
-        rows = sum(lr.rows for lr in self.policies)
-        ctx.tracker = AgentEpisodes(rows, self.cfg.games_to_track, device)  # every agent's episodes
         self.agent = PolicyAgents(self.policies)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         # the env takes and gives per-agent dicts: the policies act, record and read them (no run-wide storage)
@@ -87,15 +85,10 @@ class MultiPolicyPPO(AlgorithmBase):
     def collect(self) -> bool:
         """horizon_length env steps (the on-policy collector); every trained policy's storage gets its agents'
         rows."""
-        self.collector.place(self.obs)  # per-agent views, as the env gives them
-        complete = self.collector.rollout()
-        self.obs = self.collector.obs
-        if not complete:
+        if not self.collector.rollout():  # per-agent views, as the env gives them
             return False
         for lr in self.policies:
-            if lr.agent is not None:
-                with torch.no_grad():
-                    lr.last_values = lr.model.value(lr.gather(self.obs)[0])
+            lr.end_rollout(self.collector.obs)
         return True
 
     def _act(self, t: int, views: Any, states: tuple, env_masks: Any) -> dict[str, Any]:
@@ -105,9 +98,10 @@ class MultiPolicyPPO(AlgorithmBase):
         for lr in self.policies:
             obs, active, masks = lr.gather(views)
             acted.append(active)
-            if lr.pool is not None:  # a self-play snapshot: each env's own
+            pool = self.snapshots.pools.get(lr.name) if self.snapshots is not None else None
+            if pool is not None:  # a self-play snapshot: each env's own
                 with torch.no_grad():
-                    env_actions = lr.pool.act(obs, len(lr.agents), masks)
+                    env_actions = pool.act(obs, len(lr.agents), masks)
                 actions.update(lr.split(lr.model.dist.to_env(env_actions).cpu().numpy()))
                 continue
             with torch.no_grad():
@@ -176,7 +170,6 @@ class MultiPolicyPPO(AlgorithmBase):
                     stats[STAT_TAGS[key].format(lr.name)] = value
                     if len(self.policies) == 1:  # one shared policy: rl_games' own tags too
                         stats[self.plain_tag(key)] = value
-        self.ctx.frames += self.frames_per_epoch()
         return stats
 
     @staticmethod
@@ -190,13 +183,13 @@ class MultiPolicyPPO(AlgorithmBase):
     # ----- per-agent observations, per-policy statistics ---------------------------------------
     def start(self) -> None:
         """Reset the envs (per-agent observations, as the env gives them); self-play snapshots start."""
-        self.obs = self.ctx.reset_raw()
+        self.collector.place(self.ctx.reset_raw())
         if self.snapshots is not None:
             self.snapshots.start(self)
 
     def restart_episodes(self) -> None:
         self.ctx.tracker.reset_running()
-        self.obs = self.ctx.reset_raw()
+        self.collector.place(self.ctx.reset_raw())
         for lr in self.policies:
             lr.tracker.reset_running()
 

@@ -8,27 +8,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.episodes import EpisodeTracker
+from rlchain.algos.base.episodes import AgentEpisodes
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.multi_policy.masked import MaskedPPOAgent
 from rlchain.config.params import Params
 from rlchain.runs.checkpoint import CheckpointError
-
-
-class AgentEpisodes(EpisodeTracker):
-    """Episode returns per agent row; an episode's length counts the agent's own (active) steps."""
-
-    def agent_step(self, rewards: torch.Tensor, dones: torch.Tensor, active: torch.Tensor) -> None:
-        """rewards (R,), dones (R,) bool (the agent ended at this step), active (R,) bool (it acted)."""
-        self.returns += rewards
-        self.lengths += active.long()
-        if dones.any():
-            idx = dones.nonzero().squeeze(-1)
-            self.finished_returns.extend(self.returns[idx].tolist())
-            self.finished_lengths.extend(self.lengths[idx].tolist())
-            self.games += int(idx.numel())
-            self.returns[idx] = 0.0
-            self.lengths[idx] = 0
 
 
 class PolicyLearner:
@@ -44,7 +28,6 @@ class PolicyLearner:
         self.tracker = AgentEpisodes(self.rows, games_to_track, device)
         self.storage = self.active = self.agent = None
         self.last_values: torch.Tensor | None = None
-        self.pool: Any = None  # a frozen self-play snapshot: past snapshots env by env (snapshots.py)
         if train:
             dist = model.dist
             self.storage = RolloutStorage(cfg.horizon_length, self.rows, tuple(obs_shape), torch.float32,
@@ -52,6 +35,13 @@ class PolicyLearner:
                                           mask_size=dist.param_size if self.use_masks else 0)
             self.active = torch.zeros((cfg.horizon_length, self.rows), dtype=torch.bool, device=device)
             self.agent = MaskedPPOAgent(model, cfg, device, active=self.active)  # learns from the active steps
+
+    def end_rollout(self, views: dict[str, Any]) -> None:
+        """After a rollout, when this policy trains: the values of its rows' next observations (the returns
+        bootstrap from them)."""
+        if self.agent is not None:
+            with torch.no_grad():
+                self.last_values = self.model.value(self.gather(views)[0])
 
     def gather(self, views: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         """(obs (R, D), active (R,), masks (R, n) or None) of this policy's rows from the env's views."""

@@ -38,22 +38,22 @@ class Snapshots:
         self.seen = dict.fromkeys(self.scores, 0)
         self.updates = 0
         self.first_env = 0  # start of the window of envs the next refresh goes to
+        self.pools: dict[str, SnapshotPool] = {}  # frozen policy -> its past snapshots env by env (from start())
 
     def start(self, algo: Any) -> None:
         for trained in self.seen:
             self.seen[trained] = algo.learner(trained).tracker.games
         for frozen, trained in self.snapshots.items():
-            learner = algo.learner(frozen)
-            learner.pool = SnapshotPool(learner.model, algo.num_envs)
+            self.pools[frozen] = SnapshotPool(algo.learner(frozen).model, algo.num_envs)
             if algo.ctx.epoch == 0:  # the opponent starts as the learner's starting self, everywhere
-                learner.pool.refresh(algo.model[trained], list(range(algo.num_envs)))
+                self.pools[frozen].refresh(algo.model[trained], list(range(algo.num_envs)))
 
     def refresh(self, algo: Any, frozen: str, trained: str) -> list[int]:
         """The trained policy's weights into the frozen one, for the next window of envs."""
         count = min(self.cfg.env_update_num, algo.num_envs)
         env_ids = [(self.first_env + k) % algo.num_envs for k in range(count)]
         self.first_env = (self.first_env + 1) % algo.num_envs
-        algo.learner(frozen).pool.refresh(algo.model[trained], env_ids)
+        self.pools[frozen].refresh(algo.model[trained], env_ids)
         return env_ids
 
     def end_epoch(self, algo: Any) -> None:

@@ -10,6 +10,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
 from rlchain.models.normalization import obs_normalizer
@@ -51,7 +52,7 @@ class QModel(ObservationModel):
         self.target.requires_grad_(False)
         self.dist = DiscreteActions(n)
         # a Dict kept per key: images scaled, every other key not excluded by its own statistics
-        self.obs_norm = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
+        self.running_mean_std = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
         self.epsilon = float(play_epsilon)  # not saved: a checkpoint plays with the config's play_epsilon
 
     def q_values(self, obs: torch.Tensor) -> torch.Tensor:
@@ -120,11 +121,7 @@ class DQNAgent:
         else:
             per_sample = (q - target).square()
         loss = (batch["weights"] * per_sample).mean()
-        self.opt.zero_grad(set_to_none=True)
-        loss.backward()
-        if cfg.grad_norm is not None:
-            nn.utils.clip_grad_norm_(self._online, cfg.grad_norm)
-        self.opt.step()
+        optimizer_step(self.opt, loss, params=self._online, max_norm=cfg.grad_norm)
         self.updates += 1
         if self.updates % cfg.target_update_frequency == 0:
             with torch.no_grad():

@@ -15,7 +15,7 @@ from typing import Any
 import gymnasium as gym
 import torch
 
-from rlchain.algos.base.algorithm import AlgorithmBase
+from rlchain.algos.base.algorithm import AlgorithmBase, position_copy, position_on
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.replay import ReplayBuffer
@@ -40,6 +40,7 @@ class OffPolicyAlgorithm(AlgorithmBase):
 
     config_class: type = SACConfig
     SHARED_TAGS = {"lr": "info/last_lr", "total_updates": "info/updates", "replay_size": "info/replay_size"}
+    counts_frames_while_collecting = True  # the stepper counts each env step (warmup and epsilon read ctx.frames)
 
     def __init__(self, params: Params, env: VecEnv, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
@@ -47,6 +48,7 @@ class OffPolicyAlgorithm(AlgorithmBase):
         self.agent = self.make_agent()
         self.buffer = self.make_buffer()
         self.stepper = OffPolicyStepper(env, model, ctx, cfg, self.buffer)
+        self.obs: Any = None  # where the envs stand: the observations the next step acts on (the stepper keeps none)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0  # seconds of gradient updates inside the last collect()
@@ -140,6 +142,14 @@ class OffPolicyAlgorithm(AlgorithmBase):
             return
         self.obs = self.ctx.reset_envs()
         self.model.update_normalizers(obs=self.obs)
+
+    def position_state(self) -> dict[str, Any] | None:
+        """The observations the next env step acts on (a copy); None before ``start``."""
+        return None if self.obs is None else {"obs": position_copy(self.obs)}
+
+    def load_position(self, position: dict[str, Any]) -> None:
+        """Put back :meth:`position_state` on the training device (Dict observations per key)."""
+        self.obs = position_on(position["obs"], self.device)
 
     def restart_episodes(self) -> None:
         """After a rollback: fresh episodes everywhere."""

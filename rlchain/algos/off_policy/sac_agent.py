@@ -14,6 +14,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.algos.core.precision import sac_autocast_dtype
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
@@ -85,7 +86,7 @@ class SoftActorCritic(ObservationModel):
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_alpha), dtype=torch.float32))
         self.dist = SquashedActions(action_space, clip_actions)
         # a Dict kept per key: images scaled, every other key not excluded by its own statistics
-        self.obs_norm = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
+        self.running_mean_std = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
 
     @property
     def alpha(self) -> torch.Tensor:
@@ -136,6 +137,7 @@ class SACAgent:
         self.updates = 0
         self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
         self._critic_params = list(net.critic.parameters())
+        self._actor_params = list(net.actor.parameters())
         self._target_params = list(model.critic_target.parameters())
         device = next(model.parameters()).device
         self.amp_dtype = sac_autocast_dtype(getattr(cfg, "mixed_precision", False), device)
@@ -175,11 +177,7 @@ class SACAgent:
         q1, q2 = q1.float(), q2.float()
         weights = batch["weights"]
         critic_loss = (weights * ((q1 - target).square() + (q2 - target).square())).mean()
-        self.critic_opt.zero_grad(set_to_none=True)
-        critic_loss.backward()
-        if cfg.grad_norm is not None:
-            nn.utils.clip_grad_norm_(self._critic_params, cfg.grad_norm)
-        self.critic_opt.step()
+        optimizer_step(self.critic_opt, critic_loss, params=self._critic_params, max_norm=cfg.grad_norm)
         td = 0.5 * ((q1 - target).abs() + (q2 - target).abs()).detach()
 
         stats = {"critic_loss": critic_loss.detach(), "q": q1.detach().mean()}
@@ -190,19 +188,13 @@ class SACAgent:
                 nq1, nq2 = q_values(critic, obs, new_actions)
             logp, nq1, nq2 = logp.float(), nq1.float(), nq2.float()
             actor_loss = (alpha * logp - torch.min(nq1, nq2)).mean()
-            self.actor_opt.zero_grad(set_to_none=True)
-            actor_loss.backward()
-            if cfg.grad_norm is not None:
-                nn.utils.clip_grad_norm_(model.network.actor.parameters(), cfg.grad_norm)
-            self.actor_opt.step()
+            optimizer_step(self.actor_opt, actor_loss, params=self._actor_params, max_norm=cfg.grad_norm)
             critic.requires_grad_(True)
             self.last["actor_loss"] = actor_loss.detach()
             self.last["entropy"] = -logp.detach().mean()
             if cfg.learnable_temperature:
                 alpha_loss = -(model.log_alpha * (logp.detach() + self.target_entropy)).mean()
-                self.alpha_opt.zero_grad(set_to_none=True)
-                alpha_loss.backward()
-                self.alpha_opt.step()
+                optimizer_step(self.alpha_opt, alpha_loss)
                 self.last["alpha_loss"] = alpha_loss.detach()
         stats.update(self.last)
         with torch.no_grad():

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
+from functools import partial
 from typing import ClassVar
 
 import torch
@@ -22,13 +23,13 @@ import torch
 from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.advantage_stats import MovingAdvantageStats
 from rlchain.algos.core.losses import normalize_advantages, policy_loss
+from rlchain.algos.core.optimizer_step import check_finite, optimizer_step
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
-from rlchain.algos.ppo.loss import Surrogate, named_stats, ppo_loss, stats_vector
+from rlchain.algos.ppo.loss import Surrogate, adapted_kl_coef, named_stats, ppo_loss, stats_vector
 from rlchain.algos.ppo.optimizer import ScheduledAdam
 from rlchain.config.ppo import PPOConfig
-from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.parallel.communicator import SINGLE, Communicator
@@ -67,16 +68,19 @@ class PPOAgent(ScheduledAdam):
         self.model, self.cfg, self.device = model, cfg, device
         self.train_critic = train_critic
         self.should_stop = should_stop
-        model.bptt_length = cfg.bptt_length
         self.losses = ppo_loss  # compile() swaps in the compiled region
         self._compile_pending = False
         # cuda_graph (resolved by rlchain.algos.ppo.graph_step.resolve_cuda_graph): the step as a captured graph
-        self.graphed = GraphedStep(self._sync_free_step, self.zero_grad) if cuda_graph else None
+        self.graphed = GraphedStep(self._sync_free_step, self.clear_grads) if cuda_graph else None
         self._aux_names: tuple[str, ...] = ()
         self._max_norm = float("inf")  # the graphed step's clip (a Python constant in the graph)
         # rl_games 2.0: advantages normalized by moving statistics instead of the batch's own
         self.advantage_stats = MovingAdvantageStats(cfg.adv_rms_momentum, device) \
             if cfg.normalize_advantage and cfg.normalize_rms_advantage else None
+        # RLlib's KL penalty: the live coefficient (kl_target adapts it after every update), one persistent tensor
+        # (PPOConfig's keys; APPO / IMPALA configs have none: off)
+        self.kl_coef = getattr(cfg, "kl_loss_coef", 0.0)
+        self._kl_coef_t = torch.tensor(float(self.kl_coef), device=device) if self.kl_coef > 0 else None
 
     @property
     def mode(self) -> str:
@@ -128,24 +132,16 @@ class PPOAgent(ScheduledAdam):
                     start = time.perf_counter()
                     loss, stats_t, aux, current = self.losses(
                         model, cfg, batch, coef, previous, self.surrogate, self.train_critic, self.amp_dtype,
-                        self.device.type)
+                        self.device.type, kl_coef=self._kl_coef_t)
                     if self._compile_pending:
                         self._compile_pending = False
                         _log.info(f"compile_update: compiled the PPO minibatch step in "
                                   f"{time.perf_counter() - start:.1f} s")
                     if reference is not None:  # the next pass measures the KL against the policy this one saw
                         reference.index_copy_(0, batch.index, current)
-                    self.zero_grad()
-                    self.backward(loss)
-                    if self.comm.active:  # before unscaling and clipping, so every rank sees the same grads
-                        self.comm.average_gradients(self.params)
-                    self.unscale()
-                    grad_norm = torch.nn.utils.clip_grad_norm_(self.params, max_norm, foreach=True)
-                    stats = named_stats(stats_vector(loss, stats_t, aux, grad_norm).tolist(), aux)
-                    bad = first_non_finite(stats)
-                    if bad is not None and self.scaler is None:  # with AMP the scaler skips inf steps itself
-                        raise DivergenceError(f"{bad} in the PPO update")
-                    self.step()
+                    stats = optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm,
+                                           comm=self.comm, scaler=self.scaler, what="the PPO update",
+                                           stats=partial(read_stats, loss, stats_t, aux))
                     del stats["loss"]
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value
@@ -159,9 +155,14 @@ class PPOAgent(ScheduledAdam):
             if cfg.schedule_type == "standard":
                 self.follow_kl(epoch_kl / max(epoch_n, 1))
         self.apply_progress(progress)
+        if self._kl_coef_t is not None and cfg.kl_loss_target is not None:  # a PPOConfig (kl_coef > 0)
+            self.kl_coef = adapted_kl_coef(self.kl_coef, stats["kl"], cfg.kl_loss_target)
+            self._kl_coef_t.fill_(self.kl_coef)
         out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
+        if self._kl_coef_t is not None:
+            out["kl_coef"] = self.kl_coef
         return out
 
     def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
@@ -209,7 +210,7 @@ class PPOAgent(ScheduledAdam):
         """
         loss, stats_t, aux, current = self.losses(self.model, self.cfg, batch, coef, previous, self.surrogate,
                                                   self.train_critic, self.amp_dtype, self.device.type,
-                                                  autocast_cache=False)
+                                                  autocast_cache=False, kl_coef=self._kl_coef_t)
         loss.backward()
         values = stats_vector(loss, stats_t, aux, torch.nn.utils.clip_grad_norm_(self.params, self._max_norm,
                                                                                  foreach=True))
@@ -228,9 +229,7 @@ class PPOAgent(ScheduledAdam):
         if reference is not None:
             reference.index_copy_(0, batch.index, current)
         stats = named_stats(values.tolist(), self._aux_names)
-        bad = first_non_finite(stats)
-        if bad is not None:  # the step left the parameters as they were
-            raise DivergenceError(f"{bad} in the PPO update")
+        check_finite(stats, "the PPO update")  # a non-finite step left the parameters as they were
         del stats["loss"]
         return stats
 
@@ -247,16 +246,28 @@ class PPOAgent(ScheduledAdam):
         state = super().state_dict()
         if self.advantage_stats is not None:
             state["advantage_mean_std"] = self.advantage_stats.state_dict()
+        if self._kl_coef_t is not None:
+            state["kl_coef"] = self.kl_coef
         return state
 
     def load_state_dict(self, state: dict) -> None:
         """Restore :meth:`state_dict`; new optimizer state tensors: a captured step is recorded again."""
         state = dict(state)
         advantage_stats = state.pop("advantage_mean_std", None)
+        kl_coef = state.pop("kl_coef", None)
+        if self._kl_coef_t is not None and kl_coef is not None:
+            self.kl_coef = float(kl_coef)
+            self._kl_coef_t.fill_(self.kl_coef)
         if self.advantage_stats is not None and advantage_stats is not None:
             self.advantage_stats.load_state_dict(advantage_stats)
         super().load_state_dict(state)
         self.config_changed()
+
+
+def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
+               grad_norm: torch.Tensor) -> dict[str, float]:
+    """An eager step's statistics read back by name (its one host sync)."""
+    return named_stats(stats_vector(loss, stats, aux, grad_norm).tolist(), aux)
 
 
 def shuffled_minibatches(order: str, continuous: bool) -> bool:

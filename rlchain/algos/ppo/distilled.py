@@ -16,6 +16,7 @@ from typing import Any
 import torch
 
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.config.errors import ConfigError
 from rlchain.config.obs_groups import ObsGroupsConfig
 from rlchain.config.params import Params
@@ -73,7 +74,7 @@ def load_distilled(params: Params, env: VecEnv, model: Any, device: torch.device
 
 def value_head(model: Any) -> list[torch.nn.Parameter]:
     """The parameters of the model's value head (the network's ``value`` layer)."""
-    head = getattr(model.network, "value", None)
+    head = getattr(model.a2c_network, "value", None)
     if not isinstance(head, torch.nn.Module):
         raise ConfigError("", "params.config.distilled_value", "teacher needs a network with a `value` layer "
                                                              "(the actor_critic builder's); use scratch")
@@ -128,11 +129,8 @@ def warm_start_value(trainer: Any, teacher: Any, epochs: int, lr: float = 1e-3, 
         for _ in range(steps):
             _, value, _ = model.evaluate(batch, first or None, starts_rows, seq_length=horizon)
             loss = (value - target).square().mean()
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
+            optimizer_step(opt, loss)
         model.eval()
-    model.zero_grad(set_to_none=True)
     trainer.collector.reset_states()
     trainer.collector.place(ctx.reset_envs())  # fresh episodes: the statistics start with training
     return float(loss.detach())

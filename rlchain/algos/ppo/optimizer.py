@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import torch
 
+from rlchain.algos.core.optimizer_step import clear_grads
 from rlchain.algos.core.schedules import (
     PROGRESS_SCHEDULES,
     AdaptiveKLSchedule,
@@ -103,27 +104,9 @@ class ScheduledAdam:
             self.schedule.kl_threshold = float(value)
         return False
 
-    # ----- a step -------------------------------------------------------------------------------
-    def zero_grad(self) -> None:
+    def clear_grads(self) -> None:
         """Gradients to None: the next backward pass allocates them."""
-        self.optimizer.zero_grad(set_to_none=True)
-
-    def backward(self, loss: torch.Tensor) -> None:
-        """Backward from ``loss``, scaled when there is a grad scaler."""
-        (self.scaler.scale(loss) if self.scaler is not None else loss).backward()
-
-    def unscale(self) -> None:
-        """Undo the grad scaler's scale on the gradients (before clipping them); nothing without a scaler."""
-        if self.scaler is not None:
-            self.scaler.unscale_(self.optimizer)
-
-    def step(self) -> None:
-        """Adam's step (the grad scaler's, which skips a step with inf gradients, when there is one)."""
-        if self.scaler is not None:
-            self.scaler.step(self.optimizer)
-            self.scaler.update()
-        else:
-            self.optimizer.step()
+        clear_grads(self.optimizer)
 
     # ----- checkpoints --------------------------------------------------------------------------
     def state_dict(self) -> dict:

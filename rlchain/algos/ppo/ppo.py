@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.base.algorithm import AlgorithmBase, position_copy, position_on
+from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import OnPolicyCollector
@@ -46,7 +46,8 @@ class PPO(AlgorithmBase):
     config_class = PPOConfig
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
-                   "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
+                   "entropy_coef": "info/entropy_coef", "kl_coef": "info/kl_coef", "clip_frac": "info/clip_frac",
+                   "grad_norm": "info/grad_norm",
                    "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr", "rnd_loss": "losses/rnd_loss",
                    "rnd_reward": "rewards/intrinsic", "mirror_loss": "losses/mirror_loss"}
     console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"))
@@ -58,10 +59,9 @@ class PPO(AlgorithmBase):
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
-        """The minibatch must divide the batch, which counts the env's agents (multi-agent envs); the rollout
-        storage must fit the training device's free memory."""
+        """The minibatches (the actor's, the central value's) must divide the batch, which counts the env's agents
+        (multi-agent envs); the rollout storage must fit the training device's free memory."""
         check_batch(params.config, params.source, spec.num_agents)
-        params.config.check_central_value_batch(params.source)
         cfg = params.config
         if spec.observation_space is not None and spec.action_space is not None:
             rows = cfg.horizon_length * spec.num_envs
@@ -88,12 +88,12 @@ class PPO(AlgorithmBase):
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
-        graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
+        graphed = resolve_cuda_graph(cfg, model.a2c_network, model.is_rnn, device, ctx.comm.active, params.source)
         with communicator.building_with(ctx.comm):  # its normalizers fold every rank's batches
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
         if self.central_value is not None:  # the asymmetric critic replaces the actor's value head
-            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, device, ctx.comm,
+            self.cv_agent = CentralValueAgent(self.central_value, cfg.central_value_config, ctx.comm,
                                               should_stop=self._stop_requested)
         self.agent = PPOAgent(model, cfg, device, ctx.comm, cuda_graph=graphed,
                               train_critic=self.central_value is None, should_stop=self._stop_requested)
@@ -130,11 +130,6 @@ class PPO(AlgorithmBase):
             fold_obs_each_step=self.fold_obs_each_step, carries_states=True)
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
-    def start(self) -> None:
-        """Reset the envs, or put them back where a restored checkpoint left them."""
-        if not self.resume_position():
-            self.collector.place(self.ctx.reset_envs())
-
     def collect(self) -> bool:
         """A rollout of horizon_length steps into the storage (the collector); False when a stop signal came.
         A fresh run from a distilled student with ``distilled_value: teacher`` first regresses its value head."""
@@ -147,7 +142,7 @@ class PPO(AlgorithmBase):
 
     def update(self) -> dict[str, float]:
         """GAE on the rollout, normalizer updates, the PPO update (PPOAgent.update: the minibatch loop and the
-        loss), the extras' own updates (RND, mirror loss, central value); the rollout then counts as frames.
+        loss), the extras' own updates (RND, mirror loss, central value).
 
         Every normalizer folds this rollout in before the update (the observations, with
         ``obs_normalizer_update: minibatch``, minibatch by minibatch in the update's first pass), so the
@@ -197,7 +192,6 @@ class PPO(AlgorithmBase):
             stats.update(self.cv_agent.update(storage, self.progress(), model.num_states, cfg.seq_length,
                                               cfg.zero_rnn_on_done,
                                               shuffled_minibatches(cfg.minibatch_order, model.dist.continuous)))
-        self.ctx.frames += self.frames_per_epoch()
         return stats
 
     def _stop_requested(self) -> bool:
@@ -212,26 +206,6 @@ class PPO(AlgorithmBase):
         if self.central_value is not None:
             pairs.append((self.central_value, self.cv_agent))
         return pairs
-
-    def position_state(self) -> dict[str, Any] | None:
-        """The next observations, RNN states and their episode-start flags (copies); None before ``start``."""
-        collector = self.collector
-        if collector.obs is None:
-            return None
-        return {"obs": position_copy(collector.obs), "rnn_states": position_copy(tuple(collector.rnn_states)),
-                "resets": position_copy(collector.resets)}
-
-    def load_position(self, position: dict[str, Any]) -> None:
-        """Put back :meth:`position_state` on the training device."""
-        self.collector.place(position_on(position["obs"], self.device),
-                             position_on(tuple(position["rnn_states"]), self.device),
-                             position_on(position["resets"], self.device))
-
-    def restart_episodes(self) -> None:
-        """After a rollback: fresh episodes, zero RNN states."""
-        self.ctx.tracker.reset_running()
-        self.collector.place(self.ctx.reset_envs())
-        self.collector.reset_states()
 
     def hyperparams(self) -> dict[str, float]:
         """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
@@ -305,7 +279,7 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
     if model.is_rnn:
         raise ConfigError(source, "params.config.compile_update",
                           "False for an RNN network (sequence minibatches are not compiled); set it false")
-    if callable(getattr(model.network, "get_aux_loss", None)):
+    if callable(getattr(model.a2c_network, "get_aux_loss", None)):
         raise ConfigError(source, "params.config.compile_update",
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
 

@@ -159,11 +159,12 @@ def contract_builder(name: str, target: Callable[..., Any]) -> Callable[..., Emb
 
 
 def register_env(name: str, factory: Callable[..., Any] | None = None, *, overwrite: bool = False) -> Any:
-    """Register an EmbodiChain-contract env class or factory under ``name`` in :data:`rlchain.registry.ENVS`
-    (a decorator, or a direct call, as EmbodiChain's ``register_learning_env``); see :func:`contract_builder`."""
+    """Register an EmbodiChain-contract env class or factory under ``name`` (a decorator, or a direct call, as
+    EmbodiChain's ``register_learning_env``): the entry ``{'vecenv_creator': contract_builder(name, target)}``
+    that ``env_configurations.register`` makes (see :func:`contract_builder`)."""
 
     def decorator(target: Callable[..., Any]) -> Callable[..., Any]:
-        ENVS.register(name, contract_builder(name, target), overwrite=overwrite)
+        ENVS.register(name, {"vecenv_creator": contract_builder(name, target)}, overwrite=overwrite)
         return target
 
     return decorator if factory is None else decorator(factory)

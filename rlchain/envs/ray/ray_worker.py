@@ -26,7 +26,7 @@ class EnvRecipe:
 
     Ray workers are fresh processes: envs registered in the learner at run time
     (``params.import_modules``, ``env_configurations.register``, ``gym.register``) travel along: every
-    :data:`ENVS` builder and every gymnasium spec whose entry point is a Python object (plus the
+    :data:`ENVS` entry and every gymnasium spec whose entry point is a Python object (plus the
     specs of the named env), each one that cloudpickle can serialize.
     """
 
@@ -52,8 +52,8 @@ class EnvRecipe:
         """The VecEnv of ``num_envs`` envs (runs inside the worker)."""
         for name, spec in self.gym_specs.items():
             gym.registry.setdefault(name, spec)
-        for name, builder in self.builders.items():
-            ENVS.register(name, builder, overwrite=True)
+        for name, entry in self.builders.items():  # the learner's table as it was (gym specs copied above)
+            ENVS.register(name, entry, overwrite=True)
         env = attach_spec(build_local_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type))
         problem = _unsupported(env)
         if problem:

@@ -12,14 +12,14 @@ from typing import Any
 
 from rlchain import env_configurations as _env_configurations
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
-from rlchain.registry import ENV_CONFIGURATIONS
 
-configurations = ENV_CONFIGURATIONS
-"""name -> the dict given to :func:`register` (rl_games' ``configurations``)."""
+configurations = _env_configurations.configurations
+"""name -> the dict given to :func:`register` (rl_games' ``configurations``; rlchain's ``registry.ENVS``)."""
 
 
 def register(name: str, config: dict[str, Any]) -> None:
-    """Register ``config`` (with ``env_creator`` or ``vecenv_creator``) under ``name``, replacing any entry."""
+    """Register ``config`` (``env_creator``, ``vecenv_creator`` and / or ``vecenv_type``) under ``name``,
+    replacing any entry."""
     _env_configurations.register(name, config, overwrite=True)
 
 

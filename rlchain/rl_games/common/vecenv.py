@@ -11,7 +11,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rlchain.envs import vecenv as _vecenv
-from rlchain.registry import ENV_CONFIGURATIONS, VECENVS
+from rlchain.registry import ENVS, VECENVS
 from rlchain.rl_games.common.ivecenv import IVecEnv
 
 vecenv_config = VECENVS
@@ -26,8 +26,8 @@ def register(config_name: str, func: Callable[..., Any]) -> None:
 def create_vec_env(config_name: str, num_actors: int, **kwargs: Any) -> Any:
     """The vector env of the ``env_configurations`` entry ``config_name``, built by its ``vecenv_type``'s
     creator (what the creator returns, unadapted, as rl_games returns it)."""
-    entry = ENV_CONFIGURATIONS.get(config_name)
-    if entry is None or "vecenv_type" not in entry:
+    entry = ENVS.get(config_name) if config_name in ENVS else {}
+    if "vecenv_type" not in entry:
         raise ValueError(f"vecenv.create_vec_env: '{config_name}' has no env_configurations entry with a "
                          f"'vecenv_type' (register it with env_configurations.register)")
     _, creator = _vecenv.resolve_vecenv_type(entry["vecenv_type"], config_name)

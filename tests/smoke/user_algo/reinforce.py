@@ -19,6 +19,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.adam_agent import AdamAgent
 from rlchain.algos.core.collector import OnPolicyCollector
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.config.fields import option, positive
@@ -36,27 +37,6 @@ class ReinforceConfig(RunConfig):
     baseline: bool = option(True, "subtract the batch's mean return from every return")
 
 
-class ReinforceAgent:
-    """The optimizer, with what the Loop's divergence guard and checkpoints need of an agent."""
-
-    def __init__(self, model: torch.nn.Module, lr: float) -> None:
-        self.optimizer = torch.optim.Adam(model.parameters(), lr=lr)
-
-    @property
-    def lr(self) -> float:
-        return self.optimizer.param_groups[0]["lr"]
-
-    def scale_lr(self, factor: float) -> None:
-        for group in self.optimizer.param_groups:
-            group["lr"] *= factor
-
-    def state_dict(self) -> dict[str, Any]:
-        return {"optimizer": self.optimizer.state_dict()}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.optimizer.load_state_dict(state["optimizer"])
-
-
 class Reinforce(AlgorithmBase):
     """Algo ``reinforce``: the collector's rollout of horizon_length steps of every env, then one
     policy-gradient step."""
@@ -69,17 +49,16 @@ class Reinforce(AlgorithmBase):
     def __init__(self, params: Params, env: Any, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg, dist = self.cfg, model.dist
-        self.agent = ReinforceAgent(self.model, cfg.learning_rate)
+        # the agent (rlchain.algos.core.adam_agent.Agent: lr, scale_lr, state_dict, load_state_dict) is what the
+        # Loop's checkpoints and divergence guard use; AdamAgent keeps that contract and takes the optimizer step
+        self.agent = AdamAgent(self.model, cfg.learning_rate)
         self.divergence = DivergenceGuard(cfg.divergence, self.model, self.agent)
         storage = RolloutStorage(cfg.horizon_length, self.num_envs, tuple(env.observation_space.shape),
                                  torch.float32, dist.action_shape, dist.action_dtype, dist.param_size, 1, self.device)
         self.collector = OnPolicyCollector(env, model, ctx, cfg, storage=storage)
 
-    def collect(self) -> bool:
-        self.collector.obs = self.obs  # where the envs stand: start() and resume set self.obs
-        complete = self.collector.rollout()
-        self.obs = self.collector.obs
-        return complete
+    def collect(self) -> bool:  # where the envs stand lives in the collector (AlgorithmBase's start places it)
+        return self.collector.rollout()
 
     def update(self) -> dict[str, float]:
         cfg, model, rollout = self.cfg, self.model, self.collector.storage
@@ -94,10 +73,7 @@ class Reinforce(AlgorithmBase):
         params, _, _ = model.evaluate(rollout.obs.flatten(0, 1))
         log_probs, _ = model.dist.log_prob_and_entropy(params, rollout.actions.flatten(0, 1))
         loss = -(log_probs * advantages.flatten()).mean()
-        self.agent.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.agent.optimizer.step()
-        self.ctx.frames += cfg.horizon_length * self.num_envs
+        self.agent.step(loss)
         return {"pg_loss": float(loss), "mean_return": float(returns.mean()), "lr": self.agent.lr}
 
     def frames_per_epoch(self) -> int:
@@ -108,7 +84,6 @@ class Reinforce(AlgorithmBase):
 
     def apply_hyperparam(self, name: str, value: float) -> None:
         if name == "learning_rate":
-            for group in self.agent.optimizer.param_groups:
-                group["lr"] = float(value)
+            self.agent.set_lr(value)
         else:
             super().apply_hyperparam(name, value)
