@@ -89,7 +89,7 @@ def crafted_archive(rng, src, path):
             data = None
             break
         else:
-            name = rng.choice([n for n in members if n != "data"] or ["policy.pth"])
+            name = rng.choice([n for n in members if n != "data"] + ["rlchain_model.pt"])  # rlchain's own member too
             how = rng.choice(["random", "cut", "drop", "lie", "bomb"])
             if how == "random":
                 members[name] = stored(name, random_bytes(rng, 4000))
