@@ -89,8 +89,10 @@ def stored_names(config: dict[str, Any]) -> list[tuple[str, Any, str]]:
         key, registry = NAMED_BY[env_name]
         return [(f"{block}.{key}", _get(config, f"{block}.{key}"), registry) for block in BLOCKS
                 if isinstance(_get(config, block), dict) and key in _get(config, block)]
-    if env_name in ENVS and not by_envpool:
+    entry = ENVS.get(env_name) if env_name in ENVS else {}
+    if ("env_creator" in entry or "vecenv_creator" in entry) and not by_envpool:
         return []  # registered by code in this process; rlchain's own look their names up in their registries
+    # an entry that only binds a vecenv_type (rl_games 2.0's config binding) leaves the name a gymnasium id
     names = [("env_name", env_name, ENVPOOL if by_envpool else GYM)]
     names += [(f"{block}.{WRAPPED}", _get(config, f"{block}.{WRAPPED}"), GYM) for block in BLOCKS
               if isinstance(_get(config, block), dict) and WRAPPED in _get(config, block)]

@@ -85,6 +85,15 @@ def test_a_vecenv_type_registered_by_code_takes_the_names(scoped_registries):
     assert stored_names({"env_name": "h66mark:X-v0", "vecenv_type": "envpool"}) != []
 
 
+def test_an_entry_that_only_binds_a_vecenv_type_leaves_the_name_a_gymnasium_id(scoped_registries):
+    from rlchain import env_configurations
+
+    env_configurations.register("h66mark:X-v0", {"vecenv_type": "RAY"})  # what rl_games' Runner binds
+    assert stored_names({"env_name": "h66mark:X-v0"}) == [("env_name", "h66mark:X-v0", "gymnasium")]
+    env_configurations.register("h66mark:Y-v0", {"vecenv_creator": lambda num_envs, seed, **kw: None})
+    assert stored_names({"env_name": "h66mark:Y-v0"}) == []
+
+
 def test_pettingzoo_lists_its_envs_and_a_listed_name_resolves_to_its_module(marker, monkeypatch, tmp_path):
     names = known_env_names()
     assert {"classic.connect_four_v3", "pettingzoo.classic.tictactoe_v3", "mpe.simple_tag_v3"} <= names
