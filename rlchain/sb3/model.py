@@ -9,11 +9,9 @@ normalizers and counters included) and trains ``total_timesteps`` more frames.
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import dataclasses
 import os
-from collections.abc import Iterator
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -31,7 +29,6 @@ from rlchain.models.build import build_env
 from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
-from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
@@ -376,17 +373,7 @@ class BaseModel:
         params = load_path_or_dict
         if isinstance(params, (str, os.PathLike)):
             path = _file(os.fspath(params))
-            if has_model(path):
-                weights = read_model(path, files.load_weights)
-            elif is_sb3_archive(path):
-                weights = read_sb3_archive(path, self.algo).policy_state
-            else:
-                weights = files.load_weights(path)
-            try:
-                self.policy.load_state_dict(weights, strict=exact_match)
-            except RuntimeError as exc:  # torch's message spans lines: its first says what does not fit
-                raise ckpt.CheckpointError(f"{path}: its weights do not fit this model ("
-                                           f"{' '.join(str(exc).split())[:200]})") from None
+            files.load_into(self.policy, files.read_weights(path, self.algo), path, "this model", exact_match)
             self._weights_changed = True
             return
         self.policy.load_state_dict(params["policy"], strict=exact_match)
@@ -447,7 +434,7 @@ class BaseModel:
             check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
-        with _named_by(path):
+        with files.named_by(path):
             return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
                                 stored, state["model"], state["num_timesteps"])
 
@@ -458,7 +445,7 @@ class BaseModel:
         archive = read_sb3_archive(path, cls.algo)
         init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
                 "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
-        with _named_by(path):
+        with files.named_by(path):
             return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space,
                                 archive.action_space), None, archive.policy_state, archive.num_timesteps)
 
@@ -482,11 +469,7 @@ class BaseModel:
                                  f"{model._spaces.action_space} are not {model.env_source.label}'s")
         model._loaded_config = config
         model.policy = model._build_policy(config)
-        try:
-            model.policy.load_state_dict(weights)
-        except RuntimeError as exc:  # the file's spaces and weights disagree (torch's message spans lines)
-            raise ckpt.CheckpointError(f"{path}: its weights do not fit the network its spaces give ("
-                                       f"{' '.join(str(exc).split())[:200]})") from None
+        files.load_into(model.policy, weights, path, "the network its spaces give")
         model.num_timesteps = num_timesteps
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
@@ -527,18 +510,6 @@ class BaseModel:
     def get_vec_normalize_env(self) -> Any:
         """The ``VecNormalize`` of an SB3 vec env the model trains on, or None."""
         return None if self.env_source is None else vec_normalize_of(self.env_source.vec_env)
-
-
-@contextlib.contextmanager
-def _named_by(path: str) -> Iterator[None]:
-    """A config error while a loaded file's values (or the caller's keywords beside them) build the model names
-    the file, not the model class."""
-    try:
-        yield
-    except ConfigError as exc:
-        if exc.source == path:
-            raise
-        raise ConfigError(path, exc.path, exc.message) from None
 
 
 def _file(path: str, must_exist: bool = True) -> str:
