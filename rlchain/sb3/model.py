@@ -29,7 +29,6 @@ from rlchain.models.build import build_env
 from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
-from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
@@ -378,17 +377,7 @@ class BaseModel:
         params = load_path_or_dict
         if isinstance(params, (str, os.PathLike)):
             path = _file(os.fspath(params))
-            if has_model(path):
-                weights = read_model(path, files.load_weights)
-            elif is_sb3_archive(path):
-                weights = read_sb3_archive(path, self.algo).policy_state
-            else:
-                weights = files.load_weights(path)
-            try:
-                self.policy.load_state_dict(weights, strict=exact_match)
-            except RuntimeError as exc:  # torch's message spans lines: its first says what does not fit
-                raise ckpt.CheckpointError(f"{path}: its weights do not fit this model ("
-                                           f"{' '.join(str(exc).split())[:200]})") from None
+            files.load_into(self.policy, files.read_weights(path, self.algo), path, "this model", exact_match)
             self._weights_changed = True
             return
         self.policy.load_state_dict(params["policy"], strict=exact_match)
@@ -449,8 +438,9 @@ class BaseModel:
             check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
-        return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
-                            stored, state["model"], state["num_timesteps"])
+        with files.named_by(path):
+            return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
+                                stored, state["model"], state["num_timesteps"])
 
     @classmethod
     def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
@@ -459,8 +449,9 @@ class BaseModel:
         archive = read_sb3_archive(path, cls.algo)
         init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
                 "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
-        return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space, archive.action_space),
-                            None, archive.policy_state, archive.num_timesteps)
+        with files.named_by(path):
+            return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space,
+                                archive.action_space), None, archive.policy_state, archive.num_timesteps)
 
     @classmethod
     def _restore(cls, path: str, policy: str, env: Any, stored_env: Any, init: dict[str, Any], spaces: tuple,
@@ -485,7 +476,7 @@ class BaseModel:
                 model._spaces = read  # the env's own: a flattened Dict keeps its parts (predict takes the Dict)
         model._loaded_config = config
         model.policy = model._build_policy(config)
-        model.policy.load_state_dict(weights)
+        files.load_into(model.policy, weights, path, "the network its spaces give")
         model.num_timesteps = num_timesteps
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it

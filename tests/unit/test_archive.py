@@ -135,3 +135,14 @@ def test_space_shapes_are_checked_before_allocation(tmp_path, space, message):
 def test_sac_ent_coef_auto_and_real_archives_still_read():
     assert read_sb3_archive(SAC_ZIP, "sac").hyperparameters["ent_coef"] == "auto"
     assert read_sb3_archive(PPO_ZIP, "ppo").n_envs >= 1
+
+
+def test_rlchains_own_zip_members_are_read_within_bounds(tmp_path):
+    from rlchain.sb3.model_zip import MEMBER, saved_system_info
+
+    path = write_zip(tmp_path / "own.zip", [m for m in members_of(PPO_ZIP) if m[0] != "system_info.txt"]
+                     + [bomb(MEMBER, BIG), bomb("system_info.txt", BIG)])
+    with pytest.raises(ckpt.CheckpointError) as exc:
+        rlchain.PPO.load(path)
+    one_line(exc, path, f"'{MEMBER}' declares 10.5 GiB uncompressed")
+    assert "declares 10.5 GiB" in saved_system_info(path)
