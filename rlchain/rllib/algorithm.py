@@ -21,6 +21,8 @@ import gymnasium as gym
 import yaml
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.factory import make_vec_env
+from rlchain.policy.play import play
 from rlchain.rllib import envs, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested
 from rlchain.rllib.module import RLModuleView
@@ -135,6 +137,7 @@ class Algorithm:
         plain_id = isinstance(settings["env"], str) and not settings.get("env_config") \
             and envs.tune_registered(settings["env"]) is None
         env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
+        self._env_name = env_name
         continuous = isinstance(self.action_space, gym.spaces.Box)
         allowed = (gym.spaces.Discrete,) if config.algo_name == "DQN" else (gym.spaces.Box, gym.spaces.Discrete)
         if not isinstance(self.action_space, allowed):
@@ -253,25 +256,17 @@ class Algorithm:
         if duration == "auto":
             duration, by_steps = 10, False
         explore = bool((s.get("evaluation_config") or {}).get("explore", False))
-        module = self.get_module()
-        env = self._make(0)
-        returns, lengths, steps = [], [], 0
-        try:
-            seed = s.get("seed")
-            obs, _ = env.reset(seed=None if seed is None else int(seed) + 10_000)
-            total, length = 0.0, 0
-            while (steps < duration) if by_steps else (len(returns) < duration):
-                obs, reward, terminated, truncated, _ = env.step(module.act(obs, explore))
-                total += float(reward)
-                length += 1
-                steps += 1
-                if terminated or truncated:
-                    returns.append(total)
-                    lengths.append(length)
-                    total, length = 0.0, 0
-                    obs, _ = env.reset()
+        self.get_module()  # checks the module id and that the algorithm runs
+        seed = s.get("seed")
+        env = make_vec_env(self._env_name, None, 1, None if seed is None else int(seed) + 10_000, None)
+        try:  # the play loop steps the env, as for any rlchain evaluation
+            result = play(self._stepper.context.model, env, None if by_steps else int(duration),
+                          deterministic=not explore, steps=int(duration) if by_steps else None)
         finally:
             env.close()
+        returns = result.rewards
+        lengths = [result.mean_length] * result.games  # play reports the games' mean length
+        steps = int(duration) if by_steps else round(result.mean_length * result.games)
         mean = sum(returns) / len(returns) if returns else math.nan
         out = {"env_runners": {"episode_return_mean": mean,
                                "episode_return_max": max(returns) if returns else math.nan,

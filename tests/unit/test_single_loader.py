@@ -28,6 +28,7 @@ IMPORT_SITES = {
     "rlchain/__init__.py": "rlchain's own lazily imported names (a constant table)",
     "rlchain/console.py": "rlchain's own subcommand modules (literals)",
     "rlchain/rl_games/alias.py": "rl_games.* names mapped onto rlchain.rl_games.* (rlchain's own modules)",
+    "rlchain/rllib/alias.py": "ray.rllib.* names mapped onto rlchain.rllib.* (rlchain's own modules)",
     "rlchain/inference/export/onnx.py": "onnx / onnxruntime, optional dependencies (literals)",
     "rlchain/config/load.py": "params.import_modules and config.callbacks of the user's config (--file, dict, "
                               "overrides); a checkpoint's stored ones are dropped first",
