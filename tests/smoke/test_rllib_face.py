@@ -95,3 +95,21 @@ def test_dqn_trains_checkpoints_and_infers_in_process(tmp_path, monkeypatch):
         assert restored.train()["num_env_steps_sampled_lifetime"] == 600
     finally:
         restored.stop()
+
+
+def test_evaluate_plays_the_requested_episodes_and_steps(tmp_path, monkeypatch):
+    from rlchain.rllib.algorithms.ppo import PPOConfig
+
+    monkeypatch.chdir(tmp_path)
+    config = (PPOConfig().environment("CartPole-v1").debugging(seed=3)
+              .training(train_batch_size=256, minibatch_size=128, num_epochs=1).evaluation(evaluation_duration=3))
+    algo = config.build_algo()
+    try:
+        algo.train()
+        games = algo.evaluate()["env_runners"]
+        assert games["num_episodes"] == 3 and games["episode_len_mean"] >= 8
+        assert games["episode_return_mean"] == pytest.approx(games["episode_len_mean"])  # CartPole: 1 per step
+        algo.config._settings.update(evaluation_duration=40, evaluation_duration_unit="timesteps")
+        assert algo.evaluate()["env_runners"]["num_env_steps_sampled"] == 40
+    finally:
+        algo.stop()
