@@ -27,8 +27,8 @@ def test_running_mean_std_matches_numpy():
     data = np.random.default_rng(0).normal(2.0, 3.0, size=(1000, 3))
     for chunk in np.split(data, 10):
         rms.update(torch.as_tensor(chunk))
-    assert np.allclose(rms.mean.numpy(), data.mean(0), atol=1e-6)
-    assert np.allclose(rms.var.numpy(), data.var(0), atol=1e-4)
+    assert np.allclose(rms.running_mean.numpy(), data.mean(0), atol=1e-6)
+    assert np.allclose(rms.running_var.numpy(), data.var(0), atol=1e-4)
     x = torch.as_tensor(data[:5], dtype=torch.float32)
     assert torch.allclose(rms.denormalize(rms.normalize(x)), x, atol=1e-4)
 

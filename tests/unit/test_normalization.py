@@ -46,7 +46,7 @@ def test_normalize_with_scale_equals_scaling_first():
     rms.update(frames, as_float)
     fused = rms.normalize(frames.float(), 1.0 / 255.0)
     x = frames.float() / 255.0
-    plain = ((x - rms.mean.float()) / torch.sqrt(rms.var.float() + rms.epsilon)).clamp(-5.0, 5.0)
+    plain = ((x - rms.running_mean.float()) / torch.sqrt(rms.running_var.float() + rms.epsilon)).clamp(-5.0, 5.0)
     assert torch.allclose(fused, plain, atol=1e-5)
 
 

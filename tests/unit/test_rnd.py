@@ -45,7 +45,7 @@ def test_chosen_indices_and_the_state_normalizer():
     rnd = RandomNetworkDistillation(4, rnd_cfg(state_normalization=True), indices=parts_to_indices(["1:3"], 4))
     obs = torch.tensor([[0.0, 1.0, 2.0, 9.0], [0.0, 3.0, 6.0, -9.0]])
     rnd.observe(obs)
-    torch.testing.assert_close(rnd.normalizer.mean, torch.tensor([2.0, 4.0], dtype=torch.float64))
+    torch.testing.assert_close(rnd.normalizer.running_mean, torch.tensor([2.0, 4.0], dtype=torch.float64))
     torch.testing.assert_close(rnd.state(obs), torch.tensor([[-1 / 1.01, -2 / 2.01], [1 / 1.01, 2 / 2.01]]))  # std 1, 2
     assert parts_to_indices([0, "2:"], 4) == [0, 2, 3] and parts_to_indices(None, 4) is None
     with pytest.raises(ValueError, match="out of range"):
