@@ -29,7 +29,7 @@ from rlchain.networks.example_networks import TestNet, TestNetAuxLoss
 from rlchain.networks.multi_input import multi_input_network
 from rlchain.networks.resnet_actor_critic import resnet_actor_critic_network
 from rlchain.networks.sac_network import q_network, sac_network
-from rlchain.networks.sb3_policy import SB3PolicyBuilder
+from rlchain.networks.sb3_policy import sb3_policy_network
 from rlchain.registry import ALGOS, MODELS, NETWORKS, WRITERS
 from rlchain.runs.writers import CSVWriter
 
@@ -56,7 +56,7 @@ def register_builtins() -> None:
         MODELS.register(name, actor_critic_model, overwrite=True)
     NETWORKS.register("actor_critic", ActorCriticBuilder, overwrite=True)
     NETWORKS.register("multi_input", multi_input_network, overwrite=True)
-    NETWORKS.register("sb3_policy", SB3PolicyBuilder, overwrite=True)  # SB3 users' extractors and policy classes
+    NETWORKS.register("sb3_policy", sb3_policy_network, overwrite=True)  # SB3 users' extractors and policy classes
 
     # rl_games' test networks; a user package may register its own under these names (as in rl_games)
     NETWORKS.register("testnet", TestNet, overwrite=True, replaceable=True)

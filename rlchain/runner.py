@@ -30,6 +30,7 @@ from rlchain.config.packaged import checkpoint_names, resolve_checkpoint, resolv
 from rlchain.config.params import Params
 from rlchain.config.resolve import CONFIG_FORMAT, ProcessContext, params_from_state, resolve
 from rlchain.config.stored import as_data
+from rlchain.envs.known import check_stored_env
 from rlchain.envs.spec import env_spec
 from rlchain.errors import did_you_mean
 from rlchain.inference.export.onnx import export_from_cli
@@ -131,12 +132,15 @@ class Runner:
                           f"shapes and hyperparameters only; pass your config with --file to use them)",
                           stacklevel=2)
         if "config_format" not in state:  # rlchain before the frozen config: the input file's dict
+            check_stored_env(apply_overrides(stored, overrides or [], path)["params"].get("config"), path,
+                             stored_by(stored, overrides or []))
             return self.load(stored, overrides)
         if state["config_format"] != CONFIG_FORMAT:
             raise ckpt.CheckpointError(f"{path}: config format '{state['config_format']}' is not this "
                                        f"rlchain's '{CONFIG_FORMAT}'; pass the config it was trained with: "
                                        f"--file cfg.yaml")
         raw = apply_overrides(stored, overrides or [], path)
+        check_stored_env(raw["params"].get("config"), path, stored_by(stored, overrides or []))  # before any env
         import_user_modules(raw, path)
         self.params = on_available_device(params_from_state(raw["params"], path))
         self.raw = raw
@@ -311,6 +315,27 @@ def rl_games_tags(cfg: Any) -> RlGamesTags:
     rs = cfg.reward_shaper
     affine = not rs.log_val and rs.min_val == float("-inf") and rs.max_val == float("inf")
     return RlGamesTags(getattr(cfg, "e_clip", None), float(rs.scale_value), float(rs.shift_value), affine)
+
+
+def stored_by(stored: dict[str, Any], overrides: list[str]) -> Any:
+    """Whether a key under ``params.config`` (``env_config.env``) still holds the stored config's value: set in
+    ``stored`` and by no override (``params.config.env_config.env=...`` or a block above it)."""
+    given = [o.split("=", 1)[0].strip() for o in overrides if "=" in o]
+    given = [g if g.split(".")[0] == "params" else f"params.{g}" for g in given]  # 'params.' is optional
+    config = stored["params"].get("config")
+
+    def from_file(key: str) -> bool:
+        full = f"params.config.{key}"
+        if any(full == g or full.startswith(g + ".") for g in given):
+            return False
+        node: Any = config
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                return False
+            node = node[part]
+        return True
+
+    return from_file
 
 
 def locate_checkpoint(name_or_path: str) -> tuple[str, bool]:

@@ -22,17 +22,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import yaml
+
+from rlchain.compare.files import CompareError, read_config, scalar_events, walk_files
 
 REWARD = "rewards/step"
 SUCCESS = "episodes/success_rate"
 TAG_ALIASES = {"reward": REWARD, "rewards": REWARD, "success": SUCCESS, "success_rate": SUCCESS}
 DATE_SUFFIX = re.compile(r"_\d{2}-\d{2}-\d{2}-\d{2}(_\d+)?$")  # create_run_dir's _%d-%H-%M-%S[_pid]
 LABEL_BY = ("name", "config", "glob")
-
-
-class CompareError(ValueError):
-    """Bad input to ``rlchain compare``: no run matched, a folder without events, an unknown tag ..."""
 
 
 @dataclass(frozen=True)
@@ -94,33 +91,33 @@ def curve_from_events(events: Sequence[Sequence[float]], seconds_end: float | No
 
 
 def event_folders(path: str) -> list[str]:
-    """The folders under ``path`` that hold TensorBoard event files (``summaries/`` of a run folder)."""
-    found = glob.glob(os.path.join(path, "**", "events.out.tfevents.*"), recursive=True)
-    return sorted({os.path.dirname(f) for f in found})
+    """The folders under ``path`` that hold TensorBoard event files (``summaries/`` of a run folder); symbolic
+    links to folders are followed, never back into one already walked."""
+    return sorted({os.path.dirname(f) for f in event_files(path)})
+
+
+def event_files(path: str) -> list[str]:
+    """The TensorBoard event files under ``path`` (``events.out.tfevents.*``), folder by folder."""
+    return [f for f in walk_files(path) if os.path.basename(f).startswith("events.out.tfevents.")]
 
 
 def read_curves(path: str, tags: Sequence[str] | None = None) -> dict[str, Curve]:
     """Every scalar tag (or those in ``tags``) of the run folder ``path``, as Curves against frames and
-    against seconds since its first event. CompareError when it has no event files."""
-    from tensorboard.backend.event_processing import event_accumulator as ea
-
-    folders = event_folders(path)
-    if not folders:
+    against seconds since its first event. CompareError when it has no event files, or one that is refused
+    (:mod:`rlchain.compare.files`: a special file, a damaged record)."""
+    files = event_files(path)
+    if not files:
         raise CompareError(f"{path}: no TensorBoard event files (events.out.tfevents.*) in it or its "
                            f"summaries/: not a run folder, or the run wrote nothing yet")
     rows: dict[str, list[tuple[float, float, float]]] = {}
     start = None
-    for folder in folders:
-        acc = ea.EventAccumulator(folder, size_guidance={ea.SCALARS: 0})
-        acc.Reload()
-        try:
-            first = acc.FirstEventTimestamp()
-        except ValueError:  # an empty event file
+    for file in files:
+        first, scalars = scalar_events(file, None if tags is None else set(tags))
+        if first is None:  # an empty event file
             continue
         start = first if start is None else min(start, first)
-        for tag in acc.Tags().get("scalars", []):
-            if tags is None or tag in tags:
-                rows.setdefault(tag, []).extend((e.wall_time, e.step, e.value) for e in acc.Scalars(tag))
+        for tag, wall, step, value in scalars:
+            rows.setdefault(tag, []).append((wall, step, value))
     if start is None:
         raise CompareError(f"{path}: its event files hold no events")
     return {tag: curve_from_events([(w - start, step, value) for w, step, value in events])
@@ -128,13 +125,12 @@ def read_curves(path: str, tags: Sequence[str] | None = None) -> dict[str, Curve
 
 
 def config_name(path: str) -> str:
-    """``params.config.name`` of the run's ``config.yaml`` ('' when there is none)."""
-    file = os.path.join(path, "config.yaml")
+    """``params.config.name`` of the run's ``config.yaml`` ('' when there is none); CompareError (one line) for a
+    config.yaml that is refused (:func:`rlchain.compare.files.read_config`)."""
+    raw = read_config(os.path.join(path, "config.yaml"))
     try:
-        with open(file, encoding="utf-8") as fh:
-            raw = yaml.safe_load(fh)
         return str(raw["params"]["config"].get("name", ""))
-    except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError):
+    except (KeyError, TypeError, AttributeError):
         return ""
 
 
@@ -215,11 +211,7 @@ SEED_KEYS = ("params.seed", "params.config.env_config.seed", "params.config.trai
 def run_settings(path: str) -> dict[str, str]:
     """The run's ``config.yaml`` as flat ``{'params.config.learning_rate': '0.001', ...}``, without the seed
     keys (:data:`SEED_KEYS`); empty when there is none."""
-    try:
-        with open(os.path.join(path, "config.yaml"), encoding="utf-8") as fh:
-            raw = yaml.safe_load(fh)
-    except (OSError, yaml.YAMLError):
-        return {}
+    raw = read_config(os.path.join(path, "config.yaml"))
     flat: dict[str, str] = {}
 
     def walk(prefix: str, value: object) -> None:

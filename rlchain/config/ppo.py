@@ -85,6 +85,17 @@ class PPOConfig(ActorCriticConfig):
     e_clip: float = option(0.2, "PPO clip range", check=positive)
     clip_value: bool = option(False, "clip the value update to e_clip around the old value")
     use_smooth_clamp: bool = option(False, "smooth clamp instead of clamp in the clipped objective")
+    kl_loss_coef: float = option(0.0, "KL penalty (RLlib's use_kl_loss / kl_coeff): loss += kl_loss_coef * mean "
+                                      "KL(reference policy || current policy), with its gradient; the reference is "
+                                      "the one kl_reference names (rollout: RLlib's). 0 = off", check=non_negative)
+    kl_loss_target: float | None = option(None, "with kl_loss_coef > 0, adapt the coefficient after every update as "
+                                                "RLlib does: x1.5 when the last minibatch's KL is above 2 * "
+                                                "kl_loss_target, x0.5 when below kl_loss_target / 2 (None: a fixed "
+                                                "coefficient)", check=positive)
+    value_loss_clip: float | None = option(None, "RLlib's vf_clip_param: each sample's squared value error is "
+                                                 "clamped to [0, this] (the loss, not the update, is clipped; "
+                                                 "instead of clip_value's clipped update). None = off",
+                                           check=positive)
     timeout_bootstrap: str = option("final_obs", "with value_bootstrap, the value a time-out bootstraps (rlchain): "
                                                  "final_obs = V(the true final observation); previous_value = "
                                                  "V(the state before the last step), as rl_games (reward += "

@@ -31,11 +31,12 @@ class ActorCritic(ValueModel):
                  obs_normalizer_kind: str = "rl_games", obs_normalizer_exclude: tuple[str, ...] = (),
                  bptt_length: int | None = None) -> None:
         super().__init__()
-        self.network = network
-        self.dist = dist
-        self.obs_norm = obs_normalizer(obs_shape, obs_normalizer_kind, tuple(obs_normalizer_exclude)) \
+        # rl_games' model: its normalizers, then the network (the state dict in rl_games' order)
+        self.value_mean_std = value_normalizer(value_size, normalize_value, value_normalizer_kind)
+        self.running_mean_std = obs_normalizer(obs_shape, obs_normalizer_kind, tuple(obs_normalizer_exclude)) \
             if normalize_input else None
-        self.value_norm = value_normalizer(value_size, normalize_value, value_normalizer_kind)
+        self.a2c_network = network
+        self.dist = dist
         self.fold_values = value_normalizer_kind == "rl_games"
         self.use_action_masks = use_action_masks
         is_rnn = getattr(network, "is_rnn", None)
@@ -67,7 +68,7 @@ class ActorCritic(ValueModel):
                                                                                        obs.device)
             inputs.update(rnn_states=states, dones=resets, seq_length=seq_length,
                           bptt_len=self.bptt_length if seq_length > 1 else None)
-        out = self.network(inputs)
+        out = self.a2c_network(inputs)
         params, value = self.dist.params_from_network(out)
         if action_masks is not None:
             params = self.dist.mask(params, action_masks)
@@ -78,7 +79,7 @@ class ActorCritic(ValueModel):
         """The network's auxiliary losses from its last forward pass (rl_games' ``get_aux_loss()``:
         a dict of scalar tensors, or None); None when the network has no such method. Unchecked:
         :func:`rlchain.algos.core.losses.aux_loss_terms` validates them."""
-        get_aux_loss = getattr(self.network, "get_aux_loss", None)
+        get_aux_loss = getattr(self.a2c_network, "get_aux_loss", None)
         return get_aux_loss() if callable(get_aux_loss) else None
 
     def initial_state(self, batch: int, device: torch.device | None = None) -> tuple[torch.Tensor, ...]:
@@ -86,10 +87,10 @@ class ActorCritic(ValueModel):
         if not self.is_rnn:
             return ()
         if self.sized_states:
-            return tuple(self.network.get_default_rnn_state(batch, device))
+            return tuple(self.a2c_network.get_default_rnn_state(batch, device))
         # rl_games' get_default_rnn_state() takes no arguments: zeros of its layout, sized for ``batch``
         return tuple(torch.zeros(s.shape[0], batch, *s.shape[2:], dtype=s.dtype, device=device)
-                     for s in self.network.get_default_rnn_state())
+                     for s in self.a2c_network.get_default_rnn_state())
 
     @torch.inference_mode()
     def act(self, obs: torch.Tensor, deterministic: bool = False, states: tuple | None = None,
@@ -108,7 +109,7 @@ class ActorCritic(ValueModel):
 
     def override_sigma(self, sigma: float) -> None:
         """``--sigma``: set a fixed (input-independent) sigma to a constant standard deviation."""
-        param = getattr(self.network, "sigma", None)
+        param = getattr(self.a2c_network, "sigma", None)
         if not isinstance(param, nn.Parameter):
             raise ValueError("--sigma needs a continuous policy with fixed_sigma: True")
         raw_sigma = getattr(self.dist, "raw_sigma", None)  # the inverse of the std parametrization

@@ -19,7 +19,7 @@ def as_float(obs: torch.Tensor) -> torch.Tensor:
 class ObservationModel(nn.Module):
     """uint8 images -> float in [0, 1], optional flattening, then input normalization when on.
 
-    Subclasses set ``self.obs_norm`` (a RunningMeanStd or None) and may set ``flatten_obs``.
+    Subclasses set ``self.running_mean_std`` (a RunningMeanStd or None) and may set ``flatten_obs``.
     ``obs_slice`` picks this model's part of ``[obs | state]`` observations (asymmetric critic:
     the actor reads ``[:obs_size]``, the central value ``[obs_size:]``; see envs/wrappers/central_value.py).
     """
@@ -31,7 +31,7 @@ class ObservationModel(nn.Module):
     takes a flat input (images scaled to [0, 1] first); a multi-input network gets them per key."""
     obs_group: str | None = None
     """The ``obs_groups`` group this model reads (set when the config names groups; export then takes the view)."""
-    obs_norm: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
+    running_mean_std: RunningMeanStd | None  # set by the subclass (a registered submodule or None)
 
     def read_view(self, obs_slice: slice | tuple[int, ...] | None, obs_group: str | None, flatten_dict: bool) -> None:
         """The part of the env's observations this model reads, given by the builder that made it
@@ -46,12 +46,12 @@ class ObservationModel(nn.Module):
         """
         obs = self.view(obs)
         if isinstance(obs, ObsDict):  # kept per key: images scaled, vectors normalized each by its own statistics
-            return self.obs_norm.normalize(obs) if self.obs_norm is not None else dict_as_float(obs)
-        if self.obs_norm is None:
+            return self.running_mean_std.normalize(obs) if self.running_mean_std is not None else dict_as_float(obs)
+        if self.running_mean_std is None:
             return self._features(obs)
         scale = 1.0 / 255.0 if obs.dtype == torch.uint8 else 1.0
         x = obs if obs.dtype == torch.float32 else obs.float()
-        return self.obs_norm.normalize(x.flatten(1) if self.flatten_obs else x, scale)
+        return self.running_mean_std.normalize(x.flatten(1) if self.flatten_obs else x, scale)
 
     def view(self, obs: torch.Tensor) -> torch.Tensor:
         """This model's part of the env's flat observations (B, total) -> (B, view): its ``obs_slice``."""
@@ -70,9 +70,9 @@ class ObservationModel(nn.Module):
 
     def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None) -> None:
         """Fold a batch of observations (rows) into the input statistics (models with values add returns)."""
-        if obs is not None and self.obs_norm is not None:
+        if obs is not None and self.running_mean_std is not None:
             # the same part and [0, 1] scale that preprocess() normalizes, converted chunk by chunk
-            self.obs_norm.update(self.view(obs), self._features)
+            self.running_mean_std.update(self.view(obs), self._features)
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Values in raw return scale (identity unless a value normalizer exists)."""
@@ -96,7 +96,7 @@ def value_normalizer(value_size: int, normalize_value: bool, kind: str) -> Runni
 
 
 class ValueModel(ObservationModel):
-    """A model with a value output: ``self.value_norm`` (a RunningMeanStd or None) maps between the
+    """A model with a value output: ``self.value_mean_std`` (a RunningMeanStd or None) maps between the
     return scale and the normalized scale the value head learns in.
 
     ``fold_values`` (``value_normalizer: rl_games``): the rollout's value predictions join the returns in
@@ -104,29 +104,29 @@ class ValueModel(ObservationModel):
     rl_games does (so the value head learns on rl_games' scale; docs/ppo_parity.md).
     """
 
-    value_norm: RunningMeanStd | None  # set by the subclass
+    value_mean_std: RunningMeanStd | None  # set by the subclass
     fold_values: bool = False
 
     def denorm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Normalized values -> return scale (the head's output clamped to +-clip first when it clips)."""
-        if self.value_norm is None:
+        if self.value_mean_std is None:
             return value
-        if self.value_norm.clip > 0:
-            value = value.clamp(-self.value_norm.clip, self.value_norm.clip)
-        return self.value_norm.denormalize(value)
+        if self.value_mean_std.clip > 0:
+            value = value.clamp(-self.value_mean_std.clip, self.value_mean_std.clip)
+        return self.value_mean_std.denormalize(value)
 
     def norm_value(self, value: torch.Tensor) -> torch.Tensor:
         """Return-scale values -> the normalized scale."""
-        return self.value_norm.normalize(value) if self.value_norm is not None else value
+        return self.value_mean_std.normalize(value) if self.value_mean_std is not None else value
 
     def update_normalizers(self, obs: torch.Tensor | None = None, returns: torch.Tensor | None = None,
                            values: torch.Tensor | None = None) -> None:
         """Fold a batch of observations / raw returns into the running statistics, and the rollout's
         raw value predictions (rows, value_size) first when ``fold_values``."""
         super().update_normalizers(obs=obs)
-        if self.value_norm is None:
+        if self.value_mean_std is None:
             return
         if values is not None and self.fold_values:
-            self.value_norm.update(values)
+            self.value_mean_std.update(values)
         if returns is not None:
-            self.value_norm.update(returns)
+            self.value_mean_std.update(returns)

@@ -8,14 +8,14 @@ from rlchain.config.compile import CompileSpec, parse_compile
 
 
 def compile_model(model: torch.nn.Module, setting: object) -> CompileSpec | None:
-    """Compile ``model.network`` (and a central value network, if any) as ``setting`` says."""
+    """Compile ``model.a2c_network`` (and a central value network, if any) as ``setting`` says."""
     spec = parse_compile(setting)
     if spec is None:
         return None
-    compile_network(model.network, spec.mode, spec.backend)
+    compile_network(model.a2c_network, spec.mode, spec.backend)
     critic = getattr(model, "central_value", None)
     if critic is not None:
-        compile_network(critic.network, spec.critic_mode, spec.backend)
+        compile_network(critic.a2c_network, spec.critic_mode, spec.backend)
     return spec
 
 

@@ -44,7 +44,8 @@ def batch_moments(x: torch.Tensor, transform: Callable[[torch.Tensor], torch.Ten
 
 
 class RunningMeanStd(nn.Module):
-    """Tracks mean and variance over batches (Chan et al. parallel update), in float64.
+    """Tracks mean and variance over batches (Chan et al. parallel update), in float64; the buffers carry
+    rl_games' names (``running_mean``, ``running_var``, ``count``), so its checkpoints load as they are.
 
     ``normalize(x)`` -> (x - mean) / sqrt(var + eps), clipped to +-clip when clip > 0;
     ``denormalize(y)`` is its inverse (no clip).
@@ -54,8 +55,8 @@ class RunningMeanStd(nn.Module):
         super().__init__()
         self.epsilon = epsilon
         self.clip = clip
-        self.register_buffer("mean", torch.zeros(shape, dtype=torch.float64))
-        self.register_buffer("var", torch.ones(shape, dtype=torch.float64))
+        self.register_buffer("running_mean", torch.zeros(shape, dtype=torch.float64))
+        self.register_buffer("running_var", torch.ones(shape, dtype=torch.float64))
         self.register_buffer("count", torch.ones((), dtype=torch.float64) * epsilon)
         # the ranks whose batches it folds in: the communicator in force when it is built (torchrun)
         self.comm = communicator.current()
@@ -65,26 +66,26 @@ class RunningMeanStd(nn.Module):
         """Fold a batch (N, *shape) into the running statistics (``transform`` maps raw rows to
         the normalized space first, chunk by chunk; see :func:`batch_moments`)."""
         if transform is None:
-            x = x.reshape(-1, *self.mean.shape)
+            x = x.reshape(-1, *self.running_mean.shape)
         batch_mean, batch_var, n = batch_moments(x, transform)
         if self.comm.active:  # multi_gpu: every rank folds the moments of all ranks' batches
             batch_mean, batch_var, n = self.comm.combine_moments(batch_mean, batch_var, n)
-        delta = batch_mean - self.mean
+        delta = batch_mean - self.running_mean
         total = self.count + n
-        self.mean += delta * n / total
-        m2 = self.var * self.count + batch_var * n + delta.square() * self.count * n / total
-        self.var.copy_(m2 / total)
+        self.running_mean += delta * n / total
+        m2 = self.running_var * self.count + batch_var * n + delta.square() * self.count * n / total
+        self.running_var.copy_(m2 / total)
         self.count.copy_(total)
 
     def normalize(self, x: torch.Tensor, scale: float = 1.0) -> torch.Tensor:
         """(x * scale - mean) / sqrt(var + eps), clipped; ``scale`` folds an input scaling (uint8
         frames / 255) into the same pass, which is one multiply-add over x instead of four passes."""
-        inv = torch.rsqrt(self.var + self.epsilon)
-        y = torch.addcmul((-self.mean * inv).to(x.dtype), x, (inv * scale).to(x.dtype))
+        inv = torch.rsqrt(self.running_var + self.epsilon)
+        y = torch.addcmul((-self.running_mean * inv).to(x.dtype), x, (inv * scale).to(x.dtype))
         return y.clamp_(-self.clip, self.clip) if self.clip > 0 else y
 
     def denormalize(self, y: torch.Tensor) -> torch.Tensor:
-        return y * torch.sqrt(self.var.to(y.dtype) + self.epsilon) + self.mean.to(y.dtype)
+        return y * torch.sqrt(self.running_var.to(y.dtype) + self.epsilon) + self.running_mean.to(y.dtype)
 
 
 class EmpiricalNormalization(RunningMeanStd):
@@ -98,11 +99,11 @@ class EmpiricalNormalization(RunningMeanStd):
 
     def normalize(self, x: torch.Tensor, scale: float = 1.0) -> torch.Tensor:
         """(x * scale - mean) / (sqrt(var) + eps)."""
-        inv = 1.0 / (self.var.sqrt() + self.epsilon)
-        return torch.addcmul((-self.mean * inv).to(x.dtype), x, (inv * scale).to(x.dtype))
+        inv = 1.0 / (self.running_var.sqrt() + self.epsilon)
+        return torch.addcmul((-self.running_mean * inv).to(x.dtype), x, (inv * scale).to(x.dtype))
 
     def denormalize(self, y: torch.Tensor) -> torch.Tensor:
-        return y * (self.var.sqrt().to(y.dtype) + self.epsilon) + self.mean.to(y.dtype)
+        return y * (self.running_var.sqrt().to(y.dtype) + self.epsilon) + self.running_mean.to(y.dtype)
 
 
 OBS_NORMALIZERS = ("rl_games", "rsl_rl")
@@ -140,18 +141,20 @@ class DictNormalizer(nn.Module):
         if unknown:
             raise ValueError(f"params.config.obs_normalizer_exclude: {unknown} are not keys of the observations "
                              f"({', '.join(space.spaces)})")
-        self.norms = nn.ModuleDict({key: obs_normalizer(tuple(sub.shape), kind) for key, sub in space.spaces.items()
-                                    if key not in exclude and torch_dtype(sub) == torch.float32})
+        # one normalizer per key under rl_games' name (its RunningMeanStdObs)
+        self.running_mean_std = nn.ModuleDict({key: obs_normalizer(tuple(sub.shape), kind)
+                                               for key, sub in space.spaces.items()
+                                               if key not in exclude and torch_dtype(sub) == torch.float32})
 
     def normalize(self, obs: ObsDict, scale: float = 1.0) -> ObsDict:
         """Float observations, each normalized key by its own statistics (``scale`` unused: images are /255)."""
         out = dict_as_float(obs)
-        for key, norm in self.norms.items():
+        for key, norm in self.running_mean_std.items():
             out[key] = norm.normalize(out[key])
         return out
 
     @torch.no_grad()
     def update(self, obs: ObsDict, transform: Callable | None = None) -> None:
         """Fold a batch (rows, ...) of every normalized key into its statistics (``transform`` unused)."""
-        for key, norm in self.norms.items():
+        for key, norm in self.running_mean_std.items():
             norm.update(obs[key].float())

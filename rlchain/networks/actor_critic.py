@@ -1,4 +1,14 @@
-"""The built-in ``actor_critic`` network: trunk (cnn -> mlp/rnn, shared or separate) + heads."""
+"""The built-in ``actor_critic`` network, laid out as rl_games' ``A2CBuilder.Network``.
+
+Its modules carry rl_games' names and registration order, so its state dict is rl_games' own (under the model's
+``a2c_network.``) and its parameters sit in the order rl_games' optimizer holds them: the fixed ``sigma`` vector,
+``actor_cnn`` / ``critic_cnn`` (``cnn`` for ``resnet_actor_critic``), ``actor_mlp`` / ``critic_mlp`` (one
+Sequential each; ``mlp`` for resnet), the recurrent layer ``rnn`` (``a_rnn`` / ``c_rnn`` when separate) and its
+output LayerNorm ``layer_norm`` (``a_layer_norm`` / ``c_layer_norm``), then ``value``, ``logits`` (one Linear per
+action dimension for multi-discrete actions), ``mu`` and ``sigma``. rlchain's own options (the norm before the
+activation, dropout, D2RL, ``critic_mlp``, the ``history`` window, multi-input encoders) are options of the same
+modules; rl_games cannot compute those networks, and their files do not load there.
+"""
 
 from __future__ import annotations
 
@@ -19,80 +29,69 @@ from rlchain.networks.layers import activation, initialize, linear
 from rlchain.networks.mlp import MLP
 from rlchain.networks.rnn import RecurrentLayer, States
 
+RL_GAMES_ORDER = ("cnn", "actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
+                  "a_layer_norm", "c_layer_norm", "mlp", "value", "logits", "mu", "sigma")
+"""The order rl_games' actor-critic networks register their modules in (its optimizer's parameter order)."""
 
-class Trunk(nn.Module):
-    """Observation -> features: an encoder (the cnn block's, or ``encoder``), then MLP and optional RNN
-    in either order.
 
-    ``forward(obs, states, resets, seq_length, bptt_length, extra)`` returns ``(features (B, out_size),
-    new states)``; without an RNN the states pass through as an empty tuple. ``encoder``: any module
-    (B, *input_shape) -> (B, encoder.out_size) in place of the cnn block. ``extra_size`` > 0: ``extra``
-    (B, extra_size) features are concatenated to the recurrent layer's input (to the MLP's without an
-    RNN), as rl_games' resnet network feeds the previous reward and action. ``rnn.concat_input``
-    feeds the encoder features (conv output, or the flat obs without a ``cnn``) to an RNN after the
-    MLP alongside the MLP output; ``rnn.concat_output`` appends those same encoder features to the
-    RNN output (after its LayerNorm), in both orders, as rl_games does.
-    """
+@dataclasses.dataclass(frozen=True)
+class TrunkLayout:
+    """How one trunk's modules connect: the module names (None: absent) and the rnn block's wiring.
 
-    def __init__(self, cfg: NetworkConfig, input_shape: tuple[int, ...], encoder: nn.Module | None = None,
-                 extra_size: int = 0) -> None:
-        super().__init__()
-        if encoder is None and cfg.cnn is not None:
-            encoder = ConvEncoder(cfg.cnn, input_shape)
-        self.cnn = encoder
-        in_size = self.cnn.out_size if self.cnn is not None else int(np.prod(input_shape))
-        mlp_cfg = cfg.mlp
-        if cfg.normalization is not None and mlp_cfg.normalization is None:
-            mlp_cfg = dataclasses.replace(mlp_cfg, normalization=cfg.normalization)
-        rnn = cfg.rnn
-        history = getattr(cfg, "history", None)
-        if history is not None:  # the window transformer in the recurrent layer's place, after the MLP
-            self.before_mlp = self.concat_input = self.concat_output = False
-            self.mlp = MLP(in_size, mlp_cfg)
-            self.rnn: RecurrentLayer | HistoryLayer | None = HistoryLayer(self.mlp.out_size + extra_size, history)
-            self.out_size = self.rnn.out_size
-            return
-        self.before_mlp = rnn is not None and rnn.before_mlp
-        self.concat_input = rnn is not None and rnn.concat_input and not rnn.before_mlp
-        self.concat_output = rnn is not None and rnn.concat_output
-        self.rnn = None
-        if rnn is None:
-            self.mlp = MLP(in_size + extra_size, mlp_cfg)
-            self.out_size = self.mlp.out_size
-            return
-        rnn_out = rnn.units + (in_size if self.concat_output else 0)
-        if self.before_mlp:
-            self.rnn = RecurrentLayer(in_size + extra_size, rnn)
-            self.mlp = MLP(rnn_out, mlp_cfg)
-            self.out_size = self.mlp.out_size
+    Observation -> features: the encoder (``cnn``), then MLP and optional recurrent layer in either order.
+    ``extra`` features (rl_games' resnet: the previous reward and action) join the recurrent layer's input (the
+    MLP's without one). ``concat_input`` feeds the encoder features to an RNN after the MLP alongside the MLP
+    output; ``concat_output`` appends them to the RNN output (after its LayerNorm), as rl_games does."""
+
+    cnn: str | None
+    mlp: str
+    rnn: str | None
+    norm: str | None
+    before_mlp: bool
+    concat_input: bool
+    concat_output: bool
+    out_size: int
+
+
+def build_trunk(cfg: NetworkConfig, input_shape: tuple[int, ...], encoder: nn.Module | None, extra_size: int,
+                names: tuple[str, str, str, str]) -> tuple[dict[str, nn.Module], TrunkLayout]:
+    """One trunk's modules by name (``names``: cnn, mlp, rnn, layer norm) and its layout. ``encoder``: any
+    module (B, *input_shape) -> (B, encoder.out_size) in place of the cnn block's."""
+    if encoder is None and cfg.cnn is not None:
+        encoder = ConvEncoder(cfg.cnn, input_shape)
+    in_size = encoder.out_size if encoder is not None else int(np.prod(input_shape))
+    mlp_cfg = cfg.mlp
+    if cfg.normalization is not None and mlp_cfg.normalization is None:
+        mlp_cfg = dataclasses.replace(mlp_cfg, normalization=cfg.normalization)
+    cnn_name, mlp_name, rnn_name, norm_name = names
+    modules: dict[str, nn.Module] = {cnn_name: encoder} if encoder is not None else {}
+    rnn, history = cfg.rnn, getattr(cfg, "history", None)
+    before = rnn is not None and rnn.before_mlp and history is None
+    concat_input = rnn is not None and rnn.concat_input and not rnn.before_mlp and history is None
+    concat_output = rnn is not None and rnn.concat_output and history is None
+    if history is not None:  # the window transformer in the recurrent layer's place, after the MLP
+        mlp = modules[mlp_name] = MLP(in_size, mlp_cfg)
+        layer = modules[rnn_name] = HistoryLayer(mlp.out_size + extra_size, history)
+        out_size = layer.out_size
+    elif rnn is None:
+        mlp = modules[mlp_name] = MLP(in_size + extra_size, mlp_cfg)
+        out_size = mlp.out_size
+    else:
+        rnn_out = rnn.units + (in_size if concat_output else 0)
+        if before:
+            modules[rnn_name] = RecurrentLayer(in_size + extra_size, rnn)
+            mlp = modules[mlp_name] = MLP(rnn_out, mlp_cfg)
+            out_size = mlp.out_size
         else:
-            self.mlp = MLP(in_size, mlp_cfg)
-            self.rnn = RecurrentLayer(self.mlp.out_size + (in_size if self.concat_input else 0) + extra_size, rnn)
-            self.out_size = rnn_out
-
-    @property
-    def num_states(self) -> int:
-        return self.rnn.num_states if self.rnn is not None else 0
-
-    def initial_state(self, batch: int, device: torch.device) -> States:
-        return self.rnn.initial_state(batch, device) if self.rnn is not None else ()
-
-    def forward(self, obs: torch.Tensor, states: States, resets: torch.Tensor | None,
-                seq_length: int, bptt_length: int | None = None,
-                extra: torch.Tensor | None = None) -> tuple[torch.Tensor, States]:
-        x = self.cnn(obs) if self.cnn is not None else obs.flatten(1)
-        if self.rnn is None:
-            return self.mlp(_cat(x, extra)), states
-        if self.before_mlp:
-            out, states = self.rnn(_cat(x, extra), states, resets, seq_length, bptt_length)
-        else:
-            out = self.mlp(x)
-            if self.concat_input:
-                out = torch.cat([out, x], -1)
-            out, states = self.rnn(_cat(out, extra), states, resets, seq_length, bptt_length)
-        if self.concat_output:
-            out = torch.cat([out, x], -1)
-        return (self.mlp(out) if self.before_mlp else out), states
+            mlp = modules[mlp_name] = MLP(in_size, mlp_cfg)
+            modules[rnn_name] = RecurrentLayer(mlp.out_size + (in_size if concat_input else 0) + extra_size, rnn)
+            out_size = rnn_out
+        if rnn.layer_norm:
+            modules[norm_name] = nn.LayerNorm(rnn.units)
+    has_rnn = rnn is not None or history is not None
+    return modules, TrunkLayout(cnn_name if encoder is not None else None, mlp_name, rnn_name if has_rnn else None,
+                                norm_name if norm_name in modules else None, before, concat_input, concat_output,
+                                out_size)
 
 
 def _cat(x: torch.Tensor, extra: torch.Tensor | None) -> torch.Tensor:
@@ -100,38 +99,53 @@ def _cat(x: torch.Tensor, extra: torch.Tensor | None) -> torch.Tensor:
 
 
 class ActorCriticNetwork(nn.Module):
-    """Returns rl_games' tuple: ``(logits, value, states)`` or ``(mu, sigma, value, states)``.
+    """Returns rl_games' tuple: ``(logits, value, states)`` or ``(mu, sigma, value, states)``; built with
+    ``central_value`` (a critic of its own), ``(value, states)``.
 
     Shapes: obs (B, *input_shape) -> logits (B, actions_num) | mu, sigma (B, actions_num);
     value (B, value_size). ``input_dict`` may carry ``rnn_states`` (a tuple, actor states then
     critic states when separate), ``dones`` (B,) episode starts and ``seq_length``.
 
-    ``cfg`` is a NetworkConfig or another block with its fields (ResnetNetworkConfig). Subclasses
-    give their own trunks through ``make_trunk`` and split composite observations in :meth:`split_obs`.
+    ``cfg`` is a NetworkConfig or another block with its fields (ResnetNetworkConfig). ``make_encoder``
+    builds a trunk's encoder in place of the cnn block's (one call per trunk); ``extra_size`` features come
+    from :meth:`split_obs`. ``logits_sizes``: the per-dimension sizes of a multi-discrete head.
     """
 
+    CNN, MLP_NAME = ("actor_cnn", "critic_cnn"), ("actor_mlp", "critic_mlp")
+
     def __init__(self, cfg: NetworkConfig, input_shape: tuple[int, ...], actions_num: int,
-                 value_size: int, continuous: bool, make_trunk: Callable[[], Trunk] | None = None) -> None:
+                 value_size: int, continuous: bool, make_encoder: Callable[[], nn.Module | None] | None = None,
+                 extra_size: int = 0, central_value: bool = False, logits_sizes: list[int] | None = None) -> None:
         super().__init__()
         self.separate = cfg.separate
+        self.central_value = central_value
+        make_encoder = make_encoder or (lambda: None)
         critic_mlp = getattr(cfg, "critic_mlp", None)  # separate only (parse_network checks)
-        make_critic = (lambda: Trunk(dataclasses.replace(cfg, mlp=critic_mlp), input_shape)) \
-            if critic_mlp is not None else None
-        make_trunk = make_trunk or (lambda: Trunk(cfg, input_shape))
-        self.actor_trunk = make_trunk()
-        self.critic_trunk = (make_critic or make_trunk)() if cfg.separate else None
-        out = self.actor_trunk.out_size
+        rnn_names = ("a_rnn", "c_rnn") if cfg.separate else ("rnn", "")
+        norm_names = ("a_layer_norm", "c_layer_norm") if cfg.separate else ("layer_norm", "")
+        # built in the trunks' order (the weights' random draws), registered below in rl_games' order
+        modules, self.actor = build_trunk(cfg, input_shape, make_encoder(), extra_size,
+                                          (self.CNN[0], self.MLP_NAME[0], rnn_names[0], norm_names[0]))
+        self.critic: TrunkLayout | None = None
+        if cfg.separate:
+            critic_cfg = dataclasses.replace(cfg, mlp=critic_mlp) if critic_mlp is not None else cfg
+            critic_modules, self.critic = build_trunk(critic_cfg, input_shape, make_encoder(), extra_size,
+                                                      (self.CNN[1], self.MLP_NAME[1], rnn_names[1], norm_names[1]))
+            modules.update(critic_modules)
         init = cfg.mlp.initializer
         # the value head sits on the critic's trunk when it has one of its own
-        self.value = linear(self.critic_trunk.out_size if critic_mlp is not None else out, value_size,
-                            critic_mlp.initializer if critic_mlp is not None else init)
+        modules["value"] = linear((self.critic or self.actor).out_size, value_size,
+                                  critic_mlp.initializer if critic_mlp is not None else init)
         self.value_act = activation(cfg.value_activation)
         self.continuous = continuous
-        if continuous:
+        out = self.actor.out_size
+        if central_value:
+            pass
+        elif continuous:
             space = cfg.space.continuous
             # rl_games: every Linear gets the mlp initializer (zero bias), then mu_init on top
-            self.mu = linear(out, actions_num, init)
-            initialize(self.mu.weight, space.mu_init)
+            modules["mu"] = linear(out, actions_num, init)
+            initialize(modules["mu"].weight, space.mu_init)
             self.mu_act = activation(space.mu_activation)
             self.sigma_act = activation(space.sigma_activation)
             self.fixed_sigma = space.fixed_sigma
@@ -144,15 +158,41 @@ class ActorCriticNetwork(nn.Module):
                 self.sigma = nn.Parameter(torch.zeros(actions_num))
                 initialize(self.sigma.data.view(1, -1), space.sigma_init)
             else:
-                self.sigma = linear(out, actions_num, init)
-                initialize(self.sigma.weight, space.sigma_init)
+                modules["sigma"] = linear(out, actions_num, init)
+                initialize(modules["sigma"].weight, space.sigma_init)
         else:
-            self.logits = linear(out, actions_num, init)
+            modules["logits"] = linear(out, actions_num, init)
+            if logits_sizes is not None:
+                modules["logits"] = split_linear(modules["logits"], logits_sizes)
+        for name in RL_GAMES_ORDER:
+            if name in modules:
+                setattr(self, name, modules[name])
 
     def split_obs(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
         """(trunk input, extra features for the trunk or None); subclasses with composite
         observations split them here (see networks/resnet_actor_critic.py)."""
         return obs, None
+
+    def _trunk(self, layout: TrunkLayout, obs: torch.Tensor, states: States, resets: torch.Tensor | None,
+               seq_length: int, bptt: int | None, extra: torch.Tensor | None) -> tuple[torch.Tensor, States]:
+        """Features (B, out_size) of one trunk and its new recurrent states (the input's without an RNN)."""
+        x = getattr(self, layout.cnn)(obs) if layout.cnn is not None else obs.flatten(1)
+        mlp = getattr(self, layout.mlp)
+        if layout.rnn is None:
+            return mlp(_cat(x, extra)), states
+        rnn = getattr(self, layout.rnn)
+        if layout.before_mlp:
+            out, states = rnn(_cat(x, extra), states, resets, seq_length, bptt)
+        else:
+            out = mlp(x)
+            if layout.concat_input:
+                out = torch.cat([out, x], -1)
+            out, states = rnn(_cat(out, extra), states, resets, seq_length, bptt)
+        if layout.norm is not None:
+            out = getattr(self, layout.norm)(out)
+        if layout.concat_output:
+            out = torch.cat([out, x], -1)
+        return (mlp(out) if layout.before_mlp else out), states
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:
         obs, extra = self.split_obs(input_dict["obs"])
@@ -160,16 +200,21 @@ class ActorCriticNetwork(nn.Module):
         resets = input_dict.get("dones")
         seq_length = int(input_dict.get("seq_length", 1) or 1)
         bptt = input_dict.get("bptt_len")
-        n_actor = self.actor_trunk.num_states
-        a_out, a_states = self.actor_trunk(obs, states[:n_actor], resets, seq_length, bptt, extra)
-        if self.critic_trunk is not None:
-            c_out, c_states = self.critic_trunk(obs, states[n_actor:], resets, seq_length, bptt, extra)
+        n_actor = self._num_states(self.actor)
+        a_out, a_states = self._trunk(self.actor, obs, states[:n_actor], resets, seq_length, bptt, extra)
+        if self.critic is not None:
+            c_out, c_states = self._trunk(self.critic, obs, states[n_actor:], resets, seq_length, bptt, extra)
         else:
             c_out, c_states = a_out, ()
         new_states = (*a_states, *c_states) if self.is_rnn() else None
         value = self.value_act(self.value(c_out))
+        if self.central_value:
+            return value, new_states
         if not self.continuous:
-            return self.logits(a_out), value, new_states
+            logits = self.logits
+            out = torch.cat([head(a_out) for head in logits], -1) if isinstance(logits, nn.ModuleList) \
+                else logits(a_out)
+            return out, value, new_states
         mu = self.mu_act(self.mu(a_out))
         if self.fixed_sigma:
             sigma = self.sigma_act(self.sigma).expand_as(mu)
@@ -177,16 +222,31 @@ class ActorCriticNetwork(nn.Module):
             sigma = self.sigma_act(self.sigma(a_out))
         return mu, sigma, value, new_states
 
+    def _num_states(self, layout: TrunkLayout | None) -> int:
+        return getattr(self, layout.rnn).num_states if layout is not None and layout.rnn is not None else 0
+
     def is_rnn(self) -> bool:
-        return self.actor_trunk.rnn is not None
+        return self.actor.rnn is not None
 
     def get_default_rnn_state(self, batch: int = 1, device: torch.device | None = None) -> States:
-        """Zero recurrent states for ``batch`` envs (empty without an RNN); rl_games' name."""
+        """Zero recurrent states for ``batch`` envs (empty without an RNN), the actor's then the critic's;
+        rl_games' name."""
         device = device or self.value.weight.device
-        states = self.actor_trunk.initial_state(batch, device)
-        if self.critic_trunk is not None:
-            states = (*states, *self.critic_trunk.initial_state(batch, device))
-        return states
+        return tuple(state for layout in (self.actor, self.critic) if layout is not None and layout.rnn is not None
+                     for state in getattr(self, layout.rnn).initial_state(batch, device))
+
+
+def split_linear(joined: nn.Linear, sizes: list[int]) -> nn.ModuleList:
+    """rl_games' multi-discrete head: one Linear per action dimension (``logits.<i>``), holding the rows of
+    ``joined`` (built first, so the weights are those the one joined head drew)."""
+    heads = nn.ModuleList()
+    for weight, bias in zip(joined.weight.detach().split(sizes), joined.bias.detach().split(sizes)):
+        head = nn.utils.skip_init(type(joined), joined.in_features, weight.shape[0])
+        with torch.no_grad():
+            head.weight.copy_(weight)
+            head.bias.copy_(bias)
+        heads.append(head)
+    return heads
 
 
 def is_continuous(cfg: NetworkConfig, space: gym.Space) -> bool:
@@ -203,6 +263,18 @@ def is_continuous(cfg: NetworkConfig, space: gym.Space) -> bool:
     return continuous
 
 
+def logits_sizes(space: gym.Space) -> list[int] | None:
+    """The per-dimension sizes of a MultiDiscrete, MultiBinary or Tuple-of-Discrete action space, else None."""
+    if isinstance(space, gym.spaces.MultiDiscrete):
+        return [int(n) for n in np.ravel(space.nvec)]
+    if isinstance(space, gym.spaces.MultiBinary):
+        return [2] * int(np.prod(space.shape))
+    if isinstance(space, gym.spaces.Tuple) and space.spaces and \
+            all(isinstance(s, gym.spaces.Discrete) for s in space.spaces):
+        return [int(s.n) for s in space.spaces]
+    return None
+
+
 class ActorCriticBuilder(NetworkBuilder):
     """Builder registered as ``actor_critic``."""
 
@@ -210,6 +282,7 @@ class ActorCriticBuilder(NetworkBuilder):
 
     def build(self, name: str, **kwargs: Any) -> nn.Module:
         cfg: NetworkConfig = self.params
-        continuous = is_continuous(cfg, kwargs["action_space"])
+        space = kwargs["action_space"]
         return ActorCriticNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"],
-                                  kwargs.get("value_size", 1), continuous)
+                                  kwargs.get("value_size", 1), is_continuous(cfg, space),
+                                  logits_sizes=logits_sizes(space))

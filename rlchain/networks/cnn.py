@@ -9,8 +9,9 @@ from rlchain.config.network import CnnConfig
 from rlchain.networks.layers import activation, initialize
 
 
-class ConvEncoder(nn.Module):
-    """(B, *input_shape) float -> (B, out_size) flat features.
+class ConvEncoder(nn.Sequential):
+    """(B, *input_shape) float -> (B, out_size) flat features: conv, activation, conv, ... in one Sequential,
+    rl_games' layout (its ``actor_cnn.<i>``).
 
     With ``permute_input`` the input is channels-last, (H, W, C) or (L, C), as gymnasium image
     envs return it; otherwise channels-first, (C, H, W) or (C, L), as envpool Atari does.
@@ -36,7 +37,8 @@ class ConvEncoder(nn.Module):
                 nn.init.zeros_(layer.bias)
             layers += [layer, activation(cfg.activation)]
             channels = spec.filters
-        self.net = nn.Sequential(*layers)
+        for layer in layers:
+            self.append(layer)
         size = shape[1:]  # spatial size after each conv: (size + 2 * padding - kernel) // stride + 1
         for i, spec in enumerate(cfg.convs):
             size = tuple((s + 2 * spec.padding - spec.kernel_size) // spec.strides + 1 for s in size)
@@ -44,10 +46,10 @@ class ConvEncoder(nn.Module):
                 raise ValueError(f"params.network.cnn.convs[{i}]: the convolutions shrink the input "
                                  f"{tuple(input_shape)} to nothing; use smaller kernels or strides")
         with torch.no_grad():
-            self.out_size = int(self.net(torch.zeros(1, *shape)).numel())
+            self.out_size = int(super().forward(torch.zeros(1, *shape)).numel())
         self._order = (0, dims, *range(1, dims)) if self.permute else None
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if self._order is not None:
             x = x.permute(*self._order)
-        return self.net(x).flatten(1)
+        return super().forward(x).flatten(1)

@@ -1,4 +1,4 @@
-"""The fully connected trunk, optionally D2RL (input concatenated to every hidden layer)."""
+"""The fully connected trunk as rl_games builds it (one Sequential), optionally D2RL."""
 
 from __future__ import annotations
 
@@ -9,15 +9,21 @@ from rlchain.config.network import MlpConfig
 from rlchain.networks.layers import activation, linear
 
 
-class MLP(nn.Module):
-    """(B, in_size) -> (B, units[-1]); an empty ``units`` list is the identity. Each hidden layer is one
-    Sequential: linear, norm, activation; or linear, activation, norm with ``norm_after_activation``."""
+class MLP(nn.Sequential):
+    """(B, in_size) -> (B, out_size); an empty ``units`` list (and no ``output``) is the identity.
 
-    def __init__(self, in_size: int, cfg: MlpConfig) -> None:
+    The layers sit in one Sequential, rl_games' layout (so its ``actor_mlp.<i>`` keys are this module's): per
+    hidden layer linear, activation and, with a normalization, the norm after the activation
+    (``norm_after_activation``, rl_games') or between linear and activation (rlchain's default); a dropout last.
+    ``output``: a final linear layer of that size in the same Sequential (rl_games' SAC actor and critics).
+    D2RL (the input concatenated to every hidden layer after the first) keeps one Sequential per layer instead.
+    """
+
+    def __init__(self, in_size: int, cfg: MlpConfig, output: int | None = None) -> None:
         super().__init__()
         self.d2rl = cfg.d2rl
         self.in_size = in_size
-        layers = []
+        blocks = []
         size = in_size
         for i, units in enumerate(cfg.units):
             fan_in = size + (in_size if self.d2rl and i > 0 else 0)
@@ -27,18 +33,20 @@ class MLP(nn.Module):
                 block.insert(2 if cfg.norm_after_activation else 1, norm)
             if cfg.dropout > 0:
                 block.append(nn.Dropout(cfg.dropout))
-            layers.append(nn.Sequential(*block))
+            blocks.append(nn.Sequential(*block) if self.d2rl else block)
             size = units
+        for module in (blocks if self.d2rl else [m for block in blocks for m in block]):
+            self.append(module)
+        if output is not None:
+            self.append(linear(size, output, cfg.initializer))
+            size = output
+        self.hidden = len(blocks)
         self.out_size = size
-        if self.d2rl:
-            self.layers = nn.ModuleList(layers)
-        else:
-            self.net = nn.Sequential(*layers)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if not self.d2rl:
-            return self.net(x)
+            return super().forward(x)
         out = x
-        for i, layer in enumerate(self.layers):
-            out = layer(out if i == 0 else torch.cat([out, x], dim=-1))
+        for i, layer in enumerate(self):
+            out = layer(out if i == 0 or i >= self.hidden else torch.cat([out, x], dim=-1))
         return out

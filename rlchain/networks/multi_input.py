@@ -5,7 +5,8 @@ vectors normalized by the model, Discrete values as int64). Each key goes throug
 (``network.inputs.<key>``: a CNN or IMPALA stages for an image, an MLP or nothing for a vector, an embedding
 for a Discrete / MultiDiscrete key; ``none`` leaves the key out, so an actor and a critic can read different
 keys), the features are concatenated in the space's key order and the result feeds
-:class:`~rlchain.networks.actor_critic.Trunk` (``mlp``, optional ``rnn``) and the heads.
+:class:`~rlchain.networks.actor_critic.ActorCriticNetwork`'s trunk (``actor_cnn`` is the encoder, then
+``actor_mlp``, optional ``rnn``) and heads.
 For the off-policy models (SAC, DQN) the same encoders feed their own networks (networks/sac_network.py).
 """
 
@@ -22,7 +23,7 @@ import torch.nn.functional as F
 from rlchain.config.multi_input import InputConfig, MultiInputNetworkConfig
 from rlchain.config.network import CnnConfig, MlpConfig, ResnetCnnConfig
 from rlchain.envs.obs_dict import discrete_layout, is_dict_space, is_discrete
-from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
+from rlchain.networks.actor_critic import ActorCriticNetwork, is_continuous, logits_sizes
 from rlchain.networks.cnn import ConvEncoder
 from rlchain.networks.impala import ImpalaEncoder
 from rlchain.networks.mlp import MLP
@@ -181,7 +182,8 @@ def multi_input_network(cfg: MultiInputNetworkConfig, **kwargs: Any) -> nn.Modul
         raise ValueError("params.network.dueling: a DQN head; only model dqn reads it (remove it)")
     continuous = is_continuous(cfg, kwargs["action_space"])
     return ActorCriticNetwork(cfg, (), kwargs["actions_num"], kwargs.get("value_size", 1), continuous,
-                              make_trunk=lambda: Trunk(cfg, (), encoder=MultiInputEncoder(space, cfg.inputs)))
+                              lambda: MultiInputEncoder(space, cfg.inputs),
+                              logits_sizes=logits_sizes(kwargs["action_space"]))
 
 
 multi_input_network.config_class = MultiInputNetworkConfig

@@ -20,7 +20,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.network import ResnetNetworkConfig
-from rlchain.networks.actor_critic import ActorCriticNetwork, Trunk, is_continuous
+from rlchain.networks.actor_critic import ActorCriticNetwork, is_continuous
 from rlchain.networks.impala import ImpalaEncoder
 
 EXTRA_KEYS = (("reward", "require_rewards"), ("last_action", "require_last_actions"))
@@ -47,7 +47,10 @@ def flat_layout(space: Any) -> dict[str, tuple[slice, tuple[int, ...]]] | None:
 
 class ResnetActorCriticNetwork(ActorCriticNetwork):
     """rl_games' tuple ``(logits, value, states)`` / ``(mu, sigma, value, states)`` from images or flat
-    Dict observations (see the module docstring); shapes as :class:`ActorCriticNetwork`."""
+    Dict observations (see the module docstring); shapes as :class:`ActorCriticNetwork`. rl_games names this
+    network's encoder ``cnn`` and its MLP ``mlp``."""
+
+    CNN, MLP_NAME = ("cnn", "critic_cnn"), ("mlp", "critic_mlp")
 
     def __init__(self, cfg: ResnetNetworkConfig, input_shape: tuple[int, ...], actions_num: int,
                  value_size: int, continuous: bool, observation_space: Any = None) -> None:
@@ -65,11 +68,11 @@ class ResnetActorCriticNetwork(ActorCriticNetwork):
         image_shape = layout["observation"][1] if layout is not None else tuple(input_shape)
         extra_size = sum(layout[key][0].stop - layout[key][0].start for key in wanted) if wanted else 0
 
-        def make_trunk() -> Trunk:
+        def make_encoder() -> ImpalaEncoder:
             # rl_games: mlp.activation on the flattened features, whatever cnn.activation says
-            return Trunk(cfg, image_shape, ImpalaEncoder(cfg.cnn, image_shape, cfg.mlp.activation), extra_size)
+            return ImpalaEncoder(cfg.cnn, image_shape, cfg.mlp.activation)
 
-        super().__init__(cfg, image_shape, actions_num, value_size, continuous, make_trunk=make_trunk)
+        super().__init__(cfg, image_shape, actions_num, value_size, continuous, make_encoder, extra_size)
         self.image_columns = layout["observation"][0] if layout is not None else None
         self.image_shape = image_shape
         self.extra_columns = [layout[key][0] for key in wanted]

@@ -16,6 +16,8 @@ class RecurrentLayer(nn.Module):
     Rows are ordered sequence by sequence: rows ``i*L .. i*L+L-1`` are the L steps of sequence i.
     ``resets`` (B*L,) marks rows whose observation starts a new episode: the state entering that
     step is zeroed, so a sequence that crosses an episode boundary never leaks memory across it.
+    The recurrent module is ``rnn`` (rl_games' ``LSTMWithDones.rnn``); the ``rnn.layer_norm`` LayerNorm on the
+    output is the network's own module (rl_games' ``layer_norm``), not this layer's.
     """
 
     def __init__(self, in_size: int, cfg: RnnConfig) -> None:
@@ -24,7 +26,6 @@ class RecurrentLayer(nn.Module):
         self.rnn = cls(in_size, cfg.units, cfg.layers)
         self.num_states = 2 if cfg.name == "lstm" else 1
         self.layers, self.units = cfg.layers, cfg.units
-        self.norm = nn.LayerNorm(cfg.units) if cfg.layer_norm else None
         self.out_size = cfg.units
 
     def initial_state(self, batch: int, device: torch.device) -> States:
@@ -56,8 +57,6 @@ class RecurrentLayer(nn.Module):
                 outs.append(step)
             out = torch.cat(outs, 0)
         out = out.transpose(0, 1).reshape(rows, self.units)
-        if self.norm is not None:
-            out = self.norm(out)
         return out, (tuple(hidden) if self.num_states == 2 else (hidden,))
 
 

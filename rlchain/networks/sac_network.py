@@ -28,21 +28,21 @@ from rlchain.networks.mlp import MLP
 
 class SACActor(nn.Module):
     """obs (B, obs_dim) -> (mu, log_std), each (B, A); log_std squashed into ``log_std_bounds``.
-    ``encoder`` (an ``out_size`` module, e.g. per-key encoders of an ObsDict) runs before the MLP when given."""
+    ``encoder`` (an ``out_size`` module, e.g. per-key encoders of an ObsDict) runs before the MLP when given.
+    ``trunk``: the hidden layers and the (mu, log_std) output layer in one Sequential, rl_games' actor."""
 
     def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, log_std_bounds: list[float],
                  mean_clip: float | None = None, encoder: nn.Module | None = None) -> None:
         super().__init__()
         self.encoder = encoder
-        self.trunk = MLP(obs_dim if encoder is None else encoder.out_size, mlp)
-        self.head = linear(self.trunk.out_size, 2 * actions_num, mlp.initializer)
+        self.trunk = MLP(obs_dim if encoder is None else encoder.out_size, mlp, output=2 * actions_num)
         self.log_std_bounds = (float(log_std_bounds[0]), float(log_std_bounds[1]))
         self.mean_clip = None if mean_clip is None else float(mean_clip)
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         if self.encoder is not None:
             obs = self.encoder(obs)
-        mu, log_std = self.head(self.trunk(obs)).chunk(2, dim=-1)
+        mu, log_std = self.trunk(obs).chunk(2, dim=-1)
         if self.mean_clip is not None:  # SB3's Hardtanh on the gSDE actor's mean
             mu = mu.clamp(-self.mean_clip, self.mean_clip)
         low, high = self.log_std_bounds
@@ -51,20 +51,19 @@ class SACActor(nn.Module):
 
 
 class TwinQCritic(nn.Module):
-    """(obs (B, obs_dim), actions (B, A)) -> (q1, q2), each (B,); ``encoder`` (shared by both Qs) first when given."""
+    """(obs (B, obs_dim), actions (B, A)) -> (q1, q2), each (B,); ``encoder`` (shared by both Qs) first when given.
+    ``Q1`` / ``Q2``: hidden layers and output in one Sequential each, rl_games' names."""
 
     def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, encoder: nn.Module | None = None) -> None:
         super().__init__()
         self.encoder = encoder
         obs_dim = obs_dim if encoder is None else encoder.out_size
-        self.q1 = nn.Sequential(MLP(obs_dim + actions_num, mlp))
-        self.q1.append(linear(self.q1[0].out_size, 1, mlp.initializer))
-        self.q2 = nn.Sequential(MLP(obs_dim + actions_num, mlp))
-        self.q2.append(linear(self.q2[0].out_size, 1, mlp.initializer))
+        self.Q1 = MLP(obs_dim + actions_num, mlp, output=1)
+        self.Q2 = MLP(obs_dim + actions_num, mlp, output=1)
 
     def forward(self, obs: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         x = torch.cat([obs if self.encoder is None else self.encoder(obs), actions], dim=-1)
-        return self.q1(x).squeeze(-1), self.q2(x).squeeze(-1)
+        return self.Q1(x).squeeze(-1), self.Q2(x).squeeze(-1)
 
 
 class SACNetwork(nn.Module):

@@ -33,7 +33,6 @@ import torch.nn.functional as F
 from torch import nn
 
 from rlchain.config.network import MlpConfig
-from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.layers import linear
 from rlchain.networks.mlp import MLP
 from rlchain.networks.sac_network import SACActor, TwinQCritic
@@ -231,51 +230,49 @@ def _adapter_and_default(space: gym.Space, kwargs: dict[str, Any]) -> tuple[ObsA
     return adapter, default
 
 
-class SB3PolicyBuilder(NetworkBuilder):
-    """Builder registered as ``sb3_policy`` (see the module docstring); takes Dict observations per key."""
+def sb3_policy_network(block: Any, **kwargs: Any) -> nn.Module:
+    """The network registered as ``sb3_policy`` (see the module docstring); takes Dict observations per key."""
+    algo = str(block.get("algo", "ppo"))
+    space = kwargs["observation_space"]
+    if not isinstance(space, gym.spaces.Dict):
+        space = gym.spaces.Box(-np.inf, np.inf, tuple(kwargs["input_shape"]), np.float32) \
+            if not isinstance(space, gym.spaces.Box) or tuple(space.shape) != tuple(kwargs["input_shape"]) \
+            else space
+    policy_kwargs = dict(block.get("policy_kwargs") or {})
+    adapter, default = _adapter_and_default(space, policy_kwargs)
+    key = "params.network.policy_kwargs.features_extractor_class"
+    extractor_class = find_class(policy_kwargs.pop("features_extractor_class", None), key) or default
+    extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", None) or {})
+    activation = torch_activation(policy_kwargs.pop("activation_fn", "ReLU" if algo != "ppo" else "Tanh"))
+    action_space = kwargs["action_space"]
+    policy_class = find_class(block.get("policy_class"), "params.network.policy_class") or ActorCriticPolicy
+    if algo == "ppo":
+        policy = policy_class(adapter.extractor_space, action_space, constant_lr, activation_fn=activation,
+                              features_extractor_class=extractor_class,
+                              features_extractor_kwargs=extractor_kwargs, **policy_kwargs)
+        return SB3ActorCriticNetwork(adapter, policy, isinstance(action_space, gym.spaces.Box))
 
-    takes_dict_obs = True
+    def make_encoder() -> ExtractorEncoder:
+        return ExtractorEncoder(copy.deepcopy(adapter),
+                                extractor_class(adapter.extractor_space, **extractor_kwargs))
 
-    def build(self, name: str, **kwargs: Any) -> nn.Module:
-        block = self.params
-        algo = str(block.get("algo", "ppo"))
-        space = kwargs["observation_space"]
-        if not isinstance(space, gym.spaces.Dict):
-            space = gym.spaces.Box(-np.inf, np.inf, tuple(kwargs["input_shape"]), np.float32) \
-                if not isinstance(space, gym.spaces.Box) or tuple(space.shape) != tuple(kwargs["input_shape"]) \
-                else space
-        policy_kwargs = dict(block.get("policy_kwargs") or {})
-        adapter, default = _adapter_and_default(space, policy_kwargs)
-        key = "params.network.policy_kwargs.features_extractor_class"
-        extractor_class = find_class(policy_kwargs.pop("features_extractor_class", None), key) or default
-        extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", None) or {})
-        activation = torch_activation(policy_kwargs.pop("activation_fn", "ReLU" if algo != "ppo" else "Tanh"))
-        action_space = kwargs["action_space"]
-        policy_class = find_class(block.get("policy_class"), "params.network.policy_class") or ActorCriticPolicy
-        if algo == "ppo":
-            policy = policy_class(adapter.extractor_space, action_space, constant_lr, activation_fn=activation,
-                                  features_extractor_class=extractor_class,
-                                  features_extractor_kwargs=extractor_kwargs, **policy_kwargs)
-            return SB3ActorCriticNetwork(adapter, policy, isinstance(action_space, gym.spaces.Box))
+    net_arch = policy_kwargs.pop("net_arch", None)
+    policy_kwargs.pop("normalize_images", None)
+    share = policy_kwargs.pop("share_features_extractor", False)
+    if policy_kwargs:
+        raise ValueError(f"params.network.policy_kwargs: {', '.join(policy_kwargs)} not taken by {algo.upper()}'s "
+                         f"policy here (net_arch, activation_fn, features_extractor_class / _kwargs, "
+                         f"normalize_images)")
+    if algo == "sac":
+        if share:
+            raise ValueError("params.network.policy_kwargs.share_features_extractor: rlchain's SAC gives the "
+                             "actor and the critics an extractor each (SB3's default, False)")
+        pi, qf = split_net_arch(net_arch if net_arch is not None else [256, 256], "qf")
+        return SB3SACNetwork(make_encoder, kwargs["actions_num"], _mlp(pi, activation), _mlp(qf, activation),
+                             list(block.get("log_std_bounds", [-20.0, 2.0])))
+    units = list(net_arch) if net_arch is not None else [64, 64]
+    return SB3QNetwork(make_encoder(), kwargs["actions_num"], _mlp(units, activation),
+                       bool(block.get("dueling", False)))
 
-        def make_encoder() -> ExtractorEncoder:
-            return ExtractorEncoder(copy.deepcopy(adapter),
-                                    extractor_class(adapter.extractor_space, **extractor_kwargs))
 
-        net_arch = policy_kwargs.pop("net_arch", None)
-        policy_kwargs.pop("normalize_images", None)
-        share = policy_kwargs.pop("share_features_extractor", False)
-        if policy_kwargs:
-            raise ValueError(f"params.network.policy_kwargs: {', '.join(policy_kwargs)} not taken by {algo.upper()}'s "
-                             f"policy here (net_arch, activation_fn, features_extractor_class / _kwargs, "
-                             f"normalize_images)")
-        if algo == "sac":
-            if share:
-                raise ValueError("params.network.policy_kwargs.share_features_extractor: rlchain's SAC gives the "
-                                 "actor and the critics an extractor each (SB3's default, False)")
-            pi, qf = split_net_arch(net_arch if net_arch is not None else [256, 256], "qf")
-            return SB3SACNetwork(make_encoder, kwargs["actions_num"], _mlp(pi, activation), _mlp(qf, activation),
-                                 list(block.get("log_std_bounds", [-20.0, 2.0])))
-        units = list(net_arch) if net_arch is not None else [64, 64]
-        return SB3QNetwork(make_encoder(), kwargs["actions_num"], _mlp(units, activation),
-                           bool(block.get("dueling", False)))
+sb3_policy_network.takes_dict_obs = True

@@ -27,7 +27,7 @@ except ImportError:  # numpy 1.x
 
 from rlchain.envs.backends.pettingzoo_env import AgentObs
 from rlchain.log import get_logger
-from rlchain.runs import digest, rl_games_checkpoint
+from rlchain.runs import archive, digest, rl_games_checkpoint
 from rlchain.runs.atomic import write_atomic
 
 log = get_logger(__name__)
@@ -180,6 +180,10 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
                                   f"(tensors, arrays, numbers, strings, containers); {TRUST_HINT}") from None
         raise CheckpointError(f"{path}: not a readable checkpoint ({_reason(path, exc)})") from None
     except Exception as exc:  # torch raises many types for a corrupt file
+        if is_sb3_layout(path):
+            raise CheckpointError(f"{path}: a Stable-Baselines3 model archive (data, policy.pth), not a checkpoint "
+                                  f"rlchain writes: load it with rlchain.PPO.load(path) (or SAC / DQN), which "
+                                  f"reads it as data") from None
         raise CheckpointError(f"{path}: not a readable checkpoint ({_reason(path, exc)})") from None
     if not isinstance(state, dict):
         return state
@@ -191,16 +195,25 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
     return _decode(state)
 
 
-def read_zip_member(path: str, member: str, map_location: str | torch.device = "cpu") -> Any:
-    """One torch-saved file inside a zip archive (a Stable-Baselines3 model's ``policy.pth``), read as data
-    (``weights_only``; never trusted: such archives come from elsewhere). A missing or unreadable member, or
-    one naming code, is a one-line CheckpointError."""
+def is_sb3_layout(path: str) -> bool:
+    """Whether ``path`` is a zip with Stable-Baselines3's ``data`` and ``policy.pth`` (its model archive)."""
     try:
         with zipfile.ZipFile(path) as archive:
-            raw = archive.read(member)
-    except (OSError, KeyError, zipfile.BadZipFile) as exc:
-        raise CheckpointError(f"{path}: no readable '{member}' in the archive ({type(exc).__name__}: "
-                              f"{' '.join(str(exc).split())[:120]})") from None
+            return {"data", "policy.pth"} <= set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def read_zip_member(path: str, member: str, map_location: str | torch.device = "cpu") -> Any:
+    """One torch-saved file inside a zip archive (a Stable-Baselines3 model's ``policy.pth``), read as data
+    (``weights_only``; never trusted: such archives come from elsewhere) and within bounds
+    (:mod:`rlchain.runs.archive`: a plain file, at most :data:`~rlchain.runs.archive.WEIGHTS_LIMIT` inflated). A
+    missing, oversized, linked or unreadable member, or one naming code, is a one-line CheckpointError."""
+    try:
+        raw = archive.read_member(path, member, archive.WEIGHTS_LIMIT)
+        archive.check_torch_records(raw, path, member, archive.WEIGHTS_LIMIT)
+    except archive.ArchiveError as exc:
+        raise CheckpointError(str(exc)) from None
     _allow_data_types()
     try:
         return torch.load(io.BytesIO(raw), map_location=map_location, weights_only=True)
@@ -253,7 +266,8 @@ def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -
     missing = [k for k in own if k not in saved and k not in keep]
     unexpected = [k for k in saved if k not in own]
     continues_165 = state.get("origin") == "rl_games" or bool(state.get(NORMS_DROPPED))
-    if missing and not unexpected and continues_165 and drop_unbuilt_norms(model, missing):
+    mismatch = missing or unexpected or any(tuple(v.shape) != tuple(own[k].shape) for k, v in saved.items() if k in own)
+    if mismatch and continues_165 and not mlp_norms(saved) and drop_unbuilt_norms(model):
         which = ("its checkpoint has" if state.get("origin") == "rl_games"
                  else "this run continues one, whose files have")
         log.warning(f"{path}: rl_games 1.6.5 builds no MLP normalization layers whatever network.normalization "
@@ -261,11 +275,12 @@ def load_model_state(model: torch.nn.Module, state: dict[str, Any], path: str) -
         setattr(model, NORMS_DROPPED, True)  # the checkpoints this model is saved to say so
         own = model.state_dict()
         missing = [k for k in own if k not in saved and k not in keep]
+        unexpected = [k for k in saved if k not in own]
     if missing or unexpected:
         detail = f"missing {missing[:3]}" if missing else f"unexpected {unexpected[:3]}"
         hint = "was it trained with another config?"
         if state.get("origin") == "rl_games":
-            hint = _rl_games_norm_hint(missing, unexpected) or hint
+            hint = _rl_games_norm_hint(saved, own) or hint
         raise CheckpointError(f"{path}: checkpoint does not match this model's network ({detail}); {hint}")
     for key, value in saved.items():
         if tuple(value.shape) != tuple(own[key].shape):
@@ -299,32 +314,38 @@ def _changed_env_inputs(state: dict[str, Any], saved: tuple[int, ...], own: tupl
     return f"trained on {env_name} when it observed {before} inputs; the env now observes {now}: {what}"
 
 
-MLP_NORM = r"(mlp|trunk|q[12]\.0)\.net\.\d+\.[12]\."
-"""A normalization layer inside one of rlchain's MLP layers (the Sequential linear, norm/activation, ...)."""
+MLP_WEIGHT = re.compile(r"(?:^|\.)(?:actor_mlp|critic_mlp|mlp|trunk|Q[12])\.(\d+)\.weight$")
+"""A weight inside one of the MLP Sequentials (rl_games' layout: linear, activation[, norm], linear, ...)."""
 
 
-def drop_unbuilt_norms(model: torch.nn.Module, missing: list[str]) -> bool:
-    """When every ``missing`` key belongs to an MLP LayerNorm / BatchNorm (an rl_games 1.6.5 file whose config
-    names ``normalization``, which 1.6.5 ignores), replace those layers by identities, as 1.6.5 builds the
-    network; returns whether it did."""
-    paths = {key.rsplit(".", 1)[0] for key in missing}
+def mlp_norms(weights: dict[str, Any]) -> list[str]:
+    """The keys of normalization layers' weights (one-dimensional) inside the MLPs of a state dict."""
+    return [key for key, value in weights.items() if MLP_WEIGHT.search(key) and len(value.shape) == 1]
+
+
+def drop_unbuilt_norms(model: torch.nn.Module) -> bool:
+    """Rebuild every Sequential of ``model`` without its LayerNorm / BatchNorm1d layers, as rl_games 1.6.5 builds
+    the network whatever ``network.normalization`` says (an rl_games 1.6.5 file whose config names it); returns
+    whether there were any."""
     norms = (torch.nn.LayerNorm, torch.nn.BatchNorm1d)
-    if not all(re.search(MLP_NORM, key) for key in missing) \
-            or not all(isinstance(model.get_submodule(p), norms) for p in paths):
-        return False
-    for module_path in paths:
-        parent, _, name = module_path.rpartition(".")
-        setattr(model.get_submodule(parent), name, torch.nn.Identity())
-    return True
+    dropped = False
+    for module in list(model.modules()):
+        if isinstance(module, torch.nn.Sequential) and any(isinstance(m, norms) for m in module):
+            kept = [m for m in module if not isinstance(m, norms)]
+            for name in list(module._modules):
+                del module._modules[name]
+            for layer in kept:
+                module.append(layer)
+            dropped = True
+    return dropped
 
 
-def _rl_games_norm_hint(missing: list[str], unexpected: list[str]) -> str:
+def _rl_games_norm_hint(saved: dict[str, Any], own: dict[str, Any]) -> str:
     """What to change when an rl_games checkpoint's MLP normalization layers differ from the model's."""
-    norm = MLP_NORM
-    if any(re.search(norm, k) for k in unexpected):
+    if mlp_norms(saved):
         return ("this rl_games checkpoint normalizes after the activation (network.normalization in rl_games "
                 "2.0): set network.mlp.norm_after_activation: True")
-    if any(re.search(norm, k) for k in missing):
+    if mlp_norms(own):
         return ("rl_games 1.6.5 builds no MLP normalization layers whatever network.normalization says: drop "
                 "that key to play or resume its checkpoints")
     return ""

@@ -19,7 +19,7 @@ import numpy as np
 
 from rlchain.registry import NETWORKS
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_export
+from rlchain.runs import rl_games_checkpoint
 
 
 def periodic_stem(name: str, epoch: int, reward: float) -> str:
@@ -62,8 +62,9 @@ def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
     the rest of ``--export rl_games`` (SAC's networks and optimizers, the central value's). A network rl_games'
     layout cannot hold (one of your own, D2RL, ...) gets the counters only, and keeps rlchain's ``model``."""
     try:
-        theirs = (rl_games_export.own_network_to_rl_games(state) if _network_written_the_rl_games_way(state)
-                  else rl_games_export.to_rl_games(state))
+        if not _rl_games_network(state):
+            raise ValueError("a network rl_games does not build")
+        theirs = rl_games_checkpoint.to_rl_games(state)
     except (ValueError, KeyError):
         theirs = {"frame": int(state["frames"])}
     theirs.setdefault("last_mean_rewards", state.get("best_reward"))
@@ -77,15 +78,17 @@ def rl_games_keys(state: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _network_written_the_rl_games_way(state: dict[str, Any]) -> bool:
-    """Whether the checkpoint's network was built by a builder registered through rl_games' ``register_network``
-    (its modules named as rl_games names them) for one of rl_games' algorithms; rlchain's own networks are renamed
-    by the export."""
+RL_GAMES_NETWORKS = ("actor_critic", "resnet_actor_critic", "soft_actor_critic")
+"""rlchain's networks that rl_games builds too (the same modules under the same names)."""
+
+
+def _rl_games_network(state: dict[str, Any]) -> bool:
+    """Whether the checkpoint's network is one rl_games builds: rlchain's of :data:`RL_GAMES_NETWORKS`, or one
+    registered through rl_games' ``register_network`` (its modules named as rl_games names them)."""
     params = (state.get("config") or {}).get("params") or {}
-    name = (params.get("network") or {}).get("name")
-    if state.get("algo") not in ("a2c_continuous", "a2c_discrete", "sac") or name not in NETWORKS:
-        return False
-    return getattr(NETWORKS.get(name), "rl_games_target", None) is not None
+    name = (params.get("network") or {}).get("name", "actor_critic")
+    return name in RL_GAMES_NETWORKS or (name in NETWORKS and getattr(NETWORKS.get(name), "rl_games_target", None)
+                                         is not None)
 
 
 __all__ = ["RlGamesTags", "final_stem", "periodic_stem", "rl_games_keys"]

@@ -8,13 +8,18 @@ a file naming any other object is refused in one line unless the caller trusts i
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
+from rlchain.sb3.model_zip import has_model, read_model
+from rlchain.sb3.zip_format import count, is_sb3_archive, read_sb3_archive
 
 FORMAT = "rlchain-sb3-1"
 SPACE = "__space__"
@@ -115,6 +120,13 @@ def load_model(path: str, algo: str) -> dict[str, Any]:
     spaces = state.get("spaces")
     if not isinstance(spaces, (list, tuple)) or len(spaces) != 2:
         raise ckpt.CheckpointError(f"{path}: no observation and action spaces stored")
+    for key, low, high, default in (("num_timesteps", 0, 2**62, 0), ("n_envs", 1, 1 << 16, 1),
+                                    ("seed", -(2**63), 2**63 - 1, None)):
+        state[key] = count(state.get(key), path, key, low, high, default)
+    if not isinstance(state.get("env_id"), (str, type(None))):
+        raise ckpt.CheckpointError(f"{path}: env_id: expected a gymnasium id or nothing, got "
+                                   f"{type(state.get('env_id')).__name__}")
+    state.setdefault("env_id", None)
     return {**state, "spaces": tuple(decode_space(s, path) for s in spaces),
             "policy_kwargs": decode_value(state.get("policy_kwargs"), path),
             "hyperparameters": decode_value(state.get("hyperparameters"), path)}
@@ -127,3 +139,35 @@ def load_weights(path: str) -> dict[str, torch.Tensor]:
     if not isinstance(weights, dict):
         raise ckpt.CheckpointError(f"{path}: holds no 'model' weights (a file written by rlchain's save or a run)")
     return weights
+
+
+def read_weights(path: str, algo: str) -> dict[str, torch.Tensor]:
+    """The policy weights of ``path`` for ``set_parameters``: rlchain's model zip, SB3's own archive of ``algo``
+    (SB3's names, read as data by :mod:`rlchain.sb3.zip_format`) or a file :func:`save_model` or a run wrote."""
+    if has_model(path):
+        return read_model(path, load_weights)
+    if is_sb3_archive(path):
+        return read_sb3_archive(path, algo).policy_state
+    return load_weights(path)
+
+
+def load_into(policy: torch.nn.Module, weights: dict[str, Any], path: str, what: str, strict: bool = True) -> None:
+    """``policy.load_state_dict(weights)``; weights that do not fit are one CheckpointError line naming ``path``
+    (torch's own message spans lines)."""
+    try:
+        policy.load_state_dict(weights, strict=strict)
+    except RuntimeError as exc:
+        raise ckpt.CheckpointError(f"{path}: its weights do not fit {what} ({' '.join(str(exc).split())[:200]})") \
+            from None
+
+
+@contextlib.contextmanager
+def named_by(path: str) -> Iterator[None]:
+    """A config error while a loaded file's values (or the caller's keywords beside them) build the model names
+    the file, not the model class."""
+    try:
+        yield
+    except ConfigError as exc:
+        if exc.source == path:
+            raise
+        raise ConfigError(path, exc.path, exc.message) from None

@@ -21,8 +21,9 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
-from rlchain.config.stored import as_data, check_env_id
+from rlchain.config.stored import as_data
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
+from rlchain.envs.known import GYM, check_listed
 from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
 from rlchain.networks.user_classes import remember, resolve
@@ -371,11 +372,14 @@ class BaseModel:
         return {"policy": {k: v.detach().clone() for k, v in self.policy.state_dict().items()}}
 
     def set_parameters(self, load_path_or_dict: str | dict[str, Any], exact_match: bool = True) -> None:
-        """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote); the next ``learn`` starts from them."""
+        """Load ``{'policy': state_dict}`` (or a file :meth:`save` wrote, or SB3's ``.zip`` of this algorithm, read as
+        data); the next ``learn`` starts from them."""
         params = load_path_or_dict
-        if isinstance(params, str):
-            path = _file(params)
-            params = {"policy": read_model(path, files.load_weights) if has_model(path) else files.load_weights(path)}
+        if isinstance(params, (str, os.PathLike)):
+            path = _file(os.fspath(params))
+            files.load_into(self.policy, files.read_weights(path, self.algo), path, "this model", exact_match)
+            self._weights_changed = True
+            return
         self.policy.load_state_dict(params["policy"], strict=exact_match)
         self._weights_changed = True
 
@@ -430,12 +434,13 @@ class BaseModel:
         else:
             state = files.load_model(path, cls.algo)
         stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
-        if env is None:
-            check_env_id(state["env_id"], path, "env_id")
+        if env is None and state["env_id"] is not None:  # a name from the file: looked up, never imported
+            check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
-        return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
-                            stored, state["model"], state["num_timesteps"])
+        with files.named_by(path):
+            return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
+                                stored, state["model"], state["num_timesteps"])
 
     @classmethod
     def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
@@ -444,8 +449,9 @@ class BaseModel:
         archive = read_sb3_archive(path, cls.algo)
         init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
                 "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
-        return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space, archive.action_space),
-                            None, archive.policy_state, archive.num_timesteps)
+        with files.named_by(path):
+            return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space,
+                                archive.action_space), None, archive.policy_state, archive.num_timesteps)
 
     @classmethod
     def _restore(cls, path: str, policy: str, env: Any, stored_env: Any, init: dict[str, Any], spaces: tuple,
@@ -470,7 +476,7 @@ class BaseModel:
                 model._spaces = read  # the env's own: a flattened Dict keeps its parts (predict takes the Dict)
         model._loaded_config = config
         model.policy = model._build_policy(config)
-        model.policy.load_state_dict(weights)
+        files.load_into(model.policy, weights, path, "the network its spaces give")
         model.num_timesteps = num_timesteps
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it

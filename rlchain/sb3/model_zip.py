@@ -22,6 +22,7 @@ from typing import Any
 
 import torch
 
+from rlchain.runs import archive
 from rlchain.runs import checkpoint as ckpt
 from rlchain.version import __version__
 
@@ -54,8 +55,8 @@ def write_model_zip(path: str, write_own: Callable[[str], Any], write_sb3: Calla
             try:
                 write_sb3(archive)
                 written = True
-            except Exception:  # no stable-baselines3, a network its MlpPolicy cannot hold, arguments it refuses
-                written = False
+            except (ModuleNotFoundError, ValueError):
+                written = False  # no stable-baselines3, or a network SB3's MlpPolicy cannot hold
         if not written:
             buffer = io.BytesIO()
             torch.save(dict(policy_state), buffer)
@@ -86,8 +87,12 @@ def read_model(path: str, load: Callable[[str], Any]) -> Any:
     folder = os.path.dirname(os.path.abspath(path))
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
         own = os.path.join(tmp, "model.pth")
-        with zipfile.ZipFile(path) as z, open(own, "wb") as f:
-            f.write(z.read(MEMBER))
+        try:  # within bounds: a plain file, at most archive.WEIGHTS_LIMIT inflated
+            data = archive.read_member(path, MEMBER, archive.WEIGHTS_LIMIT)
+        except archive.ArchiveError as exc:
+            raise ckpt.CheckpointError(str(exc)) from None
+        with open(own, "wb") as f:
+            f.write(data)
         try:
             return load(own)
         except ckpt.CheckpointError as exc:
@@ -98,7 +103,10 @@ def saved_system_info(path: str) -> str | None:
     """The ``system_info.txt`` an archive holds, or None."""
     try:
         with zipfile.ZipFile(path) as z:
-            return z.read("system_info.txt").decode("utf-8", "replace") if "system_info.txt" in z.namelist() \
-                else None
+            if "system_info.txt" not in z.namelist():
+                return None
+        return archive.read_member(path, "system_info.txt", 1 << 20).decode("utf-8", "replace")
     except (OSError, zipfile.BadZipFile):
         return None
+    except archive.ArchiveError as exc:
+        return f"(not shown: {exc})\n"

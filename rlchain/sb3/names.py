@@ -1,23 +1,23 @@
 """rlchain's parameter names <-> Stable-Baselines3's, for MlpPolicy (pure functions on state dicts).
 
-SB3 names the layers of an ``nn.Sequential`` of (Linear, activation) pairs by position (``0``, ``2``, ``4``, ...);
-rlchain's MLP blocks are (Linear, activation) sub-sequentials (``net.0.0``, ``net.1.0``, ...). The tables:
+SB3 names the layers of an ``nn.Sequential`` of (Linear, activation) pairs by position (``0``, ``2``, ``4``, ...), as
+rlchain's MLPs (rl_games' layout) do: the positions carry over. The tables:
 
-======================================  ==============================================================
-rlchain                                 Stable-Baselines3
-======================================  ==============================================================
-PPO ``network.policy.X`` (sb3_policy)     ``X`` (a user's ActorCriticPolicy: its own names)
-PPO ``network.actor_trunk.mlp.net.i.0``  ``mlp_extractor.policy_net.2i``
-PPO ``network.critic_trunk.mlp.net.i.0`` ``mlp_extractor.value_net.2i``
-PPO ``network.logits`` / ``network.mu``  ``action_net``
-PPO ``network.value`` / ``network.sigma`` ``value_net`` / ``log_std``
-SAC ``network.actor.trunk.net.i.0``     ``actor.latent_pi.2i``
-SAC ``network.actor.head`` (mu; log_std) ``actor.mu`` and ``actor.log_std`` (the head's two halves)
-SAC ``network.critic.qK.0.net.i.0``     ``critic.qf(K-1).2i``; ``network.critic.qK.1``: its last layer
-SAC ``critic_target.qK...``             ``critic_target.qf(K-1)...``
-DQN ``network.trunk.net.i.0``           ``q_net.q_net.2i``; ``network.advantage``: its last layer
-DQN ``target...``                       ``q_net_target...``
-======================================  ==============================================================
+=========================================  ==============================================================
+rlchain                                    Stable-Baselines3
+=========================================  ==============================================================
+PPO ``a2c_network.policy.X`` (sb3_policy)  ``X`` (a user's ActorCriticPolicy: its own names)
+PPO ``a2c_network.actor_mlp.i``             ``mlp_extractor.policy_net.i``
+PPO ``a2c_network.critic_mlp.i``            ``mlp_extractor.value_net.i``
+PPO ``a2c_network.logits`` / ``.mu``        ``action_net``
+PPO ``a2c_network.value`` / ``.sigma``      ``value_net`` / ``log_std``
+SAC ``network.actor.trunk.i`` (hidden)      ``actor.latent_pi.i``
+SAC ``network.actor.trunk`` last (mu; log_std) ``actor.mu`` and ``actor.log_std`` (the layer's two halves)
+SAC ``network.critic.QK.i``                 ``critic.qf(K-1).i``
+SAC ``critic_target.QK.i``                  ``critic_target.qf(K-1).i``
+DQN ``network.trunk.i``                     ``q_net.q_net.i``; ``network.advantage``: its last layer
+DQN ``target...``                           ``q_net_target...``
+=========================================  ==============================================================
 
 Names outside these tables (input normalizers, SAC's ``log_alpha``, a dueling head's ``value``) keep rlchain's name.
 """
@@ -29,17 +29,16 @@ from typing import Any
 
 import torch
 
-_PPO = [(r"network\.policy\.(.+)", "{w}"),  # the sb3_policy network: an ActorCriticPolicy's own names
-        (r"network\.actor_trunk\.mlp\.net\.(\d+)\.0\.(\w+)", "mlp_extractor.policy_net.{2i}.{w}"),
-        (r"network\.critic_trunk\.mlp\.net\.(\d+)\.0\.(\w+)", "mlp_extractor.value_net.{2i}.{w}"),
-        (r"network\.(?:logits|mu)\.(\w+)", "action_net.{w}"), (r"network\.value\.(\w+)", "value_net.{w}"),
-        (r"network\.sigma", "log_std")]
+_PPO = [(r"a2c_network\.policy\.(.+)", "{w}"),  # the sb3_policy network: an ActorCriticPolicy's own names
+        (r"a2c_network\.actor_mlp\.(\d+)\.(\w+)", "mlp_extractor.policy_net.{i}.{w}"),
+        (r"a2c_network\.critic_mlp\.(\d+)\.(\w+)", "mlp_extractor.value_net.{i}.{w}"),
+        (r"a2c_network\.(?:logits|mu)\.(\w+)", "action_net.{w}"), (r"a2c_network\.value\.(\w+)", "value_net.{w}"),
+        (r"a2c_network\.sigma", "log_std")]
 
 
-def _hidden(pattern: str, names: list[str]) -> int:
-    """How many hidden layers the names matching ``pattern`` (index in group 1) have."""
-    found = [int(m.group(1)) for n in names if (m := re.fullmatch(pattern, n))]
-    return max(found) + 1 if found else 0
+def _last(pattern: str, names: list[str]) -> int:
+    """The largest Sequential index (group 1) among the names matching ``pattern``."""
+    return max((int(m.group(1)) for n in names if (m := re.fullmatch(pattern, n))), default=0)
 
 
 def _rename(rules: list[tuple[str, str]], name: str, last: int) -> str | None:
@@ -47,31 +46,28 @@ def _rename(rules: list[tuple[str, str]], name: str, last: int) -> str | None:
         m = re.fullmatch(pattern, name)
         if m is None:
             continue
-        groups = m.groups()
+        groups = list(m.groups())
+        k = int(groups.pop(0)) - 1 if "{k}" in template else 0  # the groups are (K, i, w)
         w = groups[-1] if groups and not groups[-1].isdigit() else ""
         i = int(groups[0]) if groups and groups[0].isdigit() else 0
-        k = int(groups[0]) - 1 if "{k}" in template else 0
-        if "{k}" in template:  # the groups are (K, i, w) or (K, w)
-            i = int(groups[1]) if len(groups) == 3 else 0
-        return template.format(**{"2i": 2 * i, "w": w, "k": k, "last": 2 * last})
+        return template.format(i=i, w=w, k=k, last=last)
     return None
 
 
 def _rules(algo: str, names: list[str]) -> tuple[list[tuple[str, str]], int]:
-    """The renaming rules of ``algo`` and the index of the last layer's hidden count (from rlchain's ``names``)."""
+    """The renaming rules of ``algo`` and the index of its last layer (SAC's actor output, DQN's advantage)."""
     if algo == "ppo":
         return _PPO, 0
     if algo == "sac":
-        last = _hidden(r"network\.critic\.q1\.0\.net\.(\d+)\.0\.weight", names)
-        return [(r"network\.actor\.trunk\.net\.(\d+)\.0\.(\w+)", "actor.latent_pi.{2i}.{w}"),
-                (r"network\.critic\.q(\d+)\.0\.net\.(\d+)\.0\.(\w+)", "critic.qf{k}.{2i}.{w}"),
-                (r"network\.critic\.q(\d+)\.1\.(\w+)", "critic.qf{k}.{last}.{w}"),
-                (r"critic_target\.q(\d+)\.0\.net\.(\d+)\.0\.(\w+)", "critic_target.qf{k}.{2i}.{w}"),
-                (r"critic_target\.q(\d+)\.1\.(\w+)", "critic_target.qf{k}.{last}.{w}")], last
-    last = _hidden(r"network\.trunk\.net\.(\d+)\.0\.weight", names)
-    return [(r"network\.trunk\.net\.(\d+)\.0\.(\w+)", "q_net.q_net.{2i}.{w}"),
+        return [(r"network\.critic\.Q(\d+)\.(\d+)\.(\w+)", "critic.qf{k}.{i}.{w}"),
+                (r"critic_target\.Q(\d+)\.(\d+)\.(\w+)", "critic_target.qf{k}.{i}.{w}"),
+                (r"network\.actor\.trunk\.(\d+)\.(\w+)", "actor.latent_pi.{i}.{w}")], \
+            _last(r"network\.actor\.trunk\.(\d+)\.weight", names)
+    last = _last(r"network\.trunk\.(\d+)\.weight", names) + 2 if any(n.startswith("network.trunk.") for n in names) \
+        else 0
+    return [(r"network\.trunk\.(\d+)\.(\w+)", "q_net.q_net.{i}.{w}"),
             (r"network\.advantage\.(\w+)", "q_net.q_net.{last}.{w}"),
-            (r"target\.trunk\.net\.(\d+)\.0\.(\w+)", "q_net_target.q_net.{2i}.{w}"),
+            (r"target\.trunk\.(\d+)\.(\w+)", "q_net_target.q_net.{i}.{w}"),
             (r"target\.advantage\.(\w+)", "q_net_target.q_net.{last}.{w}")], last
 
 
@@ -80,7 +76,7 @@ def to_sb3(algo: str, state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]
     rules, last = _rules(algo, list(state))
     out = {}
     for name, value in state.items():
-        if algo == "sac" and (m := re.fullmatch(r"network\.actor\.head\.(\w+)", name)):
+        if algo == "sac" and (m := re.fullmatch(rf"network\.actor\.trunk\.{last}\.(\w+)", name)):
             mu, log_std = value.chunk(2, dim=0)  # the head's rows: mu, then log_std
             out[f"actor.mu.{m.group(1)}"], out[f"actor.log_std.{m.group(1)}"] = mu, log_std
             continue
@@ -97,7 +93,8 @@ def from_sb3(algo: str, state: dict[str, Any], reference: dict[str, torch.Tensor
     for name, value in state.items():
         if algo == "sac" and (m := re.fullmatch(r"actor\.(mu|log_std)\.(\w+)", name)):
             if m.group(1) == "mu":
-                out[f"network.actor.head.{m.group(2)}"] = torch.cat([value, state[f"actor.log_std.{m.group(2)}"]])
+                out[f"network.actor.trunk.{last}.{m.group(2)}"] = torch.cat([value,
+                                                                            state[f"actor.log_std.{m.group(2)}"]])
             continue
         out[rlchain_name.get(name, name)] = value
     return out

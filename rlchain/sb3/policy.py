@@ -75,7 +75,7 @@ class SACActorView(nn.Module):
     def __init__(self, model: nn.Module) -> None:
         super().__init__()
         self.actor = model.network.actor
-        self.obs_norm = model.obs_norm
+        self.obs_norm = model.running_mean_std
         self._model = [model]  # not a submodule: the stochastic path and Dict observations use it
 
     @property
@@ -83,7 +83,8 @@ class SACActorView(nn.Module):
         return self._model[0]
 
     def forward(self, obs: torch.Tensor, deterministic: bool = False) -> torch.Tensor:
-        head = getattr(self.actor, "head", None)
+        trunk = getattr(self.actor, "trunk", None)
+        head = trunk[-1] if isinstance(trunk, nn.Sequential) and len(trunk) else None  # the (mean, log-std) layer
         if not deterministic or not isinstance(obs, torch.Tensor) or not isinstance(head, nn.Linear):
             return self.model.policy(self.model.preprocess(obs), deterministic)[0]
         x = obs.float() / 255.0 if obs.dtype == torch.uint8 else obs.float()
@@ -92,9 +93,9 @@ class SACActorView(nn.Module):
             x = self.obs_norm.normalize(x)
         actor = self.actor
         x = actor.encoder(x) if getattr(actor, "encoder", None) is not None else x
-        # tanh(mean), the mean read by slicing the head's rows (mean, then log-std): ONNX exporters handle a slice
-        # where torch.chunk's Split may not convert to older opsets
-        mu = actor.head(actor.trunk(x))[..., :head.out_features // 2]
+        # tanh(mean), the mean read by slicing the output layer's rows (mean, then log-std): ONNX exporters handle a
+        # slice where torch.chunk's Split may not convert to older opsets
+        mu = actor.trunk(x)[..., :head.out_features // 2]
         if actor.mean_clip is not None:
             mu = mu.clamp(-actor.mean_clip, actor.mean_clip)
         return torch.tanh(mu)

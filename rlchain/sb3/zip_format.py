@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import math
 import re
 import zipfile
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.runs import archive
 from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3.defaults import SB3_DEFAULTS
 from rlchain.sb3.names import is_sb3_named
@@ -41,6 +43,16 @@ DEFAULT_ACTIVATION = {"ppo": "Tanh", "sac": "ReLU", "dqn": "ReLU"}
 SDE_CLIP_MEAN = 2.0  # SB3's default clip_mean of the gSDE SAC actor
 SDE_LOG_STD_BOUNDS = tuple(float(b) for b in SB3_DEFAULTS["sac"]["network"]["log_std_bounds"])
 """The log-std bounds of the SAC a loaded archive builds (its log-std head goes through rlchain's soft bound)."""
+MAX_ELEMENTS = 1 << 24
+"""The most elements a space's shape may have (16.8M: a 3 x 2048 x 2048 image is 12.6M)."""
+MAX_DEPTH = 64
+"""How deep SB3's ``data`` JSON may nest (SB3 writes a few levels)."""
+MAX_TIMESTEPS, MAX_ENVS = 2**62, 1 << 16
+"""Bounds of the archive's ``num_timesteps`` and ``n_envs``."""
+FIRST_LAYER = {"ppo": ("mlp_extractor.policy_net.0.weight", "action_net.weight"),
+               "sac": ("actor.latent_pi.0.weight", "actor.mu.weight", "actor.mu.0.weight"),
+               "dqn": ("q_net.q_net.0.weight",)}
+"""The weight of the policy's first layer (hidden layers, else the output layer), whose inputs are the observation's."""
 
 
 @dataclass(frozen=True)
@@ -59,12 +71,7 @@ class SB3Archive:
 
 def is_sb3_archive(path: str) -> bool:
     """Whether ``path`` is a zip with SB3's ``data`` and ``policy.pth``."""
-    try:
-        with zipfile.ZipFile(path) as archive:
-            names = set(archive.namelist())
-    except (OSError, zipfile.BadZipFile):
-        return False
-    return {"data", "policy.pth"} <= names
+    return ckpt.is_sb3_layout(path)
 
 
 def _array(text: Any, shape: tuple[int, ...], path: str, key: str) -> np.ndarray:
@@ -81,11 +88,18 @@ def _array(text: Any, shape: tuple[int, ...], path: str, key: str) -> np.ndarray
 
 def _shape(entry: dict[str, Any]) -> tuple[int, ...]:
     """A space's shape: ``_shape`` (a list; gymnasium) or ``shape`` (the text ``'[4]'``; the gym of SB3 < 2,
-    which rl-baselines3-zoo's published models were saved with)."""
+    which rl-baselines3-zoo's published models were saved with), checked before anything of that shape is
+    allocated: at most :data:`MAX_ELEMENTS` elements."""
     shape = entry["_shape"] if "_shape" in entry else entry["shape"]
     if isinstance(shape, str):
-        shape = [int(v) for v in re.sub(r"[\[\]()]", " ", shape).replace(",", " ").split()]
-    return tuple(int(v) for v in shape)
+        shape = [int(v) for v in re.sub(r"[\[\]()]", " ", shape[:200]).replace(",", " ").split()]
+    if not isinstance(shape, (list, tuple)) or len(shape) > 8 or \
+            not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in shape):
+        raise ValueError(f"shape {str(shape)[:60]}: expected up to 8 sizes >= 0")
+    if math.prod(shape) > MAX_ELEMENTS:
+        raise ValueError(f"shape {list(shape)} has {math.prod(shape)} elements; rlchain reads spaces of at most "
+                         f"{MAX_ELEMENTS} (far above any real observation)")
+    return tuple(shape)
 
 
 def _space(entry: Any, path: str, key: str) -> gym.Space:
@@ -94,7 +108,9 @@ def _space(entry: Any, path: str, key: str) -> gym.Space:
     try:
         if kind.endswith(".Box'>"):
             shape = _shape(entry)
-            dtype = np.dtype(entry["dtype"])
+            dtype = np.dtype(str(entry["dtype"])[:20])
+            if dtype.kind not in "biuf" or dtype.itemsize > 8:
+                raise ValueError(f"dtype {dtype}: expected a number type")
             return gym.spaces.Box(_array(entry["low"], shape, path, f"{key}.low").astype(dtype),
                                   _array(entry["high"], shape, path, f"{key}.high").astype(dtype), shape, dtype)
         if kind.endswith(".Discrete'>"):
@@ -102,9 +118,9 @@ def _space(entry: Any, path: str, key: str) -> gym.Space:
         if kind.endswith(".MultiDiscrete'>"):
             nvec = _array(entry["nvec"], _shape(entry), path, f"{key}.nvec")
             return gym.spaces.MultiDiscrete(nvec.astype(np.int64))
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, OverflowError) as exc:
         raise ckpt.CheckpointError(f"{path}: {key} is malformed in the archive ({type(exc).__name__}: "
-                                   f"{str(exc)[:80]})") from None
+                                   f"{' '.join(str(exc).split())[:160]})") from None
     raise ckpt.CheckpointError(f"{path}: {key}: a {kind or type(entry).__name__} space; rlchain reads Box, "
                                f"Discrete and MultiDiscrete from SB3 archives")
 
@@ -120,6 +136,19 @@ def _number(value: Any) -> float | int | bool | str | None:
             if match:
                 return float(match.group(1))
     return None
+
+
+def _hyperparameter(value: Any, path: str, key: str) -> Any:
+    """An archive's hyperparameter as SB3 writes it: a finite number, a bool (normalize_advantage) or SAC's
+    ``ent_coef`` ``'auto'`` / ``'auto_0.1'``; anything else is a one-line CheckpointError naming the key."""
+    if isinstance(value, bool):
+        if key == "normalize_advantage":
+            return value
+    elif isinstance(value, (int, float)) and math.isfinite(value):
+        return value
+    if key == "ent_coef" and isinstance(value, str) and re.fullmatch(r"auto(_[0-9.eE+-]+)?", value):
+        return value
+    raise ckpt.CheckpointError(f"{path}: {key}: expected a number, got {str(value)[:40]!r} ({type(value).__name__})")
 
 
 def _layers(state: dict[str, Any], prefix: str) -> list[int]:
@@ -181,11 +210,7 @@ def _activation(policy_kwargs: Any, algo: str) -> str:
 
 def read_sb3_archive(path: str, algo: str) -> SB3Archive:
     """The :class:`SB3Archive` of an SB3 ``algo`` (ppo, sac, dqn) model file; one-line CheckpointErrors."""
-    try:
-        with zipfile.ZipFile(path) as archive:
-            data = json.loads(archive.read("data"))
-    except (OSError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
-        raise ckpt.CheckpointError(f"{path}: not a Stable-Baselines3 archive ({type(exc).__name__})") from None
+    data = read_data(path)
     state = ckpt.read_zip_member(path, "policy.pth")
     if not isinstance(state, dict) or not is_sb3_named(algo, state):
         raise ckpt.CheckpointError(f"{path}: its policy is not an SB3 {algo.upper()} MlpPolicy")
@@ -195,7 +220,7 @@ def read_sb3_archive(path: str, algo: str) -> SB3Archive:
                                    f"SAC only")
     if sde:
         state = _sde_actor(state, path)
-    hyper = {k: v for k in HYPERPARAMETERS[algo] if (v := _number(data.get(k))) is not None}
+    hyper = {k: _hyperparameter(v, path, k) for k in HYPERPARAMETERS[algo] if (v := _number(data.get(k))) is not None}
     kwargs = {"net_arch": _architecture(algo, state, path),
               "activation_fn": _activation(data.get("policy_kwargs"), algo)}
     if sde:  # SB3's gSDE actor ends its mean with Hardtanh(-clip_mean, clip_mean)
@@ -209,11 +234,71 @@ def read_sb3_archive(path: str, algo: str) -> SB3Archive:
         variables = ckpt.read_zip_member(path, member) if member else {}
         if isinstance(variables, dict) and "log_ent_coef" in variables:
             state = {**state, "log_alpha": variables["log_ent_coef"].detach().reshape(())}
-    seed = data.get("seed")
-    return SB3Archive(_space(data.get("observation_space"), path, "observation_space"),
-                      _space(data.get("action_space"), path, "action_space"), hyper, kwargs, state,
-                      int(data.get("num_timesteps") or 0), int(data.get("n_envs") or 1),
-                      int(seed) if isinstance(seed, int) else None)
+    observation_space = _space(data.get("observation_space"), path, "observation_space")
+    _check_inputs(algo, state, observation_space, path)
+    return SB3Archive(observation_space, _space(data.get("action_space"), path, "action_space"), hyper, kwargs, state,
+                      count(data.get("num_timesteps"), path, "num_timesteps", 0, MAX_TIMESTEPS, 0),
+                      count(data.get("n_envs"), path, "n_envs", 1, MAX_ENVS, 1),
+                      count(data.get("seed"), path, "seed", -(2**63), 2**63 - 1, None))
+
+
+def read_data(path: str) -> dict[str, Any]:
+    """The archive's ``data`` JSON as a dict, read within bounds (:data:`~rlchain.runs.archive.DATA_LIMIT`,
+    :data:`MAX_DEPTH` levels); anything else is a one-line CheckpointError."""
+    try:
+        raw = archive.read_member(path, "data", archive.DATA_LIMIT)
+    except archive.ArchiveError as exc:
+        raise ckpt.CheckpointError(str(exc)) from None
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ckpt.CheckpointError(f"{path}: 'data' is not UTF-8 text (byte {exc.start}): not SB3's JSON") from None
+    except json.JSONDecodeError as exc:
+        raise ckpt.CheckpointError(f"{path}: 'data' is not JSON ({exc.msg} at line {exc.lineno} column "
+                                   f"{exc.colno})") from None
+    except RecursionError:
+        raise ckpt.CheckpointError(f"{path}: 'data' nests deeper than {MAX_DEPTH} levels: not SB3's JSON") from None
+    if not isinstance(data, dict):
+        raise ckpt.CheckpointError(f"{path}: 'data' is a JSON {type(data).__name__}, not the object SB3 writes")
+    if depth(data) > MAX_DEPTH:
+        raise ckpt.CheckpointError(f"{path}: 'data' nests deeper than {MAX_DEPTH} levels: not SB3's JSON")
+    return data
+
+
+def depth(value: Any) -> int:
+    """How deep lists and dicts nest in ``value`` (iteratively: no recursion limit to reach)."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        node, level = stack.pop()
+        if isinstance(node, (dict, list)):
+            deepest = max(deepest, level)
+            if level <= MAX_DEPTH:
+                stack.extend((v, level + 1) for v in (node.values() if isinstance(node, dict) else node))
+    return deepest
+
+
+def count(value: Any, path: str, key: str, low: int, high: int, default: int | None) -> int | None:
+    """An integer field of the archive (``num_timesteps``, ``n_envs``, ``seed``) in ``low .. high``; ``default``
+    when absent; anything else is a one-line CheckpointError naming the file and the key."""
+    if value is None:
+        return default
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ckpt.CheckpointError(f"{path}: {key}: expected an integer in {low} .. {high}, got "
+                                   f"{str(value)[:40]!r} ({type(value).__name__})")
+    return value
+
+
+def _check_inputs(algo: str, state: dict[str, Any], space: gym.Space, path: str) -> None:
+    """The policy's first layer must take the observation space's flat size (a network is never built for more
+    inputs than the file's weights have)."""
+    for key in FIRST_LAYER[algo]:
+        weight = state.get(key)
+        if getattr(weight, "ndim", 0) == 2:
+            size = int(gym.spaces.flatdim(space))
+            if int(weight.shape[1]) != size:
+                raise ckpt.CheckpointError(f"{path}: the policy's first layer ({key}) takes {int(weight.shape[1])} "
+                                           f"inputs, the observation_space {size}: the archive is inconsistent")
+            return
 
 
 class _SpacesEnv(gym.Env):

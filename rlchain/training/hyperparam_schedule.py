@@ -1,5 +1,5 @@
 """Replays ``params.config.hyperparam_schedule`` (e.g. the schedule a PBT winner followed) through the
-Loop's live :meth:`~rlchain.training.loop.Loop.set_params`.
+run's live ``set_params`` (the callback context's, :class:`~rlchain.training.live_params.LiveParams`').
 
 Entry ``E: {name: value}`` is in force from the epoch after ``E`` completed epochs (``0``: from the
 start), the point at which population-based training changed the winner's values.

@@ -312,6 +312,9 @@ class Loop:
         head = stop if stop.startswith("stopped") else f"stopped: {stop}"  # not 'stopped: stopped by ...'
         line = (f"{head} at epoch {ctx.epoch}, frames {ctx.frames}, mean reward {mean:.2f}, "
                 f"best {best:.2f}{success}")
+        failures = saver.failures_line()
+        if failures:
+            log.warning(failures)
         lost = run is not None and last is None and saver.failure is not None
         if lost:
             line += f"; the final checkpoint was not written ({saver.failure}); {saver.kept()}"

@@ -48,6 +48,7 @@ class CheckpointSaver:
         self.newest: tuple[str, int] | None = None  # (path, epoch) of the newest checkpoint this run wrote
         self.resumed_from: str | None = None  # the checkpoint this run started from
         self.failure: str | None = None  # why the latest write failed (None once one succeeds)
+        self.failed_writes = 0  # checkpoint writes that failed in this run
         self.frames_seen = ctx.frames  # frames at the last periodic check (save_frequency_frames)
 
     def state_dict(self, kind: str = "last") -> dict[str, Any]:
@@ -100,13 +101,25 @@ class CheckpointSaver:
         try:
             ckpt.save_atomic(state, path)
         except Exception as exc:  # storage faults of any type: OSError, torch's zip writer's RuntimeError, ...
+            first = self.failure is None  # one line per run of failures (a full disk fails every write after)
             self.failure = f"writing {path} failed: {storage_error(exc)}"
-            log.warning(f"warning: checkpoint {self.failure}; {self.kept()}")
+            self.failed_writes += 1
+            if first:
+                log.warning(f"warning: checkpoint {self.failure}; {self.kept()}; training goes on (the checkpoint "
+                            f"writes that fail after this are counted at the end, not each reported)")
             return None
         self.failure = None
         self.newest = (path, self.ctx.epoch)
         self.events.emit("on_checkpoint", path, kind)
         return path
+
+    def failures_line(self) -> str | None:
+        """The count of failed checkpoint writes, for the end of the run (None when at most one failed: its
+        warning said it)."""
+        if self.failed_writes < 2:
+            return None
+        now = f"the last one: {self.failure}" if self.failure else "the last write succeeded"
+        return f"warning: {self.failed_writes} checkpoint writes failed in this run ({now}); {self.kept()}"
 
     def kept(self) -> str:
         """What is on disk to resume from, in words (for a failed write and the stop line)."""

@@ -4,7 +4,7 @@
 each epoch's end the thread parks until the next :meth:`EpochStepper.next_epoch`. While it is
 parked, between two epochs, the caller may save a checkpoint, load another one into the live run
 (the envs keep running: population-based training's exploit), change the live hyperparameters
-through the Loop's ``set_params`` (its explore step) and move the run's TensorBoard folder. The
+through the run's ``set_params`` (its explore step) and move the run's TensorBoard folder. The
 Loop keeps every guarantee of a normal run (divergence guard, checkpoint on stop, closed envs).
 """
 

@@ -170,7 +170,7 @@ def _names(cls: type) -> tuple[str, ...]:
 
 def check_live_keys(keys: list[str], tunable: tuple[str, ...], algo: str, path: str, where: str) -> None:
     """Every key must be ``params.config.<name>`` with ``name`` in the algorithm's ``tunable``: what
-    the Loop's set_params can change while the trial runs (PBT's explore step, an exploit)."""
+    the run's live set_params can change while the trial runs (PBT's explore step, an exploit)."""
     for key in keys:
         name = key.removeprefix("params.config.")
         if not key.startswith("params.config.") or name not in tunable:

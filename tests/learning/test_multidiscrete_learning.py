@@ -12,14 +12,12 @@ pytestmark = pytest.mark.slow
 CONFIG = os.path.join(CONFIGS, "ppo_test_multidiscrete.yaml")
 
 
-@pytest.mark.parametrize("overrides", [
-    [],                                                  # MultiDiscrete([3, 5])
-    ["params.config.env_config.tuple_actions=True"],     # Tuple(Discrete(3), Discrete(5)), rl_games' test space
-    ["params.config.env_config.dict_obs=True"],          # Dict observations, flattened by the vecenv
-], ids=["multidiscrete", "tuple", "dict_obs"])
-def test_multidiscrete_reaches_098(tmp_path, overrides):
-    runner = Runner().load(CONFIG, [f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
-                                    *overrides])
+def test_multidiscrete_reaches_098(tmp_path):
+    """MultiDiscrete([3, 5]). The env's other spaces learn the same run: its Dict observations flatten to the same
+    numbers (tests/unit/test_envs_action_spaces.py::test_dict_observations_are_flattened_in_key_order), its
+    Tuple(Discrete(3), Discrete(5)) actions (rl_games' test space) split to the same env actions
+    (test_tuple_actions_are_split_for_gymnasium there) and train and play (tests/smoke/test_action_spaces_smoke.py)."""
+    runner = Runner().load(CONFIG, [f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false"])
     result = runner.train()
     # a random policy returns about -0.6 per episode, a perfect one 1.0
     assert result.stop_reason.startswith("score_to_win"), result

@@ -59,7 +59,7 @@ def test_shipped_pong_envpool_train_play_resume_export(tmp_path):
     last = last[0]
     saved = torch.load(last, weights_only=False)
     assert saved["epoch"] == 2 and saved["frames"] == 2 * 8 * 16
-    assert saved["model"]["obs_norm.mean"].shape == (4, 84, 84)
+    assert saved["model"]["running_mean_std.running_mean"].shape == (4, 84, 84)
 
     played = Runner().load(PONG).play(last, games=1, quiet=True)
     assert played.games == 1
@@ -287,7 +287,7 @@ def test_cnn_policy_on_uint8_images_trains_one_epoch(tmp_path, base_config):
     result = runner.train()
     assert result.epoch == 1 and result.frames == 32
     state = torch.load(os.path.join(result.run_dir, "nn", "last_t.pth"), weights_only=False)
-    mean = state["model"]["obs_norm.mean"]
+    mean = state["model"]["running_mean_std.running_mean"]
     assert mean.shape == (4, 84, 84) and 0.0 <= float(mean.min()) and float(mean.max()) <= 1.0
 
 
@@ -330,7 +330,7 @@ def test_rl_games_pong_envpool_resnet_trains_plays_and_resumes(tmp_path):
     assert result.epoch == 2 and result.frames == 2 * 4 * 16
     last = os.path.join(result.run_dir, "nn", "last_Pong-v5_envpool_resnet.pth")
     saved = torch.load(last, weights_only=False)
-    lstm = saved["model"]["network.actor_trunk.rnn.rnn.weight_ih_l0"]
+    lstm = saved["model"]["a2c_network.rnn.rnn.weight_ih_l0"]
     assert lstm.shape == (4 * 256, 512 + 1 + 6)  # mlp features + reward + one-hot of Pong's 6 actions
 
     played = Runner().load(path, small).play(last, games=1, quiet=True)

@@ -57,8 +57,8 @@ def test_central_value_trains_saves_resumes_and_plays(tmp_path):
     state = ckpt.load(last)
     assert "central_value" in state and "central_value_agent" in state
     # the actor reads 2 numbers (obs), the critic 4 (state)
-    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
-    assert state["central_value"]["network.trunk.mlp.net.0.0.weight"].shape[1] == 4
+    assert state["model"]["a2c_network.actor_mlp.0.weight"].shape[1] == 2
+    assert state["central_value"]["a2c_network.actor_mlp.0.weight"].shape[1] == 4
     resumed = Runner().load(CONFIG, overrides(tmp_path, 3, f"params.config.central_value_config={CV}")).train(
         checkpoint=last)
     assert resumed.epoch == 3
@@ -101,18 +101,18 @@ def _value_fit(tmp_path, *extra):
     """R^2 of the trained critic against the true values 0.1 * r * (1 - gamma^left) / (1 - gamma)."""
     seen = {}
 
-    def record(trainer, stats, episodes):
-        seen["trainer"] = trainer
+    def record(ctx, stats, episodes):
+        seen["ctx"] = ctx
 
     runner = Runner().load(CONFIG, overrides(tmp_path, 25, "params.config.env_name=HiddenRewardTest-v0", *extra))
     runner.train(callbacks=[record])
-    trainer = seen["trainer"]
+    ctx = seen["ctx"]
     r, left = torch.meshgrid(torch.linspace(-1, 1, 21), torch.arange(1, HiddenRewardEnv.LENGTH + 1).float(),
                              indexing="ij")
     obs = torch.stack([torch.zeros_like(r), r, left / HiddenRewardEnv.LENGTH], -1).reshape(-1, 3)
-    gamma = trainer.cfg.gamma
+    gamma = ctx.params.config.gamma
     true = (0.1 * r * (1 - gamma ** left) / (1 - gamma)).reshape(-1)
-    critic = trainer.algorithm.central_value if trainer.algorithm.central_value is not None else trainer.model
+    critic = ctx.algorithm.central_value if ctx.algorithm.central_value is not None else ctx.model
     predicted = critic.value(obs).reshape(-1)
     return float(1 - (predicted - true).square().mean() / true.var())
 
@@ -156,8 +156,8 @@ def test_actor_without_central_value_ignores_the_state(tmp_path):
     """A {'obs','state'} env without central_value_config: the actor still reads only 'obs'."""
     result = Runner().load(CONFIG, overrides(tmp_path, 1)).train()
     state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
-    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2
-    assert torch.isfinite(state["model"]["network.value.weight"]).all()
+    assert state["model"]["a2c_network.actor_mlp.0.weight"].shape[1] == 2
+    assert torch.isfinite(state["model"]["a2c_network.value.weight"]).all()
 
 
 @pytest.mark.parametrize("actor_rnn", [False, True])
@@ -170,8 +170,8 @@ def test_recurrent_central_value(tmp_path, actor_rnn):
         extra.append("params.network.rnn={name: gru, units: 8}")
     seen = {}
 
-    def record(trainer, stats, episodes):
-        seen["states"] = [tuple(s.shape) for s in trainer.algorithm.storage.states]
+    def record(ctx, stats, episodes):
+        seen["states"] = [tuple(s.shape) for s in ctx.algorithm.storage.states]
         seen["loss"] = stats["cval_loss"]
 
     result = Runner().load(CONFIG, overrides(tmp_path, 2, *extra)).train(callbacks=[record])
@@ -186,9 +186,9 @@ def test_multi_head_values(tmp_path):
     """An env with value_size 2 (vector rewards): two value heads, GAE per head, advantages summed."""
     seen = {}
 
-    def record(trainer, stats, episodes):
-        seen["values"] = tuple(trainer.algorithm.storage.values.shape)
-        seen["rewards"] = trainer.algorithm.storage.rewards.clone()
+    def record(ctx, stats, episodes):
+        seen["values"] = tuple(ctx.algorithm.storage.values.shape)
+        seen["rewards"] = ctx.algorithm.storage.rewards.clone()
 
     extra = ["params.config.env_name=test_env", "params.config.env_config={name: TestRnnEnv-v0, "
              "multi_head_value: True, apply_dist_reward: True}", "params.config.num_actors=4",
@@ -198,4 +198,4 @@ def test_multi_head_values(tmp_path):
     assert seen["values"] == (32, 4, 2)
     assert bool((seen["rewards"][..., 1] != 0).any())  # the distance head gets its own rewards
     state = ckpt.load(os.path.join(result.run_dir, "nn", "last_cartpole.pth"))
-    assert state["model"]["network.value.weight"].shape[0] == 2
+    assert state["model"]["a2c_network.value.weight"].shape[0] == 2

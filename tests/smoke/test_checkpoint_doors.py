@@ -92,7 +92,8 @@ def test_a_stored_env_id_that_imports_a_module_is_refused(tmp_path):
         params["config"]["env_name"] = "rlchain_door_payload:Evil-v0"
 
     path = data_only(tmp_path, "env.pth", importing)
-    with pytest.raises(ConfigError, match=r"params.config.env_name: 'rlchain_door_payload:Evil-v0' would import"):
+    with pytest.raises(ConfigError, match=r"params.config.env_name: 'rlchain_door_payload:Evil-v0' is not an env "
+                                          r"gymnasium lists"):
         Runner().load_from_checkpoint(path)
 
 
@@ -140,7 +141,7 @@ def test_sb3_file_is_data_and_its_stored_trust_and_env_are_not_followed(tmp_path
     assert "trust_checkpoint" not in loaded.config["params"]["config"]
     state["env_id"] = "rlchain_door_payload:Evil-v0"
     ckpt.save_atomic(state, path)
-    with pytest.raises(ConfigError, match="env_id: 'rlchain_door_payload:Evil-v0' would import"):
+    with pytest.raises(ConfigError, match="env_id: 'rlchain_door_payload:Evil-v0' is not an env gymnasium lists"):
         rlchain.SAC.load(path)
 
 
@@ -165,3 +166,72 @@ def test_sb3_activation_fn_is_stored_by_name_and_read_back_from_torch_only(tmp_p
     ckpt.save_atomic(state, path)
     with pytest.raises(ckpt.CheckpointError, match="'Module' is not a torch activation"):
         rlchain.PPO.load(path)
+
+
+@pytest.fixture
+def importable(tmp_path, monkeypatch):
+    """Modules on sys.path whose import writes a marker (the names a file could give); returns the marker."""
+    marker = tmp_path / "imported"
+    for name in ("rlchain_door_env", "1rlchain_door_env", "rlchain-door-env"):
+        (tmp_path / f"{name}.py").write_text(f"open({str(marker)!r}, 'a').write({name!r})\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.chdir(tmp_path)  # `python -m` and notebooks put the current folder on sys.path
+    return marker
+
+
+@pytest.mark.parametrize(("env_name", "env_config", "key"), [
+    ("pettingzoo", {"env": "rlchain_door_env"}, "env_config.env"),
+    ("pettingzoo", {"env": "this"}, "env_config.env"),
+    ("atari_gymnasium", {"env_name": "1rlchain_door_env:X-v0"}, "env_config.env_name"),
+    ("openai_gym", {"name": "rlchain-door-env:X-v0"}, "env_config.name"),
+    ("rlchain_door_env:X v0", {}, "env_name"),
+])
+def test_a_stored_env_name_is_never_imported(tmp_path, importable, capsys, env_name, env_config, key):
+    def store(params):
+        params["config"].update(env_name=env_name, env_config=env_config)
+
+    path = data_only(tmp_path, "env.pth", store)
+    with pytest.raises(ConfigError, match=rf"env.pth: params.config.{key}: .* is not an env .* lists"):
+        Runner().load_from_checkpoint(path)
+    for argv in (["--play", "--checkpoint", path, "--games", "1"],
+                 ["--export", "onnx", "--checkpoint", path, "--output", str(tmp_path / "x.onnx")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"config error: {path}: params.config.{key}: ") and len(err.splitlines()) == 1, err
+    assert not importable.exists() and "rlchain_door_env" not in sys.modules
+    assert "Beautiful is better" not in capsys.readouterr().out
+
+
+def test_the_users_override_and_file_keep_their_powers(tmp_path, importable):
+    def store(params):
+        params["config"].update(env_name="pettingzoo", env_config={"env": "rlchain_door_env"})
+
+    path = data_only(tmp_path, "env.pth", store)
+    runner = Runner().load_from_checkpoint(path, ["params.config.env_name=CartPole-v1", "params.config.env_config={}"])
+    assert runner.params.config.env_name == "CartPole-v1"  # the user's override replaced the file's name
+    (tmp_path / "rlchain_door_gym.py").write_text(
+        f"import gymnasium\nopen({str(importable)!r}, 'a').write('user')\n"
+        "gymnasium.register('DoorCartPole-v0', entry_point='gymnasium.envs.classic_control:CartPoleEnv')\n")
+    from rlchain.models.build import build_env
+
+    raw = ckpt.load(CARTPOLE)["config"]  # the user's own config imports their module, which registers their env
+    raw["params"]["import_modules"] = ["rlchain_door_gym"]
+    raw["params"]["config"].update(env_name="DoorCartPole-v0", device="cpu")
+    params = Runner().load({"params": raw["params"]}).params
+    build_env(params, 1, 0).close()
+    assert importable.read_text() == "user"
+
+
+@pytest.mark.parametrize("env_id", ["1rlchain_door_env:X-v0", "rlchain-door-env:X-v0", "rlchain_door_env:!",
+                                    "rlchain_door_env:X v0"])
+def test_an_sb3_files_env_id_is_never_imported(tmp_path, importable, env_id):
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=1, verbose=0, policy_kwargs={"net_arch": [8]})
+    path = model.save(str(tmp_path / "model.pth"))
+    state = ckpt.read(path)
+    state["env_id"] = env_id
+    ckpt.save_atomic(state, path)
+    with pytest.raises(ConfigError) as exc:
+        rlchain.PPO.load(path).get_env()
+    assert str(exc.value).startswith(f"{path}: env_id: '{env_id}' is not an env gymnasium lists")
+    assert "\n" not in str(exc.value) and not importable.exists()
+    assert rlchain.PPO.load(path, env="CartPole-v1").env_source.env_name == "CartPole-v1"  # the caller's env

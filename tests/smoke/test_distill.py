@@ -49,7 +49,7 @@ def test_distill_trains_checkpoints_both_and_resumes(distilled, tmp_path):
     assert set(state["teacher"]) == {"model", "path", "config"}
     teacher_keys = set(ckpt.load(TEACHER)["model"])
     assert set(state["teacher"]["model"]) == teacher_keys  # the teacher's weights, as trained
-    assert state["model"]["obs_norm.mean"].shape == (2,)  # the student saw 2 features
+    assert state["model"]["running_mean_std.running_mean"].shape == (2,)  # the student saw 2 features
     resumed = distill(tmp_path, 5).train(checkpoint=last)
     assert resumed.epoch == 5 and resumed.frames == 5 * 64
 
@@ -145,7 +145,7 @@ def test_stage_three_ppo_starts_from_the_distilled_student(distilled, tmp_path, 
     assert ("warm" in seen) == (value == "teacher")
     if value == "teacher":  # the value layer moved, nothing else did: the policy is the distilled one
         moved = {k for k, v in student.items() if not torch.equal(seen["warm"][k], v)}
-        assert moved and all(k.startswith("network.value") for k in moved), moved
+        assert moved and all(k.startswith("a2c_network.value") for k in moved), moved
 
 
 def test_a_teacher_with_another_action_space_is_a_one_line_error(tmp_path):
@@ -183,6 +183,6 @@ def test_the_central_value_reads_obs_groups_critic_on_a_plain_env(tmp_path):
     runner.train()
     last = glob.glob(str(tmp_path / "runs" / "*" / "nn" / "last_cartpole.pth"))[0]
     state = ckpt.load(last)
-    assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 2  # the actor: positions
+    assert state["model"]["a2c_network.actor_mlp.0.weight"].shape[1] == 2  # the actor: positions
     first = [v for k, v in state["central_value"].items() if k.endswith("weight")][0]
     assert first.shape[1] == 4  # the critic: the full state, no {'obs', 'state'} env needed

@@ -156,9 +156,9 @@ def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
     assert_ranks_identical(states)
     model = states[0]["model"]
     # each normalizer folded both ranks' batches (16 envs x 64 steps per rank and epoch)
-    assert model["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+    assert model["running_mean_std.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
     # value_normalizer: rl_games folds each sample's value prediction and its return: twice the count
-    assert model["value_norm.count"].item() == pytest.approx(2 * 3 * 2 * 16 * 64, abs=1e-3)
+    assert model["value_mean_std.count"].item() == pytest.approx(2 * 3 * 2 * 16 * 64, abs=1e-3)
 
 
 @pytest.mark.timeout(180)
@@ -170,7 +170,7 @@ def test_appo_learner_is_data_parallel(tmp_path):
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     states = load_dumps(dumps)
     assert_ranks_identical(states)
-    assert states[0]["model"]["obs_norm.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
+    assert states[0]["model"]["running_mean_std.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
     assert states[0]["frames"] >= 3 * 2 * 16 * 64
 
 
@@ -233,7 +233,7 @@ def test_aux_loss_network_stays_identical(tmp_path):
         "params.config.minibatch_size=64")], tmp_path)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     states = load_dumps(dumps)
-    assert "network.aux_loss_linear.weight" in states[0]["model"]
+    assert "a2c_network.aux_loss_linear.weight" in states[0]["model"]
     assert_ranks_identical(states)
 
 

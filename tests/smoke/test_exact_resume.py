@@ -37,7 +37,7 @@ class Record(Callback):
 
     def on_epoch_end(self, ctx, stats, episodes):
         kept = {k: v for k, v in stats.items() if not any(t in k for t in TIMING)}
-        self.epochs[ctx.epoch] = (kept, dict(episodes) if episodes else None)
+        self.epochs[ctx.state.epoch] = (kept, dict(episodes) if episodes else None)
 
     def on_env_step(self, ctx, result, done_indices, rows):
         self.steps += 1

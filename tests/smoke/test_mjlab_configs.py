@@ -38,8 +38,8 @@ def test_rl_games_mjlab_config_trains_as_written(tmp_path, name):
         from rlchain.runs import checkpoint as ckpt
 
         state = ckpt.load(last)
-        assert state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1] == 48
-        assert state["central_value"]["network.trunk.mlp.net.0.0.weight"].shape[1] == 72
+        assert state["model"]["a2c_network.actor_mlp.0.weight"].shape[1] == 48
+        assert state["central_value"]["a2c_network.actor_mlp.0.weight"].shape[1] == 72
         pytest.importorskip("onnxruntime")
         from rlchain.inference.export.onnx import export_onnx
 

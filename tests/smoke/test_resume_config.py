@@ -69,8 +69,8 @@ class Watch(Callback):
     def __init__(self):
         self.seen = []
 
-    def on_epoch_end(self, trainer, stats, episodes):
-        self.seen.append((trainer.cfg.e_clip, trainer.algorithm.agent.cfg.e_clip, trainer.params.config.e_clip))
+    def on_epoch_end(self, ctx, stats, episodes):
+        self.seen.append((ctx.algorithm.cfg.e_clip, ctx.algorithm.agent.cfg.e_clip, ctx.params.config.e_clip))
 
 
 def test_live_hyperparameters_belong_to_the_run_and_survive_a_resume(tmp_path):
@@ -101,9 +101,9 @@ def test_off_policy_live_values_reach_the_agent_and_the_replay_buffer(tmp_path):
     seen = []
 
     class WatchSac(Callback):
-        def on_epoch_end(self, trainer, stats, episodes):
-            algo = trainer.algorithm
-            seen.append((algo.agent.cfg.critic_tau, algo.buffer.gamma, trainer.params.config.critic_tau))
+        def on_epoch_end(self, ctx, stats, episodes):
+            algo = ctx.algorithm
+            seen.append((algo.agent.cfg.critic_tau, algo.buffer.gamma, ctx.params.config.critic_tau))
 
     overrides = ["params.network.mlp.units=[8]", "params.config.num_actors=2",
                  "params.config.num_steps_per_episode=4", "params.config.num_warmup_frames=8",

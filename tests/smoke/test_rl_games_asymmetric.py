@@ -126,12 +126,12 @@ def test_the_central_value_trains_on_states_plays_on_obs_and_resumes(tmp_path, r
 
     last = sorted(tmp_path.glob("*/nn/last_asym_ep_2_rew__*_.pth"))[-1]
     state = load_checkpoint(str(last))
-    actor_in = state["model"]["network.actor_trunk.mlp.net.0.0.weight"].shape[1]
-    critic_in = state["central_value"]["network.trunk.mlp.net.0.0.weight"].shape[1]
+    actor_in = state["model"]["a2c_network.actor_mlp.0.weight"].shape[1]
+    critic_in = state["central_value"]["a2c_network.actor_mlp.0.weight"].shape[1]
     assert (actor_in, critic_in) == (OBS, STATE)
     # only the critic's inputs carry MARK: its normalizer saw `states`, the actor's saw `obs`
-    assert state["central_value"]["obs_norm.mean"][-1].item() == pytest.approx(MARK, abs=1e-3)
-    assert state["model"]["obs_norm.mean"].shape == (OBS,)
+    assert state["central_value"]["running_mean_std.running_mean"][-1].item() == pytest.approx(MARK, abs=1e-3)
+    assert state["model"]["running_mean_std.running_mean"].shape == (OBS,)
 
     player = runner.create_player()  # what Isaac Lab's play.py does: actions from obs["obs"] alone
     player.restore(str(last))
@@ -151,4 +151,5 @@ def test_the_central_value_trains_on_states_plays_on_obs_and_resumes(tmp_path, r
     resumed = runner.run({"train": True, "checkpoint": str(last)})
     assert resumed.epoch == 3
     again = load_checkpoint(str(sorted(tmp_path.glob("*/nn/last_asym_ep_3_rew__*_.pth"))[-1]))
-    assert again["epoch"] == 3 and again["central_value"]["obs_norm.mean"][-1].item() == pytest.approx(MARK)
+    assert again["epoch"] == 3
+    assert again["central_value"]["running_mean_std.running_mean"][-1].item() == pytest.approx(MARK)

@@ -80,7 +80,7 @@ def test_an_rl_games_checkpoint_fine_tunes_one_epoch_and_exports(tag, kind, tmp_
         assert list(back["model"]) == [k.replace("_orig_mod.", "") for k in original["model"]]
         assert len(back["optimizer"]["state"]) == len(original["optimizer"]["state"])
     if kind == "central_value":  # the asymmetric critic trained on and went back under rl_games' names
-        assert not torch.equal(state["central_value"]["network.value.weight"],
-                               start["central_value"]["network.value.weight"])
+        assert not torch.equal(state["central_value"]["a2c_network.value.weight"],
+                               start["central_value"]["a2c_network.value.weight"])
         assert list(back["assymetric_vf_nets"]) == [k.replace("_orig_mod.", "") for k in original["assymetric_vf_nets"]]
         assert len(back["assymetric_vf_optimizer"]["state"]) == 4

@@ -61,7 +61,7 @@ def test_rl_games_test_network_configs_run_unchanged(tmp_path, name):
     assert result.epoch == 2
     last = os.path.join(result.run_dir, "nn", "last_test_md_multi_obs.pth")
     if "mhv_mops" in name:  # the critic is central_value_config.network's testnet, not an MLP
-        assert "network.net.linear1.weight" in ckpt.load(last)["central_value"]
+        assert "a2c_network.linear1.weight" in ckpt.load(last)["central_value"]
     events = EventAccumulator(os.path.join(result.run_dir, "summaries"))
     events.Reload()
     aux = [e.value for e in events.Scalars("losses/aux_dist_loss")] if "aux_loss" in name else []

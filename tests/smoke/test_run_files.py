@@ -187,3 +187,17 @@ def test_the_csv_log_is_not_written_through_a_planted_symlink(tmp_path):
         Runner().load(CARTPOLE, [*SMALL, "params.config.max_epochs=1", f"params.config.train_dir={tmp_path / 'runs'}",
                                  "params.config.full_experiment_name=exp", "params.config.log_writers=[csv]"]).train()
     assert victim.read_text() == "keep me"
+
+
+def test_a_full_disk_is_one_warning_then_a_count_at_the_end(tmp_path, monkeypatch, capsys):
+    full_disk(monkeypatch, after=2)  # epoch 1's files are written; every write after fails
+    with pytest.raises(ckpt.CheckpointError, match="the final checkpoint was not written"):
+        Runner().load(CARTPOLE, [*SMALL, "params.config.max_epochs=6", "params.config.save_frequency=1",
+                                 f"params.config.train_dir={tmp_path}"]).train()
+    captured = capsys.readouterr()
+    text = captured.out + captured.err
+    failed = [line for line in text.splitlines() if "failed: No space left on device" in line]
+    assert len([line for line in failed if line.startswith("warning: checkpoint writing")]) == 1, text
+    count = [line for line in text.splitlines() if "checkpoint writes failed in this run" in line]
+    # epochs 2-6 each fail ep_N and last, then the final save
+    assert len(count) == 1 and count[0].startswith("warning: 11 checkpoint writes failed"), text

@@ -7,6 +7,7 @@ import pytest
 import torch
 
 import rlchain
+from rlchain.runs import checkpoint as ckpt
 
 pytestmark = pytest.mark.smoke
 
@@ -50,3 +51,27 @@ def test_save_to_zip_writes_sb3s_archive_that_both_load(tmp_path, cls, env_id):
                                atol=1e-5)
     again = getattr(rlchain, cls).load(path)
     np.testing.assert_allclose(again.predict(obs)[0], expected, atol=1e-5)
+
+
+def test_an_sb3_archive_as_a_checkpoint_is_named_and_set_parameters_reads_it(tmp_path):
+    model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=3, verbose=0, policy_kwargs={"net_arch": [8]})
+    pytest.importorskip("stable_baselines3")
+    path = model.save(str(tmp_path / "sb3.zip"))
+    with pytest.raises(ckpt.CheckpointError) as exc:
+        ckpt.load(path)
+    one_line(exc, path, "a Stable-Baselines3 model archive", "rlchain.PPO.load(path)")
+    other = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=4, verbose=0, policy_kwargs={"net_arch": [8]})
+    obs = np.random.default_rng(0).normal(size=(6, 4)).astype(np.float32)
+    other.set_parameters(path)
+    np.testing.assert_allclose(other.predict(obs)[0], model.predict(obs)[0])
+    small = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=4, verbose=0, policy_kwargs={"net_arch": [4]})
+    with pytest.raises(ckpt.CheckpointError) as exc:
+        small.set_parameters(path)
+    one_line(exc, path, "its weights do not fit this model")
+
+
+def one_line(exc_info, path, *parts):
+    text = str(exc_info.value)
+    assert text.startswith(f"{path}: ") and "\n" not in text, text
+    for part in parts:
+        assert part in text, text

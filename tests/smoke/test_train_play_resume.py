@@ -89,8 +89,8 @@ def test_resume_restores_state_exactly(tmp_path):
     opt_saved = saved["agent"]["optimizer"]["state"]
     opt_now = state["agent"]["optimizer"]["state"]
     assert all(torch.equal(opt_saved[k]["exp_avg"], opt_now[k]["exp_avg"]) for k in opt_saved)
-    assert model.obs_norm is not None and torch.equal(state["model"]["obs_norm.mean"],
-                                                      saved["model"]["obs_norm.mean"])
+    assert model.running_mean_std is not None and torch.equal(state["model"]["running_mean_std.running_mean"],
+                                                      saved["model"]["running_mean_std.running_mean"])
 
 
 def test_same_seed_same_run(tmp_path):

@@ -69,9 +69,9 @@ def _rollout(model, horizon=4, envs=2):
 
 def test_aux_loss_is_added_to_the_loss_and_returned_for_logging():
     agent = _agent(AuxNet())
-    before = agent.model.network.aux_weight.item()
+    before = agent.model.a2c_network.aux_weight.item()
     stats = agent.update(_rollout(agent.model), progress=0.0)
-    after = agent.model.network.aux_weight.item()
+    after = agent.model.a2c_network.aux_weight.item()
     assert after < before  # the gradient reached a parameter only the auxiliary loss uses
     assert stats["losses/aux_l2"] == pytest.approx(np.mean([before ** 2, after ** 2]), rel=0.2)
 
@@ -79,7 +79,7 @@ def test_aux_loss_is_added_to_the_loss_and_returned_for_logging():
 def test_network_without_aux_loss_has_no_aux_stats():
     agent = _agent(PlainNet())
     stats = agent.update(_rollout(agent.model), progress=0.0)
-    assert agent.model.network.aux_weight.item() == 2.0  # untouched: no gradient
+    assert agent.model.a2c_network.aux_weight.item() == 2.0  # untouched: no gradient
     assert not [key for key in stats if key.startswith("losses/")]
 
 

@@ -76,9 +76,9 @@ def test_initializer_and_activation_are_applied():
 
     enc = encoder((1, 16, 16), convs=[ConvSpec(filters=2, kernel_size=3)], activation="relu",
                   initializer=InitializerConfig(name="const_initializer", val=0.5))
-    conv = enc.net[0]
+    conv = enc[0]
     assert torch.all(conv.weight == 0.5) and torch.all(conv.bias == 0)
-    assert isinstance(enc.net[1], torch.nn.ReLU)
+    assert isinstance(enc[1], torch.nn.ReLU)
 
 
 def _pong_like_model(normalize_input):
@@ -96,7 +96,7 @@ def test_uint8_images_are_scaled_once_and_the_normalizer_sees_the_same_scale():
     model = _pong_like_model(normalize_input=True)
     obs = torch.randint(0, 256, (64, 4, 84, 84), dtype=torch.uint8)
     model.update_normalizers(obs=obs)
-    mean = model.obs_norm.mean
+    mean = model.running_mean_std.running_mean
     assert 0.3 < float(mean.mean()) < 0.7  # the [0, 1] scale, not 0..255
     normalized = model.preprocess(obs)
     assert normalized.dtype == torch.float32

@@ -171,8 +171,8 @@ def test_a_critic_unlike_the_actor_is_built_as_its_own_network(tmp_path):
     builder.load(net)
     model = builder.build("x", input_shape=(5,), actions_num=2, action_space=gym.spaces.Box(-1, 1, (2,)))
     assert model.value.in_features == 8 and model.mu.in_features == 32
-    assert any(isinstance(m, torch.nn.Dropout) for m in model.actor_trunk.modules())
-    assert any(isinstance(m, torch.nn.LayerNorm) for m in model.critic_trunk.modules())
+    assert any(isinstance(m, torch.nn.Dropout) for m in model.actor_mlp.modules())
+    assert any(isinstance(m, torch.nn.LayerNorm) for m in model.critic_mlp.modules())
     mu, _, value, _ = model({"obs": torch.zeros(3, 5)})
     assert mu.shape == (3, 2) and value.shape == (3, 1) and (value >= 0).all()
     same = load_config(write(tmp_path, layout())).network  # the actor's sizes: no critic block of its own
@@ -221,9 +221,9 @@ def test_is_embodichain():
 def test_a_critic_of_its_own_has_no_rl_games_export():
     import torch
 
-    from rlchain.runs.rl_games_export import to_rl_games
+    from rlchain.runs.rl_games_checkpoint import to_rl_games
 
-    model = {"network.actor_trunk.mlp.net.0.0.weight": torch.zeros(32, 5),
-             "network.critic_trunk.mlp.net.0.0.weight": torch.zeros(64, 5)}
+    model = {"a2c_network.actor_mlp.0.weight": torch.zeros(32, 5),
+             "a2c_network.critic_mlp.0.weight": torch.zeros(64, 5)}
     with pytest.raises(ValueError, match="critic_mlp"):
         to_rl_games({"model": model})

@@ -47,7 +47,7 @@ def test_envpool_minigrid_reaches_multi_input_per_key_with_its_direction_an_inte
         assert obs["direction"].dtype == np.int64 and obs["direction"].tolist() == raw["direction"].tolist()
         assert obs["image"].dtype == np.uint8 and np.array_equal(obs["image"], raw["image"])
         model = build_model(params, env, torch.device("cpu"))
-        kinds = {k: type(e).__name__ for k, e in model.network.actor_trunk.cnn.encoders.items()}
+        kinds = {k: type(e).__name__ for k, e in model.a2c_network.actor_cnn.encoders.items()}
         assert kinds == {"direction": "EmbeddingEncoder", "image": "ImageEncoder", "mission": "FlatEncoder"}
         result = env.step(np.zeros(2, np.int64))
         assert result.obs["direction"].dtype == np.int64 and result.final_obs["image"].dtype == np.uint8

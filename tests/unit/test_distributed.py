@@ -156,7 +156,7 @@ def test_normalizer_built_with_a_communicator_syncs_through_it(group):
         plain.update(x)
         synced.update(x)
     assert calls == [1, 1, 1]
-    for name in ("mean", "var", "count"):
+    for name in ("running_mean", "running_var", "count"):
         torch.testing.assert_close(getattr(synced, name), getattr(plain, name), rtol=0, atol=1e-12)
 
 

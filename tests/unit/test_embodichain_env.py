@@ -99,5 +99,5 @@ def test_nested_dict_observations_reach_a_multi_input_network_per_key():
     assert obs["camera"].dtype == torch.uint8 and bool((obs["camera"] == 200).all())
     assert obs["robot/qpos"][1].tolist() == [1, 1, 1] and torch.equal(obs["robot/phase"], torch.tensor([0.0, 0.1]))
     model = build_model(params, env, torch.device("cpu"))
-    assert model.network.actor_trunk.cnn.keys == ("camera", "robot/phase", "robot/qpos")
+    assert model.a2c_network.actor_cnn.keys == ("camera", "robot/phase", "robot/qpos")
     assert model.act(obs)["actions"].shape == (2, 2)

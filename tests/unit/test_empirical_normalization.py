@@ -30,11 +30,11 @@ def test_statistics_match_rsl_rl_step_by_step_and_the_whole_batch():
     for x in steps:
         norm.update(x)
         mean, var, count = rsl_rl_update(mean, var, count, x)
-    torch.testing.assert_close(norm.mean, mean)
-    torch.testing.assert_close(norm.var, var)
+    torch.testing.assert_close(norm.running_mean, mean)
+    torch.testing.assert_close(norm.running_var, var)
     everything = torch.cat(steps)
-    torch.testing.assert_close(norm.mean, everything.mean(0))  # the first batch replaced the initial 0 / 1
-    torch.testing.assert_close(norm.var, everything.var(0, unbiased=False))
+    torch.testing.assert_close(norm.running_mean, everything.mean(0))  # the first batch replaced the initial 0 / 1
+    torch.testing.assert_close(norm.running_var, everything.var(0, unbiased=False))
     x = torch.randn(4, 3)
     expected = (x - mean.float()) / (var.float().sqrt() + 1e-2)  # no clip
     torch.testing.assert_close(norm.normalize(x), expected)
@@ -52,9 +52,9 @@ def test_rsl_rl_normalizer_folds_every_env_step_of_the_rollout(base_config):
     config = copy.deepcopy(base_config)
     config["params"]["config"].update(normalize_input=True, obs_normalizer="rsl_rl")
     _, ppo = ppo_epochs(config, [], 4, 2)
-    norm = ppo.model.obs_norm
+    norm = ppo.model.running_mean_std
     assert isinstance(norm, EmpiricalNormalization)
     assert int(norm.count) == 2 * 8 * 4  # epochs x horizon_length x envs: each step's next observations, once
     config["params"]["config"]["obs_normalizer_update"] = "rollout"
     _, ppo = ppo_epochs(config, [], 4, 2)
-    assert int(ppo.model.obs_norm.count) == 2 * 8 * 4  # the same rows, folded once per rollout
+    assert int(ppo.model.running_mean_std.count) == 2 * 8 * 4  # the same rows, folded once per rollout

@@ -76,17 +76,17 @@ def test_discrete_cartpole_parity(tmp_path):
 def test_continuous_pendulum_normalized_parity(tmp_path):
     _, env, model = built("ppo_pendulum.yaml", ["params.config.normalize_input=True",
                                                 "params.config.normalize_value=True"])
-    assert model.obs_norm is not None and model.value_norm is not None
+    assert model.running_mean_std is not None and model.value_mean_std is not None
     # non-trivial statistics and weights: normalization must really be inside the graph
     gen = torch.Generator().manual_seed(1)
     model.update_normalizers(obs=torch.randn(500, 3, generator=gen) * torch.tensor([0.5, 0.3, 4.0])
                              + torch.tensor([0.4, -0.1, 1.5]),
                              returns=torch.randn(500, 1, generator=gen) * 5.0 - 10.0)
     with torch.no_grad():
-        model.network.mu.weight.mul_(3.0)  # means on both sides of 1: clipped and unclipped actions
-        model.network.mu.bias.fill_(0.8)
-        model.network.sigma.fill_(-0.5)
-    assert model.obs_norm.mean.abs().max() > 0.3 and model.value_norm.var.item() > 10
+        model.a2c_network.mu.weight.mul_(3.0)  # means on both sides of 1: clipped and unclipped actions
+        model.a2c_network.mu.bias.fill_(0.8)
+        model.a2c_network.sigma.fill_(-0.5)
+    assert model.running_mean_std.running_mean.abs().max() > 0.3 and model.value_mean_std.running_var.item() > 10
     path = export_model_onnx(model, env.observation_space.shape, str(tmp_path / "pendulum.onnx"))
     rand = random_observations(env.observation_space, 64)
     real = env_observations(model, env, 16)
@@ -104,7 +104,7 @@ def test_continuous_pendulum_normalized_parity(tmp_path):
     assert np.isclose(action, 2.0).any()  # clipped to the bound, rescaled to [-2, 2]
     assert (np.abs(action) < 1.99).any()
     # the statistics matter: the same weights without them give other outputs
-    plain = ActorCritic(model.network, model.dist, (3,), 1, normalize_input=False, normalize_value=False)
+    plain = ActorCritic(model.a2c_network, model.dist, (3,), 1, normalize_input=False, normalize_value=False)
     assert np.abs(torch_reference(plain, rand)[1] - run_onnx(path, rand)[1]).max() > 1e-2
 
 

@@ -42,7 +42,9 @@ def masked_model(overrides=(), use_masks=True):
     torch.manual_seed(0)
     model = build_model(params, env, torch.device("cpu")).eval()
     with torch.no_grad():  # sharpen the logits so that the argmax varies with the observation
-        model.network.logits.weight.mul_(20.0)
+        logits = model.a2c_network.logits  # one Linear per action dimension for multi-discrete actions
+        for head in logits if isinstance(logits, torch.nn.ModuleList) else [logits]:
+            head.weight.mul_(20.0)
     return params, env, model
 
 

@@ -25,7 +25,9 @@ def test_multi_discrete_onnx_parity(tmp_path, overrides):
     torch.manual_seed(0)
     model = build_model(params, env, torch.device("cpu")).eval()
     with torch.no_grad():  # sharpen the logits so that every dimension's argmax varies with the obs
-        model.network.logits.weight.mul_(20.0)
+        logits = model.a2c_network.logits  # one Linear per action dimension for multi-discrete actions
+        for head in logits if isinstance(logits, torch.nn.ModuleList) else [logits]:
+            head.weight.mul_(20.0)
     path = export_model_onnx(model, env.observation_space.shape, str(tmp_path / "md.onnx"))
     obs = random_observations(env.observation_space, 256)
     action, _ = ort.InferenceSession(path, providers=["CPUExecutionProvider"]).run(["action", "value"], {"obs": obs})

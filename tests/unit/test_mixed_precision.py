@@ -91,10 +91,10 @@ def test_bf16_update_on_a_cpu_runs_the_network_in_bf16_and_the_losses_in_float32
     assert fp32.amp_dtype is None and bf16.amp_dtype is torch.bfloat16
     before = [p.detach().clone() for p in bf16.params]
     rollouts = _rollout(fp32), _rollout(bf16)
-    fp32.model.network.seen.clear()
-    bf16.model.network.seen.clear()
+    fp32.model.a2c_network.seen.clear()
+    bf16.model.a2c_network.seen.clear()
     out32, out16 = fp32.update(rollouts[0], 0.0), bf16.update(rollouts[1], 0.0)
-    assert bf16.model.network.seen == {torch.bfloat16} and fp32.model.network.seen == {torch.float32}
+    assert bf16.model.a2c_network.seen == {torch.bfloat16} and fp32.model.a2c_network.seen == {torch.float32}
     assert all(p.dtype == torch.float32 for p in bf16.params)  # master weights stay float32
     assert any(not torch.equal(a, b) for a, b in zip(before, bf16.params))  # it trained
     for key in ("a_loss", "c_loss", "entropy"):  # bf16 rounding only: close to the float32 update

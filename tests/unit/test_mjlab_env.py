@@ -273,7 +273,7 @@ def test_a_multi_input_network_gets_the_observation_groups_per_key(fake_mjlab, m
     assert torch.cat([obs[k].reshape(4, -1) for k in actor_keys], -1)[1].tolist() == [0, 1, 1]
     model = build_model(params, env, torch.device("cpu"))
     central_value = build_central_value(params, env, torch.device("cpu"))
-    assert model.network.actor_trunk.cnn.keys == actor_keys  # the actor never reads the critic group
-    assert central_value.network.trunk.cnn.keys == (*actor_keys, "critic")
+    assert model.a2c_network.actor_cnn.keys == actor_keys  # the actor never reads the critic group
+    assert central_value.a2c_network.actor_cnn.keys == (*actor_keys, "critic")
     assert model.act(obs)["actions"].shape == (4, ACTIONS) and central_value.value(obs, ()).shape == (4, 1)
     env.close()

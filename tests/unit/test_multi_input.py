@@ -59,8 +59,8 @@ def test_model_on_the_camera_task_acts_on_dict_observations():
     out = model.act(obs)
     assert out["actions"].shape == (4, 2) and out["values"].shape == (4, 1)
     model.update_normalizers(obs=obs)  # the proprio statistics move, the image has none (scaled /255)
-    assert set(model.obs_norm.norms) == {"proprio"}
-    assert model.obs_norm.norms["proprio"].count > 1
+    assert set(model.running_mean_std.running_mean_std) == {"proprio"}
+    assert model.running_mean_std.running_mean_std["proprio"].count > 1
 
 
 def test_actor_critic_network_gets_the_keys_flattened():
@@ -160,12 +160,12 @@ def test_central_value_reads_its_own_keys():
     env = build_env(params, 4, 0)
     model = build_model(params, env, torch.device("cpu"))
     critic = build_central_value(params, env, torch.device("cpu"))
-    assert model.network.actor_trunk.cnn.keys == ("image", "proprio")  # the actor never reads the goal
-    assert critic.network.trunk.cnn.keys == ("goal", "proprio")  # the critic reads the privileged goal
+    assert model.a2c_network.actor_cnn.keys == ("image", "proprio")  # the actor never reads the goal
+    assert critic.a2c_network.actor_cnn.keys == ("goal", "proprio")  # the critic reads the privileged goal
     obs = env.reset()
     assert critic.value(obs).shape == (4, 1)
     critic.update_normalizers(obs=obs)
-    assert set(critic.obs_norm.norms) == {"goal", "proprio"}
+    assert set(critic.running_mean_std.running_mean_std) == {"goal", "proprio"}
 
 
 def test_central_value_on_dict_observations_needs_multi_input():
@@ -214,7 +214,8 @@ def test_sac_gets_an_encoder_for_the_actor_and_one_for_the_twin_critics():
     obs = env.reset()
     assert model.act(obs)["actions"].shape == (3, 2)
     model.update_normalizers(obs=obs)
-    assert set(model.obs_norm.norms) == {"proprio"}  # the image is scaled, the proprioception normalized
+    # the image is scaled, the proprioception normalized
+    assert set(model.running_mean_std.running_mean_std) == {"proprio"}
     # the critic's loss reaches the critic's encoder only
     x = model.preprocess(obs)
     q1, q2 = net.critic(x, torch.zeros(3, 2))
@@ -283,7 +284,7 @@ def test_sac_obs_normalizer_exclude_wrong_values(value, message):
 def test_sac_obs_normalizer_exclude_leaves_the_key_as_it_is():
     params = Runner().load(CONFIG, [*SAC_NETWORK, "params.config.obs_normalizer_exclude=[proprio]"]).params
     model = build_model(params, build_env(params, 2, 0), torch.device("cpu"))
-    assert len(model.obs_norm.norms) == 0
+    assert len(model.running_mean_std.running_mean_std) == 0
 
 
 KEYED = gym.spaces.Dict({"pos": gym.spaces.Box(-1, 1, (3,), np.float32), "room": gym.spaces.Discrete(4, start=1),
@@ -351,8 +352,8 @@ def test_a_gymnasium_env_s_discrete_keys_reach_the_network_as_integers_never_nor
         gym.spaces.Dict({"pos": KEYED["pos"]}), env.action_space, 1) == 3 * 8  # room + cell: three int64
     batch = obs_as_tensor(obs, "cpu")
     model.update_normalizers(obs=batch)
-    assert set(model.obs_norm.norms) == {"pos"}
-    seen = model.obs_norm.normalize(batch)
+    assert set(model.running_mean_std.running_mean_std) == {"pos"}
+    seen = model.running_mean_std.normalize(batch)
     assert torch.equal(seen["room"], batch["room"]) and seen["room"].dtype == torch.int64
     assert model.act(batch)["actions"].shape == (3,)
     env.close()

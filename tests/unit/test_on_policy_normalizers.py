@@ -21,8 +21,8 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
         assert not obs_per_minibatch  # obs_normalizer_update: auto with discrete actions (BASE) = rollout
         model = self.model
         rows = storage.obs.reshape(-1, storage.obs.shape[-1]).double()
-        seen.append((model.obs_norm.count.item(), model.obs_norm.mean.clone(), rows.mean(0),
-                     model.value_norm.count.item()))
+        seen.append((model.running_mean_std.count.item(), model.running_mean_std.running_mean.clone(), rows.mean(0),
+                     model.value_mean_std.count.item()))
         return real_update(self, storage, progress, obs_per_minibatch)
 
     monkeypatch.setattr(PPOAgent, "update", update)
@@ -49,14 +49,14 @@ def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_f
     real_loss = agent_module.ppo_loss
 
     def loss(model, cfg, batch, *args, **kwargs):  # the minibatch's forward pass and losses
-        norm = model.obs_norm
-        seen.append((norm.count.item(), norm.mean.clone(), batch.obs.double().mean(0)))
+        norm = model.running_mean_std
+        seen.append((norm.count.item(), norm.running_mean.clone(), batch.obs.double().mean(0)))
         return real_loss(model, cfg, batch, *args, **kwargs)
 
     real_update = PPOAgent.update
 
     def update(self, storage, progress, obs_per_minibatch=False):
-        counts.append((self.model.obs_norm.count.item(), obs_per_minibatch))
+        counts.append((self.model.running_mean_std.count.item(), obs_per_minibatch))
         return real_update(self, storage, progress, obs_per_minibatch)
 
     monkeypatch.setattr(agent_module, "ppo_loss", loss)

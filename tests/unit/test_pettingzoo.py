@@ -256,7 +256,7 @@ def test_frozen_policies_keep_their_weights(tmp_path):
     assert set(states[0]["agent"]) == {"runners"}  # a frozen policy has no optimizer
     late = [k for k in states[0]["model"] if k.startswith("late.")]
     assert late and all(torch.equal(states[0]["model"][k], states[1]["model"][k]) for k in late)
-    runners = [k for k in states[0]["model"] if k.startswith("runners.network")]
+    runners = [k for k in states[0]["model"] if k.startswith("runners.a2c_network")]
     assert any(not torch.equal(states[0]["model"][k], states[1]["model"][k]) for k in runners)
 
 

@@ -72,7 +72,8 @@ def test_the_loss_is_its_terms_summed_by_hand(train_critic):
     assert aux == {} and torch.equal(current, params.detach())
     assert float(stats[5]) == pytest.approx(float(model.dist.kl(batch.params, params.detach()).mean()), rel=1e-5)
     loss.backward()  # a loss to train on; the value head only when it trains the critic
-    assert model.network.mu.weight.grad is not None and (model.network.value.weight.grad is not None) == train_critic
+    network = model.a2c_network
+    assert network.mu.weight.grad is not None and (network.value.weight.grad is not None) == train_critic
 
 
 def test_minibatch_advantage_normalization_normalizes_in_the_loss():

@@ -67,9 +67,9 @@ def test_activations_as_rl_games_places_them():
     """cnn.activation inside the residual blocks, mlp.activation on the flattened features."""
     net = build(config(cnn={"permute_input": False, "conv_depths": [4], "activation": "tanh"},
                        mlp={"units": [8], "activation": "elu"}), gym.spaces.Box(0, 1, (2, 8, 8), np.float32))
-    encoder = net.actor_trunk.cnn
+    encoder = net.cnn
     assert isinstance(encoder.out_act, torch.nn.ELU)
-    assert isinstance(encoder.stages[0][2].net[0], torch.nn.Tanh)
+    assert isinstance(encoder.stages[0].res_block1.activate1, torch.nn.Tanh)
 
 
 def test_impala_encoder_rejects_non_images():
@@ -82,7 +82,7 @@ def test_parameter_count_is_rl_games_pong_resnet():
     net = build(config(require_rewards=True, require_last_actions=True,
                        rnn={"name": "lstm", "units": 256, "layers": 1}), dict_space())
     assert sum(p.numel() for p in net.parameters()) == 2_878_167
-    assert net.actor_trunk.rnn.rnn.input_size == 512 + 1 + ACTIONS  # mlp out + reward + one-hot action
+    assert net.rnn.rnn.input_size == 512 + 1 + ACTIONS  # mlp out + reward + one-hot action
 
 
 def test_image_observations_discrete_shapes():
@@ -98,7 +98,7 @@ def test_uint8_images_are_scaled_once_by_the_model():
     model = ActorCritic(build(config(), space), Categorical(ACTIONS), IMAGE, 1, False, False)
     raw = torch.randint(0, 256, (3, *IMAGE), dtype=torch.uint8)
     params, value, _ = model.evaluate(raw)
-    expected, _, _ = model.network({"obs": raw.float() / 255.0})
+    expected, _, _ = model.a2c_network({"obs": raw.float() / 255.0})
     assert torch.allclose(params, expected, atol=1e-6)
 
 
@@ -137,12 +137,12 @@ def test_dict_observations_without_the_flags_read_only_the_image():
     with torch.no_grad():
         a, b = net({"obs": flat_obs(2, 0.0, 0)}), net({"obs": flat_obs(2, 1.0, 4)})
     assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1])
-    assert net.actor_trunk.mlp.in_size == 3872
+    assert net.mlp.in_size == 3872
 
 
 def test_only_the_requested_input_is_read():
     net = build(config(require_last_actions=True, rnn={"name": "lstm", "units": 8}), dict_space())
-    assert net.actor_trunk.rnn.rnn.input_size == 512 + ACTIONS
+    assert net.rnn.rnn.input_size == 512 + ACTIONS
     states = net.get_default_rnn_state(2)
     with torch.no_grad():
         a = net({"obs": flat_obs(2, 0.0, 1), "rnn_states": states})

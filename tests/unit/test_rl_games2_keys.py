@@ -102,7 +102,7 @@ def test_sac_network_normalization_layer_norm():
     raw["params"]["network"]["normalization"] = "layer_norm"
     model = build_model(parse(raw), gym.make("Pendulum-v1"), torch.device("cpu"))
     norms = [name for name, m in model.named_modules() if isinstance(m, torch.nn.LayerNorm)]
-    for part in ("actor.", "critic.q1.", "critic.q2."):  # the actor and both critics (and their targets)
+    for part in ("actor.", "critic.Q1.", "critic.Q2."):  # the actor and both critics (and their targets)
         assert any(part in name for name in norms), (part, norms)
     assert params.network.normalization is None
 

@@ -14,7 +14,6 @@ from rlchain.rl_games.algos_torch import torch_ext
 from rlchain.rl_games.algos_torch.players import PpoPlayerContinuous, PpoPlayerDiscrete, SACPlayer
 from rlchain.runs import checkpoint as ckpt
 from rlchain.runs import rl_games_checkpoint as rlg
-from rlchain.runs import rl_games_export
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "rl_games")
 sys.path.insert(0, DATA)
@@ -59,9 +58,7 @@ def test_rlchain_plays_an_rl_games_checkpoint_as_rl_games_does(tag, kind):
 
 
 def _rl_games_agent(state):
-    if "rl_games_sac_optimizers" in state:
-        return dict(state["rl_games_sac_optimizers"])
-    return {"optimizer": state["rl_games_optimizer"]["state_dict"]}
+    return dict(state["rl_games_optimizers"])
 
 
 @pytest.mark.parametrize("tag,kind", CASES)
@@ -72,7 +69,7 @@ def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(
     counters = (4, 64) if sac else (2, 64)
     assert state["origin"] == rlg.ORIGIN and (state["epoch"], state["frames"]) == counters
     raw = torch_ext.load_checkpoint(path)
-    back = rl_games_export.to_rl_games({**state, "agent": _rl_games_agent(state)})
+    back = rlg.to_rl_games({**state, "agent": _rl_games_agent(state)})
     parts = ("actor", "critic", "critic_target", "running_mean_std") if sac else ("model",)
     for part in parts:
         original = rlg.strip_compiled(raw[part])
@@ -88,12 +85,11 @@ def test_the_loader_reads_counters_and_the_writer_gives_rl_games_its_names_back(
 def test_an_rl_games_central_value_maps_onto_rlchain_and_back(tag):
     path = os.path.join(DATA, f"{tag}_central_value.pth")
     state = ckpt.load(path)
-    assert {"network.trunk.mlp.net.0.0.weight", "network.value.bias", "obs_norm.mean", "value_norm.var"} <= \
-        set(state["central_value"])
-    assert state["rl_games_cv_optimizer"]["param_names"][0] == "network.trunk.mlp.net.0.0.weight"
-    agent = {"optimizer": state["rl_games_optimizer"]["state_dict"]}
-    cv_agent = {"optimizer": state["rl_games_cv_optimizer"]["state_dict"]}
-    back = rl_games_export.to_rl_games({**state, "agent": agent, "central_value_agent": cv_agent})
+    assert {"a2c_network.actor_mlp.0.weight", "a2c_network.value.bias", "running_mean_std.running_mean",
+            "value_mean_std.running_var"} <= set(state["central_value"])
+    agent = {"optimizer": state["rl_games_optimizers"]["optimizer"]}
+    cv_agent = {"optimizer": state["rl_games_cv_optimizer"]}
+    back = rlg.to_rl_games({**state, "agent": agent, "central_value_agent": cv_agent})
     raw = torch_ext.load_checkpoint(path)
     original = rlg.strip_compiled(raw["assymetric_vf_nets"])
     assert list(back["assymetric_vf_nets"]) == list(original)  # uncompiled names: rl_games compiles after restoring
@@ -102,49 +98,38 @@ def test_an_rl_games_central_value_maps_onto_rlchain_and_back(tag):
                        raw["assymetric_vf_optimizer"]["state"][2]["exp_avg"])
 
 
-@pytest.mark.parametrize("kind", RNN_KINDS + ("cnn",))
-def test_recurrent_and_convolutional_layers_take_rlchain_trunk_names(kind):
-    names = rlg.model_names_from_rl_games(rlg.strip_compiled(torch_ext.load_checkpoint(
-        os.path.join(DATA, f"v20_{kind}.pth"))["model"]))
-    expected = {
-        "lstm": {"a2c_network.rnn.rnn.weight_ih_l0": "network.actor_trunk.rnn.rnn.weight_ih_l0",
-                 "a2c_network.actor_mlp.0.weight": "network.actor_trunk.mlp.net.0.0.weight"},
-        "gru_separate": {"a2c_network.c_rnn.rnn.bias_hh_l0": "network.critic_trunk.rnn.rnn.bias_hh_l0",
-                         "a2c_network.a_layer_norm.weight": "network.actor_trunk.rnn.norm.weight",
-                         "a2c_network.c_layer_norm.bias": "network.critic_trunk.rnn.norm.bias"},
-        "cnn": {"a2c_network.actor_cnn.0.weight": "network.actor_trunk.cnn.net.0.weight",
-                "a2c_network.actor_cnn.2.bias": "network.actor_trunk.cnn.net.2.bias"},
-        "resnet_lstm": {"a2c_network.cnn.1.conv.conv.weight": "network.actor_trunk.cnn.stages.1.0.weight",
-                        "a2c_network.cnn.0.res_block2.conv1.conv.bias": "network.actor_trunk.cnn.stages.0.3.net.1.bias",
-                        "a2c_network.mlp.0.weight": "network.actor_trunk.mlp.net.0.0.weight",
-                        "a2c_network.rnn.rnn.bias_hh_l0": "network.actor_trunk.rnn.rnn.bias_hh_l0"},
-    }[kind]
-    assert {k: names[k] for k in expected} == expected
+@pytest.mark.parametrize("tag,kind", CASES)
+def test_rlchain_builds_the_files_tensors_under_their_rl_games_names(tag, kind):
+    player = _player(tag, kind)
+    own = {k: tuple(v.shape) for k, v in player.policy.state_dict().items()}
+    state = ckpt.load(os.path.join(DATA, f"{tag}_{kind}.pth"))
+    saved = {k: tuple(v.shape) for k, v in state["model"].items()}
+    assert {k: v for k, v in own.items() if k not in state.get("keep_built", ())} == saved
 
 
 def test_an_rl_games_sac_checkpoint_maps_onto_rlchain_sac():
     state = ckpt.load(os.path.join(DATA, "v20_sac.pth"))
     model = state["model"]
-    assert {"network.actor.trunk.net.1.0.weight", "network.actor.head.weight", "network.critic.q2.1.bias",
-            "critic_target.q1.0.net.0.0.weight", "obs_norm.var", "log_alpha"} <= set(model)
-    assert model["network.actor.head.weight"].shape == (2 * ACTIONS, 8)
+    assert {"network.actor.trunk.2.weight", "network.actor.trunk.4.weight", "network.critic.Q2.4.bias",
+            "critic_target.Q1.0.weight", "running_mean_std.running_var", "log_alpha"} <= set(model)
+    assert model["network.actor.trunk.4.weight"].shape == (2 * ACTIONS, 8)
     # rl_games 1.6.5 keeps no temperature: the model keeps the one its config starts from
     assert ckpt.load(os.path.join(DATA, "v165_sac.pth"))["keep_built"] == ["log_alpha"]
 
 
-def test_an_rl_games_network_rlchain_does_not_convert_is_a_one_line_error(tmp_path):
+def test_an_rl_games_network_rlchain_does_not_build_is_a_one_line_error(tmp_path):
     state = torch_ext.load_checkpoint(os.path.join(DATA, "v165_discrete.pth"))
     state["model"]["a2c_network.d2rl.0.weight"] = torch.zeros(4, 8)
     torch_ext.save_checkpoint(str(tmp_path / "other"), state)
-    with pytest.raises(ckpt.CheckpointError, match=r"other\.pth: an rl_games checkpoint rlchain cannot read: "
-                                                   r"'a2c_network\.d2rl\.0\.weight' has no rlchain name"):
-        ckpt.load(str(tmp_path / "other.pth"))
+    with pytest.raises(ckpt.CheckpointError, match=r"other\.pth: checkpoint does not match this model's network "
+                                                   r"\(unexpected \['a2c_network\.d2rl\.0\.weight'\]\)"):
+        _player("v165", "discrete").restore(str(tmp_path / "other.pth"))
 
 
 @pytest.mark.parametrize("kind", ["layer_norm", "sac_layer_norm"])
 def test_rl_games_2_normalization_layers_map_after_the_activation(kind):
     model = ckpt.load(os.path.join(DATA, f"v20_{kind}.pth"))["model"]
-    norm = "network.actor_trunk.mlp.net.1.2.weight" if kind == "layer_norm" else "network.critic.q2.0.net.1.2.bias"
+    norm = "a2c_network.actor_mlp.5.weight" if kind == "layer_norm" else "network.critic.Q2.5.bias"
     assert norm in model and model[norm].shape == (8,)
 
 
@@ -172,18 +157,18 @@ def test_norm_after_activation_builds_rl_games_order():
     from rlchain.config.network import MlpConfig
     from rlchain.networks.mlp import MLP
 
-    after = MLP(3, MlpConfig(units=[4], normalization="layer_norm", norm_after_activation=True)).net[0]
-    before = MLP(3, MlpConfig(units=[4], normalization="layer_norm")).net[0]
+    after = MLP(3, MlpConfig(units=[4], normalization="layer_norm", norm_after_activation=True))
+    before = MLP(3, MlpConfig(units=[4], normalization="layer_norm"))
     assert [type(m).__name__ for m in after] == ["Linear", "ELU", "LayerNorm"]
     assert [type(m).__name__ for m in before] == ["Linear", "LayerNorm", "ELU"]
 
 
 def test_rlchain_normalization_layers_are_not_exported_for_rl_games():
     state = ckpt.load(os.path.join(DATA, "v165_continuous.pth"))
-    state["model"]["network.actor_trunk.mlp.net.0.1.weight"] = torch.ones(8)
-    with pytest.raises(ValueError, match=r"'network\.actor_trunk\.mlp\.net\.0\.1\.weight' is a normalization "
+    state["model"]["a2c_network.actor_mlp.1.weight"] = torch.ones(8)
+    with pytest.raises(ValueError, match=r"'a2c_network\.actor_mlp\.1\.weight' is a normalization "
                                          r"layer before the activation .* rl_games cannot compute this network"):
-        rl_games_export.to_rl_games(state)
+        rlg.to_rl_games(state)
 
 
 def test_torch_ext_save_and_load_checkpoint_round_trip(tmp_path):
@@ -206,14 +191,12 @@ def test_export_rl_games_writes_what_rl_games_reads(tmp_path):
     assert all(torch.equal(written["model"][k], original[k]) for k in original) and written["epoch"] == 2
 
 
-def test_a_multi_discrete_head_is_joined_and_written_back_only_with_its_sizes():
+def test_a_multi_discrete_head_keeps_one_linear_per_dimension_both_ways():
     state = ckpt.load(os.path.join(DATA, "v20_multi_discrete.pth"))
-    assert state["model"]["network.logits.weight"].shape == (sum(MULTI), 8)
-    assert state["rl_games_logits_sizes"] == list(MULTI)
-    trained = {k: v for k, v in state.items() if k != "rl_games_logits_sizes"}  # as rlchain saves it after training
-    trained["config"] = {"params": {"network": {"space": {"multi_discrete": {}}}}}
-    with pytest.raises(ValueError, match=r"'network\.logits' is one head over every action dimension"):
-        rl_games_export.to_rl_games(trained)
+    assert [state["model"][f"a2c_network.logits.{i}.weight"].shape for i in range(len(MULTI))] == \
+        [(n, 8) for n in MULTI]
+    trained = {k: v for k, v in state.items() if k != "origin"}  # as rlchain saves it after training
+    assert rlg.to_rl_games(trained)["model"] is not None
 
 
 @pytest.mark.parametrize("tag", ["v165", "v20"])

@@ -1,4 +1,4 @@
-"""rlchain checkpoints as rl_games' dicts (rlchain.runs.rl_games_export) for networks written the rl_games way, and
+"""rlchain checkpoints as rl_games' dicts (rlchain.runs.rl_games_checkpoint) for networks written the rl_games way, and
 the keys a checkpoint under rl_games' API carries beside rlchain's (rlchain.runs.rl_games_layout.rl_games_keys)."""
 
 import gymnasium as gym
@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from rlchain.rl_games.algos_torch import model_builder, models, network_builder
-from rlchain.runs import rl_games_export
+from rlchain.runs import rl_games_checkpoint
 from rlchain.runs.rl_games_layout import rl_games_keys
 
 BLOCK = {"name": "own_a2c", "separate": False, "space": {"discrete": {}},
@@ -25,13 +25,16 @@ class HeadBuilder(network_builder.A2CBuilder):
 
 
 def _ppo_state(network):
-    """An rlchain PPO checkpoint of ``network`` (as rlchain's model holds it: ``network.*`` and the normalizers),
-    with the optimizer state of one Adam step."""
+    """An rlchain PPO checkpoint of ``network`` (as rlchain's model holds it: ``a2c_network.*`` and the
+    normalizers), with the optimizer state of one Adam step."""
     f64 = torch.float64
-    model = {"value_norm.mean": torch.zeros(1, dtype=f64), "value_norm.var": torch.ones(1, dtype=f64),
-             "value_norm.count": torch.tensor(3.0, dtype=f64), "obs_norm.mean": torch.arange(4.0, dtype=f64),
-             "obs_norm.var": torch.ones(4, dtype=f64), "obs_norm.count": torch.tensor(5.0, dtype=f64)}
-    model.update({f"network.{k}": v for k, v in network.state_dict().items()})
+    model = {"value_mean_std.running_mean": torch.zeros(1, dtype=f64),
+             "value_mean_std.running_var": torch.ones(1, dtype=f64),
+             "value_mean_std.count": torch.tensor(3.0, dtype=f64),
+             "running_mean_std.running_mean": torch.arange(4.0, dtype=f64),
+             "running_mean_std.running_var": torch.ones(4, dtype=f64),
+             "running_mean_std.count": torch.tensor(5.0, dtype=f64)}
+    model.update({f"a2c_network.{k}": v for k, v in network.state_dict().items()})
     optimizer = torch.optim.Adam(network.parameters())
     sum(p.sum() for p in network.parameters()).backward()
     optimizer.step()
@@ -43,7 +46,7 @@ def test_an_own_a2c_network_is_written_in_rl_games_model_layout():
     builder = HeadBuilder()
     builder.load(BLOCK)
     state = _ppo_state(builder.build("a2c", **BUILD))
-    out = rl_games_export.own_network_to_rl_games(state)
+    out = rl_games_checkpoint.to_rl_games(state)
     # rl_games' model around the same builder takes the dict as it is, in its own order
     rl_model = models.ModelA2C(builder).build({**BUILD, "normalize_input": True, "normalize_value": True})
     assert list(out["model"]) == list(rl_model.state_dict())
@@ -64,7 +67,7 @@ def test_a_key_outside_the_network_and_normalizers_is_a_value_error():
     state = _ppo_state(builder.build("a2c", **BUILD))
     state["model"]["log_std"] = torch.zeros(2)
     with pytest.raises(ValueError, match="'log_std' is outside the network and its normalizers"):
-        rl_games_export.own_network_to_rl_games(state)
+        rl_games_checkpoint.to_rl_games(state)
 
 
 def test_launcher_checkpoint_of_an_own_network_carries_rl_games_model(scoped_registries):
@@ -96,9 +99,10 @@ def test_an_own_sac_network_is_written_as_rl_games_sac_parts():
                         action_space=gym.spaces.Box(-1, 1, (1,)))
     target = {f"critic_target.{k}": v + 1.0 for k, v in net.critic.state_dict().items()}  # rlchain's trained target
     model = {**{f"network.{k}": v for k, v in net.state_dict().items()}, **target, "log_alpha": torch.tensor(0.5),
-             "obs_norm.mean": torch.zeros(3, dtype=torch.float64), "obs_norm.var": torch.ones(3, dtype=torch.float64),
-             "obs_norm.count": torch.tensor(1.0, dtype=torch.float64)}
-    out = rl_games_export.own_network_to_rl_games({"algo": "sac", "model": model, "epoch": 2, "frames": 100,
+             "running_mean_std.running_mean": torch.zeros(3, dtype=torch.float64),
+             "running_mean_std.running_var": torch.ones(3, dtype=torch.float64),
+             "running_mean_std.count": torch.tensor(1.0, dtype=torch.float64)}
+    out = rl_games_checkpoint.to_rl_games({"algo": "sac", "model": model, "epoch": 2, "frames": 100,
                                                    "agent": {"actor_opt": {"state": {}, "param_groups": []}}})
     net.actor.load_state_dict(out["actor"])
     net.critic.load_state_dict(out["critic"])

@@ -121,7 +121,7 @@ def test_rollout_log_probs_match_training_evaluation(separate, kind):
         net = _network({"name": "lstm", "units": 6, "layers": 1}, separate=separate)
         shape, dtype, n = (3,), torch.float32, 2
     model = ActorCritic(net, Categorical(n), shape, 1, normalize_input=kind == "cnn", normalize_value=False)
-    if model.obs_norm is not None:  # statistics away from the identity, frozen between rollout and update
+    if model.running_mean_std is not None:  # statistics away from the identity, frozen between rollout and update
         model.update_normalizers(obs=torch.randint(0, 256, (16, *shape), dtype=torch.uint8))
     horizon, envs, length = 8, 4, 4
     states = model.initial_state(envs)
@@ -150,20 +150,19 @@ def test_concat_output_appends_the_encoder_features(before_mlp):
     torch.manual_seed(0)
     net = _cnn_network({"name": "gru", "units": 5, "layer_norm": True, "concat_output": True,
                         "before_mlp": before_mlp})
-    trunk = net.actor_trunk
-    cnn_size = trunk.cnn.out_size  # 4 filters * 4 * 4
+    cnn_size = net.actor_cnn.out_size  # 4 filters * 4 * 4
     obs = torch.rand(6, *FRAME)
-    states = trunk.initial_state(2, torch.device("cpu"))
-    out, _ = trunk(obs, states, None, 3)
-    encoded = trunk.cnn(obs)
+    states = net.get_default_rnn_state(2)
+    out, _ = net._trunk(net.actor, obs, states, None, 3, None, None)
+    encoded = net.actor_cnn(obs)
     if before_mlp:
-        assert trunk.mlp.in_size == 5 + cnn_size
-        rnn_out, _ = trunk.rnn(encoded, states, None, 3)
-        expected = trunk.mlp(torch.cat([rnn_out, encoded], -1))
+        assert net.actor_mlp.in_size == 5 + cnn_size
+        rnn_out, _ = net.rnn(encoded, states, None, 3)
+        expected = net.actor_mlp(torch.cat([net.layer_norm(rnn_out), encoded], -1))
     else:
-        assert trunk.out_size == 5 + cnn_size and net.logits.in_features == 5 + cnn_size
-        rnn_out, _ = trunk.rnn(trunk.mlp(encoded), states, None, 3)
-        expected = torch.cat([rnn_out, encoded], -1)
+        assert net.actor.out_size == 5 + cnn_size and net.logits.in_features == 5 + cnn_size
+        rnn_out, _ = net.rnn(net.actor_mlp(encoded), states, None, 3)
+        expected = torch.cat([net.layer_norm(rnn_out), encoded], -1)
     assert torch.allclose(out, expected, atol=1e-6)
 
 

@@ -10,7 +10,7 @@ from torch import nn
 
 from rlchain.networks.sb3_extractors import BaseFeaturesExtractor, CombinedExtractor, NatureCNN, channels_first_space
 from rlchain.networks.sb3_policies import ActorCriticPolicy
-from rlchain.networks.sb3_policy import ObsAdapter, SB3ActorCriticNetwork, SB3PolicyBuilder
+from rlchain.networks.sb3_policy import ObsAdapter, SB3ActorCriticNetwork, sb3_policy_network
 from rlchain.networks.user_classes import class_name, remember, resolve
 from rlchain.sb3.policy_block import needs_sb3_network, sb3_network_block
 
@@ -95,15 +95,12 @@ def test_the_builder_makes_sac_and_dqn_networks_around_an_extractor():
     box = gym.spaces.Box(-1, 1, (4,), np.float32)
     block = sb3_network_block("sac", "MlpPolicy", {"features_extractor_class": Tiny, "net_arch": {"pi": [8],
                                                                                                    "qf": [16, 16]}})
-    builder = SB3PolicyBuilder()
-    builder.load(block)
-    sac = builder.build("network", observation_space=box, input_shape=(4,), actions_num=2,
-                        action_space=gym.spaces.Box(-1, 1, (2,), np.float32))
+    sac = sb3_policy_network(block, observation_space=box, input_shape=(4,), actions_num=2,
+                             action_space=gym.spaces.Box(-1, 1, (2,), np.float32))
     assert sac.actor.encoder is not sac.critic.encoder  # SB3's SAC: an extractor each
-    assert sac.critic.q1[0].out_size == 16 and sac.actor.trunk.out_size == 8
-    builder.load(sb3_network_block("dqn", "CnnPolicy", {}))
-    dqn = builder.build("network", observation_space=IMAGE, input_shape=IMAGE.shape, actions_num=3,
-                        action_space=gym.spaces.Discrete(3))
+    assert sac.critic.Q1[0].out_features == 16 and sac.actor.trunk[0].out_features == 8
+    dqn = sb3_policy_network(sb3_network_block("dqn", "CnnPolicy", {}), observation_space=IMAGE,
+                             input_shape=IMAGE.shape, actions_num=3, action_space=gym.spaces.Discrete(3))
     assert dqn(torch.zeros(2, 36, 36, 3)).shape == (2, 3)
 
 

@@ -47,7 +47,7 @@ def test_partial_load_with_strict_false_changes_only_those_parameters():
 
 def test_sac_head_splits_into_mu_and_log_std():
     head = torch.arange(8.0).reshape(4, 2)  # 2 actions: rows 0-1 mu, rows 2-3 log_std
-    state = to_sb3("sac", {"network.actor.head.weight": head})
+    state = to_sb3("sac", {"network.actor.trunk.0.weight": head})
     np.testing.assert_array_equal(state["actor.mu.weight"], head[:2])
     np.testing.assert_array_equal(state["actor.log_std.weight"], head[2:])
 

@@ -61,8 +61,8 @@ def test_the_teacher_input_per_key_or_concatenated_in_the_named_order():
 
 
 def test_a_multi_input_teacher_must_get_every_key_it_encodes():
-    weights = {"network.actor_trunk.cnn.encoders.goal.mlp.net.0.0.weight": 0,
-               "network.actor_trunk.cnn.encoders.proprio.mlp.net.0.0.weight": 0, "network.mu.weight": 0}
+    weights = {"a2c_network.actor_cnn.encoders.goal.mlp.0.weight": 0,
+               "a2c_network.actor_cnn.encoders.proprio.mlp.0.weight": 0, "a2c_network.mu.weight": 0}
     check_encoded(weights, ("goal", "proprio"), SPACE, True, "cfg.yaml", "t.pth")  # fits: no error
     with pytest.raises(ConfigError, match=r"params\.config\.obs_groups\.teacher: leaves out goal, which the teacher "
                                           r"in t\.pth reads \(it encodes goal, proprio\)"):

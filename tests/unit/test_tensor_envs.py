@@ -407,7 +407,7 @@ def test_a_tensor_env_s_dict_reaches_multi_input_per_key_with_its_discrete_key_a
                                                               "params.network.mlp.units=[8]"]).params
     env = TorchRooms()
     model = build_model(params, env, torch.device("cpu"))
-    assert type(model.network.actor_trunk.cnn.encoders["room"]).__name__ == "EmbeddingEncoder"
+    assert type(model.a2c_network.actor_cnn.encoders["room"]).__name__ == "EmbeddingEncoder"
     rollout = dict_zeros((4, 4), env.observation_space)  # the rollout storage's buffers
     obs = env.reset()
     for t in range(4):  # an episode ends at step 3: its rows reset inside the step, their room still an int64

@@ -29,8 +29,8 @@ def test_rl_games_statistics_are_those_of_the_values_and_the_returns_together():
     cv = CentralValue(None, (3,), 1, False, True, network=_Critic(), value_normalizer_kind="rl_games")
     cv.update_normalizers(returns=returns, values=values)
     both = torch.cat([values, returns])
-    assert cv.value_norm.mean.item() == pytest.approx(both.mean().item(), rel=1e-4)  # count starts at 1e-5
-    assert cv.value_norm.var.item() == pytest.approx(both.var(unbiased=False).item(), rel=1e-4)
+    assert cv.value_mean_std.running_mean.item() == pytest.approx(both.mean().item(), rel=1e-4)  # count starts at 1e-5
+    assert cv.value_mean_std.running_var.item() == pytest.approx(both.var(unbiased=False).item(), rel=1e-4)
     assert norm.clip == VALUE_NORM_CLIP == 5.0
 
 
@@ -38,16 +38,17 @@ def test_returns_statistics_ignore_the_values_and_do_not_clip():
     cv = CentralValue(None, (3,), 1, False, True, network=_Critic(), value_normalizer_kind="returns")
     returns = torch.tensor([[10.0], [20.0], [30.0], [40.0]], dtype=torch.float64)
     cv.update_normalizers(returns=returns, values=torch.zeros(3, 1, dtype=torch.float64))
-    assert cv.value_norm.mean.item() == pytest.approx(25.0, rel=1e-4)
-    assert cv.value_norm.clip == 0.0
-    std = (cv.value_norm.var + cv.value_norm.epsilon).sqrt().item()
+    assert cv.value_mean_std.running_mean.item() == pytest.approx(25.0, rel=1e-4)
+    assert cv.value_mean_std.clip == 0.0
+    std = (cv.value_mean_std.running_var + cv.value_mean_std.epsilon).sqrt().item()
     assert cv.denorm_value(torch.tensor([[8.0]])).item() == pytest.approx(25.0 + 8.0 * std, rel=1e-5)
 
 
 def test_rl_games_clamps_the_value_head_output_and_the_normalized_targets_at_5():
     cv = CentralValue(None, (3,), 1, False, True, network=_Critic(), value_normalizer_kind="rl_games")
     cv.update_normalizers(returns=torch.tensor([[10.0], [20.0], [30.0], [40.0]]), values=torch.tensor([[25.0]]))
-    mean, std = cv.value_norm.mean.item(), (cv.value_norm.var + cv.value_norm.epsilon).sqrt().item()
+    norm = cv.value_mean_std
+    mean, std = norm.running_mean.item(), (norm.running_var + norm.epsilon).sqrt().item()
     assert cv.denorm_value(torch.tensor([[8.0], [-8.0], [1.0]])).flatten().tolist() == pytest.approx(
         [mean + 5 * std, mean - 5 * std, mean + std], rel=1e-5)  # the head's +-8 clamped to +-5 first
     assert cv.norm_value(torch.tensor([[mean + 9 * std]])).item() == pytest.approx(5.0)
@@ -59,7 +60,7 @@ def test_the_config_key_reaches_the_actor_critic_model():
         assert params.config.value_normalizer == kind
         net = ActorCriticNetwork(params.network, (3,), 2, 1, continuous=False)
         built = actor_critic_model(net, gym.spaces.Discrete(2), (3,), 1, params.config, "discrete_a2c")
-        assert built.value_norm.clip == clip and built.fold_values is fold
+        assert built.value_mean_std.clip == clip and built.fold_values is fold
 
 
 def test_an_unknown_value_normalizer_is_a_one_line_config_error():

@@ -78,7 +78,6 @@ class FragmentRunner:
         self.env: VecEnv | None = None
         self.model: torch.nn.Module | None = None
         self.version = -1
-        self.obs: torch.Tensor | None = None
         self._seed: int | None = None
         self._killed = threading.Event()
         self.fragments_sampled = 0
@@ -140,21 +139,19 @@ class FragmentRunner:
         if weights is not None:
             self.load_weights(weights, version)
         began = time.monotonic()
-        if self.obs is None:
-            self.obs = torch.as_tensor(np.asarray(self.env.reset(seed=self._seed)))
-        collector = self._collector()
+        collector = self._collector()  # where this runner's envs stand
+        if collector.obs is None:
+            collector.place(torch.as_tensor(np.asarray(self.env.reset(seed=self._seed))))
         steps = self._steps = {"obs": [], "actions": [], "log_probs": [], "params": [], "rewards": [],
                                "terminated": [], "truncated": [], "final_steps": [], "final_obs": [],
                                "returns": [], "lengths": [], "successes": []}
         version = self.version
-        collector.place(self.obs)
-        complete = collector.rollout()
-        self.obs = collector.obs
-        if not complete:
+        if not collector.rollout():
             raise RunnerKilled(f"runner {self.worker} killed")
-        steps["obs"].append(self.obs)
+        obs = collector.obs
+        steps["obs"].append(obs)
         self.fragments_sampled += 1
-        empty_final = torch.zeros((0, *self.obs.shape[1:]), dtype=self.obs.dtype)
+        empty_final = torch.zeros((0, *obs.shape[1:]), dtype=obs.dtype)
         final_obs = steps["final_obs"]
         return Fragment(
             obs=torch.stack(steps["obs"]), actions=torch.stack(steps["actions"]),
@@ -162,19 +159,23 @@ class FragmentRunner:
             rewards=torch.stack(steps["rewards"]), terminated=torch.stack(steps["terminated"]),
             truncated=torch.stack(steps["truncated"]),
             final_steps=torch.tensor(steps["final_steps"], dtype=torch.long).reshape(-1, 2),
-            final_obs=torch.cat(final_obs).to(self.obs.dtype) if final_obs else empty_final,
+            final_obs=torch.cat(final_obs).to(obs.dtype) if final_obs else empty_final,
             version=version, worker=self.worker, episode_returns=steps["returns"], episode_lengths=steps["lengths"],
             episode_successes=steps["successes"],
             info_totals=self._info_means.totals() if self._info_means.keys else None,
             sample_seconds=time.monotonic() - began)
 
     def _collector(self) -> OnPolicyCollector:
-        """The collector over this runner's envs and policy copy (rebuilt when either changed)."""
+        """The collector over this runner's envs and policy copy (rebuilt when either changed: the same envs keep
+        their place, new envs start from a reset)."""
         c = self._steps_collector
         if c is None or c.env is not self.env or c.model is not self.model:
             side = RunnerSide(self)
+            same_envs = c is not None and c.env is self.env
+            obs = c.obs if same_envs else None
             c = self._steps_collector = OnPolicyCollector(self.env, self.model, side, None, horizon=self.horizon,
                                                           on_step=self._on_step)
+            c.place(obs)
         return c
 
     def _on_step(self, step: CollectedStep) -> None:

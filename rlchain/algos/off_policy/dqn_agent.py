@@ -52,7 +52,7 @@ class QModel(ObservationModel):
         self.target.requires_grad_(False)
         self.dist = DiscreteActions(n)
         # a Dict kept per key: images scaled, every other key not excluded by its own statistics
-        self.obs_norm = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
+        self.running_mean_std = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
         self.epsilon = float(play_epsilon)  # not saved: a checkpoint plays with the config's play_epsilon
 
     def q_values(self, obs: torch.Tensor) -> torch.Tensor:

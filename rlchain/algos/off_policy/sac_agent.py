@@ -86,7 +86,7 @@ class SoftActorCritic(ObservationModel):
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_alpha), dtype=torch.float32))
         self.dist = SquashedActions(action_space, clip_actions)
         # a Dict kept per key: images scaled, every other key not excluded by its own statistics
-        self.obs_norm = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
+        self.running_mean_std = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
 
     @property
     def alpha(self) -> torch.Tensor:

@@ -23,11 +23,11 @@ import torch
 from rlchain.algos.base.safety import UpdateInterrupted
 from rlchain.algos.core.advantage_stats import MovingAdvantageStats
 from rlchain.algos.core.losses import normalize_advantages, policy_loss
-from rlchain.algos.core.optimizer_step import check_finite
+from rlchain.algos.core.optimizer_step import check_finite, optimizer_step
 from rlchain.algos.core.precision import autocast_dtype
 from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
-from rlchain.algos.ppo.loss import Surrogate, named_stats, ppo_loss, read_stats, stats_vector
+from rlchain.algos.ppo.loss import Surrogate, adapted_kl_coef, named_stats, ppo_loss, stats_vector
 from rlchain.algos.ppo.optimizer import ScheduledAdam
 from rlchain.config.ppo import PPOConfig
 from rlchain.log import get_logger
@@ -77,6 +77,10 @@ class PPOAgent(ScheduledAdam):
         # rl_games 2.0: advantages normalized by moving statistics instead of the batch's own
         self.advantage_stats = MovingAdvantageStats(cfg.adv_rms_momentum, device) \
             if cfg.normalize_advantage and cfg.normalize_rms_advantage else None
+        # RLlib's KL penalty: the live coefficient (kl_target adapts it after every update), one persistent tensor
+        # (PPOConfig's keys; APPO / IMPALA configs have none: off)
+        self.kl_coef = getattr(cfg, "kl_loss_coef", 0.0)
+        self._kl_coef_t = torch.tensor(float(self.kl_coef), device=device) if self.kl_coef > 0 else None
 
     @property
     def mode(self) -> str:
@@ -128,14 +132,16 @@ class PPOAgent(ScheduledAdam):
                     start = time.perf_counter()
                     loss, stats_t, aux, current = self.losses(
                         model, cfg, batch, coef, previous, self.surrogate, self.train_critic, self.amp_dtype,
-                        self.device.type)
+                        self.device.type, kl_coef=self._kl_coef_t)
                     if self._compile_pending:
                         self._compile_pending = False
                         _log.info(f"compile_update: compiled the PPO minibatch step in "
                                   f"{time.perf_counter() - start:.1f} s")
                     if reference is not None:  # the next pass measures the KL against the policy this one saw
                         reference.index_copy_(0, batch.index, current)
-                    stats = self.step(loss, max_norm, partial(read_stats, loss, stats_t, aux))
+                    stats = optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm,
+                                           comm=self.comm, scaler=self.scaler, what="the PPO update",
+                                           stats=partial(read_stats, loss, stats_t, aux))
                     del stats["loss"]
                 for key, value in stats.items():
                     sums[key] = sums.get(key, 0.0) + value
@@ -149,9 +155,14 @@ class PPOAgent(ScheduledAdam):
             if cfg.schedule_type == "standard":
                 self.follow_kl(epoch_kl / max(epoch_n, 1))
         self.apply_progress(progress)
+        if self._kl_coef_t is not None and cfg.kl_loss_target is not None:  # a PPOConfig (kl_coef > 0)
+            self.kl_coef = adapted_kl_coef(self.kl_coef, stats["kl"], cfg.kl_loss_target)
+            self._kl_coef_t.fill_(self.kl_coef)
         out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
+        if self._kl_coef_t is not None:
+            out["kl_coef"] = self.kl_coef
         return out
 
     def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
@@ -199,7 +210,7 @@ class PPOAgent(ScheduledAdam):
         """
         loss, stats_t, aux, current = self.losses(self.model, self.cfg, batch, coef, previous, self.surrogate,
                                                   self.train_critic, self.amp_dtype, self.device.type,
-                                                  autocast_cache=False)
+                                                  autocast_cache=False, kl_coef=self._kl_coef_t)
         loss.backward()
         values = stats_vector(loss, stats_t, aux, torch.nn.utils.clip_grad_norm_(self.params, self._max_norm,
                                                                                  foreach=True))
@@ -235,16 +246,28 @@ class PPOAgent(ScheduledAdam):
         state = super().state_dict()
         if self.advantage_stats is not None:
             state["advantage_mean_std"] = self.advantage_stats.state_dict()
+        if self._kl_coef_t is not None:
+            state["kl_coef"] = self.kl_coef
         return state
 
     def load_state_dict(self, state: dict) -> None:
         """Restore :meth:`state_dict`; new optimizer state tensors: a captured step is recorded again."""
         state = dict(state)
         advantage_stats = state.pop("advantage_mean_std", None)
+        kl_coef = state.pop("kl_coef", None)
+        if self._kl_coef_t is not None and kl_coef is not None:
+            self.kl_coef = float(kl_coef)
+            self._kl_coef_t.fill_(self.kl_coef)
         if self.advantage_stats is not None and advantage_stats is not None:
             self.advantage_stats.load_state_dict(advantage_stats)
         super().load_state_dict(state)
         self.config_changed()
+
+
+def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
+               grad_norm: torch.Tensor) -> dict[str, float]:
+    """An eager step's statistics read back by name (its one host sync)."""
+    return named_stats(stats_vector(loss, stats, aux, grad_norm).tolist(), aux)
 
 
 def shuffled_minibatches(order: str, continuous: bool) -> bool:

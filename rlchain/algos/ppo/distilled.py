@@ -74,7 +74,7 @@ def load_distilled(params: Params, env: VecEnv, model: Any, device: torch.device
 
 def value_head(model: Any) -> list[torch.nn.Parameter]:
     """The parameters of the model's value head (the network's ``value`` layer)."""
-    head = getattr(model.network, "value", None)
+    head = getattr(model.a2c_network, "value", None)
     if not isinstance(head, torch.nn.Module):
         raise ConfigError("", "params.config.distilled_value", "teacher needs a network with a `value` layer "
                                                              "(the actor_critic builder's); use scratch")

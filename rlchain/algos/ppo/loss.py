@@ -29,9 +29,26 @@ LossOutput = tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor], torch.Te
 """(loss (0-d), detached statistics (6,), the network's auxiliary losses, the policy's params (B, P), detached)."""
 
 
+def squared_error_clamped(values: torch.Tensor, returns: torch.Tensor, limit: float) -> torch.Tensor:
+    """Per-sample squared value error clamped to [0, limit] (RLlib's ``vf_clip_param``: the loss itself is
+    clipped, so a sample further than sqrt(limit) from its return gives no gradient). Shapes (B, V) -> (B,)."""
+    return (values - returns).square().clamp(0.0, limit).sum(-1)
+
+
+def adapted_kl_coef(coef: float, kl: float, target: float) -> float:
+    """RLlib's adaptive KL coefficient after an update whose KL was ``kl``: x1.5 above twice the target,
+    x0.5 below half of it, unchanged in between (a non-finite KL leaves it unchanged)."""
+    if kl > 2.0 * target:
+        return coef * 1.5
+    if kl < 0.5 * target:
+        return coef * 0.5
+    return coef
+
+
 def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: torch.Tensor, reference: torch.Tensor,
              surrogate: Surrogate, train_critic: bool = True, amp_dtype: torch.dtype | None = None,
-             device_type: str = "cpu", autocast_cache: bool = True) -> LossOutput:
+             device_type: str = "cpu", autocast_cache: bool = True,
+             kl_coef: torch.Tensor | None = None) -> LossOutput:
     """One minibatch's forward pass and losses.
 
     Returns (loss, the detached statistics a_loss, c_loss, entropy, b_loss, clip_frac, kl as one (6,) vector,
@@ -41,7 +58,9 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     network trains the values) leaves the value loss out. Under ``amp_dtype`` the network's forward pass runs
     in autocast (its cache off with ``autocast_cache`` False, as a captured graph needs) and its outputs are
     cast back to float32, so the log-probs, ratios, KL and losses are computed in float32 against the
-    rollout's float32 log-probs.
+    rollout's float32 log-probs. ``kl_coef`` (a 0-d tensor; None or with ``cfg.kl_loss_coef`` 0: off) adds
+    RLlib's KL penalty, ``kl_coef * mean KL(reference || current)``, with its gradient. ``cfg.value_loss_clip`` replaces
+    the squared value error with :func:`squared_error_clamped` (RLlib's ``vf_clip_param``).
     """
     dist = model.dist
     amp = amp_dtype is not None
@@ -59,7 +78,10 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     if cfg.normalize_advantage and cfg.advantage_normalization == "minibatch" and advantages.numel() > 1:
         advantages = normalize_advantages(advantages)  # Stable-Baselines3's: per minibatch
     a_loss = surrogate(batch.log_probs, log_probs, advantages, cfg.e_clip, cfg.use_smooth_clamp).mean()
-    if train_critic:
+    clip = getattr(cfg, "value_loss_clip", None)  # PPOConfig's; APPO / IMPALA configs have none
+    if train_critic and clip is not None:
+        c_loss = squared_error_clamped(values, model.norm_value(batch.returns), clip).mean()
+    elif train_critic:
         c_loss = value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
                             cfg.e_clip, cfg.clip_value).mean()
     else:
@@ -71,9 +93,13 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
         loss = loss + cfg.bounds_loss_coef * b_loss
     for aux_loss in aux.values():
         loss = loss + aux_loss
+    penalty = kl_coef is not None  # the agent passes it only with kl_loss_coef > 0
+    if penalty:  # RLlib's KL penalty: its gradient flows into the current policy's params
+        kl = dist.kl(reference, params.float()).mean()
+        loss = loss + kl_coef * kl
     with torch.no_grad():
         current = params.detach().float()
-        kl = dist.kl(reference, current).mean()
+        kl = kl.detach() if penalty else dist.kl(reference, current).mean()
         ratio = torch.exp(log_probs.detach() - batch.log_probs)
         clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
     stats = torch.stack([a_loss.detach().float(), c_loss.detach().float(), entropy.detach().float(),
@@ -91,9 +117,3 @@ def stats_vector(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.T
 def named_stats(values: list[float], aux_names: Iterable[str]) -> dict[str, float]:
     """A step's statistics vector (read back) by name: :data:`STEP_STATS`, then ``losses/<name>``."""
     return dict(zip((*STEP_STATS, *(f"losses/{name}" for name in aux_names)), values))
-
-
-def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],
-               grad_norm: torch.Tensor) -> dict[str, float]:
-    """An eager step's statistics read back by name (its one host sync)."""
-    return named_stats(stats_vector(loss, stats, aux, grad_norm).tolist(), aux)

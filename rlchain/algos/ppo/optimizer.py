@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from rlchain.algos.core.optimizer_step import StepStats, clear_grads, optimizer_step
+from rlchain.algos.core.optimizer_step import clear_grads
 from rlchain.algos.core.schedules import (
     PROGRESS_SCHEDULES,
     AdaptiveKLSchedule,
@@ -103,13 +103,6 @@ class ScheduledAdam:
         if name == "kl_threshold" and hasattr(self.schedule, "kl_threshold"):
             self.schedule.kl_threshold = float(value)
         return False
-
-    # ----- a step -------------------------------------------------------------------------------
-    def step(self, loss: torch.Tensor, max_norm: float, stats: StepStats) -> dict[str, float]:
-        """One optimizer step on ``loss`` (:func:`optimizer_step`: the gradients averaged over the ranks, unscaled
-        with a grad scaler, clipped to ``max_norm``; ``stats`` checked, a non-finite one raising before the step)."""
-        return optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm, comm=self.comm,
-                              scaler=self.scaler, stats=stats, what="the PPO update")
 
     def clear_grads(self) -> None:
         """Gradients to None: the next backward pass allocates them."""

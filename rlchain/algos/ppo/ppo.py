@@ -46,7 +46,8 @@ class PPO(AlgorithmBase):
     config_class = PPOConfig
     metric_tags = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
                    "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
-                   "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm",
+                   "entropy_coef": "info/entropy_coef", "kl_coef": "info/kl_coef", "clip_frac": "info/clip_frac",
+                   "grad_norm": "info/grad_norm",
                    "cval_loss": "losses/cval_loss", "cval_lr": "info/cval_lr", "rnd_loss": "losses/rnd_loss",
                    "rnd_reward": "rewards/intrinsic", "mirror_loss": "losses/mirror_loss"}
     console_fields = (("kl", "kl {:.4f}"), ("lr", "lr {:.2e}"))
@@ -87,7 +88,7 @@ class PPO(AlgorithmBase):
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
         compile_model(model, cfg.torch_compile)
-        graphed = resolve_cuda_graph(cfg, model.network, model.is_rnn, device, ctx.comm.active, params.source)
+        graphed = resolve_cuda_graph(cfg, model.a2c_network, model.is_rnn, device, ctx.comm.active, params.source)
         with communicator.building_with(ctx.comm):  # its normalizers fold every rank's batches
             self.central_value = build_central_value(params, env, device)
         self.cv_agent = None
@@ -278,7 +279,7 @@ def _check_compile_update(model: ActorCritic, source: str) -> None:
     if model.is_rnn:
         raise ConfigError(source, "params.config.compile_update",
                           "False for an RNN network (sequence minibatches are not compiled); set it false")
-    if callable(getattr(model.network, "get_aux_loss", None)):
+    if callable(getattr(model.a2c_network, "get_aux_loss", None)):
         raise ConfigError(source, "params.config.compile_update",
                           "False for a network with get_aux_loss() (its losses are checked in Python)")
 

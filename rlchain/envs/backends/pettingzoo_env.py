@@ -24,6 +24,7 @@ appear later are simply inactive on those rows: the trainer masks them out, neve
 from __future__ import annotations
 
 import importlib
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -56,12 +57,45 @@ class AgentsStep:
     final_obs: dict[str, np.ndarray]
 
 
+def known_env_names() -> frozenset[str]:
+    """The env names PettingZoo and mpe2 list, in the forms ``env_config.env`` takes (``classic.connect_four_v3``,
+    ``pettingzoo.classic.connect_four_v3``, ``mpe.simple_spread_v3``, ``mpe2.simple_spread_v3``), read from their
+    registries (PettingZoo's ``aec_registry``, else ``pettingzoo.utils.all_modules``; mpe2's ``all_modules``):
+    only those packages' own modules are imported, never a module the name gives. Empty when neither is installed."""
+    names: set[str] = set()
+    try:  # optional: pettingzoo
+        import pettingzoo
+    except ImportError:
+        return frozenset()
+    registry = getattr(pettingzoo, "aec_registry", None)
+    if registry is not None:  # ids 'classic/connect_four-v3'
+        ids = [re.sub(r"-v(\d+)$", r"_v\1", key) for key in registry]
+    else:  # before PettingZoo's registry: 'classic/connect_four_v3'
+        try:
+            from pettingzoo.utils.all_modules import all_environments
+        except ImportError:
+            all_environments = {}
+        ids = list(all_environments)
+    try:  # optional: mpe2 (the MPE envs left PettingZoo in 1.25)
+        from mpe2.all_modules import mpe_environments
+    except ImportError:
+        mpe_environments = {}
+    for key in ids:
+        dotted = key.replace("/", ".")
+        names.update((dotted, f"pettingzoo.{dotted}"))
+    for key in mpe_environments:  # 'mpe/simple_spread_v3'
+        env = key.split("/", 1)[-1]
+        names.update((f"mpe.{env}", f"mpe2.{env}"))
+    return frozenset(names)
+
+
 def resolve_env_module(name: str) -> Any:
     """The module of the PettingZoo env ``name`` (``mpe.simple_tag_v3``, ``classic.connect_four_v3``,
     ``butterfly.pistonball_v6`` or a full module path such as ``mpe2.simple_spread_v3``).
 
     Tried in order: ``pettingzoo.<name>``; for ``mpe.<env>``, ``mpe2.<env>`` (the MPE envs left
-    PettingZoo for the mpe2 package in PettingZoo 1.25); ``<name>`` itself. A ConfigError lists
+    PettingZoo for the mpe2 package in PettingZoo 1.25); ``<name>`` itself, unless PettingZoo or mpe2 list
+    the name (:func:`known_env_names`: a listed env is only ever their module). A ConfigError lists
     what was tried when none imports.
     """
     if not isinstance(name, str) or not name:
@@ -70,7 +104,8 @@ def resolve_env_module(name: str) -> Any:
     candidates = [f"pettingzoo.{name}"]
     if name.startswith("mpe."):
         candidates.append("mpe2." + name[len("mpe."):])
-    candidates.append(name)
+    if name not in known_env_names() or name.startswith(("pettingzoo.", "mpe2.")):
+        candidates.append(name)
     problems = []
     for module_name in candidates:
         try:

@@ -7,7 +7,7 @@ import os
 import torch
 
 from rlchain.runs import checkpoint as ckpt
-from rlchain.runs import rl_games_export
+from rlchain.runs import rl_games_checkpoint
 from rlchain.runs.atomic import write_atomic
 
 
@@ -17,7 +17,7 @@ def export_rl_games(checkpoint: str, output: str | None = None) -> str:
     CheckpointError."""
     state = ckpt.load(checkpoint, map_location="cpu")
     try:
-        converted = rl_games_export.to_rl_games(state)
+        converted = rl_games_checkpoint.to_rl_games(state)
     except ValueError as exc:
         raise ckpt.CheckpointError(f"{checkpoint}: cannot be written for rl_games: {exc}") from None
     output = output or os.path.splitext(checkpoint)[0] + "_rl_games.pth"

@@ -42,7 +42,7 @@ class SACModelView(ModelSACContinuous.Network):
         network = policy.network
         super().__init__(SACNetworkParts(network.actor, network.critic, policy.critic_target), obs_shape=obs_shape,
                          normalize_value=False, normalize_input=False, value_size=value_size)
-        self.normalize_input = policy.obs_norm is not None
+        self.normalize_input = policy.running_mean_std is not None
         self._preprocess = policy.preprocess  # a bound method: the normalizer stays rlchain's model's alone
 
     def norm_obs(self, observation: torch.Tensor) -> torch.Tensor:

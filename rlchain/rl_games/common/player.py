@@ -83,7 +83,7 @@ class BasePlayer:
         # the same modules under rl_games' names for the algorithm (see rl_games_model)
         self.policy = load_policy(parsed, device=self.device, env=shape).model
         self.is_rnn = bool(getattr(self.policy, "is_rnn", False))
-        self.normalize_input = getattr(self.policy, "obs_norm", None) is not None
+        self.normalize_input = getattr(self.policy, "running_mean_std", None) is not None
         self.model = self.rl_games_model(self.policy)
         self.states: list[torch.Tensor] | None = None
         self.batch_size = 1
@@ -92,10 +92,9 @@ class BasePlayer:
 
     def rl_games_model(self, policy: torch.nn.Module) -> torch.nn.Module:
         """``player.model`` as rl_games' PPO players hold it: rlchain's model with the names rl_games' ONNX recipe
-        reads, ``norm_obs`` (input normalization) and ``a2c_network`` (the network with rl_games'
-        ``forward(input_dict)`` contract); plain attributes, not extra state_dict keys."""
+        reads: ``a2c_network`` (the network with rl_games' ``forward(input_dict)`` contract, the model's own) and
+        ``norm_obs`` (input normalization; a plain attribute, not an extra state_dict key)."""
         object.__setattr__(policy, "norm_obs", policy.preprocess)
-        object.__setattr__(policy, "a2c_network", policy.network)
         return policy
 
     def _env_info(self) -> dict[str, Any]:
@@ -218,7 +217,7 @@ class BasePlayer:
             model = load_policy(self.parsed, device=self.device, env=env, eval_mode=False).model
             weights = self.policy.state_dict()
             if getattr(self.policy, ckpt.NORMS_DROPPED, False):  # built as rl_games 1.6.5 built the restored file
-                ckpt.drop_unbuilt_norms(model, [k for k in model.state_dict() if k not in weights])
+                ckpt.drop_unbuilt_norms(model)
             model.load_state_dict(weights)
             result = play(model, env, self.games_num, self.is_deterministic, device=self.device, seed=self.seed)
         finally:

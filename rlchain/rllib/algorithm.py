@@ -1,0 +1,441 @@
+"""RLlib's ``Algorithm`` on rlchain's loop: ``train()`` runs one rlchain epoch (``train_batch_size`` env steps)
+and returns RLlib's result dict; ``evaluate()``, ``save_to_path()`` / ``restore_from_path()`` /
+``Algorithm.from_checkpoint()`` (rlchain's checkpoint through its one loader), ``get_module()``,
+``compute_single_action()``, ``stop()``.
+
+The run is rlchain's ``Runner.train`` in a background thread paced by
+:class:`rlchain.tuning.epochs.EpochStepper`: it parks before the first rollout (so the module exists as soon as
+the algorithm is built, as in RLlib) and after every epoch until the next ``train()``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+import time
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import yaml
+
+from rlchain.config.errors import ConfigError
+from rlchain.rllib import envs, translate
+from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested
+from rlchain.rllib.module import RLModuleView
+from rlchain.runner import Runner
+from rlchain.runs import checkpoint as ckpt
+from rlchain.training.callback_context import CallbackContext
+from rlchain.tuning.epochs import EpochStepper
+
+DEFAULT_MODULE = "default_policy"
+CHECKPOINT_FILE = "rlchain_checkpoint.pth"
+CONFIG_FILE = "rllib_config.json"
+RLCHAIN_CONFIG_FILE = "rlchain_config.yaml"
+RLLIB_FILES = ("algorithm_state.pkl", "algorithm_state.msgpack", "rllib_checkpoint.json",
+               "class_and_ctor_args.pkl", "policy_state.pkl", "module_state.pkl", "state.pkl")
+"""Files of RLlib's own checkpoints (pickles): refused, never unpickled."""
+
+
+class _Stepper(EpochStepper):
+    """EpochStepper that also parks before the first rollout (the model exists then)."""
+
+    def start(self) -> None:
+        import threading
+        self._thread = threading.Thread(target=self._run, name="rlchain-rllib-train", daemon=True)
+        self._thread.start()
+        kind, item = self._events.get()
+        if kind == "error":
+            self._thread.join()
+            raise item
+        if kind == "end":
+            self._thread.join()
+            self.result = item
+
+    def on_train_start(self, ctx: CallbackContext) -> None:
+        super().on_train_start(ctx)
+        self.parked = True
+        self._events.put(("ready", None))
+        if self._commands.get() == "stop":
+            ctx.request_stop("algorithm stopped")
+        self._resumed_at = time.time()
+
+
+def _callbacks(value: Any) -> list[RLlibCallback]:
+    items = value if isinstance(value, (list, tuple)) else ([] if value is None else [value])
+    out = []
+    for item in items:
+        obj = item() if isinstance(item, type) else item
+        if not isinstance(obj, RLlibCallback) and not all(callable(getattr(obj, n, None)) for n in
+                                                          ("on_train_result", "on_episode_end")):
+            raise ConfigError("AlgorithmConfig.callbacks()", "callbacks_class", f"{item!r}: expected an "
+                              f"RLlibCallback subclass")
+        out.append(obj)
+    return out
+
+
+class _Functions(RLlibCallback):
+    """``callbacks(on_train_result=fn, ...)``: single functions by event name."""
+
+    def __init__(self, functions: dict[str, Any]) -> None:
+        for name, fn in functions.items():
+            fns = fn if isinstance(fn, (list, tuple)) else [fn]
+            setattr(self, name, lambda *a, _fns=fns, **k: [f(*a, **k) for f in _fns])
+
+
+ALGORITHMS: dict[str, type] = {}
+"""The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
+
+
+class Algorithm:
+    """One RLlib algorithm (PPO, DQN) trained by rlchain; see the module docstring."""
+
+    algo_name: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.algo_name:
+            ALGORITHMS[cls.algo_name] = cls
+
+    def __init__(self, config: Any = None, env: Any = None, logger_creator: Any = None, **kwargs: Any) -> None:
+        if config is None or not hasattr(config, "_settings"):
+            raise ConfigError("Algorithm", "config", "build it from a config: PPOConfig()...build_algo()")
+        if env is not None:
+            config = config.copy().environment(env)
+        self.config = config
+        if config.algo_name not in ("PPO", "DQN"):
+            raise ConfigError(f"{type(config).__name__}", "build_algo", f"{config.algo_name} is not trained by the "
+                              f"face yet: PPOConfig and DQNConfig train on rlchain's PPO and DQN; rlchain's own "
+                              f"YAMLs train SAC, APPO and IMPALA (rlchain/configs/)")
+        config.validate()
+        config.freeze()
+        settings = config._settings
+        if settings.get("env") is None:
+            raise ConfigError(type(config).__name__, "env", "no env: .environment('CartPole-v1') or an env class")
+        self.iteration = 0
+        self._time_total = 0.0
+        self.metrics = MetricsLogger()
+        self._env_runner_metrics = MetricsLogger()
+        self.callbacks = _callbacks(settings.get("callbacks_class"))
+        functions = {k: settings[k] for k in ("on_algorithm_init", "on_train_result", "on_episode_start",
+                                              "on_episode_end", "on_evaluate_start", "on_evaluate_end")
+                     if settings.get(k) is not None}
+        if functions:
+            self.callbacks.append(_Functions(functions))
+        runners = int(settings.get("num_env_runners") or 0)
+        per_runner = max(1, int(settings.get("num_envs_per_env_runner") or 1))
+        self._make, self._label = envs.env_maker(settings["env"], settings.get("env_config") or {}, runners,
+                                                 per_runner)
+        probe = self._make(0)
+        try:
+            self.observation_space, self.action_space = probe.observation_space, probe.action_space
+        finally:
+            probe.close()
+        plain_id = isinstance(settings["env"], str) and not settings.get("env_config") \
+            and envs.tune_registered(settings["env"]) is None
+        env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
+        continuous = isinstance(self.action_space, gym.spaces.Box)
+        allowed = (gym.spaces.Discrete,) if config.algo_name == "DQN" else (gym.spaces.Box, gym.spaces.Discrete)
+        if not isinstance(self.action_space, allowed):
+            raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
+                              f"mapped by the face for {config.algo_name} "
+                              f"({' or '.join(a.__name__ for a in allowed)})")
+        gpu = (settings.get("num_gpus_per_learner") or 0) > 0 or (settings.get("num_gpus") or 0) > 0
+        run = {"name": _run_name(config.algo_name, settings["env"]), "device": "cuda:0" if gpu else "cpu",
+               "print_stats": False}
+        self.rlchain_config = translate.dqn_config(config, env_name, run) if config.algo_name == "DQN" \
+            else translate.ppo_config(config, env_name, continuous, run)
+        self.runner = Runner().load(self.rlchain_config)
+        extra = []
+        if any(type(cb).on_episode_end is not RLlibCallback.on_episode_end
+               or type(cb).on_episode_start is not RLlibCallback.on_episode_start
+               or isinstance(cb, _Functions) for cb in self.callbacks):
+            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics))
+        self._stepper = _Stepper(self.runner, seed=settings.get("seed"))
+        self._stepper._extra = extra
+        self._stepper._run = self._run_thread
+        self._stepper.start()
+        self._stopped = False
+        for cb in self.callbacks:
+            cb.on_algorithm_init(algorithm=self, metrics_logger=self.metrics)
+
+    def _run_thread(self) -> None:
+        stepper = self._stepper
+        try:
+            result = self.runner.train(checkpoint=stepper.checkpoint, seed=stepper.seed,
+                                       callbacks=[stepper, *stepper._extra])
+        except BaseException as exc:  # handed to the caller's thread
+            stepper._events.put(("error", exc))
+            return
+        stepper._events.put(("end", result))
+
+    # ----- training ------------------------------------------------------------------------------------
+    def train(self) -> dict[str, Any]:
+        """One training iteration (one rlchain epoch of about ``train_batch_size`` env steps); RLlib's result."""
+        self._check_running()
+        report = self._stepper.next_epoch()
+        if report is None:
+            raise RuntimeError("the rlchain run has ended (see its log); build a new algorithm")
+        self.iteration += 1
+        self._time_total += report.seconds
+        result = self._result(report)
+        interval = self.config._settings.get("evaluation_interval")
+        if interval and self.iteration % int(interval) == 0:
+            result["evaluation"] = self.evaluate()
+        for cb in self.callbacks:
+            cb.on_train_result(algorithm=self, metrics_logger=self.metrics, result=result)
+        custom = self.metrics.reduce()
+        if custom:
+            _deep_update(result, nested(custom))
+        self._write_custom({**custom, **{f"env_runners/{k}": v for k, v in result.get("_episode_custom", {}).items()}})
+        result.pop("_episode_custom", None)
+        return result
+
+    step = train  # Tune's Trainable name
+
+    def _result(self, report: Any) -> dict[str, Any]:
+        stats = report.stats
+        nan = math.nan
+        ret = nan if report.mean_reward is None else report.mean_reward
+        length = nan if report.mean_length is None else report.mean_length
+        ctx = self._stepper.context
+        frames = int(report.frames)
+        cfg = self.rlchain_config["params"]["config"]
+        per_iter = int(cfg["num_actors"] * cfg.get("horizon_length", cfg.get("num_steps_per_episode", 1)))
+        episode_custom = self._env_runner_metrics.reduce()
+        env_runners = {"episode_return_mean": ret, "episode_len_mean": length,
+                       "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
+                       "num_episodes_lifetime": int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
+                       **nested(episode_custom)}
+        if self.config.algo_name == "DQN":
+            learner = {"qf_loss": stats.get("td_loss", nan), "qf_mean": stats.get("q", nan),
+                       "curr_epsilon": stats.get("epsilon", nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
+        else:
+            learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
+                       "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
+                       "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+                       "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+        if "kl_coef" in stats:
+            learner["curr_kl_coeff"] = stats["kl_coef"]
+        return {
+            "training_iteration": self.iteration, "iterations_since_restore": self.iteration,
+            "time_this_iter_s": report.seconds, "time_total_s": self._time_total, "timestamp": int(time.time()),
+            "num_env_steps_sampled_lifetime": frames, "timesteps_total": frames,
+            "num_training_step_calls_per_iteration": 1, "done": False,
+            "env_runners": env_runners,
+            "learners": {DEFAULT_MODULE: learner, "__all_modules__": {"num_env_steps_trained": per_iter}},
+            "episode_reward_mean": ret, "episode_return_mean": ret, "episode_len_mean": length,
+            "info": {"learner": {DEFAULT_MODULE: {"learner_stats": dict(learner)}}},
+            "_episode_custom": episode_custom,
+        }
+
+    def _write_custom(self, values: dict[str, float]) -> None:
+        ctx = self._stepper.context
+        writer = getattr(ctx, "writer", None) if ctx is not None else None
+        if writer is None or not values:
+            return
+        frames = int(ctx.state.frames)
+        for key, value in values.items():
+            writer.add_scalar(f"custom/{key}", value, frames)
+
+    # ----- evaluation -----------------------------------------------------------------------------------
+    def evaluate(self) -> dict[str, Any]:
+        """``evaluation_duration`` episodes (or env steps, ``evaluation_duration_unit='timesteps'``) of the current
+        policy on a fresh env, greedy unless ``evaluation_config`` sets ``explore=True``; RLlib's evaluation
+        results (``{'env_runners': {'episode_return_mean', ...}}``)."""
+        self._check_running()
+        s = self.config._settings
+        for cb in self.callbacks:
+            cb.on_evaluate_start(algorithm=self, metrics_logger=self.metrics)
+        duration = s.get("evaluation_duration") or 10
+        by_steps = s.get("evaluation_duration_unit") == "timesteps"
+        if duration == "auto":
+            duration, by_steps = 10, False
+        explore = bool((s.get("evaluation_config") or {}).get("explore", False))
+        module = self.get_module()
+        env = self._make(0)
+        returns, lengths, steps = [], [], 0
+        try:
+            seed = s.get("seed")
+            obs, _ = env.reset(seed=None if seed is None else int(seed) + 10_000)
+            total, length = 0.0, 0
+            while (steps < duration) if by_steps else (len(returns) < duration):
+                obs, reward, terminated, truncated, _ = env.step(module.act(obs, explore))
+                total += float(reward)
+                length += 1
+                steps += 1
+                if terminated or truncated:
+                    returns.append(total)
+                    lengths.append(length)
+                    total, length = 0.0, 0
+                    obs, _ = env.reset()
+        finally:
+            env.close()
+        mean = sum(returns) / len(returns) if returns else math.nan
+        out = {"env_runners": {"episode_return_mean": mean,
+                               "episode_return_max": max(returns) if returns else math.nan,
+                               "episode_return_min": min(returns) if returns else math.nan,
+                               "episode_len_mean": sum(lengths) / len(lengths) if lengths else math.nan,
+                               "num_episodes": len(returns), "num_env_steps_sampled": steps},
+               "episode_reward_mean": mean}
+        for cb in self.callbacks:
+            cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
+        return out
+
+    # ----- the policy ------------------------------------------------------------------------------------
+    def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
+        """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
+        if module_id != DEFAULT_MODULE:
+            raise KeyError(f"module '{module_id}': the face trains one module, '{DEFAULT_MODULE}'")
+        self._check_running()
+        return RLModuleView(self._stepper.context.model, self.observation_space, self.action_space)
+
+    def compute_single_action(self, observation: Any = None, state: Any = None, *, explore: bool | None = None,
+                              policy_id: str = DEFAULT_MODULE, full_fetch: bool = False, **kwargs: Any) -> Any:
+        """RLlib's older single-observation call: the action (sampled unless ``explore=False``)."""
+        action = self.get_module(policy_id).act(observation, True if explore is None else bool(explore))
+        return (action, [], {}) if full_fetch or state is not None else action
+
+    def get_policy(self, policy_id: str = DEFAULT_MODULE) -> Any:
+        """The older Policy object: its ``compute_single_action`` returns (action, states, extras)."""
+        module = self.get_module(policy_id)
+
+        class _Policy:
+            model = module
+
+            @staticmethod
+            def compute_single_action(obs: Any = None, state: Any = None, explore: bool | None = None,
+                                      **kwargs: Any) -> Any:
+                return module.act(obs, True if explore is None else bool(explore)), [], {}
+
+        return _Policy()
+
+    # ----- checkpoints ------------------------------------------------------------------------------------
+    def save_to_path(self, path: str | None = None, **kwargs: Any) -> str:
+        """Write a checkpoint folder: rlchain's checkpoint (exact resume state), the RLlib config as JSON data
+        and the rlchain YAML it trains. Returns the folder."""
+        self._check_running()
+        path = os.fspath(path) if path is not None else tempfile.mkdtemp(prefix="rlchain_rllib_")
+        os.makedirs(path, exist_ok=True)
+        self._stepper.save(os.path.join(path, CHECKPOINT_FILE))
+        with open(os.path.join(path, CONFIG_FILE), "w") as f:
+            json.dump({"algo": self.config.algo_name, "iteration": self.iteration,
+                       "config": _json_data(self.config.to_dict())}, f, indent=1)
+        with open(os.path.join(path, RLCHAIN_CONFIG_FILE), "w") as f:
+            yaml.safe_dump(self.rlchain_config, f, sort_keys=False)
+        return path
+
+    def save(self, checkpoint_dir: str | None = None, **kwargs: Any) -> Any:
+        """RLlib's older save: an object whose ``checkpoint.path`` is the folder."""
+        path = self.save_to_path(checkpoint_dir)
+
+        class _Saved:
+            class checkpoint:  # noqa: N801 (RLlib's attribute name)
+                pass
+
+        _Saved.checkpoint.path = path
+        return _Saved()
+
+    def restore_from_path(self, path: str, **kwargs: Any) -> None:
+        """Load a checkpoint folder written by :meth:`save_to_path` (or an rlchain ``.pth``) into this algorithm:
+        weights, optimizer, counters. RLlib's own (pickled) checkpoints are refused."""
+        self._check_running()
+        self._stepper.load(checkpoint_file(path))
+        with open(os.path.join(os.fspath(path), CONFIG_FILE)) if os.path.isdir(path) else open(os.devnull) as f:
+            text = f.read()
+        if text:
+            self.iteration = int(json.loads(text).get("iteration", self.iteration))
+        for cb in self.callbacks:
+            cb.on_checkpoint_loaded(algorithm=self)
+
+    restore = restore_from_path
+
+    @classmethod
+    def from_checkpoint(cls, path: Any, **kwargs: Any) -> Algorithm:
+        """A new algorithm from a :meth:`save_to_path` folder: its config (read as JSON data) built, then the
+        checkpoint restored. An env given as a class is not in the JSON: build the config and call
+        :meth:`restore_from_path`."""
+        path = os.fspath(getattr(path, "path", path))
+        checkpoint_file(path)  # refuses RLlib's own checkpoints first
+        with open(os.path.join(path, CONFIG_FILE)) as f:
+            stored = json.load(f)
+        name = stored.get("algo", "PPO")
+        if name not in ALGORITHMS:
+            raise ConfigError(path, "algo", f"'{name}' is not an algorithm of the face "
+                                            f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
+        config = ALGORITHMS[name].get_default_config()
+        data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
+        env = data.get("env")
+        if not isinstance(env, str):
+            raise ConfigError(path, "env", "the checkpoint's env is not a name: build your config with its env and "
+                                           "call algo.restore_from_path(path)")
+        config.update_from_dict({k: v for k, v in data.items() if k in config})
+        algo = config.build_algo()
+        algo.restore_from_path(path)
+        return algo
+
+    def stop(self) -> None:
+        """End the run (rlchain writes its last checkpoint and closes the envs)."""
+        if not self._stopped:
+            self._stopped = True
+            self._stepper.shutdown()
+
+    def _check_running(self) -> None:
+        if getattr(self, "_stopped", False):
+            raise RuntimeError("this algorithm was stopped; build a new one")
+
+    def __del__(self) -> None:
+        try:
+            self.stop()
+        except Exception:
+            pass
+
+
+_MISSING = object()
+
+
+def checkpoint_file(path: Any) -> str:
+    """The rlchain checkpoint of a folder written by ``save_to_path`` (or a ``.pth`` path); an RLlib checkpoint or
+    anything else is a one-line CheckpointError."""
+    path = os.fspath(getattr(path, "path", path))
+    if os.path.isfile(path):
+        return path
+    if not os.path.isdir(path):
+        raise ckpt.CheckpointError(f"{path}: no such checkpoint folder")
+    found = os.path.join(path, CHECKPOINT_FILE)
+    if os.path.isfile(found):
+        return found
+    theirs = [name for name in RLLIB_FILES if os.path.exists(os.path.join(path, name))]
+    if theirs or any(name.endswith(".pkl") for name in os.listdir(path)):
+        raise ckpt.CheckpointError(f"{path}: an RLlib checkpoint ({(theirs or ['*.pkl'])[0]}): rlchain does not "
+                                   f"unpickle RLlib's files; retrain with the face, or export the weights from "
+                                   f"RLlib as a state_dict and load them as data")
+    raise ckpt.CheckpointError(f"{path}: no {CHECKPOINT_FILE} (not written by save_to_path)")
+
+
+def _json_data(values: dict[str, Any]) -> dict[str, Any]:
+    """The JSON-able part of a config dict (classes, functions and objects are left out)."""
+    out = {}
+    for key, value in values.items():
+        try:
+            json.dumps(value)
+        except (TypeError, ValueError):
+            continue
+        out[key] = value
+    return out
+
+
+def _deep_update(into: dict[str, Any], new: dict[str, Any]) -> None:
+    for key, value in new.items():
+        if isinstance(value, dict) and isinstance(into.get(key), dict):
+            _deep_update(into[key], value)
+        else:
+            into[key] = value
+
+
+def _run_name(algo: str, env: Any) -> str:
+    import re
+    base = env if isinstance(env, str) else getattr(env, "__name__", "env")
+    base = re.sub(r"-v\d+$", "", base.rsplit("/", 1)[-1])
+    return f"rllib_{algo.lower()}_" + (re.sub(r"[^a-z0-9]+", "_", base.lower()).strip("_") or "env")

@@ -1,0 +1,124 @@
+"""``import ray.rllib...`` resolved to ``rlchain.rllib...`` in this process; ``ray`` and ``ray.tune`` stay Ray's.
+
+:func:`install` puts a finder first on ``sys.meta_path``: ``ray.rllib`` or ``ray.rllib.X.Y`` is answered with the
+module object ``rlchain.rllib.X.Y`` (one object under both names). A ``ray.rllib`` module the face does not
+offer is a one-line :class:`FaceImportError` saying what to use instead, never RLlib's own module (a mix of
+the two would not run). Nothing is written to disk; other processes see the real RLlib.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.abc
+import importlib.machinery
+import sys
+from types import ModuleType
+
+from rlchain.rllib.config import AlgorithmConfig
+
+ALIAS = "ray.rllib"
+TARGET = "rlchain.rllib"
+
+INSTEAD = {
+    "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
+    "ray.rllib.connectors": "connectors are not run: preprocess in a gymnasium wrapper",
+    "ray.rllib.offline": "offline RL is not in rlchain",
+    "ray.rllib.policy": "the old Policy API: use algo.get_module() / compute_single_action",
+    "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",
+    "ray.rllib.models": "the old ModelV2 API: set the network with rl_module(model_config=...)",
+    "ray.rllib.execution": "the old execution API: algo.train() runs one iteration",
+}
+"""``ray.rllib`` packages the face does not offer -> what to use instead (docs/rllib.md)."""
+
+
+class FaceImportError(ImportError):
+    """A ``ray.rllib`` name rlchain's face does not offer (one line, with what to use instead)."""
+
+
+def target_name(fullname: str) -> str | None:
+    if fullname == ALIAS or fullname.startswith(ALIAS + "."):
+        return TARGET + fullname[len(ALIAS):]
+    return None
+
+
+def instead(fullname: str) -> str:
+    for prefix, why in INSTEAD.items():
+        if fullname == prefix or fullname.startswith(prefix + "."):
+            return why
+    return "see docs/rllib.md for what the face offers"
+
+
+class RLlibAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """A meta-path finder and loader that answers ``ray.rllib.*`` with ``rlchain.rllib.*``."""
+
+    def find_spec(self, fullname: str, path: object = None, target: object = None
+                  ) -> importlib.machinery.ModuleSpec | None:
+        if fullname == TUNE_CONFIG_MODULE:
+            return _with_config_registration(fullname, path)
+        name = target_name(fullname)
+        if name is None:
+            return None
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name is not None and (exc.name == name or name.startswith(exc.name + ".")):
+                raise FaceImportError(f"{fullname} is not offered by rlchain's RLlib face: {instead(fullname)}",
+                                      name=fullname) from None
+            raise
+        return importlib.machinery.ModuleSpec(fullname, self, origin=getattr(module, "__file__", None),
+                                              is_package=hasattr(module, "__path__"))
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
+        module = sys.modules[target_name(spec.name)]
+        self._own_spec = module.__spec__
+        return module
+
+    def exec_module(self, module: ModuleType) -> None:
+        module.__spec__ = self._own_spec
+
+
+TUNE_CONFIG_MODULE = "ray.tune.tune"
+"""Ray Tune's module whose ``_Config`` (configs with ``to_dict``) a Tuner's ``param_space`` is checked against."""
+
+
+def _with_config_registration(fullname: str, path: object) -> importlib.machinery.ModuleSpec | None:
+    """Ray Tune's own module, which registers the face's AlgorithmConfig as a Tune ``_Config`` once loaded (so
+    ``tune.Tuner("PPO", param_space=config)`` reads ``config.to_dict()``, as for RLlib's configs)."""
+    spec = importlib.machinery.PathFinder.find_spec(fullname, path)
+    if spec is None or spec.loader is None:
+        return spec
+    loader = spec.loader
+
+    class _Registering(importlib.abc.Loader):
+        def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType | None:
+            return loader.create_module(spec)
+
+        def exec_module(self, module: ModuleType) -> None:
+            loader.exec_module(module)
+            module._Config.register(AlgorithmConfig)
+
+    spec.loader = _Registering()
+    return spec
+
+
+def install() -> RLlibAlias:
+    """Make ``import ray.rllib...`` resolve to rlchain in this process (idempotent); RLlib modules imported
+    before are forgotten."""
+    for finder in sys.meta_path:
+        if isinstance(finder, RLlibAlias):
+            return finder
+    for name in [n for n in sys.modules if target_name(n) is not None]:
+        del sys.modules[name]
+    finder = RLlibAlias()
+    sys.meta_path.insert(0, finder)
+    return finder
+
+
+def uninstall() -> None:
+    """Undo :func:`install` (the rlchain modules stay)."""
+    sys.meta_path[:] = [f for f in sys.meta_path if not isinstance(f, RLlibAlias)]
+    for name in [n for n in sys.modules if target_name(n) is not None]:
+        del sys.modules[name]
+    ray = sys.modules.get("ray")
+    if ray is not None and getattr(ray, "rllib", None) is not None and ray.rllib.__name__ == TARGET:
+        del ray.rllib

@@ -1,0 +1,1 @@
+"""``ray.rllib.examples``: the helpers RLlib's example scripts import (``examples.utils``)."""

@@ -1,0 +1,133 @@
+"""``ray.rllib.examples.utils``: RLlib's example-script helpers, run on the face.
+
+:func:`add_rllib_example_script_args` adds RLlib's example flags (``--num-env-runners``, ``--stop-reward``,
+``--stop-iters``, ``--stop-timesteps``, ``--as-test``, ...). :func:`run_rllib_example_script_experiment` applies
+them to the config and trains in this process (``algo.train()`` until a stop value is reached; with or without
+``--no-tune``: the face does not start Tune trials here), printing one line per iteration. ``--as-test`` fails
+(ValueError) when the stop reward was not reached, as RLlib's does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+from rlchain.rllib.utils.metrics import (
+    ENV_RUNNER_RESULTS,
+    EPISODE_RETURN_MEAN,
+    EVALUATION_RESULTS,
+    NUM_ENV_STEPS_SAMPLED_LIFETIME,
+    TRAINING_ITERATION,
+)
+
+
+def add_rllib_example_script_args(parser: argparse.ArgumentParser | None = None, default_reward: float = 100.0,
+                                  default_iters: int = 200, default_timesteps: int = 100000
+                                  ) -> argparse.ArgumentParser:
+    """RLlib's example-script flags on ``parser`` (a new one when None)."""
+    parser = parser or argparse.ArgumentParser()
+    add = parser.add_argument
+    add("--algo", type=str, default="PPO")
+    add("--framework", choices=["tf", "tf2", "torch"], default="torch")
+    add("--env", type=str, default=None)
+    add("--num-env-runners", type=int, default=None)
+    add("--num-envs-per-env-runner", type=int, default=None)
+    add("--num-agents", type=int, default=0)
+    add("--evaluation-num-env-runners", type=int, default=0)
+    add("--evaluation-interval", type=int, default=0)
+    add("--evaluation-duration", type=lambda v: v if v == "auto" else int(v), default=10)
+    add("--evaluation-duration-unit", type=str, default="episodes", choices=["episodes", "timesteps"])
+    add("--evaluation-parallel-to-training", action="store_true")
+    add("--output", type=str, default=None)
+    add("--log-level", type=str, default=None)
+    add("--no-tune", action="store_true")
+    add("--num-samples", type=int, default=1)
+    add("--max-concurrent-trials", type=int, default=None)
+    add("--verbose", type=int, default=2)
+    add("--checkpoint-freq", type=int, default=0)
+    add("--checkpoint-at-end", action="store_true")
+    add("--tune-max-report-freq", type=int, default=5)
+    add("--wandb-key", type=str, default=None)
+    add("--wandb-project", type=str, default=None)
+    add("--wandb-run-name", type=str, default=None)
+    add("--stop-reward", type=float, default=default_reward)
+    add("--stop-iters", type=int, default=default_iters)
+    add("--stop-timesteps", type=int, default=default_timesteps)
+    add("--as-test", action="store_true")
+    add("--as-release-test", action="store_true")
+    add("--num-learners", type=int, default=None)
+    add("--num-cpus-per-learner", type=int, default=None)
+    add("--num-gpus-per-learner", type=float, default=None)
+    add("--num-aggregator-actors-per-learner", type=int, default=None)
+    add("--num-cpus", type=int, default=0)
+    add("--num-gpus", type=int, default=None)
+    add("--old-api-stack", action="store_true")
+    add("--enable-new-api-stack", action="store_true")
+    add("--local-mode", action="store_true")
+    return parser
+
+
+def _lookup(result: dict[str, Any], path: str) -> Any:
+    node: Any = result
+    for part in path.split("/"):
+        if not isinstance(node, dict) or part not in node:
+            return None
+        node = node[part]
+    return node
+
+
+def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespace | None = None, *,
+                                        stop: dict[str, Any] | None = None, success_metric: dict | None = None,
+                                        trainable: Any = None, tune_callbacks: Any = None,
+                                        keep_config: bool = False, keep_ray_up: bool = False, scheduler: Any = None,
+                                        progress_reporter: Any = None) -> dict[str, Any]:
+    """Train ``base_config`` (with ``args`` applied) until a ``stop`` value is reached; the last result."""
+    args = args or add_rllib_example_script_args().parse_args([])
+    config = base_config
+    if not keep_config:
+        if args.env is not None and config.get("env") is None:
+            config.environment(args.env)
+        if args.num_env_runners is not None:
+            config.env_runners(num_env_runners=args.num_env_runners)
+        if args.num_envs_per_env_runner is not None:
+            config.env_runners(num_envs_per_env_runner=args.num_envs_per_env_runner)
+        if args.num_learners is not None:
+            config.learners(num_learners=args.num_learners)
+        if args.num_gpus_per_learner:
+            config.learners(num_gpus_per_learner=args.num_gpus_per_learner)
+        if args.evaluation_interval:
+            config.evaluation(evaluation_interval=args.evaluation_interval,
+                              evaluation_duration=args.evaluation_duration,
+                              evaluation_duration_unit=args.evaluation_duration_unit)
+    stop = stop or {f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}": args.stop_reward,
+                    NUM_ENV_STEPS_SAMPLED_LIFETIME: args.stop_timesteps, TRAINING_ITERATION: args.stop_iters}
+    success_metric = success_metric or {f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}": args.stop_reward}
+    algo = config.build_algo()
+    start = time.time()
+    result: dict[str, Any] = {}
+    try:
+        while True:
+            result = algo.train()
+            ret = _lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}")
+            line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret:.2f}, env steps "
+                    f"{result[NUM_ENV_STEPS_SAMPLED_LIFETIME]}, {time.time() - start:.1f} s")
+            evaluation = result.get(EVALUATION_RESULTS)
+            if evaluation:
+                line += f", evaluation {_lookup(evaluation, f'{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}'):.2f}"
+            if args.verbose:
+                print(line, flush=True)
+            if any(isinstance(v := _lookup(result, key), (int, float)) and v >= target
+                   for key, target in stop.items() if target is not None):
+                break
+        if args.checkpoint_at_end:
+            print(f"checkpoint: {algo.save_to_path()}", flush=True)
+    finally:
+        algo.stop()
+    if args.as_test:
+        for key, target in success_metric.items():
+            value = _lookup(result, key)
+            if not isinstance(value, (int, float)) or value < target:
+                raise ValueError(f"`{key}` of {target} not reached (got {value})")
+        print(f"`{key}` of {target} reached", flush=True)
+    return result

@@ -1,0 +1,131 @@
+"""RLlib's RLModule view of rlchain's trained policy: ``algo.get_module()`` with ``forward_inference``,
+``forward_exploration``, ``forward_train`` ({"obs": batch} -> {"action_dist_inputs": ...}) and
+``compute_values``, plus RLlib's ``DefaultModelConfig`` and ``RLModuleSpec`` as data."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from rlchain.rllib import keys as K
+
+ACTION_DIST_INPUTS = "action_dist_inputs"
+VF_PREDS = "vf_preds"
+
+
+@dataclass
+class DefaultModelConfig:
+    """RLlib's default model settings (``rl_module(model_config=DefaultModelConfig(...))``); the face maps
+    ``fcnet_hiddens``, ``fcnet_activation``, ``vf_share_layers`` and ``free_log_std`` (docs/rllib.md)."""
+
+    fcnet_hiddens: list[int] = field(default_factory=lambda: [256, 256])
+    fcnet_activation: str = "tanh"
+    fcnet_kernel_initializer: Any = None
+    fcnet_kernel_initializer_kwargs: Any = None
+    fcnet_bias_initializer: Any = None
+    fcnet_bias_initializer_kwargs: Any = None
+    fcnet_use_layernorm: bool = False
+    conv_filters: Any = None
+    conv_activation: str = "relu"
+    head_fcnet_hiddens: list[int] = field(default_factory=list)
+    head_fcnet_activation: str = "relu"
+    free_log_std: bool = False
+    log_std_clip_param: float = 20.0
+    vf_share_layers: bool = True
+    use_lstm: bool = False
+    max_seq_len: int = 20
+    lstm_cell_size: int = 256
+    lstm_use_prev_action: bool = False
+    lstm_use_prev_reward: bool = False
+
+
+assert {f.name for f in dataclasses.fields(DefaultModelConfig)} <= set(K.DEFAULT_MODEL)
+
+
+@dataclass
+class RLModuleSpec:
+    """RLlib's module spec; the face reads ``model_config`` only (a ``module_class`` is refused in one line)."""
+
+    module_class: Any = None
+    observation_space: Any = None
+    action_space: Any = None
+    inference_only: bool = False
+    learner_only: bool = False
+    model_config: Any = None
+    catalog_class: Any = None
+    load_state_path: Any = None
+
+
+class RLModuleView:
+    """The trained policy under RLlib's module calls (torch in, torch out; no gradient)."""
+
+    framework = "torch"
+
+    def __init__(self, model: Any, observation_space: Any, action_space: Any) -> None:
+        self.model = model
+        self.observation_space = observation_space
+        self.action_space = action_space
+        self._q_model = hasattr(model, "q_values")  # DQN's QModel: forward -> (Q (B, n), max Q)
+
+    def _obs(self, batch: dict[str, Any]) -> torch.Tensor:
+        obs = batch["obs"]
+        device = next(self.model.parameters()).device
+        return torch.as_tensor(np.asarray(obs) if not isinstance(obs, torch.Tensor) else obs,
+                               dtype=torch.float32, device=device)
+
+    @torch.no_grad()
+    def forward_inference(self, batch: dict[str, Any], **kwargs: Any) -> dict[str, torch.Tensor]:
+        """{"obs": (B, *obs_shape)} -> {"action_dist_inputs": (B, P)}: logits (discrete), or means then log-stds
+        (continuous, as RLlib's diagonal Gaussian)."""
+        params, _ = self.model(self._obs(batch))
+        if self._q_model:  # DQN: the Q-values are the action-distribution inputs (argmax is the greedy action)
+            return {ACTION_DIST_INPUTS: params, "qf_preds": params}
+        return {ACTION_DIST_INPUTS: self._rllib_params(params)}
+
+    forward_exploration = forward_inference
+
+    def forward_train(self, batch: dict[str, Any], **kwargs: Any) -> dict[str, torch.Tensor]:
+        out = self.forward_inference(batch)
+        out[VF_PREDS] = self.compute_values(batch)
+        return out
+
+    @torch.no_grad()
+    def compute_values(self, batch: dict[str, Any], embeddings: Any = None) -> torch.Tensor:
+        """The critic's values (B,) in the returns' scale (DQN: max Q)."""
+        if self._q_model:
+            return self.model(self._obs(batch))[1][..., 0]
+        return self.model.value(self._obs(batch))[..., 0]
+
+    def _rllib_params(self, params: torch.Tensor) -> torch.Tensor:
+        dist = self.model.dist
+        if not dist.continuous:
+            return params
+        mu, std = params.chunk(2, dim=-1)  # rlchain's Gaussian params are cat(mu, std)
+        return torch.cat([mu, torch.log(std)], -1)
+
+    @torch.no_grad()
+    def act(self, obs: Any, explore: bool) -> Any:
+        """One action for one observation (numpy / int), sampled or the mode."""
+        params, _ = self.model(self._obs({"obs": np.asarray(obs)[None]}))
+        if self._q_model:  # greedy (exploration in training is the run's epsilon)
+            return int(params.argmax(-1)[0])
+        dist = self.model.dist
+        action = dist.sample(params) if explore else dist.mode(params)
+        out = dist.to_env(action)[0].cpu().numpy()
+        return int(out) if out.ndim == 0 else out
+
+    def state_dict(self) -> dict[str, Any]:
+        return self.model.state_dict()
+
+    def get_state(self) -> dict[str, Any]:
+        return {k: v.cpu().numpy() for k, v in self.model.state_dict().items()}
+
+    def eval(self) -> RLModuleView:
+        return self
+
+    def is_stateful(self) -> bool:
+        return bool(getattr(self.model, "is_rnn", False))

@@ -1,0 +1,245 @@
+"""One translation: an RLlib ``AlgorithmConfig`` -> the rlchain config (``{'params': ...}``) that trains it.
+
+What maps (PPO; docs/rllib.md has the table):
+
+- ``train_batch_size`` env steps per ``train()``: rlchain's epoch is ``num_actors * horizon_length`` frames, with
+  ``num_actors = max(1, num_env_runners) * num_envs_per_env_runner``; rlchain's minibatches are whole, so the
+  batch is split into the whole number of minibatches nearest ``minibatch_size`` (RLlib's 4000 / 128: 32 of 125),
+  or, where the envs do not divide it, the horizon is rounded up to whole minibatches (:func:`batch_shape`).
+- ``num_epochs`` -> ``mini_epochs``; ``minibatch_size`` -> ``minibatch_size``; ``lr`` -> a constant
+  ``learning_rate``; ``gamma``; ``lambda_`` -> ``tau`` (``use_gae=False``: 1.0, the discounted return minus the
+  value, as RLlib's); ``clip_param`` -> ``e_clip``; ``vf_clip_param`` -> ``value_loss_clip``; ``vf_loss_coeff``
+  -> ``critic_coef`` (x2: rlchain's value loss is 0.5 * critic_coef * MSE); ``entropy_coeff`` -> ``entropy_coef``;
+  ``use_kl_loss`` / ``kl_coeff`` / ``kl_target`` -> ``kl_loss_coef`` / ``kl_loss_target`` against the rollout's
+  policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over the
+  whole batch; no reward scaling, no observation or value normalization (RLlib has none by default).
+- the model: ``fcnet_hiddens`` / ``fcnet_activation`` -> the MLP; ``vf_share_layers`` False -> a separate
+  critic; ``head_fcnet_hiddens`` -> a policy/value head MLP is not mapped (an error when set); ``free_log_std``
+  -> rlchain's fixed sigma.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
+from rlchain.rllib import keys as K
+
+ACTIVATIONS = {"tanh": "tanh", "relu": "relu", "elu": "elu", "swish": "swish", "silu": "swish", "gelu": "gelu",
+               "sigmoid": "sigmoid", "linear": "None", None: "None", "softplus": "softplus", "selu": "selu"}
+"""RLlib's activation names -> rl_games' (``linear`` / None: no activation)."""
+
+MODEL_UNSUPPORTED = {
+    "conv_filters": "image observations: write an rlchain YAML with a cnn block (docs/config.md)",
+    "use_lstm": "recurrent policies: write an rlchain YAML with an rnn block (docs/config.md)",
+    "use_attention": "attention: rlchain's history policy (docs/robot_learning.md)",
+    "head_fcnet_hiddens": "policy / value head MLPs are not mapped: put the layers in fcnet_hiddens",
+    "custom_model": "an RLModule through rl_module(rl_module_spec=...) is not mapped yet: register an rl_games "
+                    "network (rlchain.model_builder.register_network)",
+    "fcnet_use_layernorm": "layer norm in the MLP is not mapped",
+    "lstm_use_prev_action": "recurrent policies: write an rlchain YAML with an rnn block",
+    "lstm_use_prev_reward": "recurrent policies: write an rlchain YAML with an rnn block",
+    "post_fcnet_hiddens": "policy / value head MLPs are not mapped: put the layers in fcnet_hiddens",
+}
+"""Model settings whose non-default value is refused, with what to use instead."""
+
+
+def _bad(config: Any, key: str, message: str) -> ConfigError:
+    return ConfigError(type(config).__name__, key, message)
+
+
+def check_supported(config: Any) -> None:
+    """One-line errors for settings rlchain does not offer (keys.UNSUPPORTED, MODEL_UNSUPPORTED)."""
+    defaults = K.defaults(config.algo_name)
+    settings = config._settings
+    for key, why in K.UNSUPPORTED.items():
+        value = settings.get(key, defaults.get(key))
+        fine = K.UNSUPPORTED_VALUES.get(key, (defaults.get(key),))
+        if value not in fine and not (value is None and None in fine):
+            raise _bad(config, key, f"{value!r} is not offered by rlchain's RLlib face: {why}")
+    model = config.model_config
+    for key, why in MODEL_UNSUPPORTED.items():
+        if key in model and model[key] not in (K.DEFAULT_MODEL.get(key), None, False, []):
+            raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: {why}")
+    unknown = set(model) - set(K.DEFAULT_MODEL) - set(K.OLD_MODEL_KEYS)
+    if unknown:
+        key = sorted(unknown)[0]
+        raise _bad(config, f"model_config.{key}", f"not an RLlib model key{did_you_mean(key, K.DEFAULT_MODEL)}")
+    if settings.get("grad_clip") is not None and settings.get("grad_clip_by") != "global_norm":
+        raise _bad(config, "grad_clip_by", f"{settings.get('grad_clip_by')!r}: rlchain clips the global norm "
+                                           f"(grad_clip_by='global_norm')")
+    if (settings.get("num_learners") or 0) > 1:
+        raise _bad(config, "num_learners", "several learners are not mapped: rlchain trains data-parallel under "
+                                           "torchrun with multi_gpu: True (docs/distributed.md)")
+    if settings.get("rl_module_spec") is not None:
+        raise _bad(config, "rl_module_spec", "RLModule subclasses are not run by the face yet: set the network "
+                                             "with model_config (fcnet_hiddens, ...) or register an rl_games network")
+
+
+def num_envs(config: Any) -> int:
+    """Envs stepped together: RLlib's env runners times envs per runner (the local runner when 0)."""
+    settings = config._settings
+    runners = max(1, int(settings.get("num_env_runners") or 0))
+    return runners * max(1, int(settings.get("num_envs_per_env_runner") or 1))
+
+
+def batch_shape(batch: int, envs: int, minibatch: int) -> tuple[int, int]:
+    """(steps per env per epoch, minibatch size) for ``train_batch_size`` ``batch`` on ``envs`` envs.
+
+    rlchain's minibatches are whole. When ``batch`` splits over the envs and into a whole number of minibatches
+    near ``minibatch`` in size (RLlib's 4000 in 32 of 125 for its 128), the epoch is exactly ``batch`` env steps,
+    as RLlib samples; else the horizon is the smallest that holds ``batch`` in whole minibatches of ``minibatch``.
+    """
+    if batch % envs == 0:
+        counts = {max(1, batch // minibatch), max(1, -(-batch // minibatch))}
+        fits = [n for n in counts if batch % n == 0]
+        if fits:
+            n = min(fits, key=lambda n: abs(batch // n - minibatch))
+            return batch // envs, batch // n
+    return horizon(batch, envs, minibatch), minibatch
+
+
+def horizon(batch: int, envs: int, minibatch: int) -> int:
+    """Steps per env per epoch: the smallest that gives at least ``batch`` frames in whole minibatches."""
+    step = minibatch // math.gcd(minibatch, envs)  # horizon multiple of this: envs * horizon % minibatch == 0
+    per_env = math.ceil(batch / envs)
+    return max(step, math.ceil(per_env / step) * step)
+
+
+def _network(config: Any, continuous: bool) -> dict[str, Any]:
+    model = config.model_config
+    activation = model.get("fcnet_activation")
+    if activation not in ACTIVATIONS:
+        raise _bad(config, "model_config.fcnet_activation", f"{activation!r}; choices: "
+                                                            f"{', '.join(str(a) for a in ACTIVATIONS if a)}")
+    hiddens = list(model.get("fcnet_hiddens") or [])
+    if not all(isinstance(u, int) and u > 0 for u in hiddens):
+        raise _bad(config, "model_config.fcnet_hiddens", f"expected a list of layer sizes, got {hiddens!r}")
+    network: dict[str, Any] = {"name": "actor_critic", "separate": not model.get("vf_share_layers", False),
+                               "mlp": {"units": hiddens, "activation": ACTIVATIONS[activation],
+                                       "initializer": {"name": "default"}}}
+    if continuous:
+        network["space"] = {"continuous": {"mu_activation": "None", "sigma_activation": "None",
+                                           "mu_init": {"name": "default"},
+                                           "sigma_init": {"name": "const_initializer", "val": 0},
+                                           "fixed_sigma": bool(model.get("free_log_std", False))}}
+    else:
+        network["space"] = {"discrete": None}
+    return network
+
+
+def _positive(config: Any, key: str, kind: type = int) -> Any:
+    value = config._settings.get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0 \
+            or (kind is int and int(value) != value):
+        raise _bad(config, key, f"expected a {'whole ' if kind is int else ''}number > 0, got {value!r}")
+    return kind(value)
+
+
+def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]) -> dict[str, Any]:
+    """The rlchain PPO config of an RLlib ``PPOConfig`` on ``env_name`` (see the module docstring). ``run``:
+    further ``params.config`` keys (name, train_dir, device, ...)."""
+    check_supported(config)
+    s = config._settings
+    envs = num_envs(config)
+    batch = config.total_train_batch_size
+    minibatch = _positive(config, "minibatch_size")
+    if minibatch > batch:
+        minibatch = batch
+    steps, minibatch = batch_shape(batch, envs, minibatch)
+    grad_clip = s.get("grad_clip")
+    kl_on = bool(s.get("use_kl_loss")) and float(s.get("kl_coeff") or 0.0) > 0
+    lr = s.get("lr")
+    if isinstance(lr, (list, tuple)):
+        raise _bad(config, "lr", "a schedule list is not mapped: a constant lr")
+    entropy = s.get("entropy_coeff")
+    if isinstance(entropy, (list, tuple)):
+        raise _bad(config, "entropy_coeff", "a schedule list is not mapped: a constant entropy_coeff")
+    train = {
+        "env_name": env_name, "num_actors": envs, "horizon_length": steps, "minibatch_size": minibatch,
+        "mini_epochs": _positive(config, "num_epochs"), "learning_rate": float(lr), "lr_schedule": None,
+        "gamma": float(s["gamma"]), "tau": float(s["lambda_"]) if s.get("use_gae", True) else 1.0,
+        "e_clip": float(s["clip_param"]), "clip_value": False,
+        "value_loss_clip": None if s.get("vf_clip_param") is None else float(s["vf_clip_param"]),
+        "critic_coef": 2.0 * float(s["vf_loss_coeff"]), "entropy_coef": float(entropy or 0.0),
+        "kl_loss_coef": float(s["kl_coeff"]) if kl_on else 0.0,
+        "kl_loss_target": float(s["kl_target"]) if kl_on else None, "kl_reference": "rollout",
+        "grad_norm": float(grad_clip) if grad_clip is not None else 1.0, "truncate_grads": grad_clip is not None,
+        "normalize_advantage": True, "advantage_normalization": "batch", "normalize_input": False,
+        "normalize_value": False, "value_bootstrap": True, "reward_shaper": {"scale_value": 1.0},
+        "minibatch_order": "shuffle" if s.get("shuffle_batch_per_epoch", True) else "fixed",
+        "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
+        "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+    }
+    train.update(run)
+    algo, model = ("a2c_continuous", "continuous_a2c_logstd") if continuous else ("a2c_discrete", "discrete_a2c")
+    params = {"algo": {"name": algo}, "model": {"name": model}, "network": _network(config, continuous),
+              "config": train}
+    if s.get("seed") is not None:
+        params["seed"] = int(s["seed"])
+    return {"params": params}
+
+
+def _epsilon(config: Any) -> tuple[float, float, int]:
+    """RLlib's epsilon schedule [(t0, start), ..., (t1, end)] (or a number) as (start, end, decay frames)."""
+    value = config._settings.get("epsilon")
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value), float(value), 1
+    points = [tuple(p) for p in (value or [])]
+    if len(points) < 2 or any(len(p) != 2 for p in points):
+        raise _bad(config, "epsilon", f"expected [(0, start), (steps, end)] or a number, got {value!r}")
+    (t0, start), (t1, end) = points[0], points[-1]
+    return float(start), float(end), max(1, int(t1) - int(t0))
+
+
+def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
+    """The rlchain DQN config of an RLlib ``DQNConfig``: one ``train()`` = ``min_sample_timesteps_per_iteration``
+    env steps (1000), RLlib's replay ratio (one update of ``train_batch_size`` per env step, or
+    ``training_intensity``), ``target_network_update_freq`` in env steps, the epsilon schedule, double / dueling
+    Q, ``n_step``, prioritized replay (RLlib's default buffer), ``hiddens`` after ``fcnet_hiddens``."""
+    check_supported(config)
+    s = config._settings
+    for key, off in (("noisy", False), ("num_atoms", 1)):
+        if s.get(key) not in (off, None):
+            raise _bad(config, key, f"{s.get(key)!r} is not offered: rlchain's DQN is not noisy / distributional")
+    if not isinstance(s.get("n_step"), int):
+        raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
+    envs = num_envs(config)
+    batch = int(s["train_batch_size"])
+    intensity = s.get("training_intensity")
+    per_env_step = 1.0 if intensity is None else float(intensity) / batch  # updates per env step
+    updates = max(1, round(per_env_step * envs))
+    replay = s.get("replay_buffer_config") or {}
+    start, end, decay = _epsilon(config)
+    steps = max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 1000) // envs))
+    model = config.model_config
+    activation = model.get("fcnet_activation")
+    if activation not in ACTIVATIONS:
+        raise _bad(config, "model_config.fcnet_activation", f"{activation!r}")
+    units = list(model.get("fcnet_hiddens") or []) + list(s.get("hiddens") or [])
+    grad_clip = s.get("grad_clip")
+    train = {
+        "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]), "learning_rate": float(s["lr"]),
+        "double_dqn": bool(s.get("double_q", True)), "n_step": int(s["n_step"]), "batch_size": batch,
+        "replay_buffer_size": int(replay.get("capacity", 50000)),
+        "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
+        "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
+        "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
+        "num_steps_per_episode": steps, "num_updates_per_step": updates,
+        "target_update_frequency": max(1, round(int(s["target_network_update_freq"]) * updates / envs)),
+        "target_tau": float(s.get("tau", 1.0)), "epsilon_start": start, "epsilon_end": end,
+        "epsilon_decay_frames": decay, "loss": "mse" if s.get("td_error_loss_fn") == "mse" else "huber",
+        "grad_norm": None if grad_clip is None else float(grad_clip),
+        "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+    }
+    train.update(run)
+    network = {"name": "dqn", "dueling": bool(s.get("dueling", True)), "space": {"discrete": None},
+               "mlp": {"units": units, "activation": ACTIVATIONS[activation], "initializer": {"name": "default"}}}
+    params = {"algo": {"name": "dqn"}, "model": {"name": "dqn"}, "network": network, "config": train}
+    if s.get("seed") is not None:
+        params["seed"] = int(s["seed"])
+    return {"params": params}

@@ -1,0 +1,1 @@
+from ray.rllib.core.learner.learner import Learner  # noqa: F401
