@@ -490,6 +490,8 @@ class BaseModel:
             return None
         if getattr(self, "_vec_env", None) is None:
             self._vec_env = sb3_vec_env(self._env_arg, self.env_source, self.n_envs, self.seed)
+            if self.env_source.vec_env is None:  # one SB3 made of the argument: reset, as SB3's learn leaves it
+                self._vec_env.reset()  # (a callback's training_env.render() needs a reset env)
         return self._vec_env
 
     def set_env(self, env: Any, force_reset: bool = True) -> None:
