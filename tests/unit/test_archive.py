@@ -146,3 +146,16 @@ def test_rlchains_own_zip_members_are_read_within_bounds(tmp_path):
         rlchain.PPO.load(path)
     one_line(exc, path, f"'{MEMBER}' declares 10.5 GiB uncompressed")
     assert "declares 10.5 GiB" in saved_system_info(path)
+
+
+def test_a_torch_file_whose_records_inflate_far_past_its_size_is_refused_before_torch_reads_it(tmp_path):
+    import torch
+
+    real = tmp_path / "real.pth"
+    torch.save({"model": {"w": torch.zeros(3)}}, real)
+    ckpt.read(str(real))  # an ordinary checkpoint passes the check
+    name = zipfile.ZipFile(real).namelist()[0].split("/")[0]
+    crafted = write_zip(tmp_path / "bomb.pth", members_of(real) + [bomb(f"{name}/data/9", 2**30)])
+    with pytest.raises(ckpt.CheckpointError, match="declare 1.0 GiB uncompressed in a .* file") as info:
+        ckpt.read(crafted)
+    assert "\n" not in str(info.value)
