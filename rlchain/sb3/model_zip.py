@@ -55,8 +55,8 @@ def write_model_zip(path: str, write_own: Callable[[str], Any], write_sb3: Calla
             try:
                 write_sb3(archive)
                 written = True
-            except (ModuleNotFoundError, ValueError):
-                written = False  # no stable-baselines3, or a network SB3's MlpPolicy cannot hold
+            except Exception:  # no stable-baselines3, a network its MlpPolicy cannot hold, arguments it refuses
+                written = False
         if not written:
             buffer = io.BytesIO()
             torch.save(dict(policy_state), buffer)
