@@ -16,11 +16,12 @@ from rlchain.version import __version__
 
 if TYPE_CHECKING:  # what __getattr__ hands out, for type checkers and the API docs
     from rlchain.runner import Runner
-    from rlchain.sb3 import DQN, PPO, SAC
+    from rlchain.sb3 import DQN, PPO, SAC, HerReplayBuffer
 
-__all__ = ["Runner", "PPO", "SAC", "DQN", "__version__"]
+__all__ = ["Runner", "PPO", "SAC", "DQN", "HerReplayBuffer", "__version__"]
 
-_LAZY = {"Runner": "rlchain.runner", "PPO": "rlchain.sb3", "SAC": "rlchain.sb3", "DQN": "rlchain.sb3"}
+_LAZY = {"Runner": "rlchain.runner", "PPO": "rlchain.sb3", "SAC": "rlchain.sb3", "DQN": "rlchain.sb3",
+         "HerReplayBuffer": "rlchain.sb3"}
 """Top-level names and the module each comes from, imported on first use."""
 
 

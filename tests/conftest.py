@@ -1,6 +1,7 @@
 """Shared test helpers: repository paths and a tiny config factory."""
 
 import copy
+import importlib.util
 import os
 import resource
 import sys
@@ -35,6 +36,15 @@ BASE = {
                    "horizon_length": 8, "minibatch_size": 16, "mini_epochs": 1},
     }
 }
+
+
+def installed(*modules: str) -> pytest.MarkDecorator:
+    """A skip mark for a test module that needs ``modules`` (top-level names), decided without importing them:
+    ``pytest.importorskip`` at module level imports the package when the file is collected, and every pytest
+    process collects every file (jax with brax or mujoco_playground: ~6-7 s of CPU each, paid again by each
+    xdist worker and by the learning tier, which runs none of these tests). The tests import it when they run."""
+    missing = [name for name in modules if importlib.util.find_spec(name) is None]
+    return pytest.mark.skipif(bool(missing), reason=f"needs {', '.join(missing)} (not installed)")
 
 
 @pytest.fixture

@@ -39,9 +39,10 @@ def worker(seed: int, runners: int, max_steps: int) -> None:
         start = time.perf_counter()
         result = algo.train()
         seconds += time.perf_counter() - start
-        steps = int(result["env_runners"].get("num_env_steps_sampled_lifetime")
-                    or result.get("num_env_steps_sampled_lifetime", 0))
-        ret = float(result["env_runners"].get("episode_return_mean", float("nan")))
+        runners = result.get("env_runners") or {}
+        steps = int(runners.get("num_env_steps_sampled_lifetime") or result.get("num_env_steps_sampled_lifetime")
+                    or steps + int(runners.get("num_env_steps_sampled") or 0))
+        ret = float(runners.get("episode_return_mean", result.get("episode_return_mean", float("nan"))))
         if ret >= STOP_REWARD:
             break
     algo.stop()

@@ -15,14 +15,24 @@ from typing import Any
 
 import yaml
 
-from rlchain.config.text import AliasFound, NoAliasLoader
-
 CONFIG_LIMIT = 16 << 20
 """The largest config.yaml read (a run's config is kilobytes)."""
 RECORD_LIMIT = 256 << 20
 """The largest TensorBoard record read (a scalar's record is tens of bytes, an image's a few megabytes)."""
 KINDS = {stat.S_IFIFO: "a FIFO", stat.S_IFCHR: "a character device", stat.S_IFBLK: "a block device",
          stat.S_IFSOCK: "a socket", stat.S_IFDIR: "a folder"}
+
+
+class _NoAliases(yaml.SafeLoader):
+    """Safe YAML that refuses aliases (``*name``): rlchain writes none, and nested ones expand beyond memory and
+    time when the config is walked (rlchain.config.text's loader does the same for configs; compare imports no
+    other rlchain module)."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise CompareError(f"line {event.start_mark.line + 1}: YAML alias *{event.anchor} is not allowed")
+        return super().compose_node(parent, index)
 
 
 class CompareError(ValueError):
@@ -59,8 +69,8 @@ def read_config(path: str) -> Any:
     except UnicodeDecodeError as exc:
         raise CompareError(f"{path}: not UTF-8 text (byte {exc.start}): not a config rlchain wrote") from None
     try:
-        return yaml.load(text, Loader=NoAliasLoader)  # noqa: S506 (a safe loader that also refuses aliases)
-    except AliasFound as exc:
+        return yaml.load(text, Loader=_NoAliases)  # noqa: S506 (a safe loader that also refuses aliases)
+    except CompareError as exc:
         raise CompareError(f"{path}: {exc}") from None
     except (yaml.YAMLError, RecursionError):
         return None

@@ -23,7 +23,6 @@ NO_EFFECT_CONFIG_KEYS = {
     "num_minibatches": "derived from minibatch_size",
     "log_interval": "rlchain logs every epoch",
     "save_frequence": "misspelt in old rl_games; use save_frequency",
-    "max_steps": "rl_games never applied it (np.max(max_frames, max_steps)); use max_frames",
     "network_path": "checkpoints go to <train_dir>/<run>/nn",
     "log_path": "logs go to <train_dir>/<run>/summaries",
     "is_train": "use --train / --play",
@@ -70,6 +69,10 @@ ALIASES = {
     "seq_len": "seq_length",
     "lr_threshold": "kl_threshold",
 }
+# Values rl_games 2.0 names otherwise: key -> {2.0's value: rlchain's}, read silently (the same behaviour).
+VALUE_ALIASES = {
+    "schedule_type": {"per_minibatch": "legacy"},  # 2.0's documented default; 'legacy' is its alias there too
+}
 # rl_games' TensorFlow-era model names: the name brought the LSTM. In rlchain (as in rl_games' torch
 # agent) the RNN is the network's `rnn` block, so each is the plain preset, read with a warning.
 MODEL_ALIASES = {
@@ -88,7 +91,6 @@ UNSUPPORTED_CONFIG_KEYS = {
     "expl_type": "exploration bonuses",
     "has_central_value": "central value via env attribute",
     "use_ppg": "phasic policy gradients",
-    "capability_manifest": "a capability manifest stored in SAC checkpoints (rl_games 2.0)",
 }
 
 
@@ -121,6 +123,11 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
                 raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
             warn_once(source, f"{path}.{old}", f"deprecated name, use '{new}'")
             out[new] = out.pop(old)
+    for key, values in VALUE_ALIASES.items():
+        if isinstance(out.get(key), str) and out[key] in values:
+            out[key] = values[out[key]]
+    if "max_steps" in out:
+        out = _max_steps(out, source, path)
     for key, reason in NO_EFFECT_CONFIG_KEYS.items():
         if key in out:
             warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
@@ -145,6 +152,23 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
     return out
 
 
+def _max_steps(config: dict[str, Any], source: str, path: str) -> dict[str, Any]:
+    """rl_games 2.0 trains to the larger of ``max_frames`` and ``max_steps`` (1.6.5 read ``max_steps`` and never
+    applied it): ``max_frames`` becomes that larger value, with a warning when ``max_steps`` is the one that
+    stops the run."""
+    out = dict(config)
+    steps = out.pop("max_steps")
+    if isinstance(steps, bool) or not isinstance(steps, (int, float)):
+        raise ConfigError(source, f"{path}.max_steps", f"expected a number of env frames, got {steps!r}")
+    frames = out.get("max_frames", -1)
+    frames = -1 if frames is None else frames
+    if isinstance(frames, (int, float)) and not isinstance(frames, bool) and steps > frames:
+        warn_once(source, f"{path}.max_steps", f"trains to max_steps {int(steps)} frames: rl_games 2.0 stops at "
+                  f"the larger of max_frames and max_steps (1.6.5 ignored max_steps)")
+        out["max_frames"] = int(steps)
+    return out
+
+
 ATARI_PRESETS = ("PongNoFrameskip-v4", "BreakoutNoFrameskip-v4", "MsPacmanNoFrameskip-v4")
 """rl_games' Atari preset env names: channels-last frames in 1.6.5, channels-first in 2.0."""
 
@@ -152,7 +176,22 @@ ATARI_PRESETS = ("PongNoFrameskip-v4", "BreakoutNoFrameskip-v4", "MsPacmanNoFram
 def translate_params(params: dict[str, Any], source: str) -> dict[str, Any]:
     """Drop rl_games' top-level no-op keys (``params.load_checkpoint`` ...) with a warning; an Atari preset
     under a CNN with ``permute_input: False`` gets channels-first frames (:func:`_atari_channels`)."""
+    if isinstance(params.get("pbt"), dict):
+        params = _pbt_section(params, source)
     return _atari_channels(_drop_no_effect(params, NO_EFFECT_PARAMS_KEYS, source, "params"))
+
+
+def _pbt_section(params: dict[str, Any], source: str) -> dict[str, Any]:
+    """rl_games 2.0's ``params.pbt`` (DexPBT, read by its PbtAlgoObserver): disabled, dropped with a warning;
+    enabled, an error naming rlchain's population-based training (Ray Tune's PBT)."""
+    out = dict(params)
+    section = out.pop("pbt")
+    if section.get("enabled"):
+        raise ConfigError(source, "params.pbt.enabled", "rl_games' re-exec PBT is not offered; rlchain's "
+                          "population-based training is Ray Tune's PBT: --tune SEARCH.yaml with backend: ray "
+                          "(docs/tuning.md)")
+    warn_once(source, "params.pbt", "accepted for rl_games compatibility, no effect: enabled is False")
+    return out
 
 
 def _atari_channels(params: dict[str, Any]) -> dict[str, Any]:

@@ -221,6 +221,10 @@ class RunConfig:
     max_frames: int = option(-1, "stop after this many env frames in total (-1 = no limit; 0 is an error)",
                              check=_limit)
     score_to_win: float = option(float("inf"), "stop once the mean reward reaches this")
+    capability_manifest: dict | None = option(None, "rl_games 2.0: what the policy can do (command ranges, "
+                                                     "terrains, ...), as the user declares it; never interpreted, "
+                                                     "kept in the config and so in every checkpoint's stored "
+                                                     "config")
     success_to_win: float = option(float("inf"), "stop once the success rate of the tracked episodes reaches "
                                                   "this (0..1; envs that report success, see success_key)",
                                   check=rate_target)

@@ -1,6 +1,9 @@
-"""rl_games' agent modules (``a2c_continuous``, ``a2c_discrete``, ``sac_agent``, ``central_value``,
-``a2c_common``): not offered. rlchain trains those algorithms with its own loop; importing one of them is an
-ImportError whose one line says so and what to use instead."""
+"""rl_games' modules rlchain does not offer, in one table: importing one through ``rl_games`` (the alias,
+:mod:`rlchain.rl_games.alias`) is an ImportError whose one line says what it is and what to use instead.
+
+Agent code (``a2c_continuous``, ``a2c_discrete``, ``sac_agent``, ``central_value``, ``a2c_common``, and 2.0's
+``datasets``, the agent's minibatch slicer): rlchain trains those algorithms with its own loop.
+"""
 
 from __future__ import annotations
 
@@ -9,9 +12,22 @@ INSTEAD = ("rlchain trains {algo} with its own loop (params.algo.name: {algo}, t
            "models.ModelA2C*) train there as registered; an agent subclass (IsaacGymEnvs' AMP, common_agent) "
            "needs porting to an rlchain algorithm registered with model_builder.register_algo (docs/rl_games.md)")
 
+NOT_OFFERED = {
+    "rl_games.algos_torch.a2c_continuous": ("A2CAgent", "a2c_continuous"),
+    "rl_games.algos_torch.a2c_discrete": ("DiscreteA2CAgent", "a2c_discrete"),
+    "rl_games.algos_torch.sac_agent": ("SACAgent", "sac"),
+    "rl_games.algos_torch.central_value": ("CentralValueTrain", "a2c_continuous"),
+    "rl_games.common.a2c_common": ("A2CBase, ContinuousA2CBase, DiscreteA2CBase", "a2c_continuous"),
+    "rl_games.common.datasets": ("PPODataset, DatasetList", "a2c_continuous"),
+}
+"""rl_games module -> (the classes it defines, the algorithm rlchain trains in its place)."""
 
-def refuse(module: str, classes: str, algo: str) -> None:
-    """Raise the ImportError of rl_games' agent module ``module`` (defining ``classes``, training ``algo``)."""
-    name = module.replace("rlchain.rl_games", "rl_games", 1)
-    raise ImportError(f"{name} ({classes}) is rl_games' agent code, not offered by rlchain: "
-                      + INSTEAD.format(algo=algo), name=name)
+
+def not_offered_message(name: str) -> str | None:
+    """The one-line ImportError message of rl_games module ``name`` (``rl_games.X.Y``), or None when rlchain
+    offers it."""
+    found = NOT_OFFERED.get(name)
+    if found is None:
+        return None
+    classes, algo = found
+    return f"{name} ({classes}) is rl_games' agent code, not offered by rlchain: " + INSTEAD.format(algo=algo)

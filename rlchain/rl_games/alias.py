@@ -14,6 +14,8 @@ import importlib.machinery
 import sys
 from types import ModuleType
 
+from rlchain.rl_games.agents import not_offered_message
+
 ALIAS = "rl_games"
 TARGET = "rlchain.rl_games"
 
@@ -31,11 +33,15 @@ class RlGamesAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def find_spec(self, fullname: str, path: object = None, target: object = None
                   ) -> importlib.machinery.ModuleSpec | None:
-        """A spec for an ``rl_games`` name whose rlchain module exists; None for every other name (an
-        rl_games module rlchain does not offer then fails as a plain ModuleNotFoundError)."""
+        """A spec for an ``rl_games`` name whose rlchain module exists; for one in the table of modules rlchain
+        does not offer (:data:`rlchain.rl_games.agents.NOT_OFFERED`) the one-line ImportError saying what to
+        use; None for every other name (a plain ModuleNotFoundError)."""
         name = target_name(fullname)
         if name is None:
             return None
+        message = not_offered_message(fullname)
+        if message is not None:
+            raise ImportError(message, name=fullname)
         try:
             module = importlib.import_module(name)
         except ModuleNotFoundError as exc:

@@ -11,7 +11,7 @@ from __future__ import annotations
 def _register_all() -> None:
     """Register the face's algorithms as Ray Tune trainables under RLlib's names (``tune.Tuner("PPO", ...)``);
     Ray Tune calls this when it meets an algorithm name it does not know."""
-    from rlchain.rllib.tune import register_trainables
+    from rlchain.rllib.tune import register_trainables  # optional: ray[tune] (the module needs it)
     register_trainables()
 
 

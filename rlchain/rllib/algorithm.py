@@ -15,12 +15,14 @@ import math
 import os
 import tempfile
 import time
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import yaml
 
 from rlchain.config.errors import ConfigError
+from rlchain.envs.factory import make_vec_env
+from rlchain.policy.play import play
 from rlchain.rllib import envs, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested
 from rlchain.rllib.module import RLModuleView
@@ -84,8 +86,19 @@ class _Functions(RLlibCallback):
             setattr(self, name, lambda *a, _fns=fns, **k: [f(*a, **k) for f in _fns])
 
 
+ALGORITHMS: dict[str, type] = {}
+"""The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
+
+
 class Algorithm:
-    """One RLlib algorithm (PPO) trained by rlchain; see the module docstring."""
+    """One RLlib algorithm (PPO, DQN) trained by rlchain; see the module docstring."""
+
+    algo_name: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.algo_name:
+            ALGORITHMS[cls.algo_name] = cls
 
     def __init__(self, config: Any = None, env: Any = None, logger_creator: Any = None, **kwargs: Any) -> None:
         if config is None or not hasattr(config, "_settings"):
@@ -93,10 +106,10 @@ class Algorithm:
         if env is not None:
             config = config.copy().environment(env)
         self.config = config
-        if config.algo_name != "PPO":
+        if config.algo_name not in ("PPO", "DQN"):
             raise ConfigError(f"{type(config).__name__}", "build_algo", f"{config.algo_name} is not trained by the "
-                              f"face yet: PPOConfig trains on rlchain's PPO; rlchain's own YAMLs train SAC, DQN, "
-                              f"APPO and IMPALA (rlchain/configs/)")
+                              f"face yet: PPOConfig and DQNConfig train on rlchain's PPO and DQN; rlchain's own "
+                              f"YAMLs train SAC, APPO and IMPALA (rlchain/configs/)")
         config.validate()
         config.freeze()
         settings = config._settings
@@ -124,13 +137,18 @@ class Algorithm:
         plain_id = isinstance(settings["env"], str) and not settings.get("env_config") \
             and envs.tune_registered(settings["env"]) is None
         env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
+        self._env_name = env_name
         continuous = isinstance(self.action_space, gym.spaces.Box)
-        if not isinstance(self.action_space, (gym.spaces.Box, gym.spaces.Discrete)):
+        allowed = (gym.spaces.Discrete,) if config.algo_name == "DQN" else (gym.spaces.Box, gym.spaces.Discrete)
+        if not isinstance(self.action_space, allowed):
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
-                              f"mapped by the face (Discrete or Box)")
+                              f"mapped by the face for {config.algo_name} "
+                              f"({' or '.join(a.__name__ for a in allowed)})")
         gpu = (settings.get("num_gpus_per_learner") or 0) > 0 or (settings.get("num_gpus") or 0) > 0
-        run = {"name": _run_name(settings["env"]), "device": "cuda:0" if gpu else "cpu", "print_stats": False}
-        self.rlchain_config = translate.ppo_config(config, env_name, continuous, run)
+        run = {"name": _run_name(config.algo_name, settings["env"]), "device": "cuda:0" if gpu else "cpu",
+               "print_stats": False}
+        self.rlchain_config = translate.dqn_config(config, env_name, run) if config.algo_name == "DQN" \
+            else translate.ppo_config(config, env_name, continuous, run)
         self.runner = Runner().load(self.rlchain_config)
         extra = []
         if any(type(cb).on_episode_end is not RLlibCallback.on_episode_end
@@ -186,17 +204,21 @@ class Algorithm:
         length = nan if report.mean_length is None else report.mean_length
         ctx = self._stepper.context
         frames = int(report.frames)
-        per_iter = int(self.rlchain_config["params"]["config"]["num_actors"]
-                       * self.rlchain_config["params"]["config"]["horizon_length"])
+        cfg = self.rlchain_config["params"]["config"]
+        per_iter = int(cfg["num_actors"] * cfg.get("horizon_length", cfg.get("num_steps_per_episode", 1)))
         episode_custom = self._env_runner_metrics.reduce()
         env_runners = {"episode_return_mean": ret, "episode_len_mean": length,
                        "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
                        "num_episodes_lifetime": int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
                        **nested(episode_custom)}
-        learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-                   "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-                   "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-                   "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+        if self.config.algo_name == "DQN":
+            learner = {"qf_loss": stats.get("td_loss", nan), "qf_mean": stats.get("q", nan),
+                       "curr_epsilon": stats.get("epsilon", nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
+        else:
+            learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
+                       "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
+                       "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+                       "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
         if "kl_coef" in stats:
             learner["curr_kl_coeff"] = stats["kl_coef"]
         return {
@@ -234,25 +256,17 @@ class Algorithm:
         if duration == "auto":
             duration, by_steps = 10, False
         explore = bool((s.get("evaluation_config") or {}).get("explore", False))
-        module = self.get_module()
-        env = self._make(0)
-        returns, lengths, steps = [], [], 0
-        try:
-            seed = s.get("seed")
-            obs, _ = env.reset(seed=None if seed is None else int(seed) + 10_000)
-            total, length = 0.0, 0
-            while (steps < duration) if by_steps else (len(returns) < duration):
-                obs, reward, terminated, truncated, _ = env.step(module.act(obs, explore))
-                total += float(reward)
-                length += 1
-                steps += 1
-                if terminated or truncated:
-                    returns.append(total)
-                    lengths.append(length)
-                    total, length = 0.0, 0
-                    obs, _ = env.reset()
+        self.get_module()  # checks the module id and that the algorithm runs
+        seed = s.get("seed")
+        env = make_vec_env(self._env_name, None, 1, None if seed is None else int(seed) + 10_000, None)
+        try:  # the play loop steps the env, as for any rlchain evaluation
+            result = play(self._stepper.context.model, env, None if by_steps else int(duration),
+                          deterministic=not explore, steps=int(duration) if by_steps else None)
         finally:
             env.close()
+        returns = result.rewards
+        lengths = [result.mean_length] * result.games  # play reports the games' mean length
+        steps = int(duration) if by_steps else round(result.mean_length * result.games)
         mean = sum(returns) / len(returns) if returns else math.nan
         out = {"env_runners": {"episode_return_mean": mean,
                                "episode_return_max": max(returns) if returns else math.nan,
@@ -341,8 +355,11 @@ class Algorithm:
         checkpoint_file(path)  # refuses RLlib's own checkpoints first
         with open(os.path.join(path, CONFIG_FILE)) as f:
             stored = json.load(f)
-        from rlchain.rllib.algorithms.registry import config_class
-        config = config_class(stored.get("algo", "PPO"))()
+        name = stored.get("algo", "PPO")
+        if name not in ALGORITHMS:
+            raise ConfigError(path, "algo", f"'{name}' is not an algorithm of the face "
+                                            f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
+        config = ALGORITHMS[name].get_default_config()
         data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
         env = data.get("env")
         if not isinstance(env, str):
@@ -412,8 +429,8 @@ def _deep_update(into: dict[str, Any], new: dict[str, Any]) -> None:
             into[key] = value
 
 
-def _run_name(env: Any) -> str:
+def _run_name(algo: str, env: Any) -> str:
     import re
     base = env if isinstance(env, str) else getattr(env, "__name__", "env")
     base = re.sub(r"-v\d+$", "", base.rsplit("/", 1)[-1])
-    return "rllib_ppo_" + (re.sub(r"[^a-z0-9]+", "_", base.lower()).strip("_") or "env")
+    return f"rllib_{algo.lower()}_" + (re.sub(r"[^a-z0-9]+", "_", base.lower()).strip("_") or "env")

@@ -14,6 +14,8 @@ import importlib.machinery
 import sys
 from types import ModuleType
 
+from rlchain.rllib.config import AlgorithmConfig
+
 ALIAS = "ray.rllib"
 TARGET = "rlchain.rllib"
 
@@ -93,7 +95,6 @@ def _with_config_registration(fullname: str, path: object) -> importlib.machiner
 
         def exec_module(self, module: ModuleType) -> None:
             loader.exec_module(module)
-            from rlchain.rllib.config import AlgorithmConfig
             module._Config.register(AlgorithmConfig)
 
     spec.loader = _Registering()

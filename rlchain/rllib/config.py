@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
+from rlchain.rllib.translate import check_supported
 
 _FROZEN = "_frozen"
 
@@ -197,19 +198,17 @@ class AlgorithmConfig:
 
     def validate(self) -> None:
         """Refuse, in one line each, the settings the face does not offer (see :data:`keys.UNSUPPORTED`)."""
-        from rlchain.rllib.translate import check_supported
         check_supported(self)
 
     # ----- building ----------------------------------------------------------------------------------
     def build_algo(self, env: Any = None, logger_creator: Any = None, use_copy: bool = True) -> Any:
         """The Algorithm of this config on rlchain's loop (``env``: sets the env first, as RLlib's)."""
-        from rlchain.rllib.algorithm import Algorithm
+        if not isinstance(self.algo_class, type):
+            raise ConfigError(type(self).__name__, "algo_class", "no algorithm to build: use PPOConfig / DQNConfig")
         config = self.copy() if use_copy else self
         if env is not None:
             config.environment(env)
-        cls = self.algo_class if isinstance(self.algo_class, type) and issubclass(self.algo_class, Algorithm) \
-            else Algorithm
-        return cls(config=config)
+        return self.algo_class(config=config)
 
     def build(self, env: Any = None, logger_creator: Any = None, use_copy: bool = True) -> Any:
         """RLlib's older name of :meth:`build_algo`."""

@@ -1,7 +1,7 @@
 """RLlib's env argument as an env rlchain steps: a gymnasium id (``env_config`` as ``gym.make`` keywords, as
 RLlib does), a name registered with ``ray.tune.registry.register_env`` (its creator gets an :class:`EnvContext`),
-or an env class (built with an :class:`EnvContext`). Each becomes a fresh name in :data:`rlchain.registry.ENVS`
-whose builder steps that many copies with rlchain's gymnasium backend."""
+or an env class (built with an :class:`EnvContext`). Each becomes a fresh name registered with rlchain's
+``env_configurations`` whose builder steps that many copies with rlchain's gymnasium backend."""
 
 from __future__ import annotations
 
@@ -11,9 +11,11 @@ from typing import Any
 
 import gymnasium as gym
 
+from rlchain import env_configurations
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
-from rlchain.registry import ENVS
+from rlchain.errors import did_you_mean
+from rlchain.rllib.multi_agent import MultiAgentEnv
 
 _COUNTER = itertools.count(1)
 
@@ -63,12 +65,10 @@ def env_maker(env: Any, env_config: dict[str, Any], runners: int, per_runner: in
         if creator is not None:
             return (lambda index: creator(context(index))), f"the registered env '{env}'"
         if env not in gym.registry:
-            from rlchain.errors import did_you_mean
             raise ConfigError("AlgorithmConfig.environment()", "env", f"'{env}' is neither a gymnasium id nor a name "
                               f"registered with ray.tune.registry.register_env{did_you_mean(env, gym.registry)}")
         return (lambda index: gym.make(env, **env_config)), env
     if isinstance(env, type):
-        from rlchain.rllib.multi_agent import MultiAgentEnv
         if issubclass(env, MultiAgentEnv):
             raise ConfigError("AlgorithmConfig.environment()", "env", f"{env.__name__} is a MultiAgentEnv: not "
                               f"offered by the face; rlchain trains PettingZoo envs with several policies "
@@ -79,7 +79,7 @@ def env_maker(env: Any, env_config: dict[str, Any], runners: int, per_runner: in
 
 
 def register(make: Callable[[int], gym.Env], label: str) -> str:
-    """A fresh ENVS name whose builder steps ``make(0..n-1)`` with rlchain's gymnasium backend."""
+    """A fresh env name whose builder steps ``make(0..n-1)`` with rlchain's gymnasium backend."""
     name = f"rllib_env_{next(_COUNTER)}"
 
     def build(num_envs: int, seed: int | None, *, vecenv_type: str | None = None, render: bool = False,
@@ -89,5 +89,5 @@ def register(make: Callable[[int], gym.Env], label: str) -> str:
         return GymnasiumVecEnv(name, num_envs, mode="sync", seed=seed,
                                env_fns=[lambda i=i: make(i) for i in range(num_envs)])
 
-    ENVS.register(name, build)
+    env_configurations.register(name, {"vecenv_creator": build})
     return name

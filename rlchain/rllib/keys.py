@@ -141,6 +141,13 @@ ALGO_DEFAULTS: dict[str, dict[str, Any]] = {
             "lambda_": 1.0, "use_kl_loss": True, "kl_coeff": 0.2, "kl_target": 0.01, "vf_loss_coeff": 1.0,
             "entropy_coeff": 0.0, "entropy_coeff_schedule": None, "clip_param": 0.3, "vf_clip_param": 10.0,
             "model_config": {"vf_share_layers": False}},
+    "DQN": {"lr": 5e-4, "train_batch_size": 32, "target_network_update_freq": 500,
+            "replay_buffer_config": {"type": "PrioritizedEpisodeReplayBuffer", "capacity": 50000, "alpha": 0.6,
+                                     "beta": 0.4},
+            "num_steps_sampled_before_learning_starts": 1000, "n_step": 1, "double_q": True, "dueling": True,
+            "hiddens": [256], "epsilon": [(0, 1.0), (10000, 0.05)], "training_intensity": None, "tau": 1.0,
+            "td_error_loss_fn": "huber", "grad_clip": 40.0, "min_sample_timesteps_per_iteration": 1000,
+            "noisy": False, "num_atoms": 1, "num_env_runners": 0},
 }
 """Each algorithm's own defaults over :data:`DEFAULTS` (RLlib 2.60's ``PPOConfig.__init__``)."""
 
@@ -193,7 +200,7 @@ UNSUPPORTED: dict[str, str] = {
 }
 """Keys whose non-default value the face refuses, with what to use instead."""
 
-UNSUPPORTED_VALUES: dict[str, tuple[Any, ...]] = {"framework": ("torch",), "use_critic": (True,),
+UNSUPPORTED_VALUES: dict[str, tuple[Any, ...]] = {"framework": ("torch",), "use_critic": (True, None),
                                                   "input_": ("sampler",), "output": (None,)}
 """Values of :data:`UNSUPPORTED` keys that are fine (default: only the key's default)."""
 

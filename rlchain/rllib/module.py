@@ -69,6 +69,7 @@ class RLModuleView:
         self.model = model
         self.observation_space = observation_space
         self.action_space = action_space
+        self._q_model = hasattr(model, "q_values")  # DQN's QModel: forward -> (Q (B, n), max Q)
 
     def _obs(self, batch: dict[str, Any]) -> torch.Tensor:
         obs = batch["obs"]
@@ -81,6 +82,8 @@ class RLModuleView:
         """{"obs": (B, *obs_shape)} -> {"action_dist_inputs": (B, P)}: logits (discrete), or means then log-stds
         (continuous, as RLlib's diagonal Gaussian)."""
         params, _ = self.model(self._obs(batch))
+        if self._q_model:  # DQN: the Q-values are the action-distribution inputs (argmax is the greedy action)
+            return {ACTION_DIST_INPUTS: params, "qf_preds": params}
         return {ACTION_DIST_INPUTS: self._rllib_params(params)}
 
     forward_exploration = forward_inference
@@ -92,7 +95,9 @@ class RLModuleView:
 
     @torch.no_grad()
     def compute_values(self, batch: dict[str, Any], embeddings: Any = None) -> torch.Tensor:
-        """The critic's values (B,) in the returns' scale."""
+        """The critic's values (B,) in the returns' scale (DQN: max Q)."""
+        if self._q_model:
+            return self.model(self._obs(batch))[1][..., 0]
         return self.model.value(self._obs(batch))[..., 0]
 
     def _rllib_params(self, params: torch.Tensor) -> torch.Tensor:
@@ -106,6 +111,8 @@ class RLModuleView:
     def act(self, obs: Any, explore: bool) -> Any:
         """One action for one observation (numpy / int), sampled or the mode."""
         params, _ = self.model(self._obs({"obs": np.asarray(obs)[None]}))
+        if self._q_model:  # greedy (exploration in training is the run's epsilon)
+            return int(params.argmax(-1)[0])
         dist = self.model.dist
         action = dist.sample(params) if explore else dist.mode(params)
         out = dist.to_env(action)[0].cpu().numpy()

@@ -24,6 +24,7 @@ import math
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
 
 ACTIVATIONS = {"tanh": "tanh", "relu": "relu", "elu": "elu", "swish": "swish", "silu": "swish", "gelu": "gelu",
@@ -64,7 +65,6 @@ def check_supported(config: Any) -> None:
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: {why}")
     unknown = set(model) - set(K.DEFAULT_MODEL) - set(K.OLD_MODEL_KEYS)
     if unknown:
-        from rlchain.errors import did_you_mean
         key = sorted(unknown)[0]
         raise _bad(config, f"model_config.{key}", f"not an RLlib model key{did_you_mean(key, K.DEFAULT_MODEL)}")
     if settings.get("grad_clip") is not None and settings.get("grad_clip_by") != "global_norm":
@@ -178,6 +178,68 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     algo, model = ("a2c_continuous", "continuous_a2c_logstd") if continuous else ("a2c_discrete", "discrete_a2c")
     params = {"algo": {"name": algo}, "model": {"name": model}, "network": _network(config, continuous),
               "config": train}
+    if s.get("seed") is not None:
+        params["seed"] = int(s["seed"])
+    return {"params": params}
+
+
+def _epsilon(config: Any) -> tuple[float, float, int]:
+    """RLlib's epsilon schedule [(t0, start), ..., (t1, end)] (or a number) as (start, end, decay frames)."""
+    value = config._settings.get("epsilon")
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value), float(value), 1
+    points = [tuple(p) for p in (value or [])]
+    if len(points) < 2 or any(len(p) != 2 for p in points):
+        raise _bad(config, "epsilon", f"expected [(0, start), (steps, end)] or a number, got {value!r}")
+    (t0, start), (t1, end) = points[0], points[-1]
+    return float(start), float(end), max(1, int(t1) - int(t0))
+
+
+def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
+    """The rlchain DQN config of an RLlib ``DQNConfig``: one ``train()`` = ``min_sample_timesteps_per_iteration``
+    env steps (1000), RLlib's replay ratio (one update of ``train_batch_size`` per env step, or
+    ``training_intensity``), ``target_network_update_freq`` in env steps, the epsilon schedule, double / dueling
+    Q, ``n_step``, prioritized replay (RLlib's default buffer), ``hiddens`` after ``fcnet_hiddens``."""
+    check_supported(config)
+    s = config._settings
+    for key, off in (("noisy", False), ("num_atoms", 1)):
+        if s.get(key) not in (off, None):
+            raise _bad(config, key, f"{s.get(key)!r} is not offered: rlchain's DQN is not noisy / distributional")
+    if not isinstance(s.get("n_step"), int):
+        raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
+    envs = num_envs(config)
+    batch = int(s["train_batch_size"])
+    intensity = s.get("training_intensity")
+    per_env_step = 1.0 if intensity is None else float(intensity) / batch  # updates per env step
+    updates = max(1, round(per_env_step * envs))
+    replay = s.get("replay_buffer_config") or {}
+    start, end, decay = _epsilon(config)
+    steps = max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 1000) // envs))
+    model = config.model_config
+    activation = model.get("fcnet_activation")
+    if activation not in ACTIVATIONS:
+        raise _bad(config, "model_config.fcnet_activation", f"{activation!r}")
+    units = list(model.get("fcnet_hiddens") or []) + list(s.get("hiddens") or [])
+    grad_clip = s.get("grad_clip")
+    train = {
+        "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]), "learning_rate": float(s["lr"]),
+        "double_dqn": bool(s.get("double_q", True)), "n_step": int(s["n_step"]), "batch_size": batch,
+        "replay_buffer_size": int(replay.get("capacity", 50000)),
+        "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
+        "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
+        "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
+        "num_steps_per_episode": steps, "num_updates_per_step": updates,
+        "target_update_frequency": max(1, round(int(s["target_network_update_freq"]) * updates / envs)),
+        "target_tau": float(s.get("tau", 1.0)), "epsilon_start": start, "epsilon_end": end,
+        "epsilon_decay_frames": decay, "loss": "mse" if s.get("td_error_loss_fn") == "mse" else "huber",
+        "grad_norm": None if grad_clip is None else float(grad_clip),
+        "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+    }
+    train.update(run)
+    network = {"name": "dqn", "dueling": bool(s.get("dueling", True)), "space": {"discrete": None},
+               "mlp": {"units": units, "activation": ACTIVATIONS[activation], "initializer": {"name": "default"}}}
+    params = {"algo": {"name": "dqn"}, "model": {"name": "dqn"}, "network": network, "config": train}
     if s.get("seed") is not None:
         params["seed"] = int(s["seed"])
     return {"params": params}

@@ -6,6 +6,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from rlchain.rllib.algorithms.registry import ALGORITHMS, config_class
+from rlchain.rllib.config import AlgorithmConfig
+
 
 def _trainable_base() -> type:
     try:  # optional: ray[tune]
@@ -22,7 +25,6 @@ def make_trainable(algo_name: str) -> type:
         _algo_name = algo_name
 
         def setup(self, config: dict[str, Any]) -> None:
-            from rlchain.rllib.algorithms.registry import config_class
             algo_config = config_class(self._algo_name)()
             algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
             self.algo = algo_config.build_algo()
@@ -51,11 +53,9 @@ def register_trainables() -> None:
     """Register every face algorithm with Ray Tune under its RLlib name, and mark the configs as Tune's
     ``to_dict`` configs (a Tuner's ``param_space=config`` becomes ``config.to_dict()``)."""
     _trainable_base()
-    from ray.tune import register_trainable
-    from ray.tune.tune import _Config
+    from ray.tune import register_trainable  # optional: ray[tune]
+    from ray.tune.tune import _Config  # optional: ray[tune]
 
-    from rlchain.rllib.algorithms.registry import ALGORITHMS
-    from rlchain.rllib.config import AlgorithmConfig
     _Config.register(AlgorithmConfig)
     for name in ALGORITHMS:
         register_trainable(name, make_trainable(name))

@@ -167,6 +167,8 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
         raise CheckpointError(f"{path}: the file is empty (0 bytes), not a checkpoint: a write that never finished? "
                               f"use another checkpoint")
     trust = is_trusted() if trusted is None else trusted
+    if not trust:
+        _check_inflation(path)
     try:
         if trust:
             state = torch.load(path, map_location=map_location, weights_only=False)
@@ -193,6 +195,25 @@ def read(path: str, map_location: str | torch.device = "cpu", trusted: bool | No
                               f"is corrupted (disk or copy); use another checkpoint")
     state.pop(digest.KEY, None)
     return _decode(state)
+
+
+INFLATION_SLACK = 256 << 20
+"""How many bytes a torch file's records may declare beyond the file's own size. torch stores its records
+uncompressed, so a real checkpoint's records add up to about its size; a file whose records inflate far past it
+(a crafted zip bomb) is refused before torch inflates each record whole."""
+
+
+def _check_inflation(path: str) -> None:
+    """One line for a torch (zip) file whose records declare far more bytes than the file holds."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            declared = sum(info.file_size for info in z.infolist())
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return  # not a zip (a legacy torch pickle, junk): torch's reader says what it is
+    if declared > os.path.getsize(path) + INFLATION_SLACK:
+        raise CheckpointError(f"{path}: its records declare {archive.size_text(declared)} uncompressed in a "
+                              f"{archive.size_text(os.path.getsize(path))} file; torch writes records uncompressed, "
+                              f"so this is not a checkpoint torch wrote (refused before inflating)")
 
 
 def is_sb3_layout(path: str) -> bool:

@@ -5,5 +5,6 @@ rlchain's own loop and config, and write the rl_games-style YAML they ran (``mod
 """
 
 from rlchain.sb3.algorithms import DQN, PPO, SAC
+from rlchain.sb3.her import HerReplayBuffer
 
-__all__ = ["PPO", "SAC", "DQN"]
+__all__ = ["PPO", "SAC", "DQN", "HerReplayBuffer"]

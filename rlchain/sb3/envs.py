@@ -138,6 +138,7 @@ def sb3_vec_env(env: Any, source: EnvSource, n_envs: int, seed: int | None) -> A
 
 def same_spaces(a: Any, b: Any) -> bool:
     """Whether ``a`` and ``b`` (each with ``observation_space`` and ``action_space``) have the same kinds and
-    shapes of spaces (bounds may differ in dtype)."""
-    return all(type(x) is type(y) and x.shape == y.shape and getattr(x, "n", None) == getattr(y, "n", None)
+    shapes of spaces (bounds may differ in dtype; a flattened Dict's Box subclass is a Box)."""
+    return all((isinstance(x, type(y)) or isinstance(y, type(x))) and x.shape == y.shape
+               and getattr(x, "n", None) == getattr(y, "n", None)
                for x, y in ((a.observation_space, b.observation_space), (a.action_space, b.action_space)))

@@ -8,14 +8,18 @@ a file naming any other object is refused in one line unless the caller trusts i
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
-from rlchain.sb3.zip_format import count
+from rlchain.sb3.model_zip import has_model, read_model
+from rlchain.sb3.zip_format import count, is_sb3_archive, read_sb3_archive
 
 FORMAT = "rlchain-sb3-1"
 SPACE = "__space__"
@@ -135,3 +139,35 @@ def load_weights(path: str) -> dict[str, torch.Tensor]:
     if not isinstance(weights, dict):
         raise ckpt.CheckpointError(f"{path}: holds no 'model' weights (a file written by rlchain's save or a run)")
     return weights
+
+
+def read_weights(path: str, algo: str) -> dict[str, torch.Tensor]:
+    """The policy weights of ``path`` for ``set_parameters``: rlchain's model zip, SB3's own archive of ``algo``
+    (SB3's names, read as data by :mod:`rlchain.sb3.zip_format`) or a file :func:`save_model` or a run wrote."""
+    if has_model(path):
+        return read_model(path, load_weights)
+    if is_sb3_archive(path):
+        return read_sb3_archive(path, algo).policy_state
+    return load_weights(path)
+
+
+def load_into(policy: torch.nn.Module, weights: dict[str, Any], path: str, what: str, strict: bool = True) -> None:
+    """``policy.load_state_dict(weights)``; weights that do not fit are one CheckpointError line naming ``path``
+    (torch's own message spans lines)."""
+    try:
+        policy.load_state_dict(weights, strict=strict)
+    except RuntimeError as exc:
+        raise ckpt.CheckpointError(f"{path}: its weights do not fit {what} ({' '.join(str(exc).split())[:200]})") \
+            from None
+
+
+@contextlib.contextmanager
+def named_by(path: str) -> Iterator[None]:
+    """A config error while a loaded file's values (or the caller's keywords beside them) build the model names
+    the file, not the model class."""
+    try:
+        yield
+    except ConfigError as exc:
+        if exc.source == path:
+            raise
+        raise ConfigError(path, exc.path, exc.message) from None

@@ -21,6 +21,7 @@ from rlchain.config.packaged import config_names
 from rlchain.config.text import read_data
 from rlchain.errors import did_you_mean
 from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION
+from rlchain.sb3.her import her_config
 
 SOURCE = "rlchain.{algo}"  # where ConfigErrors say the bad argument came from
 
@@ -152,8 +153,7 @@ OFF_POLICY_KEYS: dict[str, Any] = {
     "gamma": "gamma", "stats_window_size": "games_to_track",
     "train_freq": None, "gradient_steps": None,  # together: num_updates_per_step (see _updates)
     "action_noise": Unsupported("rlchain's SAC explores with its own policy noise"),
-    "replay_buffer_class": Unsupported("rlchain's replay buffer is built in (prioritized_replay, replay.her)"),
-    "replay_buffer_kwargs": Unsupported("rlchain's replay buffer is built in (prioritized_replay, replay.her)"),
+    "replay_buffer_class": None, "replay_buffer_kwargs": None,  # together: config.replay (sb3/her.py)
     "optimize_memory_usage": Unsupported("rlchain's replay buffer is built in"),
 }
 
@@ -298,6 +298,10 @@ def build_config(algo: str, env_name: str, num_actors: int, continuous: bool, gi
                 continue  # read together with other arguments below
             config.update(mapping(value) if callable(mapping) else {mapping: value})
         config.update(_updates(algo, given, num_actors))
+        if algo != "ppo":
+            replay = her_config(given.get("replay_buffer_class"), given.get("replay_buffer_kwargs"))
+            if replay:
+                config["replay"] = replay
         if algo == "dqn" and ("exploration_fraction" in given or defaults == "sb3"):
             fraction = _number("exploration_fraction", given.get("exploration_fraction", SB3_EXPLORATION_FRACTION))
             if total_timesteps is not None:

@@ -29,11 +29,11 @@ from rlchain.models.build import build_env
 from rlchain.networks.user_classes import remember, resolve
 from rlchain.policy.load import load_policy
 from rlchain.runner import Runner
-from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
 from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
+from rlchain.sb3.her import is_her
 from rlchain.sb3.keys import build_config, multi_input_block, positive_count, rlchain_num_envs
 from rlchain.sb3.logger import SB3Logger
 from rlchain.sb3.model_zip import (
@@ -134,6 +134,8 @@ class BaseModel:
         except ValueError as exc:
             key, _, message = str(exc).partition(": ")
             raise ConfigError(source, key, message) from None
+        if is_her(given.get("replay_buffer_class")):
+            given["replay_buffer_class"] = "HerReplayBuffer"  # kept by name: the model's arguments stay data
         self.hyperparameters = given  # data only: a schedule's value at progress 1 (the callable: _schedules)
         self.num_timesteps = 0
         self._checkpoint: str | None = None  # the last run's last checkpoint: a later learn resumes it
@@ -169,7 +171,8 @@ class BaseModel:
             except ValueError as exc:
                 key, _, message = str(exc).partition(": ")
                 raise ConfigError(f"rlchain.{self.algo.upper()}", key, message) from None
-        elif POLICIES[self.policy_name] is not None:
+        elif POLICIES[self.policy_name] is not None and "replay" not in config["params"]["config"]:
+            # (hindsight replay reads a goal Dict flattened with its parts named: the algorithm's own network)
             multi_input_block(self.algo, config["params"], POLICIES[self.policy_name])
         return config
 
@@ -374,17 +377,7 @@ class BaseModel:
         params = load_path_or_dict
         if isinstance(params, (str, os.PathLike)):
             path = _file(os.fspath(params))
-            if has_model(path):
-                weights = read_model(path, files.load_weights)
-            elif is_sb3_archive(path):
-                weights = read_sb3_archive(path, self.algo).policy_state
-            else:
-                weights = files.load_weights(path)
-            try:
-                self.policy.load_state_dict(weights, strict=exact_match)
-            except RuntimeError as exc:  # torch's message spans lines: its first says what does not fit
-                raise ckpt.CheckpointError(f"{path}: its weights do not fit this model ("
-                                           f"{' '.join(str(exc).split())[:200]})") from None
+            files.load_into(self.policy, files.read_weights(path, self.algo), path, "this model", exact_match)
             self._weights_changed = True
             return
         self.policy.load_state_dict(params["policy"], strict=exact_match)
@@ -445,8 +438,9 @@ class BaseModel:
             check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
         init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
                 "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
-        return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
-                            stored, state["model"], state["num_timesteps"])
+        with files.named_by(path):
+            return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
+                                stored, state["model"], state["num_timesteps"])
 
     @classmethod
     def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
@@ -455,8 +449,9 @@ class BaseModel:
         archive = read_sb3_archive(path, cls.algo)
         init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
                 "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
-        return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space, archive.action_space),
-                            None, archive.policy_state, archive.num_timesteps)
+        with files.named_by(path):
+            return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space,
+                                archive.action_space), None, archive.policy_state, archive.num_timesteps)
 
     @classmethod
     def _restore(cls, path: str, policy: str, env: Any, stored_env: Any, init: dict[str, Any], spaces: tuple,
@@ -473,12 +468,15 @@ class BaseModel:
         if env is not None or stored_env is not None:
             model.env_source, model._env_arg = env_source(env or stored_env, cls.algo), env or stored_env
             model.n_envs = model.env_source.num_envs or init["n_envs"]
-            if env is not None and not same_spaces(model._read_spaces(), model._spaces):
+            read = model._read_spaces() if env is not None else None
+            if read is not None and not same_spaces(read, model._spaces):
                 raise ValueError(f"{path}: the model's spaces {model._spaces.observation_space} / "
                                  f"{model._spaces.action_space} are not {model.env_source.label}'s")
+            if read is not None:
+                model._spaces = read  # the env's own: a flattened Dict keeps its parts (predict takes the Dict)
         model._loaded_config = config
         model.policy = model._build_policy(config)
-        model.policy.load_state_dict(weights)
+        files.load_into(model.policy, weights, path, "the network its spaces give")
         model.num_timesteps = num_timesteps
         model._weights_changed = True
         if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
@@ -492,6 +490,8 @@ class BaseModel:
             return None
         if getattr(self, "_vec_env", None) is None:
             self._vec_env = sb3_vec_env(self._env_arg, self.env_source, self.n_envs, self.seed)
+            if self.env_source.vec_env is None:  # one SB3 made of the argument: reset, as SB3's learn leaves it
+                self._vec_env.reset()  # (a callback's training_env.render() needs a reset env)
         return self._vec_env
 
     def set_env(self, env: Any, force_reset: bool = True) -> None:

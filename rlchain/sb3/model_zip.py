@@ -55,8 +55,8 @@ def write_model_zip(path: str, write_own: Callable[[str], Any], write_sb3: Calla
             try:
                 write_sb3(archive)
                 written = True
-            except (ModuleNotFoundError, ValueError):
-                written = False  # no stable-baselines3, or a network SB3's MlpPolicy cannot hold
+            except Exception:  # no stable-baselines3, a network its MlpPolicy cannot hold, arguments it refuses
+                written = False
         if not written:
             buffer = io.BytesIO()
             torch.save(dict(policy_state), buffer)
@@ -87,8 +87,8 @@ def read_model(path: str, load: Callable[[str], Any]) -> Any:
     folder = os.path.dirname(os.path.abspath(path))
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
         own = os.path.join(tmp, "model.pth")
-        try:
-            data = archive.read_member(path, MEMBER, archive.WEIGHTS_LIMIT)  # bounded: the archive is from elsewhere
+        try:  # within bounds: a plain file, at most archive.WEIGHTS_LIMIT inflated
+            data = archive.read_member(path, MEMBER, archive.WEIGHTS_LIMIT)
         except archive.ArchiveError as exc:
             raise ckpt.CheckpointError(str(exc)) from None
         with open(own, "wb") as f:
@@ -106,5 +106,7 @@ def saved_system_info(path: str) -> str | None:
             if "system_info.txt" not in z.namelist():
                 return None
         return archive.read_member(path, "system_info.txt", 1 << 20).decode("utf-8", "replace")
-    except (OSError, zipfile.BadZipFile, archive.ArchiveError):
+    except (OSError, zipfile.BadZipFile):
         return None
+    except archive.ArchiveError as exc:
+        return f"(not shown: {exc})\n"

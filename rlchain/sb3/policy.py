@@ -154,7 +154,8 @@ class SB3Policy(nn.Module):
         try:
             return super().__getattr__(name)
         except AttributeError:
-            inner = getattr(self._modules.get("net"), "network", None)
+            net = self._modules.get("net")
+            inner = getattr(net, "a2c_network", None) or getattr(net, "network", None)  # PPO's, SAC / DQN's
             policy = getattr(inner, "policy", None) if isinstance(inner, nn.Module) else None
             if isinstance(policy, nn.Module) and hasattr(policy, name):
                 return getattr(policy, name)

@@ -27,7 +27,7 @@ def needs_sb3_network(algo: str, policy: Any, policy_kwargs: dict[str, Any]) -> 
     """Whether ``policy`` / ``policy_kwargs`` need the ``sb3_policy`` network (see the module docstring)."""
     if not isinstance(policy, str) or policy == "CnnPolicy":
         return True
-    if any(key in policy_kwargs for key in EXTRACTOR_KEYS):
+    if any(key in policy_kwargs for key in (*EXTRACTOR_KEYS, *REFUSED)):  # REFUSED: its message says why
         return True
     arch = policy_kwargs.get("net_arch")
     return algo == "sac" and isinstance(arch, dict) and list(arch.get("pi", [])) != list(arch.get("qf", []))

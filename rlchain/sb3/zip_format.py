@@ -118,7 +118,7 @@ def _space(entry: Any, path: str, key: str) -> gym.Space:
         if kind.endswith(".MultiDiscrete'>"):
             nvec = _array(entry["nvec"], _shape(entry), path, f"{key}.nvec")
             return gym.spaces.MultiDiscrete(nvec.astype(np.int64))
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, OverflowError) as exc:
         raise ckpt.CheckpointError(f"{path}: {key} is malformed in the archive ({type(exc).__name__}: "
                                    f"{' '.join(str(exc).split())[:160]})") from None
     raise ckpt.CheckpointError(f"{path}: {key}: a {kind or type(entry).__name__} space; rlchain reads Box, "
@@ -141,7 +141,10 @@ def _number(value: Any) -> float | int | bool | str | None:
 def _hyperparameter(value: Any, path: str, key: str) -> Any:
     """An archive's hyperparameter as SB3 writes it: a finite number, a bool (normalize_advantage) or SAC's
     ``ent_coef`` ``'auto'`` / ``'auto_0.1'``; anything else is a one-line CheckpointError naming the key."""
-    if isinstance(value, bool) or (isinstance(value, (int, float)) and math.isfinite(value)):
+    if isinstance(value, bool):
+        if key == "normalize_advantage":
+            return value
+    elif isinstance(value, (int, float)) and math.isfinite(value):
         return value
     if key == "ent_coef" and isinstance(value, str) and re.fullmatch(r"auto(_[0-9.eE+-]+)?", value):
         return value

@@ -10,11 +10,10 @@ import torch
 from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, installed
 from tests.jax_cache import jax_compile_cache  # noqa: F401 (module fixture: compile reset/step once)
 
-pytestmark = pytest.mark.smoke
-pytest.importorskip("brax")
+pytestmark = [pytest.mark.smoke, installed("brax")]
 CONFIG = os.path.join(CONFIGS, "ppo_brax_inverted_pendulum.yaml")
 
 

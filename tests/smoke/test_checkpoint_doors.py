@@ -226,7 +226,7 @@ def test_the_users_override_and_file_keep_their_powers(tmp_path, importable):
                                     "rlchain_door_env:X v0"])
 def test_an_sb3_files_env_id_is_never_imported(tmp_path, importable, env_id):
     model = rlchain.PPO("MlpPolicy", "CartPole-v1", seed=1, verbose=0, policy_kwargs={"net_arch": [8]})
-    path = model.save(str(tmp_path / "model"))
+    path = model.save(str(tmp_path / "model.pth"))
     state = ckpt.read(path)
     state["env_id"] = env_id
     ckpt.save_atomic(state, path)

@@ -13,9 +13,9 @@ from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
+from tests.conftest import installed
 
-pytestmark = pytest.mark.smoke
-pytest.importorskip("envpool")
+pytestmark = [pytest.mark.smoke, installed("envpool")]
 
 
 def envpool_cartpole(tmp_path, groups, *extra):

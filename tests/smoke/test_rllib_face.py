@@ -67,3 +67,49 @@ def test_continuous_actions_train_and_infer_in_process(tmp_path, monkeypatch):
         assert action.shape == (1,) and -2.0 <= float(action[0]) <= 2.0
     finally:
         algo.stop()
+
+
+def test_dqn_trains_checkpoints_and_infers_in_process(tmp_path, monkeypatch):
+    """DQNConfig on rlchain's DQN: iterations of min_sample_timesteps_per_iteration env steps, Q-values as the
+    module's action_dist_inputs, a checkpoint that resumes the counters."""
+    import torch
+
+    from rlchain.rllib.algorithms.algorithm import Algorithm
+    from rlchain.rllib.algorithms.dqn import DQNConfig
+
+    monkeypatch.chdir(tmp_path)
+    algo = (DQNConfig().environment("CartPole-v1").reporting(min_sample_timesteps_per_iteration=200)
+            .training(num_steps_sampled_before_learning_starts=100, train_batch_size=16).build_algo())
+    try:
+        for _ in range(2):
+            result = algo.train()
+        assert result["num_env_steps_sampled_lifetime"] == 400
+        assert result["learners"]["default_policy"]["qf_loss"] >= 0
+        q = algo.get_module().forward_inference({"obs": torch.zeros(2, 4)})["action_dist_inputs"]
+        assert q.shape == (2, 2) and algo.compute_single_action([0.0] * 4) in (0, 1)
+        path = algo.save_to_path(str(tmp_path / "dqn"))
+    finally:
+        algo.stop()
+    restored = Algorithm.from_checkpoint(path)
+    try:
+        assert restored.train()["num_env_steps_sampled_lifetime"] == 600
+    finally:
+        restored.stop()
+
+
+def test_evaluate_plays_the_requested_episodes_and_steps(tmp_path, monkeypatch):
+    from rlchain.rllib.algorithms.ppo import PPOConfig
+
+    monkeypatch.chdir(tmp_path)
+    config = (PPOConfig().environment("CartPole-v1").debugging(seed=3)
+              .training(train_batch_size=256, minibatch_size=128, num_epochs=1).evaluation(evaluation_duration=3))
+    algo = config.build_algo()
+    try:
+        algo.train()
+        games = algo.evaluate()["env_runners"]
+        assert games["num_episodes"] == 3 and games["episode_len_mean"] >= 8
+        assert games["episode_return_mean"] == pytest.approx(games["episode_len_mean"])  # CartPole: 1 per step
+        algo.config._settings.update(evaluation_duration=40, evaluation_duration_unit="timesteps")
+        assert algo.evaluate()["env_runners"]["num_env_steps_sampled"] == 40
+    finally:
+        algo.stop()

@@ -135,3 +135,27 @@ def test_space_shapes_are_checked_before_allocation(tmp_path, space, message):
 def test_sac_ent_coef_auto_and_real_archives_still_read():
     assert read_sb3_archive(SAC_ZIP, "sac").hyperparameters["ent_coef"] == "auto"
     assert read_sb3_archive(PPO_ZIP, "ppo").n_envs >= 1
+
+
+def test_rlchains_own_zip_members_are_read_within_bounds(tmp_path):
+    from rlchain.sb3.model_zip import MEMBER, saved_system_info
+
+    path = write_zip(tmp_path / "own.zip", [m for m in members_of(PPO_ZIP) if m[0] != "system_info.txt"]
+                     + [bomb(MEMBER, BIG), bomb("system_info.txt", BIG)])
+    with pytest.raises(ckpt.CheckpointError) as exc:
+        rlchain.PPO.load(path)
+    one_line(exc, path, f"'{MEMBER}' declares 10.5 GiB uncompressed")
+    assert "declares 10.5 GiB" in saved_system_info(path)
+
+
+def test_a_torch_file_whose_records_inflate_far_past_its_size_is_refused_before_torch_reads_it(tmp_path):
+    import torch
+
+    real = tmp_path / "real.pth"
+    torch.save({"model": {"w": torch.zeros(3)}}, real)
+    ckpt.read(str(real))  # an ordinary checkpoint passes the check
+    name = zipfile.ZipFile(real).namelist()[0].split("/")[0]
+    crafted = write_zip(tmp_path / "bomb.pth", members_of(real) + [bomb(f"{name}/data/9", 2**30)])
+    with pytest.raises(ckpt.CheckpointError, match="declare 1.0 GiB uncompressed in a .* file") as info:
+        ckpt.read(crafted)
+    assert "\n" not in str(info.value)

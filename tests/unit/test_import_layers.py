@@ -22,7 +22,7 @@ PACKAGE = os.path.join(ROOT, "rlchain")
 # (the console script rlchain.console and python -m rlchain's rlchain.__main__ included). rlchain.rl_games
 # (rl_games' Python API names: its Runner drives rlchain's) is a facade at the same layer as cli.py / runner.py
 ENTRY_POINTS = ("rlchain.cli", "rlchain.console", "rlchain.__main__", "rlchain.runner",
-                "rlchain.tuning", "rlchain.rl_games", "rlchain.sb3")  # and the package itself (rlchain.Runner)
+                "rlchain.tuning", "rlchain.rl_games", "rlchain.sb3", "rlchain.rllib")  # and rlchain (rlchain.Runner)
 # The loop holds its algorithm (composition): algos/ imports no training/, and training/ names no family.
 # Both import algos/base/ (the Algorithm protocol, the RunContext, the safety checks, episodes).
 ALGO_BASE = "rlchain.algos.base"

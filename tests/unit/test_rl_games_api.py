@@ -224,9 +224,14 @@ def test_an_ivecenv_with_another_env_count_is_a_one_line_error():
 
 
 @pytest.mark.parametrize("module", ["algos_torch.a2c_continuous", "algos_torch.a2c_discrete", "algos_torch.sac_agent",
-                                    "algos_torch.central_value", "common.a2c_common"])
+                                    "algos_torch.central_value", "common.a2c_common", "common.datasets"])
 def test_rl_games_agent_modules_say_what_rlchain_offers(module):
-    sys.modules.pop(f"rlchain.rl_games.{module}", None)
-    with pytest.raises(ImportError, match=r"is rl_games' agent code, not offered by rlchain: rlchain trains") as err:
-        importlib.import_module(f"rlchain.rl_games.{module}")
+    from rlchain.rl_games import alias
+    alias.install()
+    try:
+        with pytest.raises(ImportError, match=r"is rl_games' agent code, not offered by rlchain: rlchain trains") \
+                as err:
+            importlib.import_module(f"rl_games.{module}")
+    finally:
+        alias.uninstall()
     assert "\n" not in str(err.value) and err.value.name == f"rl_games.{module}"

@@ -134,3 +134,54 @@ def test_rllib_checkpoints_are_refused_without_unpickling(tmp_path):
     ours.mkdir()
     (ours / CHECKPOINT_FILE).write_bytes(b"")
     assert checkpoint_file(ours) == str(ours / CHECKPOINT_FILE)
+
+
+def test_dqn_config_maps_onto_rlchains_dqn():
+    from rlchain.rllib.algorithms.dqn import DQNConfig
+
+    c = (DQNConfig().env_runners(num_env_runners=2, num_envs_per_env_runner=2)
+         .training(train_batch_size=64, training_intensity=128, n_step=3, epsilon=[(0, 1.0), (5000, 0.02)],
+                   target_network_update_freq=800, replay_buffer_config={"type": "EpisodeReplayBuffer",
+                                                                         "capacity": 20000}))
+    assert c.lr == 5e-4 and c.dueling and c.double_q and c.hiddens == [256]
+    params = translate.dqn_config(c, "CartPole-v1", {})["params"]
+    cfg = params["config"]
+    # 4 envs; 2 updates per env step (intensity 128 / batch 64): 8 per vector step; target every 800 env steps
+    assert (cfg["num_actors"], cfg["num_updates_per_step"], cfg["target_update_frequency"]) == (4, 8, 1600)
+    assert (cfg["epsilon_start"], cfg["epsilon_end"], cfg["epsilon_decay_frames"]) == (1.0, 0.02, 5000)
+    assert cfg["n_step"] == 3 and cfg["replay_buffer_size"] == 20000 and not cfg["prioritized_replay"]
+    assert cfg["num_steps_per_episode"] == 250  # min_sample_timesteps_per_iteration 1000 over 4 envs
+    assert params["network"]["mlp"]["units"] == [256, 256, 256] and params["network"]["dueling"]
+    with pytest.raises(ConfigError, match="num_atoms.*distributional"):
+        translate.dqn_config(DQNConfig().training(num_atoms=51), "CartPole-v1", {})
+
+
+def test_unoffered_algorithms_and_multi_agent_envs_are_one_line():
+    from rlchain.rllib import envs
+    from rlchain.rllib.algorithms.sac import SACConfig
+    from rlchain.rllib.env.multi_agent_env import MultiAgentEnv
+
+    with pytest.raises(ConfigError, match="SAC is not trained by the face yet.*rlchain/configs") as info:
+        SACConfig().environment("Pendulum-v1").build_algo()
+    assert "\n" not in str(info.value)
+
+    class TwoAgents(MultiAgentEnv):
+        pass
+
+    with pytest.raises(ConfigError, match="TwoAgents is a MultiAgentEnv.*PettingZoo") as info:
+        envs.env_maker(TwoAgents, {}, 0, 1)
+    assert "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="'CartPol-v1' is neither a gymnasium id.*did you mean 'CartPole-v1'"):
+        envs.env_maker("CartPol-v1", {}, 0, 1)
+
+
+def test_env_context_carries_env_config_and_where_the_env_runs():
+    from rlchain.rllib import envs
+
+    made = []
+    with pytest.raises(ConfigError, match="expected a gymnasium id, a registered env name or an env class"):
+        envs.env_maker(lambda ctx: ctx, {"size": 3}, 2, 2)  # as RLlib: a name or a class, not a function
+    make, _ = envs.env_maker(type("E", (), {"__init__": lambda self, ctx: made.append(ctx)}), {"size": 3}, 2, 2)
+    make(3)
+    ctx = made[-1]
+    assert dict(ctx) == {"size": 3} and (ctx.worker_index, ctx.vector_index, ctx.num_workers) == (2, 1, 2)

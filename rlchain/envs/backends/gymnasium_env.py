@@ -204,16 +204,23 @@ class GymnasiumVecEnv:
         """The env's own ``compute_reward`` (gymnasium-robotics goal envs), batched: goals (B, G) -> (B,)
         float32. Evaluated on one extra copy of the env, so it works in every vectorization mode."""
         if self._goal_env is None:
-            env = gym.make(self.env_id, **self._goal_kwargs).unwrapped
-            if not callable(getattr(env, "compute_reward", None)):
-                env.close()
+            envs = getattr(self.env, "envs", None)
+            if self.env_id not in gym.registry and envs:  # an env object or a factory (no id to make a copy of):
+                self._goal_env, self._goal_env_own = envs[0].unwrapped, False  # its compute_reward, a pure function
+            else:
+                self._goal_env, self._goal_env_own = gym.make(self.env_id, **self._goal_kwargs).unwrapped, True
+            if not callable(getattr(self._goal_env, "compute_reward", None)):
+                self.close_goal_env()
                 raise ValueError(f"'{self.env_id}' has no compute_reward: hindsight replay needs a goal env")
-            self._goal_env = env
         return np.asarray(self._goal_env.compute_reward(achieved_goal, desired_goal, info), dtype=np.float32)
 
     def close(self) -> None:
         """Close the envs (and the worker processes in async mode)."""
         self.env.close()
-        if self._goal_env is not None:
+        self.close_goal_env()
+
+    def close_goal_env(self) -> None:
+        """Close the copy of one env made for ``compute_reward`` (not a vector env's own env it borrowed)."""
+        if self._goal_env is not None and getattr(self, "_goal_env_own", True):
             self._goal_env.close()
-            self._goal_env = None
+        self._goal_env = None

@@ -10,6 +10,8 @@ from rlchain.rllib.config import AlgorithmConfig
 class APPO(Algorithm):
     """RLlib's APPO: not trained by the face (see the module docstring)."""
 
+    algo_name = "APPO"
+
     @classmethod
     def get_default_config(cls) -> APPOConfig:
         return APPOConfig()

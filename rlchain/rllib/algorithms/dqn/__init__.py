@@ -10,6 +10,8 @@ from rlchain.rllib.config import AlgorithmConfig
 class DQN(Algorithm):
     """RLlib's DQN: not trained by the face (see the module docstring)."""
 
+    algo_name = "DQN"
+
     @classmethod
     def get_default_config(cls) -> DQNConfig:
         return DQNConfig()

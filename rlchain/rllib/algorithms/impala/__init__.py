@@ -10,6 +10,8 @@ from rlchain.rllib.config import AlgorithmConfig
 class IMPALA(Algorithm):
     """RLlib's IMPALA: not trained by the face (see the module docstring)."""
 
+    algo_name = "IMPALA"
+
     @classmethod
     def get_default_config(cls) -> IMPALAConfig:
         return IMPALAConfig()

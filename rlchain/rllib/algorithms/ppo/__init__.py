@@ -10,6 +10,8 @@ from rlchain.rllib.config import AlgorithmConfig
 class PPO(Algorithm):
     """RLlib's PPO on rlchain's loop."""
 
+    algo_name = "PPO"
+
     @classmethod
     def get_default_config(cls) -> PPOConfig:
         return PPOConfig()

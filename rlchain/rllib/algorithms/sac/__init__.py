@@ -10,6 +10,8 @@ from rlchain.rllib.config import AlgorithmConfig
 class SAC(Algorithm):
     """RLlib's SAC: not trained by the face (see the module docstring)."""
 
+    algo_name = "SAC"
+
     @classmethod
     def get_default_config(cls) -> SACConfig:
         return SACConfig()
