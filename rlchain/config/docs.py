@@ -118,7 +118,7 @@ Runner), derived keys are filled in once (`minibatch_size` from `minibatch_size_
 per process (the seed; under torchrun the rank's device, `env_config.seed` and progress printing) is
 its run context, and values changed while training (`set_params`) belong to the run. A checkpoint
 stores this resolved config and the run context; `--play` / `--export` without `--file` read it back.
-Checkpoints written before rlchain froze the config hold the input file instead and still load.
+A checkpoint without it (a pre-release rlchain's, holding the input file) is refused in one line.
 """
 
 

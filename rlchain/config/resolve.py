@@ -25,7 +25,7 @@ from rlchain.registry import ALGOS
 
 CONFIG_FORMAT = "rlchain-config-2"
 """``config_format`` of a checkpoint whose ``config`` is the resolved config (:func:`config_state`);
-checkpoints without it (rlchain before the frozen config) hold the input file's dict instead."""
+a checkpoint without it (a pre-release rlchain's, holding the input file's dict) is refused."""
 
 RANK_SEED_STRIDE = 100_003  # rank r seeds its envs and RNGs with seed + r * this (a prime > any num_actors)
 
