@@ -21,9 +21,7 @@ import yaml
 
 from rlchain.config.algo_keys import config_class_of
 from rlchain.config.errors import ConfigError
-from rlchain.config.stored import as_data
 from rlchain.envs.backends.sb3_vecenv import vec_normalize_of
-from rlchain.envs.known import GYM, check_listed
 from rlchain.envs.obs_dict import as_obs_dict
 from rlchain.models.build import build_env
 from rlchain.networks.user_classes import remember, resolve
@@ -32,23 +30,19 @@ from rlchain.runner import Runner
 from rlchain.sb3 import files
 from rlchain.sb3.callbacks import SB3Callbacks, is_sb3_callback
 from rlchain.sb3.defaults import CHOICES, SB3_NUM_ENVS
-from rlchain.sb3.envs import EnvSource, env_source, same_spaces, sb3_vec_env
+from rlchain.sb3.envs import EnvSource, env_source, sb3_vec_env
 from rlchain.sb3.her import is_her
 from rlchain.sb3.keys import build_config, multi_input_block, positive_count, rlchain_num_envs
 from rlchain.sb3.logger import SB3Logger
+from rlchain.sb3.model_load import Spaces, load_model, model_file
 from rlchain.sb3.model_zip import (
-    format_system_info,
-    has_model,
-    read_model,
-    saved_system_info,
-    system_info,
     write_model_zip,
 )
 from rlchain.sb3.policy import TORCH_ACTIVATIONS, SB3Policy, eval_actions
 from rlchain.sb3.policy_block import needs_sb3_network, sb3_network_block, stored_policy_kwargs
 from rlchain.sb3.replay import ReplayBufferView, ReplayCallback, load_replay, save_replay
 from rlchain.sb3.schedules import ScheduleCallback, split_schedules
-from rlchain.sb3.zip_format import is_sb3_archive, read_sb3_archive, write_sb3_archive
+from rlchain.sb3.zip_format import write_sb3_archive
 from rlchain.training.events import Callback
 
 POLICIES = {"MlpPolicy": None, "MultiInputPolicy": "multi_input", "CnnPolicy": "sb3_policy"}
@@ -57,16 +51,6 @@ Dict observations, an encoder per key (docs/robot_learning.md); CnnPolicy: SB3's
 (:mod:`rlchain.networks.sb3_policy`, as a policy class or a ``features_extractor_class``)."""
 
 PER_KEY_NETWORKS = ("multi_input", "sb3_policy")  # networks that take Dict observations per key
-
-
-class _Spaces:
-    """The observation and action spaces of the trained env: enough to build the policy network."""
-
-    num_envs = 1
-
-    def __init__(self, observation_space: Any, action_space: Any) -> None:
-        self.observation_space = observation_space
-        self.action_space = action_space
 
 
 class _Bridge(Callback):
@@ -140,7 +124,7 @@ class BaseModel:
         self.num_timesteps = 0
         self._checkpoint: str | None = None  # the last run's last checkpoint: a later learn resumes it
         self._weights_changed = False
-        self._spaces: _Spaces | None = None
+        self._spaces: Spaces | None = None
         self._loaded_config: dict[str, Any] | None = None  # load() without an env: the saved config
         self.policy: SB3Policy | None = None
         if self.env_source is not None:
@@ -199,12 +183,12 @@ class BaseModel:
     def _runner(self, total_timesteps: int | None = None) -> Runner:
         return Runner().load(self._config(total_timesteps))
 
-    def _read_spaces(self) -> _Spaces:
+    def _read_spaces(self) -> Spaces:
         runner = self._runner()  # checks every argument now, as SB3 fails in the constructor
         params = runner.params
         env = build_env(params, self.n_envs if self.env_source.vec_env is not None else 1, 0)
         try:
-            return _Spaces(env.observation_space, env.action_space)
+            return Spaces(env.observation_space, env.action_space)
         finally:
             env.close()
 
@@ -245,10 +229,12 @@ class BaseModel:
 
     @property
     def observation_space(self) -> Any:
+        """The observation space of the env the model trains on (None before it has one)."""
         return None if self._spaces is None else self._spaces.observation_space
 
     @property
     def action_space(self) -> Any:
+        """The action space of the env the model trains on (None before it has one)."""
         return None if self._spaces is None else self._spaces.action_space
 
     @property
@@ -376,7 +362,7 @@ class BaseModel:
         data); the next ``learn`` starts from them."""
         params = load_path_or_dict
         if isinstance(params, (str, os.PathLike)):
-            path = _file(os.fspath(params))
+            path = model_file(os.fspath(params))
             files.load_into(self.policy, files.read_weights(path, self.algo), path, "this model", exact_match)
             self._weights_changed = True
             return
@@ -388,7 +374,7 @@ class BaseModel:
         ``.zip``, as SB3 does: ``path.zip``, SB3's archive layout holding rlchain's model file
         (:mod:`rlchain.sb3.model_zip`; written by stable-baselines3 when it is installed and the network has
         SB3's MlpPolicy layout, so SB3's ``load`` reads it too). A ``.pth`` path: rlchain's model file alone."""
-        path = _file(path, must_exist=False)
+        path = model_file(path, must_exist=False)
         if path.endswith(".zip"):
             network = self.config["params"]["network"]
             mlp = network.get("mlp") or {}
@@ -420,68 +406,9 @@ class BaseModel:
              **kwargs: Any) -> BaseModel:
         """A model :meth:`save` wrote (or SB3 saved); ``env`` (default: the gymnasium id it was trained on, if any)
         is needed only to train further. ``kwargs`` replace saved hyperparameters. The file is read as data (see
-        :mod:`rlchain.sb3.files`); its stored config gives shapes and hyperparameters only.
+        :mod:`rlchain.sb3.model_load`); its stored config gives shapes and hyperparameters only.
         ``print_system_info``: print the system the archive was saved on and this one, as SB3 does."""
-        path = _file(path)
-        if print_system_info:
-            saved = saved_system_info(path)
-            print("== CURRENT SYSTEM INFO ==\n" + format_system_info(system_info()), flush=True)
-            print("== SAVED MODEL SYSTEM INFO ==\n" + (saved or "(none stored in this file)\n"), flush=True)
-        if has_model(path):
-            state = read_model(path, lambda own: files.load_model(own, cls.algo))
-        elif is_sb3_archive(path):
-            return cls._load_archive(path, env, device, kwargs)
-        else:
-            state = files.load_model(path, cls.algo)
-        stored, _ = as_data(state["config"], path)  # no module, callback or trust named by the file
-        if env is None and state["env_id"] is not None:  # a name from the file: looked up, never imported
-            check_listed(state["env_id"], GYM, path, "env_id", "pass the env to load(path, env=...)")
-        init = {"n_envs": kwargs.pop("n_envs", None) or state["n_envs"], "seed": state["seed"], "device": device,
-                "policy_kwargs": state["policy_kwargs"], **state["hyperparameters"], **kwargs}
-        with files.named_by(path):
-            return cls._restore(path, state.get("policy", "MlpPolicy"), env, state["env_id"], init, state["spaces"],
-                                stored, state["model"], state["num_timesteps"])
-
-    @classmethod
-    def _load_archive(cls, path: str, env: Any, device: str, kwargs: dict[str, Any]) -> BaseModel:
-        """A model from Stable-Baselines3's ``.zip`` (read as data: :mod:`rlchain.sb3.zip_format`); SB3's own
-        settings and the weights, to play, fine-tune (``env=``) or export."""
-        archive = read_sb3_archive(path, cls.algo)
-        init = {"n_envs": kwargs.pop("n_envs", None) or archive.n_envs, "seed": archive.seed, "device": device,
-                "policy_kwargs": archive.policy_kwargs, **archive.hyperparameters, **kwargs}
-        with files.named_by(path):
-            return cls._restore(path, "MlpPolicy", env, None, init, (archive.observation_space,
-                                archive.action_space), None, archive.policy_state, archive.num_timesteps)
-
-    @classmethod
-    def _restore(cls, path: str, policy: str, env: Any, stored_env: Any, init: dict[str, Any], spaces: tuple,
-                 config: dict[str, Any] | None, weights: dict[str, Any], num_timesteps: int) -> BaseModel:
-        """The model of a loaded file: its arguments ``init``, ``spaces``, ``config`` (None: the one its arguments
-        give) and ``weights``; trained further on ``env`` (else ``stored_env``), whose spaces must be the file's."""
-        model = cls.__new__(cls)
-        BaseModel.__init__(model, policy, None, **init)
-        model._spaces = _Spaces(*spaces)
-        if config is None:
-            model.env_source = EnvSource("sb3_archive", None, path)  # a config needs an env name
-            config = model._config()
-        model.env_source = None
-        if env is not None or stored_env is not None:
-            model.env_source, model._env_arg = env_source(env or stored_env, cls.algo), env or stored_env
-            model.n_envs = model.env_source.num_envs or init["n_envs"]
-            read = model._read_spaces() if env is not None else None
-            if read is not None and not same_spaces(read, model._spaces):
-                raise ValueError(f"{path}: the model's spaces {model._spaces.observation_space} / "
-                                 f"{model._spaces.action_space} are not {model.env_source.label}'s")
-            if read is not None:
-                model._spaces = read  # the env's own: a flattened Dict keeps its parts (predict takes the Dict)
-        model._loaded_config = config
-        model.policy = model._build_policy(config)
-        files.load_into(model.policy, weights, path, "the network its spaces give")
-        model.num_timesteps = num_timesteps
-        model._weights_changed = True
-        if cls.algo != "ppo":  # SB3's saved model holds no replay buffer: load_replay_buffer fills it
-            model.replay_buffer = ReplayBufferView(model.config["params"]["config"]["replay_buffer_size"])
-        return model
+        return load_model(cls, path, env, device, print_system_info, kwargs)
 
     def get_env(self) -> Any:
         """The training env as a Stable-Baselines3 ``VecEnv`` (see :func:`rlchain.sb3.envs.sb3_vec_env`): what
@@ -519,15 +446,3 @@ class BaseModel:
     def get_vec_normalize_env(self) -> Any:
         """The ``VecNormalize`` of an SB3 vec env the model trains on, or None."""
         return None if self.env_source is None else vec_normalize_of(self.env_source.vec_env)
-
-
-def _file(path: str, must_exist: bool = True) -> str:
-    """``path``, or ``path.zip`` when it has no extension, as SB3 adds it (loading finds ``path.zip``, then
-    ``path.pth``, then ``path`` itself)."""
-    path = os.fspath(path)
-    if os.path.splitext(path)[1] or not must_exist:
-        return path if os.path.splitext(path)[1] else path + ".zip"
-    for candidate in (path + ".zip", path + ".pth", path):
-        if os.path.exists(candidate):
-            return candidate
-    return path + ".zip"
