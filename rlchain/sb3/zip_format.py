@@ -121,7 +121,8 @@ def _space(entry: Any, path: str, key: str) -> gym.Space:
     except (KeyError, TypeError, ValueError, OverflowError) as exc:
         raise ckpt.CheckpointError(f"{path}: {key} is malformed in the archive ({type(exc).__name__}: "
                                    f"{' '.join(str(exc).split())[:160]})") from None
-    raise ckpt.CheckpointError(f"{path}: {key}: a {kind or type(entry).__name__} space; rlchain reads Box, "
+    named = " ".join(kind.split())[:80] or type(entry).__name__  # the file's text, kept to one short line
+    raise ckpt.CheckpointError(f"{path}: {key}: a {named} space; rlchain reads Box, "
                                f"Discrete and MultiDiscrete from SB3 archives")
 
 

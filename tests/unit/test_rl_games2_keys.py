@@ -140,7 +140,6 @@ def test_lr_multiplier(base_config):
     ("multi_gpu_sync_stats_mode", "broadcast", "broadcast (every rank takes rank 0's statistics) is not supported"),
     ("multi_gpu_sync_stats_mode", "mean", "expected pooled or broadcast"),
     ("stop_fn", "my.module:fn", "comes through the rl_games API"),
-    ("capability_manifest", {"obs": "state"}, "is not implemented in rlchain"),
     ("algo_observer", "wandb", "expected one of default, isaac"),
 ])
 def test_unsupported_2_0_values_are_one_line_errors(base_config, key, value, expect):
