@@ -1,5 +1,5 @@
-"""algo distill with a SAC teacher (tests/data/sac_pendulum_*.pth, a 2-epoch SAC Pendulum
-checkpoint) labels with its deterministic action and a Gaussian student fits it; ``multi_gpu: True`` under
+"""algo distill with a SAC teacher (the shipped rlchain/checkpoints/pendulum_sac.pth, a SAC Pendulum
+policy) labels with its deterministic action and a Gaussian student fits it; ``multi_gpu: True`` under
 a 2-rank gloo torchrun keeps the ranks' students identical. Bad pairings are one-line errors."""
 
 import glob
@@ -17,7 +17,7 @@ from tests.smoke.test_train_play_resume import small
 
 pytestmark = pytest.mark.smoke
 SAC_DISTILL = os.path.join(CONFIGS, "distill_pendulum_sac.yaml")
-SAC_TEACHER = glob.glob(os.path.join(ROOT, "tests", "data", "sac_pendulum_*.pth"))[0]
+SAC_TEACHER = os.path.join(ROOT, "rlchain", "checkpoints", "pendulum_sac.pth")
 SAC_FAST = [f"params.config.teacher_checkpoint={SAC_TEACHER}", "params.config.num_actors=4",
             "params.config.horizon_length=32", "params.config.full_experiment_name=null"]
 
