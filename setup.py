@@ -26,7 +26,8 @@ EXTRAS = {
     # gym: OpenAI gym 0.26 (what Isaac Lab's rl-games extra installs), for the tests of its spaces;
     # stable-baselines3: the tests of rlchain.sb3 with SB3's own vec envs, callbacks and .zip files;
     # pytest-xdist: the unit and smoke tiers run on 2 workers (the README's test command), a file per worker
-    "test": ["pytest>=7", "pytest-timeout", "pytest-xdist>=3", "ruff", "nbclient", "nbformat", "ipykernel", "gym==0.26.2",
+    "test": ["pytest>=7", "pytest-timeout", "pytest-xdist>=3", "ruff", "nbclient", "nbformat", "ipykernel",
+             "gym==0.26.2",
              "stable-baselines3>=2.3,<3",
              "mkdocs>=1.6,<2", "mkdocs-material>=9.5,<10", "mkdocstrings[python]>=0.25,<2"],
     "bench": ["matplotlib"],  # benchmarks/curves.py plots (matplotlib is a core dependency now; kept for old commands)
