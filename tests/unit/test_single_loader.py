@@ -29,7 +29,8 @@ IMPORT_SITES = {
     "rlchain/console.py": "rlchain's own subcommand modules (literals)",
     "rlchain/faces.py": "a face's aliased names (rl_games.*, ray.rllib.*) mapped onto its own modules "
                         "(rlchain.rl_games.*, rlchain.rllib.*)",
-    "rlchain/inference/export/onnx.py": "onnx / onnxruntime, optional dependencies (literals)",
+    "rlchain/errors.py": "optional dependencies (optional_import), by the literal names of their callers "
+                         "(optuna, ray.tune, moviepy, wandb, envpool, ale_py, onnx, onnxruntime)",
     "rlchain/config/load.py": "params.import_modules and config.callbacks of the user's config (--file, dict, "
                               "overrides); a checkpoint's stored ones are dropped first",
     "rlchain/training/events.py": "config.callbacks of the user's config",
