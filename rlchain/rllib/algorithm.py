@@ -94,6 +94,14 @@ class Algorithm:
     """One RLlib algorithm (PPO, DQN) trained by rlchain; see the module docstring."""
 
     algo_name: ClassVar[str] = ""
+    action_spaces: ClassVar[tuple[type, ...]] = (gym.spaces.Box, gym.spaces.Discrete)
+    """The action spaces rlchain's algorithm of this name takes."""
+
+    @staticmethod
+    def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
+                  ) -> dict[str, Any]:
+        """The rlchain config (``{'params': ...}``) that trains ``config`` on env ``env_name`` (each algorithm's)."""
+        return translate.ppo_config(config, env_name, continuous, run, obs_space)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -106,10 +114,6 @@ class Algorithm:
         if env is not None:
             config = config.copy().environment(env)
         self.config = config
-        if config.algo_name not in ("PPO", "DQN"):
-            raise ConfigError(f"{type(config).__name__}", "build_algo", f"{config.algo_name} is not trained by the "
-                              f"face yet: PPOConfig and DQNConfig train on rlchain's PPO and DQN; rlchain's own "
-                              f"YAMLs train SAC, APPO and IMPALA (rlchain/configs/)")
         config.validate()
         config.freeze()
         settings = config._settings
@@ -139,7 +143,7 @@ class Algorithm:
         env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
         self._env_name = env_name
         continuous = isinstance(self.action_space, gym.spaces.Box)
-        allowed = (gym.spaces.Discrete,) if config.algo_name == "DQN" else (gym.spaces.Box, gym.spaces.Discrete)
+        allowed = self.action_spaces
         if not isinstance(self.action_space, allowed):
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
                               f"mapped by the face for {config.algo_name} "
@@ -147,8 +151,7 @@ class Algorithm:
         gpu = (settings.get("num_gpus_per_learner") or 0) > 0 or (settings.get("num_gpus") or 0) > 0
         run = {"name": _run_name(config.algo_name, settings["env"]), "device": "cuda:0" if gpu else "cpu",
                "print_stats": False}
-        self.rlchain_config = translate.dqn_config(config, env_name, run) if config.algo_name == "DQN" \
-            else translate.ppo_config(config, env_name, continuous, run)
+        self.rlchain_config = self.translate(config, env_name, self.observation_space, continuous, run)
         self.runner = Runner().load(self.rlchain_config)
         extra = []
         if any(type(cb).on_episode_end is not RLlibCallback.on_episode_end
@@ -211,14 +214,7 @@ class Algorithm:
                        "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
                        "num_episodes_lifetime": int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
                        **nested(episode_custom)}
-        if self.config.algo_name == "DQN":
-            learner = {"qf_loss": stats.get("td_loss", nan), "qf_mean": stats.get("q", nan),
-                       "curr_epsilon": stats.get("epsilon", nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
-        else:
-            learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-                       "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-                       "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-                       "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+        learner = self.learner_results(stats, cfg)
         if "kl_coef" in stats:
             learner["curr_kl_coeff"] = stats["kl_coef"]
         return {
@@ -232,6 +228,15 @@ class Algorithm:
             "info": {"learner": {DEFAULT_MODULE: {"learner_stats": dict(learner)}}},
             "_episode_custom": episode_custom,
         }
+
+    @staticmethod
+    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names)."""
+        nan = math.nan
+        return {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
+                "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
+                "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+                "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
 
     def _write_custom(self, values: dict[str, float]) -> None:
         ctx = self._stepper.context
