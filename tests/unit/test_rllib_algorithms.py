@@ -170,3 +170,14 @@ def test_ray_requested_follows_ray_init_or_ray_address(monkeypatch):
     monkeypatch.delenv("RAY_ADDRESS")
     ray = pytest.importorskip("ray")
     assert env_runners.ray_requested() == ray.is_initialized()
+
+
+def test_default_model_config_dataclass_carries_lstm_and_convolutions():
+    from rlchain.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    c = PPOConfig().rl_module(model_config=DefaultModelConfig(use_lstm=True, lstm_cell_size=16, max_seq_len=10,
+                                                              fcnet_hiddens=[8]))
+    network, seq_len = networks.actor_critic_network(c, FLAT, False)
+    assert network["rnn"]["units"] == 16 and seq_len == 10
+    image = PPOConfig().rl_module(model_config=DefaultModelConfig(conv_filters=[[8, 3, 1]]))
+    assert networks.actor_critic_network(image, IMAGE, False)[0]["cnn"]["convs"][0]["filters"] == 8
