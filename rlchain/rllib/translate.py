@@ -21,6 +21,7 @@ What maps (PPO; docs/rllib.md has the table):
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 from rlchain.config.errors import ConfigError
@@ -70,12 +71,29 @@ def check_supported(config: Any) -> None:
     if settings.get("grad_clip") is not None and settings.get("grad_clip_by") != "global_norm":
         raise _bad(config, "grad_clip_by", f"{settings.get('grad_clip_by')!r}: rlchain clips the global norm "
                                            f"(grad_clip_by='global_norm')")
-    if (settings.get("num_learners") or 0) > 1:
-        raise _bad(config, "num_learners", "several learners are not mapped: rlchain trains data-parallel under "
-                                           "torchrun with multi_gpu: True (docs/distributed.md)")
-    if settings.get("rl_module_spec") is not None:
-        raise _bad(config, "rl_module_spec", "RLModule subclasses are not run by the face yet: set the network "
-                                             "with model_config (fcnet_hiddens, ...) or register an rl_games network")
+    learners(config)
+    if settings.get("rl_module_spec") is not None and config.algo_name != "PPO":
+        raise _bad(config, "rl_module_spec", f"an RLModule trains under PPO only, not {config.algo_name}: set "
+                                             f"the network with model_config (fcnet_hiddens, ...)")
+
+
+def learners(config: Any) -> int:
+    """RLlib's ``num_learners`` (1 for 0 or 1): more than one trains data-parallel on rlchain's torch.distributed
+    path (``multi_gpu``), one process per learner started by torchrun; anything else is a one-line error naming
+    the command."""
+    count = int(config._settings.get("num_learners") or 0)
+    if count <= 1:
+        return 1
+    if config.algo_name != "PPO":
+        raise _bad(config, "num_learners", f"{count}: several learners train PPO only (rlchain's DQN has no "
+                                           f"data-parallel path)")
+    world = os.environ.get("WORLD_SIZE")
+    if world != str(count):
+        raise _bad(config, "num_learners", f"{count} learners train data-parallel under torch.distributed, one "
+                                           f"process each: start the script with `torchrun --standalone "
+                                           f"--nproc_per_node={count} -m rlchain.rllib SCRIPT [ARGS]`"
+                                           f"{'' if world is None else f' (this launch has WORLD_SIZE={world})'}")
+    return count
 
 
 def num_envs(config: Any) -> int:
@@ -144,7 +162,8 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     check_supported(config)
     s = config._settings
     envs = num_envs(config)
-    batch = config.total_train_batch_size
+    ranks = learners(config)
+    batch = -(-config.total_train_batch_size // ranks)  # each learner process samples its share of the batch
     minibatch = _positive(config, "minibatch_size")
     if minibatch > batch:
         minibatch = batch
@@ -172,7 +191,7 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "minibatch_order": "shuffle" if s.get("shuffle_batch_per_epoch", True) else "fixed",
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
-        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
     }
     train.update(run)
     algo, model = ("a2c_continuous", "continuous_a2c_logstd") if continuous else ("a2c_discrete", "discrete_a2c")
