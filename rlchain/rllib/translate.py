@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from typing import Any
 
 from rlchain.config.errors import ConfigError
@@ -89,9 +90,11 @@ def learners(config: Any) -> int:
                                            f"data-parallel path)")
     world = os.environ.get("WORLD_SIZE")
     if world != str(count):
+        script = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0].endswith(".py") \
+            and os.path.basename(sys.argv[0]) != "__main__.py" else "SCRIPT"
         raise _bad(config, "num_learners", f"{count} learners train data-parallel under torch.distributed, one "
                                            f"process each: start the script with `torchrun --standalone "
-                                           f"--nproc_per_node={count} -m rlchain.rllib SCRIPT [ARGS]`"
+                                           f"--nproc_per_node={count} -m rlchain.rllib {script} [ARGS]`"
                                            f"{'' if world is None else f' (this launch has WORLD_SIZE={world})'}")
     return count
 
