@@ -94,6 +94,14 @@ class Algorithm:
     """One RLlib algorithm (PPO, DQN) trained by rlchain; see the module docstring."""
 
     algo_name: ClassVar[str] = ""
+    action_spaces: ClassVar[tuple[type, ...]] = (gym.spaces.Box, gym.spaces.Discrete)
+    """The action spaces rlchain's algorithm of this name takes."""
+
+    @staticmethod
+    def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
+                  ) -> dict[str, Any]:
+        """The rlchain config (``{'params': ...}``) that trains ``config`` on env ``env_name`` (each algorithm's)."""
+        return translate.ppo_config(config, env_name, continuous, run, obs_space)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -106,10 +114,6 @@ class Algorithm:
         if env is not None:
             config = config.copy().environment(env)
         self.config = config
-        if config.algo_name not in ("PPO", "DQN"):
-            raise ConfigError(f"{type(config).__name__}", "build_algo", f"{config.algo_name} is not trained by the "
-                              f"face yet: PPOConfig and DQNConfig train on rlchain's PPO and DQN; rlchain's own "
-                              f"YAMLs train SAC, APPO and IMPALA (rlchain/configs/)")
         config.validate()
         config.freeze()
         settings = config._settings
@@ -168,15 +172,14 @@ class Algorithm:
         env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
         self._env_name = env_name
         continuous = isinstance(self.action_space, gym.spaces.Box)
-        allowed = (gym.spaces.Discrete,) if config.algo_name == "DQN" else (gym.spaces.Box, gym.spaces.Discrete)
+        allowed = self.action_spaces
         if not isinstance(self.action_space, allowed):
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
                               f"mapped by the face for {config.algo_name} "
                               f"({' or '.join(a.__name__ for a in allowed)})")
-        if config.algo_name == "DQN":
-            return translate.dqn_config(config, env_name, run)
-        out = translate.ppo_config(config, env_name, continuous, run)
-        module_network.apply_spec(config, out, self.observation_space, self.action_space)
+        out = self.translate(config, env_name, self.observation_space, continuous, run)
+        if config.algo_name == "PPO":  # a user's RLModule as the network
+            module_network.apply_spec(config, out, self.observation_space, self.action_space)
         return out
 
     def _run_thread(self) -> None:
@@ -227,14 +230,7 @@ class Algorithm:
                        "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
                        "num_episodes_lifetime": int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
                        **nested(episode_custom)}
-        if self.config.algo_name == "DQN":
-            learner = {"qf_loss": stats.get("td_loss", nan), "qf_mean": stats.get("q", nan),
-                       "curr_epsilon": stats.get("epsilon", nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
-        else:
-            learner = {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-                       "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-                       "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-                       "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+        learner = self.learner_results(stats, cfg)
         if "kl_coef" in stats:
             learner["curr_kl_coeff"] = stats["kl_coef"]
         learners = {DEFAULT_MODULE: learner}
@@ -253,6 +249,15 @@ class Algorithm:
             "info": {"learner": {k: {"learner_stats": dict(v)} for k, v in learners.items()}},
             "_episode_custom": episode_custom,
         }
+
+    @staticmethod
+    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names)."""
+        nan = math.nan
+        return {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
+                "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
+                "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+                "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
 
     def _write_custom(self, values: dict[str, float]) -> None:
         ctx = self._stepper.context

@@ -157,12 +157,19 @@ def policy_network(config: Any, policy: str, observation_space: gym.Space, actio
     """The network block of one multi-agent policy: its module spec's (``MultiRLModuleSpec(rl_module_specs=
     {policy: RLModuleSpec(...)})`` or one ``RLModuleSpec`` for all), else the face's network from
     ``model_config``. The policy's observations arrive flattened (rlchain's PettingZoo backend)."""
+    from rlchain.config.errors import ConfigError
     from rlchain.envs.backends.pettingzoo_env import flat_space
-    from rlchain.rllib import translate
     from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    from rlchain.rllib.networks import actor_critic_network
     spec = config._settings.get("rl_module_spec")
     if isinstance(spec, MultiRLModuleSpec):
         spec = spec.spec_of(policy)
     flat = flat_space(observation_space)[0]
     block = None if spec is None else network_block(config, spec, flat, action_space)
-    return block or translate._network(config, isinstance(action_space, gym.spaces.Box))
+    if block is not None:
+        return block
+    network, seq_len = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
+    if seq_len is not None:
+        raise ConfigError(type(config).__name__, "model_config.use_lstm", "multi-agent policies are feedforward "
+                                                                          "(rlchain's multi-policy PPO)")
+    return network

@@ -27,8 +27,8 @@ PICKLE_IPC = {
 IMPORT_SITES = {
     "rlchain/__init__.py": "rlchain's own lazily imported names (a constant table)",
     "rlchain/console.py": "rlchain's own subcommand modules (literals)",
-    "rlchain/rl_games/alias.py": "rl_games.* names mapped onto rlchain.rl_games.* (rlchain's own modules)",
-    "rlchain/rllib/alias.py": "ray.rllib.* names mapped onto rlchain.rllib.* (rlchain's own modules)",
+    "rlchain/faces.py": "a face's aliased names (rl_games.*, ray.rllib.*) mapped onto its own modules "
+                        "(rlchain.rl_games.*, rlchain.rllib.*)",
     "rlchain/inference/export/onnx.py": "onnx / onnxruntime, optional dependencies (literals)",
     "rlchain/config/load.py": "params.import_modules and config.callbacks of the user's config (--file, dict, "
                               "overrides); a checkpoint's stored ones are dropped first",
