@@ -41,7 +41,9 @@ def run_seed(seed: str, tests: list[str], workers: int, out: str) -> tuple[str, 
         env["RLCHAIN_LEARNING_SEED"] = seed
     parallel = ["-n", str(workers), "--dist", "worksteal"] if workers > 1 else []
     start = time.time()
-    subprocess.run([sys.executable, "-m", "pytest", "-q", "-m", "slow", "-p", "no:cacheprovider", *parallel,
+    # no wall-clock timeout: on a loaded machine it cuts the runs whose frames are what this measures
+    subprocess.run([sys.executable, "-m", "pytest", "-q", "-m", "slow", "-p", "no:cacheprovider", "-p", "no:timeout",
+                    *parallel,
                     f"--junitxml={junit}", *tests], cwd=ROOT, env=env)
     return junit, results, time.time() - start
 
@@ -68,14 +70,21 @@ def frames(n: int) -> str:
     return f"{n / 1e6:.2f}M" if n >= 1e6 else f"{n / 1e3:.1f}k" if n >= 1e3 else str(n)
 
 
-def cell(verdict: str, seconds: float, runs: list[dict]) -> str:
-    """One seed of one test: its verdict, each run's frames, why it stopped and its reward, the test's seconds."""
+def reached(curve: list, bar: float) -> str:
+    """The frames at which a run's mean episode reward first reached ``bar`` ('-' if it never did)."""
+    return next((frames(f) for f, value in curve if value >= bar), "-")
+
+
+def cell(verdict: str, seconds: float, runs: list[dict], bars: list[float]) -> str:
+    """One seed of one test: its verdict, each run's frames, why it stopped and its reward (and the frames each of
+    ``bars`` was first reached at), the test's seconds."""
     if verdict == "skipped":
         return "skipped"
     parts = []
     for run in runs:
         stop = run["stop"].split(" ")[0]
-        parts.append(f"{frames(run['frames'])} ({stop}, {run['mean_reward']:.3g})")
+        lower = "".join(f", {bar:g} at {reached(run.get('curve', []), bar)}" for bar in bars)
+        parts.append(f"{frames(run['frames'])} ({stop}, {run['mean_reward']:.3g}{lower})")
     return f"{verdict}: {'; '.join(parts) or 'no Runner run'} {seconds:.0f} s"
 
 
@@ -85,21 +94,32 @@ def main() -> int:
                         help="seeds to run each test with; 'default': the test's own (default: default 1 2)")
     parser.add_argument("--workers", type=int, default=1, help="pytest-xdist workers (default 1)")
     parser.add_argument("--out", help="a folder to keep the junit reports and results files in")
+    parser.add_argument("--again", action="store_true",
+                        help="run nothing: print the table of the reports already in --out (other --reach bars)")
+    parser.add_argument("--reach", nargs="*", type=float, default=[],
+                        help="also say where each run's mean episode reward first reached these (lower) bars")
     args, tests = parser.parse_known_args()
-    if not tests:
+    if not tests and not args.again:
         parser.error("name the learning tests (files, node ids, -k ...)")
+    if args.again and not args.out:
+        parser.error("--again reads the reports in --out")
     out = args.out or tempfile.mkdtemp(prefix="rlchain-seed-spread-")
     os.makedirs(out, exist_ok=True)
     table: dict[str, dict[str, str]] = collections.defaultdict(dict)
     for seed in args.seeds:
-        junit, results, seconds = run_seed(seed, tests, args.workers, out)
+        if args.again:
+            junit, results, seconds = os.path.join(out, f"seed_{seed}.xml"), os.path.join(out, f"seed_{seed}.jsonl"), 0
+            if not os.path.exists(results):
+                continue
+        else:
+            junit, results, seconds = run_seed(seed, tests, args.workers, out)
         runs = collections.defaultdict(list)
         with open(results) as f:
             for line in f:
                 run = json.loads(line)
                 runs[run["test"]].append(run)
         for node, (verdict, test_seconds) in outcomes(junit).items():
-            table[node][seed] = cell(verdict, test_seconds, runs.get(node, []))
+            table[node][seed] = cell(verdict, test_seconds, runs.get(node, []), args.reach)
         print(f"seed {seed}: {len(outcomes(junit))} tests in {seconds:.0f} s ({out})", flush=True)
     print(f"\n| test | {' | '.join(f'seed {s}' for s in args.seeds)} |")
     print(f"|---|{'---|' * len(args.seeds)}")
