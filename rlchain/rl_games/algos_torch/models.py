@@ -15,9 +15,9 @@ from typing import Any
 
 import torch
 import torch.nn as nn
-import torch.nn.functional as F
 from torch.distributions import Categorical, Normal
 
+from rlchain.models.distributions import sigma_std
 from rlchain.rl_games.algos_torch.running_mean_std import RunningMeanStd, RunningMeanStdObs
 
 
@@ -168,23 +168,14 @@ class ModelA2CMultiDiscrete(BaseModel):
 
 
 def apply_sigma_parametrization(raw: torch.Tensor, network: Any) -> tuple[torch.Tensor, torch.Tensor]:
-    """(std, log std) from the sigma head's raw output by ``network``'s rl_games 2.0 options: ``exp`` (raw is
-    the log std, clamped to ``logstd_bounds``, ``min_sigma`` added), ``softplus`` (softplus(raw) + min_sigma),
-    ``linear`` / ``scalar`` (raw is the std above a smooth floor max(min_sigma, 1e-3))."""
+    """(std, log std) from the sigma head's raw output by ``network``'s rl_games 2.0 options
+    (``sigma_parametrization``, ``min_sigma``, ``logstd_bounds``; ``scalar`` is ``linear``): :func:`sigma_std`."""
     min_sigma = float(getattr(network, "min_sigma", 0.0))
     kind = getattr(network, "sigma_parametrization", "exp")
-    if kind == "softplus":
-        sigma = F.softplus(raw) + min_sigma
-    elif kind in ("linear", "scalar"):
-        floor = max(min_sigma, 1e-3)
-        sigma = floor + F.softplus(raw - floor)
-    else:
-        bounds = getattr(network, "logstd_bounds", None)
-        if bounds is not None:
-            raw = raw.clamp(bounds[0], bounds[1])
-        if min_sigma <= 0:
-            return raw.exp(), raw
-        sigma = raw.exp() + min_sigma
+    bounds = getattr(network, "logstd_bounds", None)
+    sigma = sigma_std(raw, "linear" if kind == "scalar" else kind, min_sigma, bounds)
+    if kind not in ("softplus", "linear", "scalar") and min_sigma <= 0:  # exp: the (clamped) raw is the log std
+        return sigma, raw if bounds is None else raw.clamp(bounds[0], bounds[1])
     return sigma, sigma.log()
 
 
