@@ -48,6 +48,16 @@ class BaseModel:
                             value_size=config.get("value_size", 1))
 
 
+class _BuiltModel(BaseModel):
+    """The models below: ``Model(network_builder)``, of rl_games' model class ``_model_class``."""
+
+    _model_class = "a2c"
+
+    def __init__(self, network: Any) -> None:
+        BaseModel.__init__(self, self._model_class)
+        self.network_builder = network
+
+
 class BaseModelNetwork(nn.Module):
     """Normalizers shared by the model networks."""
 
@@ -125,12 +135,8 @@ def _masked_logits(logits: torch.Tensor, masks: torch.Tensor | None) -> torch.Te
     return logits if masks is None else logits.masked_fill(~masks.bool(), -1e8)
 
 
-class ModelA2C(BaseModel):
+class ModelA2C(_BuiltModel):
     """Discrete actions: a categorical over ``logits`` (invalid actions masked out by ``action_masks``)."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         def distribution(self, head: list, masks: Any) -> tuple[Any, dict]:
@@ -141,12 +147,8 @@ class ModelA2C(BaseModel):
             return dist.sample().long()
 
 
-class ModelA2CMultiDiscrete(BaseModel):
+class ModelA2CMultiDiscrete(_BuiltModel):
     """Multi-discrete actions: one categorical per dimension; log-probs and entropies summed."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         def distribution(self, head: list, masks: Any) -> tuple[Any, dict]:
@@ -179,12 +181,8 @@ def apply_sigma_parametrization(raw: torch.Tensor, network: Any) -> tuple[torch.
     return sigma, sigma.log()
 
 
-class ModelA2CContinuous(BaseModel):
+class ModelA2CContinuous(_BuiltModel):
     """Continuous actions, the network's ``sigma`` taken as the standard deviation."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         log_std = False
@@ -209,12 +207,8 @@ class ModelA2CContinuousLogStd(ModelA2CContinuous):
         log_std = True
 
 
-class ModelCentralValue(BaseModel):
+class ModelCentralValue(_BuiltModel):
     """A value-only critic: ``forward`` returns ``values`` (denormalized outside training) and ``rnn_states``."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         def forward(self, input_dict: dict) -> dict:
@@ -224,12 +218,10 @@ class ModelCentralValue(BaseModel):
             return {"values": value if is_train else self.denorm_value(value), "rnn_states": states}
 
 
-class ModelSACContinuous(BaseModel):
+class ModelSACContinuous(_BuiltModel):
     """SAC: the network (actor, critic, critic_target) with rl_games' accessors."""
 
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "sac")
-        self.network_builder = network
+    _model_class = "sac"
 
     class Network(BaseModelNetwork):
         def __init__(self, sac_network: nn.Module, **kwargs: Any) -> None:
