@@ -42,6 +42,7 @@ import yaml
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import option, parse_dataclass
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.errors import optional_import
 from rlchain.log import train_hint
 from rlchain.runner import Runner
 from rlchain.tuning.spec import RAY_KEYS, RaySpec, backend_of, load_ray_spec
@@ -56,11 +57,7 @@ KEYS = {"base", "metric", "direction", "trials", "max_epochs_per_trial", "overri
 
 
 def import_optuna() -> Any:
-    try:
-        import optuna
-    except ImportError:
-        raise ImportError(INSTALL_HINT) from None
-    return optuna
+    return optional_import("optuna", INSTALL_HINT)
 
 
 @dataclass

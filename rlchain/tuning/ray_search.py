@@ -23,6 +23,7 @@ import yaml
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.errors import optional_import
 from rlchain.log import train_hint
 from rlchain.registry import ALGOS
 from rlchain.runner import Runner
@@ -32,11 +33,7 @@ from rlchain.tuning.spec import RAY_INSTALL_HINT, RaySpec, check_capacity, check
 
 def import_ray_tune() -> Any:
     """``ray.tune``, or a one-line ImportError naming the extra to install."""
-    try:
-        from ray import tune
-    except ImportError:
-        raise ImportError(RAY_INSTALL_HINT) from None
-    return tune
+    return optional_import("ray.tune", RAY_INSTALL_HINT)
 
 
 @dataclass

@@ -103,3 +103,39 @@ def test_ppo_trains_convolutions_on_images(tmp_path, monkeypatch):
     algo, results, module, _ = _train(config, 1)
     assert algo.rlchain_config["params"]["network"]["cnn"]["convs"][0]["filters"] == 4
     assert results[0]["num_env_steps_sampled_lifetime"] == 64
+
+
+RAY_SCRIPT = """
+import ray
+ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+from rlchain.rllib.algorithms.appo import APPOConfig
+from rlchain.rllib.algorithms.ppo import PPOConfig
+algo = (PPOConfig().environment("CartPole-v1").env_runners(num_env_runners=2, num_envs_per_env_runner=2)
+        .training(train_batch_size=256, minibatch_size=64, num_epochs=1).build_algo())
+assert algo.rlchain_config["params"]["config"]["vecenv_type"] == "RAY"
+assert type(algo._stepper.context.training_env).__name__ == "RayVecEnv", type(algo._stepper.context.training_env)
+assert algo.train()["num_env_steps_sampled_lifetime"] == 256
+algo.stop()
+appo = (APPOConfig().environment("CartPole-v1").env_runners(num_env_runners=2, rollout_fragment_length=16)
+        .training(train_batch_size=64).build_algo())
+assert appo.rlchain_config["params"]["config"]["appo"]["runners"] == "ray"
+assert appo.train()["num_env_steps_sampled_lifetime"] >= 64
+appo.stop()
+print("OK")
+"""
+
+
+@pytest.mark.slow
+def test_env_runners_are_rays_after_ray_init(tmp_path):
+    """After ray.init(), num_env_runners > 0 steps the envs on rlchain's Ray env runners (PPO) and Ray runner
+    actors (APPO): a Ray start, tens of seconds."""
+    import os
+    import subprocess
+    import sys
+
+    pytest.importorskip("ray")
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = {**os.environ, "PYTHONPATH": root, "OMP_NUM_THREADS": "1"}
+    out = subprocess.run([sys.executable, "-c", RAY_SCRIPT], cwd=tmp_path, env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0 and out.stdout.strip().endswith("OK"), out.stderr[-3000:]

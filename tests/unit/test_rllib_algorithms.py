@@ -32,6 +32,7 @@ def test_sac_defaults_are_rllibs_and_map_onto_rlchains_sac():
     assert (cfg["batch_size"], cfg["replay_buffer_size"], cfg["prioritized_replay"]) == (256, 1_000_000, True)
     assert (cfg["num_warmup_frames"], cfg["num_steps_per_episode"], cfg["num_updates_per_step"]) == (1500, 100, 1)
     assert cfg["num_actors"] == 1 and cfg["clip_actions"] and cfg["log_std_bounds"] == [-20.0, 20.0]
+    assert cfg["loss"] == "huber"  # RLlib's critic loss
     # RLlib's DefaultModelConfig: an MLP of 256, 256 with tanh for the actor and both critics
     assert params["network"]["mlp"]["units"] == [256, 256] and params["network"]["mlp"]["activation"] == "tanh"
 
@@ -170,3 +171,14 @@ def test_ray_requested_follows_ray_init_or_ray_address(monkeypatch):
     monkeypatch.delenv("RAY_ADDRESS")
     ray = pytest.importorskip("ray")
     assert env_runners.ray_requested() == ray.is_initialized()
+
+
+def test_default_model_config_dataclass_carries_lstm_and_convolutions():
+    from rlchain.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    c = PPOConfig().rl_module(model_config=DefaultModelConfig(use_lstm=True, lstm_cell_size=16, max_seq_len=10,
+                                                              fcnet_hiddens=[8]))
+    network, seq_len = networks.actor_critic_network(c, FLAT, False)
+    assert network["rnn"]["units"] == 16 and seq_len == 10
+    image = PPOConfig().rl_module(model_config=DefaultModelConfig(conv_filters=[[8, 3, 1]]))
+    assert networks.actor_critic_network(image, IMAGE, False)[0]["cnn"]["convs"][0]["filters"] == 8
