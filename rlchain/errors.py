@@ -2,7 +2,9 @@
 did-you-mean that every "unknown name" message carries (config keys, registries, env options)."""
 
 import difflib
+import sys
 from collections.abc import Iterable
+from types import ModuleType
 
 
 class DivergenceError(RuntimeError):
@@ -19,6 +21,16 @@ class NetworkError(RuntimeError):
 
 class DistributedError(RuntimeError):
     """Under torchrun, a collective failed: another rank died, was killed or hung (multi_gpu)."""
+
+
+def optional_import(name: str, hint: str) -> ModuleType:
+    """The optional dependency ``name`` (a literal of rlchain's own: ``optuna``, ``ray.tune``, ``wandb`` ...), or
+    an ImportError whose one line is ``hint`` (what to install)."""
+    try:
+        __import__(name)
+    except ImportError:
+        raise ImportError(hint) from None
+    return sys.modules[name]
 
 
 def first_non_finite(named: dict[str, float]) -> str | None:

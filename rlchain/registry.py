@@ -3,10 +3,27 @@
 from __future__ import annotations
 
 import contextlib
+import importlib
 from collections.abc import Callable, Iterator
 from typing import Any
 
 from rlchain.errors import did_you_mean
+
+
+def import_object(spec: str) -> Any:
+    """The object a config names as ``package.module:Name`` (a callback, an event function, a mirror map); a
+    one-line ValueError saying what is wrong with the name."""
+    module_name, _, attr = spec.partition(":")
+    if not module_name or not attr:
+        raise ValueError(f"'{spec}' must look like 'package.module:Name'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ValueError(f"cannot import '{module_name}': {exc}") from None
+    if not hasattr(module, attr):
+        raise ValueError(f"module '{module_name}' has no '{attr}'")
+    return getattr(module, attr)
+
 
 _builtins: list[Callable[[], None]] = []  # registers rlchain's own entries; run on the first lookup
 

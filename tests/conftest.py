@@ -81,6 +81,58 @@ def one_thread_for_learning_tests(request, monkeypatch):
     yield
 
 
+_SEED = os.environ.get("RLCHAIN_LEARNING_SEED")
+"""A seed every run a learning test trains (``Runner.train``) takes in place of its own: tests/tools/seed_spread.py
+runs the learning tests on other seeds with it."""
+_RESULTS = os.environ.get("RLCHAIN_LEARNING_RESULTS")
+"""A file to append, as a JSON line, what each run a learning test trains ended with (the seed, frames, epochs,
+why it stopped, its rewards): how many frames a run took to its score, which a pass or fail does not say."""
+
+
+def _reward_curve(run_dir: str) -> list:
+    """[frames, mean episode reward] of each epoch a run logged (the rewards/step scalar; [] without one): the
+    frames a lower threshold would have taken, read off a run that went on to its own."""
+    from rlchain.compare.runs import CompareError, read_curves
+
+    try:
+        curve = read_curves(run_dir, ["rewards/step"]).get("rewards/step")
+    except (CompareError, OSError):
+        return []
+    return [] if curve is None else [[int(f), round(float(v), 4)] for f, v in zip(curve.frames, curve.values)]
+
+
+@pytest.fixture(autouse=True)
+def learning_seed_and_results(request, monkeypatch):
+    """With ``RLCHAIN_LEARNING_SEED`` or ``RLCHAIN_LEARNING_RESULTS`` set, a learning test's runs take that seed
+    and report how they ended (tests/tools/seed_spread.py); otherwise nothing changes."""
+    if (_SEED is None and _RESULTS is None) or request.node.get_closest_marker("slow") is None:
+        yield
+        return
+    import inspect
+    import json
+
+    train = Runner.train
+    signature = inspect.signature(train)
+
+    def reported(self, *args, **kwargs):
+        bound = signature.bind(self, *args, **kwargs)
+        if _SEED is not None:
+            bound.arguments["seed"] = int(_SEED)
+        seed = bound.arguments.get("seed")
+        result = train(*bound.args, **bound.kwargs)
+        if _RESULTS:
+            with open(_RESULTS, "a") as f:
+                f.write(json.dumps({"test": request.node.nodeid, "seed": seed if seed is not None else self.params.seed,
+                                    "frames": result.frames, "epoch": result.epoch, "stop": result.stop_reason,
+                                    "mean_reward": result.mean_reward, "best_reward": result.best_reward,
+                                    "seconds": round(result.seconds, 1), "curve": _reward_curve(result.run_dir)})
+                        + "\n")
+        return result
+
+    monkeypatch.setattr(Runner, "train", reported)
+    yield
+
+
 _TIMES = os.environ.get("RLCHAIN_TEST_TIMES")
 """A file to append each test's wall and CPU seconds to, as it ends: the budget of a run on a loaded machine,
 where wall time says more about the other programs than about the test (CPU time: this process and the

@@ -12,6 +12,7 @@ network's tensors carry rl_games' names since the network took rl_games' layout 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import re
@@ -19,14 +20,25 @@ import subprocess
 import sys
 import tempfile
 
+
+def _load_obs_state_cartpole():
+    """This checkout's tests/smoke/obs_state_cartpole.py (the central value's env and config, shared with its
+    smoke tests), loaded by path: each tree's training process loads the same file."""
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "tests", "smoke", "obs_state_cartpole.py")
+    spec = importlib.util.spec_from_file_location("obs_state_cartpole", os.path.abspath(path))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+CARTPOLE = _load_obs_state_cartpole()
 CASES = {  # name -> (packaged config, overrides)
     "ppo_mlp": ("ppo_cartpole", []),
     "ppo_lstm": ("ppo_cartpole_masked_velocity_rnn", []),
     "ppo_continuous": ("ppo_pendulum", []),
     "ppo_central_value": ("ppo_cartpole", [
-        "params.config.env_name=ObsStateCartPoleSameSeed-v0", "params.config.normalize_value=True",
-        "params.config.central_value_config={network: {name: actor_critic, central_value: True, "
-        "mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2, lr_schedule: linear}"]),
+        f"params.config.env_name={CARTPOLE.ENV_ID}", "params.config.normalize_value=True",
+        f"params.config.central_value_config={CARTPOLE.central_value_config('lr_schedule: linear')}"]),
     "sac": ("sac_pendulum", ["params.config.num_warmup_frames=40", "params.config.batch_size=32"]),
     "dqn": ("dqn_cartpole", ["params.config.num_warmup_frames=40", "params.config.batch_size=32"]),
     "grpo": ("grpo_torch_cartpole", ["params.config.num_actors=16", "params.config.horizon_length=32",
@@ -38,34 +50,13 @@ CASES = {  # name -> (packaged config, overrides)
 EPOCHS = 3
 
 TRAIN = r"""
-import json, os, sys
-import gymnasium as gym
-import numpy as np
+import importlib.util, json, os, sys
 import torch
 torch.set_num_threads(1)
 
 
-class ObsStateCartPole(gym.Wrapper):
-    # CartPole whose actor sees position and angle, and whose critic sees the full state
-    def __init__(self, env):
-        super().__init__(env)
-        box = env.observation_space
-        self.observation_space = gym.spaces.Dict({
-            "obs": gym.spaces.Box(box.low[[0, 2]], box.high[[0, 2]], dtype=np.float32), "state": box})
-
-    def _split(self, obs):
-        return {"obs": obs[[0, 2]].astype(np.float32), "state": obs.astype(np.float32)}
-
-    def reset(self, **kwargs):
-        obs, info = self.env.reset(**kwargs)
-        return self._split(obs), info
-
-    def step(self, action):
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        return self._split(obs), reward, terminated, truncated, info
-
-
-gym.register("ObsStateCartPoleSameSeed-v0", entry_point=lambda **kw: ObsStateCartPole(gym.make("CartPole-v1", **kw)))
+spec = importlib.util.spec_from_file_location("obs_state_cartpole", sys.argv[4])  # registers its env id
+spec.loader.exec_module(importlib.util.module_from_spec(spec))
 from rlchain import Runner
 config, out, overrides = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
 runner = Runner().load(config, [f"params.config.train_dir={out}", "params.config.print_stats=false", *overrides])
@@ -82,7 +73,8 @@ def train(tree: str, config: str, overrides: list[str], out: str) -> str:
     args = [*overrides, f"params.config.max_epochs={EPOCHS}", "params.config.save_frequency=0",
             "params.torch_threads=1"]
     done = subprocess.run([sys.executable, "-c", TRAIN, os.path.join(tree, "rlchain", "configs", config + ".yaml"),
-                           out, json.dumps(args)], env=env, cwd=tree, capture_output=True, text=True)
+                           out, json.dumps(args), CARTPOLE.__file__],
+                          env=env, cwd=tree, capture_output=True, text=True)
     if done.returncode:
         raise RuntimeError(f"{tree}: {config} failed:\n{done.stderr[-3000:]}")
     return done.stdout.strip().splitlines()[-1]

@@ -28,6 +28,9 @@ NO_EFFECT_CONFIG_KEYS = {
     "is_train": "use --train / --play",
     "ignore_dead_batches": "rl_games 1.6.5 does not read it either",
 }
+NO_EFFECT_PLAYER_KEYS = {
+    "device_name": "play uses config.device",
+}
 NO_EFFECT_PARAMS_KEYS = {
     "load_checkpoint": "pass --checkpoint on the command line instead",
     "load_path": "pass --checkpoint on the command line instead",
@@ -117,28 +120,15 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
             raise ConfigError(source, f"{path}.{key}",
                               f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
         out.pop(key, None)
-    for old, new in ALIASES.items():
-        if old in out:
-            if new in out:
-                raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
-            warn_once(source, f"{path}.{old}", f"deprecated name, use '{new}'")
-            out[new] = out.pop(old)
+    out = _renamed(out, ALIASES, source, path, warn=True)
     for key, values in VALUE_ALIASES.items():
         if isinstance(out.get(key), str) and out[key] in values:
             out[key] = values[out[key]]
     if "max_steps" in out:
         out = _max_steps(out, source, path)
-    for key, reason in NO_EFFECT_CONFIG_KEYS.items():
-        if key in out:
-            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
-            out.pop(key)
-    player = out.get("player")
-    if isinstance(player, dict) and "device_name" in player:
-        player = dict(player)
-        player.pop("device_name")
-        warn_once(source, f"{path}.player.device_name", "accepted for rl_games compatibility, no effect: "
-                  "play uses config.device")
-        out["player"] = player
+    out = _drop_no_effect(out, NO_EFFECT_CONFIG_KEYS, source, path)
+    if isinstance(out.get("player"), dict):
+        out["player"] = _drop_no_effect(out["player"], NO_EFFECT_PLAYER_KEYS, source, f"{path}.player")
     cv = out.get("central_value_config")
     if isinstance(cv, dict):
         cv = _drop_no_effect(cv, NO_EFFECT_CENTRAL_VALUE_KEYS, source, f"{path}.central_value_config")
@@ -258,13 +248,16 @@ def _drop_no_effect(block: dict[str, Any], keys: dict[str, str], source: str, pa
     return out
 
 
-def _translate_initializer(init: dict[str, Any], source: str, path: str) -> dict[str, Any]:
-    """An initializer block with rl_games 2.0's ``value`` read as ``val``."""
-    out = dict(init)
-    for old, new in INITIALIZER_ALIASES.items():
+def _renamed(block: dict[str, Any], aliases: dict[str, str], source: str, path: str, warn: bool) -> dict[str, Any]:
+    """``block`` with each old name of ``aliases`` read as its new one (a one-line warning with ``warn``); both
+    given is an error."""
+    out = dict(block)
+    for old, new in aliases.items():
         if old in out:
             if new in out:
                 raise ConfigError(source, f"{path}.{old}", f"both '{old}' and '{new}' given; keep only '{new}'")
+            if warn:
+                warn_once(source, f"{path}.{old}", f"deprecated name, use '{new}'")
             out[new] = out.pop(old)
     return out
 
@@ -311,14 +304,11 @@ def _translate_block(network: dict[str, Any], source: str, path: str) -> dict[st
                                                            f"/ action as an input); this network is "
                                                            f"'{out.get('name', 'actor_critic')}'")
             out.pop(key)
-    for key, reason in NO_EFFECT_NETWORK_KEYS.items():
-        if key in out:
-            warn_once(source, f"{path}.{key}", f"accepted for rl_games compatibility, no effect: {reason}")
-            out.pop(key)
+    out = _drop_no_effect(out, NO_EFFECT_NETWORK_KEYS, source, path)
     for key, value in list(out.items()):
         if isinstance(value, dict):
-            if key in INITIALIZER_BLOCKS:
-                value = _translate_initializer(value, source, f"{path}.{key}")
+            if key in INITIALIZER_BLOCKS:  # rl_games 2.0's const_initializer reads `value` beside `val`
+                value = _renamed(value, INITIALIZER_ALIASES, source, f"{path}.{key}", warn=False)
             out[key] = _translate_block(value, source, f"{path}.{key}")
     return out
 

@@ -24,7 +24,7 @@ from rlchain.config.network_block import check_planned, check_registered, networ
 from rlchain.config.params import NamedBlock, Params
 from rlchain.config.text import MAX_NESTING, AliasFound, NoAliasLoader, nesting, read_data
 from rlchain.errors import did_you_mean
-from rlchain.registry import ALGOS, MODELS, NETWORKS
+from rlchain.registry import ALGOS, MODELS, NETWORKS, import_object
 
 
 def check_malloc(value: str) -> str | None:
@@ -237,17 +237,11 @@ def load_config(path: str, overrides: list[str] | None = None) -> Params:
 def _check_callbacks(specs: list[str], source: str) -> None:
     """Each ``package.module:Name`` in config.callbacks must import."""
     for i, spec in enumerate(specs):
-        module_name, _, attr = spec.partition(":")
         path = f"params.config.callbacks[{i}]"
-        if not attr:
-            raise ConfigError(source, path, f"'{spec}' must look like 'package.module:Name'")
         try:
-            module = importlib.import_module(module_name)
-        except ImportError as exc:
-            raise ConfigError(source, path, f"cannot import '{module_name}': {exc}") from None
-        if not hasattr(module, attr):
-            raise ConfigError(source, path, f"module '{module_name}' has no '{attr}'")
-        obj = getattr(module, attr)
+            obj = import_object(spec)
+        except ValueError as exc:
+            raise ConfigError(source, path, str(exc)) from None
         if isinstance(obj, type):  # built with no arguments: say so now, not after the run folder exists
             try:
                 inspect.signature(obj).bind()

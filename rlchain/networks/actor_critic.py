@@ -13,6 +13,7 @@ modules; rl_games cannot compute those networks, and their files do not load the
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -27,7 +28,7 @@ from rlchain.networks.cnn import ConvEncoder
 from rlchain.networks.history import HistoryLayer
 from rlchain.networks.layers import activation, initialize, linear
 from rlchain.networks.mlp import MLP
-from rlchain.networks.rnn import RecurrentLayer, States
+from rlchain.networks.rnn import RecurrentLayer, States, flat_sequences
 
 RL_GAMES_ORDER = ("cnn", "actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
                   "a_layer_norm", "c_layer_norm", "mlp", "value", "logits", "mu", "sigma")
@@ -51,6 +52,7 @@ class TrunkLayout:
     concat_input: bool
     concat_output: bool
     out_size: int
+    window: bool = False  # the recurrent slot holds the history window (flat rows in, not rl_games' call)
 
 
 def build_trunk(cfg: NetworkConfig, input_shape: tuple[int, ...], encoder: nn.Module | None, extra_size: int,
@@ -91,7 +93,7 @@ def build_trunk(cfg: NetworkConfig, input_shape: tuple[int, ...], encoder: nn.Mo
     has_rnn = rnn is not None or history is not None
     return modules, TrunkLayout(cnn_name if encoder is not None else None, mlp_name, rnn_name if has_rnn else None,
                                 norm_name if norm_name in modules else None, before, concat_input, concat_output,
-                                out_size)
+                                out_size, history is not None)
 
 
 def _cat(x: torch.Tensor, extra: torch.Tensor | None) -> torch.Tensor:
@@ -108,15 +110,23 @@ class ActorCriticNetwork(nn.Module):
 
     ``cfg`` is a NetworkConfig or another block with its fields (ResnetNetworkConfig). ``make_encoder``
     builds a trunk's encoder in place of the cnn block's (one call per trunk); ``extra_size`` features come
-    from :meth:`split_obs`. ``logits_sizes``: the per-dimension sizes of a multi-discrete head.
+    from :meth:`split_obs`. ``logits_sizes``: the per-dimension sizes of a multi-discrete head, whose logits come
+    out as rl_games' list, one (B, n_k) tensor per dimension. ``num_seqs``: the batch of
+    :meth:`get_default_rnn_state` called without one (rl_games' call).
+
+    rl_games' ``A2CBuilder.Network`` (rlchain/rl_games/algos_torch/network_builder.py) is this class built from a
+    plain network block; the trunks' layouts are ``actor_layout`` and ``critic_layout`` (None without a separate
+    critic).
     """
 
     CNN, MLP_NAME = ("actor_cnn", "critic_cnn"), ("actor_mlp", "critic_mlp")
 
     def __init__(self, cfg: NetworkConfig, input_shape: tuple[int, ...], actions_num: int,
                  value_size: int, continuous: bool, make_encoder: Callable[[], nn.Module | None] | None = None,
-                 extra_size: int = 0, central_value: bool = False, logits_sizes: list[int] | None = None) -> None:
+                 extra_size: int = 0, central_value: bool = False, logits_sizes: list[int] | None = None,
+                 num_seqs: int = 1) -> None:
         super().__init__()
+        self.num_seqs = num_seqs
         self.separate = cfg.separate
         self.central_value = central_value
         make_encoder = make_encoder or (lambda: None)
@@ -124,21 +134,21 @@ class ActorCriticNetwork(nn.Module):
         rnn_names = ("a_rnn", "c_rnn") if cfg.separate else ("rnn", "")
         norm_names = ("a_layer_norm", "c_layer_norm") if cfg.separate else ("layer_norm", "")
         # built in the trunks' order (the weights' random draws), registered below in rl_games' order
-        modules, self.actor = build_trunk(cfg, input_shape, make_encoder(), extra_size,
+        modules, self.actor_layout = build_trunk(cfg, input_shape, make_encoder(), extra_size,
                                           (self.CNN[0], self.MLP_NAME[0], rnn_names[0], norm_names[0]))
-        self.critic: TrunkLayout | None = None
+        self.critic_layout: TrunkLayout | None = None
         if cfg.separate:
             critic_cfg = dataclasses.replace(cfg, mlp=critic_mlp) if critic_mlp is not None else cfg
-            critic_modules, self.critic = build_trunk(critic_cfg, input_shape, make_encoder(), extra_size,
+            critic_modules, self.critic_layout = build_trunk(critic_cfg, input_shape, make_encoder(), extra_size,
                                                       (self.CNN[1], self.MLP_NAME[1], rnn_names[1], norm_names[1]))
             modules.update(critic_modules)
         init = cfg.mlp.initializer
         # the value head sits on the critic's trunk when it has one of its own
-        modules["value"] = linear((self.critic or self.actor).out_size, value_size,
+        modules["value"] = linear((self.critic_layout or self.actor_layout).out_size, value_size,
                                   critic_mlp.initializer if critic_mlp is not None else init)
         self.value_act = activation(cfg.value_activation)
         self.continuous = continuous
-        out = self.actor.out_size
+        out = self.actor_layout.out_size
         if central_value:
             pass
         elif continuous:
@@ -181,13 +191,14 @@ class ActorCriticNetwork(nn.Module):
         if layout.rnn is None:
             return mlp(_cat(x, extra)), states
         rnn = getattr(self, layout.rnn)
+        run = rnn if layout.window else functools.partial(flat_sequences, rnn)
         if layout.before_mlp:
-            out, states = rnn(_cat(x, extra), states, resets, seq_length, bptt)
+            out, states = run(_cat(x, extra), states, resets, seq_length, bptt)
         else:
             out = mlp(x)
             if layout.concat_input:
                 out = torch.cat([out, x], -1)
-            out, states = rnn(_cat(out, extra), states, resets, seq_length, bptt)
+            out, states = run(_cat(out, extra), states, resets, seq_length, bptt)
         if layout.norm is not None:
             out = getattr(self, layout.norm)(out)
         if layout.concat_output:
@@ -200,10 +211,11 @@ class ActorCriticNetwork(nn.Module):
         resets = input_dict.get("dones")
         seq_length = int(input_dict.get("seq_length", 1) or 1)
         bptt = input_dict.get("bptt_len")
-        n_actor = self._num_states(self.actor)
-        a_out, a_states = self._trunk(self.actor, obs, states[:n_actor], resets, seq_length, bptt, extra)
-        if self.critic is not None:
-            c_out, c_states = self._trunk(self.critic, obs, states[n_actor:], resets, seq_length, bptt, extra)
+        n_actor = self._num_states(self.actor_layout)
+        a_out, a_states = self._trunk(self.actor_layout, obs, states[:n_actor], resets, seq_length, bptt, extra)
+        if self.critic_layout is not None:
+            c_out, c_states = self._trunk(self.critic_layout, obs, states[n_actor:], resets, seq_length, bptt,
+                                          extra)
         else:
             c_out, c_states = a_out, ()
         new_states = (*a_states, *c_states) if self.is_rnn() else None
@@ -212,8 +224,7 @@ class ActorCriticNetwork(nn.Module):
             return value, new_states
         if not self.continuous:
             logits = self.logits
-            out = torch.cat([head(a_out) for head in logits], -1) if isinstance(logits, nn.ModuleList) \
-                else logits(a_out)
+            out = [head(a_out) for head in logits] if isinstance(logits, nn.ModuleList) else logits(a_out)
             return out, value, new_states
         mu = self.mu_act(self.mu(a_out))
         if self.fixed_sigma:
@@ -226,13 +237,20 @@ class ActorCriticNetwork(nn.Module):
         return getattr(self, layout.rnn).num_states if layout is not None and layout.rnn is not None else 0
 
     def is_rnn(self) -> bool:
-        return self.actor.rnn is not None
+        return self.actor_layout.rnn is not None
 
-    def get_default_rnn_state(self, batch: int = 1, device: torch.device | None = None) -> States:
-        """Zero recurrent states for ``batch`` envs (empty without an RNN), the actor's then the critic's;
-        rl_games' name."""
+    def is_separate_critic(self) -> bool:
+        return self.separate
+
+    def get_default_rnn_state(self, batch: int | None = None, device: torch.device | None = None) -> States | None:
+        """Zero recurrent states for ``batch`` envs (``num_seqs`` when None), each (layers, batch, units), the
+        actor's then the critic's: (h, c) per trunk for an LSTM, h for a GRU; None without an RNN (rl_games')."""
+        if not self.is_rnn():
+            return None
         device = device or self.value.weight.device
-        return tuple(state for layout in (self.actor, self.critic) if layout is not None and layout.rnn is not None
+        batch = self.num_seqs if batch is None else batch
+        return tuple(state for layout in (self.actor_layout, self.critic_layout)
+                     if layout is not None and layout.rnn is not None
                      for state in getattr(self, layout.rnn).initial_state(batch, device))
 
 
@@ -285,4 +303,4 @@ class ActorCriticBuilder(NetworkBuilder):
         space = kwargs["action_space"]
         return ActorCriticNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"],
                                   kwargs.get("value_size", 1), is_continuous(cfg, space),
-                                  logits_sizes=logits_sizes(space))
+                                  logits_sizes=logits_sizes(space), num_seqs=kwargs.get("num_seqs", 1))

@@ -11,16 +11,17 @@ import torch.nn.functional as F
 
 from rlchain.config.network import InitializerConfig
 
-_ACTIVATIONS: dict[str, Callable[[], nn.Module]] = {
+ACTIVATIONS: dict[str, Callable[..., nn.Module]] = {
     "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid, "elu": nn.ELU, "selu": nn.SELU,
     "swish": nn.SiLU, "silu": nn.SiLU, "gelu": nn.GELU, "softplus": nn.Softplus,
     "leaky_relu": nn.LeakyReLU, "mish": nn.Mish, "identity": nn.Identity, "None": nn.Identity,
 }
+"""Activation classes by rl_games' names (rl_games' ``activations_factory`` registers the same)."""
 
 
 def activation(name: str | None) -> nn.Module:
     """A fresh activation module for ``name`` (``None``/'None' is the identity)."""
-    return _ACTIVATIONS[name if name is not None else "None"]()
+    return ACTIVATIONS[name if name is not None else "None"]()
 
 
 def initialize(weight: torch.Tensor, cfg: InitializerConfig) -> None:

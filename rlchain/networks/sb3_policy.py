@@ -172,15 +172,46 @@ class SB3ActorCriticNetwork(nn.Module):
         return False
 
 
+class SharedExtractorCritic(TwinQCritic):
+    """SAC's twin critic reading the actor's extractor (SB3's ``share_features_extractor=True``): the features are
+    computed without gradient, so only the actor's loss trains the extractor, as SB3's ``ContinuousCritic`` does
+    (its critic optimizer leaves the shared extractor out; here the extractor gets no gradient from the critic's
+    loss, so the critic's Adam skips it). ``requires_grad_`` (the SAC update freezes the critic during the actor's
+    step) leaves the shared extractor alone. Copied on its own (the target critic), it becomes a plain
+    :class:`TwinQCritic` with an extractor of its own, Polyak-averaged from the shared one as SB3's target is;
+    copied with the network that owns the extractor, it stays shared."""
+
+    def forward(self, obs: Any, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        with torch.no_grad():
+            features = self.encoder(obs)
+        x = torch.cat([features, actions], dim=-1)
+        return self.Q1(x).squeeze(-1), self.Q2(x).squeeze(-1)
+
+    def requires_grad_(self, requires_grad: bool = True) -> SharedExtractorCritic:
+        self.Q1.requires_grad_(requires_grad)
+        self.Q2.requires_grad_(requires_grad)
+        return self
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> nn.Module:
+        shared = id(self.encoder) in memo  # the owner (the actor) was copied first: keep sharing its copy
+        copied = TwinQCritic.__new__(SharedExtractorCritic if shared else TwinQCritic)
+        memo[id(self)] = copied
+        for key, value in self.__dict__.items():  # nn.Module's state: _modules, _parameters, hooks, ...
+            copied.__dict__[key] = copy.deepcopy(value, memo)
+        return copied
+
+
 class SB3SACNetwork(nn.Module):
-    """SAC with SB3's extractors: ``actor`` and ``critic`` (twin Q) each read the observations through an extractor
-    of their own (SB3's SAC default, ``share_features_extractor=False``), hidden sizes ``pi`` and ``qf``."""
+    """SAC with SB3's extractors: ``actor`` and ``critic`` (twin Q), hidden sizes ``pi`` and ``qf``. Each reads the
+    observations through an extractor of its own (SB3's SAC default, ``share_features_extractor=False``), or, with
+    ``share``, the critic reads the actor's (:class:`SharedExtractorCritic`)."""
 
     def __init__(self, make_encoder: Any, actions_num: int, pi: MlpConfig, qf: MlpConfig,
-                 log_std_bounds: list[float]) -> None:
+                 log_std_bounds: list[float], share: bool = False) -> None:
         super().__init__()
         self.actor = SACActor(0, actions_num, pi, log_std_bounds, None, make_encoder())
-        self.critic = TwinQCritic(0, actions_num, qf, make_encoder())
+        self.critic = SharedExtractorCritic(0, actions_num, qf, self.actor.encoder) if share \
+            else TwinQCritic(0, actions_num, qf, make_encoder())
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:
         mu, log_std = self.actor(input_dict["obs"])
@@ -264,12 +295,12 @@ def sb3_policy_network(block: Any, **kwargs: Any) -> nn.Module:
                          f"policy here (net_arch, activation_fn, features_extractor_class / _kwargs, "
                          f"normalize_images)")
     if algo == "sac":
-        if share:
-            raise ValueError("params.network.policy_kwargs.share_features_extractor: rlchain's SAC gives the "
-                             "actor and the critics an extractor each (SB3's default, False)")
         pi, qf = split_net_arch(net_arch if net_arch is not None else [256, 256], "qf")
         return SB3SACNetwork(make_encoder, kwargs["actions_num"], _mlp(pi, activation), _mlp(qf, activation),
-                             list(block.get("log_std_bounds", [-20.0, 2.0])))
+                             list(block.get("log_std_bounds", [-20.0, 2.0])), bool(share))
+    if "share_features_extractor" in (block.get("policy_kwargs") or {}):
+        raise ValueError("params.network.policy_kwargs.share_features_extractor: DQN's Q-network has one extractor "
+                         "(SB3's DQNPolicy takes no share_features_extractor); remove it")
     units = list(net_arch) if net_arch is not None else [64, 64]
     return SB3QNetwork(make_encoder(), kwargs["actions_num"], _mlp(units, activation),
                        bool(block.get("dueling", False)))

@@ -17,6 +17,7 @@ import torch
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
 from rlchain.envs.wrappers.one_env import OneEnv
+from rlchain.errors import optional_import
 from rlchain.log import get_logger
 from rlchain.policy.play import play
 
@@ -27,10 +28,7 @@ _NOT_ENV_KWARGS = ("seed", "name")
 
 
 def require_moviepy() -> None:
-    try:
-        import moviepy  # noqa: F401
-    except ImportError:
-        raise ImportError(INSTALL_HINT) from None
+    optional_import("moviepy", INSTALL_HINT)
 
 
 def gym_id_of(params: Params) -> tuple[str, dict]:

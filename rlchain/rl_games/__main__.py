@@ -8,34 +8,15 @@ first line printed says that rlchain stands in for rl_games.
 
 from __future__ import annotations
 
-import os
-import runpy
 import sys
 
-from rlchain.rl_games.alias import install
-from rlchain.version import __version__
-
-USAGE = "usage: python -m rlchain.rl_games SCRIPT [ARGS...]  (runs SCRIPT with rlchain standing in for rl_games)"
+from rlchain.faces import run_script
+from rlchain.rl_games.alias import RlGamesAlias
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the script named by ``argv[0]`` with the alias installed; returns 2 on a bad launch line.
-    The script's own ``sys.exit`` (or exception) ends the process as under plain ``python``."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help"):
-        print(USAGE, file=sys.stderr if not argv else sys.stdout)
-        return 2 if not argv else 0
-    script = argv[0]
-    if not os.path.isfile(script):
-        print(f"python -m rlchain.rl_games: {script}: no such script file ({USAGE})", file=sys.stderr)
-        return 2
-    print(f"rlchain {__version__} stands in for rl_games: running {script} with 'import rl_games' "
-          f"resolved to rlchain.rl_games", flush=True)
-    install()
-    sys.argv = [script, *argv[1:]]
-    sys.path[0] = os.path.dirname(os.path.abspath(script))  # as `python SCRIPT` sets it
-    runpy.run_path(script, run_name="__main__")
-    return 0
+    """Run the script named by ``argv[0]`` (:func:`rlchain.faces.run_script`)."""
+    return run_script(argv, "rlchain.rl_games", "rl_games", RlGamesAlias)
 
 
 if __name__ == "__main__":

@@ -8,47 +8,28 @@ instead (exit code 1).
 
 from __future__ import annotations
 
-import os
-import runpy
 import sys
 
 from rlchain.config.errors import ConfigError
-from rlchain.rllib.alias import FaceImportError, install
+from rlchain.faces import run_script
+from rlchain.rllib.alias import FaceImportError, RLlibAlias
 from rlchain.runs.checkpoint import CheckpointError
-from rlchain.version import __version__
 
-USAGE = "usage: python -m rlchain.rllib SCRIPT [ARGS...]  (runs SCRIPT with rlchain standing in for RLlib)"
+
+def explain(exc: Exception) -> str | None:
+    """The one line an error of the face ends the script with, or None for any other exception."""
+    if isinstance(exc, FaceImportError):
+        return f"ImportError: {exc}"
+    if isinstance(exc, (ConfigError, CheckpointError)):  # already one line naming the key / file
+        return f"{type(exc).__name__}: {exc}"
+    if isinstance(exc, ImportError) and exc.name and exc.name.startswith(("ray.rllib", "rlchain.rllib")):
+        return f"ImportError: {exc} (not offered by rlchain's RLlib face; see docs/rllib.md)"
+    return None
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help"):
-        print(USAGE, file=sys.stderr if not argv else sys.stdout)
-        return 2 if not argv else 0
-    script = argv[0]
-    if not os.path.isfile(script):
-        print(f"python -m rlchain.rllib: {script}: no such script file ({USAGE})", file=sys.stderr)
-        return 2
-    print(f"rlchain {__version__} stands in for RLlib: running {script} with 'import ray.rllib' resolved to "
-          f"rlchain.rllib", flush=True)
-    install()
-    sys.argv = [script, *argv[1:]]
-    sys.path[0] = os.path.dirname(os.path.abspath(script))
-    try:
-        runpy.run_path(script, run_name="__main__")
-    except FaceImportError as exc:
-        print(f"{script}: ImportError: {exc}", file=sys.stderr)
-        return 1
-    except (ConfigError, CheckpointError) as exc:  # already one line naming the key / file
-        print(f"{script}: {type(exc).__name__}: {exc}", file=sys.stderr)
-        return 1
-    except ImportError as exc:
-        if exc.name and exc.name.startswith(("ray.rllib", "rlchain.rllib")):
-            print(f"{script}: ImportError: {exc} (not offered by rlchain's RLlib face; see docs/rllib.md)",
-                  file=sys.stderr)
-            return 1
-        raise
-    return 0
+    """Run the script named by ``argv[0]`` (:func:`rlchain.faces.run_script`)."""
+    return run_script(argv, "rlchain.rllib", "RLlib", RLlibAlias, explain)
 
 
 if __name__ == "__main__":

@@ -1,23 +1,20 @@
 """``import ray.rllib...`` resolved to ``rlchain.rllib...`` in this process; ``ray`` and ``ray.tune`` stay Ray's.
 
-:func:`install` puts a finder first on ``sys.meta_path``: ``ray.rllib`` or ``ray.rllib.X.Y`` is answered with the
-module object ``rlchain.rllib.X.Y`` (one object under both names). A ``ray.rllib`` module the face does not
-offer is a one-line :class:`FaceImportError` saying what to use instead, never RLlib's own module (a mix of
-the two would not run). Nothing is written to disk; other processes see the real RLlib.
+:func:`install` puts a finder first on ``sys.meta_path`` (:class:`rlchain.faces.ModuleAlias`): ``ray.rllib`` or
+``ray.rllib.X.Y`` is answered with the module object ``rlchain.rllib.X.Y`` (one object under both names). A
+``ray.rllib`` module the face does not offer is a one-line :class:`FaceImportError` saying what to use instead,
+never RLlib's own module (a mix of the two would not run). Nothing is written to disk; other processes see the
+real RLlib.
 """
 
 from __future__ import annotations
 
-import importlib
 import importlib.abc
 import importlib.machinery
-import sys
 from types import ModuleType
 
+from rlchain.faces import ModuleAlias
 from rlchain.rllib.config import AlgorithmConfig
-
-ALIAS = "ray.rllib"
-TARGET = "rlchain.rllib"
 
 INSTEAD = {
     "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
@@ -35,12 +32,6 @@ class FaceImportError(ImportError):
     """A ``ray.rllib`` name rlchain's face does not offer (one line, with what to use instead)."""
 
 
-def target_name(fullname: str) -> str | None:
-    if fullname == ALIAS or fullname.startswith(ALIAS + "."):
-        return TARGET + fullname[len(ALIAS):]
-    return None
-
-
 def instead(fullname: str) -> str:
     for prefix, why in INSTEAD.items():
         if fullname == prefix or fullname.startswith(prefix + "."):
@@ -48,33 +39,22 @@ def instead(fullname: str) -> str:
     return "see docs/rllib.md for what the face offers"
 
 
-class RLlibAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """A meta-path finder and loader that answers ``ray.rllib.*`` with ``rlchain.rllib.*``."""
+class RLlibAlias(ModuleAlias):
+    """Answers ``ray.rllib.*`` with ``rlchain.rllib.*``; a name the face has no module for is a
+    :class:`FaceImportError`; Ray Tune's config module registers the face's AlgorithmConfig."""
+
+    ALIAS = "ray.rllib"
+    TARGET = "rlchain.rllib"
 
     def find_spec(self, fullname: str, path: object = None, target: object = None
                   ) -> importlib.machinery.ModuleSpec | None:
         if fullname == TUNE_CONFIG_MODULE:
             return _with_config_registration(fullname, path)
-        name = target_name(fullname)
-        if name is None:
-            return None
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name is not None and (exc.name == name or name.startswith(exc.name + ".")):
-                raise FaceImportError(f"{fullname} is not offered by rlchain's RLlib face: {instead(fullname)}",
-                                      name=fullname) from None
-            raise
-        return importlib.machinery.ModuleSpec(fullname, self, origin=getattr(module, "__file__", None),
-                                              is_package=hasattr(module, "__path__"))
+        return super().find_spec(fullname, path, target)
 
-    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
-        module = sys.modules[target_name(spec.name)]
-        self._own_spec = module.__spec__
-        return module
-
-    def exec_module(self, module: ModuleType) -> None:
-        module.__spec__ = self._own_spec
+    def missing(self, fullname: str) -> None:
+        raise FaceImportError(f"{fullname} is not offered by rlchain's RLlib face: {instead(fullname)}",
+                              name=fullname) from None
 
 
 TUNE_CONFIG_MODULE = "ray.tune.tune"
@@ -101,24 +81,5 @@ def _with_config_registration(fullname: str, path: object) -> importlib.machiner
     return spec
 
 
-def install() -> RLlibAlias:
-    """Make ``import ray.rllib...`` resolve to rlchain in this process (idempotent); RLlib modules imported
-    before are forgotten."""
-    for finder in sys.meta_path:
-        if isinstance(finder, RLlibAlias):
-            return finder
-    for name in [n for n in sys.modules if target_name(n) is not None]:
-        del sys.modules[name]
-    finder = RLlibAlias()
-    sys.meta_path.insert(0, finder)
-    return finder
-
-
-def uninstall() -> None:
-    """Undo :func:`install` (the rlchain modules stay)."""
-    sys.meta_path[:] = [f for f in sys.meta_path if not isinstance(f, RLlibAlias)]
-    for name in [n for n in sys.modules if target_name(n) is not None]:
-        del sys.modules[name]
-    ray = sys.modules.get("ray")
-    if ray is not None and getattr(ray, "rllib", None) is not None and ray.rllib.__name__ == TARGET:
-        del ray.rllib
+install = RLlibAlias.install
+uninstall = RLlibAlias.uninstall

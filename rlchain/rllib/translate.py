@@ -13,37 +13,51 @@ What maps (PPO; docs/rllib.md has the table):
   ``use_kl_loss`` / ``kl_coeff`` / ``kl_target`` -> ``kl_loss_coef`` / ``kl_loss_target`` against the rollout's
   policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over the
   whole batch; no reward scaling, no observation or value normalization (RLlib has none by default).
-- the model: ``fcnet_hiddens`` / ``fcnet_activation`` -> the MLP; ``vf_share_layers`` False -> a separate
-  critic; ``head_fcnet_hiddens`` -> a policy/value head MLP is not mapped (an error when set); ``free_log_std``
-  -> rlchain's fixed sigma.
+- the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` (+ ``head_fcnet_hiddens``) -> the MLP;
+  ``conv_filters`` -> a cnn block; ``use_lstm`` -> an rnn block and ``seq_length`` (whole sequences per
+  minibatch: :func:`sequence_batch_shape`); ``vf_share_layers`` False -> a separate critic; ``free_log_std`` ->
+  rlchain's fixed sigma.
+- the env runners (:mod:`rlchain.rllib.env_runners`): Ray actors after ``ray.init()``, else in process.
+
+DQN is :func:`dqn_config` here; SAC, APPO and IMPALA translate in their folders (``algorithms/<name>/translate.py``).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import sys
 from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
-
-ACTIVATIONS = {"tanh": "tanh", "relu": "relu", "elu": "elu", "swish": "swish", "silu": "swish", "gelu": "gelu",
-               "sigmoid": "sigmoid", "linear": "None", None: "None", "softplus": "softplus", "selu": "selu"}
-"""RLlib's activation names -> rl_games' (``linear`` / None: no activation)."""
+from rlchain.rllib.env_runners import env_runner_keys
+from rlchain.rllib.networks import activation, actor_critic_network, layer_sizes
 
 MODEL_UNSUPPORTED = {
-    "conv_filters": "image observations: write an rlchain YAML with a cnn block (docs/config.md)",
-    "use_lstm": "recurrent policies: write an rlchain YAML with an rnn block (docs/config.md)",
     "use_attention": "attention: rlchain's history policy (docs/robot_learning.md)",
-    "head_fcnet_hiddens": "policy / value head MLPs are not mapped: put the layers in fcnet_hiddens",
     "custom_model": "an RLModule through rl_module(rl_module_spec=...) is not mapped yet: register an rl_games "
                     "network (rlchain.model_builder.register_network)",
     "fcnet_use_layernorm": "layer norm in the MLP is not mapped",
-    "lstm_use_prev_action": "recurrent policies: write an rlchain YAML with an rnn block",
-    "lstm_use_prev_reward": "recurrent policies: write an rlchain YAML with an rnn block",
-    "post_fcnet_hiddens": "policy / value head MLPs are not mapped: put the layers in fcnet_hiddens",
+    "lstm_use_prev_action": "the previous action as an LSTM input is not mapped",
+    "lstm_use_prev_reward": "the previous reward as an LSTM input is not mapped",
+    "post_fcnet_hiddens": "old-stack post layers are not mapped: put them in head_fcnet_hiddens",
 }
 """Model settings whose non-default value is refused, with what to use instead."""
+
+NETWORK_FEATURES = {
+    "conv_filters": {"PPO", "APPO", "IMPALA"},
+    "use_lstm": {"PPO"},
+    "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC"},
+}
+"""Model settings (beyond the MLP) each algorithm's rlchain network takes (networks.py maps them)."""
+
+FEATURE_WHY = {
+    "conv_filters": "rlchain's {algo} network is an MLP: train images with PPO, APPO or IMPALA",
+    "use_lstm": "rlchain's {algo} has no recurrent policy ({why}): train an LSTM with PPO",
+    "head_fcnet_hiddens": "rlchain's {algo} network is one MLP: put the layers in fcnet_hiddens",
+}
 
 
 def _bad(config: Any, key: str, message: str) -> ConfigError:
@@ -60,6 +74,11 @@ def check_supported(config: Any) -> None:
         if value not in fine and not (value is None and None in fine):
             raise _bad(config, key, f"{value!r} is not offered by rlchain's RLlib face: {why}")
     model = config.model_config
+    for key, algos in NETWORK_FEATURES.items():
+        if config.algo_name not in algos and model.get(key) not in (K.DEFAULT_MODEL.get(key), None, False, []):
+            why = "its runners carry no RNN state yet" if config.algo_name in ("APPO", "IMPALA") else "off-policy"
+            raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: "
+                                                      f"{FEATURE_WHY[key].format(algo=config.algo_name, why=why)}")
     for key, why in MODEL_UNSUPPORTED.items():
         if key in model and model[key] not in (K.DEFAULT_MODEL.get(key), None, False, []):
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: {why}")
@@ -70,12 +89,31 @@ def check_supported(config: Any) -> None:
     if settings.get("grad_clip") is not None and settings.get("grad_clip_by") != "global_norm":
         raise _bad(config, "grad_clip_by", f"{settings.get('grad_clip_by')!r}: rlchain clips the global norm "
                                            f"(grad_clip_by='global_norm')")
-    if (settings.get("num_learners") or 0) > 1:
-        raise _bad(config, "num_learners", "several learners are not mapped: rlchain trains data-parallel under "
-                                           "torchrun with multi_gpu: True (docs/distributed.md)")
-    if settings.get("rl_module_spec") is not None:
-        raise _bad(config, "rl_module_spec", "RLModule subclasses are not run by the face yet: set the network "
-                                             "with model_config (fcnet_hiddens, ...) or register an rl_games network")
+    learners(config)
+    if settings.get("rl_module_spec") is not None and config.algo_name != "PPO":
+        raise _bad(config, "rl_module_spec", f"an RLModule trains under PPO only, not {config.algo_name}: set "
+                                             f"the network with model_config (fcnet_hiddens, ...)")
+
+
+def learners(config: Any) -> int:
+    """RLlib's ``num_learners`` (1 for 0 or 1): more than one trains data-parallel on rlchain's torch.distributed
+    path (``multi_gpu``), one process per learner started by torchrun; anything else is a one-line error naming
+    the command."""
+    count = int(config._settings.get("num_learners") or 0)
+    if count <= 1:
+        return 1
+    if config.algo_name != "PPO":
+        raise _bad(config, "num_learners", f"{count}: several learners train PPO only (the face maps no "
+                                           f"data-parallel path for {config.algo_name})")
+    world = os.environ.get("WORLD_SIZE")
+    if world != str(count):
+        script = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0].endswith(".py") \
+            and os.path.basename(sys.argv[0]) != "__main__.py" else "SCRIPT"
+        raise _bad(config, "num_learners", f"{count} learners train data-parallel under torch.distributed, one "
+                                           f"process each: start the script with `torchrun --standalone "
+                                           f"--nproc_per_node={count} -m rlchain.rllib {script} [ARGS]`"
+                                           f"{'' if world is None else f' (this launch has WORLD_SIZE={world})'}")
+    return count
 
 
 def num_envs(config: Any) -> int:
@@ -101,33 +139,21 @@ def batch_shape(batch: int, envs: int, minibatch: int) -> tuple[int, int]:
     return horizon(batch, envs, minibatch), minibatch
 
 
+def sequence_batch_shape(batch: int, envs: int, minibatch: int, seq_len: int) -> tuple[int, int]:
+    """(steps per env per epoch, minibatch size) for an RNN trained on sequences of ``seq_len`` steps: the horizon
+    is the smallest multiple of ``seq_len`` that holds ``batch`` over the envs, the minibatch the whole number of
+    sequences dividing the epoch that is nearest ``minibatch`` in size."""
+    steps = max(1, math.ceil(batch / envs / seq_len)) * seq_len
+    sequences = envs * steps // seq_len
+    fits = [n * seq_len for n in range(1, sequences + 1) if sequences % n == 0]
+    return steps, min(fits, key=lambda m: (abs(m - minibatch), m))
+
+
 def horizon(batch: int, envs: int, minibatch: int) -> int:
     """Steps per env per epoch: the smallest that gives at least ``batch`` frames in whole minibatches."""
     step = minibatch // math.gcd(minibatch, envs)  # horizon multiple of this: envs * horizon % minibatch == 0
     per_env = math.ceil(batch / envs)
     return max(step, math.ceil(per_env / step) * step)
-
-
-def _network(config: Any, continuous: bool) -> dict[str, Any]:
-    model = config.model_config
-    activation = model.get("fcnet_activation")
-    if activation not in ACTIVATIONS:
-        raise _bad(config, "model_config.fcnet_activation", f"{activation!r}; choices: "
-                                                            f"{', '.join(str(a) for a in ACTIVATIONS if a)}")
-    hiddens = list(model.get("fcnet_hiddens") or [])
-    if not all(isinstance(u, int) and u > 0 for u in hiddens):
-        raise _bad(config, "model_config.fcnet_hiddens", f"expected a list of layer sizes, got {hiddens!r}")
-    network: dict[str, Any] = {"name": "actor_critic", "separate": not model.get("vf_share_layers", False),
-                               "mlp": {"units": hiddens, "activation": ACTIVATIONS[activation],
-                                       "initializer": {"name": "default"}}}
-    if continuous:
-        network["space"] = {"continuous": {"mu_activation": "None", "sigma_activation": "None",
-                                           "mu_init": {"name": "default"},
-                                           "sigma_init": {"name": "const_initializer", "val": 0},
-                                           "fixed_sigma": bool(model.get("free_log_std", False))}}
-    else:
-        network["space"] = {"discrete": None}
-    return network
 
 
 def _positive(config: Any, key: str, kind: type = int) -> Any:
@@ -138,17 +164,24 @@ def _positive(config: Any, key: str, kind: type = int) -> Any:
     return kind(value)
 
 
-def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]) -> dict[str, Any]:
+def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any],
+               obs_space: Any = None) -> dict[str, Any]:
     """The rlchain PPO config of an RLlib ``PPOConfig`` on ``env_name`` (see the module docstring). ``run``:
-    further ``params.config`` keys (name, train_dir, device, ...)."""
+    further ``params.config`` keys (name, train_dir, device, ...); ``obs_space``: the env's (images and
+    ``use_lstm`` map onto rlchain's cnn / rnn blocks, :mod:`rlchain.rllib.networks`)."""
     check_supported(config)
     s = config._settings
     envs = num_envs(config)
-    batch = config.total_train_batch_size
+    ranks = learners(config)
+    batch = -(-config.total_train_batch_size // ranks)  # each learner process samples its share of the batch
     minibatch = _positive(config, "minibatch_size")
     if minibatch > batch:
         minibatch = batch
-    steps, minibatch = batch_shape(batch, envs, minibatch)
+    network, seq_len = actor_critic_network(config, obs_space, continuous)
+    if seq_len:
+        steps, minibatch = sequence_batch_shape(batch, envs, minibatch, seq_len)
+    else:
+        steps, minibatch = batch_shape(batch, envs, minibatch)
     grad_clip = s.get("grad_clip")
     kl_on = bool(s.get("use_kl_loss")) and float(s.get("kl_coeff") or 0.0) > 0
     lr = s.get("lr")
@@ -172,15 +205,41 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "minibatch_order": "shuffle" if s.get("shuffle_batch_per_epoch", True) else "fixed",
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
-        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
     }
+    if seq_len:
+        train["seq_length"] = seq_len
+    train.update(env_runner_keys(config, "PPO"))
     train.update(run)
     algo, model = ("a2c_continuous", "continuous_a2c_logstd") if continuous else ("a2c_discrete", "discrete_a2c")
-    params = {"algo": {"name": algo}, "model": {"name": model}, "network": _network(config, continuous),
-              "config": train}
+    params = {"algo": {"name": algo}, "model": {"name": model}, "network": network, "config": train}
     if s.get("seed") is not None:
         params["seed"] = int(s["seed"])
     return {"params": params}
+
+
+def updates_per_step(config: Any) -> int:
+    """rlchain's gradient updates per vectorized env step (every env steps once) for RLlib's replay ratio.
+
+    RLlib's off-policy ``training_step`` samples one round (``rollout_fragment_length`` steps, "auto": ``n_step``,
+    of every env) and makes one update of ``train_batch_size``; ``training_intensity`` (replayed / sampled steps)
+    changes the ratio of rounds to updates (RLlib's ``calculate_rr_weights``). rlchain updates after every
+    vectorized step, so that ratio per step is rounded to a whole number, at least one.
+    """
+    s = config._settings
+    fragment = s.get("rollout_fragment_length")
+    if fragment in (None, "auto"):
+        n_step = s.get("n_step") or 1
+        fragment = n_step[1] if isinstance(n_step, (list, tuple)) else n_step
+    fragment = max(1, int(fragment))
+    intensity = s.get("training_intensity")
+    if not intensity:
+        return max(1, round(1 / fragment))
+    per_runner = max(1, int(s.get("num_envs_per_env_runner") or 1))
+    native = int(s["train_batch_size"]) / (fragment * per_runner * max(int(s.get("num_env_runners") or 0) + 1, 1))
+    weight = float(intensity) / native
+    rounds, updates = (round(1 / weight), 1) if weight < 1 else (1, round(weight))
+    return max(1, round(updates / (rounds * fragment)))
 
 
 def _epsilon(config: Any) -> tuple[float, float, int]:
@@ -209,17 +268,11 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
     envs = num_envs(config)
     batch = int(s["train_batch_size"])
-    intensity = s.get("training_intensity")
-    per_env_step = 1.0 if intensity is None else float(intensity) / batch  # updates per env step
-    updates = max(1, round(per_env_step * envs))
+    updates = updates_per_step(config)
     replay = s.get("replay_buffer_config") or {}
     start, end, decay = _epsilon(config)
     steps = max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 1000) // envs))
-    model = config.model_config
-    activation = model.get("fcnet_activation")
-    if activation not in ACTIVATIONS:
-        raise _bad(config, "model_config.fcnet_activation", f"{activation!r}")
-    units = list(model.get("fcnet_hiddens") or []) + list(s.get("hiddens") or [])
+    units = layer_sizes(config, "fcnet_hiddens") + list(s.get("hiddens") or [])
     grad_clip = s.get("grad_clip")
     train = {
         "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]), "learning_rate": float(s["lr"]),
@@ -236,9 +289,11 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
     }
+    train.update(env_runner_keys(config, "DQN"))
     train.update(run)
     network = {"name": "dqn", "dueling": bool(s.get("dueling", True)), "space": {"discrete": None},
-               "mlp": {"units": units, "activation": ACTIVATIONS[activation], "initializer": {"name": "default"}}}
+               "mlp": {"units": units, "activation": activation(config, "fcnet_activation"),
+                       "initializer": {"name": "default"}}}
     params = {"algo": {"name": "dqn"}, "model": {"name": "dqn"}, "network": network, "config": train}
     if s.get("seed") is not None:
         params["seed"] = int(s["seed"])

@@ -14,6 +14,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
+from rlchain.errors import optional_import
+
 INSTALL_HINT = "--track needs Weights & Biases: pip install rlchain[wandb]"
 
 
@@ -22,11 +24,7 @@ class TrackingError(RuntimeError):
 
 
 def _import_wandb() -> Any:
-    try:
-        import wandb
-    except ImportError:
-        raise ImportError(INSTALL_HINT) from None
-    return wandb
+    return optional_import("wandb", INSTALL_HINT)
 
 
 class WandbRun:

@@ -1,8 +1,9 @@
 """PPO, SAC and DQN in Stable-Baselines3's shape, on rlchain's loop (see :mod:`rlchain.sb3.model`).
 
-Arguments you leave out take rlchain's settings of the packaged examples (``ppo_cartpole``, ``ppo_pendulum``,
-``sac_pendulum``, ``dqn_cartpole``), not SB3's defaults; SB3's names you pass are mapped to rlchain's keys
-(:mod:`rlchain.sb3.keys`, the table in docs/sb3.md), and any rlchain config key is taken as it is.
+Arguments you leave out take SB3's defaults (:mod:`rlchain.sb3.defaults`; ``defaults="rlchain"``: rlchain's
+packaged examples ``ppo_cartpole``, ``ppo_pendulum``, ``sac_pendulum``, ``dqn_cartpole`` instead); SB3's names you
+pass are mapped to rlchain's keys (:mod:`rlchain.sb3.keys`, the table in docs/sb3.md), and any rlchain config key is
+taken as it is.
 """
 
 from __future__ import annotations

@@ -5,13 +5,13 @@ here both phases run."""
 
 from __future__ import annotations
 
-import importlib
 from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.vecenv import VecEnv
 from rlchain.log import get_logger
 from rlchain.policy.recording import gym_id_of
+from rlchain.registry import import_object
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
 from rlchain.training.video_callback import VideoCallback
@@ -20,10 +20,9 @@ log = get_logger(__name__)
 
 
 def _function(spec: str, source: str) -> Any:
-    module_name, _, attr = spec.partition(":")
     try:
-        fn = getattr(importlib.import_module(module_name), attr)
-    except (ImportError, AttributeError) as exc:
+        fn = import_object(spec)
+    except ValueError as exc:
         raise ConfigError(source, "params.config.events", f"cannot load function '{spec}': {exc}") from None
     if not callable(fn):
         raise ConfigError(source, "params.config.events", f"'{spec}' is not callable")

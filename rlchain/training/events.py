@@ -21,12 +21,12 @@ without one pays nothing per step. ``close`` runs once when the run ends, howeve
 
 from __future__ import annotations
 
-import importlib
 import time
 from typing import Any
 
 from rlchain.config.errors import ConfigError
 from rlchain.log import get_logger
+from rlchain.registry import import_object
 from rlchain.training.callback_context import CallbackContext, ObserverAlgo
 
 log = get_logger(__name__)
@@ -183,11 +183,8 @@ def as_callback(obj: Any) -> Callback:
 def load_callback(spec: str, source: str = "<config>", key: str = "params.config.callbacks") -> Callback:
     """``module:Name`` from the config: a class is instantiated without arguments. One that cannot be
     imported, constructed or used as a callback is a one-line ConfigError naming ``key``."""
-    module_name, _, attr = spec.partition(":")
-    if not attr:
-        raise ConfigError(source, key, f"callback '{spec}' must look like 'package.module:Name'")
     try:
-        obj = getattr(importlib.import_module(module_name), attr)
+        obj = import_object(spec)
         return as_callback(obj() if isinstance(obj, type) else obj)
     except Exception as exc:  # the user's class: any constructor error is theirs to fix, said in one line
         raise ConfigError(source, key, f"cannot use '{spec}' as a callback ({type(exc).__name__}: "

@@ -134,20 +134,15 @@ class CheckpointSaver:
         cfg, epoch = self.ctx.cfg, self.ctx.epoch
         if episodes is not None:
             self.last_reward = float(episodes["reward"])
-        if self.run is not None and self.run.layout == "rl_games":
-            # rl_games: the periodic file once games have finished, before the best one
-            if episodes is not None and cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
-                self.save("file:" + rl_games_layout.periodic_stem(cfg.name, epoch, episodes["reward"]))
-            if episodes is not None and episodes["reward"] > self.best_reward:
-                self.best_reward = episodes["reward"]
-                if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
-                    self.save("best")
-            return
+        rl_games = self.run is not None and self.run.layout == "rl_games"
+        # rl_games: the periodic file once games have finished, before the best one (and no other periodic file)
+        if rl_games and episodes is not None and cfg.save_frequency > 0 and epoch % cfg.save_frequency == 0:
+            self.save("file:" + rl_games_layout.periodic_stem(cfg.name, epoch, episodes["reward"]))
         if episodes is not None and episodes["reward"] > self.best_reward:
             self.best_reward = episodes["reward"]
             if epoch >= cfg.save_best_after and cfg.evaluation.select_best == "training":
                 self.save("best")
-        if self._periodic_due():
+        if not rl_games and self._periodic_due():
             if self.run is None or self.run.layout != "embodichain":
                 self.save(f"ep_{epoch}")
             self.save("last")

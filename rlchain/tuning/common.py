@@ -29,9 +29,11 @@ search's run folder), with a CSV table of all trials next to it.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import math
 import os
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +42,8 @@ import yaml
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import option, parse_dataclass
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.errors import optional_import
+from rlchain.log import train_hint
 from rlchain.runner import Runner
 from rlchain.tuning.spec import RAY_KEYS, RaySpec, backend_of, load_ray_spec
 
@@ -53,11 +57,7 @@ KEYS = {"base", "metric", "direction", "trials", "max_epochs_per_trial", "overri
 
 
 def import_optuna() -> Any:
-    try:
-        import optuna
-    except ImportError:
-        raise ImportError(INSTALL_HINT) from None
-    return optuna
+    return optional_import("optuna", INSTALL_HINT)
 
 
 @dataclass
@@ -242,3 +242,35 @@ def write_best_config(spec: SearchSpec, values: dict[str, Any], output: str, val
 
 def fmt(value: Any) -> str:
     return f"{value:.4g}" if isinstance(value, float) else str(value)
+
+
+def study_folder(spec: SearchSpec, train_dir: str, output: str | None) -> tuple[str, str]:
+    """The search's run folder (``tune_<base>_<time>`` under ``train_dir``, where the trials' runs go) and the
+    best config's path (``output``, by default ``<base>_best.yaml`` in that folder, not in the cwd)."""
+    stem = os.path.splitext(os.path.basename(spec.base))[0]
+    study_dir = os.path.abspath(os.path.join(train_dir, f"tune_{stem}_{time.strftime('%d-%H-%M-%S')}"))
+    if os.path.exists(study_dir):
+        study_dir = f"{study_dir}_{os.getpid()}"
+    return study_dir, output or os.path.join(study_dir, f"{stem}_best.yaml")
+
+
+def report(spec: SearchSpec, keys: list[str], rows: list[list[Any]], output: str, best: tuple[Any, float],
+           values: dict[str, Any], note: str = "", schedule_path: str | None = None) -> tuple[str, str]:
+    """The search's outputs: the best config (:func:`write_best_config`: the ``best`` trial and value, with its
+    ``values``) at ``output``; every trial's row (trial, state, metric, epochs, the values of ``keys``) as a CSV
+    beside it (``<output stem>_trials.csv``) and as a fixed-width table on stdout; then the best trial and how
+    to train its config. Returns (best config, CSV)."""
+    path = write_best_config(spec, values, output, float(best[1]), best[0])
+    header = ["trial", "state", spec.metric, "epochs"]
+    rows = [[fmt(c) for c in row] for row in rows]
+    table_path = os.path.splitext(output)[0] + "_trials.csv"
+    with open(table_path, "w", encoding="utf-8", newline="") as fh:
+        csv.writer(fh).writerows([header + keys] + rows)
+    text = [header + [k.removeprefix("params.config.") for k in keys]] + rows
+    widths = [max(len(row[i]) for row in text) for i in range(len(text[0]))]
+    print("\n".join("  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip() for row in text))
+    print(f"best trial {best[0]}: {spec.metric} {best[1]:.2f} with "
+          + ", ".join(f"{k}={fmt(v)}" for k, v in values.items()) + note, flush=True)
+    print(f"best config: {path} (train with: {train_hint(path)}); trials: {table_path}"
+          + (f"; winner's schedule: {schedule_path}" if schedule_path else ""), flush=True)
+    return path, table_path

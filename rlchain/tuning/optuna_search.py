@@ -5,18 +5,14 @@ trials stop early (MedianPruner). The search file is described in :mod:`rlchain.
 
 from __future__ import annotations
 
-import csv
 import math
-import os
-import time
 from typing import Any
 
 from rlchain.config.errors import ConfigError
-from rlchain.log import train_hint
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
 from rlchain.training.events import Callback
-from rlchain.tuning.common import SearchSpec, check_space, fmt, import_optuna, override_strings, write_best_config
+from rlchain.tuning.common import SearchSpec, check_space, fmt, import_optuna, override_strings, report, study_folder
 
 
 def suggest(trial: Any, spec: SearchSpec) -> dict[str, Any]:
@@ -59,13 +55,8 @@ def run_optuna_search(spec: SearchSpec, output: str | None = None,
     """The search on Optuna (trials in this process); returns (best value, path of the best config)."""
     optuna = import_optuna()
     check_space(spec)
-    stem = os.path.splitext(os.path.basename(spec.base))[0]
     base_params = Runner().load(spec.base, spec.overrides).params
-    study_dir = os.path.join(train_dir or base_params.config.train_dir,
-                             f"tune_{stem}_{time.strftime('%d-%H-%M-%S')}")
-    if os.path.exists(study_dir):
-        study_dir = f"{study_dir}_{os.getpid()}"
-    output = output or os.path.join(study_dir, f"{stem}_best.yaml")  # beside the trials' runs, not in the cwd
+    study_dir, output = study_folder(spec, train_dir or base_params.config.train_dir, output)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     pruner = optuna.pruners.NopPruner() if spec.pruner is None else optuna.pruners.MedianPruner(
         **{"n_startup_trials": 2, "n_warmup_steps": max(1, (spec.max_epochs_per_trial or 20) // 5),
@@ -106,19 +97,13 @@ def run_optuna_search(spec: SearchSpec, output: str | None = None,
         raise ConfigError(spec.source, "trials", "no trial completed (all pruned or without a finished "
                           "episode); loosen the pruner or raise max_epochs_per_trial")
     best = study.best_trial
-    path = write_best_config(spec, best.params, output, best.value, best.number)
-    table = trials_table(study, spec)
-    table_path = os.path.splitext(output)[0] + "_trials.csv"
-    _write_csv(study, spec, table_path)
-    print(table)
-    print(f"best trial {best.number}: {spec.metric} {best.value:.2f} with "
-          + ", ".join(f"{k}={fmt(v)}" for k, v in best.params.items()), flush=True)
-    print(f"best config: {path} (train with: {train_hint(path)}); "
-          f"trials: {table_path}", flush=True)
+    path, _ = report(spec, list(spec.params), trial_rows(study, spec), output, (best.number, best.value), best.params)
     return float(best.value), path
 
 
-def _rows(study: Any, spec: SearchSpec) -> list[list[str]]:
+def trial_rows(study: Any, spec: SearchSpec) -> list[list[str]]:
+    """Every trial's row for :func:`rlchain.tuning.common.report` (a pruned trial shows its last reported
+    value in parentheses)."""
     rows = []
     for t in study.trials:
         value = "" if t.value is None else f"{t.value:.2f}"
@@ -127,18 +112,3 @@ def _rows(study: Any, spec: SearchSpec) -> list[list[str]]:
         rows.append([str(t.number), t.state.name.lower(), value, str(t.user_attrs.get("epochs", ""))]
                     + [fmt(t.params.get(k, "")) for k in spec.params])
     return rows
-
-
-def trials_table(study: Any, spec: SearchSpec) -> str:
-    """A fixed-width text table of the trials (pruned trials show their last reported value)."""
-    header = ["trial", "state", spec.metric, "epochs"] + [k.removeprefix("params.config.") for k in spec.params]
-    rows = [header] + _rows(study, spec)
-    widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
-    return "\n".join("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows)
-
-
-def _write_csv(study: Any, spec: SearchSpec, path: str) -> None:
-    with open(path, "w", encoding="utf-8", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(["trial", "state", spec.metric, "epochs", *spec.params])
-        writer.writerows(_rows(study, spec))

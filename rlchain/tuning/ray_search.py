@@ -10,13 +10,11 @@ a CSV of the trials) and, for PBT, the winner's schedule as a replayable config
 from __future__ import annotations
 
 import contextlib
-import csv
 import functools
 import json
 import math
 import os
 import random
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,20 +23,17 @@ import yaml
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import apply_overrides, load_raw
+from rlchain.errors import optional_import
 from rlchain.log import train_hint
 from rlchain.registry import ALGOS
 from rlchain.runner import Runner
-from rlchain.tuning.common import check_space, fmt, import_optuna, override_strings, write_best_config
+from rlchain.tuning.common import check_space, fmt, import_optuna, override_strings, report, study_folder
 from rlchain.tuning.spec import RAY_INSTALL_HINT, RaySpec, check_capacity, check_live_keys
 
 
 def import_ray_tune() -> Any:
     """``ray.tune``, or a one-line ImportError naming the extra to install."""
-    try:
-        from ray import tune
-    except ImportError:
-        raise ImportError(RAY_INSTALL_HINT) from None
-    return tune
+    return optional_import("ray.tune", RAY_INSTALL_HINT)
 
 
 @dataclass
@@ -86,12 +81,7 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
     from rlchain.tuning.trainable import RlchainTrainable, TrialSetup  # optional: ray
 
     rs: RaySpec = spec.ray
-    stem = os.path.splitext(os.path.basename(spec.base))[0]
-    study_dir = os.path.abspath(os.path.join(train_dir or base.params.config.train_dir,
-                                             f"tune_{stem}_{time.strftime('%d-%H-%M-%S')}"))
-    if os.path.exists(study_dir):
-        study_dir = f"{study_dir}_{os.getpid()}"
-    output = output or os.path.join(study_dir, f"{stem}_best.yaml")  # beside the trials' runs, not in the cwd
+    study_dir, output = study_folder(spec, train_dir or base.params.config.train_dir, output)
     if spec.seed is not None:  # PBT's perturbations and the random searcher draw from these
         random.seed(spec.seed)
         np.random.seed(spec.seed)
@@ -320,26 +310,14 @@ def _write_outputs(spec: Any, results: Any, output: str, mode: str) -> SearchOut
     best = (max if mode == "max" else min)(scored, key=lambda r: r[2])
     best_result = next(r for r in results if (r.metrics or {}).get("trial_id") == best[0])
     values = {k: best_result.config[k] for k in _keys(spec) if k in best_result.config}
-    path = write_best_config(spec, values, output, float(best[2]), best[0])
-    table_path = os.path.splitext(output)[0] + "_trials.csv"
-    header = ["trial", "state", spec.metric, "epochs", *_keys(spec)]
-    with open(table_path, "w", encoding="utf-8", newline="") as fh:
-        csv.writer(fh).writerows([header] + [[fmt(c) for c in r] for r in rows])
     schedule_path = None
     if spec.ray.scheduler == "pbt":
         lineage = _lineage(best_result)
         if lineage:
             schedule_path = os.path.splitext(output)[0] + "_schedule.yaml"
             write_schedule_config(spec, lineage, schedule_path, float(best[2]), best[0])
-    text = [header[:4] + [k.removeprefix("params.config.") for k in header[4:]]]
-    text += [[fmt(c) for c in r] for r in rows]
-    widths = [max(len(str(r[i])) for r in text) for i in range(len(header))]
-    print("\n".join("  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in text))
-    print(f"best trial {best[0]}: {spec.metric} {best[2]:.2f} with "
-          + ", ".join(f"{k}={fmt(v)}" for k, v in values.items())
-          + (f"; {len(exploits)} PBT exploits" if spec.ray.scheduler == "pbt" else ""), flush=True)
-    print(f"best config: {path} (train with: {train_hint(path)}); trials: {table_path}"
-          + (f"; winner's schedule: {schedule_path}" if schedule_path else ""), flush=True)
+    path, table_path = report(spec, _keys(spec), rows, output, (best[0], best[2]), values,
+                              f"; {len(exploits)} PBT exploits" if spec.ray.scheduler == "pbt" else "", schedule_path)
     return SearchOutcome(float(best[2]), best[0], values, path, schedule_path, table_path, exploits, results)
 
 

@@ -28,7 +28,7 @@ def test_rllibs_tuned_cartpole_settings_learn_within_rllibs_budget(tmp_path, mon
             steps = result["num_env_steps_sampled_lifetime"]
             best = max(best, result["env_runners"]["episode_return_mean"])
             print(steps, result["env_runners"]["episode_return_mean"])
-            if best >= 450:
+            if best >= THRESHOLD:  # the bar is reached: more frames would prove nothing more
                 break
     finally:
         algo.stop()

@@ -11,41 +11,18 @@ from rlchain import Runner
 from rlchain.config.errors import ConfigError
 from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS
+from tests.smoke.obs_state_cartpole import ENV_ID, central_value_config
 
 pytestmark = pytest.mark.smoke
 CONFIG = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 
 
-class ObsStateCartPole(gym.Wrapper):
-    """CartPole whose actor sees position and angle, and whose critic sees the full state."""
-
-    def __init__(self, env):
-        super().__init__(env)
-        box = env.observation_space
-        self.observation_space = gym.spaces.Dict({
-            "obs": gym.spaces.Box(box.low[[0, 2]], box.high[[0, 2]], dtype=np.float32), "state": box})
-
-    def _split(self, obs):
-        return {"obs": obs[[0, 2]].astype(np.float32), "state": obs.astype(np.float32)}
-
-    def reset(self, **kwargs):
-        obs, info = self.env.reset(**kwargs)
-        return self._split(obs), info
-
-    def step(self, action):
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        return self._split(obs), reward, terminated, truncated, info
-
-
-if "ObsStateCartPoleTest-v0" not in gym.registry:
-    gym.register("ObsStateCartPoleTest-v0", entry_point=lambda **kw: ObsStateCartPole(gym.make("CartPole-v1", **kw)))
-
-CV = "{network: {name: actor_critic, central_value: True, mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"
+CV = central_value_config()
 
 
 def overrides(tmp_path, epochs, *extra):
     return [f"params.config.train_dir={tmp_path}", f"params.config.max_epochs={epochs}",
-            "params.config.print_stats=false", "params.config.env_name=ObsStateCartPoleTest-v0",
+            "params.config.print_stats=false", f"params.config.env_name={ENV_ID}",
             "params.config.save_best_after=0", "params.config.normalize_value=True", *extra]
 
 

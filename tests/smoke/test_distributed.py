@@ -195,7 +195,7 @@ def test_central_value_critic_stays_identical(tmp_path):
     cv = "{network: {name: actor_critic, central_value: True, mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"
     out, dumps = torchrun(["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
                            *overrides(tmp_path, "params.config.max_epochs=3", "params.config.normalize_value=True",
-                                      "params.import_modules=[tests.smoke.test_central_value]",
+                                      "params.import_modules=[tests.smoke.obs_state_cartpole]",
                                       "params.config.env_name=ObsStateCartPoleTest-v0",
                                       f"params.config.central_value_config={cv}")], tmp_path)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]

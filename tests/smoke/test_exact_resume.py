@@ -180,7 +180,7 @@ CENTRAL_VALUE = ["params.config.env_name=ObsStateCartPoleTest-v0", "params.confi
 def test_sigterm_mid_update_stops_between_minibatches_and_resumes_bit_identically(tmp_path, agent):
     config, overrides = CARTPOLE
     if agent == "cv_agent":
-        import tests.smoke.test_central_value  # noqa: F401  (registers ObsStateCartPoleTest-v0)
+        import tests.smoke.obs_state_cartpole  # noqa: F401  (registers ObsStateCartPoleTest-v0)
         overrides = [*overrides, *CENTRAL_VALUE]
     straight, rec_s = train(tmp_path, "straight", config, overrides, 8)
     record = SigtermInUpdate(epoch=3, agent=agent)  # the update of epoch 4 is left after 2 of its minibatches

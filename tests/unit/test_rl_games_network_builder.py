@@ -1,6 +1,8 @@
 """rl_games' network-building contract: A2CBuilder.Network's layout, forward tuples and states, BaseNetwork's
 helpers, the recurrent layer's episode restarts, RunningMeanStd, the model classes and the registries."""
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -8,7 +10,9 @@ import torch
 import torch.nn as nn
 
 from rlchain.models.distributions import MultiCategorical
+from rlchain.networks.actor_critic import ActorCriticNetwork
 from rlchain.networks.base import instantiate
+from rlchain.networks.rnn import RecurrentLayer
 from rlchain.registry import NETWORKS
 from rlchain.rl_games.algos_torch import model_builder, models, network_builder
 from rlchain.rl_games.algos_torch.running_mean_std import RunningMeanStd
@@ -33,7 +37,7 @@ def test_continuous_network_has_rl_games_attributes_and_tuple():
                                              "mu.bias", "sigma.weight", "sigma.bias"]
     mu, sigma, value, states = net({"obs": torch.randn(6, 5)})
     assert mu.shape == sigma.shape == (6, 3) and value.shape == (6, 1) and states is None
-    assert torch.allclose(sigma, torch.full((6, 3), 0.5))  # const sigma_init: zero weight, bias = val
+    assert torch.all(net.sigma.weight == 0.5)  # rl_games' sigma_init: the initializer on the sigma head's weight
 
 
 def test_discrete_multi_discrete_and_central_value_heads():
@@ -146,3 +150,76 @@ def test_sac_player_rescales_squashed_actions_per_dimension():
     player.action_space = SimpleNamespace(low=np.array([-0.4, 0.0], np.float32), high=np.array([0.4, 2.0], np.float32))
     out = player.rescale_actions(torch.tensor([[1.0, -1.0], [0.5, 0.25], [-2.0, 2.0]]))
     assert torch.allclose(out, torch.tensor([[0.4, 0.0], [0.2, 1.25], [-0.4, 2.0]]))
+
+
+def test_a2c_network_is_rlchains_actor_critic_network():
+    net = build({"space": {"discrete": None}, "mlp": MLP, "rnn": {"name": "gru", "units": 6, "layers": 1}})
+    assert isinstance(net, ActorCriticNetwork) and isinstance(net.rnn, RecurrentLayer)
+    assert isinstance(net, network_builder.NetworkBuilder.BaseNetwork)  # and rl_games' helpers
+    assert isinstance(net.actor_cnn, nn.Sequential) and len(net.actor_cnn) == 0  # rl_games' empty defaults
+
+
+class RlGamesForward(network_builder.A2CBuilder.Network):
+    """A subclass whose forward calls its modules as rl_games' own A2CBuilder.Network.forward does."""
+
+    def forward(self, obs_dict):
+        obs, states = obs_dict["obs"], obs_dict.get("rnn_states")
+        seq_length, dones = obs_dict.get("seq_length", 1), obs_dict.get("dones")
+        out = self.actor_mlp(self.actor_cnn(obs).contiguous().view(obs.size(0), -1))
+        batch = out.size(0) // seq_length
+        out = out.reshape(batch, seq_length, -1).transpose(0, 1)
+        if dones is not None:
+            dones = dones.reshape(batch, seq_length, -1).transpose(0, 1)
+        if len(states) == 1:
+            states = states[0]
+        out, states = self.rnn(out, states, dones, obs_dict.get("bptt_len", 0))
+        out = self.layer_norm(out.transpose(0, 1).contiguous().reshape(out.size(0) * out.size(1), -1))
+        if type(states) is not tuple:
+            states = (states,)
+        return self.logits(out), self.value_act(self.value(out)), states
+
+
+@pytest.mark.parametrize("rnn", ["lstm", "gru"])
+def test_a_forward_written_the_rl_games_way_gives_the_networks_outputs(rnn):
+    torch.manual_seed(0)
+    block = {"space": {"discrete": None}, "mlp": MLP, "rnn": {"name": rnn, "units": 6, "layers": 1,
+                                                              "layer_norm": True}}
+    net = RlGamesForward(block, actions_num=3, input_shape=(5,), num_seqs=4)
+    states = tuple(torch.randn_like(s) for s in net.get_default_rnn_state())
+    dones = torch.zeros(12, dtype=torch.bool)
+    dones[4] = True  # sequence 1 starts an episode at its second step
+    inputs = {"obs": torch.randn(12, 5), "rnn_states": states, "seq_length": 3, "dones": dones}
+    theirs = net(dict(inputs))
+    ours = ActorCriticNetwork.forward(net, dict(inputs))
+    for a, b in zip(theirs[:2], ours[:2]):
+        assert torch.allclose(a, b, atol=1e-6)
+    assert all(torch.allclose(a, b, atol=1e-6) for a, b in zip(theirs[2], ours[2]))
+
+
+def test_a_bad_value_in_the_block_is_one_line_naming_the_key():
+    from rlchain.config.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="params.network.rnn.name"):
+        build({"space": {"discrete": None}, "mlp": MLP, "rnn": {"name": "identity", "units": 6, "layers": 1}})
+
+
+def test_keys_the_network_does_not_know_are_left_to_the_subclass(scoped_registries):
+    class Reads(network_builder.A2CBuilder.Network):
+        def load(self, params):
+            super().load(params)
+            self.disc_units = params["disc"]["units"]  # a key of the subclass's own (IsaacGymEnvs' AMP reads one)
+
+    class Builder(network_builder.A2CBuilder):
+        def build(self, name, **kwargs):
+            return Reads(self.params, **kwargs)
+
+    model_builder.register_network("reads_disc", Builder)
+    block = {"name": "reads_disc", "space": {"discrete": None}, "mlp": MLP, "disc": {"units": [4]}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing left unread
+        net = instantiate(NETWORKS.get("reads_disc"), block, actions_num=3, input_shape=(5,), value_size=1,
+                          num_seqs=1, action_space=gym.spaces.Discrete(3), observation_space=None)
+    assert net.disc_units == [4]
+    with pytest.warns(UserWarning, match="typo_key"):
+        instantiate(NETWORKS.get("reads_disc"), {**block, "typo_key": 1}, actions_num=3, input_shape=(5,),
+                    value_size=1, num_seqs=1, action_space=gym.spaces.Discrete(3), observation_space=None)

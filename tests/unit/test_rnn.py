@@ -12,7 +12,7 @@ from rlchain.config.network import NetworkConfig, RnnConfig
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import Categorical
 from rlchain.networks.actor_critic import ActorCriticNetwork
-from rlchain.networks.rnn import RecurrentLayer
+from rlchain.networks.rnn import RecurrentLayer, flat_sequences
 
 
 def _network(rnn: dict, separate: bool = False, obs_dim: int = 3) -> ActorCriticNetwork:
@@ -44,7 +44,7 @@ def test_sequence_forward_equals_step_by_step(name):
     resets = torch.zeros(batch * length, dtype=torch.bool)
     resets[1 * length + 2] = True  # sequence 1 starts an episode at its third step
     states = tuple(torch.randn_like(s) for s in layer.initial_state(batch, torch.device("cpu")))
-    out, final = layer(x, states, resets, length)
+    out, final = flat_sequences(layer, x, states, resets, length)
     # the same computation one step at a time, zeroing the state where an episode starts
     seq_x = x.reshape(batch, length, 4)
     seq_r = resets.reshape(batch, length)
@@ -53,7 +53,7 @@ def test_sequence_forward_equals_step_by_step(name):
     for t in range(length):
         keep = (~seq_r[:, t]).float().view(1, -1, 1)
         hidden = tuple(h * keep for h in hidden)
-        step, hidden = layer(seq_x[:, t], hidden, None, 1)
+        step, hidden = flat_sequences(layer, seq_x[:, t], hidden, None, 1)
         expected.append(step)
     expected = torch.stack(expected, 1).reshape(batch * length, -1)
     assert torch.allclose(out, expected, atol=1e-6)
@@ -68,8 +68,8 @@ def test_reset_cuts_memory():
     zero = layer.initial_state(1, torch.device("cpu"))
     other = (torch.ones_like(zero[0]),)
     resets = torch.tensor([False, False, True, False])
-    out_a, _ = layer(x, zero, resets, 4)
-    out_b, _ = layer(x, other, resets, 4)
+    out_a, _ = flat_sequences(layer, x, zero, resets, 4)
+    out_b, _ = flat_sequences(layer, x, other, resets, 4)
     assert not torch.allclose(out_a[:2], out_b[:2])  # before the reset the initial state matters
     assert torch.allclose(out_a[2:], out_b[2:])      # after it, it does not
 
@@ -153,15 +153,15 @@ def test_concat_output_appends_the_encoder_features(before_mlp):
     cnn_size = net.actor_cnn.out_size  # 4 filters * 4 * 4
     obs = torch.rand(6, *FRAME)
     states = net.get_default_rnn_state(2)
-    out, _ = net._trunk(net.actor, obs, states, None, 3, None, None)
+    out, _ = net._trunk(net.actor_layout, obs, states, None, 3, None, None)
     encoded = net.actor_cnn(obs)
     if before_mlp:
         assert net.actor_mlp.in_size == 5 + cnn_size
-        rnn_out, _ = net.rnn(encoded, states, None, 3)
+        rnn_out, _ = flat_sequences(net.rnn, encoded, states, None, 3)
         expected = net.actor_mlp(torch.cat([net.layer_norm(rnn_out), encoded], -1))
     else:
-        assert net.actor.out_size == 5 + cnn_size and net.logits.in_features == 5 + cnn_size
-        rnn_out, _ = net.rnn(net.actor_mlp(encoded), states, None, 3)
+        assert net.actor_layout.out_size == 5 + cnn_size and net.logits.in_features == 5 + cnn_size
+        rnn_out, _ = flat_sequences(net.rnn, net.actor_mlp(encoded), states, None, 3)
         expected = torch.cat([net.layer_norm(rnn_out), encoded], -1)
     assert torch.allclose(out, expected, atol=1e-6)
 
@@ -204,8 +204,8 @@ def test_truncated_bptt_cuts_gradients_but_not_values(name):
     layer = RecurrentLayer(3, RnnConfig(name=name, units=4))
     x = torch.randn(4, 3, requires_grad=True)  # one sequence of 4 steps
     states = layer.initial_state(1, torch.device("cpu"))
-    full, _ = layer(x, states, None, 4)
-    cut, _ = layer(x, states, None, 4, bptt_length=2)
+    full, _ = flat_sequences(layer, x, states, None, 4)
+    cut, _ = flat_sequences(layer, x, states, None, 4, bptt_length=2)
     assert torch.allclose(full, cut)  # forward values are the same
     grad_full = torch.autograd.grad(full[3].sum(), x)[0]
     grad_cut = torch.autograd.grad(cut[3].sum(), x)[0]

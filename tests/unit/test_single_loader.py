@@ -27,14 +27,14 @@ PICKLE_IPC = {
 IMPORT_SITES = {
     "rlchain/__init__.py": "rlchain's own lazily imported names (a constant table)",
     "rlchain/console.py": "rlchain's own subcommand modules (literals)",
-    "rlchain/rl_games/alias.py": "rl_games.* names mapped onto rlchain.rl_games.* (rlchain's own modules)",
-    "rlchain/rllib/alias.py": "ray.rllib.* names mapped onto rlchain.rllib.* (rlchain's own modules)",
-    "rlchain/inference/export/onnx.py": "onnx / onnxruntime, optional dependencies (literals)",
+    "rlchain/faces.py": "a face's aliased names (rl_games.*, ray.rllib.*) mapped onto its own modules "
+                        "(rlchain.rl_games.*, rlchain.rllib.*)",
+    "rlchain/errors.py": "optional dependencies (optional_import), by the literal names of their callers "
+                         "(optuna, ray.tune, moviepy, wandb, envpool, ale_py, onnx, onnxruntime)",
+    "rlchain/registry.py": "import_object: config.callbacks, config.events functions and config.symmetry.mirror "
+                           "(module:Name) of the user's config",
     "rlchain/config/load.py": "params.import_modules and config.callbacks of the user's config (--file, dict, "
                               "overrides); a checkpoint's stored ones are dropped first",
-    "rlchain/training/events.py": "config.callbacks of the user's config",
-    "rlchain/training/env_events.py": "config.events functions of the user's config",
-    "rlchain/algos/core/symmetry.py": "config.symmetry.mirror (module:function) of the user's config",
     "rlchain/envs/backends/pettingzoo_env.py": "the PettingZoo env named by the user's config (pettingzoo.* first; a "
                                                "name PettingZoo lists is only its module; a stored name must be "
                                                "listed: rlchain/envs/known.py)",

@@ -19,7 +19,6 @@ mirrored observation and the mirror of its mean action on the observation (the l
 from __future__ import annotations
 
 import copy
-import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +26,7 @@ from typing import Any
 import torch
 
 from rlchain.algos.core.optimizer_step import optimizer_step
+from rlchain.registry import import_object
 
 GO1_JOINTS = tuple(f"{leg}_{part}_joint" for leg in ("FR", "FL", "RR", "RL") for part in ("hip", "thigh", "calf"))
 """mjlab's Go1 joint (and action) order."""
@@ -136,10 +136,9 @@ def resolve_mirror(name: str, obs_size: int, action_size: int) -> MirrorMap:
         return SHIPPED[name](obs_size, action_size)
     if ":" not in name:
         raise ValueError(f"'{name}' is neither a shipped mirror map ({', '.join(SHIPPED)}) nor module:function")
-    module, _, attr = name.partition(":")
     try:
-        function = getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
+        function = import_object(name)
+    except ValueError as exc:
         raise ValueError(f"cannot load the mirror map {name}: {exc}") from None
     built = function(obs_size, action_size)
     if not isinstance(built, MirrorMap):

@@ -37,7 +37,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.envs.vecenv import StepResult
 from rlchain.envs.wrappers.reward_action_obs import RewardActionObs
-from rlchain.errors import did_you_mean
+from rlchain.errors import did_you_mean, optional_import
 
 INSTALL_HINT = "Atari needs ale-py and opencv: pip install rlchain[atari]"
 ATARI_ID = "rlchain/AtariDeepMind-v0"
@@ -58,10 +58,7 @@ CONFIG = "params.config.env_config"
 
 def import_ale() -> Any:
     """Import ale_py, register its envs with gymnasium, or raise an ImportError with the install hint."""
-    try:
-        import ale_py
-    except ImportError as exc:
-        raise ImportError(INSTALL_HINT) from exc
+    ale_py = optional_import("ale_py", INSTALL_HINT)
     gym.register_envs(ale_py)
     return ale_py
 

@@ -31,6 +31,7 @@ from rlchain.envs.wrappers.spaces import (
     float32_obs_space,
     step_arrays,
 )
+from rlchain.errors import optional_import
 
 INSTALL_HINT = "envpool is not installed: pip install rlchain[envpool] (or pip install envpool)"
 
@@ -41,11 +42,7 @@ RESERVED_KEYS = frozenset({"num_envs", "batch_size", "seed", "env_seed", "max_nu
 
 def import_envpool() -> Any:
     """Import envpool or raise an ImportError that says how to install it."""
-    try:
-        import envpool
-    except ImportError as exc:
-        raise ImportError(INSTALL_HINT) from exc
-    return envpool
+    return optional_import("envpool", INSTALL_HINT)
 
 
 @functools.lru_cache(maxsize=1)

@@ -57,6 +57,7 @@ import torch.nn as nn
 
 from rlchain.config.errors import ConfigError
 from rlchain.envs.obs_dict import ObsDict, flat_size, is_dict_space, obs_as_tensor, torch_dtype
+from rlchain.errors import optional_import
 from rlchain.inference.export.inputs import (  # noqa: F401  (re-exported: the parity inputs)
     HUGE_BOUND,
     RANDOM_OBS_BOUND,
@@ -74,11 +75,8 @@ INSTALL_HINT = "pip install rlchain[onnx]"
 
 def _require(module: str) -> Any:
     """Import ``onnx`` / ``onnxruntime`` or fail with the install hint."""
-    try:
-        return __import__(module)
-    except ImportError:
-        raise ImportError(f"ONNX export needs onnx and onnxruntime ('{module}' is not installed): "
-                          f"{INSTALL_HINT}") from None
+    return optional_import(module, f"ONNX export needs onnx and onnxruntime ('{module}' is not installed): "
+                                   f"{INSTALL_HINT}")
 
 
 class OnnxPolicy(nn.Module):

@@ -16,14 +16,11 @@ from typing import Any
 import torch
 import torch.nn as nn
 
+from rlchain.networks.layers import ACTIVATIONS
 from rlchain.rl_games.algos_torch import layers
+from rlchain.rl_games.algos_torch.d2rl import D2RLNet
 from rlchain.rl_games.common.layers.recurrent import GRUWithDones, LSTMWithDones
 from rlchain.rl_games.common.object_factory import ObjectFactory
-
-ACTIVATIONS: dict[str, Callable[..., nn.Module]] = {
-    "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid, "elu": nn.ELU, "selu": nn.SELU, "swish": nn.SiLU,
-    "gelu": nn.GELU, "softplus": nn.Softplus, "None": lambda **kwargs: nn.Identity(),
-}
 
 
 def variance_scaling_initializer(tensor: torch.Tensor, mode: str = "fan_in", scale: float = 2.0) -> torch.Tensor:
@@ -52,29 +49,6 @@ INITIALIZERS: dict[str, Callable[..., torch.Tensor]] = {
 def _initializer(func: Callable[..., torch.Tensor]) -> Callable[..., Callable[[torch.Tensor], torch.Tensor]]:
     """A factory builder: ``create(name, **args)`` -> a function of the weight alone."""
     return lambda **kwargs: (lambda tensor: func(tensor, **kwargs))
-
-
-class D2RLNet(nn.Module):
-    """D2RL: every hidden layer after the first also sees the input. (B, input_size) -> (B, units[-1])."""
-
-    def __init__(self, input_size: int, units: Sequence[int], activations: Sequence[nn.Module],
-                 norm_func_name: str | None = None) -> None:
-        super().__init__()
-        self.activations = nn.ModuleList(activations)
-        self.linears = nn.ModuleList()
-        self.norm_layers = nn.ModuleList()
-        self.num_layers = len(units)
-        size = input_size
-        for unit in units:
-            self.linears.append(nn.Linear(size, unit))
-            self.norm_layers.append(_norm_1d(norm_func_name, unit) or nn.Identity())
-            size = unit + input_size
-
-    def forward(self, input: torch.Tensor) -> torch.Tensor:
-        x = self.norm_layers[0](self.activations[0](self.linears[0](input)))
-        for i in range(1, self.num_layers):
-            x = self.activations[i](self.norm_layers[i](self.linears[i](torch.cat([x, input], dim=1))))
-        return x
 
 
 class IdentityRNN(nn.Module):

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rlchain.errors import did_you_mean
+from rlchain.rl_games.agents import package_getattr
 from rlchain.rl_games.common.algo_observer import AlgoObserver
 
 RLCHAIN_PBT = ("rlchain's population-based training is Ray Tune's PBT: `rlchain train CONFIG --tune SEARCH.yaml` "
@@ -64,6 +65,10 @@ class PbtCfg:
     mutation_rate: float = 0.25
     change_range: tuple[float, float] = (1.1, 2.0)
     mutation: dict[str, str] = field(default_factory=dict)
+    launcher: str = ""  # rl_games' re-exec executable; kept as given (rlchain restarts nothing)
+
+    def __post_init__(self) -> None:
+        self.change_range = tuple(self.change_range)  # a YAML list, as rl_games normalizes it
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> PbtCfg:
@@ -72,8 +77,6 @@ class PbtCfg:
         for key in data:
             if key not in known:
                 raise ValueError(f"pbt.{key}: unknown key{did_you_mean(key, known)} (PbtCfg: {', '.join(known)})")
-        if "change_range" in data:
-            data["change_range"] = tuple(data["change_range"])
         return cls(**data)
 
 
@@ -86,6 +89,10 @@ class PbtAlgoObserver(AlgoObserver):
         self.cfg = PbtCfg.from_dict((params or {}).get("pbt"))
         if self.cfg.enabled:
             raise NotImplementedError(f"pbt.enabled: {RLCHAIN_PBT}")
+
+
+def __getattr__(name: str) -> Any:
+    return package_getattr("rl_games.common.pbt", name)
 
 
 __all__ = ["MultiObserver", "PbtAlgoObserver", "PbtCfg"]

@@ -1,23 +1,43 @@
-"""``ray.rllib.algorithms.dqn``: ``DQNConfig`` (its keys are accepted; building it is a one-line error naming
-rlchain's DQN YAML: the face trains PPO)."""
+"""``ray.rllib.algorithms.dqn``: ``DQNConfig`` and ``DQN`` trained by rlchain's DQN (double / dueling Q, n-step,
+prioritized replay, target updates) with RLlib's defaults and replay ratio."""
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
+import gymnasium as gym
+
+from rlchain.rllib import translate
 from rlchain.rllib.algorithm import Algorithm
 from rlchain.rllib.config import AlgorithmConfig
 
 
 class DQN(Algorithm):
-    """RLlib's DQN: not trained by the face (see the module docstring)."""
+    """RLlib's DQN on rlchain's DQN."""
 
     algo_name = "DQN"
+    action_spaces = (gym.spaces.Discrete,)
 
     @classmethod
     def get_default_config(cls) -> DQNConfig:
         return DQNConfig()
 
+    @staticmethod
+    def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
+                  ) -> dict[str, Any]:
+        return translate.dqn_config(config, env_name, run)
+
+    @staticmethod
+    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        return {"qf_loss": stats.get("td_loss", math.nan), "qf_mean": stats.get("q", math.nan),
+                "curr_epsilon": stats.get("epsilon", math.nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
+
 
 class DQNConfig(AlgorithmConfig):
+    """RLlib's DQNConfig: lr 5e-4, train_batch_size 32, double_q, dueling, n_step 1, prioritized replay of 50,000,
+    target_network_update_freq 500, epsilon [(0, 1.0), (10000, 0.05)], 1000 env steps per iteration."""
+
     algo_name = "DQN"
 
     def __init__(self, algo_class: type | None = None) -> None:

@@ -1,23 +1,48 @@
-"""``ray.rllib.algorithms.sac``: ``SACConfig`` (its keys are accepted; building it is a one-line error naming
-rlchain's SAC YAML: the face trains PPO)."""
+"""``ray.rllib.algorithms.sac``: ``SACConfig`` and ``SAC`` trained by rlchain's SAC (twin critics, a learned
+temperature towards ``target_entropy``) with RLlib 2.60's defaults (:mod:`.translate` says what maps)."""
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
+import gymnasium as gym
+
 from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
 
 
 class SAC(Algorithm):
-    """RLlib's SAC: not trained by the face (see the module docstring)."""
+    """RLlib's SAC on rlchain's SAC (continuous actions)."""
 
     algo_name = "SAC"
+    action_spaces = (gym.spaces.Box,)
 
     @classmethod
     def get_default_config(cls) -> SACConfig:
         return SACConfig()
 
+    @staticmethod
+    def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
+                  ) -> dict[str, Any]:
+        return sac_config(config, env_name, run)
+
+    @staticmethod
+    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        nan = math.nan
+        alpha = stats.get("alpha", nan)
+        return {"qf_loss": stats.get("critic_loss", nan), "policy_loss": stats.get("actor_loss", nan),
+                "alpha_loss": stats.get("alpha_loss", nan), "alpha_value": alpha,
+                "log_alpha_value": math.log(alpha) if isinstance(alpha, float) and alpha > 0 else nan,
+                "entropy": stats.get("entropy", nan), "qf_mean": stats.get("q", nan),
+                "curr_lr": stats.get("lr", cfg["actor_lr"])}
+
 
 class SACConfig(AlgorithmConfig):
+    """RLlib's SACConfig: actor_lr 3e-5, critic_lr 3e-4, alpha_lr 3e-4, tau 5e-3, initial_alpha 1.0, target_entropy
+    'auto', train_batch_size 256, prioritized replay of 1e6, 1500 steps before learning, twin Q."""
+
     algo_name = "SAC"
 
     def __init__(self, algo_class: type | None = None) -> None:

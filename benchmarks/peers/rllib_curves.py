@@ -1,0 +1,105 @@
+"""Per-frame learning curves of RLlib's tuned CartPole PPO (``cartpole_ppo.py``'s settings: lr 3e-4, 6 epochs,
+vf_loss_coeff 0.01, one linear layer of 32 shared by policy and value, 2 env runners, RLlib's PPO defaults
+otherwise): ``episode_return_mean`` against env steps after every ``train()``, for several seeds, through the
+face and (``--rllib-python``) under real RLlib 2.60.
+
+    python benchmarks/peers/rllib_curves.py --seeds 1 2 3 --out /tmp/rllib_curves
+    python benchmarks/peers/rllib_curves.py --seeds 1 2 3 --rllib-python /work/peers/rllib/bin/python
+
+Each side runs this file as an RLlib script (``--worker``: RLlib's own imports; the face's through
+``python -m rlchain.rllib``), one seed per process, printing one JSON line per iteration. The driver writes
+``<out>/<lib>_seed<N>.csv`` (env_steps, episode_return_mean) and prints, per seed, the env steps at which the
+return first reached the stop reward (450), then the medians. Env steps do not depend on the machine's load;
+seconds do and are not reported here (rllib_cartpole.py times both sides).
+"""
+
+import argparse
+import csv
+import json
+import os
+import statistics
+import subprocess
+import sys
+
+STOP_REWARD = 450.0
+
+
+def worker(seed: int, runners: int, max_steps: int) -> None:
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    config = (PPOConfig().environment("CartPole-v1")
+              .env_runners(num_env_runners=runners)
+              .training(lr=0.0003, num_epochs=6, vf_loss_coeff=0.01)
+              .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[32], fcnet_activation="linear",
+                                                         vf_share_layers=True))
+              .debugging(seed=seed))
+    algo = config.build_algo()
+    lib = "rlchain" if type(algo).__module__.startswith("rlchain") else "rllib"
+    steps = 0
+    while steps < max_steps:
+        result = algo.train()
+        env_runners = result.get("env_runners") or {}
+        steps = int(env_runners.get("num_env_steps_sampled_lifetime")
+                    or result.get("num_env_steps_sampled_lifetime") or 0)
+        ret = float(env_runners.get("episode_return_mean", float("nan")))
+        print(json.dumps({"lib": lib, "seed": seed, "env_steps": steps, "return": ret}), flush=True)
+        if ret >= STOP_REWARD:
+            break
+    algo.stop()
+
+
+def frames_to(rows: list[dict], reward: float) -> int | None:
+    """Env steps of the first iteration whose mean return reached ``reward`` (None: never)."""
+    return next((r["env_steps"] for r in rows if r["return"] >= reward), None)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worker", action="store_true", help="run the RLlib script itself (one side, one seed)")
+    parser.add_argument("--rllib-python", default=None,
+                        help="also run real RLlib with this Python (a venv with ray[rllib]==2.60.0)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--num-env-runners", type=int, default=2)
+    parser.add_argument("--max-steps", type=int, default=400_000, help="give up after this many env steps")
+    parser.add_argument("--out", default="rllib_curves", help="folder for the CSV curves (outside git)")
+    args = parser.parse_args()
+    if args.worker:
+        worker(args.seed, args.num_env_runners, args.max_steps)
+        return
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    here = os.path.abspath(__file__)
+    os.makedirs(args.out, exist_ok=True)
+    sides = {"rlchain": ([sys.executable, "-m", "rlchain.rllib"],
+                         {**os.environ, "PYTHONPATH": root, "OMP_NUM_THREADS": "1"})}
+    if args.rllib_python:
+        sides["rllib"] = ([args.rllib_python], {k: v for k, v in os.environ.items() if k != "PYTHONPATH"})
+    found: dict[str, list[int | None]] = {lib: [] for lib in sides}
+    for seed in args.seeds:
+        for lib, (python, env) in sides.items():
+            cmd = [*python, here, "--worker", "--seed", str(seed), "--num-env-runners", str(args.num_env_runners),
+                   "--max-steps", str(args.max_steps)]
+            out = subprocess.run(cmd, env=env, capture_output=True, text=True)
+            rows = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
+            if out.returncode or not rows:
+                print(f"{lib} seed {seed}: failed (exit {out.returncode}): {out.stderr.strip()[-500:]}", flush=True)
+                continue
+            path = os.path.join(args.out, f"{lib}_seed{seed}.csv")
+            with open(path, "w", newline="") as f:
+                writer = csv.writer(f)
+                writer.writerow(["env_steps", "episode_return_mean"])
+                writer.writerows([r["env_steps"], r["return"]] for r in rows)
+            steps = frames_to(rows, STOP_REWARD)
+            found[lib].append(steps)
+            print(f"{lib} seed {seed}: {'not reached' if steps is None else f'{steps} env steps'} to "
+                  f"{STOP_REWARD:.0f} ({len(rows)} iterations; curve: {path})", flush=True)
+    for lib, values in found.items():
+        reached = [v for v in values if v is not None]
+        if reached:
+            print(f"{lib}: median {statistics.median(reached):.0f} env steps to {STOP_REWARD:.0f} "
+                  f"({len(reached)} of {len(values)} seeds reached it)", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,105 @@
+"""An RLlib ``SACConfig`` -> the rlchain SAC config that trains it.
+
+What maps (RLlib 2.60's defaults in brackets):
+
+- ``actor_lr`` (3e-5), ``critic_lr`` (3e-4), ``alpha_lr`` (3e-4), ``initial_alpha`` (1.0) -> the same rlchain keys
+  (``init_alpha``); ``target_entropy`` ("auto": -action dims) -> ``target_entropy``; ``tau`` (5e-3) ->
+  ``critic_tau``, the target critics follow after every update (``target_network_update_freq`` 0);
+- ``train_batch_size`` (256) -> ``batch_size``; ``replay_buffer_config`` (prioritized, 1e6, alpha 0.6, beta 0.4)
+  -> ``replay_buffer_size``, ``prioritized_replay``, ``priority_alpha`` / ``priority_beta``; ``n_step`` (1);
+  ``num_steps_sampled_before_learning_starts`` (1500) -> ``num_warmup_frames``; RLlib's replay ratio (one update
+  per sampled round, or ``training_intensity``) -> ``num_updates_per_step``; ``grad_clip`` -> ``grad_norm``;
+- one ``train()`` = ``min_sample_timesteps_per_iteration`` (100) env steps;
+- the model: ``fcnet_hiddens`` then ``head_fcnet_hiddens`` with ``fcnet_activation`` for the actor and both
+  critics; ``log_std_clip_param`` (20) clips the log-std to [-20, 20]; actions squashed to [-1, 1] and rescaled
+  to the env's bounds (``normalize_actions``, RLlib's default).
+
+Each critic's TD loss is RLlib's Huber loss (delta 1): ``loss: huber``. What does not map: ``twin_q=False``
+(rlchain's SAC always has twin critics), a ``target_network_update_freq`` above 0, discrete actions, ``n_step``
+ranges, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a one-line error. Warmup actions
+are uniform (RLlib samples its initial policy).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rlchain.rllib import translate as T
+from rlchain.rllib.env_runners import env_runner_keys
+from rlchain.rllib.networks import activation, layer_sizes
+
+
+def _number(config: Any, key: str) -> float:
+    value = config._settings.get(key)
+    if isinstance(value, (list, tuple)):
+        raise T._bad(config, key, "a schedule list is not mapped: a constant")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
+        raise T._bad(config, key, f"expected a number > 0, got {value!r}")
+    return float(value)
+
+
+def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
+    """The rlchain SAC config of an RLlib ``SACConfig`` on ``env_name`` (see the module docstring)."""
+    T.check_supported(config)
+    s = config._settings
+    refused = {"twin_q": (False, "rlchain's SAC always trains twin critics"),
+               "_deterministic_loss": (True, "rlchain's SAC samples the policy in its losses"),
+               "_use_beta_distribution": (True, "rlchain's SAC policy is a tanh-squashed Gaussian")}
+    for key, (value, why) in refused.items():
+        if s.get(key) == value:
+            raise T._bad(config, key, f"{value!r} is not offered: {why}")
+    if s.get("target_network_update_freq"):
+        raise T._bad(config, "target_network_update_freq", f"{s['target_network_update_freq']!r}: rlchain's SAC moves "
+                                                           f"its target critics by tau after every update (0)")
+    if not isinstance(s.get("n_step"), int) or isinstance(s.get("n_step"), bool) or s["n_step"] < 1:
+        raise T._bad(config, "n_step", f"expected a whole number >= 1, got {s.get('n_step')!r} (a range is not "
+                                       f"mapped)")
+    target_entropy = s.get("target_entropy")
+    if target_entropy not in ("auto", None) and (isinstance(target_entropy, bool)
+                                                 or not isinstance(target_entropy, (int, float))):
+        raise T._bad(config, "target_entropy", f"expected 'auto' or a number, got {target_entropy!r}")
+    envs = T.num_envs(config)
+    replay = s.get("replay_buffer_config") or {}
+    clip = config.model_config.get("log_std_clip_param")
+    grad_clip = s.get("grad_clip")
+    batch = config.total_train_batch_size
+    train = {
+        "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]),
+        "actor_lr": _number(config, "actor_lr"), "critic_lr": _number(config, "critic_lr"),
+        "alpha_lr": _number(config, "alpha_lr"), "init_alpha": _number(config, "initial_alpha"), "loss": "huber",
+        "learnable_temperature": True,
+        "target_entropy": None if target_entropy in ("auto", None) else float(target_entropy),
+        "critic_tau": float(s["tau"]), "policy_frequency": 1, "batch_size": batch,
+        "replay_buffer_size": max(batch, int(replay.get("capacity", 1_000_000))),
+        "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
+        "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
+        "n_step": int(s["n_step"]),
+        "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
+        "num_steps_per_episode": max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 100) // envs)),
+        "num_updates_per_step": T.updates_per_step(config),
+        "grad_norm": None if grad_clip is None else float(grad_clip),
+        "clip_actions": bool(s.get("normalize_actions", True)), "normalize_input": False,
+        "reward_shaper": {"scale_value": 1.0},
+        "log_std_bounds": None if clip is None else [-float(clip), float(clip)],
+        "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+    }
+    train.update(env_runner_keys(config, "SAC"))
+    train.update(run)
+    units = layer_sizes(config, "fcnet_hiddens")
+    act = activation(config, "fcnet_activation")
+    heads = layer_sizes(config, "head_fcnet_hiddens")
+    if heads:
+        if units and activation(config, "head_fcnet_activation") != act:
+            raise T._bad(config, "model_config.head_fcnet_activation", "differs from fcnet_activation: rlchain's SAC "
+                                                                       "networks have one activation")
+        act = activation(config, "head_fcnet_activation")
+        units = units + heads
+    network = {"name": "soft_actor_critic", "separate": True, "space": {"continuous": None},
+               "mlp": {"units": units, "activation": act, "initializer": {"name": "default"}}}
+    if clip is not None:
+        network["log_std_bounds"] = [-float(clip), float(clip)]
+    params = {"algo": {"name": "sac"}, "model": {"name": "soft_actor_critic"}, "network": network, "config": train}
+    if s.get("seed") is not None:
+        params["seed"] = int(s["seed"])
+    return {"params": params}

@@ -1,0 +1,184 @@
+"""The face's SAC, APPO and IMPALA configs, RLlib's model settings (LSTM, convolutions, head layers) and its env
+runners, translated onto rlchain's keys (rlchain.rllib.algorithms.*.translate, networks, env_runners)."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from rlchain.config.errors import ConfigError
+from rlchain.rllib import env_runners, networks, translate
+from rlchain.rllib.algorithms.appo import APPOConfig
+from rlchain.rllib.algorithms.impala import IMPALAConfig
+from rlchain.rllib.algorithms.impala.translate import vtrace_config
+from rlchain.rllib.algorithms.ppo import PPOConfig
+from rlchain.rllib.algorithms.sac import SACConfig
+from rlchain.rllib.algorithms.sac.translate import sac_config
+
+FLAT = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+IMAGE = gym.spaces.Box(0, 255, (42, 42, 3), np.uint8)
+
+
+def test_sac_defaults_are_rllibs_and_map_onto_rlchains_sac():
+    c = SACConfig()
+    assert (c.actor_lr, c.critic_lr, c.alpha_lr, c.tau, c.initial_alpha, c.target_entropy) == \
+        (3e-5, 3e-4, 3e-4, 5e-3, 1.0, "auto")
+    assert (c.train_batch_size, c.num_steps_sampled_before_learning_starts, c.twin_q, c.n_step) == (256, 1500, True, 1)
+    params = sac_config(c, "Pendulum-v1", {})["params"]
+    cfg = params["config"]
+    assert params["algo"]["name"] == "sac" and params["model"]["name"] == "soft_actor_critic"
+    assert (cfg["actor_lr"], cfg["critic_lr"], cfg["alpha_lr"], cfg["init_alpha"], cfg["critic_tau"]) == \
+        (3e-5, 3e-4, 3e-4, 1.0, 5e-3)
+    assert cfg["target_entropy"] is None  # rlchain's default is RLlib's "auto": -action dims
+    assert (cfg["batch_size"], cfg["replay_buffer_size"], cfg["prioritized_replay"]) == (256, 1_000_000, True)
+    assert (cfg["num_warmup_frames"], cfg["num_steps_per_episode"], cfg["num_updates_per_step"]) == (1500, 100, 1)
+    assert cfg["num_actors"] == 1 and cfg["clip_actions"] and cfg["log_std_bounds"] == [-20.0, 20.0]
+    assert cfg["loss"] == "huber"  # RLlib's critic loss
+    # RLlib's DefaultModelConfig: an MLP of 256, 256 with tanh for the actor and both critics
+    assert params["network"]["mlp"]["units"] == [256, 256] and params["network"]["mlp"]["activation"] == "tanh"
+
+
+def test_sac_settings_and_what_it_refuses():
+    c = SACConfig().training(actor_lr=1e-3, target_entropy=-2.0, tau=0.01, n_step=3, train_batch_size=128,
+                             replay_buffer_config={"type": "EpisodeReplayBuffer", "capacity": 5000},
+                             training_intensity=512).rl_module(
+        model_config={"fcnet_hiddens": [64], "fcnet_activation": "relu", "head_fcnet_hiddens": [32],
+                      "head_fcnet_activation": "relu"})
+    params = sac_config(c, "Pendulum-v1", {})["params"]
+    cfg = params["config"]
+    assert (cfg["actor_lr"], cfg["target_entropy"], cfg["critic_tau"], cfg["n_step"]) == (1e-3, -2.0, 0.01, 3)
+    assert (cfg["batch_size"], cfg["replay_buffer_size"], cfg["prioritized_replay"]) == (128, 5000, False)
+    # native ratio 128 / (3 x 1 x 1) = 42.7; 512 / 42.7 = 12 updates per round of 3 steps: 4 per step
+    assert cfg["num_updates_per_step"] == 4
+    assert params["network"]["mlp"]["units"] == [64, 32]
+    for build, key in ((lambda c: c.training(twin_q=False), "twin_q"),
+                       (lambda c: c.training(target_network_update_freq=10), "target_network_update_freq"),
+                       (lambda c: c.training(n_step=(1, 3)), "n_step"),
+                       (lambda c: c.rl_module(model_config={"use_lstm": True}), "use_lstm"),
+                       (lambda c: c.rl_module(model_config={"conv_filters": [[8, 3, 1]]}), "conv_filters")):
+        with pytest.raises(ConfigError, match=key) as info:
+            sac_config(build(SACConfig()), "Pendulum-v1", {})
+        assert "\n" not in str(info.value)
+
+
+def test_impala_defaults_map_onto_rlchains_impala():
+    c = IMPALAConfig()
+    assert (c.lr, c.vf_loss_coeff, c.entropy_coeff, c.grad_clip, c.rollout_fragment_length, c.train_batch_size) == \
+        (5e-4, 0.5, 0.01, 40.0, 50, 500)
+    params = vtrace_config(c, "CartPole-v1", FLAT, False, {})["params"]
+    cfg = params["config"]
+    assert params["algo"]["name"] == "impala" and params["network"]["separate"] is False  # shared value layers
+    # RLlib's learner batch of 500 from 2 runners' fragments of 50: rlchain's batch is one fragment of every env,
+    # so each of the 2 runners holds 5 envs
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"]) == (10, 50, 500)
+    assert cfg["env_runners"] == {"num_workers": 2, "envs_per_worker": 5, "max_restarts": 1000}
+    assert (cfg["learning_rate"], cfg["critic_coef"], cfg["entropy_coef"], cfg["grad_norm"]) == (5e-4, 0.5, 0.01, 40.0)
+    assert cfg["truncate_grads"] and not cfg["normalize_advantage"] and "mini_epochs" not in cfg
+    assert cfg["appo"]["vtrace_clip_rho"] == 1.0 and cfg["appo"]["vtrace_clip_c"] == 1.0
+    assert cfg["appo"]["runners"] == "local"
+    with pytest.raises(ConfigError, match="num_epochs.*one pass"):
+        vtrace_config(IMPALAConfig().training(num_epochs=2), "CartPole-v1", FLAT, False, {})
+
+
+def test_appo_maps_its_surrogate_and_circular_buffer():
+    c = APPOConfig().training(clip_param=0.2, train_batch_size=1000, minibatch_size=250).env_runners(
+        num_env_runners=4, rollout_fragment_length=25)
+    params = vtrace_config(c, "CartPole-v1", FLAT, False, {})["params"]
+    cfg = params["config"]
+    assert params["algo"]["name"] == "appo" and params["network"]["separate"]  # APPO: no shared value layers
+    assert (cfg["e_clip"], cfg["mini_epochs"], cfg["clip_value"]) == (0.2, 2, False)
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"]) == (40, 25, 250)
+    for build, key in ((lambda c: c.training(use_kl_loss=True), "use_kl_loss"),
+                       (lambda c: c.training(vtrace=False), "vtrace"),
+                       (lambda c: c.training(vtrace_clip_pg_rho_threshold=2.0), "vtrace_clip_pg_rho_threshold"),
+                       (lambda c: c.rl_module(model_config={"use_lstm": True}), "runners carry no RNN state")):
+        with pytest.raises(ConfigError, match=key) as info:
+            vtrace_config(build(APPOConfig()), "CartPole-v1", FLAT, False, {})
+        assert "\n" not in str(info.value)
+
+
+def test_lstm_maps_onto_rlchains_rnn_with_whole_sequences():
+    for c in (PPOConfig().rl_module(model_config={"use_lstm": True, "lstm_cell_size": 64, "max_seq_len": 20,
+                                                  "fcnet_hiddens": [32]}),
+              PPOConfig().training(model={"use_lstm": True, "lstm_cell_size": 64, "max_seq_len": 20,
+                                          "fcnet_hiddens": [32]})):
+        params = translate.ppo_config(c, "CartPole-v1", False, {}, FLAT)["params"]
+        cfg = params["config"]
+        assert params["network"]["rnn"] == {"name": "lstm", "units": 64, "layers": 1, "before_mlp": False}
+        assert params["network"]["mlp"]["units"] == [32] and cfg["seq_length"] == 20
+        # 4000 over 2 envs in sequences of 20: 2000 steps each; 200 sequences in minibatches of 5 (100 steps), the
+        # whole number of sequences dividing the batch nearest RLlib's 128
+        assert (cfg["horizon_length"], cfg["minibatch_size"]) == (2000, 100)
+
+
+@pytest.mark.parametrize("batch, envs, minibatch, seq, shape", [(4000, 2, 128, 20, (2000, 100)),
+                                                                (4000, 2, 128, 16, (2000, 160)),
+                                                                (1000, 3, 100, 8, (336, 112))])
+def test_sequence_batch_shape(batch, envs, minibatch, seq, shape):
+    steps, size = translate.sequence_batch_shape(batch, envs, minibatch, seq)
+    assert (steps, size) == shape
+    assert steps % seq == 0 and size % seq == 0 and (envs * steps) % size == 0 and envs * steps >= batch
+
+
+def test_conv_filters_map_onto_rlchains_cnn():
+    c = PPOConfig().rl_module(model_config={"conv_filters": [[16, [4, 4], 2], [32, 3, 2, "valid"]],
+                                            "head_fcnet_hiddens": [64], "conv_activation": "elu"})
+    params = translate.ppo_config(c, "env", False, {}, IMAGE)["params"]
+    network = params["network"]
+    assert network["cnn"]["convs"] == [{"filters": 16, "kernel_size": 4, "strides": 2, "padding": 1},
+                                       {"filters": 32, "kernel_size": 3, "strides": 2, "padding": 0}]
+    assert network["cnn"]["activation"] == "elu" and network["cnn"]["permute_input"]
+    # an image encoder goes straight to the heads: fcnet_hiddens is not used, head_fcnet_hiddens is the MLP
+    assert network["mlp"]["units"] == [64] and network["mlp"]["activation"] == "relu"
+    for model, key in (({}, "conv_filters.*image observations"),
+                       ({"conv_filters": [[16, [4, 3], 2]]}, r"conv_filters\[0\].*square"),
+                       ({"conv_filters": [[16, 4, 2, "full"]]}, "padding 'full'")):
+        with pytest.raises(ConfigError, match=key) as info:
+            networks.actor_critic_network(PPOConfig().rl_module(model_config=model), IMAGE, False)
+        assert "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="convolutions take images"):
+        networks.actor_critic_network(PPOConfig().rl_module(model_config={"conv_filters": [[8, 3, 1]]}), FLAT, False)
+
+
+def test_head_layers_join_the_mlp_with_one_activation():
+    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "fcnet_activation": "relu",
+                                            "head_fcnet_hiddens": [32]})
+    network, _ = networks.actor_critic_network(c, FLAT, False)
+    assert network["mlp"]["units"] == [64, 32] and network["mlp"]["activation"] == "relu"
+    bad = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "head_fcnet_hiddens": [32]})  # tanh, relu
+    with pytest.raises(ConfigError, match="head_fcnet_activation.*one activation"):
+        networks.actor_critic_network(bad, FLAT, False)
+
+
+def test_env_runners_are_ray_actors_only_when_ray_was_asked_for(monkeypatch):
+    c = PPOConfig().env_runners(num_env_runners=3, num_envs_per_env_runner=2).fault_tolerance(
+        restart_failed_env_runners=True, max_num_env_runner_restarts=5)
+    monkeypatch.setattr(env_runners, "ray_requested", lambda: False)
+    assert env_runners.env_runner_keys(c, "PPO") == {}
+    assert translate.ppo_config(c, "CartPole-v1", False, {}, FLAT)["params"]["config"]["num_actors"] == 6
+    monkeypatch.setattr(env_runners, "ray_requested", lambda: True)
+    keys = env_runners.env_runner_keys(c, "PPO")
+    assert keys == {"vecenv_type": "RAY", "env_runners": {"num_workers": 3, "envs_per_worker": 2, "max_restarts": 5}}
+    assert env_runners.env_runner_keys(PPOConfig().env_runners(num_env_runners=0), "PPO") == {}
+    no_restart = c.copy().fault_tolerance(restart_failed_env_runners=False)
+    assert env_runners.env_runner_keys(no_restart, "PPO")["env_runners"]["max_restarts"] == 0
+    cfg = vtrace_config(APPOConfig(), "CartPole-v1", FLAT, False, {})["params"]["config"]
+    assert cfg["appo"]["runners"] == "ray"
+
+
+def test_ray_requested_follows_ray_init_or_ray_address(monkeypatch):
+    monkeypatch.setenv("RAY_ADDRESS", "auto")
+    assert env_runners.ray_requested()
+    monkeypatch.delenv("RAY_ADDRESS")
+    ray = pytest.importorskip("ray")
+    assert env_runners.ray_requested() == ray.is_initialized()
+
+
+def test_default_model_config_dataclass_carries_lstm_and_convolutions():
+    from rlchain.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    c = PPOConfig().rl_module(model_config=DefaultModelConfig(use_lstm=True, lstm_cell_size=16, max_seq_len=10,
+                                                              fcnet_hiddens=[8]))
+    network, seq_len = networks.actor_critic_network(c, FLAT, False)
+    assert network["rnn"]["units"] == 16 and seq_len == 10
+    image = PPOConfig().rl_module(model_config=DefaultModelConfig(conv_filters=[[8, 3, 1]]))
+    assert networks.actor_critic_network(image, IMAGE, False)[0]["cnn"]["convs"][0]["filters"] == 8
