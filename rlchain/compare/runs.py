@@ -90,12 +90,6 @@ def curve_from_events(events: Sequence[Sequence[float]], seconds_end: float | No
                  seconds_end=seconds_end)
 
 
-def event_folders(path: str) -> list[str]:
-    """The folders under ``path`` that hold TensorBoard event files (``summaries/`` of a run folder); symbolic
-    links to folders are followed, never back into one already walked."""
-    return sorted({os.path.dirname(f) for f in event_files(path)})
-
-
 def event_files(path: str) -> list[str]:
     """The TensorBoard event files under ``path`` (``events.out.tfevents.*``), folder by folder."""
     return [f for f in walk_files(path) if os.path.basename(f).startswith("events.out.tfevents.")]

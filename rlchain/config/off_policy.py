@@ -134,6 +134,8 @@ class SACConfig(OffPolicyConfig):
     log_std_bounds: list[float] | None = option(None, "[min, max] of the policy log-std (overrides the "
                                                       "network block's log_std_bounds)", check=_check_bounds)
     grad_norm: float | None = option(None, "clip gradient norms to this (None = off)", check=positive)
+    loss: str = option("mse", "TD loss of each critic: mse (rl_games, SB3) or huber (RLlib's, delta 1)",
+                       choices=("mse", "huber"))
     mixed_precision: bool = variant(RunConfig, "mixed_precision", doc="bf16 autocast of the critic and actor "
                                     "updates on a CUDA GPU with bf16 (rl_games 2.0, no grad scaler); one warning and "
                                     "float32 elsewhere (a CPU)", status="yes")

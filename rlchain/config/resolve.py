@@ -39,12 +39,6 @@ class ProcessContext:
     rank: int = 0
     world_size: int = 1
 
-    def as_dict(self) -> dict[str, Any]:
-        """The per-process values as plain data (stored in checkpoints beside the config)."""
-        cfg = self.params.config
-        return {"seed": self.seed, "rank": self.rank, "world_size": self.world_size, "device": cfg.device,
-                "print_stats": cfg.print_stats}
-
 
 def resolve(params: Params, seed: int | None, group: Any = None) -> ProcessContext:
     """The run context of this process: ``group`` is the torchrun :class:`~rlchain.parallel.distributed.

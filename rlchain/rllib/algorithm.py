@@ -21,9 +21,9 @@ import gymnasium as gym
 import yaml
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs.factory import make_vec_env
+from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
-from rlchain.rllib import envs, translate
+from rlchain.rllib import envs, module_network, multi_agent, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested
 from rlchain.rllib.module import RLModuleView
 from rlchain.runner import Runner
@@ -136,22 +136,20 @@ class Algorithm:
         probe = self._make(0)
         try:
             self.observation_space, self.action_space = probe.observation_space, probe.action_space
+            self._multi = multi_agent.MultiAgentRun(config, probe) if multi_agent.is_multi_agent(probe) else None
         finally:
             probe.close()
-        plain_id = isinstance(settings["env"], str) and not settings.get("env_config") \
-            and envs.tune_registered(settings["env"]) is None
-        env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
-        self._env_name = env_name
-        continuous = isinstance(self.action_space, gym.spaces.Box)
-        allowed = self.action_spaces
-        if not isinstance(self.action_space, allowed):
-            raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
-                              f"mapped by the face for {config.algo_name} "
-                              f"({' or '.join(a.__name__ for a in allowed)})")
+        if self._multi is None and settings.get("policies") is not None:
+            raise ConfigError(type(config).__name__, "policies", f"{self._label} is not a MultiAgentEnv: policies "
+                                                                 f"need one (leave .multi_agent() unset)")
         gpu = (settings.get("num_gpus_per_learner") or 0) > 0 or (settings.get("num_gpus") or 0) > 0
         run = {"name": _run_name(config.algo_name, settings["env"]), "device": "cuda:0" if gpu else "cpu",
                "print_stats": False}
-        self.rlchain_config = self.translate(config, env_name, self.observation_space, continuous, run)
+        if self._multi is not None:
+            self._env_name, self.rlchain_config = self._multi.rlchain_config(
+                config, self._make, run, lambda pid, obs, act: module_network.policy_network(config, pid, obs, act))
+        else:
+            self.rlchain_config = self._single_agent_config(config, run)
         self.runner = Runner().load(self.rlchain_config)
         extra = []
         if any(type(cb).on_episode_end is not RLlibCallback.on_episode_end
@@ -165,6 +163,24 @@ class Algorithm:
         self._stopped = False
         for cb in self.callbacks:
             cb.on_algorithm_init(algorithm=self, metrics_logger=self.metrics)
+
+    def _single_agent_config(self, config: Any, run: dict[str, Any]) -> dict[str, Any]:
+        """The rlchain config of a single-agent env (its env registered when it is not a plain gymnasium id)."""
+        settings = config._settings
+        plain_id = isinstance(settings["env"], str) and not settings.get("env_config") \
+            and envs.tune_registered(settings["env"]) is None
+        env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
+        self._env_name = env_name
+        continuous = isinstance(self.action_space, gym.spaces.Box)
+        allowed = self.action_spaces
+        if not isinstance(self.action_space, allowed):
+            raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
+                              f"mapped by the face for {config.algo_name} "
+                              f"({' or '.join(a.__name__ for a in allowed)})")
+        out = self.translate(config, env_name, self.observation_space, continuous, run)
+        if config.algo_name == "PPO":  # a user's RLModule as the network
+            module_network.apply_spec(config, out, self.observation_space, self.action_space)
+        return out
 
     def _run_thread(self) -> None:
         stepper = self._stepper
@@ -217,15 +233,20 @@ class Algorithm:
         learner = self.learner_results(stats, cfg)
         if "kl_coef" in stats:
             learner["curr_kl_coeff"] = stats["kl_coef"]
+        learners = {DEFAULT_MODULE: learner}
+        if self._multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
+            env_runners.update(self._multi.episodes())
+            ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
+            learners = self._multi.learners(stats, cfg["learning_rate"])
         return {
             "training_iteration": self.iteration, "iterations_since_restore": self.iteration,
             "time_this_iter_s": report.seconds, "time_total_s": self._time_total, "timestamp": int(time.time()),
             "num_env_steps_sampled_lifetime": frames, "timesteps_total": frames,
             "num_training_step_calls_per_iteration": 1, "done": False,
             "env_runners": env_runners,
-            "learners": {DEFAULT_MODULE: learner, "__all_modules__": {"num_env_steps_trained": per_iter}},
+            "learners": {**learners, "__all_modules__": {"num_env_steps_trained": per_iter}},
             "episode_reward_mean": ret, "episode_return_mean": ret, "episode_len_mean": length,
-            "info": {"learner": {DEFAULT_MODULE: {"learner_stats": dict(learner)}}},
+            "info": {"learner": {k: {"learner_stats": dict(v)} for k, v in learners.items()}},
             "_episode_custom": episode_custom,
         }
 
@@ -261,9 +282,15 @@ class Algorithm:
         if duration == "auto":
             duration, by_steps = 10, False
         explore = bool((s.get("evaluation_config") or {}).get("explore", False))
+        if self._multi is not None:  # every policy plays its agents (by episodes: a multi-agent step is no unit)
+            out = self._multi.evaluate(self.runner.params, self._stepper.context.model,
+                                       10 if by_steps else int(duration), deterministic=not explore)
+            for cb in self.callbacks:
+                cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
+            return out
         self.get_module()  # checks the module id and that the algorithm runs
         seed = s.get("seed")
-        env = make_vec_env(self._env_name, None, 1, None if seed is None else int(seed) + 10_000, None)
+        env = build_env(self.runner.params, 1, None if seed is None else int(seed) + 10_000)  # as the run's env
         try:  # the play loop steps the env, as for any rlchain evaluation
             result = play(self._stepper.context.model, env, None if by_steps else int(duration),
                           deterministic=not explore, steps=int(duration) if by_steps else None)
@@ -286,10 +313,18 @@ class Algorithm:
     # ----- the policy ------------------------------------------------------------------------------------
     def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
+        self._check_running()
+        model = self._stepper.context.model
+        if self._multi is not None:
+            if module_id == DEFAULT_MODULE and DEFAULT_MODULE not in model and len(model) == 1:
+                module_id = next(iter(model))
+            if module_id not in model:
+                raise KeyError(f"module '{module_id}': the policies are {', '.join(model)}")
+            obs_space, act_space = self._multi.spaces[module_id]
+            return RLModuleView(model[module_id], obs_space, act_space)
         if module_id != DEFAULT_MODULE:
             raise KeyError(f"module '{module_id}': the face trains one module, '{DEFAULT_MODULE}'")
-        self._check_running()
-        return RLModuleView(self._stepper.context.model, self.observation_space, self.action_space)
+        return RLModuleView(model, self.observation_space, self.action_space)
 
     def compute_single_action(self, observation: Any = None, state: Any = None, *, explore: bool | None = None,
                               policy_id: str = DEFAULT_MODULE, full_fetch: bool = False, **kwargs: Any) -> Any:

@@ -1,7 +1,8 @@
 """RLlib's env argument as an env rlchain steps: a gymnasium id (``env_config`` as ``gym.make`` keywords, as
 RLlib does), a name registered with ``ray.tune.registry.register_env`` (its creator gets an :class:`EnvContext`),
 or an env class (built with an :class:`EnvContext`). Each becomes a fresh name registered with rlchain's
-``env_configurations`` whose builder steps that many copies with rlchain's gymnasium backend."""
+``env_configurations`` whose builder steps that many copies with rlchain's gymnasium backend; a ``MultiAgentEnv``
+(class or creator) is stepped by the PettingZoo backend instead (:mod:`rlchain.rllib.multi_agent`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,6 @@ from rlchain import env_configurations
 from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.errors import did_you_mean
-from rlchain.rllib.multi_agent import MultiAgentEnv
 
 _COUNTER = itertools.count(1)
 
@@ -68,11 +68,7 @@ def env_maker(env: Any, env_config: dict[str, Any], runners: int, per_runner: in
             raise ConfigError("AlgorithmConfig.environment()", "env", f"'{env}' is neither a gymnasium id nor a name "
                               f"registered with ray.tune.registry.register_env{did_you_mean(env, gym.registry)}")
         return (lambda index: gym.make(env, **env_config)), env
-    if isinstance(env, type):
-        if issubclass(env, MultiAgentEnv):
-            raise ConfigError("AlgorithmConfig.environment()", "env", f"{env.__name__} is a MultiAgentEnv: not "
-                              f"offered by the face; rlchain trains PettingZoo envs with several policies "
-                              f"(docs/multi_agent.md)")
+    if isinstance(env, type):  # a gym.Env or a MultiAgentEnv (rlchain.rllib.multi_agent) class
         return (lambda index: env(context(index))), f"the env class {env.__name__}"
     raise ConfigError("AlgorithmConfig.environment()", "env", f"expected a gymnasium id, a registered env name or an "
                       f"env class, got {type(env).__name__}")

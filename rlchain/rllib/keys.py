@@ -234,13 +234,7 @@ UNSUPPORTED: dict[str, str] = {
     "entropy_coeff_schedule": "rlchain's entropy schedule: train with entropy_coeff as a number",
     "lr_schedule": "a constant lr (a list schedule is not mapped)",
     "framework": "rlchain is PyTorch only (framework='torch')",
-    "evaluation_parallel_to_training": "rlchain evaluates between training iterations",
     "observation_filter": "rlchain's observation normalizer is normalize_input (not mapped from RLlib)",
-    "policies": "RLlib's MultiAgentEnv / policies are not mapped: rlchain trains PettingZoo envs with several "
-                "policies (docs/multi_agent.md)",
-    "policy_mapping_fn": "RLlib's MultiAgentEnv / policies are not mapped: rlchain trains PettingZoo envs with "
-                         "several policies (docs/multi_agent.md)",
-    "policies_to_train": "RLlib's MultiAgentEnv / policies are not mapped (docs/multi_agent.md)",
 }
 """Keys whose non-default value the face refuses, with what to use instead."""
 

@@ -71,10 +71,17 @@ class RLModuleView:
         self.action_space = action_space
         self._q_model = hasattr(model, "q_values")  # DQN's QModel: forward -> (Q (B, n), max Q)
 
-    def _obs(self, batch: dict[str, Any]) -> torch.Tensor:
+    def _obs(self, batch: dict[str, Any]) -> Any:
         obs = batch["obs"]
         device = next(self.model.parameters()).device
-        return torch.as_tensor(np.asarray(obs) if not isinstance(obs, torch.Tensor) else obs,
+        if isinstance(obs, dict):  # a Dict observation, kept per key as the run's model takes it
+            from rlchain.envs.obs_dict import ObsDict
+            return ObsDict({k: self._tensor(v, device) for k, v in obs.items()})
+        return self._tensor(obs, device)
+
+    @staticmethod
+    def _tensor(value: Any, device: torch.device) -> torch.Tensor:
+        return torch.as_tensor(np.asarray(value) if not isinstance(value, torch.Tensor) else value,
                                dtype=torch.float32, device=device)
 
     @torch.no_grad()
@@ -110,7 +117,8 @@ class RLModuleView:
     @torch.no_grad()
     def act(self, obs: Any, explore: bool) -> Any:
         """One action for one observation (numpy / int), sampled or the mode."""
-        params, _ = self.model(self._obs({"obs": np.asarray(obs)[None]}))
+        one = {k: np.asarray(v)[None] for k, v in obs.items()} if isinstance(obs, dict) else np.asarray(obs)[None]
+        params, _ = self.model(self._obs({"obs": one}))
         if self._q_model:  # greedy (exploration in training is the run's epsilon)
             return int(params.argmax(-1)[0])
         dist = self.model.dist

@@ -25,6 +25,8 @@ DQN is :func:`dqn_config` here; SAC, APPO and IMPALA translate in their folders 
 from __future__ import annotations
 
 import math
+import os
+import sys
 from typing import Any
 
 from rlchain.config.errors import ConfigError
@@ -87,12 +89,31 @@ def check_supported(config: Any) -> None:
     if settings.get("grad_clip") is not None and settings.get("grad_clip_by") != "global_norm":
         raise _bad(config, "grad_clip_by", f"{settings.get('grad_clip_by')!r}: rlchain clips the global norm "
                                            f"(grad_clip_by='global_norm')")
-    if (settings.get("num_learners") or 0) > 1:
-        raise _bad(config, "num_learners", "several learners are not mapped: rlchain trains data-parallel under "
-                                           "torchrun with multi_gpu: True (docs/distributed.md)")
-    if settings.get("rl_module_spec") is not None:
-        raise _bad(config, "rl_module_spec", "RLModule subclasses are not run by the face yet: set the network "
-                                             "with model_config (fcnet_hiddens, ...) or register an rl_games network")
+    learners(config)
+    if settings.get("rl_module_spec") is not None and config.algo_name != "PPO":
+        raise _bad(config, "rl_module_spec", f"an RLModule trains under PPO only, not {config.algo_name}: set "
+                                             f"the network with model_config (fcnet_hiddens, ...)")
+
+
+def learners(config: Any) -> int:
+    """RLlib's ``num_learners`` (1 for 0 or 1): more than one trains data-parallel on rlchain's torch.distributed
+    path (``multi_gpu``), one process per learner started by torchrun; anything else is a one-line error naming
+    the command."""
+    count = int(config._settings.get("num_learners") or 0)
+    if count <= 1:
+        return 1
+    if config.algo_name != "PPO":
+        raise _bad(config, "num_learners", f"{count}: several learners train PPO only (the face maps no "
+                                           f"data-parallel path for {config.algo_name})")
+    world = os.environ.get("WORLD_SIZE")
+    if world != str(count):
+        script = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0].endswith(".py") \
+            and os.path.basename(sys.argv[0]) != "__main__.py" else "SCRIPT"
+        raise _bad(config, "num_learners", f"{count} learners train data-parallel under torch.distributed, one "
+                                           f"process each: start the script with `torchrun --standalone "
+                                           f"--nproc_per_node={count} -m rlchain.rllib {script} [ARGS]`"
+                                           f"{'' if world is None else f' (this launch has WORLD_SIZE={world})'}")
+    return count
 
 
 def num_envs(config: Any) -> int:
@@ -151,7 +172,8 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     check_supported(config)
     s = config._settings
     envs = num_envs(config)
-    batch = config.total_train_batch_size
+    ranks = learners(config)
+    batch = -(-config.total_train_batch_size // ranks)  # each learner process samples its share of the batch
     minibatch = _positive(config, "minibatch_size")
     if minibatch > batch:
         minibatch = batch
@@ -183,7 +205,7 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "minibatch_order": "shuffle" if s.get("shuffle_batch_per_epoch", True) else "fixed",
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
-        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
+        "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
     }
     if seq_len:
         train["seq_length"] = seq_len

@@ -252,28 +252,27 @@ _DEQUE = "__rlchain_deque__"
 
 def _encode(value: Any) -> Any:
     """``value`` with every deque (a frame-stack queue in a gymnasium env's state) as a tagged dict, which
-    ``weights_only`` can read; the object itself when it holds none. Only plain dicts, lists and tuples are
-    rebuilt (an OrderedDict state_dict keeps its metadata)."""
+    ``weights_only`` can read; the object itself when it holds none."""
     if isinstance(value, deque):
         return {_DEQUE: [_encode(v) for v in value], "maxlen": value.maxlen}
-    if type(value) is dict:
-        items = {k: _encode(v) for k, v in value.items()}
-        return items if any(items[k] is not value[k] for k in value) else value
-    if type(value) in (list, tuple):
-        items = [_encode(v) for v in value]
-        return type(value)(items) if any(a is not b for a, b in zip(items, value)) else value
-    return value
+    return _rebuilt(value, _encode)
 
 
 def _decode(value: Any) -> Any:
     """:func:`_encode` undone."""
+    if type(value) is dict and _DEQUE in value:
+        return deque((_decode(v) for v in value[_DEQUE]), maxlen=value["maxlen"])
+    return _rebuilt(value, _decode)
+
+
+def _rebuilt(value: Any, fn: Any) -> Any:
+    """A plain dict, list or tuple with ``fn`` applied to each item, rebuilt only when an item changed (so an
+    OrderedDict state_dict, never rebuilt, keeps its metadata); anything else as it is."""
     if type(value) is dict:
-        if _DEQUE in value:
-            return deque((_decode(v) for v in value[_DEQUE]), maxlen=value["maxlen"])
-        items = {k: _decode(v) for k, v in value.items()}
+        items = {k: fn(v) for k, v in value.items()}
         return items if any(items[k] is not value[k] for k in value) else value
     if type(value) in (list, tuple):
-        items = [_decode(v) for v in value]
+        items = [fn(v) for v in value]
         return type(value)(items) if any(a is not b for a, b in zip(items, value)) else value
     return value
 

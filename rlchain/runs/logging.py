@@ -30,7 +30,7 @@ class TrainLogger:
         self.print_stats = print_stats
         self.stream = stream or sys.stdout
         # no progress block (tests, tuning's loggers): plain lines, never the live status
-        progress = progress if progress is not None else ProgressConfig(live=False)
+        progress = self.progress = progress if progress is not None else ProgressConfig(live=False)
         console = [ConsoleWriter(self.stream, progress)] if print_stats else []
         self.writers: list[Writer] = [*console, *([self.tensorboard] if self.tensorboard else []), *(writers or [])]
         self.start = time.time()
@@ -38,6 +38,11 @@ class TrainLogger:
         self.last_scalars: dict[str, float] = {}
         self.rl_games = rl_games
         """Given for runs through rl_games' API: rl_games' extra tags, scalars at the frames before the epoch."""
+
+    def moved(self, summaries_dir: str, writers: list[Writer]) -> TrainLogger:
+        """A logger like this one (its console, progress and rl_games' tags) that writes TensorBoard into another
+        run folder's ``summaries_dir`` and through ``writers`` (that folder's own)."""
+        return TrainLogger(summaries_dir, self.print_stats, self.stream, writers, self.progress, self.rl_games)
 
     @property
     def writer(self) -> Any:

@@ -222,11 +222,14 @@ class CallbackContext:
         if guard is not None:
             guard.snapshot(self._run.epoch)
 
-    def move_run(self, run: Any, logger: Any) -> Any:
-        """Log and checkpoint into ``run`` (a RunDir) through ``logger`` from now on; returns the logger it
-        replaces (the caller closes it)."""
-        old, self._run.logger, self._checkpoints.run = self._run.logger, logger, run
-        return old
+    def move_run(self, run: RunDir, writers: list[Any]) -> Any:
+        """Log and checkpoint into ``run`` from now on, through a logger like the run's own (its console, progress
+        and rl_games' tags) with ``writers`` (``run``'s own); closes the logger it replaces and returns the new
+        one (the caller closes it when the run ends)."""
+        old = self._run.logger
+        self._run.logger, self._checkpoints.run = old.moved(run.summaries, writers), run
+        old.close()
+        return self._run.logger
 
     def request_stop(self, reason: str) -> None:
         """Stop after the current epoch with a checkpoint, as a signal would."""

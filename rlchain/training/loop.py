@@ -19,7 +19,7 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 import torch
 
 from rlchain.algos.base.algorithm import Algorithm
-from rlchain.algos.base.context import describe, make_context, to_device
+from rlchain.algos.base.context import describe, make_context
 from rlchain.algos.base.safety import DivergenceGuard, StopSignals, UpdateInterrupted, check_parameters
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
@@ -43,11 +43,12 @@ from rlchain.training.live_params import LiveParams
 from rlchain.training.saving import CheckpointSaver
 from rlchain.training.self_play import SelfPlayCallback
 
-__all__ = ["Loop", "TrainResult", "AlgorithmFactory", "tag_metrics", "to_device", "describe"]
+__all__ = ["Loop", "TrainResult", "AlgorithmFactory", "tag_metrics"]
 
 log = get_logger(__name__)
 
 AlgorithmFactory = type[Algorithm]
+"""What is registered as an algo: its class, built as ``cls(params, env, model, ctx)``."""
 
 
 @runtime_checkable
@@ -61,7 +62,6 @@ class InterruptibleUpdate(Protocol):
     def learners(self) -> list[tuple[torch.nn.Module, Any]]:
         """(model, agent) pairs the update trains."""
         ...
-"""What is registered as an algo: its class, built as ``cls(params, env, model, ctx)``."""
 
 
 @dataclass

@@ -110,16 +110,14 @@ class EpochStepper(Callback):
 
     def move_run(self, experiment: str) -> None:
         """Log and checkpoint the parked run under another run folder of the same train_dir, with the same
-        checkpoint names (the run's layout) (an actor Ray reuses for another trial keeps its envs but writes
-        that trial's TensorBoard)."""
+        checkpoint names (the run's layout) and the same console and TensorBoard tags (an actor Ray reuses for
+        another trial keeps its envs but writes that trial's TensorBoard)."""
         context = self.context
         if context is None or context.run_dir is None:
             return
         cfg = context.params.config
         run = create_run_dir(cfg.train_dir, cfg.name, experiment, context.raw_config, layout=context.run_dir.layout)
-        logger = TrainLogger(run.summaries, cfg.print_stats, writers=make_writers(cfg.log_writers, run.root))
-        context.move_run(run, logger).close()
-        self._moved_logger = logger
+        self._moved_logger = context.move_run(run, make_writers(cfg.log_writers, run.root))
 
     def shutdown(self, timeout: float = 60.0) -> None:
         """Stop the run after the parked epoch (it saves its last checkpoint) and wait for it."""

@@ -23,6 +23,7 @@ from tests.conftest import CONFIGS, ROOT
 pytestmark = pytest.mark.smoke
 
 DUMP_ENV = "RLCHAIN_TEST_DIST_DUMP"
+SCORE = 60  # the two-rank run's score_to_win
 CALLBACK = 'params.config.callbacks=["tests.smoke.test_distributed:DumpState"]'
 
 
@@ -111,10 +112,13 @@ def assert_ranks_identical(states):
 
 @pytest.mark.timeout(300)
 def test_two_ranks_reach_cartpole_score_identically_then_resume(tmp_path):
+    # a score of 60 (a random policy scores about 22) is a few epochs: what is tested is that every rank stops at
+    # the same epoch on the reduced score, not how far PPO learns (tests/learning/test_learning.py)
     cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
-    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path)], tmp_path)
+    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, f"params.config.score_to_win={SCORE}")],
+                          tmp_path)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    assert "score_to_win 475.0 reached" in out.stdout
+    assert f"score_to_win {SCORE:.1f} reached" in out.stdout
     assert out.stdout.count("rlchain: training") == 1  # rank 0 alone prints progress
     last = re.findall(r"reward ([\d.]+) \| best ([\d.]+)", out.stdout)[-1]
     stop = re.search(r"mean reward ([\d.]+), best ([\d.]+)", out.stdout).groups()
@@ -123,7 +127,7 @@ def test_two_ranks_reach_cartpole_score_identically_then_resume(tmp_path):
     assert_ranks_identical(states)
     epoch = states[0]["epoch"]
     assert states[0]["frames"] == epoch * 32 * 16 * 2  # frames count both ranks
-    assert states[0]["best_reward"] >= 475
+    assert states[0]["best_reward"] >= SCORE
 
     runs = glob.glob(str(tmp_path / "runs" / "*"))
     assert len(runs) == 1  # one run folder, one set of checkpoints, one TensorBoard log

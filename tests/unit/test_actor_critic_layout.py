@@ -31,16 +31,26 @@ BLOCKS = {
 }
 
 
-def _both(block, shape, space):
+def _face(block, shape, space):
     sizes = list(space.nvec) if isinstance(space, gym.spaces.MultiDiscrete) else None
-    actions = sum(sizes) if sizes else (space.n if isinstance(space, gym.spaces.Discrete) else space.shape[0])
+    actions = sizes if sizes else (space.n if isinstance(space, gym.spaces.Discrete) else space.shape[0])
     face = network_builder.A2CBuilder()
     face.load({"name": "actor_critic", **block})
-    theirs = face.build("a2c", actions_num=[int(n) for n in sizes] if sizes else actions, input_shape=shape,
-                        value_size=1, num_seqs=4)
+    return face.build("a2c", actions_num=[int(n) for n in sizes] if sizes else actions, input_shape=shape,
+                      value_size=1, num_seqs=4)
+
+
+def _ours(block, shape, space):
+    sizes = list(space.nvec) if isinstance(space, gym.spaces.MultiDiscrete) else None
+    actions = sum(sizes) if sizes else (space.n if isinstance(space, gym.spaces.Discrete) else space.shape[0])
     ours = ActorCriticBuilder()
     ours.load(parse_dataclass(NetworkConfig, block, "params.network", "cfg.yaml"))
-    return ours.build("network", input_shape=shape, actions_num=actions, value_size=1, action_space=space), theirs
+    return ours.build("network", input_shape=shape, actions_num=actions, value_size=1, action_space=space)
+
+
+def _both(block, shape, space):
+    theirs = _face(block, shape, space)
+    return _ours(block, shape, space), theirs
 
 
 @pytest.mark.parametrize("kind", list(BLOCKS))
@@ -67,3 +77,19 @@ def test_the_model_holds_rl_games_model_names():
                                             "value_mean_std.count", "running_mean_std.running_mean",
                                             "running_mean_std.running_var", "running_mean_std.count"]
     assert list(model.state_dict())[6:8] == ["a2c_network.sigma", "a2c_network.actor_mlp.0.weight"]
+
+
+@pytest.mark.parametrize("kind", list(BLOCKS))
+def test_one_network_the_face_draws_the_same_weights(kind):
+    """A2CBuilder.Network is the actor-critic network: with one seed both builds hold the same tensors and,
+    on the same observations, give the same outputs (channels-last images permuted by either)."""
+    torch.manual_seed(0)
+    ours = _ours(*BLOCKS[kind])
+    torch.manual_seed(0)
+    theirs = _face(*BLOCKS[kind])
+    assert all(torch.equal(a, b) for a, b in zip(ours.state_dict().values(), theirs.state_dict().values()))
+    obs = torch.rand(4, *BLOCKS[kind][1])
+    inputs = {"obs": obs, "rnn_states": ours.get_default_rnn_state(4)} if ours.is_rnn() else {"obs": obs}
+    for a, b in zip(ours(dict(inputs))[:-1], theirs(dict(inputs))[:-1]):
+        for x, y in zip(a if isinstance(a, list) else [a], b if isinstance(b, list) else [b]):
+            assert torch.equal(x, y)

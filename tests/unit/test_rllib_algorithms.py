@@ -32,6 +32,7 @@ def test_sac_defaults_are_rllibs_and_map_onto_rlchains_sac():
     assert (cfg["batch_size"], cfg["replay_buffer_size"], cfg["prioritized_replay"]) == (256, 1_000_000, True)
     assert (cfg["num_warmup_frames"], cfg["num_steps_per_episode"], cfg["num_updates_per_step"]) == (1500, 100, 1)
     assert cfg["num_actors"] == 1 and cfg["clip_actions"] and cfg["log_std_bounds"] == [-20.0, 20.0]
+    assert cfg["loss"] == "huber"  # RLlib's critic loss
     # RLlib's DefaultModelConfig: an MLP of 256, 256 with tanh for the actor and both critics
     assert params["network"]["mlp"]["units"] == [256, 256] and params["network"]["mlp"]["activation"] == "tanh"
 

@@ -109,7 +109,7 @@ def test_batch_shape_keeps_rllibs_batch_when_it_splits(batch, envs, minibatch, s
     (lambda c: c.rl_module(model_config={"use_attention": True}), "model_config.use_attention"),
     (lambda c: c.rl_module(model_config={"fcnet_hidens": [8]}), "model_config.fcnet_hidens"),
     (lambda c: c.training(grad_clip=1.0, grad_clip_by="value"), "grad_clip_by"),
-    (lambda c: c.multi_agent(policies={"a", "b"}), "policies"),
+    (lambda c: c.training(entropy_coeff_schedule=[[0, 0.01]]), "entropy_coeff_schedule"),
 ])
 def test_what_the_face_does_not_offer_is_one_line(build, key):
     with pytest.raises(ConfigError, match=key) as info:
@@ -158,20 +158,12 @@ def test_dqn_config_maps_onto_rlchains_dqn():
         translate.dqn_config(DQNConfig().training(num_atoms=51), "CartPole-v1", {})
 
 
-def test_unoffered_algorithms_and_multi_agent_envs_are_one_line():
+def test_unoffered_algorithms_are_one_line():
     from rlchain.rllib import envs
     from rlchain.rllib.algorithms.sac import SACConfig
-    from rlchain.rllib.env.multi_agent_env import MultiAgentEnv
 
     with pytest.raises(ConfigError, match="Discrete actions are not mapped by the face for SAC") as info:
         SACConfig().environment("CartPole-v1").build_algo()
-    assert "\n" not in str(info.value)
-
-    class TwoAgents(MultiAgentEnv):
-        pass
-
-    with pytest.raises(ConfigError, match="TwoAgents is a MultiAgentEnv.*PettingZoo") as info:
-        envs.env_maker(TwoAgents, {}, 0, 1)
     assert "\n" not in str(info.value)
     with pytest.raises(ConfigError, match="'CartPol-v1' is neither a gymnasium id.*did you mean 'CartPole-v1'"):
         envs.env_maker("CartPol-v1", {}, 0, 1)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from rlchain.training.loop import to_device
+from rlchain.algos.base.context import to_device
 
 
 def test_cpu_shares_numpy_memory():

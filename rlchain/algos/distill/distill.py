@@ -205,11 +205,6 @@ class Distill(AlgorithmBase):
         """The student's RNN states (carried by the collector, before the teacher's)."""
         return self.collector.rnn_states[:self.student_states]
 
-    @property
-    def teacher_states(self) -> tuple:
-        """The teacher's RNN states (carried by the collector, after the student's)."""
-        return self.collector.rnn_states[self.student_states:]
-
     def _exclude_mixed(self, result: Any) -> None:
         """Keep the Loop's episode statistics to the episodes the student played alone: the others ending
         this step are marked dropped for its tracker (not recorded, not counted)."""

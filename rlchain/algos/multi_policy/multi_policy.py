@@ -208,13 +208,6 @@ class MultiPolicyPPO(AlgorithmBase):
         if self.snapshots is not None:
             self.snapshots.end_epoch(self)
 
-    def learners(self) -> list[tuple[torch.nn.Module, Any]]:
-        return [(self.model, self.agent)]
-
-    def policy_rewards(self) -> dict[str, float]:
-        """Each policy's mean episode reward over its tracked agent-episodes (NaN before any)."""
-        return {lr.name: lr.tracker.mean_return() if lr.tracker.has_data else float("nan") for lr in self.policies}
-
     # ----- checkpoints ----------------------------------------------------------------------
     def extra_state(self, kind: str) -> dict:
         """Each policy's episode statistics (the models and optimizers travel as model / agent)."""

@@ -176,7 +176,11 @@ class SACAgent:
             q1, q2 = q_values(critic, obs, actions)
         q1, q2 = q1.float(), q2.float()
         weights = batch["weights"]
-        critic_loss = (weights * ((q1 - target).square() + (q2 - target).square())).mean()
+        if getattr(cfg, "loss", "mse") == "huber":  # RLlib's: a Huber loss (delta 1) for each critic
+            errors = F.huber_loss(q1, target, reduction="none") + F.huber_loss(q2, target, reduction="none")
+        else:
+            errors = (q1 - target).square() + (q2 - target).square()
+        critic_loss = (weights * errors).mean()
         optimizer_step(self.critic_opt, critic_loss, params=self._critic_params, max_norm=cfg.grad_norm)
         td = 0.5 * ((q1 - target).abs() + (q2 - target).abs()).detach()
 

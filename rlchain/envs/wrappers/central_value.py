@@ -61,11 +61,6 @@ def concat_obs_state_env(env: gym.Env) -> gym.Env:
     return ConcatObsState(env) if is_obs_state_space(env.observation_space) else env
 
 
-def obs_state_parts(space: gym.Space) -> tuple[gym.Space | None, gym.Space | None]:
-    """The (obs, state) spaces as the env declared them, for an ObsStateBox; (None, None) otherwise."""
-    return (space.obs_space, space.state_space) if isinstance(space, ObsStateBox) else (None, None)
-
-
 def obs_state_split(space: gym.Space) -> int | None:
     """Where the actor's part ends in a vecenv's observations, or None without a central-value state."""
     return getattr(space, "obs_size", None) if isinstance(space, ObsStateBox) else None

@@ -23,9 +23,10 @@ import torch.nn as nn
 
 from rlchain.config import compat
 from rlchain.config.fields import parse_dataclass
-from rlchain.config.network import InitializerConfig, NetworkConfig
+from rlchain.config.network import InitializerConfig, MlpConfig, NetworkConfig
 from rlchain.networks import NetworkBuilder as _RlchainBuilder
 from rlchain.networks.actor_critic import ActorCriticNetwork
+from rlchain.networks.sac_network import SACActor, TwinQCritic
 from rlchain.rl_games.algos_torch.base_network import BaseNetwork
 from rlchain.rl_games.algos_torch.sac_helper import SquashedNormal
 from rlchain.rl_games.algos_torch.torch_ext import shape_whc_to_cwh
@@ -153,36 +154,40 @@ def _known(cls: type, block: Any) -> dict:
     return out
 
 
-class DiagGaussianActor(BaseNetwork):
-    """SAC's actor: an MLP to (mu, log_std) per action; ``forward(obs)`` returns the tanh-squashed Normal with
-    log_std squashed into ``log_std_bounds`` by a tanh (rl_games' soft bound)."""
+def _mlp_config(mlp_args: dict) -> MlpConfig:
+    """rl_games' ``_build_mlp`` arguments as the MlpConfig of rlchain's MLP (Linear, activation, norm per layer;
+    the weights as torch draws them: SACBuilder.Network initializes them after the build, as rl_games does)."""
+    block = {"units": list(mlp_args["units"]), "activation": mlp_args["activation"],
+             "normalization": mlp_args.get("norm_func_name"), "norm_after_activation": True,
+             "d2rl": bool(mlp_args.get("d2rl", False)),
+             "norm_only_first_layer": bool(mlp_args.get("norm_only_first_layer", False))}
+    return parse_dataclass(MlpConfig, block, "params.network.mlp", SOURCE)
+
+
+class DiagGaussianActor(SACActor, BaseNetwork):
+    """SAC's actor, rlchain's (:class:`rlchain.networks.sac_network.SACActor`: one ``trunk`` Sequential to
+    (mu, log_std) per action, log_std squashed into ``log_std_bounds`` by a tanh) built from rl_games' arguments;
+    ``forward(obs)`` returns rl_games' tanh-squashed Normal."""
 
     def __init__(self, output_dim: int, log_std_bounds: Any, **mlp_args: Any) -> None:
-        super().__init__()
-        self.log_std_bounds = log_std_bounds
-        trunk = self._build_mlp(**mlp_args)
-        last = [m for m in trunk.modules() if isinstance(m, nn.Linear)][-1].out_features
-        self.trunk = nn.Sequential(*trunk.children(), nn.Linear(last, output_dim))
+        if log_std_bounds is None:
+            raise ValueError("params.network.log_std_bounds: SAC's actor needs [low, high] (e.g. [-5, 2])")
+        SACActor.__init__(self, mlp_args["input_size"], output_dim // 2, _mlp_config(mlp_args), log_std_bounds)
 
     def forward(self, obs: torch.Tensor) -> SquashedNormal:
-        mu, log_std = self.trunk(obs).chunk(2, dim=-1)
-        low, high = self.log_std_bounds
-        log_std = low + 0.5 * (high - low) * (torch.tanh(log_std) + 1)
+        mu, log_std = SACActor.forward(self, obs)
         return SquashedNormal(mu, log_std.exp())
 
 
-class DoubleQCritic(BaseNetwork):
-    """SAC's twin critics: ``forward(obs, action)`` -> (q1, q2), each (B, output_dim)."""
+class DoubleQCritic(TwinQCritic, BaseNetwork):
+    """SAC's twin critics, rlchain's (:class:`rlchain.networks.sac_network.TwinQCritic`: ``Q1`` / ``Q2``) built
+    from rl_games' arguments (``input_size``: observation and action together); ``forward(obs, action)`` ->
+    (q1, q2), each (B, 1) as rl_games returns them."""
 
     def __init__(self, output_dim: int, **mlp_args: Any) -> None:
-        super().__init__()
-        self.Q1 = self._head(output_dim, mlp_args)
-        self.Q2 = self._head(output_dim, mlp_args)
-
-    def _head(self, output_dim: int, mlp_args: dict) -> nn.Sequential:
-        trunk = self._build_mlp(**mlp_args)
-        last = [m for m in trunk.modules() if isinstance(m, nn.Linear)][-1].out_features
-        return nn.Sequential(*trunk.children(), nn.Linear(last, output_dim))
+        if output_dim != 1:
+            raise ValueError(f"DoubleQCritic: one Q-value per critic, got output_dim={output_dim}")
+        TwinQCritic.__init__(self, mlp_args["input_size"], 0, _mlp_config(mlp_args))
 
     def forward(self, obs: torch.Tensor, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         x = torch.cat([obs, action], dim=-1)

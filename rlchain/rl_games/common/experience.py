@@ -78,10 +78,11 @@ class VectorizedReplayBuffer:
         return self.capacity if self.full else self.idx
 
     def sample(self, batch_size: int) -> tuple[torch.Tensor, ...]:
-        """``batch_size`` rows drawn uniformly (with replacement) among those written:
+        """``batch_size`` rows drawn uniformly (with replacement) among those written (none: a RuntimeError, as in
+        rl_games 2.0):
         ``(obses, actions, rewards, next_obses, dones, truncated)``."""
         if len(self) == 0:
-            raise ValueError("VectorizedReplayBuffer.sample: the buffer is empty (add transitions first)")
+            raise RuntimeError("VectorizedReplayBuffer.sample: the buffer is empty (add transitions first)")
         rows = torch.randint(0, len(self), (int(batch_size),), device=self.obses.device)
         return tuple(store[rows] for store in self._fields().values())
 

@@ -1,5 +1,5 @@
-"""``ray.rllib.env.multi_agent_env``: ``MultiAgentEnv`` (subclassing works; training one is refused in one line)."""
+"""``ray.rllib.env.multi_agent_env``: ``MultiAgentEnv`` and ``make_multi_agent`` (rlchain.rllib.multi_agent)."""
 
-from rlchain.rllib.multi_agent import MultiAgentEnv
+from rlchain.rllib.multi_agent import MultiAgentEnv, make_multi_agent
 
-__all__ = ["MultiAgentEnv"]
+__all__ = ["MultiAgentEnv", "make_multi_agent"]

@@ -1,1 +1,30 @@
-"""``ray.rllib.examples``: the helpers RLlib's example scripts import (``examples.utils``)."""
+"""``ray.rllib.examples``: the helpers RLlib's example scripts import (``examples.utils``).
+
+When RLlib is installed beside the face, its own example classes (``ray.rllib.examples.envs.classes...``,
+``ray.rllib.examples.rl_modules.classes...``: envs and modules written against RLlib's public API) are found under
+this package too, so an example script that imports one runs unmodified; their ``ray.rllib`` imports resolve to
+the face like the script's own. The face's modules come first (``examples.utils`` is always the face's).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+
+
+def _rllib_examples_dir() -> str | None:
+    """The installed RLlib's ``examples`` folder (found on disk, without importing ``ray.rllib``), or None."""
+    try:  # optional: ray
+        spec = importlib.util.find_spec("ray")
+    except (ImportError, ValueError):
+        return None
+    for root in (spec.submodule_search_locations or []) if spec is not None else []:
+        folder = os.path.join(root, "rllib", "examples")
+        if os.path.isdir(folder):
+            return folder
+    return None
+
+
+_theirs = _rllib_examples_dir()
+if _theirs is not None and _theirs not in __path__:
+    __path__.append(_theirs)

@@ -14,10 +14,10 @@ What maps (RLlib 2.60's defaults in brackets):
   critics; ``log_std_clip_param`` (20) clips the log-std to [-20, 20]; actions squashed to [-1, 1] and rescaled
   to the env's bounds (``normalize_actions``, RLlib's default).
 
-What does not: ``twin_q=False`` (rlchain's SAC always has twin critics), a ``target_network_update_freq`` above 0,
-discrete actions, ``n_step`` ranges, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a
-one-line error. rlchain's critic loss is the squared error (RLlib's is a Huber loss with delta 1; the same below
-an error of 1); warmup actions are uniform (RLlib samples its initial policy).
+Each critic's TD loss is RLlib's Huber loss (delta 1): ``loss: huber``. What does not map: ``twin_q=False``
+(rlchain's SAC always has twin critics), a ``target_network_update_freq`` above 0, discrete actions, ``n_step``
+ranges, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a one-line error. Warmup actions
+are uniform (RLlib samples its initial policy).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     train = {
         "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]),
         "actor_lr": _number(config, "actor_lr"), "critic_lr": _number(config, "critic_lr"),
-        "alpha_lr": _number(config, "alpha_lr"), "init_alpha": _number(config, "initial_alpha"),
+        "alpha_lr": _number(config, "alpha_lr"), "init_alpha": _number(config, "initial_alpha"), "loss": "huber",
         "learnable_temperature": True,
         "target_entropy": None if target_entropy in ("auto", None) else float(target_entropy),
         "critic_tau": float(s["tau"]), "policy_frequency": 1, "batch_size": batch,

@@ -1,0 +1,175 @@
+"""A user's ``RLModule`` (``rl_module(rl_module_spec=RLModuleSpec(module_class=...))``) as an rlchain network.
+
+:func:`register` builds the module class on the env's spaces and ``model_config`` and registers it under a fresh
+network name, so rlchain's PPO trains it like any network: :class:`RLModuleNetwork` feeds the module RLlib's
+batch (``{"obs": ...}``, a dict of tensors for Dict observations) and hands the outputs to rlchain's
+distribution: ``action_dist_inputs`` are the logits (Discrete) or means then log-stds (Box, RLlib's diagonal
+Gaussian, as rlchain's ``continuous_a2c_logstd`` model reads them); ``compute_values`` is the value.
+
+The calls follow RLlib's PPO: a rollout step is ``forward_exploration`` then ``compute_values``; a training pass
+is ``forward_train`` then ``compute_values(batch, embeddings)`` with the embeddings it returned. With Dict
+observations the values come first, as RLlib's learner computes them (the GAE pass) before ``forward_train`` on
+the same batch (RLlib's action-masking module relies on that order).
+"""
+
+from __future__ import annotations
+
+import inspect
+import itertools
+from typing import Any
+
+import gymnasium as gym
+import torch
+from torch import nn
+
+from rlchain.model_builder import register_network
+from rlchain.rllib.core.columns import Columns
+
+_COUNTER = itertools.count(1)
+NAME_PREFIX = "rllib_module_"
+"""Registered network names start so (a checkpoint's YAML naming one needs the module class in the script)."""
+
+
+class RLModuleNetwork(nn.Module):
+    """An RLModule under rlchain's network call: ``forward({"obs": ...}) -> (logits, value, None)`` or, for Box
+    actions, ``(means, log_stds, value, None)``."""
+
+    def __init__(self, module: nn.Module, continuous: bool) -> None:
+        super().__init__()
+        self.module = module
+        self.continuous = continuous
+        if module.is_stateful() if callable(getattr(module, "is_stateful", None)) else False:
+            raise ValueError(f"{type(module).__name__} is stateful (get_initial_state): recurrent RLModules are not "
+                             f"trained by the face; write an rlchain YAML with an rnn block (docs/config.md)")
+        compute = getattr(module, "compute_values", None)
+        if not callable(compute):
+            raise ValueError(f"{type(module).__name__} has no compute_values: PPO needs a module with "
+                             f"ValueFunctionAPI (compute_values(batch, embeddings=None))")
+        try:
+            self._takes_embeddings = "embeddings" in inspect.signature(compute).parameters
+        except (TypeError, ValueError):
+            self._takes_embeddings = False
+
+    def _values(self, batch: dict[str, Any], embeddings: Any = None) -> torch.Tensor:
+        if self._takes_embeddings and embeddings is not None:
+            return self.module.compute_values(batch, embeddings=embeddings)
+        return self.module.compute_values(batch)
+
+    def forward(self, inputs: dict[str, Any]) -> tuple:
+        obs = inputs["obs"]
+        batch = {Columns.OBS: dict(obs) if isinstance(obs, dict) else obs}
+        if inputs.get("is_train"):
+            if isinstance(obs, dict):
+                values = self._values(batch)
+                out = self.module.forward_train(batch)
+            else:
+                out = self.module.forward_train(batch)
+                values = self._values(batch, out.get(Columns.EMBEDDINGS))
+        else:
+            out = self.module.forward_exploration(batch)
+            values = self._values(batch, out.get(Columns.EMBEDDINGS))
+        if Columns.ACTION_DIST_INPUTS not in out:
+            raise ValueError(f"{type(self.module).__name__}'s forward returned {sorted(out)}: no "
+                             f"'{Columns.ACTION_DIST_INPUTS}'")
+        params = out[Columns.ACTION_DIST_INPUTS]
+        value = values.reshape(values.shape[0], -1) if values.dim() != 2 else values
+        if self.continuous:
+            mean, log_std = params.chunk(2, dim=-1)
+            return mean, log_std, value, None
+        return params, value, None
+
+
+def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, model_config: dict[str, Any]) -> str:
+    """A fresh network name whose builder makes ``spec.module_class`` on these spaces (the spec's own spaces when
+    it gives them) with ``model_config``, wrapped in :class:`RLModuleNetwork`."""
+    module_class = spec.module_class
+    obs_space = spec.observation_space or observation_space
+    act_space = spec.action_space or action_space
+    continuous = isinstance(act_space, gym.spaces.Box)
+
+    def build(block: Any, **kwargs: Any) -> RLModuleNetwork:
+        module = module_class(observation_space=obs_space, action_space=act_space, inference_only=False,
+                              learner_only=False, model_config=dict(model_config), catalog_class=spec.catalog_class)
+        if not isinstance(module, nn.Module):
+            raise ValueError(f"{module_class.__name__} is not a torch module: subclass TorchRLModule")
+        return RLModuleNetwork(module, continuous)
+
+    build.takes_dict_obs = isinstance(observation_space, gym.spaces.Dict)
+    name = f"{NAME_PREFIX}{next(_COUNTER)}"
+    register_network(name, build)
+    return name
+
+
+def apply_spec(config: Any, rlchain_config: dict[str, Any], observation_space: gym.Space,
+               action_space: gym.Space) -> None:
+    """Put the config's ``rl_module_spec`` into ``rlchain_config`` (PPO): a module class as the network; a spec
+    with only ``model_config`` is RLlib's default PPO module on that config; neither changes nothing."""
+    spec = config._settings.get("rl_module_spec")
+    if spec is None:
+        return
+    from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    if isinstance(spec, MultiRLModuleSpec):
+        spec = spec.spec_of(DEFAULT_MODULE)
+        if spec is None:
+            return
+    params = rlchain_config["params"]
+    params["network"] = network_block(config, spec, observation_space, action_space) or params["network"]
+
+
+def network_block(config: Any, spec: Any, observation_space: gym.Space, action_space: gym.Space
+                  ) -> dict[str, Any] | None:
+    """The network block of one module spec (None: the face's own network from ``model_config``)."""
+    from rlchain.config.errors import ConfigError
+    from rlchain.rllib.module import RLModuleSpec
+    where = f"{type(config).__name__}.rl_module()"
+    if not isinstance(spec, RLModuleSpec):
+        raise ConfigError(where, "rl_module_spec", f"expected an RLModuleSpec or MultiRLModuleSpec, got "
+                                                   f"{type(spec).__name__}")
+    if spec.module_class is None and spec.model_config is None:
+        return None
+    if spec.load_state_path is not None:
+        raise ConfigError(where, "rl_module_spec.load_state_path", "RLlib's module state files are not read: "
+                                                                   "restore an rlchain checkpoint")
+    import dataclasses
+    own = spec.model_config
+    own = dataclasses.asdict(own) if dataclasses.is_dataclass(own) else dict(own or {})
+    module_class = spec.module_class
+    if module_class is None:  # RLlib's default PPO module on the spec's model_config
+        from rlchain.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
+        module_class = DefaultPPOTorchRLModule
+    if not (isinstance(module_class, type) and issubclass(module_class, nn.Module)):
+        raise ConfigError(where, "rl_module_spec.module_class", f"{module_class!r}: expected a TorchRLModule "
+                                                                f"subclass")
+    spec = dataclasses.replace(spec, module_class=module_class)
+    from rlchain.rllib import keys as K
+    auto = K.ALGO_DEFAULTS.get(config.algo_name, {}).get("model_config", {})  # RLlib's auto-included keys
+    settings = config._settings
+    model_config = {**auto, **(settings.get("model") or {}), **(settings.get("model_config") or {}), **own}
+    name = register(spec, observation_space, action_space, model_config)
+    return {"name": name}
+
+
+DEFAULT_MODULE = "default_policy"
+
+
+def policy_network(config: Any, policy: str, observation_space: gym.Space, action_space: gym.Space
+                   ) -> dict[str, Any]:
+    """The network block of one multi-agent policy: its module spec's (``MultiRLModuleSpec(rl_module_specs=
+    {policy: RLModuleSpec(...)})`` or one ``RLModuleSpec`` for all), else the face's network from
+    ``model_config``. The policy's observations arrive flattened (rlchain's PettingZoo backend)."""
+    from rlchain.config.errors import ConfigError
+    from rlchain.envs.backends.pettingzoo_env import flat_space
+    from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    from rlchain.rllib.networks import actor_critic_network
+    spec = config._settings.get("rl_module_spec")
+    if isinstance(spec, MultiRLModuleSpec):
+        spec = spec.spec_of(policy)
+    flat = flat_space(observation_space)[0]
+    block = None if spec is None else network_block(config, spec, flat, action_space)
+    if block is not None:
+        return block
+    network, seq_len = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
+    if seq_len is not None:
+        raise ConfigError(type(config).__name__, "model_config.use_lstm", "multi-agent policies are feedforward "
+                                                                          "(rlchain's multi-policy PPO)")
+    return network
