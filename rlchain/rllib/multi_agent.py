@@ -4,10 +4,10 @@ RLlib's multi-agent API: ``reset() -> (obs, infos)`` and ``step(action_dict) -> 
 truncateds, infos)``, dicts keyed by agent id, ``"__all__"`` in ``terminateds`` / ``truncateds`` ending the
 episode. An agent acts at a step when the last ``obs`` dict holds it (turn-based games send only the mover's);
 it leaves when its own ``terminateds`` / ``truncateds`` entry is True, and may appear mid-episode by getting an
-observation. :class:`ParallelView` shows one such env as PettingZoo's ParallelEnv, which rlchain's
-PettingZoo backend steps (:mod:`rlchain.envs.backends.pettingzoo_env`): steps where an agent is absent or waits
-are masked out of its policy's returns and loss (:mod:`rlchain.algos.multi_policy.masked`), and rewards an agent
-gets while waiting are summed into its next step.
+observation. :class:`~rlchain.envs.wrappers.multi_agent_parallel.ParallelView` shows one such env as
+PettingZoo's ParallelEnv, which rlchain's PettingZoo backend steps (:mod:`rlchain.envs.backends.pettingzoo_env`):
+steps where an agent is absent or waits are masked out of its policy's returns and loss
+(:mod:`rlchain.algos.multi_policy.masked`), and rewards an agent gets while waiting are summed into its next step.
 
 ``.multi_agent(policies=..., policy_mapping_fn=..., policies_to_train=...)``: each policy gets its own rlchain
 model and optimizer; ``policy_mapping_fn(agent_id, episode)`` is asked once per agent id (rlchain maps an agent
@@ -19,7 +19,6 @@ from __future__ import annotations
 import copy
 import glob
 import itertools
-from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -28,9 +27,12 @@ import numpy as np
 
 from rlchain import env_configurations
 from rlchain.config.errors import ConfigError
+from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv
+from rlchain.envs.wrappers.multi_agent_parallel import ALL, EpisodeLog, ParallelView, agent_ids_of, space_of
+from rlchain.inference.policy_player import play_policies
+from rlchain.rllib import translate
 
 _COUNTER = itertools.count(1)
-ALL = "__all__"
 ENV_STATE = "state"
 """RLlib's key of a global state in an agent's observation dict (RLlib's grouped-agents examples use it)."""
 
@@ -56,10 +58,10 @@ class MultiAgentEnv(gym.Env):
             self.possible_agents = list(self.agents)
 
     def get_observation_space(self, agent_id: Any) -> gym.Space:
-        return _space_of(self.observation_spaces, self.observation_space, agent_id)
+        return space_of(self.observation_spaces, self.observation_space, agent_id)
 
     def get_action_space(self, agent_id: Any) -> gym.Space:
-        return _space_of(self.action_spaces, self.action_space, agent_id)
+        return space_of(self.action_spaces, self.action_space, agent_id)
 
     @property
     def num_agents(self) -> int:
@@ -74,14 +76,6 @@ class MultiAgentEnv(gym.Env):
 
     def render(self) -> Any:
         return None
-
-
-def _space_of(spaces: dict | None, space: gym.Space | None, agent_id: Any) -> gym.Space:
-    if spaces is not None:
-        return spaces[agent_id]
-    if isinstance(space, gym.spaces.Dict) and agent_id in space.spaces:
-        return space[agent_id]
-    return space
 
 
 def make_multi_agent(env_name_or_creator: Any) -> type[MultiAgentEnv]:
@@ -134,113 +128,10 @@ def is_multi_agent(env: Any) -> bool:
     return isinstance(env, MultiAgentEnv) or any(c.__name__ == "MultiAgentEnv" for c in type(env).__mro__)
 
 
-class EpisodeLog:
-    """Finished episodes of every env copy, as RLlib reports multi-agent ones: the return summed over agents,
-    the length in env steps, and each agent's own return."""
-
-    def __init__(self, window: int = 100) -> None:
-        self.returns: deque = deque(maxlen=window)
-        self.lengths: deque = deque(maxlen=window)
-        self.agent_returns: dict[str, deque] = {}
-        self.window = window
-        self.finished = 0
-
-    def add(self, total: float, length: int, per_agent: dict[str, float]) -> None:
-        self.returns.append(total)
-        self.lengths.append(length)
-        for agent, value in per_agent.items():
-            self.agent_returns.setdefault(agent, deque(maxlen=self.window)).append(value)
-        self.finished += 1
-
-
-class ParallelView:
-    """One RLlib MultiAgentEnv as PettingZoo's ParallelEnv (agent ids as strings); see the module docstring."""
-
-    metadata = {"name": "rllib_multi_agent", "is_parallelizable": True}
-
-    def __init__(self, env: Any, agent_ids: list[Any], log: EpisodeLog | None = None) -> None:
-        self.env = env
-        self._ids = {str(a): a for a in agent_ids}
-        if len(self._ids) != len(agent_ids):
-            raise ConfigError("AlgorithmConfig.environment()", "env", f"agent ids {agent_ids!r} are not distinct "
-                                                                      f"as strings")
-        self.possible_agents = list(self._ids)
-        self.agents: list[str] = []
-        self._acting: set[str] = set()
-        self._log = log
-        self._returns: dict[str, float] = {}
-        self._length = 0
-
-    def observation_space(self, agent: str) -> gym.Space:
-        return self.env.get_observation_space(self._ids[agent]) if hasattr(self.env, "get_observation_space") \
-            else _space_of(getattr(self.env, "observation_spaces", None), self.env.observation_space, self._ids[agent])
-
-    def action_space(self, agent: str) -> gym.Space:
-        return self.env.get_action_space(self._ids[agent]) if hasattr(self.env, "get_action_space") \
-            else _space_of(getattr(self.env, "action_spaces", None), self.env.action_space, self._ids[agent])
-
-    def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-        out = self.env.reset(seed=seed, options=options)
-        obs, infos = out if isinstance(out, tuple) else (out, {})
-        obs = self._keyed(obs)
-        self.agents = list(obs)
-        self._acting = set(obs)
-        self._returns, self._length = {}, 0
-        return obs, self._keyed(infos or {})
-
-    def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
-        sent = {self._ids[a]: act for a, act in actions.items() if a in self._acting}
-        obs, rewards, terms, truncs, infos = self.env.step(sent)
-        obs, rewards = self._keyed(obs), self._keyed(rewards)
-        all_term, all_trunc = bool(terms.get(ALL, False)), bool(truncs.get(ALL, False))
-        terms = {a: bool(v) for a, v in self._keyed(terms).items()}
-        truncs = {a: bool(v) for a, v in self._keyed(truncs).items()}
-        alive = [a for a in dict.fromkeys([*self.agents, *obs])]
-        if all_term or all_trunc:  # the episode is over for every agent still in it
-            for agent in alive:
-                if not (terms.get(agent) or truncs.get(agent)):
-                    terms[agent], truncs[agent] = all_term, all_trunc and not all_term
-        done = {a for a in alive if terms.get(a) or truncs.get(a)}
-        self.agents = [a for a in alive if a not in done]
-        self._acting = {a for a in obs if a not in done}
-        self._length += 1
-        for agent, reward in rewards.items():
-            self._returns[agent] = self._returns.get(agent, 0.0) + float(reward)
-        if not self.agents and self._log is not None:
-            self._log.add(sum(self._returns.values()), self._length, dict(self._returns))
-        return obs, rewards, terms, truncs, self._keyed(infos or {})
-
-    def _keyed(self, values: dict) -> dict:
-        return {str(a): v for a, v in values.items() if a != ALL}
-
-    def render(self) -> Any:
-        return self.env.render()
-
-    def close(self) -> None:
-        close = getattr(self.env, "close", None)
-        if callable(close):
-            close()
-
-
-def agent_ids_of(env: Any) -> list[Any]:
-    """Every agent id the env may have: ``possible_agents``, else ``agents``, else the ids of its per-agent
-    spaces, else those of its first observations."""
-    for ids in (getattr(env, "possible_agents", None), getattr(env, "agents", None),
-                list(getattr(env, "observation_spaces", None) or {})):
-        if ids:
-            return list(ids)
-    space = getattr(env, "observation_space", None)
-    if isinstance(space, gym.spaces.Dict):
-        return list(space.spaces)
-    obs = env.reset()[0]
-    return [a for a in obs if a != ALL]
-
-
 def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[EpisodeLog], window: int = 100) -> str:
     """A fresh env name whose builder steps ``make(0..n-1)`` (each a MultiAgentEnv) with rlchain's PettingZoo
     backend; each built vector env's finished episodes go to a new :class:`EpisodeLog` appended to ``logs`` (the
     training env's is the first, an evaluation env's the last)."""
-    from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv
     name = f"rllib_multi_agent_env_{next(_COUNTER)}"
 
     def build(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> PettingZooVecEnv:
@@ -385,7 +276,6 @@ class MultiAgentRun:
     def rlchain_config(self, config: Any, make: Callable[[int], Any], run: dict[str, Any],
                        network_of: Callable[..., dict]) -> tuple[str, dict[str, Any]]:
         """(the registered env name, the rlchain multi-policy PPO config)."""
-        from rlchain.rllib import translate
         window = int(config._settings.get("metrics_num_episodes_for_smoothing") or 100)
         env_name = register(make, self.agent_ids, self.logs, window)
         base = translate.ppo_config(config, env_name, False, run)
@@ -430,7 +320,6 @@ class MultiAgentRun:
     def evaluate(self, params: Any, models: Any, episodes: int, deterministic: bool) -> dict[str, Any]:
         """``episodes`` episodes of every policy on a fresh env (rlchain's multi-policy play loop); RLlib's
         evaluation results."""
-        from rlchain.inference.policy_player import play_policies
         was_training = models.training
         try:
             play_policies(params, None, episodes, deterministic, quiet=True, models=models)
