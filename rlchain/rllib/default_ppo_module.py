@@ -1,5 +1,7 @@
-"""``ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module``: ``DefaultPPOTorchRLModule``, PPO's default
-module written from RLlib's description, for subclasses (RLlib's action-masking example derives from it).
+"""``DefaultPPOTorchRLModule``, PPO's default module written from RLlib's description, for subclasses (RLlib's
+action-masking example derives from it); RLlib's path ``ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module``
+names it. It lives here, outside the ``algorithms`` package, so :mod:`rlchain.rllib.module_network` imports it
+without importing the algorithms (which import the module network).
 
 ``setup`` builds from ``model_config`` (RLlib's DefaultModelConfig keys): an encoder MLP of ``fcnet_hiddens`` with
 ``fcnet_activation`` (one trunk when ``vf_share_layers``, else a separate critic trunk), then the policy head and

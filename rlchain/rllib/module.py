@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from rlchain.envs.obs_dict import ObsDict
 from rlchain.rllib import keys as K
 
 ACTION_DIST_INPUTS = "action_dist_inputs"
@@ -75,7 +76,6 @@ class RLModuleView:
         obs = batch["obs"]
         device = next(iter([*self.model.parameters(), *self.model.buffers()]), torch.zeros(0)).device
         if isinstance(obs, dict):  # a Dict observation, kept per key as the run's model takes it
-            from rlchain.envs.obs_dict import ObsDict
             return ObsDict({k: self._tensor(v, device) for k, v in obs.items()})
         return self._tensor(obs, device)
 

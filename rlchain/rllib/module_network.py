@@ -14,6 +14,7 @@ the same batch (RLlib's action-masking module relies on that order).
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import itertools
 from typing import Any
@@ -22,8 +23,16 @@ import gymnasium as gym
 import torch
 from torch import nn
 
+from rlchain.config.errors import ConfigError
+from rlchain.envs.backends.pettingzoo_env import flat_space
 from rlchain.model_builder import register_network
+from rlchain.rllib import keys as K
 from rlchain.rllib.core.columns import Columns
+from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+from rlchain.rllib.default_ppo_module import DefaultPPOTorchRLModule
+from rlchain.rllib.module import RLModuleSpec
+from rlchain.rllib.multi_agent import policy_names, trained_policies
+from rlchain.rllib.networks import actor_critic_network
 
 _COUNTER = itertools.count(1)
 NAME_PREFIX = "rllib_module_"
@@ -131,7 +140,6 @@ def apply_spec(config: Any, rlchain_config: dict[str, Any], observation_space: g
     spec = config._settings.get("rl_module_spec")
     if spec is None:
         return
-    from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
     if isinstance(spec, MultiRLModuleSpec):
         spec = spec.spec_of(DEFAULT_MODULE)
         if spec is None:
@@ -143,8 +151,6 @@ def apply_spec(config: Any, rlchain_config: dict[str, Any], observation_space: g
 def network_block(config: Any, spec: Any, observation_space: gym.Space, action_space: gym.Space,
                   trained: bool = True) -> dict[str, Any] | None:
     """The network block of one module spec (None: the face's own network from ``model_config``)."""
-    from rlchain.config.errors import ConfigError
-    from rlchain.rllib.module import RLModuleSpec
     where = f"{type(config).__name__}.rl_module()"
     if not isinstance(spec, RLModuleSpec):
         raise ConfigError(where, "rl_module_spec", f"expected an RLModuleSpec or MultiRLModuleSpec, got "
@@ -154,18 +160,15 @@ def network_block(config: Any, spec: Any, observation_space: gym.Space, action_s
     if spec.load_state_path is not None:
         raise ConfigError(where, "rl_module_spec.load_state_path", "RLlib's module state files are not read: "
                                                                    "restore an rlchain checkpoint")
-    import dataclasses
     own = spec.model_config
     own = dataclasses.asdict(own) if dataclasses.is_dataclass(own) else dict(own or {})
     module_class = spec.module_class
     if module_class is None:  # RLlib's default PPO module on the spec's model_config
-        from rlchain.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
         module_class = DefaultPPOTorchRLModule
     if not (isinstance(module_class, type) and issubclass(module_class, nn.Module)):
         raise ConfigError(where, "rl_module_spec.module_class", f"{module_class!r}: expected a TorchRLModule "
                                                                 f"subclass")
     spec = dataclasses.replace(spec, module_class=module_class)
-    from rlchain.rllib import keys as K
     auto = K.ALGO_DEFAULTS.get(config.algo_name, {}).get("model_config", {})  # RLlib's auto-included keys
     settings = config._settings
     model_config = {**auto, **(settings.get("model") or {}), **(settings.get("model_config") or {}), **own}
@@ -181,15 +184,10 @@ def policy_network(config: Any, policy: str, observation_space: gym.Space, actio
     """The network block of one multi-agent policy: its module spec's (``MultiRLModuleSpec(rl_module_specs=
     {policy: RLModuleSpec(...)})`` or one ``RLModuleSpec`` for all), else the face's network from
     ``model_config``. The policy's observations arrive flattened (rlchain's PettingZoo backend)."""
-    from rlchain.config.errors import ConfigError
-    from rlchain.envs.backends.pettingzoo_env import flat_space
-    from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
-    from rlchain.rllib.networks import actor_critic_network
     spec = config._settings.get("rl_module_spec")
     if isinstance(spec, MultiRLModuleSpec):
         spec = spec.spec_of(policy)
     flat = flat_space(observation_space)[0]
-    from rlchain.rllib.multi_agent import policy_names, trained_policies
     to_train = trained_policies(config, policy_names(config)[0])
     trained = to_train is None or policy in to_train
     block = None if spec is None else network_block(config, spec, flat, action_space, trained)
