@@ -25,19 +25,19 @@ from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
 from rlchain.rllib import envs, module_network, multi_agent, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested
+from rlchain.rllib.checkpoint_files import (
+    CHECKPOINT_FILE,
+    CONFIG_FILE,
+    RLCHAIN_CONFIG_FILE,
+    checkpoint_file,
+    json_data,
+    read_text,
+)
 from rlchain.rllib.module import RLModuleView
+from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
 from rlchain.runner import Runner
-from rlchain.runs import checkpoint as ckpt
 from rlchain.training.callback_context import CallbackContext
 from rlchain.tuning.epochs import EpochStepper
-
-DEFAULT_MODULE = "default_policy"
-CHECKPOINT_FILE = "rlchain_checkpoint.pth"
-CONFIG_FILE = "rllib_config.json"
-RLCHAIN_CONFIG_FILE = "rlchain_config.yaml"
-RLLIB_FILES = ("algorithm_state.pkl", "algorithm_state.msgpack", "rllib_checkpoint.json",
-               "class_and_ctor_args.pkl", "policy_state.pkl", "module_state.pkl", "state.pkl")
-"""Files of RLlib's own checkpoints (pickles): refused, never unpickled."""
 
 
 class _Stepper(EpochStepper):
@@ -209,7 +209,7 @@ class Algorithm:
             cb.on_train_result(algorithm=self, metrics_logger=self.metrics, result=result)
         custom = self.metrics.reduce()
         if custom:
-            _deep_update(result, nested(custom))
+            deep_update(result, nested(custom))
         self._write_custom({**custom, **{f"env_runners/{k}": v for k, v in result.get("_episode_custom", {}).items()}})
         result.pop("_episode_custom", None)
         return result
@@ -217,47 +217,18 @@ class Algorithm:
     step = train  # Tune's Trainable name
 
     def _result(self, report: Any) -> dict[str, Any]:
-        stats = report.stats
-        nan = math.nan
-        ret = nan if report.mean_reward is None else report.mean_reward
-        length = nan if report.mean_length is None else report.mean_length
         ctx = self._stepper.context
-        frames = int(report.frames)
-        cfg = self.rlchain_config["params"]["config"]
-        per_iter = int(cfg["num_actors"] * cfg.get("horizon_length", cfg.get("num_steps_per_episode", 1)))
-        episode_custom = self._env_runner_metrics.reduce()
-        env_runners = {"episode_return_mean": ret, "episode_len_mean": length,
-                       "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
-                       "num_episodes_lifetime": int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
-                       **nested(episode_custom)}
-        learner = self.learner_results(stats, cfg)
-        if "kl_coef" in stats:
-            learner["curr_kl_coeff"] = stats["kl_coef"]
-        learners = {DEFAULT_MODULE: learner}
-        if self._multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
-            env_runners.update(self._multi.episodes())
-            ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
-            learners = self._multi.learners(stats, cfg["learning_rate"])
-        return {
-            "training_iteration": self.iteration, "iterations_since_restore": self.iteration,
-            "time_this_iter_s": report.seconds, "time_total_s": self._time_total, "timestamp": int(time.time()),
-            "num_env_steps_sampled_lifetime": frames, "timesteps_total": frames,
-            "num_training_step_calls_per_iteration": 1, "done": False,
-            "env_runners": env_runners,
-            "learners": {**learners, "__all_modules__": {"num_env_steps_trained": per_iter}},
-            "episode_reward_mean": ret, "episode_return_mean": ret, "episode_len_mean": length,
-            "info": {"learner": {k: {"learner_stats": dict(v)} for k, v in learners.items()}},
-            "_episode_custom": episode_custom,
-        }
+        return train_result(report, self.rlchain_config["params"]["config"], iteration=self.iteration,
+                            time_total=self._time_total,
+                            games=int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
+                            episode_custom=self._env_runner_metrics.reduce(),
+                            learner=self.learner_results(report.stats, self.rlchain_config["params"]["config"]),
+                            multi=self._multi)
 
     @staticmethod
     def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
-        """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names)."""
-        nan = math.nan
-        return {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-                "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-                "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-                "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+        """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (each algorithm's names)."""
+        return learner_results(stats)
 
     def _write_custom(self, values: dict[str, float]) -> None:
         ctx = self._stepper.context
@@ -356,7 +327,7 @@ class Algorithm:
         self._stepper.save(os.path.join(path, CHECKPOINT_FILE))
         with open(os.path.join(path, CONFIG_FILE), "w") as f:
             json.dump({"algo": self.config.algo_name, "iteration": self.iteration,
-                       "config": _json_data(self.config.to_dict())}, f, indent=1)
+                       "config": json_data(self.config.to_dict())}, f, indent=1)
         with open(os.path.join(path, RLCHAIN_CONFIG_FILE), "w") as f:
             yaml.safe_dump(self.rlchain_config, f, sort_keys=False)
         return path
@@ -401,7 +372,7 @@ class Algorithm:
                                             f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
         config = ALGORITHMS[name].get_default_config()
         data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
-        if module_network.NAME_PREFIX in _read(os.path.join(path, RLCHAIN_CONFIG_FILE)):
+        if module_network.NAME_PREFIX in read_text(os.path.join(path, RLCHAIN_CONFIG_FILE)):
             raise ConfigError(path, "rl_module_spec", "the checkpoint trained an RLModule class, which is not in the "
                                                       "JSON: build your config with its RLModuleSpec and call "
                                                       "algo.restore_from_path(path)")
@@ -432,53 +403,6 @@ class Algorithm:
 
 
 _MISSING = object()
-
-
-def checkpoint_file(path: Any) -> str:
-    """The rlchain checkpoint of a folder written by ``save_to_path`` (or a ``.pth`` path); an RLlib checkpoint or
-    anything else is a one-line CheckpointError."""
-    path = os.fspath(getattr(path, "path", path))
-    if os.path.isfile(path):
-        return path
-    if not os.path.isdir(path):
-        raise ckpt.CheckpointError(f"{path}: no such checkpoint folder")
-    found = os.path.join(path, CHECKPOINT_FILE)
-    if os.path.isfile(found):
-        return found
-    theirs = [name for name in RLLIB_FILES if os.path.exists(os.path.join(path, name))]
-    if theirs or any(name.endswith(".pkl") for name in os.listdir(path)):
-        raise ckpt.CheckpointError(f"{path}: an RLlib checkpoint ({(theirs or ['*.pkl'])[0]}): rlchain does not "
-                                   f"unpickle RLlib's files; retrain with the face, or export the weights from "
-                                   f"RLlib as a state_dict and load them as data")
-    raise ckpt.CheckpointError(f"{path}: no {CHECKPOINT_FILE} (not written by save_to_path)")
-
-
-def _read(path: str) -> str:
-    """A text file's content ('' when there is none)."""
-    if not os.path.isfile(path):
-        return ""
-    with open(path) as f:
-        return f.read()
-
-
-def _json_data(values: dict[str, Any]) -> dict[str, Any]:
-    """The JSON-able part of a config dict (classes, functions and objects are left out)."""
-    out = {}
-    for key, value in values.items():
-        try:
-            json.dumps(value)
-        except (TypeError, ValueError):
-            continue
-        out[key] = value
-    return out
-
-
-def _deep_update(into: dict[str, Any], new: dict[str, Any]) -> None:
-    for key, value in new.items():
-        if isinstance(value, dict) and isinstance(into.get(key), dict):
-            _deep_update(into[key], value)
-        else:
-            into[key] = value
 
 
 def _run_name(algo: str, env: Any) -> str:

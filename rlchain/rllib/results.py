@@ -1,0 +1,64 @@
+"""RLlib's result dict of one ``train()`` built from rlchain's epoch report (the face's Algorithm calls it):
+``env_runners/...``, ``learners/<module>/...``, the counters and timings, and the older top-level names."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+from rlchain.rllib.callbacks.callbacks import nested
+
+DEFAULT_MODULE = "default_policy"
+
+
+def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
+    """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names)."""
+    nan = math.nan
+    return {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
+            "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
+            "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+            "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+
+
+def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
+                 episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None) -> dict[str, Any]:
+    """One ``train()``'s result: ``report`` is rlchain's epoch report, ``cfg`` the run's ``params.config``,
+    ``learner`` the default module's learner results, ``multi`` the multi-agent run (its episodes summed over
+    agents and one learner per policy) or None. ``_episode_custom`` carries the episode callbacks' values (the
+    Algorithm writes and removes it)."""
+    nan = math.nan
+    ret = nan if report.mean_reward is None else report.mean_reward
+    length = nan if report.mean_length is None else report.mean_length
+    frames = int(report.frames)
+    per_iter = int(cfg["num_actors"] * cfg.get("horizon_length", cfg.get("num_steps_per_episode", 1)))
+    env_runners = {"episode_return_mean": ret, "episode_len_mean": length,
+                   "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
+                   "num_episodes_lifetime": games, **nested(episode_custom)}
+    if "kl_coef" in report.stats:
+        learner = {**learner, "curr_kl_coeff": report.stats["kl_coef"]}
+    learners = {DEFAULT_MODULE: learner}
+    if multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
+        env_runners.update(multi.episodes())
+        ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
+        learners = multi.learners(report.stats, cfg["learning_rate"])
+    return {
+        "training_iteration": iteration, "iterations_since_restore": iteration,
+        "time_this_iter_s": report.seconds, "time_total_s": time_total, "timestamp": int(time.time()),
+        "num_env_steps_sampled_lifetime": frames, "timesteps_total": frames,
+        "num_training_step_calls_per_iteration": 1, "done": False,
+        "env_runners": env_runners,
+        "learners": {**learners, "__all_modules__": {"num_env_steps_trained": per_iter}},
+        "episode_reward_mean": ret, "episode_return_mean": ret, "episode_len_mean": length,
+        "info": {"learner": {k: {"learner_stats": dict(v)} for k, v in learners.items()}},
+        "_episode_custom": episode_custom,
+    }
+
+
+def deep_update(into: dict[str, Any], new: dict[str, Any]) -> None:
+    """``into`` updated in place with ``new``, nested dicts merged key by key."""
+    for key, value in new.items():
+        if isinstance(value, dict) and isinstance(into.get(key), dict):
+            deep_update(into[key], value)
+        else:
+            into[key] = value
