@@ -6,9 +6,11 @@ where rlchain steps the envs.
   ``num_envs_per_env_runner`` envs (PPO: ``vecenv_type: RAY``, :mod:`rlchain.envs.ray.ray_env`; APPO / IMPALA:
   ``appo.runners: ray``). A dead actor is restarted up to ``max_num_env_runner_restarts`` times when
   ``restart_failed_env_runners`` (RLlib's default), else the run stops at the first failure.
-- Otherwise the same envs are stepped in this process (PPO: one vectorized env of ``num_env_runners *
-  num_envs_per_env_runner`` envs; APPO / IMPALA: one runner thread per env runner): for cheap envs a round
-  trip to an actor per step costs more than the step, and no Ray start-up is paid.
+- Otherwise (no Ray, or this process is itself a Ray worker: a Tune trial, an actor or a task, where the
+  trial's resource request holds no CPUs for more actors) the same envs are stepped in this process (PPO: one
+  vectorized env of ``num_env_runners * num_envs_per_env_runner`` envs; APPO / IMPALA: one runner thread per env
+  runner): for cheap envs a round trip to an actor per step costs more than the step, and no Ray start-up is
+  paid.
 """
 
 from __future__ import annotations
@@ -18,12 +20,21 @@ from typing import Any
 
 
 def ray_requested() -> bool:
-    """Ray is importable and this process started it (``ray.init()``) or names a cluster (``RAY_ADDRESS``)."""
+    """Ray is importable and this process started it (``ray.init()``) or names a cluster (``RAY_ADDRESS``), and
+    is not a Ray worker itself (see the module docstring)."""
     try:  # optional: ray
         import ray
     except ImportError:
         return False
+    if in_ray_worker(ray):
+        return False
     return bool(os.environ.get("RAY_ADDRESS")) or bool(ray.is_initialized())
+
+
+def in_ray_worker(ray: Any) -> bool:
+    """This process is a Ray worker (a Tune trial, an actor or a task), not the driver that called ``ray.init()``.
+    Asked only once Ray is initialized: ``get_runtime_context()`` would otherwise start Ray."""
+    return bool(ray.is_initialized()) and ray.get_runtime_context().worker.mode == ray.WORKER_MODE
 
 
 def uses_ray(config: Any) -> bool:

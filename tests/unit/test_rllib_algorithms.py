@@ -176,6 +176,22 @@ def test_ray_requested_follows_ray_init_or_ray_address(monkeypatch):
     assert env_runners.ray_requested() == ray.is_initialized()
 
 
+def test_a_ray_worker_steps_its_envs_in_process(monkeypatch):
+    """Inside a Tune trial (a Ray worker) the trial's resources hold no CPUs for env-runner actors: the envs are
+    stepped in the trial's process, even with RAY_ADDRESS set; the driver that called ray.init() gets actors."""
+    ray = pytest.importorskip("ray")
+    mode = {"value": ray.WORKER_MODE}
+    context = type("Context", (), {"worker": type("Worker", (), {"mode": property(lambda self: mode["value"])})()})
+    monkeypatch.setattr(ray, "is_initialized", lambda: True)
+    monkeypatch.setattr(ray, "get_runtime_context", lambda: context())
+    monkeypatch.setenv("RAY_ADDRESS", "auto")
+    c = PPOConfig().env_runners(num_env_runners=2)
+    assert not env_runners.ray_requested() and env_runners.env_runner_keys(c, "PPO") == {}
+    assert vtrace_config(APPOConfig(), "CartPole-v1", FLAT, False, {})["params"]["config"]["appo"]["runners"] == "local"
+    mode["value"] = ray.SCRIPT_MODE
+    assert env_runners.ray_requested() and env_runners.env_runner_keys(c, "PPO")["vecenv_type"] == "RAY"
+
+
 def test_default_model_config_dataclass_carries_lstm_and_convolutions():
     from rlchain.rllib.core.rl_module.default_model_config import DefaultModelConfig
 
