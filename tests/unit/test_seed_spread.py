@@ -31,5 +31,7 @@ def test_a_cell_names_each_run_and_the_bars():
     run = {"frames": 135168, "stop": "score_to_win 450.0 reached", "mean_reward": 450.44,
            "curve": [[92160, 300.9], [135168, 450.44]]}
     assert seed_spread.cell("passed", 42.0, [run], [300]) == "passed: 135.2k (score_to_win, 450, 300 at 92.2k) 42 s"
+    played = seed_spread.cell("passed", 9.0, [run, {"played": 274.0}], [])
+    assert played == "passed: 135.2k (score_to_win, 450); played 274 9 s"
     assert seed_spread.cell("failed", 1.0, [], []) == "failed: no Runner run 1 s"
     assert seed_spread.cell("skipped", 0.0, [], []) == "skipped"
