@@ -280,6 +280,22 @@ class MultiCategorical(Distribution):
         return actions + self._start.to(actions.device)
 
 
+def sigma_std(raw: torch.Tensor, parametrization: str, min_sigma: float,
+              logstd_bounds: tuple[float, float] | None) -> torch.Tensor:
+    """The std from a sigma head's raw output, by rl_games 2.0's ``sigma_parametrization``: exp (any other
+    name): exp(raw clamped to logstd_bounds) + min_sigma; softplus: softplus(raw) + min_sigma; linear:
+    floor + softplus(raw - floor) with floor = max(min_sigma, 1e-3)."""
+    if parametrization == "softplus":
+        return torch.nn.functional.softplus(raw) + min_sigma
+    if parametrization == "linear":
+        floor = max(min_sigma, 1e-3)
+        return floor + torch.nn.functional.softplus(raw - floor)
+    if logstd_bounds is not None:
+        raw = raw.clamp(logstd_bounds[0], logstd_bounds[1])
+    std = raw.exp()
+    return std + min_sigma if min_sigma > 0 else std
+
+
 class DiagGaussian(Distribution):
     """Box(A): params are cat(mu, std) (B, 2A); the network's sigma is log-std or std by model."""
 
@@ -315,18 +331,8 @@ class DiagGaussian(Distribution):
         return torch.cat([mu, self.std_of(sigma) if self.sigma_is_logstd else sigma], -1), value
 
     def std_of(self, raw: torch.Tensor) -> torch.Tensor:
-        """The std from the sigma head's raw output (model continuous_a2c_logstd), by ``parametrization``:
-        exp: exp(raw clamped to logstd_bounds) + min_sigma; softplus: softplus(raw) + min_sigma; linear:
-        floor + softplus(raw - floor) with floor = max(min_sigma, 1e-3) (rl_games 2.0's)."""
-        if self.parametrization == "softplus":
-            return torch.nn.functional.softplus(raw) + self.min_sigma
-        if self.parametrization == "linear":
-            floor = max(self.min_sigma, 1e-3)
-            return floor + torch.nn.functional.softplus(raw - floor)
-        if self.logstd_bounds is not None:
-            raw = raw.clamp(self.logstd_bounds[0], self.logstd_bounds[1])
-        std = raw.exp()
-        return std + self.min_sigma if self.min_sigma > 0 else std
+        """The std from the sigma head's raw output (model continuous_a2c_logstd): :func:`sigma_std`."""
+        return sigma_std(raw, self.parametrization, self.min_sigma, self.logstd_bounds)
 
     def raw_sigma(self, std: float) -> float:
         """The raw sigma-head value whose std is ``std`` (the inverse of :meth:`std_of`; ``--sigma``)."""

@@ -401,6 +401,10 @@ class Algorithm:
                                             f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
         config = ALGORITHMS[name].get_default_config()
         data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
+        if module_network.NAME_PREFIX in _read(os.path.join(path, RLCHAIN_CONFIG_FILE)):
+            raise ConfigError(path, "rl_module_spec", "the checkpoint trained an RLModule class, which is not in the "
+                                                      "JSON: build your config with its RLModuleSpec and call "
+                                                      "algo.restore_from_path(path)")
         env = data.get("env")
         if not isinstance(env, str):
             raise ConfigError(path, "env", "the checkpoint's env is not a name: build your config with its env and "
@@ -447,6 +451,14 @@ def checkpoint_file(path: Any) -> str:
                                    f"unpickle RLlib's files; retrain with the face, or export the weights from "
                                    f"RLlib as a state_dict and load them as data")
     raise ckpt.CheckpointError(f"{path}: no {CHECKPOINT_FILE} (not written by save_to_path)")
+
+
+def _read(path: str) -> str:
+    """A text file's content ('' when there is none)."""
+    if not os.path.isfile(path):
+        return ""
+    with open(path) as f:
+        return f.read()
 
 
 def _json_data(values: dict[str, Any]) -> dict[str, Any]:

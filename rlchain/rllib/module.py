@@ -73,7 +73,7 @@ class RLModuleView:
 
     def _obs(self, batch: dict[str, Any]) -> Any:
         obs = batch["obs"]
-        device = next(self.model.parameters()).device
+        device = next(iter([*self.model.parameters(), *self.model.buffers()]), torch.zeros(0)).device
         if isinstance(obs, dict):  # a Dict observation, kept per key as the run's model takes it
             from rlchain.envs.obs_dict import ObsDict
             return ObsDict({k: self._tensor(v, device) for k, v in obs.items()})

@@ -34,23 +34,31 @@ class RLModuleNetwork(nn.Module):
     """An RLModule under rlchain's network call: ``forward({"obs": ...}) -> (logits, value, None)`` or, for Box
     actions, ``(means, log_stds, value, None)``."""
 
-    def __init__(self, module: nn.Module, continuous: bool) -> None:
+    def __init__(self, module: nn.Module, continuous: bool, action_space: gym.Space | None = None,
+                 trained: bool = True) -> None:
         super().__init__()
         self.module = module
         self.continuous = continuous
+        self.action_space = action_space
         if module.is_stateful() if callable(getattr(module, "is_stateful", None)) else False:
             raise ValueError(f"{type(module).__name__} is stateful (get_initial_state): recurrent RLModules are not "
                              f"trained by the face; write an rlchain YAML with an rnn block (docs/config.md)")
         compute = getattr(module, "compute_values", None)
-        if not callable(compute):
+        self._has_values = callable(compute)
+        if trained and not self._has_values:
             raise ValueError(f"{type(module).__name__} has no compute_values: PPO needs a module with "
-                             f"ValueFunctionAPI (compute_values(batch, embeddings=None))")
+                             f"ValueFunctionAPI (compute_values(batch, embeddings=None)); a module that only "
+                             f"acts must be left out of policies_to_train")
         try:
-            self._takes_embeddings = "embeddings" in inspect.signature(compute).parameters
+            self._takes_embeddings = self._has_values and "embeddings" in inspect.signature(compute).parameters
         except (TypeError, ValueError):
             self._takes_embeddings = False
 
     def _values(self, batch: dict[str, Any], embeddings: Any = None) -> torch.Tensor:
+        if not self._has_values:  # a frozen module that only acts (a heuristic opponent): no value to learn
+            obs = batch[Columns.OBS]
+            rows = next(iter(obs.values())) if isinstance(obs, dict) else obs
+            return torch.zeros(rows.shape[0])
         if self._takes_embeddings and embeddings is not None:
             return self.module.compute_values(batch, embeddings=embeddings)
         return self.module.compute_values(batch)
@@ -68,18 +76,34 @@ class RLModuleNetwork(nn.Module):
         else:
             out = self.module.forward_exploration(batch)
             values = self._values(batch, out.get(Columns.EMBEDDINGS))
-        if Columns.ACTION_DIST_INPUTS not in out:
+        if Columns.ACTION_DIST_INPUTS in out:
+            params = out[Columns.ACTION_DIST_INPUTS]
+        elif Columns.ACTIONS in out:  # the module chose the actions itself: a distribution that picks them
+            params = self._picking(out[Columns.ACTIONS], values.device)
+        else:
             raise ValueError(f"{type(self.module).__name__}'s forward returned {sorted(out)}: no "
-                             f"'{Columns.ACTION_DIST_INPUTS}'")
-        params = out[Columns.ACTION_DIST_INPUTS]
+                             f"'{Columns.ACTION_DIST_INPUTS}' or '{Columns.ACTIONS}'")
         value = values.reshape(values.shape[0], -1) if values.dim() != 2 else values
+        value = value.to(params.device)
         if self.continuous:
             mean, log_std = params.chunk(2, dim=-1)
             return mean, log_std, value, None
         return params, value, None
 
 
-def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, model_config: dict[str, Any]) -> str:
+    def _picking(self, actions: Any, device: torch.device) -> torch.Tensor:
+        """Distribution inputs whose sample and mode are ``actions``: logits 0 on the action and -1e9 elsewhere
+        (Discrete), or the actions as means with a negligible std (Box)."""
+        actions = torch.as_tensor(actions, device=device)
+        if self.continuous:
+            mean = actions.float().reshape(actions.shape[0], -1)
+            return torch.cat([mean, torch.full_like(mean, -20.0)], -1)
+        logits = torch.full((actions.shape[0], int(self.action_space.n)), -1e9, device=device)
+        return logits.scatter(1, actions.long().reshape(-1, 1), 0.0)
+
+
+def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, model_config: dict[str, Any],
+             trained: bool = True) -> str:
     """A fresh network name whose builder makes ``spec.module_class`` on these spaces (the spec's own spaces when
     it gives them) with ``model_config``, wrapped in :class:`RLModuleNetwork`."""
     module_class = spec.module_class
@@ -92,7 +116,7 @@ def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, m
                               learner_only=False, model_config=dict(model_config), catalog_class=spec.catalog_class)
         if not isinstance(module, nn.Module):
             raise ValueError(f"{module_class.__name__} is not a torch module: subclass TorchRLModule")
-        return RLModuleNetwork(module, continuous)
+        return RLModuleNetwork(module, continuous, act_space, trained)
 
     build.takes_dict_obs = isinstance(observation_space, gym.spaces.Dict)
     name = f"{NAME_PREFIX}{next(_COUNTER)}"
@@ -116,8 +140,8 @@ def apply_spec(config: Any, rlchain_config: dict[str, Any], observation_space: g
     params["network"] = network_block(config, spec, observation_space, action_space) or params["network"]
 
 
-def network_block(config: Any, spec: Any, observation_space: gym.Space, action_space: gym.Space
-                  ) -> dict[str, Any] | None:
+def network_block(config: Any, spec: Any, observation_space: gym.Space, action_space: gym.Space,
+                  trained: bool = True) -> dict[str, Any] | None:
     """The network block of one module spec (None: the face's own network from ``model_config``)."""
     from rlchain.config.errors import ConfigError
     from rlchain.rllib.module import RLModuleSpec
@@ -145,7 +169,7 @@ def network_block(config: Any, spec: Any, observation_space: gym.Space, action_s
     auto = K.ALGO_DEFAULTS.get(config.algo_name, {}).get("model_config", {})  # RLlib's auto-included keys
     settings = config._settings
     model_config = {**auto, **(settings.get("model") or {}), **(settings.get("model_config") or {}), **own}
-    name = register(spec, observation_space, action_space, model_config)
+    name = register(spec, observation_space, action_space, model_config, trained)
     return {"name": name}
 
 
@@ -165,7 +189,10 @@ def policy_network(config: Any, policy: str, observation_space: gym.Space, actio
     if isinstance(spec, MultiRLModuleSpec):
         spec = spec.spec_of(policy)
     flat = flat_space(observation_space)[0]
-    block = None if spec is None else network_block(config, spec, flat, action_space)
+    from rlchain.rllib.multi_agent import policy_names, trained_policies
+    to_train = trained_policies(config, policy_names(config)[0])
+    trained = to_train is None or policy in to_train
+    block = None if spec is None else network_block(config, spec, flat, action_space, trained)
     if block is not None:
         return block
     network, seq_len = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))

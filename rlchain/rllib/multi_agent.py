@@ -31,6 +31,8 @@ from rlchain.config.errors import ConfigError
 
 _COUNTER = itertools.count(1)
 ALL = "__all__"
+ENV_STATE = "state"
+"""RLlib's key of a global state in an agent's observation dict (RLlib's grouped-agents examples use it)."""
 
 
 class MultiAgentEnv(gym.Env):

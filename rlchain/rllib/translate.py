@@ -281,6 +281,7 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
         "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
         "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
+        "save_replay_buffer": bool(s.get("store_buffer_in_checkpoints")),
         "num_steps_per_episode": steps, "num_updates_per_step": updates,
         "target_update_frequency": max(1, round(int(s["target_network_update_freq"]) * updates / envs)),
         "target_tau": float(s.get("tau", 1.0)), "epsilon_start": start, "epsilon_end": end,

@@ -24,6 +24,11 @@ def make_trainable(algo_name: str) -> type:
     class RLlibTrainable(_trainable_base()):
         _algo_name = algo_name
 
+        @classmethod
+        def get_default_config(cls) -> AlgorithmConfig:
+            """RLlib's ``get_trainable_cls("PPO").get_default_config()``: the algorithm's config."""
+            return config_class(cls._algo_name)()
+
         def setup(self, config: dict[str, Any]) -> None:
             algo_config = config_class(self._algo_name)()
             algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})

@@ -30,6 +30,8 @@ def test_lstm_reaches_450_on_masked_velocity_cartpole(tmp_path):
 
 
 def test_feedforward_cannot_solve_masked_velocity_cartpole(tmp_path):
-    result = _train(tmp_path, "params.network.rnn=None", "params.config.max_epochs=150")
+    # 50 epochs (102k frames): twice what the LSTM takes to pass 200 (47k frames, seed 5). Without memory the
+    # mean return levels off at 45-55 within 25k frames and stays there (seed 5: best 54.6 in 150 epochs)
+    result = _train(tmp_path, "params.network.rnn=None", "params.config.max_epochs=50")
     assert result.best_reward < 200, result
 

@@ -26,13 +26,17 @@ a page where no later block can depend on it (no python or file blocks, no ``<ru
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
 import re
+import select
 import shlex
 import shutil
 import signal
 import subprocess
 import sys
+import threading
 from dataclasses import dataclass, field
 
 import pytest
@@ -258,23 +262,114 @@ def run_until_stopped(argv: list[str], ws: str, env: dict, seconds: float) -> tu
         return None, out
 
 
-def run(argv: list[str], ws: str, env: dict, block: Block, shown: str) -> str:
-    """Run one command of ``block``; check its status; returns its output."""
+SHELL = set("*?[]{}$~`\\'\"")  # outside quotes: globs, expansions, escapes; bash runs those lines
+
+
+def simple_argv(command: str) -> list[str] | None:
+    """The argv of a plain ``python ...`` / ``rlchain ...`` command line (no shell operator, expansion, glob or
+    variable assignment: bash would run it as written), for the fork server; None for anything else."""
+    lexer = shlex.shlex(command, posix=False, punctuation_chars=True)
+    lexer.whitespace_split = True
+    try:
+        raw = list(lexer)
+    except ValueError:
+        return None
+    for i, token in enumerate(raw):
+        if len(token) >= 2 and token[0] in "'\"" and token[-1] == token[0]:
+            if token[0] == '"' and any(c in token[1:-1] for c in '$`\\"'):
+                return None
+            continue
+        if all(c in "();<>|&" for c in token) or SHELL & set(token) or (i == 0 and "=" in token):
+            return None
+    argv = shlex.split(command)
+    head = os.path.basename(argv[0]) if argv else ""
+    return argv if head == "rlchain" or head.startswith("python") else None
+
+
+class ForkServer:
+    """tests/smoke/forkserver.py, started once: runs plain python / rlchain commands in a child forked from a
+    Python that has already imported torch and rlchain (see that file for what is and is not the same)."""
+
+    def __init__(self, env: dict[str, str]):
+        self.proc = subprocess.Popen([sys.executable, os.path.join(ROOT, "tests", "smoke", "forkserver.py")],
+                                     cwd=ROOT, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+    def run(self, argv: list[str], ws: str, env: dict, timeout: float,
+            stop_after: float | None = None) -> tuple[int | None, str, str]:
+        """(exit status, stdout, stderr) of ``argv`` in ``ws``; the child is killed after ``timeout`` seconds.
+        With ``stop_after``: a child still running then gets SIGINT (as run_until_stopped) and the status is None."""
+        out, err = os.path.join(ws, "_stdout.txt"), os.path.join(ws, "_stderr.txt")
+        self.proc.stdin.write(json.dumps({"argv": argv, "cwd": ws, "env": env, "stdout": out, "stderr": err}) + "\n")
+        self.proc.stdin.flush()
+        pid = json.loads(self.proc.stdout.readline())["pid"]
+        stopped = False
+        if stop_after is not None and not select.select([self.proc.stdout], [], [], stop_after)[0]:
+            stopped = True
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(pid, signal.SIGINT)
+            timeout = STOP_GRACE
+        timer = threading.Timer(timeout, _kill_session, (pid,))
+        timer.start()
+        try:
+            status = json.loads(self.proc.stdout.readline())["status"]
+        finally:
+            timer.cancel()
+        status = None if stopped else status
+        texts = []
+        for path in (out, err):
+            with open(path, encoding="utf-8", errors="replace") as fh:
+                texts.append(fh.read())
+            os.remove(path)
+        return status, texts[0], texts[1]
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait(timeout=30)
+
+
+def _kill_session(pid: int) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pid, signal.SIGKILL)
+
+
+@pytest.fixture(scope="module")
+def fork_server():
+    """The fork server, or None where RLCHAIN_DOCS_FRESH=1 asks for every command in a fresh process."""
+    if os.environ.get("RLCHAIN_DOCS_FRESH") == "1":
+        yield None
+        return
+    server = ForkServer(environment(ROOT))
+    yield server
+    server.close()
+
+
+def run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: ForkServer | None = None) -> str:
+    """Run one command of ``block`` (through ``server`` where it is a plain python / rlchain command); check its
+    status; returns its output."""
     timeout = block.options.get("timeout")
+    direct = simple_argv(argv[2]) if server is not None and argv[:2] == ["bash", "-c"] else None
+    if server is not None and direct is None and argv[0] == sys.executable:
+        direct = argv
     if timeout is not None:
-        status, out = run_until_stopped(argv, ws, env, float(timeout))
+        if direct is not None:
+            status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT, float(timeout))
+            out = stdout + stderr
+        else:
+            status, out = run_until_stopped(argv, ws, env, float(timeout))
         assert status is None and "Traceback" not in out, (
             f"{block.where}: `{shown}` should still run after {timeout} s, but it ended with status {status}:\n"
             f"{out[-3000:]}")
         return out
-    proc = subprocess.run(argv, cwd=ws, env=env, capture_output=True, text=True, timeout=COMMAND_TIMEOUT,
-                          start_new_session=True)
-    out = proc.stdout + proc.stderr
+    if direct is not None:
+        status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT)
+    else:
+        proc = subprocess.run(argv, cwd=ws, env=env, capture_output=True, text=True, timeout=COMMAND_TIMEOUT,
+                              start_new_session=True)
+        status, stdout, stderr = proc.returncode, proc.stdout, proc.stderr
     expected = int(block.options.get("status", 0))
-    assert proc.returncode == expected, (
-        f"{block.where}: `{shown}` exited with {proc.returncode}, expected {expected}:\n"
-        f"{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
-    return out
+    assert status == expected, (
+        f"{block.where}: `{shown}` exited with {status}, expected {expected}:\n{stdout[-3000:]}\n{stderr[-3000:]}")
+    return stdout + stderr
 
 
 def check_output(block: Block, out: str) -> None:
@@ -289,7 +384,7 @@ def runnable_pages() -> list[str]:
 
 @pytest.mark.timeout(900)
 @pytest.mark.parametrize("page", runnable_pages())
-def test_page_commands_run(page, tmp_path):
+def test_page_commands_run(page, tmp_path, fork_server):
     ws = workspace(str(tmp_path / "ws"))
     env = environment(ws)
     blocks = read_blocks(page)
@@ -307,13 +402,13 @@ def test_page_commands_run(page, tmp_path):
             script = os.path.join(ws, f"_docs_block_{block.line}.py")
             with open(script, "w", encoding="utf-8") as fh:
                 fh.write(block.text + "\n")
-            out = run([sys.executable, script], ws, env, block, f"python block at line {block.line}")
+            out = run([sys.executable, script], ws, env, block, f"python block at line {block.line}", fork_server)
         elif block.kind == "run":
             plain = reusable and not block.options and "<run>" not in block.text
             for command in commands(block.text):
                 shown = shorten(command, ws)
                 if plain and shown in _ran_ok:
                     continue
-                out = run(["bash", "-c", shown], ws, env, block, shown)
+                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server)
                 if not block.options:
                     _ran_ok.add(shown)

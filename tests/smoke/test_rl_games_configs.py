@@ -24,6 +24,8 @@ def test_rl_games_config_runs_unchanged(tmp_path, name):
     if "envpool" in name:  # same config, fewer envs so the smoke tier stays quick
         overrides += ["params.config.num_actors=8", "params.config.horizon_length=32",
                       "params.config.minibatch_size=256"]
+    elif "rnn" in name:  # same config, a shorter horizon (minibatches of 32 LSTM sequences of seq_length 4)
+        overrides += ["params.config.horizon_length=32", "params.config.minibatch_size=128"]
     with warnings.catch_warnings(record=True):
         warnings.simplefilter("always")
         result = Runner().load(os.path.join(RL_GAMES, name), overrides).train()

@@ -7,12 +7,18 @@ import pytest
 
 
 def _train(config, iterations=2):
+    """(algo, train() results, module outputs for one observation, a greedy and a sampled action)."""
+    import torch
+
     algo = config.build_algo()
     try:
         results = [algo.train() for _ in range(iterations)]
+        obs = algo.observation_space.sample()
         module = algo.get_module()
-        action = algo.compute_single_action(algo.observation_space.sample(), explore=False)
-        return algo, results, module, action
+        outputs = module.forward_inference({"obs": torch.as_tensor(np.asarray(obs, np.float32)[None])})
+        action = algo.compute_single_action(obs, explore=False)
+        sampled = algo.compute_single_action(obs, explore=True)
+        return algo, results, outputs, (action, sampled)
     finally:
         algo.stop()
 
@@ -26,12 +32,14 @@ def test_sac_trains_on_pendulum(tmp_path, monkeypatch):
                         replay_buffer_config={"type": "PrioritizedEpisodeReplayBuffer", "capacity": 1000})
               .rl_module(model_config={"fcnet_hiddens": [16]})
               .reporting(min_sample_timesteps_per_iteration=60).debugging(seed=1))
-    algo, results, _, action = _train(config)
+    algo, results, outputs, actions = _train(config)
     assert algo.rlchain_config["params"]["algo"]["name"] == "sac"
     assert [r["num_env_steps_sampled_lifetime"] for r in results] == [60, 120]
     learner = results[-1]["learners"]["default_policy"]
     assert np.isfinite(learner["qf_loss"]) and np.isfinite(learner["alpha_value"])
-    assert np.asarray(action).shape == (1,) and -2.0 <= float(np.asarray(action)[0]) <= 2.0
+    assert tuple(outputs["action_dist_inputs"].shape) == (1, 2)  # the pre-tanh mean, then the log-std
+    for action in actions:
+        assert np.asarray(action).shape == (1,) and -2.0 <= float(np.asarray(action)[0]) <= 2.0
 
 
 @pytest.mark.parametrize("name", ["APPO", "IMPALA"])
@@ -43,11 +51,11 @@ def test_vtrace_algorithms_train_on_cartpole(name, tmp_path, monkeypatch):
     config = ({"APPO": APPOConfig, "IMPALA": IMPALAConfig}[name]().environment("CartPole-v1")
               .env_runners(num_env_runners=2, rollout_fragment_length=16).training(train_batch_size=64)
               .rl_module(model_config={"fcnet_hiddens": [16]}).debugging(seed=1))
-    algo, results, _, action = _train(config)
+    algo, results, outputs, actions = _train(config)
     assert algo.rlchain_config["params"]["algo"]["name"] == name.lower()
     assert results[-1]["num_env_steps_sampled_lifetime"] >= 128
     assert np.isfinite(results[-1]["learners"]["default_policy"]["vf_loss"])
-    assert int(action) in (0, 1)
+    assert tuple(outputs["action_dist_inputs"].shape) == (1, 2) and all(int(a) in (0, 1) for a in actions)
 
 
 def test_ppo_trains_an_lstm(tmp_path, monkeypatch):
@@ -100,8 +108,9 @@ def test_ppo_trains_convolutions_on_images(tmp_path, monkeypatch):
               .training(train_batch_size=64, minibatch_size=32, num_epochs=1)
               .rl_module(model_config={"conv_filters": [[4, 3, 2], [8, 3, 2, "valid"]], "head_fcnet_hiddens": [8]})
               .debugging(seed=1))
-    algo, results, module, _ = _train(config, 1)
+    algo, results, outputs, _ = _train(config, 1)
     assert algo.rlchain_config["params"]["network"]["cnn"]["convs"][0]["filters"] == 4
+    assert tuple(outputs["action_dist_inputs"].shape) == (1, 2)
     assert results[0]["num_env_steps_sampled_lifetime"] == 64
 
 

@@ -77,11 +77,14 @@ def reached(curve: list, bar: float) -> str:
 
 def cell(verdict: str, seconds: float, runs: list[dict], bars: list[float]) -> str:
     """One seed of one test: its verdict, each run's frames, why it stopped and its reward (and the frames each of
-    ``bars`` was first reached at), the test's seconds."""
+    ``bars`` was first reached at), each play's mean reward, the test's seconds."""
     if verdict == "skipped":
         return "skipped"
     parts = []
     for run in runs:
+        if "played" in run:  # a Runner.play after the training: its mean reward
+            parts.append(f"played {run['played']:.3g}")
+            continue
         stop = run["stop"].split(" ")[0]
         lower = "".join(f", {bar:g} at {reached(run.get('curve', []), bar)}" for bar in bars)
         parts.append(f"{frames(run['frames'])} ({stop}, {run['mean_reward']:.3g}{lower})")

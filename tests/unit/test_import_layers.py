@@ -8,6 +8,7 @@ runs nothing of them; it imports rlchain only for the registry of algorithms, wh
 from __future__ import annotations
 
 import ast
+import functools
 import os
 import re
 from dataclasses import dataclass
@@ -40,7 +41,10 @@ class Import:
     text: str
 
 
-def _modules() -> dict[str, str]:
+@functools.cache
+def modules() -> dict[str, str]:
+    """rlchain's modules by dotted name -> file (walked on first use: every pytest process collects this file,
+    and parsing the package costs seconds)."""
     found = {}
     for folder, _, files in os.walk(PACKAGE):
         for name in files:
@@ -53,14 +57,11 @@ def _modules() -> dict[str, str]:
     return found
 
 
-MODULES = _modules()
-
-
 def algo_families(algos: Registry = ALGOS) -> tuple[str, ...]:
     """The algorithm families: the package under ``rlchain.algos`` of every registered algorithm class and
     every other folder there (multi_policy is picked by config.multi_agent, not by name); algos/base/ and
     algos/core/ are what they share, not families."""
-    found = {".".join(m.split(".")[:3]) for m in MODULES if m.startswith("rlchain.algos.") and m.count(".") >= 2}
+    found = {".".join(m.split(".")[:3]) for m in modules() if m.startswith("rlchain.algos.") and m.count(".") >= 2}
     for name in algos.names():
         module = getattr(algos.get(name), "__module__", "")
         if module.startswith("rlchain.algos."):
@@ -68,12 +69,9 @@ def algo_families(algos: Registry = ALGOS) -> tuple[str, ...]:
     return tuple(sorted(found - {ALGO_BASE, "rlchain.algos.core"}))
 
 
-ALGO_FAMILIES = algo_families()
-
-
 def _resolve(name: str) -> str | None:
     """The rlchain module ``name`` names (a module, or a package's attribute -> the package)."""
-    while name and name not in MODULES:
+    while name and name not in modules():
         name = name.rpartition(".")[0]
     return name or None
 
@@ -108,7 +106,10 @@ def _imports_of(module: str, path: str) -> list[Import]:
     return found
 
 
-IMPORTS = [imp for module, path in MODULES.items() for imp in _imports_of(module, path)]
+@functools.cache
+def imports() -> tuple[Import, ...]:
+    """Every import statement of rlchain's modules, module level and inside functions."""
+    return tuple(imp for module, path in modules().items() for imp in _imports_of(module, path))
 
 
 def _under(module: str, *prefixes: str) -> bool:
@@ -122,7 +123,7 @@ def _family(module: str, families: tuple[str, ...]) -> str | None:
 def layer_violation(importer: str, imported: str, families: tuple[str, ...] | None = None) -> str | None:
     """Why ``importer`` may not import ``imported`` (docs/layout.md), or None; ``families``: the algorithm
     families (default: :func:`algo_families` of the registered algorithms)."""
-    families = ALGO_FAMILIES if families is None else families
+    families = algo_families() if families is None else families
     if imported.split(".")[0] != "rlchain":
         if _under(importer, "rlchain.config") and imported.split(".")[0] in TORCH_MODULES:
             return "config/ imports no torch module"
@@ -177,8 +178,9 @@ def _rlchain(imp: Import) -> bool:
 
 
 def test_no_upward_import():
-    bad = [f"{imp.importer}:{imp.line} imports {imp.imported}: {why}" for imp in IMPORTS
-           if (why := layer_violation(imp.importer, imp.imported)) is not None]
+    families = algo_families()
+    bad = [f"{imp.importer}:{imp.line} imports {imp.imported}: {why}" for imp in imports()
+           if (why := layer_violation(imp.importer, imp.imported, families)) is not None]
     assert not bad, "imports that break the layers (docs/layout.md):\n" + "\n".join(sorted(set(bad)))
 
 
@@ -207,7 +209,7 @@ def find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
 
 def _edges() -> dict[str, set[str]]:
     edges: dict[str, set[str]] = {}
-    for imp in IMPORTS:
+    for imp in imports():
         if _rlchain(imp):
             edges.setdefault(imp.importer, set()).add(imp.imported)
     return edges
@@ -219,7 +221,7 @@ def test_no_import_cycle():
 
 
 def test_function_level_imports_are_for_optional_dependencies_only():
-    late = [f"{imp.importer}:{imp.line}: {imp.text.strip()}" for imp in IMPORTS
+    late = [f"{imp.importer}:{imp.line}: {imp.text.strip()}" for imp in imports()
             if imp.in_function and _rlchain(imp) and not OPTIONAL.search(imp.text)]
     assert not late, ("imports of rlchain modules inside functions: move them to the top of the module, or say "
                       "which optional dependency they defer (# optional: ray):\n" + "\n".join(sorted(set(late))))

@@ -33,6 +33,9 @@ def test_sac_defaults_are_rllibs_and_map_onto_rlchains_sac():
     assert (cfg["num_warmup_frames"], cfg["num_steps_per_episode"], cfg["num_updates_per_step"]) == (1500, 100, 1)
     assert cfg["num_actors"] == 1 and cfg["clip_actions"] and cfg["log_std_bounds"] == [-20.0, 20.0]
     assert cfg["loss"] == "huber"  # RLlib's critic loss
+    assert not cfg["save_replay_buffer"]
+    assert sac_config(SACConfig().training(store_buffer_in_checkpoints=True), "Pendulum-v1", {})["params"][
+        "config"]["save_replay_buffer"]
     # RLlib's DefaultModelConfig: an MLP of 256, 256 with tanh for the actor and both critics
     assert params["network"]["mlp"]["units"] == [256, 256] and params["network"]["mlp"]["activation"] == "tanh"
 

@@ -168,3 +168,44 @@ def test_two_policies_train_on_a_turn_based_multi_agent_env(tmp_path, monkeypatc
         assert all(torch.equal(weights[k], v) for k, v in algo.get_module("first").state_dict().items())
     finally:
         algo.stop()
+
+
+def test_a_frozen_module_that_only_acts_plays_beside_a_trained_policy(tmp_path, monkeypatch):
+    """RLlib's heuristic-opponent pattern: a weightless RLModule returning 'actions' (no compute_values), left out
+    of policies_to_train, via MultiRLModuleSpec; PolicySpec() entries; the trained one's own default module."""
+    import torch
+
+    from rlchain.rllib.core.columns import Columns
+    from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    from rlchain.rllib.core.rl_module.rl_module import RLModule, RLModuleSpec
+    from rlchain.rllib.policy.policy import PolicySpec
+
+    class AlwaysOne(RLModule):
+        def _forward(self, batch, **kwargs):
+            return {Columns.ACTIONS: np.ones(len(batch[Columns.OBS]), np.int64)}
+
+    monkeypatch.chdir(tmp_path)
+    specs = MultiRLModuleSpec(rl_module_specs={"learner": RLModuleSpec(),
+                                               "fixed": RLModuleSpec(module_class=AlwaysOne)})
+    config = (PPOConfig().environment(TakeTurns).env_runners(num_env_runners=1)
+              .training(train_batch_size=32, minibatch_size=16, num_epochs=1)
+              .multi_agent(policies={"learner": PolicySpec(), "fixed": PolicySpec()},
+                           policy_mapping_fn=lambda aid, *a, **kw: ["learner", "fixed"][aid],
+                           policies_to_train=["learner"])
+              .rl_module(rl_module_spec=specs))
+    algo = config.build_algo()
+    try:
+        algo.train()
+        obs = torch.eye(2)
+        assert algo.get_module("fixed").forward_inference({"obs": obs})["action_dist_inputs"].argmax(-1).tolist() \
+            == [1, 1]
+        assert algo.compute_single_action(np.eye(2, dtype=np.float32)[0], policy_id="fixed") == 1
+    finally:
+        algo.stop()
+    trained = config.copy().multi_agent(policies_to_train=None)
+    with pytest.raises(ConfigError, match="AlwaysOne has no compute_values.*left out of policies_to_train") as info:
+        trained.build_algo()
+    assert "\n" not in str(info.value)
+    overrides = config.copy().multi_agent(policies={"learner": PolicySpec(config={"lr": 0.1}), "fixed": None})
+    with pytest.raises(ConfigError, match="per-policy config overrides are not mapped"):
+        overrides.build_algo()

@@ -151,6 +151,11 @@ def test_a_users_module_trains_under_ppo_and_restores(tmp_path, monkeypatch):
         path = algo.save_to_path(str(tmp_path / "ckpt"))
     finally:
         algo.stop()
+    from rlchain.rllib.algorithms.algorithm import Algorithm
+
+    with pytest.raises(ConfigError, match="trained an RLModule class.*restore_from_path") as info:
+        Algorithm.from_checkpoint(path)
+    assert "\n" not in str(info.value)
     again = config.build_algo()
     try:
         again.restore_from_path(path)

@@ -27,7 +27,7 @@ import torch
 from rlchain.algos.appo.fragments import FragmentRunner
 from rlchain.algos.appo.runner_pool import RunnerPool
 from rlchain.config.run import EnvRunnersConfig
-from rlchain.envs.ray.ray_cluster import connect, one_line
+from rlchain.envs.ray.ray_cluster import connect, kill, one_line, release, task_failed
 from rlchain.envs.ray.ray_env import WorkerLost
 from rlchain.log import get_logger
 
@@ -71,12 +71,8 @@ class RayRunners(RunnerPool):
         try:
             return ray.get(future, timeout=timeout)
         except ray.exceptions.RayTaskError as exc:
-            cause = getattr(exc, "cause", None) or exc
-            if isinstance(cause, ValueError) and what == "start":  # a config error from the worker
-                raise ValueError(one_line(cause, typed=False)) from None
             s = self.slices[i]
-            raise RuntimeError(f"appo ray runner {i} (envs {s.start}-{s.stop - 1}) {what}: {one_line(cause)}") \
-                from None
+            raise task_failed(exc, what, f"appo ray runner {i} (envs {s.start}-{s.stop - 1}) {what}") from None
         except ray.exceptions.GetTimeoutError:
             return TimeoutError(f"no answer to {what} within {timeout:g} s")
         except ray.exceptions.RayError as exc:
@@ -164,10 +160,7 @@ class RayRunners(RunnerPool):
             raise WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, stopping")
         log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit})"
                     + (", its fragment dropped" if lost else ""))
-        try:
-            ray.kill(self.workers[i], no_restart=True)
-        except Exception:
-            pass
+        kill(ray, self.workers[i])
         self.workers[i] = self._spawn(i)
         ref, version = self._latest
         self._sent[i] = -1
@@ -182,12 +175,5 @@ class RayRunners(RunnerPool):
         self.stopping.set()
         if self._feeder is not None:
             self._feeder.join(timeout=10.0)
-        for worker in self.workers:
-            try:
-                self._ray.kill(worker, no_restart=True)
-            except Exception:
-                pass
-        self.workers = []
-        if self._owns_ray and self._ray.is_initialized():
-            self._ray.shutdown()
-        self._owns_ray = False
+        release(self._ray, self.workers, self._owns_ray)
+        self.workers, self._owns_ray = [], False

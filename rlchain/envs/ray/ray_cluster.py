@@ -70,3 +70,28 @@ def one_line(exc: BaseException, typed: bool = True) -> str:
     text = lines[0] if lines else ""
     text = text if len(text) <= 300 else text[:297] + "..."
     return f"{type(exc).__name__}: {text}" if typed and text else text or type(exc).__name__
+
+
+def task_failed(exc: Any, what: str, where: str) -> BaseException:
+    """The one-line error for an exception an env raised inside a Ray call (``RayTaskError``): a config
+    error (ValueError) at start stays a ValueError; anything else is a RuntimeError naming ``where``."""
+    cause = getattr(exc, "cause", None) or exc
+    if isinstance(cause, ValueError) and what == "start":
+        return ValueError(one_line(cause, typed=False))
+    return RuntimeError(f"{where}: {one_line(cause)}")
+
+
+def kill(ray: Any, worker: Any) -> None:
+    """Kill one actor for good; one already dead, or a Ray already gone, is fine."""
+    try:
+        ray.kill(worker, no_restart=True)
+    except Exception:
+        pass
+
+
+def release(ray: Any, workers: list[Any], owns_ray: bool) -> None:
+    """Kill every actor, and shut down the local Ray when this process started it."""
+    for worker in workers:
+        kill(ray, worker)
+    if owns_ray and ray.is_initialized():
+        ray.shutdown()

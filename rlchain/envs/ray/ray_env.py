@@ -45,7 +45,7 @@ import numpy as np
 
 from rlchain.config.errors import ConfigError
 from rlchain.config.run import EnvRunnersConfig
-from rlchain.envs.ray.ray_cluster import connect, one_line
+from rlchain.envs.ray.ray_cluster import connect, kill, one_line, release, task_failed
 from rlchain.envs.ray.ray_worker import EnvRecipe, EnvWorker
 from rlchain.envs.vecenv import DROPPED, StepResult
 from rlchain.log import get_logger
@@ -161,15 +161,8 @@ class RayVecEnv:
 
     def close(self) -> None:
         """Stop the workers, and the local Ray this env started."""
-        for worker in self.workers:
-            try:
-                self._ray.kill(worker, no_restart=True)
-            except Exception:  # already dead, or Ray is gone
-                pass
-        self.workers = []
-        if self._owns_ray and self._ray.is_initialized():
-            self._ray.shutdown()
-        self._owns_ray = False
+        release(self._ray, self.workers, self._owns_ray)
+        self.workers, self._owns_ray = [], False
 
     # ----- workers --------------------------------------------------------------------------
     def _spawn(self, i: int) -> Any:
@@ -199,12 +192,8 @@ class RayVecEnv:
             try:
                 outs.append(ray.get(future, timeout=max(0.0, deadline - time.monotonic())))
             except ray.exceptions.RayTaskError as exc:
-                cause = getattr(exc, "cause", None) or exc
                 s = self.slices[i]
-                where = f"ray env worker {i} (envs {s.start}-{s.stop - 1}) {what}"
-                error = ValueError if isinstance(cause, ValueError) and what == "start" else RuntimeError
-                raise error(one_line(cause, typed=False) if error is ValueError else f"{where}: {one_line(cause)}") \
-                    from None
+                raise task_failed(exc, what, f"ray env worker {i} (envs {s.start}-{s.stop - 1}) {what}") from None
             except ray.exceptions.GetTimeoutError:
                 outs.append(TimeoutError(f"no answer to {what} within {timeout or self.runners.step_timeout_s} s"))
             except ray.exceptions.RayError as exc:
@@ -239,10 +228,7 @@ class RayVecEnv:
                                  f"stopping{self._resources_hint(cause)}")
             log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit}), {lost} partial episodes "
                         f"dropped")
-            try:
-                ray.kill(self.workers[i], no_restart=True)
-            except Exception:
-                pass
+            kill(ray, self.workers[i])
             self.workers[i] = self._spawn(i)
             out = self._gather([self.workers[i].build.remote(seed)], "start", self.runners.start_timeout_s)[0]
             if not isinstance(out, BaseException):

@@ -15,9 +15,9 @@ from typing import Any
 
 import torch
 import torch.nn as nn
-import torch.nn.functional as F
 from torch.distributions import Categorical, Normal
 
+from rlchain.models.distributions import sigma_std
 from rlchain.rl_games.algos_torch.running_mean_std import RunningMeanStd, RunningMeanStdObs
 
 
@@ -46,6 +46,16 @@ class BaseModel:
                             normalize_value=config.get("normalize_value", False),
                             normalize_input=config.get("normalize_input", False),
                             value_size=config.get("value_size", 1))
+
+
+class _BuiltModel(BaseModel):
+    """The models below: ``Model(network_builder)``, of rl_games' model class ``_model_class``."""
+
+    _model_class = "a2c"
+
+    def __init__(self, network: Any) -> None:
+        BaseModel.__init__(self, self._model_class)
+        self.network_builder = network
 
 
 class BaseModelNetwork(nn.Module):
@@ -125,12 +135,8 @@ def _masked_logits(logits: torch.Tensor, masks: torch.Tensor | None) -> torch.Te
     return logits if masks is None else logits.masked_fill(~masks.bool(), -1e8)
 
 
-class ModelA2C(BaseModel):
+class ModelA2C(_BuiltModel):
     """Discrete actions: a categorical over ``logits`` (invalid actions masked out by ``action_masks``)."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         def distribution(self, head: list, masks: Any) -> tuple[Any, dict]:
@@ -141,12 +147,8 @@ class ModelA2C(BaseModel):
             return dist.sample().long()
 
 
-class ModelA2CMultiDiscrete(BaseModel):
+class ModelA2CMultiDiscrete(_BuiltModel):
     """Multi-discrete actions: one categorical per dimension; log-probs and entropies summed."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         def distribution(self, head: list, masks: Any) -> tuple[Any, dict]:
@@ -168,32 +170,19 @@ class ModelA2CMultiDiscrete(BaseModel):
 
 
 def apply_sigma_parametrization(raw: torch.Tensor, network: Any) -> tuple[torch.Tensor, torch.Tensor]:
-    """(std, log std) from the sigma head's raw output by ``network``'s rl_games 2.0 options: ``exp`` (raw is
-    the log std, clamped to ``logstd_bounds``, ``min_sigma`` added), ``softplus`` (softplus(raw) + min_sigma),
-    ``linear`` / ``scalar`` (raw is the std above a smooth floor max(min_sigma, 1e-3))."""
+    """(std, log std) from the sigma head's raw output by ``network``'s rl_games 2.0 options
+    (``sigma_parametrization``, ``min_sigma``, ``logstd_bounds``; ``scalar`` is ``linear``): :func:`sigma_std`."""
     min_sigma = float(getattr(network, "min_sigma", 0.0))
     kind = getattr(network, "sigma_parametrization", "exp")
-    if kind == "softplus":
-        sigma = F.softplus(raw) + min_sigma
-    elif kind in ("linear", "scalar"):
-        floor = max(min_sigma, 1e-3)
-        sigma = floor + F.softplus(raw - floor)
-    else:
-        bounds = getattr(network, "logstd_bounds", None)
-        if bounds is not None:
-            raw = raw.clamp(bounds[0], bounds[1])
-        if min_sigma <= 0:
-            return raw.exp(), raw
-        sigma = raw.exp() + min_sigma
+    bounds = getattr(network, "logstd_bounds", None)
+    sigma = sigma_std(raw, "linear" if kind == "scalar" else kind, min_sigma, bounds)
+    if kind not in ("softplus", "linear", "scalar") and min_sigma <= 0:  # exp: the (clamped) raw is the log std
+        return sigma, raw if bounds is None else raw.clamp(bounds[0], bounds[1])
     return sigma, sigma.log()
 
 
-class ModelA2CContinuous(BaseModel):
+class ModelA2CContinuous(_BuiltModel):
     """Continuous actions, the network's ``sigma`` taken as the standard deviation."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         log_std = False
@@ -218,12 +207,8 @@ class ModelA2CContinuousLogStd(ModelA2CContinuous):
         log_std = True
 
 
-class ModelCentralValue(BaseModel):
+class ModelCentralValue(_BuiltModel):
     """A value-only critic: ``forward`` returns ``values`` (denormalized outside training) and ``rnn_states``."""
-
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "a2c")
-        self.network_builder = network
 
     class Network(_A2CNetwork):
         def forward(self, input_dict: dict) -> dict:
@@ -233,12 +218,10 @@ class ModelCentralValue(BaseModel):
             return {"values": value if is_train else self.denorm_value(value), "rnn_states": states}
 
 
-class ModelSACContinuous(BaseModel):
+class ModelSACContinuous(_BuiltModel):
     """SAC: the network (actor, critic, critic_target) with rl_games' accessors."""
 
-    def __init__(self, network: Any) -> None:
-        BaseModel.__init__(self, "sac")
-        self.network_builder = network
+    _model_class = "sac"
 
     class Network(BaseModelNetwork):
         def __init__(self, sac_network: nn.Module, **kwargs: Any) -> None:

@@ -39,18 +39,9 @@ class NetworkBuilder(_RlchainBuilder):
 
     BaseNetwork = BaseNetwork
 
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(**kwargs)
-
 
 class A2CBuilder(NetworkBuilder):
     """rl_games' ``actor_critic`` network builder."""
-
-    def __init__(self, **kwargs: Any) -> None:
-        NetworkBuilder.__init__(self)
-
-    def load(self, params: Any) -> None:
-        self.params = params
 
     def build(self, name: str, **kwargs: Any) -> nn.Module:
         return A2CBuilder.Network(self.params, **kwargs)
@@ -197,12 +188,6 @@ class DoubleQCritic(TwinQCritic, BaseNetwork):
 class SACBuilder(NetworkBuilder):
     """rl_games' ``soft_actor_critic`` network builder: ``Network`` holds ``actor``, ``critic`` and
     ``critic_target`` (build kwargs ``obs_dim``, ``action_dim``; rlchain passes them)."""
-
-    def __init__(self, **kwargs: Any) -> None:
-        NetworkBuilder.__init__(self)
-
-    def load(self, params: Any) -> None:
-        self.params = params
 
     def build(self, name: str, **kwargs: Any) -> nn.Module:
         return SACBuilder.Network(self.params, **kwargs)

@@ -8,7 +8,8 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithm import DEFAULT_MODULE, Algorithm
+from rlchain.rllib.algorithms.sac.module import SACModuleView
 from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
 
@@ -27,6 +28,11 @@ class SAC(Algorithm):
     def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
                   ) -> dict[str, Any]:
         return sac_config(config, env_name, run)
+
+    def get_module(self, module_id: str = DEFAULT_MODULE) -> SACModuleView:
+        """The trained policy as RLlib's RLModule: ``action_dist_inputs`` are pre-tanh means then log-stds."""
+        view = super().get_module(module_id)
+        return SACModuleView(view.model, view.observation_space, view.action_space)
 
     @staticmethod
     def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:

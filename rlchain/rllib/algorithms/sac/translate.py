@@ -9,6 +9,7 @@ What maps (RLlib 2.60's defaults in brackets):
   -> ``replay_buffer_size``, ``prioritized_replay``, ``priority_alpha`` / ``priority_beta``; ``n_step`` (1);
   ``num_steps_sampled_before_learning_starts`` (1500) -> ``num_warmup_frames``; RLlib's replay ratio (one update
   per sampled round, or ``training_intensity``) -> ``num_updates_per_step``; ``grad_clip`` -> ``grad_norm``;
+  ``store_buffer_in_checkpoints`` -> ``save_replay_buffer``;
 - one ``train()`` = ``min_sample_timesteps_per_iteration`` (100) env steps;
 - the model: ``fcnet_hiddens`` then ``head_fcnet_hiddens`` with ``fcnet_activation`` for the actor and both
   critics; ``log_std_clip_param`` (20) clips the log-std to [-20, 20]; actions squashed to [-1, 1] and rescaled
@@ -73,7 +74,7 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "replay_buffer_size": max(batch, int(replay.get("capacity", 1_000_000))),
         "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
         "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
-        "n_step": int(s["n_step"]),
+        "n_step": int(s["n_step"]), "save_replay_buffer": bool(s.get("store_buffer_in_checkpoints")),
         "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
         "num_steps_per_episode": max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 100) // envs)),
         "num_updates_per_step": T.updates_per_step(config),

@@ -1,0 +1,1 @@
+"""``ray.rllib.utils.spaces``: the space helpers RLlib's example envs import."""

@@ -1,0 +1,105 @@
+"""A fork server for the docs' commands: one Python that has imported torch and rlchain's entry points forks a child
+per ``python ...`` / ``rlchain ...`` command, so each command pays for its own work, not for importing torch and
+rlchain again (about 4 s of CPU each on a 2-core machine, most of a one-epoch command).
+
+The child is the command as a fresh ``python`` would run it: its own process and session, working directory,
+environment, ``sys.argv``, ``sys.path[0]``, standard streams (files) and exit status; atexit handlers and
+non-daemon threads end as at a normal interpreter exit. What differs: torch, numpy and rlchain are already
+imported (from this tree) when the command starts. ``RLCHAIN_DOCS_FRESH=1`` makes tests/smoke/test_docs_commands.py
+start every command fresh instead.
+
+Protocol: one JSON request a line on stdin ``{"argv", "cwd", "env", "stdout", "stderr"}``; the server answers
+``{"pid": N}`` when the child runs and ``{"status": S}`` when it has ended (S < 0: killed by signal -S). The
+caller kills a child that runs too long (``os.killpg(pid, SIGKILL)``: the child leads its own session).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path[0] = ROOT  # this tree's rlchain, as the docs' working directories link it
+
+import numpy  # noqa: E402,F401  (preloaded for the children)
+import torch  # noqa: E402,F401
+
+import rlchain.cli  # noqa: E402,F401
+import rlchain.console  # noqa: E402,F401
+import rlchain.runner  # noqa: E402,F401
+
+
+def python_argv(argv: list[str]) -> tuple[str, str, list[str]] | None:
+    """(kind, target, sys.argv) for ``python SCRIPT|-m MOD|-c CODE args...`` or the ``rlchain`` console script;
+    None for anything else (the caller runs it through bash)."""
+    head, rest = os.path.basename(argv[0]), argv[1:]
+    if head == "rlchain":
+        return "console", "", [argv[0], *rest]
+    if head not in ("python", "python3") or not rest:
+        return None
+    if rest[0] == "-m" and len(rest) > 1:
+        return "module", rest[1], [rest[1], *rest[2:]]
+    if rest[0] == "-c" and len(rest) > 1:
+        return "code", rest[1], ["-c", *rest[2:]]
+    if rest[0].startswith("-"):
+        return None
+    return "script", rest[0], rest
+
+
+def run_command(kind: str, target: str, argv: list[str]) -> int:
+    """Run the command in this (forked) process as ``python`` would; returns its exit status."""
+    import runpy
+    import traceback
+
+    sys.argv = argv
+    sys.path[0] = {"script": os.path.dirname(os.path.abspath(target)), "console": os.path.dirname(argv[0])}.get(
+        kind, os.getcwd())
+    try:
+        if kind == "console":
+            return rlchain.console.main() or 0
+        if kind == "module":
+            runpy.run_module(target, run_name="__main__", alter_sys=True)
+        elif kind == "code":
+            exec(compile(target, "<string>", "exec"), {"__name__": "__main__", "__builtins__": __builtins__})
+        else:
+            runpy.run_path(target, run_name="__main__")
+        return 0
+    except SystemExit as stop:
+        code = stop.code
+        if code is None:
+            return 0
+        if isinstance(code, int):
+            return code
+        print(code, file=sys.stderr)
+        return 1
+    except BaseException:  # noqa: BLE001  (the interpreter prints the traceback and exits 1: so does the child)
+        traceback.print_exc()
+        return 1
+
+
+def serve() -> int | None:
+    """Answer requests until stdin closes (returns None); in a child, the command's exit status."""
+    for line in sys.stdin:
+        request = json.loads(line)
+        parsed = python_argv(request["argv"])
+        pid = os.fork()
+        if pid == 0:
+            os.setsid()
+            os.chdir(request["cwd"])
+            os.environ.clear()
+            os.environ.update(request["env"])
+            null = os.open(os.devnull, os.O_RDONLY)
+            os.dup2(null, 0)
+            for fd, path in ((1, request["stdout"]), (2, request["stderr"])):
+                os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), fd)
+            sys.stdin = open(0, closefd=False)
+            return run_command(*parsed) if parsed else 127
+        print(json.dumps({"pid": pid}), flush=True)
+        _, status = os.waitpid(pid, 0)
+        print(json.dumps({"status": os.waitstatus_to_exitcode(status)}), flush=True)
+    return None
+
+
+if __name__ == "__main__":
+    sys.exit(serve())
