@@ -37,7 +37,9 @@ def test_continuous_network_has_rl_games_attributes_and_tuple():
                                              "mu.bias", "sigma.weight", "sigma.bias"]
     mu, sigma, value, states = net({"obs": torch.randn(6, 5)})
     assert mu.shape == sigma.shape == (6, 3) and value.shape == (6, 1) and states is None
-    assert torch.all(net.sigma.weight == 0.5)  # rl_games' sigma_init: the initializer on the sigma head's weight
+    # rl_games 2.0's const sigma_init on a learned sigma head: zero weight, the value in the bias, so the initial
+    # std is the same whatever the input
+    assert torch.all(net.sigma.weight == 0) and torch.all(net.sigma.bias == 0.5) and torch.all(sigma == 0.5)
 
 
 def test_discrete_multi_discrete_and_central_value_heads():

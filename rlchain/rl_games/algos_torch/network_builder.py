@@ -76,6 +76,11 @@ class A2CBuilder(NetworkBuilder):
                                         logits_sizes=sizes if space.multi_discrete is not None else None,
                                         num_seqs=kwargs.pop("num_seqs", 1))
             self.value_size = value_size
+            sigma = getattr(self, "sigma", None)
+            if isinstance(sigma, nn.Linear) and space.continuous.sigma_init.name == "const_initializer":
+                with torch.no_grad():  # rl_games 2.0: a constant initial std whatever the input
+                    sigma.weight.zero_()
+                    sigma.bias.fill_(space.continuous.sigma_init.val)
             self.load(params)
             for name in ("actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp"):  # rl_games' empty defaults
                 if not hasattr(self, name):
