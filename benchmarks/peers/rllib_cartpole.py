@@ -23,17 +23,22 @@ STOP_REWARD = 450.0
 MAX_STEPS = 1_000_000
 
 
-def worker(seed: int, runners: int, max_steps: int) -> None:
+def tuned_cartpole_config(seed: int, runners: int):
+    """RLlib's tuned CartPole PPO (``cartpole_ppo.py``'s settings), imported from whichever ``ray.rllib`` the
+    process has: real RLlib, or rlchain's face under ``python -m rlchain.rllib``."""
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
 
-    config = (PPOConfig().environment("CartPole-v1")
-              .env_runners(num_env_runners=runners)
-              .training(lr=0.0003, num_epochs=6, vf_loss_coeff=0.01)
-              .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[32], fcnet_activation="linear",
-                                                         vf_share_layers=True))
-              .debugging(seed=seed))
-    algo = config.build_algo()
+    return (PPOConfig().environment("CartPole-v1")
+            .env_runners(num_env_runners=runners)
+            .training(lr=0.0003, num_epochs=6, vf_loss_coeff=0.01)
+            .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[32], fcnet_activation="linear",
+                                                       vf_share_layers=True))
+            .debugging(seed=seed))
+
+
+def worker(seed: int, runners: int, max_steps: int) -> None:
+    algo = tuned_cartpole_config(seed, runners).build_algo()
     seconds, steps, ret = 0.0, 0, float("nan")
     while steps < max_steps:
         start = time.perf_counter()
@@ -83,11 +88,14 @@ def main() -> None:
             rows.append(row)
             print(json.dumps(row), flush=True)
     for lib in ("rllib", "rlchain"):
-        mine = [r for r in rows if r["lib"] == lib]
+        ran = [r for r in rows if r["lib"] == lib]
+        mine = [r for r in ran if r["reached"]]  # a seed that gave up at --max-steps has no time to the reward
         if mine:
             print(f"{lib}: median {statistics.median(r['seconds'] for r in mine):.1f} s, "
                   f"{statistics.median(r['env_steps'] for r in mine):.0f} env steps to {STOP_REWARD:.0f} "
-                  f"({len(mine)} seeds)", flush=True)
+                  f"({len(mine)} of {len(ran)} seeds reached it)", flush=True)
+        elif ran:
+            print(f"{lib}: no seed reached {STOP_REWARD:.0f} within --max-steps", flush=True)
     load = os.getloadavg()[0]
     print(f"load average at the end: {load:.2f} (figures under load are not a speed result)", flush=True)
 

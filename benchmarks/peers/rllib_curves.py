@@ -21,20 +21,11 @@ import statistics
 import subprocess
 import sys
 
-STOP_REWARD = 450.0
+from rllib_cartpole import STOP_REWARD, tuned_cartpole_config  # this folder: first on sys.path on both sides
 
 
 def worker(seed: int, runners: int, max_steps: int) -> None:
-    from ray.rllib.algorithms.ppo import PPOConfig
-    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
-
-    config = (PPOConfig().environment("CartPole-v1")
-              .env_runners(num_env_runners=runners)
-              .training(lr=0.0003, num_epochs=6, vf_loss_coeff=0.01)
-              .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[32], fcnet_activation="linear",
-                                                         vf_share_layers=True))
-              .debugging(seed=seed))
-    algo = config.build_algo()
+    algo = tuned_cartpole_config(seed, runners).build_algo()
     lib = "rlchain" if type(algo).__module__.startswith("rlchain") else "rllib"
     steps = 0
     while steps < max_steps:
