@@ -118,22 +118,16 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     key = "params.config.central_value_config.network"
 
     def build() -> CentralValue:
-        if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
-            return CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
-                                params.config.normalize_value,
-                                value_normalizer_kind=params.config.value_normalizer,
-                                obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
-                                obs_slice=view.selector())
-        # a registered network, given its block and rl_games' critic kwargs
-        block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
-        network = instantiate(NETWORKS.get(_network_name(cv.network)), block, key, actions_num=value_size,
-                              input_shape=state_shape, value_size=value_size,
-                              num_seqs=params.config.num_actors, observation_space=view.space)
-        return CentralValue(None, state_shape, value_size, cv.normalize_input,
-                            params.config.normalize_value, network=network,
-                            value_normalizer_kind=params.config.value_normalizer,
-                            obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
-                            obs_slice=view.selector())
+        built_in = isinstance(cv.network, NetworkConfig)  # the built-in actor_critic trunk + value head
+        network = None
+        if not built_in:  # a registered network, given its block and rl_games' critic kwargs
+            block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
+            network = instantiate(NETWORKS.get(_network_name(cv.network)), block, key, actions_num=value_size,
+                                  input_shape=state_shape, value_size=value_size,
+                                  num_seqs=params.config.num_actors, observation_space=view.space)
+        return CentralValue(cv.network if built_in else None, state_shape, value_size, cv.normalize_input,
+                            params.config.normalize_value, network=network, obs_slice=view.selector(),
+                            **_normalizer_kinds(params.config))
 
     try:
         model = build_within_memory(build, device, params.source, key)
@@ -154,9 +148,8 @@ def _dict_central_value(params: Params, cv: Any, space: gym.spaces.Dict, value_s
                           f"value's network must be multi_input, its inputs naming the keys it reads")
     try:
         model = CentralValue(cv.network, space, value_size, cv.normalize_input, params.config.normalize_value,
-                             value_normalizer_kind=params.config.value_normalizer,
-                             obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
-                             obs_normalizer_exclude=tuple(getattr(params.config, "obs_normalizer_exclude", ())))
+                             obs_normalizer_exclude=tuple(getattr(params.config, "obs_normalizer_exclude", ())),
+                             **_normalizer_kinds(params.config))
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     return model.to(device)
@@ -218,6 +211,12 @@ def build_policy_models(params: Params, env: Any, device: torch.device) -> torch
 def declared_space(space: gym.Space) -> gym.Space:
     """The observation space as the env declared it: the Dict behind a flattened one, else ``space``."""
     return getattr(space, "dict_space", None) or space
+
+
+def _normalizer_kinds(cfg: Any) -> dict[str, str]:
+    """The central value's normalizers as the run's config names them (its value_normalizer, obs_normalizer)."""
+    return {"value_normalizer_kind": cfg.value_normalizer,
+            "obs_normalizer_kind": getattr(cfg, "obs_normalizer", "rl_games")}
 
 
 def _network_name(network: Any) -> str:
