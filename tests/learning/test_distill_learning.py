@@ -1,8 +1,8 @@
-"""Learning tier (slow): distilled students reach most of their teacher's return, both played alone,
-deterministic. CartPole (90 %): the LSTM student of distill_cartpole_lstm.yaml sees the cart position and the pole
+"""Learning tier (slow): distilled students reach at least 90 % of their teacher's return, both played alone,
+deterministic. CartPole: the LSTM student of distill_cartpole_lstm.yaml sees the cart position and the pole
 angle only (teacher nn/cartpole.pth, PPO on the full state; 20 games each). HalfCheetah: the LSTM student of
 distill_halfcheetah_lstm.yaml sees the joint positions only, with sensor noise while training (teacher
-rlchain/checkpoints/halfcheetah_teacher.pth, PPO on all 17 numbers; 2 games each), 70 %. Pendulum: an MLP student of
+rlchain/checkpoints/halfcheetah_teacher.pth, PPO on all 17 numbers; 2 games each). Pendulum: an MLP student of
 distill_pendulum_sac.yaml fitted to a SAC teacher (nn/pendulum_sac.pth) reaches score_to_win."""
 
 import glob
@@ -39,11 +39,7 @@ def test_lstm_student_reaches_90_percent_of_the_mlp_teacher(tmp_path):
     assert student >= 0.9 * teacher, (student, teacher, result)
 
 
-def test_halfcheetah_student_without_velocities_reaches_70_percent_of_the_teacher(tmp_path):
-    """The run stops at 75 % of the teacher's return (its training mean), the student must then play 70 %: PPO
-    from scratch on the same 8 positions stays under 2 % in 606k frames (docs/distillation.md), so this is
-    distillation that works, at 192.5k frames on seeds 5, 1 and 2 (90 % took 225k-256k on seeds
-    1-3, docs/distillation.md). The bound is 1.5 times 192.5k."""
+def test_halfcheetah_student_without_velocities_reaches_90_percent_of_the_teacher(tmp_path):
     pytest.importorskip("envpool")
     teacher_path = os.path.join(ROOT, "rlchain", "checkpoints", "halfcheetah_teacher.pth")
     teacher = played(Runner().load(os.path.join(CONFIGS, "ppo_halfcheetah.yaml")).params, teacher_path, games=2)
@@ -51,11 +47,11 @@ def test_halfcheetah_student_without_velocities_reaches_70_percent_of_the_teache
     runner = Runner().load(os.path.join(CONFIGS, "distill_halfcheetah_lstm.yaml"), [
         f"params.config.train_dir={tmp_path}/runs", "params.config.print_stats=false",
         f"params.config.teacher_checkpoint={teacher_path}", "params.config.full_experiment_name=null",
-        f"params.config.score_to_win={0.75 * teacher}", "params.config.max_frames=290000", "params.torch_threads=1"])
+        f"params.config.score_to_win={0.93 * teacher}", "params.config.max_frames=500000", "params.torch_threads=1"])
     result = runner.train()
     best = glob.glob(str(tmp_path / "runs" / "*" / "nn" / "distill_halfcheetah_lstm.pth"))[0]
     student = played(runner.params, best, games=2)
-    assert student >= 0.7 * teacher, (student, teacher, result)
+    assert student >= 0.9 * teacher, (student, teacher, result)
 
 
 def test_student_of_a_sac_teacher_reaches_pendulum_score(tmp_path):
