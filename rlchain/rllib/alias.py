@@ -15,6 +15,7 @@ from types import ModuleType
 
 from rlchain.faces import ModuleAlias
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.face_error import FaceImportError
 
 INSTEAD = {
     "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
@@ -27,10 +28,6 @@ INSTEAD = {
     "ray.rllib.execution": "the old execution API: algo.train() runs one iteration",
 }
 """``ray.rllib`` packages the face does not offer -> what to use instead (docs/rllib.md)."""
-
-
-class FaceImportError(ImportError):
-    """A ``ray.rllib`` name rlchain's face does not offer (one line, with what to use instead)."""
 
 
 def instead(fullname: str) -> str:

@@ -54,6 +54,7 @@ def run_python(argv: list[str], cwd, env: dict[str, str], timeout: float) -> sub
     timeout=timeout)`` returns it; a command that runs past ``timeout`` raises ``subprocess.TimeoutExpired``."""
     if os.environ.get("RLCHAIN_TESTS_FRESH") == "1":
         return subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    global _server
     with _lock, tempfile.TemporaryDirectory(prefix="rlchain_cli_") as folder:
         server = _start()
         out, err = os.path.join(folder, "stdout"), os.path.join(folder, "stderr")
@@ -66,6 +67,11 @@ def run_python(argv: list[str], cwd, env: dict[str, str], timeout: float) -> sub
         timer.start()
         try:
             status = json.loads(server.stdout.readline())["status"]
+        except BaseException:  # the test was stopped (its timeout, Ctrl-C): the next command gets a new server
+            _kill_session(pid)
+            server.kill()
+            _server = None
+            raise
         finally:
             timer.cancel()
         with open(out, encoding="utf-8", errors="replace") as fh_out, \
