@@ -154,13 +154,35 @@ def _cpu() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
+def _live_children_cpu() -> float:
+    """CPU seconds of this process's running children and of what they waited for (a fork server's commands)."""
+    import glob
+
+    total, tick = 0.0, os.sysconf("SC_CLK_TCK")
+    for path in glob.glob(f"/proc/{os.getpid()}/task/*/children"):
+        try:
+            with open(path) as fh:
+                pids = fh.read().split()
+        except OSError:
+            continue
+        for pid in pids:
+            try:
+                with open(f"/proc/{pid}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+                total += sum(int(value) for value in fields[11:15]) / tick  # utime stime cutime cstime
+            except (OSError, IndexError, ValueError):
+                pass
+    return total
+
+
 if _TIMES:
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(item, nextitem):
-        wall, cpu = time.perf_counter(), _cpu()
+        wall, cpu, live = time.perf_counter(), _cpu(), _live_children_cpu()
         yield
+        live = max(_live_children_cpu() - live, 0.0)  # a child that ended in between is in _cpu() instead
         with open(_TIMES, "a") as f:
-            f.write(f"{time.perf_counter() - wall:.2f}\t{_cpu() - cpu:.2f}\t{item.nodeid}\n")
+            f.write(f"{time.perf_counter() - wall:.2f}\t{_cpu() - cpu + live:.2f}\t{item.nodeid}\n")
 
 
 def _signal_state() -> tuple:

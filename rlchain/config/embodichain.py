@@ -21,8 +21,6 @@ import math
 import os
 from typing import Any
 
-import yaml
-
 from rlchain.config.compat import warn_once
 from rlchain.config.embodichain_keys import (
     ALGO_CFG,
@@ -55,26 +53,6 @@ def split_overrides(overrides: list[str]) -> tuple[list[str], list[str]]:
     ``params.*``, applied after the translation)."""
     ours = [o for o in overrides if o.split("=", 1)[0].split(".")[0] in TOP_KEYS]
     return ours, [o for o in overrides if o not in ours]
-
-
-def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
-    """``trainer.gym_config=Name`` style overrides (value parsed as YAML) on the EmbodiChain dict."""
-    import copy
-
-    out = copy.deepcopy(raw)
-    for item in overrides:
-        key, text = item.split("=", 1)
-        parts = key.strip().split(".")
-        node = out
-        for i, part in enumerate(parts[:-1]):
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ConfigError(source, ".".join(parts[: i + 1]), "override goes through a non-mapping key")
-        try:
-            node[parts[-1]] = yaml.safe_load(text)
-        except yaml.YAMLError:
-            node[parts[-1]] = text
-    return out
 
 
 def _block(raw: dict, key: str, source: str, path: str = "") -> dict:

@@ -50,8 +50,10 @@ def load_raw(path: str) -> dict[str, Any]:
     return data
 
 
-def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
-    """Apply ``a.b.c=value`` overrides (value parsed as YAML); a leading ``params.`` is optional."""
+def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str, prefix: str | None = "params"
+                    ) -> dict[str, Any]:
+    """Apply ``a.b.c=value`` overrides (value parsed as YAML); a leading ``params.`` (``prefix``) is optional.
+    ``prefix`` None: the keys as given (``trainer.gym_config=Name`` on an EmbodiChain dict)."""
     import copy
 
     out = copy.deepcopy(raw)
@@ -60,8 +62,8 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str], source: str) -> d
             raise ConfigError(source, item, "override must look like key.path=value")
         key, text = item.split("=", 1)
         parts = key.strip().split(".")
-        if parts[0] != "params":
-            parts = ["params", *parts]
+        if prefix is not None and parts[0] != prefix:
+            parts = [prefix, *parts]
         if nesting(text) > MAX_NESTING:
             raise ConfigError(source, key.strip(), f"the value nests more than {MAX_NESTING} levels deep")
         try:
@@ -92,7 +94,7 @@ def from_embodichain(raw: dict[str, Any], overrides: list[str], source: str) -> 
     ours, rest = embodichain.split_overrides(overrides)
     import_user_modules(apply_overrides({"params": {}}, [o for o in rest if "import_modules=" in o], source),
                         source)
-    return embodichain.translate(embodichain.apply_overrides(raw, ours, source), source), rest
+    return embodichain.translate(apply_overrides(raw, ours, source, prefix=None), source), rest
 
 
 def parse_params(raw: dict[str, Any], source: str = "<config>") -> Params:

@@ -47,6 +47,30 @@ class NetworkBuilder:
         return self.build(name, **kwargs)
 
 
+_KEYED = ("__getitem__", "get", "__contains__", "pop", "setdefault")
+_BULK = ("__iter__", "keys", "items", "values")
+
+
+def _marks_key(name: str) -> Any:
+    """``dict.<name>(key, ...)`` that first marks ``key`` read."""
+    method = getattr(dict, name)
+
+    def marked(self: ReadKeys, key: Any, *args: Any) -> Any:
+        self.read.add(key)
+        return method(self, key, *args)
+    return marked
+
+
+def _marks_all(name: str) -> Any:
+    """``dict.<name>()`` that first marks every key (nested blocks' too) read."""
+    method = getattr(dict, name)
+
+    def marked(self: ReadKeys) -> Any:
+        self._all()
+        return method(self)
+    return marked
+
+
 class ReadKeys(dict):
     """A network block (a plain dict) that records which of its keys, and its nested blocks' keys,
     the builder read, so keys it never looked at can be reported as likely typos.
@@ -59,26 +83,6 @@ class ReadKeys(dict):
         super().__init__({k: ReadKeys(v) if isinstance(v, dict) else v for k, v in block.items()})
         self.read: set = set()
 
-    def __getitem__(self, key: Any) -> Any:
-        self.read.add(key)
-        return super().__getitem__(key)
-
-    def get(self, key: Any, default: Any = None) -> Any:
-        self.read.add(key)
-        return super().get(key, default)
-
-    def __contains__(self, key: Any) -> bool:
-        self.read.add(key)
-        return super().__contains__(key)
-
-    def pop(self, key: Any, *default: Any) -> Any:
-        self.read.add(key)
-        return super().pop(key, *default)
-
-    def setdefault(self, key: Any, default: Any = None) -> Any:
-        self.read.add(key)
-        return super().setdefault(key, default)
-
     def _all(self) -> None:
         """Bulk access hands the nested blocks out too: everything under this block counts as read."""
         self.read.update(super().keys())
@@ -86,21 +90,9 @@ class ReadKeys(dict):
             if isinstance(value, ReadKeys):
                 value._all()
 
-    def __iter__(self):
-        self._all()
-        return super().__iter__()
-
-    def keys(self):
-        self._all()
-        return super().keys()
-
-    def items(self):
-        self._all()
-        return super().items()
-
-    def values(self):
-        self._all()
-        return super().values()
+    # reading a key marks it; iterating or viewing the block marks every key
+    __getitem__, get, __contains__, pop, setdefault = (_marks_key(name) for name in _KEYED)
+    __iter__, keys, items, values = (_marks_all(name) for name in _BULK)
 
     def copy(self) -> dict:
         self._all()

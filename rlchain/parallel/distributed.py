@@ -228,10 +228,10 @@ class Distributed(Communicator):
         """Rank 0's parameters and buffers (tensor broadcasts) and its agent state (optimizer, lr)."""
         self._collective("state broadcast", self._broadcast_state, model, agent)
 
-    def gather_objects(self, obj: Any) -> list[Any]:
-        """Every rank's ``obj`` on every rank (``all_gather_object``)."""
+    def gather_objects(self, obj: Any, what: str = "rank state gather") -> list[Any]:
+        """Every rank's ``obj`` on every rank (``all_gather_object``; ``what`` names it if it fails)."""
         gathered: list[Any] = [None] * self.world_size
-        self._collective("rank state gather", dist.all_gather_object, gathered, obj)
+        self._collective(what, dist.all_gather_object, gathered, obj)
         return gathered
 
     def _collective(self, what: str, fn: Any, *args: Any) -> Any:
@@ -281,8 +281,7 @@ class Distributed(Communicator):
         facts = {"envs": int(env.num_envs), "parameters": _count(model),
                  "resume_epoch": None if state is None else int(state["epoch"]),
                  "resume_frames": None if state is None else int(state["frames"])}
-        gathered: list[Any] = [None] * self.world_size
-        self._collective("consistency check", dist.all_gather_object, gathered, facts)
+        gathered = self.gather_objects(facts, "consistency check")
         bad = first_mismatch(gathered)
         if bad is not None:
             raise ConfigError("", KEY, f"rank {bad} differs from rank 0 ({gathered[bad]} vs {gathered[0]}); "

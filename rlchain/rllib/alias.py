@@ -15,10 +15,12 @@ from types import ModuleType
 
 from rlchain.faces import ModuleAlias
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.face_error import FaceImportError
 
 INSTEAD = {
     "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
-    "ray.rllib.connectors": "connectors are not run: preprocess in a gymnasium wrapper",
+    "ray.rllib.connectors": "connectors are not run (env_to_module.MeanStdFilter aside): preprocess in a gymnasium "
+                            "wrapper",
     "ray.rllib.offline": "offline RL is not in rlchain",
     "ray.rllib.policy": "the old Policy API: use algo.get_module() / compute_single_action",
     "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",
@@ -26,10 +28,6 @@ INSTEAD = {
     "ray.rllib.execution": "the old execution API: algo.train() runs one iteration",
 }
 """``ray.rllib`` packages the face does not offer -> what to use instead (docs/rllib.md)."""
-
-
-class FaceImportError(ImportError):
-    """A ``ray.rllib`` name rlchain's face does not offer (one line, with what to use instead)."""
 
 
 def instead(fullname: str) -> str:

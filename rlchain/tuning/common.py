@@ -79,6 +79,14 @@ class SearchSpec:
     backend: str = "optuna"
     ray: RaySpec | None = None  # the Ray Tune keys (backend: ray)
 
+    def trial_overrides(self, study_dir: str, values: list[str] | tuple[str, ...] = ()) -> list[str]:
+        """A trial's overrides: the file's, then ``values`` (the trial's own), its runs in ``study_dir``, the
+        ``max_epochs_per_trial`` cap, and quiet unless ``verbose``."""
+        out = [*self.overrides, *values, f"params.config.train_dir={study_dir}"]
+        if self.max_epochs_per_trial is not None:
+            out.append(f"params.config.max_epochs={self.max_epochs_per_trial}")
+        return out if self.verbose else [*out, "params.config.print_stats=false"]
+
 
 def _at_least_one(x: int) -> str | None:
     return None if x >= 1 else "expected an integer >= 1"

@@ -68,14 +68,8 @@ def run_optuna_search(spec: SearchSpec, output: str | None = None,
 
     def objective(trial: Any) -> float:
         values = suggest(trial, spec)
-        overrides = list(spec.overrides) + override_strings(values) + [
-            f"params.config.train_dir={study_dir}",
-            f"params.config.full_experiment_name=trial_{trial.number:03d}",
-        ]
-        if spec.max_epochs_per_trial is not None:
-            overrides.append(f"params.config.max_epochs={spec.max_epochs_per_trial}")
-        if not spec.verbose:
-            overrides.append("params.config.print_stats=false")
+        overrides = [*spec.trial_overrides(study_dir, override_strings(values)),
+                     f"params.config.full_experiment_name=trial_{trial.number:03d}"]
         callback = PruningCallback(trial, spec.metric)
         result = Runner().load(spec.base, overrides).train(callbacks=[callback])
         value = float(getattr(result, spec.metric))

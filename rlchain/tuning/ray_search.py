@@ -93,11 +93,7 @@ def fit(spec: Any, output: str | None = None, train_dir: str | None = None) -> S
                        "the Ray cluster" if rs.address else "this machine")
         keys = list(spec.params) + [k for k in (rs.pbt.mutations if rs.pbt else {}) if k not in spec.params]
         cfg = base.params.config
-        overrides = list(spec.overrides) + [f"params.config.train_dir={study_dir}"]
-        if spec.max_epochs_per_trial is not None:
-            overrides.append(f"params.config.max_epochs={spec.max_epochs_per_trial}")
-        if not spec.verbose:
-            overrides.append("params.config.print_stats=false")
+        overrides = spec.trial_overrides(study_dir)
         setup = TrialSetup(base=load_raw(spec.base), overrides=overrides, keys=keys,
                            live={k: k.removeprefix("params.config.") for k in keys
                                  if k.removeprefix("params.config.") in tunable and k.startswith("params.config.")},

@@ -9,7 +9,6 @@ with the previous reward and action as inputs (use_dict_obs_space / wrap_impala)
 import glob
 import os
 import re
-import subprocess
 import sys
 
 import gymnasium as gym
@@ -22,6 +21,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.vecenv import StepResult
 from tests.conftest import CONFIGS, ROOT
+from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 PONG = os.path.join(CONFIGS, "ppo_pong_envpool.yaml")
@@ -32,9 +32,9 @@ SMALL = ["params.config.num_actors=8", "params.config.horizon_length=16", "param
 
 
 def run_cli(args, cwd, timeout=300):
+    """``python runner.py ARGS`` in ``cwd`` (tests/smoke/cli_server.py runs it)."""
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, os.path.join(ROOT, "runner.py"), *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=timeout)
+    return run_python([sys.executable, os.path.join(ROOT, "runner.py"), *args], cwd, env, timeout)
 
 
 def random_steps(env, steps, seed=0):

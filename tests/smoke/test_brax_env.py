@@ -48,13 +48,17 @@ def test_contract_auto_reset_final_obs_and_time_limit():
     assert env._step_fn._cache_size() == 1 and env._reset_fn._cache_size() == 1
 
 
+# the contract test's env shape (16 envs, 20 steps an episode): JAX compiles its reset and step once for the module
+SHAPE = ["params.config.num_actors=16", "params.config.env_config.episode_length=20"]
+
+
 def test_shipped_config_train_play_resume(tmp_path):
-    small = [f"params.config.train_dir={tmp_path}", "params.config.max_epochs=2", "params.config.num_actors=16",
+    small = [f"params.config.train_dir={tmp_path}", "params.config.max_epochs=2", *SHAPE,
              "params.config.minibatch_size=256", "params.config.save_best_after=0", "params.config.print_stats=false"]
     result = Runner().load(CONFIG, small).train()
     assert result.epoch == 2 and result.frames == 2 * 16 * 64 and np.isfinite(result.mean_reward)
     last = os.path.join(result.run_dir, "nn", "last_brax_inverted_pendulum.pth")
-    played = Runner().load(CONFIG, ["params.config.env_config.episode_length=50"]).play(last, games=2, quiet=True)
+    played = Runner().load(CONFIG, ["params.config.env_config.episode_length=20"]).play(last, games=2, quiet=True)
     assert played.games == 2
     resumed = Runner().load(CONFIG, [*small, "params.config.max_epochs=3"]).train(checkpoint=last)
     assert resumed.epoch == 3 and ckpt.load(os.path.join(resumed.run_dir, "nn", os.path.basename(last)))["epoch"] == 3
@@ -103,11 +107,11 @@ def test_state_round_trip_continues_bit_identically():
 
 def test_ppo_brax_resume_is_bit_identical(tmp_path):
     """Exact resume end to end: PPO on Brax, 3 epochs + resume to 6 equals 6 straight (parameters, optimizer,
-    episodes, every logged metric; torch.equal). Same env shapes as the train/play/resume test above, so
-    the JAX compile cache of this module serves its reset and step."""
+    episodes, every logged metric; torch.equal). The contract test's env shape (SHAPE), so the JAX compile cache
+    of this module serves its reset and step."""
     from tests.smoke.test_exact_resume import check_split
 
-    overrides = ["params.network.mlp.units=[16]", "params.config.num_actors=16", "params.config.minibatch_size=256",
+    overrides = ["params.network.mlp.units=[16]", *SHAPE, "params.config.minibatch_size=256",
                  "params.config.mini_epochs=2", "params.config.save_best_after=0"]
     half = check_split(tmp_path, "ppo_brax_inverted_pendulum.yaml", overrides, 3)
     assert half["run_state"]["env"] is not None and half["episodes"]  # env state saved, episodes ended

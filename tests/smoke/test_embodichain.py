@@ -4,7 +4,6 @@ rlchain train, their TensorBoard tags beside rlchain's, events applied, the rl_g
 import glob
 import json
 import os
-import subprocess
 import sys
 
 import torch
@@ -13,6 +12,7 @@ import yaml
 from rlchain import Runner
 from rlchain.training.events import Callback
 from tests.conftest import ROOT
+from tests.smoke.cli_server import run_python
 
 CALLS = []
 REFERENCES = []
@@ -97,9 +97,9 @@ def test_grpo_resume_keeps_the_reference_policy(tmp_path):
 
 def test_train_py_grpo(tmp_path):
     path = layout(tmp_path, "grpo", "EmbodiChainCartPoleStandIn")
-    out = subprocess.run([sys.executable, os.path.join(ROOT, "train.py"), "--config", path,
-                          f"params.config.train_dir={tmp_path}/runs", "params.torch_threads=1"],
-                         capture_output=True, text=True, env={**os.environ, "PYTHONPATH": ROOT}, timeout=120)
+    out = run_python([sys.executable, os.path.join(ROOT, "train.py"), "--config", path,
+                      f"params.config.train_dir={tmp_path}/runs", "params.torch_threads=1"], os.getcwd(),
+                     {**os.environ, "PYTHONPATH": ROOT}, 120)
     assert out.returncode == 0, out.stderr[-2000:]
     assert "training grpo on EmbodiChainCartPoleStandIn" in out.stdout + out.stderr
     assert "algo:\n    name: grpo" in out.stdout + out.stderr  # the rl_games-style config it runs

@@ -3,13 +3,13 @@ epoch and logs a success rate; the shipped checkpoint nn/push_cube.pth plays. Me
 config trains an epoch and logs its success rate."""
 
 import os
-import subprocess
 import sys
 
 import pytest
 
 from rlchain import Runner
 from tests.conftest import ROOT
+from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 
@@ -21,11 +21,11 @@ def test_train_py_runs_the_push_cube_json(tmp_path):
     pytest.importorskip("envpool")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     # the shipped JSON as written, with fewer envs and a short episode so that an episode ends in the epoch
-    out = subprocess.run([sys.executable, os.path.join(ROOT, "train.py"), "--config", CONFIG,
-                          "params.config.max_epochs=1", f"params.config.train_dir={tmp_path}",
-                          "params.config.num_actors=4", "params.config.horizon_length=64",
-                          "params.config.minibatch_size=128", "params.config.env_config.max_episode_steps=32"],
-                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    out = run_python([sys.executable, os.path.join(ROOT, "train.py"), "--config", CONFIG,
+                      "params.config.max_epochs=1", f"params.config.train_dir={tmp_path}",
+                      "params.config.num_actors=4", "params.config.horizon_length=64",
+                      "params.config.minibatch_size=128", "params.config.env_config.max_episode_steps=32"],
+                     tmp_path, env, 300)
     assert out.returncode == 0, out.stderr[-3000:]
     assert "epoch 1" in out.stdout and ("| success 0." in out.stdout or "| success 1." in out.stdout), out.stdout
 

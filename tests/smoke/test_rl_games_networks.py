@@ -11,6 +11,7 @@ import yaml
 
 from rlchain import Runner
 from tests.conftest import CONFIGS, ROOT
+from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 
@@ -95,8 +96,8 @@ def test_aux_loss_of_an_a2c_builder_subclass_is_logged_via_runner_py(tmp_path):
     cfg["params"]["network"] = network
     path = tmp_path / "cfg.yaml"
     path.write_text(yaml.safe_dump(cfg))
-    out = subprocess.run([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file", str(path)],
-                         cwd=tmp_path, env=ENV, capture_output=True, text=True, timeout=300)
+    out = run_python([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file", str(path)], tmp_path,
+                     ENV, 300)
     assert out.returncode == 0, out.stderr[-3000:]
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 

@@ -78,7 +78,10 @@ def aux_loss_terms(raw: Any) -> dict[str, torch.Tensor]:
     return out
 
 
-def vtrace_policy_loss(log_probs: torch.Tensor, pg_advantages: torch.Tensor) -> torch.Tensor:
+def vtrace_policy_loss(old_log_probs: torch.Tensor, log_probs: torch.Tensor, pg_advantages: torch.Tensor,
+                       e_clip: float = 0.0, smooth: bool = False) -> torch.Tensor:
     """IMPALA's policy-gradient loss per sample: -log pi(a|s) * min(rho-bar, pi/mu) * (q - V), the
-    advantage being V-trace's ``pg_advantages`` (a constant here)."""
+    advantage being V-trace's ``pg_advantages`` (a constant here). :func:`policy_loss`'s signature, so PPO's agent
+    takes it as its surrogate (IMPALA): the ratio clip is inside the advantages, ``old_log_probs``, ``e_clip`` and
+    ``smooth`` are not read."""
     return -log_probs * pg_advantages.detach()
