@@ -19,6 +19,15 @@ class NetworkError(RuntimeError):
     """A network broke its contract at run time, e.g. ``get_aux_loss()`` returned a non-scalar loss."""
 
 
+class CallbackError(RuntimeError):
+    """A user's callback raised while the envs stepped; ``__cause__`` is the callback's own exception, which
+    the loop re-raises as it was (after saving the last completed epoch)."""
+
+    def __init__(self, callback: str, event: str, cause: BaseException) -> None:
+        super().__init__(f"callback {callback} failed in {event}: {type(cause).__name__}: {cause}")
+        self.callback, self.event = callback, event
+
+
 class DistributedError(RuntimeError):
     """Under torchrun, a collective failed: another rank died, was killed or hung (multi_gpu)."""
 

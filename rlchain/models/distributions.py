@@ -296,7 +296,25 @@ def sigma_std(raw: torch.Tensor, parametrization: str, min_sigma: float,
     return std + min_sigma if min_sigma > 0 else std
 
 
-class DiagGaussian(Distribution):
+class BoxActions:
+    """A Box's actions from [-1, 1] to [low, high] with clip_actions and finite bounds (``rescale``): PPO's, SAC's."""
+
+    def __init__(self, space: gym.spaces.Box, clip_actions: bool) -> None:
+        low = np.asarray(space.low, dtype=np.float64).reshape(-1)
+        high = np.asarray(space.high, dtype=np.float64).reshape(-1)
+        self.rescale = clip_actions and bool(np.isfinite(low).all() and np.isfinite(high).all())
+        self._low = torch.as_tensor(low, dtype=torch.float32)
+        self._high = torch.as_tensor(high, dtype=torch.float32)
+
+    def to_env(self, actions: torch.Tensor) -> torch.Tensor:
+        """With clip_actions: clip to [-1, 1] and rescale linearly to [low, high]."""
+        if not self.rescale:
+            return actions
+        low, high = self._low.to(actions.device), self._high.to(actions.device)
+        return low + (actions.clamp(-1.0, 1.0) + 1.0) * 0.5 * (high - low)
+
+
+class DiagGaussian(BoxActions, Distribution):
     """Box(A): params are cat(mu, std) (B, 2A); the network's sigma is log-std or std by model."""
 
     continuous = True
@@ -319,12 +337,7 @@ class DiagGaussian(Distribution):
         self.action_dtype = torch.float32
         self.sigma_is_logstd = sigma_is_logstd
         self.clip_actions = clip_actions
-        low = np.asarray(space.low, dtype=np.float64).reshape(-1)
-        high = np.asarray(space.high, dtype=np.float64).reshape(-1)
-        finite = np.isfinite(low).all() and np.isfinite(high).all()
-        self.rescale = clip_actions and finite
-        self._low = torch.as_tensor(low, dtype=torch.float32)
-        self._high = torch.as_tensor(high, dtype=torch.float32)
+        super().__init__(space, clip_actions)
 
     def params_from_network(self, out: tuple) -> tuple[torch.Tensor, torch.Tensor]:
         mu, sigma, value = out[0], out[1], out[2]
@@ -383,14 +396,6 @@ class DiagGaussian(Distribution):
         raise ActionMaskError("params.config.use_action_masks: action masks need discrete or multi-discrete "
                               "actions; this env has continuous (Box) actions")
 
-    def to_env(self, actions: torch.Tensor) -> torch.Tensor:
-        """With clip_actions: clip to [-1, 1] and rescale linearly to [low, high]."""
-        if not self.rescale:
-            return actions
-        low, high = self._low.to(actions.device), self._high.to(actions.device)
-        clipped = actions.clamp(-1.0, 1.0)
-        return low + (clipped + 1.0) * 0.5 * (high - low)
-
 
 def multi_discrete_dims(space: gym.Space) -> tuple[list[int], list[int]] | None:
     """(nvec, start) of a MultiDiscrete, MultiBinary or Tuple-of-Discrete space, else None."""
@@ -437,8 +442,7 @@ def make_distribution(model_name: str, space: gym.Space, clip_actions: bool, net
         if model_name not in ("continuous_a2c_logstd", "continuous_a2c"):
             raise ValueError(f"params.model.name: '{model_name}' needs discrete actions, the env has "
                              f"Box{space.shape}; use continuous_a2c_logstd")
-        return DiagGaussian(space, sigma_is_logstd=model_name == "continuous_a2c_logstd",
-                            clip_actions=clip_actions,
+        return DiagGaussian(space, sigma_is_logstd=model_name == "continuous_a2c_logstd", clip_actions=clip_actions,
                             parametrization=getattr(network, "sigma_parametrization", "exp"),
                             min_sigma=getattr(network, "min_sigma", 0.0),
                             logstd_bounds=getattr(network, "logstd_bounds", None))

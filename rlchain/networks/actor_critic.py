@@ -23,6 +23,7 @@ import torch
 import torch.nn as nn
 
 from rlchain.config.network import NetworkConfig
+from rlchain.models.distributions import multi_discrete_dims
 from rlchain.networks.base import NetworkBuilder
 from rlchain.networks.cnn import ConvEncoder
 from rlchain.networks.history import HistoryLayer
@@ -283,14 +284,8 @@ def is_continuous(cfg: NetworkConfig, space: gym.Space) -> bool:
 
 def logits_sizes(space: gym.Space) -> list[int] | None:
     """The per-dimension sizes of a MultiDiscrete, MultiBinary or Tuple-of-Discrete action space, else None."""
-    if isinstance(space, gym.spaces.MultiDiscrete):
-        return [int(n) for n in np.ravel(space.nvec)]
-    if isinstance(space, gym.spaces.MultiBinary):
-        return [2] * int(np.prod(space.shape))
-    if isinstance(space, gym.spaces.Tuple) and space.spaces and \
-            all(isinstance(s, gym.spaces.Discrete) for s in space.spaces):
-        return [int(s.n) for s in space.spaces]
-    return None
+    dims = multi_discrete_dims(space)
+    return None if dims is None else dims[0]
 
 
 class ActorCriticBuilder(NetworkBuilder):

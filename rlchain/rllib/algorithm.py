@@ -33,6 +33,7 @@ from rlchain.rllib.checkpoint_files import (
     json_data,
     read_text,
 )
+from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
 from rlchain.runner import Runner
@@ -156,6 +157,13 @@ class Algorithm:
                or type(cb).on_episode_start is not RLlibCallback.on_episode_start
                or isinstance(cb, _Functions) for cb in self.callbacks):
             extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics))
+        # RLlib's episode results count the episodes of each train() only (see episode_window)
+        self._episodes = IterationEpisodes(runners, per_runner,
+                                           int(settings.get("metrics_num_episodes_for_smoothing") or 100))
+        if self._episodes.per_runner and self._multi is None and config.algo_name == "PPO":
+            extra.append(self._episodes)  # PPO's rollout steps the envs here: each episode's runner is known
+        else:
+            self._episodes.per_runner = False  # the episodes the tracker finished, all runners together
         self._stepper = _Stepper(self.runner, seed=settings.get("seed"))
         self._stepper._extra = extra
         self._stepper._run = self._run_thread
@@ -218,9 +226,10 @@ class Algorithm:
 
     def _result(self, report: Any) -> dict[str, Any]:
         ctx = self._stepper.context
+        tracker = ctx.episode_tracker
         return train_result(report, self.rlchain_config["params"]["config"], iteration=self.iteration,
-                            time_total=self._time_total,
-                            games=int(getattr(getattr(ctx, "tracker", None), "games", 0) or 0),
+                            time_total=self._time_total, games=int(getattr(tracker, "games", 0) or 0),
+                            episodes=None if self._multi is not None else self._episodes.take(tracker),
                             episode_custom=self._env_runner_metrics.reduce(),
                             learner=self.learner_results(report.stats, self.rlchain_config["params"]["config"]),
                             multi=self._multi)
@@ -348,6 +357,7 @@ class Algorithm:
         weights, optimizer, counters. RLlib's own (pickled) checkpoints are refused."""
         self._check_running()
         self._stepper.load(checkpoint_file(path))
+        self._episodes.sync(self._stepper.context.episode_tracker)
         with open(os.path.join(os.fspath(path), CONFIG_FILE)) if os.path.isdir(path) else open(os.devnull) as f:
             text = f.read()
         if text:

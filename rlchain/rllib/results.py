@@ -22,8 +22,11 @@ def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
 
 
 def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
-                 episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None) -> dict[str, Any]:
+                 episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None,
+                 episodes: dict[str, float] | None = None) -> dict[str, Any]:
     """One ``train()``'s result: ``report`` is rlchain's epoch report, ``cfg`` the run's ``params.config``,
+    ``episodes`` RLlib's episode results of this iteration (:func:`rlchain.rllib.episode_window.iteration_metrics`;
+    None: the epoch report's means over rlchain's last ``games_to_track`` episodes),
     ``learner`` the default module's learner results, ``multi`` the multi-agent run (its episodes summed over
     agents and one learner per policy) or None. ``_episode_custom`` carries the episode callbacks' values (the
     Algorithm writes and removes it)."""
@@ -32,7 +35,9 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
     length = nan if report.mean_length is None else report.mean_length
     frames = int(report.frames)
     per_iter = int(cfg["num_actors"] * cfg.get("horizon_length", cfg.get("num_steps_per_episode", 1)))
-    env_runners = {"episode_return_mean": ret, "episode_len_mean": length,
+    if episodes is not None:
+        ret, length = episodes["episode_return_mean"], episodes["episode_len_mean"]
+    env_runners = {**(episodes or {}), "episode_return_mean": ret, "episode_len_mean": length,
                    "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
                    "num_episodes_lifetime": games, **nested(episode_custom)}
     if "kl_coef" in report.stats:

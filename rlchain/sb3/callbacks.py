@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from rlchain.errors import CallbackError
 from rlchain.sb3.logger import SB3Logger  # noqa: F401  (importable from here too)
 from rlchain.training.events import Callback
 
@@ -101,7 +102,11 @@ class SB3Callbacks(Callback):
                        "self": self.model, **self.learn_locals}
         for cb in self.callbacks:
             cb.update_locals(step_locals)
-            if cb.on_step() is False:
+            try:
+                keep_going = cb.on_step()
+            except Exception as exc:  # named as the user's class, not this adapter
+                raise CallbackError(type(cb).__name__, "_on_step", exc) from exc
+            if keep_going is False:
                 self._stopped = True
                 ctx.request_stop(STOP_REASON)
                 return

@@ -25,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from rlchain.config.text import MAX_NESTING, depth_of
 from rlchain.runs import archive
 from rlchain.runs import checkpoint as ckpt
 from rlchain.sb3.defaults import SB3_DEFAULTS
@@ -45,8 +46,6 @@ SDE_LOG_STD_BOUNDS = tuple(float(b) for b in SB3_DEFAULTS["sac"]["network"]["log
 """The log-std bounds of the SAC a loaded archive builds (its log-std head goes through rlchain's soft bound)."""
 MAX_ELEMENTS = 1 << 24
 """The most elements a space's shape may have (16.8M: a 3 x 2048 x 2048 image is 12.6M)."""
-MAX_DEPTH = 64
-"""How deep SB3's ``data`` JSON may nest (SB3 writes a few levels)."""
 MAX_TIMESTEPS, MAX_ENVS = 2**62, 1 << 16
 """Bounds of the archive's ``num_timesteps`` and ``n_envs``."""
 FIRST_LAYER = {"ppo": ("mlp_extractor.policy_net.0.weight", "action_net.weight"),
@@ -245,7 +244,7 @@ def read_sb3_archive(path: str, algo: str) -> SB3Archive:
 
 def read_data(path: str) -> dict[str, Any]:
     """The archive's ``data`` JSON as a dict, read within bounds (:data:`~rlchain.runs.archive.DATA_LIMIT`,
-    :data:`MAX_DEPTH` levels); anything else is a one-line CheckpointError."""
+    :data:`~rlchain.config.text.MAX_NESTING` levels: a config's bound); anything else is a one-line CheckpointError."""
     try:
         raw = archive.read_member(path, "data", archive.DATA_LIMIT)
     except archive.ArchiveError as exc:
@@ -258,24 +257,12 @@ def read_data(path: str) -> dict[str, Any]:
         raise ckpt.CheckpointError(f"{path}: 'data' is not JSON ({exc.msg} at line {exc.lineno} column "
                                    f"{exc.colno})") from None
     except RecursionError:
-        raise ckpt.CheckpointError(f"{path}: 'data' nests deeper than {MAX_DEPTH} levels: not SB3's JSON") from None
+        raise ckpt.CheckpointError(f"{path}: 'data' nests deeper than {MAX_NESTING} levels: not SB3's JSON") from None
     if not isinstance(data, dict):
         raise ckpt.CheckpointError(f"{path}: 'data' is a JSON {type(data).__name__}, not the object SB3 writes")
-    if depth(data) > MAX_DEPTH:
-        raise ckpt.CheckpointError(f"{path}: 'data' nests deeper than {MAX_DEPTH} levels: not SB3's JSON")
+    if depth_of(data) > MAX_NESTING:
+        raise ckpt.CheckpointError(f"{path}: 'data' nests deeper than {MAX_NESTING} levels: not SB3's JSON")
     return data
-
-
-def depth(value: Any) -> int:
-    """How deep lists and dicts nest in ``value`` (iteratively: no recursion limit to reach)."""
-    deepest, stack = 0, [(value, 1)]
-    while stack:
-        node, level = stack.pop()
-        if isinstance(node, (dict, list)):
-            deepest = max(deepest, level)
-            if level <= MAX_DEPTH:
-                stack.extend((v, level + 1) for v in (node.values() if isinstance(node, dict) else node))
-    return deepest
 
 
 def count(value: Any, path: str, key: str, low: int, high: int, default: int | None) -> int | None:

@@ -25,6 +25,7 @@ import time
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.errors import CallbackError
 from rlchain.log import get_logger
 from rlchain.registry import import_object
 from rlchain.training.callback_context import CallbackContext, ObserverAlgo
@@ -242,8 +243,15 @@ class CallbackList:
             getattr(callback, event)(self.context, *args)
 
     def emit_env_step(self, result: Any, done_indices: Any, rows: slice) -> None:
+        """``on_env_step`` on the callbacks that handle it. One that raises is a CallbackError naming it, so the
+        loop tells it from a failing env (its own exception is what the user then sees)."""
         for callback in self.step_callbacks:
-            callback.on_env_step(self.context, result, done_indices, rows)
+            try:
+                callback.on_env_step(self.context, result, done_indices, rows)
+            except CallbackError:
+                raise
+            except Exception as exc:
+                raise CallbackError(type(callback).__name__, "on_env_step", exc) from exc
 
     def close(self) -> None:
         """``close()`` every callback, even when one fails (reported, not raised: the run's

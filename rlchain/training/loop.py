@@ -25,7 +25,7 @@ from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.errors import DivergenceError, EnvError
+from rlchain.errors import CallbackError, DivergenceError, EnvError
 from rlchain.log import get_logger, train_hint
 from rlchain.parallel import communicator
 from rlchain.parallel.communicator import Communicator
@@ -180,6 +180,11 @@ class Loop:
             return self.algorithm.collect()
         except (EnvError, DivergenceError, KeyboardInterrupt):
             raise
+        except CallbackError as exc:  # the user's callback, not the env: their own exception, as it was
+            path = self.checkpoints.save("last")
+            saved = f"; last completed epoch {self.ctx.epoch} saved to {path}" if path else ""
+            log.error(f"error: {exc} (epoch {self.ctx.epoch + 1}){saved}")
+            raise exc.__cause__ from None
         except Exception as exc:
             path = self.checkpoints.save("last")
             epoch = self.ctx.epoch

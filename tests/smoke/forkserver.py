@@ -4,9 +4,10 @@ rlchain again (about 4 s of CPU each on a 2-core machine, most of a one-epoch co
 
 The child is the command as a fresh ``python`` would run it: its own process and session, working directory,
 environment, ``sys.argv``, ``sys.path[0]``, standard streams (files) and exit status; atexit handlers and
-non-daemon threads end as at a normal interpreter exit. What differs: torch, numpy and rlchain are already
-imported (from this tree) when the command starts. ``RLCHAIN_DOCS_FRESH=1`` makes tests/smoke/test_docs_commands.py
-start every command fresh instead.
+non-daemon threads end as at a normal interpreter exit. What differs: torch (with torch._dynamo, which torch
+imports at a process's first optimizer, and its TensorBoard writer), numpy and rlchain (its algorithms and example
+envs, which any training run imports) are already imported (from this tree) when the command starts.
+``RLCHAIN_DOCS_FRESH=1`` makes tests/smoke/test_docs_commands.py start every command fresh instead.
 
 Protocol: one JSON request a line on stdin ``{"argv", "cwd", "env", "stdout", "stderr"}``; the server answers
 ``{"pid": N}`` when the child runs and ``{"status": S}`` when it has ended (S < 0: killed by signal -S). The
@@ -24,9 +25,13 @@ sys.path[0] = ROOT  # this tree's rlchain, as the docs' working directories link
 
 import numpy  # noqa: E402,F401  (preloaded for the children)
 import torch  # noqa: E402,F401
+import torch._dynamo  # noqa: E402,F401  (torch imports it at a process's first optimizer: about 2 s of CPU)
+import torch.utils.tensorboard  # noqa: E402,F401  (every training run's summary writer)
 
+import rlchain.algos  # noqa: E402,F401  (the algorithm registry a config's algo.name is looked up in)
 import rlchain.cli  # noqa: E402,F401
 import rlchain.console  # noqa: E402,F401
+import rlchain.envs.examples  # noqa: E402,F401  (the example envs the shipped configs register)
 import rlchain.runner  # noqa: E402,F401
 
 

@@ -211,6 +211,22 @@ def test_env_that_raises_names_env_and_saves(tmp_path):
         runner.train()
 
 
+class _RaisesInEpochTwo(Callback):
+    def on_env_step(self, ctx, result, done_indices, rows):
+        if ctx.state.epoch >= 1:
+            raise KeyError("my callback's own bug")
+
+
+def test_callback_that_raises_is_the_users_error_and_saves(tmp_path, caplog):
+    runner = cartpole(tmp_path)
+    with caplog.at_level(logging.ERROR), pytest.raises(KeyError, match="my callback's own bug"):
+        runner.train(callbacks=[_RaisesInEpochTwo()])  # the callback's own exception, not "env step failed"
+    assert "callback _RaisesInEpochTwo failed in on_env_step: KeyError" in caplog.text
+    assert "last completed epoch 1 saved to" in caplog.text
+    last = glob.glob(str(tmp_path / "runs" / "*" / "nn" / "last_*.pth"))
+    assert len(last) == 1 and ckpt.load(last[0])["epoch"] == 1
+
+
 @pytest.mark.timeout(120)
 def test_async_env_that_raises_does_not_hang(tmp_path):
     runner = cartpole(tmp_path, "params.config.env_name=RaisingCartPole-test", "params.config.num_actors=2",

@@ -122,14 +122,6 @@ class APG(AlgorithmBase):
         super().restart_episodes()
         self.collector.place(self.collector.obs.detach())
 
-    def hyperparams(self) -> dict[str, float]:
-        return {**super().hyperparams(), "learning_rate": self.agent.lr}
-
-    def apply_hyperparam(self, name: str, value: float) -> None:
-        if name == "learning_rate":
-            self.agent.set_lr(value)
-        super().apply_hyperparam(name, value)
-
 
 def _as_is(x: Any) -> Any:
     """APG's actions and observations pass between the policy and the tensor env as they are (with graph)."""

@@ -258,15 +258,7 @@ class APPO(AlgorithmBase):
         self.version += self.cfg.appo.max_policy_lag + 1  # what is in flight is now too old
         self.pool.publish(self._weights(), self.version)
 
-    # ----- hyperparameters, checkpoints -----------------------------------------------------
-    def hyperparams(self) -> dict[str, float]:
-        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
-        return {**super().hyperparams(), **self.agent.live_hyperparams()}
-
-    def apply_hyperparam(self, name: str, value: float) -> None:
-        if not self.agent.set_hyperparam(name, value):
-            super().apply_hyperparam(name, value)
-
+    # ----- checkpoints ----------------------------------------------------------------------
     def extra_state(self, kind: str) -> dict[str, Any]:
         return {"policy_version": self.version, "dropped_fragments": self.dropped_fragments}
 

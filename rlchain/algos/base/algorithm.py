@@ -227,17 +227,25 @@ class AlgorithmBase:
         return self.ctx.progress(self.frames_per_epoch() if epoch_frames is None else epoch_frames)
 
     def hyperparams(self) -> dict[str, float]:
-        """The live values of :attr:`tunable` (default: the config's)."""
-        return {name: getattr(self.cfg, name) for name in self.tunable}
+        """The live values of :attr:`tunable`: the config's, under the agent's own live ones when it keeps
+        some (``agent.live_hyperparams()``: the learning rate its schedules and rollbacks change)."""
+        live = getattr(self.agent, "live_hyperparams", dict)()
+        return {**{name: getattr(self.cfg, name) for name in self.tunable}, **live}
 
     def apply_hyperparam(self, name: str, value: float) -> None:
-        """Change one tunable value (default: a config field): the run's config becomes a copy holding
-        it, and the algorithm's parts (agents, guards) that read the old one read the new one."""
+        """Change one tunable value: a live one the agent holds goes to it (``agent.set_hyperparam`` returns
+        True when it alone keeps it); any other becomes a config field: the run's config becomes a copy holding
+        it, the algorithm's parts (agents, guards) that read the old one read the new one, and the agent hears
+        of it (``agent.config_changed()``: a captured CUDA graph holds the old value)."""
+        set_live = getattr(self.agent, "set_hyperparam", None)
+        if set_live is not None and set_live(name, value):
+            return
         old, new = self.ctx.replace_config(name, value)
         for part in [self, *vars(self).values()]:
             own = getattr(part, "__dict__", None)  # their own attribute only: no proxy's __getattr__ runs
             if isinstance(own, dict) and own.get("cfg") is old:
                 part.cfg = new
+        getattr(self.agent, "config_changed", lambda: None)()
 
     def extra_state(self, kind: str) -> dict[str, Any]:
         """Nothing beyond the model, the agent and the counters."""

@@ -58,6 +58,17 @@ class AdamAgent:
         """Set the learning rate (set_params, hyperparam_schedule)."""
         set_lr(self.optimizer, lr)
 
+    def live_hyperparams(self) -> dict[str, float]:
+        """The live learning rate (``lr_schedule`` and rollbacks change it): what get_params reports."""
+        return {"learning_rate": self.lr}
+
+    def set_hyperparam(self, name: str, value: float) -> bool:
+        """set_params: a new ``learning_rate`` goes to the optimizer; False, as the run's config keeps every value
+        (this one too)."""
+        if name == "learning_rate":
+            self.set_lr(value)
+        return False
+
     def apply_progress(self, progress: float) -> None:
         """``lr_schedule: linear``: the learning rate at ``progress`` (in [0, 1]) of the run; else nothing."""
         if self.schedule is not None:

@@ -289,16 +289,6 @@ class Distill(AlgorithmBase):
         self.student_steps.zero_()
         self.returns.zero_()
 
-    def hyperparams(self) -> dict[str, float]:
-        """The live learning rate."""
-        return {"learning_rate": self.agent.lr}
-
-    def apply_hyperparam(self, name: str, value: float) -> None:
-        """set_params: the learning rate goes to the optimizer."""
-        if name == "learning_rate":
-            self.agent.set_lr(value)
-        super().apply_hyperparam(name, value)
-
     def extra_state(self, kind: str) -> dict[str, Any]:
         """The teacher (weights and config, so the checkpoint stands alone) and the per-side returns."""
         return {"teacher": {"model": self.teacher.model.state_dict(), "path": self.teacher.path,

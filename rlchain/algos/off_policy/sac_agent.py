@@ -18,6 +18,7 @@ from rlchain.algos.core.optimizer_step import optimizer_step
 from rlchain.algos.core.precision import sac_autocast_dtype
 from rlchain.algos.core.schedules import scale_lr
 from rlchain.models.base import ObservationModel
+from rlchain.models.distributions import BoxActions
 from rlchain.models.normalization import obs_normalizer
 
 
@@ -37,25 +38,14 @@ def q_values(critic: nn.Module, obs: torch.Tensor, actions: torch.Tensor) -> tup
     return q1.reshape(q1.shape[0]), q2.reshape(q2.shape[0])
 
 
-class SquashedActions:
+class SquashedActions(BoxActions):
     """The model's ``dist`` as the Player sees it: actions live in [-1, 1]; ``to_env`` rescales."""
 
     def __init__(self, space: gym.spaces.Box, clip_actions: bool) -> None:
+        super().__init__(space, clip_actions)
         self.action_shape = tuple(space.shape)
         self.dim = int(np.prod(space.shape))
         self.action_dtype = torch.float32
-        low = np.asarray(space.low, dtype=np.float64).reshape(-1)
-        high = np.asarray(space.high, dtype=np.float64).reshape(-1)
-        self.rescale = clip_actions and bool(np.isfinite(low).all() and np.isfinite(high).all())
-        self._low = torch.as_tensor(low, dtype=torch.float32)
-        self._high = torch.as_tensor(high, dtype=torch.float32)
-
-    def to_env(self, actions: torch.Tensor) -> torch.Tensor:
-        """[-1, 1] -> [low, high] (identity for unbounded spaces or clip_actions: False)."""
-        if not self.rescale:
-            return actions
-        low, high = self._low.to(actions.device), self._high.to(actions.device)
-        return low + (actions.clamp(-1.0, 1.0) + 1.0) * 0.5 * (high - low)
 
     def mode(self, mean: torch.Tensor) -> torch.Tensor:
         """The deterministic action for a pre-squash mean: tanh(mean)."""

@@ -207,15 +207,6 @@ class PPO(AlgorithmBase):
             pairs.append((self.central_value, self.cv_agent))
         return pairs
 
-    def hyperparams(self) -> dict[str, float]:
-        """The tunable values; lr and entropy_coef are the agent's live ones (schedules change them)."""
-        return {**super().hyperparams(), **self.agent.live_hyperparams()}
-
-    def apply_hyperparam(self, name: str, value: float) -> None:
-        if not self.agent.set_hyperparam(name, value):
-            super().apply_hyperparam(name, value)
-            self.agent.config_changed()  # cuda_graph: the captured step holds e_clip, critic_coef, ...
-
     def intrinsic_reward(self, obs: Any) -> torch.Tensor:
         """``rnd``: the (B, 1) intrinsic rewards of a step's next observations (their statistics folded in
         first, as rsl_rl does)."""

@@ -179,6 +179,14 @@ class BasePlayer:
         """Actions for ``obs`` (one observation, or a batch after :meth:`get_batch_size`): the
         distribution's mode when ``is_deterministic``, else a sample; continuous actions clipped and
         rescaled to the action space with ``clip_actions`` (as rl_games returns them)."""
+        return self._act(obs, is_deterministic, None)
+
+    def get_masked_action(self, obs: Any, mask: Any, is_deterministic: bool = False) -> torch.Tensor:
+        """:meth:`get_action` under action masks ``mask`` (B, mask_size) bool."""
+        return self._act(obs, is_deterministic, mask)
+
+    def _act(self, obs: Any, is_deterministic: bool, mask: Any) -> torch.Tensor:
+        """What :meth:`get_action` and :meth:`get_masked_action` return (``mask`` None: no action masks)."""
         obs = self.obs_to_torch(obs)
         if isinstance(obs, dict):
             raise ValueError("get_action: dict observations other than {'obs': ...} are flattened by rlchain's "
@@ -187,21 +195,10 @@ class BasePlayer:
         if not batched:
             obs = obs.unsqueeze(0)
         # a recurrent model takes its states; SAC's model has no ``states`` argument
-        rnn = {"states": tuple(self.states) if self.states else None} if self.is_rnn else {}
-        out = self.policy.act(obs, deterministic=is_deterministic, **rnn)
-        if self.is_rnn:
-            self.states = list(out["states"])
-        actions = self.policy.dist.to_env(out["actions"])
-        return actions if batched else actions.squeeze(0)
-
-    def get_masked_action(self, obs: Any, mask: Any, is_deterministic: bool = False) -> torch.Tensor:
-        """:meth:`get_action` under action masks ``mask`` (B, mask_size) bool."""
-        obs = self.obs_to_torch(obs)
-        batched = self.has_batch_dimension or obs.dim() > len(self.obs_shape)
-        obs = obs if batched else obs.unsqueeze(0)
-        masks = torch.as_tensor(mask, device=self.device).bool().reshape(obs.shape[0], -1)
-        states = tuple(self.states) if self.is_rnn and self.states else None
-        out = self.policy.act(obs, deterministic=is_deterministic, states=states, action_masks=masks)
+        kwargs = {"states": tuple(self.states) if self.states else None} if self.is_rnn else {}
+        if mask is not None:
+            kwargs["action_masks"] = torch.as_tensor(mask, device=self.device).bool().reshape(obs.shape[0], -1)
+        out = self.policy.act(obs, deterministic=is_deterministic, **kwargs)
         if self.is_rnn:
             self.states = list(out["states"])
         actions = self.policy.dist.to_env(out["actions"])
