@@ -115,11 +115,7 @@ def translate_config(config: dict[str, Any], source: str, path: str = "params.co
                                                                f"(rl_games 2.0's observer names), got {name!r}")
         callbacks = out.get("callbacks") or []
         out["callbacks"] = [*callbacks, OBSERVERS[name]] if isinstance(callbacks, list) else callbacks
-    for key, reason in UNSUPPORTED_CONFIG_KEYS.items():
-        if key in out and out[key] not in (None, False, {}):
-            raise ConfigError(source, f"{path}.{key}",
-                              f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
-        out.pop(key, None)
+    out = _drop_unsupported(out, UNSUPPORTED_CONFIG_KEYS, source, path)
     out = _renamed(out, ALIASES, source, path, warn=True)
     for key, values in VALUE_ALIASES.items():
         if isinstance(out.get(key), str) and out[key] in values:
@@ -239,6 +235,17 @@ def _translate_space(space: dict[str, Any], source: str, path: str) -> dict[str,
     return out
 
 
+def _drop_unsupported(block: dict[str, Any], keys: dict[str, str], source: str, path: str) -> dict[str, Any]:
+    """``block`` without ``keys`` (rl_games features rlchain lacks) left off; one switched on is a ConfigError."""
+    out = dict(block)
+    for key, reason in keys.items():
+        if key in out and out[key] not in (None, False, {}):
+            raise ConfigError(source, f"{path}.{key}",
+                              f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
+        out.pop(key, None)
+    return out
+
+
 def _drop_no_effect(block: dict[str, Any], keys: dict[str, str], source: str, path: str) -> dict[str, Any]:
     out = dict(block)
     for key, reason in keys.items():
@@ -291,12 +298,7 @@ def _translate_tf_lstm(out: dict[str, Any], source: str, path: str) -> dict[str,
 
 def _translate_block(network: dict[str, Any], source: str, path: str) -> dict[str, Any]:
     """Drop no-op keys anywhere in the network block (rl_games allows ``regularizer`` in several places)."""
-    out = dict(network)
-    for key, reason in UNSUPPORTED_NETWORK_KEYS.items():
-        if key in out and out[key] not in (None, False, {}):
-            raise ConfigError(source, f"{path}.{key}",
-                              f"rl_games feature '{reason}' is not implemented in rlchain; remove the key")
-        out.pop(key, None)
+    out = _drop_unsupported(network, UNSUPPORTED_NETWORK_KEYS, source, path)
     for key, owner in NETWORK_ONLY_KEYS.items():
         if key in out and out.get("name", "actor_critic") != owner:
             if out[key] not in (None, False, {}):

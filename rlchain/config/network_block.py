@@ -52,8 +52,8 @@ def parse_network(network: Any, source: str, path: str = "params.network") -> An
 
 
 def network_name(network: Any) -> str:
-    """The registered builder name of a parsed network block (a dataclass or a user's dict)."""
-    return network.name if hasattr(network, "name") else network.get("name", "actor_critic")
+    """The registered builder name of a parsed network block (a dataclass or a user's dict; none: actor_critic)."""
+    return network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
 
 
 def has_rnn(network: Any) -> bool:

@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.network_block import network_name
 from rlchain.config.params import Params
 from rlchain.envs.building import (
     RL_GAMES_ENVPOOL_KEYS,
@@ -93,8 +94,7 @@ def build_env(params: Params, num_envs: int, seed: int | None, render: bool = Fa
 
 def takes_dict_obs(params: Params) -> bool:
     """Whether the config's network takes Dict observations per key (its builder's ``takes_dict_obs``)."""
-    network = params.network
-    name = network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
+    name = network_name(params.network)
     return name in NETWORKS and bool(getattr(NETWORKS.get(name), "takes_dict_obs", False))
 
 

@@ -54,12 +54,8 @@ def _envpool_ids() -> Any:
         return frozenset()
 
 
-def _pettingzoo_ids() -> Any:
-    return known_env_names()
-
-
 LOOKUP: dict[str, Callable[[], Any]] = {GYM: _gym_ids, ALE: _ale_ids, ENVPOOL: _envpool_ids,
-                                        PETTINGZOO: _pettingzoo_ids}
+                                        PETTINGZOO: known_env_names}
 
 
 def _get(config: dict[str, Any], dotted: str) -> Any:

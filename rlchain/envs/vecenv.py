@@ -101,6 +101,13 @@ def dropped_rows(result: StepResult) -> Any:
     return result.infos.get(DROPPED) if isinstance(result.infos, dict) else None
 
 
+def close_env(env: Any) -> None:
+    """``env.close()`` when the wrapped env has one (a user's env or a PettingZoo one may not)."""
+    close = getattr(env, "close", None)
+    if callable(close):
+        close()
+
+
 def game_outcome(result: Any, rewards: torch.Tensor, dones: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """(game rewards (N,), game ends (N,) bool) of a StepResult, on the device of ``rewards``.
 

@@ -13,6 +13,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY, PolicyMapping
 from rlchain.config.multi_input import MultiInputNetworkConfig
 from rlchain.config.network import NetworkConfig
+from rlchain.config.network_block import network_name
 from rlchain.config.params import Params
 from rlchain.envs.factory import build_env  # noqa: F401  (importable from here too)
 from rlchain.envs.gym_spaces import to_gymnasium
@@ -62,7 +63,7 @@ def build_model(params: Params, env: Any, device: torch.device, group: str | Non
     factory = MODELS.get(params.model.name)
     value_size = value_size_of(env)
     actions_num = action_head_size(act_space)  # n, sum(nvec) or prod(Box shape)
-    builder = NETWORKS.get(_network_name(params.network))
+    builder = NETWORKS.get(network_name(params.network))
     # Dict observations kept per key: a multi-input network takes them as they are, any other one the keys
     # concatenated into one flat vector (the model does it, the storage still keeps every key's dtype)
     per_key = is_dict_space(obs_space) and getattr(builder, "takes_dict_obs", False)
@@ -118,22 +119,16 @@ def build_central_value(params: Params, env: Any, device: torch.device) -> Any:
     key = "params.config.central_value_config.network"
 
     def build() -> CentralValue:
-        if isinstance(cv.network, NetworkConfig):  # the built-in actor_critic trunk + value head
-            return CentralValue(cv.network, state_shape, value_size, cv.normalize_input,
-                                params.config.normalize_value,
-                                value_normalizer_kind=params.config.value_normalizer,
-                                obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
-                                obs_slice=view.selector())
-        # a registered network, given its block and rl_games' critic kwargs
-        block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
-        network = instantiate(NETWORKS.get(_network_name(cv.network)), block, key, actions_num=value_size,
-                              input_shape=state_shape, value_size=value_size,
-                              num_seqs=params.config.num_actors, observation_space=view.space)
-        return CentralValue(None, state_shape, value_size, cv.normalize_input,
-                            params.config.normalize_value, network=network,
-                            value_normalizer_kind=params.config.value_normalizer,
-                            obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
-                            obs_slice=view.selector())
+        built_in = isinstance(cv.network, NetworkConfig)  # the built-in actor_critic trunk + value head
+        network = None
+        if not built_in:  # a registered network, given its block and rl_games' critic kwargs
+            block = {"central_value": True, **cv.network} if isinstance(cv.network, dict) else cv.network
+            network = instantiate(NETWORKS.get(network_name(cv.network)), block, key, actions_num=value_size,
+                                  input_shape=state_shape, value_size=value_size,
+                                  num_seqs=params.config.num_actors, observation_space=view.space)
+        return CentralValue(cv.network if built_in else None, state_shape, value_size, cv.normalize_input,
+                            params.config.normalize_value, network=network, obs_slice=view.selector(),
+                            **_normalizer_kinds(params.config))
 
     try:
         model = build_within_memory(build, device, params.source, key)
@@ -154,9 +149,8 @@ def _dict_central_value(params: Params, cv: Any, space: gym.spaces.Dict, value_s
                           f"value's network must be multi_input, its inputs naming the keys it reads")
     try:
         model = CentralValue(cv.network, space, value_size, cv.normalize_input, params.config.normalize_value,
-                             value_normalizer_kind=params.config.value_normalizer,
-                             obs_normalizer_kind=getattr(params.config, "obs_normalizer", "rl_games"),
-                             obs_normalizer_exclude=tuple(getattr(params.config, "obs_normalizer_exclude", ())))
+                             obs_normalizer_exclude=tuple(getattr(params.config, "obs_normalizer_exclude", ())),
+                             **_normalizer_kinds(params.config))
     except ValueError as exc:
         raise ConfigError(params.source, "params.config.central_value_config.network", str(exc)) from None
     return model.to(device)
@@ -209,7 +203,7 @@ def build_policy_models(params: Params, env: Any, device: torch.device) -> torch
         except (ConfigError, ValueError, TypeError, RuntimeError) as exc:
             detail = getattr(exc, "message", None) or " ".join(str(exc).split())
             raise ConfigError(params.source, f"{KEY}.policies.{name}",
-                              f"network '{_network_name(policy.network)}' / model '{policy.model.name}' do "
+                              f"network '{network_name(policy.network)}' / model '{policy.model.name}' do "
                               f"not fit agents {agents} (observations {view.observation_space}, actions "
                               f"{view.action_space}): {detail}") from None
     return models
@@ -220,8 +214,10 @@ def declared_space(space: gym.Space) -> gym.Space:
     return getattr(space, "dict_space", None) or space
 
 
-def _network_name(network: Any) -> str:
-    return network.name if hasattr(network, "name") else (network or {}).get("name", "actor_critic")
+def _normalizer_kinds(cfg: Any) -> dict[str, str]:
+    """The central value's normalizers as the run's config names them (its value_normalizer, obs_normalizer)."""
+    return {"value_normalizer_kind": cfg.value_normalizer,
+            "obs_normalizer_kind": getattr(cfg, "obs_normalizer", "rl_games")}
 
 
 def apply_sigma(model: Any, sigma: float) -> None:

@@ -34,6 +34,8 @@ from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
 from rlchain.rllib.env_runners import env_runner_keys
 from rlchain.rllib.networks import activation, actor_critic_network, layer_sizes
+from rlchain.rllib.obs_filter import KEY as FILTER_KEY
+from rlchain.rllib.obs_filter import filter_keys
 
 MODEL_UNSUPPORTED = {
     "use_attention": "attention: rlchain's history policy (docs/robot_learning.md)",
@@ -68,7 +70,10 @@ def check_supported(config: Any) -> None:
     """One-line errors for settings rlchain does not offer (keys.UNSUPPORTED, MODEL_UNSUPPORTED)."""
     defaults = K.defaults(config.algo_name)
     settings = config._settings
+    filter_keys(config)  # env_to_module_connector: MeanStdFilter or a one-line error
     for key, why in K.UNSUPPORTED.items():
+        if key == FILTER_KEY:
+            continue
         value = settings.get(key, defaults.get(key))
         fine = K.UNSUPPORTED_VALUES.get(key, (defaults.get(key),))
         if value not in fine and not (value is None and None in fine):
@@ -209,6 +214,7 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     }
     if seq_len:
         train["seq_length"] = seq_len
+    train.update(filter_keys(config))  # RLlib's MeanStdFilter connector: the observation normalizer
     train.update(env_runner_keys(config, "PPO"))
     train.update(run)
     algo, model = ("a2c_continuous", "continuous_a2c_logstd") if continuous else ("a2c_discrete", "discrete_a2c")

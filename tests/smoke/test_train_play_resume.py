@@ -11,14 +11,15 @@ import torch
 from rlchain import Runner
 from rlchain.runs import checkpoint as ckpt
 from tests.conftest import CONFIGS, ROOT
+from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 
 
 def run_cli(args, cwd, timeout=240):
+    """``python runner.py ARGS`` in ``cwd``: its exit status and output (tests/smoke/cli_server.py runs it)."""
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, os.path.join(ROOT, "runner.py"), *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=timeout)
+    return run_python([sys.executable, os.path.join(ROOT, "runner.py"), *args], cwd, env, timeout)
 
 
 def small(tmp_path, epochs=2, extra=()):

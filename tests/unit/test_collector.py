@@ -85,3 +85,35 @@ def test_a_stop_signal_ends_the_rollout_early():
                                   to_env=lambda a: a, record=lambda result, rows: ctx.record_step(result, rows))
     collector.obs = torch.zeros(3, 1)
     assert not collector.rollout() and env.steps == 2
+
+
+def test_stored_rewards_are_the_envs_under_the_identity_shaper_and_a_dropped_row_keeps_the_outcome():
+    import math
+
+    import gymnasium as gym
+
+    from rlchain.algos.core.storage import RolloutStorage
+    from rlchain.envs.vecenv import DROPPED
+
+    class DroppingEnv(LineEnv):
+        observation_space = gym.spaces.Box(-math.inf, math.inf, (1,))
+
+        def step(self, actions):
+            result = super().step(actions)
+            if self.steps == 2:  # env 1's worker died at step 2: its row is dropped
+                result.infos[DROPPED] = [False, True, False]
+            return result
+
+    env, ctx, seen = DroppingEnv(), context(), []
+    storage = RolloutStorage(3, 3, (1,), torch.float32, (1,), torch.float32, 1, 1, torch.device("cpu"))
+    identity = SimpleNamespace(scale_value=1.0, shift_value=0.0, min_val=-math.inf, max_val=math.inf, log_val=False)
+    cfg = SimpleNamespace(horizon_length=3, reward_shaper=identity, value_bootstrap=False, gamma=0.9)
+    act = lambda t, obs, states, masks: {"actions": torch.ones(3, 1), "log_probs": torch.zeros(3),  # noqa: E731
+                                         "values": torch.full((3, 1), 7.0), "params": torch.zeros(3, 1)}
+    collector = OnPolicyCollector(env, torch.nn.Linear(1, 1), ctx, cfg, storage=storage, act=act,
+                                  to_env=lambda a: a, on_step=seen.append)
+    collector.obs = torch.zeros(3, 1)
+    collector.model.value = lambda obs, states: torch.zeros(obs.shape[0], 1)
+    assert collector.rollout()
+    assert storage.rewards[:, :, 0].tolist() == [[-1.0, -1.0, -1.0], [-4.0, 7.0, -4.0], [-9.0, -9.0, -9.0]]
+    assert seen[1].outcome[0].tolist() == [-4.0, -4.0, -4.0]  # the step's outcome is the env's reward

@@ -54,3 +54,28 @@ def test_reward_shaper():
     # log_val: log of the shaped reward, as rl_games' DefaultRewardsShaper
     assert shape_rewards(torch.tensor([0.0, 1.0]), 2.0, 1.0, 0.1, 100.0, log_val=True).tolist() == pytest.approx(
         [math.log(2.0), math.log(4.0)])
+
+
+def _gae_tensor_loop(rewards, values, next_values, terminated, dones, gamma, lam):
+    """GAE's recursion as one tensor op per step (the definition the CPU fast path must match bit for bit)."""
+    rewards, terminated, dones = rewards.unsqueeze(-1), terminated.unsqueeze(-1), dones.unsqueeze(-1)
+    deltas = rewards + gamma * next_values * (1.0 - terminated.float()) - values
+    not_done = 1.0 - dones.float()
+    advantages, last = torch.zeros_like(values), torch.zeros_like(values[0])
+    for t in range(values.shape[0] - 1, -1, -1):
+        last = deltas[t] + gamma * lam * not_done[t] * last
+        advantages[t] = last
+    return advantages, advantages + values
+
+
+def test_gae_cpu_fast_path_is_the_tensor_loop_bit_for_bit():
+    g = torch.Generator().manual_seed(0)
+    T, N = 300, 3
+    rewards, values, next_values = torch.randn(T, N, generator=g), torch.randn(T, N, 1, generator=g), \
+        torch.randn(T, N, 1, generator=g)
+    dones = torch.rand(T, N, generator=g) < 0.05
+    terminated = dones & (torch.rand(T, N, generator=g) < 0.5)
+    for gamma, lam in ((0.99, 1.0), (0.95, 0.5), (0.99, 0.95)):
+        adv, ret = gae(rewards, values, next_values, terminated, dones, gamma, lam)
+        ref_adv, ref_ret = _gae_tensor_loop(rewards, values, next_values, terminated, dones, gamma, lam)
+        assert adv.dtype == torch.float32 and torch.equal(adv, ref_adv) and torch.equal(ret, ref_ret)

@@ -25,10 +25,6 @@ import torch
 from rlchain.algos.appo.fragments import FragmentRunner, RunnerKilled
 from rlchain.algos.appo.runner_pool import RunnerPool
 from rlchain.envs.ray.ray_cluster import one_line
-from rlchain.envs.ray.ray_env import WorkerLost
-from rlchain.log import get_logger
-
-log = get_logger(__name__)
 
 
 class LocalRunners(RunnerPool):
@@ -116,15 +112,7 @@ class LocalRunners(RunnerPool):
             self._restart(i, cause)
 
     def _restart(self, i: int, cause: BaseException) -> None:
-        self.restarts[i] += 1
-        self.lost_fragments += 1
-        s, limit = self.slices[i], self.max_restarts
-        what = f"appo runner {i} (envs {s.start}-{s.stop - 1}) failed ({one_line(cause)})"
-        if self.restarts[i] > limit:
-            self.error = WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, "
-                                    f"stopping")
-            raise self.error
-        log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit}), its fragment dropped")
+        self.count_restart(i, cause, "appo runner")
         self.generation[i] += 1
         old, old_thread = self.runners[i], self.threads[i]
         runner = self._make_runner(i)

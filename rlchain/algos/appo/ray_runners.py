@@ -29,9 +29,6 @@ from rlchain.algos.appo.runner_pool import RunnerPool
 from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.ray.ray_cluster import connect, kill, one_line, release, task_failed
 from rlchain.envs.ray.ray_env import WorkerLost
-from rlchain.log import get_logger
-
-log = get_logger(__name__)
 
 
 class RayRunners(RunnerPool):
@@ -152,14 +149,8 @@ class RayRunners(RunnerPool):
     def _replace(self, i: int, cause: BaseException, in_flight: dict, lost: bool) -> None:
         """Kill actor ``i`` and start a fresh one (fresh envs, the latest weights) in the background;
         WorkerLost past max_restarts."""
-        ray, s, limit = self._ray, self.slices[i], self.max_restarts
-        self.restarts[i] += 1
-        self.lost_fragments += int(lost)
-        what = f"appo ray runner {i} (envs {s.start}-{s.stop - 1}) failed ({one_line(cause)})"
-        if self.restarts[i] > limit:
-            raise WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, stopping")
-        log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit})"
-                    + (", its fragment dropped" if lost else ""))
+        ray = self._ray
+        self.count_restart(i, cause, "appo ray runner", lost)
         kill(ray, self.workers[i])
         self.workers[i] = self._spawn(i)
         ref, version = self._latest

@@ -20,7 +20,12 @@ from typing import Any
 import torch
 
 from rlchain.algos.appo.fragments import Fragment
+from rlchain.envs.ray.ray_cluster import one_line
+from rlchain.envs.ray.ray_env import WorkerLost
 from rlchain.envs.ray.ray_worker import EnvRecipe
+from rlchain.log import get_logger
+
+log = get_logger(__name__)
 
 
 class RunnerPool:
@@ -104,6 +109,20 @@ class RunnerPool:
             except queue.Full:
                 continue
         return False
+
+    def count_restart(self, i: int, cause: BaseException, label: str, lost: bool = True) -> None:
+        """Runner ``i`` (``label``: what the lines call it) failed and is restarted: counted, with its fragment in
+        progress when ``lost``, and said in one line; past ``max_restarts`` the run ends with a WorkerLost."""
+        s, limit = self.slices[i], self.max_restarts
+        self.restarts[i] += 1
+        self.lost_fragments += int(lost)
+        what = f"{label} {i} (envs {s.start}-{s.stop - 1}) failed ({one_line(cause)})"
+        if self.restarts[i] > limit:
+            self.error = WorkerLost(f"{what}; it needed more than env_runners.max_restarts = {limit} restarts, "
+                                    f"stopping")
+            raise self.error
+        dropped = ", its fragment dropped" if lost else ""
+        log.warning(f"rlchain: {what}; restarting it ({self.restarts[i]}/{limit}){dropped}")
 
     def slice_seed(self, i: int, restart: int = 0) -> int | None:
         """Env seeds of runner ``i``: env j of the batch gets seed + j; a restart moves them past every earlier one."""

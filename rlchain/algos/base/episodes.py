@@ -13,6 +13,9 @@ from typing import Any
 
 import torch
 
+_EVERY = slice(None)
+"""Every env's rows (the default ``rows``): the buffers themselves, no indexing."""
+
 
 class EpisodeTracker:
     """Accumulates raw (unshaped) rewards per env and records finished episodes."""
@@ -47,7 +50,10 @@ class EpisodeTracker:
         """
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
-        returns, lengths = self.returns[rows], self.lengths[rows]  # views: updated in place
+        if isinstance(rows, slice) and rows == _EVERY:  # the buffers themselves (indexing costs a small rollout's step)
+            returns, lengths = self.returns, self.lengths
+        else:
+            returns, lengths = self.returns[rows], self.lengths[rows]  # views: updated in place
         lost = None if dropped is None else torch.as_tensor(dropped, device=dones.device).bool().reshape(-1)
         if lost is not None:
             dones = dones & ~lost

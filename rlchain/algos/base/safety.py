@@ -77,8 +77,9 @@ def check_parameters(module: torch.nn.Module) -> str | None:
     return None
 
 
-def check_rollout(rewards: torch.Tensor, obs: torch.Tensor) -> str | None:
-    """Report the first non-finite reward or observation of a rollout (T, N, ...) with env and step."""
+def check_rollout(rewards: torch.Tensor, obs: torch.Tensor, who: str = "") -> None:
+    """A DivergenceError naming the first non-finite reward or observation of a rollout (T, N, ...), its env and
+    step (after ``who``, e.g. ``policy red: ``)."""
     parts = [("reward", rewards)]
     parts += [(f"observation '{k}'", v) for k, v in obs.items()] if isinstance(obs, dict) else [("observation", obs)]
     for name, data in parts:
@@ -87,8 +88,7 @@ def check_rollout(rewards: torch.Tensor, obs: torch.Tensor) -> str | None:
         bad = ~torch.isfinite(data.reshape(data.shape[0], data.shape[1], -1)).all(-1)
         if bool(bad.any()):
             step, env = (int(i) for i in bad.nonzero()[0])
-            return f"the env returned a non-finite {name} (env {env}, step {step} of the rollout)"
-    return None
+            raise DivergenceError(f"{who}the env returned a non-finite {name} (env {env}, step {step} of the rollout)")
 
 
 class DivergenceGuard:

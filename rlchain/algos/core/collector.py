@@ -26,6 +26,7 @@ rows, so both ways share them (the pipelined way with the default act step and r
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -330,11 +331,17 @@ class OnPolicyCollector:
         if rewards.dim() == 1:
             rewards = rewards.unsqueeze(-1)
         rs = cfg.reward_shaper
-        shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+        if (rs.scale_value == 1.0 and rs.shift_value == 0.0 and rs.min_val == -math.inf and rs.max_val == math.inf
+                and not rs.log_val):  # the identity (its two ops cost a small rollout's step a few percent)
+            shaped = rewards
+        else:
+            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
         if self.reward_bonus is not None:  # e.g. PPO's rnd: an intrinsic reward of the next observation (rsl_rl)
             shaped = shaped + self.reward_bonus(result.obs)
         dropped = dropped_rows(result)
         if dropped is not None and bool(np.any(dropped)):  # a dead Ray worker's envs: zero advantage
+            if shaped is rewards:  # the step's outcome stays as the env gave it
+                shaped = shaped.clone()
             lost = self.ctx.to_tensor(np.asarray(dropped)).bool()
             shaped[lost] = values[lost] * ((1 - cfg.gamma) if bootstrap else 1.0)
         if bootstrap and bool(truncated.any()):

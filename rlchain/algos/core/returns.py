@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 
@@ -23,12 +24,28 @@ def gae(rewards: torch.Tensor, values: torch.Tensor, next_values: torch.Tensor,
     not_terminal = 1.0 - terminated.float()
     not_done = 1.0 - dones.float()
     deltas = rewards + gamma * next_values * not_terminal - values
-    advantages = torch.zeros_like(values)
-    last = torch.zeros_like(values[0])
-    for t in range(values.shape[0] - 1, -1, -1):
-        last = deltas[t] + gamma * lam * not_done[t] * last
-        advantages[t] = last
+    carry = gamma * lam * not_done  # what of A_{t+1} flows back into A_t
+    if deltas.device.type == "cpu" and not deltas.requires_grad:
+        advantages = torch.from_numpy(_backward_sum(deltas.numpy(), carry.numpy()))
+    else:
+        advantages = torch.zeros_like(values)
+        last = torch.zeros_like(values[0])
+        for t in range(values.shape[0] - 1, -1, -1):
+            last = deltas[t] + carry[t] * last
+            advantages[t] = last
     return advantages, advantages + values
+
+
+def _backward_sum(deltas: np.ndarray, carry: np.ndarray) -> np.ndarray:
+    """A_t = deltas_t + carry_t * A_{t+1} from the last step back, in numpy: the same float32 products and sums
+    as the tensor loop (one multiply and one add per step, no fused multiply-add), each step a few times
+    cheaper than a tensor op's dispatch (a 2,000-step CPU rollout)."""
+    out = np.empty_like(deltas)
+    last = np.zeros_like(deltas[0])
+    for t in range(deltas.shape[0] - 1, -1, -1):
+        last = deltas[t] + carry[t] * last
+        out[t] = last
+    return out
 
 
 def next_values_from_rollout(values: torch.Tensor, last_values: torch.Tensor,

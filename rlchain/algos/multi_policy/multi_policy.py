@@ -29,7 +29,6 @@ from rlchain.config.multi_agent import KEY
 from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
 
 STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entropy": "losses/{}/entropy",
@@ -148,9 +147,7 @@ class MultiPolicyPPO(AlgorithmBase):
             if lr.agent is None:
                 continue
             storage = lr.storage
-            bad = check_rollout(storage.rewards, storage.obs)
-            if bad is not None:
-                raise DivergenceError(f"policy {lr.name}: {bad}")
+            check_rollout(storage.rewards, storage.obs, f"policy {lr.name}: ")
             if not bool(lr.active.any()):
                 continue
             cfg, model = lr.cfg, lr.model

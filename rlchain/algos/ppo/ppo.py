@@ -27,7 +27,6 @@ from rlchain.config.ppo import PPOConfig
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import EnvSpec, env_spec
 from rlchain.envs.vecenv import VecEnv
-from rlchain.errors import DivergenceError
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.build import build_central_value
@@ -151,9 +150,7 @@ class PPO(AlgorithmBase):
         slows learning per frame; docs/ppo_parity.md.)
         """
         cfg, storage, model = self.cfg, self.storage, self.model
-        bad = check_rollout(storage.rewards, storage.obs)
-        if bad is not None:
-            raise DivergenceError(bad)
+        check_rollout(storage.rewards, storage.obs)
         flat_obs = storage.obs.reshape(-1, *storage.obs.shape[2:])
         with torch.no_grad():
             next_values = next_values_from_rollout(storage.values, self.collector.last_values,

@@ -31,7 +31,7 @@ import numpy as np
 import torch
 
 from rlchain.envs.backends.tensor_env import resolve_env_device
-from rlchain.envs.vecenv import StepResult
+from rlchain.envs.vecenv import StepResult, close_env
 from rlchain.envs.wrappers.dict_obs import FlatDictBox
 from rlchain.registry import ENVS
 
@@ -112,9 +112,7 @@ class EmbodiChainVecEnv:
                           info if isinstance(info, dict) else {})
 
     def close(self) -> None:
-        close = getattr(self.env, "close", None)
-        if callable(close):
-            close()
+        close_env(self.env)
 
     def seed(self, seed: int) -> None:
         self.env.reset(seed=seed)

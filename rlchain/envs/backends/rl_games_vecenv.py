@@ -29,7 +29,7 @@ import numpy as np
 import torch
 
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
-from rlchain.envs.vecenv import StepResult, VecEnv
+from rlchain.envs.vecenv import StepResult, VecEnv, close_env
 from rlchain.envs.wrappers.central_value import ObsStateBox
 
 
@@ -107,9 +107,7 @@ class IVecEnvAdapter:
         return StepResult(obs, rewards, dones & ~outs, truncated, prev, infos)
 
     def close(self) -> None:
-        close = getattr(self.env, "close", None)
-        if callable(close):
-            close()
+        close_env(self.env)
 
     def _obs_of(self, obs: Any) -> Any:
         """The observation rows rlchain trains on: ``obs['obs']`` (and ``[obs | state]`` with a state)."""

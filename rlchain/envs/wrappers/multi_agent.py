@@ -35,7 +35,7 @@ import numpy as np
 from gymnasium.envs.registration import load_env_creator
 
 from rlchain.config.errors import ConfigError
-from rlchain.envs.vecenv import StepResult
+from rlchain.envs.vecenv import StepResult, close_env
 from rlchain.envs.wrappers.central_value import ObsStateBox, is_obs_state_space
 from rlchain.envs.wrappers.spaces import cast_actions, cast_obs, float32_action_space, float32_obs_space
 
@@ -76,7 +76,7 @@ def make_multi_agent_env(env_id: str, num_envs: int, kwargs: dict, seed: int | N
     # gymnasium's vector envs hold one float reward per env: vector rewards (value_size > 1) step here
     in_process = agents > 1 or int(getattr(first, "value_size", 1)) > 1
     if not in_process or vecenv_type not in ("auto", "sync") or render:
-        _close(first)
+        close_env(first)
     if not in_process:
         return None
     if vecenv_type not in ("auto", "sync"):
@@ -206,7 +206,7 @@ class MultiAgentVecEnv:
 
     def close(self) -> None:
         for env in self.envs:
-            _close(env)
+            close_env(env)
 
 
 def _split_step(out: tuple) -> tuple[Any, Any, np.ndarray, np.ndarray, dict]:
@@ -250,9 +250,3 @@ def _per_env_done(term: np.ndarray, trunc: np.ndarray, agents: int, index: int) 
         raise ValueError(f"multi-agent env {index}: agents of one env must end together, got dones "
                          f"{done.astype(int).tolist()}")
     return term.copy(), trunc.copy()
-
-
-def _close(env: Any) -> None:
-    close = getattr(env, "close", None)
-    if callable(close):
-        close()

@@ -36,21 +36,22 @@ def float32_obs_space(space: gym.Space) -> gym.Space:
     if isinstance(space, FlatDictBox) and space.dtype not in KEPT_OBS_DTYPES:
         return FlatDictBox(space.dict_space, np.float32)  # keeps the Dict for the network
     if isinstance(space, gym.spaces.Box) and space.dtype not in KEPT_OBS_DTYPES:
-        with warnings.catch_warnings():  # "precision lowered by casting to float32": intended
-            warnings.simplefilter("ignore")
-            return gym.spaces.Box(space.low.astype(np.float32), space.high.astype(np.float32),
-                                  space.shape, np.float32)
+        return _float32_box(space)
     return space
 
 
 def float32_action_space(space: gym.Space) -> gym.Space:
     """The action space as the trainer sees it: a float64 Box becomes float32 (same bounds)."""
     if isinstance(space, gym.spaces.Box) and space.dtype == np.float64:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return gym.spaces.Box(space.low.astype(np.float32), space.high.astype(np.float32),
-                                  space.shape, np.float32)
+        return _float32_box(space)
     return space
+
+
+def _float32_box(space: gym.spaces.Box) -> gym.spaces.Box:
+    """``space`` as a float32 Box of the same bounds."""
+    with warnings.catch_warnings():  # "precision lowered by casting to float32": intended
+        warnings.simplefilter("ignore")
+        return gym.spaces.Box(space.low.astype(np.float32), space.high.astype(np.float32), space.shape, np.float32)
 
 
 def flatten_dict_obs(obs: dict[str, np.ndarray], space: gym.spaces.Dict) -> np.ndarray:

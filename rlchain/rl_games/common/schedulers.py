@@ -6,7 +6,10 @@ own loop schedules through its config (``lr_schedule``); these serve user code w
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
+
+from rlchain.algos.core.schedules import AdaptiveKLSchedule
 
 
 class RLScheduler:
@@ -25,25 +28,18 @@ class IdentityScheduler(RLScheduler):
         return current_lr, entropy_coef
 
 
-class AdaptiveScheduler(RLScheduler):
-    """KL-adaptive: lr / ``lr_multiplier`` when the KL exceeds twice ``kl_threshold`` (not below ``min_lr``),
-    lr * ``lr_multiplier`` when it is under half of it (not above ``max_lr``)."""
+@dataclass
+class AdaptiveScheduler(AdaptiveKLSchedule, RLScheduler):
+    """KL-adaptive (rlchain's :class:`~rlchain.algos.core.schedules.AdaptiveKLSchedule`): lr / ``lr_multiplier``
+    when the KL exceeds twice ``kl_threshold`` (not below ``min_lr``), lr * ``lr_multiplier`` when it is under half
+    of it (not above ``max_lr``)."""
 
-    def __init__(self, kl_threshold: float = 0.008, min_lr: float = 1e-6, max_lr: float = 1e-2,
-                 lr_multiplier: float = 1.5) -> None:
-        self.kl_threshold = kl_threshold
-        self.min_lr = min_lr
-        self.max_lr = max_lr
-        self.lr_multiplier = lr_multiplier
+    kl_threshold: float = 0.008
+    __hash__ = object.__hash__  # hashable, as rl_games' scheduler is
 
     def update(self, current_lr: float, entropy_coef: float, epoch: int, frames: int, kl_dist: Any = 0.0,
                **kwargs: Any) -> tuple[float, float]:
-        lr = current_lr
-        if kl_dist > 2.0 * self.kl_threshold:
-            lr = max(current_lr / self.lr_multiplier, self.min_lr)
-        if kl_dist < 0.5 * self.kl_threshold:
-            lr = min(current_lr * self.lr_multiplier, self.max_lr)
-        return lr, entropy_coef
+        return AdaptiveKLSchedule.update(self, current_lr, kl_dist), entropy_coef
 
 
 class LinearScheduler(RLScheduler):
@@ -64,7 +60,7 @@ class LinearScheduler(RLScheduler):
     def update(self, current_lr: float, entropy_coef: float, epoch: int, frames: int, kl_dist: Any = None,
                **kwargs: Any) -> tuple[float, float]:
         steps = epoch if self.use_epochs else frames
-        left = max(0, self.max_steps - steps) / self.max_steps
+        left = max(0, self.max_steps - steps) / self.max_steps  # rl_games' arithmetic, to the last bit
         lr = self.min_lr + (self.start_lr - self.min_lr) * left
         if self.apply_to_entropy:
             entropy_coef = self.min_entropy_coef + (self.start_entropy_coef - self.min_entropy_coef) * left

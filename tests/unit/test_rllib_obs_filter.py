@@ -1,0 +1,45 @@
+"""RLlib's ``env_to_module_connector`` on the face (rlchain.rllib.obs_filter): ``MeanStdFilter()`` is rlchain's
+observation normalizer; any other connector, another algorithm or non-default filter settings are one line."""
+
+import pytest
+
+from rlchain.config.errors import ConfigError
+from rlchain.rllib import translate
+from rlchain.rllib.algorithms.dqn import DQNConfig
+from rlchain.rllib.algorithms.ppo import PPOConfig
+from rlchain.rllib.connectors.env_to_module import MeanStdFilter
+
+
+def _train(config):
+    return translate.ppo_config(config, "Pendulum-v1", True, {})["params"]["config"]
+
+
+def test_mean_std_filter_is_the_observation_normalizer():
+    plain = _train(PPOConfig().environment("Pendulum-v1"))
+    assert plain["normalize_input"] is False and "obs_normalizer_update" not in plain
+    for make in (lambda env, spaces, device: MeanStdFilter(), lambda env: [MeanStdFilter()]):
+        train = _train(PPOConfig().environment("Pendulum-v1").env_runners(env_to_module_connector=make))
+        assert (train["normalize_input"], train["obs_normalizer"], train["obs_normalizer_update"]) == \
+            (True, "rl_games", "step")
+
+
+def test_other_connectors_and_settings_are_one_line():
+    class Flatten:
+        pass
+
+    cases = [(PPOConfig().env_runners(env_to_module_connector=lambda env, spaces, device: Flatten()),
+              "maps only MeanStdFilter"),
+             (PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter(update_stats=False)),
+              "only its defaults"),
+             (DQNConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter()), "PPO only"),
+             (PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: 1 / 0), "ZeroDivisionError")]
+    for config, message in cases:
+        with pytest.raises(ConfigError, match=f"env_to_module_connector.*{message}") as info:
+            config.validate()
+        assert "\n" not in str(info.value)
+
+
+def test_another_connector_name_is_a_one_line_import_error():
+    from rlchain.rllib.alias import FaceImportError
+    with pytest.raises(FaceImportError, match="only MeanStdFilter"):
+        from rlchain.rllib.connectors.env_to_module import FlattenObservations  # noqa: F401
