@@ -1,27 +1,39 @@
 """Print .ci/run's budget: the seconds of each step it timed and the 15 slowest tests of each tier.
 
-Reads the folder .ci/run writes (``steps.tsv``: seconds, exit status and label of each timed command;
-``tierN.xml``: pytest's junit report of the tier started as the Nth timed command). Standard library only: it
+Reads the folder .ci/run writes (``start``: the run's start, in seconds since the epoch; ``steps.tsv``: seconds,
+exit status, report and label of each timed command, the report being the junit file a tier wrote, ``-`` for
+the other steps). The wall clock is the run's length; the steps add up to more than it where one ran in the
+background (the mjlab job's install runs beside the main install and the tiers). Standard library only: it
 runs after the run's virtual environment may have failed to install.
 """
 
 import os
 import sys
+import time
 import xml.etree.ElementTree as ET
 
 SLOWEST = 15
 
 
-def steps(folder: str) -> list[tuple[int, int, str]]:
+def steps(folder: str) -> list[tuple[int, int, str, str]]:
     path = os.path.join(folder, "steps.tsv")
     if not os.path.exists(path):
         return []
     rows = []
     with open(path) as f:
         for line in f:
-            seconds, rc, label = line.rstrip("\n").split("\t", 2)
-            rows.append((int(seconds), int(rc), label))
+            seconds, rc, report, label = line.rstrip("\n").split("\t", 3)
+            rows.append((int(seconds), int(rc), report, label))
     return rows
+
+
+def wall(folder: str) -> int | None:
+    """Seconds since the run started, or None when the run left no start time."""
+    path = os.path.join(folder, "start")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return int(time.time()) - int(f.read().strip())
 
 
 def group(label: str) -> str:
@@ -55,7 +67,7 @@ def main(folder: str) -> None:
     print("\n========== CI budget (seconds) ==========")
     totals: dict[str, int] = {}
     failed = {}
-    for seconds, rc, label in rows:
+    for seconds, rc, _report, label in rows:
         key = group(label)
         totals[key] = totals.get(key, 0) + seconds
         if rc:
@@ -64,10 +76,13 @@ def main(folder: str) -> None:
         mark = f"   FAILED (exit {failed[key]})" if key in failed else ""
         print(f"{seconds:7d}  {key}{mark}")
     print(f"{sum(totals.values()):7d}  total of the timed steps")
+    seconds = wall(folder)
+    if seconds is not None:
+        print(f"{seconds:7d}  wall clock of the whole run")
     passed = fails = 0
-    for n, (seconds, _rc, label) in enumerate(rows):
-        path = os.path.join(folder, f"tier{n}.xml")
-        if not os.path.exists(path):
+    for seconds, _rc, report, label in rows:
+        path = os.path.join(folder, report)
+        if report == "-" or not os.path.exists(path):
             continue
         counts, times = tier(path)
         passed += counts["passed"]
