@@ -21,6 +21,12 @@ class RewardShaperConfig:
     log_val: bool = option(False, "log of the shaped (scaled, shifted, clipped) reward, as rl_games; it must "
                                   "be > 0, e.g. with shift_value")
 
+    @property
+    def identity(self) -> bool:
+        """Whether r' = r: the defaults (no shift, no scale, no clip, no log), so shaping can be skipped."""
+        return (self.scale_value == 1.0 and self.shift_value == 0.0 and self.min_val == float("-inf")
+                and self.max_val == float("inf") and not self.log_val)
+
 
 @dataclass(frozen=True)
 class PlayerConfig:

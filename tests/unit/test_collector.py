@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import torch
 
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.config.run import RewardShaperConfig
 from rlchain.envs.vecenv import StepResult
 
 
@@ -106,7 +107,8 @@ def test_stored_rewards_are_the_envs_under_the_identity_shaper_and_a_dropped_row
 
     env, ctx, seen = DroppingEnv(), context(), []
     storage = RolloutStorage(3, 3, (1,), torch.float32, (1,), torch.float32, 1, 1, torch.device("cpu"))
-    identity = SimpleNamespace(scale_value=1.0, shift_value=0.0, min_val=-math.inf, max_val=math.inf, log_val=False)
+    identity = RewardShaperConfig()  # the defaults: the identity
+    assert identity.identity and not RewardShaperConfig(scale_value=0.1).identity
     cfg = SimpleNamespace(horizon_length=3, reward_shaper=identity, value_bootstrap=False, gamma=0.9)
     act = lambda t, obs, states, masks: {"actions": torch.ones(3, 1), "log_probs": torch.zeros(3),  # noqa: E731
                                          "values": torch.full((3, 1), 7.0), "params": torch.zeros(3, 1)}

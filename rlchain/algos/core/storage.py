@@ -108,18 +108,12 @@ class RolloutStorage:
         """
         if not 0 <= t < self.horizon:
             raise IndexError(f"step {t} outside horizon {self.horizon}")
-        if rows is ALL and not isinstance(self.obs, dict):  # every env: index the step alone (cheaper)
-            self.obs[t] = obs
-            self.actions[t] = actions
-            self.log_probs[t] = log_probs
-            self.values[t] = values
-            self.params[t] = params
-        else:
-            self.obs[t, rows] = obs
-            self.actions[t, rows] = actions
-            self.log_probs[t, rows] = log_probs
-            self.values[t, rows] = values
-            self.params[t, rows] = params
+        at = t if rows is ALL and not isinstance(self.obs, dict) else (t, rows)  # every env: the step alone (cheaper)
+        self.obs[at] = obs
+        self.actions[at] = actions
+        self.log_probs[at] = log_probs
+        self.values[at] = values
+        self.params[at] = params
         if self.action_masks is not None:
             self.action_masks[t, rows] = action_masks
         for buffer, state in zip(self.states, states):
@@ -135,14 +129,10 @@ class RolloutStorage:
     def add_outcome(self, t: int, rewards: torch.Tensor, terminated: torch.Tensor,
                     dones: torch.Tensor, rows: slice = ALL) -> None:
         """Record the env's answer to step t: shaped rewards (rows, V) and done flags (rows,)."""
-        if rows is ALL:
-            self.rewards[t] = rewards
-            self.terminated[t] = terminated
-            self.dones[t] = dones
-            return
-        self.rewards[t, rows] = rewards
-        self.terminated[t, rows] = terminated
-        self.dones[t, rows] = dones
+        at = t if rows is ALL else (t, rows)  # every env: the step alone (cheaper)
+        self.rewards[at] = rewards
+        self.terminated[at] = terminated
+        self.dones[at] = dones
 
     def _per_step(self, advantages: torch.Tensor) -> dict[str, torch.Tensor]:
         out = {"obs": self.obs, "actions": self.actions, "log_probs": self.log_probs, "values": self.values,
