@@ -3,9 +3,11 @@
 What maps (PPO; docs/rllib.md has the table):
 
 - ``train_batch_size`` env steps per ``train()``: rlchain's epoch is ``num_actors * horizon_length`` frames, with
-  ``num_actors = max(1, num_env_runners) * num_envs_per_env_runner``; rlchain's minibatches are whole, so the
-  batch is split into the whole number of minibatches nearest ``minibatch_size`` (RLlib's 4000 / 128: 32 of 125),
-  or, where the envs do not divide it, the horizon is rounded up to whole minibatches (:func:`batch_shape`).
+  ``num_actors = max(1, num_env_runners) * num_envs_per_env_runner`` and the horizon RLlib's rollout fragment
+  (``rollout_fragment_length`` "auto": the batch over the envs, rounded up), so the face samples what RLlib
+  samples; rlchain's minibatches are whole, so the minibatch is the divisor of that epoch nearest
+  ``minibatch_size`` (RLlib's 4000 / 128: 32 of 125; its tuned Pendulum's 1,040 / 128: 8 of 130)
+  (:func:`batch_shape`).
 - ``num_epochs`` -> ``mini_epochs``; ``minibatch_size`` -> ``minibatch_size``; ``lr`` -> a constant
   ``learning_rate``; ``gamma``; ``lambda_`` -> ``tau`` (``use_gae=False``: 1.0, the discounted return minus the
   value, as RLlib's); ``clip_param`` -> ``e_clip``; ``vf_clip_param`` -> ``value_loss_clip``; ``vf_loss_coeff``
@@ -128,20 +130,37 @@ def num_envs(config: Any) -> int:
     return runners * max(1, int(settings.get("num_envs_per_env_runner") or 1))
 
 
-def batch_shape(batch: int, envs: int, minibatch: int) -> tuple[int, int]:
+def fragment_length(batch: int, envs: int, fragment: Any = "auto") -> int:
+    """Steps each env samples per ``train()`` as RLlib 2.60 samples them (``get_rollout_fragment_length``).
+
+    "auto": ``batch / envs``; where that is a fraction RLlib gives the first env runners one step more so the
+    fragments add up to exactly ``batch``; rlchain's envs share one horizon, so each takes the longer fragment
+    (at most ``envs - 1`` env steps over RLlib's batch). A number F: every env samples F steps per round, and
+    RLlib samples rounds until ``batch`` env steps are in (``synchronous_parallel_sample``).
+    """
+    if fragment in (None, "auto"):
+        return max(1, -(-batch // envs))
+    per_round = max(1, int(fragment))
+    return per_round * max(1, -(-batch // (per_round * envs)))
+
+
+def batch_shape(batch: int, envs: int, minibatch: int, fragment: Any = "auto") -> tuple[int, int]:
     """(steps per env per epoch, minibatch size) for ``train_batch_size`` ``batch`` on ``envs`` envs.
 
-    rlchain's minibatches are whole. When ``batch`` splits over the envs and into a whole number of minibatches
-    near ``minibatch`` in size (RLlib's 4000 in 32 of 125 for its 128), the epoch is exactly ``batch`` env steps,
-    as RLlib samples; else the horizon is the smallest that holds ``batch`` in whole minibatches of ``minibatch``.
+    The epoch is what RLlib samples per ``train()`` (:func:`fragment_length`: RLlib's 4000 on 2 envs, 2000 steps
+    each; its tuned Pendulum's 1024 on 40 envs, 26 steps each = 1,040). rlchain's minibatches are whole, so the
+    minibatch is the divisor of that epoch nearest ``minibatch`` (125 for RLlib's 128 on 4,000 rows, 130 on
+    1,040); where no divisor lies within a factor 2 of it, the horizon is instead rounded up to whole minibatches
+    of ``minibatch`` (:func:`horizon`: more env steps than RLlib).
     """
-    if batch % envs == 0:
-        counts = {max(1, batch // minibatch), max(1, -(-batch // minibatch))}
-        fits = [n for n in counts if batch % n == 0]
-        if fits:
-            n = min(fits, key=lambda n: abs(batch // n - minibatch))
-            return batch // envs, batch // n
-    return horizon(batch, envs, minibatch), minibatch
+    steps = fragment_length(batch, envs, fragment)
+    total = steps * envs
+    minibatch = min(minibatch, total)
+    small = [d for d in range(1, math.isqrt(total) + 1) if total % d == 0]
+    size = min({*small, *(total // d for d in small)}, key=lambda d: (abs(d - minibatch), -d))
+    if 2 * size < minibatch or size > 2 * minibatch:
+        return horizon(total, envs, minibatch), minibatch
+    return steps, size
 
 
 def sequence_batch_shape(batch: int, envs: int, minibatch: int, seq_len: int) -> tuple[int, int]:
@@ -186,7 +205,7 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     if seq_len:
         steps, minibatch = sequence_batch_shape(batch, envs, minibatch, seq_len)
     else:
-        steps, minibatch = batch_shape(batch, envs, minibatch)
+        steps, minibatch = batch_shape(batch, envs, minibatch, s.get("rollout_fragment_length", "auto"))
     grad_clip = s.get("grad_clip")
     kl_on = bool(s.get("use_kl_loss")) and float(s.get("kl_coeff") or 0.0) > 0
     lr = s.get("lr")

@@ -93,13 +93,33 @@ def test_horizon_holds_the_batch_in_whole_minibatches(batch, envs, minibatch, st
     assert envs * steps >= batch and envs * steps % minibatch == 0
 
 
-@pytest.mark.parametrize("batch, envs, minibatch, shape", [(4000, 2, 128, (2000, 125)), (4000, 64, 128, (64, 128)),
-                                                           (1000, 4, 100, (250, 100)), (4000, 3, 128, (1408, 128)),
-                                                           (256, 1, 64, (256, 64)), (100, 1, 500, (100, 100))])
-def test_batch_shape_keeps_rllibs_batch_when_it_splits(batch, envs, minibatch, shape):
+@pytest.mark.parametrize("batch, envs, minibatch, shape", [(4000, 2, 128, (2000, 125)), (4000, 64, 128, (63, 126)),
+                                                           (1000, 4, 100, (250, 100)), (4000, 3, 128, (1334, 138)),
+                                                           (1024, 40, 128, (26, 130)), (256, 1, 64, (256, 64)),
+                                                           (100, 1, 500, (100, 100)), (4001, 1, 128, (4096, 128))])
+def test_batch_shape_samples_what_rllib_samples(batch, envs, minibatch, shape):
+    """The epoch is RLlib's rollout fragment on every env (RLlib's tuned Pendulum: 26 steps of 40 envs, 1,040),
+    split into the whole minibatches nearest RLlib's size; a batch with no divisor near it rounds up instead."""
     steps, size = translate.batch_shape(batch, envs, minibatch)
     assert (steps, size) == shape
     assert (envs * steps) % size == 0
+
+
+@pytest.mark.parametrize("batch, envs, fragment, steps", [(1024, 40, "auto", 26), (4000, 2, "auto", 2000),
+                                                          (1000, 3, "auto", 334), (1000, 4, 100, 300),
+                                                          (1000, 2, 500, 500), (10, 40, "auto", 1)])
+def test_fragment_length_is_rllibs(batch, envs, fragment, steps):
+    """RLlib 2.60's get_rollout_fragment_length ("auto": the batch over the envs, the longer fragment where it
+    does not divide) and its sampling of whole rounds of an explicit fragment until the batch is in."""
+    assert translate.fragment_length(batch, envs, fragment) == steps
+
+
+def test_tuned_pendulum_samples_rllibs_1040_env_steps():
+    config = (PPOConfig().environment("Pendulum-v1")
+              .env_runners(num_env_runners=2, num_envs_per_env_runner=20)
+              .training(train_batch_size_per_learner=1024, minibatch_size=128))
+    cfg = _params(config)["config"]
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"]) == (40, 26, 130)
 
 
 @pytest.mark.parametrize("build, key", [
