@@ -31,6 +31,7 @@ from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv
 from rlchain.envs.wrappers.multi_agent_parallel import ALL, EpisodeLog, ParallelView, agent_ids_of, space_of
 from rlchain.inference.policy_player import play_policies
 from rlchain.rllib import translate
+from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
 ENV_STATE = "state"
@@ -128,10 +129,11 @@ def is_multi_agent(env: Any) -> bool:
     return isinstance(env, MultiAgentEnv) or any(c.__name__ == "MultiAgentEnv" for c in type(env).__mro__)
 
 
-def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[EpisodeLog], window: int = 100) -> str:
+def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[EpisodeLog], window: int = 100,
+             runners: int = 1, envs_per_runner: int = 1) -> str:
     """A fresh env name whose builder steps ``make(0..n-1)`` (each a MultiAgentEnv) with rlchain's PettingZoo
-    backend; each built vector env's finished episodes go to a new :class:`EpisodeLog` appended to ``logs`` (the
-    training env's is the first, an evaluation env's the last)."""
+    backend; each built vector env's finished episodes go to a new :class:`IterationLog` appended to ``logs`` (the
+    training env's is the first, an evaluation env's the last), noting each episode's env runner."""
     name = f"rllib_multi_agent_env_{next(_COUNTER)}"
 
     def build(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> PettingZooVecEnv:
@@ -139,9 +141,14 @@ def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[Episod
             raise ConfigError("", "params.config.env_config", "an RLlib MultiAgentEnv takes its env_config from "
                                                               "the RLlib config")
         index = itertools.count()
-        log = EpisodeLog(window)
+        log = IterationLog(window, runners, envs_per_runner)
         logs.append(log)
-        return PettingZooVecEnv(lambda: ParallelView(make(next(index)), agent_ids, log), num_envs, seed)
+
+        def view() -> ParallelView:
+            i = next(index)
+            return ParallelView(make(i), agent_ids, log.for_copy(i))
+
+        return PettingZooVecEnv(view, num_envs, seed)
 
     env_configurations.register(name, {"vecenv_creator": build})
     return name
@@ -276,29 +283,22 @@ class MultiAgentRun:
     def rlchain_config(self, config: Any, make: Callable[[int], Any], run: dict[str, Any],
                        network_of: Callable[..., dict]) -> tuple[str, dict[str, Any]]:
         """(the registered env name, the rlchain multi-policy PPO config)."""
-        window = int(config._settings.get("metrics_num_episodes_for_smoothing") or 100)
-        env_name = register(make, self.agent_ids, self.logs, window)
+        settings = config._settings
+        window = int(settings.get("metrics_num_episodes_for_smoothing") or 100)
+        env_name = register(make, self.agent_ids, self.logs, window, max(1, int(settings.get("num_env_runners") or 0)),
+                            max(1, int(settings.get("num_envs_per_env_runner") or 1)))
         base = translate.ppo_config(config, env_name, False, run)
         return env_name, ppo_config(config, base, self.view, network_of)
 
     def episodes(self, log: EpisodeLog | None = None) -> dict[str, Any]:
-        """RLlib's env-runner episode metrics of ``log`` (default: the training env's)."""
-        log = log or (self.logs[0] if self.logs else EpisodeLog())
-        nan = float("nan")
-        def mean(xs: Any) -> float:
-            return float(np.mean(xs)) if len(xs) else nan
-
-        agent_returns = {a: mean(r) for a, r in log.agent_returns.items()}
-        module_returns: dict[str, float] = {}
-        for agent, pid in self.mapping.items():
-            if str(agent) in agent_returns:
-                module_returns[pid] = module_returns.get(pid, 0.0) + agent_returns[str(agent)]
-        return {"episode_return_mean": mean(log.returns),
-                "episode_return_max": max(log.returns) if log.returns else nan,
-                "episode_return_min": min(log.returns) if log.returns else nan,
-                "episode_len_mean": mean(log.lengths), "num_episodes_lifetime": log.finished,
-                "agent_episode_returns_mean": {self._id(a): v for a, v in agent_returns.items()},
-                "module_episode_returns_mean": module_returns}
+        """RLlib's env-runner episode metrics of the episodes ``log`` (default: the training env's) finished since
+        the last call (:mod:`rlchain.rllib.multi_agent_window`: per iteration, as RLlib reports them)."""
+        log = log or (self.logs[0] if self.logs else IterationLog())
+        module_of = {str(agent): pid for agent, pid in self.mapping.items()}
+        out = log.take(module_of) if isinstance(log, IterationLog) else multi_agent_metrics([], log.window, module_of)
+        out["num_episodes_lifetime"] = log.finished
+        out["agent_episode_returns_mean"] = {self._id(a): v for a, v in out["agent_episode_returns_mean"].items()}
+        return out
 
     def _id(self, agent: str) -> Any:
         return self.view._ids.get(agent, agent)
@@ -326,5 +326,5 @@ class MultiAgentRun:
         finally:
             models.train(was_training)
         episodes_out = self.episodes(self.logs[-1])
-        return {"env_runners": {**episodes_out, "num_episodes": self.logs[-1].finished},
+        return {"env_runners": episodes_out,
                 "episode_reward_mean": episodes_out["episode_return_mean"]}
