@@ -9,8 +9,9 @@ face and (``--rllib-python``) under real RLlib 2.60.
 Each side runs this file as an RLlib script (``--worker``: RLlib's own imports; the face's through
 ``python -m rlchain.rllib``), one seed per process, printing one JSON line per iteration. The driver writes
 ``<out>/<lib>_seed<N>.csv`` (env_steps, episode_return_mean) and prints, per seed, the env steps at which the
-return first reached the stop reward (450), then the medians. Env steps do not depend on the machine's load;
-seconds do and are not reported here (rllib_cartpole.py times both sides).
+return first reached the stop reward (450), then the medians and a table of each side's median return at 20k, 40k,
+... 100k env steps (``--table-only`` prints it from the CSVs already in ``--out``). Env steps do not depend on the
+machine's load; seconds do and are not reported here (rllib_cartpole.py times both sides).
 """
 
 import argparse
@@ -45,6 +46,38 @@ def frames_to(rows: list[dict], reward: float) -> int | None:
     return next((r["env_steps"] for r in rows if r["return"] >= reward), None)
 
 
+def return_at(rows: list[tuple[int, float]], frames: int) -> float:
+    """The reported return of the first iteration at or past ``frames`` env steps; a run that stopped earlier (it
+    reached the stop reward) keeps its last value."""
+    for steps, ret in rows:
+        if steps >= frames:
+            return ret
+    return rows[-1][1] if rows else float("nan")
+
+
+def frame_table(out: str, libs: list[str], seeds: list[int], frames: list[int]) -> list[str]:
+    """A markdown table of the median (over ``seeds``) return at each of ``frames`` env steps, from the CSVs."""
+    lines = ["| env steps | " + " | ".join(f"{lib}: median return (min-max, seeds)" for lib in libs) + " |",
+             "|---|" + "---|" * len(libs)]
+    curves = {}
+    for lib in libs:
+        for seed in seeds:
+            path = os.path.join(out, f"{lib}_seed{seed}.csv")
+            if os.path.exists(path):
+                with open(path) as f:
+                    curves[lib, seed] = [(int(r["env_steps"]), float(r["episode_return_mean"]))
+                                         for r in csv.DictReader(f)]
+    for frames_at in frames:
+        cells = []
+        for lib in libs:
+            values = [return_at(curves[lib, s], frames_at) for s in seeds if (lib, s) in curves]
+            values = [v for v in values if v == v]
+            cells.append(f"{statistics.median(values):.0f} ({min(values):.0f}-{max(values):.0f}, {len(values)} seeds)"
+                         if values else "-")
+        lines.append(f"| {frames_at:,} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worker", action="store_true", help="run the RLlib script itself (one side, one seed)")
@@ -55,7 +88,13 @@ def main() -> None:
     parser.add_argument("--num-env-runners", type=int, default=2)
     parser.add_argument("--max-steps", type=int, default=400_000, help="give up after this many env steps")
     parser.add_argument("--out", default="rllib_curves", help="folder for the CSV curves (outside git)")
+    parser.add_argument("--frames", type=int, nargs="+", default=[20_000, 40_000, 60_000, 80_000, 100_000],
+                        help="env steps at which the closing table gives each side's median return")
+    parser.add_argument("--table-only", action="store_true", help="only print the table of the CSVs in --out")
     args = parser.parse_args()
+    if args.table_only:
+        print("\n".join(frame_table(args.out, ["rllib", "rlchain"], args.seeds, args.frames)))
+        return
     if args.worker:
         worker(args.seed, args.num_env_runners, args.max_steps)
         return
@@ -90,6 +129,7 @@ def main() -> None:
         if reached:
             print(f"{lib}: median {statistics.median(reached):.0f} env steps to {STOP_REWARD:.0f} "
                   f"({len(reached)} of {len(values)} seeds reached it)", flush=True)
+    print("\n".join(frame_table(args.out, list(sides), args.seeds, args.frames)), flush=True)
 
 
 if __name__ == "__main__":
