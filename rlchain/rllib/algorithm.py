@@ -35,6 +35,7 @@ from rlchain.rllib.checkpoint_files import (
 )
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
+from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
@@ -339,6 +340,8 @@ class Algorithm:
                        "config": json_data(self.config.to_dict())}, f, indent=1)
         with open(os.path.join(path, RLCHAIN_CONFIG_FILE), "w") as f:
             yaml.safe_dump(self.rlchain_config, f, sort_keys=False)
+        model = self._stepper.context.model
+        write_module_folders(path, list(model) if self._multi is not None else [DEFAULT_MODULE])
         return path
 
     def save(self, checkpoint_dir: str | None = None, **kwargs: Any) -> Any:

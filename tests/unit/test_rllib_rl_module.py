@@ -156,6 +156,8 @@ def test_a_users_module_trains_under_ppo_and_restores(tmp_path, monkeypatch):
     with pytest.raises(ConfigError, match="trained an RLModule class.*restore_from_path") as info:
         Algorithm.from_checkpoint(path)
     assert "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="trained an RLModule class.*restore_from_path"):
+        RLModule.from_checkpoint(f"{path}/learner_group/learner/rl_module/default_policy")
     again = config.build_algo()
     try:
         again.restore_from_path(path)

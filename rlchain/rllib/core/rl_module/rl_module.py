@@ -47,6 +47,14 @@ class RLModule(torch.nn.Module):
     def setup(self) -> None:
         """Build the module's layers (override)."""
 
+    @classmethod
+    def from_checkpoint(cls, path: Any, **kwargs: Any) -> Any:
+        """The trained module of a face checkpoint for inference: ``<checkpoint>/learner_group/learner/rl_module``
+        gives ``{module id: module}``, ``.../rl_module/<module id>`` the module (see
+        :mod:`rlchain.rllib.module_checkpoint`)."""
+        from rlchain.rllib.module_checkpoint import from_checkpoint
+        return from_checkpoint(path)
+
     # ----- forward passes: the public call dispatches to the override --------------------------------------------
     def _forward(self, batch: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
         """The one forward pass used by the three below unless they are overridden."""
