@@ -20,7 +20,6 @@ from collections.abc import Sequence
 
 SECONDS: dict[str, float] = {
     "tests/learning/test_history_learning.py::test_history_policy_reaches_450_on_masked_velocity_cartpole": 99,
-    "tests/learning/test_pettingzoo_learning.py::test_connect_four_self_play_beats_a_random_player_90_percent": 96,
     "tests/learning/test_pettingzoo_learning.py::test_simple_tag_predators_trained_with_the_prey_beat_their_starting_selves":
         93,
     "tests/learning/test_learning.py::test_ppo_brax_inverted_pendulum_reaches_900": 84,
@@ -35,6 +34,7 @@ SECONDS: dict[str, float] = {
     "tests/learning/test_off_policy_learning.py::test_sac_pendulum_reaches_minus_250_within_20k_steps": 52,
     "tests/learning/test_sb3_learning.py::test_sac_pendulum_learns": 43,
     "tests/learning/test_rnn_learning.py::test_lstm_reaches_450_on_masked_velocity_cartpole": 43,
+    "tests/learning/test_pettingzoo_learning.py::test_connect_four_self_play_beats_a_random_player_90_percent": 37,
     "tests/learning/test_rllib_learning.py::test_rllibs_tuned_cartpole_settings_learn_within_rllibs_budget": 36,
     "tests/learning/test_pettingzoo_learning.py::test_simple_spread_shared_policy_beats_random_play": 33,
     "tests/learning/test_mujoco_push_learning.py::test_push_cube_learns_to_push": 32,
