@@ -371,12 +371,16 @@ class Algorithm:
     restore = restore_from_path
 
     @classmethod
-    def from_checkpoint(cls, path: Any, **kwargs: Any) -> Algorithm:
-        """A new algorithm from a :meth:`save_to_path` folder: its config (read as JSON data) built, then the
-        checkpoint restored. An env given as a class is not in the JSON: build the config and call
-        :meth:`restore_from_path`."""
+    def from_checkpoint(cls, path: Any, config: Any = None, **kwargs: Any) -> Algorithm:
+        """A new algorithm from a :meth:`save_to_path` folder: ``config`` (RLlib's ``from_checkpoint(path,
+        config=...)``), else the folder's config read as JSON data, built, then the checkpoint restored. An env or
+        an RLModule given as a class is not in the JSON: pass ``config``."""
         path = os.fspath(getattr(path, "path", path))
         checkpoint_file(path)  # refuses RLlib's own checkpoints first
+        if config is not None:
+            algo = config.build_algo()
+            algo.restore_from_path(path)
+            return algo
         with open(os.path.join(path, CONFIG_FILE)) as f:
             stored = json.load(f)
         name = stored.get("algo", "PPO")
@@ -388,11 +392,12 @@ class Algorithm:
         if module_network.NAME_PREFIX in read_text(os.path.join(path, RLCHAIN_CONFIG_FILE)):
             raise ConfigError(path, "rl_module_spec", "the checkpoint trained an RLModule class, which is not in the "
                                                       "JSON: build your config with its RLModuleSpec and call "
-                                                      "algo.restore_from_path(path)")
+                                                      "algo.restore_from_path(path) or from_checkpoint(path, "
+                                                      "config=config)")
         env = data.get("env")
         if not isinstance(env, str):
-            raise ConfigError(path, "env", "the checkpoint's env is not a name: build your config with its env and "
-                                           "call algo.restore_from_path(path)")
+            raise ConfigError(path, "env", "the checkpoint's env is not a name: pass your config with its env, "
+                                           "from_checkpoint(path, config=config)")
         config.update_from_dict({k: v for k, v in data.items() if k in config})
         algo = config.build_algo()
         algo.restore_from_path(path)

@@ -14,8 +14,13 @@ import json
 import os
 from typing import Any
 
+import gymnasium as gym
+
 from rlchain.config.errors import ConfigError
+from rlchain.policy.load import load_policy
 from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN_CONFIG_FILE, read_text
+from rlchain.rllib.module import NAME_PREFIX, RLModuleView
+from rlchain.runner import Runner
 
 MODULES_PATH = ("learner_group", "learner", "rl_module")
 """RLlib's component path from a checkpoint folder to its (multi-)module."""
@@ -61,13 +66,6 @@ def module_ids(root: str) -> list[str]:
 def from_checkpoint(path: Any) -> Any:
     """The module at ``path`` (an :class:`~rlchain.rllib.module.RLModuleView`), or ``{module id: module}`` for
     the ``rl_module`` folder itself."""
-    import gymnasium as gym
-
-    from rlchain.policy.load import load_policy
-    from rlchain.rllib import module_network
-    from rlchain.rllib.module import RLModuleView
-    from rlchain.runner import Runner
-
     root, module_id = locate(path)
     with open(os.path.join(root, CONFIG_FILE)) as f:
         env = json.load(f).get("config", {}).get("env")
@@ -75,7 +73,7 @@ def from_checkpoint(path: Any) -> Any:
     instead = f"build your config, then algo.restore_from_path('{root}') and algo.get_module()"
     if not isinstance(env, str):
         raise ConfigError(root, "env", f"the checkpoint's env is not a name, so its spaces are unknown here: {instead}")
-    if module_network.NAME_PREFIX in rlchain_yaml:
+    if NAME_PREFIX in rlchain_yaml:
         raise ConfigError(root, "rl_module_spec", f"the checkpoint trained an RLModule class, which is not in the "
                                                   f"JSON: {instead}")
     ids = module_ids(root)
