@@ -297,6 +297,11 @@ class Algorithm:
         return out
 
     # ----- the policy ------------------------------------------------------------------------------------
+    @property
+    def training_iteration(self) -> int:
+        """The ``train()`` calls so far (Ray Tune's Trainable attribute, which RLlib's callbacks read)."""
+        return self.iteration
+
     def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
         self._check_running()

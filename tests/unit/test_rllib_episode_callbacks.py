@@ -35,7 +35,7 @@ def test_on_episode_step_sees_every_step_with_the_env_and_its_last_observation(t
         result = algo.train()
     finally:
         algo.stop()
-    assert callback.steps == 256
+    assert callback.steps == 256 and algo.training_iteration == 1
     assert callback.ended and all(n == length and ret == r for n, length, r, ret in callback.ended)
     assert np.isfinite(result["env_runners"]["x_mean"])
 
