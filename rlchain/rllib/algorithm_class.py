@@ -5,7 +5,7 @@ RLlib's ``Algorithm`` is a Ray Tune ``Trainable``, so RLlib's docs hand ``config
 need Ray), and Tune takes a class only when it is one; it takes any callable of one ``config`` argument as a
 function trainable. So ``config.algo_class`` is this callable: given an AlgorithmConfig (``algo_class(config=...)``,
 what ``build_algo`` calls) it builds the algorithm; given Tune's trial config dict it runs the trial
-(:func:`rlchain.rllib.tune.run_trial`). Other attributes are the class's (``get_default_config()``...).
+(:func:`run_trial`). Other attributes are the class's (``get_default_config()``...).
 """
 
 from __future__ import annotations
@@ -23,9 +23,7 @@ class AlgorithmClass:
 
     def __call__(self, config: Any) -> Any:
         if isinstance(config, dict):  # a Tune trial's config
-            from rlchain.rllib.tune import run_trial  # optional: ray[tune]
-
-            return run_trial(self.__name__, config)
+            return run_trial(self.cls, config)
         return self.cls(config=config)
 
     def __getattr__(self, name: str) -> Any:
@@ -41,3 +39,36 @@ class AlgorithmClass:
 
     def __repr__(self) -> str:
         return f"<algo_class {self.cls.__module__}.{self.cls.__qualname__}>"
+
+
+def without_tunes_keys(result: dict[str, Any]) -> dict[str, Any]:
+    """A ``train()`` result without the keys Tune adds itself."""
+    for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
+                "iterations_since_restore"):
+        result.pop(key, None)
+    return result
+
+
+def run_trial(cls: type, config: dict[str, Any]) -> None:
+    """One Tune trial of algorithm class ``cls`` as a function trainable: ``train()`` until Tune stops it, each
+    result reported with a checkpoint of the algorithm (so ``result.checkpoint`` is the last); a restarted trial
+    resumes from its last checkpoint."""
+    import tempfile
+
+    from ray import tune  # optional: ray[tune]
+
+    algo_config = cls.get_default_config()
+    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
+    algo = algo_config.build_algo()
+    try:
+        checkpoint = tune.get_checkpoint()
+        if checkpoint is not None:
+            with checkpoint.as_directory() as folder:
+                algo.restore_from_path(folder)
+        while True:
+            result = without_tunes_keys(algo.train())
+            with tempfile.TemporaryDirectory() as folder:
+                algo.save_to_path(folder)
+                tune.report(result, checkpoint=tune.Checkpoint.from_directory(folder))
+    finally:
+        algo.stop()

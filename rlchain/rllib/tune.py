@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from rlchain.rllib.algorithm_class import without_tunes_keys
 from rlchain.rllib.algorithms.registry import ALGORITHMS, config_class
 from rlchain.rllib.config import AlgorithmConfig
 
@@ -23,37 +24,6 @@ def build_from_dict(algo_name: str, config: dict[str, Any]) -> Any:
     algo_config = config_class(algo_name)()
     algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
     return algo_config.build_algo()
-
-
-def without_tunes_keys(result: dict[str, Any]) -> dict[str, Any]:
-    """A ``train()`` result without the keys Tune adds itself."""
-    for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
-                "iterations_since_restore"):
-        result.pop(key, None)
-    return result
-
-
-def run_trial(algo_name: str, config: dict[str, Any]) -> None:
-    """One trial as a Tune function trainable (``tune.Tuner(config.algo_class, ...)``): ``train()`` until Tune
-    stops it, each result reported with a checkpoint of the algorithm (so ``result.checkpoint`` is the last);
-    a restarted trial resumes from its last checkpoint."""
-    import tempfile
-
-    from ray import tune  # optional: ray[tune]
-
-    algo = build_from_dict(algo_name, config)
-    try:
-        checkpoint = tune.get_checkpoint()
-        if checkpoint is not None:
-            with checkpoint.as_directory() as folder:
-                algo.restore_from_path(folder)
-        while True:
-            result = without_tunes_keys(algo.train())
-            with tempfile.TemporaryDirectory() as folder:
-                algo.save_to_path(folder)
-                tune.report(result, checkpoint=tune.Checkpoint.from_directory(folder))
-    finally:
-        algo.stop()
 
 
 def make_trainable(algo_name: str) -> type:
