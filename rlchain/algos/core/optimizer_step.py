@@ -9,6 +9,7 @@ from collections.abc import Callable
 
 import torch
 
+from rlchain.algos.core.fused_adam_step import fused_adam_step
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.parallel.communicator import SINGLE, Communicator
 
@@ -50,7 +51,7 @@ def optimizer_step(optimizer: torch.optim.Optimizer, loss: torch.Tensor, *,
     if scaler is not None:
         scaler.step(optimizer)
         scaler.update()
-    else:
+    elif not fused_adam_step(optimizer):  # torch's fused Adam kernel without its wrapper, where that applies
         optimizer.step()
     return values
 
