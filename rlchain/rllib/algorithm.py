@@ -245,14 +245,15 @@ class Algorithm:
         """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (each algorithm's names)."""
         return learner_results(stats)
 
-    def _write_custom(self, values: dict[str, float]) -> None:
+    def _write_custom(self, values: dict[str, Any]) -> None:
         ctx = self._stepper.context
         writer = getattr(ctx, "writer", None) if ctx is not None else None
         if writer is None or not values:
             return
         frames = int(ctx.state.frames)
         for key, value in values.items():
-            writer.add_scalar(f"custom/{key}", value, frames)
+            if isinstance(value, (int, float)) and not isinstance(value, bool):  # items and series stay in the result
+                writer.add_scalar(f"custom/{key}", value, frames)
 
     # ----- evaluation -----------------------------------------------------------------------------------
     def evaluate(self) -> dict[str, Any]:

@@ -12,7 +12,10 @@ Other events RLlib has (``on_sample_end``, ``on_environment_created``...) are ac
 
 from __future__ import annotations
 
+import contextlib
 import math
+import time
+from collections.abc import Iterator
 from typing import Any
 
 import torch
@@ -62,56 +65,106 @@ DefaultCallbacks = RLlibCallback  # RLlib's older name
 
 
 class MetricsLogger:
-    """RLlib's ``MetricsLogger``: values by key, reduced when the result dict is made (mean over the last
-    ``window`` values, or sum / min / max over all since the last result)."""
+    """RLlib 2.60's ``MetricsLogger``: values by key (a string or a tuple of nested keys), reduced into each result
+    dict. A key's settings are those of its first ``log_value``; later calls add values only. The reduce kinds:
+
+    - ``reduce=None`` without ``window`` (the default): ``"ema"``, an exponential moving average (``ema_coeff``,
+      default 0.01) that carries over from one result to the next;
+    - ``"mean"`` / ``"min"`` / ``"max"`` / ``"sum"``: over the last ``window`` values (kept across results), or
+      without a window over the values since the last result (``reduce=None`` with a window is ``"mean"``);
+    - ``"lifetime_sum"`` (or ``"sum"`` with ``clear_on_reduce=False``): the running total;
+    - ``"item"``: the last value logged; ``"item_series"``: the values logged (the last ``window``), any type.
+    """
+
+    KINDS = ("ema", "mean", "min", "max", "sum", "lifetime_sum", "item", "item_series")
 
     def __init__(self) -> None:
-        self._values: dict[str, list[float]] = {}
-        self._reduce: dict[str, tuple[str, int | None]] = {}
-        self._last: dict[str, float] = {}
+        self._values: dict[str, list[Any]] = {}
+        self._reduce: dict[str, tuple[str, int | None, float]] = {}
+        self._ema: dict[str, float] = {}
+        self._last: dict[str, Any] = {}
+        self._fresh: set[str] = set()  # keys logged since the last result
 
-    def log_value(self, key: Any, value: Any, reduce: str = "mean", window: int | None = None,
-                  ema_coeff: float | None = None, clear_on_reduce: bool = False, **kwargs: Any) -> None:
-        name = "/".join(key) if isinstance(key, (tuple, list)) else str(key)
-        self._values.setdefault(name, []).append(float(value.item() if isinstance(value, torch.Tensor) else value))
-        self._reduce[name] = (reduce or "mean", window)
+    @staticmethod
+    def _name(key: Any) -> str:
+        return "/".join(key) if isinstance(key, (tuple, list)) else str(key)
 
-    def log_dict(self, stats: dict[str, Any], *, key: Any = None, reduce: str = "mean", window: int | None = None,
-                 **kwargs: Any) -> None:
-        prefix = "" if key is None else ("/".join(key) if isinstance(key, (tuple, list)) else str(key)) + "/"
+    def log_value(self, key: Any, value: Any, reduce: str | None = None, window: int | None = None,
+                  ema_coeff: float | None = None, clear_on_reduce: Any = None, **kwargs: Any) -> None:
+        name = self._name(key)
+        if name not in self._reduce:
+            kind = reduce or ("mean" if window is not None else "ema")
+            if kind == "mean" and ema_coeff is not None and window is None:
+                kind = "ema"  # RLlib's older spelling: reduce="mean" with an ema_coeff
+            if kind == "sum" and clear_on_reduce is False:
+                kind = "lifetime_sum"
+            if kind not in self.KINDS:
+                raise ValueError(f"metrics_logger.log_value('{name}'): reduce '{kind}' is not one of "
+                                 f"{', '.join(self.KINDS)}")
+            self._reduce[name] = (kind, int(window) if window else None, 0.01 if ema_coeff is None else ema_coeff)
+        kind, _, coeff = self._reduce[name]
+        if isinstance(value, torch.Tensor) and value.numel() == 1:
+            value = value.item()
+        self._fresh.add(name)
+        if kind == "ema":
+            value = float(value)
+            self._ema[name] = value if name not in self._ema else (1.0 - coeff) * self._ema[name] + coeff * value
+        elif kind == "lifetime_sum":
+            self._ema[name] = self._ema.get(name, 0.0) + float(value)
+        else:
+            self._values.setdefault(name, []).append(value if kind.startswith("item") else float(value))
+
+    def log_dict(self, stats: dict[str, Any], *, key: Any = None, reduce: str | None = None,
+                 window: int | None = None, **kwargs: Any) -> None:
+        prefix = "" if key is None else self._name(key) + "/"
         for name, value in stats.items():
             if isinstance(value, dict):
-                self.log_dict(value, key=prefix + name, reduce=reduce, window=window)
+                self.log_dict(value, key=prefix + name, reduce=reduce, window=window, **kwargs)
             else:
-                self.log_value(prefix + name, value, reduce=reduce, window=window)
+                self.log_value(prefix + name, value, reduce=reduce, window=window, **kwargs)
 
-    def peek(self, key: Any, default: Any = None) -> Any:
-        name = "/".join(key) if isinstance(key, (tuple, list)) else str(key)
-        if name in self._values and self._values[name]:
+    @contextlib.contextmanager
+    def log_time(self, key: Any, reduce: str | None = None, window: int | None = None,
+                 ema_coeff: float | None = None, **kwargs: Any) -> Iterator[None]:
+        """``with metrics_logger.log_time(key):`` logs the block's seconds under ``key``."""
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.log_value(key, time.perf_counter() - start, reduce=reduce, window=window, ema_coeff=ema_coeff)
+
+    def peek(self, key: Any, default: Any = None, **kwargs: Any) -> Any:
+        name = self._name(key)
+        if name in self._ema:
+            return self._ema[name]
+        if self._values.get(name):
             return self._reduce_one(name)
         return self._last.get(name, default)
 
-    def _reduce_one(self, name: str) -> float:
-        values = self._values[name]
-        how, window = self._reduce[name]
-        if how == "sum":
-            return float(sum(values))
-        if how == "min":
-            return float(min(values))
-        if how == "max":
-            return float(max(values))
-        recent = values[-window:] if window else values
-        return float(sum(recent) / len(recent)) if recent else math.nan
+    def _reduce_one(self, name: str) -> Any:
+        kind, window, _ = self._reduce[name]
+        if kind in ("ema", "lifetime_sum"):
+            return self._ema[name]
+        values = self._values[name][-window:] if window else self._values[name]
+        if kind == "item":
+            return values[-1]
+        if kind == "item_series":
+            return list(values)
+        if not values:
+            return math.nan
+        return float({"sum": sum, "min": min, "max": max}.get(kind, lambda v: sum(v) / len(v))(values))
 
-    def reduce(self) -> dict[str, float]:
-        """The reduced values since the last call (nested by '/'); mean-reduced values keep their window."""
+    def reduce(self) -> dict[str, Any]:
+        """Every key's reduced value for a result: running averages and totals, the last item and windowed values
+        carry over to the next result; values without a window (and series) only when logged since the last."""
         out = {}
-        for name in list(self._values):
-            if not self._values[name]:
-                continue
-            out[name] = self._last[name] = self._reduce_one(name)
-            how, window = self._reduce[name]
-            self._values[name] = self._values[name][-window:] if how == "mean" and window else []
+        for name, (kind, window, _) in self._reduce.items():
+            carried = kind in ("ema", "lifetime_sum", "item") or (window and kind != "item_series")
+            if name in self._fresh or (carried and (name in self._ema or self._values.get(name))):
+                out[name] = self._last[name] = self._reduce_one(name)
+            if name in self._values and kind != "item":
+                self._values[name] = self._values[name][-window:] if window and kind != "item_series" else []
+        self._fresh.clear()
         return out
 
 
