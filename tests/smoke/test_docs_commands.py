@@ -161,6 +161,19 @@ def test_rlchain_commands_are_shortened_like_runner_py(tmp_path):
         assert yaml.safe_load(fh)["trials"] == 2
 
 
+def test_plain_commands_go_to_the_fork_server(tmp_path):
+    code = "python -c \"import rlchain; rlchain.PPO('MlpPolicy', 'CartPole-v1').learn(50_000).save('x')\""
+    assert forkable(code, shorten(code, str(tmp_path)))[:2] == ["python", "-c"]
+    assert split_assignments(forkable("WANDB_MODE=offline python runner.py --train", "WANDB_MODE=offline python "
+                                      "runner.py --train")) == ({"WANDB_MODE": "offline"}, ["python", "runner.py",
+                                                                                            "--train"])
+    resume = "rlchain train ppo_cartpole --checkpoint runs/<run>/nn/last_cartpole.pth  # resume"
+    assert forkable(resume, "rlchain train ppo_cartpole --checkpoint runs/r/nn/last_cartpole.pth")[-1].endswith("pth")
+    for shell in ("python x.py > out.txt", "python -c 'print(1)' | cat", "X=$HOME python x.py", "ls runs/*",
+                  "tensorboard --logdir runs", "FOO=1 ls", 'python -c "print($X)"', "cd x && python y.py"):
+        assert forkable(shell, shell) is None, shell
+
+
 # ----- running a page -------------------------------------------------------------------------
 def commands(text: str) -> list[str]:
     """Logical command lines of a bash block: continuations joined, blank and comment lines dropped."""
@@ -291,6 +304,13 @@ def simple_argv(command: str) -> list[str] | None:
     _, rest = split_assignments(argv)
     head = os.path.basename(rest[0]) if rest else ""
     return argv if head == "rlchain" or head.startswith("python") else None
+
+
+def forkable(command: str, shown: str) -> list[str] | None:
+    """The argv of ``shown`` (``command`` shortened) for the fork server, or None where bash must run it. Checked
+    on the command as written, ``<run>`` a plain word: shortening only adds plain words, but shlex.join may quote
+    them (a ``python -c "..."`` comes back in single quotes)."""
+    return shlex.split(shown) if simple_argv(command.replace("<run>", "run")) is not None else None
 
 
 def split_assignments(argv: list[str]) -> tuple[dict[str, str], list[str]]:
@@ -454,8 +474,6 @@ def test_page_commands_run(page, tmp_path, fork_server):
                 shown = shorten(command, ws)
                 if plain and shown in _ran_ok:
                     continue
-                # checked on the command as written: shortening only adds plain words, but shlex.join may quote
-                direct = shlex.split(shown) if simple_argv(command) is not None else None
-                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server, direct)
+                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server, forkable(command, shown))
                 if not block.options:
                     _ran_ok.add(shown)
