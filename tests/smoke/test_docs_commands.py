@@ -27,6 +27,7 @@ a page where no later block can depend on it (no python or file blocks, no ``<ru
 from __future__ import annotations
 
 import contextlib
+import glob
 import json
 import os
 import re
@@ -169,6 +170,11 @@ def test_plain_commands_go_to_the_fork_server(tmp_path):
                                                                                             "--train"])
     resume = "rlchain train ppo_cartpole --checkpoint runs/<run>/nn/last_cartpole.pth  # resume"
     assert forkable(resume, "rlchain train ppo_cartpole --checkpoint runs/r/nn/last_cartpole.pth")[-1].endswith("pth")
+    writers = "python runner.py params.import_modules=[mywriters] params.config.log_writers=[wide_csv,csv]"
+    assert forkable(writers, writers, str(tmp_path))[-1] == "params.config.log_writers=[wide_csv,csv]"
+    assert forkable(writers, writers) is None  # no folder to check the globs against
+    (tmp_path / "x.py").write_text("")
+    assert forkable("python *.py", "python *.py", str(tmp_path)) is None  # it matches: bash expands it
     for shell in ("python x.py > out.txt", "python -c 'print(1)' | cat", "X=$HOME python x.py", "ls runs/*",
                   "tensorboard --logdir runs", "FOO=1 ls", 'python -c "print($X)"', "cd x && python y.py"):
         assert forkable(shell, shell) is None, shell
@@ -278,15 +284,15 @@ def run_until_stopped(argv: list[str], ws: str, env: dict, seconds: float) -> tu
 
 
 SHELL = set("*?[]{}$~`\\'\"")  # outside quotes: globs, expansions, escapes; bash runs those lines
-
-
+GLOB = set("*?[]")  # a word with these and no other shell character is itself where it matches no file
 ASSIGNMENT = re.compile(r"^[A-Za-z_]\w*=")  # NAME=VALUE before a command: that command's environment
 
 
-def simple_argv(command: str) -> list[str] | None:
+def simple_argv(command: str, cwd: str | None = None) -> list[str] | None:
     """The argv of a plain ``python ...`` / ``rlchain ...`` command line, after any leading ``NAME=VALUE``
-    assignments (no shell operator, expansion or glob: bash would run it as written), for the fork server; None
-    for anything else. The assignments stay the argv's first tokens (split_assignments takes them off)."""
+    assignments (no shell operator, expansion or glob that matches a file in ``cwd``: bash would run it as
+    written), for the fork server; None for anything else. The assignments stay the argv's first tokens
+    (split_assignments takes them off)."""
     lexer = shlex.shlex(command, posix=False, punctuation_chars=True)
     lexer.whitespace_split = True
     try:
@@ -298,7 +304,10 @@ def simple_argv(command: str) -> list[str] | None:
             if token[0] == '"' and any(c in token[1:-1] for c in '$`\\"'):
                 return None
             continue
-        if all(c in "();<>|&" for c in token) or SHELL & set(token):
+        if all(c in "();<>|&" for c in token):
+            return None
+        special = SHELL & set(token)
+        if special and not (cwd is not None and special <= GLOB and not glob.glob(os.path.join(cwd, token))):
             return None
     argv = shlex.split(command, comments=True)
     _, rest = split_assignments(argv)
@@ -306,11 +315,12 @@ def simple_argv(command: str) -> list[str] | None:
     return argv if head == "rlchain" or head.startswith("python") else None
 
 
-def forkable(command: str, shown: str) -> list[str] | None:
+def forkable(command: str, shown: str, cwd: str | None = None) -> list[str] | None:
     """The argv of ``shown`` (``command`` shortened) for the fork server, or None where bash must run it. Checked
     on the command as written, ``<run>`` a plain word: shortening only adds plain words, but shlex.join may quote
-    them (a ``python -c "..."`` comes back in single quotes)."""
-    return shlex.split(shown) if simple_argv(command.replace("<run>", "run")) is not None else None
+    them (a ``python -c "..."`` comes back in single quotes). A glob that matches no file in ``cwd`` is a word,
+    as bash leaves it (``params.import_modules=[mypkg]``)."""
+    return shlex.split(shown) if simple_argv(command.replace("<run>", "run"), cwd) is not None else None
 
 
 def split_assignments(argv: list[str]) -> tuple[dict[str, str], list[str]]:
@@ -474,6 +484,6 @@ def test_page_commands_run(page, tmp_path, fork_server):
                 shown = shorten(command, ws)
                 if plain and shown in _ran_ok:
                     continue
-                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server, forkable(command, shown))
+                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server, forkable(command, shown, ws))
                 if not block.options:
                     _ran_ok.add(shown)
