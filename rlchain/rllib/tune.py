@@ -18,6 +18,44 @@ def _trainable_base() -> type:
     return tune.Trainable
 
 
+def build_from_dict(algo_name: str, config: dict[str, Any]) -> Any:
+    """The algorithm of a trial's config dict (Tune's ``param_space=config`` arrives as ``config.to_dict()``)."""
+    algo_config = config_class(algo_name)()
+    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
+    return algo_config.build_algo()
+
+
+def without_tunes_keys(result: dict[str, Any]) -> dict[str, Any]:
+    """A ``train()`` result without the keys Tune adds itself."""
+    for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
+                "iterations_since_restore"):
+        result.pop(key, None)
+    return result
+
+
+def run_trial(algo_name: str, config: dict[str, Any]) -> None:
+    """One trial as a Tune function trainable (``tune.Tuner(config.algo_class, ...)``): ``train()`` until Tune
+    stops it, each result reported with a checkpoint of the algorithm (so ``result.checkpoint`` is the last);
+    a restarted trial resumes from its last checkpoint."""
+    import tempfile
+
+    from ray import tune  # optional: ray[tune]
+
+    algo = build_from_dict(algo_name, config)
+    try:
+        checkpoint = tune.get_checkpoint()
+        if checkpoint is not None:
+            with checkpoint.as_directory() as folder:
+                algo.restore_from_path(folder)
+        while True:
+            result = without_tunes_keys(algo.train())
+            with tempfile.TemporaryDirectory() as folder:
+                algo.save_to_path(folder)
+                tune.report(result, checkpoint=tune.Checkpoint.from_directory(folder))
+    finally:
+        algo.stop()
+
+
 def make_trainable(algo_name: str) -> type:
     """A Tune ``Trainable`` class that trains ``algo_name`` (PPO) through the face."""
 
@@ -30,16 +68,10 @@ def make_trainable(algo_name: str) -> type:
             return config_class(cls._algo_name)()
 
         def setup(self, config: dict[str, Any]) -> None:
-            algo_config = config_class(self._algo_name)()
-            algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
-            self.algo = algo_config.build_algo()
+            self.algo = build_from_dict(self._algo_name, config)
 
         def step(self) -> dict[str, Any]:
-            result = self.algo.train()
-            for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
-                        "iterations_since_restore"):
-                result.pop(key, None)  # Tune's own
-            return result
+            return without_tunes_keys(self.algo.train())
 
         def save_checkpoint(self, checkpoint_dir: str) -> None:
             self.algo.save_to_path(checkpoint_dir)
