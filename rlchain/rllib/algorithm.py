@@ -35,6 +35,7 @@ from rlchain.rllib.checkpoint_files import (
 )
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
+from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
@@ -339,6 +340,8 @@ class Algorithm:
                        "config": json_data(self.config.to_dict())}, f, indent=1)
         with open(os.path.join(path, RLCHAIN_CONFIG_FILE), "w") as f:
             yaml.safe_dump(self.rlchain_config, f, sort_keys=False)
+        model = self._stepper.context.model
+        write_module_folders(path, list(model) if self._multi is not None else [DEFAULT_MODULE])
         return path
 
     def save(self, checkpoint_dir: str | None = None, **kwargs: Any) -> Any:
@@ -368,12 +371,16 @@ class Algorithm:
     restore = restore_from_path
 
     @classmethod
-    def from_checkpoint(cls, path: Any, **kwargs: Any) -> Algorithm:
-        """A new algorithm from a :meth:`save_to_path` folder: its config (read as JSON data) built, then the
-        checkpoint restored. An env given as a class is not in the JSON: build the config and call
-        :meth:`restore_from_path`."""
+    def from_checkpoint(cls, path: Any, config: Any = None, **kwargs: Any) -> Algorithm:
+        """A new algorithm from a :meth:`save_to_path` folder: ``config`` (RLlib's ``from_checkpoint(path,
+        config=...)``), else the folder's config read as JSON data, built, then the checkpoint restored. An env or
+        an RLModule given as a class is not in the JSON: pass ``config``."""
         path = os.fspath(getattr(path, "path", path))
         checkpoint_file(path)  # refuses RLlib's own checkpoints first
+        if config is not None:
+            algo = config.build_algo()
+            algo.restore_from_path(path)
+            return algo
         with open(os.path.join(path, CONFIG_FILE)) as f:
             stored = json.load(f)
         name = stored.get("algo", "PPO")
@@ -385,11 +392,12 @@ class Algorithm:
         if module_network.NAME_PREFIX in read_text(os.path.join(path, RLCHAIN_CONFIG_FILE)):
             raise ConfigError(path, "rl_module_spec", "the checkpoint trained an RLModule class, which is not in the "
                                                       "JSON: build your config with its RLModuleSpec and call "
-                                                      "algo.restore_from_path(path)")
+                                                      "algo.restore_from_path(path) or from_checkpoint(path, "
+                                                      "config=config)")
         env = data.get("env")
         if not isinstance(env, str):
-            raise ConfigError(path, "env", "the checkpoint's env is not a name: build your config with its env and "
-                                           "call algo.restore_from_path(path)")
+            raise ConfigError(path, "env", "the checkpoint's env is not a name: pass your config with its env, "
+                                           "from_checkpoint(path, config=config)")
         config.update_from_dict({k: v for k, v in data.items() if k in config})
         algo = config.build_algo()
         algo.restore_from_path(path)

@@ -16,6 +16,9 @@ from rlchain.rllib import keys as K
 
 ACTION_DIST_INPUTS = "action_dist_inputs"
 VF_PREDS = "vf_preds"
+NAME_PREFIX = "rllib_module_"
+"""Network names registered for users' RLModule classes start so (a checkpoint's YAML naming one needs the module
+class in the script)."""
 
 
 @dataclass

@@ -30,13 +30,11 @@ from rlchain.rllib import keys as K
 from rlchain.rllib.core.columns import Columns
 from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
 from rlchain.rllib.default_ppo_module import DefaultPPOTorchRLModule
-from rlchain.rllib.module import RLModuleSpec
+from rlchain.rllib.module import NAME_PREFIX, RLModuleSpec
 from rlchain.rllib.multi_agent import policy_names, trained_policies
 from rlchain.rllib.networks import actor_critic_network
 
 _COUNTER = itertools.count(1)
-NAME_PREFIX = "rllib_module_"
-"""Registered network names start so (a checkpoint's YAML naming one needs the module class in the script)."""
 
 
 class RLModuleNetwork(nn.Module):

@@ -15,6 +15,7 @@ from typing import Any
 import torch
 
 from rlchain.rllib.module import RLModuleSpec
+from rlchain.rllib.module_checkpoint import from_checkpoint as module_from_checkpoint
 
 
 class RLModule(torch.nn.Module):
@@ -46,6 +47,13 @@ class RLModule(torch.nn.Module):
 
     def setup(self) -> None:
         """Build the module's layers (override)."""
+
+    @classmethod
+    def from_checkpoint(cls, path: Any, **kwargs: Any) -> Any:
+        """The trained module of a face checkpoint for inference: ``<checkpoint>/learner_group/learner/rl_module``
+        gives ``{module id: module}``, ``.../rl_module/<module id>`` the module (see
+        :mod:`rlchain.rllib.module_checkpoint`)."""
+        return module_from_checkpoint(path)
 
     # ----- forward passes: the public call dispatches to the override --------------------------------------------
     def _forward(self, batch: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
