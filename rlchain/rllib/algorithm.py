@@ -24,7 +24,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
 from rlchain.rllib import envs, module_network, multi_agent, translate
-from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested
+from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested, steps_episodes
 from rlchain.rllib.checkpoint_files import (
     CHECKPOINT_FILE,
     CONFIG_FILE,
@@ -127,7 +127,8 @@ class Algorithm:
         self._env_runner_metrics = MetricsLogger()
         self.callbacks = _callbacks(settings.get("callbacks_class"))
         functions = {k: settings[k] for k in ("on_algorithm_init", "on_train_result", "on_episode_start",
-                                              "on_episode_end", "on_evaluate_start", "on_evaluate_end")
+                                              "on_episode_step", "on_episode_end", "on_evaluate_start",
+                                              "on_evaluate_end")
                      if settings.get(k) is not None}
         if functions:
             self.callbacks.append(_Functions(functions))
@@ -154,9 +155,10 @@ class Algorithm:
             self.rlchain_config = self._single_agent_config(config, run)
         self.runner = Runner().load(self.rlchain_config)
         extra = []
-        if any(type(cb).on_episode_end is not RLlibCallback.on_episode_end
-               or type(cb).on_episode_start is not RLlibCallback.on_episode_start
-               or isinstance(cb, _Functions) for cb in self.callbacks):
+        if any(getattr(type(cb), event) is not getattr(RLlibCallback, event)
+               for event in ("on_episode_start", "on_episode_step", "on_episode_end")
+               for cb in self.callbacks if not isinstance(cb, _Functions)) \
+                or any(name.startswith("on_episode_") for name in functions):
             extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics))
         # RLlib's episode results count the episodes of each train() only (see episode_window)
         self._episodes = IterationEpisodes(runners, per_runner,
@@ -187,6 +189,9 @@ class Algorithm:
                               f"mapped by the face for {config.algo_name} "
                               f"({' or '.join(a.__name__ for a in allowed)})")
         out = self.translate(config, env_name, self.observation_space, continuous, run)
+        env_settings = out["params"]["config"]
+        if any(steps_episodes(cb) for cb in self.callbacks) and env_settings.get("vecenv_type", "auto") == "auto":
+            env_settings["vecenv_type"] = "sync"  # RLlib's runners step a SyncVectorEnv: on_episode_step's env.envs
         if config.algo_name == "PPO":  # a user's RLModule as the network
             module_network.apply_spec(config, out, self.observation_space, self.action_space)
         return out
@@ -240,14 +245,15 @@ class Algorithm:
         """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (each algorithm's names)."""
         return learner_results(stats)
 
-    def _write_custom(self, values: dict[str, float]) -> None:
+    def _write_custom(self, values: dict[str, Any]) -> None:
         ctx = self._stepper.context
         writer = getattr(ctx, "writer", None) if ctx is not None else None
         if writer is None or not values:
             return
         frames = int(ctx.state.frames)
         for key, value in values.items():
-            writer.add_scalar(f"custom/{key}", value, frames)
+            if isinstance(value, (int, float)) and not isinstance(value, bool):  # items and series stay in the result
+                writer.add_scalar(f"custom/{key}", value, frames)
 
     # ----- evaluation -----------------------------------------------------------------------------------
     def evaluate(self) -> dict[str, Any]:
@@ -292,6 +298,11 @@ class Algorithm:
         return out
 
     # ----- the policy ------------------------------------------------------------------------------------
+    @property
+    def training_iteration(self) -> int:
+        """The ``train()`` calls so far (Ray Tune's Trainable attribute, which RLlib's callbacks read)."""
+        return self.iteration
+
     def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
         self._check_running()
