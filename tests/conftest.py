@@ -193,6 +193,16 @@ def _signal_state() -> tuple:
     return handlers, frozenset(signal.pthread_sigmask(signal.SIG_BLOCK, []))
 
 
+def pytest_collection_finish(session):
+    """torch imports torch._dynamo lazily, at a process's first optimizer (seconds of CPU, tens under load). A
+    timeout (pytest-timeout's signal, a test's own alarm) that goes off inside that import leaves it
+    half-imported for the rest of the process, and every later torch.compile there fails ("module
+    'torch._dynamo.convert_frame' has no attribute 'convert_frame'"): where a collected test has a timeout
+    of its own, import it now, before any timer runs (a run that trains imports it anyway)."""
+    if any(item.get_closest_marker("timeout") is not None for item in session.items):
+        import torch._dynamo  # noqa: F401
+
+
 @pytest.fixture(autouse=True)
 def signal_state_is_restored():
     """Every test leaves the process's signal handling as it found it.

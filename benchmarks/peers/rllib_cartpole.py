@@ -102,6 +102,8 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--num-env-runners", type=int, default=2)
+    parser.add_argument("--face-threads", type=int, default=1,
+                        help="OMP_NUM_THREADS of the face's process (RLlib's side keeps torch's default)")
     parser.add_argument("--max-steps", type=int, default=None,
                         help="give up after this many env steps (default: the example's own)")
     args = parser.parse_args()
@@ -118,7 +120,7 @@ def main() -> None:
                   str(args.num_env_runners), "--max-steps", str(max_steps)]
         sides = {"rllib": ([args.rllib_python, *common], {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}),
                  "rlchain": ([sys.executable, "-m", "rlchain.rllib", *common],
-                             {**os.environ, "PYTHONPATH": root, "OMP_NUM_THREADS": "1"})}
+                             {**os.environ, "PYTHONPATH": root, "OMP_NUM_THREADS": str(args.face_threads)})}
         for lib, (cmd, env) in ((lib, sides[lib]) for lib in args.sides):
             out = subprocess.run(cmd, env=env, capture_output=True, text=True)
             lines = [line for line in out.stdout.splitlines() if line.startswith("{")]

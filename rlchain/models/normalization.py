@@ -43,6 +43,12 @@ def batch_moments(x: torch.Tensor, transform: Callable[[torch.Tensor], torch.Ten
     return mean, var, n
 
 
+def _tracing() -> bool:
+    """Whether a trace or compile is recording the calls (a cached value would be baked into it)."""
+    compiling = getattr(getattr(torch, "compiler", None), "is_compiling", None)
+    return torch.jit.is_tracing() or (compiling is not None and compiling())
+
+
 class RunningMeanStd(nn.Module):
     """Tracks mean and variance over batches (Chan et al. parallel update), in float64; the buffers carry
     rl_games' names (``running_mean``, ``running_var``, ``count``), so its checkpoints load as they are.
@@ -80,9 +86,31 @@ class RunningMeanStd(nn.Module):
     def normalize(self, x: torch.Tensor, scale: float = 1.0) -> torch.Tensor:
         """(x * scale - mean) / sqrt(var + eps), clipped; ``scale`` folds an input scaling (uint8
         frames / 255) into the same pass, which is one multiply-add over x instead of four passes."""
-        inv = torch.rsqrt(self.running_var + self.epsilon)
-        y = torch.addcmul((-self.running_mean * inv).to(x.dtype), x, (inv * scale).to(x.dtype))
+        shift, factor = self._affine(x, scale)
+        y = torch.addcmul(shift, x, factor)
         return y.clamp_(-self.clip, self.clip) if self.clip > 0 else y
+
+    def _affine(self, x: torch.Tensor, scale: float) -> tuple[torch.Tensor, torch.Tensor]:
+        """(-mean / sqrt(var + eps), scale / sqrt(var + eps)) in x's dtype.
+
+        On a CPU the pair is kept until the statistics change (the buffers' version counters move with every
+        in-place write: an update, a checkpoint load) and reused: a PPO update normalizes hundreds of
+        minibatches under the same statistics, and these six small ops cost about as much as the multiply-add.
+        Elsewhere (CUDA, where a captured graph must read the live buffers; tracing; compiling) it is
+        computed each call."""
+        mean, var = self.running_mean, self.running_var
+        key = None
+        if x.device.type == "cpu" and not mean.is_inference() and not _tracing():
+            key = (mean, mean._version, var, var._version, x.dtype, scale, torch.is_inference_mode_enabled())
+            cached = getattr(self, "_affine_cache", None)
+            if cached is not None and len(cached[0]) == len(key) \
+                    and all(a is b or (type(a) is not torch.Tensor and a == b) for a, b in zip(cached[0], key)):
+                return cached[1]
+        inv = torch.rsqrt(var + self.epsilon)
+        pair = (-mean * inv).to(x.dtype), (inv * scale).to(x.dtype)
+        if key is not None:
+            self._affine_cache = (key, pair)
+        return pair
 
     def denormalize(self, y: torch.Tensor) -> torch.Tensor:
         return y * torch.sqrt(self.running_var.to(y.dtype) + self.epsilon) + self.running_mean.to(y.dtype)

@@ -187,7 +187,10 @@ class ActorCriticNetwork(nn.Module):
     def _trunk(self, layout: TrunkLayout, obs: torch.Tensor, states: States, resets: torch.Tensor | None,
                seq_length: int, bptt: int | None, extra: torch.Tensor | None) -> tuple[torch.Tensor, States]:
         """Features (B, out_size) of one trunk and its new recurrent states (the input's without an RNN)."""
-        x = getattr(self, layout.cnn)(obs) if layout.cnn is not None else obs.flatten(1)
+        if layout.cnn is not None:
+            x = getattr(self, layout.cnn)(obs)
+        else:  # flattened (B, features); a (B, n) batch already is (flatten(1) would return it as it is)
+            x = obs if type(obs) is torch.Tensor and obs.dim() == 2 else obs.flatten(1)
         mlp = getattr(self, layout.mlp)
         if layout.rnn is None:
             return mlp(_cat(x, extra)), states

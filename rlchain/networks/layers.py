@@ -84,8 +84,9 @@ class Linear(nn.Linear):
     """
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        if (self.in_features <= NARROW_INPUTS and self.bias is not None and x.dim() == 2
-                and x.device.type == "cpu" and torch.is_grad_enabled() and self.weight.requires_grad
+        # grad mode first: an act step (no gradient) leaves after one check
+        if (torch.is_grad_enabled() and self.in_features <= NARROW_INPUTS and self.bias is not None
+                and x.dim() == 2 and x.device.type == "cpu" and self.weight.requires_grad
                 and not torch.jit.is_tracing()):  # a trace records one graph: F.linear, whatever the grad mode
             return torch.addmm(self.bias, x, self.weight.t().contiguous())
         return F.linear(x, self.weight, self.bias)

@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
+from rlchain.rllib.algorithm_class import AlgorithmClass
 from rlchain.rllib.translate import check_supported
 
 _FROZEN = "_frozen"
@@ -28,7 +29,8 @@ class AlgorithmConfig:
         object.__setattr__(self, "_settings", K.defaults(self.algo_name))
         object.__setattr__(self, "_keys", K.all_keys(self.algo_name))
         object.__setattr__(self, _FROZEN, False)
-        object.__setattr__(self, "algo_class", algo_class)
+        object.__setattr__(self, "algo_class", AlgorithmClass(algo_class) if isinstance(algo_class, type)
+                           else algo_class)
 
     # ----- setting keys -----------------------------------------------------------------------------
     def _set(self, method: str | None, values: dict[str, Any]) -> AlgorithmConfig:
@@ -203,7 +205,7 @@ class AlgorithmConfig:
     # ----- building ----------------------------------------------------------------------------------
     def build_algo(self, env: Any = None, logger_creator: Any = None, use_copy: bool = True) -> Any:
         """The Algorithm of this config on rlchain's loop (``env``: sets the env first, as RLlib's)."""
-        if not isinstance(self.algo_class, type):
+        if not isinstance(self.algo_class, AlgorithmClass):
             raise ConfigError(type(self).__name__, "algo_class", "no algorithm to build: use PPOConfig / DQNConfig")
         config = self.copy() if use_copy else self
         if env is not None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from rlchain.rllib.algorithm_class import without_tunes_keys
 from rlchain.rllib.algorithms.registry import ALGORITHMS, config_class
 from rlchain.rllib.config import AlgorithmConfig
 
@@ -16,6 +17,13 @@ def _trainable_base() -> type:
     except ImportError as exc:
         raise ModuleNotFoundError("tune.Tuner('PPO', ...) needs Ray Tune: pip install 'ray[tune]'") from exc
     return tune.Trainable
+
+
+def build_from_dict(algo_name: str, config: dict[str, Any]) -> Any:
+    """The algorithm of a trial's config dict (Tune's ``param_space=config`` arrives as ``config.to_dict()``)."""
+    algo_config = config_class(algo_name)()
+    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
+    return algo_config.build_algo()
 
 
 def make_trainable(algo_name: str) -> type:
@@ -30,16 +38,10 @@ def make_trainable(algo_name: str) -> type:
             return config_class(cls._algo_name)()
 
         def setup(self, config: dict[str, Any]) -> None:
-            algo_config = config_class(self._algo_name)()
-            algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
-            self.algo = algo_config.build_algo()
+            self.algo = build_from_dict(self._algo_name, config)
 
         def step(self) -> dict[str, Any]:
-            result = self.algo.train()
-            for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
-                        "iterations_since_restore"):
-                result.pop(key, None)  # Tune's own
-            return result
+            return without_tunes_keys(self.algo.train())
 
         def save_checkpoint(self, checkpoint_dir: str) -> None:
             self.algo.save_to_path(checkpoint_dir)

@@ -55,6 +55,14 @@ def scenario_args(name: str, folder: str) -> list[str]:
                                                   "test_discrite_testnet_aux_loss.yaml"), *common,
                 "params.config.max_epochs=2", "params.config.num_actors=4", "params.config.horizon_length=32",
                 "params.config.minibatch_size=64"]
+    if name == "distill":  # algo distill: an LSTM student of the packaged CartPole teacher (test_distill's FAST)
+        from rlchain.config.packaged import resolve_checkpoint
+
+        return ["--train", "--file", os.path.join(configs, "distill_cartpole_lstm.yaml"), *common,
+                "params.config.num_actors=4", "params.config.horizon_length=16",
+                "params.config.teacher_action_prob_epochs=1",
+                f"params.config.teacher_checkpoint={resolve_checkpoint('cartpole')[0]}",
+                "params.config.full_experiment_name=null", "params.config.max_epochs=3"]
     cartpole = os.path.join(configs, "ppo_cartpole.yaml")
     if name == "score":  # every rank stops at the same epoch on the reduced score
         return ["--train", "--file", cartpole, *common, f"params.config.score_to_win={SCORE}"]

@@ -3,10 +3,13 @@ per ``python ...`` / ``rlchain ...`` command, so each command pays for its own w
 rlchain again (about 4 s of CPU each on a 2-core machine, most of a one-epoch command).
 
 The child is the command as a fresh ``python`` would run it: its own process and session, working directory,
-environment, ``sys.argv``, ``sys.path[0]``, standard streams (files) and exit status; atexit handlers and
-non-daemon threads end as at a normal interpreter exit. What differs: torch (with torch._dynamo, which torch
-imports at a process's first optimizer, and its TensorBoard writer), numpy and rlchain (its algorithms and example
-envs, which any training run imports) are already imported (from this tree) when the command starts.
+environment, ``sys.argv``, ``sys.path[0]``, standard streams (files) and exit status; atexit handlers,
+non-daemon threads and the finalizers of unreachable objects end as at a normal interpreter exit (the modules are not
+torn down: see exit_child). What differs: torch (with torch._dynamo, which torch
+imports at a process's first optimizer, and its TensorBoard writer), numpy, gymnasium's classic-control envs and
+rlchain (its algorithms, networks, example envs and SB3-style classes, which a training run imports) are already
+imported (from this tree) when the command starts. Imported, not registered: rlchain registers its built-ins at a
+child's first lookup, as in a fresh process, so a user's module that registers a built-in's name first still wins.
 ``RLCHAIN_DOCS_FRESH=1`` makes tests/smoke/test_docs_commands.py start every command fresh instead.
 
 Protocol: one JSON request a line on stdin ``{"argv", "cwd", "env", "stdout", "stderr"}``; the server answers
@@ -16,6 +19,7 @@ caller kills a child that runs too long (``os.killpg(pid, SIGKILL)``: the child 
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import sys
@@ -23,16 +27,19 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path[0] = ROOT  # this tree's rlchain, as the docs' working directories link it
 
+import gymnasium.envs.classic_control  # noqa: E402,F401  (CartPole, Pendulum: most pages' envs)
 import numpy  # noqa: E402,F401  (preloaded for the children)
 import torch  # noqa: E402,F401
 import torch._dynamo  # noqa: E402,F401  (torch imports it at a process's first optimizer: about 2 s of CPU)
 import torch.utils.tensorboard  # noqa: E402,F401  (every training run's summary writer)
 
 import rlchain.algos  # noqa: E402,F401  (the algorithm registry a config's algo.name is looked up in)
+import rlchain.builtins  # noqa: E402,F401  (every built-in algorithm, network and env; imported, not registered)
 import rlchain.cli  # noqa: E402,F401
 import rlchain.console  # noqa: E402,F401
 import rlchain.envs.examples  # noqa: E402,F401  (the example envs the shipped configs register)
 import rlchain.runner  # noqa: E402,F401
+import rlchain.sb3  # noqa: E402,F401  (the SB3-style classes of the README and docs/sb3.md)
 
 
 def python_argv(argv: list[str]) -> tuple[str, str, list[str]] | None:
@@ -83,8 +90,27 @@ def run_command(kind: str, target: str, argv: list[str]) -> int:
         return 1
 
 
-def serve() -> int | None:
-    """Answer requests until stdin closes (returns None); in a child, the command's exit status."""
+def exit_child(status: int) -> None:
+    """End a forked child as the interpreter ends: non-daemon threads joined, atexit handlers run, finalizers of
+    unreachable objects run, standard streams flushed; then ``os._exit``. What it skips is the interpreter's
+    teardown of every module, which in a forked child writes to (so copies) every memory page that the server's
+    imports filled: about 1.4 s of CPU a command, more than a one-epoch command's own work."""
+    import atexit
+    import threading
+
+    try:
+        threading._shutdown()  # what the interpreter does first at exit: wait for non-daemon threads
+        atexit._run_exitfuncs()
+        gc.collect()
+        for stream in (sys.stdout, sys.stderr):
+            stream.flush()
+    finally:
+        os._exit(status)
+
+
+def serve() -> None:
+    """Answer requests until stdin closes (returns None); a child runs one command and exits (exit_child)."""
+    gc.freeze()  # the imported objects: a collection in a child skips them instead of copying their pages
     for line in sys.stdin:
         request = json.loads(line)
         parsed = python_argv(request["argv"])
@@ -99,12 +125,13 @@ def serve() -> int | None:
             for fd, path in ((1, request["stdout"]), (2, request["stderr"])):
                 os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), fd)
             sys.stdin = open(0, closefd=False)
-            return run_command(*parsed) if parsed else 127
+            exit_child(run_command(*parsed) if parsed else 127)
         print(json.dumps({"pid": pid}), flush=True)
-        _, status = os.waitpid(pid, 0)
-        print(json.dumps({"status": os.waitstatus_to_exitcode(status)}), flush=True)
+        _, status, usage = os.wait4(pid, 0)
+        cpu = usage.ru_utime + usage.ru_stime  # the child and what it waited for
+        print(json.dumps({"status": os.waitstatus_to_exitcode(status), "cpu": round(cpu, 2)}), flush=True)
     return None
 
 
 if __name__ == "__main__":
-    sys.exit(serve())
+    serve()

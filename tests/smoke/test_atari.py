@@ -9,7 +9,6 @@ with the previous reward and action as inputs (use_dict_obs_space / wrap_impala)
 import glob
 import os
 import re
-import sys
 
 import gymnasium as gym
 import numpy as np
@@ -17,11 +16,11 @@ import pytest
 import torch
 
 from rlchain import Runner, env_configurations
+from rlchain.cli import main as cli_main
 from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.vecenv import StepResult
 from tests.conftest import CONFIGS, ROOT
-from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 PONG = os.path.join(CONFIGS, "ppo_pong_envpool.yaml")
@@ -29,12 +28,6 @@ RL_GAMES = os.path.join(ROOT, "benchmarks", "rl_games_configs")
 SMALL = ["params.config.num_actors=8", "params.config.horizon_length=16", "params.config.minibatch_size=64",
          "params.config.print_stats=false", "params.torch_threads=1"]
 """The shipped config with fewer envs and a shorter horizon, so two epochs take seconds."""
-
-
-def run_cli(args, cwd, timeout=300):
-    """``python runner.py ARGS`` in ``cwd`` (tests/smoke/cli_server.py runs it)."""
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return run_python([sys.executable, os.path.join(ROOT, "runner.py"), *args], cwd, env, timeout)
 
 
 def random_steps(env, steps, seed=0):
@@ -47,13 +40,13 @@ def random_steps(env, steps, seed=0):
 # ----- envpool: the shipped config ---------------------------------------------------------------
 
 @pytest.mark.timeout(600)
-def test_shipped_pong_envpool_train_play_resume_export(tmp_path):
+def test_shipped_pong_envpool_train_play_resume_export(tmp_path, capsys):
+    """In this process, not through ``python runner.py`` (test_train_play_resume runs the CLI's --train and
+    --export): a command's child would import envpool again, about 4 s of CPU each."""
     pytest.importorskip("envpool")
     pytest.importorskip("onnxruntime")
     runs = tmp_path / "runs"
-    out = run_cli(["--train", "--file", PONG, "params.config.max_epochs=2", f"params.config.train_dir={runs}",
-                   *SMALL], tmp_path)
-    assert out.returncode == 0, out.stderr[-3000:]
+    Runner().load(PONG, ["params.config.max_epochs=2", f"params.config.train_dir={runs}", *SMALL]).train()
     last = glob.glob(str(runs / "Pong-v5_envpool_*" / "nn" / "last_Pong-v5_envpool.pth"))
     assert len(last) == 1
     last = last[0]
@@ -71,10 +64,11 @@ def test_shipped_pong_envpool_train_play_resume_export(tmp_path):
     assert result.epoch == 3 and result.frames == 3 * 8 * 16
 
     onnx_path = tmp_path / "pong.onnx"
-    exported = run_cli(["--export", "onnx", "--file", PONG, "--checkpoint", last, "-o", str(onnx_path)], tmp_path)
-    assert exported.returncode == 0, exported.stderr[-3000:]
-    diffs = [float(d) for d in re.findall(r"(\d\.\d+e[-+]\d+) on", exported.stdout)]
-    assert len(diffs) == 2 and max(diffs) <= 1e-4, exported.stdout
+    capsys.readouterr()
+    assert cli_main(["--export", "onnx", "--file", PONG, "--checkpoint", last, "-o", str(onnx_path)]) == 0
+    exported = capsys.readouterr().out
+    diffs = [float(d) for d in re.findall(r"(\d\.\d+e[-+]\d+) on", exported)]
+    assert len(diffs) == 2 and max(diffs) <= 1e-4, exported
     import onnxruntime as ort
 
     session = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])

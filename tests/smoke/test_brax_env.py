@@ -50,6 +50,7 @@ def test_contract_auto_reset_final_obs_and_time_limit():
 
 # the contract test's env shape (16 envs, 20 steps an episode): JAX compiles its reset and step once for the module
 SHAPE = ["params.config.num_actors=16", "params.config.env_config.episode_length=20"]
+PLAYER = ["params.config.player.use_vecenv=true", "params.config.player.num_actors=16"]
 
 
 def test_shipped_config_train_play_resume(tmp_path):
@@ -58,7 +59,8 @@ def test_shipped_config_train_play_resume(tmp_path):
     result = Runner().load(CONFIG, small).train()
     assert result.epoch == 2 and result.frames == 2 * 16 * 64 and np.isfinite(result.mean_reward)
     last = os.path.join(result.run_dir, "nn", "last_brax_inverted_pendulum.pth")
-    played = Runner().load(CONFIG, ["params.config.env_config.episode_length=20"]).play(last, games=2, quiet=True)
+    # the player's 16 envs (its default is 1): the module's one env shape, whose compiled reset and step are cached
+    played = Runner().load(CONFIG, [*SHAPE, *PLAYER]).play(last, games=2, quiet=True)
     assert played.games == 2
     resumed = Runner().load(CONFIG, [*small, "params.config.max_epochs=3"]).train(checkpoint=last)
     assert resumed.epoch == 3 and ckpt.load(os.path.join(resumed.run_dir, "nn", os.path.basename(last)))["epoch"] == 3

@@ -138,6 +138,13 @@ def test_a_mutated_config_is_a_run_or_one_clean_line(tmp_path, base, key, value)
 
 def one_clean_line(path, seconds):
     """None when ``rlchain train path`` is a run or one clean error line within ``seconds``; else what went wrong."""
+    # torch imports torch._dynamo at a process's first optimizer (seconds of CPU): imported here, before the
+    # alarm is set, so that the alarm never goes off inside that import. An exception raised in the middle of
+    # it leaves torch._dynamo half-imported for the rest of the process: every later torch.compile in this
+    # test process fails ("module 'torch._dynamo.convert_frame' has no attribute 'convert_frame'", or a sympy
+    # submodule missing, depending on where the import stopped).
+    import torch._dynamo  # noqa: F401
+
     err = io.StringIO()
     previous = signal.signal(signal.SIGALRM, _alarm)
     signal.setitimer(signal.ITIMER_REAL, seconds)

@@ -115,7 +115,7 @@ def assert_ranks_identical(states):
 
 # ----- one launch, several runs: each rank runs them one after the other (tests/smoke/dist_scenarios.py) -----
 SCENARIOS = ("score", "score_resume", "straight", "resumed", "normalizers", "appo", "rnn", "central_value", "grpo",
-             "aux_loss", "collectives")
+             "aux_loss", "distill", "collectives")
 
 
 @pytest.fixture(scope="module")
@@ -262,6 +262,19 @@ def test_aux_loss_network_stays_identical(scenarios):
 
 # ----- bad launches fail at once, with one line -------------------------------------------------
 @pytest.mark.timeout(60)
+def test_two_ranks_distill_cartpole_identically(scenarios):
+    """algo distill with multi_gpu: the ranks' students stay identical (its own launch before, in
+    test_distill_sac_multigpu.py)."""
+    states = scenario_states(scenarios, "distill")
+    stdout = scenario_output(scenarios, "distill")
+    assert stdout.count("rlchain: training") == 1  # rank 0 alone prints progress
+    assert "rlchain: training" not in scenario_output(scenarios, "distill", 1)
+    assert_ranks_identical(states)  # parameters, the normalizer's running stats, Adam's state
+    assert states[0]["epoch"] == 3 and states[0]["frames"] == 3 * 4 * 16 * 2  # frames count both ranks
+    runs = glob.glob(str(scenarios[1] / "distill" / "runs" / "*"))
+    assert len(runs) == 1 and os.listdir(os.path.join(runs[0], "nn"))  # rank 0 alone writes the run folder
+
+
 def test_multi_gpu_without_torchrun_fails_fast(tmp_path):
     env = dict(os.environ, PYTHONPATH=ROOT)
     for name in ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT"):

@@ -27,9 +27,11 @@ a page where no later block can depend on it (no python or file blocks, no ``<ru
 from __future__ import annotations
 
 import contextlib
+import glob
 import json
 import os
 import re
+import resource
 import select
 import shlex
 import shutil
@@ -37,6 +39,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from dataclasses import dataclass, field
 
 import pytest
@@ -159,6 +162,24 @@ def test_rlchain_commands_are_shortened_like_runner_py(tmp_path):
         assert yaml.safe_load(fh)["trials"] == 2
 
 
+def test_plain_commands_go_to_the_fork_server(tmp_path):
+    code = "python -c \"import rlchain; rlchain.PPO('MlpPolicy', 'CartPole-v1').learn(50_000).save('x')\""
+    assert forkable(code, shorten(code, str(tmp_path)))[:2] == ["python", "-c"]
+    assert split_assignments(forkable("WANDB_MODE=offline python runner.py --train", "WANDB_MODE=offline python "
+                                      "runner.py --train")) == ({"WANDB_MODE": "offline"}, ["python", "runner.py",
+                                                                                            "--train"])
+    resume = "rlchain train ppo_cartpole --checkpoint runs/<run>/nn/last_cartpole.pth  # resume"
+    assert forkable(resume, "rlchain train ppo_cartpole --checkpoint runs/r/nn/last_cartpole.pth")[-1].endswith("pth")
+    writers = "python runner.py params.import_modules=[mywriters] params.config.log_writers=[wide_csv,csv]"
+    assert forkable(writers, writers, str(tmp_path))[-1] == "params.config.log_writers=[wide_csv,csv]"
+    assert forkable(writers, writers) is None  # no folder to check the globs against
+    (tmp_path / "x.py").write_text("")
+    assert forkable("python *.py", "python *.py", str(tmp_path)) is None  # it matches: bash expands it
+    for shell in ("python x.py > out.txt", "python -c 'print(1)' | cat", "X=$HOME python x.py", "ls runs/*",
+                  "tensorboard --logdir runs", "FOO=1 ls", 'python -c "print($X)"', "cd x && python y.py"):
+        assert forkable(shell, shell) is None, shell
+
+
 # ----- running a page -------------------------------------------------------------------------
 def commands(text: str) -> list[str]:
     """Logical command lines of a bash block: continuations joined, blank and comment lines dropped."""
@@ -263,27 +284,49 @@ def run_until_stopped(argv: list[str], ws: str, env: dict, seconds: float) -> tu
 
 
 SHELL = set("*?[]{}$~`\\'\"")  # outside quotes: globs, expansions, escapes; bash runs those lines
+GLOB = set("*?[]")  # a word with these and no other shell character is itself where it matches no file
+ASSIGNMENT = re.compile(r"^[A-Za-z_]\w*=")  # NAME=VALUE before a command: that command's environment
 
 
-def simple_argv(command: str) -> list[str] | None:
-    """The argv of a plain ``python ...`` / ``rlchain ...`` command line (no shell operator, expansion, glob or
-    variable assignment: bash would run it as written), for the fork server; None for anything else."""
+def simple_argv(command: str, cwd: str | None = None) -> list[str] | None:
+    """The argv of a plain ``python ...`` / ``rlchain ...`` command line, after any leading ``NAME=VALUE``
+    assignments (no shell operator, expansion or glob that matches a file in ``cwd``: bash would run it as
+    written), for the fork server; None for anything else. The assignments stay the argv's first tokens
+    (split_assignments takes them off)."""
     lexer = shlex.shlex(command, posix=False, punctuation_chars=True)
     lexer.whitespace_split = True
     try:
         raw = list(lexer)
     except ValueError:
         return None
-    for i, token in enumerate(raw):
+    for token in raw:
         if len(token) >= 2 and token[0] in "'\"" and token[-1] == token[0]:
             if token[0] == '"' and any(c in token[1:-1] for c in '$`\\"'):
                 return None
             continue
-        if all(c in "();<>|&" for c in token) or SHELL & set(token) or (i == 0 and "=" in token):
+        if all(c in "();<>|&" for c in token):
             return None
-    argv = shlex.split(command)
-    head = os.path.basename(argv[0]) if argv else ""
+        special = SHELL & set(token)
+        if special and not (cwd is not None and special <= GLOB and not glob.glob(os.path.join(cwd, token))):
+            return None
+    argv = shlex.split(command, comments=True)
+    _, rest = split_assignments(argv)
+    head = os.path.basename(rest[0]) if rest else ""
     return argv if head == "rlchain" or head.startswith("python") else None
+
+
+def forkable(command: str, shown: str, cwd: str | None = None) -> list[str] | None:
+    """The argv of ``shown`` (``command`` shortened) for the fork server, or None where bash must run it. Checked
+    on the command as written, ``<run>`` a plain word: shortening only adds plain words, but shlex.join may quote
+    them (a ``python -c "..."`` comes back in single quotes). A glob that matches no file in ``cwd`` is a word,
+    as bash leaves it (``params.import_modules=[mypkg]``)."""
+    return shlex.split(shown) if simple_argv(command.replace("<run>", "run"), cwd) is not None else None
+
+
+def split_assignments(argv: list[str]) -> tuple[dict[str, str], list[str]]:
+    """(the leading ``NAME=VALUE`` assignments, the command after them)."""
+    at = next((i for i, token in enumerate(argv) if not ASSIGNMENT.match(token)), len(argv))
+    return dict(token.split("=", 1) for token in argv[:at]), argv[at:]
 
 
 class ForkServer:
@@ -293,6 +336,7 @@ class ForkServer:
     def __init__(self, env: dict[str, str]):
         self.proc = subprocess.Popen([sys.executable, os.path.join(ROOT, "tests", "smoke", "forkserver.py")],
                                      cwd=ROOT, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self.last_cpu = 0.0  # CPU seconds of the last command (it and its children)
 
     def run(self, argv: list[str], ws: str, env: dict, timeout: float,
             stop_after: float | None = None) -> tuple[int | None, str, str]:
@@ -311,10 +355,11 @@ class ForkServer:
         timer = threading.Timer(timeout, _kill_session, (pid,))
         timer.start()
         try:
-            status = json.loads(self.proc.stdout.readline())["status"]
+            answer = json.loads(self.proc.stdout.readline())
         finally:
             timer.cancel()
-        status = None if stopped else status
+        self.last_cpu = answer.get("cpu", 0.0)
+        status = None if stopped else answer["status"]
         texts = []
         for path in (out, err):
             with open(path, encoding="utf-8", errors="replace") as fh:
@@ -343,13 +388,43 @@ def fork_server():
     server.close()
 
 
-def run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: ForkServer | None = None) -> str:
-    """Run one command of ``block`` (through ``server`` where it is a plain python / rlchain command); check its
-    status; returns its output."""
+_TIMES = os.environ.get("RLCHAIN_DOCS_TIMES")
+"""A file to append each docs command's wall and CPU seconds to (CPU: the command and its children), with its
+page, line and command: where a page's time goes."""
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: ForkServer | None = None,
+        direct: list[str] | None = None) -> str:
+    """Run one command of ``block``: ``direct`` (the command's argv, a plain python / rlchain command) through
+    ``server`` where both are given, else ``argv``; check its status; returns its output."""
+    if not _TIMES:
+        return _run(argv, ws, env, block, shown, server, direct)
+    wall, cpu = time.perf_counter(), _children_cpu()
+    if server is not None:
+        server.last_cpu = 0.0
+    try:
+        return _run(argv, ws, env, block, shown, server, direct)
+    finally:
+        spent = _children_cpu() - cpu + (server.last_cpu if server is not None else 0.0)
+        with open(_TIMES, "a", encoding="utf-8") as fh:
+            fh.write(f"{time.perf_counter() - wall:.2f}\t{spent:.2f}\t{block.where}\t{shown[:200]}\n")
+
+
+def _run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: ForkServer | None,
+         direct: list[str] | None) -> str:
     timeout = block.options.get("timeout")
-    direct = simple_argv(argv[2]) if server is not None and argv[:2] == ["bash", "-c"] else None
-    if server is not None and direct is None and argv[0] == sys.executable:
+    if server is None:
+        direct = None
+    elif direct is None and argv[0] == sys.executable:
         direct = argv
+    if direct is not None:
+        assignments, direct = split_assignments(direct)
+        env = {**env, **assignments}
     if timeout is not None:
         if direct is not None:
             status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT, float(timeout))
@@ -409,6 +484,6 @@ def test_page_commands_run(page, tmp_path, fork_server):
                 shown = shorten(command, ws)
                 if plain and shown in _ran_ok:
                     continue
-                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server)
+                out = run(["bash", "-c", shown], ws, env, block, shown, fork_server, forkable(command, shown, ws))
                 if not block.options:
                     _ran_ok.add(shown)

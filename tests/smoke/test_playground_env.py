@@ -65,7 +65,10 @@ def test_shipped_config_train_play_resume(tmp_path):
     assert result.epoch == 2 and result.frames == 2 * 8 * 16 and np.isfinite(result.mean_reward)
     assert 0 < result.mean_reward <= 20  # episodes of 20 steps, reward in [0, 1] per step
     last = os.path.join(result.run_dir, "nn", "last_playground_cartpole.pth")
-    played = Runner().load(CONFIG, ["params.config.env_config.episode_length=20"]).play(last, games=2, quiet=True)
+    # the player's 8 envs (its default is 1): the contract test's env shape, whose compiled reset and step are cached
+    player = ["params.config.player.use_vecenv=true", "params.config.player.num_actors=8"]
+    played = Runner().load(CONFIG, ["params.config.env_config.episode_length=20", *player]).play(last, games=2,
+                                                                                                quiet=True)
     assert played.games == 2
     resumed = Runner().load(CONFIG, [*small, "params.config.max_epochs=3"]).train(checkpoint=last)
     assert resumed.epoch == 3 and ckpt.load(os.path.join(resumed.run_dir, "nn", os.path.basename(last)))["epoch"] == 3

@@ -3,13 +3,13 @@ epoch and logs a success rate; the shipped checkpoint nn/push_cube.pth plays. Me
 config trains an epoch and logs its success rate."""
 
 import os
+import runpy
 import sys
 
 import pytest
 
 from rlchain import Runner
 from tests.conftest import ROOT
-from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 
@@ -17,17 +17,21 @@ CONFIG = os.path.join(ROOT, "rlchain", "configs", "push_cube", "train_config.jso
 CHECKPOINT = os.path.join(ROOT, "nn", "push_cube.pth")
 
 
-def test_train_py_runs_the_push_cube_json(tmp_path):
+def test_train_py_runs_the_push_cube_json(tmp_path, monkeypatch, capsys):
+    """train.py's ``__main__`` in this process (a command's child would import envpool again, about 4 s of CPU;
+    the plays below import it once for the module)."""
     pytest.importorskip("envpool")
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     # the shipped JSON as written, with fewer envs and a short episode so that an episode ends in the epoch
-    out = run_python([sys.executable, os.path.join(ROOT, "train.py"), "--config", CONFIG,
-                      "params.config.max_epochs=1", f"params.config.train_dir={tmp_path}",
-                      "params.config.num_actors=4", "params.config.horizon_length=64",
-                      "params.config.minibatch_size=128", "params.config.env_config.max_episode_steps=32"],
-                     tmp_path, env, 300)
-    assert out.returncode == 0, out.stderr[-3000:]
-    assert "epoch 1" in out.stdout and ("| success 0." in out.stdout or "| success 1." in out.stdout), out.stdout
+    monkeypatch.setattr(sys, "argv", [os.path.join(ROOT, "train.py"), "--config", CONFIG,
+                                      "params.config.max_epochs=1", f"params.config.train_dir={tmp_path}",
+                                      "params.config.num_actors=4", "params.config.horizon_length=64",
+                                      "params.config.minibatch_size=128",
+                                      "params.config.env_config.max_episode_steps=32"])
+    with pytest.raises(SystemExit) as stop:
+        runpy.run_path(sys.argv[0], run_name="__main__")
+    out = capsys.readouterr()
+    assert stop.value.code == 0, out.err[-3000:]
+    assert "epoch 1" in out.out and ("| success 0." in out.out or "| success 1." in out.out), out.out
 
 
 def test_shipped_push_cube_checkpoint_plays():

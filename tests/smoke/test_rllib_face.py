@@ -39,8 +39,8 @@ def test_bad_input_ends_in_one_line(script, message, tmp_path):
 
 @pytest.mark.slow
 def test_tuner_runs_ppo_by_name_on_real_ray_tune(tmp_path):
-    """tune.Tuner("PPO", param_space=config) with a grid search: two trials on Ray Tune, each the face's PPO
-    (a minute or more: Ray starts its processes)."""
+    """tune.Tuner("PPO", ...) and tune.Tuner(config.algo_class, ...) with a grid search: three trials on Ray Tune,
+    each the face's PPO (a minute or more: Ray starts its processes)."""
     pytest.importorskip("ray.tune")
     out = _run("tune_ppo.py", tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]

@@ -1,5 +1,9 @@
 """Ray Tune search (``backend: ray``): PBT exploits through live set_params and beats its starting
-config, a crashed trial restarts from its checkpoint, ASHA and FIFO run. One Ray session for all."""
+config, a crashed trial restarts from its checkpoint, ASHA and FIFO run. One Ray session for all.
+
+Each search is as small as what it shows: two trials, one at a time where the order matters (FIFO's crash, ASHA's
+rung) and side by side only for PBT, which compares running trials (tests/smoke/tune_pace.py makes them meet).
+What a trial costs is mostly its actor's start (a process importing torch and rlchain), not its epochs."""
 
 import glob
 import json
@@ -11,6 +15,7 @@ import pytest
 import yaml
 
 from tests.conftest import CONFIGS
+from tests.smoke import ray_session
 
 pytest.importorskip("ray.tune", reason="pip install rlchain[ray]")
 
@@ -18,32 +23,27 @@ from rlchain.config import load_config  # noqa: E402
 from rlchain.runner import Runner  # noqa: E402
 from rlchain.tuning import ray_search  # noqa: E402
 from rlchain.tuning.common import load_search  # noqa: E402
-from rlchain.tuning.spec import RaySpec  # noqa: E402
 
 BASE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 EPOCHS = 30
-START_LR = 2e-5  # barely learns in 30 epochs: the starting config every trial of both runs begins with
+START_LR = 2e-5  # barely learns in 30 epochs: the starting config every trial of FIFO and PBT begins with
 # games_to_track 32: the mean reward follows the policy of the last ~2 epochs (PBT compares trials by it)
-# tune_pace.Pace: epochs of at least 0.15 s, so that the 2 concurrent trials overlap (PBT and ASHA compare them)
-PACE = "tests.smoke.tune_pace:Pace"
-FIXED = ["params.config.lr_schedule=None", "params.config.save_best_after=1000", "params.config.games_to_track=32",
-         f"params.config.callbacks=[{PACE}]"]
+FIXED = ["params.config.lr_schedule=None", "params.config.save_best_after=1000", "params.config.games_to_track=32"]
+# tune_pace.Pace: the 2 concurrent trials of PBT start together and stay in step (PBT compares them)
+PACE = "params.config.callbacks=[tests.smoke.tune_pace:Pace]"
+CPUS = 2  # the test cluster: two trials of one CPU at once
 
 
 @pytest.fixture(scope="module")
-def ray_session():
-    import ray
-
-    handlers = ray_search._signal_handlers()
-    started = ray_search._connect(ray, RaySpec(num_cpus=2))
-    yield
-    if started:
-        ray.shutdown()
+def ray_cluster():
+    handlers = ray_search._signal_handlers()  # Ray installs its own; later tests get theirs back
+    with ray_session.session(CPUS):
+        yield
     ray_search._restore_signal_handlers(handlers)
 
 
 def _fit(tmp_path, name, **keys):
-    search = {"base": BASE, "backend": "ray", "metric": "mean_reward", "trials": 4, "concurrent": 2,
+    search = {"base": BASE, "backend": "ray", "metric": "mean_reward", "trials": 2, "concurrent": 1,
               "max_epochs_per_trial": EPOCHS, "overrides": FIXED, "seed": 0, **keys}
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(search))
@@ -56,18 +56,20 @@ def _final(outcome):
 
 
 @pytest.fixture(scope="module")
-def start_runs(ray_session, tmp_path_factory):
-    """FIFO: the starting config, 4 seeds (the fifo smoke test and PBT's yardstick); the first trial to
-    reach epoch 5 crashes once (tests/smoke/tune_crash.py) and must resume from its epoch-3 checkpoint."""
+def start_runs(ray_cluster, tmp_path_factory):
+    """FIFO: the starting config, 2 seeds one after the other (the fifo smoke test and PBT's yardstick); the
+    first trial crashes once at epoch 5 (tests/smoke/tune_crash.py) and must resume from its epoch-3 checkpoint.
+    Its cost is two trial actors' starts (the crashed one's and the restarted one's, which the second trial
+    reuses) and 60 CartPole epochs."""
     tmp = tmp_path_factory.mktemp("fifo")
     return tmp, _fit(tmp, "fifo", scheduler="fifo", searcher="optuna", checkpoint_epochs=3, max_failures=1,
-                     overrides=FIXED + [f"params.config.callbacks=[tests.smoke.tune_crash:CrashOnce,{PACE}]"],
+                     overrides=FIXED + ["params.config.callbacks=[tests.smoke.tune_crash:CrashOnce]"],
                      params={"params.config.learning_rate": {"type": "categorical", "choices": [START_LR]}})
 
 
 def test_fifo_runs_every_trial_to_the_end(start_runs):
     _, outcome = start_runs
-    assert len(outcome.results) == 4 and not outcome.results.errors
+    assert len(outcome.results) == 2 and not outcome.results.errors
     assert all(r.metrics["training_iteration"] == EPOCHS for r in outcome.results)
     assert len(set(_final(outcome))) > 1  # distinct seeds per trial
     assert load_config(outcome.config_path).config.learning_rate == pytest.approx(START_LR)
@@ -85,8 +87,11 @@ def test_crashed_trial_restarts_from_its_checkpoint(start_runs):
     assert restored == [3] and 3 < CRASH_AT  # ... and resumed from its epoch-3 checkpoint, not from scratch
 
 
-def test_pbt_exploits_live_and_beats_its_starting_config(ray_session, start_runs, tmp_path):
-    outcome = _fit(tmp_path, "pbt", scheduler="pbt",
+def test_pbt_exploits_live_and_beats_its_starting_config(ray_cluster, start_runs, tmp_path):
+    """Two trials side by side, both from the starting config: at every interval the worse one takes the
+    better one's checkpoint and a fresh lr from a range that learns; the best ends well above FIFO's runs of the
+    starting config. A PBT that never exploits, or whose new values do not go live, stays at the start's lr."""
+    outcome = _fit(tmp_path, "pbt", scheduler="pbt", concurrent=2, overrides=FIXED + [PACE],
                    params={"params.config.learning_rate": {"type": "categorical", "choices": [START_LR]}},
                    # every exploit resamples the lr from a range that learns within the trial's 30 epochs
                    pbt={"interval_epochs": 3, "quantile": 0.5, "resample_probability": 1.0,
@@ -121,15 +126,14 @@ def test_pbt_exploits_live_and_beats_its_starting_config(ray_session, start_runs
     assert math.isfinite(outcome.best_value)
 
 
-def test_asha_stops_bad_trials_early(ray_session, tmp_path):
-    # grid order: lr 1e-2 (mean reward ~37 at epoch 10) and 1e-5 (~21) run first, side by side; the third
-    # (1e-5) starts when one of them ends, so it meets both at the epoch-10 rung and falls below the cut
+def test_asha_stops_bad_trials_early(ray_cluster, tmp_path):
+    # one trial at a time, in grid order: lr 1e-2 (mean reward ~37 at epoch 10) runs to the end; lr 1e-5 (~21)
+    # then reaches the epoch-10 rung below it and ASHA stops it there (reduction factor 3: the top third goes on)
     outcome = _fit(tmp_path, "asha", scheduler="asha", searcher="grid", trials=1, max_epochs_per_trial=14,
                    asha={"grace_epochs": 10, "reduction_factor": 3},
-                   params={"params.config.learning_rate": {"type": "categorical", "choices": [1e-2, 1e-5, 1e-5]}})
-    iterations = sorted(r.metrics["training_iteration"] for r in outcome.results)
-    assert len(iterations) == 3 and not outcome.results.errors and iterations[-1] == 14
-    assert iterations[0] == 10  # ASHA stopped a trial at the rung
+                   params={"params.config.learning_rate": {"type": "categorical", "choices": [1e-2, 1e-5]}})
+    iterations = {r.config["params.config.learning_rate"]: r.metrics["training_iteration"] for r in outcome.results}
+    assert not outcome.results.errors and iterations == {1e-2: 14, 1e-5: 10}  # ASHA stopped the bad one at the rung
     assert os.path.isfile(outcome.config_path) and os.path.isfile(outcome.table_path)
 
 
@@ -146,7 +150,7 @@ def _trial(tmp_path, name):
     return Trial.remote(setup, str(tmp_path / "ray_logdirs"))
 
 
-def test_a_restarted_trial_continues_bit_identically(ray_session, tmp_path):
+def test_a_restarted_trial_continues_bit_identically(ray_cluster, tmp_path):
     """Exact resume in a Ray Tune trial: a trial restored from its epoch-3 checkpoint in a new actor (what a
     max_failures restart does: a new actor, ``load_checkpoint``, then ``step``) reports epochs 4-6 exactly as
     a trial that never stopped and ends with identical parameters, optimizer state and episodes (torch.equal).

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
+import numpy as np
 import torch
 
 _EVERY = slice(None)
@@ -38,6 +39,8 @@ class EpisodeTracker:
         self.success_any = torch.zeros(num_envs, dtype=torch.bool, device=device)
         self.success_last = torch.zeros(num_envs, dtype=torch.bool, device=device)
         self._finished_successes: deque[float] = deque(maxlen=games_to_track)
+        self._views_of: tuple[torch.Tensor, torch.Tensor] | None = None  # the tensors _views are of
+        self._views: tuple[np.ndarray, np.ndarray] = ()
 
     def step(self, rewards: torch.Tensor, dones: torch.Tensor, dropped: Any = None,
              rows: slice = slice(None), success: Any = None) -> None:
@@ -76,6 +79,47 @@ class EpisodeTracker:
         lengths.masked_fill_(ended, 0)
         if len(self._pending) >= self.MAX_PENDING:
             self._flush()
+
+    @property
+    def on_host(self) -> bool:
+        """Whether the statistics live in CPU memory (:meth:`host_step` may update them in numpy)."""
+        return self._cheap_sync
+
+    def host_step(self, rewards: np.ndarray, dones: np.ndarray, dropped: Any = None, rows: slice = _EVERY,
+                  success: Any = None) -> None:
+        """:meth:`step` of a CPU tracker with the step's (n,) float32 rewards and (n,) bool dones as numpy
+        arrays: the same sums (float64 += float32, exact in both) made in numpy on the tensors' own memory,
+        a fraction of the cost of torch's per-op dispatch on a few envs. A step with a success value, or
+        once success is tracked, goes through :meth:`step`."""
+        if success is not None or self._tracks_success:
+            self.step(torch.from_numpy(rewards), torch.from_numpy(dones), dropped=dropped, rows=rows,
+                      success=success)
+            return
+        returns, lengths = self._host_views()
+        if rows != _EVERY:
+            returns, lengths = returns[rows], lengths[rows]  # views: updated in place
+        lost = None if dropped is None else np.asarray(dropped).astype(bool).reshape(-1)
+        if lost is not None:
+            dones = dones & ~lost
+        returns += rewards
+        lengths += 1
+        ended = dones if lost is None else dones | lost
+        if not ended.any():
+            return
+        self._pending.append((torch.from_numpy(dones.copy()), torch.from_numpy(returns.copy()),
+                              torch.from_numpy(lengths.copy()), None, None))
+        returns[ended] = 0.0
+        lengths[ended] = 0
+        if len(self._pending) >= self.MAX_PENDING:
+            self._flush()
+
+    def _host_views(self) -> tuple[np.ndarray, np.ndarray]:
+        """numpy views of :attr:`returns` and :attr:`lengths` (made again if either tensor was replaced)."""
+        seen = self._views_of
+        if seen is None or seen[0] is not self.returns or seen[1] is not self.lengths:
+            self._views_of = (self.returns, self.lengths)
+            self._views = (self.returns.numpy(), self.lengths.numpy())
+        return self._views
 
     MAX_PENDING = 64
     """Steps of ended episodes kept on the device before they are read anyway."""

@@ -4,10 +4,12 @@ distillation, SAC, DQN, the RND predictor and the mirror loss all step through :
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import torch
 
+from rlchain.algos.core.fused_adam_step import fused_adam_step
 from rlchain.errors import DivergenceError, first_non_finite
 from rlchain.parallel.communicator import SINGLE, Communicator
 
@@ -40,7 +42,7 @@ def optimizer_step(optimizer: torch.optim.Optimizer, loss: torch.Tensor, *,
         comm.average_gradients(params)
     if scaler is not None:
         scaler.unscale_(optimizer)
-    grad_norm = None if max_norm is None else torch.nn.utils.clip_grad_norm_(params, max_norm)
+    grad_norm = None if max_norm is None else clip_grad_norm(params, max_norm)
     values = None
     if stats is not None:
         values = stats(grad_norm)
@@ -49,9 +51,23 @@ def optimizer_step(optimizer: torch.optim.Optimizer, loss: torch.Tensor, *,
     if scaler is not None:
         scaler.step(optimizer)
         scaler.update()
-    else:
+    elif not fused_adam_step(optimizer):  # torch's fused Adam kernel without its wrapper, where that applies
         optimizer.step()
     return values
+
+
+def clip_grad_norm(params: list[torch.nn.Parameter], max_norm: float) -> torch.Tensor:
+    """``torch.nn.utils.clip_grad_norm_``: the gradients' global norm, the gradients clipped to ``max_norm``.
+
+    With ``max_norm`` inf only the norm is measured: torch would multiply every gradient by its clip
+    coefficient, clamped to 1.0, which changes no finite value (one pass over the gradients less per step).
+    A non-finite norm would have made them NaN; the step's statistics then raise before the step, and with a
+    grad scaler the scaler skips that step on the inf it found while unscaling, so nothing trains on them either.
+    """
+    total_norm = getattr(torch.nn.utils, "get_total_norm", None)  # torch >= 2.6
+    if math.isinf(max_norm) and max_norm > 0 and total_norm is not None:
+        return total_norm([p.grad for p in params if p.grad is not None])
+    return torch.nn.utils.clip_grad_norm_(params, max_norm)
 
 
 def check_finite(values: dict[str, float], what: str, optimizer: torch.optim.Optimizer | None = None) -> None:

@@ -162,9 +162,14 @@ class RolloutStorage:
             order = env_major_order(self.horizon, self.num_envs, self.obs.device)
         packed = pack_rows(flat) if shuffle and self.obs.device.type == "cpu" and minibatch_size >= PACKED_MIN_ROWS \
             else None
+        whole = packed is None and sum(_nbytes(v) for v in flat.values()) <= PASS_GATHER_BYTES
+        if whole:  # the pass's rows gathered in its order at once: each minibatch is a slice of them
+            flat = {k: v.index_select(0, order) for k, v in flat.items()}
         for start in range(0, size, minibatch_size):
             idx = order[start:start + minibatch_size]
-            if packed is None:
+            if whole:
+                yield Batch(**{k: v[start:start + minibatch_size] for k, v in flat.items()}, index=idx)
+            elif packed is None:
                 yield Batch(**{k: v.index_select(0, idx) for k, v in flat.items()}, index=idx)
             else:  # one gather of whole rows instead of one per field
                 rows, layout = packed
@@ -212,6 +217,19 @@ PACKED_ROW_WORDS = 64
 PACKED_MIN_ROWS = 2048
 """Minibatches smaller than this gather field by field: their rollout stays in cache, and packing and
 unpacking cost more than the gathers they save (gymnasium CartPole, 64 envs, minibatch 256: 0.94x)."""
+
+PASS_GATHER_BYTES = 16 << 20
+"""Rollouts up to this size are gathered once per pass, field by field in the pass's order, and each minibatch
+is a slice of that copy (the same rows: one gather per field and pass instead of one per field and minibatch,
+which is most of a small minibatch's gathering cost). A larger rollout gathers minibatch by minibatch, so it
+is never held twice."""
+
+
+def _nbytes(value: torch.Tensor | ObsDict) -> int:
+    if isinstance(value, ObsDict):
+        return sum(v.nbytes for v in value.values())
+    return value.nbytes
+
 
 _WORDS = {torch.float32: 1, torch.int64: 2, torch.bool: 1}  # how each dtype travels in a packed row
 

@@ -1,0 +1,74 @@
+"""``config.algo_class``: the face's algorithm class as RLlib users pass it around.
+
+RLlib's ``Algorithm`` is a Ray Tune ``Trainable``, so RLlib's docs hand ``config.algo_class`` to
+``tune.Tuner(config.algo_class, param_space=config)``. The face's algorithms are not Trainables (rlchain does not
+need Ray), and Tune takes a class only when it is one; it takes any callable of one ``config`` argument as a
+function trainable. So ``config.algo_class`` is this callable: given an AlgorithmConfig (``algo_class(config=...)``,
+what ``build_algo`` calls) it builds the algorithm; given Tune's trial config dict it runs the trial
+(:func:`run_trial`). Other attributes are the class's (``get_default_config()``...).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class AlgorithmClass:
+    """The face's algorithm class ``cls``, callable as RLlib's and as a Tune function trainable."""
+
+    def __init__(self, cls: type) -> None:
+        self.cls = cls
+        self.__name__ = self.__qualname__ = getattr(cls, "algo_name", "") or cls.__name__
+        self.__doc__ = cls.__doc__
+
+    def __call__(self, config: Any) -> Any:
+        if isinstance(config, dict):  # a Tune trial's config
+            return run_trial(self.cls, config)
+        return self.cls(config=config)
+
+    def __getattr__(self, name: str) -> Any:
+        if name == "cls":
+            raise AttributeError(name)
+        return getattr(self.cls, name)
+
+    def __eq__(self, other: object) -> bool:
+        return other is self.cls or (isinstance(other, AlgorithmClass) and other.cls is self.cls)
+
+    def __hash__(self) -> int:
+        return hash(self.cls)
+
+    def __repr__(self) -> str:
+        return f"<algo_class {self.cls.__module__}.{self.cls.__qualname__}>"
+
+
+def without_tunes_keys(result: dict[str, Any]) -> dict[str, Any]:
+    """A ``train()`` result without the keys Tune adds itself."""
+    for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
+                "iterations_since_restore"):
+        result.pop(key, None)
+    return result
+
+
+def run_trial(cls: type, config: dict[str, Any]) -> None:
+    """One Tune trial of algorithm class ``cls`` as a function trainable: ``train()`` until Tune stops it, each
+    result reported with a checkpoint of the algorithm (so ``result.checkpoint`` is the last); a restarted trial
+    resumes from its last checkpoint."""
+    import tempfile
+
+    from ray import tune  # optional: ray[tune]
+
+    algo_config = cls.get_default_config()
+    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
+    algo = algo_config.build_algo()
+    try:
+        checkpoint = tune.get_checkpoint()
+        if checkpoint is not None:
+            with checkpoint.as_directory() as folder:
+                algo.restore_from_path(folder)
+        while True:
+            result = without_tunes_keys(algo.train())
+            with tempfile.TemporaryDirectory() as folder:
+                algo.save_to_path(folder)
+                tune.report(result, checkpoint=tune.Checkpoint.from_directory(folder))
+    finally:
+        algo.stop()
