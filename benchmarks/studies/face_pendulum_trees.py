@@ -33,9 +33,10 @@ CLOCK_WORDS = ("time", "timer", "timestamp", "date", "hostname", "pid", "node_ip
 """Result keys holding readings of the clock or the host, which no two runs share."""
 
 
-def _examples():
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "peers", "rllib_cartpole.py")
-    spec = importlib.util.spec_from_file_location("rllib_cartpole", os.path.abspath(path))
+def _update_profile():
+    """The sibling ppo_update_profile.py (its ``face_algorithm`` builds the face's Pendulum and catches its PPO)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ppo_update_profile.py")
+    spec = importlib.util.spec_from_file_location("ppo_update_profile", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -54,21 +55,12 @@ def child(args: argparse.Namespace) -> None:
     import torch
 
     import rlchain.runner
-    from rlchain.algos.ppo.ppo import PPO
 
     if args.threads:  # fix the thread plan (rollout and update) of the run the face starts
         plan = rlchain.runner.set_threads
         rlchain.runner.set_threads = lambda torch_threads, update_threads, *a, **k: plan(
             torch_threads or args.threads, update_threads or args.threads, *a, **k)
-    caught = {}
-    update = PPO.update
-
-    def catching(self):
-        caught["ppo"] = self
-        return update(self)
-
-    PPO.update = catching
-    algo = _examples().tuned_pendulum_config(args.seed, 2).build_algo()
+    algo, caught = _update_profile().face_algorithm(args.seed)
     for _ in range(args.iterations):
         cpu, wall = time.process_time(), time.perf_counter()
         result = algo.train()
