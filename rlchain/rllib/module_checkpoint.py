@@ -28,12 +28,13 @@ MODULE_FILE = "rlchain_module.json"
 
 
 def write_module_folders(root: str, module_ids: list[str]) -> None:
-    """Create ``root/learner_group/learner/rl_module/<id>/`` for each module, each naming its module id."""
+    """Create ``root/learner_group/learner/rl_module/<id>/`` for each module, each naming its module id (the
+    weights stay in the root's one checkpoint)."""
     for module_id in module_ids:
         folder = os.path.join(root, *MODULES_PATH, module_id)
         os.makedirs(folder, exist_ok=True)
         with open(os.path.join(folder, MODULE_FILE), "w") as f:
-            json.dump({"module_id": module_id, "checkpoint": os.path.join(*[".."] * 4, CHECKPOINT_FILE)}, f)
+            json.dump({"module_id": module_id}, f)
 
 
 def locate(path: Any) -> tuple[str, str | None]:

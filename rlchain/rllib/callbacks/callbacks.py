@@ -173,21 +173,19 @@ class Episode:
 
     def __init__(self, env_index: int) -> None:
         self.env_index = env_index
-        self.reward_sum = 0.0
-        self.length = 0
         self.custom_data: dict[str, Any] = {}
         self.is_done = False
         self.id_ = f"episode_{env_index}"
-        self.rewards: list[float] = []
+        self.rewards: list[float] = []  # the return and the length read it
         self.last_obs: Any = None  # kept only where a callback overrides on_episode_step
         self.last_info: dict[str, Any] = {}
         self._temporary: dict[str, list[Any]] = {}
 
     def get_return(self) -> float:
-        return self.reward_sum
+        return float(sum(self.rewards))
 
     def get_length(self) -> int:
-        return self.length
+        return len(self.rewards)
 
     def add_temporary_timestep_data(self, key: str, data: Any) -> None:
         """Keep ``data`` for this step under ``key`` until the episode ends (RLlib's per-episode scratch space)."""
@@ -216,7 +214,7 @@ class Episode:
         return value
 
     def __len__(self) -> int:
-        return self.length
+        return len(self.rewards)
 
 
 def nested(flat: dict[str, float]) -> dict[str, Any]:
@@ -258,10 +256,7 @@ class EpisodeEvents(Callback):
         rewards = torch.as_tensor(result.reward).reshape(-1).tolist()
         start = rows.start or 0
         for i, reward in enumerate(rewards):
-            episode = self._episode(start + i)
-            episode.reward_sum += float(reward)
-            episode.length += 1
-            episode.rewards.append(float(reward))
+            self._episode(start + i).rewards.append(float(reward))
         if self.steppers:
             self._step_events(ctx, result, set(done_indices.tolist()), start, len(rewards))
         for row in done_indices.tolist():
