@@ -41,6 +41,13 @@ class AlgorithmClass:
         return f"<algo_class {self.cls.__module__}.{self.cls.__qualname__}>"
 
 
+def build_from_dict(algo_config: Any, config: dict[str, Any]) -> Any:
+    """The algorithm of ``algo_config`` (an algorithm's default config) updated with a trial's config dict (Tune's
+    ``param_space=config`` arrives as ``config.to_dict()``; keys the config does not have are Tune's)."""
+    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
+    return algo_config.build_algo()
+
+
 def without_tunes_keys(result: dict[str, Any]) -> dict[str, Any]:
     """A ``train()`` result without the keys Tune adds itself."""
     for key in ("training_iteration", "done", "time_this_iter_s", "time_total_s", "timestamp",
@@ -57,9 +64,7 @@ def run_trial(cls: type, config: dict[str, Any]) -> None:
 
     from ray import tune  # optional: ray[tune]
 
-    algo_config = cls.get_default_config()
-    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
-    algo = algo_config.build_algo()
+    algo = build_from_dict(cls.get_default_config(), config)
     try:
         checkpoint = tune.get_checkpoint()
         if checkpoint is not None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from rlchain.rllib.algorithm_class import without_tunes_keys
+from rlchain.rllib.algorithm_class import build_from_dict, without_tunes_keys
 from rlchain.rllib.algorithms.registry import ALGORITHMS, config_class
 from rlchain.rllib.config import AlgorithmConfig
 
@@ -17,13 +17,6 @@ def _trainable_base() -> type:
     except ImportError as exc:
         raise ModuleNotFoundError("tune.Tuner('PPO', ...) needs Ray Tune: pip install 'ray[tune]'") from exc
     return tune.Trainable
-
-
-def build_from_dict(algo_name: str, config: dict[str, Any]) -> Any:
-    """The algorithm of a trial's config dict (Tune's ``param_space=config`` arrives as ``config.to_dict()``)."""
-    algo_config = config_class(algo_name)()
-    algo_config.update_from_dict({k: v for k, v in config.items() if k in algo_config})
-    return algo_config.build_algo()
 
 
 def make_trainable(algo_name: str) -> type:
@@ -38,7 +31,7 @@ def make_trainable(algo_name: str) -> type:
             return config_class(cls._algo_name)()
 
         def setup(self, config: dict[str, Any]) -> None:
-            self.algo = build_from_dict(self._algo_name, config)
+            self.algo = build_from_dict(config_class(self._algo_name)(), config)
 
         def step(self) -> dict[str, Any]:
             return without_tunes_keys(self.algo.train())
