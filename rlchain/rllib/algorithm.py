@@ -32,6 +32,7 @@ from rlchain.rllib.checkpoint_files import (
     checkpoint_file,
     json_data,
     read_text,
+    stored_config,
 )
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
@@ -372,10 +373,8 @@ class Algorithm:
         self._check_running()
         self._stepper.load(checkpoint_file(path))
         self._episodes.sync(self._stepper.context.episode_tracker)
-        with open(os.path.join(os.fspath(path), CONFIG_FILE)) if os.path.isdir(path) else open(os.devnull) as f:
-            text = f.read()
-        if text:
-            self.iteration = int(json.loads(text).get("iteration", self.iteration))
+        if os.path.isdir(path):
+            self.iteration = stored_config(path).get("iteration", self.iteration)
         for cb in self.callbacks:
             cb.on_checkpoint_loaded(algorithm=self)
 
@@ -392,14 +391,13 @@ class Algorithm:
             algo = config.build_algo()
             algo.restore_from_path(path)
             return algo
-        with open(os.path.join(path, CONFIG_FILE)) as f:
-            stored = json.load(f)
+        stored = stored_config(path)
         name = stored.get("algo", "PPO")
         if name not in ALGORITHMS:
             raise ConfigError(path, "algo", f"'{name}' is not an algorithm of the face "
                                             f"({', '.join(ALGORITHMS) or 'import rlchain.rllib.algorithms'})")
         config = ALGORITHMS[name].get_default_config()
-        data = {k: v for k, v in stored["config"].items() if v is not _MISSING}
+        data = {k: v for k, v in stored.get("config", {}).items() if v is not _MISSING}
         if module_network.NAME_PREFIX in read_text(os.path.join(path, RLCHAIN_CONFIG_FILE)):
             raise ConfigError(path, "rl_module_spec", "the checkpoint trained an RLModule class, which is not in the "
                                                       "JSON: build your config with its RLModuleSpec and call "

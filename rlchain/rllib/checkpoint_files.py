@@ -7,6 +7,8 @@ import json
 import os
 from typing import Any
 
+from rlchain.config.errors import ConfigError
+from rlchain.config.text import read_data
 from rlchain.runs import checkpoint as ckpt
 
 CHECKPOINT_FILE = "rlchain_checkpoint.pth"
@@ -34,6 +36,23 @@ def checkpoint_file(path: Any) -> str:
                                    f"unpickle RLlib's files; retrain with the face, or export the weights from "
                                    f"RLlib as a state_dict and load them as data")
     raise ckpt.CheckpointError(f"{path}: no {CHECKPOINT_FILE} (not written by save_to_path)")
+
+
+def stored_config(folder: str) -> dict[str, Any]:
+    """The folder's ``rllib_config.json`` (``{}`` when it has none) read as data: UTF-8 and nesting bounded
+    (:func:`rlchain.config.text.read_data`), an object with ``algo`` a name, ``config`` an object and ``iteration``
+    a count; anything else is a one-line ConfigError naming the file and the key."""
+    path = os.path.join(os.fspath(folder), CONFIG_FILE)
+    if not os.path.isfile(path):
+        return {}
+    data = read_data(path)
+    if not isinstance(data, dict):
+        raise ConfigError(path, "", f"expected a JSON object written by save_to_path, got {type(data).__name__}")
+    for key, kind, what in (("algo", str, "an algorithm name"), ("config", dict, "an object of config keys"),
+                            ("iteration", int, "a whole number")):
+        if key in data and (not isinstance(data[key], kind) or isinstance(data[key], bool)):
+            raise ConfigError(path, key, f"expected {what}, got {type(data[key]).__name__}")
+    return data
 
 
 def read_text(path: str) -> str:

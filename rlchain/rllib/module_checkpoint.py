@@ -18,7 +18,7 @@ import gymnasium as gym
 
 from rlchain.config.errors import ConfigError
 from rlchain.policy.load import load_policy
-from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN_CONFIG_FILE, read_text
+from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN_CONFIG_FILE, read_text, stored_config
 from rlchain.rllib.module import NAME_PREFIX, RLModuleView
 from rlchain.runner import Runner
 
@@ -68,12 +68,14 @@ def from_checkpoint(path: Any) -> Any:
     """The module at ``path`` (an :class:`~rlchain.rllib.module.RLModuleView`), or ``{module id: module}`` for
     the ``rl_module`` folder itself."""
     root, module_id = locate(path)
-    with open(os.path.join(root, CONFIG_FILE)) as f:
-        env = json.load(f).get("config", {}).get("env")
+    env = stored_config(root).get("config", {}).get("env")
     rlchain_yaml = read_text(os.path.join(root, RLCHAIN_CONFIG_FILE))
     instead = f"build your config, then algo.restore_from_path('{root}') and algo.get_module()"
     if not isinstance(env, str):
         raise ConfigError(root, "env", f"the checkpoint's env is not a name, so its spaces are unknown here: {instead}")
+    if env not in gym.registry:  # a file's "module:Env" id would import that module in gym.make
+        raise ConfigError(root, "env", f"'{env}' is not a registered gymnasium id (a checkpoint's env name is data, "
+                                       f"never a module to import): {instead}")
     if NAME_PREFIX in rlchain_yaml:
         raise ConfigError(root, "rl_module_spec", f"the checkpoint trained an RLModule class, which is not in the "
                                                   f"JSON: {instead}")

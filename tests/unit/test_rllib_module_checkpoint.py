@@ -51,3 +51,25 @@ def test_a_saved_ppo_module_loads_alone_and_acts_as_trained(tmp_path, monkeypatc
     assert torch.allclose(loaded, trained)
     alone = RLModule.from_checkpoint(f"{path}/learner_group/learner/rl_module/default_policy")
     assert torch.allclose(alone.forward_inference({"obs": obs})["action_dist_inputs"], trained)
+
+
+def test_a_checkpoints_json_is_data(tmp_path):
+    """An env id that names a module is not made (gym.make would import it); bad values are one line each."""
+    from rlchain.rllib.algorithms.algorithm import Algorithm
+    from rlchain.rllib.checkpoint_files import stored_config
+
+    root = _checkpoint(tmp_path / "ckpt")
+    (root / CONFIG_FILE).write_text(json.dumps({"algo": "PPO", "config": {"env": "os:system"}}))
+    (root / "rlchain_checkpoint.pth").write_bytes(b"")
+    with pytest.raises(ConfigError, match="'os:system' is not a registered gymnasium id") as info:
+        RLModule.from_checkpoint(root / "learner_group" / "learner" / "rl_module")
+    assert "\n" not in str(info.value)
+    for stored, key in (([1], ""), ({"config": "CartPole-v1"}, "config"), ({"iteration": "3"}, "iteration"),
+                        ({"algo": 7}, "algo")):
+        (root / CONFIG_FILE).write_text(json.dumps(stored))
+        with pytest.raises(ConfigError, match=f"{CONFIG_FILE}: {key}.*expected") as info:
+            stored_config(str(root))
+        assert "\n" not in str(info.value)
+    (root / CONFIG_FILE).write_text("[" * 5000 + "]" * 5000)
+    with pytest.raises(ConfigError, match="nested"):
+        Algorithm.from_checkpoint(root)
