@@ -10,6 +10,7 @@ what ``build_algo`` calls) it builds the algorithm; given Tune's trial config di
 
 from __future__ import annotations
 
+import tempfile
 from typing import Any
 
 
@@ -60,8 +61,6 @@ def run_trial(cls: type, config: dict[str, Any]) -> None:
     """One Tune trial of algorithm class ``cls`` as a function trainable: ``train()`` until Tune stops it, each
     result reported with a checkpoint of the algorithm (so ``result.checkpoint`` is the last); a restarted trial
     resumes from its last checkpoint."""
-    import tempfile
-
     from ray import tune  # optional: ray[tune]
 
     algo = build_from_dict(cls.get_default_config(), config)

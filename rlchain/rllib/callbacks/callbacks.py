@@ -81,7 +81,7 @@ class MetricsLogger:
     def __init__(self) -> None:
         self._values: dict[str, list[Any]] = {}
         self._reduce: dict[str, tuple[str, int | None, float]] = {}
-        self._ema: dict[str, float] = {}
+        self._running: dict[str, float] = {}  # an EMA's value or a lifetime sum's total
         self._last: dict[str, Any] = {}
         self._fresh: set[str] = set()  # keys logged since the last result
 
@@ -108,9 +108,10 @@ class MetricsLogger:
         self._fresh.add(name)
         if kind == "ema":
             value = float(value)
-            self._ema[name] = value if name not in self._ema else (1.0 - coeff) * self._ema[name] + coeff * value
+            old = self._running.get(name)
+            self._running[name] = value if old is None else (1.0 - coeff) * old + coeff * value
         elif kind == "lifetime_sum":
-            self._ema[name] = self._ema.get(name, 0.0) + float(value)
+            self._running[name] = self._running.get(name, 0.0) + float(value)
         else:
             self._values.setdefault(name, []).append(value if kind.startswith("item") else float(value))
 
@@ -135,8 +136,8 @@ class MetricsLogger:
 
     def peek(self, key: Any, default: Any = None, **kwargs: Any) -> Any:
         name = self._name(key)
-        if name in self._ema:
-            return self._ema[name]
+        if name in self._running:
+            return self._running[name]
         if self._values.get(name):
             return self._reduce_one(name)
         return self._last.get(name, default)
@@ -144,7 +145,7 @@ class MetricsLogger:
     def _reduce_one(self, name: str) -> Any:
         kind, window, _ = self._reduce[name]
         if kind in ("ema", "lifetime_sum"):
-            return self._ema[name]
+            return self._running[name]
         values = self._values[name][-window:] if window else self._values[name]
         if kind == "item":
             return values[-1]
@@ -160,7 +161,7 @@ class MetricsLogger:
         out = {}
         for name, (kind, window, _) in self._reduce.items():
             carried = kind in ("ema", "lifetime_sum", "item") or (window and kind != "item_series")
-            if name in self._fresh or (carried and (name in self._ema or self._values.get(name))):
+            if name in self._fresh or (carried and (name in self._running or self._values.get(name))):
                 out[name] = self._last[name] = self._reduce_one(name)
             if name in self._values and kind != "item":
                 self._values[name] = self._values[name][-window:] if window and kind != "item_series" else []
