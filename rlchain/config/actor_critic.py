@@ -33,8 +33,15 @@ class ActorCriticConfig(RunConfig):
                                           "same whole env trajectories (whole sequences for an RNN) in every "
                                           "mini-epoch; shuffle = a new random permutation every mini-epoch; "
                                           "auto = fixed for continuous actions (measured better on the MuJoCo "
-                                          "YAMLs, docs/ppo_parity.md), shuffle otherwise",
-                                  choices=("auto", "fixed", "shuffle"))
+                                          "YAMLs, docs/ppo_parity.md), shuffle otherwise; rllib = RLlib's "
+                                          "MiniBatchCyclicIterator over its train batch (each env's steps in "
+                                          "time order with one masked row after every episode chunk; "
+                                          "minibatch_size rows at a time cycling across passes, the first pass "
+                                          "in order, a reshuffle at each wrap, until every row was covered "
+                                          "mini_epochs times; the masked rows are left out of each minibatch, "
+                                          "so sizes vary and the batch need not divide by minibatch_size; an "
+                                          "RNN or a central value: shuffle)",
+                                  choices=("auto", "fixed", "shuffle", "rllib"))
     learning_rate: float = option(3e-4, "Adam learning rate", check=positive)
     lr_schedule: str | None = option(None, "None (constant), linear, adaptive (KL-based) or polynom_decay "
                                            "(min_lr + (learning_rate - min_lr) * (1 - progress) ** decay_power; "
@@ -65,7 +72,11 @@ class ActorCriticConfig(RunConfig):
     normalize_advantage: bool = option(True, "normalize advantages over the whole batch")
     advantage_normalization: str = option("batch", "rlchain, with normalize_advantage: batch = over the whole "
                                                    "batch once (rl_games); minibatch = over each minibatch "
-                                                   "(Stable-Baselines3)", choices=("batch", "minibatch"))
+                                                   "(Stable-Baselines3); rllib = over the batch and RLlib's "
+                                                   "bootstrap rows (one per episode chunk, advantage "
+                                                   "gamma * (V + lambda * A) of the next chunk's first step minus "
+                                                   "V(final obs)), population std floored at 1e-4 (RLlib's GAE "
+                                                   "connector)", choices=("batch", "minibatch", "rllib"))
     normalize_value: bool = option(False, "running mean/std normalization of value targets (value_normalizer "
                                           "says which statistics)")
     value_normalizer: str = option("rl_games", "with normalize_value: rl_games = statistics of the rollout's value "
@@ -172,6 +183,6 @@ def check_batch(config: ActorCriticConfig, source: str, agents: int = 1) -> None
         if size > batch:
             raise ConfigError(source, f"params.config.{key}", f"minibatch_size {size} is larger than the batch "
                                                               f"{what} = {batch}")
-        if batch % size != 0:
+        if batch % size != 0 and not (key == "minibatch_size" and config.minibatch_order == "rllib"):
             raise ConfigError(source, f"params.config.{key}", f"batch {what} = {batch} is not divisible by "
                                                               f"minibatch_size {size}")

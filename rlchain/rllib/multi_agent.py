@@ -287,7 +287,7 @@ class MultiAgentRun:
         window = int(settings.get("metrics_num_episodes_for_smoothing") or 100)
         env_name = register(make, self.agent_ids, self.logs, window, max(1, int(settings.get("num_env_runners") or 0)),
                             max(1, int(settings.get("num_envs_per_env_runner") or 1)))
-        base = translate.ppo_config(config, env_name, False, run)
+        base = translate.ppo_config(config, env_name, False, run, rllib_batch=False)
         return env_name, ppo_config(config, base, self.view, network_of)
 
     def episodes(self, log: EpisodeLog | None = None) -> dict[str, Any]:

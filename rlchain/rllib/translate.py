@@ -189,10 +189,14 @@ def _positive(config: Any, key: str, kind: type = int) -> Any:
 
 
 def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any],
-               obs_space: Any = None) -> dict[str, Any]:
+               obs_space: Any = None, rllib_batch: bool = True) -> dict[str, Any]:
     """The rlchain PPO config of an RLlib ``PPOConfig`` on ``env_name`` (see the module docstring). ``run``:
     further ``params.config`` keys (name, train_dir, device, ...); ``obs_space``: the env's (images and
-    ``use_lstm`` map onto rlchain's cnn / rnn blocks, :mod:`rlchain.rllib.networks`)."""
+    ``use_lstm`` map onto rlchain's cnn / rnn blocks, :mod:`rlchain.rllib.networks`). ``rllib_batch``: RLlib's
+    train batch (its masked bootstrap rows in the advantage standardization; a feed-forward policy's minibatches
+    in RLlib's cyclic order, of ``minibatch_size`` rows: rlchain.algos.ppo.rllib_batch); False (the multi-agent
+    face, whose policies pick their own active steps): whole minibatches shuffled, advantages standardized over
+    the steps."""
     check_supported(config)
     s = config._settings
     envs = num_envs(config)
@@ -204,6 +208,8 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     network, seq_len = actor_critic_network(config, obs_space, continuous)
     if seq_len:
         steps, minibatch = sequence_batch_shape(batch, envs, minibatch, seq_len)
+    elif rllib_batch and s.get("shuffle_batch_per_epoch", True):  # RLlib's cyclic minibatches: no need to divide
+        steps = fragment_length(batch, envs, s.get("rollout_fragment_length", "auto"))
     else:
         steps, minibatch = batch_shape(batch, envs, minibatch, s.get("rollout_fragment_length", "auto"))
     grad_clip = s.get("grad_clip")
@@ -224,9 +230,11 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "kl_loss_coef": float(s["kl_coeff"]) if kl_on else 0.0,
         "kl_loss_target": float(s["kl_target"]) if kl_on else None, "kl_reference": "rollout",
         "grad_norm": float(grad_clip) if grad_clip is not None else 1.0, "truncate_grads": grad_clip is not None,
-        "normalize_advantage": True, "advantage_normalization": "batch", "normalize_input": False,
+        "normalize_advantage": True, "advantage_normalization": "rllib" if rllib_batch else "batch",
+        "normalize_input": False,
         "normalize_value": False, "value_bootstrap": True, "reward_shaper": {"scale_value": 1.0},
-        "minibatch_order": "shuffle" if s.get("shuffle_batch_per_epoch", True) else "fixed",
+        "minibatch_order": "fixed" if not s.get("shuffle_batch_per_epoch", True)
+        else "rllib" if rllib_batch and not seq_len else "shuffle",
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,

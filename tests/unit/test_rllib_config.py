@@ -75,8 +75,12 @@ def test_model_config_from_default_model_config_and_old_model_dict():
 def test_translation_maps_rllibs_meaning():
     c = PPOConfig().training(lr=3e-4, num_epochs=6, vf_loss_coeff=0.01, grad_clip=0.5, use_gae=False)
     cfg = _params(c)["config"]
-    # 2 envs, 4000 steps: exactly RLlib's batch, in 32 whole minibatches of 125 (the count nearest 4000 / 128)
-    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"], cfg["mini_epochs"]) == (2, 2000, 125, 6)
+    # 2 envs, 4000 steps: exactly RLlib's batch, in RLlib's cyclic minibatches of 128 over its batch's rows
+    # (its masked bootstrap rows in the order and in the advantages' standardization: rlchain.algos.ppo.rllib_batch)
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"], cfg["mini_epochs"]) == (2, 2000, 128, 6)
+    assert (cfg["minibatch_order"], cfg["advantage_normalization"]) == ("rllib", "rllib")
+    fixed = _params(PPOConfig().training(shuffle_batch_per_epoch=False))["config"]  # whole minibatches, in order
+    assert (fixed["minibatch_size"], fixed["minibatch_order"]) == (125, "fixed")
     assert cfg["critic_coef"] == pytest.approx(0.02)  # rlchain's value loss is 0.5 * critic_coef * MSE
     assert (cfg["kl_loss_coef"], cfg["kl_loss_target"], cfg["value_loss_clip"]) == (0.2, 0.01, 10.0)
     assert (cfg["e_clip"], cfg["tau"], cfg["learning_rate"], cfg["lr_schedule"]) == (0.3, 1.0, 3e-4, None)
@@ -119,7 +123,7 @@ def test_tuned_pendulum_samples_rllibs_1040_env_steps():
               .env_runners(num_env_runners=2, num_envs_per_env_runner=20)
               .training(train_batch_size_per_learner=1024, minibatch_size=128))
     cfg = _params(config)["config"]
-    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"]) == (40, 26, 130)
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"]) == (40, 26, 128)
 
 
 @pytest.mark.parametrize("build, key", [

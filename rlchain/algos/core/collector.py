@@ -342,8 +342,10 @@ class OnPolicyCollector:
                 shaped = shaped.clone()
             lost = self.ctx.to_tensor(np.asarray(dropped)).bool()
             shaped[lost] = values[lost] * ((1 - cfg.gamma) if bootstrap else 1.0)
-        if bootstrap and bool(truncated.any()):
-            idx = (truncated & ~terminated).nonzero().squeeze(-1)
+        # RLlib's advantage standardization (advantage_normalization rllib) reads V(final obs) at terminations too
+        every_end = getattr(cfg, "advantage_normalization", None) == "rllib"
+        if bootstrap and bool((dones if every_end else truncated).any()):
+            idx = (dones if every_end else truncated & ~terminated).nonzero().squeeze(-1)
             previous = getattr(cfg, "timeout_bootstrap", "final_obs") == "previous_value"
             if idx.numel() and previous:  # rl_games: V(s_t), no extra pass
                 storage.final_values[t, rows][idx] = values[idx]

@@ -175,6 +175,15 @@ class RolloutStorage:
                 rows, layout = packed
                 yield Batch(**unpack_rows(rows.index_select(0, idx), layout), index=idx)
 
+    def rows_batch(self, index: torch.Tensor, advantages: torch.Tensor) -> Batch:
+        """One minibatch of the given rows (``index``: time-major flat indices ``t * N + n``, in any order,
+        repeats allowed); ``advantages`` is (T, N) or (T*N,). For an order the caller chose (RLlib's cyclic
+        minibatches, rlchain.algos.ppo.rllib_batch)."""
+        self._check_filled()
+        size = self.horizon * self.num_envs
+        flat = {k: v.reshape(size, *v.shape[2:]) for k, v in self._per_step(advantages).items()}
+        return Batch(**{k: v.index_select(0, index) for k, v in flat.items()}, index=index)
+
     def sequence_minibatches(self, minibatch_size: int, seq_length: int, advantages: torch.Tensor,
                              use_resets: bool = True, shuffle: bool = True) -> Iterator[Batch]:
         """Yield minibatches of whole sequences: ``seq_length`` consecutive steps of one env each.

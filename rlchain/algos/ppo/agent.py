@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from functools import partial
 from typing import ClassVar
 
+import numpy as np
 import torch
 
 from rlchain.algos.base.safety import UpdateInterrupted
@@ -29,6 +30,7 @@ from rlchain.algos.core.storage import Batch, RolloutStorage
 from rlchain.algos.ppo.graph_step import GraphedStep, zero_non_finite_
 from rlchain.algos.ppo.loss import Surrogate, adapted_kl_coef, named_stats, ppo_loss, stats_vector
 from rlchain.algos.ppo.optimizer import ScheduledAdam
+from rlchain.algos.ppo.rllib_batch import BOOTSTRAP, batch_rows, cyclic_minibatches, rllib_standardized
 from rlchain.config.ppo import PPOConfig
 from rlchain.log import get_logger
 from rlchain.models.actor_critic import ActorCritic
@@ -81,6 +83,8 @@ class PPOAgent(ScheduledAdam):
         # (PPOConfig's keys; APPO / IMPALA configs have none: off)
         self.kl_coef = getattr(cfg, "kl_loss_coef", 0.0)
         self._kl_coef_t = torch.tensor(float(self.kl_coef), device=device) if self.kl_coef > 0 else None
+        # advantage_normalization rllib: the raw advantages of RLlib's bootstrap rows for this update (PPO sets them)
+        self.bootstrap_advantages: np.ndarray | None = None
 
     @property
     def mode(self) -> str:
@@ -115,9 +119,9 @@ class PPOAgent(ScheduledAdam):
         count, aux_counts = 0, {}  # aux_counts: minibatches per losses/<name>
         reference = self._kl_reference(storage)
         max_norm = cfg.grad_norm if cfg.truncate_grads else float("inf")
-        for mini_epoch in range(cfg.mini_epochs):
+        for mini_epoch, minibatches in enumerate(self._passes(storage, advantages)):
             epoch_kl, epoch_n = 0.0, 0
-            for batch in self._minibatches(storage, advantages):
+            for batch in minibatches:
                 if obs_per_minibatch and mini_epoch == 0:
                     with torch.no_grad():
                         model.update_normalizers(obs=batch.obs)
@@ -174,7 +178,30 @@ class PPOAgent(ScheduledAdam):
             return self.advantage_stats.normalize(advantages)
         if self.cfg.normalize_advantage and self.cfg.advantage_normalization == "batch":
             advantages = normalize_advantages(advantages)
+        elif self.cfg.normalize_advantage and self.cfg.advantage_normalization == "rllib":
+            if self.bootstrap_advantages is None:
+                raise RuntimeError("advantage_normalization rllib: the update needs the bootstrap rows' "
+                                   "advantages (PPO's update sets them)")
+            advantages = rllib_standardized(advantages, self.bootstrap_advantages)
         return advantages
+
+    def _passes(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Iterator[Batch]]:
+        """The update's passes, each an iterator of its minibatches: ``mini_epochs`` passes of
+        :meth:`_minibatches`, or (``minibatch_order: rllib``, a feed-forward policy) RLlib's cyclic minibatches
+        over its train batch's rows, its masked bootstrap rows left out of each minibatch (RLlib's loss is the
+        mean over the real rows; rlchain.algos.ppo.rllib_batch), grouped by the pass each starts in."""
+        cfg = self.cfg
+        own_picks = type(self)._minibatches is not PPOAgent._minibatches  # the multi-policy agent's active steps
+        if cfg.minibatch_order != "rllib" or self.model.is_rnn or own_picks:
+            for _ in range(cfg.mini_epochs):
+                yield self._minibatches(storage, advantages)
+            return
+        rows = batch_rows(storage.dones.cpu().numpy())
+        device = storage.dones.device
+        for group in cyclic_minibatches(len(rows), cfg.minibatch_size, cfg.mini_epochs):
+            picked = [rows[positions] for positions in group]
+            yield (storage.rows_batch(torch.as_tensor(real[real != BOOTSTRAP], device=device), advantages)
+                   for real in picked if (real != BOOTSTRAP).any())
 
     def _kl_reference(self, storage: RolloutStorage) -> torch.Tensor | None:
         """With ``kl_reference: previous``, a (T * N, param_size) copy of the rollout's distribution
@@ -272,5 +299,6 @@ def read_stats(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Ten
 
 def shuffled_minibatches(order: str, continuous: bool) -> bool:
     """``minibatch_order`` resolved: True for a new permutation every mini-epoch, False for rl_games'
-    fixed env-major blocks (``auto``: fixed for continuous actions, shuffled otherwise)."""
-    return order == "shuffle" or (order == "auto" and not continuous)
+    fixed env-major blocks (``auto``: fixed for continuous actions, shuffled otherwise; ``rllib``: shuffled where
+    RLlib's cyclic order does not apply, an RNN's sequences and a central value's minibatches)."""
+    return order in ("shuffle", "rllib") or (order == "auto" and not continuous)

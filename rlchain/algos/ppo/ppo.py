@@ -20,6 +20,7 @@ from rlchain.algos.ppo.central_value import CentralValueAgent
 from rlchain.algos.ppo.distilled import load_distilled, warm_start_value
 from rlchain.algos.ppo.env_layout import PipelineChoice, choose_env_layout, probed
 from rlchain.algos.ppo.graph_step import GraphedAct, resolve_cuda_graph
+from rlchain.algos.ppo.rllib_batch import rllib_bootstrap_advantages
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
@@ -159,6 +160,9 @@ class PPO(AlgorithmBase):
                                storage.dones, cfg.gamma, cfg.tau)
             storage.advantages.copy_(adv)
             storage.returns.copy_(returns)
+            if cfg.normalize_advantage and cfg.advantage_normalization == "rllib":  # RLlib's bootstrap rows too
+                self.agent.bootstrap_advantages = rllib_bootstrap_advantages(storage, self.collector.last_values,
+                                                                             cfg.gamma, cfg.tau)
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
             flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
