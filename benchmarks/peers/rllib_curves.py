@@ -25,9 +25,20 @@ import sys
 from rllib_cartpole import STOP_REWARD, tuned_cartpole_config  # this folder: first on sys.path on both sides
 
 
-def worker(seed: int, runners: int, max_steps: int) -> None:
+def face_options(algo, options: dict) -> None:
+    """Set ``params.config`` keys of the face's PPO after it is built (before its first rollout): a variant of the
+    translated config, e.g. ``minibatch_order`` / ``advantage_normalization`` without RLlib's batch."""
+    import dataclasses
+
+    ppo = algo._stepper.context.algorithm
+    ppo.cfg = ppo.agent.cfg = dataclasses.replace(ppo.cfg, **options)
+
+
+def worker(seed: int, runners: int, max_steps: int, options: dict | None = None) -> None:
     algo = tuned_cartpole_config(seed, runners).build_algo()
     lib = "rlchain" if type(algo).__module__.startswith("rlchain") else "rllib"
+    if options and lib == "rlchain":
+        face_options(algo, options)
     steps = 0
     while steps < max_steps:
         result = algo.train()
@@ -91,12 +102,17 @@ def main() -> None:
     parser.add_argument("--frames", type=int, nargs="+", default=[20_000, 40_000, 60_000, 80_000, 100_000],
                         help="env steps at which the closing table gives each side's median return")
     parser.add_argument("--table-only", action="store_true", help="only print the table of the CSVs in --out")
+    parser.add_argument("--face-option", action="append", default=[],
+                        help="KEY=VALUE (a JSON value): a params.config key of the face's PPO, set after it is "
+                             "built, e.g. minibatch_order='\"shuffle\"' minibatch_size=125 "
+                             "advantage_normalization='\"batch\"' (the face before RLlib's batch)")
     args = parser.parse_args()
+    options = {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.face_option)}
     if args.table_only:
         print("\n".join(frame_table(args.out, ["rllib", "rlchain"], args.seeds, args.frames)))
         return
     if args.worker:
-        worker(args.seed, args.num_env_runners, args.max_steps)
+        worker(args.seed, args.num_env_runners, args.max_steps, options)
         return
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     here = os.path.abspath(__file__)
@@ -109,7 +125,7 @@ def main() -> None:
     for seed in args.seeds:
         for lib, (python, env) in sides.items():
             cmd = [*python, here, "--worker", "--seed", str(seed), "--num-env-runners", str(args.num_env_runners),
-                   "--max-steps", str(args.max_steps)]
+                   "--max-steps", str(args.max_steps), *(f"--face-option={o}" for o in args.face_option)]
             out = subprocess.run(cmd, env=env, capture_output=True, text=True)
             rows = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
             if out.returncode or not rows:

@@ -16,9 +16,12 @@ what it computed (``<side>.npz``); the driver prints the largest differences.
 
 Variants: ``whole`` (1 epoch, one minibatch of the whole batch), ``whole2`` (2 epochs of the whole batch: the KL
 and the adapted ``kl_coeff`` are nonzero; no minibatch order to match), ``minibatch`` (each side's real
-minibatching: RLlib's 128-row minibatches cycling across epochs, the face's 125-row shuffled minibatches, 6
-epochs; orders differ, so only the size of the difference is informative). ``--face-option KEY=VALUE`` sets a
-``params.config`` key of the face's translated config (e.g. to try the face without one of its RLlib switches).
+minibatching, 6 epochs: RLlib's ``MiniBatchCyclicIterator`` of 128 rows over its batch, the masked bootstrap rows
+included; the face's ``minibatch_order: rllib`` over the same rows, replaying the permutations RLlib drew at its
+wraps, recorded on RLlib's side, so both take the same rows in the same order). The face standardizes its
+advantages with RLlib's bootstrap rows (``advantage_normalization: rllib``). ``--face-option KEY=VALUE`` sets a
+``params.config`` key of the face's translated config (e.g. ``minibatch_order='"shuffle"'`` or
+``advantage_normalization='"batch"'`` to try the face without one of its RLlib switches).
 """
 
 from __future__ import annotations
@@ -154,8 +157,22 @@ def rllib_side(out: str, seed: int) -> None:
         adv, targets = np.asarray(conn["advantages"]), np.asarray(conn["value_targets"])
         with torch.no_grad():
             values = module.compute_values({"obs": torch.as_tensor(np.asarray(conn["obs"]))}).numpy()
-        results = learner.update(episodes=copy.deepcopy(episodes), num_epochs=epochs, minibatch_size=minibatch,
-                                 shuffle_batch_per_epoch=True, timesteps={"num_env_steps_sampled_lifetime": 4000})
+        perms, permutation = [], np.random.permutation
+
+        # SampleBatch.shuffle's draw at each wrap of RLlib's cyclic minibatches, recorded
+        def recorded(n, perms=perms, permutation=permutation):
+            out = permutation(n)
+            perms.append(np.asarray(out))
+            return out
+
+        np.random.permutation = recorded
+        try:
+            results = learner.update(episodes=copy.deepcopy(episodes), num_epochs=epochs, minibatch_size=minibatch,
+                                     shuffle_batch_per_epoch=True,
+                                     timesteps={"num_env_steps_sampled_lifetime": 4000})
+        finally:
+            np.random.permutation = permutation
+        saved[f"{name}:perms"] = np.stack(perms) if perms else np.zeros((0, mask.size), np.int64)
         stats = _flat(results if isinstance(results, dict) else results[0])
         saved.update({f"{name}:adv": adv[mask], f"{name}:targets": targets[mask], f"{name}:values": values[mask],
                       f"{name}:raw_adv": (targets - values), f"{name}:mask": mask,
@@ -170,10 +187,11 @@ def face_side(out: str, seed: int, options: dict) -> None:
 
     import torch
 
-    from rlchain.algos.core.losses import normalize_advantages
+    from rlchain.algos.ppo import rllib_batch
 
     data = np.load(os.path.join(out, "batch.npz"))
     saved = {}
+    permutation = rllib_batch.torch_permutation
     for name, (epochs, minibatch) in [*VARIANTS.items(), *((f"{k}+rllib_adv", VARIANTS[k]) for k in FED)]:
         algo = _config(seed, epochs, minibatch).build_algo()
         ppo = algo._stepper.context.algorithm  # parked before its first rollout
@@ -199,20 +217,27 @@ def face_side(out: str, seed: int, options: dict) -> None:
         term, trunc = tn(data["terminated"]), tn(data["truncated"])
         storage.terminated.copy_(term)
         storage.dones.copy_(term | trunc)
-        storage.final_values.copy_(torch.where(trunc.unsqueeze(-1), final, torch.zeros_like(final)))
+        # V(final obs) at every done (GAE reads it at time-outs only; RLlib's bootstrap rows at terminations too)
+        storage.final_values.copy_(torch.where((term | trunc).unsqueeze(-1), final, torch.zeros_like(final)))
         storage.filled = STEPS
         ppo.collector.last_values = final[-1]  # the observation after each column's last step
+        rllib = np.load(os.path.join(out, "rllib.npz"))
+        base = name.split("+")[0]
+        if ppo.cfg.minibatch_order == "rllib":
+            rows = len(rllib_batch.batch_rows((term | trunc).numpy()))
+            if minibatch is None:  # RLlib's whole batch is every row of it, its bootstrap rows too
+                ppo.cfg = ppo.agent.cfg = dataclasses.replace(ppo.cfg, minibatch_size=rows)
+            perms = iter(rllib[f"{base}:perms"])  # RLlib's own shuffles, replayed in the face's cyclic order
+            rllib_batch.torch_permutation = lambda n, perms=perms: next(perms)
         if name.endswith("+rllib_adv"):  # RLlib's advantages and value targets, the face's update
-            r = np.load(os.path.join(out, "rllib.npz"))
             back = lambda x: torch.as_tensor(x.reshape(ENVS, STEPS).T.copy())  # env-major rows -> (T, N)
             ppo.cfg = ppo.agent.cfg = dataclasses.replace(ppo.cfg, normalize_advantage=False)
-            storage.advantages.copy_(back(r[f"{name[:-10]}:adv"]).unsqueeze(-1))
-            storage.returns.copy_(back(r[f"{name[:-10]}:targets"]).unsqueeze(-1))
+            storage.advantages.copy_(back(rllib[f"{base}:adv"]).unsqueeze(-1))
+            storage.returns.copy_(back(rllib[f"{base}:targets"]).unsqueeze(-1))
             stats = ppo.agent.update(storage, 0.0)
         else:
             stats = ppo.update()
-        adv = normalize_advantages(storage.advantages.sum(-1)) if ppo.cfg.advantage_normalization == "batch" \
-            else storage.advantages.sum(-1)
+        adv = ppo.agent._batch_advantages(storage)  # what the update trained on
         flat = lambda x: x.transpose(0, 1).reshape(-1).numpy()  # env-major, as RLlib's rows
         saved.update({f"{name}:adv": flat(adv), f"{name}:targets": flat(storage.returns.sum(-1)),
                       f"{name}:values": flat(values.sum(-1)),
@@ -221,6 +246,7 @@ def face_side(out: str, seed: int, options: dict) -> None:
         weights = model.state_dict()
         saved.update({f"{name}:w:{k}": weights[face_k].numpy() for k, face_k in NAMES.items()})
         algo.stop()
+        rllib_batch.torch_permutation = permutation
     np.savez(os.path.join(out, "face.npz"), **saved)
 
 
@@ -242,10 +268,11 @@ def compare(out: str) -> list[str]:
             lines.append(f"   {key:8s} max |RLlib - face| {d.max():.3g} (mean |RLlib| {scale:.3g})")
         # RLlib standardizes over every row of its batch, the masked bootstrap rows too
         real_only = (raw[mask] - raw[mask].mean()) / max(1e-4, raw[mask].std())
-        lines.append(f"   RLlib's advantages standardized over the real rows only vs the face's: max diff "
-                     f"{np.abs(real_only - f[f'{name}:adv']).max():.3g}; raw advantage of the masked rows: "
+        lines.append(f"   RLlib's advantages standardized over the real rows only (rlchain's batch) vs RLlib's: max "
+                     f"diff {np.abs(real_only - r[f'{name}:adv']).max():.3g}; raw advantage of the masked rows: "
                      f"mean {raw[~mask].mean():.3g}, real rows {raw[mask].mean():.3g} (std {raw[mask].std():.3g}, "
                      f"all rows {raw.std():.3g})")
+        lines.append(f"   RLlib's minibatch shuffles: {len(r[f'{name}:perms'])} (replayed in the face's cyclic order)")
         rs, fs = r[f"{name}:stats"], f[f"{name}:stats"]
         lines.append("   " + ", ".join(f"{k} {a:.6g} / {c:.6g}" for k, a, c in zip(STATS, rs, fs)) + "  (RLlib / face)")
         for k in NAMES:

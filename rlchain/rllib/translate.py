@@ -5,7 +5,9 @@ What maps (PPO; docs/rllib.md has the table):
 - ``train_batch_size`` env steps per ``train()``: rlchain's epoch is ``num_actors * horizon_length`` frames, with
   ``num_actors = max(1, num_env_runners) * num_envs_per_env_runner`` and the horizon RLlib's rollout fragment
   (``rollout_fragment_length`` "auto": the batch over the envs, rounded up), so the face samples what RLlib
-  samples; rlchain's minibatches are whole, so the minibatch is the divisor of that epoch nearest
+  samples; the minibatches are RLlib's (``minibatch_order: rllib``, rlchain.algos.ppo.rllib_batch):
+  ``minibatch_size`` rows at a time cycling over RLlib's train batch, its masked bootstrap rows included; with
+  ``shuffle_batch_per_epoch=False`` or an LSTM they are whole instead, the divisor of that epoch nearest
   ``minibatch_size`` (RLlib's 4000 / 128: 32 of 125; its tuned Pendulum's 1,040 / 128: 8 of 130)
   (:func:`batch_shape`).
 - ``num_epochs`` -> ``mini_epochs``; ``minibatch_size`` -> ``minibatch_size``; ``lr`` -> a constant
@@ -13,8 +15,8 @@ What maps (PPO; docs/rllib.md has the table):
   value, as RLlib's); ``clip_param`` -> ``e_clip``; ``vf_clip_param`` -> ``value_loss_clip``; ``vf_loss_coeff``
   -> ``critic_coef`` (x2: rlchain's value loss is 0.5 * critic_coef * MSE); ``entropy_coeff`` -> ``entropy_coef``;
   ``use_kl_loss`` / ``kl_coeff`` / ``kl_target`` -> ``kl_loss_coef`` / ``kl_loss_target`` against the rollout's
-  policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over the
-  whole batch; no reward scaling, no observation or value normalization (RLlib has none by default).
+  policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over
+  RLlib's train batch, its bootstrap rows included (``advantage_normalization: rllib``); no reward scaling, no observation or value normalization (RLlib has none by default).
 - the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` (+ ``head_fcnet_hiddens``) -> the MLP;
   ``conv_filters`` -> a cnn block; ``use_lstm`` -> an rnn block and ``seq_length`` (whole sequences per
   minibatch: :func:`sequence_batch_shape`); ``vf_share_layers`` False -> a separate critic; ``free_log_std`` ->

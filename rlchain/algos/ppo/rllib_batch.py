@@ -93,7 +93,7 @@ def torch_permutation(size: int) -> np.ndarray:
 
 
 def cyclic_minibatches(size: int, minibatch_size: int, num_epochs: int,
-                       permutation: Callable[[int], np.ndarray] = torch_permutation) -> list[list[np.ndarray]]:
+                       permutation: Callable[[int], np.ndarray] | None = None) -> list[list[np.ndarray]]:
     """RLlib's ``MiniBatchCyclicIterator`` over ``size`` rows: each minibatch's positions in the batch as RLlib
     takes them, grouped by the pass each minibatch starts in (``num_epochs`` groups; a group can be empty when a
     minibatch is larger than the batch).
@@ -101,8 +101,10 @@ def cyclic_minibatches(size: int, minibatch_size: int, num_epochs: int,
     The first pass is the stored order; a minibatch that reaches the end of the batch takes the rest, counts a
     pass, shuffles the batch (``permutation(size)``: the new order of the shuffled batch's rows) and goes on from
     its start. The iterator stops once ``num_epochs`` passes are counted: ``ceil(num_epochs * size /
-    minibatch_size)`` minibatches.
+    minibatch_size)`` minibatches. ``permutation`` defaults to this module's :func:`torch_permutation` (looked up
+    at the call: benchmarks/peers/rllib_same_batch.py replays RLlib's own permutations through it).
     """
+    permutation = permutation or torch_permutation
     order = np.arange(size)
     start, covered = 0, 0
     groups: list[list[np.ndarray]] = [[] for _ in range(num_epochs)]
