@@ -16,7 +16,8 @@ What maps (PPO; docs/rllib.md has the table):
   -> ``critic_coef`` (x2: rlchain's value loss is 0.5 * critic_coef * MSE); ``entropy_coeff`` -> ``entropy_coef``;
   ``use_kl_loss`` / ``kl_coeff`` / ``kl_target`` -> ``kl_loss_coef`` / ``kl_loss_target`` against the rollout's
   policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over
-  RLlib's train batch, its bootstrap rows included (``advantage_normalization: rllib``); no reward scaling, no observation or value normalization (RLlib has none by default).
+  RLlib's train batch, its bootstrap rows included (``advantage_normalization: rllib``); no reward scaling, no
+  observation or value normalization (RLlib has none by default).
 - the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` (+ ``head_fcnet_hiddens``) -> the MLP;
   ``conv_filters`` -> a cnn block; ``use_lstm`` -> an rnn block and ``seq_length`` (whole sequences per
   minibatch: :func:`sequence_batch_shape`); ``vf_share_layers`` False -> a separate critic; ``free_log_std`` ->
@@ -208,9 +209,12 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     if minibatch > batch:
         minibatch = batch
     network, seq_len = actor_critic_network(config, obs_space, continuous)
+    # RLlib's cyclic minibatches; not across learners (each would take its own count of minibatch steps, and every
+    # step all-reduces the gradients): there whole minibatches, the same count on every rank
+    cyclic = rllib_batch and ranks == 1 and not seq_len and s.get("shuffle_batch_per_epoch", True)
     if seq_len:
         steps, minibatch = sequence_batch_shape(batch, envs, minibatch, seq_len)
-    elif rllib_batch and s.get("shuffle_batch_per_epoch", True):  # RLlib's cyclic minibatches: no need to divide
+    elif cyclic:  # RLlib's cyclic minibatches: the batch need not divide
         steps = fragment_length(batch, envs, s.get("rollout_fragment_length", "auto"))
     else:
         steps, minibatch = batch_shape(batch, envs, minibatch, s.get("rollout_fragment_length", "auto"))
@@ -235,8 +239,7 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "normalize_advantage": True, "advantage_normalization": "rllib" if rllib_batch else "batch",
         "normalize_input": False,
         "normalize_value": False, "value_bootstrap": True, "reward_shaper": {"scale_value": 1.0},
-        "minibatch_order": "fixed" if not s.get("shuffle_batch_per_epoch", True)
-        else "rllib" if rllib_batch and not seq_len else "shuffle",
+        "minibatch_order": "rllib" if cyclic else "shuffle" if s.get("shuffle_batch_per_epoch", True) else "fixed",
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
