@@ -227,8 +227,12 @@ def face_side(out: str, seed: int, options: dict) -> None:
             rows = len(rllib_batch.batch_rows((term | trunc).numpy()))
             if minibatch is None:  # RLlib's whole batch is every row of it, its bootstrap rows too
                 ppo.cfg = ppo.agent.cfg = dataclasses.replace(ppo.cfg, minibatch_size=rows)
-            perms = iter(rllib[f"{base}:perms"])  # RLlib's own shuffles, replayed in the face's cyclic order
-            rllib_batch.torch_permutation = lambda n, perms=perms: next(perms)
+            # RLlib's own shuffles, replayed in the face's cyclic order (RLlib's 1-epoch whole batch has none:
+            # its dummy iterator; the face's cyclic one wraps once at the end, which changes nothing there)
+            perms, draws = iter(rllib[f"{base}:perms"]), []
+            rllib_batch.torch_permutation = lambda n, perms=perms, draws=draws: draws.append(n) or next(
+                perms, np.arange(n))
+            saved[f"{name}:draws"] = draws
         if name.endswith("+rllib_adv"):  # RLlib's advantages and value targets, the face's update
             back = lambda x: torch.as_tensor(x.reshape(ENVS, STEPS).T.copy())  # env-major rows -> (T, N)
             ppo.cfg = ppo.agent.cfg = dataclasses.replace(ppo.cfg, normalize_advantage=False)
@@ -247,6 +251,7 @@ def face_side(out: str, seed: int, options: dict) -> None:
         saved.update({f"{name}:w:{k}": weights[face_k].numpy() for k, face_k in NAMES.items()})
         algo.stop()
         rllib_batch.torch_permutation = permutation
+        saved[f"{name}:draws"] = np.array(len(saved.get(f"{name}:draws", [])))
     np.savez(os.path.join(out, "face.npz"), **saved)
 
 
@@ -272,7 +277,8 @@ def compare(out: str) -> list[str]:
                      f"diff {np.abs(real_only - r[f'{name}:adv']).max():.3g}; raw advantage of the masked rows: "
                      f"mean {raw[~mask].mean():.3g}, real rows {raw[mask].mean():.3g} (std {raw[mask].std():.3g}, "
                      f"all rows {raw.std():.3g})")
-        lines.append(f"   RLlib's minibatch shuffles: {len(r[f'{name}:perms'])} (replayed in the face's cyclic order)")
+        lines.append(f"   RLlib's minibatch shuffles: {len(r[f'{name}:perms'])}, the face's cyclic order drew "
+                     f"{int(f[f'{name}:draws'])} (RLlib's replayed)")
         rs, fs = r[f"{name}:stats"], f[f"{name}:stats"]
         lines.append("   " + ", ".join(f"{k} {a:.6g} / {c:.6g}" for k, a, c in zip(STATS, rs, fs)) + "  (RLlib / face)")
         for k in NAMES:
