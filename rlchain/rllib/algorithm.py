@@ -37,6 +37,7 @@ from rlchain.rllib.checkpoint_files import (
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
+from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
@@ -303,6 +304,20 @@ class Algorithm:
     def training_iteration(self) -> int:
         """The ``train()`` calls so far (Ray Tune's Trainable attribute, which RLlib's callbacks read)."""
         return self.iteration
+
+    @property
+    def local_replay_buffer(self) -> LocalReplayBuffer | None:
+        """DQN's / SAC's replay buffer as RLlib's (``get_state()``: :mod:`rlchain.rllib.replay_buffer`); None for
+        the algorithms without one (PPO, APPO, IMPALA), as in RLlib."""
+        self._check_running()
+        ctx = self._stepper.context
+        buffer = getattr(ctx.algorithm, "buffer", None) if ctx is not None else None
+        if buffer is None:
+            return None
+        updates = int(getattr(getattr(ctx.algorithm, "agent", None), "updates", 0) or 0)
+        batch = int(self.rlchain_config["params"]["config"].get("batch_size") or 0)
+        return LocalReplayBuffer(buffer, self.observation_space, self.action_space, int(ctx.state.frames),
+                                 updates * batch)
 
     def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
