@@ -34,6 +34,7 @@ from rlchain.rllib.checkpoint_files import (
     read_text,
     stored_config,
 )
+from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
@@ -156,12 +157,14 @@ class Algorithm:
         else:
             self.rlchain_config = self._single_agent_config(config, run)
         self.runner = Runner().load(self.rlchain_config)
+        self.env_runner_group = EnvRunnerGroup(self)
+        self.env_runner = self.env_runner_group.local_env_runner
         extra = []
         if any(getattr(type(cb), event) is not getattr(RLlibCallback, event)
                for event in ("on_episode_start", "on_episode_step", "on_episode_end")
                for cb in self.callbacks if not isinstance(cb, _Functions)) \
                 or any(name.startswith("on_episode_") for name in functions):
-            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics))
+            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics, self.env_runner))
         # RLlib's episode results count the episodes of each train() only (see episode_window)
         self._episodes = IterationEpisodes(runners, per_runner,
                                            int(settings.get("metrics_num_episodes_for_smoothing") or 100))
