@@ -32,6 +32,20 @@ class AlgorithmConfig:
         object.__setattr__(self, "algo_class", AlgorithmClass(algo_class) if isinstance(algo_class, type)
                            else algo_class)
 
+    @classmethod
+    def overrides(cls, **kwargs: Any) -> dict[str, Any]:
+        """RLlib's ``AlgorithmConfig.overrides(explore=False, ...)``: the keys checked against this config class,
+        as a dict (for ``evaluation(evaluation_config=...)``); an unknown key is RLlib's KeyError."""
+        keys = K.all_keys(cls.algo_name)
+        out = {}
+        for key, value in kwargs.items():
+            name = K.OLD_NAMES.get(key, key)
+            if name not in keys:
+                raise KeyError(f"Invalid property name {key} for config class {cls.__name__}!"
+                               f"{did_you_mean(key, keys)}")
+            out[name] = value
+        return out
+
     # ----- setting keys -----------------------------------------------------------------------------
     def _set(self, method: str | None, values: dict[str, Any]) -> AlgorithmConfig:
         if getattr(self, _FROZEN):
