@@ -32,6 +32,10 @@ INSTEAD = {
     "ray.rllib.env.multi_agent_episode": "RLlib's episodes are its connectors' data, and connectors are not run: "
                                          "a callback's episode has get_return(), get_length(), get_rewards(), "
                                          "custom_data",
+    "ray.rllib.env.single_agent_env_runner": "EnvRunners are not built standalone: the face steps the envs inside "
+                                             "algo.train() (its runner: algo.env_runner)",
+    "ray.rllib.env.multi_agent_env_runner": "EnvRunners are not built standalone: the face steps the envs inside "
+                                            "algo.train() (its runner: algo.env_runner)",
     "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
                           "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }

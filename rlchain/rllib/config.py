@@ -15,6 +15,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
 from rlchain.rllib.algorithm_class import AlgorithmClass
+from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.translate import check_supported
 
 _FROZEN = "_frozen"
@@ -45,6 +46,12 @@ class AlgorithmConfig:
                                f"{did_you_mean(key, keys)}")
             out[name] = value
         return out
+
+    def get_default_learner_class(self) -> Any:
+        """RLlib's Learner classes are not run by the face (one line saying what to use)."""
+        raise FaceNotOffered(f"{type(self).__name__}.get_default_learner_class: RLlib's Learner classes are not run "
+                             f"by rlchain's face (its loss options are config keys): train with "
+                             f"config.build_algo().train()")
 
     # ----- setting keys -----------------------------------------------------------------------------
     def _set(self, method: str | None, values: dict[str, Any]) -> AlgorithmConfig:

@@ -23,6 +23,7 @@ def test_overrides_checks_the_keys_and_gives_a_dict():
 @pytest.mark.parametrize("module, says", [
     ("ray.rllib.env.single_agent_episode", "get_observations(-1)"),
     ("ray.rllib.env.apis.task_settable_env", "foreach_env_runner"),
+    ("ray.rllib.env.single_agent_env_runner", "algo.env_runner"),
 ])
 def test_a_page_import_the_face_does_not_offer_is_one_line_naming_what_to_use(module, says):
     alias.install()
@@ -33,3 +34,11 @@ def test_a_page_import_the_face_does_not_offer_is_one_line_naming_what_to_use(mo
         alias.uninstall()
     line = explain(info.value)
     assert line is not None and "\\n" not in line and says in line
+
+
+def test_a_learner_class_is_refused_in_one_line():
+    from rlchain.rllib.face_error import FaceNotOffered
+    with pytest.raises(FaceNotOffered) as info:
+        PPOConfig().get_default_learner_class()
+    line = explain(info.value)
+    assert "\n" not in line and "build_algo().train()" in line
