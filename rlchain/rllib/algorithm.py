@@ -40,6 +40,7 @@ from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
+from rlchain.rllib.schedules import Schedules
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
 from rlchain.tuning.epochs import EpochStepper
@@ -126,6 +127,7 @@ class Algorithm:
             raise ConfigError(type(config).__name__, "env", "no env: .environment('CartPole-v1') or an env class")
         self.iteration = 0
         self._time_total = 0.0
+        self._schedules = Schedules(config)  # lr / entropy_coeff given as [[timestep, value], ...]
         self.metrics = MetricsLogger()
         self._env_runner_metrics = MetricsLogger()
         self.callbacks = _callbacks(settings.get("callbacks_class"))
@@ -193,7 +195,8 @@ class Algorithm:
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
                               f"mapped by the face for {config.algo_name} "
                               f"({' or '.join(a.__name__ for a in allowed)})")
-        out = self.translate(config, env_name, self.observation_space, continuous, run)
+        start = self._schedules.starting_config(config) if self._schedules else config
+        out = self.translate(start, env_name, self.observation_space, continuous, run)
         env_settings = out["params"]["config"]
         if any(steps_episodes(cb) for cb in self.callbacks) and env_settings.get("vecenv_type", "auto") == "auto":
             env_settings["vecenv_type"] = "sync"  # RLlib's runners step a SyncVectorEnv: on_episode_step's env.envs
@@ -215,6 +218,9 @@ class Algorithm:
     def train(self) -> dict[str, Any]:
         """One training iteration (one rlchain epoch of about ``train_batch_size`` env steps); RLlib's result."""
         self._check_running()
+        if self._schedules:  # RLlib's value at the env steps sampled so far, for this train()'s update
+            ctx = self._stepper.context
+            ctx.set_params(**self._schedules.at(int(ctx.state.frames)))
         report = self._stepper.next_epoch()
         if report is None:
             raise RuntimeError("the rlchain run has ended (see its log); build a new algorithm")
