@@ -121,6 +121,10 @@ def _episodes(steps: list[dict[str, Any]], wrapped: bool) -> list[list[dict[str,
     return out
 
 
+REWARD_SPACE = gym.spaces.Box(-np.inf, np.inf, (), np.float32)
+"""The space RLlib's episodes give their rewards column."""
+
+
 def _column(data: Any, space: gym.spaces.Space | None) -> dict[str, Any]:
     return {"data": data, "lookback": 0, "finalized": True, "space": gym_space_to_dict(space)}
 
@@ -135,7 +139,7 @@ def _episode_state(steps: list[dict[str, Any]], obs_space: Any, act_space: Any) 
         "id_": uuid.uuid4().hex, "agent_id": None, "module_id": None, "multi_agent_episode_id": None,
         "observations": _column(_stack(obs), obs_space),
         "actions": _column(np.stack([s["action"] for s in steps]), act_space),
-        "rewards": _column(np.asarray([s["reward"] for s in steps], dtype=np.float32), None),
+        "rewards": _column(np.asarray([s["reward"] for s in steps], dtype=np.float32), REWARD_SPACE),
         "infos": _column([{} for _ in range(len(obs))], None),
         "extra_model_outputs": None,
         "is_terminated": bool(done and last["term"]), "is_truncated": bool(done and not last["term"]),

@@ -70,6 +70,8 @@ def test_rows_become_rllibs_episodes(n_step: int) -> None:
         assert mine["is_terminated"] == (done and key[0] == 0)
         assert mine["is_truncated"] == (done and key[0] == 1)
         assert len(mine["infos"]["data"]) == len(eps["obs"])
+        assert gym_space_from_dict(mine["rewards"]["space"]) == gym.spaces.Box(-np.inf, np.inf, (), np.float32)
+        assert gym_space_from_dict(mine["observations"]["space"]) == OBS
     # one index per stored row; every step is in an episode (rows plus the n - 1 pending ones)
     assert len(state["_indices"]) == len(buffer) == 24 - 2 * (n_step - 1)
     assert state["_num_timesteps"] == 24
