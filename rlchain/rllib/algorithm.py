@@ -34,10 +34,13 @@ from rlchain.rllib.checkpoint_files import (
     read_text,
     stored_config,
 )
+from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
+from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
+from rlchain.rllib.schedules import Schedules
 from rlchain.runner import Runner
 from rlchain.training.callback_context import CallbackContext
 from rlchain.tuning.epochs import EpochStepper
@@ -124,6 +127,7 @@ class Algorithm:
             raise ConfigError(type(config).__name__, "env", "no env: .environment('CartPole-v1') or an env class")
         self.iteration = 0
         self._time_total = 0.0
+        self._schedules = Schedules(config)  # lr / entropy_coeff given as [[timestep, value], ...]
         self.metrics = MetricsLogger()
         self._env_runner_metrics = MetricsLogger()
         self.callbacks = _callbacks(settings.get("callbacks_class"))
@@ -155,12 +159,14 @@ class Algorithm:
         else:
             self.rlchain_config = self._single_agent_config(config, run)
         self.runner = Runner().load(self.rlchain_config)
+        self.env_runner_group = EnvRunnerGroup(self)
+        self.env_runner = self.env_runner_group.local_env_runner
         extra = []
         if any(getattr(type(cb), event) is not getattr(RLlibCallback, event)
                for event in ("on_episode_start", "on_episode_step", "on_episode_end")
                for cb in self.callbacks if not isinstance(cb, _Functions)) \
                 or any(name.startswith("on_episode_") for name in functions):
-            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics))
+            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics, self.env_runner))
         # RLlib's episode results count the episodes of each train() only (see episode_window)
         self._episodes = IterationEpisodes(runners, per_runner,
                                            int(settings.get("metrics_num_episodes_for_smoothing") or 100))
@@ -189,7 +195,8 @@ class Algorithm:
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
                               f"mapped by the face for {config.algo_name} "
                               f"({' or '.join(a.__name__ for a in allowed)})")
-        out = self.translate(config, env_name, self.observation_space, continuous, run)
+        start = self._schedules.starting_config(config) if self._schedules else config
+        out = self.translate(start, env_name, self.observation_space, continuous, run)
         env_settings = out["params"]["config"]
         if any(steps_episodes(cb) for cb in self.callbacks) and env_settings.get("vecenv_type", "auto") == "auto":
             env_settings["vecenv_type"] = "sync"  # RLlib's runners step a SyncVectorEnv: on_episode_step's env.envs
@@ -211,6 +218,9 @@ class Algorithm:
     def train(self) -> dict[str, Any]:
         """One training iteration (one rlchain epoch of about ``train_batch_size`` env steps); RLlib's result."""
         self._check_running()
+        if self._schedules:  # RLlib's value at the env steps sampled so far, for this train()'s update
+            ctx = self._stepper.context
+            ctx.set_params(**self._schedules.at(int(ctx.state.frames)))
         report = self._stepper.next_epoch()
         if report is None:
             raise RuntimeError("the rlchain run has ended (see its log); build a new algorithm")
@@ -303,6 +313,20 @@ class Algorithm:
     def training_iteration(self) -> int:
         """The ``train()`` calls so far (Ray Tune's Trainable attribute, which RLlib's callbacks read)."""
         return self.iteration
+
+    @property
+    def local_replay_buffer(self) -> LocalReplayBuffer | None:
+        """DQN's / SAC's replay buffer as RLlib's (``get_state()``: :mod:`rlchain.rllib.replay_buffer`); None for
+        the algorithms without one (PPO, APPO, IMPALA), as in RLlib."""
+        self._check_running()
+        ctx = self._stepper.context
+        buffer = getattr(ctx.algorithm, "buffer", None) if ctx is not None else None
+        if buffer is None:
+            return None
+        updates = int(getattr(getattr(ctx.algorithm, "agent", None), "updates", 0) or 0)
+        batch = int(self.rlchain_config["params"]["config"].get("batch_size") or 0)
+        return LocalReplayBuffer(buffer, self.observation_space, self.action_space, int(ctx.state.frames),
+                                 updates * batch)
 
     def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
