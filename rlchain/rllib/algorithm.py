@@ -179,6 +179,9 @@ class Algorithm:
         env_settings = out["params"]["config"]
         if any(steps_episodes(cb) for cb in self.callbacks) and env_settings.get("vecenv_type", "auto") == "auto":
             env_settings["vecenv_type"] = "sync"  # RLlib's runners step a SyncVectorEnv: on_episode_step's env.envs
+        vecenv = vector_env_type(settings.get("gym_env_vectorize_mode"), env_settings.get("vecenv_type", "auto"))
+        if vecenv is not None:
+            env_settings["vecenv_type"] = vecenv
         if config.algo_name == "PPO":  # a user's RLModule as the network
             module_network.apply_spec(config, out, self.observation_space, self.action_space)
         return out
@@ -433,6 +436,14 @@ class Algorithm:
 
 
 _MISSING = object()
+
+
+def vector_env_type(mode: Any, current: Any) -> str | None:
+    """rlchain's ``vecenv_type`` for RLlib's ``gym_env_vectorize_mode``: ASYNC (gymnasium's ``AsyncVectorEnv``, a
+    process per env) is rlchain's ``async`` where the envs step in this process; None leaves ``current``."""
+    if str(getattr(mode, "value", mode)).lower() == "async" and current in ("auto", "sync", None):
+        return "async"
+    return None
 
 
 def _run_name(algo: str, env: Any) -> str:
