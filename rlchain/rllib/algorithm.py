@@ -25,6 +25,7 @@ from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
 from rlchain.rllib import envs, module_network, multi_agent, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested, steps_episodes
+from rlchain.rllib.callbacks.user import EventFunctions, callback_objects
 from rlchain.rllib.checkpoint_files import (
     CHECKPOINT_FILE,
     CONFIG_FILE,
@@ -70,28 +71,6 @@ class _Stepper(EpochStepper):
         self._resumed_at = time.time()
 
 
-def _callbacks(value: Any) -> list[RLlibCallback]:
-    items = value if isinstance(value, (list, tuple)) else ([] if value is None else [value])
-    out = []
-    for item in items:
-        obj = item() if isinstance(item, type) else item
-        if not isinstance(obj, RLlibCallback) and not all(callable(getattr(obj, n, None)) for n in
-                                                          ("on_train_result", "on_episode_end")):
-            raise ConfigError("AlgorithmConfig.callbacks()", "callbacks_class", f"{item!r}: expected an "
-                              f"RLlibCallback subclass")
-        out.append(obj)
-    return out
-
-
-class _Functions(RLlibCallback):
-    """``callbacks(on_train_result=fn, ...)``: single functions by event name."""
-
-    def __init__(self, functions: dict[str, Any]) -> None:
-        for name, fn in functions.items():
-            fns = fn if isinstance(fn, (list, tuple)) else [fn]
-            setattr(self, name, lambda *a, _fns=fns, **k: [f(*a, **k) for f in _fns])
-
-
 ALGORITHMS: dict[str, type] = {}
 """The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
 
@@ -130,13 +109,13 @@ class Algorithm:
         self._schedules = Schedules(config)  # lr / entropy_coeff given as [[timestep, value], ...]
         self.metrics = MetricsLogger()
         self._env_runner_metrics = MetricsLogger()
-        self.callbacks = _callbacks(settings.get("callbacks_class"))
+        self.callbacks = callback_objects(settings.get("callbacks_class"))
         functions = {k: settings[k] for k in ("on_algorithm_init", "on_train_result", "on_episode_start",
                                               "on_episode_step", "on_episode_end", "on_evaluate_start",
                                               "on_evaluate_end")
                      if settings.get(k) is not None}
         if functions:
-            self.callbacks.append(_Functions(functions))
+            self.callbacks.append(EventFunctions(functions))
         runners = int(settings.get("num_env_runners") or 0)
         per_runner = max(1, int(settings.get("num_envs_per_env_runner") or 1))
         self._make, self._label = envs.env_maker(settings["env"], settings.get("env_config") or {}, runners,
@@ -164,7 +143,7 @@ class Algorithm:
         extra = []
         if any(getattr(type(cb), event) is not getattr(RLlibCallback, event)
                for event in ("on_episode_start", "on_episode_step", "on_episode_end")
-               for cb in self.callbacks if not isinstance(cb, _Functions)) \
+               for cb in self.callbacks if not isinstance(cb, EventFunctions)) \
                 or any(name.startswith("on_episode_") for name in functions):
             extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics, self.env_runner))
         # RLlib's episode results count the episodes of each train() only (see episode_window)
