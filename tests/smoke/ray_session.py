@@ -77,8 +77,9 @@ def session(num_cpus: int) -> Iterator[None]:
     import ray
 
     handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-    started = start(num_cpus)
+    started = False
     try:
+        started = start(num_cpus)
         yield
     finally:
         if started:
