@@ -42,3 +42,14 @@ def test_a_learner_class_is_refused_in_one_line():
         PPOConfig().get_default_learner_class()
     line = explain(info.value)
     assert "\n" not in line and "build_algo().train()" in line
+
+
+
+def test_async_vectorization_is_rlchains_async_vector_env():
+    import gymnasium as gym
+
+    from rlchain.rllib.algorithm import vector_env_type
+    mode = gym.envs.registration.VectorizeMode
+    assert vector_env_type(mode.ASYNC, "auto") == "async" == vector_env_type("async", "sync")
+    assert vector_env_type(mode.SYNC, "auto") is None and vector_env_type(None, "auto") is None
+    assert vector_env_type(mode.ASYNC, "RAY") is None  # Ray env runners step their own envs

@@ -43,4 +43,5 @@ def test_ppo_trains_each_iteration_with_the_value_at_the_steps_before_it(tmp_pat
     finally:
         algo.stop()
     assert [r["curr_lr"] for r in learners] == pytest.approx([1e-3, 5e-4, 0.0])
+    assert [r["default_optimizer_learning_rate"] for r in learners] == [r["curr_lr"] for r in learners]  # 2.60's
     assert [r["curr_entropy_coeff"] for r in learners] == pytest.approx([0.02, 0.01, 0.0])
