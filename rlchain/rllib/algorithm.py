@@ -14,7 +14,6 @@ import json
 import math
 import os
 import tempfile
-import time
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -42,34 +41,8 @@ from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
 from rlchain.rllib.schedules import Schedules
+from rlchain.rllib.stepper import ParkingStepper
 from rlchain.runner import Runner
-from rlchain.training.callback_context import CallbackContext
-from rlchain.tuning.epochs import EpochStepper
-
-
-class _Stepper(EpochStepper):
-    """EpochStepper that also parks before the first rollout (the model exists then)."""
-
-    def start(self) -> None:
-        import threading
-        self._thread = threading.Thread(target=self._run, name="rlchain-rllib-train", daemon=True)
-        self._thread.start()
-        kind, item = self._events.get()
-        if kind == "error":
-            self._thread.join()
-            raise item
-        if kind == "end":
-            self._thread.join()
-            self.result = item
-
-    def on_train_start(self, ctx: CallbackContext) -> None:
-        super().on_train_start(ctx)
-        self.parked = True
-        self._events.put(("ready", None))
-        if self._commands.get() == "stop":
-            ctx.request_stop("algorithm stopped")
-        self._resumed_at = time.time()
-
 
 ALGORITHMS: dict[str, type] = {}
 """The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
@@ -153,7 +126,7 @@ class Algorithm:
             extra.append(self._episodes)  # PPO's rollout steps the envs here: each episode's runner is known
         else:
             self._episodes.per_runner = False  # the episodes the tracker finished, all runners together
-        self._stepper = _Stepper(self.runner, seed=settings.get("seed"))
+        self._stepper = ParkingStepper(self.runner, seed=settings.get("seed"))
         self._stepper._extra = extra
         self._stepper._run = self._run_thread
         self._stepper.start()
