@@ -82,16 +82,26 @@ def _train_simple_tag(tmp_path, *overrides):
     return start, end, Runner().load(config).params
 
 
+_START_PLAY: dict = {}
+"""(games, the starting weights) -> every policy's rewards when the starting models play each other: both simple_tag
+tests start from the same models (the config's seed), so a process running both plays those games once."""
+
+
 def _gain(params, policy, trained, start, games=384):
     """(mean gain, its standard error) of ``policy``'s agent-episode reward when its trained model replaces its
     starting one, the other side playing its starting model; the error counts games, not agents (the
     predators of one game share their reward)."""
     def rewards(models):
-        played = play_policies(params, None, games=games, quiet=True, models=torch.nn.ModuleDict(models)).rewards
+        return play_policies(params, None, games=games, quiet=True, models=torch.nn.ModuleDict(models)).rewards
+
+    def mean_and_error(played):
         return float(np.mean(played[policy])), float(np.std(played[policy]) / np.sqrt(games))
 
-    before = rewards(dict(start))
-    after = rewards({**start, policy: trained[policy]})
+    key = (games, tuple(float(w.double().sum()) for name in sorted(start) for w in start[name].state_dict().values()))
+    if key not in _START_PLAY:
+        _START_PLAY[key] = rewards(dict(start))
+    before = mean_and_error(_START_PLAY[key])
+    after = mean_and_error(rewards({**start, policy: trained[policy]}))
     return after[0] - before[0], float(np.hypot(after[1], before[1]))
 
 

@@ -122,8 +122,10 @@ def serve() -> None:
             os.environ.update(request["env"])
             null = os.open(os.devnull, os.O_RDONLY)
             os.dup2(null, 0)
-            for fd, path in ((1, request["stdout"]), (2, request["stderr"])):
-                os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), fd)
+            for fd, path in ((1, request["stdout"]), (2, request["stderr"])):  # files, or a pseudo-terminal's
+                # slave: O_NOCTTY, so it does not become the new session's controlling terminal, which the
+                # kernel would hang up (its unread output dropped) when the child exits
+                os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOCTTY, 0o644), fd)
             sys.stdin = open(0, closefd=False)
             exit_child(run_command(*parsed) if parsed else 127)
         print(json.dumps({"pid": pid}), flush=True)

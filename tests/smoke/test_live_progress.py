@@ -3,15 +3,16 @@ ETA); the same run piped prints the plain epoch lines with no control characters
 
 import os
 import pty
-import subprocess
+import select
 import sys
+import threading
 
 import pytest
 
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, ROOT
+from tests.smoke.cli_server import run_python, start_python
 
 pytestmark = pytest.mark.smoke
-ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
 
 def _command(train_dir):
@@ -27,22 +28,26 @@ def _env():
 
 
 def _run_on_pty(command):
+    """The command's standard output is a pseudo-terminal's (the child opens its slave by name); its text as the
+    terminal received it. This process keeps the slave open (the child may open it after the command started), so
+    the master is read until the command has ended, then drained."""
     master, slave = pty.openpty()
-    proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=slave, stderr=subprocess.PIPE, env=_env(),
-                            cwd=ROOT)
-    os.close(slave)
-    out = b""
-    while True:
-        try:
-            chunk = os.read(master, 4096)
-        except OSError:  # EIO: the child closed the terminal
-            break
-        if not chunk:
-            break
-        out += chunk
-    os.close(master)
-    err = proc.stderr.read().decode()
-    assert proc.wait(timeout=120) == 0, err[-2000:]
+    ended, out = [], b""
+    try:
+        with start_python(command, ROOT, _env(), stdout=os.ttyname(slave)) as started:
+            waiter = threading.Thread(target=lambda: ended.append(started.wait(120)))
+            waiter.start()
+            while True:
+                done = not waiter.is_alive()  # what it wrote before it ended is read below
+                while select.select([master], [], [], 0.05)[0]:
+                    out += os.read(master, 4096)
+                if done:
+                    break
+            waiter.join()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert ended and ended[0].returncode == 0, ended[0].stderr[-2000:] if ended else "the command did not end"
     return out.decode()
 
 
@@ -55,10 +60,8 @@ def test_terminal_shows_live_status_and_pipe_prints_plain_lines(tmp_path):
     # the first and the last epoch lines above the status (the rest within 10 s are left to the status)
     assert "epoch 1/4 | frames 64 | fps " in live and "epoch 4/4 | frames 256 | fps " in live
 
-    piped = subprocess.run(_command(tmp_path / "pipe"), capture_output=True, text=True, env=_env(), cwd=ROOT,
-                           timeout=120)
+    piped = run_python(_command(tmp_path / "pipe"), ROOT, _env(), 120)
     assert piped.returncode == 0, piped.stderr[-2000:]
     assert "\r" not in piped.stdout and "\x1b" not in piped.stdout and "ETA" not in piped.stdout
     epoch_lines = [line for line in piped.stdout.splitlines() if line.startswith("epoch ")]
     assert [line.split(" |")[0] for line in epoch_lines] == ["epoch 1/4", "epoch 2/4", "epoch 3/4", "epoch 4/4"]
-

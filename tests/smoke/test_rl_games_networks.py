@@ -3,7 +3,6 @@ through an rl_games script under ``python -m rlchain.rl_games`` and through ``ru
 
 import glob
 import os
-import subprocess
 import sys
 
 import pytest
@@ -76,8 +75,7 @@ def test_rl_games_style_network_trains_resumes_plays_exports(tmp_path, form):
     path.write_text(yaml.safe_dump(cfg))
     script = tmp_path / "train.py"
     script.write_text(SCRIPT)
-    out = subprocess.run([sys.executable, "-m", "rlchain.rl_games", str(script), str(path)], cwd=tmp_path, env=ENV,
-                         capture_output=True, text=True, timeout=300)
+    out = run_python([sys.executable, "-m", "rlchain.rl_games", str(script), str(path)], tmp_path, ENV, 300)
     assert out.returncode == 0, out.stderr[-3000:]
     assert "at epoch 2" in out.stdout and "max_epochs 3 reached at epoch 3" in out.stdout, out.stdout[-2000:]
     assert "PLAYED 2" in out.stdout

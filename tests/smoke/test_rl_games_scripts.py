@@ -12,6 +12,7 @@ import yaml
 
 from rlchain.rl_games import alias
 from tests.conftest import ROOT
+from tests.smoke.cli_server import run_python
 
 pytestmark = pytest.mark.smoke
 
@@ -19,9 +20,14 @@ EXAMPLE = os.path.join(ROOT, "examples", "isaac_style")
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore", "PYTHONPATH": ROOT}  # this checkout's rlchain
 
 
-def launch(args, cwd, env=None, timeout=300):
-    return subprocess.run([sys.executable, "-m", "rlchain.rl_games", *args], cwd=cwd, env=env or ENV,
-                          capture_output=True, text=True, timeout=timeout)
+def launch(args, cwd, env=None, timeout=300, fresh=False):
+    """``python -m rlchain.rl_games ARGS`` in ``cwd``: in a child of the fork server (it has imported torch and
+    rlchain: tests/smoke/cli_server.py), or with ``fresh`` in a new process, whose ``sys.path`` follows ``env``'s
+    PYTHONPATH (a fork server's child keeps the server's)."""
+    argv = [sys.executable, "-m", "rlchain.rl_games", *args]
+    if fresh:
+        return subprocess.run(argv, cwd=cwd, env=env or ENV, capture_output=True, text=True, timeout=timeout)
+    return run_python(argv, cwd, env or ENV, timeout)
 
 
 SCRIPT = """
@@ -52,7 +58,7 @@ def test_launcher_runs_a_script_as_python_would(tmp_path):
     script = tmp_path / "scripts" / "train.py"
     script.parent.mkdir()
     script.write_text(SCRIPT)
-    out = launch([str(script), "--task", "x", "3"], tmp_path, env)
+    out = launch([str(script), "--task", "x", "3"], tmp_path, env, fresh=True)
     assert out.returncode == 3, out.stderr
     lines = out.stdout.splitlines()
     assert lines[0].startswith("rlchain ") and "stands in for rl_games" in lines[0]

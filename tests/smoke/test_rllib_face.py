@@ -7,16 +7,24 @@ import sys
 
 import pytest
 
-pytest.importorskip("ray")
+from tests.conftest import ROOT, installed
+from tests.smoke.cli_server import run_python
 
+# a mark, not pytest.importorskip at module level: that would import ray when the file is collected, in every
+# pytest process (each xdist worker, the learning tier), whether or not a test of this file runs there
+pytestmark = [pytest.mark.smoke, installed("ray")]
 SCRIPTS = os.path.join(os.path.dirname(__file__), "rllib_scripts")
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def _run(script, tmp_path, *args):
+def _run(script, tmp_path, *args, fresh=False):
+    """``python -m rlchain.rllib SCRIPT ARGS`` in ``tmp_path``: in a child of the fork server (it has imported torch
+    and rlchain: tests/smoke/cli_server.py), or with ``fresh`` in a new process (a script that starts Ray's own
+    processes)."""
     env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""), "OMP_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-m", "rlchain.rllib", os.path.join(SCRIPTS, script), *args],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    argv = [sys.executable, "-m", "rlchain.rllib", os.path.join(SCRIPTS, script), *args]
+    if fresh:
+        return subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    return run_python(argv, tmp_path, env, 300)
 
 
 @pytest.mark.parametrize("script", ["getting_started.py", "custom_env.py"])
@@ -42,7 +50,7 @@ def test_tuner_runs_ppo_by_name_on_real_ray_tune(tmp_path):
     """tune.Tuner("PPO", ...) and tune.Tuner(config.algo_class, ...) with a grid search: three trials on Ray Tune,
     each the face's PPO (a minute or more: Ray starts its processes)."""
     pytest.importorskip("ray.tune")
-    out = _run("tune_ppo.py", tmp_path)
+    out = _run("tune_ppo.py", tmp_path, fresh=True)
     assert out.returncode == 0, out.stderr[-3000:]
     assert out.stdout.strip().endswith("OK")
 

@@ -3,6 +3,7 @@
 import glob
 import logging
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from rlchain.errors import DivergenceError, EnvError
 from rlchain.runs import checkpoint as ckpt
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS, ROOT
+from tests.smoke.cli_server import start_python
 from tests.smoke.test_train_play_resume import run_cli, small
 
 pytestmark = pytest.mark.smoke
@@ -31,23 +33,19 @@ def cartpole(tmp_path, *extra, epochs=3):
 
 
 def test_sigterm_saves_and_resume_continues(tmp_path):
+    """``python runner.py --train`` in a child of the fork server (tests/smoke/cli_server.py), a process and
+    session of its own as a fresh ``python`` is: SIGTERM once its 5th epoch has printed."""
     env = dict(os.environ, PYTHONPATH=ROOT)
-    proc = subprocess.Popen([sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file", CARTPOLE,
-                             *small(tmp_path, epochs=100000)], cwd=tmp_path, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines = []
-    try:
+    argv = [sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--file", CARTPOLE,
+            *small(tmp_path, epochs=100000)]
+    with start_python(argv, tmp_path, env) as started:
         deadline = time.time() + 120
-        for line in proc.stdout:
-            lines.append(line)
-            if line.startswith("epoch 5/") or time.time() > deadline:
-                break
-        proc.send_signal(signal.SIGTERM)
-        out, _ = proc.communicate(timeout=60)
-    finally:
-        proc.kill()
-    text = "".join(lines) + out
-    assert proc.returncode == 143, text  # 128 + SIGTERM, as a shell reports a terminated process
+        while not re.search(r"^epoch 5/", started.output(), re.MULTILINE) and time.time() < deadline:
+            time.sleep(0.05)
+        os.kill(started.pid, signal.SIGTERM)
+        ended = started.wait(60)
+    text = ended.stdout + ended.stderr
+    assert ended.returncode == 143, text  # 128 + SIGTERM, as a shell reports a terminated process
     assert "interrupted by SIGTERM" in text
     assert f"resume with: python runner.py --train --file {CARTPOLE} --checkpoint " in text  # the real path
     last = glob.glob(str(tmp_path / "runs" / "cartpole_*" / "nn" / "last_cartpole.pth"))[0]

@@ -2,7 +2,6 @@
 
 import glob
 import os
-import subprocess
 import sys
 
 import pytest
@@ -144,7 +143,7 @@ def test_cli_track_offline(tmp_path):
     env = dict(os.environ, WANDB_MODE="offline", WANDB_SILENT="true")
     cmd = [sys.executable, os.path.join(ROOT, "runner.py"), "--train", "--track", "--wandb-project-name", "p",
            "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"), *small(tmp_path, epochs=1)]
-    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=240)
+    out = run_python(cmd, tmp_path, env, 240)
     assert out.returncode == 0, out.stderr
     assert glob.glob(str(tmp_path / "runs" / "cartpole_*" / "wandb" / "offline-run-*" / "run-*.wandb"))
 
@@ -158,9 +157,8 @@ def test_train_py_with_json_config(tmp_path):
     path = tmp_path / "train_config.json"
     path.write_text(json.dumps(cfg))
     env = dict(os.environ, PYTHONPATH=ROOT)
-    out = subprocess.run([sys.executable, os.path.join(ROOT, "train.py"), "--config", str(path),
-                          *small(tmp_path, epochs=1)], cwd=tmp_path, env=env, capture_output=True, text=True,
-                         timeout=240)
+    out = run_python([sys.executable, os.path.join(ROOT, "train.py"), "--config", str(path),
+                      *small(tmp_path, epochs=1)], tmp_path, env, 240)
     assert out.returncode == 0, out.stderr
     assert "epoch 1/1" in out.stdout
 
