@@ -1,0 +1,75 @@
+"""The caller's side of tests/smoke/forkserver.py: start the server once, send it commands, read what they did.
+
+Used by the docs pages' commands (test_docs_commands.py, on the test venv with this tree's rlchain) and by the
+installed wheel's commands (test_wheel_install.py, on the fresh venv with ``--installed``: the wheel's rlchain).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import threading
+
+SERVER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "forkserver.py")
+
+
+class ForkServer:
+    """tests/smoke/forkserver.py, started once: runs plain python / rlchain commands in a child forked from a
+    Python that has already imported torch and rlchain (see that file for what is and is not the same).
+
+    ``python``: the interpreter the server runs on (this one by default); ``installed``: it imports the rlchain
+    installed in that interpreter, not this tree's; ``stop_grace``: the seconds a command stopped with SIGINT
+    (``stop_after``) has to end before it is killed."""
+
+    def __init__(self, env: dict[str, str], stop_grace: float = 5, python: str = sys.executable,
+                 installed: bool = False, cwd: str | None = None):
+        argv = [python, SERVER, *(["--installed"] if installed else [])]
+        self.proc = subprocess.Popen(argv, cwd=cwd or os.path.dirname(os.path.dirname(os.path.dirname(SERVER))),
+                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self.stop_grace = stop_grace
+        self.last_cpu = 0.0  # CPU seconds of the last command (it and its children)
+
+    def run(self, argv: list[str], ws: str, env: dict, timeout: float, stop_after: float | None = None,
+            prelude: str | None = None) -> tuple[int | None, str, str]:
+        """(exit status, stdout, stderr) of ``argv`` in ``ws``; the child is killed after ``timeout`` seconds
+        (status -9). With ``stop_after``: a child still running then gets SIGINT (as a user's Ctrl-C) and the status
+        is None. ``prelude``: ``module:function`` the child calls before the command (forkserver.py)."""
+        out, err = os.path.join(ws, "_stdout.txt"), os.path.join(ws, "_stderr.txt")
+        request = {"argv": argv, "cwd": ws, "env": env, "stdout": out, "stderr": err, "prelude": prelude}
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        pid = json.loads(self.proc.stdout.readline())["pid"]
+        stopped = False
+        if stop_after is not None and not select.select([self.proc.stdout], [], [], stop_after)[0]:
+            stopped = True
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(pid, signal.SIGINT)
+            timeout = self.stop_grace
+        timer = threading.Timer(timeout, _kill_session, (pid,))
+        timer.start()
+        try:
+            answer = json.loads(self.proc.stdout.readline())
+        finally:
+            timer.cancel()
+        self.last_cpu = answer.get("cpu", 0.0)
+        status = None if stopped else answer["status"]
+        texts = []
+        for path in (out, err):
+            with open(path, encoding="utf-8", errors="replace") as fh:
+                texts.append(fh.read())
+            os.remove(path)
+        return status, texts[0], texts[1]
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait(timeout=30)
+
+
+def _kill_session(pid: int) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pid, signal.SIGKILL)
