@@ -29,7 +29,7 @@ import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-INSTALLED = sys.argv[1:] == ["--installed"]
+INSTALLED = "--installed" in sys.argv[1:]
 if INSTALLED:  # the rlchain installed in this interpreter (the wheel test's venv): nothing of the clone on the path
     del sys.path[0]
 else:
@@ -48,6 +48,16 @@ import rlchain.console  # noqa: E402,F401
 import rlchain.envs.examples  # noqa: E402,F401  (the example envs the shipped configs register)
 import rlchain.runner  # noqa: E402,F401
 import rlchain.sb3  # noqa: E402,F401  (the SB3-style classes of the README and docs/sb3.md)
+
+# --preload MODULE (repeatable): more modules to import once, where installed (the docs pages' envpool: three MuJoCo
+# commands, about 2 s of CPU each to import it); a module that is not installed is left to the commands, which
+# import it, or fail, as a fresh process would
+for _at, _flag in enumerate(sys.argv[:-1]):
+    if _flag == "--preload":
+        try:
+            __import__(sys.argv[_at + 1])
+        except ImportError:
+            pass
 
 
 def python_argv(argv: list[str]) -> tuple[str, str, list[str]] | None:

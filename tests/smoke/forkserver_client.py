@@ -24,11 +24,13 @@ class ForkServer:
 
     ``python``: the interpreter the server runs on (this one by default); ``installed``: it imports the rlchain
     installed in that interpreter, not this tree's; ``stop_grace``: the seconds a command stopped with SIGINT
-    (``stop_after``) has to end before it is killed."""
+    (``stop_after``) has to end before it is killed; ``preload``: more modules the server imports once, where
+    installed."""
 
     def __init__(self, env: dict[str, str], stop_grace: float = 5, python: str = sys.executable,
-                 installed: bool = False, cwd: str | None = None):
-        argv = [python, SERVER, *(["--installed"] if installed else [])]
+                 installed: bool = False, cwd: str | None = None, preload: tuple[str, ...] = ()):
+        argv = [python, SERVER, *(["--installed"] if installed else []),
+                *(arg for module in preload for arg in ("--preload", module))]
         self.proc = subprocess.Popen(argv, cwd=cwd or os.path.dirname(os.path.dirname(os.path.dirname(SERVER))),
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         self.stop_grace = stop_grace
@@ -40,10 +42,7 @@ class ForkServer:
         (status -9). With ``stop_after``: a child still running then gets SIGINT (as a user's Ctrl-C) and the status
         is None. ``prelude``: ``module:function`` the child calls before the command (forkserver.py)."""
         out, err = os.path.join(ws, "_stdout.txt"), os.path.join(ws, "_stderr.txt")
-        request = {"argv": argv, "cwd": ws, "env": env, "stdout": out, "stderr": err, "prelude": prelude}
-        self.proc.stdin.write(json.dumps(request) + "\n")
-        self.proc.stdin.flush()
-        pid = json.loads(self.proc.stdout.readline())["pid"]
+        pid = self.start(argv, ws, env, out, err, prelude)
         stopped = False
         if stop_after is not None and not select.select([self.proc.stdout], [], [], stop_after)[0]:
             stopped = True
@@ -64,6 +63,24 @@ class ForkServer:
                 texts.append(fh.read())
             os.remove(path)
         return status, texts[0], texts[1]
+
+    def start(self, argv: list[str], cwd: str, env: dict, stdout: str, stderr: str,
+              prelude: str | None = None) -> int:
+        """Start ``argv`` in a child (its standard streams into the files ``stdout`` and ``stderr``); its pid. The
+        server runs one command at a time: ``finished`` (or ``run``) reads how this one ended."""
+        request = {"argv": argv, "cwd": cwd, "env": env, "stdout": stdout, "stderr": stderr, "prelude": prelude}
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        return json.loads(self.proc.stdout.readline())["pid"]
+
+    def finished(self, timeout: float | None = None) -> int | None:
+        """The exit status of the command ``start`` started (negative: killed by that signal), once it has ended;
+        None if it is still running after ``timeout`` seconds (None: wait for it)."""
+        if timeout is not None and not select.select([self.proc.stdout], [], [], timeout)[0]:
+            return None
+        answer = json.loads(self.proc.stdout.readline())
+        self.last_cpu = answer.get("cpu", 0.0)
+        return answer["status"]
 
     def close(self) -> None:
         self.proc.stdin.close()

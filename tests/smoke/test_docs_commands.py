@@ -339,7 +339,7 @@ def fork_server():
     if os.environ.get("RLCHAIN_DOCS_FRESH") == "1":
         yield None
         return
-    server = ForkServer(environment(ROOT), STOP_GRACE)
+    server = ForkServer(environment(ROOT), STOP_GRACE, preload=("envpool",))  # three pages' MuJoCo commands
     yield server
     server.close()
 
