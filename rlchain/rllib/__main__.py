@@ -13,6 +13,7 @@ import sys
 from rlchain.config.errors import ConfigError
 from rlchain.faces import run_script
 from rlchain.rllib.alias import FaceImportError, RLlibAlias
+from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.runs.checkpoint import CheckpointError
 
 
@@ -20,7 +21,7 @@ def explain(exc: Exception) -> str | None:
     """The one line an error of the face ends the script with, or None for any other exception."""
     if isinstance(exc, FaceImportError):
         return f"ImportError: {exc}"
-    if isinstance(exc, (ConfigError, CheckpointError)):  # already one line naming the key / file
+    if isinstance(exc, (ConfigError, CheckpointError, FaceNotOffered)):  # already one line naming the key / file
         return f"{type(exc).__name__}: {exc}"
     if isinstance(exc, ImportError) and exc.name and exc.name.startswith(("ray.rllib", "rlchain.rllib")):
         return f"ImportError: {exc} (not offered by rlchain's RLlib face; see docs/rllib.md)"

@@ -14,7 +14,6 @@ import json
 import math
 import os
 import tempfile
-import time
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -25,6 +24,7 @@ from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
 from rlchain.rllib import envs, module_network, multi_agent, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested, steps_episodes
+from rlchain.rllib.callbacks.user import EventFunctions, callback_objects
 from rlchain.rllib.checkpoint_files import (
     CHECKPOINT_FILE,
     CONFIG_FILE,
@@ -34,60 +34,15 @@ from rlchain.rllib.checkpoint_files import (
     read_text,
     stored_config,
 )
+from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
+from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
+from rlchain.rllib.schedules import Schedules
+from rlchain.rllib.stepper import ParkingStepper
 from rlchain.runner import Runner
-from rlchain.training.callback_context import CallbackContext
-from rlchain.tuning.epochs import EpochStepper
-
-
-class _Stepper(EpochStepper):
-    """EpochStepper that also parks before the first rollout (the model exists then)."""
-
-    def start(self) -> None:
-        import threading
-        self._thread = threading.Thread(target=self._run, name="rlchain-rllib-train", daemon=True)
-        self._thread.start()
-        kind, item = self._events.get()
-        if kind == "error":
-            self._thread.join()
-            raise item
-        if kind == "end":
-            self._thread.join()
-            self.result = item
-
-    def on_train_start(self, ctx: CallbackContext) -> None:
-        super().on_train_start(ctx)
-        self.parked = True
-        self._events.put(("ready", None))
-        if self._commands.get() == "stop":
-            ctx.request_stop("algorithm stopped")
-        self._resumed_at = time.time()
-
-
-def _callbacks(value: Any) -> list[RLlibCallback]:
-    items = value if isinstance(value, (list, tuple)) else ([] if value is None else [value])
-    out = []
-    for item in items:
-        obj = item() if isinstance(item, type) else item
-        if not isinstance(obj, RLlibCallback) and not all(callable(getattr(obj, n, None)) for n in
-                                                          ("on_train_result", "on_episode_end")):
-            raise ConfigError("AlgorithmConfig.callbacks()", "callbacks_class", f"{item!r}: expected an "
-                              f"RLlibCallback subclass")
-        out.append(obj)
-    return out
-
-
-class _Functions(RLlibCallback):
-    """``callbacks(on_train_result=fn, ...)``: single functions by event name."""
-
-    def __init__(self, functions: dict[str, Any]) -> None:
-        for name, fn in functions.items():
-            fns = fn if isinstance(fn, (list, tuple)) else [fn]
-            setattr(self, name, lambda *a, _fns=fns, **k: [f(*a, **k) for f in _fns])
-
 
 ALGORITHMS: dict[str, type] = {}
 """The face's Algorithm classes by RLlib name (each subclass with an ``algo_name`` registers itself)."""
@@ -124,15 +79,16 @@ class Algorithm:
             raise ConfigError(type(config).__name__, "env", "no env: .environment('CartPole-v1') or an env class")
         self.iteration = 0
         self._time_total = 0.0
+        self._schedules = Schedules(config)  # lr / entropy_coeff given as [[timestep, value], ...]
         self.metrics = MetricsLogger()
         self._env_runner_metrics = MetricsLogger()
-        self.callbacks = _callbacks(settings.get("callbacks_class"))
+        self.callbacks = callback_objects(settings.get("callbacks_class"))
         functions = {k: settings[k] for k in ("on_algorithm_init", "on_train_result", "on_episode_start",
                                               "on_episode_step", "on_episode_end", "on_evaluate_start",
                                               "on_evaluate_end")
                      if settings.get(k) is not None}
         if functions:
-            self.callbacks.append(_Functions(functions))
+            self.callbacks.append(EventFunctions(functions))
         runners = int(settings.get("num_env_runners") or 0)
         per_runner = max(1, int(settings.get("num_envs_per_env_runner") or 1))
         self._make, self._label = envs.env_maker(settings["env"], settings.get("env_config") or {}, runners,
@@ -155,12 +111,14 @@ class Algorithm:
         else:
             self.rlchain_config = self._single_agent_config(config, run)
         self.runner = Runner().load(self.rlchain_config)
+        self.env_runner_group = EnvRunnerGroup(self)
+        self.env_runner = self.env_runner_group.local_env_runner
         extra = []
         if any(getattr(type(cb), event) is not getattr(RLlibCallback, event)
                for event in ("on_episode_start", "on_episode_step", "on_episode_end")
-               for cb in self.callbacks if not isinstance(cb, _Functions)) \
+               for cb in self.callbacks if not isinstance(cb, EventFunctions)) \
                 or any(name.startswith("on_episode_") for name in functions):
-            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics))
+            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics, self.env_runner))
         # RLlib's episode results count the episodes of each train() only (see episode_window)
         self._episodes = IterationEpisodes(runners, per_runner,
                                            int(settings.get("metrics_num_episodes_for_smoothing") or 100))
@@ -168,7 +126,7 @@ class Algorithm:
             extra.append(self._episodes)  # PPO's rollout steps the envs here: each episode's runner is known
         else:
             self._episodes.per_runner = False  # the episodes the tracker finished, all runners together
-        self._stepper = _Stepper(self.runner, seed=settings.get("seed"))
+        self._stepper = ParkingStepper(self.runner, seed=settings.get("seed"))
         self._stepper._extra = extra
         self._stepper._run = self._run_thread
         self._stepper.start()
@@ -189,10 +147,14 @@ class Algorithm:
             raise ConfigError(type(config).__name__, "env", f"{type(self.action_space).__name__} actions are not "
                               f"mapped by the face for {config.algo_name} "
                               f"({' or '.join(a.__name__ for a in allowed)})")
-        out = self.translate(config, env_name, self.observation_space, continuous, run)
+        start = self._schedules.starting_config(config) if self._schedules else config
+        out = self.translate(start, env_name, self.observation_space, continuous, run)
         env_settings = out["params"]["config"]
         if any(steps_episodes(cb) for cb in self.callbacks) and env_settings.get("vecenv_type", "auto") == "auto":
             env_settings["vecenv_type"] = "sync"  # RLlib's runners step a SyncVectorEnv: on_episode_step's env.envs
+        vecenv = vector_env_type(settings.get("gym_env_vectorize_mode"), env_settings.get("vecenv_type", "auto"))
+        if vecenv is not None:
+            env_settings["vecenv_type"] = vecenv
         if config.algo_name == "PPO":  # a user's RLModule as the network
             module_network.apply_spec(config, out, self.observation_space, self.action_space)
         return out
@@ -211,6 +173,9 @@ class Algorithm:
     def train(self) -> dict[str, Any]:
         """One training iteration (one rlchain epoch of about ``train_batch_size`` env steps); RLlib's result."""
         self._check_running()
+        if self._schedules:  # RLlib's value at the env steps sampled so far, for this train()'s update
+            ctx = self._stepper.context
+            ctx.set_params(**self._schedules.at(int(ctx.state.frames)))
         report = self._stepper.next_epoch()
         if report is None:
             raise RuntimeError("the rlchain run has ended (see its log); build a new algorithm")
@@ -303,6 +268,20 @@ class Algorithm:
     def training_iteration(self) -> int:
         """The ``train()`` calls so far (Ray Tune's Trainable attribute, which RLlib's callbacks read)."""
         return self.iteration
+
+    @property
+    def local_replay_buffer(self) -> LocalReplayBuffer | None:
+        """DQN's / SAC's replay buffer as RLlib's (``get_state()``: :mod:`rlchain.rllib.replay_buffer`); None for
+        the algorithms without one (PPO, APPO, IMPALA), as in RLlib."""
+        self._check_running()
+        ctx = self._stepper.context
+        buffer = getattr(ctx.algorithm, "buffer", None) if ctx is not None else None
+        if buffer is None:
+            return None
+        updates = int(getattr(getattr(ctx.algorithm, "agent", None), "updates", 0) or 0)
+        batch = int(self.rlchain_config["params"]["config"].get("batch_size") or 0)
+        return LocalReplayBuffer(buffer, self.observation_space, self.action_space, int(ctx.state.frames),
+                                 updates * batch)
 
     def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
@@ -430,6 +409,14 @@ class Algorithm:
 
 
 _MISSING = object()
+
+
+def vector_env_type(mode: Any, current: Any) -> str | None:
+    """rlchain's ``vecenv_type`` for RLlib's ``gym_env_vectorize_mode``: ASYNC (gymnasium's ``AsyncVectorEnv``, a
+    process per env) is rlchain's ``async`` where the envs step in this process; None leaves ``current``."""
+    if str(getattr(mode, "value", mode)).lower() == "async" and current in ("auto", "sync", None):
+        return "async"
+    return None
 
 
 def _run_name(algo: str, env: Any) -> str:

@@ -26,6 +26,18 @@ INSTEAD = {
     "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",
     "ray.rllib.models": "the old ModelV2 API: set the network with rl_module(model_config=...)",
     "ray.rllib.execution": "the old execution API: algo.train() runs one iteration",
+    "ray.rllib.env.single_agent_episode": "RLlib's episodes are its connectors' data, and connectors are not run: "
+                                          "a callback's episode has get_return(), get_length(), get_rewards(), "
+                                          "get_observations(-1), custom_data",
+    "ray.rllib.env.multi_agent_episode": "RLlib's episodes are its connectors' data, and connectors are not run: "
+                                         "a callback's episode has get_return(), get_length(), get_rewards(), "
+                                         "custom_data",
+    "ray.rllib.env.single_agent_env_runner": "EnvRunners are not built standalone: the face steps the envs inside "
+                                             "algo.train() (its runner: algo.env_runner)",
+    "ray.rllib.env.multi_agent_env_runner": "EnvRunners are not built standalone: the face steps the envs inside "
+                                            "algo.train() (its runner: algo.env_runner)",
+    "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
+                          "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }
 """``ray.rllib`` packages the face does not offer -> what to use instead (docs/rllib.md)."""
 

@@ -15,6 +15,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
 from rlchain.rllib.algorithm_class import AlgorithmClass
+from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.translate import check_supported
 
 _FROZEN = "_frozen"
@@ -31,6 +32,26 @@ class AlgorithmConfig:
         object.__setattr__(self, _FROZEN, False)
         object.__setattr__(self, "algo_class", AlgorithmClass(algo_class) if isinstance(algo_class, type)
                            else algo_class)
+
+    @classmethod
+    def overrides(cls, **kwargs: Any) -> dict[str, Any]:
+        """RLlib's ``AlgorithmConfig.overrides(explore=False, ...)``: the keys checked against this config class,
+        as a dict (for ``evaluation(evaluation_config=...)``); an unknown key is RLlib's KeyError."""
+        keys = K.all_keys(cls.algo_name)
+        out = {}
+        for key, value in kwargs.items():
+            name = K.OLD_NAMES.get(key, key)
+            if name not in keys:
+                raise KeyError(f"Invalid property name {key} for config class {cls.__name__}!"
+                               f"{did_you_mean(key, keys)}")
+            out[name] = value
+        return out
+
+    def get_default_learner_class(self) -> Any:
+        """RLlib's Learner classes are not run by the face (one line saying what to use)."""
+        raise FaceNotOffered(f"{type(self).__name__}.get_default_learner_class: RLlib's Learner classes are not run "
+                             f"by rlchain's face (its loss options are config keys): train with "
+                             f"config.build_algo().train()")
 
     # ----- setting keys -----------------------------------------------------------------------------
     def _set(self, method: str | None, values: dict[str, Any]) -> AlgorithmConfig:

@@ -21,6 +21,14 @@ def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
             "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
 
 
+def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
+    """RLlib 2.60 reports a module's learning rate as ``default_optimizer_learning_rate`` (``curr_lr`` is the older
+    name, kept): both, where the learner results have one."""
+    if "curr_lr" in learner and "default_optimizer_learning_rate" not in learner:
+        return {**learner, "default_optimizer_learning_rate": learner["curr_lr"]}
+    return learner
+
+
 def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
                  episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None,
                  episodes: dict[str, float] | None = None) -> dict[str, Any]:
@@ -53,7 +61,8 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
         "num_env_steps_sampled_lifetime": frames, "timesteps_total": frames,
         "num_training_step_calls_per_iteration": 1, "done": False,
         "env_runners": env_runners,
-        "learners": {**learners, "__all_modules__": {"num_env_steps_trained": per_iter}},
+        "learners": {**{k: with_lr_key(v) for k, v in learners.items()},
+                     "__all_modules__": {"num_env_steps_trained": per_iter}},
         "episode_reward_mean": ret, "episode_return_mean": ret, "episode_len_mean": length,
         "info": {"learner": {k: {"learner_stats": dict(v)} for k, v in learners.items()}},
         "_episode_custom": episode_custom,

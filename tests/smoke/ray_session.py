@@ -72,12 +72,18 @@ def start(num_cpus: int) -> bool:
 
 @contextlib.contextmanager
 def session(num_cpus: int) -> Iterator[None]:
-    """A local Ray for the duration (see :func:`start`), shut down after unless it was already running."""
+    """A local Ray for the duration (see :func:`start`), shut down after unless it was already running; the
+    SIGINT / SIGTERM handlers ``ray.init`` installs are the caller's again after."""
     import ray
 
-    started = start(num_cpus)
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    started = False
     try:
+        started = start(num_cpus)
         yield
     finally:
         if started:
             ray.shutdown()
+        for sig, handler in handlers.items():
+            if handler is not None:
+                signal.signal(sig, handler)

@@ -154,7 +154,11 @@ def test_a_restarted_trial_continues_bit_identically(ray_cluster, tmp_path):
     """Exact resume in a Ray Tune trial: a trial restored from its epoch-3 checkpoint in a new actor (what a
     max_failures restart does: a new actor, ``load_checkpoint``, then ``step``) reports epochs 4-6 exactly as
     a trial that never stopped and ends with identical parameters, optimizer state and episodes (torch.equal).
-    Tune's own scheduling around it (FailureConfig) is test_crashed_trial_restarts_from_its_checkpoint's."""
+    Tune's own scheduling around it (FailureConfig) is test_crashed_trial_restarts_from_its_checkpoint's.
+
+    The trial that never stopped writes the epoch-3 checkpoint on its way (as a Tune trial checkpoints every
+    checkpoint_epochs and goes on), so two actors show it: that one, and the restarted one, started beside it
+    (its process imports torch and rlchain while the first trains) and killed after."""
     import ray
 
     from rlchain.runs import checkpoint as ckpt
@@ -163,18 +167,22 @@ def test_a_restarted_trial_continues_bit_identically(ray_cluster, tmp_path):
     def kept(result):
         return {k: v for k, v in result.items() if k not in ("fps", "epoch_seconds", "restored_epoch")}
 
-    def run(actor, epochs, load=None, save=None):
-        if load:
-            ray.get(actor.load.remote(str(tmp_path / load)))
-        results = [ray.get(actor.step.remote()) for _ in range(epochs)]
+    def steps(actor, epochs):
+        return [ray.get(actor.step.remote()) for _ in range(epochs)]
+
+    def end(actor, save):
         ray.get(actor.save.remote(str(tmp_path / save)))
         ray.get(actor.stop.remote())
-        ray.kill(actor)  # the trial's actor dies (a crash); its CPU goes back to the session
-        return results
+        ray.kill(actor)  # the trial's actor dies; its CPU goes back to the session
 
-    straight = [kept(r) for r in run(_trial(tmp_path, "straight"), 6, save="ck_straight")]
-    assert [kept(r) for r in run(_trial(tmp_path, "crashed"), 3, save="ck3")] == straight[:3]
-    resumed = run(_trial(tmp_path, "restarted"), 3, load="ck3", save="ck_restarted")
+    straight_actor, restarted_actor = _trial(tmp_path, "straight"), _trial(tmp_path, "restarted")
+    straight = steps(straight_actor, 3)
+    ray.get(straight_actor.save.remote(str(tmp_path / "ck3")))
+    straight = [kept(r) for r in straight + steps(straight_actor, 3)]
+    end(straight_actor, "ck_straight")
+    ray.get(restarted_actor.load.remote(str(tmp_path / "ck3")))
+    resumed = steps(restarted_actor, 3)
+    end(restarted_actor, "ck_restarted")
     assert resumed[0]["restored_epoch"] == 3 and [kept(r) for r in resumed] == straight[3:]
     s, r = (ckpt.load(str(tmp_path / d / "rlchain.pth")) for d in ("ck_straight", "ck_restarted"))
     assert s["epoch"] == r["epoch"] == 6

@@ -30,7 +30,7 @@ from rlchain.algos.appo.runner_pool import RunnerPool
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
-from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.returns import shape_with
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.core.vtrace import vtrace
 from rlchain.algos.ppo.agent import PPOAgent
@@ -201,7 +201,7 @@ class APPO(AlgorithmBase):
             if rewards.dim() == 2:
                 rewards = rewards.unsqueeze(-1)
             rs = cfg.reward_shaper
-            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+            shaped = shape_with(rewards, rs)
             appo = cfg.appo
             out = vtrace(pi_log_probs.reshape(t_len, n) - mu_log_probs, shaped, values[:t_len], next_values,
                          terminated if cfg.value_bootstrap else dones, dones, cfg.gamma,

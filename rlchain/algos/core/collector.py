@@ -34,7 +34,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 import torch
 
-from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.returns import shape_with
 from rlchain.algos.core.storage import ALL
 from rlchain.envs.spec import check_obs_shape
 from rlchain.envs.vecenv import VecEnv, dropped_rows
@@ -333,7 +333,7 @@ class OnPolicyCollector:
         if rs.identity:  # skipped: its two ops cost a small rollout's step a few percent
             shaped = rewards
         else:
-            shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+            shaped = shape_with(rewards, rs)
         if self.reward_bonus is not None:  # e.g. PPO's rnd: an intrinsic reward of the next observation (rsl_rl)
             shaped = shaped + self.reward_bonus(result.obs)
         dropped = dropped_rows(result)

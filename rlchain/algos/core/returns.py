@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import torch
+
+if TYPE_CHECKING:
+    from rlchain.config.run import RewardShaperConfig
 
 
 def gae(rewards: torch.Tensor, values: torch.Tensor, next_values: torch.Tensor,
@@ -68,3 +73,9 @@ def shape_rewards(rewards: torch.Tensor, scale: float, shift: float, min_val: fl
     if min_val != float("-inf") or max_val != float("inf"):
         out = out.clamp(min_val, max_val)
     return out.log() if log_val else out
+
+
+def shape_with(rewards: torch.Tensor, shaper: RewardShaperConfig) -> torch.Tensor:
+    """:func:`shape_rewards` with the fields of a ``RewardShaperConfig`` (``config.reward_shaper``)."""
+    return shape_rewards(rewards, shaper.scale_value, shaper.shift_value, shaper.min_val, shaper.max_val,
+                         shaper.log_val)

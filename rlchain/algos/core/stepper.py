@@ -13,7 +13,7 @@ from typing import Any
 
 import torch
 
-from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.returns import shape_with
 from rlchain.envs.obs_dict import ObsDict
 from rlchain.envs.vecenv import VecEnv
 from rlchain.errors import DivergenceError
@@ -36,7 +36,7 @@ class OffPolicyStepper:
         rewards, terminated, truncated, dones = ctx.record_step(result)
         if rewards.dim() > 1:
             rewards = rewards.sum(-1)
-        shaped = shape_rewards(rewards, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+        shaped = shape_with(rewards, rs)
         next_obs = ctx.to_tensor(result.obs)
         if not bool(torch.isfinite(shaped).all()) or not all_finite(next_obs):
             raise DivergenceError("the env returned a non-finite reward or observation")

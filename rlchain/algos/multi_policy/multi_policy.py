@@ -19,7 +19,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
-from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.returns import shape_with
 from rlchain.algos.multi_policy.masked import masked_gae
 from rlchain.algos.multi_policy.policies import PolicyAgents, PolicyLearner
 from rlchain.algos.multi_policy.snapshots import Snapshots
@@ -129,8 +129,7 @@ class MultiPolicyPPO(AlgorithmBase):
                 continue
             cfg = lr.cfg
             rs = cfg.reward_shaper
-            shaped = shape_rewards(rewards.unsqueeze(-1), rs.scale_value, rs.shift_value, rs.min_val, rs.max_val,
-                                   rs.log_val)
+            shaped = shape_with(rewards.unsqueeze(-1), rs)
             if cfg.value_bootstrap and bool(truncated.any()):
                 idx = (truncated & ~terminated).nonzero().squeeze(-1)
                 if idx.numel():

@@ -19,7 +19,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase, position_copy, position_
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.replay import ReplayBuffer
-from rlchain.algos.core.returns import shape_rewards
+from rlchain.algos.core.returns import shape_with
 from rlchain.algos.core.schedules import set_lr
 from rlchain.algos.core.stepper import OffPolicyStepper
 from rlchain.algos.off_policy.her import HERReplayBuffer, goal_layout
@@ -259,6 +259,6 @@ def goal_reward_fn(compute_reward: Any, rs: Any, device: torch.device) -> Any:
     def reward(achieved: torch.Tensor, desired: torch.Tensor) -> torch.Tensor:
         raw = compute_reward(achieved.detach().cpu().numpy(), desired.detach().cpu().numpy(), None)
         raw = torch.as_tensor(raw, dtype=torch.float32, device=device).reshape(-1)
-        return shape_rewards(raw, rs.scale_value, rs.shift_value, rs.min_val, rs.max_val, rs.log_val)
+        return shape_with(raw, rs)
     return reward
 

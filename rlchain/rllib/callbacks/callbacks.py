@@ -238,9 +238,10 @@ def steps_episodes(callback: Any) -> bool:
 class EpisodeEvents(Callback):
     """rlchain's per-step event -> RLlib's episode callbacks (only built when one overrides them)."""
 
-    def __init__(self, callbacks: list[RLlibCallback], logger: MetricsLogger) -> None:
+    def __init__(self, callbacks: list[RLlibCallback], logger: MetricsLogger, env_runner: Any = None) -> None:
         self.callbacks = callbacks
         self.logger = logger
+        self.env_runner = env_runner  # RLlib's env_runner argument (rlchain.rllib.env_runner_group.EnvRunner)
         self.episodes: dict[int, Episode] = {}
         self.steppers = [cb for cb in callbacks if steps_episodes(cb)]
         self.vector_env: Any = None
@@ -250,10 +251,17 @@ class EpisodeEvents(Callback):
         if episode is None:
             episode = self.episodes[index] = Episode(index)
             for cb in self.callbacks:
-                cb.on_episode_start(episode=episode, metrics_logger=self.logger, env_index=index)
+                cb.on_episode_start(episode=episode, metrics_logger=self.logger, env_index=index, **self._where())
         return episode
 
+    def _where(self) -> dict[str, Any]:
+        """RLlib's other episode-callback arguments: ``env_runner``, ``env`` (the vector env), ``rl_module``."""
+        runner = self.env_runner
+        return {"env_runner": runner, "env": self.vector_env, "rl_module": runner.module if runner else None}
+
     def on_env_step(self, ctx: Any, result: Any, done_indices: Any, rows: slice) -> None:
+        if self.vector_env is None:
+            self.vector_env = gymnasium_vector_env(ctx.training_env)
         rewards = torch.as_tensor(result.reward).reshape(-1).tolist()
         start = rows.start or 0
         for i, reward in enumerate(rewards):
@@ -264,14 +272,13 @@ class EpisodeEvents(Callback):
             episode = self.episodes.pop(start + int(row))
             episode.is_done = True
             for cb in self.callbacks:
-                cb.on_episode_end(episode=episode, metrics_logger=self.logger, env_index=episode.env_index)
+                cb.on_episode_end(episode=episode, metrics_logger=self.logger, env_index=episode.env_index,
+                                  **self._where())
 
     def _step_events(self, ctx: Any, result: Any, done: set[int], start: int, count: int) -> None:
         """``on_episode_step`` for each row: the episode's last observation and info. At an episode's last step
         (``episode.is_done``) the vector env has already reset that row (same-step auto-reset): the final
         observation is the episode's, not the env's."""
-        if self.vector_env is None:
-            self.vector_env = gymnasium_vector_env(ctx.training_env)
         final = result.final_obs
         for i in range(count):
             episode = self.episodes[start + i]
@@ -280,8 +287,8 @@ class EpisodeEvents(Callback):
             episode.last_info = info_row(result.infos, i)
             episode.is_done = i in done
             for cb in self.steppers:
-                cb.on_episode_step(episode=episode, env=self.vector_env, metrics_logger=self.logger,
-                                   env_index=episode.env_index)
+                cb.on_episode_step(episode=episode, metrics_logger=self.logger, env_index=episode.env_index,
+                                   **self._where())
 
 
 def row_of(batch: Any, i: int) -> Any:

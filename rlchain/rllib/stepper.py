@@ -1,0 +1,34 @@
+"""The training thread's pacing for RLlib's ``train()``: rlchain's :class:`EpochStepper`, which parks after every
+epoch until the next ``train()``, also parked before the first rollout, so the model exists as soon as the
+algorithm is built (as in RLlib)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from rlchain.training.callback_context import CallbackContext
+from rlchain.tuning.epochs import EpochStepper
+
+
+class ParkingStepper(EpochStepper):
+    """EpochStepper that also parks before the first rollout (the model exists then)."""
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="rlchain-rllib-train", daemon=True)
+        self._thread.start()
+        kind, item = self._events.get()
+        if kind == "error":
+            self._thread.join()
+            raise item
+        if kind == "end":
+            self._thread.join()
+            self.result = item
+
+    def on_train_start(self, ctx: CallbackContext) -> None:
+        super().on_train_start(ctx)
+        self.parked = True
+        self._events.put(("ready", None))
+        if self._commands.get() == "stop":
+            ctx.request_stop("algorithm stopped")
+        self._resumed_at = time.time()
