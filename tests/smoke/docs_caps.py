@@ -3,8 +3,9 @@
 A command line gets ``params.config.max_epochs=1`` appended and its ``.learn(N)`` made ``.learn(2048)``; a python
 block says the same things in Python, so its ``Runner().load(...)`` gets ``params.config.max_epochs=PY_EPOCHS``
 appended where the config trains longer (or without a limit), and an SB3-style ``model.learn(N)`` learns at most
-``SHORT_LEARN`` steps. Two epochs, not one: a block's callback that acts every second epoch or evaluation (the
-VideoCallback example) still acts once. Everything else in the block runs as written.
+``SHORT_LEARN`` steps (it loads its config through Runner.load, so it also stops at 2 epochs, whichever comes
+first). Two epochs, not one: a block's callback that acts every second epoch or evaluation (the VideoCallback
+example) still acts once. Everything else in the block runs as written.
 
 Installed in the block's process before it runs: by the docs fork server (``"prelude"`` of a request,
 tests/smoke/forkserver.py) or, with ``RLCHAIN_DOCS_FRESH=1``, by running ``python docs_caps.py BLOCK.py``, which
