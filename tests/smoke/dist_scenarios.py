@@ -5,9 +5,12 @@ other, in this process: a training through the CLI's ``main`` (``grpo``: through
 check (``collectives``). Each run joins the process group and leaves it at its end, as a launch of its own does.
 Every scenario writes its ranks' final state (``DumpState``) to FOLDER/NAME/dumps and its runs to FOLDER/NAME/runs
 (``collectives``: FOLDER/collectives/collectives{rank}.json), each rank's output to FOLDER/NAME/stdout{rank}.txt
-and stderr{rank}.txt, its exit status to FOLDER/NAME/status{rank}.txt. A launch costs its three processes about 15 s of
-CPU before any training (importing torch, torch._dynamo and rlchain): one launch for all of them pays it once.
-The exit status is the first failing scenario's.
+and stderr{rank}.txt, its exit status to FOLDER/NAME/status{rank}.txt and the time it started (``time.time()``) to
+FOLDER/NAME/started{rank}.txt. A launch costs its three processes about 15 s of CPU before any training (importing
+torch, torch._dynamo and rlchain): one launch for all of them pays it once. A scenario that fails (the bad launches:
+each rank's status is not 0) leaves the process group as a finished run does, so the next one starts clean;
+``dead_rank`` ends the launch (torchrun stops rank 0 when rank 1 dies), so it comes last. The exit status is the
+first failing scenario's.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import time
 
 CALLBACK = 'params.config.callbacks=["tests.smoke.test_distributed:DumpState"]'
 DUMP_ENV = "RLCHAIN_TEST_DIST_DUMP"
@@ -85,10 +89,15 @@ def scenario_args(name: str, folder: str) -> list[str]:
     if name == "different_configs":  # rank 1 parses one more override
         extra = ["params.config.num_actors=16"] if os.environ.get("RANK") == "1" else []
         return ["--train", "--file", cartpole, *common, *extra]
-    if name == "different_checkpoints":  # rank 0 resumes first's checkpoint, rank 1 starts fresh
-        last, _ = last_checkpoint(os.path.join(os.path.dirname(folder), "first"), "last_cartpole.pth")
+    if name == "different_checkpoints":  # rank 0 resumes score's last checkpoint, rank 1 starts fresh
+        last, _ = last_checkpoint(os.path.join(os.path.dirname(folder), "score"), "last_cartpole.pth")
         return ["--train", "--file", cartpole, *common, *([] if os.environ.get("RANK") == "1" else
                                                           ["--checkpoint", last])]
+    # a rank that dies (SIGKILL at epoch 3) ends the launch: the last scenario of one
+    if name == "dead_rank":
+        return ["--train", "--file", cartpole, "params.config.multi_gpu=True", f"params.config.train_dir={folder}/runs",
+                "params.config.score_to_win=100000", "params.config.max_epochs=200",
+                'params.config.callbacks=["tests.smoke.test_distributed:KillRank1"]']
     raise SystemExit(f"dist_scenarios: unknown scenario {name!r}")
 
 
@@ -188,6 +197,8 @@ def main(folder: str, names: list[str]) -> int:
         where = os.path.join(folder, name)
         os.makedirs(os.path.join(where, "dumps"), exist_ok=True)
         os.environ[DUMP_ENV] = os.path.join(where, "dumps")
+        with open(os.path.join(where, f"started{rank}.txt"), "w", encoding="utf-8") as fh:
+            fh.write(repr(time.time()))
         with captured(where, rank):
             code = run_scenario(name, where)
         with open(os.path.join(where, f"status{rank}.txt"), "w", encoding="utf-8") as fh:

@@ -2,7 +2,8 @@
 
 Every test runs torchrun (``python -m torch.distributed.run``) as a subprocess with a timeout, so a
 hang fails the test instead of the CI job. The runs that check one property each of a short training share
-one launch (tests/smoke/dist_scenarios.py): a launch costs about 15 s of CPU before it trains.
+one launch (tests/smoke/dist_scenarios.py), the bad launches and a dying rank too: a launch costs about 15 s of CPU
+before it trains.
 ``DumpState`` (named in the config's ``callbacks``) has
 each rank save its final parameters, buffers and optimizer state for the comparisons.
 """
@@ -12,7 +13,6 @@ import json
 import os
 import re
 import signal
-import subprocess
 import sys
 import time
 
@@ -68,8 +68,12 @@ class StopRank1(Callback):
             os.kill(os.getpid(), signal.SIGSTOP)
 
 
-def torchrun(args, tmp_path, nproc=2, timeout=180, script=None, module=None):
-    """Run ``torchrun --standalone --nproc_per_node=nproc`` on runner.py (or a script / -m module)."""
+def torchrun(args, tmp_path, nproc=2, timeout=180, script=None, module=None, launcher=()):
+    """Run ``torchrun --standalone --nproc_per_node=nproc`` on runner.py (or a script / -m module), in a child of
+    the smoke tests' fork server (tests/smoke/cli_server.py): torchrun's launcher, rendezvous and monitoring as
+    they are, its workers forks of the launcher instead of new interpreters (tests/smoke/forkserver.py,
+    fork_torchrun_workers), each about 4 s of CPU less to start. RLCHAIN_TESTS_FRESH=1: fresh processes.
+    ``launcher``: more of torchrun's own flags."""
     dumps = tmp_path / "dumps"
     dumps.mkdir(exist_ok=True)
     for old in dumps.glob("rank*.pt"):
@@ -78,8 +82,8 @@ def torchrun(args, tmp_path, nproc=2, timeout=180, script=None, module=None):
                OMP_NUM_THREADS="1", **{DUMP_ENV: str(dumps)})
     target = ["-m", module] if module else [script or os.path.join(ROOT, "runner.py")]
     cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nnodes=1",
-           f"--nproc_per_node={nproc}", *target, *args]
-    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout)
+           f"--nproc_per_node={nproc}", *launcher, *target, *args]
+    out = run_python(cmd, tmp_path, env, timeout)  # the launcher and its workers: forks of the preloaded server
     return out, dumps
 
 
@@ -114,22 +118,32 @@ def assert_ranks_identical(states):
 
 
 # ----- one launch, several runs: each rank runs them one after the other (tests/smoke/dist_scenarios.py) -----
+# the runs that must work, then the bad launches (each must fail before a run folder), then a rank that dies, which
+# ends the launch
 SCENARIOS = ("score", "score_resume", "straight", "resumed", "normalizers", "appo", "rnn", "central_value", "grpo",
-             "aux_loss", "distill", "collectives")
+             "aux_loss", "distill", "collectives", "without_multi_gpu", "different_configs", "different_checkpoints",
+             "dead_rank")
 
 
 @pytest.fixture(scope="module")
 def scenarios(tmp_path_factory):
-    """One torchrun launch running every scenario: (the launch's output, its folder)."""
+    """One torchrun launch running every scenario: (the launch's output, its folder, when it ended: time.time())."""
     folder = tmp_path_factory.mktemp("dist_scenarios")
     out, _ = torchrun([str(folder), *SCENARIOS], folder, timeout=840, module="tests.smoke.dist_scenarios")
-    return out, folder
+    return out, folder, time.time()
+
+
+def scenario_status(scenarios, name) -> list[str]:
+    """Each rank's exit status of scenario ``name`` ('missing' where that rank never got to write it)."""
+    where = scenarios[1] / name
+    return [(where / f"status{rank}.txt").read_text() if (where / f"status{rank}.txt").exists() else "missing"
+            for rank in range(2)]
 
 
 def scenario_states(scenarios, name):
-    out, folder = scenarios
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    return load_dumps(folder / name / "dumps")
+    out = scenarios[0]
+    assert scenario_status(scenarios, name) == ["0", "0"], out.stdout[-3000:] + out.stderr[-3000:]
+    return load_dumps(scenarios[1] / name / "dumps")
 
 
 def scenario_output(scenarios, name, rank=0):
@@ -287,103 +301,83 @@ def test_multi_gpu_without_torchrun_fails_fast(tmp_path):
     assert not (tmp_path / "runs").exists()
 
 
-@pytest.fixture(scope="module")
-def bad_launches(tmp_path_factory):
-    """One torchrun launch whose runs must each fail before a run folder: (its folder, the launch's output)."""
-    from rlchain import Runner
-
-    folder = tmp_path_factory.mktemp("dist_bad_launches")
-    Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml"),
-                  [f"params.config.train_dir={folder}/first/runs", "params.config.max_epochs=1",
-                   "params.config.print_stats=false"]).train()
-    out, _ = torchrun([str(folder), "without_multi_gpu", "different_configs", "different_checkpoints"], folder,
-                      timeout=240, module="tests.smoke.dist_scenarios")
-    assert out.returncode != 0
-    return folder, out
-
-
-def failed_launch(bad_launches, name):
-    """Both ranks' stderr during scenario ``name``; asserts that both failed and wrote no run folder."""
-    folder, out = bad_launches
+def failed_launch(scenarios, name):
+    """Both ranks' stderr during scenario ``name`` (a bad launch of the scenarios' launch); asserts that both
+    failed and wrote no run folder."""
+    folder = scenarios[1]
     assert not (folder / name / "runs").exists()
-    assert all((folder / name / f"status{rank}.txt").read_text() != "0" for rank in range(2))
+    assert "0" not in scenario_status(scenarios, name) and "missing" not in scenario_status(scenarios, name)
     return "".join((folder / name / f"stderr{rank}.txt").read_text() for rank in range(2))
 
 
-@pytest.mark.timeout(300)
-def test_torchrun_without_multi_gpu_fails_fast(bad_launches):
-    stderr = failed_launch(bad_launches, "without_multi_gpu")
+@pytest.mark.timeout(900)
+def test_torchrun_without_multi_gpu_fails_fast(scenarios):
+    stderr = failed_launch(scenarios, "without_multi_gpu")
     assert "launched by torchrun with WORLD_SIZE=2 but multi_gpu is False" in stderr, stderr
 
 
-@pytest.mark.timeout(300)
-def test_ranks_with_different_configs_fail_fast(bad_launches):
-    stderr = failed_launch(bad_launches, "different_configs")
+@pytest.mark.timeout(900)
+def test_ranks_with_different_configs_fail_fast(scenarios):
+    stderr = failed_launch(scenarios, "different_configs")
     assert "params.config.multi_gpu: rank 1 parsed a different config or seed than rank 0" in stderr, stderr
 
 
-@pytest.mark.timeout(300)
-def test_ranks_resuming_different_checkpoints_fail_before_a_run_folder(bad_launches):
-    stderr = failed_launch(bad_launches, "different_checkpoints")
+@pytest.mark.timeout(900)
+def test_ranks_resuming_different_checkpoints_fail_before_a_run_folder(scenarios):
+    from tests.smoke.dist_scenarios import last_checkpoint
+
+    stderr = failed_launch(scenarios, "different_checkpoints")
     assert "params.config.multi_gpu: rank 1 differs from rank 0" in stderr, stderr
-    assert "'resume_epoch': None" in stderr and "'resume_epoch': 1" in stderr
+    _, epoch = last_checkpoint(str(scenarios[1] / "score"), "last_cartpole.pth")  # what rank 0 resumed
+    assert "'resume_epoch': None" in stderr and f"'resume_epoch': {epoch}" in stderr, stderr
 
 
-@pytest.mark.timeout(120)
-def test_a_dead_rank_ends_the_run_with_a_clear_message(tmp_path):
-    args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
-            *overrides(tmp_path, "params.config.score_to_win=100000", "params.config.max_epochs=200"),
-            'params.config.callbacks=["tests.smoke.test_distributed:KillRank1"]']
-    start = time.monotonic()
-    out, _ = torchrun(args, tmp_path, timeout=100)
+@pytest.mark.timeout(900)
+def test_a_dead_rank_ends_the_run_with_a_clear_message(scenarios):
+    """Rank 1 dies (SIGKILL) at epoch 3 of the launch's last scenario: torchrun ends rank 0 and the launch."""
+    out, folder, ended = scenarios
+    where = folder / "dead_rank"
     assert out.returncode != 0
-    assert time.monotonic() - start < 60  # torchrun and gloo end rank 0 at once, no collective timeout
+    assert scenario_status(scenarios, "dead_rank")[1] == "missing"  # rank 1 never returned from the run
+    start = float((where / "started0.txt").read_text())
+    assert ended - start < 60  # torchrun and gloo end rank 0 at once, no collective timeout
     assert "rank      : 1 (local_rank: 1)\n  exitcode  : -9" in out.stderr  # torchrun names the dead rank
     # rank 0 either lost its peer inside a collective or got torchrun's SIGTERM between collectives
-    lost = "distributed error: rank 0: a collective with the other ranks failed" in out.stderr
-    stopped = "SIGTERM received" in out.stdout or "interrupted" in out.stderr
-    assert lost or stopped, out.stdout[-2000:] + out.stderr[-3000:]
+    stdout, stderr = ((where / f"{stream}0.txt").read_text() for stream in ("stdout", "stderr"))
+    lost = "distributed error: rank 0: a collective with the other ranks failed" in stderr
+    stopped = "SIGTERM received" in stdout or "interrupted" in stderr
+    assert lost or stopped, stdout[-2000:] + stderr[-3000:]
 
 
 def test_a_stalled_rank_ends_the_run_within_the_collective_timeout(tmp_path):
     """Rank 1 stops (SIGSTOP) and never answers: rank 0 gives up after multi_gpu_timeout_s (2 s here) and
-    a roll call, with one line naming rank 1. torchrun then takes a while to kill a stopped process, so the
-    test reads rank 0's error as it comes and ends the launch itself."""
+    a roll call, with one line naming rank 1. torchrun then sends the stopped rank SIGTERM, which waits for a
+    SIGCONT, and kills it after its shutdown timeout: 2 s here (its default, 30 s, is for real jobs)."""
     args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
             *overrides(tmp_path, "params.config.score_to_win=100000", "params.config.max_epochs=200",
                        "params.config.multi_gpu_timeout_s=2"),
             'params.config.callbacks=["tests.smoke.test_distributed:StopRank1"]']
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""), OMP_NUM_THREADS="1")
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nnodes=1", "--nproc_per_node=2",
-           os.path.join(ROOT, "runner.py"), *args]
-    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)
-    lines = []
     try:
-        deadline = time.monotonic() + 120  # the test's own bound; the run's is the 2 s timeout + the roll call
-        for line in proc.stderr:
-            lines.append(line)
-            if "distributed error: rank 0" in line or time.monotonic() > deadline:
-                break
-        found = [line for line in lines if "distributed error: rank 0" in line]
+        # the test's own bound; the run's is the 2 s timeout + the roll call + torchrun's 2 s
+        out, _ = torchrun(args, tmp_path, timeout=120, launcher=["--shutdown-timeout=2"])
     finally:
-        os.killpg(proc.pid, signal.SIGKILL)  # the launch and rank 0
         stopped = tmp_path / "stopped_rank.pid"
-        if stopped.exists():  # rank 1, stopped in a session of its own, would outlive the test
+        if stopped.exists():  # rank 1, stopped in a session of its own, would outlive a launch that timed out
             try:
                 os.kill(int(stopped.read_text()), signal.SIGKILL)
             except ProcessLookupError:
                 pass
-        proc.wait(timeout=30)
-    assert found, "".join(lines[-40:])
+    assert out.returncode != 0
+    found = [line for line in out.stderr.splitlines() if "distributed error: rank 0" in line]
+    assert found, out.stderr[-4000:]
     assert "rank 1 did not answer within 2 s (params.config.multi_gpu_timeout_s)" in found[0]
 
 
 # ----- the collectives with two real processes ---------------------------------------------------
 @pytest.mark.timeout(900)
 def test_collectives_with_two_processes(scenarios):
-    out, folder = scenarios
-    assert out.returncode == 0, out.stderr[-3000:]
+    out, folder, _ = scenarios
+    assert scenario_status(scenarios, "collectives") == ["0", "0"], out.stderr[-3000:]
     results = [json.loads((folder / "collectives" / f"collectives{r}.json").read_text()) for r in range(2)]
     for r in results:
         assert r["all_reduce_calls"] == 1

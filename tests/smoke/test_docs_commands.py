@@ -16,7 +16,9 @@ everywhere: training gets ``params.config.max_epochs=1`` appended (after the pag
 overrides, so it wins), ``--play`` gets ``params.config.player.games_num=2`` (a ``--games N``
 flag still wins), ``--tune SEARCH`` runs a copy of the search with 2 trials of 2 epochs, a
 ``.learn(N)`` in a bash command (``python -c "...learn(50_000)..."``) learns ``SHORT_LEARN`` steps, and
-``<run>`` is the newest run folder under ``runs/``. ``rlchain ...`` commands get the same
+``<run>`` is the newest run folder under ``runs/``. A python block says the same in Python: its
+``Runner().load(...)`` trains at most 2 epochs and an SB3-style ``.learn(N)`` at most ``SHORT_LEARN`` steps
+(tests/smoke/docs_caps.py). ``rlchain ...`` commands get the same
 shortening (``rlchain train``/``play``/``tune`` as ``--train``/``--play``/``--tune``, also after
 ``python -m`` / ``torchrun -m``); a leading ``rlchain`` runs the console script of the venv the
 tests run in (``python -m rlchain`` where that venv has none).
@@ -26,19 +28,15 @@ a page where no later block can depend on it (no python or file blocks, no ``<ru
 
 from __future__ import annotations
 
-import contextlib
 import glob
-import json
 import os
 import re
 import resource
-import select
 import shlex
 import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 
@@ -47,6 +45,7 @@ import yaml
 
 from rlchain.config.packaged import resolve_config
 from tests.conftest import ROOT
+from tests.smoke.forkserver_client import ForkServer
 
 pytestmark = pytest.mark.smoke
 
@@ -64,6 +63,8 @@ SHORT_LEARN = 2048  # steps of an SB3-style ``.learn(N)`` in a bash command
 LEARN_CALL = re.compile(r"\.learn\(\s*(?:total_timesteps\s*=\s*)?[\d_]+")
 COPIED = ("runner.py", "train.py", "nn")  # a command may write next to them: copies, not links
 LINKED = ("rlchain", "benchmarks", "tests", "notebooks", "examples")
+CAPS = os.path.join(ROOT, "tests", "smoke", "docs_caps.py")  # a python block's training, capped like a command's
+CAPS_PRELUDE = "tests.smoke.docs_caps:install"
 
 _ran_ok: set[str] = set()  # bash commands (shortened) that succeeded on an earlier page
 
@@ -168,6 +169,8 @@ def test_plain_commands_go_to_the_fork_server(tmp_path):
     assert split_assignments(forkable("WANDB_MODE=offline python runner.py --train", "WANDB_MODE=offline python "
                                       "runner.py --train")) == ({"WANDB_MODE": "offline"}, ["python", "runner.py",
                                                                                             "--train"])
+    torchrun = "torchrun --standalone --nnodes=1 --nproc_per_node=2 -m rlchain train ppo_cartpole"
+    assert forkable(torchrun, shorten(torchrun, str(tmp_path)))[0] == "torchrun"  # its workers: forks too
     resume = "rlchain train ppo_cartpole --checkpoint runs/<run>/nn/last_cartpole.pth  # resume"
     assert forkable(resume, "rlchain train ppo_cartpole --checkpoint runs/r/nn/last_cartpole.pth")[-1].endswith("pth")
     writers = "python runner.py params.import_modules=[mywriters] params.config.log_writers=[wide_csv,csv]"
@@ -289,7 +292,8 @@ ASSIGNMENT = re.compile(r"^[A-Za-z_]\w*=")  # NAME=VALUE before a command: that 
 
 
 def simple_argv(command: str, cwd: str | None = None) -> list[str] | None:
-    """The argv of a plain ``python ...`` / ``rlchain ...`` command line, after any leading ``NAME=VALUE``
+    """The argv of a plain ``python ...`` / ``rlchain ...`` / ``torchrun ...`` command line, after any leading
+    ``NAME=VALUE``
     assignments (no shell operator, expansion or glob that matches a file in ``cwd``: bash would run it as
     written), for the fork server; None for anything else. The assignments stay the argv's first tokens
     (split_assignments takes them off)."""
@@ -312,7 +316,7 @@ def simple_argv(command: str, cwd: str | None = None) -> list[str] | None:
     argv = shlex.split(command, comments=True)
     _, rest = split_assignments(argv)
     head = os.path.basename(rest[0]) if rest else ""
-    return argv if head == "rlchain" or head.startswith("python") else None
+    return argv if head in ("rlchain", "torchrun") or head.startswith("python") else None
 
 
 def forkable(command: str, shown: str, cwd: str | None = None) -> list[str] | None:
@@ -329,61 +333,13 @@ def split_assignments(argv: list[str]) -> tuple[dict[str, str], list[str]]:
     return dict(token.split("=", 1) for token in argv[:at]), argv[at:]
 
 
-class ForkServer:
-    """tests/smoke/forkserver.py, started once: runs plain python / rlchain commands in a child forked from a
-    Python that has already imported torch and rlchain (see that file for what is and is not the same)."""
-
-    def __init__(self, env: dict[str, str]):
-        self.proc = subprocess.Popen([sys.executable, os.path.join(ROOT, "tests", "smoke", "forkserver.py")],
-                                     cwd=ROOT, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-        self.last_cpu = 0.0  # CPU seconds of the last command (it and its children)
-
-    def run(self, argv: list[str], ws: str, env: dict, timeout: float,
-            stop_after: float | None = None) -> tuple[int | None, str, str]:
-        """(exit status, stdout, stderr) of ``argv`` in ``ws``; the child is killed after ``timeout`` seconds.
-        With ``stop_after``: a child still running then gets SIGINT (as run_until_stopped) and the status is None."""
-        out, err = os.path.join(ws, "_stdout.txt"), os.path.join(ws, "_stderr.txt")
-        self.proc.stdin.write(json.dumps({"argv": argv, "cwd": ws, "env": env, "stdout": out, "stderr": err}) + "\n")
-        self.proc.stdin.flush()
-        pid = json.loads(self.proc.stdout.readline())["pid"]
-        stopped = False
-        if stop_after is not None and not select.select([self.proc.stdout], [], [], stop_after)[0]:
-            stopped = True
-            with contextlib.suppress(ProcessLookupError, PermissionError):
-                os.killpg(pid, signal.SIGINT)
-            timeout = STOP_GRACE
-        timer = threading.Timer(timeout, _kill_session, (pid,))
-        timer.start()
-        try:
-            answer = json.loads(self.proc.stdout.readline())
-        finally:
-            timer.cancel()
-        self.last_cpu = answer.get("cpu", 0.0)
-        status = None if stopped else answer["status"]
-        texts = []
-        for path in (out, err):
-            with open(path, encoding="utf-8", errors="replace") as fh:
-                texts.append(fh.read())
-            os.remove(path)
-        return status, texts[0], texts[1]
-
-    def close(self) -> None:
-        self.proc.stdin.close()
-        self.proc.wait(timeout=30)
-
-
-def _kill_session(pid: int) -> None:
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(pid, signal.SIGKILL)
-
-
 @pytest.fixture(scope="module")
 def fork_server():
     """The fork server, or None where RLCHAIN_DOCS_FRESH=1 asks for every command in a fresh process."""
     if os.environ.get("RLCHAIN_DOCS_FRESH") == "1":
         yield None
         return
-    server = ForkServer(environment(ROOT))
+    server = ForkServer(environment(ROOT), STOP_GRACE, preload=("envpool",))  # three pages' MuJoCo commands
     yield server
     server.close()
 
@@ -399,16 +355,17 @@ def _children_cpu() -> float:
 
 
 def run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: ForkServer | None = None,
-        direct: list[str] | None = None) -> str:
+        direct: list[str] | None = None, prelude: str | None = None) -> str:
     """Run one command of ``block``: ``direct`` (the command's argv, a plain python / rlchain command) through
-    ``server`` where both are given, else ``argv``; check its status; returns its output."""
+    ``server`` where both are given (its child calls ``prelude`` first), else ``argv``; check its status; returns
+    its output."""
     if not _TIMES:
-        return _run(argv, ws, env, block, shown, server, direct)
+        return _run(argv, ws, env, block, shown, server, direct, prelude)
     wall, cpu = time.perf_counter(), _children_cpu()
     if server is not None:
         server.last_cpu = 0.0
     try:
-        return _run(argv, ws, env, block, shown, server, direct)
+        return _run(argv, ws, env, block, shown, server, direct, prelude)
     finally:
         spent = _children_cpu() - cpu + (server.last_cpu if server is not None else 0.0)
         with open(_TIMES, "a", encoding="utf-8") as fh:
@@ -416,7 +373,7 @@ def run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: F
 
 
 def _run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: ForkServer | None,
-         direct: list[str] | None) -> str:
+         direct: list[str] | None, prelude: str | None = None) -> str:
     timeout = block.options.get("timeout")
     if server is None:
         direct = None
@@ -427,7 +384,7 @@ def _run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: 
         env = {**env, **assignments}
     if timeout is not None:
         if direct is not None:
-            status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT, float(timeout))
+            status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT, float(timeout), prelude)
             out = stdout + stderr
         else:
             status, out = run_until_stopped(argv, ws, env, float(timeout))
@@ -436,7 +393,7 @@ def _run(argv: list[str], ws: str, env: dict, block: Block, shown: str, server: 
             f"{out[-3000:]}")
         return out
     if direct is not None:
-        status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT)
+        status, stdout, stderr = server.run(direct, ws, env, COMMAND_TIMEOUT, prelude=prelude)
     else:
         proc = subprocess.run(argv, cwd=ws, env=env, capture_output=True, text=True, timeout=COMMAND_TIMEOUT,
                               start_new_session=True)
@@ -477,7 +434,10 @@ def test_page_commands_run(page, tmp_path, fork_server):
             script = os.path.join(ws, f"_docs_block_{block.line}.py")
             with open(script, "w", encoding="utf-8") as fh:
                 fh.write(block.text + "\n")
-            out = run([sys.executable, script], ws, env, block, f"python block at line {block.line}", fork_server)
+            # capped as a command line is (tests/smoke/docs_caps.py): in the fork server's child, or a fresh
+            # `python docs_caps.py BLOCK.py`
+            out = run([sys.executable, CAPS, script], ws, env, block, f"python block at line {block.line}",
+                      fork_server, [sys.executable, script], prelude=CAPS_PRELUDE)
         elif block.kind == "run":
             plain = reusable and not block.options and "<run>" not in block.text
             for command in commands(block.text):

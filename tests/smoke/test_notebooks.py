@@ -1,6 +1,7 @@
 """The notebooks in notebooks/ run top to bottom (nbclient, an ipykernel kernel) and are committed stripped.
 
-Each notebook runs in its own temporary working directory with RLCHAIN_NOTEBOOK_QUICK=1, which its
+Each notebook runs in a kernel of its own (forked from a Python that has imported torch, rlchain and ipykernel:
+tests/smoke/forked_kernel.py), in its own temporary working directory with RLCHAIN_NOTEBOOK_QUICK=1, which its
 ``parameters`` cell reads to pick a few epochs instead of the full values. Cells that make a claim
 assert it themselves (the ONNX notebook's parity, the custom-network notebook's error message); the
 tests add checks on what the cells showed. An executed notebook, stripped by notebooks/strip.py, must
@@ -100,6 +101,26 @@ def kernel_path(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def kernel_server(kernel_path):
+    """The fork server the kernels start in (tests/smoke/forked_kernel.py), or None where RLCHAIN_TESTS_FRESH=1
+    asks for fresh kernels."""
+    if os.environ.get("RLCHAIN_TESTS_FRESH") == "1":
+        yield None
+        return
+    from tests.smoke.forked_kernel import preloaded_server
+
+    with preloaded_server(dict(os.environ, **kernel_environment(kernel_path))) as server:
+        yield server
+
+
+def kernel_environment(kernel_path) -> dict[str, str]:
+    """What the test sets in the kernels' environment."""
+    return {"RLCHAIN_NOTEBOOK_QUICK": "1",
+            "MPLBACKEND": "module://matplotlib_inline.backend_inline",  # figures as image/png
+            "JUPYTER_PATH": kernel_path}
+
+
+@pytest.fixture(scope="module")
 def timings():
     found: dict = {}
     yield found
@@ -109,12 +130,17 @@ def timings():
 
 @pytest.mark.timeout(BUDGET_S + 60)
 @pytest.mark.parametrize("name", NAMES)
-def test_notebook_runs_top_to_bottom(name, tmp_path, monkeypatch, kernel_path, timings):
+def test_notebook_runs_top_to_bottom(name, tmp_path, monkeypatch, kernel_path, kernel_server, timings):
     for module in NEEDS.get(name, []):
         pytest.importorskip(module)
-    monkeypatch.setenv("RLCHAIN_NOTEBOOK_QUICK", "1")
-    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")  # figures as image/png
-    monkeypatch.setenv("JUPYTER_PATH", kernel_path)
+    for key, value in kernel_environment(kernel_path).items():
+        monkeypatch.setenv(key, value)
+    if kernel_server is not None:
+        from jupyter_client.provisioning import local_provisioner
+
+        from tests.smoke.forked_kernel import forked_launcher
+
+        monkeypatch.setattr(local_provisioner, "launch_kernel", forked_launcher(kernel_server))
     nb = nbformat.read(_path(name), as_version=4)
     client = nbclient.NotebookClient(nb, timeout=CELL_TIMEOUT_S, kernel_name=KERNEL,
                                      resources={"metadata": {"path": str(tmp_path)}})

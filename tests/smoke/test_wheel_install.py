@@ -5,6 +5,11 @@ not the clone.
 The fresh venv sees the test venv's packages (torch, gymnasium, envpool, ...) through a ``.pth`` line
 holding that venv's site-packages path: a plain path line, so the test venv's own ``.pth`` files (the
 editable rlchain's finder among them) are not run there and ``import rlchain`` finds the wheel's copy.
+
+The installed ``rlchain`` console script runs once as a fresh process (``rlchain list``); the other commands run
+what that script runs (the wheel's ``rlchain.console.main``, with the same argv) in children of a fork server on
+the fresh venv's Python (tests/smoke/forkserver.py ``--installed``), which has imported the wheel's rlchain and torch
+once: each command pays for its own work, not about 4 s of CPU to import them again.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import sysconfig
 import pytest
 
 from tests.conftest import ROOT
+from tests.smoke.forkserver_client import ForkServer
 
 pytestmark = pytest.mark.smoke
 
@@ -61,47 +67,66 @@ def fresh(tmp_path_factory):
     return venv / "bin", work
 
 
-def rlchain(fresh, *args: str) -> str:
-    """Run the fresh venv's ``rlchain`` console script in the working folder; returns its output."""
+@pytest.fixture(scope="module")
+def server(fresh):
+    """The fork server on the fresh venv's Python, with the wheel's rlchain imported."""
     bin_dir, work = fresh
-    proc = subprocess.run([str(bin_dir / "rlchain"), *args], cwd=work, env=_env(), capture_output=True, text=True,
-                          timeout=TIMEOUT)
-    assert proc.returncode == 0, f"rlchain {' '.join(args)}: status {proc.returncode}\n{proc.stdout[-2000:]}\n" \
-                                 f"{proc.stderr[-3000:]}"
-    return proc.stdout
+    forks = ForkServer(_env(), python=str(bin_dir / "python"), installed=True, cwd=str(work))
+    yield forks
+    forks.close()
 
 
-def test_the_wheel_is_what_runs(fresh):
-    bin_dir, work = fresh
-    out = subprocess.run([str(bin_dir / "python"), "-c", "import rlchain; print(rlchain.__file__); "
-                          "from rlchain.console import main; main(['list'])"], cwd=work, env=_env(),
-                         capture_output=True, text=True, timeout=TIMEOUT)
-    assert out.returncode == 0, out.stderr
-    venv = os.path.realpath(bin_dir.parent)
-    assert os.path.realpath(out.stdout.splitlines()[0]).startswith(venv + os.sep), out.stdout[:500]
-    assert os.path.realpath(ROOT) not in out.stdout  # the packaged configs are the wheel's too
-    assert "push_cube/train_config.json" in out.stdout and "rl_games/halfcheetah_envpool.yaml" in out.stdout
-
-
-def test_train_play_export_from_outside_the_clone(fresh):
+def run(fresh, server, argv: list[str]) -> str:
+    """``argv`` (the fresh venv's ``rlchain`` or ``python``) in the working folder, in a child of ``server``;
+    asserts it exits 0 and returns its output."""
     _, work = fresh
-    out = rlchain(fresh, "train", "ppo_cartpole", "params.config.max_epochs=2")
+    status, stdout, stderr = server.run(argv, str(work), _env(), TIMEOUT)
+    assert status == 0, f"{' '.join(argv)}: status {status}\n{stdout[-2000:]}\n{stderr[-3000:]}"
+    return stdout
+
+
+def rlchain(fresh, server, *args: str) -> str:
+    """``rlchain ARGS`` of the fresh venv (its console script's main) in the working folder; returns its output."""
+    return run(fresh, server, [str(fresh[0] / "rlchain"), *args])
+
+
+def test_the_wheel_is_what_runs(fresh, server):
+    bin_dir, work = fresh
+    venv = os.path.realpath(bin_dir.parent)
+    # the installed console script, as a fresh process
+    out = subprocess.run([str(bin_dir / "rlchain"), "list"], cwd=work, env=_env(), capture_output=True, text=True,
+                         timeout=TIMEOUT)
+    assert out.returncode == 0, out.stderr
+    assert os.path.realpath(ROOT) not in out.stdout  # the packaged configs are the wheel's
+    assert "push_cube/train_config.json" in out.stdout and "rl_games/halfcheetah_envpool.yaml" in out.stdout
+    configs = out.stdout.splitlines()[0].split(", in ", 1)[-1].rstrip(":")  # "configs (...), in DIR:"
+    assert os.path.realpath(configs).startswith(venv + os.sep), out.stdout[:500]
+    # the fork server's commands (the tests below) run the wheel's rlchain, not the clone's
+    out = run(fresh, server, [str(bin_dir / "python"), "-c", "import rlchain, rlchain.console; "
+                              "print(rlchain.__file__); print(rlchain.console.__file__)"])
+    assert all(os.path.realpath(path).startswith(venv + os.sep) for path in out.splitlines()), out
+
+
+def test_train_play_export_from_outside_the_clone(fresh, server):
+    _, work = fresh
+    out = rlchain(fresh, server, "train", "ppo_cartpole", "params.config.max_epochs=2")
     assert "max_epochs 2 reached" in out
     run = next((work / "runs").iterdir())
     assert (run / "nn" / "last_cartpole.pth").is_file()
-    out = rlchain(fresh, "play", "ppo_cartpole", "--checkpoint", "cartpole", "--games", "2")
+    out = rlchain(fresh, server, "play", "ppo_cartpole", "--checkpoint", "cartpole", "--games", "2")
     assert "av reward: 500.00" in out  # the shipped checkpoint, found by name
-    out = rlchain(fresh, "--play", "-c", str(run / "nn" / "last_cartpole.pth"), "--games", "1")  # rl_games' flags
+    # rl_games' flags
+    out = rlchain(fresh, server, "--play", "-c", str(run / "nn" / "last_cartpole.pth"), "--games", "1")
     assert "over 1 games" in out
     if importlib.util.find_spec("onnxruntime") is None or importlib.util.find_spec("onnx") is None:
         pytest.skip("ONNX export needs the onnx extra")
-    out = rlchain(fresh, "export", "onnx", "--checkpoint", "cartpole")
+    out = rlchain(fresh, server, "export", "onnx", "--checkpoint", "cartpole")
     assert (work / "cartpole.onnx").is_file() and "onnxruntime parity" in out
 
 
-def test_push_cube_json_by_name(fresh):
+def test_push_cube_json_by_name(fresh, server):
     pytest.importorskip("envpool")
-    out = rlchain(fresh, "train", "push_cube", "params.config.max_epochs=1", "params.config.num_actors=4",
+    out = rlchain(fresh, server, "train", "push_cube", "params.config.max_epochs=1", "params.config.num_actors=4",
                   "params.config.horizon_length=64", "params.config.minibatch_size=128",
                   "params.config.env_config.max_episode_steps=32")
     assert "epoch 1" in out and "max_epochs 1 reached" in out
