@@ -101,7 +101,8 @@ class PPOAgent(ScheduledAdam):
         self._compile_pending = True
 
     # ----- the update -------------------------------------------------------------------------
-    def update(self, storage: RolloutStorage, progress: float, obs_per_minibatch: bool = False) -> dict[str, float]:
+    def update(self, storage: RolloutStorage, progress: float, obs_per_minibatch: bool = False,
+               bootstrap_advantages: np.ndarray | None = None) -> dict[str, float]:
         """Run ``mini_epochs`` passes of minibatch updates; return mean losses, kl and lr.
 
         Each minibatch: the loss, backward, gradient averaging over ranks, unscaling (float16), clipping and
@@ -110,9 +111,11 @@ class PPOAgent(ScheduledAdam):
         appear as ``losses/<name>``, averaged over the minibatches that returned them. ``obs_per_minibatch``
         (``obs_normalizer_update: minibatch``): each minibatch of the first pass folds its observations into
         the input statistics just before its forward pass, as rl_games' training forward does (the caller
-        has not folded the rollout in).
+        has not folded the rollout in). ``bootstrap_advantages`` (``advantage_normalization: rllib``): the
+        advantages of RLlib's masked bootstrap rows, which its standardization counts too.
         """
         cfg, model = self.cfg, self.model
+        self.bootstrap_advantages = bootstrap_advantages
         advantages = self._batch_advantages(storage)
         sums = {"a_loss": 0.0, "c_loss": 0.0, "entropy": 0.0, "b_loss": 0.0, "kl": 0.0, "clip_frac": 0.0,
                 "grad_norm": 0.0}
@@ -181,7 +184,7 @@ class PPOAgent(ScheduledAdam):
         elif self.cfg.normalize_advantage and self.cfg.advantage_normalization == "rllib":
             if self.bootstrap_advantages is None:
                 raise RuntimeError("advantage_normalization rllib: the update needs the bootstrap rows' "
-                                   "advantages (PPO's update sets them)")
+                                   "advantages (PPO passes them to update())")
             advantages = rllib_standardized(advantages, self.bootstrap_advantages)
         return advantages
 

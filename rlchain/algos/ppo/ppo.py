@@ -160,9 +160,9 @@ class PPO(AlgorithmBase):
                                storage.dones, cfg.gamma, cfg.tau)
             storage.advantages.copy_(adv)
             storage.returns.copy_(returns)
-            if cfg.normalize_advantage and cfg.advantage_normalization == "rllib":  # RLlib's bootstrap rows too
-                self.agent.bootstrap_advantages = rllib_bootstrap_advantages(storage, self.collector.last_values,
-                                                                             cfg.gamma, cfg.tau)
+            bootstrap = None  # advantage_normalization rllib: RLlib's bootstrap rows' advantages join the stats
+            if cfg.normalize_advantage and cfg.advantage_normalization == "rllib":
+                bootstrap = rllib_bootstrap_advantages(storage, self.collector.last_values, cfg.gamma, cfg.tau)
             storage.final_values.zero_()
             flat_returns = returns.reshape(-1, returns.shape[-1])
             flat_values = storage.values.reshape(-1, storage.values.shape[-1])  # value_normalizer: rl_games
@@ -182,7 +182,8 @@ class PPO(AlgorithmBase):
             stats = self.agent.update(augmented_storage(storage, self.mirror_loss.mirror, model.obs_slice),
                                       self.progress())
         else:
-            stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch)
+            stats = self.agent.update(storage, self.progress(), obs_per_minibatch=per_minibatch,
+                                      bootstrap_advantages=bootstrap)
         stats["lr0"] = cfg.learning_rate
         stats["lr_mul"] = stats["lr"] / max(cfg.learning_rate, 1e-12)
         if self.rnd is not None:  # the predictor learns the rollout's states: their intrinsic reward fades

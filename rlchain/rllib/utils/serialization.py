@@ -21,7 +21,8 @@ def _array_text(array: np.ndarray) -> str:
 
 
 def _text_array(text: str) -> np.ndarray:
-    return np.load(io.BytesIO(zlib.decompress(base64.b64decode(text))), allow_pickle=False)
+    # the .npy reader itself, object arrays (pickles) refused: the text is data from a file
+    return np.lib.format.read_array(io.BytesIO(zlib.decompress(base64.b64decode(text))), allow_pickle=False)
 
 
 def gym_space_to_dict(space: gym.spaces.Space | None) -> dict[str, Any] | None:
