@@ -17,7 +17,7 @@ def test_update_sees_this_rollout_in_the_observation_and_value_statistics(tmp_pa
     seen = []
     real_update = PPOAgent.update
 
-    def update(self, storage, progress, obs_per_minibatch=False):
+    def update(self, storage, progress, obs_per_minibatch=False, bootstrap_advantages=None):
         assert not obs_per_minibatch  # obs_normalizer_update: auto with discrete actions (BASE) = rollout
         model = self.model
         rows = storage.obs.reshape(-1, storage.obs.shape[-1]).double()
@@ -55,7 +55,7 @@ def test_minibatch_mode_folds_each_minibatch_of_the_first_pass_just_before_its_f
 
     real_update = PPOAgent.update
 
-    def update(self, storage, progress, obs_per_minibatch=False):
+    def update(self, storage, progress, obs_per_minibatch=False, bootstrap_advantages=None):
         counts.append((self.model.running_mean_std.count.item(), obs_per_minibatch))
         return real_update(self, storage, progress, obs_per_minibatch)
 
