@@ -17,13 +17,7 @@ class ParkingStepper(EpochStepper):
     def start(self) -> None:
         self._thread = threading.Thread(target=self._run, name="rlchain-rllib-train", daemon=True)
         self._thread.start()
-        kind, item = self._events.get()
-        if kind == "error":
-            self._thread.join()
-            raise item
-        if kind == "end":
-            self._thread.join()
-            self.result = item
+        self._next_event()  # parked before the first rollout, or the run's end / exception
 
     def on_train_start(self, ctx: CallbackContext) -> None:
         super().on_train_start(ctx)

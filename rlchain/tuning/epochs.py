@@ -72,6 +72,11 @@ class EpochStepper(Callback):
             self._thread.start()
         else:
             self._resume("go")
+        return self._next_event()
+
+    def _next_event(self) -> EpochReport | None:
+        """Wait for the training thread's next event: its report (or None when it parked before a rollout);
+        None and ``self.result`` set when the run ended; the run's exception raised here."""
         kind, item = self._events.get()
         if kind == "error":
             self._thread.join()
