@@ -82,8 +82,11 @@ def test_state_round_trip_continues_bit_identically():
     exactly as it did from that point (auto-resets and the time limit included); the whole run's resume is
     test_ppo_brax_resume_is_bit_identical below."""
     from rlchain.envs.backends.brax_env import BraxVecEnv
-    # the contract test's env (16 envs, 20 steps): its compiled reset and step come from the module's cache
     env = BraxVecEnv("inverted_pendulum", 16, seed=3, episode_length=20, backend="spring")
+    # built the same way as the contract test's env, it steps through that env's jitted reset and step (no new trace
+    # or compile); another episode length is another function
+    assert env._step_fn is BraxVecEnv("inverted_pendulum", 16, seed=9, episode_length=20, backend="spring")._step_fn
+    assert env._step_fn is not BraxVecEnv("inverted_pendulum", 16, seed=3, episode_length=21, backend="spring")._step_fn
     env.reset(seed=3)
     gen = torch.Generator().manual_seed(0)
     actions = [torch.rand(16, 1, generator=gen) * 2 - 1 for _ in range(45)]

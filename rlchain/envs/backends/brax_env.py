@@ -50,7 +50,8 @@ class BraxVecEnv(JaxBatchVecEnv):
         kwargs = {} if backend is None else {"backend": backend}
         base = envs.get_environment(name, **kwargs)
         env = VmapWrapper(EpisodeWrapper(base, episode_length, action_repeat))
-        super().__init__(env, name, num_envs, int(env.observation_size), int(env.action_size), seed, device)
+        super().__init__(env, name, num_envs, int(env.observation_size), int(env.action_size), seed, device,
+                         build_key=("brax", name, int(episode_length), int(action_repeat), backend))
 
 
 def brax_env(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> BraxVecEnv:

@@ -12,11 +12,14 @@ a wrapped env and, per ``step``:
 - splits ``done`` into ``terminated`` (the task ended) and ``truncated`` (the time limit);
 - hands obs, rewards and flags to torch through DLPack, without a numpy round trip.
 
-The adapters (``brax_env.py``, ``playground_env.py``) only build and wrap their env.
+The adapters (``brax_env.py``, ``playground_env.py``) only build and wrap their env. An env batch built
+again the same way in one process (the player after training, a resume, the next run of a sweep) steps through
+the jitted functions of the first one (``build_key``), without tracing and compiling them again.
 """
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any
 
@@ -26,6 +29,14 @@ import torch
 
 from rlchain.envs.vecenv import StepResult
 
+_JITTED: OrderedDict[tuple, tuple[Any, Any]] = OrderedDict()
+"""The jitted reset and step of the last KEEP_JITTED env batches this process built, by build key (backend, env
+name, batch size, episode length, ...): JAX traces and compiles an env batch's reset and step at its first call,
+tens of seconds of CPU for a Brax or MJX env, and a jitted function compiles once per argument shape, so a batch
+built again with an equal key reuses the first one's functions (and the env object they close over, built from
+the same key)."""
+KEEP_JITTED = 4
+
 
 class JaxBatchVecEnv:
     """``num_envs`` copies of a wrapped JAX env, stepped together in one jitted call; torch tensors out.
@@ -33,13 +44,15 @@ class JaxBatchVecEnv:
     ``env`` is ``VmapWrapper(EpisodeWrapper(base))`` (brax's training wrappers); ``obs_dim`` and
     ``action_dim`` are the flat sizes; ``obs_of`` maps the env's observation (an array, or a dict
     for some Playground envs) to the (N, obs_dim) array the trainer sees, inside the jitted step.
+    ``build_key`` names everything ``env`` and ``obs_of`` were built from (a hashable tuple, without
+    ``num_envs``): batches of equal keys and sizes in one process share their jitted reset and step.
     """
 
     is_tensor_env = True
 
     def __init__(self, env: Any, name: str, num_envs: int, obs_dim: int, action_dim: int,
                  seed: int | None = None, device: str = "cpu",
-                 obs_of: Callable[[Any], Any] = lambda obs: obs) -> None:
+                 obs_of: Callable[[Any], Any] = lambda obs: obs, build_key: tuple | None = None) -> None:
         import jax
         import jax.numpy as jnp
 
@@ -85,8 +98,16 @@ class JaxBatchVecEnv:
             merged = strong(jax.lax.cond(done.any(), reset_done, lambda _: nxt, None))
             return merged, obs_of(merged.obs), obs_of(nxt.obs), nxt.reward, done & ~trunc, trunc
 
-        self._reset_fn = jax.jit(reset)
-        self._step_fn = jax.jit(step)
+        key = None if build_key is None else (*build_key, int(num_envs))
+        if key is not None and key in _JITTED:
+            _JITTED.move_to_end(key)
+            self._reset_fn, self._step_fn = _JITTED[key]
+        else:
+            self._reset_fn, self._step_fn = jax.jit(reset), jax.jit(step)
+            if key is not None:
+                _JITTED[key] = (self._reset_fn, self._step_fn)
+                while len(_JITTED) > KEEP_JITTED:
+                    _JITTED.popitem(last=False)
         self._state: Any = None
 
     def _torch(self, array: Any) -> torch.Tensor:

@@ -126,7 +126,9 @@ class PlaygroundVecEnv(JaxBatchVecEnv):
         repeat = action_repeat or overrides.get("action_repeat") or default.get("action_repeat", 1)
         env = VmapWrapper(EpisodeWrapper(base, int(length), int(repeat)))
         obs_dim, obs_of = observation_picker(base.observation_size)
-        super().__init__(env, name, num_envs, obs_dim, int(base.action_size), seed, device, obs_of=obs_of)
+        key = ("playground", name, int(length), int(repeat), repr(sorted(overrides.items())))
+        super().__init__(env, name, num_envs, obs_dim, int(base.action_size), seed, device, obs_of=obs_of,
+                         build_key=key)
 
 
 def playground_env(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> PlaygroundVecEnv:
