@@ -193,6 +193,17 @@ def _signal_state() -> tuple:
     return handlers, frozenset(signal.pthread_sigmask(signal.SIG_BLOCK, []))
 
 
+def pytest_configure(config):
+    """JAX's persistent compile cache for the whole test run, in pytest's cache folder (``.pytest_cache``, which git
+    ignores; none with ``-p no:cacheprovider``): a Brax or Playground env's reset and step (10-30 s of CPU to
+    compile) compile once per checkout and JAX version, and the next run, its xdist workers and the other tier load
+    them. Set in the environment before any test imports jax (jax reads it at import), so the tests' subprocesses
+    share it; a ``JAX_COMPILATION_CACHE_DIR`` of the caller's own wins. Only the test run: rlchain sets no cache."""
+    cache = getattr(config, "cache", None)
+    if cache is not None and "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        os.environ["JAX_COMPILATION_CACHE_DIR"] = str(cache.mkdir("jax-compile-cache"))
+
+
 def pytest_collection_finish(session):
     """torch imports torch._dynamo lazily, at a process's first optimizer (seconds of CPU, tens under load). A
     timeout (pytest-timeout's signal, a test's own alarm) that goes off inside that import leaves it
