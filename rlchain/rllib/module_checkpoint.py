@@ -19,6 +19,7 @@ import gymnasium as gym
 from rlchain.config.errors import ConfigError
 from rlchain.policy.load import load_policy
 from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN_CONFIG_FILE, read_text, stored_config
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.module import NAME_PREFIX, RLModuleView
 from rlchain.runner import Runner
 
@@ -80,7 +81,7 @@ def from_checkpoint(path: Any) -> Any:
         raise ConfigError(root, "rl_module_spec", f"the checkpoint trained an RLModule class, which is not in the "
                                                   f"JSON: {instead}")
     ids = module_ids(root)
-    if ids != ["default_policy"]:
+    if ids != [DEFAULT_MODULE_ID]:
         raise ConfigError(root, "policies", f"a multi-agent checkpoint ({', '.join(ids)}): {instead}")
     checkpoint = os.path.join(root, CHECKPOINT_FILE)
     params = Runner().load_from_checkpoint(checkpoint).params

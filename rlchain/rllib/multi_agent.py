@@ -31,6 +31,7 @@ from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv
 from rlchain.envs.wrappers.multi_agent_parallel import ALL, EpisodeLog, ParallelView, agent_ids_of, space_of
 from rlchain.inference.policy_player import play_policies
 from rlchain.rllib import translate
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
@@ -170,7 +171,7 @@ def policy_names(config: Any) -> tuple[list[str], dict[str, Any]]:
     where = f"{type(config).__name__}.multi_agent()"
     policies = config._settings.get("policies")
     if policies is None:
-        return ["default_policy"], {"default_policy": None}
+        return [DEFAULT_MODULE_ID], {DEFAULT_MODULE_ID: None}
     if isinstance(policies, dict):
         entries = dict(policies)
     elif isinstance(policies, (set, frozenset, list, tuple)):

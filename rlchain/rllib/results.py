@@ -8,8 +8,7 @@ import time
 from typing import Any
 
 from rlchain.rllib.callbacks.callbacks import nested
-
-DEFAULT_MODULE = "default_policy"
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 
 
 def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
@@ -50,7 +49,7 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
                    "num_episodes_lifetime": games, **nested(episode_custom)}
     if "kl_coef" in report.stats:
         learner = {**learner, "curr_kl_coeff": report.stats["kl_coef"]}
-    learners = {DEFAULT_MODULE: learner}
+    learners = {DEFAULT_MODULE_ID: learner}
     if multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
         env_runners.update(multi.episodes())
         ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]

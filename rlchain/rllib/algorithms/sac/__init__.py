@@ -8,10 +8,11 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.rllib.algorithm import DEFAULT_MODULE, Algorithm
+from rlchain.rllib.algorithm import Algorithm
 from rlchain.rllib.algorithms.sac.module import SACModuleView
 from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 
 
 class SAC(Algorithm):
@@ -29,7 +30,7 @@ class SAC(Algorithm):
                   ) -> dict[str, Any]:
         return sac_config(config, env_name, run)
 
-    def get_module(self, module_id: str = DEFAULT_MODULE) -> SACModuleView:
+    def get_module(self, module_id: str = DEFAULT_MODULE_ID) -> SACModuleView:
         """The trained policy as RLlib's RLModule: ``action_dist_inputs`` are pre-tanh means then log-stds."""
         view = super().get_module(module_id)
         return SACModuleView(view.model, view.observation_space, view.action_space)
