@@ -15,6 +15,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
 from rlchain.rllib.algorithm_class import AlgorithmClass
+from rlchain.rllib.evaluation_settings import check_evaluation
 from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.translate import check_supported
 
@@ -220,8 +221,10 @@ class AlgorithmConfig:
         object.__setattr__(self, _FROZEN, True)
 
     def validate(self) -> None:
-        """Refuse, in one line each, the settings the face does not offer (see :data:`keys.UNSUPPORTED`)."""
+        """Refuse, in one line each, the settings the face does not offer (see :data:`keys.UNSUPPORTED`) and those
+        RLlib's own validation refuses (:mod:`rlchain.rllib.evaluation_settings`)."""
         check_supported(self)
+        check_evaluation(self)
 
     # ----- building ----------------------------------------------------------------------------------
     def build_algo(self, env: Any = None, logger_creator: Any = None, use_copy: bool = True) -> Any:
