@@ -22,6 +22,7 @@ from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.module import NAME_PREFIX, RLModuleView
 from rlchain.runner import Runner
+from rlchain.runs import checkpoint as ckpt
 
 MODULES_PATH = ("learner_group", "learner", "rl_module")
 """RLlib's component path from a checkpoint folder to its (multi-)module."""
@@ -84,8 +85,9 @@ def from_checkpoint(path: Any) -> Any:
     if ids != [DEFAULT_MODULE_ID]:
         raise ConfigError(root, "policies", f"a multi-agent checkpoint ({', '.join(ids)}): {instead}")
     checkpoint = os.path.join(root, CHECKPOINT_FILE)
-    params = Runner().load_from_checkpoint(checkpoint).params
-    loaded = load_policy(params, checkpoint, num_envs=1)
+    state = ckpt.load(checkpoint)  # read once: the stored config, then the weights
+    params = Runner().load_from_checkpoint(checkpoint, state=state).params
+    loaded = load_policy(params, checkpoint, num_envs=1, state=state)
     loaded.close()
     probe = gym.make(env)
     try:
