@@ -10,14 +10,48 @@ from typing import Any
 from rlchain.rllib.callbacks.callbacks import nested
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 
+LAST = "last_minibatch/"
+"""Prefix of the update's last minibatch's statistics among the epoch statistics the face reads
+(:func:`with_last_minibatch`)."""
+
+
+def with_last_minibatch(stats: dict[str, Any], agent: Any) -> dict[str, Any]:
+    """rlchain's epoch ``stats`` with ``agent``'s last minibatch's statistics added under :data:`LAST` (the PPO
+    agent's ``last_minibatch_stats``; none for an agent without them)."""
+    last = getattr(agent, "last_minibatch_stats", None) or {}
+    return {**stats, **{LAST + key: value for key, value in last.items()}}
+
 
 def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
-    """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names)."""
+    """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names).
+
+    RLlib 2.60's PPO, APPO and IMPALA learners log ``policy_loss``, ``vf_loss``, ``entropy``, ``mean_kl_loss`` and
+    the gradients' global norm once per minibatch with ``window=1``: a result holds the iteration's last
+    minibatch's values, not a mean; so does the face's, from the agent's last minibatch (the epoch's means where
+    there is none). ``curr_lr`` / ``curr_entropy_coeff``: the values rlchain trained with (a schedule's next
+    value replaces them: :func:`scheduled_results`)."""
     nan = math.nan
-    return {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-            "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-            "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-            "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+
+    def last(key: str) -> Any:
+        return stats.get(LAST + key, stats.get(key, nan))
+
+    return {"policy_loss": last("a_loss"), "vf_loss": last("c_loss"), "entropy": last("entropy"),
+            "mean_kl_loss": last("kl"), "curr_lr": stats.get("lr", nan),
+            "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+            "gradients_default_optimizer_global_norm": last("grad_norm")}
+
+
+SCHEDULED_RESULTS = {"learning_rate": "curr_lr", "entropy_coef": "curr_entropy_coeff"}
+"""The learner result of each parameter the face schedules (:mod:`rlchain.rllib.schedules`)."""
+
+
+def scheduled_results(values: dict[str, float]) -> dict[str, float]:
+    """The learner results of scheduled ``values`` (rlchain's parameter -> value).
+
+    RLlib's Learner steps its schedulers after each update, at the env steps sampled so far (this iteration's
+    included), and logs the new learning rate and entropy coefficient: a result reports the value the next
+    ``train()`` updates with. The face sets that value before the next ``train()`` and reports it the same way."""
+    return {SCHEDULED_RESULTS[param]: value for param, value in values.items() if param in SCHEDULED_RESULTS}
 
 
 def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
