@@ -64,7 +64,7 @@ class Algorithm:
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        if cls.algo_name:
+        if "algo_name" in cls.__dict__ and cls.algo_name:  # the face's own (a user's subclass keeps its parent's)
             ALGORITHMS[cls.algo_name] = cls
 
     def __init__(self, config: Any = None, env: Any = None, logger_creator: Any = None, **kwargs: Any) -> None:

@@ -9,6 +9,7 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.algorithms.sac.module import SACModuleView
 from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
@@ -44,6 +45,9 @@ class SAC(Algorithm):
                 "log_alpha_value": math.log(alpha) if isinstance(alpha, float) and alpha > 0 else nan,
                 "entropy": stats.get("entropy", nan), "qf_mean": stats.get("q", nan),
                 "curr_lr": stats.get("lr", cfg["actor_lr"])}
+
+
+SAC = exported(SAC)  # RLlib's SAC: config.algo_class is SAC, and Tune takes it (algorithm_class.py)
 
 
 class SACConfig(AlgorithmConfig):
