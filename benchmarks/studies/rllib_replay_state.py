@@ -55,7 +55,7 @@ def child(rows: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--before", required=True, help="the code tree before (a checkout's root)")
+    parser.add_argument("--before", help="the code tree before (a checkout's root)")
     parser.add_argument("--after", default=".", help="the code tree after")
     parser.add_argument("--rows", type=int, default=100_000)
     parser.add_argument("--rounds", type=int, default=2)
@@ -64,6 +64,8 @@ def main() -> None:
     if args.child:
         child(args.rows)
         return
+    if not args.before:
+        parser.error("--before: the code tree to compare with is required")
     for round_ in range(args.rounds):
         for side, tree in (("before", args.before), ("after", args.after)):
             env = {**os.environ, "PYTHONPATH": os.path.abspath(tree), "OMP_NUM_THREADS": "1"}
