@@ -29,7 +29,7 @@ sys.meta_path.insert(0, Watch())
 from rlchain.envs.ray.ray_worker import EnvWorker
 import numpy as np
 print("module", "torch" in sys.modules)
-worker = EnvWorker(pickle.loads(sys.stdin.buffer.read()), 0, 2)
+worker = EnvWorker(pickle.loads(sys.stdin.buffer.read()), 0, 2, own_process=True)
 print("recipe", "torch" in sys.modules)
 info = worker.build(3)
 obs = worker.reset(3)

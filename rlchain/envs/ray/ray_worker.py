@@ -135,10 +135,14 @@ def _picklable(items: dict) -> dict:
 
 
 class EnvWorker:
-    """The body of one Ray actor: envs ``[start, start + num_envs)`` of the batch, arrays in and out."""
+    """The body of one Ray actor: envs ``[start, start + num_envs)`` of the batch, arrays in and out.
 
-    def __init__(self, recipe: EnvRecipe, start: int, num_envs: int) -> None:
-        skip_builtins()  # the recipe brings the learner's env tables: no algorithms (nor torch) imported here
+    ``own_process`` (what :class:`~rlchain.envs.ray.ray_env.RayVecEnv` gives its actors): this process's registries
+    are the recipe's tables; rlchain's built-ins (every algorithm, torch) are never loaded here."""
+
+    def __init__(self, recipe: EnvRecipe, start: int, num_envs: int, own_process: bool = False) -> None:
+        if own_process:
+            skip_builtins()
         self.recipe, self.start, self.num_envs, self.env = recipe, start, num_envs, None
 
     def build(self, seed: int | None) -> dict:
