@@ -9,6 +9,7 @@ import sys
 
 import pytest
 
+from rlchain.envs.examples.goal_reach import GoalReachEnv
 from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.registry import Deferred, Registry
 from tests.conftest import ROOT
@@ -59,6 +60,9 @@ def test_a_recipe_sends_each_registry_entry_to_be_unpickled_on_first_lookup():
     assert isinstance(entry, Deferred) and not isinstance(recipe.builders["openai_gym"], Deferred)
     assert entry.make() == recipe.builders["openai_gym"]  # the same builder, by reference
     assert all(isinstance(v, Deferred) for v in sent.vecenvs.values())
+    # a gymnasium entry point a module names travels as its name: gymnasium imports it when it makes that env
+    assert sent.gym_specs["TestGoalReach-v0"].entry_point == "rlchain.envs.examples.goal_reach:GoalReachEnv"
+    assert recipe.gym_specs["TestGoalReach-v0"].entry_point is GoalReachEnv  # the recipe itself is unchanged
 
 
 def test_a_deferred_entry_is_made_on_its_first_lookup_and_kept():

@@ -6,10 +6,12 @@ the actor's body (made a Ray actor by ``ray.remote`` in ray_env.py, so this modu
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import pickle
 import re
+import sys
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,8 +31,10 @@ class EnvRecipe:
     (``params.import_modules``, ``env_configurations.register``, ``gym.register``) travel along: every
     :data:`ENVS` and :data:`VECENVS` entry and every gymnasium spec whose entry point is a Python object (plus
     the specs of the named env), each one that cloudpickle can serialize. Pickled (to a worker), each
-    :data:`ENVS` / :data:`VECENVS` entry travels on its own and is unpickled on its first lookup there, so a
-    worker imports the modules of the env it builds, not those of every registered env (torch's tensor envs).
+    :data:`ENVS` / :data:`VECENVS` entry travels on its own and is unpickled on its first lookup there, and a
+    gymnasium entry point that a module names travels as that name (``module:Name``, which gymnasium imports
+    when it makes the env), so a worker imports the modules of the env it builds, not those of every registered
+    env (torch's tensor envs, a test module).
     """
 
     env_name: str
@@ -60,6 +64,7 @@ class EnvRecipe:
         state = dict(self.__dict__)
         for key in ("builders", "vecenvs"):
             state[key] = {name: _deferred(entry) for name, entry in state[key].items()}
+        state["gym_specs"] = {name: _entry_point_by_name(spec) for name, spec in state["gym_specs"].items()}
         return state
 
     def build(self, num_envs: int, seed: int | None) -> Any:
@@ -118,6 +123,18 @@ def _deferred(entry: Any) -> Deferred:
     import cloudpickle
 
     return entry if isinstance(entry, Deferred) else Deferred(functools.partial(pickle.loads, cloudpickle.dumps(entry)))
+
+
+def _entry_point_by_name(spec: Any) -> Any:
+    """``spec`` with its entry point as gymnasium's ``module:Name`` string when that names the same object (a
+    class or function at the top of an imported module), else as it is."""
+    entry = spec.entry_point
+    module, name = getattr(entry, "__module__", None), getattr(entry, "__qualname__", "")
+    if not callable(entry) or not module or module == "__main__" or "." in name or "<" in name:
+        return spec
+    if getattr(sys.modules.get(module), name, None) is not entry:
+        return spec
+    return dataclasses.replace(spec, entry_point=f"{module}:{name}")
 
 
 def _picklable(items: dict) -> dict:
