@@ -488,6 +488,18 @@ def finish_background() -> list[str]:
     return problems
 
 
+def test_a_background_command_must_still_run_at_its_time(tmp_path, fork_server):
+    """The background check bites: a command that ends before its time is reported, one that runs on is not."""
+    env = environment(str(tmp_path))
+    block = Block("x.md", 3, "bash", "", "run", "timeout=1", {"timeout": "1"})
+    ends = "python -c 'import sys; sys.exit(3)'"
+    jobs = [start_background(block, "sleep 30", str(tmp_path), env, fork_server, None),
+            start_background(block, ends, str(tmp_path), env, fork_server, forkable(ends, ends))]
+    problems = docs_background.finish(jobs)
+    assert len(problems) == 1 and problems[0].startswith(f"x.md:3: `{ends}` should still run after 1 s, but it "
+                                                         f"ended within"), problems
+
+
 def test_commands_that_run_until_stopped_ran_on():
     """After the pages (tests run in file order): each ``run timeout=N`` command the pages started was still
     running N s after its start, with no traceback in its output (a page run alone: checked at the module's end)."""
