@@ -21,11 +21,10 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
-import torch
 
 from rlchain.envs.vecenv import StepResult
 
@@ -36,6 +35,9 @@ tens of seconds of CPU for a Brax or MJX env, and a jitted function compiles onc
 built again with an equal key reuses the first one's functions (and the env object they close over, built from
 the same key)."""
 KEEP_JITTED = 4
+
+if TYPE_CHECKING:  # torch is imported where it is used: a Ray env worker of numpy envs never needs it
+    import torch
 
 
 class JaxBatchVecEnv:
@@ -55,6 +57,7 @@ class JaxBatchVecEnv:
                  obs_of: Callable[[Any], Any] = lambda obs: obs, build_key: tuple | None = None) -> None:
         import jax
         import jax.numpy as jnp
+        import torch
 
         self.name, self.num_envs, self.device = name, num_envs, torch.device(device)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (int(obs_dim),), np.float32)
@@ -112,6 +115,8 @@ class JaxBatchVecEnv:
 
     def _torch(self, array: Any) -> torch.Tensor:
         """A JAX array as a torch tensor on ``device`` (shared memory through DLPack where it can)."""
+        import torch
+
         return torch.from_dlpack(array).to(self.device)
 
     def reset(self, seed: int | None = None) -> torch.Tensor:
