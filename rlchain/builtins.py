@@ -21,6 +21,7 @@ from rlchain.envs import examples, vecenv
 from rlchain.envs.backends import atari, mujoco_push, torch_envs
 from rlchain.envs.backends.mjlab_env import mjlab_env, mjlab_vecenv
 from rlchain.envs.building import BUILTIN_ENVS, VECENV_ALIASES, VECENV_TYPES
+from rlchain.envs.examples import embodichain_standins
 from rlchain.envs.factory import BuiltinVecEnv
 from rlchain.models.actor_critic import ActorCritic
 from rlchain.models.distributions import make_distribution
@@ -79,6 +80,7 @@ def register_builtins() -> None:
     ALGOS.register("apg", APG, overwrite=True)
     # envs through the two doors users have: env_configurations.register (batched envs: a vecenv_creator)
     for name, builder in {**BUILTIN_ENVS, **atari.ENV_BUILDERS, **torch_envs.ENV_BUILDERS, **examples.ENV_BUILDERS,
+                          **embodichain_standins.ENV_BUILDERS,
                           **mujoco_push.ENV_BUILDERS, "mjlab": mjlab_env}.items():  # mjlab: imported when built
         env_configurations.register(name, {"vecenv_creator": builder}, overwrite=True)
     # and vecenv.register: vecenv_type names, rl_games' creator signature; RAY / ENVPOOL match case-insensitively;

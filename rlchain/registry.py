@@ -35,6 +35,23 @@ def load_builtins_with(loader: Callable[[], None]) -> None:
     _builtins.append(loader)
 
 
+def skip_builtins() -> None:
+    """Never load rlchain's built-in entries in this process (a no-op once they are loaded): its tables are filled by
+    hand. A Ray env worker registers the learner's env tables, built-ins included, and so starts without importing
+    every algorithm and torch."""
+    _builtins.clear()
+
+
+class Deferred:
+    """An entry made on its first lookup by ``make()``, then kept: a Ray env worker registers the learner's env
+    entries so, and imports the modules of the one it builds only (not torch's tensor envs beside it)."""
+
+    __slots__ = ("make",)
+
+    def __init__(self, make: Callable[[], Any]) -> None:
+        self.make = make
+
+
 def ensure_builtins() -> None:
     """Run the pending built-in loader now (a no-op once it ran, and while it runs)."""
     while _builtins:
@@ -116,9 +133,12 @@ class Registry:
         """Return what was registered under ``name`` or raise with a did-you-mean."""
         ensure_builtins()
         try:
-            return self._items[name]
+            value = self._items[name]
         except KeyError:
             raise RegistryError(self.unknown_message(name)) from None
+        if isinstance(value, Deferred):
+            value = self._items[name] = value.make()
+        return value
 
     def unknown_message(self, name: str) -> str:
         """A one-line explanation of a failed lookup, with the closest registered names."""

@@ -114,11 +114,13 @@ class Runner:
         self.raw = raw
         return self
 
-    def load_from_checkpoint(self, path: str, overrides: list[str] | None = None) -> Runner:
+    def load_from_checkpoint(self, path: str, overrides: list[str] | None = None,
+                             state: dict[str, Any] | None = None) -> Runner:
         """Use the resolved config stored inside a checkpoint (for --play without --file).
-        A shipped checkpoint's name (``cartpole``) works."""
+        A shipped checkpoint's name (``cartpole``) works. ``state``: the checkpoint as the caller read it already
+        (so a caller that loads the weights too reads the file once)."""
         path = locate_checkpoint(path)[0]
-        state = ckpt.load(path)
+        state = ckpt.load(path) if state is None else state
         config = state.get("config")
         if not isinstance(config, dict) or not isinstance(config.get("params"), dict):
             raise ckpt.CheckpointError(f"{path}: the checkpoint holds no config (no 'config' with 'params'); "

@@ -81,7 +81,12 @@ class VTraceConfig(ActorCriticConfig):
     """Why this algorithm ignores a key of another algorithm (added to the warning)."""
 
     def validate(self) -> tuple[str, str] | None:
-        """Every runner holds the same number of envs, so every fragment has the same shape."""
+        """Every runner holds the same number of envs, so every fragment has the same shape; PPO's RLlib
+        standardization needs PPO's rollout."""
+        if self.normalize_advantage and self.advantage_normalization == "rllib":  # else it fails at the update
+            return "advantage_normalization", ("rllib is PPO's (RLlib's bootstrap rows, one per episode chunk of "
+                                               "PPO's rollout): batch or minibatch here, or normalize_advantage "
+                                               "False (RLlib's APPO and IMPALA standardize nothing)")
         appo = self.appo
         if appo.max_policy_lag < appo.broadcast_interval - 1:  # every fragment would be too old: no progress
             return "appo.max_policy_lag", (f"{appo.max_policy_lag} is below broadcast_interval - 1 = "

@@ -17,11 +17,13 @@ normalized: a multi-input network looks it up in an embedding.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
-import torch
+
+if TYPE_CHECKING:  # torch is imported where it is used: a Ray env worker of numpy envs never needs it
+    import torch
 
 CENTRAL_VALUE_KEYS = frozenset({"obs", "state"})
 
@@ -66,10 +68,10 @@ class ObsDict(dict):
             buffer[index] = value[key]
 
     def clone(self) -> ObsDict:
-        return self._map(torch.clone)
+        return self._map(lambda v: v.clone())
 
     def detach(self) -> ObsDict:
-        return self._map(torch.Tensor.detach)
+        return self._map(lambda v: v.detach())
 
     def to(self, *args: Any, **kwargs: Any) -> ObsDict:
         """Every key moved (a dtype argument would cast images too: only devices are meant here)."""
@@ -82,7 +84,8 @@ class ObsDict(dict):
 
     def reshape(self, *shape: Any) -> ObsDict:
         """New batch dims (``shape`` counts only them; ``-1`` allowed); every key keeps its own shape."""
-        batch = tuple(shape[0]) if len(shape) == 1 and isinstance(shape[0], (tuple, list, torch.Size)) else shape
+        # one sequence (a tuple, a list or a torch.Size, which is a tuple) or the dims themselves
+        batch = tuple(shape[0]) if len(shape) == 1 and isinstance(shape[0], (tuple, list)) else shape
         return self._map(lambda v: v.reshape(*batch, *v.shape[self.batch_dims:]), len(batch))
 
     def transpose(self, dim0: int, dim1: int) -> ObsDict:
@@ -95,6 +98,8 @@ class ObsDict(dict):
         (an integer key's values as numbers, not one-hot)."""
         if start_dim != self.batch_dims:
             raise ValueError("ObsDict.flatten: only the per-row flattening (start_dim = batch dims)")
+        import torch
+
         return torch.cat([v.reshape(*v.shape[:self.batch_dims], -1).float() for v in self.values()], -1)
 
     def numel(self) -> int:
@@ -140,6 +145,8 @@ def flat_size(space: gym.spaces.Dict) -> int:
 
 def torch_dtype(space: gym.Space) -> torch.dtype:
     """uint8 for a uint8 Box (images stay bytes), int64 for a Discrete / MultiDiscrete, float32 otherwise."""
+    import torch
+
     if is_discrete(space):
         return torch.int64
     return torch.uint8 if np.dtype(space.dtype) == np.uint8 else torch.float32
@@ -158,6 +165,8 @@ def obs_row_bytes(space: gym.Space) -> int:
 
 def dict_zeros(batch: tuple[int, ...], space: gym.spaces.Dict, device: torch.device | str = "cpu") -> ObsDict:
     """Zero buffers (*batch, *shape) for every key of ``space``, each in its :func:`torch_dtype`."""
+    import torch
+
     return ObsDict({k: torch.zeros((*batch, *s.shape), dtype=torch_dtype(s), device=device)
                     for k, s in space.spaces.items()}, len(batch))
 
@@ -165,6 +174,8 @@ def dict_zeros(batch: tuple[int, ...], space: gym.spaces.Dict, device: torch.dev
 def as_obs_dict(obs: Mapping[str, Any], space: gym.spaces.Dict, device: torch.device | str) -> ObsDict:
     """A batch of Dict observations ({key: (N, *shape)} arrays or tensors) as an ObsDict on ``device``,
     each key in its space's dtype (uint8 stays uint8), in the space's key order."""
+    import torch
+
     out = {}
     for key, sub in space.spaces.items():
         value = obs[key]
@@ -177,6 +188,8 @@ def as_obs_dict(obs: Mapping[str, Any], space: gym.spaces.Dict, device: torch.de
 def obs_as_tensor(obs: Any, device: torch.device | str) -> torch.Tensor | ObsDict:
     """A batch of observations on ``device``: a dict (an ObsDict or a gymnasium Dict env's arrays) key by key,
     each key's dtype kept, anything else through ``torch.as_tensor``."""
+    import torch
+
     if isinstance(obs, dict):
         return ObsDict({k: torch.as_tensor(v, device=device) for k, v in obs.items()}, getattr(obs, "batch_dims", 1))
     return torch.as_tensor(obs, device=device)

@@ -11,13 +11,15 @@ described on first use).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
-import torch
 
 from rlchain.errors import EnvError
+
+if TYPE_CHECKING:  # torch is imported where it is used: a Ray env worker of numpy envs never needs it
+    import torch
 
 ATTR = "env_spec"
 """The attribute the spec is attached as."""
@@ -83,6 +85,10 @@ def describe(env: Any) -> EnvSpec:
     masks = callable(has_mask) and bool(has_mask())  # get_action_mask() comes with it (vecenv.py)
     tensor = bool(getattr(env, "is_tensor_env", False))
     device = getattr(env, "device", None) if tensor else None
+    if device is not None:
+        import torch  # a tensor env: torch is imported already
+
+        device = torch.device(device)
     groups = getattr(env, "env_groups", None)
     action_space = getattr(env, "action_space", None)
     return EnvSpec(
@@ -90,7 +96,7 @@ def describe(env: Any) -> EnvSpec:
         num_agents=agents, num_actors=int(getattr(env, "num_actors", num_envs // agents)),
         value_size=int(getattr(env, "value_size", 1)),
         mask_size=mask_size_of(action_space) if masks else None,
-        tensor_native=tensor, device=None if device is None else torch.device(device),
+        tensor_native=tensor, device=device,
         groups=None if groups is None else tuple(groups),
         central_value=bool(getattr(env, "use_central_value", False)),
         pettingzoo=bool(getattr(env, "is_pettingzoo", False)),

@@ -66,14 +66,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import gymnasium as gym
 import numpy as np
-import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.registry import ENVS, VECENVS
+
+if TYPE_CHECKING:  # torch is imported where it is used: a Ray env worker of numpy envs never needs it
+    import torch
 
 DROPPED = "dropped"
 
@@ -114,6 +116,8 @@ def game_outcome(result: Any, rewards: torch.Tensor, dones: torch.Tensor) -> tup
     ``rewards`` / ``dones`` are the training reward and episode end of the step; they are returned
     unchanged unless the env sets ``result.game_reward`` / ``result.game_over``.
     """
+    import torch
+
     if getattr(result, "game_reward", None) is not None:
         rewards = torch.as_tensor(result.game_reward, device=rewards.device).to(rewards.dtype).reshape(-1)
     if getattr(result, "game_over", None) is not None:

@@ -34,12 +34,20 @@ from rlchain.rllib.checkpoint_files import (
     read_text,
     stored_config,
 )
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
-from rlchain.rllib.results import DEFAULT_MODULE, deep_update, learner_results, train_result
+from rlchain.rllib.results import (
+    deep_update,
+    last_minibatch_by_policy,
+    learner_results,
+    scheduled_results,
+    train_result,
+    with_last_minibatch,
+)
 from rlchain.rllib.schedules import Schedules
 from rlchain.rllib.stepper import ParkingStepper
 from rlchain.runner import Runner
@@ -63,7 +71,7 @@ class Algorithm:
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        if cls.algo_name:
+        if "algo_name" in cls.__dict__ and cls.algo_name:  # the face's own (a user's subclass keeps its parent's)
             ALGORITHMS[cls.algo_name] = cls
 
     def __init__(self, config: Any = None, env: Any = None, logger_creator: Any = None, **kwargs: Any) -> None:
@@ -199,12 +207,16 @@ class Algorithm:
     def _result(self, report: Any) -> dict[str, Any]:
         ctx = self._stepper.context
         tracker = ctx.episode_tracker
-        return train_result(report, self.rlchain_config["params"]["config"], iteration=self.iteration,
-                            time_total=self._time_total, games=int(getattr(tracker, "games", 0) or 0),
+        cfg = self.rlchain_config["params"]["config"]
+        agent = getattr(ctx.algorithm, "agent", None)
+        learner = self.learner_results(with_last_minibatch(report.stats, agent), cfg)
+        if self._schedules:  # RLlib reports the value after its scheduler's step: the next train()'s
+            learner.update(scheduled_results(self._schedules.at(int(ctx.state.frames))))
+        return train_result(report, cfg, iteration=self.iteration, time_total=self._time_total,
+                            games=int(getattr(tracker, "games", 0) or 0),
                             episodes=None if self._multi is not None else self._episodes.take(tracker),
-                            episode_custom=self._env_runner_metrics.reduce(),
-                            learner=self.learner_results(report.stats, self.rlchain_config["params"]["config"]),
-                            multi=self._multi)
+                            episode_custom=self._env_runner_metrics.reduce(), learner=learner, multi=self._multi,
+                            last_by_policy=last_minibatch_by_policy(agent) if self._multi is not None else None)
 
     @staticmethod
     def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
@@ -283,28 +295,28 @@ class Algorithm:
         return LocalReplayBuffer(buffer, self.observation_space, self.action_space, int(ctx.state.frames),
                                  updates * batch)
 
-    def get_module(self, module_id: str = DEFAULT_MODULE) -> RLModuleView:
+    def get_module(self, module_id: str = DEFAULT_MODULE_ID) -> RLModuleView:
         """The trained policy as RLlib's RLModule (``forward_inference({'obs': batch})``)."""
         self._check_running()
         model = self._stepper.context.model
         if self._multi is not None:
-            if module_id == DEFAULT_MODULE and DEFAULT_MODULE not in model and len(model) == 1:
+            if module_id == DEFAULT_MODULE_ID and DEFAULT_MODULE_ID not in model and len(model) == 1:
                 module_id = next(iter(model))
             if module_id not in model:
                 raise KeyError(f"module '{module_id}': the policies are {', '.join(model)}")
             obs_space, act_space = self._multi.spaces[module_id]
             return RLModuleView(model[module_id], obs_space, act_space)
-        if module_id != DEFAULT_MODULE:
-            raise KeyError(f"module '{module_id}': the face trains one module, '{DEFAULT_MODULE}'")
+        if module_id != DEFAULT_MODULE_ID:
+            raise KeyError(f"module '{module_id}': the face trains one module, '{DEFAULT_MODULE_ID}'")
         return RLModuleView(model, self.observation_space, self.action_space)
 
     def compute_single_action(self, observation: Any = None, state: Any = None, *, explore: bool | None = None,
-                              policy_id: str = DEFAULT_MODULE, full_fetch: bool = False, **kwargs: Any) -> Any:
+                              policy_id: str = DEFAULT_MODULE_ID, full_fetch: bool = False, **kwargs: Any) -> Any:
         """RLlib's older single-observation call: the action (sampled unless ``explore=False``)."""
         action = self.get_module(policy_id).act(observation, True if explore is None else bool(explore))
         return (action, [], {}) if full_fetch or state is not None else action
 
-    def get_policy(self, policy_id: str = DEFAULT_MODULE) -> Any:
+    def get_policy(self, policy_id: str = DEFAULT_MODULE_ID) -> Any:
         """The older Policy object: its ``compute_single_action`` returns (action, states, extras)."""
         module = self.get_module(policy_id)
 
@@ -332,7 +344,7 @@ class Algorithm:
         with open(os.path.join(path, RLCHAIN_CONFIG_FILE), "w") as f:
             yaml.safe_dump(self.rlchain_config, f, sort_keys=False)
         model = self._stepper.context.model
-        write_module_folders(path, list(model) if self._multi is not None else [DEFAULT_MODULE])
+        write_module_folders(path, list(model) if self._multi is not None else [DEFAULT_MODULE_ID])
         return path
 
     def save(self, checkpoint_dir: str | None = None, **kwargs: Any) -> Any:

@@ -1,26 +1,54 @@
-"""``config.algo_class``: the face's algorithm class as RLlib users pass it around.
+"""The face's algorithm classes as RLlib users pass them around: ``PPO`` (and ``config.algo_class``, the same
+object, as in RLlib: ``PPOConfig().algo_class is PPO``).
 
 RLlib's ``Algorithm`` is a Ray Tune ``Trainable``, so RLlib's docs hand ``config.algo_class`` to
 ``tune.Tuner(config.algo_class, param_space=config)``. The face's algorithms are not Trainables (rlchain does not
 need Ray), and Tune takes a class only when it is one; it takes any callable of one ``config`` argument as a
-function trainable. So ``config.algo_class`` is this callable: given an AlgorithmConfig (``algo_class(config=...)``,
-what ``build_algo`` calls) it builds the algorithm; given Tune's trial config dict it runs the trial
-(:func:`run_trial`). Other attributes are the class's (``get_default_config()``...).
+function trainable. So the name the face exports (``PPO``, ``DQN``, ...) is an :class:`AlgorithmClass`, the
+algorithm class as that callable: given an AlgorithmConfig (``PPO(config=...)``, what ``build_algo`` calls) it
+builds the algorithm; given Tune's trial config dict it runs the trial (:func:`run_trial`). Otherwise it stands
+for the class: its attributes (``get_default_config()``, ``from_checkpoint()``), ``isinstance(algo, PPO)``,
+``class MyPPO(PPO)`` and pickling work as for the class; ``inspect.isclass(PPO)`` and ``issubclass(PPO, ...)``
+do not (the class itself is ``PPO.cls``).
 """
 
 from __future__ import annotations
 
 import tempfile
-from typing import Any
+from typing import Any, ClassVar
 
 
 class AlgorithmClass:
-    """The face's algorithm class ``cls``, callable as RLlib's and as a Tune function trainable."""
+    """The face's algorithm class ``cls``, callable as RLlib's and as a Tune function trainable (one per class:
+    :meth:`of`)."""
+
+    _made: ClassVar[dict[type, AlgorithmClass]] = {}
 
     def __init__(self, cls: type) -> None:
         self.cls = cls
-        self.__name__ = self.__qualname__ = getattr(cls, "algo_name", "") or cls.__name__
+        self.__name__ = self.__qualname__ = cls.__name__
         self.__doc__ = cls.__doc__
+        self.__module__ = cls.__module__
+
+    @classmethod
+    def of(cls, algo: type) -> AlgorithmClass:
+        """The one AlgorithmClass of class ``algo`` (so ``config.algo_class is PPO`` holds after a copy or a
+        pickle round trip)."""
+        if algo not in cls._made:
+            cls._made[algo] = cls(algo)
+        return cls._made[algo]
+
+    def __instancecheck__(self, obj: object) -> bool:
+        return isinstance(obj, self.cls)
+
+    def __subclasscheck__(self, sub: Any) -> bool:
+        return issubclass(sub.cls if isinstance(sub, AlgorithmClass) else sub, self.cls)
+
+    def __mro_entries__(self, bases: tuple[Any, ...]) -> tuple[type, ...]:
+        return (self.cls,)  # ``class MyPPO(PPO)`` subclasses the class itself
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return AlgorithmClass.of, (self.cls,)
 
     def __call__(self, config: Any) -> Any:
         if isinstance(config, dict):  # a Tune trial's config
@@ -28,7 +56,7 @@ class AlgorithmClass:
         return self.cls(config=config)
 
     def __getattr__(self, name: str) -> Any:
-        if name == "cls":
+        if name == "cls" or name.startswith("__"):
             raise AttributeError(name)
         return getattr(self.cls, name)
 
@@ -39,7 +67,14 @@ class AlgorithmClass:
         return hash(self.cls)
 
     def __repr__(self) -> str:
-        return f"<algo_class {self.cls.__module__}.{self.cls.__qualname__}>"
+        return f"<class '{self.__module__}.{self.__name__}'>"
+
+
+def exported(cls: type) -> AlgorithmClass:
+    """The name a face algorithm module exports for its class ``cls`` (``PPO = exported(PPO)``): its
+    AlgorithmClass, with the class reachable by reference as ``<module>.PPO.cls`` (so pickle finds it)."""
+    cls.__qualname__ = f"{cls.__qualname__}.cls"
+    return AlgorithmClass.of(cls)
 
 
 def build_from_dict(algo_config: Any, config: dict[str, Any]) -> Any:

@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 from rlchain.config.errors import ConfigError
 from rlchain.errors import did_you_mean
 from rlchain.rllib import keys as K
-from rlchain.rllib.algorithm_class import AlgorithmClass
+from rlchain.rllib.evaluation_settings import check_evaluation
 from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.translate import check_supported
 
@@ -30,8 +30,7 @@ class AlgorithmConfig:
         object.__setattr__(self, "_settings", K.defaults(self.algo_name))
         object.__setattr__(self, "_keys", K.all_keys(self.algo_name))
         object.__setattr__(self, _FROZEN, False)
-        object.__setattr__(self, "algo_class", AlgorithmClass(algo_class) if isinstance(algo_class, type)
-                           else algo_class)
+        object.__setattr__(self, "algo_class", algo_class)  # RLlib's: the class given (PPOConfig's: PPO)
 
     @classmethod
     def overrides(cls, **kwargs: Any) -> dict[str, Any]:
@@ -220,13 +219,15 @@ class AlgorithmConfig:
         object.__setattr__(self, _FROZEN, True)
 
     def validate(self) -> None:
-        """Refuse, in one line each, the settings the face does not offer (see :data:`keys.UNSUPPORTED`)."""
+        """Refuse, in one line each, the settings the face does not offer (see :data:`keys.UNSUPPORTED`) and those
+        RLlib's own validation refuses (:mod:`rlchain.rllib.evaluation_settings`)."""
         check_supported(self)
+        check_evaluation(self)
 
     # ----- building ----------------------------------------------------------------------------------
     def build_algo(self, env: Any = None, logger_creator: Any = None, use_copy: bool = True) -> Any:
         """The Algorithm of this config on rlchain's loop (``env``: sets the env first, as RLlib's)."""
-        if not isinstance(self.algo_class, AlgorithmClass):
+        if self.algo_class is None:
             raise ConfigError(type(self).__name__, "algo_class", "no algorithm to build: use PPOConfig / DQNConfig")
         config = self.copy() if use_copy else self
         if env is not None:

@@ -19,8 +19,10 @@ import gymnasium as gym
 from rlchain.config.errors import ConfigError
 from rlchain.policy.load import load_policy
 from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN_CONFIG_FILE, read_text, stored_config
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.module import NAME_PREFIX, RLModuleView
 from rlchain.runner import Runner
+from rlchain.runs import checkpoint as ckpt
 
 MODULES_PATH = ("learner_group", "learner", "rl_module")
 """RLlib's component path from a checkpoint folder to its (multi-)module."""
@@ -80,11 +82,12 @@ def from_checkpoint(path: Any) -> Any:
         raise ConfigError(root, "rl_module_spec", f"the checkpoint trained an RLModule class, which is not in the "
                                                   f"JSON: {instead}")
     ids = module_ids(root)
-    if ids != ["default_policy"]:
+    if ids != [DEFAULT_MODULE_ID]:
         raise ConfigError(root, "policies", f"a multi-agent checkpoint ({', '.join(ids)}): {instead}")
     checkpoint = os.path.join(root, CHECKPOINT_FILE)
-    params = Runner().load_from_checkpoint(checkpoint).params
-    loaded = load_policy(params, checkpoint, num_envs=1)
+    state = ckpt.load(checkpoint)  # read once: the stored config, then the weights
+    params = Runner().load_from_checkpoint(checkpoint, state=state).params
+    loaded = load_policy(params, checkpoint, num_envs=1, state=state)
     loaded.close()
     probe = gym.make(env)
     try:

@@ -27,6 +27,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.envs.backends.pettingzoo_env import flat_space
 from rlchain.model_builder import register_network
 from rlchain.rllib import keys as K
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.core.columns import Columns
 from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
 from rlchain.rllib.default_ppo_module import DefaultPPOTorchRLModule
@@ -139,7 +140,7 @@ def apply_spec(config: Any, rlchain_config: dict[str, Any], observation_space: g
     if spec is None:
         return
     if isinstance(spec, MultiRLModuleSpec):
-        spec = spec.spec_of(DEFAULT_MODULE)
+        spec = spec.spec_of(DEFAULT_MODULE_ID)
         if spec is None:
             return
     params = rlchain_config["params"]
@@ -173,8 +174,6 @@ def network_block(config: Any, spec: Any, observation_space: gym.Space, action_s
     name = register(spec, observation_space, action_space, model_config, trained)
     return {"name": name}
 
-
-DEFAULT_MODULE = "default_policy"
 
 
 def policy_network(config: Any, policy: str, observation_space: gym.Space, action_space: gym.Space

@@ -31,6 +31,7 @@ from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv
 from rlchain.envs.wrappers.multi_agent_parallel import ALL, EpisodeLog, ParallelView, agent_ids_of, space_of
 from rlchain.inference.policy_player import play_policies
 from rlchain.rllib import translate
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
@@ -170,7 +171,7 @@ def policy_names(config: Any) -> tuple[list[str], dict[str, Any]]:
     where = f"{type(config).__name__}.multi_agent()"
     policies = config._settings.get("policies")
     if policies is None:
-        return ["default_policy"], {"default_policy": None}
+        return [DEFAULT_MODULE_ID], {DEFAULT_MODULE_ID: None}
     if isinstance(policies, dict):
         entries = dict(policies)
     elif isinstance(policies, (set, frozenset, list, tuple)):
@@ -303,14 +304,18 @@ class MultiAgentRun:
     def _id(self, agent: str) -> Any:
         return self.view._ids.get(agent, agent)
 
-    def learners(self, stats: dict[str, float], lr: float) -> dict[str, dict[str, float]]:
-        """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags."""
+    def learners(self, stats: dict[str, float], lr: float, last: dict[str, dict[str, float]] | None = None
+                 ) -> dict[str, dict[str, float]]:
+        """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags; the losses
+        and KL of each policy's last minibatch where ``last`` (policy -> its agent's last minibatch's statistics)
+        has them, as RLlib logs them (``window=1``), else the update's means."""
         nan = float("nan")
         out = {}
         for pid in self.names:
             if pid not in self.spaces or (self.trained is not None and pid not in self.trained):
                 continue
-            tag = (lambda kind, key, pid=pid: stats.get(f"{kind}/{pid}/{key}", nan))
+            own = (last or {}).get(pid) or {}
+            tag = (lambda kind, key, pid=pid, own=own: own.get(key, stats.get(f"{kind}/{pid}/{key}", nan)))
             out[pid] = {"policy_loss": tag("losses", "a_loss"), "vf_loss": tag("losses", "c_loss"),
                         "entropy": tag("losses", "entropy"), "mean_kl_loss": tag("info", "kl"),
                         "curr_lr": stats.get(f"info/{pid}/last_lr", lr),

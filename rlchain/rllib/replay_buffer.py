@@ -35,22 +35,10 @@ from rlchain.rllib.utils.serialization import gym_space_to_dict
 
 
 def _np(x: Any) -> Any:
-    """A tensor (or a dict of tensors) as numpy on the CPU."""
+    """A tensor (or a dict of tensors) as numpy on the CPU (a CPU tensor's own memory: no copy)."""
     if isinstance(x, dict):
         return {k: _np(v) for k, v in x.items()}
     return x.detach().cpu().numpy()
-
-
-def _take(x: Any, idx: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _take(v, idx) for k, v in x.items()}
-    return x[idx]
-
-
-def _stack(items: list[Any]) -> Any:
-    if items and isinstance(items[0], dict):
-        return {k: np.stack([it[k] for it in items]) for k in items[0]}
-    return np.stack(items)
 
 
 def _steps_used(discounts: np.ndarray, gamma: float, n_step: int) -> np.ndarray:
@@ -64,60 +52,101 @@ def _steps_used(discounts: np.ndarray, gamma: float, n_step: int) -> np.ndarray:
     return np.clip(steps, 1, n_step)
 
 
-def _env_steps(buffer: Any) -> list[list[dict[str, Any]]]:
-    """Each env's steps in the order taken: the stored rows (oldest first), then the pending window's steps."""
-    n_envs = max(1, int(buffer.num_envs))
+class _EnvSteps:
+    """One env's steps in the order taken, as arrays: its stored rows (oldest first; ``rows`` index the buffer),
+    then the pending window's steps (``n_step > 1``: not yet rows). The observations stay in the buffer (and the
+    pending steps) until an episode gathers its own: each is copied once."""
+
+    def __init__(self, rows: np.ndarray, at: np.ndarray, cols: dict[str, np.ndarray], pending: list[dict[str, Any]],
+                 env: int, gamma: float) -> None:
+        self.rows, self.stored = rows, len(rows)
+        self.pending = [{k: _pick(v, env) for k, v in step.items()} for step in pending]
+        self.at = np.concatenate([at, np.arange(len(pending)) + (int(at[-1]) + 1 if len(at) else 0)])
+        flag = lambda name: np.concatenate([cols[name][rows], [bool(p[name]) for p in self.pending]]).astype(bool)  # noqa: E731
+        self.term, self.trunc = flag("terminated"), flag("truncated")
+        self.used = np.concatenate([cols["used"][rows], np.ones(len(pending), np.int64)]).astype(np.int64)
+        self.rewards = _one_step_rewards(np.concatenate([cols["rewards"][rows].astype(np.float64),
+                                                         [float(p["rewards"]) for p in self.pending]]),
+                                         self.used, gamma)
+        self.ends = (self.used == 1) & (self.term | self.trunc)
+
+    def episodes(self, wrapped: bool) -> list[tuple[int, int]]:
+        """(start, stop) of each episode; a first one whose start the ring overwrote is left out."""
+        cuts = [0, *(np.flatnonzero(self.ends) + 1).tolist()]
+        if cuts[-1] < len(self.ends):
+            cuts.append(len(self.ends))
+        spans = list(zip(cuts, cuts[1:]))
+        if wrapped and len(spans) > 1 and self.stored > 0:
+            spans = spans[1:]
+        return spans
+
+    def gather(self, src: Any, key: str, start: int, stop: int, final: Any = None) -> Any:
+        """Column ``key`` (``src``: the buffer's, as numpy) of steps ``start:stop``, then ``final`` when given."""
+        extra = [self.pending[i - self.stored][key] for i in range(max(start, self.stored), stop)]
+        return _gather(src, self.rows[start:min(stop, self.stored)], extra + ([] if final is None else [final]))
+
+    def value(self, src: Any, key: str, i: int) -> Any:
+        """Step ``i``'s value of column ``src`` (the pending window's own for a pending step)."""
+        if i >= self.stored:
+            return self.pending[i - self.stored][key]
+        return _pick(src, int(self.rows[i]))
+
+
+def _gather(src: Any, rows: np.ndarray, extra: list[Any]) -> Any:
+    """``src``'s ``rows`` followed by the ``extra`` values: one copy into a new array (a dict of arrays for a Dict
+    space)."""
+    if isinstance(src, dict):
+        return {k: _gather(v, rows, [e[k] for e in extra]) for k, v in src.items()}
+    out = np.empty((len(rows) + len(extra), *src.shape[1:]), dtype=src.dtype)
+    np.take(src, rows, axis=0, out=out[:len(rows)])
+    for i, value in enumerate(extra, start=len(rows)):
+        out[i] = value
+    return out
+
+
+def _pick(x: Any, i: int | None) -> Any:
+    """Row ``i`` of an array or a dict of arrays (a tensor as numpy first); ``None``: the value as numpy."""
+    if isinstance(x, dict):
+        return {k: _pick(v, i) for k, v in x.items()}
+    if isinstance(x, torch.Tensor):
+        x = _np(x)
+    return x if i is None else x[i]
+
+
+def _one_step_rewards(returns: np.ndarray, used: np.ndarray, gamma: float) -> np.ndarray:
+    """Each step's own reward: a row's return minus the discounted rewards of the steps after it that it summed
+    (``used`` steps; 1 for a pending step, whose reward is its own)."""
+    if (used == 1).all():
+        return returns
+    rewards = returns.copy()
+    for i in range(len(rewards) - 1, -1, -1):
+        for k in range(1, int(used[i])):
+            if i + k < len(rewards):
+                rewards[i] -= gamma ** k * rewards[i + k]
+    return rewards
+
+
+def _ring_rows(buffer: Any) -> np.ndarray:
+    """The stored rows, oldest first."""
     size, cap, pos = int(buffer.size), int(buffer.capacity), int(buffer.pos)
-    rows = np.arange(size) if size < cap else np.concatenate([np.arange(pos, cap), np.arange(0, pos)])
-    steps: list[list[dict[str, Any]]] = [[] for _ in range(n_envs)]
-    if size:
-        idx = torch.as_tensor(rows, device=buffer.device)
-        obs, next_obs = _np(_take(buffer.obs, idx)), _np(_take(buffer.next_obs, idx))
-        actions, rewards = _np(buffer.actions[idx]), _np(buffer.rewards[idx])
-        term, trunc = _np(buffer.terminated[idx]), _np(buffer.truncated[idx])
-        used = _steps_used(_np(buffer.discounts[idx]), buffer.gamma, buffer.n_step)
-        count = len(rows)
-        for j, row in enumerate(rows):
-            env = (j - count) % n_envs  # every write is one row per env: the newest row is the last env's
-            steps[env].append({"obs": _take(obs, j), "next_obs": _take(next_obs, j), "action": actions[j],
-                               "ret": float(rewards[j]), "used": int(used[j]), "term": bool(term[j]),
-                               "trunc": bool(trunc[j]), "row": int(row), "at": j})
-    for at, step in enumerate(getattr(buffer, "_pending", []), start=len(rows)):
-        s = {k: _np(v) for k, v in step.items()}
-        for env in range(n_envs):
-            steps[env].append({"obs": _take(s["obs"], env), "next_obs": _take(s["next_obs"], env),
-                               "action": s["actions"][env], "reward": float(s["rewards"][env]), "used": 1,
-                               "term": bool(s["terminated"][env]), "trunc": bool(s["truncated"][env]), "row": None,
-                               "at": at})
-    return steps
+    return np.arange(size) if size < cap else np.concatenate([np.arange(pos, cap), np.arange(0, pos)])
 
 
-def _one_step_rewards(steps: list[dict[str, Any]], gamma: float) -> None:
-    """Each step's own reward: a pending step's is stored; a row's return minus the discounted rewards after it."""
-    for i in range(len(steps) - 1, -1, -1):
-        step = steps[i]
-        if "reward" in step:
-            continue
-        later = sum(gamma ** k * steps[i + k]["reward"] for k in range(1, step["used"]) if i + k < len(steps))
-        step["reward"] = step["ret"] - later
-
-
-def _ends(step: dict[str, Any]) -> bool:
-    return step["used"] == 1 and (step["term"] or step["trunc"])
-
-
-def _episodes(steps: list[dict[str, Any]], wrapped: bool) -> list[list[dict[str, Any]]]:
-    """One env's steps cut into episodes; a first episode whose start the ring overwrote is left out."""
-    out, current = [], []
-    for step in steps:
-        current.append(step)
-        if _ends(step):
-            out.append(current)
-            current = []
-    if current:
-        out.append(current)
-    if wrapped and len(out) > 1 and out[0][0]["row"] is not None:
-        out = out[1:]
+def _env_steps(buffer: Any) -> list[_EnvSteps]:
+    """Each env's steps (every write is one row per env: the newest row of a vectorized step is the last env's)."""
+    n_envs = max(1, int(buffer.num_envs))
+    rows = _ring_rows(buffer)
+    count = len(rows)
+    cols = {"terminated": _np(buffer.terminated), "truncated": _np(buffer.truncated),
+            "rewards": _np(buffer.rewards), "used": np.ones(int(buffer.capacity), np.int64)}
+    if count:
+        cols["used"][rows] = _steps_used(_np(buffer.discounts)[rows], buffer.gamma, buffer.n_step)
+    env_of = (np.arange(count) - count) % n_envs
+    pending = list(getattr(buffer, "_pending", []))
+    out = []
+    for env in range(n_envs):
+        at = np.flatnonzero(env_of == env)
+        out.append(_EnvSteps(rows[at], at, cols, pending, env, float(buffer.gamma)))
     return out
 
 
@@ -125,59 +154,64 @@ REWARD_SPACE = gym.spaces.Box(-np.inf, np.inf, (), np.float32)
 """The space RLlib's episodes give their rewards column."""
 
 
-def _column(data: Any, space: gym.spaces.Space | None) -> dict[str, Any]:
-    return {"data": data, "lookback": 0, "finalized": True, "space": gym_space_to_dict(space)}
+def _column(data: Any, space: dict[str, Any] | None) -> dict[str, Any]:
+    return {"data": data, "lookback": 0, "finalized": True, "space": space}
 
 
-def _episode_state(steps: list[dict[str, Any]], obs_space: Any, act_space: Any) -> dict[str, Any]:
-    last = steps[-1]
-    done = _ends(last)
-    final = last["next_obs"] if (done or last["used"] == 1) else None
-    obs = [s["obs"] for s in steps] + ([final] if final is not None else [])
-    n = len(steps)
+def _episode_state(steps: _EnvSteps, start: int, stop: int, src: dict[str, Any], spaces: dict[str, Any]
+                   ) -> dict[str, Any]:
+    last = stop - 1
+    done = bool(steps.ends[last])
+    final = steps.value(src["next_obs"], "next_obs", last) if (done or steps.used[last] == 1) else None
+    obs = steps.gather(src["obs"], "obs", start, stop, final)
+    n = stop - start
     return {
         "id_": uuid.uuid4().hex, "agent_id": None, "module_id": None, "multi_agent_episode_id": None,
-        "observations": _column(_stack(obs), obs_space),
-        "actions": _column(np.stack([s["action"] for s in steps]), act_space),
-        "rewards": _column(np.asarray([s["reward"] for s in steps], dtype=np.float32), REWARD_SPACE),
-        "infos": _column([{} for _ in range(len(obs))], None),
+        "observations": _column(obs, spaces["obs"]),
+        "actions": _column(steps.gather(src["actions"], "actions", start, stop), spaces["act"]),
+        "rewards": _column(steps.rewards[start:stop].astype(np.float32), spaces["reward"]),
+        "infos": _column([{} for _ in range(n + (final is not None))], None),
         "extra_model_outputs": None,
-        "is_terminated": bool(done and last["term"]), "is_truncated": bool(done and not last["term"]),
-        "t_started": 0, "t": n, "_observation_space": gym_space_to_dict(obs_space),
-        "_action_space": gym_space_to_dict(act_space), "_start_time": None, "_last_step_time": None,
+        "is_terminated": bool(done and steps.term[last]), "is_truncated": bool(done and not steps.term[last]),
+        "t_started": 0, "t": n, "_observation_space": spaces["obs"],
+        "_action_space": spaces["act"], "_start_time": None, "_last_step_time": None,
         "custom_data": {},
     }
 
 
 def _min_tree(tree: Any, n: int) -> np.ndarray:
-    """RLlib's min segment over the same leaves (inf where no row is stored)."""
+    """RLlib's min segment over the same leaves (inf where no row is stored), built level by level."""
     size = int(tree.size)
     out = np.full(2 * size, math.inf)
     out[size:size + n] = tree.leaves(n)
-    for node in range(size - 1, 0, -1):
-        out[node] = min(out[2 * node], out[2 * node + 1])
+    lo = size
+    while lo > 1:
+        half = lo // 2
+        out[half:lo] = np.minimum(out[lo:2 * lo:2], out[lo + 1:2 * lo:2])
+        lo = half
     return out
 
 
 def buffer_state(buffer: Any, obs_space: Any, act_space: Any, steps_added: int, sampled: int) -> dict[str, Any]:
     """RLlib's ``PrioritizedEpisodeReplayBuffer.get_state()`` (``EpisodeReplayBuffer``'s when not prioritized)
-    read from rlchain's :class:`~rlchain.algos.core.replay.ReplayBuffer`; see the module docstring."""
+    read from rlchain's :class:`~rlchain.algos.core.replay.ReplayBuffer`; see the module docstring. Linear in the
+    stored rows; each observation is copied once, into its episode's array (on a CPU buffer)."""
     wrapped = int(buffer.size) >= int(buffer.capacity)
     episodes, indices, tree_to_sample = [], [], {}
     per_env = _env_steps(buffer)
-    cut = [_episodes(s, wrapped) for s in per_env]
-    for env_steps in per_env:
-        _one_step_rewards(env_steps, float(buffer.gamma))
+    src = {"obs": _np(buffer.obs), "next_obs": _np(buffer.next_obs), "actions": _np(buffer.actions)}
+    spaces = {"obs": gym_space_to_dict(obs_space), "act": gym_space_to_dict(act_space),
+              "reward": gym_space_to_dict(REWARD_SPACE)}
     # oldest first: episodes ordered by when their first step was taken, then by env
-    order = sorted((eps[0]["at"], env, k) for env, eps_list in enumerate(cut) for k, eps in enumerate(eps_list))
-    for _, env, k in order:
-        eps = cut[env][k]
+    order = sorted((int(steps.at[start]), env, start, stop) for env, steps in enumerate(per_env)
+                   for start, stop in steps.episodes(wrapped))
+    for _, env, start, stop in order:
+        steps = per_env[env]
         e_idx = len(episodes)
-        for t, step in enumerate(eps):
-            if step["row"] is not None:
-                tree_to_sample[step["row"]] = len(indices)
-                indices.append((e_idx, t, step["row"]))
-        episodes.append(_episode_state(eps, obs_space, act_space))
+        stored = steps.rows[start:min(stop, steps.stored)].tolist()
+        tree_to_sample.update(zip(stored, range(len(indices), len(indices) + len(stored))))
+        indices.extend(zip([e_idx] * len(stored), range(len(stored)), stored))
+        episodes.append(_episode_state(steps, start, stop, src, spaces))
     state: dict[str, Any] = {
         "episodes": episodes,
         "episode_id_to_index": [(e["id_"], i) for i, e in enumerate(episodes)],
@@ -219,7 +253,9 @@ class LocalReplayBuffer:
         return len(self._buffer)
 
     def get_num_episodes(self) -> int:
-        return len(self.get_state()["episodes"])
+        """The episodes :meth:`get_state` would list (counted, not built)."""
+        wrapped = int(self._buffer.size) >= int(self._buffer.capacity)
+        return sum(len(steps.episodes(wrapped)) for steps in _env_steps(self._buffer))
 
     def get_added_timesteps(self) -> int:
         return self._added

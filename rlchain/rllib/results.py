@@ -8,17 +8,57 @@ import time
 from typing import Any
 
 from rlchain.rllib.callbacks.callbacks import nested
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 
-DEFAULT_MODULE = "default_policy"
+LAST = "last_minibatch/"
+"""Prefix of the update's last minibatch's statistics among the epoch statistics the face reads
+(:func:`with_last_minibatch`)."""
+
+
+def with_last_minibatch(stats: dict[str, Any], agent: Any) -> dict[str, Any]:
+    """rlchain's epoch ``stats`` with ``agent``'s last minibatch's statistics added under :data:`LAST` (the PPO
+    agent's ``last_minibatch_stats``; none for an agent without them)."""
+    last = getattr(agent, "last_minibatch_stats", None) or {}
+    return {**stats, **{LAST + key: value for key, value in last.items()}}
+
+
+def last_minibatch_by_policy(agent: Any) -> dict[str, dict[str, float]]:
+    """Each multi-agent policy's last minibatch's statistics (rlchain's multi-policy ``PolicyAgents``: one PPO
+    agent per trained policy)."""
+    agents = getattr(agent, "agents", None) or {}
+    return {pid: dict(getattr(a, "last_minibatch_stats", None) or {}) for pid, a in agents.items()}
 
 
 def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
-    """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names)."""
+    """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names).
+
+    RLlib 2.60's PPO, APPO and IMPALA learners log ``policy_loss``, ``vf_loss``, ``entropy``, ``mean_kl_loss`` and
+    the gradients' global norm once per minibatch with ``window=1``: a result holds the iteration's last
+    minibatch's values, not a mean; so does the face's, from the agent's last minibatch (the epoch's means where
+    there is none). ``curr_lr`` / ``curr_entropy_coeff``: the values rlchain trained with (a schedule's next
+    value replaces them: :func:`scheduled_results`)."""
     nan = math.nan
-    return {"policy_loss": stats.get("a_loss", nan), "vf_loss": stats.get("c_loss", nan),
-            "entropy": stats.get("entropy", nan), "mean_kl_loss": stats.get("kl", nan),
-            "curr_lr": stats.get("lr", nan), "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
-            "gradients_default_optimizer_global_norm": stats.get("grad_norm", nan)}
+
+    def last(key: str) -> Any:
+        return stats.get(LAST + key, stats.get(key, nan))
+
+    return {"policy_loss": last("a_loss"), "vf_loss": last("c_loss"), "entropy": last("entropy"),
+            "mean_kl_loss": last("kl"), "curr_lr": stats.get("lr", nan),
+            "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
+            "gradients_default_optimizer_global_norm": last("grad_norm")}
+
+
+SCHEDULED_RESULTS = {"learning_rate": "curr_lr", "entropy_coef": "curr_entropy_coeff"}
+"""The learner result of each parameter the face schedules (:mod:`rlchain.rllib.schedules`)."""
+
+
+def scheduled_results(values: dict[str, float]) -> dict[str, float]:
+    """The learner results of scheduled ``values`` (rlchain's parameter -> value).
+
+    RLlib's Learner steps its schedulers after each update, at the env steps sampled so far (this iteration's
+    included), and logs the new learning rate and entropy coefficient: a result reports the value the next
+    ``train()`` updates with. The face sets that value before the next ``train()`` and reports it the same way."""
+    return {SCHEDULED_RESULTS[param]: value for param, value in values.items() if param in SCHEDULED_RESULTS}
 
 
 def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
@@ -31,12 +71,14 @@ def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
 
 def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
                  episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None,
-                 episodes: dict[str, float] | None = None) -> dict[str, Any]:
+                 episodes: dict[str, float] | None = None,
+                 last_by_policy: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
     """One ``train()``'s result: ``report`` is rlchain's epoch report, ``cfg`` the run's ``params.config``,
     ``episodes`` RLlib's episode results of this iteration (:func:`rlchain.rllib.episode_window.iteration_metrics`;
     None: the epoch report's means over rlchain's last ``games_to_track`` episodes),
     ``learner`` the default module's learner results, ``multi`` the multi-agent run (its episodes summed over
-    agents and one learner per policy) or None. ``_episode_custom`` carries the episode callbacks' values (the
+    agents and one learner per policy) or None, ``last_by_policy`` its policies' last minibatches
+    (:func:`last_minibatch_by_policy`). ``_episode_custom`` carries the episode callbacks' values (the
     Algorithm writes and removes it)."""
     nan = math.nan
     ret = nan if report.mean_reward is None else report.mean_reward
@@ -50,11 +92,11 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
                    "num_episodes_lifetime": games, **nested(episode_custom)}
     if "kl_coef" in report.stats:
         learner = {**learner, "curr_kl_coeff": report.stats["kl_coef"]}
-    learners = {DEFAULT_MODULE: learner}
+    learners = {DEFAULT_MODULE_ID: learner}
     if multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
         env_runners.update(multi.episodes())
         ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
-        learners = multi.learners(report.stats, cfg["learning_rate"])
+        learners = multi.learners(report.stats, cfg["learning_rate"], last_by_policy)
     return {
         "training_iteration": iteration, "iterations_since_restore": iteration,
         "time_this_iter_s": report.seconds, "time_total_s": time_total, "timestamp": int(time.time()),

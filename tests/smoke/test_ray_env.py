@@ -2,8 +2,9 @@
 
 One Ray instance for the module (tests/smoke/ray_session.py; its start takes several seconds); every test has a
 timeout and closes its envs, so no actor outlives its test. What a test costs is mostly its actors' starts (each
-a process that imports torch and rlchain to build its envs), so each test starts as few as it needs: the runs
-are a few epochs of tiny envs and the fault tests kill the fewest workers that show the behaviour.
+a process that imports ray, gymnasium and rlchain's env layer to build its envs: no torch for these numpy envs;
+APPO's runners import torch), so each test starts as few as it needs: the runs are a few epochs of tiny envs and
+the fault tests kill the fewest workers that show the behaviour.
 """
 
 import glob
@@ -20,11 +21,12 @@ from rlchain.config.run import EnvRunnersConfig
 from rlchain.envs.factory import make_vec_env
 from rlchain.envs.ray.ray_env import WorkerLost
 from rlchain.training.events import Callback
-from tests.conftest import ROOT
+from tests.conftest import ROOT, installed
 from tests.smoke import ray_session
+from tests.smoke.ray_envs import SleepyCartPole
 
-ray = pytest.importorskip("ray")
-pytestmark = pytest.mark.smoke
+# a mark, not pytest.importorskip: that imports ray when the file is collected, in every pytest process
+pytestmark = [pytest.mark.smoke, installed("ray")]
 CPUS = 4  # logical CPUs of the test cluster: 2 workers x 1 CPU, plus room while a dead one is replaced
 # A (re)started worker may take this long to build its envs: on 2 busy cores a worker process's imports alone
 # can take over a minute. The product's default (120 s) is for a real cluster; a correct test run never waits it
@@ -39,6 +41,8 @@ def ray_cluster():
 
 
 def wait_for_free_cpus(expected, seconds=20.0):
+    import ray
+
     deadline = time.monotonic() + seconds
     while ray.available_resources().get("CPU", 0) < expected and time.monotonic() < deadline:
         time.sleep(0.2)
@@ -51,6 +55,8 @@ def runners(**kw):
 
 @pytest.mark.timeout(600)
 def test_contract_matches_local_backend_and_survives_killed_workers():
+    import ray
+
     env = make_vec_env("CartPole-v1", {"max_episode_steps": 12}, 4, 3, "sync", env_runners=runners(max_restarts=1))
     local = make_vec_env("CartPole-v1", {"max_episode_steps": 12}, 4, 3, "sync")
     try:
@@ -102,22 +108,6 @@ def test_contract_matches_local_backend_and_survives_killed_workers():
         env.close()
         local.close()
     assert env.workers == [] and wait_for_free_cpus(CPUS) == CPUS  # the actors are gone
-
-
-class SleepyCartPole(gym.Wrapper):
-    """CartPole whose step hangs for a minute the first time a flag file appears (one env takes it)."""
-
-    def __init__(self, flag, **kw):
-        super().__init__(gym.make("CartPole-v1", **kw))
-        self.flag = flag
-
-    def step(self, action):
-        try:
-            os.remove(self.flag)
-        except FileNotFoundError:
-            return self.env.step(action)
-        time.sleep(60)
-        return self.env.step(action)
 
 
 @pytest.mark.timeout(600)

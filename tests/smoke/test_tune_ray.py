@@ -14,15 +14,17 @@ import statistics
 import pytest
 import yaml
 
-from tests.conftest import CONFIGS
+from rlchain.config import load_config
+from rlchain.runner import Runner
+from rlchain.tuning import ray_search
+from rlchain.tuning.common import load_search
+from tests.conftest import CONFIGS, installed
 from tests.smoke import ray_session
 
-pytest.importorskip("ray.tune", reason="pip install rlchain[ray]")
-
-from rlchain.config import load_config  # noqa: E402
-from rlchain.runner import Runner  # noqa: E402
-from rlchain.tuning import ray_search  # noqa: E402
-from rlchain.tuning.common import load_search  # noqa: E402
+# marks, not pytest.importorskip("ray.tune"): that imports Ray Tune (pandas, pyarrow: about 2 s of CPU) when the
+# file is collected, in every pytest process; pandas and pyarrow stand for rlchain[ray]'s Tune part (looking
+# ray.tune up would import ray)
+pytestmark = installed("ray", "pandas", "pyarrow")
 
 BASE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 EPOCHS = 30

@@ -11,6 +11,7 @@ from rlchain.rllib.algorithms.ppo import PPOConfig
 from rlchain.rllib.checkpoint_files import CONFIG_FILE
 from rlchain.rllib.core.rl_module import RLModule
 from rlchain.rllib.module_checkpoint import MODULES_PATH, locate, write_module_folders
+from rlchain.runs import checkpoint as ckpt
 
 
 def _checkpoint(root, ids=("default_policy",)):
@@ -45,11 +46,16 @@ def test_a_saved_ppo_module_loads_alone_and_acts_as_trained(tmp_path, monkeypatc
         path = algo.save_to_path(str(tmp_path / "ckpt"))
     finally:
         algo.stop()
+    reads = []
+    read = ckpt.load
+    monkeypatch.setattr(ckpt, "load", lambda file, *a, **kw: reads.append(file) or read(file, *a, **kw))
     modules = RLModule.from_checkpoint(tmp_path / "ckpt" / "learner_group" / "learner" / "rl_module")
+    assert len(reads) == 1  # the stored config and the weights from one read of the file
     assert list(modules) == ["default_policy"]
     loaded = modules["default_policy"].forward_inference({"obs": obs})["action_dist_inputs"]
     assert torch.allclose(loaded, trained)
     alone = RLModule.from_checkpoint(f"{path}/learner_group/learner/rl_module/default_policy")
+    assert len(reads) == 2
     assert torch.allclose(alone.forward_inference({"obs": obs})["action_dist_inputs"], trained)
 
 

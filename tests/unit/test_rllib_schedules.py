@@ -33,15 +33,22 @@ def test_starting_config_holds_the_values_at_zero():
     assert not Schedules(PPOConfig())
 
 
-def test_ppo_trains_each_iteration_with_the_value_at_the_steps_before_it(tmp_path, monkeypatch):
+def test_ppo_trains_with_the_value_at_the_steps_before_and_reports_the_next(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     algo = (PPOConfig().environment("CartPole-v1").debugging(seed=0)
             .training(train_batch_size=64, minibatch_size=64, num_epochs=1,
                       lr=[[0, 1e-3], [128, 0.0]], entropy_coeff=[[0, 0.02], [128, 0.0]]).build_algo())
+    learners, trained = [], []
     try:
-        learners = [algo.train()["learners"]["default_policy"] for _ in range(3)]
+        for _ in range(3):
+            learners.append(algo.train()["learners"]["default_policy"])
+            agent = algo._stepper.context.algorithm.agent
+            trained += [agent.lr, agent.entropy_coef]  # what this train()'s update used
     finally:
         algo.stop()
-    assert [r["curr_lr"] for r in learners] == pytest.approx([1e-3, 5e-4, 0.0])
+    assert trained == pytest.approx([1e-3, 0.02, 5e-4, 0.01, 0.0, 0.0])
+    # RLlib's Learner steps its schedulers after the update (at the env steps sampled so far, this iteration's
+    # included) and logs the new value: each result reports the next train()'s value
+    assert [r["curr_lr"] for r in learners] == pytest.approx([5e-4, 0.0, 0.0])
     assert [r["default_optimizer_learning_rate"] for r in learners] == [r["curr_lr"] for r in learners]  # 2.60's
-    assert [r["curr_entropy_coeff"] for r in learners] == pytest.approx([0.02, 0.01, 0.0])
+    assert [r["curr_entropy_coeff"] for r in learners] == pytest.approx([0.01, 0.0, 0.0])

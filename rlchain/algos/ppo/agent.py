@@ -85,6 +85,7 @@ class PPOAgent(ScheduledAdam):
         self._kl_coef_t = torch.tensor(float(self.kl_coef), device=device) if self.kl_coef > 0 else None
         # advantage_normalization rllib: the raw advantages of RLlib's bootstrap rows for this update (PPO sets them)
         self.bootstrap_advantages: np.ndarray | None = None
+        self.last_minibatch_stats: dict[str, float] = {}  # the last update's last minibatch (RLlib's window=1)
 
     @property
     def mode(self) -> str:
@@ -161,6 +162,7 @@ class PPOAgent(ScheduledAdam):
                     self.follow_kl(stats["kl"])
             if cfg.schedule_type == "standard":
                 self.follow_kl(epoch_kl / max(epoch_n, 1))
+        self.last_minibatch_stats = stats if count else {}  # the update's last minibatch (RLlib reports those)
         self.apply_progress(progress)
         if self._kl_coef_t is not None and cfg.kl_loss_target is not None:  # a PPOConfig (kl_coef > 0)
             self.kl_coef = adapted_kl_coef(self.kl_coef, stats["kl"], cfg.kl_loss_target)

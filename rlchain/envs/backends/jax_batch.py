@@ -18,13 +18,15 @@ The adapters (``brax_env.py``, ``playground_env.py``) only build and wrap their 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
-import torch
 
 from rlchain.envs.vecenv import StepResult
+
+if TYPE_CHECKING:  # torch is imported where it is used: a Ray env worker of numpy envs never needs it
+    import torch
 
 
 class JaxBatchVecEnv:
@@ -42,6 +44,7 @@ class JaxBatchVecEnv:
                  obs_of: Callable[[Any], Any] = lambda obs: obs) -> None:
         import jax
         import jax.numpy as jnp
+        import torch
 
         self.name, self.num_envs, self.device = name, num_envs, torch.device(device)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (int(obs_dim),), np.float32)
@@ -91,6 +94,8 @@ class JaxBatchVecEnv:
 
     def _torch(self, array: Any) -> torch.Tensor:
         """A JAX array as a torch tensor on ``device`` (shared memory through DLPack where it can)."""
+        import torch
+
         return torch.from_dlpack(array).to(self.device)
 
     def reset(self, seed: int | None = None) -> torch.Tensor:

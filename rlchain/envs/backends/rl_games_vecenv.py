@@ -26,9 +26,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import torch
 
 from rlchain.envs.gym_spaces import spaces_to_gymnasium
+from rlchain.envs.tensors import is_tensor
 from rlchain.envs.vecenv import StepResult, VecEnv, close_env
 from rlchain.envs.wrappers.central_value import ObsStateBox
 
@@ -70,7 +70,7 @@ class IVecEnvAdapter:
             raise ValueError(f"the IVecEnv returned {rows} observation rows, expected num_actors ({self.num_actors})"
                              f" x agents ({self.num_agents}) = {self.num_envs}; set num_actors to its env count "
                              f"(to play: player.use_vecenv: True and player.num_actors: {rows // self.num_agents})")
-        self.is_tensor_env = isinstance(self._obs, torch.Tensor)
+        self.is_tensor_env = is_tensor(self._obs)
         if self.is_tensor_env:
             self.device = self._obs.device
 
@@ -93,6 +93,8 @@ class IVecEnvAdapter:
         infos = infos if isinstance(infos, dict) else {}
         time_outs = infos.get("time_outs")
         if self.is_tensor_env:
+            import torch  # a tensor env: torch is imported already
+
             dones = torch.as_tensor(dones, device=self.device).reshape(-1).bool()
             outs = (torch.zeros_like(dones) if time_outs is None
                     else torch.as_tensor(time_outs, device=self.device).reshape(-1).bool())
@@ -115,7 +117,9 @@ class IVecEnvAdapter:
             state = obs.get("states", obs.get("state")) if self.use_central_value else None
             obs = obs["obs"]
             if state is not None:
-                if isinstance(obs, torch.Tensor):
+                if is_tensor(obs):
+                    import torch
+
                     return torch.cat([obs.reshape(obs.shape[0], -1), state.reshape(state.shape[0], -1)], -1).float()
                 return np.concatenate([np.asarray(obs, np.float32).reshape(len(obs), -1),
                                        np.asarray(state, np.float32).reshape(len(state), -1)], -1)

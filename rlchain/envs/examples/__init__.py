@@ -13,7 +13,6 @@ from typing import Any
 from rlchain.envs.examples.asymmetric import TestAsymmetricCritic
 from rlchain.envs.examples.cooperative import CooperativeEnv
 from rlchain.envs.examples.duel import make_duel
-from rlchain.envs.examples.embodichain_standins import ENV_BUILDERS as EMBODICHAIN_STANDINS
 from rlchain.envs.examples.goal_reach import GoalReachEnv
 from rlchain.envs.examples.masked import MaskedActionsEnv
 from rlchain.envs.examples.masked_velocity import make_cartpole_masked_velocity
@@ -31,5 +30,7 @@ GYM_ENVS: dict[str, tuple[Callable[..., Any], dict[str, Any]]] = {
 }
 """gymnasium id -> (entry point, ``gym.register`` keywords)."""
 
-ENV_BUILDERS: dict[str, Callable[..., Any]] = {"duel": make_duel, "test_env": test_env, **EMBODICHAIN_STANDINS}
-"""``env_name`` -> builder, for :data:`rlchain.registry.ENVS`."""
+ENV_BUILDERS: dict[str, Callable[..., Any]] = {"duel": make_duel, "test_env": test_env}
+"""``env_name`` -> builder, for :data:`rlchain.registry.ENVS` (the EmbodiChain stand-ins, tensor envs, have their
+own table: :data:`rlchain.envs.examples.embodichain_standins.ENV_BUILDERS`, so that importing an example gymnasium
+env does not import torch)."""

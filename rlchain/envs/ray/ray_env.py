@@ -167,7 +167,7 @@ class RayVecEnv:
     # ----- workers --------------------------------------------------------------------------
     def _spawn(self, i: int) -> Any:
         s = self.slices[i]
-        return self._actor.remote(self.recipe, s.start, s.stop - s.start)
+        return self._actor.remote(self.recipe, s.start, s.stop - s.start, own_process=True)
 
     def _slice_seed(self, seed: int | None, i: int) -> int | None:
         return None if seed is None else seed + self.slices[i].start

@@ -6,9 +6,12 @@ the actor's body (made a Ray actor by ``ray.remote`` in ray_env.py, so this modu
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import os
 import pickle
 import re
+import sys
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -17,7 +20,7 @@ import numpy as np
 
 from rlchain.envs.building import build_local_env
 from rlchain.envs.spec import attach_spec, env_spec
-from rlchain.registry import ENVS
+from rlchain.registry import ENVS, VECENVS, Deferred, skip_builtins
 
 
 @dataclass
@@ -26,8 +29,12 @@ class EnvRecipe:
 
     Ray workers are fresh processes: envs registered in the learner at run time
     (``params.import_modules``, ``env_configurations.register``, ``gym.register``) travel along: every
-    :data:`ENVS` entry and every gymnasium spec whose entry point is a Python object (plus the
-    specs of the named env), each one that cloudpickle can serialize.
+    :data:`ENVS` and :data:`VECENVS` entry and every gymnasium spec whose entry point is a Python object (plus
+    the specs of the named env), each one that cloudpickle can serialize. Pickled (to a worker), each
+    :data:`ENVS` / :data:`VECENVS` entry travels on its own and is unpickled on its first lookup there, and a
+    gymnasium entry point that a module names travels as that name (``module:Name``, which gymnasium imports
+    when it makes the env), so a worker imports the modules of the env it builds, not those of every registered
+    env (torch's tensor envs, a test module).
     """
 
     env_name: str
@@ -35,6 +42,8 @@ class EnvRecipe:
     vecenv_type: str
     builders: dict = field(default_factory=dict)
     gym_specs: dict = field(default_factory=dict)
+    vecenvs: dict = field(default_factory=dict)
+    """The learner's :data:`VECENVS` (``vecenv_type`` name -> creator), built-ins included."""
     success_key: str = "auto"
     """The info key an APPO runner reads task success from (``params.config.success_key``)."""
     log_info_keys: tuple = ()
@@ -46,14 +55,26 @@ class EnvRecipe:
         named = {env_name, config.get("name")}
         specs = {k: s for k, s in gym.registry.items() if k in named or callable(s.entry_point)}
         builders = {name: ENVS.get(name) for name in ENVS.names()}
-        return cls(env_name, config, vecenv_type, _picklable(builders), _picklable(specs))
+        vecenvs = {name: VECENVS.get(name) for name in VECENVS.names()}
+        return cls(env_name, config, vecenv_type, _picklable(builders), _picklable(specs),
+                   vecenvs=_picklable(vecenvs))
+
+    def __getstate__(self) -> dict:
+        """What pickling sends: the registry entries each as its own pickle, unpickled on first lookup."""
+        state = dict(self.__dict__)
+        for key in ("builders", "vecenvs"):
+            state[key] = {name: _deferred(entry) for name, entry in state[key].items()}
+        state["gym_specs"] = {name: _entry_point_by_name(spec) for name, spec in state["gym_specs"].items()}
+        return state
 
     def build(self, num_envs: int, seed: int | None) -> Any:
         """The VecEnv of ``num_envs`` envs (runs inside the worker)."""
         for name, spec in self.gym_specs.items():
             gym.registry.setdefault(name, spec)
-        for name, entry in self.builders.items():  # the learner's table as it was (gym specs copied above)
+        for name, entry in self.builders.items():  # the learner's tables as they were (gym specs copied above)
             ENVS.register(name, entry, overwrite=True)
+        for name, creator in self.vecenvs.items():
+            VECENVS.register(name, creator, overwrite=True)
         env = attach_spec(build_local_env(self.env_name, dict(self.env_config), num_envs, seed, self.vecenv_type))
         problem = _unsupported(env)
         if problem:
@@ -97,6 +118,25 @@ def per_env_infos(infos: Any, n: int) -> dict:
     return out
 
 
+def _deferred(entry: Any) -> Deferred:
+    """``entry`` as a registry entry unpickled on its first lookup (where it is unpickled, its module is imported)."""
+    import cloudpickle
+
+    return entry if isinstance(entry, Deferred) else Deferred(functools.partial(pickle.loads, cloudpickle.dumps(entry)))
+
+
+def _entry_point_by_name(spec: Any) -> Any:
+    """``spec`` with its entry point as gymnasium's ``module:Name`` string when that names the same object (a
+    class or function at the top of an imported module), else as it is."""
+    entry = spec.entry_point
+    module, name = getattr(entry, "__module__", None), getattr(entry, "__qualname__", "")
+    if not callable(entry) or not module or module == "__main__" or "." in name or "<" in name:
+        return spec
+    if getattr(sys.modules.get(module), name, None) is not entry:
+        return spec
+    return dataclasses.replace(spec, entry_point=f"{module}:{name}")
+
+
 def _picklable(items: dict) -> dict:
     """The entries cloudpickle (what Ray uses) can serialize; the others stay behind."""
     import cloudpickle
@@ -112,9 +152,14 @@ def _picklable(items: dict) -> dict:
 
 
 class EnvWorker:
-    """The body of one Ray actor: envs ``[start, start + num_envs)`` of the batch, arrays in and out."""
+    """The body of one Ray actor: envs ``[start, start + num_envs)`` of the batch, arrays in and out.
 
-    def __init__(self, recipe: EnvRecipe, start: int, num_envs: int) -> None:
+    ``own_process`` (what :class:`~rlchain.envs.ray.ray_env.RayVecEnv` gives its actors): this process's registries
+    are the recipe's tables; rlchain's built-ins (every algorithm, torch) are never loaded here."""
+
+    def __init__(self, recipe: EnvRecipe, start: int, num_envs: int, own_process: bool = False) -> None:
+        if own_process:
+            skip_builtins()
         self.recipe, self.start, self.num_envs, self.env = recipe, start, num_envs, None
 
     def build(self, seed: int | None) -> dict:

@@ -27,14 +27,17 @@ keeps them per key from there (rlchain/envs/obs_dict.py).
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
-import torch
 
 from rlchain.envs.obs_dict import CENTRAL_VALUE_KEYS, ObsDict, discrete_layout, is_dict_space, is_discrete
 from rlchain.envs.spec import declares_state
+from rlchain.envs.tensors import is_tensor
+
+if TYPE_CHECKING:  # torch is imported where it is used: a Ray env worker of numpy envs never needs it
+    import torch
 
 
 def should_flatten(space: gym.Space) -> bool:
@@ -90,6 +93,8 @@ def from_one_hot(flat: torch.Tensor, space: gym.spaces.Discrete | gym.spaces.Mul
     (N,) or (N, *nvec.shape), ``start`` added back."""
     if isinstance(space, gym.spaces.Discrete):
         return flat.argmax(-1) + int(space.start)
+    import torch
+
     sizes, starts, _ = discrete_layout(space)
     values = torch.stack([part.argmax(-1) for part in flat.split(sizes.tolist(), -1)], -1)
     return (values + torch.as_tensor(starts, device=flat.device)).reshape(flat.shape[0], *space.nvec.shape)
@@ -120,7 +125,9 @@ class PerKeyObs:
     def split(self, obs: Any) -> dict[str, Any]:
         """Flat (N, D) observations -> {key: (N, *shape)} in each key's dtype (a one-hot Discrete key back to its
         int64 value)."""
-        flat = obs if isinstance(obs, torch.Tensor) else torch.as_tensor(np.asarray(obs))
+        import torch  # the flat vector is split as a tensor, numpy observations too
+
+        flat = obs if is_tensor(obs) else torch.as_tensor(np.asarray(obs))
         out = split_flat_obs(flat, self.observation_space)
         for key, sub in self.observation_space.spaces.items():
             if is_discrete(sub):
@@ -129,7 +136,7 @@ class PerKeyObs:
                 out[key] = out[key].round().to(torch.uint8)
             elif out[key].dtype != torch.float32:
                 out[key] = out[key].float()
-        return ObsDict(out) if isinstance(obs, torch.Tensor) else {k: v.numpy() for k, v in out.items()}
+        return ObsDict(out) if is_tensor(obs) else {k: v.numpy() for k, v in out.items()}
 
     def reset(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
         return self.split(self.env.reset(*args, **kwargs))

@@ -1,7 +1,7 @@
-"""``ray.rllib.core``: RLlib's column names and module ids."""
+"""``ray.rllib.core``: RLlib's column names and module ids (the face's one definition of the default module id)."""
 
 DEFAULT_MODULE_ID = "default_policy"
-DEFAULT_POLICY_ID = "default_policy"
+DEFAULT_POLICY_ID = DEFAULT_MODULE_ID  # the old stack's name of the same id
 ALL_MODULES = "__all_modules__"
 COMPONENT_RL_MODULE = "rl_module"
 COMPONENT_LEARNER_GROUP = "learner_group"

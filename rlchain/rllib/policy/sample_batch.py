@@ -1,8 +1,7 @@
 """``ray.rllib.policy.sample_batch``: ``SampleBatch`` as RLlib's modules use it, a dict with the column names."""
 
+from rlchain.rllib.core import DEFAULT_POLICY_ID
 from rlchain.rllib.core.columns import Columns
-
-DEFAULT_POLICY_ID = "default_policy"
 
 
 class SampleBatch(dict):

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.algorithms.impala.translate import vtrace_config
 from rlchain.rllib.config import AlgorithmConfig
 
@@ -24,6 +25,9 @@ class APPO(Algorithm):
     def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
                   ) -> dict[str, Any]:
         return vtrace_config(config, env_name, obs_space, continuous, run)
+
+
+APPO = exported(APPO)  # RLlib's APPO: config.algo_class is APPO, and Tune takes it (algorithm_class.py)
 
 
 class APPOConfig(AlgorithmConfig):

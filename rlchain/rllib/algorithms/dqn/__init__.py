@@ -10,6 +10,7 @@ import gymnasium as gym
 
 from rlchain.rllib import translate
 from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.config import AlgorithmConfig
 
 
@@ -32,6 +33,9 @@ class DQN(Algorithm):
     def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
         return {"qf_loss": stats.get("td_loss", math.nan), "qf_mean": stats.get("q", math.nan),
                 "curr_epsilon": stats.get("epsilon", math.nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
+
+
+DQN = exported(DQN)  # RLlib's DQN: config.algo_class is DQN, and Tune takes it (algorithm_class.py)
 
 
 class DQNConfig(AlgorithmConfig):

@@ -4,6 +4,7 @@ penalty with the adaptive coefficient, the clipped value loss) and RLlib's defau
 from __future__ import annotations
 
 from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.config import AlgorithmConfig
 
 
@@ -15,6 +16,9 @@ class PPO(Algorithm):
     @classmethod
     def get_default_config(cls) -> PPOConfig:
         return PPOConfig()
+
+
+PPO = exported(PPO)  # RLlib's PPO: config.algo_class is PPO, and Tune takes it (algorithm_class.py)
 
 
 class PPOConfig(AlgorithmConfig):

@@ -8,10 +8,12 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.rllib.algorithm import DEFAULT_MODULE, Algorithm
+from rlchain.rllib.algorithm import Algorithm
+from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.algorithms.sac.module import SACModuleView
 from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.core import DEFAULT_MODULE_ID
 
 
 class SAC(Algorithm):
@@ -29,7 +31,7 @@ class SAC(Algorithm):
                   ) -> dict[str, Any]:
         return sac_config(config, env_name, run)
 
-    def get_module(self, module_id: str = DEFAULT_MODULE) -> SACModuleView:
+    def get_module(self, module_id: str = DEFAULT_MODULE_ID) -> SACModuleView:
         """The trained policy as RLlib's RLModule: ``action_dist_inputs`` are pre-tanh means then log-stds."""
         view = super().get_module(module_id)
         return SACModuleView(view.model, view.observation_space, view.action_space)
@@ -43,6 +45,9 @@ class SAC(Algorithm):
                 "log_alpha_value": math.log(alpha) if isinstance(alpha, float) and alpha > 0 else nan,
                 "entropy": stats.get("entropy", nan), "qf_mean": stats.get("q", nan),
                 "curr_lr": stats.get("lr", cfg["actor_lr"])}
+
+
+SAC = exported(SAC)  # RLlib's SAC: config.algo_class is SAC, and Tune takes it (algorithm_class.py)
 
 
 class SACConfig(AlgorithmConfig):

@@ -1,0 +1,56 @@
+"""``config.algo_class is PPO``, as in RLlib, where ``PPO`` (the face's exported name) is the algorithm class as
+a callable Tune takes as a function trainable (rlchain/rllib/algorithm_class.py)."""
+
+import copy
+import pickle
+
+import pytest
+
+from rlchain.config.errors import ConfigError
+from rlchain.rllib.algorithm import ALGORITHMS, Algorithm
+from rlchain.rllib.algorithm_class import AlgorithmClass
+from rlchain.rllib.algorithms import APPO, DQN, IMPALA, SAC, APPOConfig, DQNConfig, IMPALAConfig, SACConfig
+from rlchain.rllib.algorithms.ppo import PPO, PPOConfig
+from rlchain.rllib.config import AlgorithmConfig
+
+
+@pytest.mark.parametrize("config_class,algo", [(PPOConfig, PPO), (APPOConfig, APPO), (IMPALAConfig, IMPALA),
+                                               (DQNConfig, DQN), (SACConfig, SAC)])
+def test_config_algo_class_is_the_exported_algorithm(config_class, algo):
+    config = config_class()
+    assert config.algo_class is algo
+    assert config.copy().algo_class is algo
+    assert algo.get_default_config().algo_class is algo
+    assert pickle.loads(pickle.dumps(algo)) is algo  # Tune ships the trainable to its workers
+    assert copy.deepcopy(config).algo_class is algo
+    assert algo.cls is ALGORITHMS[algo.__name__] and algo.__name__ == algo.cls.__name__
+    assert pickle.loads(pickle.dumps(algo.cls)) is algo.cls
+    assert algo == algo.cls and hash(algo) == hash(algo.cls)
+
+
+def test_it_stands_for_the_class():
+    class Fake(PPO.cls):  # an instance without building a run
+        def __init__(self):
+            pass
+
+    assert isinstance(Fake(), PPO) and not isinstance(Fake(), DQN) and isinstance(Fake(), Algorithm)
+    assert issubclass(Fake, PPO) and not issubclass(Fake, DQN)
+    assert PPO.from_checkpoint.__func__ is Algorithm.from_checkpoint.__func__
+    assert repr(PPO) == "<class 'rlchain.rllib.algorithms.ppo.PPO'>"
+    assert callable(PPO) and not isinstance(PPO, type)  # a callable Tune takes as a function trainable
+
+
+def test_a_subclass_of_it_is_a_class_and_keeps_the_registry():
+    class MyPPO(PPO):
+        pass
+
+    assert isinstance(MyPPO, type) and issubclass(MyPPO, PPO.cls)
+    assert ALGORITHMS["PPO"] is PPO.cls  # a user's subclass does not take over RLlib's name
+    config = PPOConfig(algo_class=MyPPO)
+    assert config.algo_class is MyPPO  # the class given, as in RLlib
+
+
+def test_building_without_an_algorithm_is_one_line():
+    with pytest.raises(ConfigError, match="no algorithm to build"):
+        AlgorithmConfig().environment("CartPole-v1").build_algo()
+    assert AlgorithmClass.of(PPO.cls) is PPO
