@@ -40,7 +40,14 @@ from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.module import RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
-from rlchain.rllib.results import deep_update, learner_results, scheduled_results, train_result, with_last_minibatch
+from rlchain.rllib.results import (
+    deep_update,
+    last_minibatch_by_policy,
+    learner_results,
+    scheduled_results,
+    train_result,
+    with_last_minibatch,
+)
 from rlchain.rllib.schedules import Schedules
 from rlchain.rllib.stepper import ParkingStepper
 from rlchain.runner import Runner
@@ -201,13 +208,15 @@ class Algorithm:
         ctx = self._stepper.context
         tracker = ctx.episode_tracker
         cfg = self.rlchain_config["params"]["config"]
-        learner = self.learner_results(with_last_minibatch(report.stats, getattr(ctx.algorithm, "agent", None)), cfg)
+        agent = getattr(ctx.algorithm, "agent", None)
+        learner = self.learner_results(with_last_minibatch(report.stats, agent), cfg)
         if self._schedules:  # RLlib reports the value after its scheduler's step: the next train()'s
             learner.update(scheduled_results(self._schedules.at(int(ctx.state.frames))))
         return train_result(report, cfg, iteration=self.iteration, time_total=self._time_total,
                             games=int(getattr(tracker, "games", 0) or 0),
                             episodes=None if self._multi is not None else self._episodes.take(tracker),
-                            episode_custom=self._env_runner_metrics.reduce(), learner=learner, multi=self._multi)
+                            episode_custom=self._env_runner_metrics.reduce(), learner=learner, multi=self._multi,
+                            last_by_policy=last_minibatch_by_policy(agent) if self._multi is not None else None)
 
     @staticmethod
     def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:

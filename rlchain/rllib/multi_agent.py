@@ -304,14 +304,18 @@ class MultiAgentRun:
     def _id(self, agent: str) -> Any:
         return self.view._ids.get(agent, agent)
 
-    def learners(self, stats: dict[str, float], lr: float) -> dict[str, dict[str, float]]:
-        """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags."""
+    def learners(self, stats: dict[str, float], lr: float, last: dict[str, dict[str, float]] | None = None
+                 ) -> dict[str, dict[str, float]]:
+        """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags; the losses
+        and KL of each policy's last minibatch where ``last`` (policy -> its agent's last minibatch's statistics)
+        has them, as RLlib logs them (``window=1``), else the update's means."""
         nan = float("nan")
         out = {}
         for pid in self.names:
             if pid not in self.spaces or (self.trained is not None and pid not in self.trained):
                 continue
-            tag = (lambda kind, key, pid=pid: stats.get(f"{kind}/{pid}/{key}", nan))
+            own = (last or {}).get(pid) or {}
+            tag = (lambda kind, key, pid=pid, own=own: own.get(key, stats.get(f"{kind}/{pid}/{key}", nan)))
             out[pid] = {"policy_loss": tag("losses", "a_loss"), "vf_loss": tag("losses", "c_loss"),
                         "entropy": tag("losses", "entropy"), "mean_kl_loss": tag("info", "kl"),
                         "curr_lr": stats.get(f"info/{pid}/last_lr", lr),

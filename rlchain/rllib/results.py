@@ -22,6 +22,13 @@ def with_last_minibatch(stats: dict[str, Any], agent: Any) -> dict[str, Any]:
     return {**stats, **{LAST + key: value for key, value in last.items()}}
 
 
+def last_minibatch_by_policy(agent: Any) -> dict[str, dict[str, float]]:
+    """Each multi-agent policy's last minibatch's statistics (rlchain's multi-policy ``PolicyAgents``: one PPO
+    agent per trained policy)."""
+    agents = getattr(agent, "agents", None) or {}
+    return {pid: dict(getattr(a, "last_minibatch_stats", None) or {}) for pid, a in agents.items()}
+
+
 def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
     """RLlib's ``learners/<module>`` results from rlchain's epoch statistics (PPO's, APPO's, IMPALA's names).
 
@@ -64,12 +71,14 @@ def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
 
 def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
                  episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None,
-                 episodes: dict[str, float] | None = None) -> dict[str, Any]:
+                 episodes: dict[str, float] | None = None,
+                 last_by_policy: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
     """One ``train()``'s result: ``report`` is rlchain's epoch report, ``cfg`` the run's ``params.config``,
     ``episodes`` RLlib's episode results of this iteration (:func:`rlchain.rllib.episode_window.iteration_metrics`;
     None: the epoch report's means over rlchain's last ``games_to_track`` episodes),
     ``learner`` the default module's learner results, ``multi`` the multi-agent run (its episodes summed over
-    agents and one learner per policy) or None. ``_episode_custom`` carries the episode callbacks' values (the
+    agents and one learner per policy) or None, ``last_by_policy`` its policies' last minibatches
+    (:func:`last_minibatch_by_policy`). ``_episode_custom`` carries the episode callbacks' values (the
     Algorithm writes and removes it)."""
     nan = math.nan
     ret = nan if report.mean_reward is None else report.mean_reward
@@ -87,7 +96,7 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
     if multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
         env_runners.update(multi.episodes())
         ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
-        learners = multi.learners(report.stats, cfg["learning_rate"])
+        learners = multi.learners(report.stats, cfg["learning_rate"], last_by_policy)
     return {
         "training_iteration": iteration, "iterations_since_restore": iteration,
         "time_this_iter_s": report.seconds, "time_total_s": time_total, "timestamp": int(time.time()),

@@ -19,6 +19,9 @@ Protocol: one JSON request a line on stdin ``{"argv", "cwd", "env", "stdout", "s
 training, tests/smoke/docs_caps.py); the server answers
 ``{"pid": N}`` when the child runs and ``{"status": S}`` when it has ended (S < 0: killed by signal -S). The
 caller kills a child that runs too long (``os.killpg(pid, SIGKILL)``: the child leads its own session).
+With ``"detach": true`` the command runs in a grandchild that the server does not wait for (the init process reaps
+it): the answer is its ``{"pid": N}`` alone, and the server takes the next request while it runs (a server or
+watcher that runs until stopped, beside the commands after it); the caller sees it run in /proc and stops it.
 """
 
 from __future__ import annotations
@@ -204,28 +207,57 @@ def exit_child(status: int) -> None:
         os._exit(status)
 
 
+def run_child(request: dict, parsed: tuple[str, str, list[str]] | None) -> None:
+    """In a forked child: become the requested command (its session, folder, environment, standard streams), run
+    it and exit with its status; never returns."""
+    os.setsid()
+    os.chdir(request["cwd"])
+    os.environ.clear()
+    os.environ.update(request["env"])
+    null = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(null, 0)
+    for fd, path in ((1, request["stdout"]), (2, request["stderr"])):  # files, or a pseudo-terminal's
+        # slave: O_NOCTTY, so it does not become the new session's controlling terminal, which the
+        # kernel would hang up (its unread output dropped) when the child exits
+        os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOCTTY, 0o644), fd)
+    sys.stdin = open(0, closefd=False)
+    if parsed and request.get("prelude"):
+        run_prelude(request["prelude"])
+    exit_child(run_command(*parsed) if parsed else 127)
+
+
+def start_detached(request: dict, parsed: tuple[str, str, list[str]] | None) -> int:
+    """Run the command in a grandchild, orphaned at once so that the init process, not this server, reaps it;
+    returns its pid."""
+    read, write = os.pipe()
+    middle = os.fork()
+    if middle == 0:
+        os.close(read)
+        pid = os.fork()
+        if pid == 0:
+            os.close(write)
+            run_child(request, parsed)
+        os.write(write, str(pid).encode())
+        os._exit(0)
+    os.close(write)
+    with os.fdopen(read) as fh:
+        pid = int(fh.read())
+    os.waitpid(middle, 0)
+    return pid
+
+
 def serve() -> None:
     """Answer requests until stdin closes (returns None); a child runs one command and exits (exit_child)."""
     gc.freeze()  # the imported objects: a collection in a child skips them instead of copying their pages
     for line in sys.stdin:
         request = json.loads(line)
         parsed = python_argv(request["argv"])
+        if request.get("detach"):
+            print(json.dumps({"pid": start_detached(request, parsed)}), flush=True)
+            continue
         pid = os.fork()
         if pid == 0:
-            os.setsid()
-            os.chdir(request["cwd"])
-            os.environ.clear()
-            os.environ.update(request["env"])
-            null = os.open(os.devnull, os.O_RDONLY)
-            os.dup2(null, 0)
-            for fd, path in ((1, request["stdout"]), (2, request["stderr"])):  # files, or a pseudo-terminal's
-                # slave: O_NOCTTY, so it does not become the new session's controlling terminal, which the
-                # kernel would hang up (its unread output dropped) when the child exits
-                os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOCTTY, 0o644), fd)
-            sys.stdin = open(0, closefd=False)
-            if parsed and request.get("prelude"):
-                run_prelude(request["prelude"])
-            exit_child(run_command(*parsed) if parsed else 127)
+            run_child(request, parsed)
         print(json.dumps({"pid": pid}), flush=True)
         _, status, usage = os.wait4(pid, 0)
         cpu = usage.ru_utime + usage.ru_stime  # the child and what it waited for

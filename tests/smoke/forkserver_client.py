@@ -73,6 +73,15 @@ class ForkServer:
         self.proc.stdin.flush()
         return json.loads(self.proc.stdout.readline())["pid"]
 
+    def start_detached(self, argv: list[str], cwd: str, env: dict, stdout: str, stderr: str) -> int:
+        """Start ``argv`` in a grandchild the server does not wait for (forkserver.py, ``"detach"``); its pid. The
+        server takes the next command at once; the caller watches this one in /proc and stops it (it leads its own
+        session)."""
+        request = {"argv": argv, "cwd": cwd, "env": env, "stdout": stdout, "stderr": stderr, "detach": True}
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        return json.loads(self.proc.stdout.readline())["pid"]
+
     def finished(self, timeout: float | None = None) -> int | None:
         """The exit status of the command ``start`` started (negative: killed by that signal), once it has ended;
         None if it is still running after ``timeout`` seconds (None: wait for it)."""

@@ -8,12 +8,14 @@ before it trains.
 each rank save its final parameters, buffers and optimizer state for the comparisons.
 """
 
+import contextlib
 import glob
 import json
 import os
 import re
 import signal
 import sys
+import threading
 import time
 
 import pytest
@@ -58,14 +60,16 @@ class KillRank1(Callback):
 
 
 class StopRank1(Callback):
-    """Test-only: rank 1 stops (SIGSTOP) at the end of epoch 2, as a wedged GPU or file system would."""
+    """Test-only: rank 1 stops (SIGSTOP) at the end of epoch 2, as a wedged GPU or file system would. Each rank
+    writes its pid there first (rank{N}.pid), so the test sees rank 0 end and can kill the stopped rank: torchrun
+    runs each rank in a session of its own."""
 
     def on_epoch_end(self, ctx, stats, episodes):
-        if ctx.state.rank == 1 and ctx.state.epoch == 2:
-            # the pid, so the test can kill the stopped rank: torchrun runs each rank in a session of its own
-            with open("stopped_rank.pid", "w", encoding="utf-8") as fh:
+        if ctx.state.epoch == 2:
+            with open(f"rank{ctx.state.rank}.pid", "w", encoding="utf-8") as fh:
                 fh.write(str(os.getpid()))
-            os.kill(os.getpid(), signal.SIGSTOP)
+            if ctx.state.rank == 1:
+                os.kill(os.getpid(), signal.SIGSTOP)
 
 
 def torchrun(args, tmp_path, nproc=2, timeout=180, script=None, module=None, launcher=()):
@@ -349,24 +353,47 @@ def test_a_dead_rank_ends_the_run_with_a_clear_message(scenarios):
     assert lost or stopped, stdout[-2000:] + stderr[-3000:]
 
 
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` still runs (a zombie, ended but not yet reaped by torchrun, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="utf-8") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
+def _kill_stopped_rank_after_rank0(folder, done: threading.Event) -> None:
+    """Once rank 0 has ended by itself, SIGKILL the stopped rank 1, as torchrun does after its wait."""
+    pids = [folder / "rank0.pid", folder / "rank1.pid"]
+    while not done.wait(0.1):
+        if all(path.exists() and path.read_text() for path in pids) and not _running(int(pids[0].read_text())):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(int(pids[1].read_text()), signal.SIGKILL)
+            return
+
+
 def test_a_stalled_rank_ends_the_run_within_the_collective_timeout(tmp_path):
-    """Rank 1 stops (SIGSTOP) and never answers: rank 0 gives up after multi_gpu_timeout_s (2 s here) and
-    a roll call, with one line naming rank 1. torchrun then sends the stopped rank SIGTERM, which waits for a
-    SIGCONT, and kills it after its shutdown timeout: 2 s here (its default, 30 s, is for real jobs)."""
+    """Rank 1 stops (SIGSTOP) and never answers: rank 0 gives up after multi_gpu_timeout_s (2 s here) and a roll
+    call, with one line naming rank 1, and ends. torchrun then sends the stopped rank SIGTERM, which waits for a
+    SIGCONT, and SIGKILLs it after 30 s (torch 2.13's agent stops a failed worker group with a fixed 30 s, not its
+    --shutdown-timeout): the test sends that SIGKILL itself once rank 0 has ended, so it waits on rank 0's
+    timeout, not on torchrun's. A rank 0 that never ends still hangs the launch until the test's own bound."""
     args = ["--train", "--file", os.path.join(CONFIGS, "ppo_cartpole.yaml"),
             *overrides(tmp_path, "params.config.score_to_win=100000", "params.config.max_epochs=200",
                        "params.config.multi_gpu_timeout_s=2"),
             'params.config.callbacks=["tests.smoke.test_distributed:StopRank1"]']
+    done = threading.Event()
+    killer = threading.Thread(target=_kill_stopped_rank_after_rank0, args=(tmp_path, done), daemon=True)
+    killer.start()
     try:
-        # the test's own bound; the run's is the 2 s timeout + the roll call + torchrun's 2 s
-        out, _ = torchrun(args, tmp_path, timeout=120, launcher=["--shutdown-timeout=2"])
+        out, _ = torchrun(args, tmp_path, timeout=120)  # the test's own bound; the run's is 2 s + the roll call
     finally:
-        stopped = tmp_path / "stopped_rank.pid"
+        done.set()
+        killer.join()
+        stopped = tmp_path / "rank1.pid"
         if stopped.exists():  # rank 1, stopped in a session of its own, would outlive a launch that timed out
-            try:
+            with contextlib.suppress(ProcessLookupError, ValueError):
                 os.kill(int(stopped.read_text()), signal.SIGKILL)
-            except ProcessLookupError:
-                pass
     assert out.returncode != 0
     found = [line for line in out.stderr.splitlines() if "distributed error: rank 0" in line]
     assert found, out.stderr[-4000:]

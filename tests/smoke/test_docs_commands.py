@@ -24,6 +24,8 @@ shortening (``rlchain train``/``play``/``tune`` as ``--train``/``--play``/``--tu
 tests run in (``python -m rlchain`` where that venv has none).
 A bash command that an earlier page already ran successfully in this session is not run again on
 a page where no later block can depend on it (no python or file blocks, no ``<run>``).
+A ``run timeout=N`` command runs in the background (tests/smoke/docs_background.py) while the page's later blocks
+and the pages after it run; the last test checks that each was still running ``N`` seconds after its start.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ import yaml
 
 from rlchain.config.packaged import resolve_config
 from tests.conftest import ROOT
+from tests.smoke import docs_background
 from tests.smoke.forkserver_client import ForkServer
 
 pytestmark = pytest.mark.smoke
@@ -67,6 +70,7 @@ CAPS = os.path.join(ROOT, "tests", "smoke", "docs_caps.py")  # a python block's 
 CAPS_PRELUDE = "tests.smoke.docs_caps:install"
 
 _ran_ok: set[str] = set()  # bash commands (shortened) that succeeded on an earlier page
+_background: list[docs_background.Background] = []  # `run timeout=N` commands running on (docs_background.py)
 
 
 @dataclass
@@ -422,7 +426,7 @@ def test_page_commands_run(page, tmp_path, fork_server):
     blocks = read_blocks(page)
     reusable = not any(b.kind == "file" or (b.kind == "run" and b.lang in ("python", "py")) for b in blocks)
     out = ""
-    for block in blocks:
+    for at, block in enumerate(blocks):
         if block.kind == "file":
             path = os.path.join(ws, block.args)
             os.makedirs(os.path.dirname(path), exist_ok=True)
@@ -438,6 +442,11 @@ def test_page_commands_run(page, tmp_path, fork_server):
             # `python docs_caps.py BLOCK.py`
             out = run([sys.executable, CAPS, script], ws, env, block, f"python block at line {block.line}",
                       fork_server, [sys.executable, script], prelude=CAPS_PRELUDE)
+        elif block.kind == "run" and "timeout" in block.options and not shown_output(blocks, at):
+            for command in commands(block.text):  # checked by the last test: still running after N s
+                shown = shorten(command, ws)
+                _background.append(start_background(block, shown, ws, env, fork_server,
+                                                     forkable(command, shown, ws)))
         elif block.kind == "run":
             plain = reusable and not block.options and "<run>" not in block.text
             for command in commands(block.text):
@@ -447,3 +456,60 @@ def test_page_commands_run(page, tmp_path, fork_server):
                 out = run(["bash", "-c", shown], ws, env, block, shown, fork_server, forkable(command, shown, ws))
                 if not block.options:
                     _ran_ok.add(shown)
+
+
+def shown_output(blocks: list[Block], at: int) -> bool:
+    """Whether an ``output`` block follows block ``at`` (its output is checked: it runs in the foreground)."""
+    return at + 1 < len(blocks) and blocks[at + 1].kind == "output"
+
+
+def start_background(block: Block, shown: str, ws: str, env: dict, server: ForkServer | None,
+                     direct: list[str] | None) -> docs_background.Background:
+    """Start ``shown``, a command of a ``run timeout=N`` block, in the background (tests/smoke/docs_background.py):
+    ``direct`` detached from the fork ``server`` where both are given, else through bash."""
+    if server is not None and direct is not None:
+        assignments, direct = split_assignments(direct)
+        env = {**env, **assignments}
+    else:
+        server = direct = None
+    return docs_background.start(block.where, shown, float(block.options["timeout"]), ws, env, STOP_GRACE, server,
+                                 direct)
+
+
+def finish_background() -> list[str]:
+    """Wait for the background commands' checks; their problems (docs_background.finish), each command's wall and
+    CPU seconds appended to RLCHAIN_DOCS_TIMES's file."""
+    jobs = list(_background)
+    problems = docs_background.finish(_background)
+    if _TIMES:
+        with open(_TIMES, "a", encoding="utf-8") as fh:
+            for job in jobs:
+                fh.write(f"{job.wall:.2f}\t{job.cpu:.2f}\t{job.where}\t{job.shown[:200]} (background)\n")
+    return problems
+
+
+def test_a_background_command_must_still_run_at_its_time(tmp_path, fork_server):
+    """The background check bites: a command that ends before its time is reported, one that runs on is not."""
+    env = environment(str(tmp_path))
+    block = Block("x.md", 3, "bash", "", "run", "timeout=1", {"timeout": "1"})
+    ends = "python -c 'import sys; sys.exit(3)'"
+    jobs = [start_background(block, "sleep 30", str(tmp_path), env, fork_server, None),
+            start_background(block, ends, str(tmp_path), env, fork_server, forkable(ends, ends))]
+    problems = docs_background.finish(jobs)
+    assert len(problems) == 1 and problems[0].startswith(f"x.md:3: `{ends}` should still run after 1 s, but it "
+                                                         f"ended within"), problems
+
+
+def test_commands_that_run_until_stopped_ran_on():
+    """After the pages (tests run in file order): each ``run timeout=N`` command the pages started was still
+    running N s after its start, with no traceback in its output (a page run alone: checked at the module's end)."""
+    problems = finish_background()
+    assert not problems, "\n".join(problems)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def background_commands_checked():
+    """A background command whose page ran without the test above (``-k``) is checked when the module ends."""
+    yield
+    problems = finish_background()
+    assert not problems, "\n".join(problems)

@@ -47,3 +47,23 @@ def test_scheduled_values_are_reported_under_rllibs_names():
     assert scheduled_results({"learning_rate": 5e-4, "entropy_coef": 0.01}) == \
         {"curr_lr": 5e-4, "curr_entropy_coeff": 0.01}
     assert scheduled_results({"other": 1.0}) == {}
+
+
+def test_multi_agent_learners_report_each_policys_last_minibatch():
+    from types import SimpleNamespace
+
+    from rlchain.rllib.multi_agent import MultiAgentRun
+    from rlchain.rllib.results import last_minibatch_by_policy
+
+    run = MultiAgentRun.__new__(MultiAgentRun)  # the parts learners() reads, without an env
+    run.names, run.spaces, run.trained = ["p0", "p1"], {"p0": None, "p1": None}, None
+    stats = {f"losses/{p}/{k}": 1.0 for p in ("p0", "p1") for k in ("a_loss", "c_loss", "entropy")}
+    stats.update({"info/p0/kl": 0.5, "info/p1/kl": 0.5})
+    agents = SimpleNamespace(agents={"p0": SimpleNamespace(last_minibatch_stats={"a_loss": -2.0, "c_loss": 3.0,
+                                                                                 "entropy": 0.1, "kl": 0.02}),
+                                     "p1": SimpleNamespace(last_minibatch_stats={})})
+    out = run.learners(stats, 1e-3, last_minibatch_by_policy(agents))
+    assert (out["p0"]["policy_loss"], out["p0"]["vf_loss"], out["p0"]["entropy"], out["p0"]["mean_kl_loss"]) == \
+        (-2.0, 3.0, 0.1, 0.02)
+    assert (out["p1"]["policy_loss"], out["p1"]["mean_kl_loss"]) == (1.0, 0.5)  # no last minibatch: the means
+    assert run.learners(stats, 1e-3)["p0"]["policy_loss"] == 1.0

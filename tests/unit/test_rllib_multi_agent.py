@@ -153,6 +153,9 @@ def test_two_policies_train_on_a_turn_based_multi_agent_env(tmp_path, monkeypatc
         assert set(runners["agent_episode_returns_mean"]) == {0, 1}
         assert set(result["learners"]) == {"first", "__all_modules__"}  # 'second' is frozen
         assert np.isfinite(result["learners"]["first"]["policy_loss"])
+        last = algo._stepper.context.algorithm.agent.agents["first"].last_minibatch_stats  # RLlib's window=1
+        assert result["learners"]["first"]["policy_loss"] == last["a_loss"]
+        assert result["learners"]["first"]["mean_kl_loss"] == last["kl"]
         after = algo.get_module("second").state_dict()
         assert all(torch.equal(before[k], after[k]) for k in before)
         out = algo.get_module("first").forward_inference({"obs": torch.eye(2)})["action_dist_inputs"]
