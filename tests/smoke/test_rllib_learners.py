@@ -1,13 +1,16 @@
 """num_learners=2 under torchrun (rlchain/rllib/translate.py): two processes run the RLlib script unmodified on
-rlchain's torch.distributed path, each sampling half the batch, their weights identical after every update."""
+rlchain's torch.distributed path, each sampling half the batch, their weights identical after every update.
+
+The launch runs in the smoke tests' fork server (tests/smoke/cli_server.py): torchrun's own launcher, its workers
+forks of it instead of new interpreters that import torch and rlchain (tests/smoke/test_distributed.py's way)."""
 
 import os
 import re
-import shutil
-import subprocess
 import sys
 
 import pytest
+
+from tests.smoke.cli_server import run_python
 
 SCRIPT = os.path.join(os.path.dirname(__file__), "rllib_scripts", "two_learners.py")
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -15,12 +18,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 @pytest.mark.slow
 def test_two_learners_train_data_parallel_under_torchrun(tmp_path):
-    torchrun = shutil.which("torchrun") or os.path.join(os.path.dirname(sys.executable), "torchrun")
-    if not os.path.exists(torchrun):
-        pytest.skip("torchrun is not installed")
     env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""), "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([torchrun, "--standalone", "--nproc_per_node=2", "-m", "rlchain.rllib", SCRIPT],
-                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    torchrun = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
+    out = run_python([*torchrun, "-m", "rlchain.rllib", SCRIPT], tmp_path, env, 300)
     assert out.returncode == 0, out.stderr[-3000:]
     lines = re.findall(r"iteration 2 lifetime (\d+) weights (\S+)", out.stdout)
     assert len(lines) == 2, out.stdout  # one per learner process

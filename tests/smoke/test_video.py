@@ -4,15 +4,15 @@ import os
 
 import pytest
 
-from tests.conftest import CONFIGS, ROOT
+from rlchain.config.errors import ConfigError
+from rlchain.inference.video import record_episodes
+from rlchain.runner import Runner
+from rlchain.training.video_callback import VideoCallback
+from tests.conftest import CONFIGS, ROOT, installed
 
-pytest.importorskip("moviepy", reason="pip install rlchain[video]")
-pytest.importorskip("pygame", reason="pip install rlchain[video]")
-
-from rlchain.config.errors import ConfigError  # noqa: E402
-from rlchain.inference.video import record_episodes  # noqa: E402
-from rlchain.runner import Runner  # noqa: E402
-from rlchain.training.video_callback import VideoCallback  # noqa: E402
+# a mark, not pytest.importorskip: that imports moviepy when the file is collected, in every pytest process
+# (rlchain[video]: moviepy, pygame; the tests import them when they record)
+pytestmark = installed("moviepy", "pygame")
 
 CARTPOLE = os.path.join(CONFIGS, "ppo_cartpole.yaml")
 
