@@ -7,6 +7,7 @@ or an env class (built with an :class:`EnvContext`). Each becomes a fresh name r
 from __future__ import annotations
 
 import itertools
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -44,7 +45,14 @@ class EnvContext(dict):
 
 
 def tune_registered(name: str) -> Callable[[Any], Any] | None:
-    """The creator registered under ``name`` with Ray Tune's ``register_env`` (None: not registered, or no Ray)."""
+    """The creator registered under ``name`` with Ray Tune's ``register_env`` (None: not registered, or no Ray).
+
+    Only asked where a registration can exist: ``register_env`` was imported in this process, or Ray is running
+    (a Tune trial or an actor reads the driver's registrations from Ray's store). Otherwise importing Ray Tune
+    (several seconds of CPU) would only answer None."""
+    ray = sys.modules.get("ray")
+    if "ray.tune.registry" not in sys.modules and not (ray is not None and ray.is_initialized()):
+        return None
     try:  # optional: ray
         from ray.tune.registry import ENV_CREATOR, _global_registry
     except ImportError:
