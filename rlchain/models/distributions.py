@@ -134,7 +134,8 @@ class Categorical(Distribution):
         return params.argmax(-1)
 
     def log_prob(self, params: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        return self._log_softmax(params).gather(-1, actions.long().unsqueeze(-1)).squeeze(-1)
+        index = actions if actions.dtype == torch.long else actions.long()  # the act step's are long already
+        return self._log_softmax(params).gather(-1, index.unsqueeze(-1)).squeeze(-1)
 
     def entropy(self, params: torch.Tensor) -> torch.Tensor:
         logp = self._log_softmax(params)
@@ -186,7 +187,7 @@ def _gumbel_argmax(logits: torch.Tensor) -> torch.Tensor:
 
     The Gumbel noise is bounded (u in [1e-20, 1)), so a MASKED_LOGIT entry is never chosen."""
     u = torch.rand_like(logits).clamp_(1e-20, 1.0)
-    return (logits - (-u.log()).log()).argmax(-1)
+    return (logits - u.log_().neg_().log_()).argmax(-1)  # log(-log u) in place: the same values, no temporaries
 
 
 class MultiCategorical(Distribution):
