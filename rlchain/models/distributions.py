@@ -134,8 +134,7 @@ class Categorical(Distribution):
         return params.argmax(-1)
 
     def log_prob(self, params: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        index = actions if actions.dtype == torch.long else actions.long()  # the act step's are long already
-        return self._log_softmax(params).gather(-1, index.unsqueeze(-1)).squeeze(-1)
+        return self._log_softmax(params).gather(-1, actions.long().unsqueeze(-1)).squeeze(-1)
 
     def entropy(self, params: torch.Tensor) -> torch.Tensor:
         logp = self._log_softmax(params)
