@@ -1,6 +1,7 @@
 """Learning tier (slow): distilled students reach at least 90 % of their teacher's return, both played alone,
 deterministic. CartPole: the LSTM student of distill_cartpole_lstm.yaml sees the cart position and the pole
-angle only (teacher nn/cartpole.pth, PPO on the full state; 20 games each). HalfCheetah: the LSTM student of
+angle only (teacher nn/cartpole.pth, PPO on the full state); the student plays 20 games to 450, 90 % of the most a
+CartPole game scores (the teacher's 20 games are test_learning.py's: 475 or more). HalfCheetah: the LSTM student of
 distill_halfcheetah_lstm.yaml sees the joint positions only, with sensor noise while training (teacher
 rlchain/checkpoints/halfcheetah_teacher.pth, PPO on all 17 numbers; 2 games each). Pendulum: an MLP student of
 distill_pendulum_sac.yaml fitted to a SAC teacher (nn/pendulum_sac.pth) reaches score_to_win."""
@@ -34,9 +35,9 @@ def test_lstm_student_reaches_90_percent_of_the_mlp_teacher(tmp_path):
         "params.torch_threads=1"])
     result = runner.train()
     student = played(runner.params, glob.glob(str(tmp_path / "runs" / "*" / "nn" / "distill_cartpole_lstm.pth"))[0])
-    teacher = played(Runner().load(os.path.join(CONFIGS, "ppo_cartpole.yaml")).params, teacher_path)
-    assert teacher >= 475, teacher
-    assert student >= 0.9 * teacher, (student, teacher, result)
+    # the teacher is the shipped nn/cartpole.pth, which test_learning.py's test_shipped_checkpoints_play_to_score
+    # plays to 475 or more over 20 games; CartPole's games end at 500, so 450 is 90 % of any teacher's score
+    assert student >= 0.9 * 500, (student, result)
 
 
 def test_halfcheetah_student_without_velocities_reaches_90_percent_of_the_teacher(tmp_path):

@@ -1,6 +1,6 @@
 """Learning tier (slow): the history policy (a causal transformer over the last 8 steps, network.history)
-reaches 400 on masked-velocity CartPole, as the LSTM reaches 450 (tests/learning/test_rnn_learning.py; a
-feedforward policy stays under 60 there), and plays as well stepping its window one step at a time."""
+reaches 400 on masked-velocity CartPole, as the LSTM config reaches 450 (tests/learning/test_rnn_learning.py stops
+it at 300; a feedforward policy stays under 60 there), and plays as well stepping its window one step at a time."""
 
 import os
 
