@@ -15,6 +15,7 @@ import torch.nn as nn
 from rlchain.models.base import ValueModel, value_normalizer
 from rlchain.models.distributions import Distribution
 from rlchain.models.normalization import obs_normalizer
+from rlchain.networks.direct import DirectPass
 
 
 class ActorCritic(ValueModel):
@@ -97,10 +98,27 @@ class ActorCritic(ValueModel):
             action_masks: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
         """Rollout step: actions, their log-probs, raw-scale values, the distribution params and
         (for an RNN) the states after this step under ``"states"``."""
-        params, value, new_states = self.evaluate(obs, states, action_masks=action_masks)
+        direct = self._direct_pass()
+        out = direct(self.preprocess(obs)) if direct is not None else None
+        if out is None:
+            params, value, new_states = self.evaluate(obs, states, action_masks=action_masks)
+        else:  # evaluate's pass without nn.Module's call machinery: the same floats
+            params, value = self.dist.params_from_network(out)
+            if action_masks is not None:
+                params = self.dist.mask(params, action_masks)
+            new_states = None
         actions = self.dist.mode(params) if deterministic else self.dist.sample(params)
         return {"actions": actions, "log_probs": self.dist.log_prob(params, actions),
                 "values": self.denorm_value(value), "params": params, "states": new_states}
+
+    def _direct_pass(self) -> DirectPass | None:
+        """The network's :class:`DirectPass` when it is a plain MLP actor-critic (made again when the network
+        is replaced), else None."""
+        network = self.a2c_network
+        direct = self.__dict__.get("_direct")
+        if direct is None or direct.network is not network:
+            direct = self.__dict__["_direct"] = DirectPass(network)
+        return direct if direct.plain else None
 
     @torch.inference_mode()
     def value(self, obs: torch.Tensor, states: tuple | None = None) -> torch.Tensor:

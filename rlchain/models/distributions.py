@@ -186,7 +186,7 @@ def _gumbel_argmax(logits: torch.Tensor) -> torch.Tensor:
 
     The Gumbel noise is bounded (u in [1e-20, 1)), so a MASKED_LOGIT entry is never chosen."""
     u = torch.rand_like(logits).clamp_(1e-20, 1.0)
-    return (logits - (-u.log()).log()).argmax(-1)
+    return (logits - u.log_().neg_().log_()).argmax(-1)  # log(-log u) in place: the same values, no temporaries
 
 
 class MultiCategorical(Distribution):
