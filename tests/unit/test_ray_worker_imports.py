@@ -73,3 +73,21 @@ def test_a_deferred_entry_is_made_on_its_first_lookup_and_kept():
     assert table.names() == ["lazy", "plain"] and "lazy" in table and made == []  # names need no entry
     assert table.get("lazy") == "entry" and table.get("lazy") == "entry" and made == [1]  # made once
     assert table.get("plain") == 2
+
+
+def test_an_entry_point_without_a_module_name_travels_unpickled_until_its_env_is_made():
+    import gymnasium as gym
+
+    from rlchain.envs.ray.ray_worker import LazyEntryPoint
+
+    gym.register("TestLambdaGoalReach-v0", entry_point=lambda **kw: GoalReachEnv(**kw))  # no module:Name for it
+    try:
+        sent = pickle.loads(pickle.dumps(EnvRecipe.capture("CartPole-v1", {}, "sync")))
+        entry = sent.gym_specs["TestLambdaGoalReach-v0"].entry_point
+        assert isinstance(entry, LazyEntryPoint) and entry._entry is None  # not unpickled by the recipe's arrival
+        assert pickle.loads(pickle.dumps(entry))._entry is None
+        env = gym.make(sent.gym_specs["TestLambdaGoalReach-v0"])
+        assert isinstance(env.unwrapped, GoalReachEnv) and entry._entry is not None
+        env.close()
+    finally:
+        gym.registry.pop("TestLambdaGoalReach-v0", None)

@@ -127,14 +127,42 @@ def _deferred(entry: Any) -> Deferred:
 
 def _entry_point_by_name(spec: Any) -> Any:
     """``spec`` with its entry point as gymnasium's ``module:Name`` string when that names the same object (a
-    class or function at the top of an imported module), else as it is."""
+    class or function at the top of an imported module), else (a lambda, a nested class) as a
+    :class:`LazyEntryPoint`: either way the worker imports the entry point's module only when it makes that env."""
     entry = spec.entry_point
+    if not callable(entry):
+        return spec
     module, name = getattr(entry, "__module__", None), getattr(entry, "__qualname__", "")
-    if not callable(entry) or not module or module == "__main__" or "." in name or "<" in name:
-        return spec
-    if getattr(sys.modules.get(module), name, None) is not entry:
-        return spec
-    return dataclasses.replace(spec, entry_point=f"{module}:{name}")
+    if module and module != "__main__" and "." not in name and "<" not in name \
+            and getattr(sys.modules.get(module), name, None) is entry:
+        return dataclasses.replace(spec, entry_point=f"{module}:{name}")
+    import cloudpickle
+
+    return dataclasses.replace(spec, entry_point=LazyEntryPoint(cloudpickle.dumps(entry)))
+
+
+class LazyEntryPoint:
+    """A gymnasium entry point sent as cloudpickle's bytes and unpickled at its first use (a call, or gymnasium
+    reading its ``metadata``), so a worker that never makes that env never imports the module it was defined in."""
+
+    def __init__(self, blob: bytes) -> None:
+        self._blob, self._entry = blob, None
+
+    def _load(self) -> Any:
+        if self._entry is None:
+            self._entry = pickle.loads(self._blob)
+        return self._entry
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self._load()(*args, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:  # only for names the instance lacks; pickle's dunders never load
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self._load(), name)
+
+    def __getstate__(self) -> dict:
+        return {"_blob": self._blob, "_entry": None}
 
 
 def _picklable(items: dict) -> dict:
