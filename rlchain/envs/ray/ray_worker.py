@@ -142,8 +142,9 @@ def _entry_point_by_name(spec: Any) -> Any:
 
 
 class LazyEntryPoint:
-    """A gymnasium entry point sent as cloudpickle's bytes and unpickled at its first use (a call, or gymnasium
-    reading its ``metadata``), so a worker that never makes that env never imports the module it was defined in."""
+    """A gymnasium entry point sent as cloudpickle's bytes and unpickled at its first use (a call, or gymnasium's
+    ``make`` reading its ``metadata``), so a worker that never makes that env never imports the module it was
+    defined in."""
 
     def __init__(self, blob: bytes) -> None:
         self._blob, self._entry = blob, None
@@ -156,10 +157,14 @@ class LazyEntryPoint:
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
         return self._load()(*args, **kwargs)
 
-    def __getattr__(self, name: str) -> Any:  # only for names the instance lacks; pickle's dunders never load
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return getattr(self._load(), name)
+    @property
+    def metadata(self) -> dict:
+        """The entry point's ``metadata`` (gymnasium's ``make`` reads its render modes from it); AttributeError, so
+        ``hasattr`` is False, where the entry point has none (a lambda)."""
+        entry = self._load()
+        if not hasattr(entry, "metadata"):
+            raise AttributeError("metadata")
+        return entry.metadata
 
     def __getstate__(self) -> dict:
         return {"_blob": self._blob, "_entry": None}
