@@ -24,6 +24,7 @@ import torch
 from rlchain.training.events import Callback
 from tests.conftest import CONFIGS, ROOT
 from tests.smoke.cli_server import run_python
+from tests.smoke.docs_background import running  # a zombie (ended, not yet reaped by torchrun) does not run
 
 pytestmark = pytest.mark.smoke
 
@@ -353,20 +354,11 @@ def test_a_dead_rank_ends_the_run_with_a_clear_message(scenarios):
     assert lost or stopped, stdout[-2000:] + stderr[-3000:]
 
 
-def _running(pid: int) -> bool:
-    """Whether process ``pid`` still runs (a zombie, ended but not yet reaped by torchrun, does not)."""
-    try:
-        with open(f"/proc/{pid}/stat", encoding="utf-8") as fh:
-            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except (OSError, IndexError):
-        return False
-
-
 def _kill_stopped_rank_after_rank0(folder, done: threading.Event) -> None:
     """Once rank 0 has ended by itself, SIGKILL the stopped rank 1, as torchrun does after its wait."""
     pids = [folder / "rank0.pid", folder / "rank1.pid"]
     while not done.wait(0.1):
-        if all(path.exists() and path.read_text() for path in pids) and not _running(int(pids[0].read_text())):
+        if all(path.exists() and path.read_text() for path in pids) and not running(int(pids[0].read_text())):
             with contextlib.suppress(ProcessLookupError):
                 os.kill(int(pids[1].read_text()), signal.SIGKILL)
             return
