@@ -43,3 +43,13 @@ def test_another_connector_name_is_a_one_line_import_error():
     from rlchain.rllib.alias import FaceImportError
     with pytest.raises(FaceImportError, match="only MeanStdFilter"):
         from rlchain.rllib.connectors.env_to_module import FlattenObservations  # noqa: F401
+
+
+def test_any_other_missing_name_is_an_attribute_error_so_pickles_module_search_passes_over_it():
+    import pickle
+
+    import rlchain.rllib.connectors.env_to_module as connectors
+    assert not hasattr(connectors, "torch") and getattr(connectors, "Foo", None) is None
+    pickle.whichmodule(object(), "torch")  # torch.compile's cache key runs this search over every loaded module
+    with pytest.raises(ImportError, match="cannot import name"):
+        from rlchain.rllib.connectors.env_to_module import MeanStdFiltr  # noqa: F401

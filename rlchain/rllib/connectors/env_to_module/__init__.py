@@ -1,5 +1,8 @@
-"""``ray.rllib.connectors.env_to_module``: ``MeanStdFilter`` (rlchain's ``normalize_input``); any other name is a
-one-line ImportError saying what to write instead."""
+"""``ray.rllib.connectors.env_to_module``: ``MeanStdFilter`` (rlchain's ``normalize_input``); RLlib's other
+env-to-module connectors are each a one-line ImportError saying what to write instead. Any other name is an
+AttributeError, as on any module: ``hasattr`` / ``getattr(module, name, default)`` and pickle's search of every
+loaded module for an object's name (``pickle.whichmodule``, which torch.compile's cache key runs) read it as
+"no such attribute"."""
 
 from typing import Any
 
@@ -8,10 +11,16 @@ from rlchain.rllib.face_error import FaceImportError
 
 __all__ = ["MeanStdFilter"]
 
+NOT_OFFERED = frozenset({
+    "AddObservationsFromEpisodesToBatch", "AddStatesFromEpisodesToBatch", "AddTimeDimToBatchAndZeroPad",
+    "AgentToModuleMapping", "BatchIndividualItems", "EnvToModulePipeline", "FlattenObservations", "NumpyToTensor",
+    "PrevActionsPrevRewards", "WriteObservationsToEpisodes"})
+"""RLlib 2.60's other ``env_to_module`` connectors (its ``__all__`` less MeanStdFilter)."""
+
 
 def __getattr__(name: str) -> Any:
-    if name.startswith("__"):
-        raise AttributeError(name)
+    if name not in NOT_OFFERED:
+        raise AttributeError(f"module 'ray.rllib.connectors.env_to_module' has no attribute '{name}'")
     raise FaceImportError(f"ray.rllib.connectors.env_to_module.{name} is not offered by rlchain's RLlib face: "
                           f"only MeanStdFilter is; preprocess observations in a gymnasium wrapper",
                           name="ray.rllib.connectors.env_to_module")
