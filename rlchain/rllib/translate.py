@@ -243,6 +243,9 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
+        # RLlib compiles its learner's forward pass; rlchain's compile_update compiles the minibatch step's forward
+        # pass and losses (the backward derived from them), feed-forward networks only
+        "compile_update": bool(s.get("torch_compile_learner")) and not seq_len,
     }
     if seq_len:
         train["seq_length"] = seq_len

@@ -88,6 +88,9 @@ def test_translation_maps_rllibs_meaning():
     assert not cfg["clip_value"] and cfg["reward_shaper"] == {"scale_value": 1.0}
     off = _params(PPOConfig().training(use_kl_loss=False, grad_clip=None))["config"]
     assert off["kl_loss_coef"] == 0.0 and off["kl_loss_target"] is None and not off["truncate_grads"]
+    assert not cfg["compile_update"]
+    compiled = _params(PPOConfig().framework("torch", torch_compile_learner=True))["config"]
+    assert compiled["compile_update"]  # RLlib's compiled learner: rlchain's compiled minibatch step
 
 
 @pytest.mark.parametrize("batch, envs, minibatch, steps", [(4000, 2, 128, 2048), (4000, 64, 128, 64),

@@ -95,10 +95,12 @@ class PPOAgent(ScheduledAdam):
         return "compiled" if self.losses is not ppo_loss else "eager"
 
     def compile(self) -> None:
-        """``compile_update``: from now on the loss runs as one compiled region with static shapes (the
-        minibatch size divides the batch, so every minibatch has the same shape). The compile happens on
-        the first minibatch; its seconds are logged."""
-        self.losses = torch.compile(ppo_loss, dynamic=False)
+        """``compile_update``: from now on the loss runs as one compiled region, with static shapes where the
+        minibatch size divides the batch (every minibatch the same shape); RLlib's cyclic minibatches
+        (``minibatch_order: rllib``) leave out a varying number of masked rows, so there the row count is
+        dynamic rather than one compile per count. The compile happens on the first minibatch; its seconds
+        are logged."""
+        self.losses = torch.compile(ppo_loss, dynamic=None if self.cfg.minibatch_order == "rllib" else False)
         self._compile_pending = True
 
     # ----- the update -------------------------------------------------------------------------
