@@ -1,5 +1,6 @@
 """RLlib's ``env_to_module_connector`` read as a setting: a function returning ``MeanStdFilter()`` (RLlib's tuned
-Pendulum example) is rlchain's observation normalizer; any other connector is a one-line error.
+Pendulum example) is rlchain's observation normalizer; ``FlattenObservations()`` (alone or beside it) asks for
+nothing, the face's observations being flat already; any other connector is a one-line error.
 
 RLlib's filter folds every observation into running statistics as the env runners see it and hands the module
 ``(obs - mean) / std`` clipped to +-``clip_by_value`` (10). rlchain's ``normalize_input`` with
@@ -14,6 +15,7 @@ import inspect
 from typing import Any
 
 from rlchain.config.errors import ConfigError
+from rlchain.rllib.connectors.env_to_module.flatten_observations import FlattenObservations
 from rlchain.rllib.connectors.env_to_module.mean_std_filter import MeanStdFilter
 
 KEY = "env_to_module_connector"
@@ -39,7 +41,8 @@ def _connectors(config: Any, make: Any) -> list[Any]:
 
 def filter_keys(config: Any) -> dict[str, Any]:
     """rlchain's keys for the config's ``env_to_module_connector`` ({} without one): ``MeanStdFilter()`` with its
-    defaults under PPO is ``normalize_input``; anything else is a one-line ConfigError."""
+    defaults under PPO is ``normalize_input``, ``FlattenObservations()`` adds no key (every observation reaches the
+    networks flattened); anything else is a one-line ConfigError."""
     make = config._settings.get(KEY)
     if make is None:
         return {}
@@ -47,9 +50,13 @@ def filter_keys(config: Any) -> dict[str, Any]:
     if not callable(make):
         raise ConfigError(name, KEY, f"expected a function (env, spaces, device) -> connector, got {make!r}")
     items = _connectors(config, make)
-    if not items or not all(isinstance(c, MeanStdFilter) for c in items):
-        raise ConfigError(name, KEY, f"{items!r}: the face maps only MeanStdFilter() (rlchain's normalize_input); "
-                                     f"preprocess observations in a gymnasium wrapper")
+    if not items or not all(isinstance(c, (MeanStdFilter, FlattenObservations)) for c in items):
+        raise ConfigError(name, KEY, f"{items!r}: the face maps only MeanStdFilter() (rlchain's normalize_input) "
+                                     f"and FlattenObservations() (its observations are flat already); preprocess "
+                                     f"observations in a gymnasium wrapper")
+    items = [c for c in items if isinstance(c, MeanStdFilter)]
+    if not items:
+        return {}
     if config.algo_name != "PPO":
         raise ConfigError(name, KEY, f"MeanStdFilter is mapped for PPO only, not {config.algo_name}")
     for f in items:

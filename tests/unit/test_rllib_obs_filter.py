@@ -1,5 +1,6 @@
 """RLlib's ``env_to_module_connector`` on the face (rlchain.rllib.obs_filter): ``MeanStdFilter()`` is rlchain's
-observation normalizer; any other connector, another algorithm or non-default filter settings are one line."""
+observation normalizer, ``FlattenObservations()`` adds nothing (the face's observations are flat); any other
+connector, another algorithm or non-default filter settings are one line."""
 
 import pytest
 
@@ -7,7 +8,8 @@ from rlchain.config.errors import ConfigError
 from rlchain.rllib import translate
 from rlchain.rllib.algorithms.dqn import DQNConfig
 from rlchain.rllib.algorithms.ppo import PPOConfig
-from rlchain.rllib.connectors.env_to_module import MeanStdFilter
+from rlchain.rllib.connectors.env_to_module import FlattenObservations, MeanStdFilter
+from rlchain.rllib.obs_filter import filter_keys
 
 
 def _train(config):
@@ -39,10 +41,22 @@ def test_other_connectors_and_settings_are_one_line():
         assert "\n" not in str(info.value)
 
 
+def test_flatten_observations_adds_no_key_alone_or_beside_the_filter():
+    from rlchain.rllib.connectors.env_to_module.flatten_observations import FlattenObservations as by_module
+    assert by_module is FlattenObservations  # RLlib's examples import it from either path
+    alone = PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: FlattenObservations(multi_agent=True))
+    assert filter_keys(alone) == {}
+    assert _train(alone)["normalize_input"] is False
+    both = PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: [FlattenObservations(), MeanStdFilter()])
+    assert filter_keys(both)["normalize_input"] is True
+    dqn = DQNConfig().env_runners(env_to_module_connector=lambda e, s, d: FlattenObservations(agent_ids={"a"}))
+    assert filter_keys(dqn) == {}  # the PPO-only rule is MeanStdFilter's
+
+
 def test_another_connector_name_is_a_one_line_import_error():
     from rlchain.rllib.alias import FaceImportError
-    with pytest.raises(FaceImportError, match="only MeanStdFilter"):
-        from rlchain.rllib.connectors.env_to_module import FlattenObservations  # noqa: F401
+    with pytest.raises(FaceImportError, match="only MeanStdFilter and FlattenObservations"):
+        from rlchain.rllib.connectors.env_to_module import NumpyToTensor  # noqa: F401
 
 
 def test_any_other_missing_name_is_an_attribute_error_so_pickles_module_search_passes_over_it():
