@@ -1,0 +1,1 @@
+"""``ray.rllib.env.wrappers``: ``pettingzoo_env`` (PettingZoo games as RLlib ``MultiAgentEnv``s)."""

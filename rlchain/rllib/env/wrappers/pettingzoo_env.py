@@ -1,0 +1,101 @@
+"""``ray.rllib.env.wrappers.pettingzoo_env``: a PettingZoo game as RLlib's ``MultiAgentEnv``, stepped by the face's
+multi-agent training like any other.
+
+:class:`PettingZooEnv` takes an AEC game (one agent moves at a time): ``reset`` and ``step`` return only the next
+mover's observation; agents that are done are stepped with ``None`` until a live agent is to move (their last
+observation, reward and flags are returned on the way), and ``"__all__"`` is true once no agent is left and all
+of them ended that way. :class:`ParallelPettingZooEnv` takes a parallel game (every live agent moves at once):
+its dicts are passed through, ``"__all__"`` true when every agent's flag is. Both are RLlib's rules.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+
+from rlchain.rllib.multi_agent import MultiAgentEnv
+
+
+def _agents_and_spaces(wrapper: MultiAgentEnv, game: Any) -> None:
+    """The game's agents (its own order) and their spaces on ``wrapper``, read after a first ``reset``."""
+    game.reset()
+    wrapper.agents = list(game.agents)
+    wrapper.possible_agents = list(getattr(game, "possible_agents", None) or game.agents)
+    wrapper._agent_ids = set(wrapper.agents)
+    wrapper.observation_spaces = {aid: game.observation_space(aid) for aid in wrapper.agents}
+    wrapper.action_spaces = {aid: game.action_space(aid) for aid in wrapper.agents}
+    wrapper.observation_space = gym.spaces.Dict(wrapper.observation_spaces)
+    wrapper.action_space = gym.spaces.Dict(wrapper.action_spaces)
+
+
+class PettingZooEnv(MultiAgentEnv):
+    """An AEC PettingZoo game (``env``: e.g. ``rps_v2.env()``) as a turn-based ``MultiAgentEnv``."""
+
+    def __init__(self, env: Any) -> None:
+        self.env = env
+        _agents_and_spaces(self, env)
+        super().__init__()
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+        info = self.env.reset(seed=seed, options=options)
+        mover = self.env.agent_selection
+        return {mover: self.env.observe(mover)}, info or {}
+
+    def step(self, action: dict) -> tuple[dict, dict, dict, dict, dict]:
+        self.env.step(action[self.env.agent_selection])
+        obs, rewards, terminateds, truncateds, infos = {}, {}, {}, {}, {}
+        while self.env.agents:  # to the next live mover, stepping the done agents out with None
+            ob, reward, terminated, truncated, info = self.env.last()
+            aid = self.env.agent_selection
+            obs[aid], rewards[aid], terminateds[aid], truncateds[aid], infos[aid] = \
+                ob, reward, terminated, truncated, info
+            if not (self.env.terminations[aid] or self.env.truncations[aid]):
+                break
+            self.env.step(None)
+        gone = not self.env.agents
+        terminateds["__all__"] = gone and all(terminateds.values())
+        truncateds["__all__"] = gone and all(truncateds.values())
+        return obs, rewards, terminateds, truncateds, infos
+
+    def close(self) -> None:
+        self.env.close()
+
+    def render(self) -> Any:
+        return self.env.render()
+
+    @property
+    def get_sub_environments(self) -> Any:
+        return self.env.unwrapped
+
+
+class ParallelPettingZooEnv(MultiAgentEnv):
+    """A parallel PettingZoo game (``env``: e.g. ``rps_v2.parallel_env()``) as a ``MultiAgentEnv``."""
+
+    def __init__(self, env: Any) -> None:
+        self.par_env = env
+        _agents_and_spaces(self, env)
+        super().__init__()
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+        obs, info = self.par_env.reset(seed=seed, options=options)
+        return obs, info or {}
+
+    def step(self, action_dict: dict) -> tuple[dict, dict, dict, dict, dict]:
+        obs, rewards, terminateds, truncateds, infos = self.par_env.step(action_dict)
+        terminateds = {**terminateds, "__all__": all(terminateds.values())}
+        truncateds = {**truncateds, "__all__": all(truncateds.values())}
+        return obs, rewards, terminateds, truncateds, infos
+
+    def close(self) -> None:
+        self.par_env.close()
+
+    def render(self) -> Any:
+        return self.par_env.render()
+
+    @property
+    def get_sub_environments(self) -> Any:
+        return self.par_env.unwrapped
+
+
+__all__ = ["ParallelPettingZooEnv", "PettingZooEnv"]
