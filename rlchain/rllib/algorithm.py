@@ -30,6 +30,7 @@ from rlchain.rllib.checkpoint_files import (
     CONFIG_FILE,
     RLCHAIN_CONFIG_FILE,
     checkpoint_file,
+    checkpoint_path,
     json_data,
     read_text,
     stored_config,
@@ -362,6 +363,7 @@ class Algorithm:
         """Load a checkpoint folder written by :meth:`save_to_path` (or an rlchain ``.pth``) into this algorithm:
         weights, optimizer, counters. RLlib's own (pickled) checkpoints are refused."""
         self._check_running()
+        path = checkpoint_path(path)  # also Tune's Checkpoint or what save() returned
         self._stepper.load(checkpoint_file(path))
         self._episodes.sync(self._stepper.context.episode_tracker)
         if os.path.isdir(path):

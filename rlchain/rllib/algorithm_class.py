@@ -55,6 +55,18 @@ class AlgorithmClass:
             return run_trial(self.cls, config)
         return self.cls(config=config)
 
+    def default_resource_request(self, config: Any) -> Any:
+        """What a Tune trial of this algorithm asks Ray for (``tune.with_resources(fn, resources=...)``): one bundle
+        of ``num_cpus_for_main_process`` CPUs (and ``num_gpus``), since the face steps a trial's envs and trains
+        in the trial's own process (RLlib adds a bundle per env runner and learner)."""
+        from ray import tune  # optional: ray[tune]
+
+        get = config.get if hasattr(config, "get") else dict(config).get
+        bundle = {"CPU": get("num_cpus_for_main_process", 1) or 1}
+        if get("num_gpus", 0):
+            bundle["GPU"] = get("num_gpus", 0)
+        return tune.PlacementGroupFactory([bundle])
+
     def __getattr__(self, name: str) -> Any:
         if name == "cls" or name.startswith("__"):
             raise AttributeError(name)

@@ -36,6 +36,11 @@ INSTEAD = {
                                              "algo.train() (its runner: algo.env_runner)",
     "ray.rllib.env.multi_agent_env_runner": "EnvRunners are not built standalone: the face steps the envs inside "
                                             "algo.train() (its runner: algo.env_runner)",
+    "ray.rllib.env.wrappers.atari_wrappers": "RLlib's Atari wrappers are not offered: wrap the env in gymnasium's "
+                                             "AtariPreprocessing and FrameStackObservation inside a register_env "
+                                             "creator",
+    "ray.rllib.env.vector": "the face vectorizes the envs itself: a callback's env is a gymnasium VectorEnv "
+                            "(multi-agent: None)",
     "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
                           "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }

@@ -19,10 +19,17 @@ RLLIB_FILES = ("algorithm_state.pkl", "algorithm_state.msgpack", "rllib_checkpoi
 """Files of RLlib's own checkpoints (pickles): refused, never unpickled."""
 
 
+def checkpoint_path(path: Any) -> str:
+    """The path a checkpoint argument names: a path, Ray Tune's ``Checkpoint`` (its ``path``) or what ``save()``
+    returned (its ``checkpoint.path``, as RLlib's ``restore`` takes it)."""
+    path = getattr(path, "checkpoint", path)
+    return os.fspath(getattr(path, "path", path))
+
+
 def checkpoint_file(path: Any) -> str:
     """The rlchain checkpoint of a folder written by ``save_to_path`` (or a ``.pth`` path); an RLlib checkpoint or
     anything else is a one-line CheckpointError."""
-    path = os.fspath(getattr(path, "path", path))
+    path = checkpoint_path(path)
     if os.path.isfile(path):
         return path
     if not os.path.isdir(path):

@@ -54,3 +54,11 @@ def test_building_without_an_algorithm_is_one_line():
     with pytest.raises(ConfigError, match="no algorithm to build"):
         AlgorithmConfig().environment("CartPole-v1").build_algo()
     assert AlgorithmClass.of(PPO.cls) is PPO
+
+
+def test_default_resource_request_is_one_bundle_for_the_trials_own_process():
+    tune = pytest.importorskip("ray.tune")
+    request = PPO.default_resource_request(PPOConfig().env_runners(num_env_runners=2))
+    assert isinstance(request, tune.PlacementGroupFactory) and request.bundles == [{"CPU": 1}]
+    dict_config = PPOConfig().resources(num_cpus_for_main_process=2, num_gpus=1).to_dict()
+    assert DQN.default_resource_request(dict_config).bundles == [{"CPU": 2, "GPU": 1}]

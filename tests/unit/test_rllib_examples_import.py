@@ -42,6 +42,25 @@ def test_installed_rllib_example_classes_import_under_the_face():
         uninstall()
 
 
+def test_rllib_example_rl_modules_with_target_networks_import_under_the_face():
+    pytest.importorskip("ray")
+    from rlchain.rllib.examples import _rllib_examples_dir
+
+    if _rllib_examples_dir() is None:
+        pytest.skip("RLlib is not installed beside the face")
+    from rlchain.rllib.alias import install, uninstall
+    from rlchain.rllib.core.rl_module.torch import TorchRLModule
+
+    install()
+    try:  # it imports core.learner.utils, apis' TARGET_NETWORK_ACTION_DIST_INPUTS and utils.typing's NetworkType
+        from ray.rllib.examples.rl_modules.classes.lstm_containing_rlm import LSTMContainingRLModule
+        from ray.rllib.utils.typing import NetworkType, SampleBatchType, T  # noqa: F401
+
+        assert issubclass(LSTMContainingRLModule, TorchRLModule)
+    finally:
+        uninstall()
+
+
 def test_tune_trainable_gives_the_default_config():
     pytest.importorskip("ray.tune")
     from rlchain.rllib.algorithms.ppo import PPOConfig

@@ -14,3 +14,10 @@ NUM_EPISODES_LIFETIME = "num_episodes_lifetime"
 TRAINING_ITERATION = "training_iteration"
 TIME_THIS_ITER_S = "time_this_iter_s"
 TIME_TOTAL_S = "time_total_s"
+NUM_ENV_STEPS_TRAINED = "num_env_steps_trained"
+
+# RLlib's timer names: importable (RLlib's example algorithms import them); the face's results hold no timers.
+TIMERS = "timers"
+ENV_RUNNER_SAMPLING_TIMER = "env_runner_sampling_timer"
+LEARNER_UPDATE_TIMER = "learner_update_timer"
+SYNCH_WORKER_WEIGHTS_TIMER = "synch_weights"

@@ -10,8 +10,12 @@ class InferenceOnlyAPI:
         return []
 
 
+TARGET_NETWORK_ACTION_DIST_INPUTS = "target_network_action_dist_inputs"
+"""The output key of a module's target network (RLlib's name)."""
+
+
 class TargetNetworkAPI:
     """RLlib's target-network API (off-policy modules): not trained by the face."""
 
 
-__all__ = ["InferenceOnlyAPI", "TargetNetworkAPI", "ValueFunctionAPI"]
+__all__ = ["TARGET_NETWORK_ACTION_DIST_INPUTS", "InferenceOnlyAPI", "TargetNetworkAPI", "ValueFunctionAPI"]

@@ -1,0 +1,27 @@
+"""What RLlib's example scripts import and the face does not offer ends in one line naming what to use instead
+(rlchain/rllib/alias.py's INSTEAD, run through ``python -m rlchain.rllib``'s explain)."""
+
+import importlib
+
+import pytest
+
+from rlchain.rllib import alias
+from rlchain.rllib.__main__ import explain
+
+
+@pytest.mark.parametrize("module, says", [
+    ("ray.rllib.env.wrappers.atari_wrappers", "AtariPreprocessing"),  # custom_cnn_rl_module.py
+    ("ray.rllib.env.vector.vector_multi_agent_env", "gymnasium VectorEnv"),  # env_rendering_and_recording.py
+    ("ray.rllib.core.learner.learner", "Learner subclasses are not run"),  # ppo_with_torch_lr_schedulers.py
+    ("ray.rllib.core.learner.torch.torch_learner", "Learner subclasses are not run"),  # shared_encoder_cartpole.py
+    ("ray.rllib.models.torch.misc", "model_config"),  # tiny_atari_cnn_rlm.py
+])
+def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
+    alias.install()
+    try:
+        with pytest.raises(ImportError) as info:
+            importlib.import_module(module)
+    finally:
+        alias.uninstall()
+    line = explain(info.value)
+    assert line is not None and "\n" not in line and says in line
