@@ -19,8 +19,8 @@ from rlchain.rllib.face_error import FaceImportError
 
 INSTEAD = {
     "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
-    "ray.rllib.connectors": "connectors are not run (env_to_module.MeanStdFilter aside): preprocess in a gymnasium "
-                            "wrapper",
+    "ray.rllib.connectors": "connectors are not run (env_to_module's MeanStdFilter and FlattenObservations aside): "
+                            "preprocess in a gymnasium wrapper",
     "ray.rllib.offline": "offline RL is not in rlchain",
     "ray.rllib.policy": "the old Policy API: use algo.get_module() / compute_single_action",
     "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",

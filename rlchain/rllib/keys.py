@@ -224,8 +224,8 @@ UNSUPPORTED: dict[str, str] = {
     "learner_class": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys "
                      "(docs/rllib.md)",
     "learner_connector": "connectors are not run: preprocess observations in a gymnasium wrapper",
-    "env_to_module_connector": "only MeanStdFilter() is mapped (normalize_input); preprocess observations in a "
-                               "gymnasium wrapper",
+    "env_to_module_connector": "only MeanStdFilter() (normalize_input) and FlattenObservations() are mapped; "
+                               "preprocess observations in a gymnasium wrapper",
     "module_to_env_connector": "connectors are not run: postprocess actions in a gymnasium wrapper",
     "env_runner_cls": "rlchain steps the envs itself (docs/rllib.md)",
     "custom_evaluation_function": "use algo.evaluate() or an RLlibCallback's on_train_result",
