@@ -16,8 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-ALL_MODULES = "__all_modules__"
-"""RLlib's key of the results over all modules (a learner result carrying it replaces the face's default)."""
+from rlchain.rllib.core import ALL_MODULES  # a learner result carrying it replaces the face's default counters
 
 FRAMES = "face/frames"
 """The env steps sampled so far, among the statistics the face passes to ``learner_results``."""

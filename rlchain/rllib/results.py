@@ -8,8 +8,8 @@ import time
 from typing import Any
 
 from rlchain.rllib.callbacks.callbacks import nested
-from rlchain.rllib.core import DEFAULT_MODULE_ID
-from rlchain.rllib.off_policy_results import ALL_MODULES, FRAMES, live_learning_rates
+from rlchain.rllib.core import ALL_MODULES, DEFAULT_MODULE_ID
+from rlchain.rllib.off_policy_results import FRAMES, live_learning_rates
 
 LAST = "last_minibatch/"
 """Prefix of the update's last minibatch's statistics among the epoch statistics the face reads

@@ -17,8 +17,8 @@ from rlchain.algos.off_policy.sac_agent import SACAgent, q_values
 from rlchain.config.off_policy import DQNConfig
 from rlchain.rllib.algorithms.dqn import DQN
 from rlchain.rllib.algorithms.sac import SAC
+from rlchain.rllib.core import ALL_MODULES
 from rlchain.rllib.off_policy_results import (
-    ALL_MODULES,
     FRAMES,
     LR,
     TargetUpdates,
