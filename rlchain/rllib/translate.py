@@ -244,8 +244,8 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
         # RLlib compiles its learner's forward pass; rlchain's compile_update compiles the minibatch step's forward
-        # pass and losses (the backward derived from them), feed-forward networks only
-        "compile_update": bool(s.get("torch_compile_learner")) and not seq_len,
+        # pass and losses (the backward derived from them): single-policy feed-forward PPO only, others train eager
+        "compile_update": bool(s.get("torch_compile_learner")) and not seq_len and rllib_batch,
     }
     if seq_len:
         train["seq_length"] = seq_len

@@ -91,6 +91,9 @@ def test_translation_maps_rllibs_meaning():
     assert not cfg["compile_update"]
     compiled = _params(PPOConfig().framework("torch", torch_compile_learner=True))["config"]
     assert compiled["compile_update"]  # RLlib's compiled learner: rlchain's compiled minibatch step
+    multi = translate.ppo_config(PPOConfig().framework("torch", torch_compile_learner=True), "CartPole-v1", False, {},
+                                 rllib_batch=False)["params"]["config"]
+    assert not multi["compile_update"]  # the multi-agent face's base: rlchain's multi-policy PPO trains eager
 
 
 @pytest.mark.parametrize("batch, envs, minibatch, steps", [(4000, 2, 128, 2048), (4000, 64, 128, 64),
