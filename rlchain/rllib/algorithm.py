@@ -44,10 +44,10 @@ from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import (
     deep_update,
     last_minibatch_by_policy,
+    learner_inputs,
     learner_results,
     scheduled_results,
     train_result,
-    with_last_minibatch,
 )
 from rlchain.rllib.schedules import Schedules
 from rlchain.rllib.stepper import ParkingStepper
@@ -210,7 +210,7 @@ class Algorithm:
         tracker = ctx.episode_tracker
         cfg = self.rlchain_config["params"]["config"]
         agent = getattr(ctx.algorithm, "agent", None)
-        learner = self.learner_results(with_last_minibatch(report.stats, agent), cfg)
+        learner = self.learner_results(learner_inputs(report.stats, agent, int(report.frames)), cfg)
         if self._schedules:  # RLlib reports the value after its scheduler's step: the next train()'s
             learner.update(scheduled_results(self._schedules.at(int(ctx.state.frames))))
         return train_result(report, cfg, iteration=self.iteration, time_total=self._time_total,

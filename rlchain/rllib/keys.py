@@ -161,7 +161,7 @@ ALGO_DEFAULTS: dict[str, dict[str, Any]] = {
             "hiddens": [256], "epsilon": [(0, 1.0), (10000, 0.05)], "training_intensity": None, "tau": 1.0,
             "td_error_loss_fn": "huber", "grad_clip": 40.0, "min_sample_timesteps_per_iteration": 1000,
             "noisy": False, "num_atoms": 1, "num_env_runners": 0},
-    "SAC": {"lr": None, "train_batch_size": 256, "twin_q": True, "tau": 5e-3,
+    "SAC": {"lr": None, "train_batch_size": 256, "train_batch_size_per_learner": 256, "twin_q": True, "tau": 5e-3,
             "initial_alpha": 1.0, "target_entropy": "auto", "n_step": 1,
             "replay_buffer_config": {"type": "PrioritizedEpisodeReplayBuffer", "capacity": 1_000_000, "alpha": 0.6,
                                      "beta": 0.4},

@@ -8,7 +8,8 @@ import time
 from typing import Any
 
 from rlchain.rllib.callbacks.callbacks import nested
-from rlchain.rllib.core import DEFAULT_MODULE_ID
+from rlchain.rllib.core import ALL_MODULES, DEFAULT_MODULE_ID
+from rlchain.rllib.off_policy_results import FRAMES, live_learning_rates
 
 LAST = "last_minibatch/"
 """Prefix of the update's last minibatch's statistics among the epoch statistics the face reads
@@ -20,6 +21,13 @@ def with_last_minibatch(stats: dict[str, Any], agent: Any) -> dict[str, Any]:
     agent's ``last_minibatch_stats``; none for an agent without them)."""
     last = getattr(agent, "last_minibatch_stats", None) or {}
     return {**stats, **{LAST + key: value for key, value in last.items()}}
+
+
+def learner_inputs(stats: dict[str, Any], agent: Any, frames: int) -> dict[str, Any]:
+    """The statistics the face's ``learner_results`` read: rlchain's epoch ``stats`` with the last minibatch's
+    (:func:`with_last_minibatch`), the env steps sampled so far and each optimizer's live learning rate
+    (:mod:`rlchain.rllib.off_policy_results`)."""
+    return {**with_last_minibatch(stats, agent), FRAMES: int(frames), **live_learning_rates(agent)}
 
 
 def last_minibatch_by_policy(agent: Any) -> dict[str, dict[str, float]]:
@@ -90,6 +98,8 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
     env_runners = {**(episodes or {}), "episode_return_mean": ret, "episode_len_mean": length,
                    "num_env_steps_sampled": per_iter, "num_env_steps_sampled_lifetime": frames,
                    "num_episodes_lifetime": games, **nested(episode_custom)}
+    learner = dict(learner)  # an algorithm's own counters over all modules replace the default (DQN's, SAC's)
+    all_modules = learner.pop(ALL_MODULES, None) or {"num_env_steps_trained": per_iter}
     if "kl_coef" in report.stats:
         learner = {**learner, "curr_kl_coeff": report.stats["kl_coef"]}
     learners = {DEFAULT_MODULE_ID: learner}
@@ -104,7 +114,7 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
         "num_training_step_calls_per_iteration": 1, "done": False,
         "env_runners": env_runners,
         "learners": {**{k: with_lr_key(v) for k, v in learners.items()},
-                     "__all_modules__": {"num_env_steps_trained": per_iter}},
+                     ALL_MODULES: all_modules},
         "episode_reward_mean": ret, "episode_return_mean": ret, "episode_len_mean": length,
         "info": {"learner": {k: {"learner_stats": dict(v)} for k, v in learners.items()}},
         "_episode_custom": episode_custom,

@@ -244,8 +244,8 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
         "bounds_loss_coef": None, "clip_actions": bool(continuous), "env_config": {},
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1, "multi_gpu": ranks > 1,
         # RLlib compiles its learner's forward pass; rlchain's compile_update compiles the minibatch step's forward
-        # pass and losses (the backward derived from them), feed-forward networks only
-        "compile_update": bool(s.get("torch_compile_learner")) and not seq_len,
+        # pass and losses (the backward derived from them): single-policy feed-forward PPO only, others train eager
+        "compile_update": bool(s.get("torch_compile_learner")) and not seq_len and rllib_batch,
     }
     if seq_len:
         train["seq_length"] = seq_len
@@ -277,7 +277,7 @@ def updates_per_step(config: Any) -> int:
     if not intensity:
         return max(1, round(1 / fragment))
     per_runner = max(1, int(s.get("num_envs_per_env_runner") or 1))
-    native = int(s["train_batch_size"]) / (fragment * per_runner * max(int(s.get("num_env_runners") or 0) + 1, 1))
+    native = config.total_train_batch_size / (fragment * per_runner * max(int(s.get("num_env_runners") or 0) + 1, 1))
     weight = float(intensity) / native
     rounds, updates = (round(1 / weight), 1) if weight < 1 else (1, round(weight))
     return max(1, round(updates / (rounds * fragment)))
@@ -308,7 +308,7 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     if not isinstance(s.get("n_step"), int):
         raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
     envs = num_envs(config)
-    batch = int(s["train_batch_size"])
+    batch = config.total_train_batch_size  # train_batch_size_per_learner where set (RLlib's new stack), as RLlib
     updates = updates_per_step(config)
     replay = s.get("replay_buffer_config") or {}
     start, end, decay = _epsilon(config)

@@ -28,7 +28,7 @@ def test_sac_trains_on_pendulum(tmp_path, monkeypatch):
 
     monkeypatch.chdir(tmp_path)
     config = (SACConfig().environment("Pendulum-v1")
-              .training(train_batch_size=32, num_steps_sampled_before_learning_starts=50,
+              .training(train_batch_size_per_learner=32, num_steps_sampled_before_learning_starts=50,
                         replay_buffer_config={"type": "PrioritizedEpisodeReplayBuffer", "capacity": 1000})
               .rl_module(model_config={"fcnet_hiddens": [16]})
               .reporting(min_sample_timesteps_per_iteration=60).debugging(seed=1))

@@ -8,7 +8,7 @@ a test trains through tests/conftest.py (``RLCHAIN_LEARNING_SEED``: ``Runner.tra
 report pass / fail only.
 
     python tests/tools/seed_spread.py tests/learning/test_learning.py::test_ppo_cartpole_reaches_475
-    python tests/tools/seed_spread.py --seeds default 1 2 --workers 2 tests/learning   # the whole tier, 3 times
+    python tests/tools/seed_spread.py --seeds default,1,2 --workers 2 tests/learning   # the whole tier, 3 times
     python tests/tools/seed_spread.py --out spread/ -k cartpole tests/learning         # keep the raw files
 
 Each seed is one ``pytest -m slow`` run (``--workers`` of one torch thread each, as the tier). Pass the budget
@@ -91,21 +91,50 @@ def cell(verdict: str, seconds: float, runs: list[dict], bars: list[float]) -> s
     return f"{verdict}: {'; '.join(parts) or 'no Runner run'} {seconds:.0f} s"
 
 
-def main() -> int:
+def comma_list(text: str) -> list[str]:
+    """``default,1,2`` -> ['default', '1', '2'] (an option's values in one word: every other word is pytest's)."""
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError(f"expected a comma-separated list, got {text!r}")
+    return items
+
+
+def bars(text: str) -> list[float]:
+    """``300,400`` -> [300.0, 400.0]."""
+    try:
+        return [float(item) for item in comma_list(text)]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+
+
+def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, list[str]]:
+    """(the options, the pytest arguments: test ids, files, -k / -o ...). Each option takes one word (its list
+    comma-separated), so a test id after ``--seeds`` or ``--reach`` stays a test id."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", nargs="+", default=["default", "1", "2"],
-                        help="seeds to run each test with; 'default': the test's own (default: default 1 2)")
+    parser.add_argument("--seeds", type=comma_list, default=["default", "1", "2"],
+                        help="comma-separated seeds to run each test with; 'default': the test's own "
+                             "(default: default,1,2)")
     parser.add_argument("--workers", type=int, default=1, help="pytest-xdist workers (default 1)")
     parser.add_argument("--out", help="a folder to keep the junit reports and results files in")
     parser.add_argument("--again", action="store_true",
                         help="run nothing: print the table of the reports already in --out (other --reach bars)")
-    parser.add_argument("--reach", nargs="*", type=float, default=[],
-                        help="also say where each run's mean episode reward first reached these (lower) bars")
-    args, tests = parser.parse_known_args()
+    parser.add_argument("--reach", type=bars, default=[],
+                        help="comma-separated (lower) bars: also say where each run's mean episode reward first "
+                             "reached each")
+    args, tests = parser.parse_known_args(argv)
+    stray = [t for t in tests if t.lstrip("-").replace(".", "", 1).isdigit()]
+    if stray:  # the old space-separated form (--seeds default 1 2): a bare number is no test id
+        parser.error(f"{' '.join(stray)}: not a test id; --seeds and --reach take one comma-separated list "
+                     f"(--seeds default,1,2 --reach 300,400)")
     if not tests and not args.again:
         parser.error("name the learning tests (files, node ids, -k ...)")
     if args.again and not args.out:
         parser.error("--again reads the reports in --out")
+    return args, tests
+
+
+def main() -> int:
+    args, tests = parse_args()
     out = args.out or tempfile.mkdtemp(prefix="rlchain-seed-spread-")
     os.makedirs(out, exist_ok=True)
     table: dict[str, dict[str, str]] = collections.defaultdict(dict)

@@ -41,7 +41,7 @@ def test_sac_defaults_are_rllibs_and_map_onto_rlchains_sac():
 
 
 def test_sac_settings_and_what_it_refuses():
-    c = SACConfig().training(actor_lr=1e-3, target_entropy=-2.0, tau=0.01, n_step=3, train_batch_size=128,
+    c = SACConfig().training(actor_lr=1e-3, target_entropy=-2.0, tau=0.01, n_step=3, train_batch_size_per_learner=128,
                              replay_buffer_config={"type": "EpisodeReplayBuffer", "capacity": 5000},
                              training_intensity=512).rl_module(
         model_config={"fcnet_hiddens": [64], "fcnet_activation": "relu", "head_fcnet_hiddens": [32],
@@ -53,6 +53,9 @@ def test_sac_settings_and_what_it_refuses():
     # native ratio 128 / (3 x 1 x 1) = 42.7; 512 / 42.7 = 12 updates per round of 3 steps: 4 per step
     assert cfg["num_updates_per_step"] == 4
     assert params["network"]["mlp"]["units"] == [64, 32]
+    # RLlib 2.60's SACConfig sets train_batch_size_per_learner (256): train_batch_size alone changes nothing
+    assert sac_config(SACConfig().training(train_batch_size=16), "Pendulum-v1", {})["params"]["config"][
+        "batch_size"] == 256
     for build, key in ((lambda c: c.training(twin_q=False), "twin_q"),
                        (lambda c: c.training(target_network_update_freq=10), "target_network_update_freq"),
                        (lambda c: c.training(n_step=(1, 3)), "n_step"),

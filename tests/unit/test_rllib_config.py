@@ -91,6 +91,9 @@ def test_translation_maps_rllibs_meaning():
     assert not cfg["compile_update"]
     compiled = _params(PPOConfig().framework("torch", torch_compile_learner=True))["config"]
     assert compiled["compile_update"]  # RLlib's compiled learner: rlchain's compiled minibatch step
+    multi = translate.ppo_config(PPOConfig().framework("torch", torch_compile_learner=True), "CartPole-v1", False, {},
+                                 rllib_batch=False)["params"]["config"]
+    assert not multi["compile_update"]  # the multi-agent face's base: rlchain's multi-policy PPO trains eager
 
 
 @pytest.mark.parametrize("batch, envs, minibatch, steps", [(4000, 2, 128, 2048), (4000, 64, 128, 64),
@@ -181,6 +184,10 @@ def test_dqn_config_maps_onto_rlchains_dqn():
     assert cfg["n_step"] == 3 and cfg["replay_buffer_size"] == 20000 and not cfg["prioritized_replay"]
     assert cfg["num_steps_per_episode"] == 250  # min_sample_timesteps_per_iteration 1000 over 4 envs
     assert params["network"]["mlp"]["units"] == [256, 256, 256] and params["network"]["dueling"]
+    # RLlib's new-stack name for the batch wins over train_batch_size, in the batch and in the replay ratio
+    per_learner = translate.dqn_config(c.copy().training(train_batch_size_per_learner=16), "CartPole-v1", {})
+    assert (per_learner["params"]["config"]["batch_size"], per_learner["params"]["config"]["num_updates_per_step"]) \
+        == (16, 48)  # native ratio 16 / 18; 128 / 0.89 = 144 updates per round of 3 vector steps
     with pytest.raises(ConfigError, match="num_atoms.*distributional"):
         translate.dqn_config(DQNConfig().training(num_atoms=51), "CartPole-v1", {})
 

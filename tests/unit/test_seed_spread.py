@@ -35,3 +35,22 @@ def test_a_cell_names_each_run_and_the_bars():
     assert played == "passed: 135.2k (score_to_win, 450); played 274 9 s"
     assert seed_spread.cell("failed", 1.0, [], []) == "failed: no Runner run 1 s"
     assert seed_spread.cell("skipped", 0.0, [], []) == "skipped"
+
+
+def test_the_command_line_keeps_test_ids_after_the_lists():
+    args, tests = seed_spread.parse_args(["--seeds", "default,1,2", "tests/learning/test_a.py", "--reach", "300,400",
+                                          "-k", "cartpole", "tests/learning/test_b.py::test_learns"])
+    assert args.seeds == ["default", "1", "2"] and args.reach == [300.0, 400.0]
+    assert tests == ["tests/learning/test_a.py", "-k", "cartpole", "tests/learning/test_b.py::test_learns"]
+    args, tests = seed_spread.parse_args(["tests/learning"])
+    assert args.seeds == ["default", "1", "2"] and args.reach == [] and tests == ["tests/learning"]
+
+
+def test_the_old_space_separated_seeds_are_one_clear_error(capsys):
+    import pytest
+
+    with pytest.raises(SystemExit):
+        seed_spread.parse_args(["--seeds", "default", "1", "2", "tests/learning/test_a.py"])
+    assert "1 2: not a test id; --seeds and --reach take one comma-separated list" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        seed_spread.parse_args(["--reach", "high", "tests/learning"])

@@ -126,7 +126,10 @@ class DQNAgent:
         if self.updates % cfg.target_update_frequency == 0:
             with torch.no_grad():
                 torch._foreach_lerp_(self._target, self._online, cfg.target_tau)
-        return {"td_loss": loss.detach(), "q": q.detach().mean()}, (q - target).detach().abs()
+        q, td = q.detach(), (q - target).detach().abs()
+        # q_max / q_min / td_error: RLlib's qf_max, qf_min and td_error_mean (0-d tensors: no host sync here)
+        return {"td_loss": loss.detach(), "q": q.mean(), "q_max": q.max(), "q_min": q.min(),
+                "td_error": td.mean()}, td
 
     def state_dict(self) -> dict[str, Any]:
         return {"opt": self.opt.state_dict(), "updates": self.updates}

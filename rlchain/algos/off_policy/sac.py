@@ -25,4 +25,4 @@ class SAC(OffPolicyAlgorithm):
         return SACAgent(self.model, self.cfg)
 
     def extra_stats(self) -> dict[str, float]:
-        return {"alpha": float(self.model.alpha.detach())}
+        return {"alpha": float(self.model.alpha.detach()), "target_entropy": self.agent.target_entropy}

@@ -125,7 +125,8 @@ class SACAgent:
         dim = model.dist.dim
         self.target_entropy = float(cfg.target_entropy) if cfg.target_entropy is not None else -float(dim)
         self.updates = 0
-        self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
+        self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0, "q_pi": 0.0,
+                                       "q_pi_max": 0.0, "q_pi_min": 0.0}
         self._critic_params = list(net.critic.parameters())
         self._actor_params = list(net.actor.parameters())
         self._target_params = list(model.critic_target.parameters())
@@ -167,14 +168,18 @@ class SACAgent:
         q1, q2 = q1.float(), q2.float()
         weights = batch["weights"]
         if getattr(cfg, "loss", "mse") == "huber":  # RLlib's: a Huber loss (delta 1) for each critic
-            errors = F.huber_loss(q1, target, reduction="none") + F.huber_loss(q2, target, reduction="none")
+            errors1, errors2 = F.huber_loss(q1, target, reduction="none"), F.huber_loss(q2, target, reduction="none")
         else:
-            errors = (q1 - target).square() + (q2 - target).square()
-        critic_loss = (weights * errors).mean()
+            errors1, errors2 = (q1 - target).square(), (q2 - target).square()
+        critic_loss = (weights * (errors1 + errors2)).mean()
         optimizer_step(self.critic_opt, critic_loss, params=self._critic_params, max_norm=cfg.grad_norm)
         td = 0.5 * ((q1 - target).abs() + (q2 - target).abs()).detach()
 
-        stats = {"critic_loss": critic_loss.detach(), "q": q1.detach().mean()}
+        # critic1_loss: the first critic's part of critic_loss (RLlib's qf_loss; the twin's is the rest);
+        # alpha_used / log_alpha: the temperature this step used (0-d tensors: no host sync here)
+        stats = {"critic_loss": critic_loss.detach(), "critic1_loss": (weights * errors1.detach()).mean(),
+                 "q": q1.detach().mean(), "alpha_used": alpha, "log_alpha": model.log_alpha.detach().clone(),
+                 "td_error": td.mean()}
         if self.updates % cfg.policy_frequency == 0:
             critic.requires_grad_(False)
             with self._autocast():
@@ -186,6 +191,8 @@ class SACAgent:
             critic.requires_grad_(True)
             self.last["actor_loss"] = actor_loss.detach()
             self.last["entropy"] = -logp.detach().mean()
+            q_pi = torch.min(nq1, nq2).detach()  # the policy's actions' Q (RLlib's qf_mean / qf_max / qf_min)
+            self.last.update(q_pi=q_pi.mean(), q_pi_max=q_pi.max(), q_pi_min=q_pi.min())
             if cfg.learnable_temperature:
                 alpha_loss = -(model.log_alpha * (logp.detach() + self.target_entropy)).mean()
                 optimizer_step(self.alpha_opt, alpha_loss)

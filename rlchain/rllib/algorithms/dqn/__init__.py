@@ -3,7 +3,6 @@ prioritized replay, target updates) with RLlib's defaults and replay ratio."""
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
@@ -12,6 +11,7 @@ from rlchain.rllib import translate
 from rlchain.rllib.algorithm import Algorithm
 from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.off_policy_results import TargetUpdates, dqn_results
 
 
 class DQN(Algorithm):
@@ -29,10 +29,9 @@ class DQN(Algorithm):
                   ) -> dict[str, Any]:
         return translate.dqn_config(config, env_name, run)
 
-    @staticmethod
-    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
-        return {"qf_loss": stats.get("td_loss", math.nan), "qf_mean": stats.get("q", math.nan),
-                "curr_epsilon": stats.get("epsilon", math.nan), "curr_lr": stats.get("lr", cfg["learning_rate"])}
+    def learner_results(self, stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        """RLlib's learner results (:func:`rlchain.rllib.off_policy_results.dqn_results`)."""
+        return dqn_results(stats, cfg, self.__dict__.setdefault("_target_updates", TargetUpdates()))
 
 
 DQN = exported(DQN)  # RLlib's DQN: config.algo_class is DQN, and Tune takes it (algorithm_class.py)

@@ -3,7 +3,6 @@ temperature towards ``target_entropy``) with RLlib 2.60's defaults (:mod:`.trans
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
@@ -14,6 +13,7 @@ from rlchain.rllib.algorithms.sac.module import SACModuleView
 from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
 from rlchain.rllib.core import DEFAULT_MODULE_ID
+from rlchain.rllib.off_policy_results import TargetUpdates, sac_results
 
 
 class SAC(Algorithm):
@@ -36,15 +36,9 @@ class SAC(Algorithm):
         view = super().get_module(module_id)
         return SACModuleView(view.model, view.observation_space, view.action_space)
 
-    @staticmethod
-    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
-        nan = math.nan
-        alpha = stats.get("alpha", nan)
-        return {"qf_loss": stats.get("critic_loss", nan), "policy_loss": stats.get("actor_loss", nan),
-                "alpha_loss": stats.get("alpha_loss", nan), "alpha_value": alpha,
-                "log_alpha_value": math.log(alpha) if isinstance(alpha, float) and alpha > 0 else nan,
-                "entropy": stats.get("entropy", nan), "qf_mean": stats.get("q", nan),
-                "curr_lr": stats.get("lr", cfg["actor_lr"])}
+    def learner_results(self, stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        """RLlib's learner results (:func:`rlchain.rllib.off_policy_results.sac_results`)."""
+        return sac_results(stats, cfg, self.__dict__.setdefault("_target_updates", TargetUpdates()))
 
 
 SAC = exported(SAC)  # RLlib's SAC: config.algo_class is SAC, and Tune takes it (algorithm_class.py)

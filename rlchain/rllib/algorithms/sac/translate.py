@@ -5,7 +5,8 @@ What maps (RLlib 2.60's defaults in brackets):
 - ``actor_lr`` (3e-5), ``critic_lr`` (3e-4), ``alpha_lr`` (3e-4), ``initial_alpha`` (1.0) -> the same rlchain keys
   (``init_alpha``); ``target_entropy`` ("auto": -action dims) -> ``target_entropy``; ``tau`` (5e-3) ->
   ``critic_tau``, the target critics follow after every update (``target_network_update_freq`` 0);
-- ``train_batch_size`` (256) -> ``batch_size``; ``replay_buffer_config`` (prioritized, 1e6, alpha 0.6, beta 0.4)
+- ``train_batch_size_per_learner`` (256: RLlib 2.60's SACConfig sets it, so ``train_batch_size`` alone changes
+  nothing, as in RLlib) -> ``batch_size``; ``replay_buffer_config`` (prioritized, 1e6, alpha 0.6, beta 0.4)
   -> ``replay_buffer_size``, ``prioritized_replay``, ``priority_alpha`` / ``priority_beta``; ``n_step`` (1);
   ``num_steps_sampled_before_learning_starts`` (1500) -> ``num_warmup_frames``; RLlib's replay ratio (one update
   per sampled round, or ``training_intensity``) -> ``num_updates_per_step``; ``grad_clip`` -> ``grad_norm``;
