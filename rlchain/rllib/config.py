@@ -136,6 +136,9 @@ class AlgorithmConfig:
     def offline_data(self, **kwargs: Any) -> AlgorithmConfig:
         return self._set("offline_data", kwargs)
 
+    def experimental(self, **kwargs: Any) -> AlgorithmConfig:
+        return self._set("experimental", kwargs)
+
     def update_from_dict(self, config_dict: dict[str, Any]) -> AlgorithmConfig:
         """Set keys by RLlib name (old names and ``to_dict``'s ``lambda`` / ``input`` too); an unknown key is a
         one-line error with a did-you-mean."""

@@ -81,6 +81,10 @@ METHOD_KEYS: dict[str, tuple[str, ...]] = {
     "api_stack": ("enable_rl_module_and_learner", "enable_env_runner_and_connector_v2"),
     "checkpointing": ("export_native_model_files", "checkpoint_trainable_policies_only"),
     "offline_data": ("input_", "output"),
+    "experimental": ("_validate_config", "_use_msgpack_checkpoints", "_torch_grad_scaler_class",
+                     "_torch_lr_scheduler_classes", "_tf_policy_handles_more_than_one_loss",
+                     "_disable_preprocessor_api", "_disable_action_flattening",
+                     "_disable_initialize_loss_from_dummy_batch"),
 }
 """Each builder method's keyword names, as RLlib 2.60's builders take them (each algorithm's ``training``
 adds its own: :data:`ALGO_TRAINING_KEYS`)."""
@@ -234,6 +238,9 @@ UNSUPPORTED: dict[str, str] = {
     "use_critic": "rlchain's PPO always trains a critic",
     "entropy_coeff_schedule": "rlchain's entropy schedule: train with entropy_coeff as a number",
     "lr_schedule": "a constant lr (a list schedule is not mapped)",
+    "_torch_lr_scheduler_classes": "torch schedulers run in RLlib's Learner, which the face does not run: give lr "
+                                   "as RLlib's schedule list [[0, lr0], [env_steps, lr1], ...]",
+    "_torch_grad_scaler_class": "RLlib's Learner-side grad scaler is not run (the face trains in float32)",
     "framework": "rlchain is PyTorch only (framework='torch')",
     "observation_filter": "rlchain's observation normalizer is normalize_input (not mapped from RLlib)",
 }

@@ -213,3 +213,14 @@ def test_env_context_carries_env_config_and_where_the_env_runs():
     make(3)
     ctx = made[-1]
     assert dict(ctx) == {"size": 3} and (ctx.worker_index, ctx.vector_index, ctx.num_workers) == (2, 1, 2)
+
+
+def test_experimental_keys_are_kept_and_learner_side_torch_schedulers_refused_in_one_line():
+    from rlchain.rllib.algorithms.ppo import PPOConfig as Config
+
+    config = Config().experimental(_validate_config=False, _disable_preprocessor_api=True)
+    assert config._validate_config is False and config["_disable_preprocessor_api"] is True
+    config.validate()
+    with pytest.raises(ConfigError, match="_torch_lr_scheduler_classes.*schedule list") as info:
+        Config().experimental(_torch_lr_scheduler_classes=[object()]).validate()
+    assert "\n" not in str(info.value)
