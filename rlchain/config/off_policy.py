@@ -60,7 +60,12 @@ class OffPolicyConfig(RunConfig):
     num_actors: int = variant(RunConfig, "num_actors", default=1)
     num_steps_per_episode: int = option(1, "env steps per env per epoch (frames per epoch = "
                                            "num_actors * num_steps_per_episode)", check=positive)
-    num_updates_per_step: int = option(1, "gradient updates after every vectorized env step", check=positive)
+    num_updates_per_step: int = option(1, "gradient updates after every update_every-th vectorized env step",
+                                       check=positive)
+    update_every: int = option(1, "vectorized env steps from one round of num_updates_per_step updates to the "
+                                  "next (rlchain key; SB3's train_freq, RLlib's sampling rounds per update): "
+                                  "the round follows the run's update_every-th, 2 x update_every-th, ... step",
+                               check=positive)
     utd_ratio: float | None = option(None, "rl_games 2.0: gradient updates per env frame; sets "
                                            "num_updates_per_step = max(1, round(utd_ratio * num_actors)), "
                                            "overriding it", check=positive)

@@ -45,18 +45,20 @@ def trained_counters(stats: dict[str, Any], batch_size: int) -> tuple[dict[str, 
 
 
 def last_target_update_frames(total_updates: int, epoch_updates: int, every: int, updates_per_step: int,
-                              frames: int, num_envs: int) -> int | None:
+                              frames: int, num_envs: int, update_every: int = 1) -> int | None:
     """The env steps sampled when the target network last moved, if it moved in this epoch (None if not).
 
-    rlchain's off-policy epoch makes ``updates_per_step`` gradient steps after each vectorized env step
-    (``num_envs`` env steps) once learning has started, the last ones at ``frames``; the target moves on every
-    ``every``-th gradient step of the run (``total_updates`` so far, ``epoch_updates`` of them in this epoch)."""
+    rlchain's off-policy epoch makes ``updates_per_step`` gradient steps after every ``update_every``-th
+    vectorized env step of the run (``num_envs`` env steps each) once learning has started, the epoch ending at
+    ``frames``; the target moves on every ``every``-th gradient step of the run (``total_updates`` so far,
+    ``epoch_updates`` of them in this epoch)."""
     last = total_updates // every * every
     first_this_epoch = total_updates - epoch_updates + 1
     if last < max(first_this_epoch, 1):
         return None
-    steps_after = (total_updates - last) // updates_per_step  # vectorized steps after the one that moved it
-    return frames - steps_after * num_envs
+    stride = update_every * num_envs  # env steps from one update round to the next
+    rounds_after = (total_updates - last) // updates_per_step  # update rounds after the one that moved it
+    return frames // stride * stride - rounds_after * stride
 
 
 class TargetUpdates:
@@ -66,9 +68,11 @@ class TargetUpdates:
     def __init__(self) -> None:
         self.last_ts: int | None = None
 
-    def results(self, stats: dict[str, Any], every: int, updates_per_step: int, num_envs: int) -> dict[str, float]:
+    def results(self, stats: dict[str, Any], every: int, updates_per_step: int, num_envs: int,
+                update_every: int = 1) -> dict[str, float]:
         total, now = int(stats.get("total_updates", 0)), int(stats.get("updates", 0))
-        ts = last_target_update_frames(total, now, every, updates_per_step, int(stats.get(FRAMES, 0)), num_envs)
+        ts = last_target_update_frames(total, now, every, updates_per_step, int(stats.get(FRAMES, 0)), num_envs,
+                                       update_every)
         if ts is not None:
             self.last_ts = ts
         if total // every == 0:
@@ -92,7 +96,7 @@ def dqn_results(stats: dict[str, Any], cfg: dict[str, Any], targets: TargetUpdat
             "curr_epsilon": stats.get("epsilon", nan),
             "curr_lr": stats.get(LR + "learning_rate", stats.get("lr", cfg["learning_rate"])), **module,
             **targets.results(stats, int(cfg["target_update_frequency"]), int(cfg["num_updates_per_step"]),
-                              int(cfg["num_actors"])),
+                              int(cfg["num_actors"]), int(cfg.get("update_every", 1))),
             ALL_MODULES: every}
 
 
@@ -116,5 +120,6 @@ def sac_results(stats: dict[str, Any], cfg: dict[str, Any], targets: TargetUpdat
             "policy_learning_rate": stats.get(LR + "actor_lr", stats.get("lr", cfg["actor_lr"])),
             "qf_learning_rate": critic_lr, "qf_twin_learning_rate": critic_lr,
             "alpha_learning_rate": stats.get(LR + "alpha_lr", cfg["alpha_lr"]), **module,
-            **targets.results(stats, 1, int(cfg["num_updates_per_step"]), int(cfg["num_actors"])),
+            **targets.results(stats, 1, int(cfg["num_updates_per_step"]), int(cfg["num_actors"]),
+                              int(cfg.get("update_every", 1))),
             ALL_MODULES: every}

@@ -259,13 +259,13 @@ def ppo_config(config: Any, env_name: str, continuous: bool, run: dict[str, Any]
     return {"params": params}
 
 
-def updates_per_step(config: Any) -> int:
-    """rlchain's gradient updates per vectorized env step (every env steps once) for RLlib's replay ratio.
+def update_rounds(config: Any) -> dict[str, int]:
+    """RLlib's replay ratio as rlchain's ``num_updates_per_step`` updates every ``update_every`` vectorized steps.
 
     RLlib's off-policy ``training_step`` samples one round (``rollout_fragment_length`` steps, "auto": ``n_step``,
     of every env) and makes one update of ``train_batch_size``; ``training_intensity`` (replayed / sampled steps)
-    changes the ratio of rounds to updates (RLlib's ``calculate_rr_weights``). rlchain updates after every
-    vectorized step, so that ratio per step is rounded to a whole number, at least one.
+    changes the ratio of rounds to updates (RLlib's ``calculate_rr_weights``): ``rounds`` sampling rounds, then
+    ``updates`` updates, which is ``updates`` updates after every ``rounds * fragment`` vectorized steps.
     """
     s = config._settings
     fragment = s.get("rollout_fragment_length")
@@ -274,13 +274,14 @@ def updates_per_step(config: Any) -> int:
         fragment = n_step[1] if isinstance(n_step, (list, tuple)) else n_step
     fragment = max(1, int(fragment))
     intensity = s.get("training_intensity")
-    if not intensity:
-        return max(1, round(1 / fragment))
-    per_runner = max(1, int(s.get("num_envs_per_env_runner") or 1))
-    native = config.total_train_batch_size / (fragment * per_runner * max(int(s.get("num_env_runners") or 0) + 1, 1))
-    weight = float(intensity) / native
-    rounds, updates = (round(1 / weight), 1) if weight < 1 else (1, round(weight))
-    return max(1, round(updates / (rounds * fragment)))
+    rounds, updates = 1, 1
+    if intensity:
+        per_runner = max(1, int(s.get("num_envs_per_env_runner") or 1))
+        native = config.total_train_batch_size / (fragment * per_runner
+                                                  * max(int(s.get("num_env_runners") or 0) + 1, 1))
+        weight = float(intensity) / native
+        rounds, updates = (max(1, round(1 / weight)), 1) if weight < 1 else (1, max(1, round(weight)))
+    return {"num_updates_per_step": updates, "update_every": rounds * fragment}
 
 
 def _epsilon(config: Any) -> tuple[float, float, int]:
@@ -297,9 +298,10 @@ def _epsilon(config: Any) -> tuple[float, float, int]:
 
 def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
     """The rlchain DQN config of an RLlib ``DQNConfig``: one ``train()`` = ``min_sample_timesteps_per_iteration``
-    env steps (1000), RLlib's replay ratio (one update of ``train_batch_size`` per env step, or
-    ``training_intensity``), ``target_network_update_freq`` in env steps, the epsilon schedule, double / dueling
-    Q, ``n_step``, prioritized replay (RLlib's default buffer), ``hiddens`` after ``fcnet_hiddens``."""
+    env steps (1000), RLlib's replay ratio (one update of ``train_batch_size`` per sampling round, or
+    ``training_intensity``: :func:`update_rounds`), ``target_network_update_freq`` in env steps, the epsilon
+    schedule, double / dueling Q, ``n_step``, prioritized replay (RLlib's default buffer), ``hiddens`` after
+    ``fcnet_hiddens``."""
     check_supported(config)
     s = config._settings
     for key, off in (("noisy", False), ("num_atoms", 1)):
@@ -309,7 +311,7 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
     envs = num_envs(config)
     batch = config.total_train_batch_size  # train_batch_size_per_learner where set (RLlib's new stack), as RLlib
-    updates = updates_per_step(config)
+    rounds = update_rounds(config)
     replay = s.get("replay_buffer_config") or {}
     start, end, decay = _epsilon(config)
     steps = max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 1000) // envs))
@@ -323,8 +325,9 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
         "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
         "save_replay_buffer": bool(s.get("store_buffer_in_checkpoints")),
-        "num_steps_per_episode": steps, "num_updates_per_step": updates,
-        "target_update_frequency": max(1, round(int(s["target_network_update_freq"]) * updates / envs)),
+        "num_steps_per_episode": steps, **rounds,
+        "target_update_frequency": max(1, round(int(s["target_network_update_freq"]) * rounds["num_updates_per_step"]
+                                                 / (rounds["update_every"] * envs))),
         "target_tau": float(s.get("tau", 1.0)), "epsilon_start": start, "epsilon_end": end,
         "epsilon_decay_frames": decay, "loss": "mse" if s.get("td_error_loss_fn") == "mse" else "huber",
         "grad_norm": None if grad_clip is None else float(grad_clip),

@@ -10,8 +10,8 @@ from rlchain's packaged examples instead (:func:`rlchain.sb3.keys.packaged_defau
 Advantages are normalized per minibatch, as SB3 does (``advantage_normalization: minibatch``). What differs from
 SB3 and stays: the action heads keep torch's default initialization (SB3: orthogonal, gains 0.01 and 1); PPO's
 continuous actions go to the env as the policy samples them (``clip_actions: False``; SB3 clips them to the
-bounds first: ``predict`` and an SB3 vec env do here too, a gymnasium env clips them itself or not). DQN updates
-after every env step (SB3's ``train_freq=4`` needs ``gradient_steps`` a multiple of it here).
+bounds first: ``predict`` and an SB3 vec env do here too, a gymnasium env clips them itself or not). DQN makes one
+update after every 4th step of its envs, as SB3's ``train_freq=4`` (rlchain's ``update_every``).
 """
 
 from __future__ import annotations
@@ -45,7 +45,8 @@ SB3_DEFAULTS: dict[str, dict[str, Any]] = {
     "dqn": {"network": {"name": "dqn", "dueling": False, "space": {"discrete": None},
                         "mlp": {"units": [64, 64], "activation": "relu", "initializer": {"name": "default"}}},
             "config": {"gamma": 0.99, "learning_rate": 1e-4, "double_dqn": False, "n_step": 1, "batch_size": 32,
-                       "num_steps_per_episode": 100, "num_updates_per_step": 1, "num_warmup_frames": 100,
+                       "num_steps_per_episode": 100, "num_updates_per_step": 1, "update_every": 4,
+                       "num_warmup_frames": 100,
                        "replay_buffer_size": 1_000_000, "target_update_frequency": 10_000, "target_tau": 1.0,
                        "epsilon_start": 1.0, "epsilon_end": 0.05, "epsilon_decay_frames": 10_000, "loss": "huber",
                        "grad_norm": 10, "save_best_after": 10}},
@@ -53,6 +54,9 @@ SB3_DEFAULTS: dict[str, dict[str, Any]] = {
 
 SB3_NUM_ENVS = {"ppo": 1, "sac": 1, "dqn": 1}
 """SB3 steps one env when given an id or an env object (``make_vec_env``'s default)."""
+
+SB3_TRAIN_FREQ = {"dqn": 4, "sac": 1}
+"""SB3's default ``train_freq`` per algorithm (env steps between update rounds)."""
 
 SB3_EXPLORATION_FRACTION = 0.1  # DQN: epsilon decays over this fraction of total_timesteps
 

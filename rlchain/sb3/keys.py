@@ -20,7 +20,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.config.packaged import config_names
 from rlchain.config.text import read_data
 from rlchain.errors import did_you_mean
-from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION
+from rlchain.sb3.defaults import CHOICES, SB3_DEFAULTS, SB3_EXPLORATION_FRACTION, SB3_TRAIN_FREQ
 from rlchain.sb3.her import her_config
 
 SOURCE = "rlchain.{algo}"  # where ConfigErrors say the bad argument came from
@@ -151,7 +151,7 @@ PPO_KEYS: dict[str, Any] = {
 OFF_POLICY_KEYS: dict[str, Any] = {
     "buffer_size": "replay_buffer_size", "learning_starts": "num_warmup_frames", "batch_size": "batch_size",
     "gamma": "gamma", "stats_window_size": "games_to_track",
-    "train_freq": None, "gradient_steps": None,  # together: num_updates_per_step (see _updates)
+    "train_freq": None, "gradient_steps": None,  # together: num_updates_per_step, update_every (_updates)
     "action_noise": Unsupported("rlchain's SAC explores with its own policy noise"),
     "replay_buffer_class": None, "replay_buffer_kwargs": None,  # together: config.replay (sb3/her.py)
     "optimize_memory_usage": Unsupported("rlchain's replay buffer is built in"),
@@ -180,19 +180,17 @@ POLICY_KWARGS = ("net_arch", "activation_fn", "log_std_init", "clip_mean")
 
 
 def _updates(algo: str, given: dict[str, Any], num_actors: int) -> dict[str, Any]:
-    """SB3's train_freq / gradient_steps (``gradient_steps`` updates after every ``train_freq`` steps of each
-    env) as rlchain's ``num_updates_per_step`` (updates after every vectorized env step)."""
+    """SB3's train_freq / gradient_steps: ``gradient_steps`` updates after every ``train_freq`` steps of each env
+    (rlchain's ``num_updates_per_step`` every ``update_every`` vectorized steps); -1 = as many updates as env
+    steps collected since the last round. The train_freq not given is SB3's default for ``algo`` (DQN 4)."""
     if "train_freq" not in given and "gradient_steps" not in given:
         return {}
-    freq = _train_freq(given.get("train_freq", 1))
+    freq = _train_freq(given.get("train_freq", SB3_TRAIN_FREQ.get(algo, 1)))
     steps = given.get("gradient_steps", 1)
     if isinstance(steps, bool) or not isinstance(steps, int) or steps == 0 or steps < -1:
         raise ValueError(f"gradient_steps: expected an int >= 1 or -1, got {steps!r}")
     steps = freq * num_actors if steps == -1 else steps
-    if steps % freq:
-        raise ValueError(f"train_freq {freq} with gradient_steps {steps}: rlchain updates after every env step, "
-                         f"so gradient_steps must be a multiple of train_freq")
-    return {"num_updates_per_step": steps // freq}
+    return {"num_updates_per_step": steps, "update_every": freq}
 
 
 def _net_arch(algo: str, value: Any) -> dict[str, Any]:

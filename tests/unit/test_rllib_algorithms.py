@@ -50,8 +50,8 @@ def test_sac_settings_and_what_it_refuses():
     cfg = params["config"]
     assert (cfg["actor_lr"], cfg["target_entropy"], cfg["critic_tau"], cfg["n_step"]) == (1e-3, -2.0, 0.01, 3)
     assert (cfg["batch_size"], cfg["replay_buffer_size"], cfg["prioritized_replay"]) == (128, 5000, False)
-    # native ratio 128 / (3 x 1 x 1) = 42.7; 512 / 42.7 = 12 updates per round of 3 steps: 4 per step
-    assert cfg["num_updates_per_step"] == 4
+    # native ratio 128 / (3 x 1 x 1) = 42.7; 512 / 42.7 = 12 updates after each round of 3 steps
+    assert (cfg["num_updates_per_step"], cfg["update_every"]) == (12, 3)
     assert params["network"]["mlp"]["units"] == [64, 32]
     # RLlib 2.60's SACConfig sets train_batch_size_per_learner (256): train_batch_size alone changes nothing
     assert sac_config(SACConfig().training(train_batch_size=16), "Pendulum-v1", {})["params"]["config"][

@@ -177,9 +177,10 @@ def test_dqn_config_maps_onto_rlchains_dqn():
     params = translate.dqn_config(c, "CartPole-v1", {})["params"]
     cfg = params["config"]
     # RLlib's calculate_rr_weights: native ratio 64 / (fragment 3 (auto: n_step) x 2 envs x (2 + 1) runners),
-    # 128 / 3.56 = 36 updates per sampled round of 3 vector steps: 12 per vector step of the 4 envs; the target
-    # every 800 env steps = 200 vector steps = 2400 updates
-    assert (cfg["num_actors"], cfg["num_updates_per_step"], cfg["target_update_frequency"]) == (4, 12, 2400)
+    # 128 / 3.56 = 36 updates after each sampled round of 3 vector steps of the 4 envs; the target every 800 env
+    # steps = 200 vector steps = 2400 updates
+    assert (cfg["num_actors"], cfg["num_updates_per_step"], cfg["update_every"]) == (4, 36, 3)
+    assert cfg["target_update_frequency"] == 2400
     assert (cfg["epsilon_start"], cfg["epsilon_end"], cfg["epsilon_decay_frames"]) == (1.0, 0.02, 5000)
     assert cfg["n_step"] == 3 and cfg["replay_buffer_size"] == 20000 and not cfg["prioritized_replay"]
     assert cfg["num_steps_per_episode"] == 250  # min_sample_timesteps_per_iteration 1000 over 4 envs
@@ -187,7 +188,14 @@ def test_dqn_config_maps_onto_rlchains_dqn():
     # RLlib's new-stack name for the batch wins over train_batch_size, in the batch and in the replay ratio
     per_learner = translate.dqn_config(c.copy().training(train_batch_size_per_learner=16), "CartPole-v1", {})
     assert (per_learner["params"]["config"]["batch_size"], per_learner["params"]["config"]["num_updates_per_step"]) \
-        == (16, 48)  # native ratio 16 / 18; 128 / 0.89 = 144 updates per round of 3 vector steps
+        == (16, 144)  # native ratio 16 / 18; 128 / 0.89 = 144 updates per round of 3 vector steps
+    # no training_intensity: one update per sampled round, here rollout_fragment_length 4 vector steps
+    plain = translate.dqn_config(DQNConfig().env_runners(rollout_fragment_length=4), "CartPole-v1", {})
+    assert (plain["params"]["config"]["num_updates_per_step"], plain["params"]["config"]["update_every"]) == (1, 4)
+    # fewer updates than rounds: native ratio 32 / (1 step x 1 env, the local runner) = 32; 5 / 32 -> one update
+    # after every 6 rounds of 1 vector step
+    sparse = translate.dqn_config(DQNConfig().training(train_batch_size=32, training_intensity=5), "CartPole-v1", {})
+    assert (sparse["params"]["config"]["num_updates_per_step"], sparse["params"]["config"]["update_every"]) == (1, 6)
     with pytest.raises(ConfigError, match="num_atoms.*distributional"):
         translate.dqn_config(DQNConfig().training(num_atoms=51), "CartPole-v1", {})
 

@@ -106,7 +106,7 @@ class _Buffer:
         pass
 
 
-def _epoch_runner(num_envs, steps, ups, warmup, every):
+def _epoch_runner(num_envs, steps, ups, warmup, every, update_every=1):
     """rlchain's off-policy epoch (``OffPolicyAlgorithm._epoch``) over fakes: an env that only counts frames."""
 
     class Epoch(RlchainDQN):
@@ -125,7 +125,8 @@ def _epoch_runner(num_envs, steps, ups, warmup, every):
 
     algo.__dict__.update(
         cfg=SimpleNamespace(num_steps_per_episode=steps, num_warmup_frames=warmup, batch_size=1,
-                            num_updates_per_step=ups, max_frames=0, max_epochs=0, priority_beta=1.0),
+                            num_updates_per_step=ups, update_every=update_every, max_frames=0, max_epochs=0,
+                            priority_beta=1.0),
         model=SimpleNamespace(dist=SimpleNamespace(random=lambda n, device: None), eval=lambda: None,
                               train=lambda: None),
         ctx=ctx, stepper=SimpleNamespace(step=step), obs=None, agent=_CountingAgent(ctx, every), buffer=_Buffer())

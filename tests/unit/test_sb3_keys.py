@@ -111,14 +111,18 @@ def test_off_policy_names():
     assert (sac["replay_buffer_size"], sac["num_warmup_frames"], sac["critic_tau"]) == (5000, 100, 0.01)
     assert sac["actor_lr"] == sac["critic_lr"] == sac["alpha_lr"] == 1e-3
     assert sac["learnable_temperature"] is True and sac["init_alpha"] == 0.1
-    assert sac["num_updates_per_step"] == 2
+    assert (sac["num_updates_per_step"], sac["update_every"]) == (4, 2)  # 4 updates after every 2nd step, as SB3
     dqn = build_config("dqn", "CartPole-v1", 4, False, {"exploration_fraction": 0.1, "target_update_interval": 500,
                                                         "tau": 1.0, "gradient_steps": -1}, [],
                        total_timesteps=100_000)["params"]["config"]
     assert dqn["epsilon_decay_frames"] == 10_000 and dqn["target_update_frequency"] == 500
-    assert dqn["target_tau"] == 1.0 and dqn["num_updates_per_step"] == 4 and dqn["max_frames"] == 100_000
-    with pytest.raises(ConfigError, match="multiple of train_freq"):
-        build_config("sac", "Pendulum-v1", 1, True, {"train_freq": 4, "gradient_steps": 1}, [])
+    # gradient_steps -1 with DQN's train_freq 4: as many updates as env steps since the last round, 4 x 4 envs
+    assert dqn["target_tau"] == 1.0 and (dqn["num_updates_per_step"], dqn["update_every"]) == (16, 4)
+    assert dqn["max_frames"] == 100_000
+    sparse = build_config("sac", "Pendulum-v1", 1, True, {"train_freq": 4, "gradient_steps": 1}, [])
+    assert (sparse["params"]["config"]["num_updates_per_step"], sparse["params"]["config"]["update_every"]) == (1, 4)
+    default_dqn = build_config("dqn", "CartPole-v1", 1, False, {}, [])["params"]["config"]
+    assert (default_dqn["num_updates_per_step"], default_dqn["update_every"]) == (1, 4)  # SB3's DQN defaults
 
 
 def test_sac_clip_mean_is_the_networks_mean_clip():

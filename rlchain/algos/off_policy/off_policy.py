@@ -2,7 +2,8 @@
 
 One epoch is ``num_steps_per_episode`` vectorized env steps (``num_actors * num_steps_per_episode``
 frames). The first ``num_warmup_frames`` frames act uniformly at random and do not learn; after
-that every env step is followed by ``num_updates_per_step`` gradient updates on replay minibatches.
+that every ``update_every``-th vectorized env step (default: each) is followed by ``num_updates_per_step``
+gradient updates on replay minibatches.
 Episode bookkeeping, logging, checkpoints, stop signals, divergence handling, callbacks and
 evaluation are the Loop's (rlchain.training.loop, which holds the algorithm), as for PPO.
 """
@@ -171,7 +172,10 @@ class OffPolicyAlgorithm(AlgorithmBase):
             else:
                 actions = self.explore(obs)
             obs = self.stepper.step(obs, actions)
-            if ctx.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
+            # the run's vectorized steps so far (the stepper counts frames per step) pick the update rounds, so a
+            # resumed run keeps them
+            round_due = cfg.update_every == 1 or (ctx.frames // self.num_envs) % cfg.update_every == 0
+            if round_due and ctx.frames >= cfg.num_warmup_frames and len(self.buffer) >= cfg.batch_size:
                 t0 = time.time()
                 model.train()
                 with ctx.update_phase():

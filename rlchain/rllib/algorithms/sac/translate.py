@@ -9,7 +9,8 @@ What maps (RLlib 2.60's defaults in brackets):
   nothing, as in RLlib) -> ``batch_size``; ``replay_buffer_config`` (prioritized, 1e6, alpha 0.6, beta 0.4)
   -> ``replay_buffer_size``, ``prioritized_replay``, ``priority_alpha`` / ``priority_beta``; ``n_step`` (1);
   ``num_steps_sampled_before_learning_starts`` (1500) -> ``num_warmup_frames``; RLlib's replay ratio (one update
-  per sampled round, or ``training_intensity``) -> ``num_updates_per_step``; ``grad_clip`` -> ``grad_norm``;
+  per sampled round, or ``training_intensity``) -> ``num_updates_per_step`` every ``update_every`` steps;
+  ``grad_clip`` -> ``grad_norm``;
   ``store_buffer_in_checkpoints`` -> ``save_replay_buffer``;
 - one ``train()`` = ``min_sample_timesteps_per_iteration`` (100) env steps;
 - the model: ``fcnet_hiddens`` then ``head_fcnet_hiddens`` with ``fcnet_activation`` for the actor and both
@@ -78,7 +79,7 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "n_step": int(s["n_step"]), "save_replay_buffer": bool(s.get("store_buffer_in_checkpoints")),
         "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
         "num_steps_per_episode": max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 100) // envs)),
-        "num_updates_per_step": T.updates_per_step(config),
+        **T.update_rounds(config),
         "grad_norm": None if grad_clip is None else float(grad_clip),
         "clip_actions": bool(s.get("normalize_actions", True)), "normalize_input": False,
         "reward_shaper": {"scale_value": 1.0},
