@@ -1,5 +1,7 @@
-"""The env is stepped in one place per family: outside ``rlchain/envs/`` only the on-policy collector, the
-off-policy stepper and the play loop call ``step`` (or ``send`` / ``recv``, the pipelined step) on an env.
+"""The env is stepped in one place per family: outside the envs themselves (``rlchain/envs/``, and the RLlib
+face's stand-ins for RLlib's env wrappers, ``rlchain/rllib/env/wrappers/``, each an env stepping the game it
+wraps) only the on-policy collector, the off-policy stepper and the play loop call ``step`` (or ``send`` /
+``recv``, the pipelined step) on an env.
 
 Reads every module with ``ast`` (runs nothing): a call ``<receiver>.step(...)`` whose receiver's last name
 says env (``env``, ``self.env``, ``trainer.env``, ``vec_env``, ...) is an env step.
@@ -13,6 +15,7 @@ import re
 
 PACKAGE = os.path.join(os.path.dirname(__file__), "..", "..", "rlchain")
 ALLOWED = {"algos/core/collector.py", "algos/core/stepper.py", "policy/play.py"}
+ENVS = ("envs/", "rllib/env/wrappers/")  # envs: a wrapper steps the env it wraps
 STEPS = {"step", "send", "recv"}
 ENV_NAME = re.compile(r"env", re.IGNORECASE)
 
@@ -40,7 +43,7 @@ def stepping_modules() -> dict[str, list[int]]:
         for name in files:
             path = os.path.join(folder, name)
             rel = os.path.relpath(path, PACKAGE).replace(os.sep, "/")
-            if not name.endswith(".py") or rel.startswith("envs/"):
+            if not name.endswith(".py") or rel.startswith(ENVS):
                 continue
             with open(path) as f:
                 source = f.read()
