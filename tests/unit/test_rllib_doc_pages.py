@@ -33,7 +33,7 @@ def test_a_page_import_the_face_does_not_offer_is_one_line_naming_what_to_use(mo
     finally:
         alias.uninstall()
     line = explain(info.value)
-    assert line is not None and "\\n" not in line and says in line
+    assert line is not None and "\n" not in line and says in line
 
 
 def test_a_learner_class_is_refused_in_one_line():
