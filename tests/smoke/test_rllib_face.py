@@ -37,7 +37,8 @@ def test_rllib_script_runs_unmodified(script, tmp_path):
 
 @pytest.mark.parametrize("script, message", [
     ("bad_key.py", "PPOConfig.training(): num_epoch: not an RLlib config key; did you mean 'num_epochs'"),
-    ("not_offered.py", "ray.rllib.core.learner is not offered by rlchain's RLlib face"),
+    ("not_offered.py", "ray.rllib.core.learner.learner is not offered by rlchain's RLlib face: RLlib's Learner "
+                        "subclasses are not run"),
 ])
 def test_bad_input_ends_in_one_line(script, message, tmp_path):
     out = _run(script, tmp_path)
