@@ -26,14 +26,19 @@ def test_overrides_checks_the_keys_and_gives_a_dict():
     ("ray.rllib.env.single_agent_env_runner", "algo.env_runner"),
 ])
 def test_a_page_import_the_face_does_not_offer_is_one_line_naming_what_to_use(module, says):
+    line = refused_import_line(module)
+    assert line is not None and "\n" not in line and says in line
+
+
+def refused_import_line(module: str) -> str | None:
+    """The one line ``python -m rlchain.rllib`` prints for importing ``module`` under the face (it must refuse)."""
     alias.install()
     try:
         with pytest.raises(ImportError) as info:
             importlib.import_module(module)
     finally:
         alias.uninstall()
-    line = explain(info.value)
-    assert line is not None and "\n" not in line and says in line
+    return explain(info.value)
 
 
 def test_a_learner_class_is_refused_in_one_line():

@@ -1,12 +1,9 @@
 """What RLlib's example scripts import and the face does not offer ends in one line naming what to use instead
 (rlchain/rllib/alias.py's INSTEAD, run through ``python -m rlchain.rllib``'s explain)."""
 
-import importlib
-
 import pytest
 
-from rlchain.rllib import alias
-from rlchain.rllib.__main__ import explain
+from tests.unit.test_rllib_doc_pages import refused_import_line
 
 
 @pytest.mark.parametrize("module, says", [
@@ -17,11 +14,5 @@ from rlchain.rllib.__main__ import explain
     ("ray.rllib.models.torch.misc", "model_config"),  # tiny_atari_cnn_rlm.py
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
-    alias.install()
-    try:
-        with pytest.raises(ImportError) as info:
-            importlib.import_module(module)
-    finally:
-        alias.uninstall()
-    line = explain(info.value)
+    line = refused_import_line(module)
     assert line is not None and "\n" not in line and says in line
