@@ -2,7 +2,14 @@
 vectorized step of the run (SB3's train_freq, RLlib's sampling rounds), counted from the run's frames so an epoch
 boundary or a resume keeps the rounds where they were."""
 
+import os
+
+import pytest
+
+from rlchain import Runner
+from rlchain.config.errors import ConfigError
 from rlchain.rllib.off_policy_results import last_target_update_frames
+from tests.conftest import CONFIGS
 from tests.unit.test_rllib_off_policy_results import _epoch_runner
 
 
@@ -28,3 +35,10 @@ def test_the_last_target_update_counts_rounds_of_update_every_steps():
     assert last_target_update_frames(16, 9, 5, 3, 42, 2, update_every=4) == 40  # an epoch ending between rounds
     assert last_target_update_frames(18, 9, 5, 3, 48, 2, update_every=4) == 40  # one round after it
     assert last_target_update_frames(15, 9, 5, 3, 30, 2) == 30  # update_every 1: as before
+
+
+@pytest.mark.parametrize("value, says", [("0", "must be > 0, got 0"), ("two", "expected")])
+def test_a_bad_update_every_is_a_one_line_error_naming_the_file_and_key(value, says):
+    with pytest.raises(ConfigError, match=rf"dqn_cartpole.yaml: params.config.update_every: .*{says}") as err:
+        Runner().load(os.path.join(CONFIGS, "dqn_cartpole.yaml"), [f"params.config.update_every={value}"])
+    assert "\n" not in str(err.value)

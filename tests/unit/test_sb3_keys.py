@@ -1,5 +1,7 @@
 """rlchain.sb3.keys: Stable-Baselines3's argument names -> rlchain's config keys (pure, no env, no torch)."""
 
+import re
+
 import pytest
 
 from rlchain.config.errors import ConfigError
@@ -123,6 +125,12 @@ def test_off_policy_names():
     assert (sparse["params"]["config"]["num_updates_per_step"], sparse["params"]["config"]["update_every"]) == (1, 4)
     default_dqn = build_config("dqn", "CartPole-v1", 1, False, {}, [])["params"]["config"]
     assert (default_dqn["num_updates_per_step"], default_dqn["update_every"]) == (1, 4)  # SB3's DQN defaults
+    for given, says in [({"train_freq": (4, "episode")}, "only (n, 'step') maps"),
+                        ({"train_freq": 0}, "train_freq: expected an int >= 1, got 0"),
+                        ({"gradient_steps": 0}, "gradient_steps: expected an int >= 1 or -1, got 0")]:
+        with pytest.raises(ConfigError, match=re.escape(says)) as err:
+            build_config("dqn", "CartPole-v1", 1, False, given, [])
+        assert "\n" not in str(err.value)
 
 
 def test_sac_clip_mean_is_the_networks_mean_clip():
