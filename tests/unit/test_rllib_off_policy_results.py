@@ -53,6 +53,7 @@ SAC_CFG = {"batch_size": 32, "actor_lr": 3e-5, "critic_lr": 3e-4, "alpha_lr": 3e
 def test_a_dqn_step_reports_rllibs_q_and_td_statistics():
     model = q_model(dueling=False)
     agent = DQNAgent(model, DQNConfig(env_name="x", batch_size=8, learning_rate=1e-9, loss="mse", grad_norm=None))
+    agent.rllib_stats = True  # what the face sets (tests/unit/test_off_policy_rllib_stats.py)
     b = batch(8, discrete=True, act_dim=4)
     q = model.network(b["obs"]).detach()[torch.arange(8), b["actions"]]
     stats, td = agent.update(b)
@@ -73,7 +74,9 @@ def test_a_sac_step_splits_the_critic_loss_and_reports_the_temperature_it_used()
         q1, q2 = q_values(model.network.critic, b["obs"], b["actions"])
     first, twin = F.huber_loss(q1, target), F.huber_loss(q2, target)
     torch.manual_seed(5)
-    stats, _ = SACAgent(model, cfg).update(b)
+    agent = SACAgent(model, cfg)
+    agent.rllib_stats = True  # what the face sets (tests/unit/test_off_policy_rllib_stats.py)
+    stats, _ = agent.update(b)
     assert float(stats["critic1_loss"]) == pytest.approx(float(first), rel=1e-5)
     assert float(stats["critic_loss"]) == pytest.approx(float(first + twin), rel=1e-5)
     assert float(stats["alpha_used"]) == pytest.approx(0.2)

@@ -83,6 +83,10 @@ class QModel(ObservationModel):
 class DQNAgent:
     """One (double) DQN gradient step per :meth:`update`; target update every target_update_frequency."""
 
+    rllib_stats = False
+    """Also return the statistics only RLlib's results report (the Q values' max and min, the mean |TD error|); the
+    RLlib face sets it on the agent it trains, so rlchain's own runs and the SB3 face pay for none of them."""
+
     def __init__(self, model: QModel, cfg: Any) -> None:
         self.model, self.cfg = model, cfg
         self.opt = torch.optim.Adam(model.network.parameters(), lr=cfg.learning_rate)
@@ -127,9 +131,10 @@ class DQNAgent:
             with torch.no_grad():
                 torch._foreach_lerp_(self._target, self._online, cfg.target_tau)
         q, td = q.detach(), (q - target).detach().abs()
-        # q_max / q_min / td_error: RLlib's qf_max, qf_min and td_error_mean (0-d tensors: no host sync here)
-        return {"td_loss": loss.detach(), "q": q.mean(), "q_max": q.max(), "q_min": q.min(),
-                "td_error": td.mean()}, td
+        stats = {"td_loss": loss.detach(), "q": q.mean()}
+        if self.rllib_stats:  # RLlib's qf_max, qf_min and td_error_mean (0-d tensors: no host sync here)
+            stats.update(q_max=q.max(), q_min=q.min(), td_error=td.mean())
+        return stats, td
 
     def state_dict(self) -> dict[str, Any]:
         return {"opt": self.opt.state_dict(), "updates": self.updates}

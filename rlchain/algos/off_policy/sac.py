@@ -25,4 +25,7 @@ class SAC(OffPolicyAlgorithm):
         return SACAgent(self.model, self.cfg)
 
     def extra_stats(self) -> dict[str, float]:
-        return {"alpha": float(self.model.alpha.detach()), "target_entropy": self.agent.target_entropy}
+        stats = {"alpha": float(self.model.alpha.detach())}
+        if self.agent.rllib_stats:  # RLlib's results report it (rlchain's own logs do not)
+            stats["target_entropy"] = self.agent.target_entropy
+        return stats

@@ -116,6 +116,11 @@ class SACAgent:
     """One SAC gradient step per :meth:`update` call (critic every call, actor + alpha every
     ``policy_frequency`` calls), then a Polyak update of the target critics."""
 
+    rllib_stats = False
+    """Also return the statistics only RLlib's results report (the first critic's loss, the temperature the step
+    used, the mean |TD error|, the twin minimum's mean / max / min at the policy's actions); the RLlib face sets it
+    on the agent it trains, so rlchain's own runs and the SB3 face pay for none of them."""
+
     def __init__(self, model: SoftActorCritic, cfg: Any) -> None:
         self.model, self.cfg = model, cfg
         net = model.network
@@ -125,8 +130,7 @@ class SACAgent:
         dim = model.dist.dim
         self.target_entropy = float(cfg.target_entropy) if cfg.target_entropy is not None else -float(dim)
         self.updates = 0
-        self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0, "q_pi": 0.0,
-                                       "q_pi_max": 0.0, "q_pi_min": 0.0}
+        self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
         self._critic_params = list(net.critic.parameters())
         self._actor_params = list(net.actor.parameters())
         self._target_params = list(model.critic_target.parameters())
@@ -175,11 +179,12 @@ class SACAgent:
         optimizer_step(self.critic_opt, critic_loss, params=self._critic_params, max_norm=cfg.grad_norm)
         td = 0.5 * ((q1 - target).abs() + (q2 - target).abs()).detach()
 
-        # critic1_loss: the first critic's part of critic_loss (RLlib's qf_loss; the twin's is the rest);
-        # alpha_used / log_alpha: the temperature this step used (0-d tensors: no host sync here)
-        stats = {"critic_loss": critic_loss.detach(), "critic1_loss": (weights * errors1.detach()).mean(),
-                 "q": q1.detach().mean(), "alpha_used": alpha, "log_alpha": model.log_alpha.detach().clone(),
-                 "td_error": td.mean()}
+        stats = {"critic_loss": critic_loss.detach(), "q": q1.detach().mean()}
+        if self.rllib_stats:
+            # critic1_loss: the first critic's part of critic_loss (RLlib's qf_loss; the twin's is the rest);
+            # alpha_used / log_alpha: the temperature this step used (0-d tensors: no host sync here)
+            stats.update(critic1_loss=(weights * errors1.detach()).mean(), alpha_used=alpha,
+                         log_alpha=model.log_alpha.detach().clone(), td_error=td.mean())
         if self.updates % cfg.policy_frequency == 0:
             critic.requires_grad_(False)
             with self._autocast():
@@ -191,8 +196,9 @@ class SACAgent:
             critic.requires_grad_(True)
             self.last["actor_loss"] = actor_loss.detach()
             self.last["entropy"] = -logp.detach().mean()
-            q_pi = torch.min(nq1, nq2).detach()  # the policy's actions' Q (RLlib's qf_mean / qf_max / qf_min)
-            self.last.update(q_pi=q_pi.mean(), q_pi_max=q_pi.max(), q_pi_min=q_pi.min())
+            if self.rllib_stats:  # the policy's actions' Q (RLlib's qf_mean / qf_max / qf_min)
+                q_pi = torch.min(nq1, nq2).detach()
+                self.last.update(q_pi=q_pi.mean(), q_pi_max=q_pi.max(), q_pi_min=q_pi.min())
             if cfg.learnable_temperature:
                 alpha_loss = -(model.log_alpha * (logp.detach() + self.target_entropy)).mean()
                 optimizer_step(self.alpha_opt, alpha_loss)

@@ -8,13 +8,13 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.rllib import translate
-from rlchain.rllib.algorithm import Algorithm
 from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.config import AlgorithmConfig
-from rlchain.rllib.off_policy_results import TargetUpdates, dqn_results
+from rlchain.rllib.off_policy_algorithm import OffPolicyAlgorithm, target_updates
+from rlchain.rllib.off_policy_results import dqn_results
 
 
-class DQN(Algorithm):
+class DQN(OffPolicyAlgorithm):
     """RLlib's DQN on rlchain's DQN."""
 
     algo_name = "DQN"
@@ -31,7 +31,7 @@ class DQN(Algorithm):
 
     def learner_results(self, stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
         """RLlib's learner results (:func:`rlchain.rllib.off_policy_results.dqn_results`)."""
-        return dqn_results(stats, cfg, self.__dict__.setdefault("_target_updates", TargetUpdates()))
+        return dqn_results(stats, cfg, target_updates(self))
 
 
 DQN = exported(DQN)  # RLlib's DQN: config.algo_class is DQN, and Tune takes it (algorithm_class.py)

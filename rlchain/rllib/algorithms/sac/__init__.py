@@ -7,16 +7,16 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlchain.rllib.algorithm import Algorithm
 from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.algorithms.sac.module import SACModuleView
 from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.config import AlgorithmConfig
 from rlchain.rllib.core import DEFAULT_MODULE_ID
-from rlchain.rllib.off_policy_results import TargetUpdates, sac_results
+from rlchain.rllib.off_policy_algorithm import OffPolicyAlgorithm, target_updates
+from rlchain.rllib.off_policy_results import sac_results
 
 
-class SAC(Algorithm):
+class SAC(OffPolicyAlgorithm):
     """RLlib's SAC on rlchain's SAC (continuous actions)."""
 
     algo_name = "SAC"
@@ -38,7 +38,7 @@ class SAC(Algorithm):
 
     def learner_results(self, stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
         """RLlib's learner results (:func:`rlchain.rllib.off_policy_results.sac_results`)."""
-        return sac_results(stats, cfg, self.__dict__.setdefault("_target_updates", TargetUpdates()))
+        return sac_results(stats, cfg, target_updates(self))
 
 
 SAC = exported(SAC)  # RLlib's SAC: config.algo_class is SAC, and Tune takes it (algorithm_class.py)
