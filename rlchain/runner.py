@@ -95,14 +95,16 @@ class Runner:
         """``rl_games`` (set by rl_games' API, :mod:`rlchain.rl_games`): checkpoint names, extra tags and the
         frame axis as rl_games writes them (:mod:`rlchain.runs.rl_games_layout`)."""
 
-    def load(self, config: str | dict[str, Any], overrides: list[str] | None = None) -> Runner:
+    def load(self, config: str | dict[str, Any], overrides: list[str] | None = None,
+             source: str | None = None) -> Runner:
         """Load a YAML/JSON path, a packaged config's name (``ppo_cartpole``, rlchain.config.packaged) or
-        an already-read dict (``{'params': ...}``) and validate it."""
+        an already-read dict (``{'params': ...}``) and validate it. ``source``: what a dict's config errors name
+        as their file (what the user wrote it as: a face's ``PPOConfig``; ``<dict>`` by default)."""
         if isinstance(config, str):
             source = resolve_config(config)
             raw = load_raw(source)
         else:
-            source, raw = "<dict>", copy.deepcopy(config)
+            source, raw = source or "<dict>", copy.deepcopy(config)
         translated = is_embodichain(raw)
         raw, rest = from_embodichain(raw, overrides or [], source)
         if translated and os.environ.get("RANK", "0") == "0":  # once under torchrun

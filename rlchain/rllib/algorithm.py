@@ -119,7 +119,7 @@ class Algorithm:
                 config, self._make, run, lambda pid, obs, act: module_network.policy_network(config, pid, obs, act))
         else:
             self.rlchain_config = self._single_agent_config(config, run)
-        self.runner = Runner().load(self.rlchain_config)
+        self.runner = Runner().load(self.rlchain_config, source=type(config).__name__)  # errors name PPOConfig
         self.env_runner_group = EnvRunnerGroup(self)
         self.env_runner = self.env_runner_group.local_env_runner
         extra = []

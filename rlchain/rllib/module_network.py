@@ -43,20 +43,23 @@ class RLModuleNetwork(nn.Module):
     actions, ``(means, log_stds, value, None)``."""
 
     def __init__(self, module: nn.Module, continuous: bool, action_space: gym.Space | None = None,
-                 trained: bool = True) -> None:
+                 trained: bool = True, where: str = "rl_module()") -> None:
         super().__init__()
         self.module = module
         self.continuous = continuous
         self.action_space = action_space
+        name = type(module).__name__
         if module.is_stateful() if callable(getattr(module, "is_stateful", None)) else False:
-            raise ValueError(f"{type(module).__name__} is stateful (get_initial_state): recurrent RLModules are not "
-                             f"trained by the face; write an rlchain YAML with an rnn block (docs/config.md)")
+            raise ConfigError(where, "rl_module_spec", f"{name} is stateful (get_initial_state): recurrent RLModules "
+                                                       f"are not trained by the face; write an rlchain YAML with an "
+                                                       f"rnn block (docs/config.md)")
         compute = getattr(module, "compute_values", None)
         self._has_values = callable(compute)
         if trained and not self._has_values:
-            raise ValueError(f"{type(module).__name__} has no compute_values: PPO needs a module with "
-                             f"ValueFunctionAPI (compute_values(batch, embeddings=None)); a module that only "
-                             f"acts must be left out of policies_to_train")
+            raise ConfigError(where, "rl_module_spec", f"{name} has no compute_values: PPO needs a module with "
+                                                       f"ValueFunctionAPI (compute_values(batch, embeddings=None)); "
+                                                       f"a module that only acts must be left out of "
+                                                       f"policies_to_train")
         try:
             self._takes_embeddings = self._has_values and "embeddings" in inspect.signature(compute).parameters
         except (TypeError, ValueError):
@@ -111,9 +114,10 @@ class RLModuleNetwork(nn.Module):
 
 
 def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, model_config: dict[str, Any],
-             trained: bool = True) -> str:
+             trained: bool = True, where: str = "rl_module()") -> str:
     """A fresh network name whose builder makes ``spec.module_class`` on these spaces (the spec's own spaces when
-    it gives them) with ``model_config``, wrapped in :class:`RLModuleNetwork`."""
+    it gives them) with ``model_config``, wrapped in :class:`RLModuleNetwork` (``where``: what its config errors
+    name, the user's ``PPOConfig.rl_module()``)."""
     module_class = spec.module_class
     obs_space = spec.observation_space or observation_space
     act_space = spec.action_space or action_space
@@ -123,8 +127,9 @@ def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, m
         module = module_class(observation_space=obs_space, action_space=act_space, inference_only=False,
                               learner_only=False, model_config=dict(model_config), catalog_class=spec.catalog_class)
         if not isinstance(module, nn.Module):
-            raise ValueError(f"{module_class.__name__} is not a torch module: subclass TorchRLModule")
-        return RLModuleNetwork(module, continuous, act_space, trained)
+            raise ConfigError(where, "rl_module_spec", f"{module_class.__name__} is not a torch module: subclass "
+                                                       f"TorchRLModule")
+        return RLModuleNetwork(module, continuous, act_space, trained, where)
 
     build.takes_dict_obs = isinstance(observation_space, gym.spaces.Dict)
     name = f"{NAME_PREFIX}{next(_COUNTER)}"
@@ -171,7 +176,7 @@ def network_block(config: Any, spec: Any, observation_space: gym.Space, action_s
     auto = K.ALGO_DEFAULTS.get(config.algo_name, {}).get("model_config", {})  # RLlib's auto-included keys
     settings = config._settings
     model_config = {**auto, **(settings.get("model") or {}), **(settings.get("model_config") or {}), **own}
-    name = register(spec, observation_space, action_space, model_config, trained)
+    name = register(spec, observation_space, action_space, model_config, trained, where)
     return {"name": name}
 
 

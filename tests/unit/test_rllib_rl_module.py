@@ -2,6 +2,8 @@
 (setup, _forward / _forward_train, compute_values, self.model_config), passed with rl_module(rl_module_spec=...),
 trained by rlchain's PPO; RLlib's action-masking pattern (a Dict observation with an action_mask) included."""
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -228,11 +230,19 @@ def test_bad_modules_end_in_one_line(tmp_path, monkeypatch):
         def _forward(self, batch, **kwargs):
             return {Columns.ACTION_DIST_INPUTS: self.pi(batch[Columns.OBS])}
 
-    for spec, message in ((RLModuleSpec(module_class=NoValues), "no compute_values: PPO needs"),
-                          (RLModuleSpec(module_class=object), "expected a TorchRLModule subclass"),
+    class Recurrent(TwoHeads):
+        def get_initial_state(self):
+            return {"h": torch.zeros(8)}
+
+    # each names the user's config and the rl_module_spec they gave (not the face's rlchain dict: "<dict>")
+    where = "^" + re.escape("PPOConfig.rl_module(): rl_module_spec") + r"[\w.]*: "
+    for spec, message in ((RLModuleSpec(module_class=NoValues), "NoValues has no compute_values: PPO needs"),
+                          (RLModuleSpec(module_class=Recurrent), "Recurrent is stateful .get_initial_state.: "
+                                                                 "recurrent RLModules are not trained"),
+                          (RLModuleSpec(module_class=object), ".*expected a TorchRLModule subclass"),
                           ("TwoHeads", "expected an RLModuleSpec")):
         config = PPOConfig().environment("CartPole-v1").rl_module(rl_module_spec=spec)
-        with pytest.raises(ConfigError, match=message) as info:
+        with pytest.raises(ConfigError, match=where + message) as info:
             config.build_algo()
-        assert "\n" not in str(info.value)
+        assert "\n" not in str(info.value) and "<dict>" not in str(info.value)
     assert MultiRLModuleSpec(rl_module_specs={"a": RLModuleSpec()}).spec_of("b") is None
