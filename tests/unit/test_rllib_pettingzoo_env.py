@@ -47,3 +47,18 @@ def test_parallel_game_passes_its_dicts_through_with_all():
             break
         assert terminateds["__all__"] is False
     assert rounds == 3 and env.get_sub_environments is env.par_env.unwrapped
+
+
+@pytest.mark.parametrize("wrapper, make, attribute", [(PettingZooEnv, "env", "env"),
+                                                      (ParallelPettingZooEnv, "parallel_env", "par_env")])
+def test_both_wrappers_render_close_and_expose_the_game_under_rllibs_attribute(wrapper, make, attribute):
+    game = getattr(rps_v2, make)(max_cycles=2)
+    env = wrapper(game)
+    assert getattr(env, attribute) is game and env.get_sub_environments is game.unwrapped
+    assert env.get_observation_space("player_0") == game.observation_space("player_0")
+    env.reset(seed=1)
+    closed = []
+    game.render, game.close = (lambda: "the game's frame"), (lambda: closed.append(True))
+    assert env.render() == "the game's frame"
+    env.close()
+    assert closed == [True]

@@ -10,32 +10,50 @@ its dicts are passed through, ``"__all__"`` true when every agent's flag is. Bot
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 
 from rlchain.rllib.multi_agent import MultiAgentEnv
 
 
-def _agents_and_spaces(wrapper: MultiAgentEnv, game: Any) -> None:
-    """The game's agents (its own order) and their spaces on ``wrapper``, read after a first ``reset``."""
-    game.reset()
-    wrapper.agents = list(game.agents)
-    wrapper.possible_agents = list(getattr(game, "possible_agents", None) or game.agents)
-    wrapper._agent_ids = set(wrapper.agents)
-    wrapper.observation_spaces = {aid: game.observation_space(aid) for aid in wrapper.agents}
-    wrapper.action_spaces = {aid: game.action_space(aid) for aid in wrapper.agents}
-    wrapper.observation_space = gym.spaces.Dict(wrapper.observation_spaces)
-    wrapper.action_space = gym.spaces.Dict(wrapper.action_spaces)
+class _GameWrapper(MultiAgentEnv):
+    """A PettingZoo game under RLlib's attribute for it (``game_attribute``: ``env`` or ``par_env``): its agents and
+    spaces, read after a first ``reset``; ``close``, ``render`` and ``get_sub_environments`` are the game's."""
 
-
-class PettingZooEnv(MultiAgentEnv):
-    """An AEC PettingZoo game (``env``: e.g. ``rps_v2.env()``) as a turn-based ``MultiAgentEnv``."""
+    game_attribute: ClassVar[str]
 
     def __init__(self, env: Any) -> None:
-        self.env = env
-        _agents_and_spaces(self, env)
+        setattr(self, self.game_attribute, env)
+        env.reset()
+        self.agents = list(env.agents)  # the game's own order
+        self.possible_agents = list(getattr(env, "possible_agents", None) or env.agents)
+        self._agent_ids = set(self.agents)
+        self.observation_spaces = {aid: env.observation_space(aid) for aid in self.agents}
+        self.action_spaces = {aid: env.action_space(aid) for aid in self.agents}
+        self.observation_space = gym.spaces.Dict(self.observation_spaces)
+        self.action_space = gym.spaces.Dict(self.action_spaces)
         super().__init__()
+
+    @property
+    def _game(self) -> Any:
+        return getattr(self, self.game_attribute)
+
+    def close(self) -> None:
+        self._game.close()
+
+    def render(self) -> Any:
+        return self._game.render()
+
+    @property
+    def get_sub_environments(self) -> Any:
+        return self._game.unwrapped
+
+
+class PettingZooEnv(_GameWrapper):
+    """An AEC PettingZoo game (``env``: e.g. ``rps_v2.env()``) as a turn-based ``MultiAgentEnv``."""
+
+    game_attribute = "env"
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         info = self.env.reset(seed=seed, options=options)
@@ -58,24 +76,11 @@ class PettingZooEnv(MultiAgentEnv):
         truncateds["__all__"] = gone and all(truncateds.values())
         return obs, rewards, terminateds, truncateds, infos
 
-    def close(self) -> None:
-        self.env.close()
 
-    def render(self) -> Any:
-        return self.env.render()
-
-    @property
-    def get_sub_environments(self) -> Any:
-        return self.env.unwrapped
-
-
-class ParallelPettingZooEnv(MultiAgentEnv):
+class ParallelPettingZooEnv(_GameWrapper):
     """A parallel PettingZoo game (``env``: e.g. ``rps_v2.parallel_env()``) as a ``MultiAgentEnv``."""
 
-    def __init__(self, env: Any) -> None:
-        self.par_env = env
-        _agents_and_spaces(self, env)
-        super().__init__()
+    game_attribute = "par_env"
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         obs, info = self.par_env.reset(seed=seed, options=options)
@@ -86,16 +91,6 @@ class ParallelPettingZooEnv(MultiAgentEnv):
         terminateds = {**terminateds, "__all__": all(terminateds.values())}
         truncateds = {**truncateds, "__all__": all(truncateds.values())}
         return obs, rewards, terminateds, truncateds, infos
-
-    def close(self) -> None:
-        self.par_env.close()
-
-    def render(self) -> Any:
-        return self.par_env.render()
-
-    @property
-    def get_sub_environments(self) -> Any:
-        return self.par_env.unwrapped
 
 
 __all__ = ["ParallelPettingZooEnv", "PettingZooEnv"]
