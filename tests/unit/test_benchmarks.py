@@ -16,7 +16,7 @@ import yaml
 from benchmarks import common
 from benchmarks.peers import curves, her_vs_sb3, rl_games_driver, rl_games_tensor_env, sb3_her_driver
 from benchmarks.studies import push_cube_eval
-from benchmarks.throughput import epoch_cpu, throughput, tree_compare
+from benchmarks.throughput import epoch_cpu, off_policy_step_time, throughput, tree_compare
 from rlchain.envs.wrappers.goal_env import fetch_compute_reward
 from tests.conftest import CONFIGS, ROOT
 
@@ -508,3 +508,9 @@ def test_distance_inverts_the_reciprocal_tolerance_at_any_box_target_scale():
         np.testing.assert_allclose(got, np.where(d <= 0.005, 0.0, d), atol=1e-12)
     # a term of 7.9 is 0.073 m when box_target_scale is 20, but 0.006 m if read with the default 8
     assert abs(push_cube_eval.box_target_distance(np.array([7.9]), 20.0)[0] - 0.073) < 1e-3
+
+
+def test_off_policy_step_time_gives_median_quartiles_and_range_and_refuses_a_tree_without_rlchain(tmp_path):
+    assert off_policy_step_time.spread([5.0, 1.0, 3.0, 2.0, 4.0]).split() == ["3.00", "[2.00-4.00]", "(1.00-5.00)"]
+    with pytest.raises(SystemExit, match="--base-tree .*: no rlchain checkout there"):
+        off_policy_step_time.main(["--base-tree", str(tmp_path)])
