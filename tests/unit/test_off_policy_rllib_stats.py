@@ -3,6 +3,7 @@ face asks for them, and only then: rlchain's own runs and the SB3 face return wh
 reported them (tests/unit/test_rllib_off_policy_results.py checks what the flagged values mean)."""
 
 import math
+import os
 from types import SimpleNamespace
 
 import pytest
@@ -12,6 +13,9 @@ from rlchain.algos.off_policy.dqn_agent import DQNAgent
 from rlchain.algos.off_policy.sac import SAC as RlchainSAC
 from rlchain.algos.off_policy.sac_agent import SACAgent
 from rlchain.config.off_policy import DQNConfig
+from rlchain.runner import Runner
+from rlchain.tuning.epochs import EpochStepper
+from tests.conftest import CONFIGS
 from tests.unit.test_sac_dqn import batch, q_model, sac_model
 
 SAC_KEYS = {"critic_loss", "q", "actor_loss", "alpha_loss", "entropy"}
@@ -87,3 +91,19 @@ def test_the_rllib_face_asks_its_agent_for_rllibs_statistics(algo, env, tmp_path
         assert all(math.isfinite(learner[k]) for k in ("qf_max", "qf_min", "td_error_mean"))
     finally:
         built.stop()
+
+
+@pytest.mark.parametrize("config, plain, rllib_only", [
+    ("sac_pendulum.yaml", SAC_KEYS | {"alpha"}, SAC_RLLIB_ONLY | {"target_entropy"}),
+    ("dqn_cartpole.yaml", DQN_KEYS | {"epsilon"}, DQN_RLLIB_ONLY),
+])
+def test_rlchains_own_runs_report_none_of_rllibs_statistics(config, plain, rllib_only, tmp_path):
+    runner = Runner().load(os.path.join(CONFIGS, config), [
+        "params.config.num_warmup_frames=40", "params.config.batch_size=16", "params.config.num_steps_per_episode=10",
+        "params.config.print_stats=false", f"params.config.train_dir={tmp_path}", "params.config.max_epochs=5"])
+    stepper = EpochStepper(runner, seed=1)
+    try:
+        stats = stepper.next_epoch().stats
+        assert plain <= set(stats) and stats["updates"] > 0 and not rllib_only & set(stats)
+    finally:
+        stepper.shutdown()
