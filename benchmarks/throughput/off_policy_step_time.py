@@ -58,7 +58,7 @@ def rlchain_worker(tree: str, algo: str, batch: int, seed: int) -> tuple[object,
     with open(os.path.join(tree, "rlchain", "configs", CONFIGS[algo] + ".yaml")) as f:
         config = yaml.safe_load(f)
     cfg = config["params"]["config"]
-    cfg.update(batch_size=batch, train_dir=tempfile.mkdtemp(prefix="off_policy_step_time_"), print_stats=False,
+    cfg.update(batch_size=batch, train_dir=os.path.abspath("runs"), print_stats=False,  # in the worker's folder
                max_frames=10**9, score_to_win=10**9)
     stepper = EpochStepper(Runner().load(config), seed=seed)
     while True:
@@ -135,13 +135,13 @@ def worker_main(spec: dict) -> None:
 class Side:
     """One worker process and its measurements."""
 
-    def __init__(self, label: str, algo: str, spec: dict) -> None:
+    def __init__(self, label: str, algo: str, spec: dict, folder: str) -> None:
         self.label, self.algo, self.cpu, self.wall, self.cpu_off = label, algo, [], [], []
         env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
         env.pop("PYTHONPATH", None)  # each worker puts its own tree first
         self.proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(spec)],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
-                                     cwd=tempfile.mkdtemp(prefix="off_policy_step_time_cwd_"))
+                                     cwd=tempfile.mkdtemp(dir=folder))  # its run folders, removed at the end
         self.said = self._read()["ready"]
 
     def _read(self) -> dict:
@@ -160,8 +160,12 @@ class Side:
             self.cpu_off.append(out["cpu_off_ms"])
 
     def close(self) -> None:
-        self.proc.stdin.close()
-        self.proc.wait(timeout=60)
+        try:
+            self.proc.stdin.close()
+            self.proc.wait(timeout=60)
+        except (OSError, subprocess.TimeoutExpired):  # a worker that died already, or hangs: ended here
+            self.proc.kill()
+            self.proc.wait()
 
 
 def spread(values: list[float]) -> str:
@@ -201,19 +205,20 @@ def main(argv: list[str] | None = None) -> None:
     print(f"CPU: {cpu_model()}; batch {args.batch}; one torch thread per worker; {args.rounds} rounds")
     print(f"start: {machine_line()}")
     sides: list[Side] = []
+    folder = tempfile.TemporaryDirectory(prefix="off_policy_step_time_")  # the workers' run folders
     try:
         for algo in args.algos:
             for name, tree in trees:
                 spec = {"kind": "rlchain", "tree": tree, "algo": algo, "batch": args.batch, "seed": args.seed}
-                sides.append(Side(f"{algo} rlchain {name}", algo, spec))
+                sides.append(Side(f"{algo} rlchain {name}", algo, spec, folder.name))
             if not args.no_face_side:  # this tree's agent as the RLlib face runs it, and as rlchain does
                 spec = {"kind": "rlchain", "tree": REPO, "algo": algo, "batch": args.batch, "seed": args.seed,
                         "toggle": True}
-                sides.append(Side(f"{algo} rlchain this+rllib", algo, spec))
+                sides.append(Side(f"{algo} rlchain this+rllib", algo, spec, folder.name))
             if algo == "sac":
                 for net in args.sb3_net:
                     spec = {"kind": "sb3", "net": net, "batch": args.batch, "seed": args.seed}
-                    sides.append(Side(f"sac sb3 net={net}", algo, spec))
+                    sides.append(Side(f"sac sb3 net={net}", algo, spec, folder.name))
         for side in sides:
             print(f"  {side.label:24s} {side.said}")
         for r in range(args.rounds):
@@ -243,6 +248,7 @@ def main(argv: list[str] | None = None) -> None:
     finally:
         for side in sides:
             side.close()
+        folder.cleanup()
 
 
 if __name__ == "__main__":
