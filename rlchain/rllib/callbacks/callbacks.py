@@ -142,6 +142,15 @@ class MetricsLogger:
             return self._reduce_one(name)
         return self._last.get(name, default)
 
+    def remember(self, result: dict[str, Any], prefix: str = "") -> None:
+        """Keep a result's values for :meth:`peek` (RLlib's ``algo.metrics.peek(("env_runners",
+        "num_env_steps_sampled_lifetime"))``), below anything logged under the same key."""
+        for key, value in result.items():
+            if isinstance(value, dict):
+                self.remember(value, f"{prefix}{key}/")
+            elif f"{prefix}{key}" not in self._reduce:
+                self._last[f"{prefix}{key}"] = value
+
     def _reduce_one(self, name: str) -> Any:
         kind, window, _ = self._reduce[name]
         if kind in ("ema", "lifetime_sum"):
