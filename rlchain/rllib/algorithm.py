@@ -23,7 +23,7 @@ import yaml
 from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
-from rlchain.rllib import envs, module_network, multi_agent, translate
+from rlchain.rllib import envs, evaluation_runners, module_network, multi_agent, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested, steps_episodes
 from rlchain.rllib.callbacks.user import EventFunctions, callback_objects
 from rlchain.rllib.checkpoint_files import (
@@ -40,7 +40,7 @@ from rlchain.rllib.checkpoint_files import (
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
-from rlchain.rllib.module import RLModuleView
+from rlchain.rllib.module import OldPolicy, RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import (
@@ -247,6 +247,11 @@ class Algorithm:
         s = self.config._settings
         for cb in self.callbacks:
             cb.on_evaluate_start(algorithm=self, metrics_logger=self.metrics)
+        if s.get("custom_evaluation_function") is not None:  # RLlib's call: fn(algo, algo.eval_env_runner_group)
+            out = evaluation_runners.evaluate_custom(self, s["custom_evaluation_function"])
+            for cb in self.callbacks:
+                cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
+            return out
         duration = s.get("evaluation_duration") or 10
         by_steps = s.get("evaluation_duration_unit") == "timesteps"
         if duration == "auto":
@@ -279,6 +284,11 @@ class Algorithm:
         for cb in self.callbacks:
             cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
         return out
+
+    @property
+    def eval_env_runner_group(self) -> evaluation_runners.EvaluationRunnerGroup:
+        """The evaluation env runners a ``custom_evaluation_function`` gets (:mod:`.evaluation_runners`)."""
+        return evaluation_runners.group(self)
 
     # ----- the policy ------------------------------------------------------------------------------------
     @property
@@ -321,19 +331,9 @@ class Algorithm:
         action = self.get_module(policy_id).act(observation, True if explore is None else bool(explore))
         return (action, [], {}) if full_fetch or state is not None else action
 
-    def get_policy(self, policy_id: str = DEFAULT_MODULE_ID) -> Any:
+    def get_policy(self, policy_id: str = DEFAULT_MODULE_ID) -> OldPolicy:
         """The older Policy object: its ``compute_single_action`` returns (action, states, extras)."""
-        module = self.get_module(policy_id)
-
-        class _Policy:
-            model = module
-
-            @staticmethod
-            def compute_single_action(obs: Any = None, state: Any = None, explore: bool | None = None,
-                                      **kwargs: Any) -> Any:
-                return module.act(obs, True if explore is None else bool(explore)), [], {}
-
-        return _Policy()
+        return OldPolicy(self.get_module(policy_id))
 
     # ----- checkpoints ------------------------------------------------------------------------------------
     def save_to_path(self, path: str | None = None, **kwargs: Any) -> str:
@@ -410,6 +410,7 @@ class Algorithm:
         if not self._stopped:
             self._stopped = True
             self._stepper.shutdown()
+            evaluation_runners.close(self)
 
     cleanup = stop  # Tune's Trainable name (RLlib's Algorithm.cleanup releases the runners)
 

@@ -140,3 +140,15 @@ class RLModuleView:
 
     def is_stateful(self) -> bool:
         return bool(getattr(self.model, "is_rnn", False))
+
+
+class OldPolicy:
+    """RLlib's older Policy object (``algo.get_policy()``): ``model`` is the module and ``compute_single_action``
+    returns (action, states, extras)."""
+
+    def __init__(self, module: RLModuleView) -> None:
+        self.model = module
+
+    def compute_single_action(self, obs: Any = None, state: Any = None, explore: bool | None = None,
+                              **kwargs: Any) -> Any:
+        return self.model.act(obs, True if explore is None else bool(explore)), [], {}
