@@ -8,11 +8,13 @@ hold under ``"evaluation"`` (RLlib 2.60 reads them there too, and only type-chec
 The group holds ``evaluation_num_env_runners`` runners (worker indices 1..n; with 0, one local runner, index 0),
 each with ``num_envs_per_env_runner`` envs of the config's env under ``evaluation_config``'s ``env_config``, built
 on first use in this process. A runner's ``env`` is a gymnasium ``SyncVectorEnv`` (``env.unwrapped.envs`` reaches
-each env, to change its task); ``sample(num_episodes=, num_timesteps=, explore=)`` plays its envs from fresh
-resets with the algorithm's current module through rlchain's play loop (greedy unless ``explore`` or
-``evaluation_config``'s ``explore``) and returns the finished episodes (``env_steps()``, ``agent_steps()``,
-``get_return()``; an episode cut by ``num_timesteps`` is not among them); without a count it plays one episode per
-env. ``get_metrics()`` gives RLlib's env-runner metrics of the episodes finished since its last call.
+each env, to change its task; the local runner beside remote ones has none, as in RLlib);
+``sample(num_episodes=, num_timesteps=, explore=)`` plays its envs from fresh resets with the algorithm's current
+module through rlchain's play loop (greedy unless ``explore`` or ``evaluation_config``'s ``explore``) and returns
+the finished episodes (``env_steps()``, ``agent_steps()``, ``get_return()``; an episode cut by the step count is
+not among them); without a count it plays RLlib's rollout fragment of env steps (``rollout_fragment_length``;
+"auto": the train batch over the evaluation runners' envs). ``get_metrics()`` gives RLlib's env-runner metrics of
+the episodes finished since its last call.
 """
 
 from __future__ import annotations
@@ -49,10 +51,12 @@ class EvaluationEpisode:
 class EvaluationEnvRunner:
     """One evaluation env runner (see the module docstring)."""
 
-    def __init__(self, algorithm: Any, worker_index: int, make: Any, first: int, num_envs: int) -> None:
+    def __init__(self, algorithm: Any, worker_index: int, make: Any, first: int, num_envs: int,
+                 fragment: int) -> None:
         self.worker_index = worker_index
         self._algorithm = algorithm
-        self._fns = [lambda i=i: make(first + i) for i in range(num_envs)]
+        self._fns = [lambda i=i: make(first + i) for i in range(num_envs)]  # none: RLlib's local runner beside
+        self._fragment = fragment  # remote ones has no env
         self._vec: GymnasiumVecEnv | None = None
         self._finished: list[EvaluationEpisode] = []
         self._steps = 0
@@ -63,6 +67,9 @@ class EvaluationEnvRunner:
 
     @property
     def _envs(self) -> GymnasiumVecEnv:
+        if not self._fns:
+            raise RuntimeError("the local evaluation env runner has no env beside evaluation_num_env_runners > 0 "
+                               "(as in RLlib): foreach_env_runner(..., local_env_runner=False)")
         if self._vec is None:
             self._vec = GymnasiumVecEnv(f"evaluation_runner_{self.worker_index}", len(self._fns), mode="sync",
                                         env_fns=self._fns)
@@ -70,8 +77,9 @@ class EvaluationEnvRunner:
 
     @property
     def env(self) -> Any:
-        """The runner's gymnasium ``SyncVectorEnv`` (``env.unwrapped.envs[i]``: each env)."""
-        return gymnasium_vector_env(self._envs)
+        """The runner's gymnasium ``SyncVectorEnv`` (``env.unwrapped.envs[i]``: each env); None for the local
+        runner beside remote ones, as in RLlib."""
+        return gymnasium_vector_env(self._envs) if self._fns else None
 
     @property
     def module(self) -> Any:
@@ -80,15 +88,17 @@ class EvaluationEnvRunner:
     def sample(self, *, num_timesteps: int | None = None, num_episodes: int | None = None,
                explore: bool | None = None, random_actions: bool = False, force_reset: bool = False,
                **kwargs: Any) -> list[EvaluationEpisode]:
-        """The episodes finished in ``num_episodes`` episodes or ``num_timesteps`` env steps (one episode per env
-        without either), played from fresh resets by rlchain's play loop."""
+        """The episodes finished in ``num_episodes`` episodes or ``num_timesteps`` env steps (without either,
+        RLlib's rollout fragment of each env), played from fresh resets by rlchain's play loop."""
         if random_actions:
             raise FaceNotOffered("EnvRunner.sample(random_actions=True): the face's evaluation runners play the "
                                  "algorithm's module")
         if explore is None:
             explore = bool((self.config._settings.get("evaluation_config") or {}).get("explore", False))
         envs = self._envs
-        games = int(num_episodes) if num_episodes is not None else (None if num_timesteps else envs.num_envs)
+        if num_episodes is None and num_timesteps is None:
+            num_timesteps = self._fragment * envs.num_envs
+        games = None if num_episodes is None else int(num_episodes)
         played: list[EvaluationEpisode] = []
         rounds = None if num_timesteps is None else -(-int(num_timesteps) // envs.num_envs)  # vector steps
         self._algorithm.get_module()  # checks that the algorithm runs
@@ -128,8 +138,11 @@ class EvaluationRunnerGroup:
         remote = int(s.get("evaluation_num_env_runners") or 0)
         per = max(1, int(s.get("num_envs_per_env_runner") or 1))
         make, _ = envs.env_maker(s["env"], env_config, remote, per)
-        self.local_env_runner = EvaluationEnvRunner(algorithm, 0, make, 0, per)
-        self._remote = [EvaluationEnvRunner(algorithm, i + 1, make, i * per, per) for i in range(remote)]
+        fragment = s.get("rollout_fragment_length")  # "auto": the train batch over the (evaluation) runners' envs
+        fragment = int(fragment) if isinstance(fragment, int) else \
+            -(-algorithm.config.total_train_batch_size // (max(1, remote) * per))
+        self.local_env_runner = EvaluationEnvRunner(algorithm, 0, make, 0, 0 if remote else per, fragment)
+        self._remote = [EvaluationEnvRunner(algorithm, i + 1, make, i * per, per, fragment) for i in range(remote)]
 
     def _runners(self, local: bool) -> list[EvaluationEnvRunner]:
         return ([self.local_env_runner] if local or not self._remote else []) + self._remote

@@ -74,19 +74,32 @@ def test_a_custom_evaluation_functions_wrong_return_is_one_line(tmp_path, monkey
         algo.stop()
 
 
-def test_sample_without_a_count_plays_one_episode_per_env_on_the_local_runner_alone(tmp_path, monkeypatch):
+def test_the_local_runner_beside_remote_ones_has_no_env_as_in_rllib(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    algo = _config(evaluate_by_runner).build_algo()
+    try:
+        local = algo.eval_env_runner_group.local_env_runner
+        assert local.env is None
+        with pytest.raises(RuntimeError, match="local_env_runner=False"):
+            local.sample(num_episodes=1)
+    finally:
+        algo.stop()
+
+
+def test_sample_without_a_count_plays_a_rollout_fragment_on_the_local_runner_alone(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     config = _config(evaluate_by_runner).evaluation(evaluation_num_env_runners=0).env_runners(
-        num_envs_per_env_runner=3)
+        num_envs_per_env_runner=3, rollout_fragment_length=4)
     algo = config.build_algo()
     try:
         group = algo.eval_env_runner_group
-        [played] = group.foreach_env_runner(lambda runner: runner.sample())
-        assert [e.get_length() for e in played] == [2, 2, 2] and group.num_remote_env_runners() == 0
+        [played] = group.foreach_env_runner(lambda runner: runner.sample())  # 4 steps of each env: 2 episodes
+        assert [e.get_length() for e in played] == [2] * 6 and group.num_remote_env_runners() == 0
+        group.local_env_runner.get_metrics()
         assert group.foreach_env_runner(lambda runner: runner.sample(num_timesteps=3)) == [[]]  # 1 step of each
         [part] = group.foreach_env_runner(lambda runner: runner.sample(num_timesteps=5))  # 2 steps of each
         assert [e.get_length() for e in part] == [2, 2, 2]
         metrics = group.local_env_runner.get_metrics()
-        assert (metrics["num_episodes"], metrics["num_env_steps_sampled"]) == (6, 15)
+        assert (metrics["num_episodes"], metrics["num_env_steps_sampled"]) == (3, 9)
     finally:
         algo.stop()
