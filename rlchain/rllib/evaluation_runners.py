@@ -10,7 +10,8 @@ each with ``num_envs_per_env_runner`` envs of the config's env under ``evaluatio
 on first use in this process. A runner's ``env`` is a gymnasium ``SyncVectorEnv`` (``env.unwrapped.envs`` reaches
 each env, to change its task; the local runner beside remote ones has none, as in RLlib);
 ``sample(num_episodes=, num_timesteps=, explore=)`` plays its envs from fresh resets with the algorithm's current
-module through rlchain's play loop (greedy unless ``explore`` or ``evaluation_config``'s ``explore``) and returns
+module through rlchain's play loop (sampled unless ``explore=False``, as RLlib's: the evaluation config's
+``explore``, by default the config's, True) and returns
 the finished episodes (``env_steps()``, ``agent_steps()``, ``get_return()``; an episode cut by the step count is
 not among them); without a count it plays RLlib's rollout fragment of env steps (``rollout_fragment_length``;
 "auto": the train batch over the evaluation runners' envs). ``get_metrics()`` gives RLlib's env-runner metrics of
@@ -93,8 +94,9 @@ class EvaluationEnvRunner:
         if random_actions:
             raise FaceNotOffered("EnvRunner.sample(random_actions=True): the face's evaluation runners play the "
                                  "algorithm's module")
-        if explore is None:
-            explore = bool((self.config._settings.get("evaluation_config") or {}).get("explore", False))
+        if explore is None:  # RLlib's: the evaluation config's explore, which is the config's (True) unless set
+            settings = self.config._settings
+            explore = bool((settings.get("evaluation_config") or {}).get("explore", settings.get("explore", True)))
         envs = self._envs
         if num_episodes is None and num_timesteps is None:
             num_timesteps = self._fragment * envs.num_envs
