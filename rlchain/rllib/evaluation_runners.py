@@ -56,8 +56,9 @@ class EvaluationEnvRunner:
                  fragment: int) -> None:
         self.worker_index = worker_index
         self._algorithm = algorithm
-        self._fns = [lambda i=i: make(first + i) for i in range(num_envs)]  # none: RLlib's local runner beside
-        self._fragment = fragment  # remote ones has no env
+        # no envs: the local runner beside remote ones, which has no env in RLlib either
+        self._fns = [lambda i=i: make(first + i) for i in range(num_envs)]
+        self._fragment = fragment
         self._vec: GymnasiumVecEnv | None = None
         self._finished: list[EvaluationEpisode] = []
         self._steps = 0
