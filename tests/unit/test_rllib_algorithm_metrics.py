@@ -38,3 +38,24 @@ def test_a_logged_value_wins_over_the_results_under_the_same_key(tmp_path, monke
         assert algo.metrics.peek("training_iteration") == 7.0
     finally:
         algo.stop()
+
+
+def test_the_old_stacks_model_call_and_export_are_one_line(tmp_path, monkeypatch):
+    import pytest
+
+    from rlchain.rllib.__main__ import explain
+    from rlchain.rllib.face_error import FaceNotOffered
+
+    monkeypatch.chdir(tmp_path)
+    algo = PPOConfig().environment("CartPole-v1").training(train_batch_size=32, minibatch_size=16,
+                                                           num_epochs=1).build_algo()
+    try:
+        policy = algo.get_policy()  # RLlib's checkpoints/onnx_torch.py
+        for call, says in ((lambda: policy.model({"obs": None}), "forward_inference"),
+                           (lambda: policy.export_model("out", onnx=11), "torch.onnx.export")):
+            with pytest.raises(FaceNotOffered) as info:
+                call()
+            assert says in explain(info.value) and "\n" not in explain(info.value)
+        assert policy.compute_single_action([0.0, 0.0, 0.0, 0.0], explore=False)[0] in (0, 1)
+    finally:
+        algo.stop()
