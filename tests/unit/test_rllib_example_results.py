@@ -86,6 +86,8 @@ def test_without_no_tune_the_helper_returns_results_with_checkpoints_per_grid_va
     assert all(r.metrics["training_iteration"] == 2 for r in results)
     best = results.get_best_result("env_runners/episode_return_mean", "max", scope="all")
     assert best.checkpoint.path.endswith("checkpoint_000001") and os.path.isdir(best.checkpoint.path)
+    with best.checkpoint.as_directory() as folder:  # Tune's Checkpoint reads
+        assert folder == best.checkpoint.to_directory() == best.checkpoint.path
     module = RLModule.from_checkpoint(os.path.join(best.checkpoint.path, "learner_group", "learner", "rl_module",
                                                    "default_policy"))
     logits = module.forward_inference({"obs": torch.zeros(1, 4)})["action_dist_inputs"]

@@ -8,9 +8,11 @@ folder) and ``path``.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,8 +48,16 @@ class Checkpoint:
 
     path: str
 
+    @classmethod
+    def from_directory(cls, path: str) -> Checkpoint:
+        return cls(os.fspath(path))
+
     def to_directory(self, path: str | None = None) -> str:
         return self.path
+
+    @contextlib.contextmanager
+    def as_directory(self) -> Iterator[str]:
+        yield self.path
 
 
 @dataclass
