@@ -30,3 +30,23 @@ def test_frozenlake_with_flatten_observations_trains(tmp_path, monkeypatch):
         assert algo.observation_space.shape == (16,)
     finally:
         algo.stop()
+
+
+def test_a_frozenlake_modules_checkpoint_reads_one_hot_observations(tmp_path, monkeypatch):
+    import torch
+
+    from rlchain.rllib.core.rl_module import RLModule
+
+    monkeypatch.chdir(tmp_path)
+    algo = (PPOConfig().environment("FrozenLake-v1").env_runners(num_env_runners=0)
+            .training(train_batch_size=32, minibatch_size=16, num_epochs=1).build_algo())
+    try:
+        algo.train()
+        path = algo.save_to_path(str(tmp_path / "ckpt"))
+        obs = torch.eye(16)[:3]
+        trained = algo.get_module().forward_inference({"obs": obs})["action_dist_inputs"]
+    finally:
+        algo.stop()
+    module = RLModule.from_checkpoint(f"{path}/learner_group/learner/rl_module/default_policy")
+    assert module.observation_space.shape == (16,)  # the one-hot space the network trained on, not Discrete(16)
+    assert torch.allclose(module.forward_inference({"obs": obs})["action_dist_inputs"], trained)
