@@ -15,6 +15,7 @@ from types import ModuleType
 
 from rlchain.faces import ModuleAlias
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.examples import installed_rllib_version
 from rlchain.rllib.face_error import FaceImportError
 
 INSTEAD = {
@@ -47,11 +48,43 @@ INSTEAD = {
 """``ray.rllib`` packages the face does not offer -> what to use instead (docs/rllib.md)."""
 
 
+OFFERED_ALGORITHMS = ("ppo", "appo", "impala", "dqn", "sac")
+"""``ray.rllib.algorithms.<name>`` packages the face has (PPO, APPO, IMPALA, DQN, SAC)."""
+
+OTHER_ALGORITHMS = {
+    "bc": "offline RL", "cql": "offline RL", "marwil": "offline RL", "iql": "offline RL",
+    "dreamerv3": "model-based RL (DreamerV3)", "tqc": "TQC (SACConfig trains rlchain's SAC, twin critics)",
+}
+"""RLlib algorithms outside rlchain -> what they are, for the one line."""
+
+
+def _algorithm_instead(fullname: str) -> str | None:
+    """The line for an algorithm package the face does not have (``ray.rllib.algorithms.cql``), or None."""
+    parts = fullname.split(".")
+    if parts[:3] != ["ray", "rllib", "algorithms"] or len(parts) < 4 or parts[3] in OFFERED_ALGORITHMS:
+        return None
+    what = OTHER_ALGORITHMS.get(parts[3], f"RLlib's {parts[3]}")
+    return (f"{what} is not in rlchain: the face trains PPO, APPO, IMPALA, DQN and SAC "
+            f"(ray.rllib.algorithms.ppo / appo / impala / dqn / sac)")
+
+
+def _example_instead(fullname: str) -> str | None:
+    """The line for an RLlib example module found neither in the face nor in the installed RLlib, or None."""
+    if not fullname.startswith("ray.rllib.examples."):
+        return None
+    version = installed_rllib_version()
+    if version is None:
+        return "RLlib's example classes are read from an installed RLlib, and none is installed beside rlchain"
+    return (f"not among the example classes of the installed RLlib ({version}) either, which the face imports "
+            f"as they are: the script is newer than that RLlib")
+
+
 def instead(fullname: str) -> str:
     for prefix, why in INSTEAD.items():
         if fullname == prefix or fullname.startswith(prefix + "."):
             return why
-    return "see docs/rllib.md for what the face offers"
+    return (_algorithm_instead(fullname) or _example_instead(fullname)
+            or "see docs/rllib.md for what the face offers")
 
 
 class RLlibAlias(ModuleAlias):

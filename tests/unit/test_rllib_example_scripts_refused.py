@@ -12,7 +12,27 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.core.learner.learner", "Learner subclasses are not run"),  # ppo_with_torch_lr_schedulers.py
     ("ray.rllib.core.learner.torch.torch_learner", "Learner subclasses are not run"),  # shared_encoder_cartpole.py
     ("ray.rllib.models.torch.misc", "model_config"),  # tiny_atari_cnn_rlm.py
+    ("ray.rllib.algorithms.cql", "offline RL is not in rlchain"),  # algorithms/cql/pendulum_cql.py
+    ("ray.rllib.algorithms.bc.bc", "offline RL is not in rlchain"),  # algorithms/bc/cartpole_bc.py
+    ("ray.rllib.algorithms.dreamerv3", "the face trains PPO, APPO, IMPALA, DQN and SAC"),  # algorithms/dreamerv3/
+    ("ray.rllib.algorithms.tqc", "SACConfig"),  # algorithms/tqc/pendulum_tqc.py
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
     line = refused_import_line(module)
     assert line is not None and "\n" not in line and says in line
+
+
+def test_an_example_class_newer_than_the_installed_rllib_says_so():
+    # a module RLlib's repository has but its 2.60 package does not (actions/action_masking_for_off_policy_...)
+    from rlchain.rllib.examples import installed_rllib_version
+    line = refused_import_line("ray.rllib.examples.envs.classes.no_such_example_env")
+    assert line is not None and "\n" not in line
+    if installed_rllib_version() is None:
+        assert "none is installed" in line
+    else:
+        assert f"installed RLlib ({installed_rllib_version()})" in line and "newer" in line
+
+
+def test_an_offered_algorithms_missing_module_is_not_called_another_algorithm():
+    from rlchain.rllib.alias import instead
+    assert "not in rlchain" not in instead("ray.rllib.algorithms.ppo.no_such_module")
