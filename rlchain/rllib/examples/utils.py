@@ -103,11 +103,14 @@ def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespa
     stop = stop or {f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}": args.stop_reward,
                     NUM_ENV_STEPS_SAMPLED_LIFETIME: args.stop_timesteps, TRAINING_ITERATION: args.stop_iters}
     success_metric = success_metric or {f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}": args.stop_reward}
+    # RLlib's --no-tune loop runs stop's training_iteration (or --stop-iters) iterations at most, even when the
+    # script's own stop dict has no iteration count; under Tune only the stop dict stops the trial
+    iterations = stop.get(TRAINING_ITERATION, args.stop_iters) if args.no_tune else None
     algo = config.build_algo()
     start = time.time()
     result: dict[str, Any] = {}
     try:
-        while True:
+        while iterations is None or result.get(TRAINING_ITERATION, 0) < iterations:
             result = algo.train()
             ret = _lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}")
             line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret:.2f}, env steps "
