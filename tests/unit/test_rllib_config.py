@@ -232,3 +232,17 @@ def test_experimental_keys_are_kept_and_learner_side_torch_schedulers_refused_in
     with pytest.raises(ConfigError, match="_torch_lr_scheduler_classes.*schedule list") as info:
         Config().experimental(_torch_lr_scheduler_classes=[object()]).validate()
     assert "\n" not in str(info.value)
+
+
+def test_default_model_config_takes_every_field_rllibs_has_with_rllibs_defaults():
+    # RLlib's tuned examples pass the initializer and fusion-net fields (cartpole_dqn.py: head_fcnet_bias_initializer;
+    # pendulum_sac.py: fusionnet_hiddens): each is a field, with RLlib 2.60's default
+    import dataclasses
+
+    from rlchain.rllib import keys as K
+    fields = {f.name: getattr(DefaultModelConfig(), f.name) for f in dataclasses.fields(DefaultModelConfig)}
+    assert fields == K.DEFAULT_MODEL
+    model = DefaultModelConfig(fcnet_hiddens=[16], head_fcnet_bias_initializer="zeros_", fusionnet_hiddens=[8],
+                               lstm_kernel_initializer="xavier_uniform_", head_fcnet_kernel_initializer_kwargs={})
+    net = _params(PPOConfig().rl_module(model_config=model))["network"]
+    assert net["mlp"]["units"] == [16]  # the initializers and the fusion net are kept with no effect

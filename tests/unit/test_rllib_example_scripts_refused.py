@@ -36,3 +36,19 @@ def test_an_example_class_newer_than_the_installed_rllib_says_so():
 def test_an_offered_algorithms_missing_module_is_not_called_another_algorithm():
     from rlchain.rllib.alias import instead
     assert "not in rlchain" not in instead("ray.rllib.algorithms.ppo.no_such_module")
+
+
+@pytest.mark.parametrize("name", ["ppo", "appo", "impala", "dqn", "sac"])
+def test_the_algorithms_own_module_path_imports_the_faces_classes(name):
+    # pendulum_sac.py: from ray.rllib.algorithms.sac.sac import SACConfig
+    import importlib
+
+    from rlchain.rllib import alias
+    alias.install()
+    try:
+        inner = importlib.import_module(f"ray.rllib.algorithms.{name}.{name}")
+        outer = importlib.import_module(f"ray.rllib.algorithms.{name}")
+    finally:
+        alias.uninstall()
+    cls = f"{name.upper()}Config"
+    assert getattr(inner, cls) is getattr(outer, cls) and inner.__name__.startswith("rlchain.rllib")
