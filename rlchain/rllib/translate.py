@@ -284,6 +284,19 @@ def update_rounds(config: Any) -> dict[str, int]:
     return {"num_updates_per_step": updates, "update_every": rounds * fragment}
 
 
+def n_steps(config: Any) -> dict[str, int | None]:
+    """RLlib's ``n_step`` as rlchain's ``n_step`` / ``n_step_max``: a whole number, or a range ``(lo, hi)`` from
+    which RLlib's replay buffer draws each sampled transition's n with numpy's ``integers(lo, hi)`` (lo to hi - 1;
+    rlchain draws it once per stored transition)."""
+    value = config._settings.get("n_step")
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 1:
+        return {"n_step": value, "n_step_max": None}
+    if isinstance(value, (list, tuple)) and len(value) == 2 \
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in value) and 1 <= value[0] < value[1]:
+        return {"n_step": int(value[0]), "n_step_max": int(value[1]) - 1 if value[1] - 1 > value[0] else None}
+    raise _bad(config, "n_step", f"expected a whole number >= 1 or a range (lo, hi) with 1 <= lo < hi, got {value!r}")
+
+
 def _epsilon(config: Any) -> tuple[float, float, int]:
     """RLlib's epsilon schedule [(t0, start), ..., (t1, end)] (or a number) as (start, end, decay frames)."""
     value = config._settings.get("epsilon")
@@ -307,8 +320,6 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     for key, off in (("noisy", False), ("num_atoms", 1)):
         if s.get(key) not in (off, None):
             raise _bad(config, key, f"{s.get(key)!r} is not offered: rlchain's DQN is not noisy / distributional")
-    if not isinstance(s.get("n_step"), int):
-        raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
     envs = num_envs(config)
     batch = config.total_train_batch_size  # train_batch_size_per_learner where set (RLlib's new stack), as RLlib
     rounds = update_rounds(config)
@@ -319,7 +330,7 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     grad_clip = s.get("grad_clip")
     train = {
         "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]), "learning_rate": float(s["lr"]),
-        "double_dqn": bool(s.get("double_q", True)), "n_step": int(s["n_step"]), "batch_size": batch,
+        "double_dqn": bool(s.get("double_q", True)), **n_steps(config), "batch_size": batch,
         "replay_buffer_size": int(replay.get("capacity", 50000)),
         "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
         "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
