@@ -67,3 +67,13 @@ def test_any_other_missing_name_is_an_attribute_error_so_pickles_module_search_p
     pickle.whichmodule(object(), "torch")  # torch.compile's cache key runs this search over every loaded module
     with pytest.raises(ImportError, match="cannot import name"):
         from rlchain.rllib.connectors.env_to_module import MeanStdFiltr  # noqa: F401
+
+
+def test_a_multi_agent_mean_std_filter_normalizes_per_policy_each_rollout():
+    # multi_agent_pendulum_ppo.py: MeanStdFilter(multi_agent=True); rlchain's multi-policy PPO keeps each policy's
+    # statistics and folds a rollout in before its update (its multi_agent refuses obs_normalizer_update: step)
+    config = PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter(multi_agent=True))
+    keys = filter_keys(config)
+    assert keys["normalize_input"] is True and keys["obs_normalizer_update"] == "auto"
+    assert filter_keys(PPOConfig().env_runners(
+        env_to_module_connector=lambda e, s, d: MeanStdFilter()))["obs_normalizer_update"] == "step"
