@@ -194,3 +194,6 @@ class DQNNetworkConfig:
     space: SpaceConfig = option(SpaceConfig(), "action head (discrete)")
     mlp: MlpConfig = option(MlpConfig(units=[128, 128], activation="relu"), "hidden layers")
     dueling: bool = option(True, "dueling head: Q = V + A - mean(A)")
+    head: MlpConfig | None = option(None, "hidden layers of each output stream after the trunk (the advantage "
+                                          "and, dueling, the value stream each get their own, as RLlib's "
+                                          "head_fcnet_hiddens); None: one linear layer each")

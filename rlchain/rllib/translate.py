@@ -56,7 +56,7 @@ MODEL_UNSUPPORTED = {
 NETWORK_FEATURES = {
     "conv_filters": {"PPO", "APPO", "IMPALA"},
     "use_lstm": {"PPO"},
-    "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC"},
+    "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC", "DQN"},
 }
 """Model settings (beyond the MLP) each algorithm's rlchain network takes (networks.py maps them)."""
 
@@ -313,8 +313,9 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     """The rlchain DQN config of an RLlib ``DQNConfig``: one ``train()`` = ``min_sample_timesteps_per_iteration``
     env steps (1000), RLlib's replay ratio (one update of ``train_batch_size`` per sampling round, or
     ``training_intensity``: :func:`update_rounds`), ``target_network_update_freq`` in env steps, the epsilon
-    schedule, double / dueling Q, ``n_step``, prioritized replay (RLlib's default buffer), ``hiddens`` after
-    ``fcnet_hiddens``."""
+    schedule, double / dueling Q, ``n_step`` (or a range), prioritized replay (RLlib's default buffer); the
+    Q-network as RLlib 2.60's DQN module: ``fcnet_hiddens`` then, per stream, ``head_fcnet_hiddens`` (the old
+    stack's ``hiddens`` is kept with no effect, as in RLlib's new stack)."""
     check_supported(config)
     s = config._settings
     for key, off in (("noisy", False), ("num_atoms", 1)):
@@ -326,7 +327,8 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     replay = s.get("replay_buffer_config") or {}
     start, end, decay = _epsilon(config)
     steps = max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 1000) // envs))
-    units = layer_sizes(config, "fcnet_hiddens") + list(s.get("hiddens") or [])
+    units = layer_sizes(config, "fcnet_hiddens")  # RLlib 2.60's DQN module: hiddens is the old stack's key
+    heads = layer_sizes(config, "head_fcnet_hiddens")
     grad_clip = s.get("grad_clip")
     train = {
         "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]), "learning_rate": float(s["lr"]),
@@ -350,6 +352,9 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     network = {"name": "dqn", "dueling": bool(s.get("dueling", True)), "space": {"discrete": None},
                "mlp": {"units": units, "activation": activation(config, "fcnet_activation"),
                        "initializer": {"name": "default"}}}
+    if heads:  # each stream's own layers, as RLlib's DQN catalog builds its advantage and value heads
+        network["head"] = {"units": heads, "activation": activation(config, "head_fcnet_activation"),
+                           "initializer": {"name": "default"}}
     params = {"algo": {"name": "dqn"}, "model": {"name": "dqn"}, "network": network, "config": train}
     if s.get("seed") is not None:
         params["seed"] = int(s["seed"])

@@ -184,7 +184,16 @@ def test_dqn_config_maps_onto_rlchains_dqn():
     assert (cfg["epsilon_start"], cfg["epsilon_end"], cfg["epsilon_decay_frames"]) == (1.0, 0.02, 5000)
     assert cfg["n_step"] == 3 and cfg["replay_buffer_size"] == 20000 and not cfg["prioritized_replay"]
     assert cfg["num_steps_per_episode"] == 250  # min_sample_timesteps_per_iteration 1000 over 4 envs
-    assert params["network"]["mlp"]["units"] == [256, 256, 256] and params["network"]["dueling"]
+    # RLlib 2.60's DQN module: the encoder of fcnet_hiddens, then per stream head_fcnet_hiddens ([]: a linear
+    # layer); hiddens ([256]) is the old stack's and builds nothing
+    assert params["network"]["mlp"]["units"] == [256, 256] and params["network"]["dueling"]
+    assert "head" not in params["network"]
+    heads = translate.dqn_config(c.copy().rl_module(model_config={"fcnet_hiddens": [64], "fcnet_activation": "tanh",
+                                                                  "head_fcnet_hiddens": [32]}), "CartPole-v1", {})
+    assert heads["params"]["network"]["mlp"]["units"] == [64] and heads["params"]["network"]["mlp"]["activation"] \
+        == "tanh"
+    assert heads["params"]["network"]["head"]["units"] == [32] and heads["params"]["network"]["head"]["activation"] \
+        == "relu"  # head_fcnet_activation's default
     # RLlib's new-stack name for the batch wins over train_batch_size, in the batch and in the replay ratio
     per_learner = translate.dqn_config(c.copy().training(train_batch_size_per_learner=16), "CartPole-v1", {})
     assert (per_learner["params"]["config"]["batch_size"], per_learner["params"]["config"]["num_updates_per_step"]) \
