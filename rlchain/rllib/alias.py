@@ -22,6 +22,12 @@ INSTEAD = {
     "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
     "ray.rllib.connectors": "connectors are not run (env_to_module's MeanStdFilter and FlattenObservations aside): "
                             "preprocess in a gymnasium wrapper",
+    "ray.rllib.connectors.env_to_module.frame_stacking": "RLlib's frame-stacking connectors are not run: wrap the env "
+                                                         "in gymnasium's FrameStackObservation inside a "
+                                                         "register_env creator",
+    "ray.rllib.connectors.learner": "learner connectors are not run (rlchain's update reads the env's observations; "
+                                    "for FrameStackingLearner wrap the env in gymnasium's FrameStackObservation "
+                                    "inside a register_env creator)",
     "ray.rllib.offline": "offline RL is not in rlchain",
     "ray.rllib.policy": "the old Policy API: use algo.get_module() / compute_single_action",
     "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",
@@ -80,9 +86,9 @@ def _example_instead(fullname: str) -> str | None:
 
 
 def instead(fullname: str) -> str:
-    for prefix, why in INSTEAD.items():
+    for prefix in sorted(INSTEAD, key=len, reverse=True):  # the most specific entry first
         if fullname == prefix or fullname.startswith(prefix + "."):
-            return why
+            return INSTEAD[prefix]
     return (_algorithm_instead(fullname) or _example_instead(fullname)
             or "see docs/rllib.md for what the face offers")
 

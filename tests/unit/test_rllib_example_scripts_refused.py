@@ -12,6 +12,9 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.core.learner.learner", "Learner subclasses are not run"),  # ppo_with_torch_lr_schedulers.py
     ("ray.rllib.core.learner.torch.torch_learner", "Learner subclasses are not run"),  # shared_encoder_cartpole.py
     ("ray.rllib.models.torch.misc", "model_config"),  # tiny_atari_cnn_rlm.py
+    ("ray.rllib.connectors.env_to_module.frame_stacking", "FrameStackObservation"),  # algorithms/ppo/atari_ppo.py
+    ("ray.rllib.connectors.learner.frame_stacking", "FrameStackObservation"),  # algorithms/dqn/atari_dqn.py
+    ("ray.rllib.connectors.module_to_env", "preprocess in a gymnasium wrapper"),  # the general connectors line
     ("ray.rllib.algorithms.cql", "offline RL is not in rlchain"),  # algorithms/cql/pendulum_cql.py
     ("ray.rllib.algorithms.bc.bc", "offline RL is not in rlchain"),  # algorithms/bc/cartpole_bc.py
     ("ray.rllib.algorithms.dreamerv3", "the face trains PPO, APPO, IMPALA, DQN and SAC"),  # algorithms/dreamerv3/
