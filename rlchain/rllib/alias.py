@@ -28,6 +28,9 @@ INSTEAD = {
     "ray.rllib.connectors.learner": "learner connectors are not run (rlchain's update reads the env's observations; "
                                     "for FrameStackingLearner wrap the env in gymnasium's FrameStackObservation "
                                     "inside a register_env creator)",
+    "ray.rllib.core.distribution": "RLlib's action distribution classes are not run: a module's action_dist_inputs "
+                                   "are read by rlchain's categorical (Discrete) or diagonal Gaussian (Box); a custom "
+                                   "distribution (a temperature, autoregressive actions) has no equivalent",
     "ray.rllib.offline": "offline RL is not in rlchain",
     "ray.rllib.policy": "the old Policy API: use algo.get_module() / compute_single_action",
     "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",

@@ -15,6 +15,7 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.connectors.env_to_module.frame_stacking", "FrameStackObservation"),  # algorithms/ppo/atari_ppo.py
     ("ray.rllib.connectors.learner.frame_stacking", "FrameStackObservation"),  # algorithms/dqn/atari_dqn.py
     ("ray.rllib.connectors.module_to_env", "preprocess in a gymnasium wrapper"),  # the general connectors line
+    ("ray.rllib.core.distribution.torch.torch_distribution", "rlchain's categorical"),  # actions/custom_action_...
     ("ray.rllib.algorithms.cql", "offline RL is not in rlchain"),  # algorithms/cql/pendulum_cql.py
     ("ray.rllib.algorithms.bc.bc", "offline RL is not in rlchain"),  # algorithms/bc/cartpole_bc.py
     ("ray.rllib.algorithms.dreamerv3", "the face trains PPO, APPO, IMPALA, DQN and SAC"),  # algorithms/dreamerv3/
@@ -55,3 +56,10 @@ def test_the_algorithms_own_module_path_imports_the_faces_classes(name):
         alias.uninstall()
     cls = f"{name.upper()}Config"
     assert getattr(inner, cls) is getattr(outer, cls) and inner.__name__.startswith("rlchain.rllib")
+
+
+def test_columns_import_from_core_as_rllibs_examples_do():
+    # rl_modules/classes/autoregressive_actions_rlm.py: from ray.rllib.core import Columns
+    from rlchain.rllib.core import Columns
+    from rlchain.rllib.core.columns import Columns as by_module
+    assert Columns is by_module and Columns.ACTION_DIST_INPUTS == "action_dist_inputs"
