@@ -12,9 +12,10 @@ from __future__ import annotations
 import importlib.abc
 import importlib.machinery
 from types import ModuleType
+from typing import Any
 
 from rlchain.faces import ModuleAlias
-from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib import tune_hooks
 from rlchain.rllib.examples import installed_rllib_version
 from rlchain.rllib.face_error import FaceImportError
 
@@ -98,15 +99,15 @@ def instead(fullname: str) -> str:
 
 class RLlibAlias(ModuleAlias):
     """Answers ``ray.rllib.*`` with ``rlchain.rllib.*``; a name the face has no module for is a
-    :class:`FaceImportError`; Ray Tune's config module registers the face's AlgorithmConfig."""
+    :class:`FaceImportError`; Ray Tune's modules get the face's hooks (:mod:`.tune_hooks`)."""
 
     ALIAS = "ray.rllib"
     TARGET = "rlchain.rllib"
 
     def find_spec(self, fullname: str, path: object = None, target: object = None
                   ) -> importlib.machinery.ModuleSpec | None:
-        if fullname == TUNE_CONFIG_MODULE:
-            return _with_config_registration(fullname, path)
+        if fullname in tune_hooks.HOOKS:
+            return _after_loading(fullname, path, tune_hooks.HOOKS[fullname])
         return super().find_spec(fullname, path, target)
 
     def missing(self, fullname: str) -> None:
@@ -114,27 +115,22 @@ class RLlibAlias(ModuleAlias):
                               name=fullname) from None
 
 
-TUNE_CONFIG_MODULE = "ray.tune.tune"
-"""Ray Tune's module whose ``_Config`` (configs with ``to_dict``) a Tuner's ``param_space`` is checked against."""
-
-
-def _with_config_registration(fullname: str, path: object) -> importlib.machinery.ModuleSpec | None:
-    """Ray Tune's own module, which registers the face's AlgorithmConfig as a Tune ``_Config`` once loaded (so
-    ``tune.Tuner("PPO", param_space=config)`` reads ``config.to_dict()``, as for RLlib's configs)."""
+def _after_loading(fullname: str, path: object, hook: Any) -> importlib.machinery.ModuleSpec | None:
+    """Ray Tune's own module ``fullname``, with ``hook(module)`` run once it has loaded (:mod:`.tune_hooks`)."""
     spec = importlib.machinery.PathFinder.find_spec(fullname, path)
     if spec is None or spec.loader is None:
         return spec
     loader = spec.loader
 
-    class _Registering(importlib.abc.Loader):
+    class _Hooked(importlib.abc.Loader):
         def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType | None:
             return loader.create_module(spec)
 
         def exec_module(self, module: ModuleType) -> None:
             loader.exec_module(module)
-            module._Config.register(AlgorithmConfig)
+            hook(module)
 
-    spec.loader = _Registering()
+    spec.loader = _Hooked()
     return spec
 
 
