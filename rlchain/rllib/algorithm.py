@@ -14,6 +14,7 @@ import json
 import math
 import os
 import tempfile
+from collections import defaultdict
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -22,13 +23,14 @@ import yaml
 from rlchain.config.errors import ConfigError
 from rlchain.envs.factory import build_env
 from rlchain.policy.play import play
-from rlchain.rllib import envs, module_network, multi_agent, translate
+from rlchain.rllib import envs, evaluation_runners, module_network, multi_agent, translate
 from rlchain.rllib.callbacks.callbacks import EpisodeEvents, MetricsLogger, RLlibCallback, nested, steps_episodes
 from rlchain.rllib.callbacks.user import EventFunctions, callback_objects
 from rlchain.rllib.checkpoint_files import (
     CHECKPOINT_FILE,
     CONFIG_FILE,
     RLCHAIN_CONFIG_FILE,
+    SavedCheckpoint,
     checkpoint_file,
     checkpoint_path,
     json_data,
@@ -39,7 +41,7 @@ from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
 from rlchain.rllib.evaluation_env import evaluation_params
-from rlchain.rllib.module import RLModuleView
+from rlchain.rllib.module import OldPolicy, RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
 from rlchain.rllib.results import (
@@ -88,6 +90,7 @@ class Algorithm:
         if settings.get("env") is None:
             raise ConfigError(type(config).__name__, "env", "no env: .environment('CartPole-v1') or an env class")
         self.iteration = 0
+        self._counters: defaultdict[str, int] = defaultdict(int)  # RLlib's counters, which its examples use too
         self._time_total = 0.0
         self._schedules = Schedules(config)  # lr / entropy_coeff given as [[timestep, value], ...]
         self.metrics = MetricsLogger()
@@ -148,7 +151,7 @@ class Algorithm:
         """The rlchain config of a single-agent env (its env registered when it is not a plain gymnasium id)."""
         settings = config._settings
         plain_id = isinstance(settings["env"], str) and not settings.get("env_config") \
-            and envs.tune_registered(settings["env"]) is None
+            and envs.tune_registered(settings["env"]) is None and not getattr(self._make, "flattened", False)
         env_name = settings["env"] if plain_id else envs.register(self._make, self._label)
         self._env_name = env_name
         continuous = isinstance(self.action_space, gym.spaces.Box)
@@ -202,6 +205,7 @@ class Algorithm:
             deep_update(result, nested(custom))
         self._write_custom({**custom, **{f"env_runners/{k}": v for k, v in result.get("_episode_custom", {}).items()}})
         result.pop("_episode_custom", None)
+        self.metrics.remember(result)
         return result
 
     step = train  # Tune's Trainable name
@@ -244,6 +248,11 @@ class Algorithm:
         s = self.config._settings
         for cb in self.callbacks:
             cb.on_evaluate_start(algorithm=self, metrics_logger=self.metrics)
+        if s.get("custom_evaluation_function") is not None:  # RLlib's call: fn(algo, algo.eval_env_runner_group)
+            out = evaluation_runners.evaluate_custom(self, s["custom_evaluation_function"])
+            for cb in self.callbacks:
+                cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
+            return out
         duration = s.get("evaluation_duration") or 10
         by_steps = s.get("evaluation_duration_unit") == "timesteps"
         if duration == "auto":
@@ -278,6 +287,11 @@ class Algorithm:
         for cb in self.callbacks:
             cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
         return out
+
+    @property
+    def eval_env_runner_group(self) -> evaluation_runners.EvaluationRunnerGroup:
+        """The evaluation env runners a ``custom_evaluation_function`` gets (:mod:`.evaluation_runners`)."""
+        return evaluation_runners.group(self)
 
     # ----- the policy ------------------------------------------------------------------------------------
     @property
@@ -320,19 +334,9 @@ class Algorithm:
         action = self.get_module(policy_id).act(observation, True if explore is None else bool(explore))
         return (action, [], {}) if full_fetch or state is not None else action
 
-    def get_policy(self, policy_id: str = DEFAULT_MODULE_ID) -> Any:
+    def get_policy(self, policy_id: str = DEFAULT_MODULE_ID) -> OldPolicy:
         """The older Policy object: its ``compute_single_action`` returns (action, states, extras)."""
-        module = self.get_module(policy_id)
-
-        class _Policy:
-            model = module
-
-            @staticmethod
-            def compute_single_action(obs: Any = None, state: Any = None, explore: bool | None = None,
-                                      **kwargs: Any) -> Any:
-                return module.act(obs, True if explore is None else bool(explore)), [], {}
-
-        return _Policy()
+        return OldPolicy(self.get_module(policy_id))
 
     # ----- checkpoints ------------------------------------------------------------------------------------
     def save_to_path(self, path: str | None = None, **kwargs: Any) -> str:
@@ -351,16 +355,9 @@ class Algorithm:
         write_module_folders(path, list(model) if self._multi is not None else [DEFAULT_MODULE_ID])
         return path
 
-    def save(self, checkpoint_dir: str | None = None, **kwargs: Any) -> Any:
+    def save(self, checkpoint_dir: str | None = None, **kwargs: Any) -> SavedCheckpoint:
         """RLlib's older save: an object whose ``checkpoint.path`` is the folder."""
-        path = self.save_to_path(checkpoint_dir)
-
-        class _Saved:
-            class checkpoint:  # noqa: N801 (RLlib's attribute name)
-                pass
-
-        _Saved.checkpoint.path = path
-        return _Saved()
+        return SavedCheckpoint(self.save_to_path(checkpoint_dir))
 
     def restore_from_path(self, path: str, **kwargs: Any) -> None:
         """Load a checkpoint folder written by :meth:`save_to_path` (or an rlchain ``.pth``) into this algorithm:
@@ -371,6 +368,9 @@ class Algorithm:
         self._episodes.sync(self._stepper.context.episode_tracker)
         if os.path.isdir(path):
             self.iteration = stored_config(path).get("iteration", self.iteration)
+        frames = int(self._stepper.context.state.frames)
+        self.metrics.remember({"env_runners": {"num_env_steps_sampled_lifetime": frames}, "training_iteration":
+                               self.iteration, "num_env_steps_sampled_lifetime": frames})
         for cb in self.callbacks:
             cb.on_checkpoint_loaded(algorithm=self)
 
@@ -413,6 +413,9 @@ class Algorithm:
         if not self._stopped:
             self._stopped = True
             self._stepper.shutdown()
+            evaluation_runners.close(self)
+
+    cleanup = stop  # Tune's Trainable name (RLlib's Algorithm.cleanup releases the runners)
 
     def _check_running(self) -> None:
         if getattr(self, "_stopped", False):

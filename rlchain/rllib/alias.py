@@ -52,6 +52,9 @@ INSTEAD = {
                                              "creator",
     "ray.rllib.env.vector": "the face vectorizes the envs itself: a callback's env is a gymnasium VectorEnv "
                             "(multi-agent: None)",
+    "ray.rllib.utils.metrics.stats": "RLlib's Stats classes are not offered: the face's MetricsLogger reduces by "
+                                     "log_value(key, value, reduce='ema' | 'mean' | 'min' | 'max' | 'sum' | "
+                                     "'lifetime_sum' | 'item' | 'item_series', window=..., ema_coeff=...)",
     "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
                           "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }

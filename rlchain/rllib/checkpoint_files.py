@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+from types import SimpleNamespace
 from typing import Any
 
 from rlchain.config.errors import ConfigError
@@ -17,6 +18,13 @@ RLCHAIN_CONFIG_FILE = "rlchain_config.yaml"
 RLLIB_FILES = ("algorithm_state.pkl", "algorithm_state.msgpack", "rllib_checkpoint.json",
                "class_and_ctor_args.pkl", "policy_state.pkl", "module_state.pkl", "state.pkl")
 """Files of RLlib's own checkpoints (pickles): refused, never unpickled."""
+
+
+class SavedCheckpoint:
+    """What RLlib's older ``Algorithm.save()`` returns: ``checkpoint.path`` is the ``save_to_path`` folder."""
+
+    def __init__(self, path: str) -> None:
+        self.checkpoint = SimpleNamespace(path=path)
 
 
 def checkpoint_path(path: Any) -> str:

@@ -6,14 +6,18 @@ Ray), so it has one env runner: :class:`EnvRunner` holds ``config``, ``env`` (th
 where the envs step on Ray actors), ``num_envs``, ``worker_index`` (0, RLlib's local runner) and ``module``.
 ``EnvRunnerGroup.foreach_env_runner(func)`` calls ``func`` on it and returns ``[result]``: code that reaches
 every env (``runner.env.envs``) reaches all of the run's. Between ``train()`` calls the run is parked, so a
-callback's ``on_train_result`` may change the envs (a curriculum's ``set_task``). What needs RLlib's runner
-processes (rebuilding envs with ``make_env()``, remote ids, async calls) ends in one line saying what to do.
+callback's ``on_train_result`` may change the envs (a curriculum's ``set_task``, or ``runner.config.environment(
+env_config=...)`` then ``runner.make_env()``, which rebuilds them). What needs RLlib's runner processes (remote
+ids, async calls) ends in one line saying what to do.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from rlchain.config.errors import ConfigError
+from rlchain.envs.wrappers.spaces import wrap_indexed
+from rlchain.rllib import envs
 from rlchain.rllib.callbacks.callbacks import gymnasium_vector_env
 from rlchain.rllib.face_error import FaceNotOffered
 
@@ -26,10 +30,15 @@ class EnvRunner:
     def __init__(self, algorithm: Any) -> None:
         self._algorithm = algorithm
         self._module: Any = None
+        self._config: Any = None
 
     @property
     def config(self) -> Any:
-        return self._algorithm.config
+        """The runner's own copy of the algorithm's config (not frozen, as RLlib's runner's): a curriculum sets
+        ``runner.config.environment(env_config=...)`` and calls :meth:`make_env`."""
+        if self._config is None:
+            self._config = self._algorithm.config.copy(copy_frozen=False)
+        return self._config
 
     @property
     def env(self) -> Any:
@@ -51,8 +60,30 @@ class EnvRunner:
         return self._module
 
     def make_env(self) -> None:
-        raise FaceNotOffered("EnvRunner.make_env: the face builds a run's envs once; change them in place "
-                             "(runner.env.envs[i].unwrapped...) or build a new algorithm with the new env_config")
+        """Rebuild the runner's envs from its config's ``env`` / ``env_config`` (RLlib's call after
+        ``runner.config.environment(env_config=...)``: a curriculum's next task), then every env starts a fresh
+        episode (the episodes in progress are dropped, as RLlib's runner drops them). Single-agent envs stepped
+        in this process only (no ``ray.init()``)."""
+        vector, algorithm = self.env, self._algorithm
+        if vector is None or algorithm._multi is not None:
+            raise FaceNotOffered("EnvRunner.make_env: the face rebuilds single-agent envs stepped in this process "
+                                 "only (no ray.init(), no MultiAgentEnv); change the envs in place "
+                                 "(runner.env.envs[i].unwrapped...) or build a new algorithm with the new env_config")
+        s, settings = self.config._settings, algorithm.config._settings
+        runners = int(settings.get("num_env_runners") or 0)
+        per_runner = max(1, int(settings.get("num_envs_per_env_runner") or 1))
+        make, label = envs.env_maker(s["env"], s.get("env_config") or {}, runners, per_runner)
+        new = [wrap_indexed(make(i), i) for i in range(len(vector.envs))]  # as rlchain's gymnasium backend wraps
+        spaces = (vector.single_observation_space, vector.single_action_space)
+        if any((e.observation_space, e.action_space) != spaces for e in new):
+            for e in new:
+                e.close()
+            raise ConfigError(type(self.config).__name__, "env_config", f"make_env: {label} with the new env_config "
+                              f"has other spaces than the run's ({spaces[0]}, {spaces[1]}): build a new algorithm")
+        for i, old in enumerate(vector.envs):
+            old.close()
+            vector.envs[i] = new[i]
+        algorithm._stepper.context.algorithm.restart_episodes()
 
     def foreach_env(self, func: Any) -> list[Any]:
         """``func(env)`` for each gymnasium env of the vector env (RLlib's older runner method)."""

@@ -71,15 +71,35 @@ def env_maker(env: Any, env_config: dict[str, Any], runners: int, per_runner: in
     if isinstance(env, str):
         creator = tune_registered(env)
         if creator is not None:
-            return (lambda index: creator(context(index))), f"the registered env '{env}'"
+            return flat(lambda index: creator(context(index))), f"the registered env '{env}'"
         if env not in gym.registry:
             raise ConfigError("AlgorithmConfig.environment()", "env", f"'{env}' is neither a gymnasium id nor a name "
                               f"registered with ray.tune.registry.register_env{did_you_mean(env, gym.registry)}")
-        return (lambda index: gym.make(env, **env_config)), env
+        return flat(lambda index: gym.make(env, **env_config)), env
     if isinstance(env, type):  # a gym.Env or a MultiAgentEnv (rlchain.rllib.multi_agent) class
-        return (lambda index: env(context(index))), f"the env class {env.__name__}"
+        return flat(lambda index: env(context(index))), f"the env class {env.__name__}"
     raise ConfigError("AlgorithmConfig.environment()", "env", f"expected a gymnasium id, a registered env name or an "
                       f"env class, got {type(env).__name__}")
+
+
+ONE_HOT = (gym.spaces.Discrete, gym.spaces.MultiDiscrete)
+"""Observation spaces a network cannot read as they are: one-hot, as RLlib's ``FlattenObservations`` connector
+(which RLlib's examples with such envs add) and gymnasium's ``flatten`` give them."""
+
+
+def flat(make: Callable[[int], gym.Env]) -> Callable[[int], gym.Env]:
+    """``make`` whose envs with :data:`ONE_HOT` observations are wrapped in gymnasium's ``FlattenObservation``; the
+    returned maker's ``flattened`` is True once it wrapped one (so the run steps the wrapped env, not the id)."""
+    def build(index: int) -> gym.Env:
+        env = make(index)
+        multi_agent = any(c.__name__ == "MultiAgentEnv" for c in type(env).__mro__)  # its spaces are per agent
+        if isinstance(env, gym.Env) and not multi_agent and isinstance(env.observation_space, ONE_HOT):
+            build.flattened = True
+            return gym.wrappers.FlattenObservation(env)
+        return env
+
+    build.flattened = False
+    return build
 
 
 def register(make: Callable[[int], gym.Env], label: str) -> str:

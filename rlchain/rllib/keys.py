@@ -232,7 +232,6 @@ UNSUPPORTED: dict[str, str] = {
                                "preprocess observations in a gymnasium wrapper",
     "module_to_env_connector": "connectors are not run: postprocess actions in a gymnasium wrapper",
     "env_runner_cls": "rlchain steps the envs itself (docs/rllib.md)",
-    "custom_evaluation_function": "use algo.evaluate() or an RLlibCallback's on_train_result",
     "input_": "offline RL is not in rlchain; train on an env",
     "output": "offline RL is not in rlchain (rlchain writes TensorBoard and checkpoints)",
     "use_critic": "rlchain's PPO always trains a critic",

@@ -13,6 +13,7 @@ import torch
 
 from rlchain.envs.obs_dict import ObsDict
 from rlchain.rllib import keys as K
+from rlchain.rllib.face_error import FaceNotOffered
 
 ACTION_DIST_INPUTS = "action_dist_inputs"
 VF_PREDS = "vf_preds"
@@ -152,6 +153,10 @@ class RLModuleView:
     def state_dict(self) -> dict[str, Any]:
         return self.model.state_dict()
 
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        raise FaceNotOffered("the old ModelV2 call model({'obs': ...}) is not offered: use the RLModule's "
+                             "forward_inference({'obs': batch})['action_dist_inputs'] (algo.get_module())")
+
     def get_state(self) -> dict[str, Any]:
         return {k: v.cpu().numpy() for k, v in self.model.state_dict().items()}
 
@@ -160,3 +165,19 @@ class RLModuleView:
 
     def is_stateful(self) -> bool:
         return bool(getattr(self.model, "is_rnn", False))
+
+
+class OldPolicy:
+    """RLlib's older Policy object (``algo.get_policy()``): ``model`` is the module and ``compute_single_action``
+    returns (action, states, extras)."""
+
+    def __init__(self, module: RLModuleView) -> None:
+        self.model = module
+
+    def compute_single_action(self, obs: Any = None, state: Any = None, explore: bool | None = None,
+                              **kwargs: Any) -> Any:
+        return self.model.act(obs, True if explore is None else bool(explore)), [], {}
+
+    def export_model(self, export_dir: str, onnx: int | None = None) -> None:
+        raise FaceNotOffered("Policy.export_model is the old API stack's: export the module with "
+                             "torch.onnx.export(algo.get_module().model, ...) or save it with algo.save_to_path")

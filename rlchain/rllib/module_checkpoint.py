@@ -20,6 +20,7 @@ from rlchain.config.errors import ConfigError
 from rlchain.policy.load import load_policy
 from rlchain.rllib.checkpoint_files import CHECKPOINT_FILE, CONFIG_FILE, RLCHAIN_CONFIG_FILE, read_text, stored_config
 from rlchain.rllib.core import DEFAULT_MODULE_ID
+from rlchain.rllib.envs import flat
 from rlchain.rllib.module import NAME_PREFIX, RLModuleView
 from rlchain.runner import Runner
 from rlchain.runs import checkpoint as ckpt
@@ -89,7 +90,7 @@ def from_checkpoint(path: Any) -> Any:
     params = Runner().load_from_checkpoint(checkpoint, state=state).params
     loaded = load_policy(params, checkpoint, num_envs=1, state=state)
     loaded.close()
-    probe = gym.make(env)
+    probe = flat(lambda index: gym.make(env))(0)  # the spaces the run's network saw (Discrete one-hot)
     try:
         view = RLModuleView(loaded.model, probe.observation_space, probe.action_space)
     finally:

@@ -55,11 +55,9 @@ def test_callbacks_get_the_runner_env_and_module_and_a_curriculum_reaches_the_en
         first = algo.train()
         second = algo.train()
         assert algo.env_runner is algo.env_runner_group.local_env_runner
-        assert algo.env_runner.num_envs == 2 and algo.env_runner.config is algo.config
+        assert algo.env_runner.num_envs == 2 and algo.env_runner.config.to_dict() == algo.config.to_dict()
         assert algo.env_runner_group.foreach_env_runner(lambda r: r.num_envs) == [2]
         tasks = algo.env_runner_group.foreach_env(lambda env: env.unwrapped.task)
-        with pytest.raises(FaceNotOffered, match="builds a run's envs once"):
-            algo.env_runner.make_env()
     finally:
         algo.stop()
     assert Curriculum.seen and all(w == 0 and n == 2 and 0 <= i < 2 and ok for w, n, i, ok in Curriculum.seen)
@@ -73,3 +71,48 @@ def test_what_the_group_does_not_offer_is_one_line():
     with pytest.raises(FaceNotOffered, match="foreach_env_runner") as info:
         group.foreach_worker(lambda w: w)
     assert explain(info.value).count("\n") == 0 and "foreach_env_runner" in explain(info.value)
+
+
+class LengthEnv(gym.Env):
+    """Episodes of ``env_config["length"]`` steps, reward 1 each (a curriculum's task is its length)."""
+
+    observation_space = gym.spaces.Box(-1.0, 1.0, (1,))
+    action_space = gym.spaces.Discrete(2)
+
+    def __init__(self, config):
+        self.length, self.t = int(config["length"]), 0
+        self.observation_space = gym.spaces.Box(-1.0, 1.0, (int(config.get("obs", 1)),))
+
+    def reset(self, *, seed=None, options=None):
+        self.t = 0
+        return self.observation_space.low * 0, {}
+
+    def step(self, action):
+        self.t += 1
+        return self.observation_space.low * 0, 1.0, self.t >= self.length, False, {}
+
+
+def _next_task(env_runner, length):
+    env_runner.config.environment(env_config={"length": length})  # RLlib 2.60's curriculum example's pattern
+    env_runner.make_env()
+
+
+def test_make_env_rebuilds_the_envs_with_the_runners_new_env_config(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    algo = (PPOConfig().environment(LengthEnv, env_config={"length": 2})
+            .env_runners(num_env_runners=0, num_envs_per_env_runner=2).debugging(seed=0)
+            .training(train_batch_size=40, minibatch_size=20, num_epochs=1).build_algo())
+    try:
+        assert algo.train()["env_runners"]["episode_len_mean"] == 2
+        algo.env_runner_group.foreach_env_runner(lambda runner: _next_task(runner, 5))
+        assert algo.config.get("env_config") == {"length": 2}  # the algorithm's config stays frozen and as built
+        assert [e.unwrapped.length for e in algo.env_runner.env.envs] == [5, 5]
+        result = algo.train()  # 20 steps of each env: episodes of 5 from the first step (none left of length 2)
+        assert result["env_runners"]["episode_len_mean"] == 5 and result["env_runners"]["num_episodes"] == 8
+        with pytest.raises(Exception, match="has other spaces than the run's") as info:
+            algo.env_runner.config.environment(env_config={"length": 3, "obs": 2})
+            algo.env_runner.make_env()
+        assert "\n" not in str(info.value)
+        assert [e.unwrapped.length for e in algo.env_runner.env.envs] == [5, 5]  # left as they were
+    finally:
+        algo.stop()

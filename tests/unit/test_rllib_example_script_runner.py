@@ -10,6 +10,10 @@ class _Algo:
     def __init__(self, returns):
         self.returns, self.calls, self.stopped = list(returns), 0, False
 
+    @property
+    def iteration(self):
+        return self.calls
+
     def train(self):
         self.calls += 1
         return {"training_iteration": self.calls, "num_env_steps_sampled_lifetime": 100 * self.calls,
@@ -20,11 +24,22 @@ class _Algo:
 
 
 class _Config:
+    algo_name = "PPO"
+
     def __init__(self, algo):
         self.algo = algo
 
     def build_algo(self):
         return self.algo
+
+    def to_dict(self):
+        return {}
+
+
+@pytest.fixture(autouse=True)
+def _tune_folder_in_tmp(tmp_path, monkeypatch):
+    # without --no-tune the runner keeps Tune's experiment folder: here under the test's tmp_path
+    monkeypatch.setattr("tempfile.mkdtemp", lambda prefix="": str(tmp_path / f"{prefix}experiment"))
 
 
 def _run(flags, returns, stop=None):

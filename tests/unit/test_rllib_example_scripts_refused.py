@@ -63,3 +63,20 @@ def test_columns_import_from_core_as_rllibs_examples_do():
     from rlchain.rllib.core import Columns
     from rlchain.rllib.core.columns import Columns as by_module
     assert Columns is by_module and Columns.ACTION_DIST_INPUTS == "action_dist_inputs"
+
+
+def test_rllibs_stats_classes_are_refused_in_one_line_naming_the_reduce_kinds():
+    line = refused_import_line("ray.rllib.utils.metrics.stats.ema")  # clearing_ema.py, persistent_ema.py
+    assert line is not None and "\n" not in line and "reduce='ema'" in line
+    from rlchain.rllib.__main__ import explain
+    from rlchain.rllib.face_error import FaceImportError
+    with pytest.raises(FaceImportError) as info:
+        from rlchain.rllib.utils.metrics.metrics_logger import DEFAULT_STATS_CLS_LOOKUP  # noqa: F401
+    assert "\n" not in explain(info.value) and "log_value" in explain(info.value)
+
+
+def test_the_names_rllibs_evaluation_and_fault_tolerance_examples_import_are_there():
+    from rlchain.rllib.env.env_runner_group import EnvRunnerGroup
+    from rlchain.rllib.env_runner_group import EnvRunnerGroup as Face
+    from rlchain.rllib.utils.error import EnvError
+    assert EnvRunnerGroup is Face and issubclass(EnvError, Exception)

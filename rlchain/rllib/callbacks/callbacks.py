@@ -135,12 +135,49 @@ class MetricsLogger:
             self.log_value(key, time.perf_counter() - start, reduce=reduce, window=window, ema_coeff=ema_coeff)
 
     def peek(self, key: Any, default: Any = None, **kwargs: Any) -> Any:
+        """A key's current value; a key above others (``"evaluation"``) gives their values as a nested dict."""
         name = self._name(key)
         if name in self._running:
             return self._running[name]
         if self._values.get(name):
             return self._reduce_one(name)
-        return self._last.get(name, default)
+        if name in self._last:
+            return self._last[name]
+        below = {n[len(name) + 1:]: self.peek(n) for n in {*self._last, *self._running, *self._values}
+                 if n.startswith(name + "/")}
+        return nested(below) if below else default
+
+    def aggregate(self, stats_dicts: list[dict[str, Any]], *, key: Any = None) -> None:
+        """Merge env runners' metric dicts (``get_metrics()``) under ``key`` (``peek(key)`` reads them back, the
+        next result does not), as RLlib's ``aggregate``: a ``*_mean`` weighted by its dict's ``num_episodes``, a
+        ``*_min`` / ``*_max`` the extreme, a ``num_*`` count summed, any other number averaged."""
+        prefix = "" if key is None else self._name(key) + "/"
+        rows = [_flat(d) for d in stats_dicts]
+        for name in dict.fromkeys(n for row in rows for n in row):
+            leaf = name.rsplit("/", 1)[-1]
+            count = name[:len(name) - len(leaf)] + "num_episodes"
+            pairs = [(row[name], row.get(count, 1) if leaf.endswith("_mean") else 1) for row in rows
+                     if isinstance(row.get(name), (int, float)) and not math.isnan(row[name])]
+            if not pairs:
+                self._last[prefix + name] = math.nan
+            elif leaf.startswith("num_"):
+                self._last[prefix + name] = sum(v for v, _ in pairs)
+            elif leaf.endswith(("_min", "_max")):
+                self._last[prefix + name] = (min if leaf.endswith("_min") else max)(v for v, _ in pairs)
+            else:
+                weight = sum(w for _, w in pairs)
+                self._last[prefix + name] = sum(v * w for v, w in pairs) / weight if weight else math.nan
+
+    merge_and_log_n_dicts = aggregate  # RLlib's older name
+
+    def remember(self, result: dict[str, Any], prefix: str = "") -> None:
+        """Keep a result's values for :meth:`peek` (RLlib's ``algo.metrics.peek(("env_runners",
+        "num_env_steps_sampled_lifetime"))``), below anything logged under the same key."""
+        for key, value in result.items():
+            if isinstance(value, dict):
+                self.remember(value, f"{prefix}{key}/")
+            elif f"{prefix}{key}" not in self._reduce:
+                self._last[f"{prefix}{key}"] = value
 
     def _reduce_one(self, name: str) -> Any:
         kind, window, _ = self._reduce[name]
@@ -167,6 +204,16 @@ class MetricsLogger:
                 self._values[name] = self._values[name][-window:] if window and kind != "item_series" else []
         self._fresh.clear()
         return out
+
+
+def _flat(values: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f"{prefix}{key}/"))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
 
 
 class Episode:

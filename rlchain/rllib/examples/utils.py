@@ -3,16 +3,22 @@
 :func:`add_rllib_example_script_args` adds RLlib's example flags (``--num-env-runners``, ``--stop-reward``,
 ``--stop-iters``, ``--stop-timesteps``, ``--as-test``, ...). :func:`run_rllib_example_script_experiment` applies
 them to the config and trains in this process (``algo.train()`` until a stop value is reached; with or without
-``--no-tune``: the face does not start Tune trials here), printing one line per iteration. ``--as-test`` fails
-(ValueError) when the stop reward was not reached, as RLlib's does.
+``--no-tune``: the face does not start Tune trials here), printing one line per iteration. As RLlib's, it returns
+the last result with ``--no-tune`` and otherwise Tune's results (``get_best_result()``, its ``checkpoint.path``
+from ``--checkpoint-freq`` / ``--checkpoint-at-end``), each ``tune.grid_search`` variant one trial, run one after
+the other. ``--as-test`` fails (ValueError) when the stop reward was not reached, as RLlib's does.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import tempfile
 import time
 from typing import Any
 
+from rlchain.rllib.checkpoint_files import json_data
+from rlchain.rllib.examples.results import Checkpoint, ResultGrid, TrialResult, checkpoint_folder, grid_variants
 from rlchain.rllib.utils.metrics import (
     ENV_RUNNER_RESULTS,
     EPISODE_RETURN_MEAN,
@@ -81,8 +87,10 @@ def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespa
                                         stop: dict[str, Any] | None = None, success_metric: dict | None = None,
                                         trainable: Any = None, tune_callbacks: Any = None,
                                         keep_config: bool = False, keep_ray_up: bool = False, scheduler: Any = None,
-                                        progress_reporter: Any = None) -> dict[str, Any]:
-    """Train ``base_config`` (with ``args`` applied) until a ``stop`` value is reached; the last result."""
+                                        progress_reporter: Any = None) -> Any:
+    """Train ``base_config`` (with ``args`` applied) until a ``stop`` value is reached: with ``--no-tune`` the
+    last result, as RLlib's; else a Tune ``ResultGrid`` of one trial per ``tune.grid_search`` variant
+    (:mod:`rlchain.rllib.examples.results`)."""
     args = args or add_rllib_example_script_args().parse_args([])
     config = base_config
     if not keep_config:
@@ -103,15 +111,40 @@ def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespa
     stop = stop or {f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}": args.stop_reward,
                     NUM_ENV_STEPS_SAMPLED_LIFETIME: args.stop_timesteps, TRAINING_ITERATION: args.stop_iters}
     success_metric = success_metric or {f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}": args.stop_reward}
+    if args.no_tune:
+        result = _train_trial(config, args, stop, None)
+        _check_success([result.history[-1] if result.history else {}], success_metric, args)
+        return result.history[-1] if result.history else {}
+    experiment = tempfile.mkdtemp(prefix=f"{config.algo_name}_")
+    trials = []
+    for index, variant in enumerate(grid_variants(config.to_dict())):
+        trial_config = config.copy(copy_frozen=False).update_from_dict(variant) if variant else config
+        trial = TrialResult(config=json_data(trial_config.to_dict()),
+                            path=os.path.join(experiment, f"{config.algo_name}_{index:05d}"))
+        os.makedirs(trial.path)
+        if len(variant):
+            print(f"trial {index}: {variant}", flush=True)
+        trials.append(_train_trial(trial_config, args, stop, trial))
+    _check_success([t.history[-1] for t in trials if t.history], success_metric, args)
+    return ResultGrid(trials, experiment)
+
+
+def _train_trial(config: Any, args: argparse.Namespace, stop: dict[str, Any], trial: TrialResult | None
+                 ) -> TrialResult:
+    """Train ``config`` until a ``stop`` value is reached; every result in the trial's history and, for a Tune
+    trial (``trial`` given), a checkpoint every ``--checkpoint-freq`` iterations and at the end
+    (``--checkpoint-at-end``) in Tune's folder names."""
+    out = trial or TrialResult(config={}, path="")
     # RLlib's --no-tune loop runs stop's training_iteration (or --stop-iters) iterations at most, even when the
     # script's own stop dict has no iteration count; under Tune only the stop dict stops the trial
     iterations = stop.get(TRAINING_ITERATION, args.stop_iters) if args.no_tune else None
     algo = config.build_algo()
     start = time.time()
-    result: dict[str, Any] = {}
+    saved = -1
     try:
-        while iterations is None or result.get(TRAINING_ITERATION, 0) < iterations:
+        while iterations is None or len(out.history) < iterations:
             result = algo.train()
+            out.history.append(result)
             ret = _lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}")
             line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret:.2f}, env steps "
                     f"{result[NUM_ENV_STEPS_SAMPLED_LIFETIME]}, {time.time() - start:.1f} s")
@@ -120,17 +153,28 @@ def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespa
                 line += f", evaluation {_lookup(evaluation, f'{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}'):.2f}"
             if args.verbose:
                 print(line, flush=True)
+            if trial is not None and args.checkpoint_freq and algo.iteration % args.checkpoint_freq == 0:
+                saved = algo.iteration
+                out.checkpoint = Checkpoint(algo.save_to_path(checkpoint_folder(trial.path, len(out.history) - 1)))
             if any(isinstance(v := _lookup(result, key), (int, float)) and v >= target
                    for key, target in stop.items() if target is not None):
                 break
-        if args.checkpoint_at_end:
-            print(f"checkpoint: {algo.save_to_path()}", flush=True)
+        if args.checkpoint_at_end and saved != algo.iteration:
+            folder = checkpoint_folder(trial.path, len(out.history) - 1) if trial is not None else None
+            out.checkpoint = Checkpoint(algo.save_to_path(folder))
+            print(f"checkpoint: {out.checkpoint.path}", flush=True)
     finally:
         algo.stop()
-    if args.as_test:
-        for key, target in success_metric.items():
-            value = _lookup(result, key)
-            if not isinstance(value, (int, float)) or value < target:
-                raise ValueError(f"`{key}` of {target} not reached (got {value})")
+    return out
+
+
+def _check_success(results: list[dict[str, Any]], success_metric: dict[str, Any], args: argparse.Namespace
+                   ) -> None:
+    """``--as-test``: a ValueError unless some trial's last result reached every ``success_metric`` value."""
+    if not args.as_test:
+        return
+    for key, target in success_metric.items():
+        values = [v for r in results if isinstance(v := _lookup(r, key), (int, float))]
+        if not values or max(values) < target:
+            raise ValueError(f"`{key}` of {target} not reached (got {max(values) if values else None})")
         print(f"`{key}` of {target} reached", flush=True)
-    return result
