@@ -77,6 +77,9 @@ class OffPolicyConfig(RunConfig):
     batch_size: int = option(256, "replay minibatch size", check=positive)
     replay_buffer_size: int = option(100_000, "replay buffer capacity in transitions", check=positive)
     n_step: int = option(1, "n-step returns (1 = one-step TD)", check=positive)
+    n_step_max: int | None = option(None, "with it, each stored transition's n is drawn uniformly from [n_step, "
+                                          "n_step_max] (RLlib's n_step range); None: n_step for every one",
+                                    check=positive)
     prioritized_replay: bool = option(False, "proportional prioritized replay (sum-tree)")
     priority_alpha: float = option(0.6, "prioritized replay: priority exponent", check=non_negative)
     priority_beta: float = option(0.4, "prioritized replay: initial importance-sampling exponent, annealed "
@@ -113,7 +116,9 @@ class OffPolicyConfig(RunConfig):
         if self.batch_size > self.replay_buffer_size:
             return "batch_size", (f"batch_size {self.batch_size} is larger than replay_buffer_size "
                                   f"{self.replay_buffer_size}")
-        if self.replay.her is not None and (self.n_step != 1 or self.prioritized_replay):
+        if self.n_step_max is not None and self.n_step_max < self.n_step:
+            return "n_step_max", f"n_step_max {self.n_step_max} is below n_step {self.n_step}"
+        if self.replay.her is not None and (self.n_step != 1 or self.n_step_max or self.prioritized_replay):
             return "replay.her", "hindsight replay works with n_step 1 and prioritized_replay False"
         if self.torch_compile not in (False, None, "false", "False"):
             return "torch_compile", "supported for PPO only so far; remove it or set false"
@@ -189,3 +194,6 @@ class DQNNetworkConfig:
     space: SpaceConfig = option(SpaceConfig(), "action head (discrete)")
     mlp: MlpConfig = option(MlpConfig(units=[128, 128], activation="relu"), "hidden layers")
     dueling: bool = option(True, "dueling head: Q = V + A - mean(A)")
+    head: MlpConfig | None = option(None, "hidden layers of each output stream after the trunk (the advantage "
+                                          "and, dueling, the value stream each get their own, as RLlib's "
+                                          "head_fcnet_hiddens); None: one linear layer each")

@@ -1,7 +1,7 @@
 """Networks for the off-policy algorithms: ``soft_actor_critic`` (actor + twin critics) and ``dqn``.
 
 Both follow the builder contract of :mod:`rlchain.networks.base` and read rl_games' network block
-keys (``mlp.units / activation / initializer``, ``log_std_bounds``; ``dueling`` for DQN).
+keys (``mlp.units / activation / initializer``, ``log_std_bounds``; ``dueling`` and ``head`` for DQN).
 
 With Dict observations kept per key (``network.name: multi_input``, :func:`multi_input_off_policy`) the
 actor, the critic and the Q-network each read the observations through an ``encoder`` of their own (an
@@ -114,8 +114,8 @@ class QNetwork(nn.Module):
         self.trunk = MLP(int(np.prod(input_shape)) if encoder is None else encoder.out_size, cfg.mlp)
         size = self.trunk.out_size
         self.dueling = cfg.dueling
-        self.advantage = linear(size, actions_num, cfg.mlp.initializer)
-        self.state_value = linear(size, 1, cfg.mlp.initializer) if cfg.dueling else None
+        self.advantage = _stream(size, actions_num, cfg)
+        self.state_value = _stream(size, 1, cfg) if cfg.dueling else None
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         h = self.trunk(obs.flatten(1) if self.encoder is None else self.encoder(obs))
@@ -126,6 +126,14 @@ class QNetwork(nn.Module):
 
     def is_rnn(self) -> bool:
         return False
+
+
+def _stream(size: int, out: int, cfg: DQNNetworkConfig) -> nn.Module:
+    """One output stream of the Q-network: ``cfg.head``'s hidden layers (when given) then a linear layer."""
+    if cfg.head is None or not cfg.head.units:
+        return linear(size, out, cfg.mlp.initializer)
+    hidden = MLP(size, cfg.head)
+    return nn.Sequential(hidden, linear(hidden.out_size, out, cfg.head.initializer))
 
 
 def q_network(cfg: DQNNetworkConfig, **kwargs: Any) -> nn.Module:

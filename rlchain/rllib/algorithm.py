@@ -40,6 +40,7 @@ from rlchain.rllib.checkpoint_files import (
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
+from rlchain.rllib.evaluation_env import evaluation_params
 from rlchain.rllib.module import OldPolicy, RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
@@ -265,7 +266,9 @@ class Algorithm:
             return out
         self.get_module()  # checks the module id and that the algorithm runs
         seed = s.get("seed")
-        env = build_env(self.runner.params, 1, None if seed is None else int(seed) + 10_000)  # as the run's env
+        if getattr(self, "_eval_params", None) is None:  # the run's env, or evaluation_config's
+            self._eval_params = evaluation_params(s, self.runner.params)
+        env = build_env(self._eval_params, 1, None if seed is None else int(seed) + 10_000)
         try:  # the play loop steps the env, as for any rlchain evaluation
             result = play(self._stepper.context.model, env, None if by_steps else int(duration),
                           deterministic=not explore, steps=int(duration) if by_steps else None)

@@ -12,15 +12,26 @@ from __future__ import annotations
 import importlib.abc
 import importlib.machinery
 from types import ModuleType
+from typing import Any
 
 from rlchain.faces import ModuleAlias
-from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib import tune_hooks
+from rlchain.rllib.examples import installed_rllib_version
 from rlchain.rllib.face_error import FaceImportError
 
 INSTEAD = {
     "ray.rllib.core.learner": "RLlib's Learner subclasses are not run: rlchain's PPO loss options are config keys",
     "ray.rllib.connectors": "connectors are not run (env_to_module's MeanStdFilter and FlattenObservations aside): "
                             "preprocess in a gymnasium wrapper",
+    "ray.rllib.connectors.env_to_module.frame_stacking": "RLlib's frame-stacking connectors are not run: wrap the env "
+                                                         "in gymnasium's FrameStackObservation inside a "
+                                                         "register_env creator",
+    "ray.rllib.connectors.learner": "learner connectors are not run (rlchain's update reads the env's observations; "
+                                    "for FrameStackingLearner wrap the env in gymnasium's FrameStackObservation "
+                                    "inside a register_env creator)",
+    "ray.rllib.core.distribution": "RLlib's action distribution classes are not run: a module's action_dist_inputs "
+                                   "are read by rlchain's categorical (Discrete) or diagonal Gaussian (Box); a custom "
+                                   "distribution (a temperature, autoregressive actions) has no equivalent",
     "ray.rllib.offline": "offline RL is not in rlchain",
     "ray.rllib.policy": "the old Policy API: use algo.get_module() / compute_single_action",
     "ray.rllib.evaluation": "the old RolloutWorker API: rlchain steps the envs itself",
@@ -50,24 +61,56 @@ INSTEAD = {
 """``ray.rllib`` packages the face does not offer -> what to use instead (docs/rllib.md)."""
 
 
+OFFERED_ALGORITHMS = ("ppo", "appo", "impala", "dqn", "sac")
+"""``ray.rllib.algorithms.<name>`` packages the face has (PPO, APPO, IMPALA, DQN, SAC)."""
+
+OTHER_ALGORITHMS = {
+    "bc": "offline RL", "cql": "offline RL", "marwil": "offline RL", "iql": "offline RL",
+    "dreamerv3": "model-based RL (DreamerV3)", "tqc": "TQC (SACConfig trains rlchain's SAC, twin critics)",
+}
+"""RLlib algorithms outside rlchain -> what they are, for the one line."""
+
+
+def _algorithm_instead(fullname: str) -> str | None:
+    """The line for an algorithm package the face does not have (``ray.rllib.algorithms.cql``), or None."""
+    parts = fullname.split(".")
+    if parts[:3] != ["ray", "rllib", "algorithms"] or len(parts) < 4 or parts[3] in OFFERED_ALGORITHMS:
+        return None
+    what = OTHER_ALGORITHMS.get(parts[3], f"RLlib's {parts[3]}")
+    return (f"{what} is not in rlchain: the face trains PPO, APPO, IMPALA, DQN and SAC "
+            f"(ray.rllib.algorithms.ppo / appo / impala / dqn / sac)")
+
+
+def _example_instead(fullname: str) -> str | None:
+    """The line for an RLlib example module found neither in the face nor in the installed RLlib, or None."""
+    if not fullname.startswith("ray.rllib.examples."):
+        return None
+    version = installed_rllib_version()
+    if version is None:
+        return "RLlib's example classes are read from an installed RLlib, and none is installed beside rlchain"
+    return (f"not among the example classes of the installed RLlib ({version}) either, which the face imports "
+            f"as they are: the script is newer than that RLlib")
+
+
 def instead(fullname: str) -> str:
-    for prefix, why in INSTEAD.items():
+    for prefix in sorted(INSTEAD, key=len, reverse=True):  # the most specific entry first
         if fullname == prefix or fullname.startswith(prefix + "."):
-            return why
-    return "see docs/rllib.md for what the face offers"
+            return INSTEAD[prefix]
+    return (_algorithm_instead(fullname) or _example_instead(fullname)
+            or "see docs/rllib.md for what the face offers")
 
 
 class RLlibAlias(ModuleAlias):
     """Answers ``ray.rllib.*`` with ``rlchain.rllib.*``; a name the face has no module for is a
-    :class:`FaceImportError`; Ray Tune's config module registers the face's AlgorithmConfig."""
+    :class:`FaceImportError`; Ray Tune's modules get the face's hooks (:mod:`.tune_hooks`)."""
 
     ALIAS = "ray.rllib"
     TARGET = "rlchain.rllib"
 
     def find_spec(self, fullname: str, path: object = None, target: object = None
                   ) -> importlib.machinery.ModuleSpec | None:
-        if fullname == TUNE_CONFIG_MODULE:
-            return _with_config_registration(fullname, path)
+        if fullname in tune_hooks.HOOKS:
+            return _after_loading(fullname, path, tune_hooks.HOOKS[fullname])
         return super().find_spec(fullname, path, target)
 
     def missing(self, fullname: str) -> None:
@@ -75,27 +118,22 @@ class RLlibAlias(ModuleAlias):
                               name=fullname) from None
 
 
-TUNE_CONFIG_MODULE = "ray.tune.tune"
-"""Ray Tune's module whose ``_Config`` (configs with ``to_dict``) a Tuner's ``param_space`` is checked against."""
-
-
-def _with_config_registration(fullname: str, path: object) -> importlib.machinery.ModuleSpec | None:
-    """Ray Tune's own module, which registers the face's AlgorithmConfig as a Tune ``_Config`` once loaded (so
-    ``tune.Tuner("PPO", param_space=config)`` reads ``config.to_dict()``, as for RLlib's configs)."""
+def _after_loading(fullname: str, path: object, hook: Any) -> importlib.machinery.ModuleSpec | None:
+    """Ray Tune's own module ``fullname``, with ``hook(module)`` run once it has loaded (:mod:`.tune_hooks`)."""
     spec = importlib.machinery.PathFinder.find_spec(fullname, path)
     if spec is None or spec.loader is None:
         return spec
     loader = spec.loader
 
-    class _Registering(importlib.abc.Loader):
+    class _Hooked(importlib.abc.Loader):
         def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType | None:
             return loader.create_module(spec)
 
         def exec_module(self, module: ModuleType) -> None:
             loader.exec_module(module)
-            module._Config.register(AlgorithmConfig)
+            hook(module)
 
-    spec.loader = _Registering()
+    spec.loader = _Hooked()
     return spec
 
 

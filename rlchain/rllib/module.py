@@ -24,8 +24,9 @@ class in the script)."""
 
 @dataclass
 class DefaultModelConfig:
-    """RLlib's default model settings (``rl_module(model_config=DefaultModelConfig(...))``); the face maps
-    ``fcnet_hiddens``, ``fcnet_activation``, ``vf_share_layers`` and ``free_log_std`` (docs/rllib.md)."""
+    """RLlib 2.60's default model settings (``rl_module(model_config=DefaultModelConfig(...))``), every field of
+    RLlib's class; what the face maps is in docs/rllib.md (the initializers and ``fusionnet_*`` are kept and have
+    no effect: rlchain's default initialization, no fusion net)."""
 
     fcnet_hiddens: list[int] = field(default_factory=lambda: [256, 256])
     fcnet_activation: str = "tanh"
@@ -36,8 +37,17 @@ class DefaultModelConfig:
     fcnet_use_layernorm: bool = False
     conv_filters: Any = None
     conv_activation: str = "relu"
+    conv_kernel_initializer: Any = None
+    conv_kernel_initializer_kwargs: Any = None
+    conv_bias_initializer: Any = None
+    conv_bias_initializer_kwargs: Any = None
     head_fcnet_hiddens: list[int] = field(default_factory=list)
     head_fcnet_activation: str = "relu"
+    head_fcnet_kernel_initializer: Any = None
+    head_fcnet_kernel_initializer_kwargs: Any = None
+    head_fcnet_bias_initializer: Any = None
+    head_fcnet_bias_initializer_kwargs: Any = None
+    head_fcnet_use_layernorm: bool = False
     free_log_std: bool = False
     log_std_clip_param: float = 20.0
     vf_share_layers: bool = True
@@ -46,9 +56,19 @@ class DefaultModelConfig:
     lstm_cell_size: int = 256
     lstm_use_prev_action: bool = False
     lstm_use_prev_reward: bool = False
+    lstm_kernel_initializer: Any = None
+    lstm_kernel_initializer_kwargs: Any = None
+    lstm_bias_initializer: Any = None
+    lstm_bias_initializer_kwargs: Any = None
+    fusionnet_hiddens: list[int] = field(default_factory=lambda: [256, 256])
+    fusionnet_activation: str = "tanh"
+    fusionnet_kernel_initializer: Any = None
+    fusionnet_kernel_initializer_kwargs: Any = None
+    fusionnet_bias_initializer: Any = None
+    fusionnet_bias_initializer_kwargs: Any = None
 
 
-assert {f.name for f in dataclasses.fields(DefaultModelConfig)} <= set(K.DEFAULT_MODEL)
+assert {f.name for f in dataclasses.fields(DefaultModelConfig)} == set(K.DEFAULT_MODEL)
 
 
 @dataclass

@@ -32,6 +32,7 @@ from rlchain.envs.wrappers.multi_agent_parallel import ALL, EpisodeLog, Parallel
 from rlchain.inference.policy_player import play_policies
 from rlchain.rllib import translate
 from rlchain.rllib.core import DEFAULT_MODULE_ID
+from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
@@ -64,6 +65,12 @@ class MultiAgentEnv(gym.Env):
 
     def get_action_space(self, agent_id: Any) -> gym.Space:
         return space_of(self.action_spaces, self.action_space, agent_id)
+
+    def with_agent_groups(self, groups: dict, obs_space: Any = None, act_space: Any = None) -> Any:
+        """RLlib's agent groups (several agents as one agent of Tuple spaces) are refused in one line."""
+        raise FaceNotOffered("MultiAgentEnv.with_agent_groups is not offered: the face trains every agent id as an "
+                             "agent of its own (a group's Tuple actions are not mapped); give the agents one policy "
+                             "with policy_mapping_fn to share it")
 
     @property
     def num_agents(self) -> int:

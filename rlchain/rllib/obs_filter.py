@@ -1,6 +1,7 @@
 """RLlib's ``env_to_module_connector`` read as a setting: a function returning ``MeanStdFilter()`` (RLlib's tuned
-Pendulum example) is rlchain's observation normalizer; ``FlattenObservations()`` (alone or beside it) asks for
-nothing, the face's observations being flat already; any other connector is a one-line error.
+Pendulum example; APPO and IMPALA; ``multi_agent=True`` on a MultiAgentEnv: per policy) is rlchain's observation
+normalizer; ``FlattenObservations()`` (alone or beside it) asks for nothing, the face's observations being flat
+already; any other connector is a one-line error.
 
 RLlib's filter folds every observation into running statistics as the env runners see it and hands the module
 ``(obs - mean) / std`` clipped to +-``clip_by_value`` (10). rlchain's ``normalize_input`` with
@@ -22,6 +23,16 @@ KEY = "env_to_module_connector"
 
 NORMALIZE = {"normalize_input": True, "obs_normalizer": "rl_games", "obs_normalizer_update": "step"}
 """rlchain's ``params.config`` keys for RLlib's ``MeanStdFilter``."""
+
+NORMALIZE_VTRACE = {"normalize_input": True, "obs_normalizer": "rl_games"}
+"""... for APPO and IMPALA: rlchain's learner folds each batch's observations into the statistics before its
+update and hands them to the runners with the weights (RLlib's runners fold every step in and merge their filters
+each iteration)."""
+
+NORMALIZE_MULTI_AGENT = {"normalize_input": True, "obs_normalizer": "rl_games", "obs_normalizer_update": "auto"}
+"""... for ``MeanStdFilter(multi_agent=True)`` (a MultiAgentEnv): RLlib keeps statistics per agent; rlchain's
+multi-policy PPO keeps them per policy (the same where each agent has its own policy, as in RLlib's multi-agent
+examples) and folds each rollout's observations in before its update, not every step as it comes."""
 
 
 def _connectors(config: Any, make: Any) -> list[Any]:
@@ -57,11 +68,15 @@ def filter_keys(config: Any) -> dict[str, Any]:
     items = [c for c in items if isinstance(c, MeanStdFilter)]
     if not items:
         return {}
-    if config.algo_name != "PPO":
-        raise ConfigError(name, KEY, f"MeanStdFilter is mapped for PPO only, not {config.algo_name}")
+    if config.algo_name not in ("PPO", "APPO", "IMPALA"):
+        raise ConfigError(name, KEY, f"MeanStdFilter is mapped for PPO, APPO and IMPALA, not {config.algo_name}")
     for f in items:
-        if not (f.de_mean_to_zero and f.de_std_to_one and f.update_stats) or f.multi_agent:
+        if not (f.de_mean_to_zero and f.de_std_to_one and f.update_stats):
             raise ConfigError(name, KEY, f"MeanStdFilter(de_mean_to_zero={f.de_mean_to_zero}, de_std_to_one="
                                          f"{f.de_std_to_one}, update_stats={f.update_stats}, multi_agent="
                                          f"{f.multi_agent}): only its defaults map onto normalize_input")
+    if config.algo_name != "PPO":
+        return dict(NORMALIZE_VTRACE)
+    if any(f.multi_agent for f in items):
+        return dict(NORMALIZE_MULTI_AGENT)
     return dict(NORMALIZE)

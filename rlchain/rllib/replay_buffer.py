@@ -140,7 +140,8 @@ def _env_steps(buffer: Any) -> list[_EnvSteps]:
     cols = {"terminated": _np(buffer.terminated), "truncated": _np(buffer.truncated),
             "rewards": _np(buffer.rewards), "used": np.ones(int(buffer.capacity), np.int64)}
     if count:
-        cols["used"][rows] = _steps_used(_np(buffer.discounts)[rows], buffer.gamma, buffer.n_step)
+        cols["used"][rows] = _steps_used(_np(buffer.discounts)[rows], buffer.gamma,
+                                          getattr(buffer, "window", buffer.n_step))
     env_of = (np.arange(count) - count) % n_envs
     pending = list(getattr(buffer, "_pending", []))
     out = []

@@ -56,7 +56,7 @@ MODEL_UNSUPPORTED = {
 NETWORK_FEATURES = {
     "conv_filters": {"PPO", "APPO", "IMPALA"},
     "use_lstm": {"PPO"},
-    "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC"},
+    "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC", "DQN"},
 }
 """Model settings (beyond the MLP) each algorithm's rlchain network takes (networks.py maps them)."""
 
@@ -284,6 +284,19 @@ def update_rounds(config: Any) -> dict[str, int]:
     return {"num_updates_per_step": updates, "update_every": rounds * fragment}
 
 
+def n_steps(config: Any) -> dict[str, int | None]:
+    """RLlib's ``n_step`` as rlchain's ``n_step`` / ``n_step_max``: a whole number, or a range ``(lo, hi)`` from
+    which RLlib's replay buffer draws each sampled transition's n with numpy's ``integers(lo, hi)`` (lo to hi - 1;
+    rlchain draws it once per stored transition)."""
+    value = config._settings.get("n_step")
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 1:
+        return {"n_step": value, "n_step_max": None}
+    if isinstance(value, (list, tuple)) and len(value) == 2 \
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in value) and 1 <= value[0] < value[1]:
+        return {"n_step": int(value[0]), "n_step_max": int(value[1]) - 1 if value[1] - 1 > value[0] else None}
+    raise _bad(config, "n_step", f"expected a whole number >= 1 or a range (lo, hi) with 1 <= lo < hi, got {value!r}")
+
+
 def _epsilon(config: Any) -> tuple[float, float, int]:
     """RLlib's epsilon schedule [(t0, start), ..., (t1, end)] (or a number) as (start, end, decay frames)."""
     value = config._settings.get("epsilon")
@@ -300,26 +313,26 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     """The rlchain DQN config of an RLlib ``DQNConfig``: one ``train()`` = ``min_sample_timesteps_per_iteration``
     env steps (1000), RLlib's replay ratio (one update of ``train_batch_size`` per sampling round, or
     ``training_intensity``: :func:`update_rounds`), ``target_network_update_freq`` in env steps, the epsilon
-    schedule, double / dueling Q, ``n_step``, prioritized replay (RLlib's default buffer), ``hiddens`` after
-    ``fcnet_hiddens``."""
+    schedule, double / dueling Q, ``n_step`` (or a range), prioritized replay (RLlib's default buffer); the
+    Q-network as RLlib 2.60's DQN module: ``fcnet_hiddens`` then, per stream, ``head_fcnet_hiddens`` (the old
+    stack's ``hiddens`` is kept with no effect, as in RLlib's new stack)."""
     check_supported(config)
     s = config._settings
     for key, off in (("noisy", False), ("num_atoms", 1)):
         if s.get(key) not in (off, None):
             raise _bad(config, key, f"{s.get(key)!r} is not offered: rlchain's DQN is not noisy / distributional")
-    if not isinstance(s.get("n_step"), int):
-        raise _bad(config, "n_step", f"expected a whole number, got {s.get('n_step')!r}")
     envs = num_envs(config)
     batch = config.total_train_batch_size  # train_batch_size_per_learner where set (RLlib's new stack), as RLlib
     rounds = update_rounds(config)
     replay = s.get("replay_buffer_config") or {}
     start, end, decay = _epsilon(config)
     steps = max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 1000) // envs))
-    units = layer_sizes(config, "fcnet_hiddens") + list(s.get("hiddens") or [])
+    units = layer_sizes(config, "fcnet_hiddens")  # RLlib 2.60's DQN module: hiddens is the old stack's key
+    heads = layer_sizes(config, "head_fcnet_hiddens")
     grad_clip = s.get("grad_clip")
     train = {
         "env_name": env_name, "num_actors": envs, "gamma": float(s["gamma"]), "learning_rate": float(s["lr"]),
-        "double_dqn": bool(s.get("double_q", True)), "n_step": int(s["n_step"]), "batch_size": batch,
+        "double_dqn": bool(s.get("double_q", True)), **n_steps(config), "batch_size": batch,
         "replay_buffer_size": int(replay.get("capacity", 50000)),
         "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
         "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
@@ -339,6 +352,9 @@ def dqn_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     network = {"name": "dqn", "dueling": bool(s.get("dueling", True)), "space": {"discrete": None},
                "mlp": {"units": units, "activation": activation(config, "fcnet_activation"),
                        "initializer": {"name": "default"}}}
+    if heads:  # each stream's own layers, as RLlib's DQN catalog builds its advantage and value heads
+        network["head"] = {"units": heads, "activation": activation(config, "head_fcnet_activation"),
+                           "initializer": {"name": "default"}}
     params = {"algo": {"name": "dqn"}, "model": {"name": "dqn"}, "network": network, "config": train}
     if s.get("seed") is not None:
         params["seed"] = int(s["seed"])

@@ -195,3 +195,33 @@ def test_obs_row_bytes_per_key_and_flat():
     assert obs_row_bytes(gym.spaces.Dict({**DICT_SPACE.spaces, "room": gym.spaces.Discrete(4)})) == 16 + 8 + 8
     assert obs_row_bytes(gym.spaces.Box(0, 255, (1, 4, 4), np.uint8)) == 16
     assert obs_row_bytes(gym.spaces.Box(-1, 1, (3,), np.float32)) == 12
+
+
+def test_n_step_range_draws_each_transitions_n_and_sums_that_many_rewards():
+    # RLlib's n_step=(2, 5): n in 2..4; gamma 0.5, rewards 1, 2, 4, 8, ...: a row that used n steps has
+    # discount 0.5^n and return sum_{k<n} 0.5^k * 2^(t+k) = n * 2^t
+    torch.manual_seed(0)
+    buf = make(n_step=2, n_step_max=4, capacity=64)
+    for t in range(40):
+        add(buf, t, float(2 ** t), t + 1)
+    assert len(buf) == 40 - 3  # the window holds n_step_max steps before the first write
+    used = np.rint(np.log(buf.discounts[:len(buf)].numpy()) / np.log(0.5)).astype(int)
+    assert set(used.tolist()) == {2, 3, 4}
+    for t in range(len(buf)):
+        assert buf.rewards[t].item() == used[t] * 2.0 ** t
+        assert buf.next_obs[t, 0].item() == t + used[t]
+
+
+def test_n_step_range_still_stops_at_episode_end():
+    torch.manual_seed(1)
+    buf = make(n_step=2, n_step_max=3)
+    add(buf, 0, 1.0, 1)
+    add(buf, 1, 2.0, 50, term=True)
+    add(buf, 10, 4.0, 11)
+    add(buf, 11, 8.0, 12)
+    assert buf.rewards[0].item() == 2.0 and buf.terminated[0] and buf.discounts[0] == 0.25  # 2 steps to the end
+    assert buf.rewards[1].item() == 2.0 and buf.terminated[1] and buf.discounts[1] == 0.5
+
+
+def test_n_step_max_at_n_step_is_the_fixed_n():
+    assert make(n_step=3, n_step_max=3).n_step_max is None and make(n_step=3, n_step_max=3).window == 3

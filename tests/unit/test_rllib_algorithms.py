@@ -8,6 +8,7 @@ import pytest
 from rlchain.config.errors import ConfigError
 from rlchain.rllib import env_runners, networks, translate
 from rlchain.rllib.algorithms.appo import APPOConfig
+from rlchain.rllib.algorithms.dqn import DQNConfig
 from rlchain.rllib.algorithms.impala import IMPALAConfig
 from rlchain.rllib.algorithms.impala.translate import vtrace_config
 from rlchain.rllib.algorithms.ppo import PPOConfig
@@ -58,12 +59,27 @@ def test_sac_settings_and_what_it_refuses():
         "batch_size"] == 256
     for build, key in ((lambda c: c.training(twin_q=False), "twin_q"),
                        (lambda c: c.training(target_network_update_freq=10), "target_network_update_freq"),
-                       (lambda c: c.training(n_step=(1, 3)), "n_step"),
+                       (lambda c: c.training(n_step=(3, 3)), "n_step"),
+                       (lambda c: c.training(n_step=(2, 5), target_network_update_freq=1, training_intensity=2048),
+                        "target_network_update_freq"),  # freq 1 with several updates after each round
                        (lambda c: c.rl_module(model_config={"use_lstm": True}), "use_lstm"),
                        (lambda c: c.rl_module(model_config={"conv_filters": [[8, 3, 1]]}), "conv_filters")):
         with pytest.raises(ConfigError, match=key) as info:
             sac_config(build(SACConfig()), "Pendulum-v1", {})
         assert "\n" not in str(info.value)
+
+
+def test_sac_as_rllibs_tuned_pendulum_sets_it_n_step_range_and_target_updates():
+    # pendulum_sac.py: n_step=(2, 5), target_network_update_freq=1: RLlib draws n from 2..4 (numpy's integers) and
+    # its learner moves the targets after every update (each follows >= 1 new env step), as rlchain's SAC does
+    c = SACConfig().training(n_step=(2, 5), target_network_update_freq=1)
+    cfg = sac_config(c, "Pendulum-v1", {})["params"]["config"]
+    assert (cfg["n_step"], cfg["n_step_max"], cfg["update_every"], cfg["num_updates_per_step"]) == (2, 4, 5, 1)
+    assert sac_config(SACConfig().training(n_step=(2, 3)), "Pendulum-v1", {})["params"]["config"]["n_step_max"] \
+        is None  # integers(2, 3) is always 2
+    dqn = translate.dqn_config(DQNConfig().environment("CartPole-v1").training(n_step=(2, 5)), "CartPole-v1",
+                               {})["params"]["config"]
+    assert (dqn["n_step"], dqn["n_step_max"], dqn["update_every"]) == (2, 4, 5)
 
 
 def test_impala_defaults_map_onto_rlchains_impala():

@@ -184,7 +184,16 @@ def test_dqn_config_maps_onto_rlchains_dqn():
     assert (cfg["epsilon_start"], cfg["epsilon_end"], cfg["epsilon_decay_frames"]) == (1.0, 0.02, 5000)
     assert cfg["n_step"] == 3 and cfg["replay_buffer_size"] == 20000 and not cfg["prioritized_replay"]
     assert cfg["num_steps_per_episode"] == 250  # min_sample_timesteps_per_iteration 1000 over 4 envs
-    assert params["network"]["mlp"]["units"] == [256, 256, 256] and params["network"]["dueling"]
+    # RLlib 2.60's DQN module: the encoder of fcnet_hiddens, then per stream head_fcnet_hiddens ([]: a linear
+    # layer); hiddens ([256]) is the old stack's and builds nothing
+    assert params["network"]["mlp"]["units"] == [256, 256] and params["network"]["dueling"]
+    assert "head" not in params["network"]
+    heads = translate.dqn_config(c.copy().rl_module(model_config={"fcnet_hiddens": [64], "fcnet_activation": "tanh",
+                                                                  "head_fcnet_hiddens": [32]}), "CartPole-v1", {})
+    assert heads["params"]["network"]["mlp"]["units"] == [64] and heads["params"]["network"]["mlp"]["activation"] \
+        == "tanh"
+    assert heads["params"]["network"]["head"]["units"] == [32] and heads["params"]["network"]["head"]["activation"] \
+        == "relu"  # head_fcnet_activation's default
     # RLlib's new-stack name for the batch wins over train_batch_size, in the batch and in the replay ratio
     per_learner = translate.dqn_config(c.copy().training(train_batch_size_per_learner=16), "CartPole-v1", {})
     assert (per_learner["params"]["config"]["batch_size"], per_learner["params"]["config"]["num_updates_per_step"]) \
@@ -232,3 +241,17 @@ def test_experimental_keys_are_kept_and_learner_side_torch_schedulers_refused_in
     with pytest.raises(ConfigError, match="_torch_lr_scheduler_classes.*schedule list") as info:
         Config().experimental(_torch_lr_scheduler_classes=[object()]).validate()
     assert "\n" not in str(info.value)
+
+
+def test_default_model_config_takes_every_field_rllibs_has_with_rllibs_defaults():
+    # RLlib's tuned examples pass the initializer and fusion-net fields (cartpole_dqn.py: head_fcnet_bias_initializer;
+    # pendulum_sac.py: fusionnet_hiddens): each is a field, with RLlib 2.60's default
+    import dataclasses
+
+    from rlchain.rllib import keys as K
+    fields = {f.name: getattr(DefaultModelConfig(), f.name) for f in dataclasses.fields(DefaultModelConfig)}
+    assert fields == K.DEFAULT_MODEL
+    model = DefaultModelConfig(fcnet_hiddens=[16], head_fcnet_bias_initializer="zeros_", fusionnet_hiddens=[8],
+                               lstm_kernel_initializer="xavier_uniform_", head_fcnet_kernel_initializer_kwargs={})
+    net = _params(PPOConfig().rl_module(model_config=model))["network"]
+    assert net["mlp"]["units"] == [16]  # the initializers and the fusion net are kept with no effect

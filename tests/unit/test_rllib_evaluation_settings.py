@@ -1,5 +1,6 @@
 """RLlib 2.60's evaluation checks at build time (rlchain/rllib/evaluation_settings.py): each refusal one line."""
 
+import numpy as np
 import pytest
 
 from rlchain.config.errors import ConfigError
@@ -35,3 +36,41 @@ def test_duration_is_a_whole_number(duration):
 
 def test_old_evaluation_worker_name_counts():
     _config(evaluation_parallel_to_training=True, evaluation_num_workers=2).validate()
+
+
+def _params(env_name):
+    from rlchain.config import parse_params
+    return parse_params({"params": {
+        "algo": {"name": "a2c_discrete"}, "model": {"name": "discrete_a2c"},
+        "network": {"name": "actor_critic", "separate": False, "space": {"discrete": None},
+                    "mlp": {"units": [8], "activation": "tanh"}},
+        "config": {"env_name": env_name, "num_actors": 1, "horizon_length": 4, "minibatch_size": 4}}})
+
+
+def test_evaluation_config_env_is_the_env_evaluate_plays():
+    # RLlib's cartpole_truncated_ppo.py trains on a 50-step CartPole and evaluates on the 500-step CartPole-v1
+    from rlchain.envs.factory import build_env
+    from rlchain.rllib.evaluation_env import evaluation_params
+    params = _params("CartPole-v1")
+    settings = PPOConfig.overrides(env="CartPole-v1", env_config={"max_episode_steps": 3})
+    out = evaluation_params({"env": "Other-v0", "evaluation_config": settings}, params)
+    assert out.config.env_name != "CartPole-v1" and params.config.env_name == "CartPole-v1"
+    env = build_env(out, 1, 0)
+    try:
+        env.reset()
+        steps = 0
+        while True:  # the override's env_config reached gym.make: the episode is cut at 3 steps (about 20 without)
+            steps += 1
+            step = env.step(np.array([steps % 2]))
+            if bool(step.terminated[0]) or bool(step.truncated[0]):
+                break
+        assert steps == 3
+    finally:
+        env.close()
+
+
+def test_no_evaluation_env_override_keeps_the_runs_params():
+    from rlchain.rllib.evaluation_env import evaluation_params
+    params = _params("CartPole-v1")
+    assert evaluation_params({"evaluation_config": {"explore": False}}, params) is params
+    assert evaluation_params({"evaluation_config": None}, params) is params

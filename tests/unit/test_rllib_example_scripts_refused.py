@@ -12,10 +12,57 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.core.learner.learner", "Learner subclasses are not run"),  # ppo_with_torch_lr_schedulers.py
     ("ray.rllib.core.learner.torch.torch_learner", "Learner subclasses are not run"),  # shared_encoder_cartpole.py
     ("ray.rllib.models.torch.misc", "model_config"),  # tiny_atari_cnn_rlm.py
+    ("ray.rllib.connectors.env_to_module.frame_stacking", "FrameStackObservation"),  # algorithms/ppo/atari_ppo.py
+    ("ray.rllib.connectors.learner.frame_stacking", "FrameStackObservation"),  # algorithms/dqn/atari_dqn.py
+    ("ray.rllib.connectors.module_to_env", "preprocess in a gymnasium wrapper"),  # the general connectors line
+    ("ray.rllib.core.distribution.torch.torch_distribution", "rlchain's categorical"),  # actions/custom_action_...
+    ("ray.rllib.algorithms.cql", "offline RL is not in rlchain"),  # algorithms/cql/pendulum_cql.py
+    ("ray.rllib.algorithms.bc.bc", "offline RL is not in rlchain"),  # algorithms/bc/cartpole_bc.py
+    ("ray.rllib.algorithms.dreamerv3", "the face trains PPO, APPO, IMPALA, DQN and SAC"),  # algorithms/dreamerv3/
+    ("ray.rllib.algorithms.tqc", "SACConfig"),  # algorithms/tqc/pendulum_tqc.py
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
     line = refused_import_line(module)
     assert line is not None and "\n" not in line and says in line
+
+
+def test_an_example_class_newer_than_the_installed_rllib_says_so():
+    # a module RLlib's repository has but its 2.60 package does not (actions/action_masking_for_off_policy_...)
+    from rlchain.rllib.examples import installed_rllib_version
+    line = refused_import_line("ray.rllib.examples.envs.classes.no_such_example_env")
+    assert line is not None and "\n" not in line
+    if installed_rllib_version() is None:
+        assert "none is installed" in line
+    else:
+        assert f"installed RLlib ({installed_rllib_version()})" in line and "newer" in line
+
+
+def test_an_offered_algorithms_missing_module_is_not_called_another_algorithm():
+    from rlchain.rllib.alias import instead
+    assert "not in rlchain" not in instead("ray.rllib.algorithms.ppo.no_such_module")
+
+
+@pytest.mark.parametrize("name", ["ppo", "appo", "impala", "dqn", "sac"])
+def test_the_algorithms_own_module_path_imports_the_faces_classes(name):
+    # pendulum_sac.py: from ray.rllib.algorithms.sac.sac import SACConfig
+    import importlib
+
+    from rlchain.rllib import alias
+    alias.install()
+    try:
+        inner = importlib.import_module(f"ray.rllib.algorithms.{name}.{name}")
+        outer = importlib.import_module(f"ray.rllib.algorithms.{name}")
+    finally:
+        alias.uninstall()
+    cls = f"{name.upper()}Config"
+    assert getattr(inner, cls) is getattr(outer, cls) and inner.__name__.startswith("rlchain.rllib")
+
+
+def test_columns_import_from_core_as_rllibs_examples_do():
+    # rl_modules/classes/autoregressive_actions_rlm.py: from ray.rllib.core import Columns
+    from rlchain.rllib.core import Columns
+    from rlchain.rllib.core.columns import Columns as by_module
+    assert Columns is by_module and Columns.ACTION_DIST_INPUTS == "action_dist_inputs"
 
 
 def test_rllibs_stats_classes_are_refused_in_one_line_naming_the_reduce_kinds():

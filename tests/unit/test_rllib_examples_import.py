@@ -67,3 +67,23 @@ def test_tune_trainable_gives_the_default_config():
     from rlchain.rllib.tune import make_trainable
 
     assert isinstance(make_trainable("PPO").get_default_config(), PPOConfig)
+
+
+def test_tuner_of_the_algorithm_class_asking_for_checkpoints_gets_the_trainable_class():
+    # ray_tune/appo_hyperparameter_tune.py: tune.Tuner(config.algo_class, run_config=RunConfig(checkpoint_config=
+    # CheckpointConfig(checkpoint_at_end=True))): Tune refuses that for a function trainable; RLlib's is a class
+    from types import SimpleNamespace
+
+    from rlchain.rllib.algorithms.appo import APPO
+    from rlchain.rllib.tune_hooks import trainable_for
+    asks = SimpleNamespace(checkpoint_config=SimpleNamespace(checkpoint_at_end=True, checkpoint_frequency=0))
+    every = SimpleNamespace(checkpoint_config=SimpleNamespace(checkpoint_at_end=False, checkpoint_frequency=5))
+    plain = SimpleNamespace(checkpoint_config=SimpleNamespace(checkpoint_at_end=False, checkpoint_frequency=0))
+    assert trainable_for(APPO, plain) is APPO and trainable_for(APPO, None) is APPO  # a function trainable
+    assert trainable_for(len, asks) is len  # not a face algorithm: Tune's own rules
+    pytest.importorskip("ray.tune")
+    from ray import tune
+    for run_config in (asks, every):
+        trainable = trainable_for(APPO, run_config)
+        assert isinstance(trainable, type) and issubclass(trainable, tune.Trainable)
+        assert trainable.__name__ == "APPO" and trainable.get_default_config().algo_name == "APPO"

@@ -212,3 +212,18 @@ def test_a_frozen_module_that_only_acts_plays_beside_a_trained_policy(tmp_path, 
     overrides = config.copy().multi_agent(policies={"learner": PolicySpec(config={"lr": 0.1}), "fixed": None})
     with pytest.raises(ConfigError, match="per-policy config overrides are not mapped"):
         overrides.build_algo()
+
+
+def test_agent_groups_are_refused_in_one_line():
+    # multi_agent/two_step_game_with_grouped_agents.py: env.with_agent_groups(...) (a traceback before)
+    from rlchain.rllib.__main__ import explain
+    from rlchain.rllib.env.multi_agent_env import MultiAgentEnv
+    from rlchain.rllib.face_error import FaceNotOffered
+
+    class Two(MultiAgentEnv):
+        pass
+
+    with pytest.raises(FaceNotOffered) as info:
+        Two().with_agent_groups({"group_1": [0, 1]})
+    line = explain(info.value)
+    assert line is not None and "\n" not in line and "with_agent_groups is not offered" in line

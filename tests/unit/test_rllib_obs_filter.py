@@ -2,6 +2,7 @@
 observation normalizer, ``FlattenObservations()`` adds nothing (the face's observations are flat); any other
 connector, another algorithm or non-default filter settings are one line."""
 
+import gymnasium as gym
 import pytest
 
 from rlchain.config.errors import ConfigError
@@ -33,7 +34,8 @@ def test_other_connectors_and_settings_are_one_line():
               "maps only MeanStdFilter"),
              (PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter(update_stats=False)),
               "only its defaults"),
-             (DQNConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter()), "PPO only"),
+             (DQNConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter()),
+              "PPO, APPO and IMPALA, not DQN"),
              (PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: 1 / 0), "ZeroDivisionError")]
     for config, message in cases:
         with pytest.raises(ConfigError, match=f"env_to_module_connector.*{message}") as info:
@@ -50,7 +52,7 @@ def test_flatten_observations_adds_no_key_alone_or_beside_the_filter():
     both = PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: [FlattenObservations(), MeanStdFilter()])
     assert filter_keys(both)["normalize_input"] is True
     dqn = DQNConfig().env_runners(env_to_module_connector=lambda e, s, d: FlattenObservations(agent_ids={"a"}))
-    assert filter_keys(dqn) == {}  # the PPO-only rule is MeanStdFilter's
+    assert filter_keys(dqn) == {}  # the PPO / APPO / IMPALA rule is MeanStdFilter's
 
 
 def test_another_connector_name_is_a_one_line_import_error():
@@ -67,3 +69,27 @@ def test_any_other_missing_name_is_an_attribute_error_so_pickles_module_search_p
     pickle.whichmodule(object(), "torch")  # torch.compile's cache key runs this search over every loaded module
     with pytest.raises(ImportError, match="cannot import name"):
         from rlchain.rllib.connectors.env_to_module import MeanStdFiltr  # noqa: F401
+
+
+def test_a_multi_agent_mean_std_filter_normalizes_per_policy_each_rollout():
+    # multi_agent_pendulum_ppo.py: MeanStdFilter(multi_agent=True); rlchain's multi-policy PPO keeps each policy's
+    # statistics and folds a rollout in before its update (its multi_agent refuses obs_normalizer_update: step)
+    config = PPOConfig().env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter(multi_agent=True))
+    keys = filter_keys(config)
+    assert keys["normalize_input"] is True and keys["obs_normalizer_update"] == "auto"
+    assert filter_keys(PPOConfig().env_runners(
+        env_to_module_connector=lambda e, s, d: MeanStdFilter()))["obs_normalizer_update"] == "step"
+
+
+def test_mean_std_filter_under_impala_and_appo_is_the_learners_normalizer():
+    # cartpole_impala.py sets MeanStdFilter(); rlchain's V-trace learner folds each batch into the statistics
+    from rlchain.rllib.algorithms.appo import APPOConfig
+    from rlchain.rllib.algorithms.impala import IMPALAConfig
+    from rlchain.rllib.algorithms.impala.translate import vtrace_config
+    for cls in (IMPALAConfig, APPOConfig):
+        config = cls().environment("CartPole-v1").env_runners(env_to_module_connector=lambda e, s, d: MeanStdFilter())
+        obs = gym.spaces.Box(-1.0, 1.0, (4,))
+        train = vtrace_config(config, "CartPole-v1", obs, False, {})["params"]["config"]
+        assert train["normalize_input"] is True and "obs_normalizer_update" not in train
+        plain = vtrace_config(cls().environment("CartPole-v1"), "CartPole-v1", obs, False, {})["params"]["config"]
+        assert plain["normalize_input"] is False

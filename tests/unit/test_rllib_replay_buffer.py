@@ -51,10 +51,11 @@ def _by_key(state: dict) -> dict[tuple[int, int], dict]:
     return out
 
 
-@pytest.mark.parametrize("n_step", [1, 3])
-def test_rows_become_rllibs_episodes(n_step: int) -> None:
+@pytest.mark.parametrize("n_step, n_step_max", [(1, None), (3, None), (2, 4)])  # (2, 4): RLlib's range (2, 5)
+def test_rows_become_rllibs_episodes(n_step: int, n_step_max: int | None) -> None:
+    torch.manual_seed(0)
     buffer = ReplayBuffer(1000, (3,), (), num_envs=2, action_dtype=torch.long, n_step=n_step, gamma=0.9,
-                          prioritized=True)
+                          prioritized=True, n_step_max=n_step_max)
     truth = _fill(buffer, 12)
     state = buffer_state(buffer, OBS, ACT, steps_added=24, sampled=64)
     got = _by_key(state)
@@ -73,7 +74,7 @@ def test_rows_become_rllibs_episodes(n_step: int) -> None:
         assert gym_space_from_dict(mine["rewards"]["space"]) == gym.spaces.Box(-np.inf, np.inf, (), np.float32)
         assert gym_space_from_dict(mine["observations"]["space"]) == OBS
     # one index per stored row; every step is in an episode (rows plus the n - 1 pending ones)
-    assert len(state["_indices"]) == len(buffer) == 24 - 2 * (n_step - 1)
+    assert len(state["_indices"]) == len(buffer) == 24 - 2 * ((n_step_max or n_step) - 1)
     assert state["_num_timesteps"] == 24
     assert state["_num_timesteps_added"] == 24 and state["sampled_timesteps"] == 64
     leaves = state["_sum_segment"][buffer.tree.size:buffer.tree.size + len(buffer)]

@@ -144,6 +144,21 @@ def test_dueling_head_mean_advantage_is_value():
     assert torch.allclose(q.mean(-1), model.network.state_value(h).squeeze(-1), atol=1e-6)
 
 
+def test_dqn_head_gives_each_stream_its_own_layers():
+    # RLlib's cartpole_dqn.py: fcnet_hiddens [256] then head_fcnet_hiddens [256] for the advantage and value heads
+    torch.manual_seed(0)
+    cfg = DQNNetworkConfig(mlp=MlpConfig(units=[16], activation="tanh"), dueling=True,
+                           head=MlpConfig(units=[8], activation="relu"))
+    net = QNetwork(cfg, (3,), 4)
+    assert [m.out_features for m in net.advantage.modules() if isinstance(m, torch.nn.Linear)] == [8, 4]
+    assert [m.out_features for m in net.state_value.modules() if isinstance(m, torch.nn.Linear)] == [8, 1]
+    obs = torch.randn(5, 3)
+    h = net.trunk(obs)
+    assert torch.allclose(net(obs).mean(-1), net.state_value(h).squeeze(-1), atol=1e-6)
+    plain = QNetwork(DQNNetworkConfig(mlp=MlpConfig(units=[16]), head=MlpConfig(units=[])), (3,), 4)
+    assert isinstance(plain.advantage, torch.nn.Linear)  # no head layers: the linear layer as before
+
+
 def test_dqn_greedy_is_deterministic_and_epsilon_explores():
     model = q_model()
     obs = torch.randn(200, 3)

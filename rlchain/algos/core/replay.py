@@ -6,7 +6,9 @@ is the true next observation (the env's ``final_obs`` where an episode ended) an
 
 With ``n_step > 1`` the buffer keeps the last n vectorized steps per env and stores
 ``reward = sum_k gamma^k r_{t+k}`` up to the first step that ended the episode, with
-``next_obs``/``terminated`` of that step and ``discount = gamma^(steps used)``.
+``next_obs``/``terminated`` of that step and ``discount = gamma^(steps used)``. With ``n_step_max`` (RLlib's
+``n_step=(lo, hi)`` range) each stored transition sums its own n, drawn uniformly from ``[n_step, n_step_max]``
+(the window holds ``n_step_max`` steps); its discount says how many steps it used.
 
 Dict observations kept per key (``obs_shape`` a gymnasium Dict space) are stored per key in each key's
 dtype (a uint8 camera image stays uint8 in ``obs`` and ``next_obs``) and sampled back as an
@@ -78,9 +80,12 @@ class ReplayBuffer:
     def __init__(self, capacity: int, obs_shape: tuple[int, ...] | gym.spaces.Dict, action_shape: tuple[int, ...],
                  device: torch.device | str = "cpu", num_envs: int = 1, obs_dtype: torch.dtype = torch.float32,
                  action_dtype: torch.dtype = torch.float32, n_step: int = 1, gamma: float = 0.99,
-                 prioritized: bool = False, alpha: float = 0.6, beta: float = 0.4, eps: float = 1e-6) -> None:
+                 prioritized: bool = False, alpha: float = 0.6, beta: float = 0.4, eps: float = 1e-6,
+                 n_step_max: int | None = None) -> None:
         self.capacity, self.device, self.num_envs = int(capacity), torch.device(device), int(num_envs)
         self.n_step, self.gamma = int(n_step), float(gamma)
+        self.n_step_max = None if n_step_max is None or int(n_step_max) <= self.n_step else int(n_step_max)
+        self.window = self.n_step if self.n_step_max is None else self.n_step_max  # steps kept before a write
         self.prioritized, self.alpha, self.beta, self.eps = prioritized, float(alpha), float(beta), float(eps)
         c, dev = self.capacity, self.device
         self.per_key = is_dict_space(obs_shape)
@@ -99,7 +104,7 @@ class ReplayBuffer:
         self.size = 0
         self.tree = SumTree(c) if prioritized else None
         self.max_priority = 1.0
-        self._pending: list[dict[str, torch.Tensor]] = []  # the last n-1 steps awaiting their n-step return
+        self._pending: list[dict[str, torch.Tensor]] = []  # the last window-1 steps awaiting their n-step return
 
     def __len__(self) -> int:
         return self.size
@@ -111,25 +116,30 @@ class ReplayBuffer:
         step = {"obs": obs, "actions": actions, "rewards": rewards.reshape(-1).float(), "next_obs": next_obs,
                 "terminated": terminated.reshape(-1).bool(), "truncated": truncated.reshape(-1).bool()}
         step = {k: v.to(self.device) for k, v in step.items()}
-        if self.n_step == 1:
+        if self.window == 1:
             self._write(step["obs"], step["actions"], step["rewards"], step["next_obs"], step["terminated"],
                         step["truncated"], torch.full_like(step["rewards"], self.gamma))
             return
         self._pending.append(step)
-        if len(self._pending) == self.n_step:
+        if len(self._pending) == self.window:
             self._write(*self._nstep(self._pending))
             self._pending.pop(0)
 
     def _nstep(self, window: list[dict[str, torch.Tensor]]) -> tuple[torch.Tensor, ...]:
-        """The n-step transition starting at ``window[0]`` for every env."""
+        """The n-step transition starting at ``window[0]`` for every env (each env's own n with ``n_step_max``)."""
         first = window[0]
         reward = torch.zeros_like(first["rewards"])
         alive = torch.ones_like(first["terminated"])
+        if self.n_step_max is not None:  # an env's steps past its drawn n are left out as if the episode ended
+            n = torch.randint(self.n_step, self.n_step_max + 1, alive.shape)
+            horizon = [(k < n).to(self.device) for k in range(len(window))]
         next_obs = first["next_obs"].clone()
         terminated = first["terminated"].clone()
         truncated = first["truncated"].clone()
         discount = torch.full_like(reward, self.gamma)
         for k, step in enumerate(window):
+            if self.n_step_max is not None:
+                alive = alive & horizon[k]
             reward += alive.float() * (self.gamma ** k) * step["rewards"]
             if k > 0:
                 rows = alive

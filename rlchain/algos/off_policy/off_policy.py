@@ -77,7 +77,8 @@ class OffPolicyAlgorithm(AlgorithmBase):
                 tuple(self.model.dist.action_shape))
         kwargs = dict(device=self.device, num_envs=self.num_envs,
                       obs_dtype=torch.uint8 if not per_key and obs_space.dtype == "uint8" else torch.float32,
-                      action_dtype=self.model.dist.action_dtype, n_step=cfg.n_step, gamma=cfg.gamma,
+                      action_dtype=self.model.dist.action_dtype, n_step=cfg.n_step, n_step_max=cfg.n_step_max,
+                      gamma=cfg.gamma,
                       prioritized=cfg.prioritized_replay, alpha=cfg.priority_alpha, beta=cfg.priority_beta)
         her = cfg.replay.her
         if her is None:

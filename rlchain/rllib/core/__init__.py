@@ -1,5 +1,7 @@
 """``ray.rllib.core``: RLlib's column names and module ids (the face's one definition of the default module id)."""
 
+from rlchain.rllib.core.columns import Columns as Columns  # RLlib's examples import it from here too
+
 DEFAULT_MODULE_ID = "default_policy"
 DEFAULT_POLICY_ID = DEFAULT_MODULE_ID  # the old stack's name of the same id
 ALL_MODULES = "__all_modules__"

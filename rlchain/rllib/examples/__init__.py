@@ -28,3 +28,14 @@ def _rllib_examples_dir() -> str | None:
 _theirs = _rllib_examples_dir()
 if _theirs is not None and _theirs not in __path__:
     __path__.append(_theirs)
+
+
+def installed_rllib_version() -> str | None:
+    """The version of the RLlib whose example classes this package reads (``ray``'s, from its metadata), or None."""
+    if _theirs is None:
+        return None
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("ray")
+    except PackageNotFoundError:
+        return "unknown version"

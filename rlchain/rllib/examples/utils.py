@@ -135,11 +135,14 @@ def _train_trial(config: Any, args: argparse.Namespace, stop: dict[str, Any], tr
     trial (``trial`` given), a checkpoint every ``--checkpoint-freq`` iterations and at the end
     (``--checkpoint-at-end``) in Tune's folder names."""
     out = trial or TrialResult(config={}, path="")
+    # RLlib's --no-tune loop runs stop's training_iteration (or --stop-iters) iterations at most, even when the
+    # script's own stop dict has no iteration count; under Tune only the stop dict stops the trial
+    iterations = stop.get(TRAINING_ITERATION, args.stop_iters) if args.no_tune else None
     algo = config.build_algo()
     start = time.time()
     saved = -1
     try:
-        while True:
+        while iterations is None or len(out.history) < iterations:
             result = algo.train()
             out.history.append(result)
             ret = _lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}")

@@ -31,6 +31,7 @@ from typing import Any
 from rlchain.rllib import translate as T
 from rlchain.rllib.env_runners import env_runners_block, uses_ray
 from rlchain.rllib.networks import actor_critic_network
+from rlchain.rllib.obs_filter import filter_keys
 
 
 def _fragment(config: Any) -> int:
@@ -96,6 +97,7 @@ def vtrace_config(config: Any, env_name: str, obs_space: Any, continuous: bool, 
     elif int(s.get("num_epochs") or 1) != 1:
         raise T._bad(config, "num_epochs", f"{s.get('num_epochs')!r}: rlchain's IMPALA makes one pass per batch "
                                            f"(APPOConfig makes several)")
+    train.update(filter_keys(config))  # RLlib's MeanStdFilter connector: the learner's observation normalizer
     train.update(run)
     algo, model = ("appo" if appo else "impala"), ("continuous_a2c_logstd" if continuous else "discrete_a2c")
     params = {"algo": {"name": algo}, "model": {"name": model}, "network": network, "config": train}

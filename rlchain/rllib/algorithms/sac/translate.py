@@ -4,23 +4,24 @@ What maps (RLlib 2.60's defaults in brackets):
 
 - ``actor_lr`` (3e-5), ``critic_lr`` (3e-4), ``alpha_lr`` (3e-4), ``initial_alpha`` (1.0) -> the same rlchain keys
   (``init_alpha``); ``target_entropy`` ("auto": -action dims) -> ``target_entropy``; ``tau`` (5e-3) ->
-  ``critic_tau``, the target critics follow after every update (``target_network_update_freq`` 0);
+  ``critic_tau``, the target critics follow after every update (``target_network_update_freq`` 0, or at most
+  the env steps sampled before each update: RLlib's rule then moves them after every update too);
 - ``train_batch_size_per_learner`` (256: RLlib 2.60's SACConfig sets it, so ``train_batch_size`` alone changes
   nothing, as in RLlib) -> ``batch_size``; ``replay_buffer_config`` (prioritized, 1e6, alpha 0.6, beta 0.4)
-  -> ``replay_buffer_size``, ``prioritized_replay``, ``priority_alpha`` / ``priority_beta``; ``n_step`` (1);
-  ``num_steps_sampled_before_learning_starts`` (1500) -> ``num_warmup_frames``; RLlib's replay ratio (one update
-  per sampled round, or ``training_intensity``) -> ``num_updates_per_step`` every ``update_every`` steps;
-  ``grad_clip`` -> ``grad_norm``;
-  ``store_buffer_in_checkpoints`` -> ``save_replay_buffer``;
+  -> ``replay_buffer_size``, ``prioritized_replay``, ``priority_alpha`` / ``priority_beta``; ``n_step`` (1; a
+  range ``(lo, hi)``: :func:`~rlchain.rllib.translate.n_steps`); ``num_steps_sampled_before_learning_starts``
+  (1500) -> ``num_warmup_frames``; RLlib's replay ratio (one update per sampled round, or
+  ``training_intensity``) -> ``num_updates_per_step`` every ``update_every`` steps; ``grad_clip`` ->
+  ``grad_norm``; ``store_buffer_in_checkpoints`` -> ``save_replay_buffer``;
 - one ``train()`` = ``min_sample_timesteps_per_iteration`` (100) env steps;
 - the model: ``fcnet_hiddens`` then ``head_fcnet_hiddens`` with ``fcnet_activation`` for the actor and both
   critics; ``log_std_clip_param`` (20) clips the log-std to [-20, 20]; actions squashed to [-1, 1] and rescaled
   to the env's bounds (``normalize_actions``, RLlib's default).
 
 Each critic's TD loss is RLlib's Huber loss (delta 1): ``loss: huber``. What does not map: ``twin_q=False``
-(rlchain's SAC always has twin critics), a ``target_network_update_freq`` above 0, discrete actions, ``n_step``
-ranges, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a one-line error. Warmup actions
-are uniform (RLlib samples its initial policy).
+(rlchain's SAC always has twin critics), a ``target_network_update_freq`` above the env steps sampled before
+each update, discrete actions, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a
+one-line error. Warmup actions are uniform (RLlib samples its initial policy).
 """
 
 from __future__ import annotations
@@ -41,6 +42,23 @@ def _number(config: Any, key: str) -> float:
     return float(value)
 
 
+def _check_target_updates(config: Any) -> None:
+    """RLlib's SAC learner moves the targets after a gradient step when ``target_network_update_freq`` env steps
+    were sampled since its last move; rlchain's SAC moves them after every update. The two agree while every update
+    follows at least that many new env steps (one update per sampling round of ``update_every`` steps of every
+    env): RLlib's tuned examples set 1. A larger value, or several updates per round, is refused in one line."""
+    freq = config._settings.get("target_network_update_freq") or 0
+    if isinstance(freq, bool) or not isinstance(freq, int) or freq < 0:
+        raise T._bad(config, "target_network_update_freq", f"expected a whole number >= 0, got {freq!r}")
+    rounds = T.update_rounds(config)
+    sampled = rounds["update_every"] * T.num_envs(config)  # env steps sampled before each update
+    if freq and (rounds["num_updates_per_step"] > 1 or freq > sampled):
+        raise T._bad(config, "target_network_update_freq",
+                     f"{freq!r}: rlchain's SAC moves its target critics by tau after every update, which is RLlib's "
+                     f"rule only while each update follows {freq} or more new env steps (here {sampled} env steps, "
+                     f"{rounds['num_updates_per_step']} update(s) per round): use 0")
+
+
 def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
     """The rlchain SAC config of an RLlib ``SACConfig`` on ``env_name`` (see the module docstring)."""
     T.check_supported(config)
@@ -51,12 +69,7 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
     for key, (value, why) in refused.items():
         if s.get(key) == value:
             raise T._bad(config, key, f"{value!r} is not offered: {why}")
-    if s.get("target_network_update_freq"):
-        raise T._bad(config, "target_network_update_freq", f"{s['target_network_update_freq']!r}: rlchain's SAC moves "
-                                                           f"its target critics by tau after every update (0)")
-    if not isinstance(s.get("n_step"), int) or isinstance(s.get("n_step"), bool) or s["n_step"] < 1:
-        raise T._bad(config, "n_step", f"expected a whole number >= 1, got {s.get('n_step')!r} (a range is not "
-                                       f"mapped)")
+    _check_target_updates(config)
     target_entropy = s.get("target_entropy")
     if target_entropy not in ("auto", None) and (isinstance(target_entropy, bool)
                                                  or not isinstance(target_entropy, (int, float))):
@@ -76,7 +89,7 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "replay_buffer_size": max(batch, int(replay.get("capacity", 1_000_000))),
         "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
         "priority_alpha": float(replay.get("alpha", 0.6)), "priority_beta": float(replay.get("beta", 0.4)),
-        "n_step": int(s["n_step"]), "save_replay_buffer": bool(s.get("store_buffer_in_checkpoints")),
+        **T.n_steps(config), "save_replay_buffer": bool(s.get("store_buffer_in_checkpoints")),
         "num_warmup_frames": int(s.get("num_steps_sampled_before_learning_starts") or 0),
         "num_steps_per_episode": max(1, -(-int(s.get("min_sample_timesteps_per_iteration") or 100) // envs)),
         **T.update_rounds(config),
