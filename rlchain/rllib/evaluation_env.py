@@ -9,11 +9,13 @@ training env; the other evaluation overrides are read where they apply (``explor
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from typing import Any
 
 from rlchain.config.params import Params
 from rlchain.rllib import envs
+from rlchain.rllib.results import deep_update
 
 
 def evaluation_params(settings: dict[str, Any], params: Params) -> Params:
@@ -24,7 +26,16 @@ def evaluation_params(settings: dict[str, Any], params: Params) -> Params:
     if not isinstance(overrides, dict) or ("env" not in overrides and "env_config" not in overrides):
         return params
     env = overrides.get("env", settings.get("env"))
-    env_config = overrides.get("env_config", settings.get("env_config")) or {}
-    make, label = envs.env_maker(env, dict(env_config), 0, 1)
+    make, label = envs.env_maker(env, evaluation_env_config(settings), 0, 1)
     name = envs.register(make, f"{label} (evaluation_config)")
     return dataclasses.replace(params, config=dataclasses.replace(params.config, env_name=name, env_config={}))
+
+
+def evaluation_env_config(settings: dict[str, Any]) -> dict[str, Any]:
+    """The evaluation envs' ``env_config``: the config's, with ``evaluation_config``'s merged in key by key (nested
+    dicts too), as RLlib's ``environment(env_config=...)`` deep-updates it when it applies ``evaluation_config``."""
+    env_config = copy.deepcopy(settings.get("env_config") or {})
+    overrides = settings.get("evaluation_config") or {}
+    deep_update(env_config, copy.deepcopy((overrides.get("env_config") if isinstance(overrides, dict) else None)
+                                          or {}))
+    return env_config

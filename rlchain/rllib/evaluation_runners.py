@@ -27,6 +27,7 @@ from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.policy.play import play
 from rlchain.rllib import envs
 from rlchain.rllib.callbacks.callbacks import gymnasium_vector_env
+from rlchain.rllib.evaluation_env import evaluation_env_config
 from rlchain.rllib.face_error import FaceNotOffered
 
 
@@ -137,7 +138,7 @@ class EvaluationRunnerGroup:
         if algorithm._multi is not None:
             raise FaceNotOffered("eval_env_runner_group: the face's evaluation runners play single-agent envs; "
                                  "evaluate a multi-agent run with algo.evaluate() (no custom_evaluation_function)")
-        env_config = {**(s.get("env_config") or {}), **((s.get("evaluation_config") or {}).get("env_config") or {})}
+        env_config = evaluation_env_config(s)
         remote = int(s.get("evaluation_num_env_runners") or 0)
         per = max(1, int(s.get("num_envs_per_env_runner") or 1))
         make, _ = envs.env_maker(s["env"], env_config, remote, per)

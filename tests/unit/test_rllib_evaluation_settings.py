@@ -74,3 +74,12 @@ def test_no_evaluation_env_override_keeps_the_runs_params():
     params = _params("CartPole-v1")
     assert evaluation_params({"evaluation_config": {"explore": False}}, params) is params
     assert evaluation_params({"evaluation_config": None}, params) is params
+
+
+def test_evaluation_env_config_is_merged_into_the_configs_as_rllib_deep_updates_it():
+    from rlchain.rllib.evaluation_env import evaluation_env_config
+    settings = {"env_config": {"size": 4, "nested": {"x": 1, "y": 1}},
+                "evaluation_config": {"env_config": {"slippery": False, "nested": {"y": 2}}}}
+    assert evaluation_env_config(settings) == {"size": 4, "slippery": False, "nested": {"x": 1, "y": 2}}
+    assert settings["env_config"] == {"size": 4, "nested": {"x": 1, "y": 1}}  # the training env's is untouched
+    assert evaluation_env_config({"env_config": {"a": 1}, "evaluation_config": {"explore": False}}) == {"a": 1}
