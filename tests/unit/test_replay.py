@@ -1,13 +1,18 @@
 """Replay buffer against hand-computed values: terminal vs truncated, n-step returns, sum-tree sampling;
 Dict observations stored per key in their own dtype."""
 
+import os
+
 import gymnasium as gym
 import numpy as np
 import pytest
 import torch
 
+from rlchain import Runner
 from rlchain.algos.core.replay import ReplayBuffer, SumTree
+from rlchain.config.errors import ConfigError
 from rlchain.envs.obs_dict import ObsDict, obs_row_bytes
+from tests.conftest import CONFIGS
 
 
 def make(n_step=1, num_envs=1, gamma=0.5, capacity=16, **kw):
@@ -225,3 +230,13 @@ def test_n_step_range_still_stops_at_episode_end():
 
 def test_n_step_max_at_n_step_is_the_fixed_n():
     assert make(n_step=3, n_step_max=3).n_step_max is None and make(n_step=3, n_step_max=3).window == 3
+
+
+@pytest.mark.parametrize("overrides, key, says", [
+    (["params.config.n_step=3", "params.config.n_step_max=2"], "n_step_max", "n_step_max 2 is below n_step 3"),
+    (["params.config.n_step_max=four"], "n_step_max", "expected"),
+])
+def test_a_bad_n_step_max_is_a_one_line_error_naming_the_file_and_key(overrides, key, says):
+    with pytest.raises(ConfigError, match=rf"dqn_cartpole.yaml: params.config.{key}: .*{says}") as err:
+        Runner().load(os.path.join(CONFIGS, "dqn_cartpole.yaml"), overrides)
+    assert "\n" not in str(err.value)
