@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import torch
 
+from rlchain import Runner
 from rlchain.algos.off_policy.dqn_agent import DQNAgent, QModel, epsilon_at
 from rlchain.algos.off_policy.sac_agent import SACAgent, SoftActorCritic
 from rlchain.config import ConfigError, parse_params
@@ -224,4 +225,12 @@ def test_bad_num_warmup_steps_is_a_one_line_error():
 
     with pytest.raises(ConfigError, match=r"sac_pendulum.yaml: params.config.num_warmup_steps: must be >= 0") as err:
         Runner().load(os.path.join(CONFIGS, "sac_pendulum.yaml"), ["params.config.num_warmup_steps=-1"])
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("override, says", [("params.network.head.units=abc", "head.units: expected a list"),
+                                            ("params.network.head.unitz=[8]", "head.unitz: unknown key")])
+def test_a_bad_dqn_head_block_is_a_one_line_error_naming_the_file_and_key(override, says):
+    with pytest.raises(ConfigError, match=rf"dqn_cartpole.yaml: params.network.{says}") as err:
+        Runner().load(os.path.join(CONFIGS, "dqn_cartpole.yaml"), [override])
     assert "\n" not in str(err.value)
