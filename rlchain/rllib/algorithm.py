@@ -40,7 +40,7 @@ from rlchain.rllib.checkpoint_files import (
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.env_runner_group import EnvRunnerGroup
 from rlchain.rllib.episode_window import IterationEpisodes
-from rlchain.rllib.evaluation_env import evaluation_params
+from rlchain.rllib.evaluation_env import evaluation_explore, evaluation_params
 from rlchain.rllib.module import OldPolicy, RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
 from rlchain.rllib.replay_buffer import LocalReplayBuffer
@@ -242,8 +242,8 @@ class Algorithm:
     # ----- evaluation -----------------------------------------------------------------------------------
     def evaluate(self) -> dict[str, Any]:
         """``evaluation_duration`` episodes (or env steps, ``evaluation_duration_unit='timesteps'``) of the current
-        policy on a fresh env, greedy unless ``evaluation_config`` sets ``explore=True``; RLlib's evaluation
-        results (``{'env_runners': {'episode_return_mean', ...}}``)."""
+        policy on a fresh env, sampled unless ``evaluation_config`` (or the config) sets ``explore=False``, as
+        RLlib's; RLlib's evaluation results (``{'env_runners': {'episode_return_mean', ...}}``)."""
         self._check_running()
         s = self.config._settings
         for cb in self.callbacks:
@@ -257,7 +257,7 @@ class Algorithm:
         by_steps = s.get("evaluation_duration_unit") == "timesteps"
         if duration == "auto":
             duration, by_steps = 10, False
-        explore = bool((s.get("evaluation_config") or {}).get("explore", False))
+        explore = evaluation_explore(s)
         if self._multi is not None:  # every policy plays its agents (by episodes: a multi-agent step is no unit)
             out = self._multi.evaluate(self.runner.params, self._stepper.context.model,
                                        10 if by_steps else int(duration), deterministic=not explore)

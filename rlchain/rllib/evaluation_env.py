@@ -39,3 +39,11 @@ def evaluation_env_config(settings: dict[str, Any]) -> dict[str, Any]:
     deep_update(env_config, copy.deepcopy((overrides.get("env_config") if isinstance(overrides, dict) else None)
                                           or {}))
     return env_config
+
+
+def evaluation_explore(settings: dict[str, Any]) -> bool:
+    """Whether evaluation samples its actions: ``evaluation_config``'s ``explore``, else the config's (RLlib's
+    default True), as RLlib's evaluation env runners read it from the config merged with ``evaluation_config``."""
+    overrides = settings.get("evaluation_config") or {}
+    explore = overrides.get("explore") if isinstance(overrides, dict) and "explore" in overrides else None
+    return bool(settings.get("explore", True) if explore is None else explore)

@@ -27,7 +27,7 @@ from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.policy.play import play
 from rlchain.rllib import envs
 from rlchain.rllib.callbacks.callbacks import gymnasium_vector_env
-from rlchain.rllib.evaluation_env import evaluation_env_config
+from rlchain.rllib.evaluation_env import evaluation_env_config, evaluation_explore
 from rlchain.rllib.face_error import FaceNotOffered
 
 
@@ -97,8 +97,7 @@ class EvaluationEnvRunner:
             raise FaceNotOffered("EnvRunner.sample(random_actions=True): the face's evaluation runners play the "
                                  "algorithm's module")
         if explore is None:  # RLlib's: the evaluation config's explore, which is the config's (True) unless set
-            settings = self.config._settings
-            explore = bool((settings.get("evaluation_config") or {}).get("explore", settings.get("explore", True)))
+            explore = evaluation_explore(self.config._settings)
         envs = self._envs
         if num_episodes is None and num_timesteps is None:
             num_timesteps = self._fragment * envs.num_envs

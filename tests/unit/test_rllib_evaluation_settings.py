@@ -83,3 +83,37 @@ def test_evaluation_env_config_is_merged_into_the_configs_as_rllib_deep_updates_
     assert evaluation_env_config(settings) == {"size": 4, "slippery": False, "nested": {"x": 1, "y": 2}}
     assert settings["env_config"] == {"size": 4, "nested": {"x": 1, "y": 1}}  # the training env's is untouched
     assert evaluation_env_config({"env_config": {"a": 1}, "evaluation_config": {"explore": False}}) == {"a": 1}
+
+
+@pytest.mark.parametrize("settings, explore", [
+    ({}, True),  # RLlib's evaluation runners explore unless told otherwise (the config's explore, True)
+    ({"explore": False}, False),
+    ({"evaluation_config": {"explore": False}}, False),
+    ({"explore": False, "evaluation_config": {"explore": True}}, True),
+    ({"explore": False, "evaluation_config": {"env_config": {}}}, False),
+])
+def test_evaluation_samples_unless_explore_is_false_as_in_rllib(settings, explore):
+    from rlchain.rllib.evaluation_env import evaluation_explore
+    assert evaluation_explore(settings) is explore
+
+
+def test_evaluate_plays_what_evaluation_explore_says(tmp_path, monkeypatch):
+    import rlchain.rllib.algorithm as algorithm_module
+    seen = []
+    real_play = algorithm_module.play
+
+    def play(*args, deterministic, **kwargs):
+        seen.append(deterministic)
+        return real_play(*args, deterministic=deterministic, **kwargs)
+
+    monkeypatch.setattr(algorithm_module, "play", play)
+    monkeypatch.chdir(tmp_path)
+    algo = PPOConfig().environment("CartPole-v1").training(train_batch_size=32, minibatch_size=16,
+                                                           num_epochs=1).evaluation(evaluation_duration=1).build_algo()
+    try:
+        algo.evaluate()
+        algo.config._settings["evaluation_config"] = {"explore": False}
+        algo.evaluate()
+    finally:
+        algo.stop()
+    assert seen == [False, True]  # sampled by default, greedy with explore=False
