@@ -11,7 +11,6 @@ the algorithm is built, as in RLlib) and after every epoch until the next ``trai
 from __future__ import annotations
 
 import json
-import math
 import os
 import tempfile
 from collections import defaultdict
@@ -39,7 +38,7 @@ from rlchain.rllib.checkpoint_files import (
 )
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.env_runner_group import EnvRunnerGroup
-from rlchain.rllib.episode_window import IterationEpisodes
+from rlchain.rllib.episode_window import IterationEpisodes, episode_metrics
 from rlchain.rllib.evaluation_env import evaluation_explore, evaluation_params
 from rlchain.rllib.module import OldPolicy, RLModuleView
 from rlchain.rllib.module_checkpoint import write_module_folders
@@ -274,16 +273,10 @@ class Algorithm:
                           deterministic=not explore, steps=int(duration) if by_steps else None)
         finally:
             env.close()
-        returns = result.rewards
-        lengths = [result.mean_length] * result.games  # play reports the games' mean length
         steps = int(duration) if by_steps else round(result.mean_length * result.games)
-        mean = sum(returns) / len(returns) if returns else math.nan
-        out = {"env_runners": {"episode_return_mean": mean,
-                               "episode_return_max": max(returns) if returns else math.nan,
-                               "episode_return_min": min(returns) if returns else math.nan,
-                               "episode_len_mean": sum(lengths) / len(lengths) if lengths else math.nan,
-                               "num_episodes": len(returns), "num_env_steps_sampled": steps},
-               "episode_reward_mean": mean}
+        games = episode_metrics([(r, result.mean_length) for r in result.rewards])  # play reports the mean length
+        out = {"env_runners": {**games, "num_env_steps_sampled": steps},
+               "episode_reward_mean": games["episode_return_mean"]}
         for cb in self.callbacks:
             cb.on_evaluate_end(algorithm=self, metrics_logger=self.metrics, evaluation_metrics=out)
         return out

@@ -35,6 +35,15 @@ def _nanmean(values: Sequence[float]) -> float:
     return _mean([v for v in values if not math.isnan(v)])
 
 
+def episode_metrics(episodes: Sequence[tuple[float, float]]) -> dict[str, float]:
+    """RLlib's episode results of one list of (return, length) episodes: means, min and max of the returns (NaN
+    without an episode) and ``num_episodes`` (an evaluation's, an evaluation runner's since its last report)."""
+    returns = [r for r, _ in episodes]
+    return {"episode_return_mean": _mean(returns), "episode_return_min": min(returns) if returns else math.nan,
+            "episode_return_max": max(returns) if returns else math.nan,
+            "episode_len_mean": _mean([float(n) for _, n in episodes]), "num_episodes": len(episodes)}
+
+
 def iteration_metrics(by_runner: Sequence[Sequence[Episode]], window: int) -> dict[str, float]:
     """RLlib's episode results of one iteration from the episodes each env runner finished in it (in order).
 

@@ -20,13 +20,13 @@ the episodes finished since its last call.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from rlchain.envs.backends.gymnasium_env import GymnasiumVecEnv
 from rlchain.policy.play import play
 from rlchain.rllib import envs
 from rlchain.rllib.callbacks.callbacks import gymnasium_vector_env
+from rlchain.rllib.episode_window import episode_metrics
 from rlchain.rllib.evaluation_env import evaluation_env_config, evaluation_explore
 from rlchain.rllib.face_error import FaceNotOffered
 
@@ -115,13 +115,9 @@ class EvaluationEnvRunner:
     def get_metrics(self) -> dict[str, Any]:
         """RLlib's env-runner metrics of the episodes finished since the last call."""
         done, self._finished = self._finished, []
-        returns = [e.get_return() for e in done]
         steps, self._steps = self._steps, 0
-        return {"episode_return_mean": sum(returns) / len(returns) if returns else math.nan,
-                "episode_return_min": min(returns) if returns else math.nan,
-                "episode_return_max": max(returns) if returns else math.nan,
-                "episode_len_mean": sum(e.get_length() for e in done) / len(done) if done else math.nan,
-                "num_episodes": len(done), "num_env_steps_sampled": steps, "num_agent_steps_sampled": steps}
+        return {**episode_metrics([(e.get_return(), e.get_length()) for e in done]),
+                "num_env_steps_sampled": steps, "num_agent_steps_sampled": steps}
 
     def stop(self) -> None:
         if self._vec is not None:
