@@ -131,15 +131,14 @@ class ReplayBuffer:
         reward = torch.zeros_like(first["rewards"])
         alive = torch.ones_like(first["terminated"])
         if self.n_step_max is not None:  # an env's steps past its drawn n are left out as if the episode ended
-            n = torch.randint(self.n_step, self.n_step_max + 1, alive.shape)
-            horizon = [(k < n).to(self.device) for k in range(len(window))]
+            n = torch.randint(self.n_step, self.n_step_max + 1, alive.shape).to(self.device)
         next_obs = first["next_obs"].clone()
         terminated = first["terminated"].clone()
         truncated = first["truncated"].clone()
         discount = torch.full_like(reward, self.gamma)
         for k, step in enumerate(window):
             if self.n_step_max is not None:
-                alive = alive & horizon[k]
+                alive = alive & (n > k)
             reward += alive.float() * (self.gamma ** k) * step["rewards"]
             if k > 0:
                 rows = alive
