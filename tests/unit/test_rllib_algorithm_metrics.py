@@ -1,16 +1,24 @@
 """``algo.metrics.peek`` reads the result's counters, as RLlib's checkpoint guide compares a restored algorithm
 with the one it was saved from (``cleanup()`` first, as the guide releases it)."""
 
+import pytest
+
+from rlchain.rllib.__main__ import explain
 from rlchain.rllib.algorithms.ppo import PPOConfig
+from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.utils.metrics import ENV_RUNNER_RESULTS, NUM_ENV_STEPS_SAMPLED_LIFETIME
 
 KEY = (ENV_RUNNER_RESULTS, NUM_ENV_STEPS_SAMPLED_LIFETIME)
 
 
+def _tiny():
+    """CartPole PPO with 32 env steps a train(): every test here builds it."""
+    return PPOConfig().environment("CartPole-v1").training(train_batch_size=32, minibatch_size=16, num_epochs=1)
+
+
 def test_a_restored_algorithm_peeks_the_saved_ones_env_steps_and_iteration(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    config = PPOConfig().environment("CartPole-v1").debugging(seed=1).training(
-        train_batch_size=32, minibatch_size=16, num_epochs=1)
+    config = _tiny().debugging(seed=1)
     algo = config.build_algo()
     assert algo.metrics.peek(KEY) is None  # nothing sampled yet
     algo.train()
@@ -30,8 +38,7 @@ def test_a_restored_algorithm_peeks_the_saved_ones_env_steps_and_iteration(tmp_p
 
 def test_a_logged_value_wins_over_the_results_under_the_same_key(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    algo = PPOConfig().environment("CartPole-v1").training(train_batch_size=32, minibatch_size=16,
-                                                           num_epochs=1).build_algo()
+    algo = _tiny().build_algo()
     try:
         algo.metrics.log_value("training_iteration", 7.0, reduce="max")
         algo.train()
@@ -41,14 +48,8 @@ def test_a_logged_value_wins_over_the_results_under_the_same_key(tmp_path, monke
 
 
 def test_the_old_stacks_model_call_and_export_are_one_line(tmp_path, monkeypatch):
-    import pytest
-
-    from rlchain.rllib.__main__ import explain
-    from rlchain.rllib.face_error import FaceNotOffered
-
     monkeypatch.chdir(tmp_path)
-    algo = PPOConfig().environment("CartPole-v1").training(train_batch_size=32, minibatch_size=16,
-                                                           num_epochs=1).build_algo()
+    algo = _tiny().build_algo()
     try:
         policy = algo.get_policy()  # RLlib's checkpoints/onnx_torch.py
         for call, says in ((lambda: policy.model({"obs": None}), "forward_inference"),
