@@ -65,7 +65,7 @@ def vtrace_config(config: Any, env_name: str, obs_space: Any, continuous: bool, 
         raise T._bad(config, "vtrace_clip_pg_rho_threshold", f"{pg_rho!r} differs from vtrace_clip_rho_threshold "
                                                              f"{rho!r}: rlchain clips both ratios with one rho-bar")
     kl_on = appo and bool(s.get("use_kl_loss")) and float(s.get("kl_coeff") or 0.0) > 0
-    if kl_on and float(s.get("tau", 1.0)) != 1.0:
+    if kl_on and s.get("tau") not in (None, 1, 1.0):
         raise T._bad(config, "tau", f"{s.get('tau')!r} is not offered with use_kl_loss: rlchain's APPO copies the "
                                     f"learner's policy into the KL's target policy whole (tau 1.0)")
     for key in ("lr", "entropy_coeff"):
