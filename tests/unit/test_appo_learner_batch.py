@@ -4,6 +4,7 @@ agent's seq_length sequences from the stored states both give back the runner's 
 
 import copy
 
+import pytest
 import torch
 
 from rlchain.algos.appo.fragments import FragmentRunner
@@ -22,20 +23,23 @@ RAW = {"params": {
                "minibatch_size": ENVS * HORIZON, "seq_length": SEQ, "env_runners": {"num_workers": 1}}}}
 
 
-def _runner_and_model():
+def _runner_and_model(rnn="lstm"):
     torch.manual_seed(0)
     runner = FragmentRunner(EnvRecipe.capture("CartPole-v1", {"max_episode_steps": 7}, "sync"), worker=0, start=0,
                             num_envs=ENVS, horizon=HORIZON)
     runner.build(seed=1)
-    model = build_model(parse_params(RAW, "cfg.yaml"), runner.env, torch.device("cpu"))
+    raw = copy.deepcopy(RAW)
+    raw["params"]["network"]["rnn"]["name"] = rnn
+    model = build_model(parse_params(raw, "cfg.yaml"), runner.env, torch.device("cpu"))
     runner.set_policy(copy.deepcopy(model))
     return runner, model.eval()
 
 
-def test_fragments_carry_states_and_the_learner_reproduces_the_runners_log_probs():
-    runner, model = _runner_and_model()
+@pytest.mark.parametrize("rnn,num_states", [("lstm", 2), ("gru", 1)])
+def test_fragments_carry_states_and_the_learner_reproduces_the_runners_log_probs(rnn, num_states):
+    runner, model = _runner_and_model(rnn)
     first, second = runner.sample(), runner.sample()  # 7-step episodes: several ends inside each fragment
-    assert len(first.states) == 2 and first.states[0].shape == (HORIZON + 1, 1, ENVS, 8)
+    assert len(first.states) == num_states and first.states[0].shape == (HORIZON + 1, 1, ENVS, 8)
     assert first.resets.shape == (HORIZON + 1, ENVS) and bool(first.resets[0].all())  # fresh envs
     assert bool(first.resets[1:].any()) and first.final_steps.shape[0] > 0
     assert first.final_states[0].shape == (1, first.final_steps.shape[0], 8)
