@@ -262,8 +262,8 @@ class APPO(AlgorithmBase):
     def restore_extra(self, state: dict[str, Any]) -> None:
         self.version = int(state.get("policy_version", 0))
         self.dropped_fragments = int(state.get("dropped_fragments", 0))
-        if self.target is not None and "kl_target_policy" in state:
-            self.target.load_state_dict(state["kl_target_policy"])
+        if self.target is not None:  # a checkpoint saved without a target: the restored policy is the target
+            self.target.load_state_dict(state.get("kl_target_policy", self.model.state_dict()))
 
 
 class IMPALA(APPO):
