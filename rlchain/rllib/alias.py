@@ -55,6 +55,8 @@ INSTEAD = {
     "ray.rllib.utils.metrics.stats": "RLlib's Stats classes are not offered: the face's MetricsLogger reduces by "
                                      "log_value(key, value, reduce='ema' | 'mean' | 'min' | 'max' | 'sum' | "
                                      "'lifetime_sum' | 'item' | 'item_series', window=..., ema_coeff=...)",
+    "ray.rllib.env.utils": "RLlib's env utilities (try_import_pyspiel, OpenSpiel's wrapper) are not offered: wrap a "
+                           "game as a MultiAgentEnv (turn-based: only the mover in the obs dict)",
     "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
                           "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }
@@ -74,7 +76,11 @@ OTHER_ALGORITHMS = {
 def _algorithm_instead(fullname: str) -> str | None:
     """The line for an algorithm package the face does not have (``ray.rllib.algorithms.cql``), or None."""
     parts = fullname.split(".")
-    if parts[:3] != ["ray", "rllib", "algorithms"] or len(parts) < 4 or parts[3] in OFFERED_ALGORITHMS:
+    if parts[:3] != ["ray", "rllib", "algorithms"] or len(parts) < 4:
+        return None
+    if any(part == "learner" or part.endswith("_learner") for part in parts[4:]):  # ppo.torch.ppo_torch_learner
+        return INSTEAD["ray.rllib.core.learner"]
+    if parts[3] in OFFERED_ALGORITHMS:
         return None
     what = OTHER_ALGORITHMS.get(parts[3], f"RLlib's {parts[3]}")
     return (f"{what} is not in rlchain: the face trains PPO, APPO, IMPALA, DQN and SAC "

@@ -3,6 +3,9 @@
 
 import pytest
 
+from rlchain.config.errors import ConfigError
+from rlchain.rllib.algorithms.algorithm import Algorithm
+from rlchain.rllib.algorithms.algorithm_config import AlgorithmConfig
 from tests.unit.test_rllib_doc_pages import refused_import_line
 
 
@@ -20,6 +23,8 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.algorithms.bc.bc", "offline RL is not in rlchain"),  # algorithms/bc/cartpole_bc.py
     ("ray.rllib.algorithms.dreamerv3", "the face trains PPO, APPO, IMPALA, DQN and SAC"),  # algorithms/dreamerv3/
     ("ray.rllib.algorithms.tqc", "SACConfig"),  # algorithms/tqc/pendulum_tqc.py
+    ("ray.rllib.algorithms.ppo.torch.ppo_torch_learner", "Learner subclasses are not run"),  # ppo_with_custom_loss_fn
+    ("ray.rllib.env.utils", "wrap a game as a MultiAgentEnv"),  # multi_agent/self_play_with_open_spiel.py
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
     line = refused_import_line(module)
@@ -80,3 +85,20 @@ def test_the_names_rllibs_evaluation_and_fault_tolerance_examples_import_are_the
     from rlchain.rllib.env_runner_group import EnvRunnerGroup as Face
     from rlchain.rllib.utils.error import EnvError
     assert EnvRunnerGroup is Face and issubclass(EnvError, Exception)
+
+
+def test_a_custom_algorithms_own_config_key_says_the_face_does_not_run_new_algorithms():
+    # algorithms/vpg_custom_algorithm.py: VPGConfig(AlgorithmConfig) sets num_episodes_per_train_batch in __init__
+    class VPG(Algorithm):
+        pass
+
+    class VPGConfig(AlgorithmConfig):
+        def __init__(self):
+            super().__init__(algo_class=VPG)
+            self.num_episodes_per_train_batch = 10
+
+    with pytest.raises(ConfigError) as err:
+        VPGConfig()
+    line = str(err.value)
+    assert "\n" not in line and "VPGConfig" in line and "num_episodes_per_train_batch" in line
+    assert "new Algorithm (VPG" in line and "PPOConfig()" in line
