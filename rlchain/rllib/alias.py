@@ -57,6 +57,9 @@ INSTEAD = {
                                      "'lifetime_sum' | 'item' | 'item_series', window=..., ema_coeff=...)",
     "ray.rllib.env.utils": "RLlib's env utilities (try_import_pyspiel, OpenSpiel's wrapper) are not offered: wrap a "
                            "game as a MultiAgentEnv (turn-based: only the mover in the obs dict)",
+    "ray.rllib.env.external": "external envs over RLlib's TCP protocol (RLlink) are not offered: the face steps "
+                              "gymnasium envs in-process or on Ray actors; wrap the simulator's client as a "
+                              "gymnasium env",
     "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
                           "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }

@@ -25,6 +25,7 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.algorithms.tqc", "SACConfig"),  # algorithms/tqc/pendulum_tqc.py
     ("ray.rllib.algorithms.ppo.torch.ppo_torch_learner", "Learner subclasses are not run"),  # ppo_with_custom_loss_fn
     ("ray.rllib.env.utils", "wrap a game as a MultiAgentEnv"),  # multi_agent/self_play_with_open_spiel.py
+    ("ray.rllib.env.external.rllink", "wrap the simulator's client as a gymnasium env"),  # envs/env_connecting_...
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
     line = refused_import_line(module)
