@@ -69,9 +69,19 @@ def add_rllib_example_script_args(parser: argparse.ArgumentParser | None = None,
     add("--num-cpus", type=int, default=0)
     add("--num-gpus", type=int, default=None)
     add("--old-api-stack", action="store_true")
-    add("--enable-new-api-stack", action="store_true")
-    add("--local-mode", action="store_true")
+    # flags RLlib 2.60 keeps out of --help only to refuse them (run_rllib_example_script_experiment)
+    add("--enable-new-api-stack", action="store_true", help=argparse.SUPPRESS)
+    add("--local-mode", action="store_true", help=argparse.SUPPRESS)
     return parser
+
+
+def check_refused_flags(args: argparse.Namespace) -> None:
+    """RLlib 2.60's ValueError, word for word, for the example flags it no longer takes."""
+    if getattr(args, "enable_new_api_stack", False):
+        raise ValueError("`--enable-new-api-stack` flag no longer supported (it's the default behavior now)! To "
+                         "switch back to the old API stack on your scripts, use the `--old-api-stack` flag.")
+    if getattr(args, "local_mode", False):
+        raise ValueError("`--local-mode` is no longer supported.")
 
 
 def _lookup(result: dict[str, Any], path: str) -> Any:
@@ -92,6 +102,9 @@ def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespa
     last result, as RLlib's; else a Tune ``ResultGrid`` of one trial per ``tune.grid_search`` variant
     (:mod:`rlchain.rllib.examples.results`)."""
     args = args or add_rllib_example_script_args().parse_args([])
+    check_refused_flags(args)
+    if getattr(args, "as_release_test", False):  # RLlib: a release test is a test
+        args.as_test = True
     config = base_config
     if not keep_config:
         if args.env is not None and config.get("env") is None:
