@@ -93,3 +93,22 @@ def test_flags_rllib_no_longer_takes_are_its_value_error(flag, message, capsys):
 def test_as_release_test_is_as_test():
     with pytest.raises(ValueError, match="not reached"):
         _run(["--no-tune", "--stop-iters=1", "--stop-reward=50", "--as-release-test"], [10.0])
+
+
+def test_an_iteration_before_the_first_episode_end_prints_without_a_return(capsys):
+    # RLlib leaves env_runners/episode_return_mean out until an episode ended: the progress line says "-"
+    algo = _Algo([None, 5.0])
+    train = algo.train
+
+    def without_return():
+        result = train()
+        if result["env_runners"]["episode_return_mean"] is None:
+            del result["env_runners"]["episode_return_mean"]
+        return result
+
+    algo.train = without_return
+    run_rllib_example_script_experiment(_Config(algo), add_rllib_example_script_args().parse_args(
+        ["--no-tune", "--stop-iters=2"]), keep_config=True)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("iter 1: episode_return_mean -, env steps 100")
+    assert lines[1].startswith("iter 2: episode_return_mean 5.00, env steps 200")

@@ -84,6 +84,12 @@ def check_refused_flags(args: argparse.Namespace) -> None:
         raise ValueError("`--local-mode` is no longer supported.")
 
 
+def _number(value: Any) -> str:
+    """A result's value for the progress line: two decimals, ``-`` where the result has none (no episode ended
+    yet: RLlib leaves the episode means out)."""
+    return f"{value:.2f}" if isinstance(value, (int, float)) else "-"
+
+
 def _lookup(result: dict[str, Any], path: str) -> Any:
     node: Any = result
     for part in path.split("/"):
@@ -158,12 +164,12 @@ def _train_trial(config: Any, args: argparse.Namespace, stop: dict[str, Any], tr
         while iterations is None or len(out.history) < iterations:
             result = algo.train()
             out.history.append(result)
-            ret = _lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}")
-            line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret:.2f}, env steps "
+            ret = _number(_lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}"))
+            line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret}, env steps "
                     f"{result[NUM_ENV_STEPS_SAMPLED_LIFETIME]}, {time.time() - start:.1f} s")
             evaluation = result.get(EVALUATION_RESULTS)
             if evaluation:
-                line += f", evaluation {_lookup(evaluation, f'{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}'):.2f}"
+                line += f", evaluation {_number(_lookup(evaluation, f'{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}'))}"
             if args.verbose:
                 print(line, flush=True)
             if trial is not None and args.checkpoint_freq and algo.iteration % args.checkpoint_freq == 0:
