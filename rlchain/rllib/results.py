@@ -77,6 +77,12 @@ def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
     return learner
 
 
+EPISODE_KEYS = ("episode_return_mean", "episode_len_mean", "episode_return_min", "episode_return_max",
+                "agent_episode_returns_mean", "module_episode_returns_mean")
+"""The ``env_runners`` episode results RLlib 2.60 leaves out until the run's first episode ended (then NaN in an
+iteration that ended none)."""
+
+
 def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
                  episode_custom: dict[str, Any], learner: dict[str, Any], multi: Any = None,
                  episodes: dict[str, float] | None = None,
@@ -107,6 +113,9 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
         env_runners.update(multi.episodes())
         ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
         learners = multi.learners(report.stats, cfg["learning_rate"], last_by_policy)
+    if not env_runners.get("num_episodes_lifetime"):  # RLlib 2.60 has no episode means before an episode ended
+        for key in EPISODE_KEYS:
+            env_runners.pop(key, None)
     return {
         "training_iteration": iteration, "iterations_since_restore": iteration,
         "time_this_iter_s": report.seconds, "time_total_s": time_total, "timestamp": int(time.time()),
