@@ -57,6 +57,9 @@ INSTEAD = {
                                      "'lifetime_sum' | 'item' | 'item_series', window=..., ema_coeff=...)",
     "ray.rllib.env.utils": "RLlib's env utilities (try_import_pyspiel, OpenSpiel's wrapper) are not offered: wrap a "
                            "game as a MultiAgentEnv (turn-based: only the mover in the obs dict)",
+    "ray.rllib.env.external": "RLlib's external-env protocol (an EnvRunner serving a client env over TCP) is not "
+                              "offered: wrap the simulator's client in a gymnasium env class whose reset / step "
+                              "talk to it, and pass that class (or a register_env creator) to environment()",
     "ray.rllib.core.rl_module.marl_module": "RLlib 2.60 has no marl_module (the script is older): "
                                             "MultiRLModuleSpec(rl_module_specs={policy: RLModuleSpec(...)}) from "
                                             "ray.rllib.core.rl_module.multi_rl_module",

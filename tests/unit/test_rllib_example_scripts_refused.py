@@ -27,6 +27,7 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.env.utils", "wrap a game as a MultiAgentEnv"),  # multi_agent/self_play_with_open_spiel.py
     ("ray.rllib.core.rl_module.marl_module", "multi_rl_module"),  # multi_agent/restore_1_of_n_agents_from_...
     ("ray.rllib.utils.metrics.learner_info", "LEARNER_RESULTS"),  # debugging/deterministic_training.py
+    ("ray.rllib.env.external.env_runner_server_for_external_inference", "gymnasium env class"),  # envs/env_conn...
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
     line = refused_import_line(module)
