@@ -58,6 +58,9 @@ class PPOAgent(ScheduledAdam):
 
     surrogate: ClassVar[Surrogate] = staticmethod(policy_loss)
     """Per-sample policy loss (B,) of (rollout log-probs, log-probs, advantages, e_clip, smooth clamp)."""
+    kl_adapt_each_pass: ClassVar[bool] = False
+    """The KL penalty's coefficient adapts after every pass over the batch (RLlib's APPO, whose learner updates
+    once per pass) instead of once after the whole update (RLlib's PPO)."""
 
     def __init__(self, model: ActorCritic, cfg: PPOConfig, device: torch.device, comm: Communicator = SINGLE,
                  cuda_graph: bool = False, train_critic: bool = True,
@@ -80,7 +83,7 @@ class PPOAgent(ScheduledAdam):
         self.advantage_stats = MovingAdvantageStats(cfg.adv_rms_momentum, device) \
             if cfg.normalize_advantage and cfg.normalize_rms_advantage else None
         # RLlib's KL penalty: the live coefficient (kl_target adapts it after every update), one persistent tensor
-        # (PPOConfig's keys; APPO / IMPALA configs have none: off)
+        # (PPOConfig's and APPOConfig's keys; IMPALA's config has none: off)
         self.kl_coef = getattr(cfg, "kl_loss_coef", 0.0)
         self._kl_coef_t = torch.tensor(float(self.kl_coef), device=device) if self.kl_coef > 0 else None
         # advantage_normalization rllib: the raw advantages of RLlib's bootstrap rows for this update (PPO sets them)
@@ -165,17 +168,25 @@ class PPOAgent(ScheduledAdam):
                     self.follow_kl(stats["kl"])
             if cfg.schedule_type == "standard":
                 self.follow_kl(epoch_kl / max(epoch_n, 1))
+            if self.kl_adapt_each_pass and epoch_n:
+                self._adapt_kl_coef(stats["kl"])
         self.last_minibatch_stats = stats if count else {}  # the update's last minibatch (RLlib reports those)
         self.apply_progress(progress)
-        if self._kl_coef_t is not None and cfg.kl_loss_target is not None:  # a PPOConfig (kl_coef > 0)
-            self.kl_coef = adapted_kl_coef(self.kl_coef, stats["kl"], cfg.kl_loss_target)
-            self._kl_coef_t.fill_(self.kl_coef)
+        if not self.kl_adapt_each_pass and count:
+            self._adapt_kl_coef(stats["kl"])
         out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
         if self._kl_coef_t is not None:
             out["kl_coef"] = self.kl_coef
         return out
+
+    def _adapt_kl_coef(self, kl: float) -> None:
+        """The KL penalty's coefficient after a step whose KL was ``kl``, when it adapts (``kl_loss_target``)."""
+        target = getattr(self.cfg, "kl_loss_target", None)
+        if self._kl_coef_t is not None and target is not None:
+            self.kl_coef = adapted_kl_coef(self.kl_coef, kl, target)
+            self._kl_coef_t.fill_(self.kl_coef)
 
     def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
         """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
