@@ -127,7 +127,7 @@ def test_policy_mapping_first_matching_glob_wins_and_unmapped_agents_are_an_erro
         "boss": ["adversary_0"], "predator": ["adversary_1"], "prey": ["agent_0"]}
     with pytest.raises(ConfigError, match=r"cfg.yaml: params.config.multi_agent.policy_mapping: agent 'leader_0' "
                                           r"matches no glob"):
-        mapping.policy_of("leader_0")
+        mapping.candidates("leader_0")
 
 
 @pytest.mark.parametrize("change, match", [
@@ -139,6 +139,14 @@ def test_policy_mapping_first_matching_glob_wins_and_unmapped_agents_are_an_erro
     ({"policies": {"runners": {"config": {"learning_rat": 1e-3}}, "late": {}}},
      r"policies.runners.config.learning_rat: unknown key; did you mean 'learning_rate'\?"),
     ({"policy_mapping": {}}, r"policy_mapping: required with several policies"),
+    ({"policy_mapping": {"runner_*": ["runners", "lat"], "late_*": "late"}},
+     r"policy_mapping.runner_\*: unknown policy 'lat' \(policies: runners, late\); did you mean 'late'\?"),
+    ({"policy_mapping": {"runner_*": [], "late_*": "late"}},
+     r"policy_mapping.runner_\*: expected a policy name or a non-empty list of policy names, got \[\]"),
+    ({"policy_mapping": {"runner_*": 3, "late_*": "late"}},
+     r"policy_mapping.runner_\*: expected a policy name or a non-empty list of policy names, got 3"),
+    ({"policy_mapping": {"runner_*": ["late", "late"], "late_*": "late"}},
+     r"policy_mapping.runner_\*: names a policy twice \(late, late\)"),
     ({"snapshots": {"late": "runners"}}, r"snapshots.late: the snapshot 'late' must be frozen"),
 ])
 def test_bad_multi_agent_blocks_are_one_line_errors(change, match):
