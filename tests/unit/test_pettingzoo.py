@@ -8,6 +8,7 @@ tried in tests/smoke/test_pettingzoo_configs.py and tests/learning/test_pettingz
 import copy
 import os
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
@@ -18,7 +19,7 @@ from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.multi_policy.masked import active_minibatches, masked_gae
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import PolicyMapping
-from rlchain.envs.backends.pettingzoo_env import pettingzoo_env, resolve_env_module
+from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv, pettingzoo_env, resolve_env_module
 from rlchain.runs import checkpoint as ckpt
 
 DYING = {
@@ -64,6 +65,39 @@ def test_agents_that_die_or_appear_later_are_inactive_and_end_once():
     assert [s["late_0"] for s in ends] == [0, 0, 0, 0, 1, 0]
     assert env.pop_games() == 2 and env.pop_games() == 0  # both envs ended their episode once
     assert not views["late_0"].obs.any()  # an absent agent's observation is zeros, never a stale one
+
+
+class OneHot:
+    """A ParallelEnv whose one agent sees a Discrete(3) observation (2, then 1) and ends after 2 steps."""
+
+    possible_agents = ["a"]
+
+    def observation_space(self, agent):
+        return gym.spaces.Discrete(3)
+
+    def action_space(self, agent):
+        return gym.spaces.Discrete(2)
+
+    def reset(self, seed=None, options=None):
+        self.agents, self.t = ["a"], 0
+        return {"a": 2}, {"a": {}}
+
+    def step(self, actions):
+        self.t += 1
+        done = self.t == 2
+        if done:
+            self.agents = []
+        return {"a": 1}, {"a": 0.0}, {"a": done}, {"a": False}, {"a": {}}
+
+
+def test_discrete_observations_are_one_hot_and_a_reset_env_says_so():
+    env = PettingZooVecEnv(OneHot, 2, 0)
+    assert env.observation_spaces["a"].shape == (3,)
+    assert env.reset(seed=0)["a"].obs.tolist() == [[0, 0, 1], [0, 0, 1]]  # gymnasium's flatten, not the index
+    first = env.step({"a": np.zeros(2, np.int64)})
+    assert first.obs["a"].obs.tolist() == [[0, 1, 0], [0, 1, 0]] and not first.started.any()
+    second = env.step({"a": np.zeros(2, np.int64)})
+    assert second.started.all() and second.obs["a"].obs.tolist() == [[0, 0, 1], [0, 0, 1]]
 
 
 def test_unknown_env_names_what_was_tried():

@@ -284,11 +284,18 @@ class PettingZooVecEnv:
         return views
 
     def _flat(self, agent: str, raw: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """An agent's observation as its flat float32 row (gymnasium's ``flatten`` of its space: a Discrete
+        one-hot) and its action mask, if the observation carries one."""
         mask = None
+        space = self._raw_obs_spaces[agent]
         if isinstance(raw, dict) and "observation" in raw:
             mask = np.asarray(raw["action_mask"], bool).reshape(-1) if "action_mask" in raw else None
             raw = raw["observation"]
-        return np.asarray(raw, np.float32).reshape(-1), mask
+            if isinstance(space, gym.spaces.Dict) and "observation" in space.spaces:
+                space = space["observation"]
+        if isinstance(space, gym.spaces.Box):
+            return np.asarray(raw, np.float32).reshape(-1), mask
+        return np.asarray(gym.spaces.flatten(space, raw), np.float32).reshape(-1), mask
 
     def named_policies(self, i: int) -> dict[str, str] | None:
         """agent -> policy name for env ``i``'s current episode where the env names them (its
