@@ -18,7 +18,7 @@ What maps (PPO; docs/rllib.md has the table):
   policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over
   RLlib's train batch, its bootstrap rows included (``advantage_normalization: rllib``); no reward scaling, no
   observation or value normalization (RLlib has none by default).
-- the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` (+ ``head_fcnet_hiddens``) -> the MLP;
+- the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` -> the MLP, ``head_fcnet_hiddens`` -> ``head``;
   ``conv_filters`` -> a cnn block; ``use_lstm`` -> an rnn block and ``seq_length`` (whole sequences per
   minibatch: :func:`sequence_batch_shape`); ``vf_share_layers`` False -> a separate critic; ``free_log_std`` ->
   rlchain's fixed sigma.

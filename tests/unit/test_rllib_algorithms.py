@@ -180,8 +180,9 @@ def test_conv_filters_map_onto_rlchains_cnn():
     assert network["cnn"]["convs"] == [{"filters": 16, "kernel_size": 4, "strides": 2, "padding": 1},
                                        {"filters": 32, "kernel_size": 3, "strides": 2, "padding": 0}]
     assert network["cnn"]["activation"] == "elu" and network["cnn"]["permute_input"]
-    # an image encoder goes straight to the heads: fcnet_hiddens is not used, head_fcnet_hiddens is the MLP
-    assert network["mlp"]["units"] == [64] and network["mlp"]["activation"] == "relu"
+    # an image encoder goes straight to the heads: fcnet_hiddens is not used, head_fcnet_hiddens is each stream's
+    assert network["mlp"]["units"] == [] and network["head"]["units"] == [64]
+    assert network["head"]["activation"] == "relu"  # head_fcnet_activation's default
     for model, key in (({}, "conv_filters.*image observations"),
                        ({"conv_filters": [[16, [4, 3], 2]]}, r"conv_filters\[0\].*square"),
                        ({"conv_filters": [[16, 4, 2, "full"]]}, "padding 'full'")):
@@ -192,14 +193,25 @@ def test_conv_filters_map_onto_rlchains_cnn():
         networks.actor_critic_network(PPOConfig().rl_module(model_config={"conv_filters": [[8, 3, 1]]}), FLAT, False)
 
 
-def test_head_layers_join_the_mlp_with_one_activation():
-    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "fcnet_activation": "relu",
-                                            "head_fcnet_hiddens": [32]})
+def test_head_layers_are_each_streams_own_with_their_own_activation():
+    # RLlib's mujoco_ppo.py: tanh encoder, a head of 256 with no activation, separate value layers
+    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [256, 256], "fcnet_activation": "tanh",
+                                            "head_fcnet_hiddens": [256], "head_fcnet_activation": None,
+                                            "vf_share_layers": False, "free_log_std": True})
+    network, _ = networks.actor_critic_network(c, FLAT, True)
+    assert network["mlp"]["units"] == [256, 256] and network["mlp"]["activation"] == "tanh" and network["separate"]
+    assert network["head"]["units"] == [256] and network["head"]["activation"] == "None"
+    # the heads follow the LSTM (RLlib: encoder, LSTM, then the pi and vf heads)
+    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "head_fcnet_hiddens": [32], "use_lstm": True,
+                                            "vf_share_layers": True})
     network, _ = networks.actor_critic_network(c, FLAT, False)
-    assert network["mlp"]["units"] == [64, 32] and network["mlp"]["activation"] == "relu"
-    bad = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "head_fcnet_hiddens": [32]})  # tanh, relu
-    with pytest.raises(ConfigError, match="head_fcnet_activation.*one activation"):
+    assert network["mlp"]["units"] == [64] and network["head"] == {"units": [32], "activation": "relu",
+                                                                   "initializer": {"name": "default"}}
+    assert "head" not in networks.actor_critic_network(PPOConfig(), FLAT, False)[0]
+    bad = PPOConfig().rl_module(model_config={"head_fcnet_hiddens": [32], "head_fcnet_activation": "tahn"})
+    with pytest.raises(ConfigError, match="model_config.head_fcnet_activation") as info:
         networks.actor_critic_network(bad, FLAT, False)
+    assert "\n" not in str(info.value)
 
 
 def test_env_runners_are_ray_actors_only_when_ray_was_asked_for(monkeypatch):

@@ -155,8 +155,9 @@ class PPOAgent(ScheduledAdam):
                     stats = optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm,
                                            comm=self.comm, scaler=self.scaler, what="the PPO update",
                                            stats=partial(read_stats, loss, stats_t, aux))
-                    del stats["loss"]
                 for key, value in stats.items():
+                    if key == "loss":  # the minibatch's total loss: kept for the last minibatch only (RLlib's)
+                        continue
                     sums[key] = sums.get(key, 0.0) + value
                     if key.startswith("losses/"):  # auxiliary: averaged over the minibatches that had it
                         aux_counts[key] = aux_counts.get(key, 0) + 1
@@ -275,7 +276,6 @@ class PPOAgent(ScheduledAdam):
             reference.index_copy_(0, batch.index, current)
         stats = named_stats(values.tolist(), self._aux_names)
         check_finite(stats, "the PPO update")  # a non-finite step left the parameters as they were
-        del stats["loss"]
         return stats
 
     # ----- live values and checkpoints ----------------------------------------------------------
