@@ -15,7 +15,9 @@ from typing import Any
 
 import yaml
 
+from rlchain.algos.appo.appo import APPO, IMPALA
 from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
+from rlchain.algos.multi_policy.multi_policy_vtrace import MultiPolicyAPPO, MultiPolicyIMPALA
 from rlchain.config.embodichain import is_embodichain
 from rlchain.config.errors import ConfigError
 from rlchain.config.load import (
@@ -305,10 +307,14 @@ class Runner:
         return self.params
 
 
+MULTI_POLICY = {APPO: MultiPolicyAPPO, IMPALA: MultiPolicyIMPALA}
+"""The multi-policy learner of each registered algorithm that takes ``config.multi_agent`` (else PPO's)."""
+
+
 def algorithm_class(params: Params) -> Any:
     """The registered algorithm of ``params.algo.name`` (multi-policy PPO with ``config.multi_agent``)."""
-    if params.policies is not None:  # config.multi_agent: one PPO learner per policy
-        return MultiPolicyPPO
+    if params.policies is not None:  # config.multi_agent: one learner per policy
+        return MULTI_POLICY.get(ALGOS.get(params.algo.name), MultiPolicyPPO)
     return ALGOS.get(params.algo.name)
 
 

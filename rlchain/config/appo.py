@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.fields import option, positive, variant
+from rlchain.config.multi_agent import MultiAgentConfig
 from rlchain.config.network_block import has_rnn
 from rlchain.config.ppo import PPOConfig
 
@@ -53,6 +54,9 @@ class VTraceConfig(ActorCriticConfig):
     """The keys ``appo`` and ``impala`` share: the actor-critic keys and the asynchronous learner's block."""
 
     appo: AppoBlock = option(AppoBlock(), "the asynchronous learner (rlchain)")
+    multi_agent: MultiAgentConfig | None = option(None, "PettingZoo agents played by several policies, each with "
+                                                        "its own model, optimizer and V-trace learner; sampled "
+                                                        "in the learner's process, no runners (docs/multi_agent.md)")
     seq_length: int = variant(PPOConfig, "seq_length", doc="RNN: steps per training sequence (each starts from the "
                                                            "state its runner had there); horizon_length (the "
                                                            "fragment) and minibatch_size must divide by it")
@@ -96,6 +100,10 @@ class VTraceConfig(ActorCriticConfig):
             return "appo.max_policy_lag", (f"{appo.max_policy_lag} is below broadcast_interval - 1 = "
                                            f"{appo.broadcast_interval - 1}: runners hold weights that many versions "
                                            f"old between broadcasts, so every fragment would be dropped")
+        if self.multi_agent is not None and (self.env_runners is not None or self.appo.runners == "ray"):
+            return ("env_runners" if self.env_runners is not None else "appo.runners"), (
+                "is not supported with multi_agent yet: the policies' envs are stepped in the learner's process "
+                "(docs/multi_agent.md)")
         runners = self.env_runners
         if runners is not None and runners.num_workers is not None and self.num_actors % runners.num_workers:
             return "env_runners.num_workers", (f"num_actors {self.num_actors} does not divide by {runners.num_workers} "

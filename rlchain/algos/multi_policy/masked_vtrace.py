@@ -48,4 +48,5 @@ def masked_vtrace(log_rhos: torch.Tensor, rewards: torch.Tensor, values: torch.T
         pending = torch.where(act, zero, pending)
     mask = active.unsqueeze(-1)
     vs = torch.where(mask, values + corrections, torch.zeros_like(values))
-    return VTrace(vs, advantages, clipped.expand_as(values) * advantages, torch.where(mask, rhos, 1.0).expand_as(values))
+    ratios = torch.where(mask, rhos, 1.0).expand_as(values)
+    return VTrace(vs, advantages, clipped.expand_as(values) * advantages, ratios)

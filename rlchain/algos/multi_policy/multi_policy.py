@@ -26,7 +26,7 @@ from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.returns import shape_with
-from rlchain.algos.multi_policy.masked import masked_gae
+from rlchain.algos.multi_policy.masked import MaskedPPOAgent, masked_gae
 from rlchain.algos.multi_policy.policies import PolicyAgents, PolicyLearner
 from rlchain.algos.multi_policy.snapshots import Snapshots
 from rlchain.config.actor_critic import check_batch
@@ -46,6 +46,9 @@ STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entrop
 class MultiPolicyPPO(AlgorithmBase):
     """PPO for several policies over one PettingZoo vector env (``config.multi_agent``); self_play_config
     acts through ``multi_agent.snapshots`` (:class:`Snapshots`, driven from :meth:`end_epoch`)."""
+
+    agent_class: type[MaskedPPOAgent] = MaskedPPOAgent
+    """Each trained policy's learner (appo / impala: :mod:`rlchain.algos.multi_policy.vtrace_policies`)."""
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
@@ -70,7 +73,8 @@ class MultiPolicyPPO(AlgorithmBase):
                                   f"'{agents[0]}' has no action_mask in its observations")
             self.policies.append(PolicyLearner(name, policy, agents, model[name],
                                                env.observation_spaces[agents[0]].shape, env.num_envs,
-                                               name in to_train, device, self.cfg.games_to_track))
+                                               name in to_train, device, self.cfg.games_to_track,
+                                               self.agent_class))
         self.agent = PolicyAgents(self.policies)
         self.seats = seats_of(params, env, ctx.seed)  # which policy plays a listed agent, episode by episode
         self._agent_rows = None  # with listed agents: each policy row's row of the run-wide (agent, env) statistics
@@ -179,10 +183,9 @@ class MultiPolicyPPO(AlgorithmBase):
             check_rollout(storage.rewards, storage.obs, f"policy {lr.name}: ")
             if not bool(lr.active.any()):
                 continue
-            cfg, model = lr.cfg, lr.model
-            with torch.no_grad():  # GAE over the active steps, then the policy's normalizers fold them in
-                adv, returns = masked_gae(storage.rewards, storage.values, storage.final_values, lr.last_values,
-                                          lr.active, storage.terminated, storage.dones, cfg.gamma, cfg.tau)
+            model = lr.model
+            with torch.no_grad():  # advantages over the active steps, then the policy's normalizers fold them in
+                adv, returns = self.advantages(lr)
                 storage.advantages.copy_(adv)
                 storage.returns.copy_(returns)
                 storage.final_values.zero_()
@@ -197,6 +200,12 @@ class MultiPolicyPPO(AlgorithmBase):
                     if len(self.policies) == 1:  # one shared policy: rl_games' own tags too
                         stats[self.plain_tag(key)] = value
         return stats
+
+    def advantages(self, lr: PolicyLearner) -> tuple[torch.Tensor, torch.Tensor]:
+        """(advantages, returns) of a trained policy's rollout: GAE over its active steps."""
+        storage, cfg = lr.storage, lr.cfg
+        return masked_gae(storage.rewards, storage.values, storage.final_values, lr.last_values, lr.active,
+                          storage.terminated, storage.dones, cfg.gamma, cfg.tau)
 
     @staticmethod
     def plain_tag(key: str) -> str:

@@ -17,10 +17,12 @@ from rlchain.runs.checkpoint import CheckpointError
 
 class PolicyLearner:
     """One policy: its model, its agents' rows (agent-major: row ``k * E + e`` is agent k of env e)
-    and, when it trains, a :class:`MaskedPPOAgent`, a rollout storage and the (T, rows) active mask."""
+    and, when it trains, a :class:`MaskedPPOAgent` (``agent_class``: appo's / impala's), a rollout storage and the
+    (T, rows) active mask."""
 
     def __init__(self, name: str, params: Params, agents: list[str], model: Any, obs_shape: tuple[int, ...],
-                 num_envs: int, train: bool, device: torch.device, games_to_track: int) -> None:
+                 num_envs: int, train: bool, device: torch.device, games_to_track: int,
+                 agent_class: type[MaskedPPOAgent] = MaskedPPOAgent) -> None:
         cfg = params.config
         self.name, self.params, self.cfg, self.agents, self.model = name, params, cfg, agents, model
         self.num_envs, self.rows, self.device = num_envs, num_envs * len(agents), device
@@ -34,7 +36,7 @@ class PolicyLearner:
                                           dist.action_shape, dist.action_dtype, dist.param_size, 1, device,
                                           mask_size=dist.param_size if self.use_masks else 0)
             self.active = torch.zeros((cfg.horizon_length, self.rows), dtype=torch.bool, device=device)
-            self.agent = MaskedPPOAgent(model, cfg, device, active=self.active)  # learns from the active steps
+            self.agent = agent_class(model, cfg, device, active=self.active)  # learns from the active steps
 
     def end_rollout(self, views: dict[str, Any]) -> None:
         """After a rollout, when this policy trains: the values of its rows' next observations (the returns
