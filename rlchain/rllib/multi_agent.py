@@ -41,6 +41,8 @@ from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 _COUNTER = itertools.count(1)
 PROBES = 64
 """Made-up episodes ``policy_mapping_fn`` is asked for up front: the policies each agent may play."""
+VTRACE = ("APPO", "IMPALA")
+"""The V-trace algorithms a MultiAgentEnv trains under besides PPO (rlchain's multi-policy appo / impala)."""
 ENV_STATE = "state"
 """RLlib's key of a global state in an agent's observation dict (RLlib's grouped-agents examples use it)."""
 
@@ -314,9 +316,9 @@ class MultiAgentRun:
     rlchain config, and RLlib's multi-agent results (episode returns summed over agents, per policy learners)."""
 
     def __init__(self, config: Any, probe: Any) -> None:
-        if config.algo_name != "PPO":
-            raise ConfigError(type(config).__name__, "env", f"a MultiAgentEnv trains under PPO only, not "
-                                                            f"{config.algo_name}")
+        if config.algo_name not in ("PPO", *VTRACE):
+            raise ConfigError(type(config).__name__, "env", f"a MultiAgentEnv trains under PPO, APPO or IMPALA "
+                                                            f"only, not {config.algo_name}")
         self.agent_ids = agent_ids_of(probe)
         self.view = ParallelView(probe, self.agent_ids)
         self.names, _ = policy_names(config)
@@ -337,8 +339,22 @@ class MultiAgentRun:
         window = int(settings.get("metrics_num_episodes_for_smoothing") or 100)
         env_name = register(make, self.agent_ids, self.logs, window, max(1, int(settings.get("num_env_runners") or 0)),
                             max(1, int(settings.get("num_envs_per_env_runner") or 1)), self.chooser)
-        base = translate.ppo_config(config, env_name, False, run, rllib_batch=False)
+        if config.algo_name in VTRACE:
+            base = self._vtrace_base(config, env_name, run)
+        else:
+            base = translate.ppo_config(config, env_name, False, run, rllib_batch=False)
         return env_name, ppo_config(config, base, self.view, self.mapping, network_of)
+
+    def _vtrace_base(self, config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
+        """APPO / IMPALA: the single-agent translation (its batch: RLlib's train batch of env steps over every
+        runner's envs) with the envs stepped in the learner's process, as rlchain's multi-policy appo / impala
+        does (docs/multi_agent.md): no runners block."""
+        obs_space, act_space = next(iter(self.spaces.values()))
+        base = config.algo_class.translate(config, env_name, obs_space, isinstance(act_space, gym.spaces.Box), run)
+        train = base["params"]["config"]
+        train.pop("env_runners", None)
+        train["appo"]["runners"] = "local"
+        return base
 
     def episodes(self, log: EpisodeLog | None = None) -> dict[str, Any]:
         """RLlib's env-runner episode metrics of the episodes ``log`` (default: the training env's) finished since
