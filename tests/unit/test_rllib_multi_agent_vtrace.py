@@ -1,0 +1,43 @@
+"""RLlib's MultiAgentEnv under APPOConfig / IMPALAConfig through the face: rlchain's multi-policy appo / impala
+(a V-trace learner per policy over the turn-based env's active steps), RLlib's per-policy results."""
+
+import numpy as np
+import pytest
+
+from rlchain.config.errors import ConfigError
+from rlchain.rllib.algorithms.appo import APPOConfig
+from rlchain.rllib.algorithms.impala import IMPALAConfig
+from tests.unit.test_rllib_multi_agent import TakeTurns
+
+
+def _config(cls):
+    return (cls().environment(TakeTurns).env_runners(num_env_runners=0).debugging(seed=1)
+            .training(train_batch_size=64, lr=1e-3)
+            .multi_agent(policies={"first", "second"},
+                         policy_mapping_fn=lambda aid, *a, **kw: ["first", "second"][aid]))
+
+
+@pytest.mark.parametrize("cls", [APPOConfig, IMPALAConfig])
+def test_two_policies_train_under_vtrace_with_results_per_policy(tmp_path, monkeypatch, cls):
+    monkeypatch.chdir(tmp_path)
+    algo = _config(cls).build_algo()
+    try:
+        assert algo.rlchain_config["params"]["algo"]["name"] == cls.__name__[:-6].lower()
+        assert "env_runners" not in algo.rlchain_config["params"]["config"]  # stepped in the learner's process
+        result = algo.train()
+        runners = result["env_runners"]
+        assert runners["episode_len_mean"] == 4 and runners["episode_return_mean"] >= 10.0  # player 1's bonus
+        assert set(result["learners"]) == {"first", "second", "__all_modules__"}
+        for pid in ("first", "second"):
+            assert np.isfinite(result["learners"][pid]["policy_loss"])
+            assert np.isfinite(result["learners"][pid]["vf_loss"])
+    finally:
+        algo.stop()
+
+
+def test_a_recurrent_multi_agent_policy_is_one_line(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    config = _config(APPOConfig).rl_module(model_config={"use_lstm": True})
+    with pytest.raises(ConfigError, match="feedforward") as info:
+        config.build_algo()
+    assert "\n" not in str(info.value)
