@@ -225,5 +225,5 @@ def policy_network(config: Any, policy: str, observation_space: gym.Space, actio
     network, seq_len = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
     if seq_len is not None:
         raise ConfigError(type(config).__name__, "model_config.use_lstm", "multi-agent policies are feedforward "
-                                                                          "(rlchain's multi-policy PPO)")
+                                                                          "(rlchain's multi-policy learners)")
     return network
