@@ -7,6 +7,8 @@ import pytest
 import torch
 from torch import nn
 
+from rlchain.rllib.algorithms.appo import APPOConfig
+from rlchain.rllib.algorithms.impala import IMPALAConfig
 from rlchain.rllib.algorithms.ppo import PPOConfig
 from rlchain.rllib.core.columns import Columns
 from rlchain.rllib.core.rl_module.apis import ValueFunctionAPI
@@ -80,6 +82,26 @@ def test_two_policies_learn_a_multi_agent_env(tmp_path, monkeypatch):
     torch.set_num_threads(1)
     config = (PPOConfig().environment(NameTheTarget).env_runners(num_env_runners=1).debugging(seed=1)
               .training(train_batch_size=400, minibatch_size=100, num_epochs=4, lr=3e-3)
+              .multi_agent(policies={"pa", "pb"}, policy_mapping_fn=lambda aid, *a, **kw: f"p{aid}"))
+    algo = config.build_algo()
+    try:
+        for _ in range(15):
+            result = algo.train()
+    finally:
+        algo.stop()
+    modules = result["env_runners"]["module_episode_returns_mean"]
+    assert result["env_runners"]["episode_return_mean"] >= 15.0, result["env_runners"]
+    assert min(modules.values()) >= 7.0, modules  # each policy well above random's 3.3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls", [APPOConfig, IMPALAConfig])
+def test_two_policies_learn_a_multi_agent_env_under_vtrace(tmp_path, monkeypatch, cls):
+    """rlchain's multi-policy appo / impala: each policy's V-trace learner."""
+    monkeypatch.chdir(tmp_path)
+    torch.set_num_threads(1)
+    config = (cls().environment(NameTheTarget).env_runners(num_env_runners=0).debugging(seed=1)
+              .training(train_batch_size=400, lr=3e-3, vf_loss_coeff=0.5, entropy_coeff=0.0)
               .multi_agent(policies={"pa", "pb"}, policy_mapping_fn=lambda aid, *a, **kw: f"p{aid}"))
     algo = config.build_algo()
     try:
