@@ -53,3 +53,12 @@ def test_what_multi_policy_appo_does_not_have_is_one_line(tmp_path, change, key)
     with pytest.raises(ConfigError, match=rf"params.config.{key}: is not supported with multi_agent yet"):
         Runner().load(dying("appo", tmp_path, **change)).train()
     assert not os.listdir(tmp_path)  # refused before a run folder
+
+
+def test_a_bad_multi_agent_block_under_impala_names_the_key(tmp_path):
+    raw = dying("impala", tmp_path)
+    raw["params"]["config"]["multi_agent"]["policies"]["late"] = {"config": {"appo": {"vtrace_clip_rho": -1.0}}}
+    key = r"multi_agent.policies.late.config.appo.vtrace_clip_rho"
+    with pytest.raises(ConfigError, match=rf"{key}: .*must be > 0") as info:
+        Runner().load(raw).train()
+    assert "\n" not in str(info.value)
