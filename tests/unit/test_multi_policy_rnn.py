@@ -10,10 +10,10 @@ import pytest
 import torch
 
 from rlchain import Runner
+from rlchain.algos.core.losses import policy_loss
 from rlchain.algos.core.storage import Batch
 from rlchain.algos.multi_policy.masked import active_sequences
 from rlchain.algos.ppo.loss import ppo_loss
-from rlchain.algos.core.losses import policy_loss
 from tests.unit.test_pettingzoo import dying
 
 
