@@ -129,8 +129,7 @@ class MultiPolicyPPO(AlgorithmBase):
                 lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks,
                                states=lr.states, resets=lr.resets if lr.states else None)
                 lr.active[t] = active
-            if lr.states:  # the RNN runs over every step of a row (as the update's sequences do)
-                lr.states = tuple(out["states"])
+            lr.advance(out["states"])
             lr.put(actions, lr.model.dist.to_env(out["actions"]).cpu().numpy(), own)
         return {"actions": actions, "acted": acted, "owned": owned}
 

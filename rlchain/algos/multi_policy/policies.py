@@ -47,6 +47,12 @@ class PolicyLearner:
             with torch.no_grad():
                 self.last_values = self.model.value(self.gather(views)[0], self.states or None)
 
+    def advance(self, states: tuple[torch.Tensor, ...] | None) -> None:
+        """An RNN policy: the states after this step, for every row (the RNN runs over every step of a row, the
+        inactive ones too, as the update's sequences do)."""
+        if self.states:
+            self.states = tuple(states)
+
     def start_episodes(self, started: torch.Tensor) -> None:
         """An RNN policy: the rows of the envs that start an episode (``started`` (E,) bool) begin from zero
         states, marked as resets."""
