@@ -86,6 +86,17 @@ def test_recurrent_policies_train_resume_and_play(tmp_path):
     assert played.games >= 4 and set(played.mean_rewards) == {"runners", "late"}
 
 
+def test_a_recurrent_self_play_snapshot_is_one_line(tmp_path):
+    from rlchain.config.errors import ConfigError
+
+    raw = recurrent(tmp_path, self_play_config={"update_score": 1.0, "games_to_check": 10})
+    raw["params"]["config"]["multi_agent"].update(policies_to_train=["runners"], snapshots={"late": "runners"})
+    with pytest.raises(ConfigError, match=r"multi_agent.snapshots.late: a self-play snapshot plays without RNN "
+                                          r"states") as info:
+        Runner().load(raw).train()
+    assert "\n" not in str(info.value)
+
+
 def test_rllib_use_lstm_trains_each_multi_agent_policy(tmp_path, monkeypatch):
     from rlchain.rllib.algorithms.ppo import PPOConfig
     from rlchain.rllib.env.multi_agent_env import make_multi_agent

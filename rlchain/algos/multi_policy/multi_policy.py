@@ -85,6 +85,10 @@ class MultiPolicyPPO(AlgorithmBase):
                                            record=_no_record, read_obs=_as_is, on_step=self._on_step)
         self.snapshots = None
         if self.cfg.self_play_config is not None:
+            recurrent = [name for name in ma.snapshots if any(lr.states for lr in self.policies if lr.name == name)]
+            if recurrent:
+                raise ConfigError(params.source, f"{KEY}.snapshots.{recurrent[0]}", "a self-play snapshot plays "
+                                  "without RNN states: snapshots of recurrent policies are not supported")
             self.snapshots = Snapshots(self.cfg.self_play_config, ma.snapshots, params.source)
 
     def learner(self, name: str) -> PolicyLearner:
