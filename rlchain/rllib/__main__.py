@@ -8,13 +8,27 @@ instead (exit code 1).
 
 from __future__ import annotations
 
+import re
 import sys
 
 from rlchain.config.errors import ConfigError
 from rlchain.faces import run_script
-from rlchain.rllib.alias import FaceImportError, RLlibAlias
+from rlchain.rllib.alias import FaceImportError, RLlibAlias, missing_name_instead
 from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.runs.checkpoint import CheckpointError
+
+_CANNOT_IMPORT = re.compile(r"cannot import name '([^']+)' from '((?:ray|rlchain)\.rllib[\w.]*)'")
+"""Python's message for ``from <module> import <name>`` where the module has no such name."""
+
+
+def _missing_name(exc: ImportError) -> str | None:
+    """The line for ``from ray.rllib.X import Y`` where the face's X has no Y, in the script's own names."""
+    match = _CANNOT_IMPORT.match(str(exc))
+    if match is None:
+        return None
+    name, module = match.groups()
+    module = "ray" + module.removeprefix("rlchain") if module.startswith("rlchain.") else module
+    return f"ImportError: {module} has no {name} under rlchain's RLlib face: {missing_name_instead(module, name)}"
 
 
 def explain(exc: Exception) -> str | None:
@@ -23,9 +37,12 @@ def explain(exc: Exception) -> str | None:
         return f"ImportError: {exc}"
     if isinstance(exc, (ConfigError, CheckpointError, FaceNotOffered)):  # already one line naming the key / file
         return f"{type(exc).__name__}: {exc}"
-    if isinstance(exc, ImportError) and exc.name and exc.name.startswith(("ray.rllib", "rlchain.rllib")):
-        return f"ImportError: {exc} (not offered by rlchain's RLlib face; see docs/rllib.md)"
-    return None
+    if not isinstance(exc, ImportError):
+        return None
+    line = _missing_name(exc)
+    if line is None and exc.name and exc.name.startswith(("ray.rllib", "rlchain.rllib")):
+        line = f"ImportError: {exc} (not offered by rlchain's RLlib face; see docs/rllib.md)"
+    return line
 
 
 def main(argv: list[str] | None = None) -> int:

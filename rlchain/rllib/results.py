@@ -43,15 +43,17 @@ def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
     RLlib 2.60's PPO, APPO and IMPALA learners log ``policy_loss``, ``vf_loss``, ``entropy``, ``mean_kl_loss`` and
     the gradients' global norm once per minibatch with ``window=1``: a result holds the iteration's last
     minibatch's values, not a mean; so does the face's, from the agent's last minibatch (the epoch's means where
-    there is none). ``curr_lr`` / ``curr_entropy_coeff``: the values rlchain trained with (a schedule's next
-    value replaces them: :func:`scheduled_results`)."""
+    there is none). ``total_loss`` is that minibatch's whole loss (policy loss + vf_loss_coeff * vf loss -
+    entropy_coeff * entropy + kl_coeff * KL, RLlib's sum; NaN without a last minibatch). ``curr_lr`` /
+    ``curr_entropy_coeff``: the values rlchain trained with (a schedule's next value replaces them:
+    :func:`scheduled_results`)."""
     nan = math.nan
 
     def last(key: str) -> Any:
         return stats.get(LAST + key, stats.get(key, nan))
 
     return {"policy_loss": last("a_loss"), "vf_loss": last("c_loss"), "entropy": last("entropy"),
-            "mean_kl_loss": last("kl"), "curr_lr": stats.get("lr", nan),
+            "mean_kl_loss": last("kl"), "total_loss": last("loss"), "curr_lr": stats.get("lr", nan),
             "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
             "gradients_default_optimizer_global_norm": last("grad_norm")}
 

@@ -55,14 +55,14 @@ MODEL_UNSUPPORTED = {
 
 NETWORK_FEATURES = {
     "conv_filters": {"PPO", "APPO", "IMPALA"},
-    "use_lstm": {"PPO"},
+    "use_lstm": {"PPO", "APPO", "IMPALA"},
     "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC", "DQN"},
 }
 """Model settings (beyond the MLP) each algorithm's rlchain network takes (networks.py maps them)."""
 
 FEATURE_WHY = {
     "conv_filters": "rlchain's {algo} network is an MLP: train images with PPO, APPO or IMPALA",
-    "use_lstm": "rlchain's {algo} has no recurrent policy ({why}): train an LSTM with PPO",
+    "use_lstm": "rlchain's {algo} has no recurrent policy (off-policy): train an LSTM with PPO, APPO or IMPALA",
     "head_fcnet_hiddens": "rlchain's {algo} network is one MLP: put the layers in fcnet_hiddens",
 }
 
@@ -86,9 +86,8 @@ def check_supported(config: Any) -> None:
     model = config.model_config
     for key, algos in NETWORK_FEATURES.items():
         if config.algo_name not in algos and model.get(key) not in (K.DEFAULT_MODEL.get(key), None, False, []):
-            why = "its runners carry no RNN state yet" if config.algo_name in ("APPO", "IMPALA") else "off-policy"
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: "
-                                                      f"{FEATURE_WHY[key].format(algo=config.algo_name, why=why)}")
+                                                      f"{FEATURE_WHY[key].format(algo=config.algo_name)}")
     for key, why in MODEL_UNSUPPORTED.items():
         if key in model and model[key] not in (K.DEFAULT_MODEL.get(key), None, False, []):
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: {why}")

@@ -52,10 +52,20 @@ class PolicyLearner:
             masks = torch.as_tensor(np.concatenate([views[a].mask for a in self.agents]), device=self.device)
         return (torch.as_tensor(obs, device=self.device), torch.as_tensor(active, device=self.device), masks)
 
-    def split(self, env_actions: np.ndarray) -> dict[str, np.ndarray]:
-        """The policy's (R, ...) env actions as ``{agent: (E, ...)}``."""
+    def put(self, actions: dict[str, np.ndarray], env_actions: np.ndarray, owned: torch.Tensor | None) -> None:
+        """The policy's (R, ...) env actions into ``actions`` (``{agent: (E, ...)}``): all of them, or with
+        ``owned`` (R,) only the rows it plays (the other policies of a listed agent fill the rest)."""
         e = self.num_envs
-        return {a: env_actions[k * e:(k + 1) * e] for k, a in enumerate(self.agents)}
+        if owned is None:
+            actions.update({a: env_actions[k * e:(k + 1) * e] for k, a in enumerate(self.agents)})
+            return
+        own = owned.cpu().numpy()
+        for k, a in enumerate(self.agents):
+            mine, rows = env_actions[k * e:(k + 1) * e], own[k * e:(k + 1) * e]
+            if a not in actions:
+                actions[a] = mine.copy()
+            else:
+                actions[a][rows] = mine[rows]
 
     def outcome(self, per_agent: dict[str, np.ndarray]) -> torch.Tensor:
         """A step's ``{agent: (E,)}`` field as this policy's (R,) tensor."""
