@@ -367,6 +367,7 @@ class MultiAgentRun:
             tag = (lambda kind, key, pid=pid, own=own: own.get(key, stats.get(f"{kind}/{pid}/{key}", nan)))
             out[pid] = {"policy_loss": tag("losses", "a_loss"), "vf_loss": tag("losses", "c_loss"),
                         "entropy": tag("losses", "entropy"), "mean_kl_loss": tag("info", "kl"),
+                        "total_loss": own.get("loss", nan),
                         "curr_lr": stats.get(f"info/{pid}/last_lr", lr),
                         "curr_entropy_coeff": stats.get(f"info/{pid}/entropy_coef", 0.0)}
         return out
