@@ -34,9 +34,13 @@ def dying(algo, tmp_path, **config):
     return raw
 
 
-@pytest.mark.parametrize("algo,extra", [("appo", {"mini_epochs": 2, "kl_loss_coef": 0.2}), ("impala", {})])
-def test_two_policies_train_each_with_its_own_vtrace_learner(tmp_path, algo, extra):
-    runner = Runner().load(dying(algo, tmp_path, **extra))
+@pytest.mark.parametrize("algo,extra,rnn", [("appo", {"mini_epochs": 2, "kl_loss_coef": 0.2}, False),
+                                            ("impala", {}, False), ("appo", {"seq_length": 4}, True)])
+def test_two_policies_train_each_with_its_own_vtrace_learner(tmp_path, algo, extra, rnn):
+    raw = dying(algo, tmp_path, **extra)
+    if rnn:  # each policy's LSTM keeps its rows' states, as multi-policy PPO's
+        raw["params"]["network"]["rnn"] = {"name": "lstm", "units": 8, "layers": 1}
+    runner = Runner().load(raw)
     assert algorithm_class(runner.params) is {"appo": MultiPolicyAPPO, "impala": MultiPolicyIMPALA}[algo]
     result = runner.train()
     assert result.epoch == 2

@@ -1,10 +1,9 @@
 """RLlib's MultiAgentEnv under APPOConfig / IMPALAConfig through the face: rlchain's multi-policy appo / impala
-(a V-trace learner per policy over the turn-based env's active steps), RLlib's per-policy results."""
+(a V-trace learner per policy over the turn-based env's active steps), RLlib's per-policy results, LSTMs."""
 
 import numpy as np
 import pytest
 
-from rlchain.config.errors import ConfigError
 from rlchain.rllib.algorithms.appo import APPOConfig
 from rlchain.rllib.algorithms.impala import IMPALAConfig
 from tests.unit.test_rllib_multi_agent import TakeTurns
@@ -35,9 +34,14 @@ def test_two_policies_train_under_vtrace_with_results_per_policy(tmp_path, monke
         algo.stop()
 
 
-def test_a_recurrent_multi_agent_policy_is_one_line(tmp_path, monkeypatch):
+def test_recurrent_policies_train_under_impala(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    config = _config(APPOConfig).rl_module(model_config={"use_lstm": True})
-    with pytest.raises(ConfigError, match="feedforward") as info:
-        config.build_algo()
-    assert "\n" not in str(info.value)
+    algo = _config(IMPALAConfig).rl_module(model_config={"use_lstm": True, "lstm_cell_size": 8,
+                                                          "max_seq_len": 4}).build_algo()
+    try:
+        policies = algo.rlchain_config["params"]["config"]["multi_agent"]["policies"]
+        assert all(policies[pid]["network"].get("rnn") for pid in ("first", "second"))
+        result = algo.train()
+        assert all(np.isfinite(result["learners"][pid]["policy_loss"]) for pid in ("first", "second"))
+    finally:
+        algo.stop()

@@ -5,8 +5,9 @@ storages, masks and tags, with each trained policy learning as ``appo`` / ``impa
 advantages over its active steps (:func:`~rlchain.algos.multi_policy.masked_vtrace.masked_vtrace`), then APPO's
 clipped surrogate (``mini_epochs`` passes, the KL penalty against the policy before the update) or IMPALA's
 policy gradient. The envs are stepped in the learner's process between updates (no runner threads or actors):
-every batch is sampled by the policy being trained, so its ratios pi/mu are 1 up to float error and the
-``appo`` block's runner keys have nothing to act on.
+every batch is sampled by the policy being trained, so V-trace's ratios pi/mu are 1 (its targets are the
+n-step returns to the rollout's end, cut by episode ends) and the ``appo`` block's runner keys have nothing to
+act on. Recurrent policies keep their states as multi-policy PPO's do.
 """
 
 from __future__ import annotations
@@ -58,17 +59,14 @@ class MultiPolicyAPPO(MultiPolicyPPO):
         check_batch(cfg, params.source, spec.num_agents)
 
     def advantages(self, lr: PolicyLearner) -> tuple[torch.Tensor, torch.Tensor]:
-        """(advantages, V-trace targets) over the policy's active steps, the ratios of its current policy to the
-        one that sampled (the caller holds no_grad)."""
-        storage, cfg, model = lr.storage, lr.cfg, lr.model
-        t_len, rows = storage.log_probs.shape[:2]
-        model.eval()
-        params, _, _ = model.evaluate(storage.obs.reshape(t_len * rows, *storage.obs.shape[2:]))
-        log_probs = model.dist.log_prob(params, storage.actions.reshape(t_len * rows, *storage.actions.shape[2:]))
-        log_rhos = torch.where(lr.active, log_probs.reshape(t_len, rows) - storage.log_probs, 0.0)
-        out = masked_vtrace(log_rhos, storage.rewards, storage.values, storage.final_values, lr.last_values,
-                            lr.active, storage.terminated, storage.dones, cfg.gamma, cfg.appo.vtrace_clip_rho,
-                            cfg.appo.vtrace_clip_c)
+        """(advantages, V-trace targets) over the policy's active steps. The batch was sampled by the weights and
+        normalizer statistics it is valued with (both change only in the update), feed-forward or recurrent
+        alike, so the log-ratios of pi to mu are 0 here; the update's passes measure theirs against the
+        stored behaviour log-probs as APPO does."""
+        storage, cfg = lr.storage, lr.cfg
+        out = masked_vtrace(torch.zeros_like(storage.log_probs), storage.rewards, storage.values, storage.final_values,
+                            lr.last_values, lr.active, storage.terminated, storage.dones, cfg.gamma,
+                            cfg.appo.vtrace_clip_rho, cfg.appo.vtrace_clip_c)
         return (out.pg_advantages if self.pg_advantages else out.advantages), out.vs
 
 
