@@ -348,9 +348,11 @@ class MultiAgentRun:
     def _vtrace_base(self, config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
         """APPO / IMPALA: the single-agent translation (its batch: RLlib's train batch of env steps over every
         runner's envs) with the envs stepped in the learner's process, as rlchain's multi-policy appo / impala
-        does (docs/multi_agent.md): no runners block."""
+        does (docs/multi_agent.md): no runners block; an ``rl_module_spec`` gives each policy its network."""
         obs_space, act_space = next(iter(self.spaces.values()))
-        base = config.algo_class.translate(config, env_name, obs_space, isinstance(act_space, gym.spaces.Box), run)
+        shared = config.copy()  # the policies' RLModule specs make their networks (ppo_config's network_of)
+        shared._settings["rl_module_spec"] = None
+        base = config.algo_class.translate(shared, env_name, obs_space, isinstance(act_space, gym.spaces.Box), run)
         train = base["params"]["config"]
         train.pop("env_runners", None)
         train["appo"]["runners"] = "local"

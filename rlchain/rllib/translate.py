@@ -99,7 +99,8 @@ def check_supported(config: Any) -> None:
         raise _bad(config, "grad_clip_by", f"{settings.get('grad_clip_by')!r}: rlchain clips the global norm "
                                            f"(grad_clip_by='global_norm')")
     learners(config)
-    if settings.get("rl_module_spec") is not None and config.algo_name != "PPO":
+    multi_vtrace = config.algo_name in ("APPO", "IMPALA") and settings.get("policies") is not None  # per policy
+    if settings.get("rl_module_spec") is not None and config.algo_name != "PPO" and not multi_vtrace:
         raise _bad(config, "rl_module_spec", f"an RLModule trains under PPO only, not {config.algo_name}: set "
                                              f"the network with model_config (fcnet_hiddens, ...)")
 

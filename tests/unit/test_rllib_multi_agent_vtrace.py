@@ -4,8 +4,11 @@
 import numpy as np
 import pytest
 
+from rlchain.config.errors import ConfigError
 from rlchain.rllib.algorithms.appo import APPOConfig
 from rlchain.rllib.algorithms.impala import IMPALAConfig
+from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+from rlchain.rllib.core.rl_module.rl_module import RLModuleSpec
 from tests.unit.test_rllib_multi_agent import TakeTurns
 
 
@@ -45,3 +48,20 @@ def test_recurrent_policies_train_under_impala(tmp_path, monkeypatch):
         assert all(np.isfinite(result["learners"][pid]["policy_loss"]) for pid in ("first", "second"))
     finally:
         algo.stop()
+
+
+def test_each_policy_takes_its_module_spec_and_a_single_agent_spec_is_one_line(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    specs = {"first": RLModuleSpec(model_config={"fcnet_hiddens": [8]}),
+             "second": RLModuleSpec(model_config={"fcnet_hiddens": [16, 16]})}
+    algo = _config(APPOConfig).rl_module(rl_module_spec=MultiRLModuleSpec(rl_module_specs=specs)).build_algo()
+    try:
+        shapes = {pid: {tuple(v.shape) for v in algo.get_module(pid).state_dict().values()}
+                  for pid in ("first", "second")}
+        assert (8, 2) in shapes["first"] and (16, 16) in shapes["second"] and (16, 16) not in shapes["first"]
+    finally:
+        algo.stop()
+    single = APPOConfig().environment("CartPole-v1").rl_module(rl_module_spec=specs["first"])
+    with pytest.raises(ConfigError, match="rl_module_spec: an RLModule trains under PPO only, not APPO") as info:
+        single.build_algo()
+    assert "\n" not in str(info.value)
