@@ -15,6 +15,8 @@ from typing import Any
 
 import yaml
 
+from rlchain.algos.multi_off_policy.algorithm import MultiPolicyOffPolicy
+from rlchain.algos.multi_off_policy.learner import AGENTS
 from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
 from rlchain.config.embodichain import is_embodichain
 from rlchain.config.errors import ConfigError
@@ -307,8 +309,8 @@ class Runner:
 
 def algorithm_class(params: Params) -> Any:
     """The registered algorithm of ``params.algo.name`` (multi-policy PPO with ``config.multi_agent``)."""
-    if params.policies is not None:  # config.multi_agent: one PPO learner per policy
-        return MultiPolicyPPO
+    if params.policies is not None:  # config.multi_agent: one learner per policy (PPO, or DQN / SAC)
+        return MultiPolicyOffPolicy if params.algo.name in AGENTS else MultiPolicyPPO
     return ALGOS.get(params.algo.name)
 
 
