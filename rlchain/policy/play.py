@@ -197,12 +197,14 @@ def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any],
     for name, agents in plan.items():
         model = models[name]
         obs = np.concatenate([views[a].obs for a in agents])
-        masks = np.concatenate([views[a].mask for a in agents]) if model.use_action_masks else None
+        # an off-policy model (multi-policy DQN / SAC) has no action masks and takes none
+        masks = np.concatenate([views[a].mask for a in agents]) if getattr(model, "use_action_masks", False) \
+            else None
         if on_obs is not None:
             on_obs(name, [views[a] for a in agents], obs, masks)
         with torch.inference_mode():
-            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic,
-                            action_masks=None if masks is None else torch.as_tensor(masks, device=device))
+            masked = {} if masks is None else {"action_masks": torch.as_tensor(masks, device=device)}
+            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic, **masked)
         acts = model.dist.to_env(out["actions"]).cpu().numpy()
         owned = seats.owned(name, agents) if seats is not None and seats.dynamic else None
         for k, a in enumerate(agents):
