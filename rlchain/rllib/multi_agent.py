@@ -36,6 +36,7 @@ from rlchain.inference.policy_player import play_policies
 from rlchain.rllib import translate
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.face_error import FaceNotOffered
+from rlchain.rllib.multi_agent_off_policy import OFF_POLICY, off_policy_config, off_policy_learners
 from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
@@ -314,9 +315,11 @@ class MultiAgentRun:
     rlchain config, and RLlib's multi-agent results (episode returns summed over agents, per policy learners)."""
 
     def __init__(self, config: Any, probe: Any) -> None:
-        if config.algo_name != "PPO":
-            raise ConfigError(type(config).__name__, "env", f"a MultiAgentEnv trains under PPO only, not "
-                                                            f"{config.algo_name}")
+        if config.algo_name != "PPO" and config.algo_name not in OFF_POLICY:
+            raise ConfigError(type(config).__name__, "env", f"a MultiAgentEnv trains under PPO, DQN and SAC only, "
+                                                            f"not {config.algo_name}")
+        self.algo = config.algo_name
+        self._off_policy: dict[str, Any] = {}  # DQN / SAC: the rlchain config and each policy's target counters
         self.agent_ids = agent_ids_of(probe)
         self.view = ParallelView(probe, self.agent_ids)
         self.names, _ = policy_names(config)
@@ -337,6 +340,10 @@ class MultiAgentRun:
         window = int(settings.get("metrics_num_episodes_for_smoothing") or 100)
         env_name = register(make, self.agent_ids, self.logs, window, max(1, int(settings.get("num_env_runners") or 0)),
                             max(1, int(settings.get("num_envs_per_env_runner") or 1)), self.chooser)
+        if self.algo in OFF_POLICY:  # rlchain's multi-policy DQN / SAC
+            out = off_policy_config(config, env_name, run, self.spaces, self.mapping, self.trained)
+            self._off_policy = {"config": out["params"]["config"], "targets": {}}
+            return env_name, out
         base = translate.ppo_config(config, env_name, False, run, rllib_batch=False)
         return env_name, ppo_config(config, base, self.view, self.mapping, network_of)
 
@@ -358,6 +365,11 @@ class MultiAgentRun:
         """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags; the losses
         and KL of each policy's last minibatch where ``last`` (policy -> its agent's last minibatch's statistics)
         has them, as RLlib logs them (``window=1``), else the update's means."""
+        if self._off_policy:
+            trained = [pid for pid in self.names
+                       if pid in self.spaces and (self.trained is None or pid in self.trained)]
+            return off_policy_learners(self.algo, stats, self._off_policy["config"], trained,
+                                       self._off_policy["targets"])
         nan = float("nan")
         out = {}
         for pid in self.names:
