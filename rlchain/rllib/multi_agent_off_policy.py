@@ -2,8 +2,9 @@
 (:mod:`rlchain.algos.multi_off_policy`), each policy its own off-policy agent, and RLlib's ``learners/<policy>``
 results of each.
 
-The config is the face's single-agent DQN / SAC translation (:func:`rlchain.rllib.translate.dqn_config`,
-:func:`rlchain.rllib.algorithms.sac.translate.sac_config`), its keys shared by every policy, with a
+The config is the face's single-agent DQN / SAC translation (the config's algorithm class's ``translate``:
+:func:`rlchain.rllib.translate.dqn_config`, :func:`rlchain.rllib.algorithms.sac.translate.sac_config`), its keys
+shared by every policy, with a
 ``multi_agent`` block: every policy the top-level network and model for its agents' spaces, the agent -> policy
 mapping, the trained policies. An iteration is the single-agent one's env steps (RLlib counts env steps).
 """
@@ -16,8 +17,6 @@ from typing import Any
 import gymnasium as gym
 
 from rlchain.config.errors import ConfigError
-from rlchain.rllib import translate
-from rlchain.rllib.algorithms.sac.translate import sac_config
 from rlchain.rllib.core import ALL_MODULES
 from rlchain.rllib.off_policy_results import TargetUpdates, dqn_results, sac_results
 
@@ -43,10 +42,8 @@ def off_policy_config(config: Any, env_name: str, run: dict[str, Any], spaces: d
     if len(set(kinds.values())) > 1:
         raise ConfigError(where, "env", "the policies' action spaces mix Box and Discrete: the face's multi-agent "
                                         "SAC takes one kind for every policy")
-    if config.algo_name == "DQN":
-        base = translate.dqn_config(config, env_name, run)
-    else:
-        base = sac_config(config, env_name, run, continuous=gym.spaces.Box in kinds.values())
+    obs_space = next(iter(spaces.values()))[0]  # the translations read no observation space (DQN, SAC)
+    base = config.algo_class.translate(config, env_name, obs_space, gym.spaces.Box in kinds.values(), run)
     base["params"]["config"]["multi_agent"] = {
         "policies": {pid: {} for pid in spaces},
         "policy_mapping": {glob.escape(str(a)): pids[0] for a, pids in mapping.items()},

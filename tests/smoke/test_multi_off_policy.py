@@ -24,7 +24,8 @@ def dying(algo, tmp_path=None, **config):
                    "env_config": {"env": "rlchain.envs.examples.pz_dying", "kwargs": {"runners": 2, "length": 6}},
                    "num_steps_per_episode": 20, "num_warmup_frames": 10, "batch_size": 8, "replay_buffer_size": 1000,
                    "max_epochs": 2, "print_stats": False, "save_best_after": 0, "player": {"games_num": 2},
-                   "multi_agent": {"policies": {"runners": {}, "late": {"config": {"batch_size": 4, "gamma": 0.9}}},
+                   "multi_agent": {"policies": {"runners": {}, "late": {"config": {"batch_size": 4, "gamma": 0.9,
+                                                                              "n_step": 2, "n_step_max": 4}}},
                                    "policy_mapping": {"runner_*": "runners", "late_*": "late"}}}}}
     raw["params"]["config"].update(config)
     if tmp_path is not None:
@@ -60,8 +61,8 @@ def test_two_policies_train_with_their_own_agents_and_buffers(tmp_path, algo):
      r"multi_agent.snapshots: self-play snapshots"),
     (lambda c: c["multi_agent"]["policy_mapping"].update({"late_*": ["late", "runners"]}),
      r"multi_agent.policy_mapping.late_\*: a list of policies per episode is PPO only"),
-    (lambda c: c["multi_agent"]["policies"]["late"]["config"].update(n_step=3),
-     r"multi_agent.policies.late.config.n_step: multi-agent transitions are one agent step each"),
+    (lambda c: c["multi_agent"]["policies"]["late"]["config"].update(replay={"her": {}}),
+     r"multi_agent.policies.late.config.replay.her: hindsight replay is single-agent only"),
     (lambda c: c["multi_agent"]["policies"]["late"]["config"].update(num_steps_per_episode=3),
      r"multi_agent.policies.late.config.num_steps_per_episode: is a run-level key"),
 ])

@@ -157,6 +157,8 @@ class MultiPolicyOffPolicy(AlgorithmBase):
             lr.tracker.reset_running()
             if lr.open is not None:
                 lr.open.clear()
+            if lr.nstep is not None:
+                lr.nstep.clear()
 
     def end_epoch(self, stats: dict[str, float], episodes: dict | None) -> None:
         """Each policy's ``rewards/<policy>/{step,iter,time}`` and ``episode_lengths/<policy>/...``."""
@@ -200,9 +202,7 @@ def check_supported(params: Params) -> None:
                     "is not supported with multi_agent yet; remove it")]
     for name, policy in (params.policies or {}).items():
         pc, path = policy.config, f"{KEY}.policies.{name}.config"
-        unsupported += [(f"{path}.n_step", pc.n_step != 1 or pc.n_step_max is not None,
-                         "multi-agent transitions are one agent step each: n_step 1 only so far"),
-                        (f"{path}.replay.her", pc.replay.her is not None, "hindsight replay is single-agent only")]
+        unsupported.append((f"{path}.replay.her", pc.replay.her is not None, "hindsight replay is single-agent only"))
     for key, used, why in unsupported:
         if used:
             raise ConfigError(params.source, key, why)

@@ -11,7 +11,7 @@ import torch
 
 from rlchain.algos.base.episodes import AgentEpisodes
 from rlchain.algos.core.replay import ReplayBuffer
-from rlchain.algos.multi_off_policy.transitions import OpenTransitions, Transitions
+from rlchain.algos.multi_off_policy.transitions import NStepRows, OpenTransitions, Transitions
 from rlchain.algos.multi_policy.policies import PolicyLearner
 from rlchain.algos.off_policy.dqn import DQN
 from rlchain.algos.off_policy.dqn_agent import DQNAgent, epsilon_at
@@ -37,7 +37,7 @@ class OffPolicyLearner(PolicyLearner):
         self.use_masks = False
         self.algo = params.algo.name
         self.tracker = AgentEpisodes(self.rows, games_to_track, device)
-        self.agent = self.buffer = self.open = None
+        self.agent = self.buffer = self.open = self.nstep = None
         if train:
             dist = model.dist
             self.agent = AGENTS[self.algo](model, cfg)
@@ -47,6 +47,8 @@ class OffPolicyLearner(PolicyLearner):
                                        alpha=cfg.priority_alpha, beta=cfg.priority_beta)
             self.open = OpenTransitions(self.rows, tuple(obs_shape), tuple(dist.action_shape), dist.action_dtype,
                                         device)
+            if cfg.n_step > 1 or (cfg.n_step_max or 0) > cfg.n_step:  # n-step returns over each agent's own steps
+                self.nstep = NStepRows(self.rows, cfg.n_step, cfg.n_step_max, cfg.gamma)
 
     def epsilon(self, frames: int) -> float:
         """DQN's exploration epsilon after ``frames`` env steps (the single-agent schedule)."""
@@ -64,9 +66,17 @@ class OffPolicyLearner(PolicyLearner):
         return model.act(obs)["actions"]
 
     def store(self, done: Transitions) -> None:
-        """Finished transitions into the replay buffer (their rewards already shaped, step by step)."""
-        if len(done):
+        """Finished transitions into the replay buffer (their rewards already shaped, step by step); with n-step
+        returns, the n-step transitions they finish."""
+        if not len(done):
+            return
+        if self.nstep is None:
             self.buffer.add(done.obs, done.actions, done.rewards, done.next_obs, done.terminated, done.truncated)
+            return
+        done, discounts = self.nstep.add(done)
+        if len(done):
+            self.buffer.add_discounted(done.obs, done.actions, done.rewards, done.next_obs, done.terminated,
+                                       done.truncated, discounts)
 
     def update_round(self, frames: int, progress: float) -> dict[str, torch.Tensor]:
         """num_updates_per_step updates when warmup is over and the buffer holds a minibatch; summed stats.

@@ -25,6 +25,8 @@ class Transitions:
     next_obs: torch.Tensor
     terminated: torch.Tensor
     truncated: torch.Tensor
+    rows: torch.Tensor
+    """(K,) the row of each transition."""
 
     def __len__(self) -> int:
         return int(self.obs.shape[0])
@@ -46,7 +48,7 @@ class OpenTransitions:
         rows = self.open & active
         done = Transitions(self.obs[rows], self.actions[rows], self.rewards[rows], obs[rows],
                            torch.zeros_like(self.rewards[rows], dtype=torch.bool),
-                           torch.zeros_like(self.rewards[rows], dtype=torch.bool))
+                           torch.zeros_like(self.rewards[rows], dtype=torch.bool), rows.nonzero().squeeze(-1))
         self.obs[active] = obs[active].float()
         self.actions[active] = actions[active].to(self.actions.dtype)
         self.rewards[active] = 0.0
@@ -60,7 +62,7 @@ class OpenTransitions:
         self.rewards += torch.where(self.open, rewards.float(), torch.zeros_like(self.rewards))
         ended = (terminated | truncated) & self.open
         done = Transitions(self.obs[ended], self.actions[ended], self.rewards[ended], final_obs[ended].float(),
-                           terminated[ended], truncated[ended] & ~terminated[ended])
+                           terminated[ended], truncated[ended] & ~terminated[ended], ended.nonzero().squeeze(-1))
         self.open &= ~(terminated | truncated)
         return done
 
@@ -68,3 +70,53 @@ class OpenTransitions:
         """Fresh episodes everywhere: no open transitions."""
         self.open.zero_()
         self.rewards.zero_()
+
+
+class NStepRows:
+    """n-step returns over each row's own transitions (an agent's steps, its waits left out): each transition
+    sums the discounted rewards of the row's next ``n`` transitions (``n`` drawn per transition from
+    ``[n_step, n_step_max]`` when that is given) and ends at the last one's ``next_obs``, or earlier at the agent's
+    end. :meth:`add` returns the finished ones and their discounts (gamma ** steps)."""
+
+    def __init__(self, rows: int, n_step: int, n_step_max: int | None, gamma: float) -> None:
+        self.n_step, self.n_step_max, self.gamma = n_step, n_step_max, gamma
+        self.pending: list[list[dict]] = [[] for _ in range(rows)]  # each row's open n-step transitions, oldest first
+
+    def _draw(self) -> int:
+        if self.n_step_max is None or self.n_step_max <= self.n_step:
+            return self.n_step
+        return int(torch.randint(self.n_step, self.n_step_max + 1, ()))
+
+    def add(self, done: Transitions) -> tuple[Transitions, torch.Tensor]:
+        """One-step transitions of some rows in; the n-step transitions they finish out, with their discounts."""
+        out: list[tuple] = []
+        for j, row in enumerate(done.rows.tolist()):
+            queue = self.pending[row]
+            queue.append({"obs": done.obs[j], "actions": done.actions[j], "n": self._draw(), "ret": 0.0, "k": 0})
+            reward, ended = float(done.rewards[j]), bool(done.terminated[j] or done.truncated[j])
+            for entry in queue:
+                entry["ret"] += self.gamma ** entry["k"] * reward
+                entry["k"] += 1
+            keep = []
+            for entry in queue:
+                if ended or entry["k"] >= entry["n"]:
+                    out.append((entry, j, row))
+                else:
+                    keep.append(entry)
+            self.pending[row] = keep
+        if not out:
+            empty = done.rows[:0]
+            return Transitions(done.obs[:0], done.actions[:0], done.rewards[:0], done.next_obs[:0],
+                               done.terminated[:0], done.truncated[:0], empty), done.rewards[:0]
+        picks = torch.tensor([j for _, j, _ in out], dtype=torch.long, device=done.rows.device)
+        finished = Transitions(torch.stack([e["obs"] for e, _, _ in out]),
+                               torch.stack([e["actions"] for e, _, _ in out]),
+                               torch.tensor([e["ret"] for e, _, _ in out], dtype=torch.float32, device=picks.device),
+                               done.next_obs[picks], done.terminated[picks], done.truncated[picks],
+                               torch.tensor([r for _, _, r in out], dtype=torch.long, device=picks.device))
+        discounts = torch.tensor([self.gamma ** e["k"] for e, _, _ in out], dtype=torch.float32, device=picks.device)
+        return finished, discounts
+
+    def clear(self) -> None:
+        """Fresh episodes everywhere: the open n-step transitions are dropped."""
+        self.pending = [[] for _ in self.pending]
