@@ -18,7 +18,7 @@ import gymnasium as gym
 
 from rlchain.config.errors import ConfigError
 from rlchain.rllib.core import ALL_MODULES
-from rlchain.rllib.off_policy_results import TargetUpdates, dqn_results, sac_results
+from rlchain.rllib.off_policy_results import FRAMES, TargetUpdates, dqn_results, sac_results
 
 OFF_POLICY = ("DQN", "SAC")
 """The face's algorithms a MultiAgentEnv trains off-policy."""
@@ -53,13 +53,18 @@ def off_policy_config(config: Any, env_name: str, run: dict[str, Any], spaces: d
 
 def off_policy_learners(algo: str, stats: dict[str, Any], cfg: dict[str, Any], policies: list[str],
                         targets: dict[str, TargetUpdates]) -> dict[str, dict[str, Any]]:
-    """RLlib's ``learners/<policy>`` results of each trained policy from its ``<policy>/...`` epoch statistics
-    (the single-agent DQN / SAC results, each policy's target-update counters its own)."""
+    """RLlib's ``learners/<policy>`` results of each trained policy from its ``<policy>.<name>`` epoch statistics
+    (the single-agent DQN / SAC results, each policy's target-update counters its own), and under ALL_MODULES
+    the trained-steps counters summed over the policies."""
     results = dqn_results if algo == "DQN" else sac_results
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
+    every: dict[str, Any] = {}
     for pid in policies:
-        own = {key[len(pid) + 1:]: value for key, value in stats.items() if key.startswith(f"{pid}/")}
+        own = {key[len(pid) + 1:]: value for key, value in stats.items() if key.startswith(f"{pid}.")}
+        own[FRAMES] = int(stats.get("frames", 0))  # the env steps so far (the target-update step's counter)
         learner = results(own, cfg, targets.setdefault(pid, TargetUpdates()))
-        learner.pop(ALL_MODULES, None)
+        for key, value in learner.pop(ALL_MODULES, {}).items():
+            every[key] = every.get(key, 0) + value
         out[pid] = learner
+    out[ALL_MODULES] = every
     return out

@@ -57,7 +57,8 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         self.agent = PolicyAgents(self.policies)
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         single = SINGLE[params.algo.name]
-        self.metric_tags = {f"{lr.name}/{key}": policy_tag(tag, lr.name) for lr in self.policies
+        # update()'s statistics are ``<policy>.<name>``: the tagged ones logged per policy, the others for callbacks
+        self.metric_tags = {f"{lr.name}.{key}": policy_tag(tag, lr.name) for lr in self.policies
                             for key, tag in single.metric_tags.items()}
         self.views: Any = None  # the env's per-agent views the next step acts on
         self._epoch_stats: dict[str, float] = {}
@@ -96,8 +97,8 @@ class MultiPolicyOffPolicy(AlgorithmBase):
                 continue
             stats = {k: float(v) / count for k, v in sums[lr.name].items()} if count else {}
             stats.update(lr.extra_stats(self.ctx.frames), lr=lr.agent.lr, total_updates=lr.agent.updates,
-                         replay_size=len(lr.buffer))
-            self._epoch_stats.update({f"{lr.name}/{k}": v for k, v in stats.items()})
+                         replay_size=len(lr.buffer), updates=count)
+            self._epoch_stats.update({f"{lr.name}.{k}": v for k, v in stats.items()})
         return True
 
     def _round_due(self, lr: OffPolicyLearner) -> bool:
@@ -136,9 +137,9 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         self.views = result.obs
 
     def update(self) -> dict[str, float]:
-        """The epoch's per-policy mean losses (the updates ran during :meth:`collect`), epsilon / alpha, lr and
-        replay size."""
-        return dict(self._epoch_stats)
+        """The epoch's per-policy mean losses (the updates ran during :meth:`collect`), epsilon / alpha, lr, update
+        counts and replay size, and the run's frames."""
+        return {**self._epoch_stats, "frames": self.ctx.frames}
 
     def frames_per_epoch(self) -> int:
         return self.cfg.num_steps_per_episode * self.num_envs
