@@ -21,6 +21,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
 from rlchain.algos.core.returns import shape_with
 from rlchain.algos.multi_off_policy.learner import SINGLE, OffPolicyLearner, policy_tag
 from rlchain.algos.multi_policy.policies import PolicyAgents
@@ -60,7 +61,9 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         # update()'s statistics are ``<policy>.<name>``: the tagged ones logged per policy, the others for callbacks
         self.metric_tags = {f"{lr.name}.{key}": policy_tag(tag, lr.name) for lr in self.policies
                             for key, tag in single.metric_tags.items()}
-        self.views: Any = None  # the env's per-agent views the next step acts on
+        # one env step per rollout; the env takes and gives per-agent dicts, the policies act and record them
+        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, horizon=1, act=self._act, to_env=_as_is,
+                                           record=_no_record, read_obs=_as_is, on_step=self._on_step)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0
 
@@ -73,7 +76,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
 
     # ----- the Algorithm hooks --------------------------------------------------------------
     def start(self) -> None:
-        self.views = self.ctx.reset_raw()
+        self.collector.place(self.ctx.reset_raw())
 
     def collect(self) -> bool:
         """num_steps_per_episode env steps, each followed by the policies' update rounds (a stop signal waits for
@@ -81,7 +84,8 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         sums: dict[str, dict[str, Any]] = {lr.name: {} for lr in self.policies}
         self._update_s = 0.0
         for _ in range(self.cfg.num_steps_per_episode):
-            self._step()
+            if not self.collector.rollout():  # one env step (a stop signal ends the run here)
+                return False
             t0 = time.time()
             for lr in self.policies:
                 if lr.agent is None or not self._round_due(lr):
@@ -105,21 +109,28 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         every = lr.cfg.update_every
         return every == 1 or (self.ctx.frames // self.num_envs) % every == 0
 
-    def _step(self) -> None:
-        """One env step: every policy acts for its agents; each trained policy stores its finished transitions."""
-        ctx, actions, acted = self.ctx, {}, []
+    def _act(self, t: int, views: Any, states: tuple, env_masks: Any) -> dict[str, Any]:
+        """The collector's act step: every policy acts for its agents; each trained policy's agents that act close
+        their open transitions. ``out["actions"]``: the env's per-agent dict; ``out["acted"]``: each policy's
+        active rows."""
+        actions, acted = {}, []
         for lr in self.policies:
-            obs, active, _ = lr.gather(self.views)
+            obs, active, _ = lr.gather(views)
             with torch.no_grad():
-                chosen = lr.actions(obs, ctx.frames)
+                chosen = lr.actions(obs, self.ctx.frames)
             if lr.open is not None:
                 lr.store(lr.open.act(obs, chosen, active))
                 if bool(active.any()):
                     lr.model.update_normalizers(obs=obs[active])
             lr.put(actions, lr.model.dist.to_env(chosen).cpu().numpy(), None)
             acted.append(active)
-        result = self.env.step(actions)
-        ctx.frames += self.num_envs
+        return {"actions": actions, "acted": acted}
+
+    def _on_step(self, step: CollectedStep) -> None:
+        """The collector's per-step hook: each policy's rewards (shaped into its open transitions) and its agents'
+        ends (closing them); the run's and each policy's episode statistics."""
+        result, acted = step.result, step.out["acted"]
+        self.ctx.frames += self.num_envs
         all_rewards, all_dones = [], []
         for lr, active in zip(self.policies, acted):
             rewards = lr.outcome(result.reward).float()
@@ -133,8 +144,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
             if not bool(torch.isfinite(shaped).all()):
                 raise DivergenceError(f"policy {lr.name}: the env returned a non-finite reward")
             lr.store(lr.open.observe(shaped, terminated, truncated, lr.outcome(result.final_obs).float()))
-        ctx.tracker.agent_step(torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted))
-        self.views = result.obs
+        self.ctx.tracker.agent_step(torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted))
 
     def update(self) -> dict[str, float]:
         """The epoch's per-policy mean losses (the updates ran during :meth:`collect`), epsilon / alpha, lr, update
@@ -153,7 +163,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
 
     def restart_episodes(self) -> None:
         self.ctx.tracker.reset_running()
-        self.views = self.ctx.reset_raw()
+        self.collector.place(self.ctx.reset_raw())
         for lr in self.policies:
             lr.tracker.reset_running()
             if lr.open is not None:
@@ -188,6 +198,16 @@ class MultiPolicyOffPolicy(AlgorithmBase):
                 lr.tracker.load_state_dict(saved[lr.name])
             if lr.buffer is not None and lr.name in buffers:
                 lr.buffer.load_state_dict(buffers[lr.name])
+
+
+def _as_is(x: Any) -> Any:
+    """Per-agent actions and views pass between the policies and the env as they are."""
+    return x
+
+
+def _no_record(result: Any, rows: slice) -> None:
+    """Each policy records its agents' outcome itself (:meth:`MultiPolicyOffPolicy._on_step`)."""
+    return None
 
 
 def check_supported(params: Params) -> None:
