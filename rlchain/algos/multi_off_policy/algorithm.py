@@ -37,7 +37,6 @@ from rlchain.models.build import policy_agents
 class MultiPolicyOffPolicy(AlgorithmBase):
     """DQN or SAC (``params.algo.name``) for several policies over one PettingZoo vector env."""
 
-    counts_frames_while_collecting = True  # warmup and epsilon read ctx.frames step by step
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
@@ -66,6 +65,12 @@ class MultiPolicyOffPolicy(AlgorithmBase):
                                            record=_no_record, read_obs=_as_is, on_step=self._on_step)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0
+        self._stepped = 0  # env steps of this epoch so far (the Loop counts the epoch's frames after its update)
+
+    @property
+    def frames(self) -> int:
+        """The run's frames so far, this epoch's steps included (warmup, epsilon and update rounds read them)."""
+        return self.ctx.frames + self._stepped * self.num_envs
 
     def learner(self, name: str) -> OffPolicyLearner:
         """The policy ``name``'s learner (KeyError naming the policies otherwise)."""
@@ -83,6 +88,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         the epoch's end, as single-agent off-policy)."""
         sums: dict[str, dict[str, Any]] = {lr.name: {} for lr in self.policies}
         self._update_s = 0.0
+        self._stepped = 0
         for _ in range(self.cfg.num_steps_per_episode):
             if not self.collector.rollout():  # one env step (a stop signal ends the run here)
                 return False
@@ -91,7 +97,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
                 if lr.agent is None or not self._round_due(lr):
                     continue
                 with self.ctx.update_phase():
-                    for k, v in lr.update_round(self.ctx.frames, self.progress()).items():
+                    for k, v in lr.update_round(self.frames, self.progress()).items():
                         sums[lr.name][k] = sums[lr.name].get(k, 0) + v
             self._update_s += time.time() - t0
         self._epoch_stats = {}
@@ -100,14 +106,14 @@ class MultiPolicyOffPolicy(AlgorithmBase):
             if lr.agent is None:
                 continue
             stats = {k: float(v) / count for k, v in sums[lr.name].items()} if count else {}
-            stats.update(lr.extra_stats(self.ctx.frames), lr=lr.agent.lr, total_updates=lr.agent.updates,
+            stats.update(lr.extra_stats(self.frames), lr=lr.agent.lr, total_updates=lr.agent.updates,
                          replay_size=len(lr.buffer), updates=count)
             self._epoch_stats.update({f"{lr.name}.{k}": v for k, v in stats.items()})
         return True
 
     def _round_due(self, lr: OffPolicyLearner) -> bool:
         every = lr.cfg.update_every
-        return every == 1 or (self.ctx.frames // self.num_envs) % every == 0
+        return every == 1 or (self.frames // self.num_envs) % every == 0
 
     def _act(self, t: int, views: Any, states: tuple, env_masks: Any) -> dict[str, Any]:
         """The collector's act step: every policy acts for its agents; each trained policy's agents that act close
@@ -117,7 +123,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         for lr in self.policies:
             obs, active, _ = lr.gather(views)
             with torch.no_grad():
-                chosen = lr.actions(obs, self.ctx.frames)
+                chosen = lr.actions(obs, self.frames)
             if lr.open is not None:
                 lr.store(lr.open.act(obs, chosen, active))
                 if bool(active.any()):
@@ -130,7 +136,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         """The collector's per-step hook: each policy's rewards (shaped into its open transitions) and its agents'
         ends (closing them); the run's and each policy's episode statistics."""
         result, acted = step.result, step.out["acted"]
-        self.ctx.frames += self.num_envs
+        self._stepped += 1
         all_rewards, all_dones = [], []
         for lr, active in zip(self.policies, acted):
             rewards = lr.outcome(result.reward).float()
@@ -149,7 +155,7 @@ class MultiPolicyOffPolicy(AlgorithmBase):
     def update(self) -> dict[str, float]:
         """The epoch's per-policy mean losses (the updates ran during :meth:`collect`), epsilon / alpha, lr, update
         counts and replay size, and the run's frames."""
-        return {**self._epoch_stats, "frames": self.ctx.frames}
+        return {**self._epoch_stats, "frames": self.frames}
 
     def frames_per_epoch(self) -> int:
         return self.cfg.num_steps_per_episode * self.num_envs
