@@ -54,13 +54,16 @@ def off_policy_config(config: Any, env_name: str, run: dict[str, Any], spaces: d
 def off_policy_learners(algo: str, stats: dict[str, Any], cfg: dict[str, Any], policies: list[str],
                         targets: dict[str, TargetUpdates]) -> dict[str, dict[str, Any]]:
     """RLlib's ``learners/<policy>`` results of each trained policy from its ``<policy>.<name>`` epoch statistics
-    (the single-agent DQN / SAC results, each policy's target-update counters its own), and under ALL_MODULES
+    (the single-agent DQN / SAC results, each policy's target-update counters its own; none for a policy not
+    updated yet), and under ALL_MODULES
     the trained-steps counters summed over the policies."""
     results = dqn_results if algo == "DQN" else sac_results
     out: dict[str, dict[str, Any]] = {}
     every: dict[str, Any] = {}
     for pid in policies:
         own = {key[len(pid) + 1:]: value for key, value in stats.items() if key.startswith(f"{pid}.")}
+        if not own.get("total_updates"):
+            continue  # RLlib reports no learner before its first update (learning starts after warmup)
         own[FRAMES] = int(stats.get("frames", 0))  # the env steps so far (the target-update step's counter)
         learner = results(own, cfg, targets.setdefault(pid, TargetUpdates()))
         for key, value in learner.pop(ALL_MODULES, {}).items():
