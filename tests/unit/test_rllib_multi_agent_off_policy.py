@@ -3,6 +3,7 @@ rlchain's off-policy agent, RLlib's multi-agent results with a learner per train
 
 import numpy as np
 import pytest
+import torch
 
 from rlchain.config.errors import ConfigError
 from rlchain.rllib.algorithms.dqn import DQNConfig
@@ -32,6 +33,12 @@ def test_dqn_trains_a_policy_per_player_of_a_turn_based_env(tmp_path, monkeypatc
         moves = {lr.name: lr.buffer.size for lr in algorithm.policies}
         assert moves["first"] == moves["second"] == 16
         assert algorithm.learner("second").buffer.rewards[:16].max() >= 10  # the bonus it got while waiting
+        assert algo.evaluate()["env_runners"]["episode_len_mean"] == 4  # every policy plays its player
+        path = algo.save_to_path(str(tmp_path / "ckpt"))
+        weights = {k: v.clone() for k, v in algo.get_module("first").state_dict().items()}
+        algo.train()
+        algo.restore_from_path(path)
+        assert all(torch.equal(weights[k], v) for k, v in algo.get_module("first").state_dict().items())
     finally:
         algo.stop()
 
