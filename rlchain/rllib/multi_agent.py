@@ -365,7 +365,7 @@ class MultiAgentRun:
         """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags; the losses
         and KL of each policy's last minibatch where ``last`` (policy -> its agent's last minibatch's statistics)
         has them, as RLlib logs them (``window=1``), else the update's means."""
-        if self._off_policy:
+        if getattr(self, "_off_policy", None):  # DQN / SAC (a run built without an env has none)
             trained = [pid for pid in self.names
                        if pid in self.spaces and (self.trained is None or pid in self.trained)]
             return off_policy_learners(self.algo, stats, self._off_policy["config"], trained,
