@@ -187,12 +187,13 @@ def play(model: Any, env: VecEnv, games: int | None, deterministic: bool = True,
 def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any], num_envs: int,
                  device: torch.device, deterministic: bool,
                  on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
-                 seats: Seats | None = None) -> dict[str, np.ndarray]:
+                 seats: Seats | None = None, states: dict[str, tuple] | None = None) -> dict[str, np.ndarray]:
     """Each policy's actions for its agents: ``plan`` maps a policy to its agent ids, ``views`` an agent
     id to its view (``obs`` (num_envs, ...), ``mask``, ``active``); ``models[policy]`` acts on its agents'
     rows stacked agent by agent. ``on_obs(policy, its agents' views, obs, masks)`` sees each policy's
     stacked rows first. With ``seats``, an agent several policies may play takes, in each env, the action of
-    the one that plays it there."""
+    the one that plays it there. ``states``: each recurrent policy's RNN states entering this step (replaced by
+    the states after it)."""
     actions: dict[str, np.ndarray] = {}
     for name, agents in plan.items():
         model = models[name]
@@ -202,9 +203,15 @@ def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any],
             else None
         if on_obs is not None:
             on_obs(name, [views[a] for a in agents], obs, masks)
+        state = (states or {}).get(name) or None
         with torch.inference_mode():
-            masked = {} if masks is None else {"action_masks": torch.as_tensor(masks, device=device)}
-            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic, **masked)
+            # only what the model takes: an off-policy model (DQN / SAC) has no masks nor RNN states
+            extra = {} if masks is None else {"action_masks": torch.as_tensor(masks, device=device)}
+            if state is not None:
+                extra["states"] = state
+            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic, **extra)
+        if state is not None:
+            states[name] = tuple(out["states"])
         acts = model.dist.to_env(out["actions"]).cpu().numpy()
         owned = seats.owned(name, agents) if seats is not None and seats.dynamic else None
         for k, a in enumerate(agents):
@@ -226,13 +233,21 @@ def step_policies(env: VecEnv, models: Any, plan: dict[str, list[str]], device: 
     """Reset ``env`` (a multi-agent VecEnv of views per agent) with ``seed``, then step it with every
     policy's actions (:func:`act_policies`) for as long as the caller iterates; yields each StepResult. With
     ``seats``, the policies of listed agents are chosen at each episode start, after the caller has read the
-    step that ended the last one."""
+    step that ended the last one. A recurrent policy carries its RNN states from step to step, from zero at each
+    episode start."""
     views = env.reset(seed=seed)
     if seats is not None:
         seats.draw(np.arange(env.num_envs), env.named_policies)
+    states = {name: models[name].initial_state(len(agents) * env.num_envs, device) for name, agents in plan.items()}
     while True:
-        result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs, seats))
+        result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs, seats,
+                                       states))
         yield result
         if seats is not None:
             seats.draw(result.started.nonzero()[0], env.named_policies)
+        started = torch.as_tensor(result.started, device=device)
+        for name, state in states.items():  # an RNN's rows of a new episode start from zero states
+            if state:
+                rows = started.repeat(len(plan[name])).view(1, -1, 1)
+                states[name] = tuple(torch.where(rows, torch.zeros_like(s), s) for s in state)
         views = result.obs

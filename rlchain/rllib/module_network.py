@@ -222,8 +222,5 @@ def policy_network(config: Any, policy: str, observation_space: gym.Space, actio
     block = None if spec is None else network_block(config, spec, flat, action_space, trained)
     if block is not None:
         return block
-    network, seq_len = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
-    if seq_len is not None:
-        raise ConfigError(type(config).__name__, "model_config.use_lstm", "multi-agent policies are feedforward "
-                                                                          "(rlchain's multi-policy PPO)")
-    return network
+    network, _ = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
+    return network  # with use_lstm, an rnn block; the shared config's seq_length cuts its sequences

@@ -12,6 +12,8 @@ from rlchain.config.fields import parse_dataclass
 from rlchain.config.load import parse_params
 from rlchain.config.network import NetworkConfig
 from rlchain.networks.actor_critic import ActorCriticBuilder, ActorCriticNetwork
+from rlchain.rllib import networks
+from rlchain.rllib.algorithms.ppo import PPOConfig
 
 FIXED = {"continuous": {"mu_activation": "None", "sigma_activation": "None", "mu_init": {"name": "default"},
                         "sigma_init": {"name": "const_initializer", "val": 0.0}, "fixed_sigma": True}}
@@ -88,3 +90,15 @@ def test_a_bad_head_block_is_one_line_naming_the_file_and_key(head, key):
 def test_a_good_head_block_parses():
     params = parse_params(_params({"units": [8, 4], "activation": "None"}), "cfg.yaml")
     assert params.network.head.units == [8, 4] and params.network.head.activation == "None"
+
+
+def test_the_rllib_faces_shared_lstm_block_builds_rllibs_parameters():
+    # RLlib 2.60's module for vf_share_layers, fcnet [32], head [16], an LSTM of 24 on CartPole (printed from
+    # RLlib): one encoder (tokenizer, LSTM), then the pi and vf heads each with their own layer of 16
+    rllib = [(32, 4), (32,), (96, 32), (96, 24), (96,), (96,), (16, 24), (16,), (2, 16), (2,), (16, 24), (16,),
+             (1, 16), (1,)]
+    config = PPOConfig().rl_module(model_config={"vf_share_layers": True, "fcnet_hiddens": [32],
+                                                 "head_fcnet_hiddens": [16], "use_lstm": True, "lstm_cell_size": 24})
+    block, _ = networks.actor_critic_network(config, gym.spaces.Box(-1, 1, (4,)), False)
+    net = _network(block, obs=4, actions=2, space=gym.spaces.Discrete(2))
+    assert sorted(tuple(p.shape) for p in net.parameters()) == sorted(rllib)

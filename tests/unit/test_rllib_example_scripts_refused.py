@@ -75,6 +75,17 @@ def test_a_name_the_faces_module_lacks_is_one_line_in_the_scripts_names(statemen
     assert line.startswith(f"ImportError: {module} has no {name}") and "rlchain.rllib" not in line
 
 
+def test_an_import_refused_inside_rllibs_example_module_names_that_module():
+    # rl_modules/migrate_modelv2_*.py import ModelV2ToRLModule, whose module imports core.distribution
+    from rlchain.rllib.examples import installed_rllib_version
+    if installed_rllib_version() is None:
+        pytest.skip("RLlib is not installed beside the face")
+    line = refused_import_line("ray.rllib.examples.rl_modules.classes.modelv2_to_rlm")
+    assert line is not None and "\n" not in line and line.startswith("ImportError: ray.rllib.core.distribution")
+    assert line.endswith("(imported by RLlib's example module ray.rllib.examples.rl_modules.classes.modelv2_to_rlm)")
+    assert "imported by" not in refused_import_line("ray.rllib.core.distribution")  # the script's own import
+
+
 def test_an_offered_algorithms_missing_module_is_not_called_another_algorithm():
     from rlchain.rllib.alias import instead
     assert "not in rlchain" not in instead("ray.rllib.algorithms.ppo.no_such_module")

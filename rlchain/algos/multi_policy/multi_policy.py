@@ -72,6 +72,7 @@ class MultiPolicyPPO(AlgorithmBase):
                                                env.observation_spaces[agents[0]].shape, env.num_envs,
                                                name in to_train, device, self.cfg.games_to_track))
         self.agent = PolicyAgents(self.policies)
+        self._recurrent = any(lr.states for lr in self.policies)
         self.seats = seats_of(params, env, ctx.seed)  # which policy plays a listed agent, episode by episode
         self._agent_rows = None  # with listed agents: each policy row's row of the run-wide (agent, env) statistics
         if self.seats.dynamic:
@@ -84,6 +85,10 @@ class MultiPolicyPPO(AlgorithmBase):
                                            record=_no_record, read_obs=_as_is, on_step=self._on_step)
         self.snapshots = None
         if self.cfg.self_play_config is not None:
+            recurrent = [name for name in ma.snapshots if any(lr.states for lr in self.policies if lr.name == name)]
+            if recurrent:
+                raise ConfigError(params.source, f"{KEY}.snapshots.{recurrent[0]}", "a self-play snapshot plays "
+                                  "without RNN states: snapshots of recurrent policies are not supported")
             self.snapshots = Snapshots(self.cfg.self_play_config, ma.snapshots, params.source)
 
     def learner(self, name: str) -> PolicyLearner:
@@ -123,10 +128,12 @@ class MultiPolicyPPO(AlgorithmBase):
                 lr.put(actions, lr.model.dist.to_env(env_actions).cpu().numpy(), own)
                 continue
             with torch.no_grad():
-                out = lr.model.act(obs, action_masks=masks)
+                out = lr.model.act(obs, states=lr.states or None, action_masks=masks)
             if lr.agent is not None:
-                lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks)
+                lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks,
+                               states=lr.states, resets=lr.resets if lr.states else None)
                 lr.active[t] = active
+            lr.advance(out["states"])
             lr.put(actions, lr.model.dist.to_env(out["actions"]).cpu().numpy(), own)
         return {"actions": actions, "acted": acted, "owned": owned}
 
@@ -134,6 +141,10 @@ class MultiPolicyPPO(AlgorithmBase):
         """The collector's per-step hook: each policy's rewards and ends (:meth:`_observe`); the policies of
         the listed agents in the envs that start a new episode."""
         self._observe(step.t, step.result, step.out["acted"], step.out["owned"])
+        if self._recurrent:
+            started = torch.as_tensor(step.result.started, device=self.device)
+            for lr in self.policies:
+                lr.start_episodes(started)
         if self.seats.dynamic:
             self.seats.draw(step.result.started.nonzero()[0], self.env.named_policies)
 
@@ -158,8 +169,9 @@ class MultiPolicyPPO(AlgorithmBase):
                 idx = (truncated & ~terminated).nonzero().squeeze(-1)
                 if idx.numel():
                     final = lr.outcome(result.final_obs).float()[idx]
+                    states = tuple(s[:, idx] for s in lr.states) or None
                     with torch.no_grad():
-                        lr.storage.final_values[t][idx] = lr.model.value(final)
+                        lr.storage.final_values[t][idx] = lr.model.value(final, states)
             lr.storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
         rewards, dones, active = torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted)
         if self._agent_rows is not None:  # a listed agent's rows in several policies: one row per agent and env
@@ -210,14 +222,20 @@ class MultiPolicyPPO(AlgorithmBase):
     def start(self) -> None:
         """Reset the envs (per-agent observations, as the env gives them); self-play snapshots start."""
         self.collector.place(self.ctx.reset_raw())
-        self.seats.draw(np.arange(self.num_envs), self.env.named_policies)
+        self._new_episodes()
         if self.snapshots is not None:
             self.snapshots.start(self)
+
+    def _new_episodes(self) -> None:
+        """Every env starts an episode: the listed agents' policies are drawn, RNN states start from zero."""
+        self.seats.draw(np.arange(self.num_envs), self.env.named_policies)
+        for lr in self.policies:
+            lr.start_episodes(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
 
     def restart_episodes(self) -> None:
         self.ctx.tracker.reset_running()
         self.collector.place(self.ctx.reset_raw())
-        self.seats.draw(np.arange(self.num_envs), self.env.named_policies)
+        self._new_episodes()
         for lr in self.policies:
             lr.tracker.reset_running()
 
