@@ -238,7 +238,9 @@ def step_policies(env: VecEnv, models: Any, plan: dict[str, list[str]], device: 
     views = env.reset(seed=seed)
     if seats is not None:
         seats.draw(np.arange(env.num_envs), env.named_policies)
-    states = {name: models[name].initial_state(len(agents) * env.num_envs, device) for name, agents in plan.items()}
+    # an off-policy model (multi-policy DQN / SAC) has no RNN states
+    states = {name: models[name].initial_state(len(agents) * env.num_envs, device)
+              if hasattr(models[name], "initial_state") else () for name, agents in plan.items()}
     while True:
         result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs, seats,
                                        states))
