@@ -16,6 +16,8 @@ from typing import Any
 import yaml
 
 from rlchain.algos.appo.appo import APPO, IMPALA
+from rlchain.algos.multi_off_policy.algorithm import MultiPolicyOffPolicy
+from rlchain.algos.multi_off_policy.learner import AGENTS
 from rlchain.algos.multi_policy.multi_policy import MultiPolicyPPO
 from rlchain.algos.multi_policy.multi_policy_vtrace import MultiPolicyAPPO, MultiPolicyIMPALA
 from rlchain.config.embodichain import is_embodichain
@@ -314,6 +316,8 @@ MULTI_POLICY = {APPO: MultiPolicyAPPO, IMPALA: MultiPolicyIMPALA}
 def algorithm_class(params: Params) -> Any:
     """The registered algorithm of ``params.algo.name`` (multi-policy PPO with ``config.multi_agent``)."""
     if params.policies is not None:  # config.multi_agent: one learner per policy
+        if params.algo.name in AGENTS:  # DQN / SAC
+            return MultiPolicyOffPolicy
         return MULTI_POLICY.get(ALGOS.get(params.algo.name), MultiPolicyPPO)
     return ALGOS.get(params.algo.name)
 

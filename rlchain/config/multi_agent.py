@@ -24,7 +24,8 @@ RUN_LEVEL_KEYS = ("env_name", "env_config", "env_runners", "vecenv_type", "num_a
                   "save_frequency", "save_frequency_frames", "checkpoint_names", "games_to_track", "print_stats",
                   "progress", "multi_gpu", "self_play_config",
                   "multi_agent", "central_value_config", "torch_compile", "compile_update", "cuda_graph", "divergence",
-                  "seq_length", "bptt_length", "zero_rnn_on_done", "mixed_precision", "log_writers")
+                  "seq_length", "bptt_length", "zero_rnn_on_done", "mixed_precision", "log_writers",
+                  "num_steps_per_episode")
 """params.config keys that belong to the whole run (one rollout, one stop rule): a policy's
 ``config`` may not set them."""
 

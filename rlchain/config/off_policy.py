@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 
 from rlchain.config.actor_critic import ActorCriticConfig
 from rlchain.config.fields import non_negative, option, positive, unit_interval, variant
+from rlchain.config.multi_agent import MultiAgentConfig
 from rlchain.config.network import MlpConfig, SpaceConfig
 from rlchain.config.ppo import PPOConfig
 from rlchain.config.run import RunConfig
@@ -95,6 +96,10 @@ class OffPolicyConfig(RunConfig):
     seq_length: int = variant(PPOConfig, "seq_length", doc="RNN sequence length",
                               status="accepted; no effect off-policy")
     torch_compile: Any = variant(PPOConfig, "torch_compile")  # accepted as false only (validate)
+    multi_agent: MultiAgentConfig | None = variant(PPOConfig, "multi_agent", doc=(
+        "PettingZoo agents played by several policies, each its own off-policy agent (network, replay buffer, "
+        "target networks, optimizer, its own keys) sharing the env steps (env_name: pettingzoo; "
+        "docs/multi_agent.md)"))
     snapshot_epochs: int = option(100, "divergence rollback: epochs between in-memory learner snapshots "
                                        "(rlchain; an off-policy epoch is num_steps_per_episode env steps)",
                                   check=positive)

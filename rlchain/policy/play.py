@@ -198,13 +198,18 @@ def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any],
     for name, agents in plan.items():
         model = models[name]
         obs = np.concatenate([views[a].obs for a in agents])
-        masks = np.concatenate([views[a].mask for a in agents]) if model.use_action_masks else None
+        # an off-policy model (multi-policy DQN / SAC) has no action masks and takes none
+        masks = np.concatenate([views[a].mask for a in agents]) if getattr(model, "use_action_masks", False) \
+            else None
         if on_obs is not None:
             on_obs(name, [views[a] for a in agents], obs, masks)
         state = (states or {}).get(name) or None
         with torch.inference_mode():
-            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic, states=state,
-                            action_masks=None if masks is None else torch.as_tensor(masks, device=device))
+            # only what the model takes: an off-policy model (DQN / SAC) has no masks nor RNN states
+            extra = {} if masks is None else {"action_masks": torch.as_tensor(masks, device=device)}
+            if state is not None:
+                extra["states"] = state
+            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic, **extra)
         if state is not None:
             states[name] = tuple(out["states"])
         acts = model.dist.to_env(out["actions"]).cpu().numpy()
@@ -233,7 +238,9 @@ def step_policies(env: VecEnv, models: Any, plan: dict[str, list[str]], device: 
     views = env.reset(seed=seed)
     if seats is not None:
         seats.draw(np.arange(env.num_envs), env.named_policies)
-    states = {name: models[name].initial_state(len(agents) * env.num_envs, device) for name, agents in plan.items()}
+    # an off-policy model (multi-policy DQN / SAC) has no RNN states
+    states = {name: models[name].initial_state(len(agents) * env.num_envs, device)
+              if hasattr(models[name], "initial_state") else () for name, agents in plan.items()}
     while True:
         result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs, seats,
                                        states))

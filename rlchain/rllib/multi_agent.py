@@ -36,6 +36,7 @@ from rlchain.inference.policy_player import play_policies
 from rlchain.rllib import translate
 from rlchain.rllib.core import DEFAULT_MODULE_ID
 from rlchain.rllib.face_error import FaceNotOffered
+from rlchain.rllib.multi_agent_off_policy import OFF_POLICY, off_policy_config, off_policy_learners
 from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
@@ -316,9 +317,11 @@ class MultiAgentRun:
     rlchain config, and RLlib's multi-agent results (episode returns summed over agents, per policy learners)."""
 
     def __init__(self, config: Any, probe: Any) -> None:
-        if config.algo_name not in ("PPO", *VTRACE):
-            raise ConfigError(type(config).__name__, "env", f"a MultiAgentEnv trains under PPO, APPO or IMPALA "
-                                                            f"only, not {config.algo_name}")
+        if config.algo_name not in ("PPO", *VTRACE, *OFF_POLICY):
+            raise ConfigError(type(config).__name__, "env", f"a MultiAgentEnv trains under PPO, APPO, IMPALA, DQN and "
+                                                            f"SAC only, not {config.algo_name}")
+        self.algo = config.algo_name
+        self._off_policy: dict[str, Any] = {}  # DQN / SAC: the rlchain config and each policy's target counters
         self.agent_ids = agent_ids_of(probe)
         self.view = ParallelView(probe, self.agent_ids)
         self.names, _ = policy_names(config)
@@ -339,7 +342,11 @@ class MultiAgentRun:
         window = int(settings.get("metrics_num_episodes_for_smoothing") or 100)
         env_name = register(make, self.agent_ids, self.logs, window, max(1, int(settings.get("num_env_runners") or 0)),
                             max(1, int(settings.get("num_envs_per_env_runner") or 1)), self.chooser)
-        if config.algo_name in VTRACE:
+        if self.algo in OFF_POLICY:  # rlchain's multi-policy DQN / SAC
+            out = off_policy_config(config, env_name, run, self.spaces, self.mapping, self.trained)
+            self._off_policy = {"config": out["params"]["config"], "targets": {}}
+            return env_name, out
+        if self.algo in VTRACE:
             base = self._vtrace_base(config, env_name, run)
         else:
             base = translate.ppo_config(config, env_name, False, run, rllib_batch=False)
@@ -376,6 +383,11 @@ class MultiAgentRun:
         """RLlib's ``learners/<policy>`` results (trained policies only) from rlchain's per-policy tags; the losses
         and KL of each policy's last minibatch where ``last`` (policy -> its agent's last minibatch's statistics)
         has them, as RLlib logs them (``window=1``), else the update's means."""
+        if getattr(self, "_off_policy", None):  # DQN / SAC (a run built without an env has none)
+            trained = [pid for pid in self.names
+                       if pid in self.spaces and (self.trained is None or pid in self.trained)]
+            return off_policy_learners(self.algo, stats, self._off_policy["config"], trained,
+                                       self._off_policy["targets"])
         nan = float("nan")
         out = {}
         for pid in self.names:

@@ -17,8 +17,9 @@ class OffPolicyAlgorithm(Algorithm):
         super().__init__(config, env, logger_creator, **kwargs)
         # the run is parked before its first rollout: its agent exists and has made no gradient step
         agent = getattr(self._stepper.context, "agent", None)
-        if hasattr(agent, "rllib_stats"):
-            agent.rllib_stats = True  # rlchain's DQN / SAC agents skip RLlib's extra statistics otherwise
+        for one in (getattr(agent, "agents", None) or {}).values() or [agent]:  # multi-agent: each policy's agent
+            if hasattr(one, "rllib_stats"):
+                one.rllib_stats = True  # rlchain's DQN / SAC agents skip RLlib's extra statistics otherwise
 
 
 def target_updates(algo: Any) -> TargetUpdates:

@@ -114,7 +114,8 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
     if multi is not None:  # RLlib's multi-agent episodes (returns summed over agents), one learner a policy
         env_runners.update(multi.episodes())
         ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
-        learners = multi.learners(report.stats, cfg["learning_rate"], last_by_policy)
+        learners = multi.learners(report.stats, cfg.get("learning_rate", nan), last_by_policy)  # SAC: none
+        all_modules = learners.pop(ALL_MODULES, None) or all_modules  # DQN / SAC: summed over the policies
     if not env_runners.get("num_episodes_lifetime"):  # RLlib 2.60 has no episode means before an episode ended
         for key in EPISODE_KEYS:
             env_runners.pop(key, None)

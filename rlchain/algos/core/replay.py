@@ -125,6 +125,15 @@ class ReplayBuffer:
             self._write(*self._nstep(self._pending))
             self._pending.pop(0)
 
+    def add_discounted(self, obs: torch.Tensor, actions: torch.Tensor, rewards: torch.Tensor, next_obs: torch.Tensor,
+                       terminated: torch.Tensor, truncated: torch.Tensor, discounts: torch.Tensor) -> None:
+        """Transitions whose (n-step) returns the caller summed, each with its own discount (gamma ** its steps):
+        any number of them, written as they are (multi-policy DQN / SAC's agents, whose steps are their own)."""
+        dev = self.device
+        self._write(obs.to(dev), actions.to(dev), rewards.reshape(-1).float().to(dev), next_obs.to(dev),
+                    terminated.reshape(-1).bool().to(dev), truncated.reshape(-1).bool().to(dev),
+                    discounts.reshape(-1).float().to(dev))
+
     def _nstep(self, window: list[dict[str, torch.Tensor]]) -> tuple[torch.Tensor, ...]:
         """The n-step transition starting at ``window[0]`` for every env (each env's own n with ``n_step_max``)."""
         first = window[0]
