@@ -11,7 +11,8 @@ the network's outputs from the terms' derivatives (:func:`~rlchain.algos.core.lo
 :mod:`~rlchain.models.distribution_grads`), and :meth:`AnalyticStep.attach` hands autograd a loss whose one
 backward node runs the network's written-out backward. The gradients equal autograd's up to float rounding.
 
-The plain case: a CPU minibatch of flat tensor observations with a gradient being taken, no autocast, PPO's clipped
+The plain case: a CPU minibatch of flat tensor observations with a gradient being taken, not under
+``torch.compile`` (``compile_update`` compiles autograd's path), no autocast, PPO's clipped
 surrogate without the smooth clamp, the value loss trained, no bounds loss, no action masks, and a network and
 distribution both covered (a plain MLP actor-critic with relu / tanh / elu / identity activations; a categorical,
 or a Gaussian whose std is exp(sigma) or sigma). Everything else takes autograd's path.
@@ -52,7 +53,8 @@ def analytic_step(model: ActorCritic, batch: Batch, surrogate: Callable, train_c
                   amp_dtype: torch.dtype | None, smooth_clamp: bool, bounds_loss_coef: float | None
                   ) -> AnalyticStep | None:
     """The model's :class:`AnalyticStep` for this minibatch's loss, or None outside the plain case."""
-    if not (torch.is_grad_enabled() and amp_dtype is None and train_critic and surrogate is policy_loss
+    if not (torch.is_grad_enabled() and not torch.compiler.is_compiling() and amp_dtype is None and train_critic
+            and surrogate is policy_loss
             and not smooth_clamp and not bounds_loss_coef and batch.action_masks is None and not model.is_rnn
             and type(batch.obs) is torch.Tensor and batch.obs.device.type == "cpu"):
         return None
