@@ -24,10 +24,11 @@ class GaussianGrads:
         self.sigma_is_logstd = dist.sigma_is_logstd
 
     def network_grads(self, params: torch.Tensor, actions: torch.Tensor, g_log_prob: torch.Tensor,
-                      g_entropy: torch.Tensor, reference: torch.Tensor | None, g_kl: torch.Tensor | None
-                      ) -> tuple[torch.Tensor, torch.Tensor]:
+                      g_entropy: torch.Tensor, reference: torch.Tensor | None, g_kl: torch.Tensor | None,
+                      bounds: tuple[str, float] | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """(d / d mu, d / d sigma), each (B, A), of the weighted sum above; ``g_log_prob`` (B,), ``g_entropy`` and
-        ``g_kl`` 0-d (``reference`` None: no KL term)."""
+        ``g_kl`` 0-d (``reference`` None: no KL term); ``bounds`` (the bounds loss's kind, its weight) adds that
+        weight times the sum of :meth:`DiagGaussian.bounds_loss` over the rows."""
         mu, std = params[:, :self.dim], params[:, self.dim:]
         inv_std = std.reciprocal()
         z = (actions - mu) * inv_std
@@ -40,6 +41,12 @@ class GaussianGrads:
             g_mu = torch.addcmul(g_mu, dmu * inv_var, g_kl)
             spread = (reference[:, self.dim:].square() + dmu.square()).mul_(inv_var)
             g_std = torch.addcmul(g_std, (1.0 - spread).mul_(inv_std), g_kl)
+        if bounds is not None:
+            kind, weight = bounds
+            if kind == "regularisation":  # sum mu^2
+                g_mu = g_mu + (2.0 * weight) * mu
+            else:  # sum (mu - 1.1)_+^2 + (mu + 1.1)_-^2
+                g_mu = g_mu + (2.0 * weight) * ((mu - 1.1).clamp_min(0) + (mu + 1.1).clamp_max(0))
         return g_mu, g_std * std if self.sigma_is_logstd else g_std
 
 
@@ -47,9 +54,10 @@ class CategoricalGrads:
     """:class:`Categorical`: params are the logits, the network's one policy output."""
 
     def network_grads(self, params: torch.Tensor, actions: torch.Tensor, g_log_prob: torch.Tensor,
-                      g_entropy: torch.Tensor, reference: torch.Tensor | None, g_kl: torch.Tensor | None
-                      ) -> tuple[torch.Tensor]:
-        """(d / d logits,) (B, n) of the weighted sum above."""
+                      g_entropy: torch.Tensor, reference: torch.Tensor | None, g_kl: torch.Tensor | None,
+                      bounds: tuple[str, float] | None = None) -> tuple[torch.Tensor]:
+        """(d / d logits,) (B, n) of the weighted sum above (a categorical's bounds loss is zero: ``bounds`` adds
+        nothing)."""
         logp = torch.log_softmax(params, -1)
         p = logp.exp()
         g_lp = g_log_prob.unsqueeze(-1)

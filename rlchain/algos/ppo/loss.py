@@ -79,7 +79,7 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     dist = model.dist
     amp = amp_dtype is not None
     # the plain case (rlchain.algos.ppo.analytic_step): the forward pass without a graph, the gradients written out
-    step = analytic_step(model, batch, surrogate, train_critic, amp_dtype, cfg.use_smooth_clamp, cfg.bounds_loss_coef)
+    step = analytic_step(model, batch, surrogate, train_critic, amp_dtype, cfg.use_smooth_clamp)
     traced = step.forward(model.preprocess(batch.obs)) if step is not None else None
     if traced is not None:
         params, values = dist.params_from_network(traced[0])
@@ -147,8 +147,9 @@ def _output_grads(step: AnalyticStep, cfg: PPOConfig, batch: Batch, params: torc
     g_log_prob = policy_loss_grad(ratio, advantages, policy_terms).mul_(per_row)
     g_values = g_values.mul_(0.5 * cfg.critic_coef * per_row)
     penalty = kl_coef is not None
+    bounds = (cfg.bound_loss_type, cfg.bounds_loss_coef * per_row) if cfg.bounds_loss_coef else None
     policy = step.grads.network_grads(params, batch.actions, g_log_prob, entropy_coef * -per_row,
-                                      reference if penalty else None, kl_coef * per_row if penalty else None)
+                                      reference if penalty else None, kl_coef * per_row if penalty else None, bounds)
     return (*policy, g_values)
 
 
