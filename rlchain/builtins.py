@@ -14,8 +14,7 @@ from rlchain.algos.distill.distill import Distill
 from rlchain.algos.grpo.grpo import GRPO
 from rlchain.algos.off_policy.dqn import DQN
 from rlchain.algos.off_policy.dqn_agent import dqn_model
-from rlchain.algos.off_policy.sac import SAC
-from rlchain.algos.off_policy.sac_agent import soft_actor_critic_model
+from rlchain.algos.off_policy.sac import SAC, soft_actor_critic_model
 from rlchain.algos.ppo.ppo import PPO
 from rlchain.envs import examples, vecenv
 from rlchain.envs.backends import atari, mujoco_push, torch_envs

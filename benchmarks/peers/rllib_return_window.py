@@ -69,7 +69,7 @@ def main() -> None:
             by_runner.setdefault(e["runner"], []).append(e["return"])
         runner_means = mean([mean(v[-keep:]) for v in by_runner.values()])
         print(json.dumps({"lib": lib, "env_steps": int(result["num_env_steps_sampled_lifetime"]),
-                          "reported": round(float(result["env_runners"]["episode_return_mean"]), 3),
+                          "reported": round(float(result["env_runners"].get("episode_return_mean", float("nan"))), 3),
                           "runner_means_this_iteration": round(runner_means, 3),
                           "last_100": round(mean(history[-100:]), 3), "episodes": len(this)}), flush=True)
     algo.stop()

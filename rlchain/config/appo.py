@@ -13,7 +13,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from rlchain.config.actor_critic import ActorCriticConfig
+from rlchain.config.errors import ConfigError
 from rlchain.config.fields import option, positive, variant
+from rlchain.config.network_block import has_rnn
 from rlchain.config.ppo import PPOConfig
 
 
@@ -43,7 +45,7 @@ class AppoBlock:
                                              "hung and replaced (env_runners.max_restarts)", check=positive)
 
 
-RNN_NOTE = "the asynchronous runners carry no RNN state yet: use a feed-forward network"
+RNN_NOTE = "the runners always zero an RNN's state where an episode ends, and train whole seq_length sequences"
 
 
 @dataclass(frozen=True)
@@ -51,11 +53,13 @@ class VTraceConfig(ActorCriticConfig):
     """The keys ``appo`` and ``impala`` share: the actor-critic keys and the asynchronous learner's block."""
 
     appo: AppoBlock = option(AppoBlock(), "the asynchronous learner (rlchain)")
+    seq_length: int = variant(PPOConfig, "seq_length", doc="RNN: steps per training sequence (each starts from the "
+                                                           "state its runner had there); horizon_length (the "
+                                                           "fragment) and minibatch_size must divide by it")
 
     # Not keys: the fixed values of features the runners do not have, read by the PPO agent and model they
     # share with PPO. A YAML key of one of these names is PPO's, ignored here with the warning below.
     use_action_masks: ClassVar[bool] = False
-    seq_length: ClassVar[int] = 1
     bptt_length: ClassVar[int | None] = None
     zero_rnn_on_done: ClassVar[bool] = True
     central_value_config: ClassVar[Any] = None
@@ -71,7 +75,7 @@ class VTraceConfig(ActorCriticConfig):
         "central_value_config": "no asymmetric critic for the asynchronous learner yet",
         "self_play_config": "no self-play for the asynchronous learner yet",
         "use_action_masks": "the runners carry no action masks yet",
-        "seq_length": RNN_NOTE, "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
+        "bptt_length": RNN_NOTE, "zero_rnn_on_done": RNN_NOTE,
         "torch_compile": "supported for PPO only so far",
         "compile_update": "supported for PPO only so far",
         "cuda_graph": "supported for PPO only so far",
@@ -98,6 +102,15 @@ class VTraceConfig(ActorCriticConfig):
                                                f"workers: appo/impala runners need equal env slices")
         return None  # the minibatch against the batch: check_batch, once the env's agents are known
 
+    def with_network(self, network: Any, source: str) -> VTraceConfig:
+        """An RNN trains on whole sequences: the fragment and the minibatch must hold whole seq_length blocks."""
+        if has_rnn(network):
+            for key in ("horizon_length", "minibatch_size"):
+                if getattr(self, key) % self.seq_length:
+                    raise ConfigError(source, "params.config.seq_length", f"{key} {getattr(self, key)} is not "
+                                      f"divisible by seq_length {self.seq_length}")
+        return self
+
 
 @dataclass(frozen=True)
 class APPOConfig(VTraceConfig):
@@ -113,6 +126,17 @@ class APPOConfig(VTraceConfig):
     e_clip: float = variant(PPOConfig, "e_clip")
     clip_value: bool = variant(PPOConfig, "clip_value")
     use_smooth_clamp: bool = variant(PPOConfig, "use_smooth_clamp")
+    kl_loss_coef: float = variant(PPOConfig, "kl_loss_coef", doc="KL penalty (RLlib's APPO use_kl_loss / kl_coeff): "
+                                  "loss += kl_loss_coef * mean KL(target policy || current policy), with its "
+                                  "gradient; the target policy is a frozen copy of the learner's, refreshed every "
+                                  "target_update_interval updates (kl_reference does not apply). 0 = off")
+    kl_loss_target: float | None = variant(PPOConfig, "kl_loss_target", doc="with kl_loss_coef > 0, adapt the "
+                                           "coefficient after every pass over a batch as RLlib's APPO does after "
+                                           "every update: x1.5 when the pass's last minibatch KL is above 2 * "
+                                           "kl_loss_target, x0.5 when below kl_loss_target / 2 (None: fixed)")
+    target_update_interval: int = option(1, "with kl_loss_coef > 0: learner updates between refreshes of the KL "
+                                            "penalty's target policy (RLlib's target network); 1 = the policy "
+                                            "before each update", check=positive)
 
 
 @dataclass(frozen=True)

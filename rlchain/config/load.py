@@ -194,10 +194,6 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
     the policy's ``network`` / ``model`` / ``config`` in their place (see rlchain/config/multi_agent.py)."""
 
     ma = top.config.multi_agent
-    if top.network is not None and isinstance(top.network, (NetworkConfig, ResnetNetworkConfig)) \
-            and top.network.rnn is not None:
-        raise ConfigError(source, "params.network.rnn", "multi_agent policies are feedforward for now "
-                                                        "(recurrent policies: not implemented)")
     names = check_multi_agent(ma, source)
     base = drop_other_algo_keys(compat.translate_config(raw_params["config"], source), top.algo.name, source,
                                 warn=False)  # warned about once already, as params.config
@@ -216,8 +212,6 @@ def _policy_params(top: Params, raw_params: dict, source: str) -> dict[str, Para
         config = parse_dataclass(type(top.config), merged, f"{path}.config", source).resolved(source)
         network = top.network if spec.network is None else parse_network(spec.network, source, f"{path}.network")
         check_registered(NETWORKS, network_name(network), f"{path}.network.name", source)
-        if isinstance(network, (NetworkConfig, ResnetNetworkConfig)) and network.rnn is not None:
-            raise ConfigError(source, f"{path}.network.rnn", "multi_agent policies are feedforward for now")
         model = top.model if spec.model is None else parse_dataclass(
             NamedBlock, compat.translate_model(spec.model, source), f"{path}.model", source)
         check_registered(MODELS, model.name, f"{path}.model.name", source)

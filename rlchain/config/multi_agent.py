@@ -1,7 +1,9 @@
 """The ``params.config.multi_agent`` block: several policies, and which agent each one plays.
 
 Parsed once here into a frozen :class:`PolicyPlan` per policy (its own network, model preset and
-PPO keys), and a :class:`PolicyMapping` from agent ids to policy names (globs, first match wins).
+PPO keys), and a :class:`PolicyMapping` from agent ids to policy names (globs, first match wins). A glob may
+name a list of policies: its agents play one of them per episode (:mod:`rlchain.models.seats` draws it), so
+every policy of the list gets a slot for each such agent.
 """
 
 from __future__ import annotations
@@ -51,8 +53,11 @@ class MultiAgentConfig:
     policies: dict = option({}, "policy name -> its block (see multi_agent.policies.<name>); `{}` is the "
                                 "top-level network and keys. Empty: one policy, `shared`, for every agent")
     policy_mapping: dict = option({}, "agent id glob -> policy name, e.g. {'adversary_*': predator, "
-                                      "'agent_*': prey}; the first matching glob wins; an agent that matches "
-                                      "none is an error. Empty with one policy: every agent plays it")
+                                      "'agent_*': prey}, or a list of policy names: one of them, drawn "
+                                      "uniformly at random at each episode start of each env (the env's own "
+                                      "choice where it names one), e.g. {player_1: [always_same, beat_last]}; "
+                                      "the first matching glob wins; an agent that matches none is an error. "
+                                      "Empty with one policy: every agent plays it")
     policies_to_train: list[str] | None = option(None, "policies that learn (default: all); the others act "
                                                        "frozen (their weights come from the checkpoint or "
                                                        "a snapshot)")
@@ -62,38 +67,50 @@ class MultiAgentConfig:
 
 
 class PolicyMapping:
-    """Agent id -> policy name by globs in order, first match wins (``policy_mapping``)."""
+    """Agent id -> the policies that may play it, by globs in order, first match wins (``policy_mapping``): one
+    policy, or a list of them of which each episode plays one."""
 
-    def __init__(self, rules: dict[str, str], policies: list[str], source: str = "") -> None:
-        self.rules = list(rules.items())
+    def __init__(self, rules: dict[str, str | list[str]], policies: list[str], source: str = "") -> None:
+        self.rules = [(pattern, [value] if isinstance(value, str) else list(value)) for pattern, value in rules.items()]
         self.policies = policies
         self.source = source
 
-    def policy_of(self, agent: str) -> str:
-        """The policy that plays ``agent``; a one-line ConfigError when no glob matches it."""
+    def candidates(self, agent: str) -> list[str]:
+        """The policies that may play ``agent`` (one: it plays it for the run); a one-line ConfigError when no glob
+        matches it."""
         if not self.rules and len(self.policies) == 1:
-            return self.policies[0]
-        for pattern, policy in self.rules:
+            return [self.policies[0]]
+        for pattern, names in self.rules:
             if fnmatch.fnmatchcase(agent, pattern):
-                return policy
+                return names
         globs = ", ".join(repr(p) for p, _ in self.rules) or "none"
         raise ConfigError(self.source, f"{KEY}.policy_mapping", f"agent '{agent}' matches no glob "
                                                                  f"(globs: {globs}); add one for it")
 
     def assign(self, agents: list[str]) -> dict[str, list[str]]:
-        """policy name -> the agents it plays, in the env's agent order (every policy listed)."""
+        """policy name -> the agents it may play (its slots), in the env's agent order (every policy listed)."""
         out: dict[str, list[str]] = {name: [] for name in self.policies}
         for agent in agents:
-            out[self.policy_of(agent)].append(agent)
+            for name in self.candidates(agent):
+                out[name].append(agent)
         return out
 
 
 def check_multi_agent(ma: MultiAgentConfig, source: str) -> list[str]:
     """Cross-key checks of the block; returns the policy names (``['shared']`` when none are given)."""
     names = list(ma.policies) or ["shared"]
-    for glob, policy in ma.policy_mapping.items():
-        if policy not in names:
-            raise ConfigError(source, f"{KEY}.policy_mapping.{glob}", _unknown(policy, names))
+    for glob, value in ma.policy_mapping.items():
+        where = f"{KEY}.policy_mapping.{glob}"
+        if isinstance(value, str):
+            value = [value]
+        elif not (isinstance(value, (list, tuple)) and value and all(isinstance(v, str) for v in value)):
+            raise ConfigError(source, where, f"expected a policy name or a non-empty list of policy names, got "
+                                             f"{value!r}")
+        elif len(set(value)) != len(value):
+            raise ConfigError(source, where, f"names a policy twice ({', '.join(value)})")
+        for policy in value:
+            if policy not in names:
+                raise ConfigError(source, where, _unknown(policy, names))
     for i, policy in enumerate(ma.policies_to_train or []):
         if policy not in names:
             raise ConfigError(source, f"{KEY}.policies_to_train[{i}]", _unknown(policy, names))

@@ -169,6 +169,10 @@ class NetworkConfig:
                                                 "its value head takes its initializer); default: mlp's")
     cnn: CnnConfig | None = option(None, "convolutional encoder before the MLP")
     rnn: RnnConfig | None = option(None, "recurrent layer (lstm/gru)")
+    head: MlpConfig | None = option(None, "rlchain: hidden layers of each output stream after the trunk (and its "
+                                          "rnn): the actor's outputs and the value each get their own, with their "
+                                          "own activation (RLlib's head_fcnet_hiddens); None: the outputs sit on "
+                                          "the trunk")
     history: HistoryConfig | None = option(None, "rlchain: a causal transformer over the last steps in place of "
                                                  "the rnn: {length, layers, heads, dim}")
     normalization: str | None = option(None, "rl_games spelling at network level: layer_norm or batch_norm "

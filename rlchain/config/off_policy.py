@@ -127,7 +127,8 @@ class OffPolicyConfig(RunConfig):
 
 @dataclass(frozen=True)
 class SACConfig(OffPolicyConfig):
-    """``params.config`` for algo ``sac`` (soft actor-critic, twin critics, tanh-squashed Gaussian)."""
+    """``params.config`` for algo ``sac`` (soft actor-critic, twin critics, a learned temperature; a tanh-squashed
+    Gaussian policy on Box actions, a categorical one with per-action critics on Discrete actions)."""
 
     # words for its heading in docs/config.md
     doc_note: ClassVar[str] = "keys shared with PPO have the same meaning"
@@ -139,7 +140,8 @@ class SACConfig(OffPolicyConfig):
     critic_tau: float = option(0.005, "Polyak factor of the target critics (1 = hard copy)",
                                check=lambda x: None if 0 < x <= 1 else "must be in (0, 1]")
     learnable_temperature: bool = option(True, "learn alpha towards target_entropy")
-    target_entropy: float | None = option(None, "entropy target for alpha (default -action_dim)")
+    target_entropy: float | None = option(None, "entropy target for alpha (default -action_dim for Box actions; "
+                                                "0.98 * log(n) for Discrete(n): Christodoulou 2019)")
     policy_frequency: int = option(1, "actor (and alpha) update every N critic updates", check=positive)
     log_std_bounds: list[float] | None = option(None, "[min, max] of the policy log-std (overrides the "
                                                       "network block's log_std_bounds)", check=_check_bounds)

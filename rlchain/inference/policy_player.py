@@ -15,6 +15,7 @@ from rlchain.config.params import Params
 from rlchain.envs.factory import build_env
 from rlchain.envs.spec import env_spec
 from rlchain.models.build import policy_agents
+from rlchain.models.seats import seats_of
 from rlchain.parallel.device import resolve_device
 from rlchain.policy.load import LoadedPolicy, load_policy
 from rlchain.policy.play import step_policies
@@ -64,13 +65,14 @@ def _play(params: Params, env: object, models: torch.nn.ModuleDict, games: int, 
     finished: dict[str, list[float]] = {name: [] for name in plan}
     played = 0
     seed = params.seed if params.seed is not None else 0
-    for result in step_policies(env, models, plan, device, deterministic, seed):
-        for name, agents in plan.items():
-            for a in agents:
-                returns[a] += result.reward[a]
-                done = result.terminated[a] | result.truncated[a]
-                finished[name].extend(returns[a][done].tolist())
-                returns[a][done] = 0.0
+    seats = seats_of(params, env, seed)  # the policy of each agent in each env's current episode
+    for result in step_policies(env, models, plan, device, deterministic, seed, seats=seats):
+        for a in env.agent_ids:
+            returns[a] += result.reward[a]
+            done = result.terminated[a] | result.truncated[a]
+            for i in done.nonzero()[0].tolist():
+                finished[seats.policy_of(a, i)].append(float(returns[a][i]))
+            returns[a][done] = 0.0
         played += env.pop_games() if env_spec(env).games_counter else 0
         if played >= games:
             break

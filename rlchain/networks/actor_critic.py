@@ -32,8 +32,9 @@ from rlchain.networks.mlp import MLP
 from rlchain.networks.rnn import RecurrentLayer, States, flat_sequences
 
 RL_GAMES_ORDER = ("cnn", "actor_cnn", "critic_cnn", "actor_mlp", "critic_mlp", "rnn", "a_rnn", "c_rnn", "layer_norm",
-                  "a_layer_norm", "c_layer_norm", "mlp", "value", "logits", "mu", "sigma")
-"""The order rl_games' actor-critic networks register their modules in (its optimizer's parameter order)."""
+                  "a_layer_norm", "c_layer_norm", "mlp", "actor_head", "critic_head", "value", "logits", "mu", "sigma")
+"""The order rl_games' actor-critic networks register their modules in (its optimizer's parameter order); the
+per-stream ``actor_head`` / ``critic_head`` (``network.head``) are rlchain's, between the trunks and the outputs."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,12 +145,20 @@ class ActorCriticNetwork(nn.Module):
                                                       (self.CNN[1], self.MLP_NAME[1], rnn_names[1], norm_names[1]))
             modules.update(critic_modules)
         init = cfg.mlp.initializer
+        out = self.actor_layout.out_size
+        critic_out = (self.critic_layout or self.actor_layout).out_size
+        head = getattr(cfg, "head", None)
+        self.has_heads = head is not None
+        if head is not None:  # each output stream's own hidden layers (RLlib's pi and vf heads)
+            if not central_value:
+                modules["actor_head"] = MLP(out, head)
+                out = modules["actor_head"].out_size
+            modules["critic_head"] = MLP(critic_out, head)
+            critic_out = modules["critic_head"].out_size
         # the value head sits on the critic's trunk when it has one of its own
-        modules["value"] = linear((self.critic_layout or self.actor_layout).out_size, value_size,
-                                  critic_mlp.initializer if critic_mlp is not None else init)
+        modules["value"] = linear(critic_out, value_size, critic_mlp.initializer if critic_mlp is not None else init)
         self.value_act = activation(cfg.value_activation)
         self.continuous = continuous
-        out = self.actor_layout.out_size
         if central_value:
             pass
         elif continuous:
@@ -223,6 +232,9 @@ class ActorCriticNetwork(nn.Module):
         else:
             c_out, c_states = a_out, ()
         new_states = (*a_states, *c_states) if self.is_rnn() else None
+        if self.has_heads:
+            c_out = self.critic_head(c_out)
+            a_out = a_out if self.central_value else self.actor_head(a_out)
         value = self.value_act(self.value(c_out))
         if self.central_value:
             return value, new_states

@@ -34,7 +34,7 @@ class DirectPass:
         self.network = network
         self.plain = False
         if type(network) is not ActorCriticNetwork or network.central_value or network.is_rnn() \
-                or "forward" in network.__dict__:
+                or network.has_heads or "forward" in network.__dict__:  # has_heads: per-stream hidden layers
             return
         trunks = [_plain_layers(network, network.actor_layout)]
         if network.critic_layout is not None:

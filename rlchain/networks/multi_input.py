@@ -177,7 +177,7 @@ def multi_input_network(cfg: MultiInputNetworkConfig, **kwargs: Any) -> nn.Modul
                          f"the env gives {space}")
     if kwargs.get("model_name") in OFF_POLICY_MODELS:  # SAC / DQN: their own heads on the same encoders
         return multi_input_off_policy(cfg, kwargs["model_name"], lambda: MultiInputEncoder(space, cfg.inputs),
-                                      kwargs["actions_num"])
+                                      kwargs["actions_num"], isinstance(kwargs["action_space"], gym.spaces.Discrete))
     if cfg.dueling is not None:
         raise ValueError("params.network.dueling: a DQN head; only model dqn reads it (remove it)")
     continuous = is_continuous(cfg, kwargs["action_space"])

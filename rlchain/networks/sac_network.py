@@ -1,5 +1,9 @@
 """Networks for the off-policy algorithms: ``soft_actor_critic`` (actor + twin critics) and ``dqn``.
 
+``soft_actor_critic`` on Box actions: a Gaussian actor (mu, log_std) and twin critics of (obs, action); on
+Discrete(n) actions: a categorical actor (n logits) and twin critics of obs with one Q-value per action (RLlib's
+and Christodoulou's discrete SAC). Both read the same ``mlp`` block.
+
 Both follow the builder contract of :mod:`rlchain.networks.base` and read rl_games' network block
 keys (``mlp.units / activation / initializer``, ``log_std_bounds``; ``dueling`` and ``head`` for DQN).
 
@@ -66,38 +70,75 @@ class TwinQCritic(nn.Module):
         return self.Q1(x).squeeze(-1), self.Q2(x).squeeze(-1)
 
 
+class CategoricalActor(nn.Module):
+    """obs (B, obs_dim) -> logits (B, n); ``encoder`` first when given. ``trunk``: hidden layers and output."""
+
+    def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, encoder: nn.Module | None = None) -> None:
+        super().__init__()
+        self.encoder = encoder
+        self.trunk = MLP(obs_dim if encoder is None else encoder.out_size, mlp, output=actions_num)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.trunk(obs if self.encoder is None else self.encoder(obs))
+
+
+class TwinQPerAction(nn.Module):
+    """obs (B, obs_dim) -> (q1, q2), each (B, n): one Q-value per discrete action; ``encoder`` (shared by both Qs)
+    first when given. ``Q1`` / ``Q2``: hidden layers and output in one Sequential each."""
+
+    def __init__(self, obs_dim: int, actions_num: int, mlp: MlpConfig, encoder: nn.Module | None = None) -> None:
+        super().__init__()
+        self.encoder = encoder
+        obs_dim = obs_dim if encoder is None else encoder.out_size
+        self.Q1 = MLP(obs_dim, mlp, output=actions_num)
+        self.Q2 = MLP(obs_dim, mlp, output=actions_num)
+
+    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = obs if self.encoder is None else self.encoder(obs)
+        return self.Q1(x), self.Q2(x)
+
+
 class SACNetwork(nn.Module):
-    """``actor`` and ``critic`` (twin Q) submodules; ``forward`` is rl_games' ``(mu, log_std, None, None)``.
-    ``make_encoder`` (Dict observations kept per key): the actor and the critic each get one it builds."""
+    """``actor`` and ``critic`` (twin Q) submodules; ``forward`` is rl_games' ``(mu, log_std, None, None)``
+    (``discrete``: ``(logits, None, None, None)``). ``make_encoder`` (Dict observations kept per key): the actor
+    and the critic each get one it builds."""
 
     def __init__(self, cfg: SACNetworkConfig, input_shape: tuple[int, ...], actions_num: int,
-                 make_encoder: Callable[[], nn.Module] | None = None) -> None:
+                 make_encoder: Callable[[], nn.Module] | None = None, discrete: bool = False) -> None:
         super().__init__()
         obs_dim = int(np.prod(input_shape))
         mlp = cfg.mlp
         if cfg.normalization is not None and mlp.normalization is None:  # rl_games 2.0: actor and critics
             mlp = dataclasses.replace(mlp, normalization=cfg.normalization)
         per_key = make_encoder is not None
-        self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds, cfg.mean_clip,
-                              make_encoder() if per_key else None)
-        self.critic = TwinQCritic(obs_dim, actions_num, mlp, make_encoder() if per_key else None)
+        if discrete:
+            self.actor = CategoricalActor(obs_dim, actions_num, mlp, make_encoder() if per_key else None)
+            self.critic = TwinQPerAction(obs_dim, actions_num, mlp, make_encoder() if per_key else None)
+        else:
+            self.actor = SACActor(obs_dim, actions_num, mlp, cfg.log_std_bounds, cfg.mean_clip,
+                                  make_encoder() if per_key else None)
+            self.critic = TwinQCritic(obs_dim, actions_num, mlp, make_encoder() if per_key else None)
         self.per_key = per_key
 
     def forward(self, input_dict: dict[str, Any]) -> tuple:
         obs = input_dict["obs"]
-        mu, log_std = self.actor(obs if self.per_key else obs.flatten(1))
-        return mu, log_std, None, None
+        out = self.actor(obs if self.per_key else obs.flatten(1))
+        return (*out, None, None) if isinstance(out, tuple) else (out, None, None, None)
 
     def is_rnn(self) -> bool:
         return False
 
 
 def sac_network(cfg: SACNetworkConfig, **kwargs: Any) -> nn.Module:
-    """The network registered as ``soft_actor_critic``."""
-    if not isinstance(kwargs["action_space"], gym.spaces.Box):
-        raise ValueError(f"params.network: soft_actor_critic needs continuous (Box) actions, the env has "
-                         f"{kwargs['action_space']}")
-    return SACNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"])
+    """The network registered as ``soft_actor_critic``: Box or Discrete actions."""
+    space = kwargs["action_space"]
+    if not isinstance(space, (gym.spaces.Box, gym.spaces.Discrete)):
+        raise ValueError(f"params.network: soft_actor_critic needs Box or Discrete actions, the env has {space}")
+    discrete = isinstance(space, gym.spaces.Discrete)
+    if discrete and cfg.mean_clip is not None:
+        raise ValueError("params.network.mean_clip: clips a Gaussian policy's mean; Discrete actions have a "
+                         "categorical policy (remove it)")
+    return SACNetwork(cfg, tuple(kwargs["input_shape"]), kwargs["actions_num"], discrete=discrete)
 
 
 sac_network.config_class = SACNetworkConfig
@@ -151,7 +192,7 @@ OFF_POLICY_MODELS = ("soft_actor_critic", "dqn")
 
 
 def multi_input_off_policy(cfg: Any, model_name: str, make_encoder: Callable[[], nn.Module],
-                           actions_num: int) -> nn.Module:
+                           actions_num: int, discrete: bool = False) -> nn.Module:
     """The ``multi_input`` network of an off-policy model: ``soft_actor_critic``'s actor and twin critic (an
     encoder each) or ``dqn``'s Q-network, their hidden layers from ``cfg.mlp``; ``log_std_bounds`` comes from
     the config (or its default [-5, 2]) and DQN's head is dueling."""
@@ -162,6 +203,6 @@ def multi_input_off_policy(cfg: Any, model_name: str, make_encoder: Callable[[],
         if cfg.dueling is not None:
             raise ValueError("params.network.dueling: a DQN head; model soft_actor_critic has none (remove it)")
         sac = SACNetworkConfig(mlp=cfg.mlp, normalization=cfg.normalization)
-        return SACNetwork(sac, (), actions_num, make_encoder)
+        return SACNetwork(sac, (), actions_num, make_encoder, discrete)
     dueling = True if cfg.dueling is None else cfg.dueling
     return QNetwork(DQNNetworkConfig(mlp=cfg.mlp, dueling=dueling), (), actions_num, make_encoder())

@@ -25,6 +25,7 @@ from rlchain.envs.obs_dict import obs_as_tensor
 from rlchain.envs.spec import env_spec
 from rlchain.envs.vecenv import VecEnv, game_outcome
 from rlchain.envs.wrappers.success import SuccessReader
+from rlchain.models.seats import Seats
 from rlchain.policy.stepper import PolicyStepper
 
 
@@ -186,34 +187,62 @@ def play(model: Any, env: VecEnv, games: int | None, deterministic: bool = True,
 def act_policies(models: Any, plan: dict[str, list[str]], views: dict[str, Any], num_envs: int,
                  device: torch.device, deterministic: bool,
                  on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
-                 ) -> dict[str, np.ndarray]:
+                 seats: Seats | None = None, states: dict[str, tuple] | None = None) -> dict[str, np.ndarray]:
     """Each policy's actions for its agents: ``plan`` maps a policy to its agent ids, ``views`` an agent
     id to its view (``obs`` (num_envs, ...), ``mask``, ``active``); ``models[policy]`` acts on its agents'
     rows stacked agent by agent. ``on_obs(policy, its agents' views, obs, masks)`` sees each policy's
-    stacked rows first."""
-    actions = {}
+    stacked rows first. With ``seats``, an agent several policies may play takes, in each env, the action of
+    the one that plays it there. ``states``: each recurrent policy's RNN states entering this step (replaced by
+    the states after it)."""
+    actions: dict[str, np.ndarray] = {}
     for name, agents in plan.items():
         model = models[name]
         obs = np.concatenate([views[a].obs for a in agents])
         masks = np.concatenate([views[a].mask for a in agents]) if model.use_action_masks else None
         if on_obs is not None:
             on_obs(name, [views[a] for a in agents], obs, masks)
+        state = (states or {}).get(name) or None
         with torch.inference_mode():
-            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic,
+            out = model.act(torch.as_tensor(obs, device=device), deterministic=deterministic, states=state,
                             action_masks=None if masks is None else torch.as_tensor(masks, device=device))
+        if state is not None:
+            states[name] = tuple(out["states"])
         acts = model.dist.to_env(out["actions"]).cpu().numpy()
-        actions.update({a: acts[k * num_envs:(k + 1) * num_envs] for k, a in enumerate(agents)})
+        owned = seats.owned(name, agents) if seats is not None and seats.dynamic else None
+        for k, a in enumerate(agents):
+            mine = acts[k * num_envs:(k + 1) * num_envs]
+            if owned is None:
+                actions[a] = mine
+            elif a not in actions:
+                actions[a] = mine.copy()
+            else:
+                rows = owned[k * num_envs:(k + 1) * num_envs]
+                actions[a][rows] = mine[rows]
     return actions
 
 
 def step_policies(env: VecEnv, models: Any, plan: dict[str, list[str]], device: torch.device, deterministic: bool,
                   seed: int | None,
                   on_obs: Callable[[str, list[Any], np.ndarray, np.ndarray | None], None] | None = None,
-                  ) -> Iterator[Any]:
+                  seats: Seats | None = None) -> Iterator[Any]:
     """Reset ``env`` (a multi-agent VecEnv of views per agent) with ``seed``, then step it with every
-    policy's actions (:func:`act_policies`) for as long as the caller iterates; yields each StepResult."""
+    policy's actions (:func:`act_policies`) for as long as the caller iterates; yields each StepResult. With
+    ``seats``, the policies of listed agents are chosen at each episode start, after the caller has read the
+    step that ended the last one. A recurrent policy carries its RNN states from step to step, from zero at each
+    episode start."""
     views = env.reset(seed=seed)
+    if seats is not None:
+        seats.draw(np.arange(env.num_envs), env.named_policies)
+    states = {name: models[name].initial_state(len(agents) * env.num_envs, device) for name, agents in plan.items()}
     while True:
-        result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs))
+        result = env.step(act_policies(models, plan, views, env.num_envs, device, deterministic, on_obs, seats,
+                                       states))
         yield result
+        if seats is not None:
+            seats.draw(result.started.nonzero()[0], env.named_policies)
+        started = torch.as_tensor(result.started, device=device)
+        for name, state in states.items():  # an RNN's rows of a new episode start from zero states
+            if state:
+                rows = started.repeat(len(plan[name])).view(1, -1, 1)
+                states[name] = tuple(torch.where(rows, torch.zeros_like(s), s) for s in state)
         views = result.obs

@@ -126,11 +126,13 @@ class Algorithm:
         self.env_runner_group = EnvRunnerGroup(self)
         self.env_runner = self.env_runner_group.local_env_runner
         extra = []
+        self._episode_events: EpisodeEvents | None = None  # the callbacks' running episodes (make_env drops them)
         if any(getattr(type(cb), event) is not getattr(RLlibCallback, event)
                for event in ("on_episode_start", "on_episode_step", "on_episode_end")
                for cb in self.callbacks if not isinstance(cb, EventFunctions)) \
                 or any(name.startswith("on_episode_") for name in functions):
-            extra.append(EpisodeEvents(self.callbacks, self._env_runner_metrics, self.env_runner))
+            self._episode_events = EpisodeEvents(self.callbacks, self._env_runner_metrics, self.env_runner)
+            extra.append(self._episode_events)
         # RLlib's episode results count the episodes of each train() only (see episode_window)
         self._episodes = IterationEpisodes(runners, per_runner,
                                            int(settings.get("metrics_num_episodes_for_smoothing") or 100))

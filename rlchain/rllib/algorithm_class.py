@@ -57,14 +57,14 @@ class AlgorithmClass:
 
     def default_resource_request(self, config: Any) -> Any:
         """What a Tune trial of this algorithm asks Ray for (``tune.with_resources(fn, resources=...)``): one bundle
-        of ``num_cpus_for_main_process`` CPUs (and ``num_gpus``), since the face steps a trial's envs and trains
-        in the trial's own process (RLlib adds a bundle per env runner and learner)."""
+        of ``num_cpus_for_main_process`` CPUs and the learners' GPUs (:func:`trial_gpus`), since the face steps a
+        trial's envs and trains in the trial's own process (RLlib adds a bundle per env runner and learner)."""
         from ray import tune  # optional: ray[tune]
 
         get = config.get if hasattr(config, "get") else dict(config).get
         bundle = {"CPU": get("num_cpus_for_main_process", 1) or 1}
-        if get("num_gpus", 0):
-            bundle["GPU"] = get("num_gpus", 0)
+        if trial_gpus(get):
+            bundle["GPU"] = trial_gpus(get)
         return tune.PlacementGroupFactory([bundle])
 
     def __getattr__(self, name: str) -> Any:
@@ -80,6 +80,19 @@ class AlgorithmClass:
 
     def __repr__(self) -> str:
         return f"<class '{self.__module__}.{self.__name__}'>"
+
+
+def trial_gpus(get: Any) -> float:
+    """The GPUs a trial asks for, as RLlib 2.60 counts them (``get``: the config's lookup): on the new API stack its
+    learners' (``num_gpus_per_learner`` for the local learner or each of ``num_learners``; ``num_gpus`` is an old
+    stack key there, so ``fractional_gpus.py``'s ``num_gpus=0.5`` asks for none), ``num_gpus`` on the old stack."""
+    def number(key: str) -> float:
+        value = get(key, 0)
+        return value if isinstance(value, (int, float)) and not isinstance(value, bool) else 0
+
+    if get("enable_rl_module_and_learner", True) is False:
+        return number("num_gpus")
+    return number("num_gpus_per_learner") * max(number("num_learners"), 1)
 
 
 def exported(cls: type) -> AlgorithmClass:

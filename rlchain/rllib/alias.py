@@ -16,7 +16,7 @@ from typing import Any
 
 from rlchain.faces import ModuleAlias
 from rlchain.rllib import tune_hooks
-from rlchain.rllib.examples import installed_rllib_version
+from rlchain.rllib.examples import example_in_classes, installed_rllib_version
 from rlchain.rllib.face_error import FaceImportError
 
 INSTEAD = {
@@ -55,6 +55,16 @@ INSTEAD = {
     "ray.rllib.utils.metrics.stats": "RLlib's Stats classes are not offered: the face's MetricsLogger reduces by "
                                      "log_value(key, value, reduce='ema' | 'mean' | 'min' | 'max' | 'sum' | "
                                      "'lifetime_sum' | 'item' | 'item_series', window=..., ema_coeff=...)",
+    "ray.rllib.env.utils": "RLlib's env utilities (try_import_pyspiel, OpenSpiel's wrapper) are not offered: wrap a "
+                           "game as a MultiAgentEnv (turn-based: only the mover in the obs dict)",
+    "ray.rllib.env.external": "RLlib's external-env protocol (an EnvRunner serving a client env over TCP) is not "
+                              "offered: wrap the simulator's client in a gymnasium env class whose reset / step "
+                              "talk to it, and pass that class (or a register_env creator) to environment()",
+    "ray.rllib.core.rl_module.marl_module": "RLlib 2.60 has no marl_module (the script is older): "
+                                            "MultiRLModuleSpec(rl_module_specs={policy: RLModuleSpec(...)}) from "
+                                            "ray.rllib.core.rl_module.multi_rl_module",
+    "ray.rllib.utils.metrics.learner_info": "the old API stack's learner info: read the result's "
+                                            "learners/<policy>/... keys (LEARNER_RESULTS in ray.rllib.utils.metrics)",
     "ray.rllib.env.apis": "TaskSettableEnv is not in RLlib 2.60 either: give your env a set_task method and call it "
                           "from on_train_result through algorithm.env_runner_group.foreach_env_runner",
 }
@@ -74,7 +84,11 @@ OTHER_ALGORITHMS = {
 def _algorithm_instead(fullname: str) -> str | None:
     """The line for an algorithm package the face does not have (``ray.rllib.algorithms.cql``), or None."""
     parts = fullname.split(".")
-    if parts[:3] != ["ray", "rllib", "algorithms"] or len(parts) < 4 or parts[3] in OFFERED_ALGORITHMS:
+    if parts[:3] != ["ray", "rllib", "algorithms"] or len(parts) < 4:
+        return None
+    if any(part == "learner" or part.endswith("_learner") for part in parts[4:]):  # ppo.torch.ppo_torch_learner
+        return INSTEAD["ray.rllib.core.learner"]
+    if parts[3] in OFFERED_ALGORITHMS:
         return None
     what = OTHER_ALGORITHMS.get(parts[3], f"RLlib's {parts[3]}")
     return (f"{what} is not in rlchain: the face trains PPO, APPO, IMPALA, DQN and SAC "
@@ -88,6 +102,9 @@ def _example_instead(fullname: str) -> str | None:
     version = installed_rllib_version()
     if version is None:
         return "RLlib's example classes are read from an installed RLlib, and none is installed beside rlchain"
+    moved = example_in_classes(fullname)
+    if moved is not None:
+        return f"the installed RLlib ({version}) has it as {moved}: the script is older than that RLlib"
     return (f"not among the example classes of the installed RLlib ({version}) either, which the face imports "
             f"as they are: the script is newer than that RLlib")
 
@@ -98,6 +115,13 @@ def instead(fullname: str) -> str:
             return INSTEAD[prefix]
     return (_algorithm_instead(fullname) or _example_instead(fullname)
             or "see docs/rllib.md for what the face offers")
+
+
+def missing_name_instead(module: str, name: str) -> str:
+    """What to use instead of ``from module import name``, a ``ray.rllib`` module the face has without ``name``."""
+    if name.endswith("Policy") and module.startswith("ray.rllib.algorithms."):  # PPOTorchPolicy, DQNTFPolicy
+        return INSTEAD["ray.rllib.policy"]
+    return instead(f"{module}.{name}")
 
 
 class RLlibAlias(ModuleAlias):

@@ -63,6 +63,8 @@ class AlgorithmConfig:
             if key not in allowed and (method is not None or key not in K.OLD_NAMES):
                 where = f"{type(self).__name__}.{method}()" if method else type(self).__name__
                 owner = self._keys.get(key)
+                if not self.algo_name and not owner:
+                    raise ConfigError(where, key, _custom_algorithm(self))
                 hint = f"; it belongs to .{owner}()" if owner else did_you_mean(key, allowed)
                 raise ConfigError(where, key, f"not an RLlib config key{hint}")
             if name == "model_config" and dataclasses.is_dataclass(value):
@@ -249,6 +251,14 @@ class AlgorithmConfig:
 def _method_keys(algo: str, method: str) -> tuple[str, ...]:
     """The keyword names builder ``method`` of ``algo``'s config takes."""
     return K.METHOD_KEYS[method] + (K.ALGO_TRAINING_KEYS.get(algo, ()) if method == "training" else ())
+
+
+def _custom_algorithm(config: AlgorithmConfig) -> str:
+    """Why a key of a user's own ``AlgorithmConfig`` subclass (a new algorithm, as RLlib's VPG example) is refused."""
+    algo = getattr(config.algo_class, "__name__", None) or "its Algorithm"
+    return (f"a key of a custom algorithm's config: a new Algorithm ({algo}, with its own training_step, Learner and "
+            f"RLModule) is not run by rlchain's face, which trains PPO, APPO, IMPALA, DQN and SAC: start from "
+            f"PPOConfig() or another of those")
 
 
 def _copy_value(value: Any) -> Any:

@@ -62,7 +62,8 @@ class EnvRunner:
     def make_env(self) -> None:
         """Rebuild the runner's envs from its config's ``env`` / ``env_config`` (RLlib's call after
         ``runner.config.environment(env_config=...)``: a curriculum's next task), then every env starts a fresh
-        episode (the episodes in progress are dropped, as RLlib's runner drops them). Single-agent envs stepped
+        episode (the episodes in progress are dropped, as RLlib's runner drops them, the episode callbacks' too).
+        Single-agent envs stepped
         in this process only (no ``ray.init()``)."""
         vector, algorithm = self.env, self._algorithm
         if vector is None or algorithm._multi is not None:
@@ -84,6 +85,8 @@ class EnvRunner:
             old.close()
             vector.envs[i] = new[i]
         algorithm._stepper.context.algorithm.restart_episodes()
+        if algorithm._episode_events is not None:  # the episodes the callbacks hold end with the old envs
+            algorithm._episode_events.drop_running()
 
     def foreach_env(self, func: Any) -> list[Any]:
         """``func(env)`` for each gymnasium env of the vector env (RLlib's older runner method)."""

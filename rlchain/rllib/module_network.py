@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import itertools
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -43,9 +44,11 @@ class RLModuleNetwork(nn.Module):
     actions, ``(means, log_stds, value, None)``."""
 
     def __init__(self, module: nn.Module, continuous: bool, action_space: gym.Space | None = None,
-                 trained: bool = True, where: str = "rl_module()") -> None:
+                 trained: bool = True, where: str = "rl_module()",
+                 unflatten: Callable[[torch.Tensor], torch.Tensor] | None = None) -> None:
         super().__init__()
         self.module = module
+        self.unflatten = unflatten  # the module's own observations from the flat rows it is fed
         self.continuous = continuous
         self.action_space = action_space
         name = type(module).__name__
@@ -76,6 +79,8 @@ class RLModuleNetwork(nn.Module):
 
     def forward(self, inputs: dict[str, Any]) -> tuple:
         obs = inputs["obs"]
+        if self.unflatten is not None:
+            obs = self.unflatten(obs)
         batch = {Columns.OBS: dict(obs) if isinstance(obs, dict) else obs}
         if inputs.get("is_train"):
             if isinstance(obs, dict):
@@ -122,6 +127,7 @@ def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, m
     obs_space = spec.observation_space or observation_space
     act_space = spec.action_space or action_space
     continuous = isinstance(act_space, gym.spaces.Box)
+    unflatten = None if spec.observation_space is None else unflattener(spec.observation_space, observation_space)
 
     def build(block: Any, **kwargs: Any) -> RLModuleNetwork:
         module = module_class(observation_space=obs_space, action_space=act_space, inference_only=False,
@@ -129,12 +135,33 @@ def register(spec: Any, observation_space: gym.Space, action_space: gym.Space, m
         if not isinstance(module, nn.Module):
             raise ConfigError(where, "rl_module_spec", f"{module_class.__name__} is not a torch module: subclass "
                                                        f"TorchRLModule")
-        return RLModuleNetwork(module, continuous, act_space, trained, where)
+        return RLModuleNetwork(module, continuous, act_space, trained, where, unflatten)
 
     build.takes_dict_obs = isinstance(observation_space, gym.spaces.Dict)
     name = f"{NAME_PREFIX}{next(_COUNTER)}"
     register_network(name, build)
     return name
+
+
+def unflattener(declared: gym.Space, fed: gym.Space) -> Callable[[torch.Tensor], torch.Tensor] | None:
+    """For a module that declares its observation space ``declared`` but is fed ``fed``, gymnasium's flat rows of
+    it (rlchain's PettingZoo backend flattens every policy's observations: Discrete one-hot): a batch of the
+    module's own observations back (Discrete: the index; MultiDiscrete: each part's; Box: its shape). None when
+    the module is fed its own space or another space than those (it gets the rows as they come)."""
+    if declared == fed or not (isinstance(fed, gym.spaces.Box) and len(fed.shape) == 1) or \
+            fed.shape[0] != gym.spaces.flatdim(declared):
+        return None
+    if isinstance(declared, gym.spaces.Discrete):
+        start = int(declared.start)
+        return lambda x: x.argmax(-1) + start
+    if isinstance(declared, gym.spaces.MultiDiscrete) and declared.nvec.ndim == 1:
+        sizes = [int(n) for n in declared.nvec]
+        starts = torch.as_tensor(declared.start)
+        return lambda x: torch.stack([part.argmax(-1) for part in x.split(sizes, -1)], -1) + starts
+    if isinstance(declared, gym.spaces.Box) and len(declared.shape) > 1:
+        shape = declared.shape
+        return lambda x: x.reshape(x.shape[0], *shape)
+    return None
 
 
 def apply_spec(config: Any, rlchain_config: dict[str, Any], observation_space: gym.Space,
@@ -195,8 +222,5 @@ def policy_network(config: Any, policy: str, observation_space: gym.Space, actio
     block = None if spec is None else network_block(config, spec, flat, action_space, trained)
     if block is not None:
         return block
-    network, seq_len = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
-    if seq_len is not None:
-        raise ConfigError(type(config).__name__, "model_config.use_lstm", "multi-agent policies are feedforward "
-                                                                          "(rlchain's multi-policy PPO)")
-    return network
+    network, _ = actor_critic_network(config, flat, isinstance(action_space, gym.spaces.Box))
+    return network  # with use_lstm, an rnn block; the shared config's seq_length cuts its sequences

@@ -10,8 +10,11 @@ steps where an agent is absent or waits are masked out of its policy's returns a
 (:mod:`rlchain.algos.multi_policy.masked`), and rewards an agent gets while waiting are summed into its next step.
 
 ``.multi_agent(policies=..., policy_mapping_fn=..., policies_to_train=...)``: each policy gets its own rlchain
-model and optimizer; ``policy_mapping_fn(agent_id, episode)`` is asked once per agent id (rlchain maps an agent
-id to one policy for the whole run: a mapping that changes by episode is a one-line error).
+model and optimizer. ``policy_mapping_fn(agent_id, episode)`` is first asked for :data:`PROBES` made-up episodes:
+an agent it always maps to one policy plays that policy for the run; an agent it maps to several (a random
+opponent per episode) gets a slot in each of them (rlchain's ``policy_mapping`` with a list), and every env copy
+asks the function again at each episode start (:class:`ParallelView`'s ``choose``), as RLlib's env runner does
+when the agent appears. An answer the probes never gave is a one-line error.
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ from rlchain.rllib.face_error import FaceNotOffered
 from rlchain.rllib.multi_agent_window import IterationLog, multi_agent_metrics
 
 _COUNTER = itertools.count(1)
+PROBES = 64
+"""Made-up episodes ``policy_mapping_fn`` is asked for up front: the policies each agent may play."""
 ENV_STATE = "state"
 """RLlib's key of a global state in an agent's observation dict (RLlib's grouped-agents examples use it)."""
 
@@ -138,10 +143,12 @@ def is_multi_agent(env: Any) -> bool:
 
 
 def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[EpisodeLog], window: int = 100,
-             runners: int = 1, envs_per_runner: int = 1) -> str:
+             runners: int = 1, envs_per_runner: int = 1,
+             chooser: Callable[[int], Callable[[list[Any]], dict[Any, str]]] | None = None) -> str:
     """A fresh env name whose builder steps ``make(0..n-1)`` (each a MultiAgentEnv) with rlchain's PettingZoo
     backend; each built vector env's finished episodes go to a new :class:`IterationLog` appended to ``logs`` (the
-    training env's is the first, an evaluation env's the last), noting each episode's env runner."""
+    training env's is the first, an evaluation env's the last), noting each episode's env runner. ``chooser(i)``:
+    what env copy ``i`` asks at each episode start for its agents' policies (None: a mapping for the run)."""
     name = f"rllib_multi_agent_env_{next(_COUNTER)}"
 
     def build(num_envs: int, seed: int | None, *, render: bool = False, **env_config: Any) -> PettingZooVecEnv:
@@ -154,7 +161,7 @@ def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[Episod
 
         def view() -> ParallelView:
             i = next(index)
-            return ParallelView(make(i), agent_ids, log.for_copy(i))
+            return ParallelView(make(i), agent_ids, log.for_copy(i), None if chooser is None else chooser(i))
 
         return PettingZooVecEnv(view, num_envs, seed)
 
@@ -166,10 +173,17 @@ def register(make: Callable[[int], Any], agent_ids: list[Any], logs: list[Episod
 class _Episode:
     """What a policy_mapping_fn may read of the episode it is asked in (RLlib's MultiAgentEpisode)."""
 
-    def __init__(self, index: int) -> None:
+    def __init__(self, index: int, env_id: int = 0) -> None:
         self.id_ = self.episode_id = f"episode_{index}"
-        self.env_id = 0
+        self.env_id = env_id
         self.worker_index = 0
+
+
+def _ask(fn: Callable[..., Any], agent: Any, episode: _Episode) -> Any:
+    try:
+        return fn(agent, episode, worker=None)
+    except TypeError:
+        return fn(agent, episode)
 
 
 def policy_names(config: Any) -> tuple[list[str], dict[str, Any]]:
@@ -196,30 +210,54 @@ def policy_names(config: Any) -> tuple[list[str], dict[str, Any]]:
     return list(entries), entries
 
 
-def agent_policies(config: Any, agent_ids: list[Any], names: list[str]) -> dict[Any, str]:
-    """agent id -> policy id by ``policy_mapping_fn`` (asked for two episodes: it must answer the same)."""
+def agent_policies(config: Any, agent_ids: list[Any], names: list[str]) -> dict[Any, list[str]]:
+    """agent id -> the policies ``policy_mapping_fn`` maps it to over :data:`PROBES` made-up episodes (one: the
+    agent plays it for the run), in the order of ``names``."""
     where = f"{type(config).__name__}.multi_agent()"
     fn = config._settings.get("policy_mapping_fn")
     if fn is None:
         if len(names) == 1:
-            return dict.fromkeys(agent_ids, names[0])
+            return {agent: [names[0]] for agent in agent_ids}
         raise ConfigError(where, "policy_mapping_fn", f"required with several policies ({', '.join(names)})")
     out = {}
+    episodes = [_Episode(index) for index in range(PROBES)]
     for agent in agent_ids:
-        answers = []
-        for index in (0, 1):
-            try:
-                answers.append(fn(agent, _Episode(index), worker=None))
-            except TypeError:
-                answers.append(fn(agent, _Episode(index)))
-        if answers[0] != answers[1]:
-            raise ConfigError(where, "policy_mapping_fn", f"maps agent {agent!r} to {answers[0]!r} in one episode "
-                              f"and {answers[1]!r} in another: rlchain maps each agent id to one policy for the run")
-        if answers[0] not in names:
-            raise ConfigError(where, "policy_mapping_fn", f"maps agent {agent!r} to {answers[0]!r}, not one of the "
-                                                          f"policies ({', '.join(names)})")
-        out[agent] = answers[0]
+        answers = set()
+        for episode in episodes:
+            answer = _ask(fn, agent, episode)
+            if answer not in names:
+                raise ConfigError(where, "policy_mapping_fn", f"maps agent {agent!r} to {answer!r}, not one of the "
+                                                              f"policies ({', '.join(names)})")
+            answers.add(answer)
+        out[agent] = [pid for pid in names if pid in answers]
     return out
+
+
+def episode_chooser(config: Any, mapping: dict[Any, list[str]]) -> Callable[[int], Callable] | None:
+    """What env copy ``i`` asks at each episode start: ``policy_mapping_fn`` for every agent, with a fresh
+    episode (``env_id`` the copy); None when every agent plays one policy for the run."""
+    if all(len(pids) == 1 for pids in mapping.values()):
+        return None
+    fn = config._settings["policy_mapping_fn"]
+    where = f"{type(config).__name__}.multi_agent()"
+    counter = itertools.count(PROBES)
+
+    def chooser(i: int) -> Callable[[list[Any]], dict[Any, str]]:
+        def choose(agents: list[Any]) -> dict[Any, str]:
+            episode = _Episode(next(counter), env_id=i)
+            out = {}
+            for agent in agents:
+                answer = _ask(fn, agent, episode)
+                if answer not in mapping[agent]:
+                    raise ConfigError(where, "policy_mapping_fn", f"maps agent {agent!r} to {answer!r} in "
+                                      f"{episode.id_}, which {PROBES} episodes asked up front never did (it "
+                                      f"answered {', '.join(mapping[agent])}): rlchain gives each policy its "
+                                      f"agent slots before training")
+                out[agent] = answer
+            return out
+        return choose
+
+    return chooser
 
 
 def trained_policies(config: Any, names: list[str]) -> list[str] | None:
@@ -236,18 +274,18 @@ def trained_policies(config: Any, names: list[str]) -> list[str] | None:
     return list(value)
 
 
-def ppo_config(config: Any, base: dict[str, Any], view: ParallelView, network_of: Callable[..., dict]
-               ) -> dict[str, Any]:
+def ppo_config(config: Any, base: dict[str, Any], view: ParallelView, mapping: dict[Any, list[str]],
+               network_of: Callable[..., dict]) -> dict[str, Any]:
     """The rlchain multi-policy PPO config: ``base`` (the single-agent translation, its keys shared by every
     policy) with a ``multi_agent`` block: each policy's network (``network_of(policy, obs_space, act_space)``)
-    and model for its agents' spaces, the agent -> policy mapping, the trained policies."""
+    and model for its agents' spaces, the agent -> policy mapping (``mapping``, :func:`agent_policies`: a list
+    where the agent plays one of several per episode), the trained policies."""
     names, _ = policy_names(config)
     agents = [view._ids[a] for a in view.possible_agents]
-    mapping = agent_policies(config, agents, names)
     params = base["params"]
     policies: dict[str, Any] = {}
     for pid in names:
-        mine = [str(a) for a in agents if mapping[a] == pid]
+        mine = [str(a) for a in agents if pid in mapping[a]]
         if not mine:
             continue
         obs_space, act_space = view.observation_space(mine[0]), view.action_space(mine[0])
@@ -260,7 +298,8 @@ def ppo_config(config: Any, base: dict[str, Any], view: ParallelView, network_of
                          "config": {"clip_actions": continuous}}
     to_train = trained_policies(config, names)
     block = {"policies": policies,
-             "policy_mapping": {glob.escape(str(a)): pid for a, pid in mapping.items() if pid in policies},
+             "policy_mapping": {glob.escape(str(a)): pids[0] if len(pids) == 1 else pids
+                                for a, pids in mapping.items()},
              "policies_to_train": None if to_train is None else [p for p in to_train if p in policies]}
     params["config"]["multi_agent"] = block
     return base
@@ -281,10 +320,13 @@ class MultiAgentRun:
         self.agent_ids = agent_ids_of(probe)
         self.view = ParallelView(probe, self.agent_ids)
         self.names, _ = policy_names(config)
-        self.mapping = agent_policies(config, self.agent_ids, self.names)
+        self.mapping = agent_policies(config, self.agent_ids, self.names)  # agent -> the policies it may play
+        self.chooser = episode_chooser(config, self.mapping)  # None: one policy per agent for the run
         self.spaces = {}  # policy id -> (observation space, action space) of its agents
-        for agent, pid in self.mapping.items():
-            self.spaces.setdefault(pid, (self.view.observation_space(str(agent)), self.view.action_space(str(agent))))
+        for agent, pids in self.mapping.items():
+            for pid in pids:
+                self.spaces.setdefault(pid, (self.view.observation_space(str(agent)),
+                                             self.view.action_space(str(agent))))
         self.trained = trained_policies(config, self.names)  # None: every policy
         self.logs: list[EpisodeLog] = []
 
@@ -294,15 +336,15 @@ class MultiAgentRun:
         settings = config._settings
         window = int(settings.get("metrics_num_episodes_for_smoothing") or 100)
         env_name = register(make, self.agent_ids, self.logs, window, max(1, int(settings.get("num_env_runners") or 0)),
-                            max(1, int(settings.get("num_envs_per_env_runner") or 1)))
+                            max(1, int(settings.get("num_envs_per_env_runner") or 1)), self.chooser)
         base = translate.ppo_config(config, env_name, False, run, rllib_batch=False)
-        return env_name, ppo_config(config, base, self.view, network_of)
+        return env_name, ppo_config(config, base, self.view, self.mapping, network_of)
 
     def episodes(self, log: EpisodeLog | None = None) -> dict[str, Any]:
         """RLlib's env-runner episode metrics of the episodes ``log`` (default: the training env's) finished since
         the last call (:mod:`rlchain.rllib.multi_agent_window`: per iteration, as RLlib reports them)."""
         log = log or (self.logs[0] if self.logs else IterationLog())
-        module_of = {str(agent): pid for agent, pid in self.mapping.items()}
+        module_of = {str(agent): pids[0] for agent, pids in self.mapping.items()}  # else each episode's own
         out = log.take(module_of) if isinstance(log, IterationLog) else multi_agent_metrics([], log.window, module_of)
         out["num_episodes_lifetime"] = log.finished
         out["agent_episode_returns_mean"] = {self._id(a): v for a, v in out["agent_episode_returns_mean"].items()}
@@ -325,6 +367,7 @@ class MultiAgentRun:
             tag = (lambda kind, key, pid=pid, own=own: own.get(key, stats.get(f"{kind}/{pid}/{key}", nan)))
             out[pid] = {"policy_loss": tag("losses", "a_loss"), "vf_loss": tag("losses", "c_loss"),
                         "entropy": tag("losses", "entropy"), "mean_kl_loss": tag("info", "kl"),
+                        "total_loss": own.get("loss", nan),
                         "curr_lr": stats.get(f"info/{pid}/last_lr", lr),
                         "curr_entropy_coeff": stats.get(f"info/{pid}/entropy_coef", 0.0)}
         return out

@@ -17,8 +17,9 @@ from typing import Any
 from rlchain.envs.wrappers.multi_agent_parallel import EpisodeLog
 from rlchain.rllib.episode_window import iteration_metrics
 
-AgentEpisode = tuple[float, int, dict[str, float]]
-"""One finished multi-agent episode: (return summed over agents, length in env steps, {agent: its return})."""
+AgentEpisode = tuple[float, int, dict[str, float], dict[str, str]]
+"""One finished multi-agent episode: (return summed over agents, length in env steps, {agent: its return}, {agent:
+the policy it played in this episode, where one was chosen for it}); the last item may be left out."""
 
 
 def _mean_of_means(per_runner: Sequence[Mapping[Any, list[float]]]) -> dict[Any, float]:
@@ -34,19 +35,20 @@ def _mean_of_means(per_runner: Sequence[Mapping[Any, list[float]]]) -> dict[Any,
 def multi_agent_metrics(by_runner: Sequence[Sequence[AgentEpisode]], window: int,
                         module_of: Mapping[str, str]) -> dict[str, Any]:
     """RLlib's multi-agent episode results of one iteration from each env runner's finished episodes (in order);
-    ``module_of`` maps an agent id (as a string) to its policy id."""
+    ``module_of`` maps an agent id (as a string) to its policy id, unless the episode names the agent's policy."""
     keep = max(1, math.ceil(window / max(1, len(by_runner))))
     kept = [list(episodes)[-keep:] for episodes in by_runner]
-    out: dict[str, Any] = iteration_metrics([[(r, n) for r, n, _ in eps] for eps in by_runner], window)
+    out: dict[str, Any] = iteration_metrics([[(e[0], e[1]) for e in eps] for eps in by_runner], window)
     agents, modules = [], []
     for episodes in kept:
         per_agent: dict[str, list[float]] = {}
         per_module: dict[str, list[float]] = {}
-        for _, _, returns in episodes:
+        for episode in episodes:
+            returns, chosen = episode[2], (episode[3] if len(episode) > 3 else None) or {}
             summed: dict[str, float] = {}
             for agent, value in returns.items():
                 per_agent.setdefault(agent, []).append(float(value))
-                pid = module_of.get(agent, agent)
+                pid = chosen.get(agent) or module_of.get(agent, agent)
                 summed[pid] = summed.get(pid, 0.0) + float(value)
             for pid, value in summed.items():
                 per_module.setdefault(pid, []).append(value)
@@ -72,9 +74,10 @@ class IterationLog(EpisodeLog):
         """What env copy ``index`` writes its finished episodes to."""
         return _CopyLog(self, min(index // self.envs_per_runner, self.runners - 1))
 
-    def add(self, total: float, length: int, per_agent: dict[str, float], runner: int = 0) -> None:
-        super().add(total, length, per_agent)
-        self._new[runner].append((float(total), int(length), dict(per_agent)))
+    def add(self, total: float, length: int, per_agent: dict[str, float], modules: dict[str, str] | None = None,
+            runner: int = 0) -> None:
+        super().add(total, length, per_agent, modules)
+        self._new[runner].append((float(total), int(length), dict(per_agent), dict(modules or {})))
 
     def take(self, module_of: Mapping[str, str]) -> dict[str, Any]:
         """RLlib's episode results of the episodes finished since the last call; starts the next iteration."""
@@ -89,5 +92,6 @@ class _CopyLog:
     def __init__(self, log: IterationLog, runner: int) -> None:
         self.log, self.runner = log, runner
 
-    def add(self, total: float, length: int, per_agent: dict[str, float]) -> None:
-        self.log.add(total, length, per_agent, runner=self.runner)
+    def add(self, total: float, length: int, per_agent: dict[str, float],
+            modules: dict[str, str] | None = None) -> None:
+        self.log.add(total, length, per_agent, modules, runner=self.runner)

@@ -9,8 +9,8 @@ RLlib's default encoder, as its ``Catalog`` builds it:
 - ``use_lstm``: that encoder as the tokenizer, then one LSTM of ``lstm_cell_size``, then the heads; sequences of
   ``max_seq_len`` steps in training.
 
-rlchain's ``actor_critic`` network is the same chain: ``cnn`` -> ``mlp`` -> ``rnn`` (after the MLP) -> linear
-heads. The heads' hidden layers join the MLP (so they need the MLP's activation, or an empty MLP); a value
+rlchain's ``actor_critic`` network is the same chain: ``cnn`` -> ``mlp`` -> ``rnn`` (after the MLP) -> ``head``
+(the policy's and the value's own layers, each with ``head_fcnet_activation``) -> linear outputs; a value
 network of its own (``vf_share_layers=False``) is ``separate: True``.
 """
 
@@ -102,18 +102,14 @@ def actor_critic_network(config: Any, obs_space: Any, continuous: bool, *, separ
                                   f"flat vector or an image (height, width, channels)")
     units = [] if image else layer_sizes(config, "fcnet_hiddens")
     act = "relu" if image and not units else activation(config, "fcnet_activation")
-    if heads:
-        head_act = activation(config, "head_fcnet_activation")
-        if units and head_act != act:
-            raise _bad(config, "model_config.head_fcnet_activation", f"{model.get('head_fcnet_activation')!r} differs "
-                       f"from fcnet_activation {model.get('fcnet_activation')!r}: rlchain's MLP has one activation "
-                       f"(the head layers follow fcnet_hiddens)")
-        units, act = units + heads, head_act
     network: dict[str, Any] = {
         "name": "actor_critic",
         "separate": (not model.get("vf_share_layers", False)) if separate is None else separate,
         "mlp": {"units": units, "activation": act, "initializer": {"name": "default"}},
     }
+    if heads:  # RLlib's pi and vf heads: each its own layers after the encoder (and the LSTM)
+        network["head"] = {"units": heads, "activation": activation(config, "head_fcnet_activation"),
+                           "initializer": {"name": "default"}}
     if model.get("conv_filters"):
         if not image:
             raise _bad(config, "model_config.conv_filters", f"set for observations of shape "

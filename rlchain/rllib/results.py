@@ -43,15 +43,17 @@ def learner_results(stats: dict[str, Any]) -> dict[str, Any]:
     RLlib 2.60's PPO, APPO and IMPALA learners log ``policy_loss``, ``vf_loss``, ``entropy``, ``mean_kl_loss`` and
     the gradients' global norm once per minibatch with ``window=1``: a result holds the iteration's last
     minibatch's values, not a mean; so does the face's, from the agent's last minibatch (the epoch's means where
-    there is none). ``curr_lr`` / ``curr_entropy_coeff``: the values rlchain trained with (a schedule's next
-    value replaces them: :func:`scheduled_results`)."""
+    there is none). ``total_loss`` is that minibatch's whole loss (policy loss + vf_loss_coeff * vf loss -
+    entropy_coeff * entropy + kl_coeff * KL, RLlib's sum; NaN without a last minibatch). ``curr_lr`` /
+    ``curr_entropy_coeff``: the values rlchain trained with (a schedule's next value replaces them:
+    :func:`scheduled_results`)."""
     nan = math.nan
 
     def last(key: str) -> Any:
         return stats.get(LAST + key, stats.get(key, nan))
 
     return {"policy_loss": last("a_loss"), "vf_loss": last("c_loss"), "entropy": last("entropy"),
-            "mean_kl_loss": last("kl"), "curr_lr": stats.get("lr", nan),
+            "mean_kl_loss": last("kl"), "total_loss": last("loss"), "curr_lr": stats.get("lr", nan),
             "curr_entropy_coeff": stats.get("entropy_coef", 0.0),
             "gradients_default_optimizer_global_norm": last("grad_norm")}
 
@@ -75,6 +77,12 @@ def with_lr_key(learner: dict[str, Any]) -> dict[str, Any]:
     if "curr_lr" in learner and "default_optimizer_learning_rate" not in learner:
         return {**learner, "default_optimizer_learning_rate": learner["curr_lr"]}
     return learner
+
+
+EPISODE_KEYS = ("episode_return_mean", "episode_len_mean", "episode_return_min", "episode_return_max",
+                "agent_episode_returns_mean", "module_episode_returns_mean")
+"""The ``env_runners`` episode results RLlib 2.60 leaves out until the run's first episode ended (then NaN in an
+iteration that ended none)."""
 
 
 def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total: float, games: int,
@@ -107,6 +115,9 @@ def train_result(report: Any, cfg: dict[str, Any], *, iteration: int, time_total
         env_runners.update(multi.episodes())
         ret, length = env_runners["episode_return_mean"], env_runners["episode_len_mean"]
         learners = multi.learners(report.stats, cfg["learning_rate"], last_by_policy)
+    if not env_runners.get("num_episodes_lifetime"):  # RLlib 2.60 has no episode means before an episode ended
+        for key in EPISODE_KEYS:
+            env_runners.pop(key, None)
     return {
         "training_iteration": iteration, "iterations_since_restore": iteration,
         "time_this_iter_s": report.seconds, "time_total_s": time_total, "timestamp": int(time.time()),

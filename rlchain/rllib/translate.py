@@ -18,7 +18,7 @@ What maps (PPO; docs/rllib.md has the table):
   policy; ``grad_clip`` (``grad_clip_by='global_norm'``) -> ``grad_norm``; advantages standardized over
   RLlib's train batch, its bootstrap rows included (``advantage_normalization: rllib``); no reward scaling, no
   observation or value normalization (RLlib has none by default).
-- the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` (+ ``head_fcnet_hiddens``) -> the MLP;
+- the model (:mod:`rlchain.rllib.networks`): ``fcnet_hiddens`` -> the MLP, ``head_fcnet_hiddens`` -> ``head``;
   ``conv_filters`` -> a cnn block; ``use_lstm`` -> an rnn block and ``seq_length`` (whole sequences per
   minibatch: :func:`sequence_batch_shape`); ``vf_share_layers`` False -> a separate critic; ``free_log_std`` ->
   rlchain's fixed sigma.
@@ -55,14 +55,14 @@ MODEL_UNSUPPORTED = {
 
 NETWORK_FEATURES = {
     "conv_filters": {"PPO", "APPO", "IMPALA"},
-    "use_lstm": {"PPO"},
+    "use_lstm": {"PPO", "APPO", "IMPALA"},
     "head_fcnet_hiddens": {"PPO", "APPO", "IMPALA", "SAC", "DQN"},
 }
 """Model settings (beyond the MLP) each algorithm's rlchain network takes (networks.py maps them)."""
 
 FEATURE_WHY = {
     "conv_filters": "rlchain's {algo} network is an MLP: train images with PPO, APPO or IMPALA",
-    "use_lstm": "rlchain's {algo} has no recurrent policy ({why}): train an LSTM with PPO",
+    "use_lstm": "rlchain's {algo} has no recurrent policy (off-policy): train an LSTM with PPO, APPO or IMPALA",
     "head_fcnet_hiddens": "rlchain's {algo} network is one MLP: put the layers in fcnet_hiddens",
 }
 
@@ -86,9 +86,8 @@ def check_supported(config: Any) -> None:
     model = config.model_config
     for key, algos in NETWORK_FEATURES.items():
         if config.algo_name not in algos and model.get(key) not in (K.DEFAULT_MODEL.get(key), None, False, []):
-            why = "its runners carry no RNN state yet" if config.algo_name in ("APPO", "IMPALA") else "off-policy"
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: "
-                                                      f"{FEATURE_WHY[key].format(algo=config.algo_name, why=why)}")
+                                                      f"{FEATURE_WHY[key].format(algo=config.algo_name)}")
     for key, why in MODEL_UNSUPPORTED.items():
         if key in model and model[key] not in (K.DEFAULT_MODEL.get(key), None, False, []):
             raise _bad(config, f"model_config.{key}", f"{model[key]!r} is not offered: {why}")

@@ -8,7 +8,11 @@ taken as it is.
 
 from __future__ import annotations
 
+import gymnasium as gym
+
+from rlchain.config.errors import ConfigError
 from rlchain.sb3.model import BaseModel
+from rlchain.sb3.model_load import Spaces
 
 
 class PPO(BaseModel):
@@ -21,6 +25,15 @@ class SAC(BaseModel):
     """Soft actor-critic for continuous actions: ``SAC("MlpPolicy", "Pendulum-v1").learn(20_000)``."""
 
     algo = "sac"
+
+    def _read_spaces(self) -> Spaces:
+        """The env's spaces; Box actions only, as SB3's SAC (rlchain's own SAC also trains Discrete ones)."""
+        spaces = super()._read_spaces()
+        if not isinstance(spaces.action_space, gym.spaces.Box):
+            raise ConfigError("rlchain.SAC", "env", f"SB3's SAC supports Box actions only, the env has "
+                                                    f"{spaces.action_space} (SAC on Discrete actions: an rlchain "
+                                                    f"YAML with algo sac, e.g. sac_cartpole)")
+        return spaces
 
 
 class DQN(BaseModel):

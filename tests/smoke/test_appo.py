@@ -17,6 +17,7 @@ from rlchain.envs.ray.ray_env import worker_slices
 from rlchain.envs.ray.ray_worker import EnvRecipe
 from rlchain.errors import EnvError
 from rlchain.models.build import build_model
+from rlchain.runs import checkpoint
 from rlchain.training.events import Callback
 
 pytestmark = pytest.mark.smoke
@@ -226,3 +227,48 @@ def test_runners_report_task_success(tmp_path, mode):
     assert "episodes/success_rate" in events.Tags()["scalars"]
     step_success = [e.value for e in events.Scalars("env_info/success")]  # log_info_keys, from the runners
     assert len(step_success) == 4 and all(0.0 <= v <= 1.0 for v in step_success)
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("algo", ["appo", "impala"])
+def test_recurrent_policy_trains_plays_and_resumes(tmp_path, algo):
+    """An LSTM policy: the runners carry its state across fragments, the learner trains seq_length sequences."""
+    raw = config(tmp_path, algo, max_epochs=2, seq_length=4, **{"env_runners.num_workers": 2})
+    raw["params"]["network"]["rnn"] = {"name": "lstm", "units": 8}
+    if algo == "impala":
+        del raw["params"]["config"]["mini_epochs"]
+    grab = Grab()
+    result = Runner().load(raw).train(callbacks=[grab])
+    assert result.epoch == 2 and result.frames >= 2 * 64
+    assert all(torch.isfinite(torch.tensor([s["a_loss"], s["c_loss"]])).all() for s in grab.stats)
+    last = f"{result.run_dir}/nn/last_a.pth"
+    assert Runner().load(raw).play(checkpoint=last, games=2, quiet=True).games == 2
+    raw["params"]["config"]["max_epochs"] = 3
+    assert Runner().load(raw).train(checkpoint=last).epoch == 3
+
+
+@pytest.mark.timeout(120)
+def test_kl_penalty_measures_against_a_target_refreshed_every_interval(tmp_path, monkeypatch):
+    """kl_loss_coef: the batch's reference params are the target policy's, a copy of the learner's made every
+    target_update_interval (3) updates: equal to the learner's before updates 1 and 4 only. The coefficient
+    adapts after every pass (2 per update): with a KL always below half the target it halves 10 times in 5."""
+    from rlchain.algos.appo.agents import APPOAgent
+
+    gaps, original = [], APPOAgent.update
+
+    def spy(self, storage, progress):
+        with torch.no_grad():
+            params, _, _ = self.model.evaluate(storage.obs.reshape(-1, *storage.obs.shape[2:]))
+        gaps.append(float((params - storage.params.reshape(params.shape)).abs().max()))
+        return original(self, storage, progress)
+
+    monkeypatch.setattr(APPOAgent, "update", spy)
+    grab = Grab()
+    raw = config(tmp_path, normalize_input=False, max_epochs=5, mini_epochs=2, kl_loss_coef=0.5,
+                 kl_loss_target=1e9, target_update_interval=3)
+    result = Runner().load(raw).train(callbacks=[grab])
+    assert [g < 1e-6 for g in gaps] == [True, False, False, True, False], gaps
+    assert grab.stats[-1]["kl_coef"] == pytest.approx(0.5 * 0.5 ** 10)
+    state = checkpoint.load(f"{result.run_dir}/nn/last_a.pth")  # the target and the live coefficient resume
+    assert state["agent"]["kl_coef"] == pytest.approx(0.5 * 0.5 ** 10)
+    assert state["kl_target_policy"].keys() == state["model"].keys()

@@ -91,3 +91,8 @@ def test_sac_teacher_with_another_action_size_is_a_one_line_error():
                                           r"the student has 6 continuous ones"):
         _check_sac_student("x.yaml", SimpleNamespace(continuous=True, dim=6), teacher)
     _check_sac_student("x.yaml", SimpleNamespace(continuous=True, dim=1), teacher)  # the same size: fine
+    discrete = SimpleNamespace(dist=SimpleNamespace(param_size=2))  # a SAC teacher of Discrete actions
+    with pytest.raises(ConfigError, match=r"teacher_checkpoint: the SAC teacher acts with Discrete actions: a SAC "
+                                          r"teacher labels continuous actions only") as err:
+        _check_sac_student("x.yaml", SimpleNamespace(continuous=False, param_size=2), discrete)
+    assert "\n" not in str(err.value)

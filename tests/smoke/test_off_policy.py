@@ -16,6 +16,7 @@ from tests.conftest import CONFIGS
 pytestmark = pytest.mark.smoke
 
 CASES = [("sac_pendulum.yaml", "pendulum_sac", 200), ("dqn_cartpole.yaml", "cartpole_dqn", 400)]
+SHIPPED = [*CASES, ("sac_cartpole.yaml", "cartpole_sac", 200)]  # SAC on Discrete actions too
 
 
 def small(tmp_path, epochs=2, extra=()):
@@ -25,7 +26,7 @@ def small(tmp_path, epochs=2, extra=()):
             "params.config.num_warmup_frames=100", "params.config.batch_size=32", *extra]
 
 
-@pytest.mark.parametrize("config,name,frames_per_epoch", CASES)
+@pytest.mark.parametrize("config,name,frames_per_epoch", SHIPPED)
 def test_train_play_resume(tmp_path, capsys, config, name, frames_per_epoch):
     cfg = os.path.join(CONFIGS, config)
     result = Runner().load(cfg, small(tmp_path)).train()
@@ -141,8 +142,8 @@ def test_a_key_of_another_algo_is_ignored_with_a_warning():
 
 def test_wrong_action_space_is_a_clear_error(tmp_path):
     cfg = os.path.join(CONFIGS, "sac_pendulum.yaml")
-    with pytest.raises(ConfigError, match="Box"):
-        Runner().load(cfg, ["params.config.env_name=CartPole-v1", *small(tmp_path, 1)]).train()
+    with pytest.raises(ConfigError, match="Box or Discrete"):
+        Runner().load(cfg, ["params.config.env_name=TestMultiDiscrete-v0", *small(tmp_path, 1)]).train()
 
 
 def test_torch_seeded_runs_repeat(tmp_path):

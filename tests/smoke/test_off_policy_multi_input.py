@@ -108,6 +108,20 @@ def test_a_flat_network_on_a_dict_env_keeps_the_flat_replay_buffer(tmp_path):
     assert obs.shape[1:] == (gym.spaces.flatdim(ImageSideStep().observation_space),)  # gymnasium's flat layout
 
 
+def test_sac_with_multi_input_on_discrete_actions_trains_and_plays(tmp_path):
+    # the categorical actor and the per-action twin critics each read the keys through an encoder of their own
+    network = {"name": "multi_input", "inputs": {"image": {"encoder": "cnn", "units": [16]}},
+               "mlp": {"units": [16], "activation": "relu"}}
+    config = {"params": {**SAC_CAMERA["params"], "network": network,
+                         "config": {**SAC_CAMERA["params"]["config"], "env_name": "ImageSideDictTest-v0",
+                                    "env_config": {}, "num_actors": 2, "max_epochs": 2, "print_stats": False,
+                                    "save_replay_buffer": False, "train_dir": str(tmp_path)}}}
+    result = Runner().load(config).train()
+    assert result.epoch == 2
+    played = Runner().load(config).play(f"{result.run_dir}/nn/last_camera_sac.pth", games=1, quiet=True)
+    assert played.games == 1
+
+
 def test_hindsight_replay_with_multi_input_is_a_one_line_error(tmp_path):
     config = {"params": {**SAC_CAMERA["params"], "network": {"name": "multi_input", "mlp": {"units": [16]}},
                          "config": {**SAC_CAMERA["params"]["config"], "env_name": "ImageSideBoxDictTest-v0",

@@ -58,6 +58,30 @@ def test_vtrace_algorithms_train_on_cartpole(name, tmp_path, monkeypatch):
     assert tuple(outputs["action_dist_inputs"].shape) == (1, 2) and all(int(a) in (0, 1) for a in actions)
 
 
+@pytest.mark.parametrize("name", ["APPO", "IMPALA"])
+def test_vtrace_algorithms_train_an_lstm(name, tmp_path, monkeypatch):
+    """use_lstm on APPO / IMPALA (APPO with its KL penalty too): the runners' LSTM, sequences that tile the
+    fragment, RLlib's KL keys in the learner results."""
+    from rlchain.rllib.algorithms.appo import APPOConfig
+    from rlchain.rllib.algorithms.impala import IMPALAConfig
+
+    monkeypatch.chdir(tmp_path)
+    config = ({"APPO": APPOConfig, "IMPALA": IMPALAConfig}[name]().environment("CartPole-v1")
+              .env_runners(num_env_runners=2, rollout_fragment_length=16).training(train_batch_size=64)
+              .rl_module(model_config={"use_lstm": True, "lstm_cell_size": 8, "max_seq_len": 6,
+                                       "fcnet_hiddens": [8]}).debugging(seed=1))
+    if name == "APPO":
+        config = config.training(use_kl_loss=True, kl_coeff=0.5, kl_target=0.01)
+    algo, results, _, actions = _train(config)
+    params = algo.rlchain_config["params"]
+    assert params["network"]["rnn"]["units"] == 8 and params["config"]["seq_length"] == 4  # 16 = 4 x 4
+    assert results[-1]["num_env_steps_sampled_lifetime"] >= 128 and all(int(a) in (0, 1) for a in actions)
+    learner = results[-1]["learners"]["default_policy"]
+    assert np.isfinite(learner["vf_loss"])
+    if name == "APPO":
+        assert np.isfinite(learner["mean_kl_loss"]) and learner["curr_kl_coeff"] > 0
+
+
 def test_ppo_trains_an_lstm(tmp_path, monkeypatch):
     from rlchain.rllib.algorithms.ppo import PPOConfig
 

@@ -49,7 +49,7 @@ def test_the_issue_block_parses_typed():
 @pytest.mark.parametrize("algo,key,value,owners,words", [
     ("appo", "tau", 0.95, "a2c_continuous, a2c_discrete, grpo", "GAE's lambda"),
     ("appo", "env_groups", 2, "a2c_continuous, a2c_discrete, grpo", "runners step their envs"),
-    ("appo", "seq_length", 4, "a2c_continuous, a2c_discrete, dqn, grpo, sac", "RNN"),
+    ("appo", "zero_rnn_on_done", False, "a2c_continuous, a2c_discrete, grpo", "RNN"),
     ("impala", "e_clip", 0.2, "a2c_continuous, a2c_discrete, appo, grpo", "no clipped surrogate"),
     ("impala", "mini_epochs", 4, "a2c_continuous, a2c_discrete, appo, distill, grpo", "one pass"),
     ("a2c_discrete", "appo", {"max_policy_lag": 2}, "appo, impala", ""),
@@ -105,10 +105,12 @@ def test_each_algo_has_its_own_class_and_no_forbidden_keys():
     assert {"learning_rate", "minibatch_size", "horizon_length", "critic_coef"} <= shared
     assert {"tau", "env_groups", "seq_length", "torch_compile", "central_value_config"} <= keys(PPOConfig) - shared
     ppo_only = keys(PPOConfig) - keys(APPOConfig)
-    for key in ("tau", "env_groups", "central_value_config", "self_play_config", "use_action_masks", "seq_length",
+    for key in ("tau", "env_groups", "central_value_config", "self_play_config", "use_action_masks",
                 "bptt_length", "zero_rnn_on_done", "torch_compile"):
         assert key in ppo_only and key not in keys(RunConfig)
-    assert keys(APPOConfig) - keys(ImpalaConfig) == {"mini_epochs", "e_clip", "clip_value", "use_smooth_clamp"}
+    assert "seq_length" in keys(APPOConfig) & keys(ImpalaConfig)  # their recurrent policies train sequences
+    assert keys(APPOConfig) - keys(ImpalaConfig) == {"mini_epochs", "e_clip", "clip_value", "use_smooth_clamp",
+                                                     "kl_loss_coef", "kl_loss_target", "target_update_interval"}
     impala = parse("impala").config  # its fixed values are class attributes, not keys: nothing is written
     assert (impala.mini_epochs, impala.e_clip, impala.clip_value) == (1, 0.2, False)
     assert impala.bptt_length is None and impala.use_action_masks is False  # read by the shared PPO agent
@@ -147,11 +149,34 @@ def test_a_checkpoint_config_with_another_algos_key_is_an_error_naming_it():
     ({"appo": {"learner_queue_size": 0}}, "appo.learner_queue_size", "must be > 0"),
     ({"appo": {"runners": "threads"}}, "appo.runners", "local"),
     ({"appo": {"max_lag": 2}}, "appo.max_lag", "did you mean 'max_policy_lag'"),
+    ({"kl_loss_coef": -0.5}, "kl_loss_coef", "must be >= 0"),
+    ({"kl_loss_target": 0.0}, "kl_loss_target", "must be > 0"),
+    ({"target_update_interval": 0}, "target_update_interval", "must be > 0"),
+    ({"target_update_intervall": 2}, "target_update_intervall", "did you mean 'target_update_interval'"),
 ])
 def test_bad_appo_values(config, key, words):
     with pytest.raises(ConfigError) as err:
         parse(**config)
     assert f"params.config.{key}" in str(err.value) and words in str(err.value)
+    assert str(err.value).startswith("cfg.yaml: ") and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("algo", ["appo", "impala"])
+@pytest.mark.parametrize("config,words", [
+    ({"seq_length": 3}, "horizon_length 8 is not divisible by seq_length 3"),
+    ({"seq_length": 8, "minibatch_size": 4, "num_actors": 8}, "minibatch_size 4 is not divisible by seq_length 8"),
+    ({"seq_length": 0}, "must be > 0"),
+])
+def test_a_recurrent_policys_sequences_must_tile_fragment_and_minibatch(algo, config, words):
+    raw = copy.deepcopy(APPO)
+    raw["params"]["algo"]["name"] = algo
+    raw["params"]["network"]["rnn"] = {"name": "lstm", "units": 8}
+    raw["params"]["config"].update(config)
+    with pytest.raises(ConfigError) as err:
+        parse_params(raw, "cfg.yaml")
+    assert str(err.value).startswith("cfg.yaml: params.config.seq_length: ") and words in str(err.value)
+    raw["params"]["config"].update(seq_length=4, minibatch_size=32)  # 4 divides both: loads
+    assert parse_params(raw, "cfg.yaml").config.seq_length == 4
 
 
 @pytest.mark.parametrize("minibatch_size,words", [

@@ -74,6 +74,8 @@ def test_direct_pass_refuses_networks_that_are_not_plain():
     assert not DirectPass(_network(discrete, mlp=MlpConfig(units=[8], d2rl=True))).plain
     assert not DirectPass(_network(discrete, mlp=MlpConfig(units=[8]), rnn=RnnConfig(units=8))).plain
     assert not DirectPass(torch.nn.Linear(5, 2)).plain
+    # per-stream hidden layers between the trunk and the heads (network.head): the act step runs the module's call
+    assert not DirectPass(_network(discrete, mlp=MlpConfig(units=[8]), head=MlpConfig(units=[8]))).plain
 
 
 def test_deep_copied_model_acts_with_its_own_layers():

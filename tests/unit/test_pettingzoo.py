@@ -8,6 +8,7 @@ tried in tests/smoke/test_pettingzoo_configs.py and tests/learning/test_pettingz
 import copy
 import os
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
@@ -18,7 +19,7 @@ from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.multi_policy.masked import active_minibatches, masked_gae
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import PolicyMapping
-from rlchain.envs.backends.pettingzoo_env import pettingzoo_env, resolve_env_module
+from rlchain.envs.backends.pettingzoo_env import PettingZooVecEnv, pettingzoo_env, resolve_env_module
 from rlchain.runs import checkpoint as ckpt
 
 DYING = {
@@ -64,6 +65,39 @@ def test_agents_that_die_or_appear_later_are_inactive_and_end_once():
     assert [s["late_0"] for s in ends] == [0, 0, 0, 0, 1, 0]
     assert env.pop_games() == 2 and env.pop_games() == 0  # both envs ended their episode once
     assert not views["late_0"].obs.any()  # an absent agent's observation is zeros, never a stale one
+
+
+class OneHot:
+    """A ParallelEnv whose one agent sees a Discrete(3) observation (2, then 1) and ends after 2 steps."""
+
+    possible_agents = ["a"]
+
+    def observation_space(self, agent):
+        return gym.spaces.Discrete(3)
+
+    def action_space(self, agent):
+        return gym.spaces.Discrete(2)
+
+    def reset(self, seed=None, options=None):
+        self.agents, self.t = ["a"], 0
+        return {"a": 2}, {"a": {}}
+
+    def step(self, actions):
+        self.t += 1
+        done = self.t == 2
+        if done:
+            self.agents = []
+        return {"a": 1}, {"a": 0.0}, {"a": done}, {"a": False}, {"a": {}}
+
+
+def test_discrete_observations_are_one_hot_and_a_reset_env_says_so():
+    env = PettingZooVecEnv(OneHot, 2, 0)
+    assert env.observation_spaces["a"].shape == (3,)
+    assert env.reset(seed=0)["a"].obs.tolist() == [[0, 0, 1], [0, 0, 1]]  # gymnasium's flatten, not the index
+    first = env.step({"a": np.zeros(2, np.int64)})
+    assert first.obs["a"].obs.tolist() == [[0, 1, 0], [0, 1, 0]] and not first.started.any()
+    second = env.step({"a": np.zeros(2, np.int64)})
+    assert second.started.all() and second.obs["a"].obs.tolist() == [[0, 0, 1], [0, 0, 1]]
 
 
 def test_unknown_env_names_what_was_tried():
@@ -127,7 +161,7 @@ def test_policy_mapping_first_matching_glob_wins_and_unmapped_agents_are_an_erro
         "boss": ["adversary_0"], "predator": ["adversary_1"], "prey": ["agent_0"]}
     with pytest.raises(ConfigError, match=r"cfg.yaml: params.config.multi_agent.policy_mapping: agent 'leader_0' "
                                           r"matches no glob"):
-        mapping.policy_of("leader_0")
+        mapping.candidates("leader_0")
 
 
 @pytest.mark.parametrize("change, match", [
@@ -139,6 +173,14 @@ def test_policy_mapping_first_matching_glob_wins_and_unmapped_agents_are_an_erro
     ({"policies": {"runners": {"config": {"learning_rat": 1e-3}}, "late": {}}},
      r"policies.runners.config.learning_rat: unknown key; did you mean 'learning_rate'\?"),
     ({"policy_mapping": {}}, r"policy_mapping: required with several policies"),
+    ({"policy_mapping": {"runner_*": ["runners", "lat"], "late_*": "late"}},
+     r"policy_mapping.runner_\*: unknown policy 'lat' \(policies: runners, late\); did you mean 'late'\?"),
+    ({"policy_mapping": {"runner_*": [], "late_*": "late"}},
+     r"policy_mapping.runner_\*: expected a policy name or a non-empty list of policy names, got \[\]"),
+    ({"policy_mapping": {"runner_*": 3, "late_*": "late"}},
+     r"policy_mapping.runner_\*: expected a policy name or a non-empty list of policy names, got 3"),
+    ({"policy_mapping": {"runner_*": ["late", "late"], "late_*": "late"}},
+     r"policy_mapping.runner_\*: names a policy twice \(late, late\)"),
     ({"snapshots": {"late": "runners"}}, r"snapshots.late: the snapshot 'late' must be frozen"),
 ])
 def test_bad_multi_agent_blocks_are_one_line_errors(change, match):

@@ -60,5 +60,15 @@ def test_default_resource_request_is_one_bundle_for_the_trials_own_process():
     tune = pytest.importorskip("ray.tune")
     request = PPO.default_resource_request(PPOConfig().env_runners(num_env_runners=2))
     assert isinstance(request, tune.PlacementGroupFactory) and request.bundles == [{"CPU": 1}]
-    dict_config = PPOConfig().resources(num_cpus_for_main_process=2, num_gpus=1).to_dict()
+    dict_config = PPOConfig().resources(num_cpus_for_main_process=2).learners(num_gpus_per_learner=1).to_dict()
     assert DQN.default_resource_request(dict_config).bundles == [{"CPU": 2, "GPU": 1}]
+
+
+def test_a_trial_asks_for_the_learners_gpus_as_rllib_260_does():
+    # gpus/fractional_gpus.py: num_gpus=0.5 on the new API stack asks Ray for no GPU (RLlib runs it on a CPU)
+    from rlchain.rllib.algorithm_class import trial_gpus
+    assert trial_gpus(PPOConfig().resources(num_gpus=0.5).to_dict().get) == 0
+    assert trial_gpus(PPOConfig().learners(num_gpus_per_learner=0.5).to_dict().get) == 0.5
+    assert trial_gpus(PPOConfig().learners(num_learners=2, num_gpus_per_learner=1).to_dict().get) == 2
+    old_stack = PPOConfig().api_stack(enable_rl_module_and_learner=False).resources(num_gpus=0.5)
+    assert trial_gpus(old_stack.to_dict().get) == 0.5

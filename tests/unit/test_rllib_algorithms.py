@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from rlchain.config.errors import ConfigError
+from rlchain.config.load import parse_params
 from rlchain.rllib import env_runners, networks, translate
 from rlchain.rllib.algorithms.appo import APPOConfig
 from rlchain.rllib.algorithms.dqn import DQNConfig
@@ -109,13 +110,43 @@ def test_appo_maps_its_surrogate_and_circular_buffer():
     assert params["algo"]["name"] == "appo" and params["network"]["separate"]  # APPO: no shared value layers
     assert (cfg["e_clip"], cfg["mini_epochs"], cfg["clip_value"]) == (0.2, 2, False)
     assert (cfg["num_actors"], cfg["horizon_length"], cfg["minibatch_size"]) == (40, 25, 250)
-    for build, key in ((lambda c: c.training(use_kl_loss=True), "use_kl_loss"),
+    assert "kl_loss_coef" not in cfg and "seq_length" not in cfg and "rnn" not in params["network"]
+    for build, key in ((lambda c: c.training(use_kl_loss=True, tau=0.5), "tau"),
                        (lambda c: c.training(vtrace=False), "vtrace"),
-                       (lambda c: c.training(vtrace_clip_pg_rho_threshold=2.0), "vtrace_clip_pg_rho_threshold"),
-                       (lambda c: c.rl_module(model_config={"use_lstm": True}), "runners carry no RNN state")):
+                       (lambda c: c.training(vtrace_clip_pg_rho_threshold=2.0), "vtrace_clip_pg_rho_threshold")):
         with pytest.raises(ConfigError, match=key) as info:
             vtrace_config(build(APPOConfig()), "CartPole-v1", FLAT, False, {})
         assert "\n" not in str(info.value)
+
+
+def test_appo_kl_penalty_maps_onto_the_target_policy_penalty():
+    # pendulum_appo.py's: the target network refreshes every 2 x 16 x 10 x 500 env steps trained; rlchain's update
+    # trains 10 passes over 20 envs x 50 steps: every 16 updates
+    c = APPOConfig().training(use_kl_loss=True, kl_coeff=1.0, kl_target=0.04, target_network_update_freq=2,
+                              circular_buffer_num_batches=16, circular_buffer_iterations_per_batch=10,
+                              train_batch_size_per_learner=500).env_runners(num_env_runners=1,
+                                                                            num_envs_per_env_runner=20)
+    params = vtrace_config(c, "Pendulum-v1", gym.spaces.Box(-1, 1, (3,)), True, {})
+    cfg = params["params"]["config"]
+    assert (cfg["kl_loss_coef"], cfg["kl_loss_target"], cfg["mini_epochs"]) == (1.0, 0.04, 10)
+    assert (cfg["num_actors"], cfg["horizon_length"], cfg["target_update_interval"]) == (20, 50, 16)
+    assert parse_params(params, "face").config.kl_loss_coef == 1.0
+    off = vtrace_config(c.copy().training(kl_coeff=0.0), "Pendulum-v1", gym.spaces.Box(-1, 1, (3,)), True, {})
+    assert "kl_loss_coef" not in off["params"]["config"]
+
+
+@pytest.mark.parametrize("config_class", [APPOConfig, IMPALAConfig])
+def test_vtrace_lstm_maps_onto_rnn_sequences_that_tile_the_fragment(config_class):
+    c = config_class().rl_module(model_config={"use_lstm": True, "lstm_cell_size": 32, "max_seq_len": 20,
+                                               "vf_share_layers": True}).training(minibatch_size=170)
+    out = vtrace_config(c, "CartPole-v1", FLAT, False, {})
+    params = out["params"]
+    cfg = params["config"]
+    assert params["network"]["rnn"] == {"name": "lstm", "units": 32, "layers": 1, "before_mlp": False}
+    # fragments of 50: sequences of 10 (the longest <= 20 that tiles 50); 500 frames: minibatches of 100 (170 is
+    # not whole sequences dividing the batch: the nearest smaller that is)
+    assert (cfg["horizon_length"], cfg["seq_length"], cfg["minibatch_size"]) == (50, 10, 100)
+    assert parse_params(out, "face").config.seq_length == 10
 
 
 def test_lstm_maps_onto_rlchains_rnn_with_whole_sequences():
@@ -149,8 +180,9 @@ def test_conv_filters_map_onto_rlchains_cnn():
     assert network["cnn"]["convs"] == [{"filters": 16, "kernel_size": 4, "strides": 2, "padding": 1},
                                        {"filters": 32, "kernel_size": 3, "strides": 2, "padding": 0}]
     assert network["cnn"]["activation"] == "elu" and network["cnn"]["permute_input"]
-    # an image encoder goes straight to the heads: fcnet_hiddens is not used, head_fcnet_hiddens is the MLP
-    assert network["mlp"]["units"] == [64] and network["mlp"]["activation"] == "relu"
+    # an image encoder goes straight to the heads: fcnet_hiddens is not used, head_fcnet_hiddens is each stream's
+    assert network["mlp"]["units"] == [] and network["head"]["units"] == [64]
+    assert network["head"]["activation"] == "relu"  # head_fcnet_activation's default
     for model, key in (({}, "conv_filters.*image observations"),
                        ({"conv_filters": [[16, [4, 3], 2]]}, r"conv_filters\[0\].*square"),
                        ({"conv_filters": [[16, 4, 2, "full"]]}, "padding 'full'")):
@@ -161,14 +193,25 @@ def test_conv_filters_map_onto_rlchains_cnn():
         networks.actor_critic_network(PPOConfig().rl_module(model_config={"conv_filters": [[8, 3, 1]]}), FLAT, False)
 
 
-def test_head_layers_join_the_mlp_with_one_activation():
-    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "fcnet_activation": "relu",
-                                            "head_fcnet_hiddens": [32]})
+def test_head_layers_are_each_streams_own_with_their_own_activation():
+    # RLlib's mujoco_ppo.py: tanh encoder, a head of 256 with no activation, separate value layers
+    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [256, 256], "fcnet_activation": "tanh",
+                                            "head_fcnet_hiddens": [256], "head_fcnet_activation": None,
+                                            "vf_share_layers": False, "free_log_std": True})
+    network, _ = networks.actor_critic_network(c, FLAT, True)
+    assert network["mlp"]["units"] == [256, 256] and network["mlp"]["activation"] == "tanh" and network["separate"]
+    assert network["head"]["units"] == [256] and network["head"]["activation"] == "None"
+    # the heads follow the LSTM (RLlib: encoder, LSTM, then the pi and vf heads)
+    c = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "head_fcnet_hiddens": [32], "use_lstm": True,
+                                            "vf_share_layers": True})
     network, _ = networks.actor_critic_network(c, FLAT, False)
-    assert network["mlp"]["units"] == [64, 32] and network["mlp"]["activation"] == "relu"
-    bad = PPOConfig().rl_module(model_config={"fcnet_hiddens": [64], "head_fcnet_hiddens": [32]})  # tanh, relu
-    with pytest.raises(ConfigError, match="head_fcnet_activation.*one activation"):
+    assert network["mlp"]["units"] == [64] and network["head"] == {"units": [32], "activation": "relu",
+                                                                   "initializer": {"name": "default"}}
+    assert "head" not in networks.actor_critic_network(PPOConfig(), FLAT, False)[0]
+    bad = PPOConfig().rl_module(model_config={"head_fcnet_hiddens": [32], "head_fcnet_activation": "tahn"})
+    with pytest.raises(ConfigError, match="model_config.head_fcnet_activation") as info:
         networks.actor_critic_network(bad, FLAT, False)
+    assert "\n" not in str(info.value)
 
 
 def test_env_runners_are_ray_actors_only_when_ray_was_asked_for(monkeypatch):

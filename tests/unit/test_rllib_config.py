@@ -211,10 +211,10 @@ def test_dqn_config_maps_onto_rlchains_dqn():
 
 def test_unoffered_algorithms_are_one_line():
     from rlchain.rllib import envs
-    from rlchain.rllib.algorithms.sac import SACConfig
+    from rlchain.rllib.algorithms.dqn import DQNConfig
 
-    with pytest.raises(ConfigError, match="Discrete actions are not mapped by the face for SAC") as info:
-        SACConfig().environment("CartPole-v1").build_algo()
+    with pytest.raises(ConfigError, match="Box actions are not mapped by the face for DQN") as info:
+        DQNConfig().environment("Pendulum-v1").build_algo()
     assert "\n" not in str(info.value)
     with pytest.raises(ConfigError, match="'CartPol-v1' is neither a gymnasium id.*did you mean 'CartPole-v1'"):
         envs.env_maker("CartPol-v1", {}, 0, 1)

@@ -116,3 +116,31 @@ def test_make_env_rebuilds_the_envs_with_the_runners_new_env_config(tmp_path, mo
         assert [e.unwrapped.length for e in algo.env_runner.env.envs] == [5, 5]  # left as they were
     finally:
         algo.stop()
+
+
+class EpisodeTasks(RLlibCallback):
+    ended: list = []  # class-level: the config copies what it is given
+
+    def on_episode_start(self, *, episode, env, env_index, **kwargs):
+        episode.custom_data["length"] = env.envs[env_index].unwrapped.length
+
+    def on_episode_end(self, *, episode, **kwargs):
+        EpisodeTasks.ended.append((episode.custom_data["length"], episode.get_length()))
+
+
+def test_after_make_env_the_episode_callbacks_get_fresh_episodes(tmp_path, monkeypatch):
+    # RLlib's runner drops the episodes in progress at make_env and starts new ones (on_episode_start) at the next
+    # sample: no episode a callback holds carries the old task's steps into the new one
+    monkeypatch.chdir(tmp_path)
+    algo = (PPOConfig().environment(LengthEnv, env_config={"length": 3})
+            .env_runners(num_env_runners=0, num_envs_per_env_runner=2).debugging(seed=0).callbacks(EpisodeTasks)
+            .training(train_batch_size=40, minibatch_size=20, num_epochs=1).build_algo())
+    try:
+        algo.train()  # 20 steps of each env: 6 episodes of 3 each, the 7th 2 steps in
+        assert EpisodeTasks.ended == [(3, 3)] * 12
+        EpisodeTasks.ended.clear()
+        algo.env_runner_group.foreach_env_runner(lambda runner: _next_task(runner, 5))
+        algo.train()
+    finally:
+        algo.stop()
+    assert EpisodeTasks.ended == [(5, 5)] * 8

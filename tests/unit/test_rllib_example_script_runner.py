@@ -73,3 +73,42 @@ def test_without_no_tune_only_the_stop_dict_stops():
 def test_the_default_stop_includes_stop_iters(flags, calls):
     algo = _run(flags, [10.0] * 50)
     assert algo.calls == calls
+
+
+@pytest.mark.parametrize("flag, message", [
+    ("--enable-new-api-stack", "`--enable-new-api-stack` flag no longer supported (it's the default behavior now)! "
+                               "To switch back to the old API stack on your scripts, use the `--old-api-stack` flag."),
+    ("--local-mode", "`--local-mode` is no longer supported.")])
+def test_flags_rllib_no_longer_takes_are_its_value_error(flag, message, capsys):
+    # RLlib 2.60 parses them (hidden from --help) and refuses them before training, with these words
+    parser = add_rllib_example_script_args()
+    parser.print_help()
+    assert flag not in capsys.readouterr().out
+    algo = _Algo([10.0])
+    with pytest.raises(ValueError) as info:
+        run_rllib_example_script_experiment(_Config(algo), parser.parse_args([flag, "--no-tune"]), keep_config=True)
+    assert str(info.value) == message and algo.calls == 0
+
+
+def test_as_release_test_is_as_test():
+    with pytest.raises(ValueError, match="not reached"):
+        _run(["--no-tune", "--stop-iters=1", "--stop-reward=50", "--as-release-test"], [10.0])
+
+
+def test_an_iteration_before_the_first_episode_end_prints_without_a_return(capsys):
+    # RLlib leaves env_runners/episode_return_mean out until an episode ended: the progress line says "-"
+    algo = _Algo([None, 5.0])
+    train = algo.train
+
+    def without_return():
+        result = train()
+        if result["env_runners"]["episode_return_mean"] is None:
+            del result["env_runners"]["episode_return_mean"]
+        return result
+
+    algo.train = without_return
+    run_rllib_example_script_experiment(_Config(algo), add_rllib_example_script_args().parse_args(
+        ["--no-tune", "--stop-iters=2"]), keep_config=True)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("iter 1: episode_return_mean -, env steps 100")
+    assert lines[1].startswith("iter 2: episode_return_mean 5.00, env steps 200")

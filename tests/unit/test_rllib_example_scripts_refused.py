@@ -3,6 +3,9 @@
 
 import pytest
 
+from rlchain.config.errors import ConfigError
+from rlchain.rllib.algorithms.algorithm import Algorithm
+from rlchain.rllib.algorithms.algorithm_config import AlgorithmConfig
 from tests.unit.test_rllib_doc_pages import refused_import_line
 
 
@@ -20,6 +23,11 @@ from tests.unit.test_rllib_doc_pages import refused_import_line
     ("ray.rllib.algorithms.bc.bc", "offline RL is not in rlchain"),  # algorithms/bc/cartpole_bc.py
     ("ray.rllib.algorithms.dreamerv3", "the face trains PPO, APPO, IMPALA, DQN and SAC"),  # algorithms/dreamerv3/
     ("ray.rllib.algorithms.tqc", "SACConfig"),  # algorithms/tqc/pendulum_tqc.py
+    ("ray.rllib.algorithms.ppo.torch.ppo_torch_learner", "Learner subclasses are not run"),  # ppo_with_custom_loss_fn
+    ("ray.rllib.env.utils", "wrap a game as a MultiAgentEnv"),  # multi_agent/self_play_with_open_spiel.py
+    ("ray.rllib.core.rl_module.marl_module", "multi_rl_module"),  # multi_agent/restore_1_of_n_agents_from_...
+    ("ray.rllib.utils.metrics.learner_info", "LEARNER_RESULTS"),  # debugging/deterministic_training.py
+    ("ray.rllib.env.external.env_runner_server_for_external_inference", "gymnasium env class"),  # envs/env_conn...
 ])
 def test_an_example_scripts_import_the_face_does_not_offer_is_one_line(module, says):
     line = refused_import_line(module)
@@ -35,6 +43,47 @@ def test_an_example_class_newer_than_the_installed_rllib_says_so():
         assert "none is installed" in line
     else:
         assert f"installed RLlib ({installed_rllib_version()})" in line and "newer" in line
+
+
+def test_an_example_module_an_older_rllib_kept_outside_classes_says_where_it_is_now():
+    # envs/memory_leaking_env.py (an older layout): from ray.rllib.examples.envs.random_env import RandomEnv
+    from rlchain.rllib.examples import installed_rllib_version
+    if installed_rllib_version() is None:
+        pytest.skip("RLlib is not installed beside the face")
+    line = refused_import_line("ray.rllib.examples.envs.random_env")
+    assert line is not None and "\n" not in line
+    assert "has it as ray.rllib.examples.envs.classes.random_env" in line and "older" in line
+
+
+@pytest.mark.parametrize("statement, says", [
+    ("from ray.rllib.algorithms.dqn import DQNTorchPolicy", "the old Policy API"),  # multi_agent/two_algorithms.py
+    ("from ray.rllib.algorithms.ppo import PPOTorchPolicy", "the old Policy API"),
+    ("from ray.rllib.core import NO_SUCH_NAME", "see docs/rllib.md"),
+])
+def test_a_name_the_faces_module_lacks_is_one_line_in_the_scripts_names(statement, says):
+    from rlchain.rllib import alias
+    from rlchain.rllib.__main__ import explain
+    alias.install()
+    try:
+        with pytest.raises(ImportError) as info:
+            exec(statement, {})
+    finally:
+        alias.uninstall()
+    line = explain(info.value)
+    module, name = statement.split()[1], statement.split()[3]
+    assert line is not None and "\n" not in line and says in line
+    assert line.startswith(f"ImportError: {module} has no {name}") and "rlchain.rllib" not in line
+
+
+def test_an_import_refused_inside_rllibs_example_module_names_that_module():
+    # rl_modules/migrate_modelv2_*.py import ModelV2ToRLModule, whose module imports core.distribution
+    from rlchain.rllib.examples import installed_rllib_version
+    if installed_rllib_version() is None:
+        pytest.skip("RLlib is not installed beside the face")
+    line = refused_import_line("ray.rllib.examples.rl_modules.classes.modelv2_to_rlm")
+    assert line is not None and "\n" not in line and line.startswith("ImportError: ray.rllib.core.distribution")
+    assert line.endswith("(imported by RLlib's example module ray.rllib.examples.rl_modules.classes.modelv2_to_rlm)")
+    assert "imported by" not in refused_import_line("ray.rllib.core.distribution")  # the script's own import
 
 
 def test_an_offered_algorithms_missing_module_is_not_called_another_algorithm():
@@ -80,3 +129,20 @@ def test_the_names_rllibs_evaluation_and_fault_tolerance_examples_import_are_the
     from rlchain.rllib.env_runner_group import EnvRunnerGroup as Face
     from rlchain.rllib.utils.error import EnvError
     assert EnvRunnerGroup is Face and issubclass(EnvError, Exception)
+
+
+def test_a_custom_algorithms_own_config_key_says_the_face_does_not_run_new_algorithms():
+    # algorithms/vpg_custom_algorithm.py: VPGConfig(AlgorithmConfig) sets num_episodes_per_train_batch in __init__
+    class VPG(Algorithm):
+        pass
+
+    class VPGConfig(AlgorithmConfig):
+        def __init__(self):
+            super().__init__(algo_class=VPG)
+            self.num_episodes_per_train_batch = 10
+
+    with pytest.raises(ConfigError) as err:
+        VPGConfig()
+    line = str(err.value)
+    assert "\n" not in line and "VPGConfig" in line and "num_episodes_per_train_batch" in line
+    assert "new Algorithm (VPG" in line and "PPOConfig()" in line

@@ -24,23 +24,33 @@ def test_the_agent_keeps_its_last_minibatchs_statistics(monkeypatch):
     torch.manual_seed(0)
     means = agent.update(storage, progress=0.0)
     assert len(steps) == 8  # 2 passes x 4 minibatches of 2 over the 8 steps
-    assert agent.last_minibatch_stats is steps[-1] and set(steps[-1]) >= {"a_loss", "c_loss", "entropy", "kl"}
+    assert agent.last_minibatch_stats is steps[-1] and set(steps[-1]) >= {"a_loss", "c_loss", "entropy", "kl", "loss"}
+    assert "loss" not in means  # the total loss is reported for the last minibatch only (RLlib's total_loss)
     assert means["a_loss"] == pytest.approx(sum(s["a_loss"] for s in steps) / len(steps))
     assert means["a_loss"] != steps[-1]["a_loss"]  # the mean is not what RLlib reports
 
 
 def test_learner_results_report_the_last_minibatch():
     class Agent:
-        last_minibatch_stats = {"a_loss": -0.1, "c_loss": 9.0, "entropy": 0.6, "kl": 0.03, "grad_norm": 1.5}
+        last_minibatch_stats = {"a_loss": -0.1, "c_loss": 9.0, "entropy": 0.6, "kl": 0.03, "grad_norm": 1.5,
+                                "loss": 4.4}
 
     out = learner_results(with_last_minibatch(MEANS, Agent()))
     assert out["policy_loss"] == -0.1 and out["vf_loss"] == 9.0 and out["entropy"] == 0.6
     assert out["mean_kl_loss"] == 0.03 and out["gradients_default_optimizer_global_norm"] == 1.5
-    assert out["curr_lr"] == 1e-3 and out["curr_entropy_coeff"] == 0.02
+    assert out["curr_lr"] == 1e-3 and out["curr_entropy_coeff"] == 0.02 and out["total_loss"] == 4.4
+    assert math.isnan(learner_results(MEANS)["total_loss"])  # no last minibatch: no total loss
     assert with_last_minibatch(MEANS, None) == MEANS  # no agent (or none with the statistics): the means
     assert learner_results(MEANS)["policy_loss"] == 0.5
     assert math.isnan(learner_results({})["policy_loss"])
     assert LAST + "a_loss" in with_last_minibatch(MEANS, Agent())
+
+
+def test_ppo_reports_the_rows_of_a_minibatch_update():
+    # debugging/deterministic_sampling_and_training.py compares module_train_batch_size_mean and total_loss
+    from rlchain.rllib.algorithms.ppo import PPO
+    out = PPO.learner_results(MEANS, {"minibatch_size": 128})
+    assert out["module_train_batch_size_mean"] == 128.0 and out["policy_loss"] == 0.5
 
 
 def test_scheduled_values_are_reported_under_rllibs_names():
@@ -60,10 +70,12 @@ def test_multi_agent_learners_report_each_policys_last_minibatch():
     stats = {f"losses/{p}/{k}": 1.0 for p in ("p0", "p1") for k in ("a_loss", "c_loss", "entropy")}
     stats.update({"info/p0/kl": 0.5, "info/p1/kl": 0.5})
     agents = SimpleNamespace(agents={"p0": SimpleNamespace(last_minibatch_stats={"a_loss": -2.0, "c_loss": 3.0,
-                                                                                 "entropy": 0.1, "kl": 0.02}),
+                                                                                 "entropy": 0.1, "kl": 0.02,
+                                                                                 "loss": 1.5}),
                                      "p1": SimpleNamespace(last_minibatch_stats={})})
     out = run.learners(stats, 1e-3, last_minibatch_by_policy(agents))
     assert (out["p0"]["policy_loss"], out["p0"]["vf_loss"], out["p0"]["entropy"], out["p0"]["mean_kl_loss"]) == \
         (-2.0, 3.0, 0.1, 0.02)
     assert (out["p1"]["policy_loss"], out["p1"]["mean_kl_loss"]) == (1.0, 0.5)  # no last minibatch: the means
+    assert out["p0"]["total_loss"] == 1.5 and math.isnan(out["p1"]["total_loss"])
     assert run.learners(stats, 1e-3)["p0"]["policy_loss"] == 1.0

@@ -101,15 +101,13 @@ def test_agents_that_arrive_and_leave_mid_episode():
     assert trunc == {"late": True} and not term.get("late") and view.agents == []
 
 
-def test_policy_mapping_is_asked_per_agent_and_must_not_change_by_episode():
+def test_policy_mapping_is_asked_per_agent_and_gives_the_policies_each_may_play():
     config = PPOConfig().multi_agent(policies={"p0", "p1"},
                                      policy_mapping_fn=lambda aid, episode, **kw: f"p{aid}")
-    assert agent_policies(config, [0, 1], ["p0", "p1"]) == {0: "p0", 1: "p1"}
+    assert agent_policies(config, [0, 1], ["p0", "p1"]) == {0: ["p0"], 1: ["p1"]}
     random_sides = PPOConfig().multi_agent(policies={"p0", "p1"},
                                            policy_mapping_fn=lambda aid, ep, **kw: "p0" if ep.id_[-1] == "0" else "p1")
-    with pytest.raises(ConfigError, match="to one policy for the run") as info:
-        agent_policies(random_sides, [0, 1], ["p0", "p1"])
-    assert "\n" not in str(info.value)
+    assert agent_policies(random_sides, [0, 1], ["p0", "p1"]) == {0: ["p0", "p1"], 1: ["p0", "p1"]}
     wrong = PPOConfig().multi_agent(policies={"p0"}, policy_mapping_fn=lambda aid, ep, **kw: "q")
     with pytest.raises(ConfigError, match="maps agent 0 to 'q', not one of the policies"):
         agent_policies(wrong, [0], ["p0"])
@@ -212,6 +210,62 @@ def test_a_frozen_module_that_only_acts_plays_beside_a_trained_policy(tmp_path, 
     overrides = config.copy().multi_agent(policies={"learner": PolicySpec(config={"lr": 0.1}), "fixed": None})
     with pytest.raises(ConfigError, match="per-policy config overrides are not mapped"):
         overrides.build_algo()
+
+
+def _fixed(action):
+    from rlchain.rllib.core.columns import Columns
+    from rlchain.rllib.core.rl_module.rl_module import RLModule
+
+    class Fixed(RLModule):
+        def _forward(self, batch, **kwargs):
+            return {Columns.ACTIONS: np.full(len(batch[Columns.OBS]), action, np.int64)}
+
+    return Fixed
+
+
+def _opponents(mapping_fn):
+    from rlchain.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    from rlchain.rllib.core.rl_module.rl_module import RLModuleSpec
+
+    specs = MultiRLModuleSpec(rl_module_specs={"learner": RLModuleSpec(), "zero": RLModuleSpec(module_class=_fixed(0)),
+                                               "one": RLModuleSpec(module_class=_fixed(1))})
+    return (PPOConfig().environment(TakeTurns).env_runners(num_env_runners=1, num_envs_per_env_runner=2)
+            .training(train_batch_size=64, minibatch_size=32, num_epochs=1)
+            .multi_agent(policies={"learner", "zero", "one"}, policy_mapping_fn=mapping_fn,
+                         policies_to_train=["learner"])
+            .rl_module(rl_module_spec=specs))
+
+
+def test_a_random_opponent_per_episode_plays_whole_episodes(tmp_path, monkeypatch):
+    """RLlib's heuristic-vs-learned pattern: player 1 is 'zero' or 'one' by episode. 'one' names player 1's
+    target on both of its moves (12 with the bonus), 'zero' never does (10): an episode that mixed them, or a
+    return counted for the wrong module, would show between."""
+    monkeypatch.chdir(tmp_path)
+    config = _opponents(lambda aid, ep, **kw: "learner" if aid == 0 else ["zero", "one"][int(ep.id_[8:]) % 2])
+    algo = config.build_algo()
+    try:
+        modules = algo.train()["env_runners"]["module_episode_returns_mean"]
+        assert modules["one"] == 12.0 and modules["zero"] == 10.0 and "learner" in modules
+        played = algo.evaluate()["env_runners"]["module_episode_returns_mean"]
+        assert played["one"] == 12.0 and played["zero"] == 10.0
+    finally:
+        algo.stop()
+
+
+def test_an_answer_the_probe_episodes_never_gave_is_one_line(tmp_path, monkeypatch):
+    from rlchain.rllib.multi_agent import PROBES
+
+    monkeypatch.chdir(tmp_path)
+    late = _opponents(lambda aid, ep, **kw: "learner" if aid == 0 or int(ep.id_[8:]) >= PROBES else
+                      ["zero", "one"][int(ep.id_[8:]) % 2])
+    with pytest.raises(Exception, match=rf"policy_mapping_fn: maps agent 1 to 'learner' in episode_{PROBES}, which "
+                                        rf"{PROBES} episodes asked up front never did") as info:
+        algo = late.build_algo()
+        try:
+            algo.train()
+        finally:
+            algo.stop()
+    assert "\n" not in str(info.value)
 
 
 def test_agent_groups_are_refused_in_one_line():

@@ -226,3 +226,60 @@ def test_stepper_names_the_key_when_a_masked_policy_meets_an_env_without_masks()
                         use_action_masks=True)
     with pytest.raises(ConfigError, match="params.config.use_action_masks"):
         PolicyStepper(model, 2, torch.device("cpu")).act(torch.zeros(2, 3), NoMasks())
+
+
+def _count_calls(layer: RecurrentLayer) -> list:
+    calls = []
+    layer.rnn.register_forward_hook(lambda module, args, out: calls.append(args[0].shape[0]))
+    return calls
+
+
+@pytest.mark.parametrize("name", ["lstm", "gru"])
+def test_masked_sequences_run_in_one_call_between_cuts(name):
+    # the state is cut where an episode starts (any sequence) and detached every bptt steps: the layer runs in
+    # one call from each cut to the next, with the outputs and gradients of one call per step
+    torch.manual_seed(0)
+    layer = RecurrentLayer(4, RnnConfig(name=name, units=5, layers=2))
+    calls = _count_calls(layer)
+    batch, length = 3, 8
+    x = torch.randn(batch * length, 4, requires_grad=True)
+    resets = torch.zeros(batch, length, dtype=torch.bool)
+    resets[0, 3] = resets[2, 3] = resets[1, 5] = resets[1, 0] = True  # step 0's reset is the initial state's
+    states = tuple(torch.randn_like(s) for s in layer.initial_state(batch, torch.device("cpu")))
+    out, final = flat_sequences(layer, x, states, resets.flatten(), length, bptt_length=4)
+    # steps 0-2, 3, 4 (bptt), 5-7 (an LSTM's one-step runs go through torch.lstm_cell, not the module)
+    assert calls == ([3, 3] if name == "lstm" else [3, 1, 1, 3])
+    hidden, expected = states, []
+    for t in range(length):
+        if t == 4:
+            hidden = tuple(h.detach() for h in hidden)
+        hidden = tuple(h * (~resets[:, t]).float().view(1, -1, 1) for h in hidden)
+        step, hidden = layer.rnn(x.reshape(batch, length, 4)[:, t].unsqueeze(0), hidden if name == "lstm"
+                                 else hidden[0])
+        hidden = hidden if name == "lstm" else (hidden,)
+        expected.append(step[0])
+    expected = torch.stack(expected, 1).reshape(batch * length, -1)
+    assert torch.allclose(out, expected, atol=1e-6)
+    assert all(torch.allclose(a, b, atol=1e-6) for a, b in zip(final, hidden))
+    weights = torch.linspace(-1, 1, out.numel()).view_as(out)
+    grads = torch.autograd.grad((out * weights).sum(), [x, *layer.parameters()])
+    reference = torch.autograd.grad((expected * weights).sum(), [x, *layer.parameters()])
+    assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(grads, reference))
+
+
+def test_one_lstm_step_on_the_cpu_is_the_cell_with_nn_lstms_outputs():
+    # an env step of the rollout: torch.lstm_cell per layer instead of nn.LSTM's oneDNN kernel, the same values
+    torch.manual_seed(0)
+    layer = RecurrentLayer(4, RnnConfig(name="lstm", units=5, layers=2))
+    calls = _count_calls(layer)
+    for batch, module_calls in ((3, []), (65, [1])):  # many sequences: nn.LSTM, faster there
+        x = torch.randn(1, batch, 4, requires_grad=True)
+        states = tuple(torch.randn(2, batch, 5) for _ in range(2))
+        out, (h, c) = layer(x, states)
+        assert calls == module_calls
+        with torch.no_grad():
+            want, (want_h, want_c) = layer.rnn(x, states)
+        calls.clear()
+        assert torch.allclose(out, want, atol=1e-6) and torch.allclose(h, want_h, atol=1e-6)
+        assert torch.allclose(c, want_c, atol=1e-6) and out.shape == (1, batch, 5)
+        assert out.requires_grad  # the cell path trains too

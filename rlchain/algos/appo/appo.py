@@ -6,15 +6,20 @@ with their own policy copy and queue them. One epoch of the learner (``collect``
 1. take fragments from the queue until it has ``num_actors`` envs' worth (``num_workers``
    fragments, from whichever runners are fastest); a fragment sampled more than
    ``appo.max_policy_lag`` policy versions ago is dropped and counted;
-2. value the fragments with the current model and compute V-trace targets and advantages
-   (:func:`rlchain.algos.core.vtrace.vtrace`), fold them into the normalizers;
+2. value the fragments with the current model (a recurrent one runs each env's fragment as one sequence from
+   the RNN state its runner had there, :mod:`rlchain.algos.appo.learner_batch`) and compute V-trace targets and
+   advantages (:func:`rlchain.algos.core.vtrace.vtrace`), fold them into the normalizers;
 3. train with the PPO agent (``appo``: clipped surrogate of pi/mu on the V-trace advantages,
-   ``mini_epochs`` passes; ``impala``: the V-trace policy gradient, one pass), adaptive lr included;
-4. bump the policy version; every ``appo.broadcast_interval`` versions publish the weights.
+   ``mini_epochs`` passes, and with ``kl_loss_coef`` RLlib's KL penalty against a target policy;
+   ``impala``: the V-trace policy gradient, one pass), adaptive lr included; a recurrent policy trains on
+   ``seq_length`` sequences as PPO's does, each from the state its runner stored;
+4. bump the policy version (every ``target_update_interval`` versions the KL penalty's target policy becomes a
+   copy of the learner's); every ``appo.broadcast_interval`` versions publish the weights.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import os
 import time
@@ -22,8 +27,9 @@ from typing import Any, ClassVar
 
 import torch
 
+from rlchain.algos.appo.agents import APPOAgent, ImpalaAgent
 from rlchain.algos.appo.fragments import Fragment
-from rlchain.algos.appo.impala import ImpalaAgent
+from rlchain.algos.appo.learner_batch import FragmentBatch, final_values, policy_pass
 from rlchain.algos.appo.local_runners import LocalRunners
 from rlchain.algos.appo.ray_runners import RayRunners
 from rlchain.algos.appo.runner_pool import RunnerPool
@@ -33,7 +39,6 @@ from rlchain.algos.base.safety import DivergenceGuard, check_rollout
 from rlchain.algos.core.returns import shape_with
 from rlchain.algos.core.storage import RolloutStorage
 from rlchain.algos.core.vtrace import vtrace
-from rlchain.algos.ppo.agent import PPOAgent
 from rlchain.config.actor_critic import check_batch
 from rlchain.config.appo import APPOConfig, ImpalaConfig
 from rlchain.config.errors import ConfigError
@@ -45,14 +50,15 @@ from rlchain.envs.spec import EnvSpec
 
 PPO_TAGS = {"a_loss": "losses/a_loss", "c_loss": "losses/c_loss", "entropy": "losses/entropy",
             "b_loss": "losses/bounds_loss", "lr": "info/last_lr", "lr_mul": "info/lr_mul", "kl": "info/kl",
-            "entropy_coef": "info/entropy_coef", "clip_frac": "info/clip_frac", "grad_norm": "info/grad_norm"}
+            "entropy_coef": "info/entropy_coef", "kl_coef": "info/kl_coef", "clip_frac": "info/clip_frac",
+            "grad_norm": "info/grad_norm"}
 
 
 class APPO(AlgorithmBase):
     """Algo ``appo`` (see the module docstring); ``impala`` is :class:`IMPALA`."""
 
     config_class: ClassVar[type] = APPOConfig
-    agent_class: ClassVar[type] = PPOAgent
+    agent_class: ClassVar[type] = APPOAgent
     metric_tags = {**PPO_TAGS, "policy_lag": "appo/policy_lag", "queue_size": "appo/queue_size",
                    "sample_throughput": "appo/sample_throughput", "dropped_fragments": "appo/dropped_fragments",
                    "learner_utilisation": "appo/learner_utilisation", "rho": "appo/mean_rho"}
@@ -102,9 +108,6 @@ class APPO(AlgorithmBase):
     def __init__(self, params: Params, env: RunnerPool, model: torch.nn.Module, ctx: RunContext) -> None:
         super().__init__(params, env, model, ctx)
         cfg, device = self.cfg, self.device
-        if model.is_rnn:
-            raise ConfigError(params.source, "params.network.rnn", f"algo {params.algo.name}: the runners carry "
-                              f"no RNN state yet; use a feed-forward network")
         self.pool = env
         self.agent = self.agent_class(model, cfg, device, ctx.comm)
         self.divergence = DivergenceGuard(cfg.divergence, model, self.agent)
@@ -120,7 +123,12 @@ class APPO(AlgorithmBase):
         self.storage = RolloutStorage(
             cfg.horizon_length, cfg.num_actors, tuple(obs_space.shape),
             torch.uint8 if obs_space.dtype == "uint8" else torch.float32,
-            model.dist.action_shape, model.dist.action_dtype, model.dist.param_size, env.value_size, device)
+            model.dist.action_shape, model.dist.action_dtype, model.dist.param_size, env.value_size, device,
+            state_shapes=tuple(tuple(s.shape) for s in model.initial_state(cfg.num_actors, device)))
+        # APPO's KL penalty against a target policy refreshed every target_update_interval updates: a frozen copy
+        # (an interval of 1 needs none: the target is the policy before each update)
+        penalty = getattr(cfg, "kl_loss_coef", 0.0) > 0
+        self.target = frozen_copy(model) if penalty and getattr(cfg, "target_update_interval", 1) > 1 else None
 
     # ----- the Algorithm hooks (rlchain.algos.base.algorithm) ------------------------------------
     def collect(self) -> bool:
@@ -154,6 +162,8 @@ class APPO(AlgorithmBase):
         stats["lr_mul"] = stats["lr"] / max(self.cfg.learning_rate, 1e-12)
         stats["rho"] = self._rho
         self.version += 1
+        if self.target is not None and self.version % self.cfg.target_update_interval == 0:
+            self.target.load_state_dict(self.model.state_dict())
         if self.version % self.cfg.appo.broadcast_interval == 0:
             self.pool.publish(self._weights(), self.version)
         received, ctx = self._received, self.ctx
@@ -175,45 +185,46 @@ class APPO(AlgorithmBase):
     # ----- the learner batch ----------------------------------------------------------------
     def _fill_storage(self) -> None:
         """Stack the fragments (envs side by side), value them, V-trace, normalizers; into the storage."""
-        cfg, model, storage, dev = self.cfg, self.model, self.storage, self.device
-        frags = self.batch
+        cfg, model, storage = self.cfg, self.model, self.storage
         t_len, n = cfg.horizon_length, cfg.num_actors
-
-        def cat(name: str) -> torch.Tensor:
-            return torch.cat([getattr(f, name) for f in frags], dim=1).to(dev)
-
-        obs, actions, mu_log_probs = cat("obs"), cat("actions"), cat("log_probs")
-        rewards = cat("rewards").float()
-        terminated, truncated = cat("terminated").bool(), cat("truncated").bool()
+        batch = FragmentBatch.stack(self.batch, self.device)
+        obs, actions, rewards, terminated = batch.obs, batch.actions, batch.rewards, batch.terminated
         check_rollout(rewards, obs[:t_len])
-        dones = terminated | truncated
+        dones = terminated | batch.truncated
         with torch.no_grad():
             model.eval()
-            flat = obs.reshape((t_len + 1) * n, *obs.shape[2:])
-            params, raw_values, _ = model.evaluate(flat)
-            values = model.denorm_value(raw_values).reshape(t_len + 1, n, -1)
-            pi_log_probs = model.dist.log_prob(params[:t_len * n], actions.reshape(t_len * n, *actions.shape[2:]))
+            params, values = policy_pass(model, batch)
+            pi_log_probs = model.dist.log_prob(params[:t_len].reshape(t_len * n, -1),
+                                               actions.reshape(t_len * n, *actions.shape[2:]))
             next_values = values[1:].clone()
-            ends = self._final_values(frags)
+            ends = final_values(model, self.batch, self.device)
             if ends is not None:
-                steps, envs, final_values = ends
-                next_values[steps, envs] = final_values
+                steps, envs, ends_values = ends
+                next_values[steps, envs] = ends_values
             if rewards.dim() == 2:
                 rewards = rewards.unsqueeze(-1)
-            rs = cfg.reward_shaper
-            shaped = shape_with(rewards, rs)
+            shaped = shape_with(rewards, cfg.reward_shaper)
             appo = cfg.appo
-            out = vtrace(pi_log_probs.reshape(t_len, n) - mu_log_probs, shaped, values[:t_len], next_values,
+            out = vtrace(pi_log_probs.reshape(t_len, n) - batch.log_probs, shaped, values[:t_len], next_values,
                          terminated if cfg.value_bootstrap else dones, dones, cfg.gamma,
                          appo.vtrace_clip_rho, appo.vtrace_clip_c)
-            model.update_normalizers(obs=flat[:t_len * n], returns=out.vs.reshape(-1, out.vs.shape[-1]),
+            flat = obs[:t_len].reshape(t_len * n, *obs.shape[2:])
+            model.update_normalizers(obs=flat, returns=out.vs.reshape(-1, out.vs.shape[-1]),
                                      values=values[:t_len].reshape(-1, values.shape[-1]))
             storage.obs.copy_(obs[:t_len])
             storage.actions.copy_(actions)
-            storage.log_probs.copy_(mu_log_probs)
-            # the adaptive lr's KL compares with the learner's policy before this update, not the
-            # behaviour policy: the lag between them is not a step the lr should shrink for
-            storage.params.copy_(params[:t_len * n].reshape(storage.params.shape))
+            storage.log_probs.copy_(batch.log_probs)
+            # the params the update's KL compares with: the learner's policy before this update (the adaptive
+            # lr's KL: the lag behind the behaviour policy is not a step the lr should shrink for), or with
+            # APPO's KL penalty the target policy's
+            if self.target is not None:
+                self.target.eval()
+                params = policy_pass(self.target, batch)[0]
+            storage.params.copy_(params[:t_len])
+            for stored, state in zip(storage.states, batch.states):  # an RNN: the states entering every step
+                stored.copy_(state[:t_len])
+            if storage.resets is not None:
+                storage.resets.copy_(batch.resets[:t_len])
             storage.values.copy_(values[:t_len])
             storage.returns.copy_(out.vs)
             storage.advantages.copy_(self.advantages(out))
@@ -223,20 +234,6 @@ class APPO(AlgorithmBase):
     def advantages(self, out: Any) -> torch.Tensor:
         """APPO: q - V (the surrogate weighs it by pi/mu itself)."""
         return out.advantages
-
-    def _final_values(self, frags: list[Fragment]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None:
-        """(steps, envs, V(final obs)) of the batch's episode ends, envs numbered across the fragments."""
-        steps, final_obs, offset = [], [], 0
-        for f in frags:
-            if f.final_steps.numel():
-                steps.append(f.final_steps + torch.tensor([0, offset]))
-                final_obs.append(f.final_obs)
-            offset += f.log_probs.shape[1]
-        if not steps:
-            return None
-        idx = torch.cat(steps).to(self.device)
-        values = self.model.value(torch.cat(final_obs).to(self.device))
-        return idx[:, 0], idx[:, 1], values
 
     def _weights(self) -> dict[str, torch.Tensor]:
         """The model's parameters and normalizer statistics as CPU tensors, for the runners."""
@@ -257,11 +254,16 @@ class APPO(AlgorithmBase):
 
     # ----- checkpoints ----------------------------------------------------------------------
     def extra_state(self, kind: str) -> dict[str, Any]:
-        return {"policy_version": self.version, "dropped_fragments": self.dropped_fragments}
+        out = {"policy_version": self.version, "dropped_fragments": self.dropped_fragments}
+        if self.target is not None:
+            out["kl_target_policy"] = self.target.state_dict()
+        return out
 
     def restore_extra(self, state: dict[str, Any]) -> None:
         self.version = int(state.get("policy_version", 0))
         self.dropped_fragments = int(state.get("dropped_fragments", 0))
+        if self.target is not None:  # a checkpoint saved without a target: the restored policy is the target
+            self.target.load_state_dict(state.get("kl_target_policy", self.model.state_dict()))
 
 
 class IMPALA(APPO):
@@ -275,6 +277,14 @@ class IMPALA(APPO):
     def advantages(self, out: Any) -> torch.Tensor:
         """min(rho-bar, pi/mu) * (q - V): IMPALA's policy-gradient advantage."""
         return out.pg_advantages
+
+
+def frozen_copy(model: torch.nn.Module) -> torch.nn.Module:
+    """A copy of ``model`` that takes no gradient (a target policy)."""
+    target = copy.deepcopy(model)
+    for p in target.parameters():
+        p.requires_grad_(False)
+    return target
 
 
 def runner_mode(cfg: APPOConfig) -> str:

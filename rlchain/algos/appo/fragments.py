@@ -55,6 +55,13 @@ class Fragment:
     episode_returns: list[float] = field(default_factory=list)
     episode_lengths: list[int] = field(default_factory=list)
     episode_successes: list[tuple[bool, bool] | None] = field(default_factory=list)
+    states: tuple[torch.Tensor, ...] = ()
+    """A recurrent policy's RNN states entering every step, each (T + 1, layers, n, units); () for a feed-forward
+    one. Row T enters the observation after the fragment."""
+    resets: torch.Tensor | None = None
+    """A recurrent policy: (T + 1, n) bool, the rows whose observation starts an episode (their state was zeroed)."""
+    final_states: tuple[torch.Tensor, ...] = ()
+    """A recurrent policy: the RNN states after the last step of each ended episode, each (layers, K, units)."""
     info_totals: tuple | None = None
     """``log_info_keys``: (sums, counts, keys reported) over the fragment's steps (InfoMeans.totals)."""
     sample_seconds: float = 0.0
@@ -144,6 +151,7 @@ class FragmentRunner:
             collector.place(torch.as_tensor(np.asarray(self.env.reset(seed=self._seed))))
         steps = self._steps = {"obs": [], "actions": [], "log_probs": [], "params": [], "rewards": [],
                                "terminated": [], "truncated": [], "final_steps": [], "final_obs": [],
+                               "states": [], "resets": [], "final_states": [],
                                "returns": [], "lengths": [], "successes": []}
         version = self.version
         if not collector.rollout():
@@ -153,6 +161,10 @@ class FragmentRunner:
         self.fragments_sampled += 1
         empty_final = torch.zeros((0, *obs.shape[1:]), dtype=obs.dtype)
         final_obs = steps["final_obs"]
+        recurrent = bool(collector.rnn_states)
+        if recurrent:  # the row after the fragment: where the next one starts
+            steps["states"].append(collector.rnn_states)
+            steps["resets"].append(collector.resets)
         return Fragment(
             obs=torch.stack(steps["obs"]), actions=torch.stack(steps["actions"]),
             log_probs=torch.stack(steps["log_probs"]), params=torch.stack(steps["params"]),
@@ -162,6 +174,9 @@ class FragmentRunner:
             final_obs=torch.cat(final_obs).to(obs.dtype) if final_obs else empty_final,
             version=version, worker=self.worker, episode_returns=steps["returns"], episode_lengths=steps["lengths"],
             episode_successes=steps["successes"],
+            states=tuple(torch.stack(s) for s in zip(*steps["states"])),
+            resets=torch.stack(steps["resets"]) if recurrent else None,
+            final_states=tuple(torch.cat(s, dim=1) for s in zip(*steps["final_states"])) if recurrent else (),
             info_totals=self._info_means.totals() if self._info_means.keys else None,
             sample_seconds=time.monotonic() - began)
 
@@ -172,10 +187,11 @@ class FragmentRunner:
         if c is None or c.env is not self.env or c.model is not self.model:
             side = RunnerSide(self)
             same_envs = c is not None and c.env is self.env
-            obs = c.obs if same_envs else None
-            c = self._steps_collector = OnPolicyCollector(self.env, self.model, side, None, horizon=self.horizon,
-                                                          on_step=self._on_step)
-            c.place(obs)
+            new = self._steps_collector = OnPolicyCollector(self.env, self.model, side, None, horizon=self.horizon,
+                                                            on_step=self._on_step, carries_states=True)
+            if same_envs:  # a recurrent policy's memory stays with its envs' episodes
+                new.place(c.obs, c.rnn_states or None, c.resets)
+            c = new
         return c
 
     def _on_step(self, step: CollectedStep) -> None:
@@ -183,6 +199,10 @@ class FragmentRunner:
         episodes that ended."""
         steps, out = self._steps, step.out
         rewards, terminated, truncated, dones = step.outcome
+        collector = self._steps_collector
+        if collector.rnn_states:  # a recurrent policy: the states that entered this step (not yet moved on)
+            steps["states"].append(collector.rnn_states)
+            steps["resets"].append(collector.resets)
         steps["obs"].append(step.obs)
         steps["actions"].append(out["actions"])
         steps["log_probs"].append(out["log_probs"])
@@ -194,6 +214,9 @@ class FragmentRunner:
         if rows.size:
             steps["final_steps"].extend((step.t, int(r)) for r in rows)
             steps["final_obs"].append(torch.as_tensor(np.asarray(step.result.final_obs)[rows]))
+            if out["states"]:  # the states after the episode's last step, before they were zeroed
+                index = torch.as_tensor(rows)
+                steps["final_states"].append(tuple(s.index_select(1, index) for s in out["states"]))
 
     def record(self, result: Any) -> StepOutcome:
         """An env step's outcome for the runner: ``step_delay_s`` first (a straggler), then the episodes'

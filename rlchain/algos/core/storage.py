@@ -42,6 +42,9 @@ class Batch:
     seq_length: int = 1
     index: torch.Tensor | None = None
     """(B,) int64: each row's place in the rollout flattened time-major (t * num_envs + env)."""
+    weights: torch.Tensor | None = None
+    """(B,) float: each row's weight in the loss means (None: every row 1); a multi-agent policy's sequences
+    weigh the steps its agents did not act at 0."""
 
 
 def obs_buffer_layout(obs_space: Any) -> tuple[Any, torch.dtype]:

@@ -50,7 +50,12 @@ from rlchain.envs.vecenv import DROPPED, VecEnv
 
 
 def _check_sac_student(source: str, dist: Any, teacher: SACTeacher) -> None:
-    """A SAC teacher's student has continuous actions of the same size (one-line ConfigError otherwise)."""
+    """A SAC teacher's student has continuous actions of the same size (one-line ConfigError otherwise); a SAC
+    teacher of Discrete actions (a categorical policy: no ``dim``) labels none."""
+    if getattr(teacher.dist, "dim", None) is None:
+        raise ConfigError(source, "params.config.teacher_checkpoint",
+                          "the SAC teacher acts with Discrete actions: a SAC teacher labels continuous actions only "
+                          "(distil a discrete student from a PPO teacher)")
     if not getattr(dist, "continuous", False) or getattr(dist, "dim", None) != teacher.dist.dim:
         what = f"{dist.dim} continuous" if getattr(dist, "continuous", False) else "discrete"
         raise ConfigError(source, "params.config.teacher_checkpoint",

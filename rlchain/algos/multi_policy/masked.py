@@ -5,11 +5,13 @@ An agent that died, has not appeared yet, or waits for its turn (turn-based game
 its steps carry no transition. They are skipped, never padded: the advantage of an active step
 chains to the row's next active step, with the rewards the agent got in between summed into it
 (a turn-based move's reward is what happened until the agent's next move), and only active steps
-reach the loss, the advantage normalization and the normalizers.
+reach the loss, the advantage normalization and the normalizers. A recurrent policy trains on whole sequences
+(its states run through every step, as in the rollout), the inactive steps weighing 0 in the loss.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator
 from typing import Any
 
@@ -68,6 +70,19 @@ def active_minibatches(storage: RolloutStorage, active: torch.Tensor, minibatch_
         yield Batch(**{k: v.index_select(0, chunk) for k, v in flat.items()}, index=chunk)
 
 
+def active_sequences(storage: RolloutStorage, active: torch.Tensor, cfg: PPOConfig,
+                     advantages: torch.Tensor) -> Iterator[Batch]:
+    """An RNN policy's minibatches: whole sequences of ``seq_length`` steps (the RNN runs over every step, as it
+    did in the rollout), each step weighted by whether it is active, so only active steps reach the loss means;
+    a minibatch without an active step is left out."""
+    flat = active.reshape(-1)
+    for batch in storage.sequence_minibatches(cfg.minibatch_size, cfg.seq_length, advantages,
+                                              use_resets=cfg.zero_rnn_on_done):
+        weights = flat.index_select(0, batch.index).float()
+        if bool(weights.any()):
+            yield dataclasses.replace(batch, weights=weights)
+
+
 class MaskedPPOAgent(PPOAgent):
     """:class:`PPOAgent` that learns from the active steps only: ``active``, the (T, N) bool mask its policy's
     rollout fills in place (None: every step)."""
@@ -86,4 +101,6 @@ class MaskedPPOAgent(PPOAgent):
         return advantages
 
     def _minibatches(self, storage: RolloutStorage, advantages: torch.Tensor) -> Iterator[Batch]:
+        if self.model.is_rnn:
+            return active_sequences(storage, self.active, self.cfg, advantages)
         return active_minibatches(storage, self.active, self.cfg.minibatch_size, advantages)

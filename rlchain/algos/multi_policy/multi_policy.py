@@ -6,6 +6,11 @@ steps. A rollout step asks every policy for its agents' actions, steps the envs 
 each policy its agents' rewards and ends. Steps where an agent was not there or not on turn are
 inactive: :mod:`rlchain.algos.multi_policy.masked` leaves them out of returns, loss and statistics. Policies
 left out of ``policies_to_train`` act without learning (a frozen opponent, a snapshot for self-play).
+
+An agent the mapping gives a list of policies (a random opponent per episode) has a row in each of them; at each
+episode start :class:`~rlchain.models.seats.Seats` picks the one that plays it there, and the other policies'
+rows of that agent are inactive for that episode, their rewards and ends not theirs. A mapping without lists
+does none of this work.
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+import numpy as np
 import torch
 
 from rlchain.algos.base.algorithm import AlgorithmBase
@@ -30,6 +36,7 @@ from rlchain.config.params import Params
 from rlchain.envs.spec import EnvSpec
 from rlchain.envs.vecenv import VecEnv
 from rlchain.models.build import policy_agents
+from rlchain.models.seats import seats_of
 
 STAT_TAGS = {"a_loss": "losses/{}/a_loss", "c_loss": "losses/{}/c_loss", "entropy": "losses/{}/entropy",
              "b_loss": "losses/{}/bounds_loss", "lr": "info/{}/last_lr", "kl": "info/{}/kl",
@@ -65,12 +72,23 @@ class MultiPolicyPPO(AlgorithmBase):
                                                env.observation_spaces[agents[0]].shape, env.num_envs,
                                                name in to_train, device, self.cfg.games_to_track))
         self.agent = PolicyAgents(self.policies)
+        self._recurrent = any(lr.states for lr in self.policies)
+        self.seats = seats_of(params, env, ctx.seed)  # which policy plays a listed agent, episode by episode
+        self._agent_rows = None  # with listed agents: each policy row's row of the run-wide (agent, env) statistics
+        if self.seats.dynamic:
+            order, e = list(env.agent_ids), env.num_envs
+            self._agent_rows = torch.cat([torch.arange(e, device=device) + order.index(a) * e
+                                          for lr in self.policies for a in lr.agents])
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         # the env takes and gives per-agent dicts: the policies act, record and read them (no run-wide storage)
         self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=_as_is,
                                            record=_no_record, read_obs=_as_is, on_step=self._on_step)
         self.snapshots = None
         if self.cfg.self_play_config is not None:
+            recurrent = [name for name in ma.snapshots if any(lr.states for lr in self.policies if lr.name == name)]
+            if recurrent:
+                raise ConfigError(params.source, f"{KEY}.snapshots.{recurrent[0]}", "a self-play snapshot plays "
+                                  "without RNN states: snapshots of recurrent policies are not supported")
             self.snapshots = Snapshots(self.cfg.self_play_config, ma.snapshots, params.source)
 
     def learner(self, name: str) -> PolicyLearner:
@@ -92,35 +110,52 @@ class MultiPolicyPPO(AlgorithmBase):
 
     def _act(self, t: int, views: Any, states: tuple, env_masks: Any) -> dict[str, Any]:
         """The collector's act step: every policy acts for its agents (a self-play snapshot for each env's
-        own); a trained policy's step t goes into its storage. ``out["actions"]``: the env's per-agent dict."""
-        actions, acted = {}, []
+        own); a trained policy's step t goes into its storage. ``out["actions"]``: the env's per-agent dict;
+        ``out["owned"]``: each policy's rows it plays this episode (None: all)."""
+        actions, acted, owned = {}, [], []
         for lr in self.policies:
             obs, active, masks = lr.gather(views)
+            own = self.seats.owned(lr.name, lr.agents) if self.seats.dynamic else None
+            if own is not None:
+                own = torch.as_tensor(own, device=self.device)
+                active = active & own
             acted.append(active)
+            owned.append(own)
             pool = self.snapshots.pools.get(lr.name) if self.snapshots is not None else None
             if pool is not None:  # a self-play snapshot: each env's own
                 with torch.no_grad():
                     env_actions = pool.act(obs, len(lr.agents), masks)
-                actions.update(lr.split(lr.model.dist.to_env(env_actions).cpu().numpy()))
+                lr.put(actions, lr.model.dist.to_env(env_actions).cpu().numpy(), own)
                 continue
             with torch.no_grad():
-                out = lr.model.act(obs, action_masks=masks)
+                out = lr.model.act(obs, states=lr.states or None, action_masks=masks)
             if lr.agent is not None:
-                lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks)
+                lr.storage.add(t, obs, out["actions"], out["log_probs"], out["values"], out["params"], masks,
+                               states=lr.states, resets=lr.resets if lr.states else None)
                 lr.active[t] = active
-            actions.update(lr.split(lr.model.dist.to_env(out["actions"]).cpu().numpy()))
-        return {"actions": actions, "acted": acted}
+            lr.advance(out["states"])
+            lr.put(actions, lr.model.dist.to_env(out["actions"]).cpu().numpy(), own)
+        return {"actions": actions, "acted": acted, "owned": owned}
 
     def _on_step(self, step: CollectedStep) -> None:
-        """The collector's per-step hook: each policy's rewards and ends (:meth:`_observe`)."""
-        self._observe(step.t, step.result, step.out["acted"])
+        """The collector's per-step hook: each policy's rewards and ends (:meth:`_observe`); the policies of
+        the listed agents in the envs that start a new episode."""
+        self._observe(step.t, step.result, step.out["acted"], step.out["owned"])
+        if self._recurrent:
+            started = torch.as_tensor(step.result.started, device=self.device)
+            for lr in self.policies:
+                lr.start_episodes(started)
+        if self.seats.dynamic:
+            self.seats.draw(step.result.started.nonzero()[0], self.env.named_policies)
 
-    def _observe(self, t: int, result: Any, acted: list[torch.Tensor]) -> None:
-        """Rewards and ends of step t into each policy's storage and episode statistics."""
+    def _observe(self, t: int, result: Any, acted: list[torch.Tensor], owned: list[torch.Tensor | None]) -> None:
+        """Rewards and ends of step t into each policy's storage and episode statistics (of the rows it plays)."""
         all_rewards, all_dones = [], []
-        for lr, active in zip(self.policies, acted):
+        for lr, active, own in zip(self.policies, acted, owned):
             rewards = lr.outcome(result.reward).float()
             terminated, truncated = lr.outcome(result.terminated).bool(), lr.outcome(result.truncated).bool()
+            if own is not None:  # another policy's episode on these rows
+                rewards, terminated, truncated = rewards * own, terminated & own, truncated & own
             dones = terminated | truncated
             lr.tracker.agent_step(rewards, dones, active)
             all_rewards.append(rewards)
@@ -134,10 +169,17 @@ class MultiPolicyPPO(AlgorithmBase):
                 idx = (truncated & ~terminated).nonzero().squeeze(-1)
                 if idx.numel():
                     final = lr.outcome(result.final_obs).float()[idx]
+                    states = tuple(s[:, idx] for s in lr.states) or None
                     with torch.no_grad():
-                        lr.storage.final_values[t][idx] = lr.model.value(final)
+                        lr.storage.final_values[t][idx] = lr.model.value(final, states)
             lr.storage.add_outcome(t, shaped, terminated if cfg.value_bootstrap else dones, dones)
-        self.ctx.tracker.agent_step(torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted))
+        rewards, dones, active = torch.cat(all_rewards), torch.cat(all_dones), torch.cat(acted)
+        if self._agent_rows is not None:  # a listed agent's rows in several policies: one row per agent and env
+            rows, size = self._agent_rows, self.ctx.tracker.returns.shape[0]
+            rewards = torch.zeros(size, device=rows.device).index_add_(0, rows, rewards)
+            dones = torch.zeros(size, dtype=torch.long, device=rows.device).index_add_(0, rows, dones.long()) > 0
+            active = torch.zeros(size, dtype=torch.long, device=rows.device).index_add_(0, rows, active.long()) > 0
+        self.ctx.tracker.agent_step(rewards, dones, active)
 
     def update(self) -> dict[str, float]:
         """Masked GAE, normalizers and a PPO update for every trained policy."""
@@ -180,12 +222,20 @@ class MultiPolicyPPO(AlgorithmBase):
     def start(self) -> None:
         """Reset the envs (per-agent observations, as the env gives them); self-play snapshots start."""
         self.collector.place(self.ctx.reset_raw())
+        self._new_episodes()
         if self.snapshots is not None:
             self.snapshots.start(self)
+
+    def _new_episodes(self) -> None:
+        """Every env starts an episode: the listed agents' policies are drawn, RNN states start from zero."""
+        self.seats.draw(np.arange(self.num_envs), self.env.named_policies)
+        for lr in self.policies:
+            lr.start_episodes(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
 
     def restart_episodes(self) -> None:
         self.ctx.tracker.reset_running()
         self.collector.place(self.ctx.reset_raw())
+        self._new_episodes()
         for lr in self.policies:
             lr.tracker.reset_running()
 
@@ -208,9 +258,10 @@ class MultiPolicyPPO(AlgorithmBase):
     def extra_state(self, kind: str) -> dict:
         """Each policy's episode statistics (the models and optimizers travel as model / agent)."""
         return {"policy_episodes": {lr.name: lr.tracker.state_dict() for lr in self.policies},
-                "policies": [lr.name for lr in self.policies]}
+                "policies": [lr.name for lr in self.policies], "seats": self.seats.state_dict()}
 
     def restore_extra(self, state: dict) -> None:
+        self.seats.load_state_dict(state.get("seats") or {})
         saved = state.get("policy_episodes", {})
         for lr in self.policies:
             if lr.name in saved:

@@ -28,11 +28,15 @@ class PolicyLearner:
         self.tracker = AgentEpisodes(self.rows, games_to_track, device)
         self.storage = self.active = self.agent = None
         self.last_values: torch.Tensor | None = None
+        # an RNN policy: the states entering the next step of each row, and the rows whose episode starts there
+        self.states: tuple[torch.Tensor, ...] = model.initial_state(self.rows, device)
+        self.resets = torch.ones(self.rows, dtype=torch.bool, device=device)
         if train:
             dist = model.dist
             self.storage = RolloutStorage(cfg.horizon_length, self.rows, tuple(obs_shape), torch.float32,
                                           dist.action_shape, dist.action_dtype, dist.param_size, 1, device,
-                                          mask_size=dist.param_size if self.use_masks else 0)
+                                          mask_size=dist.param_size if self.use_masks else 0,
+                                          state_shapes=tuple(tuple(s.shape) for s in self.states))
             self.active = torch.zeros((cfg.horizon_length, self.rows), dtype=torch.bool, device=device)
             self.agent = MaskedPPOAgent(model, cfg, device, active=self.active)  # learns from the active steps
 
@@ -41,7 +45,23 @@ class PolicyLearner:
         bootstrap from them)."""
         if self.agent is not None:
             with torch.no_grad():
-                self.last_values = self.model.value(self.gather(views)[0])
+                self.last_values = self.model.value(self.gather(views)[0], self.states or None)
+
+    def advance(self, states: tuple[torch.Tensor, ...] | None) -> None:
+        """An RNN policy: the states after this step, for every row (the RNN runs over every step of a row, the
+        inactive ones too, as the update's sequences do)."""
+        if self.states:
+            self.states = tuple(states)
+
+    def start_episodes(self, started: torch.Tensor) -> None:
+        """An RNN policy: the rows of the envs that start an episode (``started`` (E,) bool) begin from zero
+        states, marked as resets."""
+        if not self.states:
+            return
+        rows = started.repeat(len(self.agents))
+        self.resets = rows
+        if self.cfg.zero_rnn_on_done:
+            self.states = tuple(torch.where(rows.view(1, -1, 1), torch.zeros_like(s), s) for s in self.states)
 
     def gather(self, views: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         """(obs (R, D), active (R,), masks (R, n) or None) of this policy's rows from the env's views."""
@@ -52,10 +72,20 @@ class PolicyLearner:
             masks = torch.as_tensor(np.concatenate([views[a].mask for a in self.agents]), device=self.device)
         return (torch.as_tensor(obs, device=self.device), torch.as_tensor(active, device=self.device), masks)
 
-    def split(self, env_actions: np.ndarray) -> dict[str, np.ndarray]:
-        """The policy's (R, ...) env actions as ``{agent: (E, ...)}``."""
+    def put(self, actions: dict[str, np.ndarray], env_actions: np.ndarray, owned: torch.Tensor | None) -> None:
+        """The policy's (R, ...) env actions into ``actions`` (``{agent: (E, ...)}``): all of them, or with
+        ``owned`` (R,) only the rows it plays (the other policies of a listed agent fill the rest)."""
         e = self.num_envs
-        return {a: env_actions[k * e:(k + 1) * e] for k, a in enumerate(self.agents)}
+        if owned is None:
+            actions.update({a: env_actions[k * e:(k + 1) * e] for k, a in enumerate(self.agents)})
+            return
+        own = owned.cpu().numpy()
+        for k, a in enumerate(self.agents):
+            mine, rows = env_actions[k * e:(k + 1) * e], own[k * e:(k + 1) * e]
+            if a not in actions:
+                actions[a] = mine.copy()
+            else:
+                actions[a][rows] = mine[rows]
 
     def outcome(self, per_agent: dict[str, np.ndarray]) -> torch.Tensor:
         """A step's ``{agent: (E,)}`` field as this policy's (R,) tensor."""

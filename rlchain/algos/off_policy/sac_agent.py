@@ -57,11 +57,15 @@ class SquashedActions(BoxActions):
 
 
 class SoftActorCritic(ObservationModel):
-    """network (``actor`` + ``critic``), ``critic_target``, ``log_alpha`` and the obs normalizer."""
+    """network (``actor`` + ``critic``), ``critic_target``, ``log_alpha`` and the obs normalizer: Box actions
+    (:class:`~rlchain.algos.off_policy.sac_discrete.DiscreteSoftActorCritic` for Discrete ones).
+
+    The SAC update reaches the action space only through :meth:`taken_q` (the critics at the stored actions) and
+    :meth:`soft_terms` (the policy's log-probability and Q at its own actions)."""
 
     flatten_obs = True
 
-    def __init__(self, network: nn.Module, action_space: gym.spaces.Box, obs_shape: tuple[int, ...] | gym.spaces.Dict,
+    def __init__(self, network: nn.Module, action_space: gym.Space, obs_shape: tuple[int, ...] | gym.spaces.Dict,
                  normalize_input: bool, init_alpha: float, clip_actions: bool = True,
                  log_std_bounds: list[float] | None = None, obs_normalizer_exclude: tuple[str, ...] = ()) -> None:
         super().__init__()
@@ -74,9 +78,17 @@ class SoftActorCritic(ObservationModel):
         self.critic_target = copy.deepcopy(network.critic)
         self.critic_target.requires_grad_(False)
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_alpha), dtype=torch.float32))
-        self.dist = SquashedActions(action_space, clip_actions)
+        self.dist = self.make_dist(action_space, clip_actions)
         # a Dict kept per key: images scaled, every other key not excluded by its own statistics
         self.running_mean_std = obs_normalizer(obs_shape, exclude=obs_normalizer_exclude) if normalize_input else None
+
+    def make_dist(self, action_space: gym.Space, clip_actions: bool) -> SquashedActions:
+        return SquashedActions(action_space, clip_actions)
+
+    @property
+    def default_target_entropy(self) -> float:
+        """The temperature's entropy target when the config gives none: -action dims."""
+        return -float(self.dist.dim)
 
     @property
     def alpha(self) -> torch.Tensor:
@@ -94,6 +106,23 @@ class SoftActorCritic(ObservationModel):
         # log|d tanh(u)/du| = 2 (log 2 - u - softplus(-2u)), numerically stable
         log_prob = log_prob - (2.0 * (math.log(2.0) - u - F.softplus(-2.0 * u))).sum(-1)
         return actions, log_prob
+
+    def soft_terms(self, critic: nn.Module, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(log pi(a|s), min(Q1, Q2)(s, a)), each (B,), at one action a sampled from the policy (reparameterized:
+        gradients reach the actor through a); ``Q - alpha * log pi`` is the soft value's one-sample estimate."""
+        actions, log_prob = self.policy(obs)
+        q1, q2 = q_values(critic, obs, actions)
+        return log_prob, torch.min(q1, q2)
+
+    def taken_q(self, critic: nn.Module, obs: torch.Tensor, actions: torch.Tensor
+                ) -> tuple[torch.Tensor, torch.Tensor]:
+        """(q1, q2), each (B,), at the stored actions (B, A)."""
+        return q_values(critic, obs, actions)
+
+    def action_dist_inputs(self, obs: torch.Tensor) -> torch.Tensor:
+        """Preprocessed obs -> the policy's distribution inputs in RLlib's layout, (B, 2A): the pre-tanh means
+        then the log-stds (RLlib's ``TorchSquashedGaussian`` inputs)."""
+        return torch.cat(actor_params(self.network.actor, obs), -1)
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """obs -> (mean (B, A), value (B, 1)) in the ActorCritic protocol that export uses:
@@ -127,8 +156,8 @@ class SACAgent:
         self.actor_opt = torch.optim.Adam(net.actor.parameters(), lr=cfg.actor_lr)
         self.critic_opt = torch.optim.Adam(net.critic.parameters(), lr=cfg.critic_lr)
         self.alpha_opt = torch.optim.Adam([model.log_alpha], lr=cfg.alpha_lr)
-        dim = model.dist.dim
-        self.target_entropy = float(cfg.target_entropy) if cfg.target_entropy is not None else -float(dim)
+        self.target_entropy = float(cfg.target_entropy) if cfg.target_entropy is not None \
+            else model.default_target_entropy
         self.updates = 0
         self.last: dict[str, float] = {"actor_loss": 0.0, "alpha_loss": 0.0, "entropy": 0.0}
         self._critic_params = list(net.critic.parameters())
@@ -162,13 +191,12 @@ class SACAgent:
         next_obs = model.preprocess(batch["next_obs"])
         actions = batch["actions"]
         alpha = model.alpha.detach()
-        with torch.no_grad():
-            next_actions, next_logp = model.policy(next_obs)
-            tq1, tq2 = q_values(model.critic_target, next_obs, next_actions)
-            next_v = torch.min(tq1, tq2) - alpha * next_logp
+        with torch.no_grad():  # the soft value of the next observation under the target critics
+            next_logp, next_q = model.soft_terms(model.critic_target, next_obs)
+            next_v = next_q - alpha * next_logp
             target = batch["rewards"] + batch["discounts"] * (~batch["terminated"]).float() * next_v
         with self._autocast():  # the target above stays float32, as rl_games computes it
-            q1, q2 = q_values(critic, obs, actions)
+            q1, q2 = model.taken_q(critic, obs, actions)
         q1, q2 = q1.float(), q2.float()
         weights = batch["weights"]
         if getattr(cfg, "loss", "mse") == "huber":  # RLlib's: a Huber loss (delta 1) for each critic
@@ -188,16 +216,15 @@ class SACAgent:
         if self.updates % cfg.policy_frequency == 0:
             critic.requires_grad_(False)
             with self._autocast():
-                new_actions, logp = model.policy(obs)
-                nq1, nq2 = q_values(critic, obs, new_actions)
-            logp, nq1, nq2 = logp.float(), nq1.float(), nq2.float()
-            actor_loss = (alpha * logp - torch.min(nq1, nq2)).mean()
+                logp, q_pi = model.soft_terms(critic, obs)
+            logp, q_pi = logp.float(), q_pi.float()
+            actor_loss = (alpha * logp - q_pi).mean()
             optimizer_step(self.actor_opt, actor_loss, params=self._actor_params, max_norm=cfg.grad_norm)
             critic.requires_grad_(True)
             self.last["actor_loss"] = actor_loss.detach()
             self.last["entropy"] = -logp.detach().mean()
             if self.rllib_stats:  # the policy's actions' Q (RLlib's qf_mean / qf_max / qf_min)
-                q_pi = torch.min(nq1, nq2).detach()
+                q_pi = q_pi.detach()
                 self.last.update(q_pi=q_pi.mean(), q_pi_max=q_pi.max(), q_pi_min=q_pi.min())
             if cfg.learnable_temperature:
                 alpha_loss = -(model.log_alpha * (logp.detach() + self.target_entropy)).mean()
@@ -218,15 +245,3 @@ class SACAgent:
         self.critic_opt.load_state_dict(state["critic_opt"])
         self.alpha_opt.load_state_dict(state["alpha_opt"])
         self.updates = int(state["updates"])
-
-
-def soft_actor_critic_model(network: nn.Module, action_space: gym.Space, obs_shape: tuple, value_size: int,
-                            config: Any, model_name: str) -> SoftActorCritic:
-    """MODELS factory ``soft_actor_critic``."""
-    if not isinstance(action_space, gym.spaces.Box):
-        raise ValueError(f"params.model.name: soft_actor_critic needs continuous (Box) actions, the env has "
-                         f"{action_space}")
-    return SoftActorCritic(network, action_space, obs_shape, getattr(config, "normalize_input", False),
-                           getattr(config, "init_alpha", 1.0), getattr(config, "clip_actions", True),
-                           getattr(config, "log_std_bounds", None),
-                           tuple(getattr(config, "obs_normalizer_exclude", ())))

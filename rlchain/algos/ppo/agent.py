@@ -58,6 +58,9 @@ class PPOAgent(ScheduledAdam):
 
     surrogate: ClassVar[Surrogate] = staticmethod(policy_loss)
     """Per-sample policy loss (B,) of (rollout log-probs, log-probs, advantages, e_clip, smooth clamp)."""
+    kl_adapt_each_pass: ClassVar[bool] = False
+    """The KL penalty's coefficient adapts after every pass over the batch (RLlib's APPO, whose learner updates
+    once per pass) instead of once after the whole update (RLlib's PPO)."""
 
     def __init__(self, model: ActorCritic, cfg: PPOConfig, device: torch.device, comm: Communicator = SINGLE,
                  cuda_graph: bool = False, train_critic: bool = True,
@@ -80,7 +83,7 @@ class PPOAgent(ScheduledAdam):
         self.advantage_stats = MovingAdvantageStats(cfg.adv_rms_momentum, device) \
             if cfg.normalize_advantage and cfg.normalize_rms_advantage else None
         # RLlib's KL penalty: the live coefficient (kl_target adapts it after every update), one persistent tensor
-        # (PPOConfig's keys; APPO / IMPALA configs have none: off)
+        # (PPOConfig's and APPOConfig's keys; IMPALA's config has none: off)
         self.kl_coef = getattr(cfg, "kl_loss_coef", 0.0)
         self._kl_coef_t = torch.tensor(float(self.kl_coef), device=device) if self.kl_coef > 0 else None
         # advantage_normalization rllib: the raw advantages of RLlib's bootstrap rows for this update (PPO sets them)
@@ -152,8 +155,9 @@ class PPOAgent(ScheduledAdam):
                     stats = optimizer_step(self.optimizer, loss, params=self.params, max_norm=max_norm,
                                            comm=self.comm, scaler=self.scaler, what="the PPO update",
                                            stats=partial(read_stats, loss, stats_t, aux))
-                    del stats["loss"]
                 for key, value in stats.items():
+                    if key == "loss":  # the minibatch's total loss: kept for the last minibatch only (RLlib's)
+                        continue
                     sums[key] = sums.get(key, 0.0) + value
                     if key.startswith("losses/"):  # auxiliary: averaged over the minibatches that had it
                         aux_counts[key] = aux_counts.get(key, 0) + 1
@@ -164,17 +168,25 @@ class PPOAgent(ScheduledAdam):
                     self.follow_kl(stats["kl"])
             if cfg.schedule_type == "standard":
                 self.follow_kl(epoch_kl / max(epoch_n, 1))
+            if self.kl_adapt_each_pass and epoch_n:
+                self._adapt_kl_coef(stats["kl"])
         self.last_minibatch_stats = stats if count else {}  # the update's last minibatch (RLlib reports those)
         self.apply_progress(progress)
-        if self._kl_coef_t is not None and cfg.kl_loss_target is not None:  # a PPOConfig (kl_coef > 0)
-            self.kl_coef = adapted_kl_coef(self.kl_coef, stats["kl"], cfg.kl_loss_target)
-            self._kl_coef_t.fill_(self.kl_coef)
+        if not self.kl_adapt_each_pass and count:
+            self._adapt_kl_coef(stats["kl"])
         out = {key: value / max(aux_counts.get(key, count), 1) for key, value in sums.items()}
         out["lr"] = self.lr
         out["entropy_coef"] = self.entropy_coef
         if self._kl_coef_t is not None:
             out["kl_coef"] = self.kl_coef
         return out
+
+    def _adapt_kl_coef(self, kl: float) -> None:
+        """The KL penalty's coefficient after a step whose KL was ``kl``, when it adapts (``kl_loss_target``)."""
+        target = getattr(self.cfg, "kl_loss_target", None)
+        if self._kl_coef_t is not None and target is not None:
+            self.kl_coef = adapted_kl_coef(self.kl_coef, kl, target)
+            self._kl_coef_t.fill_(self.kl_coef)
 
     def _batch_advantages(self, storage: RolloutStorage) -> torch.Tensor:
         """The (T, N) advantages the update trains on: value heads summed (as in rl_games), then
@@ -264,7 +276,6 @@ class PPOAgent(ScheduledAdam):
             reference.index_copy_(0, batch.index, current)
         stats = named_stats(values.tolist(), self._aux_names)
         check_finite(stats, "the PPO update")  # a non-finite step left the parameters as they were
-        del stats["loss"]
         return stats
 
     # ----- live values and checkpoints ----------------------------------------------------------

@@ -13,7 +13,7 @@ backward node runs the network's written-out backward. The gradients equal autog
 
 The plain case: a CPU minibatch of flat tensor observations with a gradient being taken, not under
 ``torch.compile`` (``compile_update`` compiles autograd's path), no autocast, PPO's clipped
-surrogate without the smooth clamp, the value loss trained, no action masks, and a network and
+surrogate without the smooth clamp, the value loss trained, no action masks or row weights, and a network and
 distribution both covered (a plain MLP actor-critic with relu / tanh / elu / identity activations; a categorical,
 or a Gaussian whose std is exp(sigma) or sigma). Everything else takes autograd's path.
 """
@@ -54,7 +54,7 @@ def analytic_step(model: ActorCritic, batch: Batch, surrogate: Callable, train_c
     """The model's :class:`AnalyticStep` for this minibatch's loss, or None outside the plain case."""
     if not (torch.is_grad_enabled() and not torch.compiler.is_compiling() and amp_dtype is None and train_critic
             and surrogate is policy_loss
-            and not smooth_clamp and batch.action_masks is None and not model.is_rnn
+            and not smooth_clamp and batch.action_masks is None and batch.weights is None and not model.is_rnn
             and type(batch.obs) is torch.Tensor and batch.obs.device.type == "cpu"):
         return None
     direct = model.direct_pass()

@@ -94,38 +94,39 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     if amp:
         params, values = params.float(), values.float()
         aux = {name: value.float() for name, value in aux.items()}
+    mean = _mean_over(batch.weights)
     log_probs, entropy = dist.log_prob_and_entropy(params, batch.actions)
-    entropy = entropy.mean()
+    entropy = mean(entropy)
     advantages = batch.advantages
     if cfg.normalize_advantage and cfg.advantage_normalization == "minibatch" and advantages.numel() > 1:
         advantages = normalize_advantages(advantages)  # Stable-Baselines3's: per minibatch
     policy_terms = surrogate(batch.log_probs, log_probs, advantages, cfg.e_clip, cfg.use_smooth_clamp)
-    a_loss = policy_terms.mean()
+    a_loss = mean(policy_terms)
     clip = getattr(cfg, "value_loss_clip", None)  # PPOConfig's; APPO / IMPALA configs have none
     returns = model.norm_value(batch.returns) if train_critic else None
     old_values = model.norm_value(batch.values) if train_critic and clip is None else None
     if train_critic and clip is not None:
-        c_loss = squared_error_clamped(values, returns, clip).mean()
+        c_loss = mean(squared_error_clamped(values, returns, clip))
     elif train_critic:
-        c_loss = value_loss(values, old_values, returns, cfg.e_clip, cfg.clip_value).mean()
+        c_loss = mean(value_loss(values, old_values, returns, cfg.e_clip, cfg.clip_value))
     else:
         c_loss = torch.zeros((), device=values.device)
     loss = a_loss + 0.5 * cfg.critic_coef * c_loss - entropy_coef * entropy
     b_loss = torch.zeros((), device=params.device)
     if cfg.bounds_loss_coef:
-        b_loss = dist.bounds_loss(params, cfg.bound_loss_type).mean()
+        b_loss = mean(dist.bounds_loss(params, cfg.bound_loss_type))
         loss = loss + cfg.bounds_loss_coef * b_loss
     for aux_loss in aux.values():
         loss = loss + aux_loss
     penalty = kl_coef is not None  # the agent passes it only with kl_loss_coef > 0
     if penalty:  # RLlib's KL penalty: its gradient flows into the current policy's params
-        kl = dist.kl(reference, params.float()).mean()
+        kl = mean(dist.kl(reference, params.float()))
         loss = loss + kl_coef * kl
     with torch.no_grad():
         current = params.detach().float()
-        kl = kl.detach() if penalty else dist.kl(reference, current).mean()
+        kl = kl.detach() if penalty else mean(dist.kl(reference, current))
         ratio = torch.exp(log_probs.detach() - batch.log_probs)
-        clip_frac = ((ratio - 1.0).abs() > cfg.e_clip).float().mean()
+        clip_frac = mean(((ratio - 1.0).abs() > cfg.e_clip).float())
     if traced is not None:
         g_values = squared_error_clamped_grad(values, returns, clip) if clip is not None \
             else value_loss_grad(values, old_values, returns, cfg.e_clip, cfg.clip_value)
@@ -151,6 +152,14 @@ def _output_grads(step: AnalyticStep, cfg: PPOConfig, batch: Batch, params: torc
     policy = step.grads.network_grads(params, batch.actions, g_log_prob, entropy_coef * -per_row,
                                       reference if penalty else None, kl_coef * per_row if penalty else None, bounds)
     return (*policy, g_values)
+
+
+def _mean_over(weights: torch.Tensor | None) -> Callable[[torch.Tensor], torch.Tensor]:
+    """The mean of per-row terms (B,): plain, or weighted by ``weights`` (B,) (rows of weight 0 left out)."""
+    if weights is None:
+        return torch.mean
+    total = weights.sum().clamp_min(1.0)
+    return lambda x: (x * weights).sum() / total
 
 
 def stats_vector(loss: torch.Tensor, stats: torch.Tensor, aux: dict[str, torch.Tensor],

@@ -17,7 +17,9 @@ never sees an empty mask). :meth:`PettingZooVecEnv.step` takes ``{agent: actions
 (rows of inactive agents are ignored) and returns per agent ``reward``, ``terminated`` and
 ``truncated`` (E,) -- an agent's own end, flagged once, at the step it happens -- and
 ``final_obs`` (E, D), its last observation there. An env whose agents are all gone is reset in
-the same step (same-step auto-reset, as :mod:`rlchain.envs.vecenv`). Agents that finish early or
+the same step (same-step auto-reset, as :mod:`rlchain.envs.vecenv`); ``started`` (E,) says which envs did so.
+An env may name the policy each agent plays in its current episode (an ``episode_policies`` dict, read by
+:meth:`PettingZooVecEnv.named_policies`; :mod:`rlchain.models.seats`). Agents that finish early or
 appear later are simply inactive on those rows: the trainer masks them out, never pads them.
 """
 
@@ -55,6 +57,8 @@ class AgentsStep:
     terminated: dict[str, np.ndarray]
     truncated: dict[str, np.ndarray]
     final_obs: dict[str, np.ndarray]
+    started: np.ndarray
+    """(E,) bool: the env ended its episode at this step and was reset (``obs`` is a new episode's first)."""
 
 
 def known_env_names() -> frozenset[str]:
@@ -188,6 +192,7 @@ class PettingZooVecEnv:
         term = {a: np.zeros(e, bool) for a in self.agent_ids}
         trunc = {a: np.zeros(e, bool) for a in self.agent_ids}
         final = {a: np.zeros((e, *self.observation_spaces[a].shape), np.float32) for a in self.agent_ids}
+        started = np.zeros(e, bool)
         for i in range(e):
             outcome = self._step_turn(i, actions) if self.turn_based else self._step_parallel(i, actions)
             for agent, (r, te, tr, last) in outcome.items():
@@ -201,7 +206,8 @@ class PettingZooVecEnv:
                         trunc[agent][i] = not term[agent][i]
                 self._reset_one(i, None)
                 self._games += 1
-        return AgentsStep(self._observe_all(), reward, term, trunc, final)
+                started[i] = True
+        return AgentsStep(self._observe_all(), reward, term, trunc, final, started)
 
     def _step_parallel(self, i: int, actions: dict[str, np.ndarray]) -> dict[str, tuple]:
         env = self.envs[i]
@@ -278,11 +284,23 @@ class PettingZooVecEnv:
         return views
 
     def _flat(self, agent: str, raw: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """An agent's observation as its flat float32 row (gymnasium's ``flatten`` of its space: a Discrete
+        one-hot) and its action mask, if the observation carries one."""
         mask = None
+        space = self._raw_obs_spaces[agent]
         if isinstance(raw, dict) and "observation" in raw:
             mask = np.asarray(raw["action_mask"], bool).reshape(-1) if "action_mask" in raw else None
             raw = raw["observation"]
-        return np.asarray(raw, np.float32).reshape(-1), mask
+            if isinstance(space, gym.spaces.Dict) and "observation" in space.spaces:
+                space = space["observation"]
+        if isinstance(space, gym.spaces.Box):
+            return np.asarray(raw, np.float32).reshape(-1), mask
+        return np.asarray(gym.spaces.flatten(space, raw), np.float32).reshape(-1), mask
+
+    def named_policies(self, i: int) -> dict[str, str] | None:
+        """agent -> policy name for env ``i``'s current episode where the env names them (its
+        ``episode_policies``), else None."""
+        return getattr(self.envs[i], "episode_policies", None)
 
     def pop_games(self) -> int:
         """Env episodes (games) finished since the last call."""

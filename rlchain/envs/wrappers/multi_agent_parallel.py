@@ -4,13 +4,17 @@ PettingZoo's ParallelEnv, which rlchain's PettingZoo backend steps (:mod:`rlchai
 
 An agent acts at a step when the last ``obs`` dict holds it (turn-based games send only the mover's); it leaves
 when its own ``terminateds`` / ``truncateds`` entry is True, and may appear mid-episode by getting an observation.
-Agent ids are shown as strings. Finished episodes go to an :class:`EpisodeLog` as RLlib reports them. This module
-reads the env by duck typing only (the RLlib face, :mod:`rlchain.rllib.multi_agent`, builds on it).
+Agent ids are shown as strings. Finished episodes go to an :class:`EpisodeLog` as RLlib reports them. With a
+``choose`` function (agent ids -> {agent: policy}, asked at every reset), the view names each agent's policy for
+the episode (``episode_policies``, which rlchain's PettingZoo backend hands to :mod:`rlchain.models.seats`) and
+logs it with the episode. This module reads the env by duck typing only (the RLlib face,
+:mod:`rlchain.rllib.multi_agent`, builds on it).
 """
 
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -41,7 +45,9 @@ class EpisodeLog:
         self.window = window
         self.finished = 0
 
-    def add(self, total: float, length: int, per_agent: dict[str, float]) -> None:
+    def add(self, total: float, length: int, per_agent: dict[str, float],
+            modules: dict[str, str] | None = None) -> None:
+        """One finished episode; ``modules``: the policy each agent played in it, where it was chosen for it."""
         self.returns.append(total)
         self.lengths.append(length)
         for agent, value in per_agent.items():
@@ -55,7 +61,8 @@ class ParallelView:
 
     metadata = {"name": "rllib_multi_agent", "is_parallelizable": True}
 
-    def __init__(self, env: Any, agent_ids: list[Any], log: EpisodeLog | None = None) -> None:
+    def __init__(self, env: Any, agent_ids: list[Any], log: EpisodeLog | None = None,
+                 choose: Callable[[list[Any]], dict[Any, str]] | None = None) -> None:
         self.env = env
         self._ids = {str(a): a for a in agent_ids}
         if len(self._ids) != len(agent_ids):
@@ -65,6 +72,8 @@ class ParallelView:
         self.agents: list[str] = []
         self._acting: set[str] = set()
         self._log = log
+        self._choose = choose
+        self.episode_policies: dict[str, str] | None = None  # agent -> its policy this episode (with choose)
         self._returns: dict[str, float] = {}
         self._length = 0
 
@@ -83,6 +92,8 @@ class ParallelView:
         self.agents = list(obs)
         self._acting = set(obs)
         self._returns, self._length = {}, 0
+        if self._choose is not None:
+            self.episode_policies = self._keyed(self._choose(list(self._ids.values())))
         return obs, self._keyed(infos or {})
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
@@ -104,7 +115,7 @@ class ParallelView:
         for agent, reward in rewards.items():
             self._returns[agent] = self._returns.get(agent, 0.0) + float(reward)
         if not self.agents and self._log is not None:
-            self._log.add(sum(self._returns.values()), self._length, dict(self._returns))
+            self._log.add(sum(self._returns.values()), self._length, dict(self._returns), self.episode_policies)
         return obs, rewards, terms, truncs, self._keyed(infos or {})
 
     def _keyed(self, values: dict) -> dict:

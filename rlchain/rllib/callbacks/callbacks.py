@@ -301,6 +301,11 @@ class EpisodeEvents(Callback):
                 cb.on_episode_start(episode=episode, metrics_logger=self.logger, env_index=index, **self._where())
         return episode
 
+    def drop_running(self) -> None:
+        """Forget the episodes in progress (the envs were rebuilt, ``EnvRunner.make_env``): as RLlib's runner, no
+        ``on_episode_end`` for them, and each env's next step starts a fresh episode (``on_episode_start``)."""
+        self.episodes.clear()
+
     def _where(self) -> dict[str, Any]:
         """RLlib's other episode-callback arguments: ``env_runner``, ``env`` (the vector env), ``rl_module``."""
         runner = self.env_runner

@@ -39,3 +39,17 @@ def installed_rllib_version() -> str | None:
         return version("ray")
     except PackageNotFoundError:
         return "unknown version"
+
+
+def example_in_classes(fullname: str) -> str | None:
+    """Where the installed RLlib keeps the example module ``fullname`` (``ray.rllib.examples.envs.random_env``) in
+    its ``classes`` folder (``ray.rllib.examples.envs.classes.random_env``), or None: older RLlib versions kept
+    their example envs and modules one folder up, where older scripts still import them."""
+    parts = fullname.split(".")
+    if _theirs is None or parts[:3] != ["ray", "rllib", "examples"] or len(parts) < 5 or "classes" in parts:
+        return None
+    moved = [*parts[3:-1], "classes", parts[-1]]
+    path = os.path.join(_theirs, *moved)
+    if os.path.isfile(path + ".py") or os.path.isfile(os.path.join(path, "__init__.py")):
+        return ".".join([*parts[:3], *moved])
+    return None

@@ -69,9 +69,25 @@ def add_rllib_example_script_args(parser: argparse.ArgumentParser | None = None,
     add("--num-cpus", type=int, default=0)
     add("--num-gpus", type=int, default=None)
     add("--old-api-stack", action="store_true")
-    add("--enable-new-api-stack", action="store_true")
-    add("--local-mode", action="store_true")
+    # flags RLlib 2.60 keeps out of --help only to refuse them (run_rllib_example_script_experiment)
+    add("--enable-new-api-stack", action="store_true", help=argparse.SUPPRESS)
+    add("--local-mode", action="store_true", help=argparse.SUPPRESS)
     return parser
+
+
+def check_refused_flags(args: argparse.Namespace) -> None:
+    """RLlib 2.60's ValueError, word for word, for the example flags it no longer takes."""
+    if getattr(args, "enable_new_api_stack", False):
+        raise ValueError("`--enable-new-api-stack` flag no longer supported (it's the default behavior now)! To "
+                         "switch back to the old API stack on your scripts, use the `--old-api-stack` flag.")
+    if getattr(args, "local_mode", False):
+        raise ValueError("`--local-mode` is no longer supported.")
+
+
+def _number(value: Any) -> str:
+    """A result's value for the progress line: two decimals, ``-`` where the result has none (no episode ended
+    yet: RLlib leaves the episode means out)."""
+    return f"{value:.2f}" if isinstance(value, (int, float)) else "-"
 
 
 def _lookup(result: dict[str, Any], path: str) -> Any:
@@ -92,6 +108,9 @@ def run_rllib_example_script_experiment(base_config: Any, args: argparse.Namespa
     last result, as RLlib's; else a Tune ``ResultGrid`` of one trial per ``tune.grid_search`` variant
     (:mod:`rlchain.rllib.examples.results`)."""
     args = args or add_rllib_example_script_args().parse_args([])
+    check_refused_flags(args)
+    if getattr(args, "as_release_test", False):  # RLlib: a release test is a test
+        args.as_test = True
     config = base_config
     if not keep_config:
         if args.env is not None and config.get("env") is None:
@@ -145,12 +164,12 @@ def _train_trial(config: Any, args: argparse.Namespace, stop: dict[str, Any], tr
         while iterations is None or len(out.history) < iterations:
             result = algo.train()
             out.history.append(result)
-            ret = _lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}")
-            line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret:.2f}, env steps "
+            ret = _number(_lookup(result, f"{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}"))
+            line = (f"iter {result[TRAINING_ITERATION]}: {EPISODE_RETURN_MEAN} {ret}, env steps "
                     f"{result[NUM_ENV_STEPS_SAMPLED_LIFETIME]}, {time.time() - start:.1f} s")
             evaluation = result.get(EVALUATION_RESULTS)
             if evaluation:
-                line += f", evaluation {_lookup(evaluation, f'{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}'):.2f}"
+                line += f", evaluation {_number(_lookup(evaluation, f'{ENV_RUNNER_RESULTS}/{EPISODE_RETURN_MEAN}'))}"
             if args.verbose:
                 print(line, flush=True)
             if trial is not None and args.checkpoint_freq and algo.iteration % args.checkpoint_freq == 0:

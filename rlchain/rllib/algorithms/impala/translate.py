@@ -15,12 +15,20 @@ What maps (RLlib 2.60's defaults in brackets):
   ``entropy_coeff`` (0.01) -> ``entropy_coef``; ``gamma``; no advantage standardization (RLlib has none);
   ``minibatch_size`` (the whole batch) and ``num_epochs`` (1);
 - APPO: ``clip_param`` (0.4) -> ``e_clip``; its circular buffer trains every batch
-  ``circular_buffer_iterations_per_batch`` (2) times -> ``mini_epochs``.
+  ``circular_buffer_iterations_per_batch`` (2) times -> ``mini_epochs``;
+- APPO's ``use_kl_loss`` with ``kl_coeff`` (1.0) and ``kl_target`` (0.01) -> ``kl_loss_coef`` / ``kl_loss_target``:
+  the penalty against a target policy, its coefficient adapted after every pass; RLlib refreshes its target
+  network every ``target_network_update_freq`` (2) x ``circular_buffer_num_batches`` (8) x
+  ``circular_buffer_iterations_per_batch`` x train batch env steps trained -> ``target_update_interval``
+  learner updates (each trains ``mini_epochs`` x its batch);
+- ``use_lstm`` / ``lstm_cell_size`` / ``max_seq_len`` -> an rnn block (as for PPO) and ``seq_length``: the longest
+  sequence not above ``max_seq_len`` that tiles the fragment (50 and 20: 10), each starting from the RNN state its
+  runner had there (RLlib pads the fragment's last chunk instead).
 
 What does not: ``vtrace=False``, a ``vtrace_clip_pg_rho_threshold`` other than ``vtrace_clip_rho_threshold``
-(rlchain clips both ratios with one rho-bar), APPO's ``use_kl_loss``: each a one-line error. APPO's ratio is
-against the behaviour policy (RLlib's against a target copy refreshed every ``target_network_update_freq``
-updates, ``target_worker_clipping``): those keys are kept and have no effect.
+(rlchain clips both ratios with one rho-bar), ``tau`` other than 1 with ``use_kl_loss``: each a one-line error.
+APPO's ratio and V-trace are against the behaviour policy (RLlib's against its target network, clipped by
+``target_worker_clipping``): that key is kept and has no effect.
 """
 
 from __future__ import annotations
@@ -56,9 +64,10 @@ def vtrace_config(config: Any, env_name: str, obs_space: Any, continuous: bool, 
     if pg_rho != rho:
         raise T._bad(config, "vtrace_clip_pg_rho_threshold", f"{pg_rho!r} differs from vtrace_clip_rho_threshold "
                                                              f"{rho!r}: rlchain clips both ratios with one rho-bar")
-    if appo and s.get("use_kl_loss"):
-        raise T._bad(config, "use_kl_loss", "True is not offered for APPO: rlchain's APPO has no KL penalty "
-                                            "(PPOConfig has it)")
+    kl_on = appo and bool(s.get("use_kl_loss")) and float(s.get("kl_coeff") or 0.0) > 0
+    if kl_on and s.get("tau") not in (None, 1, 1.0):
+        raise T._bad(config, "tau", f"{s.get('tau')!r} is not offered with use_kl_loss: rlchain's APPO copies the "
+                                    f"learner's policy into the KL's target policy whole (tau 1.0)")
     for key in ("lr", "entropy_coeff"):
         if isinstance(s.get(key), (list, tuple)):
             raise T._bad(config, key, "a schedule list is not mapped: a constant")
@@ -70,12 +79,14 @@ def vtrace_config(config: Any, env_name: str, obs_space: Any, continuous: bool, 
     block["envs_per_worker"] = per_runner
     envs = runners * per_runner
     frames = envs * fragment
+    network, max_seq_len = actor_critic_network(config, obs_space, continuous)
+    # an LSTM trains on sequences that tile the fragment: the longest not above max_seq_len
+    seq = max(d for d in range(1, min(max_seq_len, fragment) + 1) if fragment % d == 0) if max_seq_len else 1
     minibatch = s.get("minibatch_size") or frames
     minibatch = min(int(minibatch), frames)
-    while frames % minibatch:  # rlchain's minibatches are whole: the nearest smaller divisor
+    while frames % minibatch or minibatch % seq:  # whole minibatches (of whole sequences): the nearest smaller
         minibatch -= 1
     grad_clip = s.get("grad_clip")
-    network, _ = actor_critic_network(config, obs_space, continuous)
     train = {
         "env_name": env_name, "num_actors": envs, "horizon_length": fragment, "minibatch_size": minibatch,
         "learning_rate": float(s["lr"]), "lr_schedule": None, "gamma": float(s["gamma"]),
@@ -93,10 +104,18 @@ def vtrace_config(config: Any, env_name: str, obs_space: Any, continuous: bool, 
     if appo:
         passes = s.get("circular_buffer_iterations_per_batch") if s.get("use_circular_buffer", True) \
             else s.get("num_epochs")
-        train.update({"e_clip": float(s["clip_param"]), "clip_value": False, "mini_epochs": max(1, int(passes or 1))})
+        passes = max(1, int(passes or 1))
+        train.update({"e_clip": float(s["clip_param"]), "clip_value": False, "mini_epochs": passes})
+        if kl_on:  # RLlib refreshes its target network every freq * N * K * train batch env steps trained
+            trained = int(s.get("target_network_update_freq") or 1) * int(s.get("circular_buffer_num_batches") or 1) \
+                * int(s.get("circular_buffer_iterations_per_batch") or 1) * batch
+            train.update({"kl_loss_coef": float(s["kl_coeff"]), "kl_loss_target": float(s["kl_target"]),
+                          "target_update_interval": max(1, round(trained / (passes * frames)))})
     elif int(s.get("num_epochs") or 1) != 1:
         raise T._bad(config, "num_epochs", f"{s.get('num_epochs')!r}: rlchain's IMPALA makes one pass per batch "
                                            f"(APPOConfig makes several)")
+    if max_seq_len:
+        train["seq_length"] = seq
     train.update(filter_keys(config))  # RLlib's MeanStdFilter connector: the learner's observation normalizer
     train.update(run)
     algo, model = ("appo" if appo else "impala"), ("continuous_a2c_logstd" if continuous else "discrete_a2c")

@@ -3,9 +3,12 @@ penalty with the adaptive coefficient, the clipped value loss) and RLlib's defau
 
 from __future__ import annotations
 
+from typing import Any
+
 from rlchain.rllib.algorithm import Algorithm
 from rlchain.rllib.algorithm_class import exported
 from rlchain.rllib.config import AlgorithmConfig
+from rlchain.rllib.results import learner_results
 
 
 class PPO(Algorithm):
@@ -16,6 +19,13 @@ class PPO(Algorithm):
     @classmethod
     def get_default_config(cls) -> PPOConfig:
         return PPOConfig()
+
+    @staticmethod
+    def learner_results(stats: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+        """RLlib's PPO learner results (:func:`rlchain.rllib.results.learner_results`) and
+        ``module_train_batch_size_mean``, the rows of a minibatch update (RLlib's mean over its updates: each of its
+        cyclic minibatches has ``minibatch_size`` rows)."""
+        return {**learner_results(stats), "module_train_batch_size_mean": float(cfg.get("minibatch_size", "nan"))}
 
 
 PPO = exported(PPO)  # RLlib's PPO: config.algo_class is PPO, and Tune takes it (algorithm_class.py)

@@ -1,5 +1,6 @@
 """``ray.rllib.algorithms.sac``: ``SACConfig`` and ``SAC`` trained by rlchain's SAC (twin critics, a learned
-temperature towards ``target_entropy``) with RLlib 2.60's defaults (:mod:`.translate` says what maps)."""
+temperature towards ``target_entropy``) on Box or Discrete actions with RLlib 2.60's defaults (:mod:`.translate`
+says what maps)."""
 
 from __future__ import annotations
 
@@ -17,10 +18,10 @@ from rlchain.rllib.off_policy_results import sac_results
 
 
 class SAC(OffPolicyAlgorithm):
-    """RLlib's SAC on rlchain's SAC (continuous actions)."""
+    """RLlib's SAC on rlchain's SAC (Box or Discrete actions)."""
 
     algo_name = "SAC"
-    action_spaces = (gym.spaces.Box,)
+    action_spaces = (gym.spaces.Box, gym.spaces.Discrete)
 
     @classmethod
     def get_default_config(cls) -> SACConfig:
@@ -29,10 +30,11 @@ class SAC(OffPolicyAlgorithm):
     @staticmethod
     def translate(config: Any, env_name: str, obs_space: Any, continuous: bool, run: dict[str, Any]
                   ) -> dict[str, Any]:
-        return sac_config(config, env_name, run)
+        return sac_config(config, env_name, run, continuous)
 
     def get_module(self, module_id: str = DEFAULT_MODULE_ID) -> SACModuleView:
-        """The trained policy as RLlib's RLModule: ``action_dist_inputs`` are pre-tanh means then log-stds."""
+        """The trained policy as RLlib's RLModule: ``action_dist_inputs`` are pre-tanh means then log-stds (Box),
+        or logits (Discrete)."""
         view = super().get_module(module_id)
         return SACModuleView(view.model, view.observation_space, view.action_space)
 

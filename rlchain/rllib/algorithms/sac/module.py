@@ -1,5 +1,6 @@
 """The face's SAC policy under RLlib's module calls: ``action_dist_inputs`` are the squashed Gaussian's
-pre-tanh means then log-stds (RLlib's ``TorchSquashedGaussian`` inputs), actions come from rlchain's SAC model."""
+pre-tanh means then log-stds (RLlib's ``TorchSquashedGaussian`` inputs) on Box actions, the categorical's logits
+on Discrete ones; actions come from rlchain's SAC model."""
 
 from __future__ import annotations
 
@@ -8,18 +9,17 @@ from typing import Any
 import numpy as np
 import torch
 
-from rlchain.algos.off_policy.sac_agent import actor_params
 from rlchain.rllib.module import ACTION_DIST_INPUTS, RLModuleView
 
 
 class SACModuleView(RLModuleView):
-    """RLModuleView of rlchain's ``SoftActorCritic``."""
+    """RLModuleView of rlchain's ``SoftActorCritic`` (Box) or ``DiscreteSoftActorCritic``."""
 
     @torch.no_grad()
     def forward_inference(self, batch: dict[str, Any], **kwargs: Any) -> dict[str, torch.Tensor]:
-        """{"obs": (B, *obs_shape)} -> {"action_dist_inputs": (B, 2 * A)}: means then log-stds, before tanh."""
-        mu, log_std = actor_params(self.model.network.actor, self.model.preprocess(self._obs(batch)))
-        return {ACTION_DIST_INPUTS: torch.cat([mu, log_std], -1)}
+        """{"obs": (B, *obs_shape)} -> {"action_dist_inputs"}: (B, 2 * A) means then log-stds, before tanh; or
+        (B, n) logits."""
+        return {ACTION_DIST_INPUTS: self.model.action_dist_inputs(self.model.preprocess(self._obs(batch)))}
 
     forward_exploration = forward_inference
 
@@ -30,6 +30,8 @@ class SACModuleView(RLModuleView):
 
     @torch.no_grad()
     def act(self, obs: Any, explore: bool) -> Any:
-        """One action in the env's bounds: sampled from the squashed Gaussian, or tanh(mean)."""
+        """One action: in the env's bounds, sampled from the squashed Gaussian or tanh(mean); or an int, sampled
+        from the categorical or its argmax."""
         out = self.model.act(self._obs({"obs": np.asarray(obs)[None]}), deterministic=not explore)
-        return self.model.dist.to_env(out["actions"])[0].cpu().numpy()
+        action = self.model.dist.to_env(out["actions"])[0].cpu().numpy()
+        return int(action) if action.ndim == 0 else action

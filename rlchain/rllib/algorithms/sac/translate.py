@@ -3,7 +3,8 @@
 What maps (RLlib 2.60's defaults in brackets):
 
 - ``actor_lr`` (3e-5), ``critic_lr`` (3e-4), ``alpha_lr`` (3e-4), ``initial_alpha`` (1.0) -> the same rlchain keys
-  (``init_alpha``); ``target_entropy`` ("auto": -action dims) -> ``target_entropy``; ``tau`` (5e-3) ->
+  (``init_alpha``); ``target_entropy`` ("auto": -prod(action shape), which is -1 for a Discrete space: RLlib's
+  learner takes the shape, not the number of actions) -> ``target_entropy``; ``tau`` (5e-3) ->
   ``critic_tau``, the target critics follow after every update (``target_network_update_freq`` 0, or at most
   the env steps sampled before each update: RLlib's rule then moves them after every update too);
 - ``train_batch_size_per_learner`` (256: RLlib 2.60's SACConfig sets it, so ``train_batch_size`` alone changes
@@ -15,12 +16,15 @@ What maps (RLlib 2.60's defaults in brackets):
   ``grad_norm``; ``store_buffer_in_checkpoints`` -> ``save_replay_buffer``;
 - one ``train()`` = ``min_sample_timesteps_per_iteration`` (100) env steps;
 - the model: ``fcnet_hiddens`` then ``head_fcnet_hiddens`` with ``fcnet_activation`` for the actor and both
-  critics; ``log_std_clip_param`` (20) clips the log-std to [-20, 20]; actions squashed to [-1, 1] and rescaled
-  to the env's bounds (``normalize_actions``, RLlib's default).
+  critics; Box actions: ``log_std_clip_param`` (20) clips the log-std to [-20, 20]; actions squashed to [-1, 1]
+  and rescaled to the env's bounds (``normalize_actions``, RLlib's default); Discrete actions: the actor gives
+  the categorical's logits and each critic reads the observation alone and gives one Q-value per action, as
+  RLlib's discrete SAC module (its loss: expectations over the categorical's probabilities, rlchain's
+  ``sac_discrete``).
 
 Each critic's TD loss is RLlib's Huber loss (delta 1): ``loss: huber``. What does not map: ``twin_q=False``
 (rlchain's SAC always has twin critics), a ``target_network_update_freq`` above the env steps sampled before
-each update, discrete actions, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a
+each update, the old-stack ``_deterministic_loss`` / ``_use_beta_distribution``: each a
 one-line error. Warmup actions are uniform (RLlib samples its initial policy).
 """
 
@@ -59,8 +63,15 @@ def _check_target_updates(config: Any) -> None:
                      f"{rounds['num_updates_per_step']} update(s) per round): use 0")
 
 
-def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any]:
-    """The rlchain SAC config of an RLlib ``SACConfig`` on ``env_name`` (see the module docstring)."""
+def auto_target_entropy(continuous: bool) -> float | None:
+    """RLlib's ``target_entropy="auto"``: -prod(action_space.shape), which rlchain's default (-action dims) gives
+    for Box actions (None); for Discrete actions (shape ()) it is -1.0, not rlchain's discrete default."""
+    return None if continuous else -1.0
+
+
+def sac_config(config: Any, env_name: str, run: dict[str, Any], continuous: bool = True) -> dict[str, Any]:
+    """The rlchain SAC config of an RLlib ``SACConfig`` on ``env_name`` with Box (``continuous``) or Discrete
+    actions (see the module docstring)."""
     T.check_supported(config)
     s = config._settings
     refused = {"twin_q": (False, "rlchain's SAC always trains twin critics"),
@@ -84,7 +95,8 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "actor_lr": _number(config, "actor_lr"), "critic_lr": _number(config, "critic_lr"),
         "alpha_lr": _number(config, "alpha_lr"), "init_alpha": _number(config, "initial_alpha"), "loss": "huber",
         "learnable_temperature": True,
-        "target_entropy": None if target_entropy in ("auto", None) else float(target_entropy),
+        "target_entropy": auto_target_entropy(continuous) if target_entropy in ("auto", None)
+        else float(target_entropy),
         "critic_tau": float(s["tau"]), "policy_frequency": 1, "batch_size": batch,
         "replay_buffer_size": max(batch, int(replay.get("capacity", 1_000_000))),
         "prioritized_replay": "Prioritized" in str(replay.get("type", "")),
@@ -96,7 +108,7 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
         "grad_norm": None if grad_clip is None else float(grad_clip),
         "clip_actions": bool(s.get("normalize_actions", True)), "normalize_input": False,
         "reward_shaper": {"scale_value": 1.0},
-        "log_std_bounds": None if clip is None else [-float(clip), float(clip)],
+        "log_std_bounds": None if clip is None or not continuous else [-float(clip), float(clip)],
         "games_to_track": int(s.get("metrics_num_episodes_for_smoothing") or 100),
         "save_best_after": 10**9, "score_to_win": float("inf"), "max_epochs": -1,
     }
@@ -111,9 +123,10 @@ def sac_config(config: Any, env_name: str, run: dict[str, Any]) -> dict[str, Any
                                                                        "networks have one activation")
         act = activation(config, "head_fcnet_activation")
         units = units + heads
-    network = {"name": "soft_actor_critic", "separate": True, "space": {"continuous": None},
+    space = "continuous" if continuous else "discrete"
+    network = {"name": "soft_actor_critic", "separate": True, "space": {space: None},
                "mlp": {"units": units, "activation": act, "initializer": {"name": "default"}}}
-    if clip is not None:
+    if clip is not None and continuous:
         network["log_std_bounds"] = [-float(clip), float(clip)]
     params = {"algo": {"name": "sac"}, "model": {"name": "soft_actor_critic"}, "network": network, "config": train}
     if s.get("seed") is not None:
