@@ -33,17 +33,23 @@ def _rllib_examples():
 
 
 def face_algorithm(seed: int):
-    """The face's Pendulum algorithm and the rlchain PPO it trains (caught on its first update)."""
+    """The face's Pendulum algorithm and the rlchain PPO it trains (caught on its first update), with the
+    arguments of its agent's last ``update`` call under ``"update"`` (a callable running that update again)."""
+    from rlchain.algos.ppo.agent import PPOAgent
     from rlchain.algos.ppo.ppo import PPO
 
     caught = {}
-    original = PPO.update
+    original, agent_update = PPO.update, PPOAgent.update
 
     def update(self):
         caught["ppo"] = self
         return original(self)
 
-    PPO.update = update
+    def update_agent(self, *args, **kwargs):
+        caught["update"] = lambda: agent_update(self, *args, **kwargs)
+        return agent_update(self, *args, **kwargs)
+
+    PPO.update, PPOAgent.update = update, update_agent
     algo = _rllib_examples().tuned_pendulum_config(seed, 2).build_algo()
     return algo, caught
 
@@ -101,23 +107,23 @@ def main() -> None:
     for _ in range(args.iterations):
         algo.train()
     ppo = caught["ppo"]
-    agent, storage, cfg = ppo.agent, ppo.storage, ppo.cfg
+    storage, cfg = ppo.storage, ppo.cfg
     steps = cfg.mini_epochs * (storage.horizon * storage.num_envs // cfg.minibatch_size)
     print(f"torch threads {torch.get_num_threads()}; {steps} minibatch steps of {cfg.minibatch_size} per update")
     if args.cprofile:
         prof = cProfile.Profile()
         prof.enable()
-        agent.update(storage, 0.0)
+        caught["update"]()
         prof.disable()
         pstats.Stats(prof).sort_stats("tottime").print_stats(25)
     if args.torch_profile:
-        for name, fn in (("agent.update", lambda: agent.update(storage, 0.0)),
+        for name, fn in (("agent.update", caught["update"]),
                          ("bare loop", lambda: bare_loop(ppo.model, storage, steps, cfg.minibatch_size))):
             with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
                 fn()
             print(name)
             print(prof.key_averages().table(sort_by="self_cpu_time_total", row_limit=30))
-    cpu, wall = timed(lambda: agent.update(storage, 0.0), args.repeats)
+    cpu, wall = timed(caught["update"], args.repeats)
     bcpu, bwall = timed(lambda: bare_loop(ppo.model, storage, steps, cfg.minibatch_size), args.repeats)
     print(f"agent.update: cpu {statistics.median(cpu):.3f} s, wall {statistics.median(wall):.3f} s "
           f"({1e3 * statistics.median(wall) / steps:.2f} ms a step)")

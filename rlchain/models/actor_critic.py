@@ -98,7 +98,7 @@ class ActorCritic(ValueModel):
             action_masks: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
         """Rollout step: actions, their log-probs, raw-scale values, the distribution params and
         (for an RNN) the states after this step under ``"states"``."""
-        direct = self._direct_pass()
+        direct = self.direct_pass()
         out = direct(self.preprocess(obs)) if direct is not None else None
         if out is None:
             params, value, new_states = self.evaluate(obs, states, action_masks=action_masks)
@@ -111,7 +111,7 @@ class ActorCritic(ValueModel):
         return {"actions": actions, "log_probs": self.dist.log_prob(params, actions),
                 "values": self.denorm_value(value), "params": params, "states": new_states}
 
-    def _direct_pass(self) -> DirectPass | None:
+    def direct_pass(self) -> DirectPass | None:
         """The network's :class:`DirectPass` when it is a plain MLP actor-critic (made again when the network
         is replaced), else None."""
         network = self.a2c_network

@@ -90,10 +90,13 @@ def _attributes_set_on_collaborators(path: str) -> list[str]:
 # a rollback; SAC's model setting the config's log_std_bounds on the network it was given (a network builder's key
 # rl_games reads from the algo's config, left as it is); objects a function builds and returns (the mirrored copy
 # of a rollout) or changes by its job (a module's forward compiled in place); the model's observation view, which
-# ObservationModel.read_view sets for the builder, since rl_games' factory signature has no place for it
+# ObservationModel.read_view sets for the builder, since rl_games' factory signature has no place for it; what an
+# autograd Function's backward needs beyond tensors, on the context torch's API gives it for that (ctx.step); a
+# parameter's gradient cleared before a backward pass, as torch's zero_grad(set_to_none=True) does (p.grad)
 ALLOWED = {"ctx.frames", "part.cfg", "self.schedule.kl_threshold", "self.buffer.gamma", "self.delay.line",
            "network.actor.log_std_bounds", "out.num_envs", "out.obs", "out.actions", "out.params",
-           "out.action_masks", "out.states", "out.resets", "module.forward"}
+           "out.action_masks", "out.states", "out.resets", "module.forward", "ctx.step",
+           "p.grad"}
 
 
 def test_no_algorithm_or_model_sets_an_attribute_on_a_collaborator():

@@ -85,3 +85,27 @@ def vtrace_policy_loss(old_log_probs: torch.Tensor, log_probs: torch.Tensor, pg_
     takes it as its surrogate (IMPALA): the ratio clip is inside the advantages, ``old_log_probs``, ``e_clip`` and
     ``smooth`` are not read."""
     return -log_probs * pg_advantages.detach()
+
+
+def policy_loss_grad(ratio: torch.Tensor, advantages: torch.Tensor, losses: torch.Tensor) -> torch.Tensor:
+    """d :func:`policy_loss` / d log_probs per sample (B,), given the ratio r = exp(logp - old_logp) and the
+    loss's values ``losses`` (no smooth clamp): the unclipped term's -A * r where the max took it (a tie, r
+    inside the clip range, counts as taken), else 0 (the clipped term is flat in r outside the range)."""
+    unclipped = -advantages * ratio
+    return torch.where(losses == unclipped, unclipped, 0.0)
+
+
+def value_loss_grad(values: torch.Tensor, old_values: torch.Tensor, returns: torch.Tensor,
+                    e_clip: float, clip_value: bool) -> torch.Tensor:
+    """d :func:`value_loss` / d values (B, V); with ``clip_value`` the larger error's derivative, a tie's split
+    evenly between both (as autograd's max does); the clipped error is flat where the update was clipped."""
+    error = values - returns
+    grad = 2.0 * error
+    if not clip_value:
+        return grad
+    step = values - old_values
+    clipped_error = old_values + step.clamp(-e_clip, e_clip) - returns
+    grad_clipped = (2.0 * clipped_error).mul_((step >= -e_clip) & (step <= e_clip))
+    loss, loss_clipped = error.square(), clipped_error.square()
+    tie = 0.5 * (grad + grad_clipped)
+    return torch.where(loss > loss_clipped, grad, torch.where(loss < loss_clipped, grad_clipped, tie))

@@ -13,8 +13,15 @@ from contextlib import nullcontext
 
 import torch
 
-from rlchain.algos.core.losses import aux_loss_terms, normalize_advantages, value_loss
+from rlchain.algos.core.losses import (
+    aux_loss_terms,
+    normalize_advantages,
+    policy_loss_grad,
+    value_loss,
+    value_loss_grad,
+)
 from rlchain.algos.core.storage import Batch
+from rlchain.algos.ppo.analytic_step import AnalyticStep, analytic_step
 from rlchain.config.ppo import PPOConfig
 from rlchain.models.actor_critic import ActorCritic
 
@@ -33,6 +40,13 @@ def squared_error_clamped(values: torch.Tensor, returns: torch.Tensor, limit: fl
     """Per-sample squared value error clamped to [0, limit] (RLlib's ``vf_clip_param``: the loss itself is
     clipped, so a sample further than sqrt(limit) from its return gives no gradient). Shapes (B, V) -> (B,)."""
     return (values - returns).square().clamp(0.0, limit).sum(-1)
+
+
+def squared_error_clamped_grad(values: torch.Tensor, returns: torch.Tensor, limit: float) -> torch.Tensor:
+    """d :func:`squared_error_clamped` / d values (B, V): 2 * (values - returns) where the squared error is
+    at most ``limit`` (the clamp passes its bound, as autograd's clamp does), else 0."""
+    error = values - returns
+    return (2.0 * error).mul_(error.square() <= limit)
 
 
 def adapted_kl_coef(coef: float, kl: float, target: float) -> float:
@@ -64,11 +78,19 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     """
     dist = model.dist
     amp = amp_dtype is not None
-    autocast = torch.autocast(device_type, dtype=amp_dtype, cache_enabled=autocast_cache) if amp else nullcontext()
-    with autocast:
-        params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
-                                           batch.action_masks, batch.actions)
-        aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
+    # the plain case (rlchain.algos.ppo.analytic_step): the forward pass without a graph, the gradients written out
+    step = analytic_step(model, batch, surrogate, train_critic, amp_dtype, cfg.use_smooth_clamp)
+    traced = step.forward(model.preprocess(batch.obs)) if step is not None else None
+    if traced is not None:
+        params, values = dist.params_from_network(traced[0])
+        aux = {}
+    else:
+        autocast = torch.autocast(device_type, dtype=amp_dtype, cache_enabled=autocast_cache) if amp \
+            else nullcontext()
+        with autocast:
+            params, values, _ = model.evaluate(batch.obs, batch.states, batch.resets, batch.seq_length,
+                                               batch.action_masks, batch.actions)
+            aux = aux_loss_terms(model.aux_losses())  # {} for a network without get_aux_loss()
     if amp:
         params, values = params.float(), values.float()
         aux = {name: value.float() for name, value in aux.items()}
@@ -78,13 +100,15 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
     advantages = batch.advantages
     if cfg.normalize_advantage and cfg.advantage_normalization == "minibatch" and advantages.numel() > 1:
         advantages = normalize_advantages(advantages)  # Stable-Baselines3's: per minibatch
-    a_loss = mean(surrogate(batch.log_probs, log_probs, advantages, cfg.e_clip, cfg.use_smooth_clamp))
+    policy_terms = surrogate(batch.log_probs, log_probs, advantages, cfg.e_clip, cfg.use_smooth_clamp)
+    a_loss = mean(policy_terms)
     clip = getattr(cfg, "value_loss_clip", None)  # PPOConfig's; APPO / IMPALA configs have none
+    returns = model.norm_value(batch.returns) if train_critic else None
+    old_values = model.norm_value(batch.values) if train_critic and clip is None else None
     if train_critic and clip is not None:
-        c_loss = mean(squared_error_clamped(values, model.norm_value(batch.returns), clip))
+        c_loss = mean(squared_error_clamped(values, returns, clip))
     elif train_critic:
-        c_loss = mean(value_loss(values, model.norm_value(batch.values), model.norm_value(batch.returns),
-                                 cfg.e_clip, cfg.clip_value))
+        c_loss = mean(value_loss(values, old_values, returns, cfg.e_clip, cfg.clip_value))
     else:
         c_loss = torch.zeros((), device=values.device)
     loss = a_loss + 0.5 * cfg.critic_coef * c_loss - entropy_coef * entropy
@@ -103,9 +127,31 @@ def ppo_loss(model: ActorCritic, cfg: PPOConfig, batch: Batch, entropy_coef: tor
         kl = kl.detach() if penalty else mean(dist.kl(reference, current))
         ratio = torch.exp(log_probs.detach() - batch.log_probs)
         clip_frac = mean(((ratio - 1.0).abs() > cfg.e_clip).float())
+    if traced is not None:
+        g_values = squared_error_clamped_grad(values, returns, clip) if clip is not None \
+            else value_loss_grad(values, old_values, returns, cfg.e_clip, cfg.clip_value)
+        loss = step.attach(loss, traced[1], _output_grads(step, cfg, batch, params, g_values, ratio, advantages,
+                                                         policy_terms, entropy_coef, reference, kl_coef))
     stats = torch.stack([a_loss.detach().float(), c_loss.detach().float(), entropy.detach().float(),
                          b_loss.detach().float(), clip_frac, kl.float()])
     return loss, stats, aux, current
+
+
+def _output_grads(step: AnalyticStep, cfg: PPOConfig, batch: Batch, params: torch.Tensor, g_values: torch.Tensor,
+                  ratio: torch.Tensor, advantages: torch.Tensor, policy_terms: torch.Tensor,
+                  entropy_coef: torch.Tensor, reference: torch.Tensor, kl_coef: torch.Tensor | None
+                  ) -> tuple[torch.Tensor, ...]:
+    """d loss / d each of the network's outputs (policy outputs, then values) for :func:`ppo_loss`'s loss in the
+    plain case, ``g_values`` the value loss's per-row derivative: each term's derivative, the means' 1 / B and
+    the coefficients applied."""
+    per_row = 1.0 / ratio.shape[0]
+    g_log_prob = policy_loss_grad(ratio, advantages, policy_terms).mul_(per_row)
+    g_values = g_values.mul_(0.5 * cfg.critic_coef * per_row)
+    penalty = kl_coef is not None
+    bounds = (cfg.bound_loss_type, cfg.bounds_loss_coef * per_row) if cfg.bounds_loss_coef else None
+    policy = step.grads.network_grads(params, batch.actions, g_log_prob, entropy_coef * -per_row,
+                                      reference if penalty else None, kl_coef * per_row if penalty else None, bounds)
+    return (*policy, g_values)
 
 
 def _mean_over(weights: torch.Tensor | None) -> Callable[[torch.Tensor], torch.Tensor]:
