@@ -18,7 +18,7 @@ from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
 from rlchain.algos.core.adam_agent import AdamAgent, loss_stats
-from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, StepOutcome, as_is
 from rlchain.config.apg import APGConfig
 from rlchain.config.errors import ConfigError
 from rlchain.config.params import Params
@@ -51,8 +51,8 @@ class APG(AlgorithmBase):
         self.stats: dict[str, float] = {}
         self.segment: dict[str, list[torch.Tensor]] = {}
         # a differentiable rollout: raw actions into the tensor env, observations and rewards keep their graph
-        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=_as_is,
-                                           record=self._record, read_obs=_as_is, on_step=self._on_step,
+        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=as_is,
+                                           record=self._record, read_obs=as_is, on_step=self._on_step,
                                            differentiable=True)
 
     def collect(self) -> bool:
@@ -121,8 +121,3 @@ class APG(AlgorithmBase):
     def restart_episodes(self) -> None:
         super().restart_episodes()
         self.collector.place(self.collector.obs.detach())
-
-
-def _as_is(x: Any) -> Any:
-    """APG's actions and observations pass between the policy and the tensor env as they are (with graph)."""
-    return x

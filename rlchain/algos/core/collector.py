@@ -101,6 +101,17 @@ class AlwaysPipelined:
         return None
 
 
+def as_is(x: Any) -> Any:
+    """A ``to_env`` / ``read_obs`` hook for callers whose actions and observations pass between their policies and
+    the env unchanged (per-agent dicts of the multi-policy algorithms; APG's tensors with their graph)."""
+    return x
+
+
+def no_record(result: Any, rows: slice) -> None:
+    """A ``record`` hook for callers whose policies record their agents' outcomes themselves (nothing run-wide)."""
+    return None
+
+
 class OnPolicyCollector:
     """Collects rollouts of ``model`` on ``env`` for the run ``ctx`` (its RunContext), into ``storage`` when
     one is given.

@@ -21,10 +21,11 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard
-from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, as_is, no_record
 from rlchain.algos.core.returns import shape_with
 from rlchain.algos.multi_off_policy.learner import SINGLE, OffPolicyLearner, policy_tag
 from rlchain.algos.multi_policy.policies import PolicyAgents
+from rlchain.algos.off_policy.off_policy import UpdatesInCollect
 from rlchain.config.errors import ConfigError
 from rlchain.config.multi_agent import KEY
 from rlchain.config.params import Params
@@ -34,9 +35,8 @@ from rlchain.errors import DivergenceError
 from rlchain.models.build import policy_agents
 
 
-class MultiPolicyOffPolicy(AlgorithmBase):
+class MultiPolicyOffPolicy(UpdatesInCollect, AlgorithmBase):
     """DQN or SAC (``params.algo.name``) for several policies over one PettingZoo vector env."""
-
 
     @classmethod
     def check_config(cls, params: Params, spec: EnvSpec) -> None:
@@ -61,8 +61,8 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         self.metric_tags = {f"{lr.name}.{key}": policy_tag(tag, lr.name) for lr in self.policies
                             for key, tag in single.metric_tags.items()}
         # one env step per rollout; the env takes and gives per-agent dicts, the policies act and record them
-        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, horizon=1, act=self._act, to_env=_as_is,
-                                           record=_no_record, read_obs=_as_is, on_step=self._on_step)
+        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, horizon=1, act=self._act, to_env=as_is,
+                                           record=no_record, read_obs=as_is, on_step=self._on_step)
         self._epoch_stats: dict[str, float] = {}
         self._update_s = 0.0
         self._stepped = 0  # env steps of this epoch so far (the Loop counts the epoch's frames after its update)
@@ -157,16 +157,6 @@ class MultiPolicyOffPolicy(AlgorithmBase):
         counts and replay size, and the run's frames."""
         return {**self._epoch_stats, "frames": self.frames}
 
-    def frames_per_epoch(self) -> int:
-        return self.cfg.num_steps_per_episode * self.num_envs
-
-    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
-        """The gradient updates ran inside collect: their time moves to the update column."""
-        return collect_s - self._update_s, self._update_s + update_s
-
-    def snapshot_due(self) -> bool:
-        return self.ctx.epoch % self.cfg.snapshot_epochs == 0
-
     def restart_episodes(self) -> None:
         self.ctx.tracker.reset_running()
         self.collector.place(self.ctx.reset_raw())
@@ -204,16 +194,6 @@ class MultiPolicyOffPolicy(AlgorithmBase):
                 lr.tracker.load_state_dict(saved[lr.name])
             if lr.buffer is not None and lr.name in buffers:
                 lr.buffer.load_state_dict(buffers[lr.name])
-
-
-def _as_is(x: Any) -> Any:
-    """Per-agent actions and views pass between the policies and the env as they are."""
-    return x
-
-
-def _no_record(result: Any, rows: slice) -> None:
-    """Each policy records its agents' outcome itself (:meth:`MultiPolicyOffPolicy._on_step`)."""
-    return None
 
 
 def check_supported(params: Params) -> None:

@@ -24,7 +24,7 @@ import torch
 from rlchain.algos.base.algorithm import AlgorithmBase
 from rlchain.algos.base.context import RunContext
 from rlchain.algos.base.safety import DivergenceGuard, check_rollout
-from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector
+from rlchain.algos.core.collector import CollectedStep, OnPolicyCollector, as_is, no_record
 from rlchain.algos.core.returns import shape_with
 from rlchain.algos.multi_policy.masked import MaskedPPOAgent, masked_gae
 from rlchain.algos.multi_policy.policies import PolicyAgents, PolicyLearner
@@ -85,8 +85,8 @@ class MultiPolicyPPO(AlgorithmBase):
                                           for lr in self.policies for a in lr.agents])
         self.divergence = DivergenceGuard(self.cfg.divergence, model, self.agent)
         # the env takes and gives per-agent dicts: the policies act, record and read them (no run-wide storage)
-        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=_as_is,
-                                           record=_no_record, read_obs=_as_is, on_step=self._on_step)
+        self.collector = OnPolicyCollector(env, model, ctx, self.cfg, act=self._act, to_env=as_is,
+                                           record=no_record, read_obs=as_is, on_step=self._on_step)
         self.snapshots = None
         if self.cfg.self_play_config is not None:
             recurrent = [name for name in ma.snapshots if any(lr.states for lr in self.policies if lr.name == name)]
@@ -275,16 +275,6 @@ class MultiPolicyPPO(AlgorithmBase):
         for lr in self.policies:
             if lr.name in saved:
                 lr.tracker.load_state_dict(saved[lr.name])
-
-
-def _as_is(x: Any) -> Any:
-    """Per-agent actions and views pass between the policies and the env as they are."""
-    return x
-
-
-def _no_record(result: Any, rows: slice) -> None:
-    """Each policy records its agents' outcome itself (MultiPolicyPPO._observe): nothing run-wide here."""
-    return None
 
 
 def _check_supported(params: Params) -> None:

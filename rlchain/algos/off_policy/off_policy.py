@@ -36,7 +36,29 @@ from rlchain.parallel.memory import check_fits
 log = get_logger(__name__)
 
 
-class OffPolicyAlgorithm(AlgorithmBase):
+class UpdatesInCollect:
+    """The epoch of an algorithm whose gradient updates run inside ``collect()`` between env steps (off-policy, one or
+    several policies): ``num_steps_per_episode`` env steps of every env, the updates' seconds (``_update_s``, set by
+    ``collect()``) moved to the update column, a learner snapshot every ``snapshot_epochs`` epochs."""
+
+    cfg: Any
+    ctx: RunContext
+    num_envs: int
+    _update_s: float
+
+    def frames_per_epoch(self) -> int:
+        return self.cfg.num_steps_per_episode * self.num_envs
+
+    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
+        """The gradient updates ran inside collect: their time moves to the update column."""
+        return collect_s - self._update_s, self._update_s + update_s
+
+    def snapshot_due(self) -> bool:
+        """An in-memory learner copy every ``snapshot_epochs`` epochs (epochs are short off-policy)."""
+        return self.ctx.epoch % self.cfg.snapshot_epochs == 0
+
+
+class OffPolicyAlgorithm(UpdatesInCollect, AlgorithmBase):
     """An off-policy algorithm: env steps into a replay buffer, updates from it."""
 
     config_class: type = SACConfig
@@ -108,17 +130,6 @@ class OffPolicyAlgorithm(AlgorithmBase):
         stats.update(lr=self.agent.lr, total_updates=self.agent.updates, replay_size=len(self.buffer))
         stats.update(self.extra_stats())
         return stats
-
-    def frames_per_epoch(self) -> int:
-        return self.cfg.num_steps_per_episode * self.num_envs
-
-    def epoch_seconds(self, collect_s: float, update_s: float) -> tuple[float, float]:
-        """The gradient updates ran inside collect: their time moves to the update column."""
-        return collect_s - self._update_s, self._update_s + update_s
-
-    def snapshot_due(self) -> bool:
-        """An in-memory learner copy every ``snapshot_epochs`` epochs (epochs are short off-policy)."""
-        return self.ctx.epoch % self.cfg.snapshot_epochs == 0
 
     def apply_hyperparam(self, name: str, value: float) -> None:
         """Learning rates go to their optimizer; gamma to the replay buffer's n-step returns too."""
